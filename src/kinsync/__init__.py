@@ -1,0 +1,46 @@
+"""kinsync: time synchronisation and latency calibration of kinematic laser scanning.
+
+Conventions (binding for every module; SPEC section 1)
+------------------------------------------------------
+Time
+    Seconds, float64. The reference scale is GPS time: continuous seconds since the
+    GPS epoch 1980-01-06T00:00:00 (``t_gps_s``). Readers of formats that carry GPS
+    seconds of week, adjusted standard GPS time (GPS - 1e9 s, as in LAS) or UTC say
+    which scale they read and convert; UTC -> GPS uses the leap-second table
+    (18 s since 2017-01-01). Scales are never mixed silently.
+Frames
+    Navigation frame: local level North-East-Down (NED). Body frame: Forward-Right-Down
+    (X forward, Y right, Z down). Earth frame: ECEF on WGS84, geodetic latitude,
+    longitude (degrees) and ellipsoidal height (metres). Projected output through EPSG
+    codes (pyproj).
+Attitude
+    Roll, pitch, yaw (heading) in the DIN 9300 / aerospace sequence: yaw about Down,
+    then pitch about the new Y, then roll about the new X, so that
+    ``R_body_to_ned = Rz(yaw) @ Ry(pitch) @ Rx(roll)``. Quaternions are scalar-first
+    ``(w, x, y, z)``, unit norm, and represent the same body -> NED rotation.
+Vehicle frame (reports)
+    Validation reports use X right, Y forward, Z up, as surveyors read them.
+Mount (system calibration)
+    Lever arm of the scanner origin in the body frame (m), boresight rotation
+    scanner -> body (roll, pitch, yaw in degrees, same sequence), GNSS antenna lever arm
+    in the body frame (m), and latency tau (s).
+Latency sign
+    ``tau > 0`` means the navigation record lags the scanner: a record time-tagged ``t``
+    describes the physical attitude (and position) at ``t - tau``. A point measured at
+    ``t`` is therefore georeferenced with the navigation record tagged ``t + tau``
+    (``Trajectory.shifted(-tau)`` gives the trajectory on the scanner's time scale).
+Names
+    Every quantity with a unit or a frame carries it in its name: ``t_gps_s``,
+    ``pos_ecef_m``, ``rate_deg_s``, ``R_body_to_ned``, ``lever_arm_body_m``.
+    Angles in public APIs are radians unless the name ends in ``_deg``.
+"""
+
+from __future__ import annotations
+
+from kinsync.errors import InputError, KinsyncError
+from kinsync.mount import Mount
+from kinsync.trajectory import Trajectory
+
+__version__ = "0.1.0"
+
+__all__ = ["InputError", "KinsyncError", "Mount", "Trajectory", "__version__"]
