@@ -1,0 +1,470 @@
+"""Rotations and reference frames.
+
+DIN 9300 / aerospace Euler angles (roll, pitch, yaw) <-> rotation matrices and
+scalar-first unit quaternions; the NED <-> ECEF rotation at a latitude/longitude;
+geodetic <-> ECEF on WGS84 through pyproj; body (Forward-Right-Down) <-> vehicle
+(X right, Y forward, Z up) frame for reports.
+
+All functions are vectorised over leading dimensions: a rotation argument of shape
+``(..., 3, 3)`` or ``(..., 4)`` and vectors of shape ``(..., 3)`` broadcast together.
+Angles are radians unless the name ends in ``_deg``.
+
+References
+----------
+DIN 9300 / ISO 1151 flight-mechanics axis conventions; Titterton & Weston,
+*Strapdown Inertial Navigation Technology*, 2nd ed., IET 2004, ch. 3 (frames and
+attitude representations).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from pyproj import Transformer
+from scipy.spatial.transform import Rotation
+
+from kinsync._typing import ArrayLike, FloatArray
+from kinsync.errors import InputError
+
+WGS84_A_M = 6378137.0
+"""WGS84 semi-major axis (m)."""
+WGS84_F = 1.0 / 298.257223563
+"""WGS84 flattening."""
+WGS84_B_M = WGS84_A_M * (1.0 - WGS84_F)
+"""WGS84 semi-minor axis (m)."""
+
+__all__ = [
+    "WGS84_A_M",
+    "WGS84_B_M",
+    "WGS84_F",
+    "body_to_vehicle",
+    "ecef_to_geodetic",
+    "ecef_to_ned",
+    "euler_rpy_to_matrix",
+    "euler_rpy_to_quaternion",
+    "geodetic_to_ecef",
+    "matrix_to_euler_rpy",
+    "matrix_to_quaternion",
+    "ned_to_ecef",
+    "ned_to_vehicle",
+    "quaternion_to_euler_rpy",
+    "quaternion_to_matrix",
+    "rot_x",
+    "rot_y",
+    "rot_z",
+    "rotation_ned_to_ecef",
+    "skew",
+    "vehicle_to_body",
+]
+
+
+def _as_float(values: ArrayLike, name: str) -> FloatArray:
+    """Convert to a float64 array and reject non-finite values with a clear message."""
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{name}: expected numbers, got {values!r}"
+        raise InputError(msg) from err
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        msg = f"{name}: non-finite value at index {tuple(int(i) for i in bad)}"
+        raise InputError(msg)
+    return arr
+
+
+def _elementary(angle_rad: ArrayLike, axis: int) -> FloatArray:
+    """Right-handed rotation matrices about one coordinate axis, shape ``(..., 3, 3)``."""
+    a = _as_float(angle_rad, "angle_rad")
+    c, s = np.cos(a), np.sin(a)
+    out = np.zeros((*a.shape, 3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    out[..., axis, axis] = 1.0
+    out[..., i, i] = c
+    out[..., j, j] = c
+    out[..., i, j] = -s
+    out[..., j, i] = s
+    return out
+
+
+def rot_x(angle_rad: ArrayLike) -> FloatArray:
+    """Rotation matrix about X (active, right-handed).
+
+    Parameters
+    ----------
+    angle_rad : array_like, shape (...)
+        Rotation angle (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    return _elementary(angle_rad, 0)
+
+
+def rot_y(angle_rad: ArrayLike) -> FloatArray:
+    """Rotation matrix about Y (active, right-handed), shape ``(..., 3, 3)``."""
+    return _elementary(angle_rad, 1)
+
+
+def rot_z(angle_rad: ArrayLike) -> FloatArray:
+    """Rotation matrix about Z (active, right-handed), shape ``(..., 3, 3)``."""
+    return _elementary(angle_rad, 2)
+
+
+def skew(vec: ArrayLike) -> FloatArray:
+    """Cross-product matrix: ``skew(a) @ b == np.cross(a, b)``.
+
+    Parameters
+    ----------
+    vec : array_like, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    v = _as_float(vec, "vec")
+    out = np.zeros((*v.shape[:-1], 3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def euler_rpy_to_matrix(
+    roll_rad: ArrayLike, pitch_rad: ArrayLike, yaw_rad: ArrayLike
+) -> FloatArray:
+    """DIN 9300 Euler angles to the body -> navigation rotation matrix.
+
+    ``R_body_to_ned = Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad, yaw_rad : array_like, broadcastable shapes (...)
+        Roll about body X, pitch about body Y, yaw (heading) about Down (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        ``R_body_to_ned``: takes body (FRD) vectors to NED.
+    """
+    r, p, y = np.broadcast_arrays(
+        _as_float(roll_rad, "roll_rad"),
+        _as_float(pitch_rad, "pitch_rad"),
+        _as_float(yaw_rad, "yaw_rad"),
+    )
+    cr, sr = np.cos(r), np.sin(r)
+    cp, sp = np.cos(p), np.sin(p)
+    cy, sy = np.cos(y), np.sin(y)
+    out = np.empty((*r.shape, 3, 3))
+    out[..., 0, 0] = cy * cp
+    out[..., 0, 1] = cy * sp * sr - sy * cr
+    out[..., 0, 2] = cy * sp * cr + sy * sr
+    out[..., 1, 0] = sy * cp
+    out[..., 1, 1] = sy * sp * sr + cy * cr
+    out[..., 1, 2] = sy * sp * cr - cy * sr
+    out[..., 2, 0] = -sp
+    out[..., 2, 1] = cp * sr
+    out[..., 2, 2] = cp * cr
+    return out
+
+
+def matrix_to_euler_rpy(R_body_to_ned: ArrayLike) -> FloatArray:
+    """Rotation matrix to DIN 9300 Euler angles.
+
+    Parameters
+    ----------
+    R_body_to_ned : array_like, shape (..., 3, 3)
+        Proper rotation matrices.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``(roll, pitch, yaw)`` in rad; roll and yaw in ``(-pi, pi]``, pitch in
+        ``[-pi/2, pi/2]``. At pitch = +-90 deg (gimbal lock) roll is set to zero and the
+        remaining rotation goes to yaw.
+    """
+    R = _as_float(R_body_to_ned, "R_body_to_ned")
+    if R.shape[-2:] != (3, 3):
+        msg = f"R_body_to_ned: expected shape (..., 3, 3), got {R.shape}"
+        raise InputError(msg)
+    pitch = np.arcsin(np.clip(-R[..., 2, 0], -1.0, 1.0))
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    lock = np.abs(R[..., 2, 0]) > 1.0 - 1e-12
+    if np.any(lock):
+        # cos(pitch) ~ 0: only yaw -+ roll is defined; with roll = 0 both signs of
+        # pitch give R01 = -sin(yaw), R11 = cos(yaw).
+        roll = np.where(lock, 0.0, roll)
+        yaw = np.where(lock, np.arctan2(-R[..., 0, 1], R[..., 1, 1]), yaw)
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def _check_unit_quaternion(q: FloatArray, name: str, tol: float = 1e-6) -> None:
+    if q.shape[-1:] != (4,):
+        msg = f"{name}: expected shape (..., 4) scalar-first (w, x, y, z), got {q.shape}"
+        raise InputError(msg)
+    norm = np.linalg.norm(q, axis=-1)
+    bad = np.abs(norm - 1.0) > tol
+    if np.any(bad):
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        msg = (
+            f"{name}: quaternion at index {idx} has norm {float(norm[idx]):.9g}, "
+            f"expected 1 (tolerance {tol:g}); normalise it or check the column order (w, x, y, z)"
+        )
+        raise InputError(msg)
+
+
+def quaternion_to_matrix(q_body_to_ned: ArrayLike) -> FloatArray:
+    """Unit quaternion (scalar-first) to rotation matrix.
+
+    Parameters
+    ----------
+    q_body_to_ned : array_like, shape (..., 4)
+        ``(w, x, y, z)`` unit quaternions (norm within 1e-6 of one).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    q = _as_float(q_body_to_ned, "q_body_to_ned")
+    _check_unit_quaternion(q, "q_body_to_ned")
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty((*q.shape[:-1], 3, 3))
+    out[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    out[..., 0, 1] = 2 * (x * y - w * z)
+    out[..., 0, 2] = 2 * (x * z + w * y)
+    out[..., 1, 0] = 2 * (x * y + w * z)
+    out[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    out[..., 1, 2] = 2 * (y * z - w * x)
+    out[..., 2, 0] = 2 * (x * z - w * y)
+    out[..., 2, 1] = 2 * (y * z + w * x)
+    out[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return out
+
+
+def matrix_to_quaternion(R_body_to_ned: ArrayLike) -> FloatArray:
+    """Rotation matrix to unit quaternion, scalar-first with ``w >= 0``.
+
+    Parameters
+    ----------
+    R_body_to_ned : array_like, shape (..., 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+    """
+    R = _as_float(R_body_to_ned, "R_body_to_ned")
+    if R.shape[-2:] != (3, 3):
+        msg = f"R_body_to_ned: expected shape (..., 3, 3), got {R.shape}"
+        raise InputError(msg)
+    lead = R.shape[:-2]
+    xyzw = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat()
+    q = xyzw[:, [3, 0, 1, 2]]
+    q = np.where(q[:, :1] < 0.0, -q, q)
+    return q.reshape(*lead, 4)
+
+
+def euler_rpy_to_quaternion(
+    roll_rad: ArrayLike, pitch_rad: ArrayLike, yaw_rad: ArrayLike
+) -> FloatArray:
+    """DIN 9300 Euler angles to a scalar-first unit quaternion (``w >= 0``), shape ``(..., 4)``."""
+    r, p, y = np.broadcast_arrays(
+        _as_float(roll_rad, "roll_rad"),
+        _as_float(pitch_rad, "pitch_rad"),
+        _as_float(yaw_rad, "yaw_rad"),
+    )
+    cr, sr = np.cos(r / 2), np.sin(r / 2)
+    cp, sp = np.cos(p / 2), np.sin(p / 2)
+    cy, sy = np.cos(y / 2), np.sin(y / 2)
+    q = np.stack(
+        [
+            cy * cp * cr + sy * sp * sr,
+            cy * cp * sr - sy * sp * cr,
+            cy * sp * cr + sy * cp * sr,
+            sy * cp * cr - cy * sp * sr,
+        ],
+        axis=-1,
+    )
+    return np.where(q[..., :1] < 0.0, -q, q)
+
+
+def quaternion_to_euler_rpy(q_body_to_ned: ArrayLike) -> FloatArray:
+    """Scalar-first unit quaternion to DIN 9300 ``(roll, pitch, yaw)`` (rad), shape ``(..., 3)``."""
+    return matrix_to_euler_rpy(quaternion_to_matrix(q_body_to_ned))
+
+
+def rotation_ned_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike) -> FloatArray:
+    """Rotation taking NED vectors at a geodetic position to ECEF.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like, broadcastable shapes (...)
+        Geodetic latitude and longitude (deg, WGS84).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        ``R_ned_to_ecef``; columns are the North, East and Down unit vectors in ECEF.
+    """
+    lat_checked = _as_float(lat_deg, "lat_deg")
+    if np.any(np.abs(lat_checked) > 90.0):
+        bad = float(lat_checked[np.abs(lat_checked) > 90.0][0])
+        msg = f"lat_deg: latitude outside [-90, 90]: {bad}"
+        raise InputError(msg)
+    lat, lon = np.broadcast_arrays(
+        np.radians(lat_checked), np.radians(_as_float(lon_deg, "lon_deg"))
+    )
+    sl, cl = np.sin(lat), np.cos(lat)
+    so, co = np.sin(lon), np.cos(lon)
+    out = np.empty((*lat.shape, 3, 3))
+    out[..., 0, 0] = -sl * co
+    out[..., 1, 0] = -sl * so
+    out[..., 2, 0] = cl
+    out[..., 0, 1] = -so
+    out[..., 1, 1] = co
+    out[..., 2, 1] = 0.0
+    out[..., 0, 2] = -cl * co
+    out[..., 1, 2] = -cl * so
+    out[..., 2, 2] = -sl
+    return out
+
+
+@lru_cache(maxsize=1)
+def _geodetic_ecef_transformer() -> Transformer:
+    # EPSG:4979 = WGS84 geographic 3-D, EPSG:4978 = WGS84 geocentric.
+    return Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
+
+
+def geodetic_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike, h_m: ArrayLike) -> FloatArray:
+    """Geodetic WGS84 coordinates to ECEF through pyproj.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like, shape (...)
+        Geodetic latitude in [-90, 90] and longitude (deg).
+    h_m : array_like, shape (...)
+        Ellipsoidal height (m).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``pos_ecef_m``.
+    """
+    lat, lon, h = np.broadcast_arrays(
+        _as_float(lat_deg, "lat_deg"), _as_float(lon_deg, "lon_deg"), _as_float(h_m, "h_m")
+    )
+    if np.any(np.abs(lat) > 90.0):
+        msg = f"lat_deg: latitude outside [-90, 90]: {float(lat[np.abs(lat) > 90.0][0])}"
+        raise InputError(msg)
+    x, y, z = _geodetic_ecef_transformer().transform(lon, lat, h)
+    return np.stack([np.asarray(x), np.asarray(y), np.asarray(z)], axis=-1).astype(np.float64)
+
+
+def ecef_to_geodetic(pos_ecef_m: ArrayLike) -> FloatArray:
+    """ECEF to geodetic WGS84 coordinates through pyproj.
+
+    Parameters
+    ----------
+    pos_ecef_m : array_like, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``(lat_deg, lon_deg, h_m)``.
+    """
+    p = _as_float(pos_ecef_m, "pos_ecef_m")
+    if p.shape[-1:] != (3,):
+        msg = f"pos_ecef_m: expected shape (..., 3), got {p.shape}"
+        raise InputError(msg)
+    lon, lat, h = _geodetic_ecef_transformer().transform(
+        p[..., 0], p[..., 1], p[..., 2], direction="INVERSE"
+    )
+    return np.stack([np.asarray(lat), np.asarray(lon), np.asarray(h)], axis=-1).astype(np.float64)
+
+
+def ned_to_ecef(
+    pos_ned_m: ArrayLike, origin_lat_deg: float, origin_lon_deg: float, origin_h_m: float
+) -> FloatArray:
+    """Local NED coordinates about an origin to ECEF positions.
+
+    Parameters
+    ----------
+    pos_ned_m : array_like, shape (..., 3)
+        Position in the local-level NED frame tangent at the origin (m).
+    origin_lat_deg, origin_lon_deg, origin_h_m : float
+        Geodetic origin of the local frame.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``pos_ecef_m``.
+    """
+    p = _as_float(pos_ned_m, "pos_ned_m")
+    origin = geodetic_to_ecef(origin_lat_deg, origin_lon_deg, origin_h_m)
+    R = rotation_ned_to_ecef(origin_lat_deg, origin_lon_deg)
+    rotated: FloatArray = np.einsum("ij,...j->...i", R, p)
+    return origin + rotated
+
+
+def ecef_to_ned(
+    pos_ecef_m: ArrayLike, origin_lat_deg: float, origin_lon_deg: float, origin_h_m: float
+) -> FloatArray:
+    """ECEF positions to the local NED frame tangent at an origin, shape ``(..., 3)`` (m)."""
+    p = _as_float(pos_ecef_m, "pos_ecef_m")
+    origin = geodetic_to_ecef(origin_lat_deg, origin_lon_deg, origin_h_m)
+    R = rotation_ned_to_ecef(origin_lat_deg, origin_lon_deg)
+    local: FloatArray = np.einsum("ji,...j->...i", R, p - origin)
+    return local
+
+
+_BODY_TO_VEHICLE = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+"""Body FRD -> vehicle (X right, Y forward, Z up): x_v = y_b, y_v = x_b, z_v = -z_b."""
+
+
+def body_to_vehicle(vec_body: ArrayLike) -> FloatArray:
+    """Body (Forward-Right-Down) vectors to the vehicle frame (X right, Y forward, Z up).
+
+    Parameters
+    ----------
+    vec_body : array_like, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``vec_vehicle``.
+    """
+    out: FloatArray = np.einsum("ij,...j->...i", _BODY_TO_VEHICLE, _as_float(vec_body, "vec_body"))
+    return out
+
+
+def vehicle_to_body(vec_vehicle: ArrayLike) -> FloatArray:
+    """Vehicle-frame vectors (X right, Y forward, Z up) to body FRD, shape ``(..., 3)``."""
+    # The axis permutation with one sign flip is its own inverse.
+    v = _as_float(vec_vehicle, "vec_vehicle")
+    out: FloatArray = np.einsum("ij,...j->...i", _BODY_TO_VEHICLE, v)
+    return out
+
+
+def ned_to_vehicle(vec_ned: ArrayLike, R_body_to_ned: ArrayLike) -> FloatArray:
+    """Express NED vectors in the vehicle frame of a body attitude.
+
+    Parameters
+    ----------
+    vec_ned : array_like, shape (..., 3)
+        Vectors in NED (e.g. a control-point difference, m).
+    R_body_to_ned : array_like, shape (..., 3, 3)
+        Attitude of the vehicle at the moment the vector applies.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The vectors in the vehicle frame (X right, Y forward, Z up).
+    """
+    R = _as_float(R_body_to_ned, "R_body_to_ned")
+    v_body = np.einsum("...ji,...j->...i", R, _as_float(vec_ned, "vec_ned"))
+    return body_to_vehicle(v_body)
