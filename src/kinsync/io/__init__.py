@@ -1,0 +1,1 @@
+"""Readers and writers: files in, plain containers out (and back)."""

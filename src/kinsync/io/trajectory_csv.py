@@ -1,0 +1,78 @@
+"""Trajectory CSV files.
+
+Columns ``t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg``, optionally followed
+by ``vn_m_s,ve_m_s,vd_m_s``.
+
+Times are read as they are (the caller knows the scale, GPS time by default);
+attitude is DIN 9300 roll, pitch, yaw in degrees; velocities in NED (m/s) are optional
+and, when present, enable cubic Hermite position interpolation.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from kinsync.errors import InputError
+from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+from kinsync.trajectory import Trajectory
+
+__all__ = ["read_trajectory_csv", "write_trajectory_csv"]
+
+REQUIRED = ("t_s", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
+VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
+
+
+def read_trajectory_csv(path: Path) -> Trajectory:
+    """Read a trajectory CSV; errors name the file and the line at fault."""
+    table = read_numeric_csv(Path(path), REQUIRED, VELOCITY)
+    c = table.columns
+    if table.n_rows < 2:
+        msg = f"{path}: a trajectory needs at least 2 records, found {table.n_rows}"
+        raise InputError(msg)
+    present = [v in c for v in VELOCITY]
+    if any(present) and not all(present):
+        msg = f"{path}: give all of {list(VELOCITY)} or none, found only some"
+        raise InputError(msg)
+    vel = np.column_stack([c[v] for v in VELOCITY]) if all(present) else None
+    try:
+        return Trajectory.from_euler(
+            c["t_s"],
+            np.radians(c["roll_deg"]),
+            np.radians(c["pitch_deg"]),
+            np.radians(c["yaw_deg"]),
+            lat_lon_h=np.column_stack([c["lat_deg"], c["lon_deg"], c["h_m"]]),
+            vel_ned_m_s=vel,
+        )
+    except InputError as err:
+        # Trajectory names 0-based data rows; give the file line as well.
+        text = re.sub(
+            r"\brow (\d+)\b",
+            lambda m: f"row {m.group(1)} (line {table.line_of_row(int(m.group(1)))})",
+            str(err),
+        )
+        msg = f"{path}: {text}"
+        raise InputError(msg) from err
+
+
+def write_trajectory_csv(trajectory: Trajectory, path: Path) -> None:
+    """Write a geodetic trajectory as CSV (velocities included when present)."""
+    if trajectory.lat_lon_h is None:
+        msg = "write_trajectory_csv: only geodetic trajectories (lat_lon_h) can be written"
+        raise InputError(msg)
+    rpy = np.degrees(trajectory.euler_rpy_rad())
+    cols = {
+        "t_s": trajectory.t_s,
+        "lat_deg": trajectory.lat_lon_h[:, 0],
+        "lon_deg": trajectory.lat_lon_h[:, 1],
+        "h_m": trajectory.lat_lon_h[:, 2],
+        "roll_deg": rpy[:, 0],
+        "pitch_deg": rpy[:, 1],
+        "yaw_deg": rpy[:, 2],
+    }
+    if trajectory.vel_ned_m_s is not None:
+        for i, name in enumerate(VELOCITY):
+            cols[name] = trajectory.vel_ned_m_s[:, i]
+    write_numeric_csv(Path(path), cols)

@@ -1,0 +1,76 @@
+"""Numeric CSV reader/writer and atomic writes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path, atomic_write_text
+from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(finite, finite), min_size=1, max_size=20))
+def test_round_trip_is_exact(
+    tmp_path_factory: pytest.TempPathFactory, rows: list[tuple[float, float]]
+) -> None:
+    path = tmp_path_factory.mktemp("csv") / "t.csv"
+    a = np.array([r[0] for r in rows])
+    b = np.array([r[1] for r in rows])
+    write_numeric_csv(path, {"a_m": a, "b_s": b})
+    table = read_numeric_csv(path, ["a_m", "b_s"])
+    np.testing.assert_array_equal(table.columns["a_m"], a)
+    np.testing.assert_array_equal(table.columns["b_s"], b)
+    assert table.n_rows == len(rows)
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("", "empty file"),
+        ("a,b\n1,2\n", "missing column"),
+        ("t_s,t_s\n1,2\n", "duplicated"),
+        ("t_s,x\n1,2\n3,oops\n", "line 3, column 'x'"),
+        ("t_s,x\n1,2\n3\n", "line 3 has 1 fields"),
+    ],
+)
+def test_bad_tables(tmp_path: Path, text: str, fragment: str) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(InputError, match=fragment) as exc:
+        read_numeric_csv(path, ["t_s"])
+    assert str(path) in str(exc.value)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not found"):
+        read_numeric_csv(tmp_path / "none.csv", ["t_s"])
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path: Path) -> None:
+    target = tmp_path / "out.txt"
+
+    def fail_midway() -> None:
+        with atomic_path(target) as tmp:
+            tmp.write_text("partial")
+            raise RuntimeError
+
+    with pytest.raises(RuntimeError):
+        fail_midway()
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == []
+    atomic_write_text(target, "done")
+    assert target.read_text() == "done"
+    assert oct(target.stat().st_mode & 0o777) != oct(0o600)
+
+
+def test_atomic_write_needs_an_existing_folder(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="does not exist"):
+        atomic_write_text(tmp_path / "no" / "x.txt", "x")
