@@ -1,0 +1,39 @@
+"""Shared output helpers: JSON on stdout, rich tables, formatting."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Mapping
+from typing import Any
+
+from rich.console import Console
+
+__all__ = ["console", "err_console", "fmt", "print_json"]
+
+console = Console(soft_wrap=True)
+err_console = Console(stderr=True)
+
+
+def _clean(value: Any) -> Any:
+    """Make a value JSON-safe: non-finite floats become null."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    return value
+
+
+def print_json(obj: Mapping[str, Any]) -> None:
+    """Write one JSON object on stdout, nothing else."""
+    sys.stdout.write(json.dumps(_clean(obj), allow_nan=False) + "\n")
+
+
+def fmt(value: float | None, unit_scale: float = 1.0, digits: int = 4) -> str:
+    """Format a number for a table (``-`` for None)."""
+    if value is None:
+        return "-"
+    return f"{value * unit_scale:.{digits}g}"

@@ -1,0 +1,40 @@
+"""Root typer application: command groups and ``--version``."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from kinsync import __version__
+from kinsync.cli import budget, demo, inspect
+
+app = typer.Typer(
+    name="kinsync",
+    help="Time synchronisation and latency calibration of kinematic laser scanning systems.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+app.add_typer(budget.app, name="budget")
+app.add_typer(inspect.mount_app, name="mount")
+app.add_typer(inspect.trajectory_app, name="trajectory")
+app.command(name="demo")(demo.demo)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"kinsync {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Time synchronisation and latency calibration of kinematic laser scanning systems."""

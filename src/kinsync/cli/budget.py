@@ -1,0 +1,153 @@
+"""``kinsync budget``: latency, serial and period error budgets (SPEC section 3)."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from kinsync.budget import (
+    beach_scenario,
+    bits_per_serial_byte,
+    latency_beam_error,
+    period_error_budget,
+    serial_transmission_time_s,
+)
+from kinsync.cli._output import console, fmt, print_json
+
+app = typer.Typer(help="Error budgets: what a latency, a serial FIFO or a period error costs.")
+
+DEFAULT_LATENCIES_MS = (0.1, 0.5, 1.0, 2.0, 5.0, 10.0)
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+
+
+def latency_rows(
+    range_m: float, slope_deg: float, rate_deg_s: float, latencies_ms: list[float]
+) -> dict[str, Any]:
+    """Compute the beach-scenario budget as the JSON-ready document the CLI prints."""
+    scenario = beach_scenario(range_m=range_m, slope_deg=slope_deg, rate_deg_s=rate_deg_s)
+    rows = []
+    for ms in latencies_ms:
+        b = latency_beam_error(scenario, ms * 1e-3)
+        rows.append(
+            {
+                "latency_ms": ms,
+                "attitude_error_deg": math.degrees(b.attitude_error_rad),
+                "vertical_error_m": b.vertical_error_m,
+                "horizontal_error_m": b.horizontal_error_m,
+                "vertical_error_linear_m": b.vertical_error_linear_m,
+                "horizontal_error_linear_m": b.horizontal_error_linear_m,
+            }
+        )
+    return {
+        "scenario": {
+            "description": "horizontal beam onto a sloping surface under a roll rate",
+            "range_m": scenario.range_m,
+            "slope_deg": slope_deg,
+            "rate_deg_s": rate_deg_s,
+            "beam_ned": list(scenario.beam_ned),
+            "normal_ned": list(scenario.normal_ned),
+            "rate_ned_rad_s": list(scenario.rate_ned_rad_s),
+        },
+        "rows": rows,
+    }
+
+
+@app.command("latency")
+def latency(
+    range_m: Annotated[float, typer.Option(help="Slant range to the surface (m).")] = 50.0,
+    slope_deg: Annotated[float, typer.Option(help="Surface slope (deg).")] = 10.0,
+    rate_deg_s: Annotated[float, typer.Option(help="Roll rate (deg/s).")] = 10.0,
+    latency_ms: Annotated[
+        list[float] | None,
+        typer.Option(help="Latency to evaluate (ms); repeat for several rows."),
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Vertical and horizontal point error of a latency (exact ray-plane geometry)."""
+    doc = latency_rows(range_m, slope_deg, rate_deg_s, list(latency_ms or DEFAULT_LATENCIES_MS))
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(
+        title=(
+            f"Latency error budget: horizontal beam, {range_m:g} m slant range, "
+            f"{slope_deg:g} deg slope, {rate_deg_s:g} deg/s roll (worse sign)"
+        )
+    )
+    for col in (
+        "latency (ms)",
+        "attitude error (deg)",
+        "vertical (mm)",
+        "horizontal (mm)",
+        "vertical, small-angle (mm)",
+        "horizontal, small-angle (mm)",
+    ):
+        table.add_column(col, justify="right")
+    for r in doc["rows"]:
+        table.add_row(
+            f"{r['latency_ms']:g}",
+            fmt(r["attitude_error_deg"]),
+            fmt(r["vertical_error_m"], 1e3),
+            fmt(r["horizontal_error_m"], 1e3),
+            fmt(r["vertical_error_linear_m"], 1e3),
+            fmt(r["horizontal_error_linear_m"], 1e3),
+        )
+    console.print(table)
+
+
+@app.command("serial")
+def serial(
+    baud: Annotated[float, typer.Option(help="Line rate (bit/s).")],
+    n_bytes: Annotated[
+        int, typer.Option("--bytes", help="Receive FIFO depth or message length (bytes).")
+    ],
+    data_bits: Annotated[int, typer.Option(help="Data bits per byte (5-8).")] = 8,
+    parity: Annotated[str, typer.Option(help="none, even, odd, mark or space.")] = "none",
+    stop_bits: Annotated[float, typer.Option(help="Stop bits (1, 1.5 or 2).")] = 1.0,
+    as_json: JsonOpt = False,
+) -> None:
+    """Delay added by a serial receive FIFO (or a message's transmission time)."""
+    latency_s = serial_transmission_time_s(n_bytes, baud, data_bits, parity, stop_bits)
+    if as_json:
+        print_json({"latency_s": latency_s})
+        return
+    bits = bits_per_serial_byte(data_bits, parity, stop_bits)
+    table = Table(title="Serial FIFO / transmission delay")
+    for col in ("baud", "bytes", "bits per byte", "latency (ms)"):
+        table.add_column(col, justify="right")
+    table.add_row(f"{baud:g}", str(n_bytes), f"{bits:g}", fmt(latency_s, 1e3, 6))
+    console.print(table)
+
+
+@app.command("period")
+def period(
+    profiles: Annotated[int, typer.Option(help="Profiles since the clock was fixed.")],
+    period_error_s: Annotated[float, typer.Option(help="Error of the mirror period (s).")],
+    speed_m_s: Annotated[float, typer.Option(help="Platform speed (m/s).")],
+    as_json: JsonOpt = False,
+) -> None:
+    """Time and position error accumulated by a profile-clock period error."""
+    b = period_error_budget(profiles, period_error_s, speed_m_s)
+    if as_json:
+        print_json({"time_error_s": b.time_error_s, "position_error_m": b.position_error_m})
+        return
+    table = Table(title="Profile-clock period error")
+    for col in (
+        "profiles",
+        "period error (s)",
+        "speed (m/s)",
+        "time error (ms)",
+        "position error (m)",
+    ):
+        table.add_column(col, justify="right")
+    table.add_row(
+        str(profiles),
+        f"{period_error_s:g}",
+        f"{speed_m_s:g}",
+        fmt(b.time_error_s, 1e3),
+        fmt(b.position_error_m),
+    )
+    console.print(table)

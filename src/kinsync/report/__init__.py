@@ -1,0 +1,1 @@
+"""Presentation: figures (matplotlib, PNG), the HTML report and the demo."""

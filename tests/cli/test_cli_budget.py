@@ -1,0 +1,97 @@
+"""``kinsync budget ...``: JSON documents, tables and bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from kinsync.cli import main
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    captured = capsys.readouterr()
+    code = exc.value.code
+    return (code if isinstance(code, int) else 0), captured.out, captured.err
+
+
+def test_latency_json(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["budget", "latency", "--range-m", "50", "--slope-deg", "10", "--rate-deg-s", "10"]
+    code, out, err = run([*argv, "--latency-ms", "0.1", "--latency-ms", "1", "--json"], capsys)
+    assert code == 0
+    assert err == ""
+    doc = json.loads(out)
+    assert doc["scenario"]["range_m"] == 50.0
+    assert doc["scenario"]["slope_deg"] == 10.0
+    assert [r["latency_ms"] for r in doc["rows"]] == [0.1, 1.0]
+    a = math.radians(10.0)
+    eps = math.radians(10.0) * 1e-3
+    r_true = 50 * math.sin(a) / math.sin(a - eps)
+    row = doc["rows"][1]
+    assert row["vertical_error_m"] == pytest.approx(-(r_true - 50) * math.tan(a), rel=1e-9)
+    assert row["horizontal_error_m"] == pytest.approx(r_true * math.cos(eps) - 50, rel=1e-9)
+
+
+def test_latency_table(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(["budget", "latency"], capsys)
+    assert code == 0
+    assert "Latency error budget" in out
+    assert "0.1" in out
+
+
+def test_serial_json(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(["budget", "serial", "--baud", "115200", "--bytes", "14", "--json"], capsys)
+    assert code == 0
+    assert json.loads(out) == {"latency_s": pytest.approx(14 * 10 / 115200)}
+    argv = ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"]
+    code, out, _ = run([*argv, "--stop-bits", "2", "--json"], capsys)
+    assert json.loads(out)["latency_s"] == pytest.approx(16 * 12 / 9600)
+    code, out, _ = run(["budget", "serial", "--baud", "115200", "--bytes", "14"], capsys)
+    assert "1.215" in out
+
+
+def test_period_json(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["budget", "period", "--profiles", "10000", "--period-error-s", "1e-6"]
+    code, out, _ = run([*argv, "--speed-m-s", "2", "--json"], capsys)
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["time_error_s"] == pytest.approx(0.01)
+    assert doc["position_error_m"] == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (["budget", "serial", "--baud", "-115200", "--bytes", "14"], "baud must be positive"),
+        (["budget", "serial", "--baud", "115200", "--bytes", "-1"], "bytes"),
+        (["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"], "parity"),
+        (["budget", "latency", "--range-m", "-50"], "range_m"),
+        (["budget", "latency", "--slope-deg", "0"], "slope_deg"),
+        (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
+        (
+            [
+                "budget",
+                "period",
+                "--profiles",
+                "10",
+                "--period-error-s",
+                "1e-6",
+                "--speed-m-s",
+                "-2",
+            ],
+            "speed",
+        ),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(
+    argv: list[str], fragment: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = run(argv, capsys)
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1
+    assert err.startswith("kinsync: error: ")
+    assert fragment in err

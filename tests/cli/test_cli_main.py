@@ -1,0 +1,153 @@
+"""The program's entry point: version, exit codes, one-line errors, mount/trajectory checks."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync import __version__
+from kinsync.cli import main
+from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
+from kinsync.trajectory import Trajectory
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    captured = capsys.readouterr()
+    code = exc.value.code
+    return (code if isinstance(code, int) else 0), captured.out, captured.err
+
+
+def assert_one_line_error(code: int, err: str, *fragments: str) -> None:
+    assert code == 2
+    assert err.count("\n") == 1, err
+    assert err.startswith("kinsync: error: ")
+    assert "Traceback" not in err
+    for frag in fragments:
+        assert frag in err
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(["--version"], capsys)
+    assert code == 0
+    assert out.strip() == f"kinsync {__version__}"
+
+
+def test_module_entry_point_runs_in_a_subprocess() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "kinsync", "budget", "serial", "--baud", "-1", "--bytes", "4"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == "kinsync: error: baud must be positive, got -1.0"
+    assert proc.stdout == ""
+
+
+def test_usage_errors_exit_2_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(["budget", "latency", "--range-m", "abc"], capsys)
+    assert_one_line_error(code, err, "--range-m")
+    code, _, err = run(["budget", "latency", "--no-such-option"], capsys)
+    assert_one_line_error(code, err, "--no-such-option")
+    code, _, err = run(["budget", "serial", "--bytes", "3"], capsys)
+    assert_one_line_error(code, err, "--baud")
+
+
+def test_mount_check(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = tmp_path / "mount.toml"
+    good.write_text(
+        "[mount]\nlever_arm_body_m = [0.1, 0.2, 0.3]\nboresight_rpy_deg = [0.0, 0.0, 90.0]\n"
+        "antenna_lever_arm_body_m = [0.0, 0.0, -1.0]\nlatency_s = 0.0021\n"
+    )
+    code, out, _ = run(["mount", "check", str(good), "--json"], capsys)
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["latency_s"] == 0.0021
+    np.testing.assert_allclose(
+        doc["R_scanner_to_body"], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15
+    )
+    code, out, _ = run(["mount", "check", str(good)], capsys)
+    assert code == 0
+    assert "lever_arm_body_m" in out
+
+
+def test_mount_check_malformed_toml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[mount]\nlever_arm_body_m = [0.1, 0.2\n")
+    code, _, err = run(["mount", "check", str(bad)], capsys)
+    assert_one_line_error(code, err, str(bad), "malformed TOML")
+    code, _, err = run(["mount", "check", str(tmp_path / "missing.toml")], capsys)
+    assert_one_line_error(code, err, "missing.toml", "not found")
+
+
+HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "fragments"),
+    [
+        (
+            "0,46,-71,10,0,0,0\n1,46,-71,10,0,0,1\n1,46,-71,10,0,0,2\n",
+            ("repeated", "row 2", "line 4"),
+        ),
+        ("0,46,-71,10,0,0,0\n2,46,-71,10,0,0,1\n1,46,-71,10,0,0,2\n", ("decreasing", "row 2")),
+        (
+            "0,46,-71,10,0,0,0\n1,nan,-71,10,0,0,1\n2,46,-71,10,0,0,2\n",
+            ("non-finite", "row 1", "line 3"),
+        ),
+        ("0,46,-71,10,0,0,0\n1,46,-71,10,0,zz,1\n", ("line 3", "pitch_deg", "'zz'")),
+        ("0,46,-71,10,0,0,0\n1,46,-71,10,0,0\n", ("line 3", "fields")),
+        ("0,46,-71,10,0,0,0\n", ("at least 2",)),
+    ],
+)
+def test_trajectory_info_bad_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, fragments: tuple[str, ...]
+) -> None:
+    path = tmp_path / "traj.csv"
+    path.write_text(HEADER + body)
+    code, _, err = run(["trajectory", "info", str(path)], capsys)
+    assert_one_line_error(code, err, str(path), *fragments)
+
+
+def test_trajectory_missing_column(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "traj.csv"
+    path.write_text("t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg\n0,1,2,3,4,5\n")
+    code, _, err = run(["trajectory", "info", str(path)], capsys)
+    assert_one_line_error(code, err, "yaw_deg", "missing column")
+
+
+def test_trajectory_csv_round_trip_and_info(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    t = np.arange(0.0, 10.0, 0.01) + 1.4e9
+    yaw = np.radians(5.0) * (t - t[0])
+    traj = Trajectory.from_euler(
+        t,
+        0.01 * np.sin(t),
+        0.02 * np.cos(t),
+        yaw,
+        lat_lon_h=np.column_stack([46.8 + 1e-6 * (t - t[0]), np.full_like(t, -71.2), 10 + 0 * t]),
+        vel_ned_m_s=np.column_stack([np.full_like(t, 0.11), 0 * t, 0 * t]),
+    )
+    path = tmp_path / "traj.csv"
+    write_trajectory_csv(traj, path)
+    back = read_trajectory_csv(path)
+    np.testing.assert_array_equal(back.t_s, traj.t_s)
+    assert back.lat_lon_h is not None
+    assert traj.lat_lon_h is not None
+    np.testing.assert_allclose(back.lat_lon_h, traj.lat_lon_h, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(back.euler_rpy_rad(), traj.euler_rpy_rad(), atol=1e-12)
+    code, out, _ = run(["trajectory", "info", str(path), "--json"], capsys)
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["records"] == len(t)
+    assert doc["median_rate_hz"] == pytest.approx(100.0)
+    assert doc["has_velocity"] is True
+    assert doc["max_angular_rate_deg_s"] >= 5.0

@@ -1,0 +1,68 @@
+"""``kinsync demo``: the report folder and the summary."""
+
+from __future__ import annotations
+
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+from kinsync.cli import main
+
+
+class _Collector(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.imgs: list[str] = []
+        self.tables = 0
+        self.headings: list[str] = []
+        self._in_h2 = False
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag == "img":
+            self.imgs.append(dict(attrs).get("src") or "")
+        if tag == "table":
+            self.tables += 1
+        self._in_h2 = tag == "h2"
+
+    def handle_data(self, data: str) -> None:
+        if self._in_h2:
+            self.headings.append(data)
+            self._in_h2 = False
+
+
+def test_demo_writes_a_self_contained_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out_dir = tmp_path / "demo"
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(out_dir)])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "kinsync demo summary" in out
+    assert "latency budget" in out
+    html_text = (out_dir / "report.html").read_text()
+    parser = _Collector()
+    parser.feed(html_text)
+    assert len(parser.imgs) >= 2
+    assert all(src.startswith("data:image/png;base64,") for src in parser.imgs)
+    assert parser.tables >= 3
+    assert any("Latency error budget" in h for h in parser.headings)
+    assert "http://" not in html_text
+    assert "https://" not in html_text
+    doc = json.loads((out_dir / "budget.json").read_text())
+    assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
+    assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
+    assert not list(out_dir.glob("*.part"))
+
+
+def test_demo_refuses_a_file_as_output_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    target = tmp_path / "file.txt"
+    target.write_text("x")
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(target)])
+    assert exc.value.code == 2
+    assert "not a folder" in capsys.readouterr().err
