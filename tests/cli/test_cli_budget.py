@@ -4,23 +4,16 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 
 import pytest
 
-from kinsync.cli import main
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
 
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
-    captured = capsys.readouterr()
-    code = exc.value.code
-    return (code if isinstance(code, int) else 0), captured.out, captured.err
-
-
-def test_latency_json(capsys: pytest.CaptureFixture[str]) -> None:
+def test_latency_json(run_cli: RunCli) -> None:
     argv = ["budget", "latency", "--range-m", "50", "--slope-deg", "10", "--rate-deg-s", "10"]
-    code, out, err = run([*argv, "--latency-ms", "0.1", "--latency-ms", "1", "--json"], capsys)
+    code, out, err = run_cli([*argv, "--latency-ms", "0.1", "--latency-ms", "1", "--json"])
     assert code == 0
     assert err == ""
     doc = json.loads(out)
@@ -35,27 +28,27 @@ def test_latency_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert row["horizontal_error_m"] == pytest.approx(r_true * math.cos(eps) - 50, rel=1e-9)
 
 
-def test_latency_table(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["budget", "latency"], capsys)
+def test_latency_table(run_cli: RunCli) -> None:
+    code, out, _ = run_cli(["budget", "latency"])
     assert code == 0
     assert "Latency error budget" in out
     assert "0.1" in out
 
 
-def test_serial_json(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["budget", "serial", "--baud", "115200", "--bytes", "14", "--json"], capsys)
+def test_serial_json(run_cli: RunCli) -> None:
+    code, out, _ = run_cli(["budget", "serial", "--baud", "115200", "--bytes", "14", "--json"])
     assert code == 0
     assert json.loads(out) == {"latency_s": pytest.approx(14 * 10 / 115200)}
     argv = ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"]
-    code, out, _ = run([*argv, "--stop-bits", "2", "--json"], capsys)
+    code, out, _ = run_cli([*argv, "--stop-bits", "2", "--json"])
     assert json.loads(out)["latency_s"] == pytest.approx(16 * 12 / 9600)
-    code, out, _ = run(["budget", "serial", "--baud", "115200", "--bytes", "14"], capsys)
+    code, out, _ = run_cli(["budget", "serial", "--baud", "115200", "--bytes", "14"])
     assert "1.215" in out
 
 
-def test_period_json(capsys: pytest.CaptureFixture[str]) -> None:
+def test_period_json(run_cli: RunCli) -> None:
     argv = ["budget", "period", "--profiles", "10000", "--period-error-s", "1e-6"]
-    code, out, _ = run([*argv, "--speed-m-s", "2", "--json"], capsys)
+    code, out, _ = run_cli([*argv, "--speed-m-s", "2", "--json"])
     assert code == 0
     doc = json.loads(out)
     assert doc["time_error_s"] == pytest.approx(0.01)
@@ -86,10 +79,8 @@ def test_period_json(capsys: pytest.CaptureFixture[str]) -> None:
         ),
     ],
 )
-def test_bad_input_exits_2_with_one_line(
-    argv: list[str], fragment: str, capsys: pytest.CaptureFixture[str]
-) -> None:
-    code, out, err = run(argv, capsys)
+def test_bad_input_exits_2_with_one_line(argv: list[str], fragment: str, run_cli: RunCli) -> None:
+    code, out, err = run_cli(argv)
     assert code == 2
     assert out == ""
     assert err.count("\n") == 1

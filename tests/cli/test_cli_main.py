@@ -5,23 +5,17 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from kinsync import __version__
-from kinsync.cli import main
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.trajectory import Trajectory
 
-
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
-    captured = capsys.readouterr()
-    code = exc.value.code
-    return (code if isinstance(code, int) else 0), captured.out, captured.err
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
 
 def assert_one_line_error(code: int, err: str, *fragments: str) -> None:
@@ -33,8 +27,8 @@ def assert_one_line_error(code: int, err: str, *fragments: str) -> None:
         assert frag in err
 
 
-def test_version(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["--version"], capsys)
+def test_version(run_cli: RunCli) -> None:
+    code, out, _ = run_cli(["--version"])
     assert code == 0
     assert out.strip() == f"kinsync {__version__}"
 
@@ -51,39 +45,39 @@ def test_module_entry_point_runs_in_a_subprocess() -> None:
     assert proc.stdout == ""
 
 
-def test_usage_errors_exit_2_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
-    code, _, err = run(["budget", "latency", "--range-m", "abc"], capsys)
+def test_usage_errors_exit_2_in_one_line(run_cli: RunCli) -> None:
+    code, _, err = run_cli(["budget", "latency", "--range-m", "abc"])
     assert_one_line_error(code, err, "--range-m")
-    code, _, err = run(["budget", "latency", "--no-such-option"], capsys)
+    code, _, err = run_cli(["budget", "latency", "--no-such-option"])
     assert_one_line_error(code, err, "--no-such-option")
-    code, _, err = run(["budget", "serial", "--bytes", "3"], capsys)
+    code, _, err = run_cli(["budget", "serial", "--bytes", "3"])
     assert_one_line_error(code, err, "--baud")
 
 
-def test_mount_check(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_mount_check(tmp_path: Path, run_cli: RunCli) -> None:
     good = tmp_path / "mount.toml"
     good.write_text(
         "[mount]\nlever_arm_body_m = [0.1, 0.2, 0.3]\nboresight_rpy_deg = [0.0, 0.0, 90.0]\n"
         "antenna_lever_arm_body_m = [0.0, 0.0, -1.0]\nlatency_s = 0.0021\n"
     )
-    code, out, _ = run(["mount", "check", str(good), "--json"], capsys)
+    code, out, _ = run_cli(["mount", "check", str(good), "--json"])
     assert code == 0
     doc = json.loads(out)
     assert doc["latency_s"] == 0.0021
     np.testing.assert_allclose(
         doc["R_scanner_to_body"], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15
     )
-    code, out, _ = run(["mount", "check", str(good)], capsys)
+    code, out, _ = run_cli(["mount", "check", str(good)])
     assert code == 0
     assert "lever_arm_body_m" in out
 
 
-def test_mount_check_malformed_toml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_mount_check_malformed_toml(tmp_path: Path, run_cli: RunCli) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[mount]\nlever_arm_body_m = [0.1, 0.2\n")
-    code, _, err = run(["mount", "check", str(bad)], capsys)
+    code, _, err = run_cli(["mount", "check", str(bad)])
     assert_one_line_error(code, err, str(bad), "malformed TOML")
-    code, _, err = run(["mount", "check", str(tmp_path / "missing.toml")], capsys)
+    code, _, err = run_cli(["mount", "check", str(tmp_path / "missing.toml")])
     assert_one_line_error(code, err, "missing.toml", "not found")
 
 
@@ -108,24 +102,22 @@ HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
     ],
 )
 def test_trajectory_info_bad_files(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, fragments: tuple[str, ...]
+    tmp_path: Path, run_cli: RunCli, body: str, fragments: tuple[str, ...]
 ) -> None:
     path = tmp_path / "traj.csv"
     path.write_text(HEADER + body)
-    code, _, err = run(["trajectory", "info", str(path)], capsys)
+    code, _, err = run_cli(["trajectory", "info", str(path)])
     assert_one_line_error(code, err, str(path), *fragments)
 
 
-def test_trajectory_missing_column(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_trajectory_missing_column(tmp_path: Path, run_cli: RunCli) -> None:
     path = tmp_path / "traj.csv"
     path.write_text("t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg\n0,1,2,3,4,5\n")
-    code, _, err = run(["trajectory", "info", str(path)], capsys)
+    code, _, err = run_cli(["trajectory", "info", str(path)])
     assert_one_line_error(code, err, "yaw_deg", "missing column")
 
 
-def test_trajectory_csv_round_trip_and_info(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_trajectory_csv_round_trip_and_info(tmp_path: Path, run_cli: RunCli) -> None:
     t = np.arange(0.0, 10.0, 0.01) + 1.4e9
     yaw = np.radians(5.0) * (t - t[0])
     traj = Trajectory.from_euler(
@@ -144,7 +136,7 @@ def test_trajectory_csv_round_trip_and_info(
     assert traj.lat_lon_h is not None
     np.testing.assert_allclose(back.lat_lon_h, traj.lat_lon_h, rtol=0, atol=1e-12)
     np.testing.assert_allclose(back.euler_rpy_rad(), traj.euler_rpy_rad(), atol=1e-12)
-    code, out, _ = run(["trajectory", "info", str(path), "--json"], capsys)
+    code, out, _ = run_cli(["trajectory", "info", str(path), "--json"])
     assert code == 0
     doc = json.loads(out)
     assert doc["records"] == len(t)

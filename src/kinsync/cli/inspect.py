@@ -16,6 +16,16 @@ from kinsync.io.trajectory_csv import read_trajectory_csv
 mount_app = typer.Typer(help="Mount (system calibration) TOML files.")
 trajectory_app = typer.Typer(help="Trajectory files.")
 
+
+def _print_quantities(title: str, rows: dict[str, str]) -> None:
+    table = Table(title=title)
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    for key, value in rows.items():
+        table.add_row(key, value)
+    console.print(table)
+
+
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
 
 
@@ -35,13 +45,11 @@ def mount_check(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Mount {path}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
-    for key in ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m"):
-        table.add_row(key, ", ".join(f"{v:g}" for v in doc[key]))
-    table.add_row("latency_s", f"{mount.latency_s:g}")
-    console.print(table)
+    rows = {
+        key: ", ".join(f"{v:g}" for v in doc[key])
+        for key in ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m")
+    }
+    _print_quantities(f"Mount {path}", {**rows, "latency_s": f"{mount.latency_s:g}"})
 
 
 @trajectory_app.command("info")
@@ -68,9 +76,7 @@ def trajectory_info(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Trajectory {path}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
-    for key, value in doc.items():
-        table.add_row(key, f"{value:.10g}" if isinstance(value, float) else str(value))
-    console.print(table)
+    _print_quantities(
+        f"Trajectory {path}",
+        {k: f"{v:.10g}" if isinstance(v, float) else str(v) for k, v in doc.items()},
+    )
