@@ -68,7 +68,10 @@ def main() -> None:
     s_lin = best_of(scipy_linear)
     s_her = best_of(scipy_hermite)
     print(f"{'method':<34}{'kinsync (Mpt/s)':>16}{'scipy (Mpt/s)':>15}{'ratio':>8}")
-    for name, k, s in (("slerp + linear position", k_lin, s_lin), ("slerp + Hermite position", k_her, s_her)):
+    for name, k, s in (
+        ("slerp + linear position", k_lin, s_lin),
+        ("slerp + Hermite position", k_her, s_her),
+    ):
         print(f"{name:<34}{N_QUERY / k / 1e6:>16.2f}{N_QUERY / s / 1e6:>15.2f}{s / k:>8.2f}")
 
     # Euler -> matrix.
@@ -76,9 +79,8 @@ def main() -> None:
     ang = rng.uniform(-1.0, 1.0, (n, 3))
     k_eul = best_of(lambda: euler_rpy_to_matrix(ang[:, 0], ang[:, 1], ang[:, 2]))
     s_eul = best_of(lambda: Rotation.from_euler("ZYX", ang[:, ::-1]).as_matrix())
-    print(
-        f"{'Euler -> matrix (1M)':<34}{n / k_eul / 1e6:>16.2f}{n / s_eul / 1e6:>15.2f}{s_eul / k_eul:>8.2f}"
-    )
+    label = "Euler -> matrix (1M)"
+    print(f"{label:<34}{n / k_eul / 1e6:>16.2f}{n / s_eul / 1e6:>15.2f}{s_eul / k_eul:>8.2f}")
     ned = rng.uniform(-1000, 1000, (n, 3))
     k_ecef = best_of(lambda: ned_to_ecef(ned, *ORIGIN))
     print(f"{'local NED -> ECEF (1M)':<34}{n / k_ecef / 1e6:>16.2f}")

@@ -185,21 +185,24 @@ def matrix_to_euler_rpy(R_body_to_ned: ArrayLike) -> FloatArray:
     ndarray, shape (..., 3)
         ``(roll, pitch, yaw)`` in rad; roll and yaw in ``(-pi, pi]``, pitch in
         ``[-pi/2, pi/2]``. At pitch = +-90 deg (gimbal lock) roll is set to zero and the
-        remaining rotation goes to yaw.
+        remaining rotation goes to yaw; near it the angles still reproduce ``R``.
+
+    References
+    ----------
+    Shoemake, K., "Euler angle conversion", Graphics Gems IV, 1994, 222-229.
     """
     R = _as_float(R_body_to_ned, "R_body_to_ned")
     if R.shape[-2:] != (3, 3):
         msg = f"R_body_to_ned: expected shape (..., 3, 3), got {R.shape}"
         raise InputError(msg)
-    pitch = np.arcsin(np.clip(-R[..., 2, 0], -1.0, 1.0))
-    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
-    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
-    lock = np.abs(R[..., 2, 0]) > 1.0 - 1e-12
-    if np.any(lock):
-        # cos(pitch) ~ 0: only yaw -+ roll is defined; with roll = 0 both signs of
-        # pitch give R01 = -sin(yaw), R11 = cos(yaw).
-        roll = np.where(lock, 0.0, roll)
-        yaw = np.where(lock, np.arctan2(-R[..., 0, 1], R[..., 1, 1]), yaw)
+    # Shoemake's form: pitch from atan2 (accurate near +-90 deg), yaw from the roll just
+    # found, so the angles reproduce R to rounding error at every pitch.
+    c_pitch = np.hypot(R[..., 2, 1], R[..., 2, 2])
+    pitch = np.arctan2(-R[..., 2, 0], c_pitch)
+    # At exact gimbal lock only yaw -+ roll is defined: take roll = 0.
+    roll = np.where(c_pitch > 1e-12, np.arctan2(R[..., 2, 1], R[..., 2, 2]), 0.0)
+    cr, sr = np.cos(roll), np.sin(roll)
+    yaw = np.arctan2(sr * R[..., 0, 2] - cr * R[..., 0, 1], cr * R[..., 1, 1] - sr * R[..., 1, 2])
     return np.stack([roll, pitch, yaw], axis=-1)
 
 

@@ -1,0 +1,520 @@
+"""Time-indexed position and attitude of a vehicle: the `Trajectory` container.
+
+A trajectory holds strictly increasing times, positions (geodetic WGS84, or local NED
+about a geodetic origin), body -> NED attitude as unit quaternions and, optionally,
+NED velocities. It interpolates at arbitrary times, vectorised: position linearly, or
+by cubic Hermite splines where velocities exist; attitude by spherical linear
+interpolation (slerp). Times outside the span raise `OutsideSpanError` or, on request,
+come back masked (NaN and ``inside == False``); nothing is extrapolated.
+
+References
+----------
+Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Literal
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
+from kinsync.errors import InputError, OutsideSpanError
+from kinsync.frames import (
+    WGS84_A_M,
+    WGS84_F,
+    euler_rpy_to_quaternion,
+    geodetic_to_ecef,
+    ned_to_ecef,
+    quaternion_to_euler_rpy,
+    quaternion_to_matrix,
+)
+
+__all__ = ["Trajectory", "TrajectorySample"]
+
+PositionMethod = Literal["auto", "linear", "hermite"]
+
+_QUATERNION_NORM_TOL = 1e-6
+
+
+def _readonly(arr: FloatArray) -> FloatArray:
+    out = np.array(arr, dtype=np.float64, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+def _first_bad_row(mask: BoolArray) -> int:
+    return int(np.flatnonzero(mask)[0])
+
+
+def _validated_rows(values: ArrayLike | None, n: int, width: int, name: str) -> FloatArray:
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"trajectory {name}: expected numbers ({err})"
+        raise InputError(msg) from err
+    if arr.shape != (n, width):
+        msg = f"trajectory {name}: expected shape ({n}, {width}) to match t_s, got {arr.shape}"
+        raise InputError(msg)
+    finite = np.all(np.isfinite(arr), axis=1)
+    if not np.all(finite):
+        row = _first_bad_row(~finite)
+        msg = f"trajectory {name}: non-finite value in row {row} ({arr[row].tolist()})"
+        raise InputError(msg)
+    return arr
+
+
+def _validated_times(values: ArrayLike) -> FloatArray:
+    """1-D, finite, strictly increasing record times; errors name the row."""
+    try:
+        t = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"trajectory t_s: expected numbers ({err})"
+        raise InputError(msg) from err
+    if t.ndim != 1 or t.size < 2:
+        msg = f"trajectory t_s: expected a 1-D array of at least 2 times, got shape {t.shape}"
+        raise InputError(msg)
+    if not np.all(np.isfinite(t)):
+        row = _first_bad_row(~np.isfinite(t))
+        msg = f"trajectory t_s: non-finite time in row {row}"
+        raise InputError(msg)
+    dt = np.diff(t)
+    if np.any(dt <= 0.0):
+        row = _first_bad_row(dt <= 0.0) + 1
+        kind = "repeated" if dt[row - 1] == 0.0 else "decreasing"
+        msg = (
+            f"trajectory t_s: {kind} time in row {row} "
+            f"(t_s={float(t[row])!r} after {float(t[row - 1])!r}); "
+            "times must be strictly increasing: sort the records and drop duplicates"
+        )
+        raise InputError(msg)
+    return t
+
+
+def _validated_unit_quaternions(values: ArrayLike, n: int) -> FloatArray:
+    """(n, 4) quaternions of norm within tolerance of one, renormalised exactly."""
+    q = _validated_rows(values, n, 4, "q_body_to_ned")
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.abs(norm - 1.0) > _QUATERNION_NORM_TOL
+    if np.any(bad):
+        row = _first_bad_row(bad)
+        msg = (
+            f"trajectory q_body_to_ned: row {row} has norm {norm[row]:.9g}, not a unit "
+            "quaternion; normalise it or check the column order (w, x, y, z)"
+        )
+        raise InputError(msg)
+    unit: FloatArray = q / norm[:, None]
+    return unit
+
+
+def _check_latitudes(lat_deg: FloatArray, name: str) -> None:
+    bad = np.abs(lat_deg) > 90.0
+    if np.any(bad):
+        row = _first_bad_row(bad)
+        msg = f"trajectory {name}: latitude {lat_deg[row]} outside [-90, 90] in row {row}"
+        raise InputError(msg)
+
+
+def _meridian_and_normal_radii_m(lat_deg: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Meridian (M) and prime-vertical (N) radii of curvature of WGS84 (m)."""
+    e2 = WGS84_F * (2.0 - WGS84_F)
+    s2 = np.sin(np.radians(lat_deg)) ** 2
+    w = np.sqrt(1.0 - e2 * s2)
+    return WGS84_A_M * (1.0 - e2) / w**3, WGS84_A_M / w
+
+
+@dataclass(frozen=True, eq=False)
+class TrajectorySample:
+    """States of a trajectory interpolated at requested times.
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (M,)
+        Requested times (s, the trajectory's time scale).
+    q_body_to_ned : ndarray, shape (M, 4)
+        Attitude, scalar-first unit quaternions (NaN where outside the span).
+    lat_lon_h : ndarray or None, shape (M, 3)
+        Geodetic position (lat_deg, lon_deg, h_m) for a geodetic trajectory.
+    pos_ned_m : ndarray or None, shape (M, 3)
+        Local NED position (m) for a local trajectory.
+    origin_lat_lon_h : tuple of float or None
+        Geodetic origin of ``pos_ned_m``.
+    inside : ndarray of bool, shape (M,)
+        True where the time lies within the trajectory's span.
+    """
+
+    t_s: FloatArray
+    q_body_to_ned: FloatArray
+    lat_lon_h: FloatArray | None
+    pos_ned_m: FloatArray | None
+    origin_lat_lon_h: tuple[float, float, float] | None
+    inside: BoolArray
+
+    @property
+    def R_body_to_ned(self) -> FloatArray:
+        """Attitude matrices, shape (M, 3, 3) (NaN where outside the span)."""
+        out = np.full((len(self.t_s), 3, 3), np.nan)
+        if np.any(self.inside):
+            out[self.inside] = quaternion_to_matrix(self.q_body_to_ned[self.inside])
+        return out
+
+    def pos_ecef_m(self) -> FloatArray:
+        """Positions in ECEF (m), shape (M, 3) (NaN where outside the span)."""
+        out = np.full((len(self.t_s), 3), np.nan)
+        if not np.any(self.inside):
+            return out
+        if self.lat_lon_h is not None:
+            p = self.lat_lon_h[self.inside]
+            out[self.inside] = geodetic_to_ecef(p[:, 0], p[:, 1], p[:, 2])
+        else:
+            assert self.pos_ned_m is not None
+            assert self.origin_lat_lon_h is not None
+            out[self.inside] = ned_to_ecef(self.pos_ned_m[self.inside], *self.origin_lat_lon_h)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Time-indexed position and attitude of a vehicle.
+
+    Exactly one of ``lat_lon_h`` (geodetic) or ``pos_ned_m`` (local, with
+    ``origin_lat_lon_h``) is given. Arrays are copied and made read-only.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Record times (s, GPS time unless stated), strictly increasing, N >= 2.
+    q_body_to_ned : array_like, shape (N, 4)
+        Attitude body (FRD) -> NED, scalar-first unit quaternions (norm within 1e-6).
+    lat_lon_h : array_like, shape (N, 3), optional
+        Geodetic WGS84 position: latitude (deg), longitude (deg), ellipsoidal height (m).
+    pos_ned_m : array_like, shape (N, 3), optional
+        Local-level NED position (m) about ``origin_lat_lon_h``.
+    origin_lat_lon_h : tuple of float, optional
+        Geodetic origin (lat_deg, lon_deg, h_m) of ``pos_ned_m``; required with it.
+    vel_ned_m_s : array_like, shape (N, 3), optional
+        Velocity in NED (m/s); enables cubic Hermite position interpolation.
+
+    Raises
+    ------
+    InputError
+        Naming the row and column at fault: non-finite values, repeated or decreasing
+        times, non-unit quaternions, mismatched lengths, missing position.
+    """
+
+    t_s: FloatArray
+    q_body_to_ned: FloatArray
+    lat_lon_h: FloatArray | None = None
+    pos_ned_m: FloatArray | None = None
+    origin_lat_lon_h: tuple[float, float, float] | None = None
+    vel_ned_m_s: FloatArray | None = None
+    _lon_unwrapped_deg: FloatArray | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        t = _validated_times(self.t_s)
+        n = t.size
+        q = _validated_unit_quaternions(self.q_body_to_ned, n)
+        if (self.lat_lon_h is None) == (self.pos_ned_m is None):
+            msg = "trajectory: give exactly one of lat_lon_h (geodetic) or pos_ned_m (local NED)"
+            raise InputError(msg)
+        set_ = object.__setattr__
+        set_(self, "t_s", _readonly(t))
+        set_(self, "q_body_to_ned", _readonly(q))
+        if self.lat_lon_h is not None:
+            if self.origin_lat_lon_h is not None:
+                msg = "trajectory: origin_lat_lon_h applies only to a local NED trajectory"
+                raise InputError(msg)
+            llh = _validated_rows(self.lat_lon_h, n, 3, "lat_lon_h")
+            _check_latitudes(llh[:, 0], "lat_lon_h")
+            set_(self, "lat_lon_h", _readonly(llh))
+            set_(self, "_lon_unwrapped_deg", _readonly(np.unwrap(llh[:, 1], period=360.0)))
+        else:
+            if self.origin_lat_lon_h is None:
+                msg = "trajectory: pos_ned_m needs origin_lat_lon_h (lat_deg, lon_deg, h_m)"
+                raise InputError(msg)
+            origin = _validated_rows([self.origin_lat_lon_h], 1, 3, "origin_lat_lon_h")[0]
+            _check_latitudes(origin[:1], "origin_lat_lon_h")
+            set_(self, "pos_ned_m", _readonly(_validated_rows(self.pos_ned_m, n, 3, "pos_ned_m")))
+            set_(self, "origin_lat_lon_h", (float(origin[0]), float(origin[1]), float(origin[2])))
+        if self.vel_ned_m_s is not None:
+            vel = _validated_rows(self.vel_ned_m_s, n, 3, "vel_ned_m_s")
+            set_(self, "vel_ned_m_s", _readonly(vel))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_euler(
+        cls,
+        t_s: ArrayLike,
+        roll_rad: ArrayLike,
+        pitch_rad: ArrayLike,
+        yaw_rad: ArrayLike,
+        *,
+        lat_lon_h: ArrayLike | None = None,
+        pos_ned_m: ArrayLike | None = None,
+        origin_lat_lon_h: tuple[float, float, float] | None = None,
+        vel_ned_m_s: ArrayLike | None = None,
+    ) -> Trajectory:
+        """Build a trajectory from DIN 9300 Euler angles (rad), each of shape (N,)."""
+        q = euler_rpy_to_quaternion(roll_rad, pitch_rad, yaw_rad)
+        return cls(
+            t_s=np.asarray(t_s, dtype=np.float64),
+            q_body_to_ned=q,
+            lat_lon_h=None if lat_lon_h is None else np.asarray(lat_lon_h, dtype=np.float64),
+            pos_ned_m=None if pos_ned_m is None else np.asarray(pos_ned_m, dtype=np.float64),
+            origin_lat_lon_h=origin_lat_lon_h,
+            vel_ned_m_s=None if vel_ned_m_s is None else np.asarray(vel_ned_m_s, dtype=np.float64),
+        )
+
+    # ------------------------------------------------------------------ properties
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+    @property
+    def is_geodetic(self) -> bool:
+        """True when positions are geodetic (``lat_lon_h``), False for local NED."""
+        return self.lat_lon_h is not None
+
+    @property
+    def t_start_s(self) -> float:
+        """First record time (s)."""
+        return float(self.t_s[0])
+
+    @property
+    def t_end_s(self) -> float:
+        """Last record time (s)."""
+        return float(self.t_s[-1])
+
+    @property
+    def duration_s(self) -> float:
+        """Time span covered, ``t_end_s - t_start_s`` (s)."""
+        return self.t_end_s - self.t_start_s
+
+    def euler_rpy_rad(self) -> FloatArray:
+        """Attitude as DIN 9300 ``(roll, pitch, yaw)`` (rad), shape (N, 3)."""
+        return quaternion_to_euler_rpy(self.q_body_to_ned)
+
+    def contains(self, t_s: ArrayLike) -> BoolArray:
+        """True where a time lies within ``[t_start_s, t_end_s]``, same shape as ``t_s``."""
+        t = np.asarray(t_s, dtype=np.float64)
+        return (t >= self.t_start_s) & (t <= self.t_end_s)
+
+    # ------------------------------------------------------------------ transforms
+    def shifted(self, dt_s: float) -> Trajectory:
+        """Return a copy whose record times are ``t_s + dt_s``."""
+        if not np.isfinite(dt_s):
+            msg = f"time shift must be finite, got {dt_s!r}"
+            raise InputError(msg)
+        return Trajectory(
+            t_s=self.t_s + dt_s,
+            q_body_to_ned=self.q_body_to_ned,
+            lat_lon_h=self.lat_lon_h,
+            pos_ned_m=self.pos_ned_m,
+            origin_lat_lon_h=self.origin_lat_lon_h,
+            vel_ned_m_s=self.vel_ned_m_s,
+        )
+
+    def corrected_for_latency(self, latency_s: float) -> Trajectory:
+        """Put the records on the scanner's time scale (SPEC section 1).
+
+        With latency ``tau > 0`` a record tagged ``t`` describes the state at
+        ``t - tau``; the corrected trajectory carries it at time ``t - tau``, so
+        interpolating it at a point's time ``t`` reads the record tagged ``t + tau``.
+        """
+        return self.shifted(-latency_s)
+
+    def sliced(self, t_start_s: float, t_end_s: float) -> Trajectory:
+        """Records with ``t_start_s <= t <= t_end_s`` (at least two must remain)."""
+        keep = (self.t_s >= t_start_s) & (self.t_s <= t_end_s)
+        if np.count_nonzero(keep) < 2:
+            msg = f"trajectory slice [{t_start_s}, {t_end_s}] keeps fewer than 2 records"
+            raise InputError(msg)
+
+        def cut(a: FloatArray | None) -> FloatArray | None:
+            return None if a is None else a[keep]
+
+        q = cut(self.q_body_to_ned)
+        assert q is not None
+        return Trajectory(
+            t_s=self.t_s[keep],
+            q_body_to_ned=q,
+            lat_lon_h=cut(self.lat_lon_h),
+            pos_ned_m=cut(self.pos_ned_m),
+            origin_lat_lon_h=self.origin_lat_lon_h,
+            vel_ned_m_s=cut(self.vel_ned_m_s),
+        )
+
+    # ------------------------------------------------------------------ rates
+    def angular_rate_body_rad_s(self) -> FloatArray:
+        """Body angular rate at the record times (rad/s, body frame), shape (N, 3).
+
+        The rotation between consecutive records gives the mean rate over each interval
+        (exact for a constant rate); a record's rate is the time-weighted mean of the
+        two adjacent intervals (the single adjacent interval at the ends).
+        """
+        rot = Rotation.from_quat(self.q_body_to_ned[:, [1, 2, 3, 0]])
+        dt = np.diff(self.t_s)
+        interval_rate = (rot[:-1].inv() * rot[1:]).as_rotvec() / dt[:, None]
+        out = np.empty((len(self), 3))
+        out[0] = interval_rate[0]
+        out[-1] = interval_rate[-1]
+        if len(self) > 2:
+            w0, w1 = dt[:-1, None], dt[1:, None]
+            out[1:-1] = (interval_rate[:-1] * w0 + interval_rate[1:] * w1) / (w0 + w1)
+        return out
+
+    # ------------------------------------------------------------------ interpolation
+    def _bracket(self, t: FloatArray) -> tuple[IntArray, FloatArray]:
+        """Index of the left record and the fraction within the interval."""
+        idx = np.searchsorted(self.t_s, t, side="right") - 1
+        idx = np.clip(idx, 0, len(self) - 2).astype(np.int64)
+        t0 = self.t_s[idx]
+        frac = (t - t0) / (self.t_s[idx + 1] - t0)
+        return idx, frac
+
+    def _check_inside(self, t: FloatArray, *, mask_outside: bool) -> BoolArray:
+        if not np.all(np.isfinite(t)):
+            row = _first_bad_row(~np.isfinite(t))
+            msg = f"interpolation time at index {row} is not finite ({float(t[row])!r})"
+            raise InputError(msg)
+        inside = self.contains(t)
+        if not mask_outside and not np.all(inside):
+            row = _first_bad_row(~inside)
+            n_out = int(np.count_nonzero(~inside))
+            msg = (
+                f"time t={float(t[row])!r} (index {row}, {n_out} time(s) in all) lies outside the "
+                f"trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; kinsync does not "
+                "extrapolate: trim the data or ask for masked output"
+            )
+            raise OutsideSpanError(msg)
+        return inside
+
+    def interpolate(
+        self,
+        t_s: ArrayLike,
+        *,
+        position: PositionMethod = "auto",
+        mask_outside: bool = False,
+    ) -> TrajectorySample:
+        """Interpolate position and attitude at arbitrary times.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (M,)
+            Times (s) on the trajectory's time scale, any order.
+        position : {"auto", "linear", "hermite"}
+            Position method: linear, or cubic Hermite using the velocities ("auto"
+            picks Hermite when velocities exist).
+        mask_outside : bool
+            False (default): a time outside the span raises `OutsideSpanError`.
+            True: such times come back as NaN with ``inside == False``.
+
+        Returns
+        -------
+        TrajectorySample
+            Position (same kind as the trajectory) and slerp-interpolated attitude.
+        """
+        t = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
+        if t.ndim != 1:
+            msg = f"interpolation times: expected a 1-D array, got shape {t.shape}"
+            raise InputError(msg)
+        inside = self._check_inside(t, mask_outside=mask_outside)
+        use_hermite = position == "hermite" or (position == "auto" and self.vel_ned_m_s is not None)
+        if use_hermite and self.vel_ned_m_s is None:
+            msg = "Hermite position interpolation needs velocities (vel_ned_m_s)"
+            raise InputError(msg)
+        if position not in ("auto", "linear", "hermite"):
+            msg = f"position method must be auto, linear or hermite, got {position!r}"
+            raise InputError(msg)
+
+        m = t.size
+        q_out = np.full((m, 4), np.nan)
+        pos_out = np.full((m, 3), np.nan)
+        ti = t[inside]
+        if ti.size:
+            idx, frac = self._bracket(ti)
+            q_out[inside] = self._slerp(idx, frac)
+            pos_out[inside] = self._hermite(idx, frac) if use_hermite else self._linear(idx, frac)
+        if self.lat_lon_h is not None:
+            pos_out[:, 1] = (pos_out[:, 1] + 180.0) % 360.0 - 180.0
+        q_out.setflags(write=False)
+        pos_out.setflags(write=False)
+        return TrajectorySample(
+            t_s=t,
+            q_body_to_ned=q_out,
+            lat_lon_h=pos_out if self.is_geodetic else None,
+            pos_ned_m=None if self.is_geodetic else pos_out,
+            origin_lat_lon_h=self.origin_lat_lon_h,
+            inside=inside,
+        )
+
+    def _position_table(self) -> FloatArray:
+        if self.lat_lon_h is not None:
+            assert self._lon_unwrapped_deg is not None
+            return np.column_stack(
+                [self.lat_lon_h[:, 0], self._lon_unwrapped_deg, self.lat_lon_h[:, 2]]
+            )
+        assert self.pos_ned_m is not None
+        return self.pos_ned_m
+
+    def _position_rate_table(self) -> FloatArray:
+        """Time derivative of the position table's columns at the records."""
+        assert self.vel_ned_m_s is not None
+        v = self.vel_ned_m_s
+        if self.lat_lon_h is None:
+            return v
+        lat, h = self.lat_lon_h[:, 0], self.lat_lon_h[:, 2]
+        M, N = _meridian_and_normal_radii_m(lat)
+        dlat = np.degrees(v[:, 0] / (M + h))
+        dlon = np.degrees(v[:, 1] / ((N + h) * np.cos(np.radians(lat))))
+        return np.column_stack([dlat, dlon, -v[:, 2]])
+
+    def _linear(self, idx: IntArray, frac: FloatArray) -> FloatArray:
+        p = self._position_table()
+        return p[idx] + frac[:, None] * (p[idx + 1] - p[idx])
+
+    def _hermite(self, idx: IntArray, frac: FloatArray) -> FloatArray:
+        p = self._position_table()
+        dp = self._position_rate_table()
+        h = (self.t_s[idx + 1] - self.t_s[idx])[:, None]
+        s = frac[:, None]
+        s2, s3 = s * s, s * s * s
+        return (
+            (2 * s3 - 3 * s2 + 1) * p[idx]
+            + (s3 - 2 * s2 + s) * h * dp[idx]
+            + (-2 * s3 + 3 * s2) * p[idx + 1]
+            + (s3 - s2) * h * dp[idx + 1]
+        )
+
+    @cached_property
+    def _interval_rotvec_body(self) -> FloatArray:
+        """Rotation vector of each record-to-record increment, body frame, shape (N-1, 3)."""
+        q = self.q_body_to_ned[:, [1, 2, 3, 0]]
+        r0 = Rotation.from_quat(q[:-1])
+        r1 = Rotation.from_quat(q[1:])
+        delta: FloatArray = (r0.inv() * r1).as_rotvec()  # shortest arc, angle <= pi
+        delta.setflags(write=False)
+        return delta
+
+    def _slerp(self, idx: IntArray, frac: FloatArray) -> FloatArray:
+        """``q[idx] * exp(frac * delta[idx])`` with scalar-first quaternion algebra."""
+        v = frac[:, None] * self._interval_rotvec_body[idx]
+        angle = np.linalg.norm(v, axis=1)
+        # sin(a/2)/a written with sinc so that a -> 0 is exact: sinc(x) = sin(pi x)/(pi x).
+        half_sinc = 0.5 * np.sinc(angle / (2.0 * np.pi))
+        dw = np.cos(0.5 * angle)
+        dx, dy, dz = (v * half_sinc[:, None]).T
+        q0 = self.q_body_to_ned[idx]
+        w, x, y, z = q0.T
+        out = np.column_stack(
+            [
+                w * dw - x * dx - y * dy - z * dz,
+                w * dx + x * dw + y * dz - z * dy,
+                w * dy - x * dz + y * dw + z * dx,
+                w * dz + x * dy - y * dx + z * dw,
+            ]
+        )
+        out[out[:, 0] < 0.0] *= -1.0
+        return out

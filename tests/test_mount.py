@@ -1,0 +1,251 @@
+"""Tests of kinsync.mount and kinsync.io.mount_file (the mount TOML schema)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose, assert_array_equal
+
+from kinsync.errors import InputError
+from kinsync.frames import euler_rpy_to_matrix
+from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
+
+finite = st.floats(allow_nan=False, allow_infinity=False)
+"""Any finite float64: subnormals, -0.0, 1e-300, 1.7e308 and everything between."""
+triples = st.tuples(finite, finite, finite)
+mounts = st.builds(
+    Mount,
+    lever_arm_body_m=triples,
+    boresight_rpy_deg=triples,
+    antenna_lever_arm_body_m=triples,
+    latency_s=finite,
+)
+
+SCHEMA_DEFAULT = (
+    "[mount]\n"
+    "lever_arm_body_m = [0.0, 0.0, 0.0]\n"
+    "boresight_rpy_deg = [0.0, 0.0, 0.0]\n"
+    "antenna_lever_arm_body_m = [0.0, 0.0, 0.0]\n"
+    "latency_s = 0.0\n"
+)
+
+VALID_TEXT = (
+    "[mount]\n"
+    "lever_arm_body_m = [0.12, -0.3, 1.5]\n"
+    "boresight_rpy_deg = [0.5, -0.25, 90.0]\n"
+    "antenna_lever_arm_body_m = [-0.8, 0.0, -1.2]\n"
+    "latency_s = 0.0123\n"
+)
+
+
+def _bits(m: Mount) -> list[str]:
+    """Every float of a mount as its exact hex form (distinguishes -0.0 from 0.0)."""
+    values = [*m.lever_arm_body_m, *m.boresight_rpy_deg, *m.antenna_lever_arm_body_m]
+    return [float(v).hex() for v in [*values, m.latency_s]]
+
+
+# ---------------------------------------------------------------- round trips
+
+
+@settings(max_examples=200, deadline=None)
+@given(mount=mounts)
+def test_toml_text_round_trip_is_exact(mount: Mount) -> None:
+    back = mount_from_toml_text(mount_to_toml_text(mount))
+    assert back == mount
+    assert _bits(back) == _bits(mount)
+
+
+@settings(
+    max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(mount=mounts)
+def test_file_round_trip_is_exact(mount: Mount, tmp_path: Path) -> None:
+    path = tmp_path / "mount.toml"
+    write_mount(mount, path)
+    back = read_mount(path)
+    assert _bits(back) == _bits(mount)
+    assert path.read_text(encoding="utf-8") == mount_to_toml_text(mount)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mount.toml"]  # no temporary left
+
+
+@pytest.mark.parametrize(
+    "value", [5e-324, 2.2250738585072014e-308, 1e-300, 1.7976931348623157e308, -0.0, 1e16, 0.1]
+)
+def test_extreme_values_round_trip(value: float) -> None:
+    mount = Mount((value, -value, 1.0), (value, 0.0, -value), (0.0, value, 0.0), value)
+    text = mount_to_toml_text(mount)
+    assert _bits(mount_from_toml_text(text)) == _bits(mount)
+
+
+def test_text_layout_is_the_schema() -> None:
+    assert mount_to_toml_text(Mount()) == SCHEMA_DEFAULT
+    mount = Mount((0.12, -0.3, 1.5), (0.5, -0.25, 90.0), (-0.8, 0.0, -1.2), 0.0123)
+    assert mount_to_toml_text(mount) == VALID_TEXT
+    assert mount_from_toml_text(VALID_TEXT) == mount
+    doc = tomllib.loads(mount_to_toml_text(mount))
+    assert list(doc) == ["mount"]
+    assert list(doc["mount"]) == [
+        "lever_arm_body_m",
+        "boresight_rpy_deg",
+        "antenna_lever_arm_body_m",
+        "latency_s",
+    ]
+
+
+def test_integers_and_missing_keys_are_accepted() -> None:
+    mount = mount_from_toml_text("[mount]\nlever_arm_body_m = [1, 2, -3]\nlatency_s = 0\n")
+    assert mount.lever_arm_body_m == (1.0, 2.0, -3.0)
+    assert all(isinstance(v, float) for v in mount.lever_arm_body_m)
+    assert isinstance(mount.latency_s, float)
+    assert mount.boresight_rpy_deg == (0.0, 0.0, 0.0)
+    assert mount.antenna_lever_arm_body_m == (0.0, 0.0, 0.0)
+    assert mount_from_toml_text("[mount]\n") == Mount()
+
+
+# ---------------------------------------------------------------- the container
+
+
+def test_defaults_are_zero() -> None:
+    mount = Mount()
+    assert mount.lever_arm_body_m == (0.0, 0.0, 0.0)
+    assert mount.boresight_rpy_deg == (0.0, 0.0, 0.0)
+    assert mount.antenna_lever_arm_body_m == (0.0, 0.0, 0.0)
+    assert mount.latency_s == 0.0
+    assert_array_equal(mount.R_scanner_to_body, np.eye(3))
+    assert_array_equal(mount.lever_arm_body_m_array, np.zeros(3))
+
+
+@settings(max_examples=100, deadline=None)
+@given(rpy=st.tuples(*[st.floats(min_value=-360.0, max_value=360.0, allow_nan=False)] * 3))
+def test_R_scanner_to_body_is_euler_of_radians(rpy: tuple[float, float, float]) -> None:
+    mount = Mount(boresight_rpy_deg=rpy)
+    expected = euler_rpy_to_matrix(*(math.radians(a) for a in rpy))
+    assert_allclose(mount.R_scanner_to_body, expected, rtol=0, atol=1e-15)
+    assert mount.R_scanner_to_body.shape == (3, 3)
+
+
+def test_R_scanner_to_body_known_yaw() -> None:
+    R = Mount(boresight_rpy_deg=(0.0, 0.0, 90.0)).R_scanner_to_body
+    assert_allclose(R @ np.array([1.0, 0.0, 0.0]), [0.0, 1.0, 0.0], atol=1e-15)
+
+
+def test_mount_is_frozen() -> None:
+    mount = Mount(latency_s=0.01)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        mount.latency_s = 0.02  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        mount.lever_arm_body_m = (1.0, 2.0, 3.0)  # type: ignore[misc]
+    changed = mount.with_latency(0.02)
+    assert changed.latency_s == 0.02
+    assert mount.latency_s == 0.01
+    assert changed.lever_arm_body_m == mount.lever_arm_body_m
+
+
+def test_constructor_normalises_and_validates() -> None:
+    mount = Mount(lever_arm_body_m=np.array([1, 2, 3]), latency_s=np.float32(0.5))  # type: ignore[arg-type]
+    assert mount.lever_arm_body_m == (1.0, 2.0, 3.0)
+    assert isinstance(mount.lever_arm_body_m, tuple)
+    assert type(mount.latency_s) is float
+    with pytest.raises(InputError, match="lever_arm_body_m"):
+        Mount(lever_arm_body_m=(1.0, 2.0))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="latency_s"):
+        Mount(latency_s=math.nan)
+    with pytest.raises(InputError, match="boresight_rpy_deg"):
+        Mount(boresight_rpy_deg=(0.0, math.inf, 0.0))
+    with pytest.raises(InputError, match="latency_s"):
+        Mount(latency_s="0.1")  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def test_malformed_toml_names_source(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="malformed TOML") as info:
+        mount_from_toml_text("[mount\nlatency_s = 0.1\n", source="calib/mount.toml")
+    assert "calib/mount.toml" in str(info.value)
+    path = tmp_path / "broken.toml"
+    path.write_text("[mount]\nlatency_s = = 0.1\n", encoding="utf-8")
+    with pytest.raises(InputError, match="malformed TOML") as info:
+        read_mount(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("latency_s = 0.1\n", r"\[mount\]"),
+        ("", r"\[mount\]"),
+        ("mount = 3\n", r"\[mount\]"),
+        ("[mounts]\nlatency_s = 0.1\n", r"\[mount\]"),
+        ("[mount]\nlever_arm_body = [0.0, 0.0, 0.0]\n", "lever_arm_body"),
+        ("[mount]\nlatency_s = 0.1\nlatency_ms = 5\n", "latency_ms"),
+        ("[mount]\nlever_arm_body_m = [0.1, 0.2]\n", "lever_arm_body_m"),
+        ("[mount]\nboresight_rpy_deg = [0.1, 0.2, 0.3, 0.4]\n", "boresight_rpy_deg"),
+        ("[mount]\nlever_arm_body_m = 0.5\n", "lever_arm_body_m"),
+        ('[mount]\nlatency_s = "0.01"\n', "latency_s"),
+        ('[mount]\nantenna_lever_arm_body_m = "0 0 1"\n', "antenna_lever_arm_body_m"),
+        ('[mount]\nboresight_rpy_deg = [0.0, "1", 0.0]\n', "boresight_rpy_deg"),
+        ("[mount]\nlatency_s = true\n", "latency_s"),
+        ("[mount]\nlever_arm_body_m = [true, 0.0, 0.0]\n", "lever_arm_body_m"),
+        ("[mount]\nlatency_s = nan\n", "latency_s"),
+        ("[mount]\nlatency_s = -inf\n", "latency_s"),
+        ("[mount]\nlever_arm_body_m = [0.0, nan, 0.0]\n", "lever_arm_body_m"),
+        ("[mount]\nlatency_s = 0.1\n[extra]\nx = 1\n", "extra"),
+        ("[mount]\nlatency_s = 0.1\n[mount.sub]\nx = 1\n", "sub"),
+    ],
+    ids=[
+        "no-table",
+        "empty",
+        "mount-not-a-table",
+        "misspelt-table",
+        "typo-key",
+        "unknown-key",
+        "two-numbers",
+        "four-numbers",
+        "scalar-for-vector",
+        "string-latency",
+        "string-vector",
+        "string-in-vector",
+        "bool-latency",
+        "bool-in-vector",
+        "nan-latency",
+        "inf-latency",
+        "nan-in-vector",
+        "extra-table",
+        "sub-table",
+    ],
+)
+def test_bad_documents_raise_input_error(text: str, pattern: str) -> None:
+    with pytest.raises(InputError, match=pattern) as info:
+        mount_from_toml_text(text, source="cfg/mount.toml")
+    assert str(info.value).startswith("cfg/mount.toml: ")
+
+
+def test_bad_file_names_file(tmp_path: Path) -> None:
+    path = tmp_path / "mount.toml"
+    path.write_text("[mount]\nlatency_s = nan\n", encoding="utf-8")
+    with pytest.raises(InputError, match="latency_s") as info:
+        read_mount(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_file_names_file(tmp_path: Path) -> None:
+    path = tmp_path / "absent" / "mount.toml"
+    with pytest.raises(InputError, match="not found") as info:
+        read_mount(path)
+    assert str(path) in str(info.value)
+
+
+def test_write_into_missing_folder_raises(tmp_path: Path) -> None:
+    path = tmp_path / "absent" / "mount.toml"
+    with pytest.raises(InputError, match="does not exist"):
+        write_mount(Mount(), path)
+    assert not path.exists()
