@@ -34,7 +34,7 @@ def beach_budget_figure(
 ) -> bytes:
     """Vertical and horizontal error against latency, exact and small-angle, per roll rate."""
     lat = np.asarray(latencies_ms, dtype=np.float64)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     for rate in rates_deg_s:
         sc = beach_scenario(range_m, slope_deg, rate)
         budgets = [latency_beam_error(sc, ms * 1e-3) for ms in lat]
@@ -46,12 +46,20 @@ def beach_budget_figure(
         axes[0].loglog(lat, vl, "--", color=line.get_color(), alpha=0.6)
         axes[1].loglog(lat, h, color=line.get_color(), label=f"{rate:g} deg/s")
         axes[1].loglog(lat, hl, "--", color=line.get_color(), alpha=0.6)
-    for ax, what in zip(axes, ("vertical", "horizontal"), strict=True):
+        axes[2].semilogx(lat, (v / vl - 1.0) * 100.0, color=line.get_color())
+    axes[2].axhline(1.0, color="k", lw=0.8, ls=":")
+    axes[2].set_xlabel("latency (ms)")
+    axes[2].set_ylabel("exact / small-angle - 1 (%)")
+    axes[2].set_title("Where the small-angle formula fails (vertical)")
+    axes[2].grid(visible=True, which="both", alpha=0.3)
+    for ax, what in zip(axes[:2], ("vertical", "horizontal"), strict=True):
         ax.set_xlabel("latency (ms)")
         ax.set_ylabel(f"{what} error (mm)")
         ax.grid(visible=True, which="both", alpha=0.3)
         ax.set_title(f"{what.capitalize()} error, {slope_deg:g} deg slope at {range_m:g} m")
-    axes[0].legend(title="roll rate (solid exact, dashed small-angle)", fontsize=8)
+    axes[0].legend(
+        title="roll rate (solid exact, dashed small-angle)", fontsize=8, loc="upper left"
+    )
     return png_bytes(fig)
 
 
@@ -70,5 +78,5 @@ def rolling_table_figure(latencies_ms: Sequence[float], sector_deg: float = 20.0
     ax.set_ylabel("point error (mm)")
     ax.set_title("Rolling table, wall at 25 m: point error across the sector")
     ax.grid(visible=True, which="both", alpha=0.3)
-    ax.legend(title="latency")
+    ax.legend(title="latency", loc="center right")
     return png_bytes(fig)
