@@ -1,0 +1,1198 @@
+"""Sphere fitting: algebraic start, geometric or ray refinement, robust segmentation.
+
+Three layers, each usable on its own:
+
+`fit_sphere_algebraic`
+    Closed-form Hyper fit (a generalised eigenproblem on the 5 x 5 moment matrix of
+    the algebraic sphere ``A|x|^2 + B.x + C = 0``). Nearly unbiased, even on a
+    one-sided cap, where the barycentre of the points is off by about half a radius.
+`fit_sphere`
+    Levenberg-Marquardt (Gauss-Newton with damping) from the algebraic start, on the
+    orthogonal residual ``r_i = |x_i - c| - rho`` or, when the scanner origin is
+    known, on the range residual along each beam (the ray model below). Radius free
+    (4 unknowns) or known (3 unknowns). Reports the centre covariance
+    ``sigma^2 (J^T J)^-1`` with ``sigma^2 = sum r^2 / (n - p)``.
+`segment_sphere`
+    RANSAC on minimal 4-point spheres (solved in batches), scored on a random subset
+    then on all points, hypotheses rejected by the known radius or radius bounds;
+    then an iteratively reweighted (Tukey biweight) refinement, an inlier threshold
+    from a robust scale, and a final least-squares `fit_sphere` on the inliers.
+
+Numerics. Every computation runs in coordinates centred on the data (the first point
+and then the mean are subtracted, exactly for nearby points, and added back at the
+end), so UTM- or ECEF-sized coordinates (1e6-6e6 m) lose nothing; the algebraic fit
+also scales them to unit RMS. Points are held as a (3, N) array so that every pass
+over them is a contiguous, vectorised numpy operation; a 30 000-point fit takes a few
+milliseconds (``benchmarks/bench_sphere_fit.py``).
+
+Ray model. A scanner at ``o`` measures point ``x_i`` along the unit beam
+``u_i = (x_i - o) / m_i`` at range ``m_i = |x_i - o|``. The sphere (centre ``c``,
+radius ``R``) predicts the range of the near intersection
+``rho_i = b_i - s_i``, ``b_i = u_i . v``, ``v = c - o``,
+``s_i = sqrt(b_i^2 - |v|^2 + R^2)``. The residual is ``e_i = m_i - rho_i`` (positive:
+the point lies beyond the modelled surface, further from the scanner), with
+``d rho / d c = u - (b u - v) / s`` and ``d rho / d R = -R / s``. With range-only
+noise it is the maximum-likelihood estimator, free of the bias the orthogonal
+residual has (second order in noise / radius, growing towards the silhouette; about
+1 mm along the beam for 5 mm range noise on a 0.1 m sphere). Near the silhouette
+``rho`` is not smooth in ``(c, R)`` (``1/s`` derivatives), so the ray model starts from
+the orthogonal solution and uses the beams that meet it at less than 85 deg incidence
+on its visible side; the choice depends on the beam directions only, which range noise
+does not change, so it does not bias the estimate. A beam that misses the sphere
+while iterating gets the continuous extension ``rho = b`` (``s = 0``); in the result
+its residual is NaN.
+
+References
+----------
+Al-Sharadqah, A. & Chernov, N., "Error analysis for circle fitting algorithms",
+Electronic Journal of Statistics 3, 2009, 886-911 (Hyper fit; here extended to 3-D).
+Taubin, G., "Estimation of planar curves, surfaces and nonplanar space curves defined
+by implicit equations...", IEEE PAMI 13(11), 1991, 1115-1138.
+Pratt, V., "Direct least-squares fitting of algebraic surfaces", SIGGRAPH 1987,
+145-152.
+Fischler, M. A. & Bolles, R. C., "Random sample consensus...", Communications of the
+ACM 24(6), 1981, 381-395 (RANSAC).
+Seube, N., Picard, A. & Rondeau, M., "A simple method to recover the latency time of
+tactical grade IMU systems", ISPRS J. Photogramm. Remote Sens. 74, 2012, 85-89 (the
+sphere-centre use in latency calibration).
+Marquardt, D. W., "An algorithm for least-squares estimation of nonlinear parameters",
+SIAM J. Appl. Math. 11(2), 1963, 431-441.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync.errors import ConvergenceError, InputError
+
+__all__ = ["SphereFit", "fit_sphere", "fit_sphere_algebraic", "segment_sphere"]
+
+_MIN_POINTS = 4
+_MIN_INLIERS = 10
+"""Fewest inliers `segment_sphere` accepts as a sphere."""
+_PLANE_TO_SPHERE_RMS = 1.25
+"""A segmented sphere must fit its inliers this much better (RMS) than a plane does."""
+_DEGENERATE_SPREAD = 1e-7
+"""Relative spread below which points count as collinear or coplanar."""
+_TUKEY_C = 4.685
+_MAD_TO_SIGMA = 1.4826
+_HYPOTHESIS_BATCH = 256
+_SUBSET_SIZE = 1024
+_TOP_HYPOTHESES = 16
+_RANSAC_CONFIDENCE = 0.999
+_KNOWN_RADIUS_TOLERANCE = 0.2
+"""Relative radius tolerance of a RANSAC hypothesis when the radius is known."""
+_KNOWN_RADIUS_RATIO = 1.5
+"""Largest ratio between the free-radius fit of the inliers and a known radius."""
+
+
+# --------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True, eq=False)
+class SphereFit:
+    """A fitted sphere with its uncertainty, inliers and residuals.
+
+    Attributes
+    ----------
+    center_m : ndarray, shape (3,)
+        Centre (m), in the frame of the input points.
+    radius_m : float
+        Radius (m); the given value when ``radius_fixed``.
+    radius_fixed : bool
+        True when the radius was given, not estimated.
+    cov_center_m2 : ndarray, shape (3, 3)
+        Centre covariance (m^2), ``sigma^2 (J^T J)^-1`` with
+        ``sigma^2 = sum r^2 / (n - p)`` (the centre block when the radius is free).
+        NaN when there are no degrees of freedom left (``n == p``).
+    radius_std_m : float
+        Standard deviation of the radius (m); NaN when the radius is fixed.
+    residual_rms_m : float
+        RMS of the final residuals of the inliers (m); beams that miss are left out.
+    n_points : int
+        Number of inliers used in the final fit.
+    inliers : ndarray of bool, shape (N,)
+        Mask into the points given: True for the points used in the final fit (all of
+        them for a geometric `fit_sphere`; the ray model leaves out beams at grazing
+        incidence and points on the far side; `segment_sphere` also leaves out clutter).
+    residuals_m : ndarray, shape (N,)
+        Residual of every input point with respect to the final sphere (m):
+        orthogonal distance ``|x - c| - rho`` (``method == "geometric"``) or range
+        residual ``m - rho`` along the beam (``method == "ray"``; NaN for a beam that
+        misses the sphere).
+    method : str
+        ``"geometric"`` (orthogonal residual) or ``"ray"`` (range residual).
+    iterations : int
+        Levenberg-Marquardt iterations (Jacobian evaluations) of the final fit.
+    """
+
+    center_m: FloatArray
+    radius_m: float
+    radius_fixed: bool
+    cov_center_m2: FloatArray
+    radius_std_m: float
+    residual_rms_m: float
+    n_points: int
+    inliers: BoolArray
+    residuals_m: FloatArray
+    method: str
+    iterations: int
+
+    def __post_init__(self) -> None:
+        # Own read-only copies: a result never changes, nor aliases the caller's arrays.
+        for name, dtype in (
+            ("center_m", np.float64),
+            ("cov_center_m2", np.float64),
+            ("inliers", np.bool_),
+            ("residuals_m", np.float64),
+        ):
+            arr = np.array(getattr(self, name), dtype=dtype, copy=True)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        n = self.inliers.shape[0] if self.inliers.ndim == 1 else -1
+        if (
+            self.center_m.shape != (3,)
+            or self.cov_center_m2.shape != (3, 3)
+            or self.residuals_m.shape != (n,)
+        ):
+            msg = (
+                "SphereFit: expected center_m (3,), cov_center_m2 (3, 3) and inliers, "
+                f"residuals_m of one length N; got {self.center_m.shape}, "
+                f"{self.cov_center_m2.shape}, {self.inliers.shape}, {self.residuals_m.shape}"
+            )
+            raise InputError(msg)
+
+    @property
+    def center_std_m(self) -> FloatArray:
+        """Standard deviation of each centre coordinate (m), shape (3,)."""
+        std: FloatArray = np.sqrt(np.diag(self.cov_center_m2))
+        return std
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _validated_points(points_m: ArrayLike, what: str) -> FloatArray:
+    """(N, 3) finite float64 points, N >= 4."""
+    try:
+        pts = np.asarray(points_m, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{what}: points_m must be numbers, shape (N, 3) ({err})"
+        raise InputError(msg) from err
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        msg = f"{what}: points_m must have shape (N, 3), got {pts.shape}"
+        raise InputError(msg)
+    if pts.shape[0] < _MIN_POINTS:
+        msg = (
+            f"{what}: a sphere needs at least {_MIN_POINTS} points, got {pts.shape[0]}; "
+            "check the segmentation or region of interest"
+        )
+        raise InputError(msg)
+    if not np.isfinite(pts).all():
+        row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        msg = (
+            f"{what}: non-finite coordinate in point {row} ({pts[row].tolist()}); "
+            "drop NaN/inf points before fitting"
+        )
+        raise InputError(msg)
+    return pts
+
+
+def _validated_radius(radius_m: float | None, what: str) -> float | None:
+    if radius_m is None:
+        return None
+    try:
+        r = float(radius_m)
+    except (TypeError, ValueError) as err:
+        msg = f"{what}: radius_m must be a number, got {radius_m!r}"
+        raise InputError(msg) from err
+    if not math.isfinite(r) or r <= 0.0:
+        msg = f"{what}: radius_m must be finite and > 0 (m), got {radius_m!r}"
+        raise InputError(msg)
+    return r
+
+
+def _validated_origin(origin_m: ArrayLike | None, what: str) -> FloatArray | None:
+    if origin_m is None:
+        return None
+    try:
+        o = np.asarray(origin_m, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{what}: origin_m must be 3 numbers (m), got {origin_m!r}"
+        raise InputError(msg) from err
+    if o.shape != (3,) or not np.isfinite(o).all():
+        msg = f"{what}: origin_m must be 3 finite numbers (m), got {origin_m!r}"
+        raise InputError(msg)
+    return o
+
+
+def _centred(pts: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Reference point (3,) and coordinates about it as a contiguous (3, N) array.
+
+    The first point is subtracted first (exact for nearby points, whatever their
+    magnitude), then the mean of the small differences.
+    """
+    first = pts[0].copy()
+    xc = np.empty((3, pts.shape[0]))
+    np.subtract(pts.T, first[:, None], out=xc)
+    mean = xc.mean(axis=1)
+    xc -= mean[:, None]
+    return first + mean, xc
+
+
+def _check_not_degenerate(xc: FloatArray, what: str) -> float:
+    """Raise if the centred points are collinear or coplanar; return their RMS spread (m)."""
+    scatter = (xc @ xc.T) / xc.shape[1]
+    eig = np.linalg.eigvalsh(scatter)  # ascending
+    spread = float(np.sqrt(max(eig[2], 0.0)))
+    if spread == 0.0:
+        msg = f"{what}: all {xc.shape[1]} points coincide; a sphere is not determined"
+        raise InputError(msg)
+    second = float(np.sqrt(max(eig[1], 0.0)))
+    third = float(np.sqrt(max(eig[0], 0.0)))
+    if second <= _DEGENERATE_SPREAD * spread:
+        msg = (
+            f"{what}: the {xc.shape[1]} points are collinear (spread {spread:.3g} m along a "
+            f"line, {second:.3g} m across); a sphere is not determined"
+        )
+        raise InputError(msg)
+    if third <= _DEGENERATE_SPREAD * spread:
+        msg = (
+            f"{what}: the {xc.shape[1]} points are coplanar (out-of-plane spread "
+            f"{third:.3g} m for {spread:.3g} m in plane); a sphere is not determined"
+        )
+        raise InputError(msg)
+    return spread
+
+
+# --------------------------------------------------------------------------- algebraic
+
+
+def _hyper_local(xc: FloatArray, what: str) -> tuple[FloatArray, float]:
+    """Hyper fit of centred (3, N) points; centre in the same centred coordinates."""
+    n = xc.shape[1]
+    scale = float(np.sqrt(np.einsum("ij,ij->", xc, xc) / n))
+    z = np.empty((5, n))
+    np.multiply(xc, 1.0 / scale, out=z[1:4])
+    np.einsum("ij,ij->j", z[1:4], z[1:4], out=z[0])
+    z[4] = 1.0
+    moments = (z @ z.T) / n
+    # Hyper constraint 2 * Taubin - Pratt, theta = (A, B1, B2, B3, C).
+    mean_sq = moments[0, 4]
+    mean_x = moments[1:4, 4]
+    hyper = np.zeros((5, 5))
+    hyper[0, 0] = 8.0 * mean_sq
+    hyper[0, 1:4] = hyper[1:4, 0] = 4.0 * mean_x
+    hyper[0, 4] = hyper[4, 0] = 2.0
+    hyper[1:4, 1:4] = np.eye(3)
+    _, eigvecs = np.linalg.eig(np.linalg.solve(hyper, moments))
+    vecs = np.real(eigvecs)
+    quad_h = np.einsum("ik,ij,jk->k", vecs, hyper, vecs)
+    quad_m = np.einsum("ik,ij,jk->k", vecs, moments, vecs)
+    ok = quad_h > 0.0
+    if not ok.any():
+        msg = f"{what}: the algebraic sphere fit found no admissible solution"
+        raise InputError(msg)
+    ratio = np.where(ok, quad_m / np.where(ok, quad_h, 1.0), np.inf)
+    theta = vecs[:, int(np.argmin(ratio))]
+    a, b, c = theta[0], theta[1:4], theta[4]
+    radius_sq = float(b @ b - 4.0 * a * c)
+    if abs(a) <= 1e-12 * math.sqrt(max(radius_sq, 0.0)) or radius_sq <= 0.0:
+        msg = (
+            f"{what}: the {n} points are (nearly) coplanar: the algebraic fit finds a plane, "
+            "not a sphere"
+        )
+        raise InputError(msg)
+    centre = -b / (2.0 * a) * scale
+    radius = math.sqrt(radius_sq) / (2.0 * abs(a)) * scale
+    return centre, radius
+
+
+def fit_sphere_algebraic(points_m: ArrayLike) -> tuple[FloatArray, float]:
+    """Closed-form (algebraic) sphere fit: the Hyper fit.
+
+    Solves ``M theta = eta H theta`` for the algebraic sphere
+    ``A|x|^2 + B.x + C = 0``, ``theta = (A, B, C)``, where ``M`` is the moment matrix
+    of ``z_i = (|x_i|^2, x_i, 1)`` and ``H = 2 T - P`` combines Taubin's (``T``) and
+    Pratt's (``P``) constraint matrices; the solution is the eigenvector with the
+    smallest positive ``eta``. Computed in coordinates centred on the points and scaled
+    to unit RMS. Unlike the barycentre, it is close to the true centre on a one-sided
+    cap; it is the start of `fit_sphere`.
+
+    Parameters
+    ----------
+    points_m : array_like, shape (N, 3)
+        Points (m), any Cartesian frame (ECEF-sized coordinates are fine). N >= 4.
+
+    Returns
+    -------
+    center_m : ndarray, shape (3,)
+        Centre (m), same frame as the points.
+    radius_m : float
+        Radius (m).
+
+    Raises
+    ------
+    InputError
+        Wrong shape, fewer than 4 points, non-finite values, collinear or coplanar
+        points.
+
+    References
+    ----------
+    Al-Sharadqah & Chernov 2009 (Hyper fit); Taubin 1991; Pratt 1987.
+    """
+    what = "fit_sphere_algebraic"
+    pts = _validated_points(points_m, what)
+    ref, xc = _centred(pts)
+    _check_not_degenerate(xc, what)
+    centre, radius = _hyper_local(xc, what)
+    return ref + centre, radius
+
+
+# --------------------------------------------------------------------------- LM core
+
+# A model evaluates residuals e (N,) at parameters p and keeps what the Jacobian needs;
+# the Jacobian (P, N) is de/dp at the same parameters.
+_Residuals = Callable[[FloatArray], tuple[FloatArray, object]]
+_Jacobian = Callable[[FloatArray, object], FloatArray]
+
+
+@dataclass(frozen=True)
+class _LMResult:
+    params: FloatArray
+    residuals: FloatArray
+    state: object
+    iterations: int
+    converged: bool
+
+
+def _levenberg_marquardt(
+    residual_fn: _Residuals,
+    jacobian_fn: _Jacobian,
+    p0: FloatArray,
+    weights: FloatArray | None,
+    max_iterations: int,
+    tol_m: float,
+) -> _LMResult:
+    """Weighted Levenberg-Marquardt with Marquardt's diagonal scaling.
+
+    Converged when an accepted step is shorter than ``tol_m`` (parameters are metres),
+    or when no step decreases the cost any more at machine precision.
+    """
+    p = p0.copy()
+    e, state = residual_fn(p)
+    cost = float(e @ e) if weights is None else float((weights * e) @ e)
+    lam = 1e-4
+    for it in range(1, max_iterations + 1):
+        jac = jacobian_fn(p, state)
+        jw = jac if weights is None else jac * weights
+        normal = jw @ jac.T
+        grad = jw @ e
+        diag = np.diag(normal).copy()
+        diag[diag <= 0.0] = 1.0
+        while True:
+            try:
+                step = np.linalg.solve(normal + lam * np.diag(diag), -grad)
+            except np.linalg.LinAlgError:
+                step = np.full_like(p, np.nan)
+            if np.isfinite(step).all():
+                p_trial = p + step
+                e_trial, state_trial = residual_fn(p_trial)
+                cost_trial = (
+                    float(e_trial @ e_trial)
+                    if weights is None
+                    else float((weights * e_trial) @ e_trial)
+                )
+                small = float(np.linalg.norm(step)) <= tol_m
+                if math.isfinite(cost_trial) and cost_trial <= cost:
+                    p, e, state, cost = p_trial, e_trial, state_trial, cost_trial
+                    lam = max(lam * 0.1, 1e-12)
+                    if small:
+                        return _LMResult(p, e, state, it, converged=True)
+                    break
+                if small:
+                    return _LMResult(p, e, state, it, converged=True)
+            lam *= 10.0
+            if lam > 1e12:
+                # No decrease possible: at the minimum to machine precision.
+                return _LMResult(p, e, state, it, converged=True)
+    return _LMResult(p, e, state, max_iterations, converged=False)
+
+
+@dataclass(frozen=True)
+class _OrthoState:
+    diff: FloatArray  # (3, N) x - c
+    dist: FloatArray  # (N,)
+
+
+def _ortho_model(xc: FloatArray, radius_fixed: float | None) -> tuple[_Residuals, _Jacobian]:
+    """Orthogonal residual |x - c| - rho; parameters (c, rho) or (c,) when fixed."""
+
+    def residuals(p: FloatArray) -> tuple[FloatArray, object]:
+        diff = xc - p[:3, None]
+        dist = np.sqrt(np.einsum("ij,ij->j", diff, diff))
+        rho = p[3] if radius_fixed is None else radius_fixed
+        return dist - rho, _OrthoState(diff, dist)
+
+    def jacobian(p: FloatArray, state: object) -> FloatArray:
+        assert isinstance(state, _OrthoState)
+        n = state.dist.shape[0]
+        jac = np.empty((len(p), n))
+        np.divide(state.diff, state.dist, out=jac[:3])
+        np.negative(jac[:3], out=jac[:3])
+        if radius_fixed is None:
+            jac[3] = -1.0
+        return jac
+
+    return residuals, jacobian
+
+
+@dataclass(frozen=True)
+class _RayState:
+    b: FloatArray  # (N,) u . v
+    s: FloatArray  # (N,) sqrt(b^2 - |v|^2 + R^2), 0 where the beam misses
+    hit: BoolArray  # (N,) the beam meets the sphere in front of the scanner
+    v: FloatArray  # (3,) c - o
+    radius: float
+
+
+def _ray_model(
+    xc: FloatArray,
+    origin: FloatArray,
+    radius_fixed: float | None,
+) -> tuple[_Residuals, _Jacobian]:
+    """Range residual ``m - rho`` along each beam from ``origin`` (centred coordinates).
+
+    A beam that misses the sphere gets the continuous extension ``rho = b`` (the point
+    of closest approach, ``s = 0``), so the cost stays continuous while iterating.
+    """
+    beams = xc - origin[:, None]
+    ranges = np.sqrt(np.einsum("ij,ij->j", beams, beams))
+    units = beams / ranges
+
+    def residuals(p: FloatArray) -> tuple[FloatArray, object]:
+        v = p[:3] - origin
+        radius = float(p[3]) if radius_fixed is None else radius_fixed
+        b = v @ units
+        disc = b * b - (v @ v - radius * radius)
+        s = np.sqrt(np.maximum(disc, 0.0))
+        rho = b - s
+        hit = (disc > 0.0) & (rho > 0.0)
+        return ranges - rho, _RayState(b, s, hit, v, radius)
+
+    def jacobian(p: FloatArray, state: object) -> FloatArray:
+        assert isinstance(state, _RayState)
+        jac = np.empty((len(p), state.b.shape[0]))
+        # de/dc = -(u - (b u - v)/s) = u (b/s - 1) - v/s ; de/dR = R/s
+        with np.errstate(divide="ignore"):
+            inv_s = np.where(state.s > 0.0, 1.0 / state.s, 0.0)
+        np.multiply(units, state.b * inv_s - 1.0, out=jac[:3])
+        jac[:3] -= np.outer(state.v, inv_s)
+        if radius_fixed is None:
+            np.multiply(state.radius, inv_s, out=jac[3])
+        return jac
+
+    return residuals, jacobian
+
+
+def _ray_residuals_all(
+    xc: FloatArray, origin: FloatArray, centre: FloatArray, radius: float
+) -> tuple[FloatArray, FloatArray, BoolArray]:
+    """Range residual (NaN where the beam misses), cos(incidence) and near-side flag."""
+    res_fn, _ = _ray_model(xc, origin, radius)
+    e, state = res_fn(centre)
+    assert isinstance(state, _RayState)
+    cos_incidence = state.s / radius
+    return np.where(state.hit, e, np.nan), cos_incidence, state.hit
+
+
+# --------------------------------------------------------------------------- fit
+
+
+def _start_params(
+    xc: FloatArray, what: str, radius_fixed: float | None
+) -> tuple[FloatArray, float]:
+    centre, radius = _hyper_local(xc, what)
+    if radius_fixed is None:
+        return np.append(centre, radius), radius
+    # Known radius: move the algebraic centre along the cap axis by the radius difference.
+    diff = xc - centre[:, None]
+    mean_dir = (diff / np.sqrt(np.einsum("ij,ij->j", diff, diff))).mean(axis=1)
+    return centre + (radius - radius_fixed) * mean_dir, radius
+
+
+def _covariance(jac: FloatArray, e: FloatArray, n_params: int) -> tuple[FloatArray, float]:
+    """Centre covariance (3, 3) and radius std (NaN when fixed): sigma^2 (J^T J)^-1."""
+    n = e.shape[0]
+    dof = n - n_params
+    normal = jac @ jac.T
+    if dof <= 0:
+        return np.full((3, 3), np.nan), math.nan
+    sigma2 = float(e @ e) / dof
+    try:
+        cov = sigma2 * np.linalg.inv(normal)
+    except np.linalg.LinAlgError:
+        return np.full((3, 3), np.inf), math.inf
+    radius_std = math.sqrt(max(float(cov[3, 3]), 0.0)) if n_params == 4 else math.nan
+    return 0.5 * (cov[:3, :3] + cov[:3, :3].T), radius_std
+
+
+@dataclass(frozen=True)
+class _LocalFit:
+    centre: FloatArray  # (3,), centred coordinates
+    radius: float
+    cov: FloatArray
+    radius_std: float
+    residuals: FloatArray  # (N,) orthogonal, or range (NaN where a beam misses)
+    used: BoolArray  # (N,) points in the final least squares
+    rms: float
+    iterations: int
+    method: str
+
+    @property
+    def params(self) -> FloatArray:
+        """(c, R) parameter vector."""
+        return np.append(self.centre, self.radius)
+
+
+_MAX_INCIDENCE_DEG = 85.0
+"""Beams meeting the sphere more obliquely are left out of the ray model."""
+
+
+def _fit_local(
+    xc: FloatArray,
+    radius_fixed: float | None,
+    origin_local: FloatArray | None,
+    max_iterations: int,
+    tol_m: float,
+    what: str,
+    p0: FloatArray | None = None,
+) -> _LocalFit:
+    """Orthogonal, then (with an origin) ray-model least squares in centred coordinates."""
+    if p0 is None:
+        p0, _ = _start_params(xc, what, radius_fixed)
+    res_fn, jac_fn = _ortho_model(xc, radius_fixed)
+    lm = _levenberg_marquardt(res_fn, jac_fn, p0, None, max_iterations, tol_m)
+    if not lm.converged:
+        msg = (
+            f"{what}: the geometric sphere fit did not converge in {max_iterations} "
+            f"iterations ({xc.shape[1]} points); raise max_iterations or check the points"
+        )
+        raise ConvergenceError(msg)
+    n = xc.shape[1]
+    n_params = 4 if radius_fixed is None else 3
+    p = lm.params
+    radius = float(p[3]) if radius_fixed is None else radius_fixed
+    if not math.isfinite(radius) or radius <= 0.0:
+        msg = f"{what}: the fit ended with a non-positive radius ({radius!r} m)"
+        raise ConvergenceError(msg)
+    if origin_local is None:
+        e = lm.residuals
+        cov, radius_std = _covariance(jac_fn(p, lm.state), e, n_params)
+        rms = float(np.sqrt(e @ e / n))
+        used = np.ones(n, dtype=bool)
+        return _LocalFit(
+            p[:3].copy(), radius, cov, radius_std, e, used, rms, lm.iterations, "geometric"
+        )
+    iterations = lm.iterations
+    if float(np.linalg.norm(p[:3] - origin_local)) <= radius:
+        msg = (
+            f"{what}: origin_m lies inside the fitted sphere; the ray model needs the "
+            "scanner outside the target (check origin_m and its frame)"
+        )
+        raise InputError(msg)
+    # Beams at grazing incidence make the range model strongly nonlinear: leave them
+    # out. The selection depends on the beam directions only (exact under range noise),
+    # not on the measured ranges, so it does not bias the fit. Points on the far side
+    # of the sphere (outward normal pointing away from the scanner) cannot be returns
+    # from it: left out too.
+    _, cos_inc, hit = _ray_residuals_all(xc, origin_local, p[:3], radius)
+    facing = np.einsum("ij,ij->j", xc - p[:3, None], xc - origin_local[:, None]) < 0.0
+    used = hit & facing & (cos_inc >= math.cos(math.radians(_MAX_INCIDENCE_DEG)))
+    n_used = int(used.sum())
+    if n_used < max(n_params + 1, n // 2):
+        msg = (
+            f"{what}: only {n_used} of {n} points face origin_m and lie on beams that meet "
+            f"the fitted sphere at less than {_MAX_INCIDENCE_DEG:g} deg incidence; "
+            "origin_m does not look like the scanner that saw these points (check it and "
+            "its frame)"
+        )
+        raise InputError(msg)
+    xc_used = xc if n_used == n else np.ascontiguousarray(xc[:, used])
+    ray_res, ray_jac = _ray_model(xc_used, origin_local, radius_fixed)
+    lm = _levenberg_marquardt(ray_res, ray_jac, p, None, max_iterations, tol_m)
+    if not lm.converged:
+        msg = (
+            f"{what}: the ray-model sphere fit did not converge in {max_iterations} "
+            f"iterations ({n_used} beams); raise max_iterations or fit without origin_m"
+        )
+        raise ConvergenceError(msg)
+    iterations += lm.iterations
+    p = lm.params
+    radius = float(p[3]) if radius_fixed is None else radius_fixed
+    e_used = lm.residuals
+    cov, radius_std = _covariance(ray_jac(p, lm.state), e_used, n_params)
+    rms = float(np.sqrt(e_used @ e_used / n_used))
+    e_all, _, _ = _ray_residuals_all(xc, origin_local, p[:3], radius)
+    return _LocalFit(p[:3].copy(), radius, cov, radius_std, e_all, used, rms, iterations, "ray")
+
+
+def fit_sphere(
+    points_m: ArrayLike,
+    *,
+    radius_m: float | None = None,
+    origin_m: ArrayLike | None = None,
+    max_iterations: int = 50,
+    tol_m: float = 1e-10,
+) -> SphereFit:
+    """Least-squares sphere through points: algebraic start, geometric refinement.
+
+    Starts from the Hyper fit (`fit_sphere_algebraic`, never the barycentre) and runs
+    Levenberg-Marquardt on ``r_i = |x_i - c| - rho`` (radius free: 4 unknowns; given:
+    3). With ``origin_m`` it then refines on the range residual along each beam (the
+    ray model of this module's docstring), unbiased under range-only noise. All points
+    are used: segment first (`segment_sphere`) when the cloud holds other objects.
+
+    Parameters
+    ----------
+    points_m : array_like, shape (N, 3)
+        Points on the sphere (m), any Cartesian frame (ECEF/UTM-sized coordinates are
+        fine: the computation is centred on the points). N >= 4.
+    radius_m : float, optional
+        Known radius (m, > 0). Estimated when omitted.
+    origin_m : array_like, shape (3,), optional
+        Scanner origin (m), same frame as the points; selects the ray model.
+    max_iterations : int
+        Iteration limit of each Levenberg-Marquardt stage.
+    tol_m : float
+        Convergence tolerance on the parameter step (m).
+
+    Returns
+    -------
+    SphereFit
+        ``method`` is ``"geometric"`` or ``"ray"``. ``inliers`` is all True for the
+        geometric fit; the ray model leaves out beams meeting the sphere at more than
+        85 deg incidence and points on its far side (their ``residuals_m`` are still
+        given, NaN where the beam misses).
+
+    Raises
+    ------
+    InputError
+        Wrong shape, fewer than 4 points, NaN/inf, non-positive radius, bad origin,
+        collinear or coplanar points, origin inside the sphere.
+    ConvergenceError
+        No convergence within ``max_iterations``.
+
+    References
+    ----------
+    Al-Sharadqah & Chernov 2009 (Hyper start); Marquardt 1963; Seube et al. 2012
+    (ISPRS JPRS 74, 85-89) for the latency-calibration use.
+    """
+    what = "fit_sphere"
+    pts = _validated_points(points_m, what)
+    radius = _validated_radius(radius_m, what)
+    origin = _validated_origin(origin_m, what)
+    if max_iterations < 1:
+        msg = f"{what}: max_iterations must be >= 1, got {max_iterations}"
+        raise InputError(msg)
+    if not (math.isfinite(tol_m) and tol_m > 0.0):
+        msg = f"{what}: tol_m must be finite and > 0 (m), got {tol_m!r}"
+        raise InputError(msg)
+    ref, xc = _centred(pts)
+    _check_not_degenerate(xc, what)
+    origin_local = None if origin is None else origin - ref
+    fit = _fit_local(xc, radius, origin_local, max_iterations, tol_m, what)
+    return SphereFit(
+        center_m=ref + fit.centre,
+        radius_m=fit.radius,
+        radius_fixed=radius is not None,
+        cov_center_m2=fit.cov,
+        radius_std_m=fit.radius_std,
+        residual_rms_m=fit.rms,
+        n_points=int(fit.used.sum()),
+        inliers=fit.used,
+        residuals_m=fit.residuals,
+        method=fit.method,
+        iterations=fit.iterations,
+    )
+
+
+# --------------------------------------------------------------------------- RANSAC
+
+
+def _minimal_spheres(quads: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Spheres through 4 points each, batched.
+
+    Parameters
+    ----------
+    quads : ndarray, shape (H, 4, 3)
+        Four points per hypothesis (centred coordinates, m).
+
+    Returns
+    -------
+    centres : ndarray, shape (H, 3)
+        NaN for degenerate (coplanar) quadruples.
+    radii : ndarray, shape (H,)
+    """
+    p0 = quads[:, 0]
+    q1, q2, q3 = (quads[:, k] - p0 for k in (1, 2, 3))
+    c23, c31, c12 = np.cross(q2, q3), np.cross(q3, q1), np.cross(q1, q2)
+    det = np.einsum("ij,ij->i", q1, c23)
+    n1, n2, n3 = (np.einsum("ij,ij->i", q, q) for q in (q1, q2, q3))
+    # Coplanar (or nearly): |det| tiny against the product of the edge lengths.
+    scale = np.sqrt(n1 * n2 * n3)
+    good = np.abs(det) > 1e-9 * scale
+    safe_det = np.where(good, det, 1.0)
+    rel = (0.5 * (n1[:, None] * c23 + n2[:, None] * c31 + n3[:, None] * c12)) / safe_det[:, None]
+    rel[~good] = np.nan
+    return p0 + rel, np.sqrt(np.einsum("ij,ij->i", rel, rel))
+
+
+def _hypothesis_residuals(
+    xc_sub: FloatArray, sq_sub: FloatArray, centres: FloatArray, radii: FloatArray
+) -> FloatArray:
+    """|distance - radius| of (3, S) points to H spheres, shape (H, S)."""
+    d2 = (
+        sq_sub[None, :]
+        - 2.0 * (centres @ xc_sub)
+        + np.einsum("ij,ij->i", centres, centres)[:, None]
+    )
+    np.maximum(d2, 0.0, out=d2)
+    res: FloatArray = np.abs(np.sqrt(d2) - radii[:, None])
+    return res
+
+
+@dataclass(frozen=True)
+class _Hypothesis:
+    centre: FloatArray
+    radius: float
+    n_inliers: int
+    tried: int
+    admissible: int
+
+
+def _ransac(
+    xc: FloatArray,
+    rng: np.random.Generator,
+    radius_lo: float,
+    radius_hi: float,
+    threshold: float,
+    max_hypotheses: int,
+) -> _Hypothesis | None:
+    """Best sphere hypothesis by MSAC score (subset, then all points) or None."""
+    n = xc.shape[1]
+    sub_idx = rng.choice(n, size=min(n, _SUBSET_SIZE), replace=False)
+    xc_sub = xc[:, sub_idx]
+    sq_sub = np.einsum("ij,ij->j", xc_sub, xc_sub)
+    t2 = threshold * threshold
+    kept_c: list[FloatArray] = []
+    kept_r: list[FloatArray] = []
+    kept_score: list[FloatArray] = []
+    tried = 0
+    admissible = 0
+    best_ratio = 0.0
+    needed = max_hypotheses
+    while tried < min(needed, max_hypotheses):
+        batch = min(_HYPOTHESIS_BATCH, max_hypotheses - tried)
+        idx = rng.integers(0, n, size=(batch, 4))
+        tried += batch
+        distinct = (
+            (idx[:, 0] != idx[:, 1])
+            & (idx[:, 0] != idx[:, 2])
+            & (idx[:, 0] != idx[:, 3])
+            & (idx[:, 1] != idx[:, 2])
+            & (idx[:, 1] != idx[:, 3])
+            & (idx[:, 2] != idx[:, 3])
+        )
+        idx = idx[distinct]
+        centres, radii = _minimal_spheres(xc.T[idx])
+        ok = np.isfinite(radii) & (radii >= radius_lo) & (radii <= radius_hi)
+        if not ok.any():
+            continue
+        centres, radii = centres[ok], radii[ok]
+        admissible += len(radii)
+        res = _hypothesis_residuals(xc_sub, sq_sub, centres, radii)
+        score = np.minimum(res * res, t2).sum(axis=1)
+        kept_c.append(centres)
+        kept_r.append(radii)
+        kept_score.append(score)
+        ratio = float((res < threshold).sum(axis=1).max()) / xc_sub.shape[1]
+        if ratio > best_ratio:
+            best_ratio = ratio
+            p_good = best_ratio**4
+            if p_good >= 1.0:
+                needed = tried
+            elif p_good > 0.0:
+                needed = math.ceil(math.log(1.0 - _RANSAC_CONFIDENCE) / math.log1p(-p_good))
+    if not kept_c:
+        return None
+    centres = np.concatenate(kept_c)
+    radii = np.concatenate(kept_r)
+    scores = np.concatenate(kept_score)
+    top = np.argsort(scores)[: min(_TOP_HYPOTHESES, len(scores))]
+    sq_all = np.einsum("ij,ij->j", xc, xc)
+    res_all = _hypothesis_residuals(xc, sq_all, centres[top], radii[top])
+    score_all = np.minimum(res_all * res_all, t2).sum(axis=1)
+    k = int(np.argmin(score_all))
+    return _Hypothesis(
+        centre=centres[top[k]],
+        radius=float(radii[top[k]]),
+        n_inliers=int((res_all[k] < threshold).sum()),
+        tried=tried,
+        admissible=admissible,
+    )
+
+
+def _robust_sigma(abs_res: FloatArray, band: float, floor: float) -> float:
+    """1.4826 x median |r| of the residuals inside the band (floored); band/3 if too few."""
+    inside = abs_res[abs_res < band]
+    if inside.size < _MIN_INLIERS:
+        return max(band / 3.0, floor)
+    return max(_MAD_TO_SIGMA * float(np.median(inside)), floor)
+
+
+def _irls_tukey(
+    xc: FloatArray,
+    p0: FloatArray,
+    radius_fixed: float | None,
+    band0: float,
+    sigma_fixed: float | None,
+    floor: float,
+) -> tuple[FloatArray, float]:
+    """Tukey-biweight IRLS on the orthogonal residual; returns parameters and sigma."""
+    res_fn, jac_fn = _ortho_model(xc, radius_fixed)
+    p = p0.copy()
+    e, _ = res_fn(p)
+    abs_e = np.abs(e)
+    band = band0
+    sigma = sigma_fixed if sigma_fixed is not None else _robust_sigma(abs_e, band, floor)
+    for _ in range(20):
+        c = _TUKEY_C * sigma
+        u = e / c
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        if int((w > 0.0).sum()) < _MIN_POINTS:
+            break
+        lm = _levenberg_marquardt(res_fn, jac_fn, p, w, 5, 1e-3 * sigma)
+        step = float(np.linalg.norm(lm.params - p))
+        p, e = lm.params, lm.residuals
+        abs_e = np.abs(e)
+        if sigma_fixed is None:
+            sigma = _robust_sigma(abs_e, 3.0 * sigma, floor)
+        if step < 1e-3 * sigma:
+            break
+    return p, sigma
+
+
+def _plane_rms(xc: FloatArray) -> float:
+    centred = xc - xc.mean(axis=1, keepdims=True)
+    eig = np.linalg.eigvalsh((centred @ centred.T) / xc.shape[1])
+    return float(np.sqrt(max(eig[0], 0.0)))
+
+
+def _fit_inliers(
+    xc: FloatArray,
+    mask: BoolArray,
+    p: FloatArray,
+    radius_fixed: float | None,
+    origin_local: FloatArray | None,
+    what: str,
+) -> tuple[_LocalFit, BoolArray]:
+    """Least squares on the masked points, recentred on them for conditioning.
+
+    Returns the fit (centre in the coordinates of ``xc``) and the mask, into all
+    points, of those used in it.
+    """
+    sub = np.ascontiguousarray(xc[:, mask])
+    sub_ref = sub.mean(axis=1)
+    sub -= sub_ref[:, None]
+    p_start = p.copy()
+    p_start[:3] -= sub_ref
+    origin_sub = None if origin_local is None else origin_local - sub_ref
+    fit = _fit_local(sub, radius_fixed, origin_sub, 50, 1e-10, what, p0=p_start)
+    used = np.zeros(xc.shape[1], dtype=bool)
+    used[np.flatnonzero(mask)[fit.used]] = True
+    return replace(fit, centre=fit.centre + sub_ref), used
+
+
+@dataclass(frozen=True)
+class _RadiusWindow:
+    lo: float  # admissible hypothesis radii (m)
+    hi: float
+    reference: float  # radius scale for the default threshold and floors (m)
+    text: str  # for messages
+
+
+def _check_segment_options(
+    radius: float | None,
+    radius_bounds_m: tuple[float, float] | None,
+    inlier_threshold_m: float | None,
+    max_hypotheses: int,
+) -> None:
+    what = "segment_sphere"
+    if radius is not None and radius_bounds_m is not None:
+        msg = f"{what}: give radius_m or radius_bounds_m, not both"
+        raise InputError(msg)
+    if max_hypotheses < 1:
+        msg = f"{what}: max_hypotheses must be >= 1, got {max_hypotheses}"
+        raise InputError(msg)
+    if inlier_threshold_m is not None and not (
+        math.isfinite(inlier_threshold_m) and inlier_threshold_m > 0.0
+    ):
+        msg = f"{what}: inlier_threshold_m must be finite and > 0 (m), got {inlier_threshold_m!r}"
+        raise InputError(msg)
+
+
+def _radius_window(
+    radius: float | None, radius_bounds_m: tuple[float, float] | None, diagonal_m: float
+) -> _RadiusWindow:
+    if radius is not None:
+        return _RadiusWindow(
+            radius * (1.0 - _KNOWN_RADIUS_TOLERANCE),
+            radius * (1.0 + _KNOWN_RADIUS_TOLERANCE),
+            radius,
+            f"radius {radius:g} m",
+        )
+    if radius_bounds_m is None:
+        return _RadiusWindow(0.0, diagonal_m, 0.2 * diagonal_m, "any radius")
+    try:
+        lo, hi = (float(v) for v in radius_bounds_m)
+    except (TypeError, ValueError) as err:
+        msg = f"segment_sphere: radius_bounds_m must be (min, max) in m, got {radius_bounds_m!r}"
+        raise InputError(msg) from err
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
+        msg = (
+            "segment_sphere: radius_bounds_m must satisfy 0 < min < max (m), got "
+            f"{radius_bounds_m!r}"
+        )
+        raise InputError(msg)
+    return _RadiusWindow(lo, hi, math.sqrt(lo * hi), f"radius {lo:g}-{hi:g} m")
+
+
+def _hypothesis_start(
+    xc: FloatArray, hyp: _Hypothesis, radius: float | None, threshold: float
+) -> FloatArray:
+    """Start parameters from a hypothesis; for a known radius, moved along the cap axis.
+
+    The centre moves along the mean direction of the hypothesis' inliers by the radius
+    difference, so that the known radius fits where the hypothesis did.
+    """
+    if radius is None:
+        return np.append(hyp.centre, hyp.radius)
+    diff = xc - hyp.centre[:, None]
+    dist = np.sqrt(np.einsum("ij,ij->j", diff, diff))
+    near = np.abs(dist - hyp.radius) < threshold
+    mean_dir = (diff[:, near] / dist[near]).mean(axis=1)
+    start: FloatArray = hyp.centre + (hyp.radius - radius) * mean_dir
+    return start
+
+
+def _fit_until_stable(
+    xc: FloatArray,
+    p: FloatArray,
+    radius: float | None,
+    origin_local: FloatArray | None,
+    threshold: float,
+    nothing: str,
+    hyp: _Hypothesis,
+) -> tuple[_LocalFit, BoolArray, FloatArray]:
+    """Least squares on |r| <= threshold, repeated until the inliers stop changing.
+
+    Returns the last fit, the mask of the points it used and the orthogonal residuals
+    of every point to it.
+    """
+    res_fn, _ = _ortho_model(xc, radius)
+    e_orth, _ = res_fn(p)
+    inliers = np.abs(e_orth) <= threshold
+    fitted: tuple[_LocalFit, BoolArray] | None = None
+    for _ in range(3):
+        if int(inliers.sum()) < _MIN_INLIERS:
+            break
+        try:
+            fitted = _fit_inliers(xc, inliers, p, radius, origin_local, "segment_sphere")
+        except ConvergenceError as err:
+            msg = (
+                f"{nothing}: the {int(inliers.sum())} inliers of the best hypothesis "
+                f"(radius {hyp.radius:.4g} m) do not converge to a sphere ({err})"
+            )
+            raise InputError(msg) from err
+        p = fitted[0].params if radius is None else fitted[0].centre
+        e_orth, _ = res_fn(p)
+        new_inliers = np.abs(e_orth) <= threshold
+        if np.array_equal(new_inliers, inliers):
+            break
+        inliers = new_inliers
+    if fitted is None:
+        msg = (
+            f"{nothing}: best hypothesis had {hyp.n_inliers} inliers, "
+            f"{int(inliers.sum())} after robust refinement (threshold {threshold:.3g} m); "
+            f"at least {_MIN_INLIERS} are needed"
+        )
+        raise InputError(msg)
+    return fitted[0], fitted[1], e_orth
+
+
+def _check_is_sphere(
+    xc: FloatArray,
+    fit: _LocalFit,
+    used: BoolArray,
+    e_orth: FloatArray,
+    radius: float | None,
+    window: _RadiusWindow,
+    nothing: str,
+) -> None:
+    """Reject a candidate that is not a sphere of the requested size."""
+    k = int(used.sum())
+    if radius is None and not window.lo <= fit.radius <= window.hi:
+        msg = f"{nothing}: the best candidate ({k} inliers) has radius {fit.radius:.4g} m"
+        raise InputError(msg)
+    sphere_rms = float(np.sqrt(np.mean(e_orth[used] ** 2)))
+    plane_rms = _plane_rms(xc[:, used])
+    if plane_rms < _PLANE_TO_SPHERE_RMS * sphere_rms:
+        msg = (
+            f"{nothing}: the best candidate's {k} inliers fit a plane about as well as a "
+            f"sphere (plane RMS {plane_rms * 1e3:.3g} mm, sphere RMS {sphere_rms * 1e3:.3g} "
+            f"mm, radius {fit.radius:.4g} m); check the radius or the region of interest"
+        )
+        raise InputError(msg)
+    if radius is None:
+        return
+    try:
+        free = _fit_inliers(xc, used, np.append(fit.centre, radius), None, None, "segment_sphere")[
+            0
+        ]
+    except ConvergenceError as err:
+        msg = f"{nothing}: the best candidate's {k} inliers do not converge to a free sphere"
+        raise InputError(msg) from err
+    if not 1.0 / _KNOWN_RADIUS_RATIO <= free.radius / radius <= _KNOWN_RADIUS_RATIO:
+        msg = (
+            f"{nothing}: the best candidate's {k} inliers fit a sphere of radius "
+            f"{free.radius:.4g} m (RMS {free.rms * 1e3:.3g} mm, against {fit.rms * 1e3:.3g} "
+            "mm with the given radius); check radius_m (a diameter?)"
+        )
+        raise InputError(msg)
+
+
+def segment_sphere(
+    points_m: ArrayLike,
+    *,
+    radius_m: float | None = None,
+    radius_bounds_m: tuple[float, float] | None = None,
+    inlier_threshold_m: float | None = None,
+    origin_m: ArrayLike | None = None,
+    max_hypotheses: int = 2000,
+    seed: int = 0,
+) -> SphereFit:
+    """Find a sphere in a cluttered cloud and fit it (RANSAC, robust refinement, LSQ).
+
+    1. RANSAC: minimal spheres through 4 random points, solved in batches; hypotheses
+       whose radius is off the known radius (by more than 20 %) or outside
+       ``radius_bounds_m`` are rejected; the rest are scored (MSAC, truncated squared
+       residual) on a random subset of up to 1024 points, the best 16 again on all
+       points. Sampling stops early once 99.9 % confidence of an all-inlier sample is
+       reached, or after ``max_hypotheses``.
+    2. Refinement: iteratively reweighted least squares with Tukey's biweight
+       (``c = 4.685 sigma``), ``sigma = 1.4826 MAD`` of the residuals near the sphere.
+    3. Inliers: ``|r| <= inlier_threshold_m``, by default ``3 sigma`` (with a floor of
+       1e-6 of the radius); final least squares `fit_sphere` on the inliers (ray
+       model with ``origin_m``), repeated until the inlier set is stable (3 rounds at
+       most).
+    4. Checks: at least 10 inliers; the inliers must fit a sphere clearly better
+       (RMS at least 1.25 x smaller) than a plane; a free radius must lie within
+       ``radius_bounds_m``; with a known radius, a free-radius fit of the inliers must
+       lie within a factor 1.5 of it (catches a diameter given as a radius). Else no
+       sphere was found.
+
+    Parameters
+    ----------
+    points_m : array_like, shape (N, 3)
+        Cloud (m), any Cartesian frame, with clutter (floor, stand, strays). N >= 4.
+    radius_m : float, optional
+        Known radius (m); the final fit keeps it fixed.
+    radius_bounds_m : tuple of float, optional
+        ``(min, max)`` radius (m) of an admissible sphere when the radius is free.
+        Without either, hypotheses larger than the cloud's bounding-box diagonal are
+        rejected.
+    inlier_threshold_m : float, optional
+        Largest |orthogonal residual| (m) of an inlier. Default from a robust scale.
+    origin_m : array_like, shape (3,), optional
+        Scanner origin (m), same frame; the final fit uses the ray model.
+    max_hypotheses : int
+        Most minimal samples drawn.
+    seed : int
+        Seed of the random generator (results are reproducible).
+
+    Returns
+    -------
+    SphereFit
+        ``inliers`` and ``residuals_m`` refer to every point given.
+
+    Raises
+    ------
+    InputError
+        Bad input (shape, NaN, radius, bounds, threshold), degenerate cloud, or no
+        sphere found (message gives the best hypothesis and its inlier count).
+    ConvergenceError
+        The final least-squares fit did not converge.
+
+    References
+    ----------
+    Fischler & Bolles 1981 (RANSAC); Torr & Zisserman, "MLESAC", CVIU 78, 2000
+    (truncated-quadratic scoring); Al-Sharadqah & Chernov 2009; Seube et al. 2012.
+    """
+    what = "segment_sphere"
+    pts = _validated_points(points_m, what)
+    radius = _validated_radius(radius_m, what)
+    origin = _validated_origin(origin_m, what)
+    _check_segment_options(radius, radius_bounds_m, inlier_threshold_m, max_hypotheses)
+    n = pts.shape[0]
+    ref, xc = _centred(pts)
+    spread = _check_not_degenerate(xc, what)
+    window = _radius_window(radius, radius_bounds_m, float(np.linalg.norm(np.ptp(xc, axis=1))))
+    nothing = f"{what}: no sphere of {window.text} found among {n} points"
+    threshold0 = inlier_threshold_m if inlier_threshold_m is not None else 0.05 * window.reference
+    hyp = _ransac(xc, np.random.default_rng(seed), window.lo, window.hi, threshold0, max_hypotheses)
+    if hyp is None:
+        msg = (
+            f"{nothing}: none of the {max_hypotheses} minimal samples gave an admissible "
+            f"sphere (cloud spread {spread:.3g} m); check the radius or the region of interest"
+        )
+        raise InputError(msg)
+    if hyp.n_inliers < _MIN_INLIERS:
+        msg = (
+            f"{nothing}: best hypothesis had {hyp.n_inliers} inliers within "
+            f"{threshold0:.3g} m (centre {(ref + hyp.centre).round(4).tolist()}, radius "
+            f"{hyp.radius:.4g} m; {hyp.admissible} admissible of {hyp.tried} samples); at "
+            f"least {_MIN_INLIERS} are needed"
+        )
+        raise InputError(msg)
+
+    p0 = _hypothesis_start(xc, hyp, radius, threshold0)
+    sigma_fixed = None if inlier_threshold_m is None else inlier_threshold_m / 3.0
+    p, sigma = _irls_tukey(xc, p0, radius, threshold0, sigma_fixed, 1e-6 * window.reference)
+    threshold = inlier_threshold_m if inlier_threshold_m is not None else 3.0 * sigma
+    origin_local = None if origin is None else origin - ref
+    fit, used, e_orth = _fit_until_stable(xc, p, radius, origin_local, threshold, nothing, hyp)
+    _check_is_sphere(xc, fit, used, e_orth, radius, window, nothing)
+    if fit.method == "ray":
+        assert origin_local is not None
+        residuals, _, _ = _ray_residuals_all(xc, origin_local, fit.centre, fit.radius)
+    else:
+        residuals = e_orth
+    return SphereFit(
+        center_m=ref + fit.centre,
+        radius_m=fit.radius,
+        radius_fixed=radius is not None,
+        cov_center_m2=fit.cov,
+        radius_std_m=fit.radius_std,
+        residual_rms_m=fit.rms,
+        n_points=int(used.sum()),
+        inliers=used,
+        residuals_m=residuals,
+        method=fit.method,
+        iterations=fit.iterations,
+    )
