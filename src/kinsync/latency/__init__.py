@@ -1,0 +1,1 @@
+"""Method A: total IMU-LiDAR latency from a sphere scanned on a rotating table."""

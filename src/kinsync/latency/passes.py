@@ -1,0 +1,87 @@
+"""One georeferenced pass of a rotating table over a sphere: the `SpherePass` container."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+
+__all__ = ["SpherePass"]
+
+
+@dataclass(frozen=True, eq=False)
+class SpherePass:
+    """Points of one pass, georeferenced in the table-centred NED frame.
+
+    Parameters
+    ----------
+    source : str
+        Where the pass came from (file path or label), for messages.
+    rate_deg_s : float
+        Signed table rate from the table controller (deg/s): positive is right-handed
+        about ``axis_ned`` (about +Down: clockwise seen from above). Non-zero.
+    axis_ned : tuple of 3 float
+        Rotation axis, table-centred NED; normalised on construction. Default +Down.
+    points_ned_m : array_like, shape (N, 3)
+        Georeferenced points, table-centred NED (m); may include clutter.
+    t_s : array_like, shape (N,), optional
+        Point times (s), when the file has them.
+    """
+
+    source: str
+    rate_deg_s: float
+    points_ned_m: FloatArray
+    axis_ned: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    t_s: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        rate = float(self.rate_deg_s)
+        if not math.isfinite(rate):
+            msg = f"{self.source}: rate_deg_s must be finite, got {self.rate_deg_s!r}"
+            raise InputError(msg)
+        if rate == 0.0:
+            msg = (
+                f"{self.source}: rate_deg_s is 0; a pass at rest carries no latency "
+                "information (give the signed table rate)"
+            )
+            raise InputError(msg)
+        axis = np.asarray(self.axis_ned, dtype=np.float64)
+        norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+        if axis.shape != (3,) or not math.isfinite(norm) or norm < 1e-9:
+            msg = f"{self.source}: axis_ned must be a non-zero 3-vector, got {self.axis_ned!r}"
+            raise InputError(msg)
+        pts = np.asarray(self.points_ned_m, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            msg = f"{self.source}: points must have shape (N, 3), got {pts.shape}"
+            raise InputError(msg)
+        finite = np.all(np.isfinite(pts), axis=1)
+        if not np.all(finite):
+            row = int(np.flatnonzero(~finite)[0])
+            msg = f"{self.source}: non-finite coordinate in point {row}"
+            raise InputError(msg)
+        pts = pts.copy()
+        pts.setflags(write=False)
+        object.__setattr__(self, "rate_deg_s", rate)
+        object.__setattr__(self, "axis_ned", tuple(float(v) for v in axis / norm))
+        object.__setattr__(self, "points_ned_m", pts)
+        if self.t_s is not None:
+            t = np.asarray(self.t_s, dtype=np.float64).copy()
+            if t.shape != (pts.shape[0],):
+                msg = f"{self.source}: t_s has shape {t.shape}, expected ({pts.shape[0]},)"
+                raise InputError(msg)
+            t.setflags(write=False)
+            object.__setattr__(self, "t_s", t)
+
+    @property
+    def rate_vector_ned_rad_s(self) -> FloatArray:
+        """Signed rate vector ``omega * axis`` (rad/s, NED), shape (3,)."""
+        return math.radians(self.rate_deg_s) * np.asarray(self.axis_ned)
+
+    @property
+    def n_points(self) -> int:
+        """Number of points (sphere and clutter)."""
+        return int(self.points_ned_m.shape[0])

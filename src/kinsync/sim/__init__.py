@@ -1,0 +1,1 @@
+"""Simulators that make realistic data with known truth, in the formats real sensors give."""

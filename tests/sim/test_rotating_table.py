@@ -1,0 +1,273 @@
+"""Rotating-table simulator: determinism, point counts, geometry and the latency sign."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.optimize import least_squares
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.frames import euler_rpy_to_matrix
+from kinsync.io.mount_file import read_mount
+from kinsync.io.passes import read_passes
+from kinsync.io.tables import read_numeric_csv
+from kinsync.sim.rotating_table import (
+    LABEL_FLOOR,
+    LABEL_SPHERE,
+    LABEL_STAND,
+    LABEL_STRAY,
+    RotatingTableConfig,
+    RotatingTableSimulation,
+    simulate_rotating_table,
+    write_simulation,
+)
+from kinsync.trajectory import Trajectory
+
+QUIET: dict[str, Any] = {
+    "range_noise_m": 0.0,
+    "imu_attitude_noise_deg": 0.0,
+    "rate_regulation_noise_rel": 0.0,
+    "levelling_error_arcsec_max": 0.0,
+    "optical_centre_offset_max_m": 0.0,
+}
+
+
+def _small(**kwargs: Any) -> RotatingTableConfig:
+    base: dict[str, Any] = {"rates_deg_s": (6.0,), "passes": 1}
+    base.update(kwargs)
+    return RotatingTableConfig(**base)
+
+
+def _fit_sphere(x: FloatArray) -> tuple[FloatArray, float]:
+    """Algebraic start, then least squares on ||x - c|| - r."""
+    A = np.column_stack([2.0 * x, np.ones(len(x))])
+    sol = np.linalg.lstsq(A, np.sum(x * x, axis=1), rcond=None)[0]
+    c0 = sol[:3]
+    r0 = math.sqrt(sol[3] + c0 @ c0)
+
+    def residuals(p: FloatArray) -> FloatArray:
+        out: FloatArray = np.linalg.norm(x - p[:3], axis=1) - p[3]
+        return out
+
+    res = least_squares(
+        residuals,
+        np.r_[c0, r0],
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+    )
+    centre: FloatArray = np.asarray(res.x[:3], dtype=np.float64)
+    return centre, float(res.x[3])
+
+
+def _rot_about(axis: FloatArray, angle_rad: float) -> FloatArray:
+    k = np.asarray(axis) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    R: FloatArray = np.eye(3) + math.sin(angle_rad) * K + (1 - math.cos(angle_rad)) * K @ K
+    return R
+
+
+def _sphere_points(sim: RotatingTableSimulation, i: int) -> FloatArray:
+    pts: FloatArray = sim.passes[i].points_ned_m[sim.point_labels[i] == LABEL_SPHERE]
+    return pts
+
+
+def test_deterministic_for_a_seed() -> None:
+    a = simulate_rotating_table(_small(passes=1, seed=3))
+    b = simulate_rotating_table(_small(passes=1, seed=3))
+    c = simulate_rotating_table(_small(passes=1, seed=4))
+    assert a.truth == b.truth
+    for p, q in zip(a.passes, b.passes, strict=True):
+        np.testing.assert_array_equal(p.points_ned_m, q.points_ned_m)
+        assert p.t_s is not None
+        assert q.t_s is not None
+        np.testing.assert_array_equal(p.t_s, q.t_s)
+    assert a.truth["sphere_center_ned_m"] != c.truth["sphere_center_ned_m"]
+
+
+def test_pass_layout_and_points_per_pass_at_6_deg_s() -> None:
+    sim = simulate_rotating_table(_small(passes=2))
+    assert [p.rate_deg_s for p in sim.passes] == [6.0, -6.0, 6.0, -6.0]
+    assert all(p.axis_ned == (0.0, 0.0, 1.0) for p in sim.passes)  # nominal axis
+    for i, p in enumerate(sim.passes):
+        n_sphere = int(np.count_nonzero(sim.point_labels[i] == LABEL_SPHERE))
+        assert 1500 <= n_sphere <= 2500
+        assert sim.truth["passes"][i]["n_sphere"] == n_sphere
+        assert p.t_s is not None
+        assert np.all(np.diff(p.t_s) >= 0.0)
+    starts = [p["t_start_s"] for p in sim.truth["passes"]]
+    ends = [p["t_end_s"] for p in sim.truth["passes"]]
+    assert all(e < s for e, s in zip(ends[:-1], starts[1:], strict=True))
+
+
+def test_clutter_is_present() -> None:
+    sim = simulate_rotating_table(_small())
+    labels = sim.point_labels[0]
+    counts = np.bincount(labels, minlength=4)
+    assert counts[LABEL_STAND] > 50
+    assert counts[LABEL_FLOOR] > 500
+    assert counts[LABEL_STRAY] == round(0.01 * (labels.size - counts[LABEL_STRAY]))
+    c = np.array(sim.truth["sphere_center_ned_m"])
+    pts = sim.passes[0].points_ned_m
+    # Everything lies in the exported box; floor and stand are away from the sphere.
+    assert np.all(np.abs(pts - c) <= 0.3 + 1e-12)
+    floor = pts[labels == LABEL_FLOOR]
+    assert np.all(np.abs(floor[:, 2] - (c[2] + 0.28)) < 0.02)
+    stand = pts[labels == LABEL_STAND]
+    assert np.all(np.hypot(*(stand[:, :2] - c[:2]).T) < 0.015 + 0.01)
+
+
+def test_zero_latency_puts_points_on_the_true_sphere() -> None:
+    sim = simulate_rotating_table(_small(latency_s=0.0, rates_deg_s=(6.0, 18.0), **QUIET))
+    c = np.array(sim.truth["sphere_center_ned_m"])
+    for i in range(len(sim.passes)):
+        d = np.linalg.norm(_sphere_points(sim, i) - c, axis=1)
+        assert np.max(np.abs(d - 0.1)) < 1e-6
+
+
+def test_result_does_not_depend_on_the_boresight() -> None:
+    cfg = _small(latency_s=0.0, boresight_rpy_deg=(0.4, -0.3, 25.0), **QUIET)
+    sim = simulate_rotating_table(cfg)
+    c = np.array(sim.truth["sphere_center_ned_m"])
+    for i in range(len(sim.passes)):
+        pts = _sphere_points(sim, i)
+        assert 1500 <= pts.shape[0] <= 2500
+        assert np.max(np.abs(np.linalg.norm(pts - c, axis=1) - 0.1)) < 1e-6
+
+
+@pytest.mark.parametrize(("latency_s", "fifo_bytes"), [(0.00421, 0), (0.002, 64)])
+def test_latency_turns_the_centres_by_minus_omega_tau(latency_s: float, fifo_bytes: int) -> None:
+    """The + pass centre is Rot(-omega tau) c, the - pass centre Rot(+omega tau) c."""
+    sim = simulate_rotating_table(
+        _small(latency_s=latency_s, fifo_bytes=fifo_bytes, rates_deg_s=(10.0,), **QUIET)
+    )
+    tau = latency_s + fifo_bytes * 10 / 115200
+    assert sim.truth["latency_s"] == pytest.approx(tau, rel=1e-12)
+    c = np.array(sim.truth["sphere_center_ned_m"])
+    axis = np.array(sim.truth["axis_ned_true"])
+    omega = math.radians(10.0)
+    plus, _ = _fit_sphere(_sphere_points(sim, 0))
+    minus, radius = _fit_sphere(_sphere_points(sim, 1))
+    assert sim.passes[0].rate_deg_s > 0 > sim.passes[1].rate_deg_s
+    assert radius == pytest.approx(0.1, abs=1e-9)
+    np.testing.assert_allclose(plus, _rot_about(axis, -omega * tau) @ c, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(minus, _rot_about(axis, +omega * tau) @ c, rtol=0, atol=1e-8)
+    # Separation of the pooled centres: 2 |omega| tau, as Method A reads it.
+    angle = math.atan2(minus[0] * plus[1] - minus[1] * plus[0], minus[:2] @ plus[:2])
+    assert angle == pytest.approx(-2 * omega * tau, rel=1e-5)
+
+
+def test_noise_defaults_keep_the_centre_close() -> None:
+    """With all noise on (defaults), a pass's fitted centre moves by about omega tau r."""
+    sim = simulate_rotating_table(_small(rates_deg_s=(18.0,)))
+    c = np.array(sim.truth["sphere_center_ned_m"])
+    plus, radius = _fit_sphere(_sphere_points(sim, 0))
+    assert radius == pytest.approx(0.1, abs=5e-4)
+    shift = math.radians(18.0) * 0.00421 * 1.5
+    assert np.linalg.norm(plus - c) == pytest.approx(shift, abs=3e-4)
+    assert 0 < sim.truth["levelling_error_arcsec"] <= 15.0
+    assert 0 < sim.truth["optical_centre_offset_m"] <= 5e-4
+
+
+def test_fifo_adds_bytes_times_ten_over_baud() -> None:
+    sim = simulate_rotating_table(_small(fifo_bytes=16, baud=9600.0))
+    assert sim.truth["fifo_delay_s"] == pytest.approx(16 * 10 / 9600)
+    assert sim.truth["latency_s"] == pytest.approx(0.00421 + 16 * 10 / 9600)
+    assert sim.truth["imu_latency_s"] == 0.00421
+
+
+def test_progress_is_reported() -> None:
+    seen: list[tuple[int, int]] = []
+    simulate_rotating_table(_small(), progress=lambda d, n: seen.append((d, n)))
+    assert seen == [(1, 2), (2, 2)]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"passes": 0}, "passes must be at least 1"),
+        ({"passes": 1.5}, "whole number"),
+        ({"rates_deg_s": ()}, "rates_deg_s is empty"),
+        ({"rates_deg_s": (2.0, 0.0)}, "rate magnitudes > 0"),
+        ({"rates_deg_s": (-2.0,)}, "rate magnitudes > 0"),
+        ({"rates_deg_s": (float("nan"),)}, "finite"),
+        ({"range_noise_m": -1.0}, "range_noise_m must be >= 0"),
+        ({"fifo_bytes": -1}, "fifo_bytes"),
+        ({"sphere_range_m": 0.3}, "sphere_range_m"),
+        ({"boresight_rpy_deg": (90.0, 0, 0), "sphere_elevation_m": 0.5}, "no beam of the"),
+    ],
+)
+def test_bad_config(kwargs: dict[str, Any], fragment: str) -> None:
+    with pytest.raises(InputError, match=fragment):
+        simulate_rotating_table(_small(**kwargs))
+
+
+def test_write_simulation_round_trip_and_truth(tmp_path: Path) -> None:
+    sim = simulate_rotating_table(_small(fifo_bytes=8))
+    write_simulation(sim, tmp_path / "out", file_format="laz")
+    back = read_passes(tmp_path / "out")
+    assert len(back) == len(sim.passes)
+    for p, q in zip(sim.passes, back, strict=True):
+        assert q.rate_deg_s == p.rate_deg_s
+        assert np.max(np.abs(q.points_ned_m - p.points_ned_m)) <= 0.5e-6 + 1e-12
+    truth = json.loads((tmp_path / "out" / "truth.json").read_text())
+    for key in (
+        "latency_s",
+        "imu_latency_s",
+        "fifo_delay_s",
+        "sphere_center_ned_m",
+        "sphere_radius_m",
+        "axis_ned_true",
+        "levelling_error_arcsec",
+        "optical_centre_offset_m",
+        "sphere_points_per_pass",
+        "config",
+        "seed",
+    ):
+        assert key in truth
+    assert truth["latency_s"] == pytest.approx(0.00421 + 80 / 115200)
+    assert [p["file"] for p in truth["passes"]] == ["pass_000.laz", "pass_001.laz"]
+    assert not (tmp_path / "out" / "raw").exists()
+
+
+def test_raw_output_reproduces_the_passes(tmp_path: Path) -> None:
+    """Raw path of Method A: scanner points + attitude log + mount give the passes back."""
+    cfg = _small(boresight_rpy_deg=(0.2, -0.1, 3.0))
+    sim = simulate_rotating_table(cfg)
+    write_simulation(sim, tmp_path, raw=True)
+    raw = tmp_path / "raw"
+    att = read_numeric_csv(raw / "attitude.csv", ["t_s", "roll_deg", "pitch_deg", "yaw_deg"])
+    traj = Trajectory.from_euler(
+        att.columns["t_s"],
+        np.radians(att.columns["roll_deg"]),
+        np.radians(att.columns["pitch_deg"]),
+        np.radians(att.columns["yaw_deg"]),
+        pos_ned_m=np.zeros((att.n_rows, 3)),
+        origin_lat_lon_h=(48.0, -4.0, 0.0),
+    )
+    mount = read_mount(raw / "mount.toml")
+    assert mount.boresight_rpy_deg == (0.2, -0.1, 3.0)
+    assert mount.latency_s == 0.0
+    np.testing.assert_allclose(
+        mount.R_scanner_to_body, euler_rpy_to_matrix(*np.radians([0.2, -0.1, 3.0])), atol=1e-15
+    )
+    for i, p in enumerate(sim.passes):
+        tab = read_numeric_csv(raw / f"pass_{i:03d}.csv", ["t_s", "x_m", "y_m", "z_m"])
+        xs = np.column_stack([tab.columns[k] for k in ("x_m", "y_m", "z_m")])
+        R = traj.interpolate(tab.columns["t_s"]).R_body_to_ned
+        x_ned = np.einsum("nij,nj->ni", R, xs @ mount.R_scanner_to_body.T)
+        np.testing.assert_allclose(x_ned, p.points_ned_m, rtol=0, atol=1e-9)
+
+
+def test_write_simulation_refuses_a_file(tmp_path: Path) -> None:
+    sim = simulate_rotating_table(_small())
+    f = tmp_path / "x"
+    f.write_text("")
+    with pytest.raises(InputError, match="not a folder"):
+        write_simulation(sim, f)
