@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, demo, inspect
+from kinsync.cli import budget, demo, inspect, latency, simulate
 
 app = typer.Typer(
     name="kinsync",
@@ -17,9 +17,11 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(budget.app, name="budget")
+app.add_typer(latency.app, name="latency")
 app.add_typer(inspect.mount_app, name="mount")
 app.add_typer(inspect.trajectory_app, name="trajectory")
 app.command(name="demo")(demo.demo)
+app.add_typer(simulate.app, name="simulate")
 
 
 def _version(value: bool) -> None:

@@ -1,0 +1,208 @@
+"""``kinsync latency``: Method A estimation from sphere passes, and experiment planning."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, print_json
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_write_bytes
+from kinsync.io.passes import read_passes
+from kinsync.latency.planning import LatencyPlan, TableDesign, plan_latency_experiment
+from kinsync.latency.sphere import SphereLatencyResult, estimate_latency_sphere
+from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
+
+app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
+
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+
+
+def parse_rates(text: str) -> tuple[float, ...]:
+    """Parse a comma-separated list of rates (deg/s)."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        rates = tuple(float(p) for p in parts)
+    except ValueError as err:
+        msg = f"rates: expected comma-separated numbers like 2,6,18, got {text!r}"
+        raise InputError(msg) from err
+    if not rates or any(not math.isfinite(r) or r == 0 for r in rates):
+        msg = f"rates: every rate must be a non-zero number, got {text!r}"
+        raise InputError(msg)
+    return rates
+
+
+def result_document(result: SphereLatencyResult) -> dict[str, Any]:
+    """The JSON document of ``kinsync latency sphere``."""
+    return {
+        "latency_ms": result.latency_s * 1e3,
+        "latency_std_ms": result.latency_std_s * 1e3,
+        "per_rate": [
+            {
+                "rate_deg_s": r.rate_deg_s,
+                "n_points": r.n_points,
+                "center_std_m": r.center_std_m,
+                "latency_ms": r.latency_s * 1e3,
+                "latency_std_ms": r.latency_std_s * 1e3,
+                "latency_first_order_ms": r.latency_first_order_s * 1e3,
+                "n_passes": r.plus.n_passes + r.minus.n_passes,
+                "n_points_in": r.plus.n_points_in + r.minus.n_points_in,
+                "chi2": r.chi2,
+            }
+            for r in result.per_rate
+        ],
+        "sphere": {
+            "center_ned_m": result.sphere_center_ned_m.tolist(),
+            "radius_m": result.sphere_radius_m,
+            "radius_fixed": result.radius_fixed,
+        },
+        "consistency": {
+            "chi2_between_rates": result.chi2_between_rates,
+            "dof": result.dof_between_rates,
+            "p_value": result.p_value_between_rates,
+        },
+        "unpaired_rates_deg_s": list(result.unpaired_rates_deg_s),
+        "n_passes": result.n_passes,
+    }
+
+
+@app.command("sphere")
+def sphere(
+    folder: Annotated[Path, typer.Argument(help="Folder with passes.csv and the pass files.")],
+    radius_m: Annotated[
+        float | None, typer.Option(help="Known sphere radius (m); estimated when omitted.")
+    ] = None,
+    figure: Annotated[
+        Path | None, typer.Option(help="Figure to write (PNG); default FOLDER/latency_sphere.png.")
+    ] = None,
+    no_figure: Annotated[bool, typer.Option("--no-figure", help="Write no figure.")] = False,
+    orthogonal: Annotated[
+        bool,
+        typer.Option(
+            "--orthogonal", help="Fit orthogonal distances instead of ranges along the rays."
+        ),
+    ] = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Estimate the total latency from sphere passes at opposite table rates."""
+    passes = read_passes(folder)
+    with err_console.status(f"fitting {len(passes)} passes"):
+        result = estimate_latency_sphere(
+            passes, radius_m=radius_m, scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0)
+        )
+    fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")
+    if fig_path is not None:
+        atomic_write_bytes(fig_path, latency_per_rate_figure(result))
+    doc = result_document(result)
+    if fig_path is not None:
+        doc["figure"] = str(fig_path)
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title="Method A: latency per table rate (exact rotation model)")
+    for col in (
+        "rate (deg/s)",
+        "points",
+        "centre σ (mm)",
+        "latency (ms)",
+        "latency σ (ms)",
+        "first-order (ms)",
+    ):
+        table.add_column(col, justify="right")
+    for r in result.per_rate:
+        table.add_row(
+            f"{r.rate_deg_s:g}",
+            str(r.n_points),
+            f"{r.center_std_m * 1e3:.4f}",
+            f"{r.latency_s * 1e3:.4f}",
+            f"{r.latency_std_s * 1e3:.4f}",
+            f"{r.latency_first_order_s * 1e3:.4f}",
+        )
+    console.print(table)
+    console.print(
+        f"latency {result.latency_s * 1e3:.4f} ± {result.latency_std_s * 1e3:.4f} ms "
+        f"(tau > 0: navigation lags the scanner); rates agree: chi2 "
+        f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, "
+        f"p = {result.p_value_between_rates:.3g}"
+    )
+    if result.unpaired_rates_deg_s:
+        console.print(f"left out (one sign only): {list(result.unpaired_rates_deg_s)} deg/s")
+    if fig_path is not None:
+        console.print(f"figure: {fig_path}")
+
+
+def plan_document(plan: LatencyPlan, target_ms: float) -> dict[str, Any]:
+    """The JSON document of ``kinsync latency plan``."""
+    return {
+        "latency_std_ms": plan.latency_std_s * 1e3,
+        "passes_for_target": plan.passes_for_target(target_ms * 1e-3),
+        "target_latency_std_ms": target_ms,
+        "per_rate": [
+            {
+                "rate_deg_s": r.rate_deg_s,
+                "points_per_pass": r.points_per_pass,
+                "center_std_m": r.center_std_m,
+                "center_tangential_std_m": r.center_tangential_std_m,
+                "latency_std_ms": r.latency_std_s * 1e3,
+            }
+            for r in plan.per_rate
+        ],
+    }
+
+
+@app.command("plan")
+def plan(
+    range_m: Annotated[float, typer.Option(help="Horizontal distance axis -> sphere (m).")] = 1.5,
+    radius_m: Annotated[float, typer.Option(help="Sphere radius (m).")] = 0.1,
+    range_noise_m: Annotated[float, typer.Option(help="Range noise, 1 sigma (m).")] = 0.002,
+    rates_deg_s: Annotated[str, typer.Option(help="Table rates (deg/s), comma-separated.")] = (
+        "2,4,6,10,14,18"
+    ),
+    passes: Annotated[int, typer.Option(help="Passes per rate and direction.")] = 15,
+    angular_step_deg: Annotated[float, typer.Option(help="Mirror angular step (deg).")] = 0.2,
+    profile_rate_hz: Annotated[float, typer.Option(help="Profiles per second.")] = 50.0,
+    free_radius: Annotated[
+        bool, typer.Option("--free-radius", help="Radius estimated, not known.")
+    ] = False,
+    target_ms: Annotated[float, typer.Option(help="Target latency sigma (ms).")] = 0.1,
+    figure: Annotated[Path | None, typer.Option(help="Write a PNG figure here.")] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Predict centre and latency precision of a rotating-table experiment (Cramér-Rao)."""
+    design = TableDesign(
+        sphere_range_m=range_m,
+        sphere_radius_m=radius_m,
+        range_noise_m=range_noise_m,
+        angular_step_deg=angular_step_deg,
+        profile_rate_hz=profile_rate_hz,
+        rates_deg_s=parse_rates(rates_deg_s),
+        passes=passes,
+        radius_known=not free_radius,
+    )
+    result = plan_latency_experiment(design)
+    doc = plan_document(result, target_ms)
+    if figure is not None:
+        atomic_write_bytes(figure, plan_figure(result, target_ms * 1e-3))
+        doc["figure"] = str(figure)
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title=f"Method A plan: {passes} passes each way, range noise {range_noise_m:g} m")
+    for col in ("rate (deg/s)", "points/pass", "centre σ (mm)", "latency σ (ms)"):
+        table.add_column(col, justify="right")
+    for r in result.per_rate:
+        table.add_row(
+            f"{r.rate_deg_s:g}",
+            f"{r.points_per_pass:.0f}",
+            f"{r.center_std_m * 1e3:.4f}",
+            f"{r.latency_std_s * 1e3:.4f}",
+        )
+    console.print(table)
+    console.print(
+        f"all rates: latency σ {result.latency_std_s * 1e3:.4f} ms; "
+        f"{doc['passes_for_target']} passes per rate and direction reach {target_ms:g} ms"
+    )

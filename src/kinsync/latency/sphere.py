@@ -1,0 +1,447 @@
+"""Method A estimator: total latency from sphere centres at +omega and -omega.
+
+Passes are pooled per signed table rate; one sphere centre is fitted per pool (robust
+segmentation from clutter, then a range-noise-weighted fit along the scanner rays).
+With latency tau the georeferenced sphere is rotated about the table axis by
+``-omega tau`` (SPEC section 2): ``c_k = Rot(-w_k tau) c`` for each pool k with rate
+vector ``w_k``. Per rate, the two pools give (c, tau) by weighted Gauss-Newton on that
+exact rotation model with the full 3-D rate vectors; the rates are combined by
+inverse variance into one ``tau +- sigma``, with a chi-square test of their agreement.
+The published first-order formula is reported beside each rate for comparison.
+
+References
+----------
+Seube, N., Picard, A., Rondeau, M., "A simple method to recover the latency time of
+tactical grade IMU systems", ISPRS J. Photogramm. Remote Sens. 74 (2012) 85-89.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+from scipy.spatial.transform import Rotation
+
+from kinsync._typing import ArrayLike, FloatArray
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.fit import SphereFit, fit_sphere, segment_sphere
+from kinsync.frames import skew
+from kinsync.latency.passes import SpherePass
+from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
+
+__all__ = [
+    "DEFAULT_MAX_INCIDENCE_DEG",
+    "PoolFit",
+    "RateLatency",
+    "SphereLatencyResult",
+    "estimate_latency_sphere",
+    "fit_pool",
+    "latency_from_pool_pair",
+]
+
+_RATE_KEY_DECIMALS = 6
+_AXIS_KEY_DECIMALS = 3
+_MIN_AXIS_SINE = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class PoolFit:
+    """Sphere fit of all passes at one signed rate.
+
+    Attributes
+    ----------
+    rate_deg_s : float
+        Signed table rate (deg/s).
+    rate_vector_ned_rad_s : ndarray, shape (3,)
+        Signed rate vector, table-centred NED (rad/s).
+    n_passes : int
+        Passes pooled.
+    n_points_in : int
+        Points given (sphere and clutter).
+    n_points : int
+        Points used in the final centre fit.
+    fit : SphereFit
+        The final fit (centre, radius, covariance, residuals).
+    sources : tuple of str
+        Where the pooled passes came from.
+    """
+
+    rate_deg_s: float
+    rate_vector_ned_rad_s: FloatArray
+    n_passes: int
+    n_points_in: int
+    n_points: int
+    fit: SphereFit
+    sources: tuple[str, ...]
+
+    @property
+    def center_std_m(self) -> float:
+        """Centre standard deviation, RMS over the three axes (m)."""
+        return float(np.sqrt(np.trace(self.fit.cov_center_m2) / 3.0))
+
+
+@dataclass(frozen=True, eq=False)
+class RateLatency:
+    """Latency from the pair of pools at one rate.
+
+    Attributes
+    ----------
+    rate_deg_s : float
+        Table rate magnitude (deg/s).
+    n_points : int
+        Points used in both centre fits.
+    center_std_m : float
+        RMS of the two pools' centre standard deviations (m).
+    latency_s, latency_std_s : float
+        Estimate of tau and its standard deviation (s), exact rotation model.
+    latency_first_order_s : float
+        The published first-order formula: the separation of the two centres projected
+        on ``(w+ - w-) x c`` divided by its norm (s).
+    center_ned_m : ndarray, shape (3,)
+        Sphere centre with the latency removed, table-centred NED (m).
+    chi2 : float
+        Weighted misfit of the 6 centre coordinates to the 4-parameter model (2 dof).
+    plus, minus : PoolFit
+        The pools at +omega and -omega.
+    """
+
+    rate_deg_s: float
+    n_points: int
+    center_std_m: float
+    latency_s: float
+    latency_std_s: float
+    latency_first_order_s: float
+    center_ned_m: FloatArray
+    chi2: float
+    plus: PoolFit
+    minus: PoolFit
+
+
+@dataclass(frozen=True, eq=False)
+class SphereLatencyResult:
+    """Combined Method A result.
+
+    Attributes
+    ----------
+    latency_s, latency_std_s : float
+        Inverse-variance combination over rates (s).
+    per_rate : tuple of RateLatency
+        By increasing rate.
+    sphere_center_ned_m : ndarray, shape (3,)
+        Sphere centre with latency removed (weighted over rates), NED (m).
+    sphere_radius_m : float
+        Given radius, or the mean fitted radius.
+    radius_fixed : bool
+        True when the radius was given.
+    chi2_between_rates : float
+        ``sum((tau_r - tau)^2 / sigma_r^2)``; ``dof_between_rates = n_rates - 1``.
+    dof_between_rates : int
+    p_value_between_rates : float
+        Probability of a chi-square at least this large if the rates agree (nan for one
+        rate); a small value flags a systematic effect not in the model.
+    unpaired_rates_deg_s : tuple of float
+        Rates with passes of only one sign, left out.
+    n_passes : int
+        Passes read.
+    """
+
+    latency_s: float
+    latency_std_s: float
+    per_rate: tuple[RateLatency, ...]
+    sphere_center_ned_m: FloatArray
+    sphere_radius_m: float
+    radius_fixed: bool
+    chi2_between_rates: float
+    dof_between_rates: int
+    p_value_between_rates: float
+    unpaired_rates_deg_s: tuple[float, ...]
+    n_passes: int
+
+
+def _incidence_cos(points: FloatArray, center: FloatArray, origin: FloatArray) -> FloatArray:
+    """|cos| of the angle between each ray and the sphere normal at its point."""
+    ray = points - origin
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+    normal = points - center
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    cos: FloatArray = np.abs(np.einsum("ij,ij->i", ray, normal))
+    return cos
+
+
+def fit_pool(
+    passes: Sequence[SpherePass],
+    *,
+    radius_m: float | None = None,
+    scanner_origin_ned_m: ArrayLike | None = (0.0, 0.0, 0.0),
+    max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
+    seed: int = 0,
+) -> PoolFit:
+    """Segment and fit one sphere centre from passes at one signed rate.
+
+    Parameters
+    ----------
+    passes : sequence of SpherePass
+        Passes sharing one signed rate and axis.
+    radius_m : float, optional
+        Known sphere radius (m); estimated when None.
+    scanner_origin_ned_m : array_like, shape (3,), optional
+        Scanner optical centre in the table-centred frame (the table centre, by
+        construction of the set-up); enables the ray-direction range model. None: fit
+        orthogonal distances.
+    max_incidence_deg : float
+        Returns more oblique than this are excluded from the final fit (and from the
+        planner's prediction, `kinsync.latency.planning`).
+    seed : int
+        RANSAC seed.
+
+    Raises
+    ------
+    InputError
+        No sphere found among the pooled points.
+    """
+    if not passes:
+        msg = "fit_pool: no passes given"
+        raise InputError(msg)
+    points = np.concatenate([p.points_ned_m for p in passes])
+    origin = None if scanner_origin_ned_m is None else np.asarray(scanner_origin_ned_m, float)
+    label = f"rate {passes[0].rate_deg_s:+g} deg/s ({len(passes)} passes, {len(points)} points)"
+    try:
+        seg = segment_sphere(points, radius_m=radius_m, origin_m=origin, seed=seed)
+    except InputError as err:
+        msg = f"{label}: {err}"
+        raise InputError(msg) from err
+    keep = seg.inliers.copy()
+    if origin is not None:
+        cos = _incidence_cos(points, seg.center_m, origin)
+        keep &= cos >= math.cos(math.radians(max_incidence_deg))
+    if np.count_nonzero(keep) < 10:
+        msg = f"{label}: only {np.count_nonzero(keep)} sphere points left after segmentation"
+        raise InputError(msg)
+    final = fit_sphere(points[keep], radius_m=radius_m, origin_m=origin)
+    inliers = np.zeros(len(points), dtype=bool)
+    inliers[np.flatnonzero(keep)] = final.inliers
+    residuals = np.full(len(points), np.nan)
+    residuals[np.flatnonzero(keep)] = final.residuals_m
+    fit = SphereFit(
+        center_m=final.center_m,
+        radius_m=final.radius_m,
+        radius_fixed=final.radius_fixed,
+        cov_center_m2=final.cov_center_m2,
+        radius_std_m=final.radius_std_m,
+        residual_rms_m=final.residual_rms_m,
+        n_points=final.n_points,
+        inliers=inliers,
+        residuals_m=residuals,
+        method=final.method,
+        iterations=final.iterations,
+    )
+    rate_vectors = np.array([p.rate_vector_ned_rad_s for p in passes])
+    return PoolFit(
+        rate_deg_s=passes[0].rate_deg_s,
+        rate_vector_ned_rad_s=rate_vectors.mean(axis=0),
+        n_passes=len(passes),
+        n_points_in=len(points),
+        n_points=final.n_points,
+        fit=fit,
+        sources=tuple(p.source for p in passes),
+    )
+
+
+def _rotated(rate_vector: FloatArray, latency_s: float, center: FloatArray) -> FloatArray:
+    rotated: FloatArray = Rotation.from_rotvec(-rate_vector * latency_s).apply(np.array(center))
+    return rotated
+
+
+def latency_from_pool_pair(plus: PoolFit, minus: PoolFit) -> RateLatency:
+    """Latency from the centres at +omega and -omega (exact rotation model).
+
+    Unknowns: the latency-free centre c and tau; observations: the two fitted centres
+    with their covariances. Model ``c_k = Rot(-w_k tau) c``; weighted Gauss-Newton from
+    the first-order solution.
+
+    Raises
+    ------
+    ObservabilityError
+        The rotation axis points at the sphere: the centres do not move with tau.
+    """
+    w_p, w_m = plus.rate_vector_ned_rad_s, minus.rate_vector_ned_rad_s
+    c_p, c_m = plus.fit.center_m, minus.fit.center_m
+    c_mean = 0.5 * (c_p + c_m)
+    dw = w_p - w_m
+    lever = np.cross(dw, c_mean)
+    sine = float(np.linalg.norm(lever) / (np.linalg.norm(dw) * np.linalg.norm(c_mean)))
+    if not math.isfinite(sine) or sine < _MIN_AXIS_SINE:
+        msg = (
+            f"rate {abs(plus.rate_deg_s):g} deg/s: the rotation axis points at the sphere "
+            f"(angle {math.degrees(math.asin(min(1.0, sine))):.3g} deg), so the latency "
+            "does not move the sphere centre and is unobservable; place the sphere away "
+            "from the table axis"
+        )
+        raise ObservabilityError(msg)
+    # First order: c- - c+ = tau (w+ - w-) x c.
+    delta = c_m - c_p
+    tau_first = float(delta @ lever / (lever @ lever))
+
+    weight = np.zeros((6, 6))
+    weight[:3, :3] = np.linalg.inv(plus.fit.cov_center_m2)
+    weight[3:, 3:] = np.linalg.inv(minus.fit.cov_center_m2)
+    obs = np.concatenate([c_p, c_m])
+    # Start: tau from first order, c as the mean rotated back.
+    tau = tau_first
+    c = 0.5 * (_rotated(w_p, -tau, c_p) + _rotated(w_m, -tau, c_m))
+    jac = np.zeros((6, 4))
+    for _ in range(20):
+        m_p, m_m = _rotated(w_p, tau, c), _rotated(w_m, tau, c)
+        resid = obs - np.concatenate([m_p, m_m])
+        jac[:3, :3] = Rotation.from_rotvec(-w_p * tau).as_matrix()
+        jac[3:, :3] = Rotation.from_rotvec(-w_m * tau).as_matrix()
+        jac[:3, 3] = -skew(w_p) @ m_p
+        jac[3:, 3] = -skew(w_m) @ m_m
+        normal = jac.T @ weight @ jac
+        step = np.linalg.solve(normal, jac.T @ weight @ resid)
+        c = c + step[:3]
+        tau += float(step[3])
+        if abs(step[3]) < 1e-12 and np.max(np.abs(step[:3])) < 1e-12:
+            break
+    m_p, m_m = _rotated(w_p, tau, c), _rotated(w_m, tau, c)
+    resid = obs - np.concatenate([m_p, m_m])
+    cov = np.linalg.inv(jac.T @ weight @ jac)
+    return RateLatency(
+        rate_deg_s=0.5 * (abs(plus.rate_deg_s) + abs(minus.rate_deg_s)),
+        n_points=plus.n_points + minus.n_points,
+        center_std_m=float(np.sqrt(0.5 * (plus.center_std_m**2 + minus.center_std_m**2))),
+        latency_s=tau,
+        latency_std_s=float(np.sqrt(cov[3, 3])),
+        latency_first_order_s=tau_first,
+        center_ned_m=c,
+        chi2=float(resid @ weight @ resid),
+        plus=plus,
+        minus=minus,
+    )
+
+
+def _group_passes(
+    passes: Sequence[SpherePass],
+) -> dict[tuple[float, tuple[float, float, float]], list[SpherePass]]:
+    groups: dict[tuple[float, tuple[float, float, float]], list[SpherePass]] = {}
+    for p in passes:
+        axis = np.asarray(p.axis_ned)
+        rate = p.rate_deg_s
+        # Canonical axis (first non-zero component positive) so -w about a and +w about -a
+        # land in one pair.
+        if axis[np.flatnonzero(np.abs(axis) > 1e-9)[0]] < 0:
+            axis, rate = -axis, -rate
+        key_axis = tuple(float(v) for v in np.round(axis, _AXIS_KEY_DECIMALS))
+        key = (round(rate, _RATE_KEY_DECIMALS), (key_axis[0], key_axis[1], key_axis[2]))
+        groups.setdefault(key, []).append(p)
+    return groups
+
+
+def estimate_latency_sphere(
+    passes: Sequence[SpherePass],
+    *,
+    radius_m: float | None = None,
+    scanner_origin_ned_m: ArrayLike | None = (0.0, 0.0, 0.0),
+    max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
+    seed: int = 0,
+) -> SphereLatencyResult:
+    """Total latency from sphere passes at opposite table rates (Method A).
+
+    Parameters
+    ----------
+    passes : sequence of SpherePass
+        Georeferenced passes (table-centred NED) with signed controller rates.
+    radius_m : float, optional
+        Known sphere radius (m); estimated per pool when None.
+    scanner_origin_ned_m : array_like, shape (3,), optional
+        Scanner optical centre in the table frame; default the origin (on the axis).
+        None fits orthogonal distances instead of ranges along the rays.
+    max_incidence_deg : float
+        Grazing returns beyond this incidence are excluded from the centre fits.
+    seed : int
+        RANSAC seed.
+
+    Returns
+    -------
+    SphereLatencyResult
+        tau > 0: the navigation data lag the scanner (SPEC section 1).
+
+    Raises
+    ------
+    InputError
+        No passes, no rate with both signs, no sphere found in a pool.
+    ObservabilityError
+        The rotation axis points at the sphere.
+    """
+    if not passes:
+        msg = "no passes given"
+        raise InputError(msg)
+    if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
+        msg = f"radius_m must be positive, got {radius_m!r}"
+        raise InputError(msg)
+    groups = _group_passes(passes)
+    pairs: list[tuple[list[SpherePass], list[SpherePass]]] = []
+    unpaired: list[float] = []
+    for (rate, axis), group in sorted(groups.items()):
+        if rate <= 0:
+            continue
+        opposite = groups.get((round(-rate, _RATE_KEY_DECIMALS), axis))
+        if opposite is None:
+            unpaired.append(rate)
+        else:
+            pairs.append((group, opposite))
+    unpaired += [
+        -r for (r, a) in groups if r < 0 and (round(-r, _RATE_KEY_DECIMALS), a) not in groups
+    ]
+    if not pairs:
+        rates = sorted({p.rate_deg_s for p in passes})
+        msg = (
+            f"no table rate has passes of both signs (rates found: {rates} deg/s); "
+            "Method A needs clockwise and counter-clockwise passes at the same rate"
+        )
+        raise InputError(msg)
+    per_rate: list[RateLatency] = []
+    for plus_passes, minus_passes in pairs:
+        kwargs = {
+            "radius_m": radius_m,
+            "scanner_origin_ned_m": scanner_origin_ned_m,
+            "max_incidence_deg": max_incidence_deg,
+            "seed": seed,
+        }
+        plus = fit_pool(plus_passes, **kwargs)  # type: ignore[arg-type]
+        minus = fit_pool(minus_passes, **kwargs)  # type: ignore[arg-type]
+        per_rate.append(latency_from_pool_pair(plus, minus))
+    per_rate.sort(key=lambda r: r.rate_deg_s)
+    tau_r = np.array([r.latency_s for r in per_rate])
+    var_r = np.array([r.latency_std_s**2 for r in per_rate])
+    weights = 1.0 / var_r
+    tau = float(np.sum(weights * tau_r) / np.sum(weights))
+    std = float(np.sqrt(1.0 / np.sum(weights)))
+    chi2 = float(np.sum((tau_r - tau) ** 2 * weights))
+    dof = len(per_rate) - 1
+    p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+    centres = np.array([r.center_ned_m for r in per_rate])
+    center = np.average(
+        centres, axis=0, weights=1.0 / np.array([r.center_std_m**2 for r in per_rate])
+    )
+    radius = (
+        float(radius_m)
+        if radius_m is not None
+        else float(np.mean([[r.plus.fit.radius_m, r.minus.fit.radius_m] for r in per_rate]))
+    )
+    return SphereLatencyResult(
+        latency_s=tau,
+        latency_std_s=std,
+        per_rate=tuple(per_rate),
+        sphere_center_ned_m=center,
+        sphere_radius_m=radius,
+        radius_fixed=radius_m is not None,
+        chi2_between_rates=chi2,
+        dof_between_rates=dof,
+        p_value_between_rates=p_value,
+        unpaired_rates_deg_s=tuple(sorted(unpaired)),
+        n_passes=len(passes),
+    )

@@ -1,0 +1,199 @@
+"""Method A estimator: inject a latency through the simulator's physics, recover it."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from functools import cache
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.fit import SphereFit
+from kinsync.latency.passes import SpherePass
+from kinsync.latency.planning import TableDesign, plan_latency_experiment
+from kinsync.latency.sphere import (
+    PoolFit,
+    estimate_latency_sphere,
+    latency_from_pool_pair,
+)
+from kinsync.sim.rotating_table import RotatingTableConfig, simulate_rotating_table
+
+TAU_S = 0.00421
+
+
+@cache
+def default_simulation() -> tuple[SpherePass, ...]:
+    return simulate_rotating_table(RotatingTableConfig(latency_s=TAU_S, seed=1)).passes
+
+
+def test_default_setup_recovers_the_latency_within_3_sigma_and_0p1_ms() -> None:
+    result = estimate_latency_sphere(default_simulation(), radius_m=0.1)
+    err = result.latency_s - TAU_S
+    assert abs(err) < 3 * result.latency_std_s, (result.latency_s, result.latency_std_s)
+    assert result.latency_std_s <= 1e-4
+    sig = [r.latency_std_s for r in result.per_rate]
+    assert all(b < a for a, b in itertools.pairwise(sig)), sig
+    assert [r.rate_deg_s for r in result.per_rate] == [2, 4, 6, 10, 14, 18]
+    assert result.p_value_between_rates > 1e-3
+    np.testing.assert_allclose(result.sphere_radius_m, 0.1)
+    # Reported sigma close to the planner's bound for the same design.
+    plan = plan_latency_experiment(TableDesign())
+    assert result.latency_std_s == pytest.approx(plan.latency_std_s, rel=0.2)
+    # Every pass's clutter was left out: far fewer points used than given.
+    for r in result.per_rate:
+        assert r.plus.n_points < r.plus.n_points_in
+        assert abs(r.latency_first_order_s - r.latency_s) < 0.1 * r.latency_std_s
+
+
+def test_free_radius_gives_the_same_latency() -> None:
+    passes = [p for p in default_simulation() if abs(p.rate_deg_s) in (6.0, 18.0)]
+    known = estimate_latency_sphere(passes, radius_m=0.1)
+    free = estimate_latency_sphere(passes)
+    assert not free.radius_fixed
+    assert free.sphere_radius_m == pytest.approx(0.1, abs=2e-4)
+    assert abs(free.latency_s - known.latency_s) < known.latency_std_s
+
+
+def small_simulation(
+    tau_s: float, seed: int, rates: tuple[float, ...] = (18.0,)
+) -> tuple[SpherePass, ...]:
+    cfg = RotatingTableConfig(latency_s=tau_s, rates_deg_s=rates, passes=3, seed=seed)
+    return simulate_rotating_table(cfg).passes
+
+
+def test_negative_latency_comes_back_negative() -> None:
+    result = estimate_latency_sphere(small_simulation(-0.0123, seed=5), radius_m=0.1)
+    assert abs(result.latency_s + 0.0123) < max(4 * result.latency_std_s, 2e-4)
+
+
+def test_tilted_table_uses_the_full_rate_vector() -> None:
+    # Rotate the whole experiment rigidly: a table whose axis is 40 deg off vertical.
+    tilt = Rotation.from_rotvec(np.radians(40.0) * np.array([0.6, 0.8, 0.0]))
+    passes = [
+        SpherePass(
+            source=p.source,
+            rate_deg_s=p.rate_deg_s,
+            points_ned_m=tilt.apply(np.array(p.points_ned_m)),
+            axis_ned=tuple(tilt.apply(np.array(p.axis_ned))),
+        )
+        for p in small_simulation(0.02, seed=7, rates=(10.0,))
+    ]
+    result = estimate_latency_sphere(passes, radius_m=0.1)
+    assert abs(result.latency_s - 0.02) < max(4 * result.latency_std_s, 2e-4)
+    # Using only the vertical component of the rate would be off by 1/cos(40 deg).
+    assert abs(result.latency_s - 0.02 / math.cos(math.radians(40.0))) > 10 * result.latency_std_s
+
+
+def synthetic_pool(rate_vector: np.ndarray, centre: np.ndarray, cov: np.ndarray) -> PoolFit:
+    fit = SphereFit(
+        center_m=centre,
+        radius_m=0.1,
+        radius_fixed=True,
+        cov_center_m2=cov,
+        radius_std_m=math.nan,
+        residual_rms_m=0.002,
+        n_points=1000,
+        inliers=np.ones(1000, dtype=bool),
+        residuals_m=np.zeros(1000),
+        method="ray",
+        iterations=1,
+    )
+    rate_deg = math.degrees(float(np.linalg.norm(rate_vector)))
+    return PoolFit(
+        rate_deg_s=rate_deg,
+        rate_vector_ned_rad_s=rate_vector,
+        n_passes=1,
+        n_points_in=1000,
+        n_points=1000,
+        fit=fit,
+        sources=("synthetic",),
+    )
+
+
+def test_exact_rotation_model_is_exact_where_first_order_is_not() -> None:
+    axis = np.array([0.3, -0.2, 0.93])
+    axis /= np.linalg.norm(axis)
+    w = math.radians(30.0) * axis
+    c = np.array([1.2, -0.8, 0.3])
+    tau = 0.08  # 2.4 deg of rotation: first order is visibly off
+    cov = np.eye(3) * 1e-10
+    plus = synthetic_pool(w, Rotation.from_rotvec(-w * tau).apply(c), cov)
+    minus = synthetic_pool(-w, Rotation.from_rotvec(w * tau).apply(c), cov)
+    r = latency_from_pool_pair(plus, minus)
+    assert r.latency_s == pytest.approx(tau, rel=1e-10)
+    np.testing.assert_allclose(r.center_ned_m, c, atol=1e-12)
+    assert abs(r.latency_first_order_s / tau - 1.0) > 1e-4
+    assert r.chi2 < 1e-12
+
+
+def test_reported_sigma_matches_monte_carlo_spread() -> None:
+    rng = np.random.default_rng(11)
+    w = math.radians(6.0) * np.array([0.0, 0.0, 1.0])
+    c = np.array([1.5, 0.2, 0.0])
+    cov = np.diag([4e-10, 1e-10, 2e-10])
+    chol = np.linalg.cholesky(cov)
+    taus, sigmas = [], []
+    for _ in range(2000):
+        plus = synthetic_pool(
+            w, Rotation.from_rotvec(-w * TAU_S).apply(c) + chol @ rng.normal(size=3), cov
+        )
+        minus = synthetic_pool(
+            -w, Rotation.from_rotvec(w * TAU_S).apply(c) + chol @ rng.normal(size=3), cov
+        )
+        r = latency_from_pool_pair(plus, minus)
+        taus.append(r.latency_s)
+        sigmas.append(r.latency_std_s)
+    spread = float(np.std(taus, ddof=1))
+    assert spread == pytest.approx(float(np.mean(sigmas)), rel=0.08)
+    assert abs(np.mean(taus) - TAU_S) < 4 * spread / math.sqrt(len(taus))
+
+
+def test_pipeline_sigma_is_honest_over_repeats() -> None:
+    taus, sigmas = [], []
+    for seed in range(30):
+        result = estimate_latency_sphere(small_simulation(TAU_S, seed=100 + seed), radius_m=0.1)
+        taus.append(result.latency_s)
+        sigmas.append(result.latency_std_s)
+    z = (np.array(taus) - TAU_S) / np.array(sigmas)
+    # 30 standardised errors: their RMS is 1 +- 0.13 for an honest sigma; allow 0.6-1.4.
+    assert 0.6 < float(np.sqrt(np.mean(z**2))) < 1.4, z
+
+
+def test_axis_pointing_at_the_sphere_is_unobservable() -> None:
+    w = math.radians(6.0) * np.array([0.0, 0.0, 1.0])
+    c = np.array([0.0, 0.0, 1.5])
+    cov = np.eye(3) * 1e-10
+    with pytest.raises(ObservabilityError, match="unobservable"):
+        latency_from_pool_pair(synthetic_pool(w, c, cov), synthetic_pool(-w, c, cov))
+
+
+def test_only_one_rotation_sign_is_refused() -> None:
+    passes = [p for p in small_simulation(TAU_S, seed=3) if p.rate_deg_s > 0]
+    with pytest.raises(InputError, match="both signs"):
+        estimate_latency_sphere(passes)
+
+
+def test_rate_with_one_sign_is_left_out_and_reported() -> None:
+    passes = list(small_simulation(TAU_S, seed=3, rates=(10.0, 18.0)))
+    passes = [p for p in passes if p.rate_deg_s != -10.0]
+    result = estimate_latency_sphere(passes, radius_m=0.1)
+    assert result.unpaired_rates_deg_s == (10.0,)
+    assert [r.rate_deg_s for r in result.per_rate] == [18.0]
+
+
+def test_no_sphere_among_the_points() -> None:
+    rng = np.random.default_rng(0)
+    floor = np.column_stack(
+        [rng.uniform(1.2, 1.8, 3000), rng.uniform(-0.3, 0.3, 3000), np.full(3000, 0.3)]
+    )
+    passes = [SpherePass("floor+", 6.0, floor), SpherePass("floor-", -6.0, floor)]
+    with pytest.raises(InputError, match="rate"):
+        estimate_latency_sphere(passes, radius_m=0.1)
+
+
+def test_bad_radius() -> None:
+    with pytest.raises(InputError, match="radius"):
+        estimate_latency_sphere(small_simulation(TAU_S, seed=3), radius_m=-0.1)
