@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 from rich.table import Table
@@ -13,8 +13,8 @@ from kinsync.cli._output import console, err_console, print_json
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.io.passes import read_passes
-from kinsync.latency.planning import LatencyPlan, TableDesign, plan_latency_experiment
-from kinsync.latency.sphere import SphereLatencyResult, estimate_latency_sphere
+from kinsync.latency.planning import TableDesign, plan_latency_experiment
+from kinsync.latency.sphere import estimate_latency_sphere
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
 
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
@@ -34,40 +34,6 @@ def parse_rates(text: str) -> tuple[float, ...]:
         msg = f"rates: every rate must be a non-zero number, got {text!r}"
         raise InputError(msg)
     return rates
-
-
-def result_document(result: SphereLatencyResult) -> dict[str, Any]:
-    """The JSON document of ``kinsync latency sphere``."""
-    return {
-        "latency_ms": result.latency_s * 1e3,
-        "latency_std_ms": result.latency_std_s * 1e3,
-        "per_rate": [
-            {
-                "rate_deg_s": r.rate_deg_s,
-                "n_points": r.n_points,
-                "center_std_m": r.center_std_m,
-                "latency_ms": r.latency_s * 1e3,
-                "latency_std_ms": r.latency_std_s * 1e3,
-                "latency_first_order_ms": r.latency_first_order_s * 1e3,
-                "n_passes": r.plus.n_passes + r.minus.n_passes,
-                "n_points_in": r.plus.n_points_in + r.minus.n_points_in,
-                "chi2": r.chi2,
-            }
-            for r in result.per_rate
-        ],
-        "sphere": {
-            "center_ned_m": result.sphere_center_ned_m.tolist(),
-            "radius_m": result.sphere_radius_m,
-            "radius_fixed": result.radius_fixed,
-        },
-        "consistency": {
-            "chi2_between_rates": result.chi2_between_rates,
-            "dof": result.dof_between_rates,
-            "p_value": result.p_value_between_rates,
-        },
-        "unpaired_rates_deg_s": list(result.unpaired_rates_deg_s),
-        "n_passes": result.n_passes,
-    }
 
 
 @app.command("sphere")
@@ -97,7 +63,7 @@ def sphere(
     fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")
     if fig_path is not None:
         atomic_write_bytes(fig_path, latency_per_rate_figure(result))
-    doc = result_document(result)
+    doc = result.as_document()
     if fig_path is not None:
         doc["figure"] = str(fig_path)
     if as_json:
@@ -135,25 +101,6 @@ def sphere(
         console.print(f"figure: {fig_path}")
 
 
-def plan_document(plan: LatencyPlan, target_ms: float) -> dict[str, Any]:
-    """The JSON document of ``kinsync latency plan``."""
-    return {
-        "latency_std_ms": plan.latency_std_s * 1e3,
-        "passes_for_target": plan.passes_for_target(target_ms * 1e-3),
-        "target_latency_std_ms": target_ms,
-        "per_rate": [
-            {
-                "rate_deg_s": r.rate_deg_s,
-                "points_per_pass": r.points_per_pass,
-                "center_std_m": r.center_std_m,
-                "center_tangential_std_m": r.center_tangential_std_m,
-                "latency_std_ms": r.latency_std_s * 1e3,
-            }
-            for r in plan.per_rate
-        ],
-    }
-
-
 @app.command("plan")
 def plan(
     range_m: Annotated[float, typer.Option(help="Horizontal distance axis -> sphere (m).")] = 1.5,
@@ -184,7 +131,7 @@ def plan(
         radius_known=not free_radius,
     )
     result = plan_latency_experiment(design)
-    doc = plan_document(result, target_ms)
+    doc = result.as_document(target_ms * 1e-3)
     if figure is not None:
         atomic_write_bytes(figure, plan_figure(result, target_ms * 1e-3))
         doc["figure"] = str(figure)

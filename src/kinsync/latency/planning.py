@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -174,6 +175,25 @@ class LatencyPlan:
         target = _positive(target_latency_std_s, "target_latency_std_s")
         ratio = (self.latency_std_s / target) ** 2
         return max(1, math.ceil(self.design.passes * ratio - 1e-9))
+
+    def as_document(self, target_latency_std_s: float = 1e-4) -> dict[str, Any]:
+        """JSON-ready summary (what ``kinsync latency plan --json`` prints)."""
+        return {
+            "latency_std_ms": self.latency_std_s * 1e3,
+            "passes_for_target": self.passes_for_target(target_latency_std_s),
+            "target_latency_std_ms": target_latency_std_s * 1e3,
+            "passes": self.design.passes,
+            "per_rate": [
+                {
+                    "rate_deg_s": r.rate_deg_s,
+                    "points_per_pass": r.points_per_pass,
+                    "center_std_m": r.center_std_m,
+                    "center_tangential_std_m": r.center_tangential_std_m,
+                    "latency_std_ms": r.latency_std_s * 1e3,
+                }
+                for r in self.per_rate
+            ],
+        }
 
 
 def _pass_information(

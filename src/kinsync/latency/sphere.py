@@ -20,12 +20,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from kinsync._typing import ArrayLike, FloatArray
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
@@ -42,6 +43,8 @@ __all__ = [
     "latency_from_pool_pair",
 ]
 
+_MAD_TO_SIGMA = 1.4826
+_TAIL_CUT_SIGMA = 4.0
 _RATE_KEY_DECIMALS = 6
 _AXIS_KEY_DECIMALS = 3
 _MIN_AXIS_SINE = 1e-3
@@ -160,6 +163,39 @@ class SphereLatencyResult:
     unpaired_rates_deg_s: tuple[float, ...]
     n_passes: int
 
+    def as_document(self) -> dict[str, Any]:
+        """JSON-ready summary (what ``kinsync latency sphere --json`` prints)."""
+        return {
+            "latency_ms": self.latency_s * 1e3,
+            "latency_std_ms": self.latency_std_s * 1e3,
+            "per_rate": [
+                {
+                    "rate_deg_s": r.rate_deg_s,
+                    "n_points": r.n_points,
+                    "center_std_m": r.center_std_m,
+                    "latency_ms": r.latency_s * 1e3,
+                    "latency_std_ms": r.latency_std_s * 1e3,
+                    "latency_first_order_ms": r.latency_first_order_s * 1e3,
+                    "n_passes": r.plus.n_passes + r.minus.n_passes,
+                    "n_points_in": r.plus.n_points_in + r.minus.n_points_in,
+                    "chi2": r.chi2,
+                }
+                for r in self.per_rate
+            ],
+            "sphere": {
+                "center_ned_m": self.sphere_center_ned_m.tolist(),
+                "radius_m": self.sphere_radius_m,
+                "radius_fixed": self.radius_fixed,
+            },
+            "consistency": {
+                "chi2_between_rates": self.chi2_between_rates,
+                "dof": self.dof_between_rates,
+                "p_value": self.p_value_between_rates,
+            },
+            "unpaired_rates_deg_s": list(self.unpaired_rates_deg_s),
+            "n_passes": self.n_passes,
+        }
+
 
 def _incidence_cos(points: FloatArray, center: FloatArray, origin: FloatArray) -> FloatArray:
     """|cos| of the angle between each ray and the sphere normal at its point."""
@@ -213,14 +249,29 @@ def fit_pool(
     except InputError as err:
         msg = f"{label}: {err}"
         raise InputError(msg) from err
-    keep = seg.inliers.copy()
+    # Re-select the sphere points on the final model with a wide cut: segmentation's
+    # 3-sigma inlier band truncates the Gaussian tails and would make the reported
+    # sigma ~7 % optimistic. Candidates: near the surface, facing the scanner, below
+    # the incidence cap; then cut at 4 robust sigma of the final residuals, twice.
+    centre, radius = seg.center_m, seg.radius_m
+    # Distance to the surface, converted to range along the ray when the origin is
+    # known (range noise shows as surface distance times cos(incidence)).
+    miss_m = np.abs(np.linalg.norm(points - centre, axis=1) - radius)
+    keep = np.ones(len(points), dtype=bool)
     if origin is not None:
-        cos = _incidence_cos(points, seg.center_m, origin)
-        keep &= cos >= math.cos(math.radians(max_incidence_deg))
-    if np.count_nonzero(keep) < 10:
-        msg = f"{label}: only {np.count_nonzero(keep)} sphere points left after segmentation"
-        raise InputError(msg)
-    final = fit_sphere(points[keep], radius_m=radius_m, origin_m=origin)
+        cos_cap = math.cos(math.radians(max_incidence_deg))
+        cos = _incidence_cos(points, centre, origin)
+        keep &= cos >= cos_cap
+        miss_m = miss_m / np.maximum(cos, cos_cap)
+    band_m = (_TAIL_CUT_SIGMA + 1.0) * _MAD_TO_SIGMA * float(np.median(miss_m[seg.inliers]))
+    keep &= miss_m <= max(band_m, 1e-6)
+    final = _fit_kept(points, keep, radius_m, origin, label)
+    for _ in range(2):
+        resid = np.full(len(points), np.inf)
+        resid[np.flatnonzero(keep)] = np.abs(final.residuals_m)
+        sigma = _MAD_TO_SIGMA * float(np.nanmedian(np.abs(final.residuals_m)))
+        keep = keep & (resid <= _TAIL_CUT_SIGMA * sigma)
+        final = _fit_kept(points, keep, radius_m, origin, label)
     inliers = np.zeros(len(points), dtype=bool)
     inliers[np.flatnonzero(keep)] = final.inliers
     residuals = np.full(len(points), np.nan)
@@ -248,6 +299,19 @@ def fit_pool(
         fit=fit,
         sources=tuple(p.source for p in passes),
     )
+
+
+def _fit_kept(
+    points: FloatArray,
+    keep: BoolArray,
+    radius_m: float | None,
+    origin: FloatArray | None,
+    label: str,
+) -> SphereFit:
+    if np.count_nonzero(keep) < 10:
+        msg = f"{label}: only {np.count_nonzero(keep)} sphere points left after segmentation"
+        raise InputError(msg)
+    return fit_sphere(points[keep], radius_m=radius_m, origin_m=origin)
 
 
 def _rotated(rate_vector: FloatArray, latency_s: float, center: FloatArray) -> FloatArray:

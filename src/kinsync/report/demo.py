@@ -1,9 +1,10 @@
 """The demo: every landed capability run on built-in data, written as one report folder.
 
-Today (Foundation) the demo holds the error budgets of SPEC section 3: the beach
-reference scenario at several roll rates (exact against small-angle), the rolling-table
-scenario across its sector, the serial FIFO delay and the profile-clock period budget.
-Later capabilities add their own sections.
+Sections so far: the error budgets of SPEC section 3 (beach and rolling-table
+scenarios, serial FIFO delay, profile-clock period); Method A on a simulated
+rotating-table campaign (estimate, per-rate figure, residuals, planner); and, when the
+CIDCO data sit in ``../shared``, sphere fits on real vessel passes. Later capabilities
+add their own sections.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from kinsync.budget import (
 )
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
+from kinsync.report.demo_method_a import cidco_section, find_cidco_folder, method_a_section
 from kinsync.report.figures import beach_budget_figure, rolling_table_figure
 from kinsync.report.html import Figure, Section, Table, render_report
 
@@ -226,6 +228,13 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     atomic_write_text(out_dir / "budget.json", json.dumps(budget_doc, indent=2) + "\n")
     for i, fig in enumerate(budget_section.figures):
         atomic_write_bytes(out_dir / f"budget_{i + 1}.png", fig.png)
+
+    sections.append(method_a_section(out_dir, summary, progress))
+    cidco = find_cidco_folder()
+    if cidco is not None:
+        if progress:
+            progress("sphere fits on the CIDCO real passes")
+        sections.append(cidco_section(cidco, summary))
 
     if progress:
         progress("report")

@@ -1,0 +1,221 @@
+"""Demo sections for Method A and sphere fitting on real returns.
+
+Simulate a rotating-table campaign, estimate, plan; and fit the real sphere passes of
+the CIDCO set when ``../shared`` is beside the checkout.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from kinsync.fit import SphereFit, segment_sphere
+from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
+from kinsync.io.cidco import read_cidco_pass
+from kinsync.io.passes import read_passes
+from kinsync.latency.planning import TableDesign, plan_latency_experiment
+from kinsync.latency.sphere import estimate_latency_sphere
+from kinsync.report.fit_figures import sphere_residual_figure
+from kinsync.report.html import Figure, Section, Table
+from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
+from kinsync.sim.rotating_table import (
+    RotatingTableConfig,
+    simulate_rotating_table,
+    write_simulation,
+)
+
+__all__ = ["cidco_section", "find_cidco_folder", "method_a_section"]
+
+Summary = list[tuple[str, str, str]]
+
+DEMO_LATENCY_S = 0.00421
+CIDCO_RELATIVE = Path("..") / "shared" / "data" / "cidco-port-de-quebec"
+
+
+def method_a_section(
+    out_dir: Path, summary: Summary, progress: Callable[[str], None] | None = None
+) -> Section:
+    """Simulate the published set-up, write it as a pass folder, read it back, estimate."""
+    config = RotatingTableConfig(latency_s=DEMO_LATENCY_S, seed=1)
+    if progress:
+        progress("Method A: simulating the rotating table")
+    sim = simulate_rotating_table(config)
+    folder = out_dir / "method-a-passes"
+    write_simulation(sim, folder, file_format="laz")
+    if progress:
+        progress("Method A: fitting spheres and estimating the latency")
+    passes = read_passes(folder)
+    result = estimate_latency_sphere(passes, radius_m=config.sphere_radius_m)
+    plan = plan_latency_experiment(TableDesign())
+    atomic_write_text(
+        out_dir / "method_a.json",
+        json.dumps(
+            {"estimate": result.as_document(), "plan": plan.as_document(), "truth": sim.truth},
+            indent=2,
+        )
+        + "\n",
+    )
+    err_ms = (result.latency_s - DEMO_LATENCY_S) * 1e3
+    summary.append(
+        (
+            "Method A latency",
+            f"simulated table, tau = {DEMO_LATENCY_S * 1e3:g} ms, {len(passes)} passes",
+            (
+                f"{result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
+                f"(error {err_ms:+.4f} ms; plan predicted {plan.latency_std_s * 1e3:.4f})"
+            ),
+        )
+    )
+    rows = [
+        [
+            f"{r.rate_deg_s:g}",
+            str(r.n_points),
+            f"{r.center_std_m * 1e3:.4f}",
+            f"{r.latency_s * 1e3:.4f}",
+            f"{r.latency_std_s * 1e3:.4f}",
+            f"{r.latency_first_order_s * 1e3:.4f}",
+            f"{p.latency_std_s * 1e3:.4f}",
+        ]
+        for r, p in zip(result.per_rate, plan.per_rate, strict=True)
+    ]
+    six = next(r for r in result.per_rate if r.rate_deg_s == 6.0)
+    pooled = np.concatenate([p.points_ned_m for p in passes if p.rate_deg_s == six.plus.rate_deg_s])
+    figures = (
+        Figure(
+            caption="Latency per table rate (exact model, 1-sigma bars), the first-order "
+            "formula, the combined estimate and the truth; right: pool centres pushed apart "
+            "by omega*tau*D",
+            png=latency_per_rate_figure(result, truth_latency_s=DEMO_LATENCY_S),
+        ),
+        Figure(
+            caption="Sphere fit of the +6 deg/s pool (15 passes, clutter removed): residuals",
+            png=sphere_residual_figure([("+6 deg/s pool, radius 0.1 m", six.plus.fit)], [pooled]),
+        ),
+        Figure(
+            caption="Planner: Cramér-Rao latency sigma per rate and against passes",
+            png=plan_figure(plan),
+        ),
+    )
+    for i, fig in enumerate(figures):
+        atomic_write_bytes(out_dir / f"method_a_{i + 1}.png", fig.png)
+    return Section(
+        title="Method A: latency from a sphere on a rotating table (SPEC section 2)",
+        paragraphs=(
+            (
+                "A profile scanner and an IMU turn on a table (6 rates, 15 passes each way, "
+                "2 mm range noise, levelling error, optical centre off the axis, floor and "
+                "stand clutter) past a 0.2 m sphere at 1.5 m. The IMU records lag the "
+                f"scanner by {DEMO_LATENCY_S * 1e3:g} ms; the simulated acquisition software "
+                "georeferences with them and writes one LAZ file per pass. kinsync reads the "
+                "folder, segments the sphere from the clutter, fits one centre per signed "
+                "rate along the scanner rays and estimates the latency from the rotation "
+                "between the clockwise and counter-clockwise centres."
+            ),
+            (
+                f"Result: {result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
+                f"against {DEMO_LATENCY_S * 1e3:g} ms; rates agree (chi2 "
+                f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, p = "
+                f"{result.p_value_between_rates:.2f}). Planner bound for this design: "
+                f"{plan.latency_std_s * 1e3:.4f} ms; "
+                f"{plan.passes_for_target(1e-4)} pass(es) per rate and direction reach 0.1 ms."
+            ),
+        ),
+        tables=(
+            Table(
+                caption="Latency per table rate",
+                headers=(
+                    "rate (deg/s)",
+                    "points",
+                    "centre sigma (mm)",
+                    "latency (ms)",
+                    "latency sigma (ms)",
+                    "first-order (ms)",
+                    "planner sigma (ms)",
+                ),
+                rows=rows,
+            ),
+        ),
+        figures=figures,
+    )
+
+
+def find_cidco_folder() -> Path | None:
+    """The CIDCO sphere passes in ``../shared`` beside the working folder or the checkout."""
+    candidates = [
+        Path.cwd() / CIDCO_RELATIVE,
+        Path(__file__).resolve().parents[3] / CIDCO_RELATIVE,
+    ]
+    return next((c for c in candidates if (c / "sphere1").is_dir()), None)
+
+
+def cidco_section(folder: Path, summary: Summary) -> Section:
+    """Fit every real CIDCO pass with free and fixed (0.2 m) radius."""
+    rows = []
+    residual_fits: list[tuple[str, SphereFit]] = []
+    residual_points = []
+    free_radii = []
+    for path in sorted(folder.glob("sphere*/passage_*.txt")):
+        cp = read_cidco_pass(path)
+        free = segment_sphere(cp.points_ecef_m, radius_bounds_m=(0.1, 0.4))
+        fixed = segment_sphere(cp.points_ecef_m, radius_m=0.2)
+        free_radii.append(free.radius_m)
+        label = f"{path.parent.name}/{path.stem}"
+        rows.append(
+            [
+                label,
+                str(len(cp.points_ecef_m)),
+                f"{free.radius_m:.4f}",
+                f"{free.residual_rms_m * 1e3:.1f}",
+                f"{np.linalg.norm(free.center_std_m) * 1e3:.2f}",
+                f"{fixed.residual_rms_m * 1e3:.1f}",
+                f"{np.linalg.norm(fixed.center_std_m) * 1e3:.2f}",
+            ]
+        )
+        if label in ("sphere1/passage_3", "sphere1/passage_4"):
+            residual_fits += [(f"{label} free", free), (f"{label} fixed 0.2 m", fixed)]
+            residual_points += [cp.points_ecef_m, cp.points_ecef_m]
+    summary.append(
+        (
+            "sphere fit, real data",
+            f"CIDCO Port de Quebec, {len(rows)} vessel passes",
+            f"free radius {min(free_radii):.3f}-{max(free_radii):.3f} m",
+        )
+    )
+    return Section(
+        title="Sphere fitting on real returns (CIDCO, Port de Québec)",
+        paragraphs=(
+            (
+                "Twelve vessel passes over two spherical targets (a 2D profiler, 100-490 "
+                "returns each, open data from CIDCO's LidarToolkit). Every pass is segmented "
+                "and fitted in ECEF with a free radius and with the nominal 0.2 m; the "
+                "centre sigma is the norm of the three axis sigmas. sphere1/passage_3 shows "
+                "per-profile stripes of +-30 mm in its residuals: a distorted pass, visible "
+                "at once in the figure."
+            ),
+        ),
+        tables=(
+            Table(
+                caption="Free against fixed radius",
+                headers=(
+                    "pass",
+                    "returns",
+                    "free radius (m)",
+                    "free RMS (mm)",
+                    "free centre sigma (mm)",
+                    "fixed RMS (mm)",
+                    "fixed centre sigma (mm)",
+                ),
+                rows=rows,
+            ),
+        ),
+        figures=(
+            Figure(
+                caption="Residuals of a distorted pass (sphere1/passage_3) and a clean one "
+                "(sphere1/passage_4), free and fixed radius",
+                png=sphere_residual_figure(residual_fits, residual_points),
+            ),
+        ),
+    )
