@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from kinsync.cli.simulate import parse_rates
+from kinsync.cli._options import parse_rates
 from kinsync.errors import InputError
 from kinsync.io.passes import read_passes
 

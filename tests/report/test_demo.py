@@ -45,10 +45,18 @@ def test_demo_writes_a_self_contained_report(
     html_text = (out_dir / "report.html").read_text()
     parser = _Collector()
     parser.feed(html_text)
-    assert len(parser.imgs) >= 2
+    assert len(parser.imgs) >= 5
     assert all(src.startswith("data:image/png;base64,") for src in parser.imgs)
     assert parser.tables >= 3
     assert any("Latency error budget" in h for h in parser.headings)
+    assert any("Method A" in h for h in parser.headings)
+    method_a = json.loads((out_dir / "method_a.json").read_text())
+    est = method_a["estimate"]
+    truth_ms = method_a["truth"]["latency_s"] * 1e3
+    assert abs(est["latency_ms"] - truth_ms) < 3 * est["latency_std_ms"]
+    assert est["latency_std_ms"] <= 0.1
+    assert (out_dir / "method-a-passes" / "passes.csv").exists()
+    assert "Method A latency" in out
     assert "http://" not in html_text
     assert "https://" not in html_text
     doc = json.loads((out_dir / "budget.json").read_text())

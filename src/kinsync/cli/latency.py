@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.table import Table
 
+from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, print_json
-from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.io.passes import read_passes
 from kinsync.latency.planning import TableDesign, plan_latency_experiment
@@ -20,20 +19,6 @@ from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
 
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
-
-
-def parse_rates(text: str) -> tuple[float, ...]:
-    """Parse a comma-separated list of rates (deg/s)."""
-    parts = [p.strip() for p in text.split(",")]
-    try:
-        rates = tuple(float(p) for p in parts)
-    except ValueError as err:
-        msg = f"rates: expected comma-separated numbers like 2,6,18, got {text!r}"
-        raise InputError(msg) from err
-    if not rates or any(not math.isfinite(r) or r == 0 for r in rates):
-        msg = f"rates: every rate must be a non-zero number, got {text!r}"
-        raise InputError(msg)
-    return rates
 
 
 @app.command("sphere")

@@ -1,0 +1,203 @@
+"""``kinsync latency sphere`` and ``kinsync latency plan``: documents, figures, bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.sim.rotating_table import (
+    RotatingTableConfig,
+    simulate_rotating_table,
+    write_simulation,
+)
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+TAU_S = 0.00421
+
+
+@pytest.fixture(scope="module")
+def sim_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("table") / "passes"
+    cfg = RotatingTableConfig(latency_s=TAU_S, rates_deg_s=(6.0, 18.0), passes=3, seed=4)
+    write_simulation(simulate_rotating_table(cfg), folder)
+    return folder
+
+
+def copy_of(folder: Path, tmp_path: Path) -> Path:
+    target = tmp_path / "copy"
+    shutil.copytree(folder, target)
+    return target
+
+
+def rewrite_index(folder: Path, keep: Callable[[dict[str, str]], bool]) -> None:
+    index = folder / "passes.csv"
+    with index.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    fields = list(rows[0])
+    with index.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(r for r in rows if keep(r))
+
+
+def assert_one_line_error(code: int, out: str, err: str, *fragments: str) -> None:
+    assert code == 2, err
+    assert out == ""
+    assert err.count("\n") == 1, err
+    assert err.startswith("kinsync: error: ")
+    for frag in fragments:
+        assert frag in err, err
+
+
+def test_sphere_json_document_and_figure(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
+    fig = tmp_path / "fig.png"
+    code, out, err = run_cli(
+        ["latency", "sphere", str(sim_folder), "--radius-m", "0.1", "--figure", str(fig), "--json"]
+    )
+    assert code == 0, err
+    doc = json.loads(out)
+    assert set(doc) >= {"latency_ms", "latency_std_ms", "per_rate", "sphere"}
+    assert abs(doc["latency_ms"] - TAU_S * 1e3) < 4 * doc["latency_std_ms"]
+    assert [r["rate_deg_s"] for r in doc["per_rate"]] == [6.0, 18.0]
+    for row in doc["per_rate"]:
+        assert set(row) >= {
+            "rate_deg_s",
+            "n_points",
+            "center_std_m",
+            "latency_ms",
+            "latency_std_ms",
+        }
+        assert row["n_points"] > 1000
+    assert doc["sphere"]["radius_m"] == 0.1
+    assert len(doc["sphere"]["center_ned_m"]) == 3
+    truth = json.loads((sim_folder / "truth.json").read_text())
+    np.testing.assert_allclose(
+        doc["sphere"]["center_ned_m"], truth["sphere_center_ned_m"], atol=2e-3
+    )
+    assert fig.read_bytes().startswith(b"\x89PNG")
+
+
+def test_sphere_table_default_figure_and_no_figure(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    code, out, _ = run_cli(["latency", "sphere", str(folder)])
+    assert code == 0
+    assert "Method A" in out
+    assert "latency" in out
+    assert (folder / "latency_sphere.png").exists()
+    (folder / "latency_sphere.png").unlink()
+    code, _, _ = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert code == 0
+    assert not (folder / "latency_sphere.png").exists()
+
+
+def test_sphere_missing_folder(run_cli: RunCli, tmp_path: Path) -> None:
+    code, out, err = run_cli(["latency", "sphere", str(tmp_path / "nowhere")])
+    assert_one_line_error(code, out, err, "nowhere")
+
+
+def test_sphere_only_one_rotation_sign(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    rewrite_index(folder, lambda r: float(r["rate_deg_s"]) > 0)
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "both signs")
+
+
+def test_sphere_zero_and_non_numeric_rate(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    text = (folder / "passes.csv").read_text().splitlines()
+    first = text[1].split(",")
+    first[1] = "0"
+    (folder / "passes.csv").write_text("\n".join([text[0], ",".join(first), *text[2:]]) + "\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "passes.csv", "line 2")
+    first[1] = "fast"
+    (folder / "passes.csv").write_text("\n".join([text[0], ",".join(first), *text[2:]]) + "\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "passes.csv", "line 2", "fast")
+
+
+def test_sphere_non_numeric_point(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    pass_file = sorted(folder.glob("pass_*.csv"))[0]
+    lines = pass_file.read_text().splitlines()
+    cells = lines[5].split(",")
+    cells[0] = "x"
+    lines[5] = ",".join(cells)
+    pass_file.write_text("\n".join(lines) + "\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, pass_file.name, "line 6")
+
+
+def test_sphere_axis_pointing_at_the_sphere(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
+    axis = centre / np.linalg.norm(centre)
+    index = folder / "passes.csv"
+    with index.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with index.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["file", "rate_deg_s", "axis_n", "axis_e", "axis_d"])
+        for r in rows:
+            writer.writerow([r["file"], r["rate_deg_s"], *axis.tolist()])
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"])
+    assert_one_line_error(code, out, err, "unobservable")
+
+
+def test_sphere_no_sphere_in_the_passes(run_cli: RunCli, tmp_path: Path) -> None:
+    folder = tmp_path / "floor"
+    folder.mkdir()
+    rng = np.random.default_rng(2)
+    for name in ("a.csv", "b.csv"):
+        pts = np.column_stack(
+            [rng.uniform(1, 2, 2000), rng.uniform(-0.5, 0.5, 2000), np.full(2000, 0.4)]
+        )
+        np.savetxt(folder / name, pts, delimiter=",", header="x_m,y_m,z_m", comments="")
+    (folder / "passes.csv").write_text("file,rate_deg_s\na.csv,6\nb.csv,-6\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"])
+    assert_one_line_error(code, out, err, "sphere")
+
+
+def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
+    fig = tmp_path / "plan.png"
+    argv = ["latency", "plan", "--range-m", "1.5", "--radius-m", "0.1", "--range-noise-m", "0.002"]
+    code, out, err = run_cli(
+        [*argv, "--rates-deg-s", "2,6,18", "--passes", "15", "--figure", str(fig), "--json"]
+    )
+    assert code == 0, err
+    doc = json.loads(out)
+    sig = [r["latency_std_ms"] for r in doc["per_rate"]]
+    assert sig[0] > sig[1] > sig[2]
+    assert doc["latency_std_ms"] < 0.1
+    assert doc["passes_for_target"] >= 1
+    assert fig.read_bytes().startswith(b"\x89PNG")
+    code, out, _ = run_cli([*argv, "--rates-deg-s", "2,6,18"])
+    assert code == 0
+    assert "passes per rate and direction reach" in out
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        (["--rates-deg-s", "2,,x"], "empty"),
+        (["--rates-deg-s", "2,x"], "not a number"),
+        (["--range-noise-m", "-0.002"], "range_noise_m"),
+        (["--passes", "0"], "passes"),
+        (["--radius-m", "3"], "smaller"),
+    ],
+)
+def test_plan_bad_input(run_cli: RunCli, extra: list[str], fragment: str) -> None:
+    code, out, err = run_cli(["latency", "plan", *extra])
+    assert_one_line_error(code, out, err, fragment)
