@@ -25,6 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from kinsync._typing import ArrayLike, FloatArray
+from kinsync._validate import finite_number
 from kinsync.errors import InputError
 
 __all__ = [
@@ -42,18 +43,6 @@ __all__ = [
 Parity = Literal["none", "even", "odd", "mark", "space"]
 
 _LINEARISATION_SCALE = 1e-6
-
-
-def _finite(value: float, name: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError) as err:
-        msg = f"{name}: expected a number, got {value!r}"
-        raise InputError(msg) from err
-    if not math.isfinite(out):
-        msg = f"{name}: must be finite, got {value!r}"
-        raise InputError(msg)
-    return out
 
 
 def _unit3(vec: ArrayLike, name: str) -> FloatArray:
@@ -93,7 +82,7 @@ class Scenario:
     rate_ned_rad_s: tuple[float, float, float]
 
     def __post_init__(self) -> None:
-        rng = _finite(self.range_m, "range_m")
+        rng = finite_number(self.range_m, "range_m")
         if rng <= 0.0:
             msg = f"range_m: the slant range must be positive, got {self.range_m!r}"
             raise InputError(msg)
@@ -129,7 +118,7 @@ def beach_scenario(
     rate_deg_s : float
         Roll rate (deg/s).
     """
-    slope = _finite(slope_deg, "slope_deg")
+    slope = finite_number(slope_deg, "slope_deg")
     if not 0.0 < slope < 90.0:
         msg = (
             "slope_deg: a horizontal beam meets the surface only for a slope in (0, 90), "
@@ -142,7 +131,7 @@ def beach_scenario(
         range_m=range_m,
         beam_ned=(0.0, 1.0, 0.0),
         normal_ned=(0.0, -math.sin(a), -math.cos(a)),
-        rate_ned_rad_s=(math.radians(_finite(rate_deg_s, "rate_deg_s")), 0.0, 0.0),
+        rate_ned_rad_s=(math.radians(finite_number(rate_deg_s, "rate_deg_s")), 0.0, 0.0),
     )
 
 
@@ -160,14 +149,14 @@ def rolling_table_scenario(
     ``range_m`` horizontal distance; the rate vector is the peak roll rate
     ``2 pi f A`` about North plus the yaw rate about Down.
     """
-    el = math.radians(_finite(elevation_deg, "elevation_deg"))
+    el = math.radians(finite_number(elevation_deg, "elevation_deg"))
     if abs(el) >= math.pi / 2:
         msg = f"elevation_deg: must lie in (-90, 90), got {elevation_deg}"
         raise InputError(msg)
     roll_rate = 2.0 * math.pi * roll_frequency_hz * math.radians(roll_amplitude_deg)
     return Scenario(
         name=f"rolling table, beam at {elevation_deg:+g} deg",
-        range_m=_finite(range_m, "range_m") / math.cos(el),
+        range_m=finite_number(range_m, "range_m") / math.cos(el),
         beam_ned=(0.0, math.cos(el), -math.sin(el)),
         normal_ned=(0.0, -1.0, 0.0),
         rate_ned_rad_s=(roll_rate, 0.0, math.radians(yaw_rate_deg_s)),
@@ -257,7 +246,7 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
         A non-finite latency, or an attitude error large enough that the true beam
         misses the surface.
     """
-    tau = _finite(latency_s, "latency_s")
+    tau = finite_number(latency_s, "latency_s")
     eps = np.asarray(scenario.rate_ned_rad_s) * tau
     cases = [_errors_for_rotation(scenario, sign * eps) for sign in (1.0, -1.0)]
     small = [
@@ -335,7 +324,7 @@ def serial_transmission_time_s(
     if isinstance(n_bytes, bool) or int(n_bytes) != n_bytes or n_bytes < 0:
         msg = f"bytes must be a non-negative whole number, got {n_bytes!r}"
         raise InputError(msg)
-    rate = _finite(baud, "baud")
+    rate = finite_number(baud, "baud")
     if rate <= 0.0:
         msg = f"baud must be positive, got {baud!r}"
         raise InputError(msg)
@@ -375,8 +364,8 @@ def period_error_budget(
     if isinstance(n_profiles, bool) or int(n_profiles) != n_profiles or n_profiles < 0:
         msg = f"profiles must be a non-negative whole number, got {n_profiles!r}"
         raise InputError(msg)
-    d_period = _finite(period_error_s, "period_error_s")
-    speed = _finite(speed_m_s, "speed_m_s")
+    d_period = finite_number(period_error_s, "period_error_s")
+    speed = finite_number(speed_m_s, "speed_m_s")
     if speed < 0.0:
         msg = f"speed_m_s must be >= 0, got {speed_m_s!r}"
         raise InputError(msg)

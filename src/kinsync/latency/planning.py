@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._validate import positive_number
 from kinsync.errors import InputError, ObservabilityError
 
 __all__ = [
@@ -46,14 +47,6 @@ DEFAULT_MAX_INCIDENCE_DEG = 80.0
 and real returns degrade."""
 
 _PHASES = 16
-
-
-def _positive(value: float, name: str) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v > 0.0):
-        msg = f"{name} must be positive, got {value!r}"
-        raise InputError(msg)
-    return v
 
 
 @dataclass(frozen=True)
@@ -103,14 +96,16 @@ class TableDesign:
             "angular_step_deg",
             "profile_rate_hz",
         ):
-            _positive(getattr(self, name), name)
+            positive_number(getattr(self, name), name)
         if self.sphere_radius_m >= self.sphere_range_m:
             msg = "sphere_radius_m must be smaller than sphere_range_m (scanner outside the sphere)"
             raise InputError(msg)
         if not self.rates_deg_s:
             msg = "rates_deg_s: give at least one table rate"
             raise InputError(msg)
-        rates = tuple(_positive(abs(r), "every rate in rates_deg_s") for r in self.rates_deg_s)
+        rates = tuple(
+            positive_number(abs(r), "every rate in rates_deg_s") for r in self.rates_deg_s
+        )
         object.__setattr__(self, "rates_deg_s", rates)
         if isinstance(self.passes, bool) or int(self.passes) != self.passes or self.passes < 1:
             msg = f"passes must be a whole number >= 1, got {self.passes!r}"
@@ -172,7 +167,7 @@ class LatencyPlan:
 
     def passes_for_target(self, target_latency_std_s: float) -> int:
         """Passes per rate and direction that reach a target latency sigma (s)."""
-        target = _positive(target_latency_std_s, "target_latency_std_s")
+        target = positive_number(target_latency_std_s, "target_latency_std_s")
         ratio = (self.latency_std_s / target) ** 2
         return max(1, math.ceil(self.design.passes * ratio - 1e-9))
 

@@ -61,6 +61,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from kinsync._typing import BoolArray, FloatArray, IntArray
+from kinsync._validate import finite_number
 from kinsync.budget import serial_transmission_time_s
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix, quaternion_to_euler_rpy, quaternion_to_matrix
@@ -113,11 +114,7 @@ def _check(condition: bool, message: str) -> None:
 
 
 def _finite(value: float, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"rotating-table config: {name} must be a number, got {value!r}")
-    out = float(value)
-    _check(math.isfinite(out), f"{name} must be finite, got {value!r}")
-    return out
+    return finite_number(value, f"rotating-table config: {name}")
 
 
 @dataclass(frozen=True)
