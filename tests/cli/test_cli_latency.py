@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.sim.rotating_table import (
     RotatingTableConfig,
     simulate_rotating_table,
@@ -201,3 +202,27 @@ def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
 def test_plan_bad_input(run_cli: RunCli, extra: list[str], fragment: str) -> None:
     code, out, err = run_cli(["latency", "plan", *extra])
     assert_one_line_error(code, out, err, fragment)
+
+
+def test_sphere_raw_applies_the_mount_latency(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    """--raw georeferences raw/ with the latency of raw/mount.toml: none is left to find."""
+    folder = tmp_path / "raw_set"
+    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
+    write_simulation(sim, folder, raw=True)
+    tau = float(sim.truth["latency_s"])
+    mount_path = folder / "raw" / "mount.toml"
+    write_mount(read_mount(mount_path).with_latency(tau), mount_path)
+    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--json"]
+    code, out, err = run_cli(argv)
+    assert code == 0, err
+    as_logged = json.loads(out)
+    assert abs(as_logged["latency_ms"] - tau * 1e3) < 4 * as_logged["latency_std_ms"]
+    code, out, err = run_cli([*argv, "--raw"])
+    assert code == 0, err
+    corrected = json.loads(out)
+    assert abs(corrected["latency_ms"]) < 4 * corrected["latency_std_ms"]
+    assert tau * 1e3 > 10 * corrected["latency_std_ms"]
+    code, out, err = run_cli(["latency", "sphere", str(sim_folder), "--raw", "--no-figure"])
+    assert_one_line_error(code, out, err, "raw folder not found")

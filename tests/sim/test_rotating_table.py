@@ -16,7 +16,7 @@ from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import read_passes
-from kinsync.io.tables import read_numeric_csv
+from kinsync.io.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
     LABEL_FLOOR,
     LABEL_SPHERE,
@@ -27,7 +27,6 @@ from kinsync.sim.rotating_table import (
     simulate_rotating_table,
     write_simulation,
 )
-from kinsync.trajectory import Trajectory
 
 QUIET: dict[str, Any] = {
     "range_noise_m": 0.0,
@@ -241,28 +240,17 @@ def test_raw_output_reproduces_the_passes(tmp_path: Path) -> None:
     cfg = _small(boresight_rpy_deg=(0.2, -0.1, 3.0))
     sim = simulate_rotating_table(cfg)
     write_simulation(sim, tmp_path, raw=True)
-    raw = tmp_path / "raw"
-    att = read_numeric_csv(raw / "attitude.csv", ["t_s", "roll_deg", "pitch_deg", "yaw_deg"])
-    traj = Trajectory.from_euler(
-        att.columns["t_s"],
-        np.radians(att.columns["roll_deg"]),
-        np.radians(att.columns["pitch_deg"]),
-        np.radians(att.columns["yaw_deg"]),
-        pos_ned_m=np.zeros((att.n_rows, 3)),
-        origin_lat_lon_h=(48.0, -4.0, 0.0),
-    )
-    mount = read_mount(raw / "mount.toml")
+    mount = read_mount(tmp_path / "raw" / "mount.toml")
     assert mount.boresight_rpy_deg == (0.2, -0.1, 3.0)
     assert mount.latency_s == 0.0
     np.testing.assert_allclose(
         mount.R_scanner_to_body, euler_rpy_to_matrix(*np.radians([0.2, -0.1, 3.0])), atol=1e-15
     )
-    for i, p in enumerate(sim.passes):
-        tab = read_numeric_csv(raw / f"pass_{i:03d}.csv", ["t_s", "x_m", "y_m", "z_m"])
-        xs = np.column_stack([tab.columns[k] for k in ("x_m", "y_m", "z_m")])
-        R = traj.interpolate(tab.columns["t_s"]).R_body_to_ned
-        x_ned = np.einsum("nij,nj->ni", R, xs @ mount.R_scanner_to_body.T)
-        np.testing.assert_allclose(x_ned, p.points_ned_m, rtol=0, atol=1e-9)
+    rebuilt = read_raw_passes(tmp_path)
+    assert len(rebuilt) == len(sim.passes)
+    for p, q in zip(sim.passes, rebuilt, strict=True):
+        assert q.rate_deg_s == p.rate_deg_s
+        np.testing.assert_allclose(q.points_ned_m, p.points_ned_m, rtol=0, atol=1e-9)
 
 
 def test_write_simulation_refuses_a_file(tmp_path: Path) -> None:

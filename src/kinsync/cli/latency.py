@@ -12,6 +12,7 @@ from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, print_json
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.io.passes import read_passes
+from kinsync.io.raw_passes import read_raw_passes
 from kinsync.latency.planning import TableDesign, plan_latency_experiment
 from kinsync.latency.sphere import estimate_latency_sphere
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
@@ -37,10 +38,19 @@ def sphere(
             "--orthogonal", help="Fit orthogonal distances instead of ranges along the rays."
         ),
     ] = False,
+    raw: Annotated[
+        bool,
+        typer.Option(
+            "--raw",
+            help="Georeference the raw input in FOLDER/raw (scanner-frame passes, attitude.csv, "
+            "mount.toml) instead of reading the pass files; the latency correction comes "
+            "from raw/mount.toml.",
+        ),
+    ] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Estimate the total latency from sphere passes at opposite table rates."""
-    passes = read_passes(folder)
+    passes = read_raw_passes(folder) if raw else read_passes(folder)
     with err_console.status(f"fitting {len(passes)} passes"):
         result = estimate_latency_sphere(
             passes, radius_m=radius_m, scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0)

@@ -153,9 +153,7 @@ def read_raw_attitude(path: Path) -> Trajectory:
         raise InputError(msg) from err
 
 
-def _validated_points(
-    t_s: ArrayLike, points_scanner_m: ArrayLike
-) -> tuple[FloatArray, FloatArray]:
+def _validated_points(t_s: ArrayLike, points_scanner_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
     try:
         t = np.asarray(t_s, dtype=np.float64)
         xs = np.asarray(points_scanner_m, dtype=np.float64)
@@ -176,9 +174,7 @@ def _validated_points(
     return t, xs
 
 
-def _georeference(
-    t: FloatArray, xs: FloatArray, corrected: Trajectory, mount: Mount
-) -> FloatArray:
+def _georeference(t: FloatArray, xs: FloatArray, corrected: Trajectory, mount: Mount) -> FloatArray:
     """Kernel on validated input, attitude already on the scanner's time scale."""
     R_body_to_ned = corrected.interpolate(t).R_body_to_ned
     x_body = mount.lever_arm_body_m_array + xs @ mount.R_scanner_to_body.T
@@ -301,7 +297,8 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
                     f"{path}: line {table.line_of_row(k)}: point time t_s={float(t[k])!r} "
                     f"({int(np.count_nonzero(outside))} point(s) in all) lies outside the "
                     f"attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
-                    f"{attitude.t_end_s!r}] s, read at t + {tau!r} s for the latency); "
+                    f"{attitude.t_end_s!r}] s, read at the tag t + tau with latency "
+                    f"tau = {tau!r} s); "
                     "kinsync does not extrapolate: extend the log or trim the pass"
                 )
                 raise InputError(msg)

@@ -1,0 +1,224 @@
+"""Raw input of Method A: scanner points + attitude log + mount -> georeferenced passes."""
+
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.errors import InputError, OutsideSpanError
+from kinsync.frames import euler_rpy_to_matrix
+from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.io.passes import read_passes
+from kinsync.io.raw_passes import (
+    georeference_table_points,
+    raw_pass_name,
+    read_raw_attitude,
+    read_raw_passes,
+)
+from kinsync.latency.sphere import estimate_latency_sphere
+from kinsync.mount import Mount
+from kinsync.sim.rotating_table import (
+    RotatingTableConfig,
+    RotatingTableSimulation,
+    simulate_rotating_table,
+    write_simulation,
+)
+from kinsync.trajectory import Trajectory
+
+BORESIGHT_DEG = (0.2, -0.1, 3.0)
+
+
+@pytest.fixture(scope="module")
+def sim() -> RotatingTableSimulation:
+    cfg = RotatingTableConfig(
+        rates_deg_s=(10.0,), passes=2, seed=3, boresight_rpy_deg=BORESIGHT_DEG
+    )
+    return simulate_rotating_table(cfg)
+
+
+@pytest.fixture(scope="module")
+def sim_folder(sim: RotatingTableSimulation, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("raw_sim")
+    write_simulation(sim, folder, raw=True)
+    return folder
+
+
+@pytest.fixture
+def copy(sim_folder: Path, tmp_path: Path) -> Path:
+    """A private copy of the simulated folder, free to break."""
+    out = tmp_path / "copy"
+    shutil.copytree(sim_folder, out)
+    return out
+
+
+def test_raw_passes_reproduce_the_georeferenced_ones(sim_folder: Path) -> None:
+    geo = read_passes(sim_folder)
+    raw = read_raw_passes(sim_folder)
+    assert read_mount(sim_folder / "raw" / "mount.toml").latency_s == 0.0
+    assert len(raw) == len(geo) == 4
+    for g, r in zip(geo, raw, strict=True):
+        assert r.rate_deg_s == g.rate_deg_s
+        assert r.axis_ned == g.axis_ned
+        assert Path(r.source).parent.name == "raw"
+        assert Path(r.source).name == Path(g.source).name
+        assert r.t_s is not None
+        assert g.t_s is not None
+        np.testing.assert_array_equal(r.t_s, g.t_s)
+        np.testing.assert_allclose(r.points_ned_m, g.points_ned_m, rtol=0, atol=1e-9)
+
+
+def test_raw_pass_name_rule(sim: RotatingTableSimulation, tmp_path: Path) -> None:
+    assert raw_pass_name("pass_000.laz") == "pass_000.csv"
+    assert raw_pass_name("pass_012.csv") == "pass_012.csv"
+    assert raw_pass_name("sub/p.las") == "sub/p.csv"
+    write_simulation(sim, tmp_path, file_format="las", raw=True)
+    raw = read_raw_passes(tmp_path)
+    assert [Path(p.source).name for p in raw] == [f"pass_00{i}.csv" for i in range(4)]
+    for p, r in zip(sim.passes, raw, strict=True):
+        np.testing.assert_allclose(r.points_ned_m, p.points_ned_m, rtol=0, atol=1e-9)
+
+
+def test_latency_correction_removes_the_latency(
+    sim: RotatingTableSimulation, sim_folder: Path
+) -> None:
+    """The sign of SPEC section 1: correcting by +tau_true leaves no latency to find."""
+    tau = float(sim.truth["latency_s"])
+    as_logged = estimate_latency_sphere(read_passes(sim_folder), radius_m=0.1)
+    corrected = estimate_latency_sphere(read_raw_passes(sim_folder, latency_s=tau), radius_m=0.1)
+    assert as_logged.latency_s == pytest.approx(tau, abs=4.0 * as_logged.latency_std_s)
+    assert tau > 10.0 * as_logged.latency_std_s  # the test separates tau from 0
+    assert abs(corrected.latency_s) < 4.0 * corrected.latency_std_s
+
+
+def test_latency_defaults_to_the_mount(sim: RotatingTableSimulation, copy: Path) -> None:
+    tau = float(sim.truth["latency_s"])
+    write_mount(Mount(boresight_rpy_deg=BORESIGHT_DEG, latency_s=tau), copy / "raw" / "mount.toml")
+    from_mount = read_raw_passes(copy)
+    given = read_raw_passes(copy, latency_s=tau)
+    zero = read_raw_passes(copy, latency_s=0.0)
+    for a, b, c in zip(from_mount, given, zero, strict=True):
+        np.testing.assert_array_equal(a.points_ned_m, b.points_ned_m)
+        assert np.max(np.abs(a.points_ned_m - c.points_ned_m)) > 1e-4
+
+
+def test_kernel_matches_the_formula() -> None:
+    """x_n = R(yaw(t + tau)) (a + R_sb x_s) for a table turning about Down."""
+    rate = math.radians(20.0)
+    t_rec = np.linspace(0.0, 10.0, 1001)
+    zeros = np.zeros_like(t_rec)
+    att = Trajectory.from_euler(
+        t_rec,
+        zeros,
+        zeros,
+        rate * t_rec,
+        pos_ned_m=np.zeros((t_rec.size, 3)),
+        origin_lat_lon_h=(0.0, 0.0, 0.0),
+    )
+    mount = Mount(
+        lever_arm_body_m=(0.1, -0.2, 0.05), boresight_rpy_deg=(1.0, -2.0, 30.0), latency_s=0.004
+    )
+    rng = np.random.default_rng(0)
+    t = rng.uniform(1.0, 9.0, 50)
+    xs = rng.normal(0.0, 2.0, (50, 3))
+    out = georeference_table_points(t, xs, att, mount)
+    R_sb = euler_rpy_to_matrix(*np.radians(mount.boresight_rpy_deg))
+    for k in range(t.size):
+        R = euler_rpy_to_matrix(0.0, 0.0, rate * (t[k] + 0.004))
+        expected = R @ (np.array(mount.lever_arm_body_m) + R_sb @ xs[k])
+        np.testing.assert_allclose(out[k], expected, rtol=0, atol=1e-12)
+    with pytest.raises(OutsideSpanError, match="outside"):
+        georeference_table_points([9.999], xs[:1], att, mount)  # needs the tag 10.003
+    with pytest.raises(InputError, match="shape"):
+        georeference_table_points(t, xs[:-1], att, mount)
+    bad = xs.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(InputError, match="point 3"):
+        georeference_table_points(t, bad, att, mount)
+
+
+def test_read_raw_attitude(sim: RotatingTableSimulation, sim_folder: Path) -> None:
+    att = read_raw_attitude(sim_folder / "raw" / "attitude.csv")
+    np.testing.assert_array_equal(att.t_s, sim.attitude.t_s)
+    assert att.pos_ned_m is not None
+    assert not np.any(att.pos_ned_m)
+    R_a = att.interpolate(att.t_s).R_body_to_ned
+    R_b = sim.attitude.interpolate(att.t_s).R_body_to_ned
+    np.testing.assert_allclose(R_a, R_b, rtol=0, atol=1e-12)
+
+
+def test_outside_the_attitude_span_names_pass_and_time(copy: Path) -> None:
+    # +0.5 s: the last pass needs records 0.5 s after its end; the log stops 0.2 s after.
+    with pytest.raises(InputError, match=r"pass_003\.csv: line \d+: point time t_s=") as exc:
+        read_raw_passes(copy, latency_s=0.5)
+    assert "outside the attitude log" in str(exc.value)
+    assert "passes.csv: line 5" in str(exc.value)
+
+
+def _rewrite(path: Path, old: str, new: str, count: int = 1) -> None:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new, count), encoding="utf-8")
+
+
+def _replace_line(path: Path, line_no: int, new: str) -> None:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    lines[line_no - 1] = new
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _repeat_attitude_record(raw: Path) -> None:
+    lines = (raw / "attitude.csv").read_text(encoding="utf-8").splitlines()
+    _replace_line(raw / "attitude.csv", 4, lines[2])
+
+
+def _empty_pass(raw: Path) -> None:
+    (raw / "pass_001.csv").write_text("t_s,x_m,y_m,z_m\n", encoding="utf-8")
+
+
+BREAKERS: dict[str, Callable[[Path], None]] = {
+    "no raw folder": shutil.rmtree,
+    "no attitude": lambda raw: (raw / "attitude.csv").unlink(),
+    "no mount": lambda raw: (raw / "mount.toml").unlink(),
+    "bad mount": lambda raw: _rewrite(raw / "mount.toml", "latency_s = 0.0", "latency_s = 'soon'"),
+    "no raw pass": lambda raw: (raw / "pass_001.csv").unlink(),
+    "attitude column": lambda raw: _rewrite(raw / "attitude.csv", "pitch_deg", "pitch"),
+    "pass column": lambda raw: _rewrite(raw / "pass_002.csv", "t_s,", "time,"),
+    "non-numeric": lambda raw: _replace_line(raw / "pass_000.csv", 5, "1.0,abc,0.0,0.0"),
+    "non-finite": lambda raw: _replace_line(raw / "pass_000.csv", 7, "1.0,nan,0.0,0.0"),
+    "repeated tag": _repeat_attitude_record,
+    "empty pass": _empty_pass,
+    "no index": lambda raw: (raw.parent / "passes.csv").unlink(),
+}
+
+
+@pytest.mark.parametrize(
+    ("case", "fragment"),
+    [
+        ("no folder", r"missing: pass folder not found"),
+        ("no raw folder", r"raw: raw folder not found"),
+        ("no attitude", r"attitude\.csv: attitude log not found"),
+        ("no mount", r"mount\.toml: mount file not found"),
+        ("bad mount", r"mount\.toml: \[mount\] latency_s"),
+        ("no raw pass", r"passes\.csv: line 3: .*pass_001\.csv: raw pass file not found"),
+        ("attitude column", r"attitude\.csv: missing column\(s\) \['pitch_deg'\]"),
+        ("pass column", r"pass_002\.csv: missing column\(s\) \['t_s'\]"),
+        ("non-numeric", r"pass_000\.csv: line 5, column 'x_m': 'abc' is not a number"),
+        ("non-finite", r"pass_000\.csv: line 7, column 'x_m': not a finite number"),
+        ("repeated tag", r"attitude\.csv: line 4: repeated time"),
+        ("empty pass", r"pass_001\.csv: the raw pass holds no points"),
+        ("no index", r"passes\.csv: file not found"),
+    ],
+)
+def test_bad_input_names_the_file(copy: Path, case: str, fragment: str) -> None:
+    if case == "no folder":
+        folder = copy / "missing"
+    else:
+        BREAKERS[case](copy / "raw")
+        folder = copy
+    with pytest.raises(InputError, match=fragment):
+        read_raw_passes(folder)
