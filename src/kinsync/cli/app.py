@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, demo, inspect, latency, simulate
+from kinsync.cli import budget, clock, demo, inspect, latency, simulate
 
 app = typer.Typer(
     name="kinsync",
@@ -22,6 +22,7 @@ app.add_typer(inspect.mount_app, name="mount")
 app.add_typer(inspect.trajectory_app, name="trajectory")
 app.command(name="demo")(demo.demo)
 app.add_typer(simulate.app, name="simulate")
+app.add_typer(clock.app, name="clock")
 
 
 def _version(value: bool) -> None:

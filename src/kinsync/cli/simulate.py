@@ -12,8 +12,10 @@ from rich.table import Table
 
 from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
 from kinsync.io.passes import PassFileFormat
+from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
 from kinsync.sim.rotating_table import (
     RotatingTableConfig,
     RotatingTableSimulation,
@@ -123,5 +125,87 @@ def rotating_table(
     table.add_row("  FIFO delay (ms)", fmt(doc["fifo_delay_s"], 1e3, 6))
     for rate, n in doc["mean_sphere_points_per_pass_by_rate"].items():
         table.add_row(f"sphere points per pass at {rate} deg/s", f"{n:.0f}")
+    console.print(table)
+    console.print(f"truth: {out / 'truth.json'}")
+
+
+@app.command("clock")
+def clock(
+    out: Annotated[Path, typer.Option(help="Output folder (pps.csv, nmea.csv, truth.json).")],
+    offset_s: Annotated[
+        float, typer.Option(help="GPS minus local time at the first edge (s).")
+    ] = 0.37,
+    drift_ppm: Annotated[
+        float, typer.Option(help="Local clock rate error (ppm); > 0: it runs slow.")
+    ] = 25.0,
+    jitter_us: Annotated[float, typer.Option(help="PPS edge jitter, 1 sigma (us).")] = 1.0,
+    duration_s: Annotated[float, typer.Option(help="Log length (s).")] = 600.0,
+    missing: Annotated[int, typer.Option(help="PPS edges not detected.")] = 3,
+    spurious: Annotated[int, typer.Option(help="Spurious PPS edges added.")] = 2,
+    bad_zda: Annotated[int, typer.Option(help="ZDAs naming a wrong second.")] = 1,
+    bad_lines: Annotated[
+        int, typer.Option(help="GGA/RMC/HDT lines corrupted (bad checksum, truncated).")
+    ] = 2,
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).")] = 1,
+    baud: Annotated[float, typer.Option(help="NMEA serial line rate (bit/s), 8N1.")] = 115200.0,
+    zda_delay_ms: Annotated[
+        float, typer.Option(help="Edge to start of the ZDA transmission (ms).")
+    ] = 15.0,
+    convention: Annotated[
+        str, typer.Option(help="Which edge a ZDA names: preceding or following.")
+    ] = "preceding",
+    as_json: JsonOpt = False,
+) -> None:
+    """Simulate a PPS log and an NMEA log of a drifting acquisition clock."""
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out}: exists and is not a folder; give a folder to write the logs to"
+        raise InputError(msg)
+    config = ClockSimConfig(
+        offset_s=offset_s,
+        drift_ppm=drift_ppm,
+        jitter_us=jitter_us,
+        duration_s=duration_s,
+        missing=missing,
+        spurious=spurious,
+        bad_zda=bad_zda,
+        bad_lines=bad_lines,
+        seed=seed,
+        baud=baud,
+        zda_delay_ms=zda_delay_ms,
+        convention=parse_convention(convention),
+    )
+    sim = simulate_clock(config)
+    write_clock_simulation(sim, out)
+    truth = sim.truth
+    doc = {
+        "out": str(out),
+        "files": ["pps.csv", "nmea.csv", "truth.json"],
+        "seed": seed,
+        "convention": config.convention,
+        "offset_s": truth["offset_s"],
+        "drift_ppm": truth["drift_ppm"],
+        "reference_local_s": truth["reference_local_s"],
+        "reference_gps_s": truth["reference_gps_s"],
+        "n_pps_lines": len(sim.pps_t_local_s),
+        "n_nmea_lines": len(sim.nmea_sentences),
+        "n_missing": truth["n_missing"],
+        "n_spurious": truth["n_spurious"],
+        "n_wrong_zda": truth["n_wrong_zda"],
+        "n_bad_lines": truth["n_bad_lines"],
+        "n_rejected_messages": truth["n_rejected_messages"],
+    }
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title=f"PPS + NMEA clock simulation written to {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("PPS lines (pps.csv)", str(doc["n_pps_lines"]))
+    table.add_row("NMEA lines (nmea.csv)", str(doc["n_nmea_lines"]))
+    table.add_row("truth offset at first edge (s)", fmt(truth["offset_s"], 1.0, 9))
+    table.add_row("truth drift (ppm)", fmt(truth["drift_ppm"], 1.0, 9))
+    table.add_row("missing / spurious pulses", f"{truth['n_missing']} / {truth['n_spurious']}")
+    table.add_row("wrong ZDAs / bad lines", f"{truth['n_wrong_zda']} / {truth['n_bad_lines']}")
+    table.add_row("ZDA convention", config.convention)
     console.print(table)
     console.print(f"truth: {out / 'truth.json'}")

@@ -2,7 +2,8 @@
 
 Sections so far: the error budgets of SPEC section 3 (beach and rolling-table
 scenarios, serial FIFO delay, profile-clock period); Method A on a simulated
-rotating-table campaign (estimate, per-rate figure, residuals, planner); and, when the
+rotating-table campaign (estimate, per-rate figure, residuals, planner); the PPS + ZDA
+clock model on simulated logs with faults; and, when the
 CIDCO data sit in ``../shared``, sphere fits on real vessel passes. Later capabilities
 add their own sections.
 """
@@ -24,6 +25,7 @@ from kinsync.budget import (
 )
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
+from kinsync.report.demo_clock import clock_section
 from kinsync.report.demo_method_a import cidco_section, find_cidco_folder, method_a_section
 from kinsync.report.figures import beach_budget_figure, rolling_table_figure
 from kinsync.report.html import Figure, Section, Table, render_report
@@ -230,6 +232,9 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
         atomic_write_bytes(out_dir / f"budget_{i + 1}.png", fig.png)
 
     sections.append(method_a_section(out_dir, summary, progress))
+    if progress:
+        progress("clock model from simulated PPS + ZDA logs")
+    sections.append(clock_section(out_dir, summary))
     cidco = find_cidco_folder()
     if cidco is not None:
         if progress:

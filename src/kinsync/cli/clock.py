@@ -1,0 +1,186 @@
+"""``kinsync clock``: fit the local clock -> GPS time model from PPS + ZDA, apply it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.clock import (
+    CLOCK_FORMULA,
+    CONVENTIONS,
+    OUTSIDE_POLICIES,
+    Convention,
+    OutsidePolicy,
+    fit_clock_to_log,
+)
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_write_bytes
+from kinsync.io.clock_model import (
+    read_clock_model,
+    read_pps_csv,
+    read_time_column,
+    write_clock_model,
+    write_with_column,
+)
+from kinsync.io.nmea import read_nmea_log
+
+app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
+
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+
+
+def parse_convention(text: str) -> Convention:
+    """``preceding`` or ``following`` (case-insensitive), else `InputError`."""
+    key = text.strip().lower()
+    for c in CONVENTIONS:
+        if key == c:
+            return c
+    msg = f"--convention must be preceding or following, got {text!r}"
+    raise InputError(msg)
+
+
+def _parse_outside(text: str | None) -> OutsidePolicy | None:
+    if text is None:
+        return None
+    key = text.strip().lower()
+    for p in OUTSIDE_POLICIES:
+        if key == p:
+            return p
+    msg = f"--outside must be extrapolate, raise or nan, got {text!r}"
+    raise InputError(msg)
+
+
+@app.command("fit")
+def fit(
+    pps: Annotated[Path, typer.Option(help="PPS log: CSV with column t_local_s.")],
+    nmea: Annotated[Path, typer.Option(help="NMEA log: CSV t_local_s,sentence.")],
+    baud: Annotated[float, typer.Option(help="Serial line rate of the NMEA port (bit/s), 8N1.")] = (
+        115200.0
+    ),
+    convention: Annotated[
+        str,
+        typer.Option(
+            help="Which edge a ZDA names: 'preceding' (the last before it) or 'following'."
+        ),
+    ] = "preceding",
+    piecewise: Annotated[
+        bool,
+        typer.Option("--piecewise", help="Interpolate between consecutive good pulses too."),
+    ] = False,
+    model_out: Annotated[
+        Path | None, typer.Option(help="Write the model here (JSON, for kinsync clock apply).")
+    ] = None,
+    figure: Annotated[Path | None, typer.Option(help="Write a residual figure here (PNG).")] = (
+        None
+    ),
+    as_json: JsonOpt = False,
+) -> None:
+    """Fit offset and drift of the local clock from PPS edges and ZDA messages."""
+    conv = parse_convention(convention)
+    pulses = read_pps_csv(pps)
+    log = read_nmea_log(nmea)
+    result = fit_clock_to_log(pulses, log, baud=baud, convention=conv, piecewise=piecewise)
+    if model_out is not None:
+        write_clock_model(result.model, model_out, result)
+    if figure is not None:
+        from kinsync.report.demo_clock import clock_residual_figure  # noqa: PLC0415  (matplotlib)
+
+        atomic_write_bytes(figure, clock_residual_figure(result))
+    doc: dict[str, Any] = result.as_document()
+    doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in log.rejected]
+    doc["model_out"] = None if model_out is None else str(model_out)
+    doc["figure"] = None if figure is None else str(figure)
+    if as_json:
+        print_json(doc)
+        return
+    m = result.model
+    table = Table(title=f"Clock model from {pps} and {nmea}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("offset at reference (s)", f"{m.offset_s:.9f} ± {result.offset_std_s:.2e}")
+    table.add_row("drift (ppm)", f"{m.drift_ppm:.6f} ± {result.drift_std_ppm:.6f}")
+    table.add_row("reference_local_s (first good pulse)", repr(m.reference_local_s))
+    table.add_row("reference_gps_s", repr(m.reference_gps_s))
+    table.add_row("residual RMS (us)", fmt(result.residual_rms_s, 1e6, 4))
+    table.add_row("pulses used / read", f"{result.n_pulses} / {result.n_pulses_read}")
+    table.add_row("missing pulses", str(result.n_missing))
+    table.add_row("spurious pulses", str(result.n_spurious))
+    table.add_row("ZDAs paired / read", f"{result.n_zda_paired} / {result.n_zda}")
+    table.add_row("ZDAs naming a wrong second", str(result.n_wrong_zda))
+    table.add_row("ZDAs with no pulse", str(result.n_unpaired_zda))
+    table.add_row("rejected NMEA lines", str(result.n_bad_lines))
+    table.add_row("rejected messages (total)", str(result.n_rejected_messages))
+    table.add_row("ZDA transmission start after its edge (ms)", fmt(result.zda_delay_s, 1e3, 5))
+    table.add_row("model", "piecewise-linear between pulses" if m.piecewise else "linear")
+    console.print(table)
+    console.print(CLOCK_FORMULA)
+    for r in log.rejected[:5]:
+        console.print(f"rejected line {r.line}: {r.reason}")
+    if len(log.rejected) > 5:
+        console.print(f"... and {len(log.rejected) - 5} more rejected line(s) (see --json)")
+    if model_out is not None:
+        console.print(f"model: {model_out}")
+    if figure is not None:
+        console.print(f"figure: {figure}")
+
+
+@app.command("apply")
+def apply(
+    model: Annotated[Path, typer.Option(help="Clock model JSON (kinsync clock fit --model-out).")],
+    in_path: Annotated[Path, typer.Option("--in", help="CSV with a local-time column.")],
+    out: Annotated[Path, typer.Option(help="CSV to write: every input column plus t_gps_s.")],
+    column: Annotated[str, typer.Option(help="Local-time column (s).")] = "t_local_s",
+    out_column: Annotated[str, typer.Option(help="Name of the GPS-time column added.")] = (
+        "t_gps_s"
+    ),
+    outside: Annotated[
+        str | None,
+        typer.Option(
+            help="Times outside the fitted span: extrapolate, raise or nan (default: "
+            "extrapolate for a linear model, raise for a piecewise one)."
+        ),
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Add GPS time (s since 1980-01-06) to a CSV by applying a clock model to a column."""
+    policy = _parse_outside(outside)
+    clock = read_clock_model(model)
+    if in_path.resolve() == out.resolve():
+        msg = f"--out {out} is the input file; write to another file"
+        raise InputError(msg)
+    table, t_local = read_time_column(in_path, column)
+    if out_column.strip() in [h.strip() for h in table.header]:
+        msg = (
+            f"{in_path}: already has a column {out_column!r}; choose another name with --out-column"
+        )
+        raise InputError(msg)
+    t_gps = clock.apply(t_local, outside=policy)
+    inside = clock.inside_span(t_local)
+    write_with_column(out, table, out_column, t_gps)
+    n_outside = int(len(inside) - inside.sum())
+    used = policy or ("raise" if clock.piecewise else "extrapolate")
+    doc = {
+        "in": str(in_path),
+        "out": str(out),
+        "column": column,
+        "out_column": out_column,
+        "n_rows": len(table.rows),
+        "n_outside_span": n_outside,
+        "outside": used,
+        "span_local_s": list(clock.span_local_s),
+        "piecewise": clock.piecewise,
+    }
+    if as_json:
+        print_json(doc)
+        return
+    console.print(f"{out}: {len(table.rows)} rows, column {out_column} added (GPS seconds)")
+    if n_outside:
+        lo, hi = clock.span_local_s
+        what = "extrapolated with the linear model" if used == "extrapolate" else "set to nan"
+        err_console.print(
+            f"note: {n_outside} time(s) outside the fitted span [{lo!r}, {hi!r}] s were {what}"
+        )

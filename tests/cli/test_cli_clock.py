@@ -1,0 +1,274 @@
+"""``kinsync simulate clock``, ``kinsync clock fit`` and ``kinsync clock apply``."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.io.clock_model import read_clock_model
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from kinsync.cli import main  # noqa: PLC0415
+
+    folder = tmp_path_factory.mktemp("clock") / "logs"
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "clock", "--out", str(folder), "--seed", "1", "--json"])
+    assert exc.value.code == 0
+    return folder
+
+
+def fit_args(folder: Path, *extra: str) -> list[str]:
+    return [
+        "clock",
+        "fit",
+        "--pps",
+        str(folder / "pps.csv"),
+        "--nmea",
+        str(folder / "nmea.csv"),
+        *extra,
+    ]
+
+
+def assert_one_line_error(code: int, out: str, err: str, *fragments: str) -> None:
+    assert code == 2, err
+    assert out == ""
+    assert err.count("\n") == 1, err
+    assert err.startswith("kinsync: error: ")
+    for frag in fragments:
+        assert frag in err, err
+
+
+def test_simulate_json_and_files(run_cli: RunCli, tmp_path: Path) -> None:
+    out = tmp_path / "sim"
+    code, stdout, _ = run_cli(
+        [
+            *["simulate", "clock", "--out", str(out), "--duration-s", "60", "--json"],
+            *["--convention", "following", "--baud", "38400", "--zda-delay-ms", "20"],
+        ]
+    )
+    assert code == 0
+    doc = json.loads(stdout)
+    assert doc["files"] == ["pps.csv", "nmea.csv", "truth.json"]
+    assert doc["convention"] == "following"
+    assert (doc["n_missing"], doc["n_spurious"], doc["n_wrong_zda"]) == (3, 2, 1)
+    assert doc["n_pps_lines"] == 61 - 3 + 2
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["config"]["baud"] == 38400.0
+    assert truth["config"]["zda_delay_ms"] == 20.0
+
+
+def test_simulate_table(run_cli: RunCli, tmp_path: Path) -> None:
+    code, stdout, _ = run_cli(["simulate", "clock", "--out", str(tmp_path / "t")])
+    assert code == 0
+    assert "PPS + NMEA clock simulation" in stdout
+    assert "truth.json" in stdout
+
+
+def test_fit_json_matches_truth(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    model_path = tmp_path / "model.json"
+    fig = tmp_path / "res.png"
+    code, stdout, _ = run_cli(
+        fit_args(logs, "--json", "--model-out", str(model_path), "--figure", str(fig))
+    )
+    assert code == 0
+    doc = json.loads(stdout)
+    truth = json.loads((logs / "truth.json").read_text())
+    for key in (
+        "offset_s",
+        "drift_ppm",
+        "reference_local_s",
+        "reference_gps_s",
+        "residual_rms_s",
+        "n_pulses",
+        "n_missing",
+        "n_spurious",
+        "n_rejected_messages",
+    ):
+        assert key in doc
+    assert abs(doc["drift_ppm"] - 25.0) < 0.01
+    assert (doc["n_missing"], doc["n_spurious"], doc["n_wrong_zda"]) == (3, 2, 1)
+    assert doc["n_rejected_messages"] == truth["n_rejected_messages"]
+    assert len(doc["rejected_lines"]) == 2
+    assert doc["offset_s"] == doc["reference_gps_s"] - doc["reference_local_s"]
+    model = read_clock_model(model_path)
+    assert model.reference_gps_s == doc["reference_gps_s"]
+    assert model.drift_ppm == doc["drift_ppm"]
+    err = model.apply(truth["edges_t_local_s"]) - np.asarray(truth["edges_gps_s"])
+    assert np.max(np.abs(err)) < 2e-6
+    assert fig.read_bytes().startswith(b"\x89PNG")
+
+
+def test_fit_table(run_cli: RunCli, logs: Path) -> None:
+    code, stdout, _ = run_cli(fit_args(logs))
+    assert code == 0
+    assert "drift (ppm)" in stdout
+    assert "reference_gps_s" in stdout
+    assert "rejected line" in stdout
+    assert "t_gps_s = reference_gps_s" in stdout
+
+
+def test_wrong_convention_is_seen_in_the_zda_delay(run_cli: RunCli, logs: Path) -> None:
+    code, stdout, _ = run_cli(fit_args(logs, "--json", "--convention", "FOLLOWING"))
+    assert code == 0
+    doc = json.loads(stdout)
+    assert doc["convention"] == "following"
+    assert doc["zda_delay_s"] == pytest.approx(0.015 - 1.0, abs=1e-3)
+
+
+def write_data(path: Path) -> list[list[str]]:
+    rows = [
+        ["id", "t_local_s", "label", "x_m"],
+        ["1", "1479384100.25", "wall, north", "1.5"],
+        ["2", "1479384200.5", "", "-2"],
+        ["3", "1479384300.75", "ground", "1e-3"],
+    ]
+    with path.open("w", newline="") as fh:
+        csv.writer(fh).writerows(rows)
+    return rows
+
+
+def test_apply_keeps_every_column_and_row(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    model_path = tmp_path / "model.json"
+    assert run_cli(fit_args(logs, "--json", "--model-out", str(model_path)))[0] == 0
+    data = tmp_path / "data.csv"
+    rows = write_data(data)
+    out = tmp_path / "data_gps.csv"
+    code, stdout, _ = run_cli(
+        [
+            *["clock", "apply", "--model", str(model_path), "--in", str(data)],
+            *["--column", "t_local_s", "--out", str(out), "--json"],
+        ]
+    )
+    assert code == 0
+    doc = json.loads(stdout)
+    assert (doc["n_rows"], doc["n_outside_span"], doc["outside"]) == (3, 0, "extrapolate")
+    with out.open(newline="") as fh:
+        back = list(csv.reader(fh))
+    assert back[0] == [*rows[0], "t_gps_s"]
+    assert [r[:-1] for r in back[1:]] == rows[1:]
+    model = read_clock_model(model_path)
+    t_gps = np.array([float(r[-1]) for r in back[1:]])
+    np.testing.assert_array_equal(t_gps, model.apply([float(r[1]) for r in rows[1:]]))
+    assert not list(tmp_path.glob("*.part"))
+
+
+def test_apply_outside_span(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    linear = tmp_path / "linear.json"
+    piecewise = tmp_path / "piecewise.json"
+    assert run_cli(fit_args(logs, "--json", "--model-out", str(linear)))[0] == 0
+    assert run_cli(fit_args(logs, "--json", "--piecewise", "--model-out", str(piecewise)))[0] == 0
+    data = tmp_path / "late.csv"
+    data.write_text("t_local_s\n1479384100.0\n1479390000.0\n")
+    out = tmp_path / "o.csv"
+    base = ["clock", "apply", "--in", str(data), "--out", str(out)]
+    code, stdout, err = run_cli([*base, "--model", str(linear)])
+    assert code == 0
+    assert "outside the fitted span" in err
+    assert "2 rows" in stdout
+    code, out_text, err = run_cli([*base, "--model", str(piecewise)])
+    assert_one_line_error(code, out_text, err, "outside", "piecewise")
+    assert not out.exists() or "nan" not in out.read_text()
+    code, stdout, _ = run_cli([*base, "--model", str(piecewise), "--outside", "nan", "--json"])
+    assert code == 0
+    assert json.loads(stdout)["n_outside_span"] == 1
+    assert out.read_text().splitlines()[2].endswith(",nan")
+
+
+def test_apply_custom_out_column(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    model_path = tmp_path / "model.json"
+    assert run_cli(fit_args(logs, "--json", "--model-out", str(model_path)))[0] == 0
+    data = tmp_path / "d.csv"
+    data.write_text("stamp,t_gps_s\n1479384100.0,0\n")
+    out = tmp_path / "o.csv"
+    code, _, _ = run_cli(
+        [
+            *["clock", "apply", "--model", str(model_path), "--in", str(data), "--out", str(out)],
+            *["--column", "stamp", "--out-column", "t_gps_new_s"],
+        ]
+    )
+    assert code == 0
+    assert out.read_text().splitlines()[0] == "stamp,t_gps_s,t_gps_new_s"
+
+
+def test_fit_bad_input(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad"
+    shutil.copytree(logs, bad)
+    pps, nmea = bad / "pps.csv", bad / "nmea.csv"
+
+    def fit(*extra: str) -> tuple[int, str, str]:
+        return run_cli(fit_args(bad, *extra))
+
+    assert_one_line_error(*fit("--convention", "nearest"), "--convention")
+    assert_one_line_error(*fit("--baud", "0"), "baud")
+    pps.write_text("time_s\n1.0\n")
+    assert_one_line_error(*fit(), "pps.csv", "t_local_s")
+    pps.write_text("t_local_s\n")
+    assert_one_line_error(*fit(), "pps.csv", "no pulses")
+    pps.write_text("t_local_s\n1.0\nabc\n")
+    assert_one_line_error(*fit(), "pps.csv", "line 3")
+    pps.write_text("t_local_s\n1.0\n3.0\n2.0\n")
+    assert_one_line_error(*fit(), "pps.csv", "line 4", "increasing")
+    pps.unlink()
+    assert_one_line_error(*fit(), "pps.csv", "not found")
+    shutil.copy(logs / "pps.csv", pps)
+    nmea.write_text("")
+    assert_one_line_error(*fit(), "nmea.csv")
+    nmea.write_text("t_local_s,sentence\n")
+    assert_one_line_error(*fit(), "nmea.csv")
+    lines = (logs / "nmea.csv").read_text().splitlines()
+    nmea.write_text("\n".join([lines[0], *(x for x in lines[1:] if "ZDA" not in x)]) + "\n")
+    assert_one_line_error(*fit(), "nmea.csv", "no valid ZDA")
+    nmea.unlink()
+    assert_one_line_error(*fit(), "nmea.csv", "not found")
+
+
+def test_apply_bad_input(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+    model_path = tmp_path / "model.json"
+    assert run_cli(fit_args(logs, "--json", "--model-out", str(model_path)))[0] == 0
+    data = tmp_path / "data.csv"
+    write_data(data)
+    out = tmp_path / "out.csv"
+
+    def apply(*extra: str, model: Path = model_path, src: Path = data) -> tuple[int, str, str]:
+        return run_cli(
+            ["clock", "apply", "--model", str(model), "--in", str(src), "--out", str(out), *extra]
+        )
+
+    assert_one_line_error(*apply("--column", "time"), "column 'time' is not in the header")
+    assert_one_line_error(*apply("--column", "label"), "line 2", "not a finite number")
+    assert_one_line_error(*apply("--outside", "clip"), "--outside")
+    assert_one_line_error(*apply(src=tmp_path / "none.csv"), "none.csv", "not found")
+    assert_one_line_error(*apply(model=tmp_path / "none.json"), "none.json", "not found")
+    bad_model = tmp_path / "bad.json"
+    bad_model.write_text('{"reference_local_s": 1.0}')
+    assert_one_line_error(*apply(model=bad_model), "bad.json", "reference_gps_s")
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    assert_one_line_error(*apply(src=empty), "empty file")
+    header_only = tmp_path / "header.csv"
+    header_only.write_text("t_local_s,x\n")
+    assert_one_line_error(*apply(src=header_only), "no data rows")
+    ragged = tmp_path / "ragged.csv"
+    ragged.write_text("t_local_s,x\n1.0,2\n3.0\n")
+    assert_one_line_error(*apply(src=ragged), "line 3", "fields")
+    nan = tmp_path / "nan.csv"
+    nan.write_text("t_local_s\n1.0\nnan\n")
+    assert_one_line_error(*apply(src=nan), "line 3", "not a finite number")
+    has_col = tmp_path / "has.csv"
+    has_col.write_text("t_local_s,t_gps_s\n1.0,2.0\n")
+    assert_one_line_error(*apply(src=has_col), "already has a column 't_gps_s'")
+    code, o, e = run_cli(
+        ["clock", "apply", "--model", str(model_path), "--in", str(data), "--out", str(data)]
+    )
+    assert_one_line_error(code, o, e, "input file")
+    assert not out.exists()

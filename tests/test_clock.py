@@ -1,0 +1,450 @@
+"""Clock model from PPS + ZDA: leap seconds, robust fit, uncertainty, piecewise, model files."""
+
+from __future__ import annotations
+
+import calendar
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kinsync.budget import serial_transmission_time_s
+from kinsync.clock import (
+    ClockFit,
+    ClockModel,
+    Convention,
+    clock_model_from_document,
+    fit_clock,
+    fit_clock_to_log,
+    gps_minus_utc_s,
+    gps_to_utc_posix_s,
+    message_transmission_time_s,
+    utc_fields_to_gps_s,
+    utc_to_gps_s,
+)
+from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
+from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
+from kinsync.io.nmea import NmeaLog, format_sentence, read_nmea_log
+from kinsync.report.demo_clock import clock_section
+from kinsync.sim.clock import (
+    ClockSimConfig,
+    ClockSimulation,
+    simulate_clock,
+    write_clock_simulation,
+)
+
+
+def posix(y: int, mo: int, d: int, h: int = 0, mi: int = 0, s: int = 0) -> float:
+    return float(calendar.timegm((y, mo, d, h, mi, s, 0, 0, 0)))
+
+
+# --------------------------------------------------------------------------- leap seconds
+
+
+@pytest.mark.parametrize(
+    ("when", "leap"),
+    [
+        ((1980, 1, 6), 0),
+        ((1981, 6, 30, 23, 59, 59), 0),
+        ((1981, 7, 1), 1),
+        ((1999, 1, 1), 13),
+        ((2005, 12, 31, 23, 59, 59), 13),
+        ((2006, 1, 1), 14),
+        ((2016, 12, 31, 23, 59, 59), 17),
+        ((2017, 1, 1), 18),
+        ((2026, 11, 22, 12), 18),
+    ],
+)
+def test_leap_second_table(when: tuple[int, ...], leap: int) -> None:
+    assert gps_minus_utc_s(posix(*when)) == leap
+
+
+def test_utc_to_gps_known_values() -> None:
+    assert float(utc_to_gps_s(posix(1980, 1, 6))) == 0.0
+    # GPS time of 2017-01-01T00:00:00 UTC, as published (e.g. by the IGS/USNO tools).
+    assert float(utc_to_gps_s(posix(2017, 1, 1))) == 1167264018.0
+    arr = utc_to_gps_s(np.array([[posix(2000, 1, 1)], [posix(2026, 1, 1, 0, 0, 0)]]))
+    assert arr.shape == (2, 1)
+    assert arr[1, 0] - posix(2026, 1, 1) == pytest.approx(-315964800 + 18)
+    for g in (0.0, 1167264016.0, 1167264018.5, 1479384018.0):
+        assert float(utc_to_gps_s(gps_to_utc_posix_s(g))) == g
+    # 2016-12-31T23:59:60 has no POSIX time: the next 00:00:00 is given.
+    assert gps_to_utc_posix_s(1167264017.5) == posix(2017, 1, 1)
+
+
+def test_inserted_leap_second_has_its_own_gps_second() -> None:
+    before = utc_fields_to_gps_s(2016, 12, 31, 86399.0)
+    leap = utc_fields_to_gps_s(2016, 12, 31, 86400.0)
+    after = utc_fields_to_gps_s(2017, 1, 1, 0.0)
+    assert (leap - before, after - leap) == (1.0, 1.0)
+    with pytest.raises(InputError, match="no leap second"):
+        utc_fields_to_gps_s(2016, 12, 30, 86400.0)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: utc_to_gps_s(posix(1979, 12, 31)),
+        lambda: utc_to_gps_s(posix(1980, 1, 5, 23, 59, 59)),
+        lambda: gps_minus_utc_s(posix(1975, 6, 1)),
+        lambda: utc_fields_to_gps_s(1979, 12, 31, 0.0),
+        lambda: utc_fields_to_gps_s(2020, 2, 30, 0.0),
+        lambda: utc_fields_to_gps_s(2020, 2, 3, -1.0),
+        lambda: utc_to_gps_s([posix(2020, 1, 1), float("nan")]),
+    ],
+)
+def test_bad_utc_is_refused(call: object) -> None:
+    with pytest.raises(InputError):
+        call()  # type: ignore[operator]
+
+
+def test_message_transmission_time_reuses_the_serial_budget() -> None:
+    zda = format_sentence("GPZDA,120000.00,22,11,2026,00,00")
+    assert len(zda) == 36
+    assert message_transmission_time_s(zda, 115200.0) == serial_transmission_time_s(38, 115200.0)
+    assert message_transmission_time_s(zda, 9600.0, parity="even") == pytest.approx(38 * 11 / 9600)
+
+
+# --------------------------------------------------------------------------- the issue's case
+
+
+@dataclass(frozen=True)
+class Case:
+    sim: ClockSimulation
+    log: NmeaLog
+    fit: ClockFit
+
+
+@pytest.fixture(scope="module", params=["preceding", "following"])
+def case(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Case:
+    convention: Convention = request.param
+    sim = simulate_clock(ClockSimConfig(convention=convention))
+    folder = tmp_path_factory.mktemp(f"clock-{convention}")
+    write_clock_simulation(sim, folder)
+    log = read_nmea_log(folder / "nmea.csv")
+    fit = fit_clock_to_log(read_pps_csv(folder / "pps.csv"), log, convention=convention)
+    return Case(sim, log, fit)
+
+
+def test_issue_scenario_drift_and_mapped_times(case: Case) -> None:
+    truth, fit = case.sim.truth, case.fit
+    drift_err = fit.model.drift_ppm - truth["drift_ppm"]
+    assert abs(drift_err) < 0.01
+    assert abs(drift_err) < 4.0 * fit.drift_std_ppm
+    edges_local = np.asarray(truth["edges_t_local_s"])
+    mapped_err = fit.model.apply(edges_local) - np.asarray(truth["edges_gps_s"])
+    assert len(mapped_err) == 601
+    assert np.max(np.abs(mapped_err)) < 2e-6
+    # Offset at the fitted reference against the true clock there, within its sigma
+    # (plus the float64 resolution of a GPS time, 2.4e-7 s).
+    true_offset = float(case.sim.true_gps_s(fit.model.reference_local_s)) - (
+        fit.model.reference_local_s
+    )
+    assert abs(fit.model.offset_s - true_offset) < 4.0 * fit.offset_std_s + 2.4e-7
+    assert fit.model.reference_local_s == fit.t_local_s[0]
+    assert fit.model.offset_s == fit.model.reference_gps_s - fit.model.reference_local_s
+    assert 0.5e-6 < fit.residual_rms_s < 1.5e-6
+
+
+def test_issue_scenario_faults_counted_exactly(case: Case) -> None:
+    truth, fit = case.sim.truth, case.fit
+    assert (fit.n_missing, fit.n_spurious, fit.n_wrong_zda) == (3, 2, 1)
+    assert fit.missing_gps_s.tolist() == truth["missing_gps_s"]
+    np.testing.assert_allclose(fit.spurious_t_local_s, truth["spurious_t_local_s"], atol=1e-6)
+    assert fit.wrong_zda_t_local_s.tolist() == [w["t_local_s"] for w in truth["wrong_zda"]]
+    assert fit.n_bad_lines == len(case.log.rejected) == 2
+    assert fit.n_unpaired_zda == 3
+    assert fit.n_rejected_messages == truth["n_rejected_messages"] == 2 + 1 + 3
+    assert fit.n_pulses == truth["n_pulses"] == 598
+    assert fit.n_pulses_read == fit.n_pulses + fit.n_spurious
+    assert fit.n_zda == 601
+    assert fit.n_zda_paired == 597
+
+
+def test_zda_delay_reports_the_convention(case: Case) -> None:
+    expected = 0.015 if case.fit.convention == "preceding" else 0.015 - 1.0
+    assert case.fit.zda_delay_s == pytest.approx(expected, abs=2e-4)
+
+
+def test_document_holds_the_model_in_full(case: Case) -> None:
+    doc = json.loads(json.dumps(case.fit.as_document()))
+    m = case.fit.model
+    assert doc["reference_gps_s"] == m.reference_gps_s
+    assert doc["reference_local_s"] == m.reference_local_s
+    assert doc["drift_ppm"] == m.drift_ppm
+    for key in ("offset_s", "residual_rms_s", "n_pulses", "n_missing", "n_spurious"):
+        assert key in doc
+    assert doc["n_rejected_messages"] == 6
+
+
+# --------------------------------------------------------------------------- uncertainty
+
+
+def test_monte_carlo_sigma_matches_spread() -> None:
+    drift_err, drift_sig, offset_err, offset_sig = [], [], [], []
+    for seed in range(200):
+        sim = simulate_clock(
+            ClockSimConfig(duration_s=60.0, missing=1, spurious=1, bad_zda=1, seed=seed)
+        )
+        fit = fit_clock(sim.pps_t_local_s, sim.zda_t_local_s, sim.zda_gps_s, sim.zda_n_bytes)
+        assert (fit.n_missing, fit.n_spurious, fit.n_wrong_zda) == (1, 1, 1)
+        drift_err.append(fit.model.drift_ppm - 25.0)
+        drift_sig.append(fit.drift_std_ppm)
+        t_ref = sim.truth["reference_local_s"]
+        offset_err.append(float(fit.model.apply(t_ref)) - sim.truth["reference_gps_s"])
+        offset_sig.append(float(fit.mapped_std_s(t_ref)))
+    ratio_drift = np.std(drift_err) / np.sqrt(np.mean(np.square(drift_sig)))
+    ratio_offset = np.std(offset_err) / np.sqrt(np.mean(np.square(offset_sig)))
+    assert 0.8 < ratio_drift < 1.2
+    assert 0.8 < ratio_offset < 1.2
+    assert abs(np.mean(drift_err)) < 4.0 * np.std(drift_err) / np.sqrt(200)
+
+
+# --------------------------------------------------------------------------- robustness
+
+
+def arrays(
+    n: int = 120,
+    drift_ppm: float = 25.0,
+    jitter_s: float = 1e-6,
+    local0: float = 1000.0,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """Noise-free-ZDA arrays: pulses at whole GPS seconds, ZDA 20 ms after its edge."""
+    rng = np.random.default_rng(seed)
+    g0 = 1_400_000_000.0
+    gps = g0 + np.arange(n)
+    local = local0 + (gps - g0) / (1 + drift_ppm * 1e-6)
+    pps = local + rng.normal(0.0, jitter_s, n)
+    n_bytes = np.full(n, 39)
+    tx = 39 * 10 / 115200.0
+    zda_t = local0 + (gps + 0.020 + tx - g0) / (1 + drift_ppm * 1e-6)
+    return pps, zda_t, gps.copy(), n_bytes, g0
+
+
+def test_spurious_pulse_before_the_zda_does_not_steal_its_second() -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    # A glitch 5 ms after edge 40: the last pulse before that ZDA's transmission.
+    glitch = pps[40] + 0.005
+    pps2 = np.sort(np.append(pps, glitch))
+    fit = fit_clock(pps2, zda_t, gps, n_bytes)
+    assert fit.n_spurious == 1
+    assert fit.spurious_t_local_s[0] == glitch
+    assert (fit.n_wrong_zda, fit.n_unpaired_zda, fit.n_missing) == (0, 0, 0)
+    assert abs(fit.model.drift_ppm - 25.0) < 0.01
+
+
+def test_long_log_large_negative_drift_many_faults() -> None:
+    pps, zda_t, gps, n_bytes, g0 = arrays(n=7200, drift_ppm=-180.0, local0=5e8, seed=3)
+    rng = np.random.default_rng(9)
+    missing = rng.choice(np.arange(1, 7199), size=40, replace=False)
+    keep = np.ones(len(pps), dtype=bool)
+    keep[missing] = False
+    spurious = rng.uniform(pps[0], pps[-1], 60)
+    wrong = rng.choice(np.flatnonzero(keep), size=25, replace=False)
+    gps_named = gps.copy()
+    gps_named[wrong] += rng.choice([-2.0, -1.0, 1.0, 3.0], size=25)
+    fit = fit_clock(np.sort(np.r_[pps[keep], spurious]), zda_t, gps_named, n_bytes, n_bad_lines=4)
+    assert fit.n_missing == 40
+    assert sorted(fit.missing_gps_s.tolist()) == sorted((g0 + missing).tolist())
+    assert fit.n_spurious == 60
+    assert fit.n_wrong_zda == 25
+    assert fit.n_rejected_messages == 4 + 25 + 40
+    assert abs(fit.model.drift_ppm + 180.0) < 1e-4
+
+
+def test_no_faults_and_zero_jitter() -> None:
+    pps, zda_t, gps, n_bytes, g0 = arrays(jitter_s=0.0)
+    fit = fit_clock(pps, zda_t, gps, n_bytes)
+    assert (fit.n_missing, fit.n_spurious, fit.n_rejected_messages) == (0, 0, 0)
+    assert fit.model.reference_gps_s == pytest.approx(g0, abs=1e-9)
+    assert fit.model.drift_ppm == pytest.approx(25.0, abs=1e-6)
+
+
+def test_zdas_outside_the_pulse_span_are_unpaired() -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    fit = fit_clock(pps[10:], zda_t, gps, n_bytes)
+    assert fit.n_unpaired_zda == 10
+    assert fit.n_wrong_zda == 0
+    assert fit.unpaired_zda_t_local_s.tolist() == zda_t[:10].tolist()
+
+
+def test_transmission_time_decides_the_named_edge_at_low_baud() -> None:
+    # At 1200 baud a 39-byte ZDA takes 325 ms. Sent 980 ms after the edge it names, it
+    # arrives 305 ms after the next edge: only its transmission time says which edge.
+    pps, _, gps, n_bytes, g0 = arrays(drift_ppm=0.0, jitter_s=0.0)
+    tx = 39 * 10 / 1200.0
+    zda_t = 1000.0 + (gps + 0.98 + tx - g0)
+    fit = fit_clock(pps, zda_t, gps, n_bytes, baud=1200.0)
+    assert fit.n_wrong_zda == 0
+    assert fit.model.reference_gps_s == pytest.approx(g0, abs=1e-9)
+    assert fit.zda_delay_s == pytest.approx(0.98, abs=1e-6)
+    ignored = fit_clock(pps, zda_t, gps, n_bytes, baud=1e12)
+    assert ignored.model.reference_gps_s == pytest.approx(g0 - 1.0, abs=1e-9)
+
+
+def test_following_convention_shifts_the_named_edge() -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    following = fit_clock(pps, zda_t, gps + 1.0, n_bytes, convention="following")
+    preceding = fit_clock(pps, zda_t, gps, n_bytes)
+    assert following.model.reference_gps_s == preceding.model.reference_gps_s
+    assert following.n_unpaired_zda == 1  # the ZDA after the last edge names a later one
+
+
+@pytest.mark.parametrize(
+    ("mutate", "error", "match"),
+    [
+        (lambda a: (a[0][:2], *a[1:]), InputError, "at least 3"),
+        (lambda a: (a[0][::-1], *a[1:]), InputError, "strictly increasing"),
+        (lambda a: (a[0], a[1][:0], a[2][:0], a[3][:0]), InputError, "no ZDA"),
+        (lambda a: (a[0], a[1], a[2][:-1], a[3]), InputError, "one length"),
+        (lambda a: (a[0] * 0.37, *a[1:]), InputError, "whole number of seconds"),
+        (lambda a: (a[0], a[1], a[2] + np.arange(len(a[2])) % 3, a[3]), InputError, "agree"),
+        (lambda a: (np.r_[a[0][:2], a[0][2] + 0.5], *a[1:]), ObservabilityError, "grid"),
+    ],
+)
+def test_bad_fit_input(mutate: object, error: type[Exception], match: str) -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    args = mutate((pps, zda_t, gps, n_bytes))  # type: ignore[operator]
+    with pytest.raises(error, match=match):
+        fit_clock(*args)
+
+
+def test_bad_fit_options() -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    with pytest.raises(InputError, match="convention"):
+        fit_clock(pps, zda_t, gps, n_bytes, convention="nearest")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="baud"):
+        fit_clock(pps, zda_t, gps, n_bytes, baud=0.0)
+
+
+def test_zda_before_the_gps_epoch_names_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "nmea.csv"
+    zda = format_sentence("GPZDA,120000.00,22,11,1979,00,00")
+    path.write_text(f't_local_s,sentence\n1.0,"{format_sentence("HEHDT,1.0,T")}"\n2.0,"{zda}"\n')
+    pps, *_ = arrays()
+    with pytest.raises(InputError, match=r"nmea\.csv: line 3: .*before the GPS epoch"):
+        fit_clock_to_log(pps, read_nmea_log(path))
+
+
+def test_log_without_zda_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "nmea.csv"
+    path.write_text('t_local_s,sentence\n1.0,"' + format_sentence("HEHDT,12.5,T") + '"\n')
+    pps, *_ = arrays()
+    with pytest.raises(InputError, match=r"nmea\.csv: no valid ZDA"):
+        fit_clock_to_log(pps, read_nmea_log(path))
+
+
+# --------------------------------------------------------------------------- model, apply
+
+
+def test_linear_apply_outside_span_is_allowed_and_reported(case: Case) -> None:
+    m = case.fit.model
+    lo, hi = m.span_local_s
+    t = np.array([lo - 10.0, lo, hi, hi + 10.0])
+    assert m.inside_span(t).tolist() == [False, True, True, False]
+    out = m.apply(t)
+    expected = m.reference_gps_s + (t - m.reference_local_s) * (1 + m.drift_ppm * 1e-6)
+    np.testing.assert_array_equal(out, expected)
+    with pytest.raises(OutsideSpanError, match="outside"):
+        m.apply(t, outside="raise")
+    assert np.isnan(m.apply(t, outside="nan")).tolist() == [True, False, False, True]
+    assert m.apply(5.0).shape == ()
+    with pytest.raises(InputError, match="finite"):
+        m.apply([1.0, np.inf])
+
+
+def test_piecewise_passes_exactly_through_the_good_pulses() -> None:
+    sim = simulate_clock(ClockSimConfig(duration_s=120.0, seed=5))
+    fit = fit_clock(
+        sim.pps_t_local_s, sim.zda_t_local_s, sim.zda_gps_s, sim.zda_n_bytes, piecewise=True
+    )
+    m = fit.model
+    assert m.piecewise
+    np.testing.assert_array_equal(m.apply(fit.t_local_s), fit.t_gps_s)
+    assert np.all(fit.t_gps_s == np.rint(fit.t_gps_s))
+    # Between pulses: within the jitter of the truth.
+    mid = 0.5 * (fit.t_local_s[1:] + fit.t_local_s[:-1])
+    assert np.max(np.abs(m.apply(mid) - sim.true_gps_s(mid))) < 5e-6
+    lo, hi = m.span_local_s
+    with pytest.raises(OutsideSpanError, match="piecewise"):
+        m.apply([lo - 1.0])
+    assert np.isnan(m.apply([hi + 1.0], outside="nan")[0])
+    assert m.apply([hi + 1.0], outside="extrapolate")[0] == m.linear().apply([hi + 1.0])[0]
+
+
+def test_model_file_round_trip(tmp_path: Path, case: Case) -> None:
+    sim = case.sim
+    for piecewise in (False, True):
+        fit = fit_clock(
+            sim.pps_t_local_s,
+            sim.zda_t_local_s,
+            sim.zda_gps_s,
+            sim.zda_n_bytes,
+            convention=case.fit.convention,
+            piecewise=piecewise,
+        )
+        path = tmp_path / f"model-{piecewise}.json"
+        write_clock_model(fit.model, path, fit)
+        back = read_clock_model(path)
+        m = fit.model
+        assert back.reference_gps_s == m.reference_gps_s
+        assert back.reference_local_s == m.reference_local_s
+        assert back.drift_ppm == m.drift_ppm
+        assert back.span_local_s == m.span_local_s
+        assert back.piecewise == piecewise
+        t = np.linspace(*m.span_local_s, 1001)
+        np.testing.assert_array_equal(back.apply(t), m.apply(t))
+        doc = json.loads(path.read_text())
+        assert doc["fit"]["n_missing"] == 3
+        assert repr(doc["reference_gps_s"]) == repr(m.reference_gps_s)
+
+
+def test_model_document_errors(tmp_path: Path) -> None:
+    good = ClockModel(
+        reference_local_s=10.0, reference_gps_s=1.4e9, drift_ppm=3.0, span_local_s=(10.0, 20.0)
+    ).as_document()
+    assert clock_model_from_document(good).offset_s == 1.4e9 - 10.0
+    changes: list[tuple[dict[str, Any], str]] = [
+        ({"reference_gps_s": None}, "reference_gps_s"),
+        ({"drift_ppm": "25"}, "drift_ppm"),
+        ({"offset_s": 0.5}, "disagrees"),
+        ({"span_local_s": [1.0]}, "two times"),
+        ({"span_local_s": [2.0, 1.0]}, "before"),
+        ({"piecewise": {"knots_local_s": [10.0, 20.0], "knots_gps_s": [5.0]}}, "one length"),
+        ({"piecewise": {"knots_local_s": [10.0, 15.0], "knots_gps_s": [5.0, 6.0]}}, "span"),
+    ]
+    for change, match in changes:
+        doc = {**good, **change}
+        with pytest.raises(InputError, match=match):
+            clock_model_from_document(doc, source="m.json")
+    doc = dict(good)
+    del doc["reference_local_s"]
+    with pytest.raises(InputError, match="missing key 'reference_local_s'"):
+        clock_model_from_document(doc)
+    with pytest.raises(InputError, match="JSON object"):
+        clock_model_from_document([1, 2])
+    bad = tmp_path / "bad.json"
+    bad.write_text("{\n  'x': 1\n}")
+    with pytest.raises(InputError, match=r"bad\.json: line 2"):
+        read_clock_model(bad)
+    with pytest.raises(InputError, match="not found"):
+        read_clock_model(tmp_path / "none.json")
+
+
+def test_demo_clock_section(tmp_path: Path) -> None:
+    summary: list[tuple[str, str, str]] = []
+    section = clock_section(tmp_path, summary)
+    assert "PPS + ZDA" in section.title
+    assert section.figures[0].png.startswith(b"\x89PNG")
+    assert (tmp_path / "clock_1.png").exists()
+    assert (tmp_path / "clock" / "model.json").exists()
+    doc = json.loads((tmp_path / "clock.json").read_text())
+    assert doc["max_mapped_error_s"] < 2e-6
+    assert abs(doc["drift_error_ppm"]) < 0.01
+    faults = section.tables[1].rows
+    assert all(row[1] == row[2] for row in faults)
+    assert summary[0][0] == "clock model (PPS + ZDA)"
