@@ -448,3 +448,21 @@ def test_demo_clock_section(tmp_path: Path) -> None:
     faults = section.tables[1].rows
     assert all(row[1] == row[2] for row in faults)
     assert summary[0][0] == "clock model (PPS + ZDA)"
+
+
+def test_unsupported_sentence_types_are_not_counted_as_rejected_messages(tmp_path: Path) -> None:
+    cfg = ClockSimConfig(duration_s=60.0, missing=0, spurious=0, bad_zda=0, seed=4)
+    folder = tmp_path / "clk"
+    write_clock_simulation(simulate_clock(cfg), folder)
+    nmea = folder / "nmea.csv"
+    gsv = format_sentence("GPGSV,3,1,11,03,03,111,00,04,15,270,00,06,01,010,00,13,06,292,00")
+    with nmea.open("a") as fh:
+        fh.write(f'100.0,"{gsv}"\n')
+        fh.write('100.5,"$GPHDT,274.07,T*99"\n')  # bad checksum: corrupt
+    log = read_nmea_log(nmea)
+    assert len(log.rejected) >= 2
+    fit = fit_clock_to_log(read_pps_csv(folder / "pps.csv"), log)
+    reasons = [r.reason for r in log.rejected]
+    n_corrupt = sum(1 for r in reasons if not r.startswith("unsupported sentence type"))
+    assert fit.n_bad_lines == n_corrupt
+    assert any(r.startswith("unsupported sentence type") for r in reasons)

@@ -667,8 +667,9 @@ class ClockFit:
     unpaired_zda_t_local_s : ndarray, shape (n_unpaired_zda,)
         Arrival times of ZDAs whose named second has no good pulse.
     n_bad_lines : int
-        Lines of the NMEA log its reader rejected (bad checksum, truncated, bad
-        field, unsupported sentence type, ...).
+        Corrupt lines of the NMEA log (bad checksum, truncated, bad field, bad time,
+        ...). Well-formed sentences of types kinsync does not read (GSV, ...) are not
+        messages lost, so they are not counted.
     zda_delay_s : float
         Median time from the named edge to the start of a paired ZDA's transmission
         (s): about the receiver's output delay for ``"preceding"``, negative (the delay
@@ -1129,11 +1130,14 @@ def fit_clock_to_log(
         baud=baud,
         convention=convention,
         piecewise=piecewise,
-        n_bad_lines=len(log.rejected),
+        n_bad_lines=sum(1 for r in log.rejected if not r.reason.startswith(_UNSUPPORTED_REASON)),
         data_bits=data_bits,
         parity=parity,
         stop_bits=stop_bits,
     )
+
+
+_UNSUPPORTED_REASON = "unsupported sentence type"
 
 
 def _log_zdas(log: NmeaLog) -> tuple[FloatArray, list[ZdaRecord], list[str], list[int]]:

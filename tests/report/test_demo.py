@@ -57,6 +57,7 @@ def test_demo_writes_a_self_contained_report(
     assert est["latency_std_ms"] <= 0.1
     assert (out_dir / "method-a-passes" / "passes.csv").exists()
     assert "Method A latency" in out
+    assert any("PPS" in h or "clock" in h.lower() for h in parser.headings)
     assert "http://" not in html_text
     assert "https://" not in html_text
     doc = json.loads((out_dir / "budget.json").read_text())

@@ -19,14 +19,9 @@ from kinsync.clock import (
 )
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
-from kinsync.io.clock_model import (
-    read_clock_model,
-    read_pps_csv,
-    read_time_column,
-    write_clock_model,
-    write_with_column,
-)
+from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
 from kinsync.io.nmea import read_nmea_log
+from kinsync.io.tables import read_time_column, write_with_column
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
 
@@ -87,7 +82,7 @@ def fit(
     if model_out is not None:
         write_clock_model(result.model, model_out, result)
     if figure is not None:
-        from kinsync.report.demo_clock import clock_residual_figure  # noqa: PLC0415  (matplotlib)
+        from kinsync.report.clock_figures import clock_residual_figure  # noqa: PLC0415  (matplotlib)
 
         atomic_write_bytes(figure, clock_residual_figure(result))
     doc: dict[str, Any] = result.as_document()

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import csv
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -169,10 +168,7 @@ def _parse_index_row(
 
 
 def _read_csv_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
-    with warnings.catch_warnings():
-        # A header-only file is reported below as an empty pass, not as a numpy warning.
-        warnings.filterwarnings("ignore", message="loadtxt: input contained no data")
-        table = read_numeric_csv(path, required=_XYZ, optional=("t_s", "intensity"))
+    table = read_numeric_csv(path, required=_XYZ, optional=("t_s", "intensity"))
     pts = np.column_stack([table.columns[c] for c in _XYZ]) if table.n_rows else np.empty((0, 3))
     t = table.columns.get("t_s")
     return pts, t

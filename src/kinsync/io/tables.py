@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,8 +17,16 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path
 
-__all__ = ["NumericTable", "read_numeric_csv", "write_numeric_csv"]
+__all__ = [
+    "NumericTable",
+    "TextTable",
+    "read_numeric_csv",
+    "read_time_column",
+    "write_numeric_csv",
+    "write_with_column",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +119,10 @@ def read_numeric_csv(
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():
+            # A header-only file is reported by the caller; numpy's warning is noise.
+            warnings.filterwarnings("ignore", message="loadtxt: input contained no data")
+            data = np.loadtxt(path, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
     except ValueError as err:
         raise _locate_bad_cell(path, header) from err
     if data.size == 0:
@@ -127,8 +139,6 @@ def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
 
     The file appears only when complete (temporary name, then rename).
     """
-    from kinsync.io.atomic import atomic_path  # noqa: PLC0415  (avoid an import cycle)
-
     names = list(columns)
     arrays = [np.asarray(columns[n], dtype=np.float64) for n in names]
     n = {a.shape for a in arrays}
@@ -139,3 +149,122 @@ def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
         fh.write(",".join(names) + "\n")
         for row in zip(*(a.tolist() for a in arrays), strict=True):
             fh.write(",".join(repr(v) if math.isfinite(v) else "nan" for v in row) + "\n")
+
+
+@dataclass(frozen=True, eq=False)
+class TextTable:
+    """A CSV table kept as text, so it can be written back unchanged.
+
+    Attributes
+    ----------
+    source : str
+        File it came from.
+    header : tuple of str
+        Column names as in the file.
+    rows : tuple of tuple of str
+        Data rows (blank lines left out), each as long as the header.
+    lines : tuple of int
+        File line of each row (header = line 1).
+    """
+
+    source: str
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    lines: tuple[int, ...]
+
+
+def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
+    """Read a CSV with a header, keeping every cell, and parse one column as times.
+
+    Parameters
+    ----------
+    path : Path
+        CSV file (comma-separated, header row).
+    column : str
+        Name of the time column (surrounding spaces in the header ignored).
+
+    Returns
+    -------
+    table : TextTable
+    t_s : ndarray, shape (N,)
+        The column as float64 (s).
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, empty file, no such column (listing those there),
+        a duplicated column name, a row with another number of fields than the header,
+        no data rows, or a cell of the column that is not a finite number (with its
+        line).
+    """
+    path = Path(path)
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as fh:
+            records = [(line, row) for line, row in enumerate(csv.reader(fh), start=1)]
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found"
+        raise InputError(msg) from err
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        msg = f"{path}: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+    records = [(line, row) for line, row in records if row and any(c.strip() for c in row)]
+    if not records:
+        msg = f"{path}: empty file; expected a header row with a column {column!r}"
+        raise InputError(msg)
+    header = tuple(records[0][1])
+    names = [h.strip() for h in header]
+    if names.count(column) != 1:
+        what = "appears more than once in" if names.count(column) else "is not in"
+        msg = f"{path}: column {column!r} {what} the header {names}; choose it with --column"
+        raise InputError(msg)
+    col = names.index(column)
+    body = records[1:]
+    if not body:
+        msg = f"{path}: no data rows after the header; nothing to convert"
+        raise InputError(msg)
+    times = np.empty(len(body))
+    for i, (line, row) in enumerate(body):
+        if len(row) != len(header):
+            msg = f"{path}: line {line} has {len(row)} fields, the header has {len(header)}"
+            raise InputError(msg)
+        cell = row[col]
+        try:
+            value = float(cell)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            msg = f"{path}: line {line}, column {column!r}: {cell!r} is not a finite number"
+            raise InputError(msg)
+        times[i] = value
+    table = TextTable(
+        source=str(path),
+        header=header,
+        rows=tuple(tuple(row) for _, row in body),
+        lines=tuple(line for line, _ in body),
+    )
+    return table, times
+
+
+def write_with_column(path: Path, table: TextTable, name: str, values: FloatArray) -> None:
+    """Write ``table`` with one more column ``name`` (floats in ``repr`` precision), atomically.
+
+    Every original cell is written back as read; non-finite values are written ``nan``.
+
+    Raises
+    ------
+    InputError
+        The table already has a column ``name``, or ``values`` does not have one value
+        per row.
+    """
+    if name in [h.strip() for h in table.header]:
+        msg = f"{table.source}: already has a column {name!r}; choose another output column name"
+        raise InputError(msg)
+    v = np.asarray(values, dtype=np.float64)
+    if v.shape != (len(table.rows),):
+        msg = f"{name}: expected {len(table.rows)} values, one per row, got shape {v.shape}"
+        raise InputError(msg)
+    with atomic_path(Path(path)) as tmp, tmp.open("w", encoding="utf-8", newline="") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow([*table.header, name])
+        for row, value in zip(table.rows, v.tolist(), strict=True):
+            writer.writerow([*row, repr(value) if math.isfinite(value) else "nan"])
