@@ -14,6 +14,7 @@ import pytest
 from kinsync.io.clock_model import read_clock_model
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
 
 
 @pytest.fixture(scope="module")
@@ -37,15 +38,6 @@ def fit_args(folder: Path, *extra: str) -> list[str]:
         str(folder / "nmea.csv"),
         *extra,
     ]
-
-
-def assert_one_line_error(code: int, out: str, err: str, *fragments: str) -> None:
-    assert code == 2, err
-    assert out == ""
-    assert err.count("\n") == 1, err
-    assert err.startswith("kinsync: error: ")
-    for frag in fragments:
-        assert frag in err, err
 
 
 def test_simulate_json_and_files(run_cli: RunCli, tmp_path: Path) -> None:
@@ -162,7 +154,9 @@ def test_apply_keeps_every_column_and_row(run_cli: RunCli, logs: Path, tmp_path:
     assert not list(tmp_path.glob("*.part"))
 
 
-def test_apply_outside_span(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+def test_apply_outside_span(
+    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     linear = tmp_path / "linear.json"
     piecewise = tmp_path / "piecewise.json"
     assert run_cli(fit_args(logs, "--json", "--model-out", str(linear)))[0] == 0
@@ -200,7 +194,9 @@ def test_apply_custom_out_column(run_cli: RunCli, logs: Path, tmp_path: Path) ->
     assert out.read_text().splitlines()[0] == "stamp,t_gps_s,t_gps_new_s"
 
 
-def test_fit_bad_input(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+def test_fit_bad_input(
+    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     bad = tmp_path / "bad"
     shutil.copytree(logs, bad)
     pps, nmea = bad / "pps.csv", bad / "nmea.csv"
@@ -232,7 +228,9 @@ def test_fit_bad_input(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
     assert_one_line_error(*fit(), "nmea.csv", "not found")
 
 
-def test_apply_bad_input(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:
+def test_apply_bad_input(
+    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     model_path = tmp_path / "model.json"
     assert run_cli(fit_args(logs, "--json", "--model-out", str(model_path)))[0] == 0
     data = tmp_path / "data.csv"

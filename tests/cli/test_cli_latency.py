@@ -19,6 +19,7 @@ from kinsync.sim.rotating_table import (
 )
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
 TAU_S = 0.00421
 
 
@@ -45,15 +46,6 @@ def rewrite_index(folder: Path, keep: Callable[[dict[str, str]], bool]) -> None:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
         writer.writerows(r for r in rows if keep(r))
-
-
-def assert_one_line_error(code: int, out: str, err: str, *fragments: str) -> None:
-    assert code == 2, err
-    assert out == ""
-    assert err.count("\n") == 1, err
-    assert err.startswith("kinsync: error: ")
-    for frag in fragments:
-        assert frag in err, err
 
 
 def test_sphere_json_document_and_figure(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
@@ -99,12 +91,16 @@ def test_sphere_table_default_figure_and_no_figure(
     assert not (folder / "latency_sphere.png").exists()
 
 
-def test_sphere_missing_folder(run_cli: RunCli, tmp_path: Path) -> None:
+def test_sphere_missing_folder(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     code, out, err = run_cli(["latency", "sphere", str(tmp_path / "nowhere")])
     assert_one_line_error(code, out, err, "nowhere")
 
 
-def test_sphere_only_one_rotation_sign(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
+def test_sphere_only_one_rotation_sign(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     folder = copy_of(sim_folder, tmp_path)
     rewrite_index(folder, lambda r: float(r["rate_deg_s"]) > 0)
     code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
@@ -112,7 +108,7 @@ def test_sphere_only_one_rotation_sign(run_cli: RunCli, sim_folder: Path, tmp_pa
 
 
 def test_sphere_zero_and_non_numeric_rate(
-    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
     folder = copy_of(sim_folder, tmp_path)
     text = (folder / "passes.csv").read_text().splitlines()
@@ -127,7 +123,9 @@ def test_sphere_zero_and_non_numeric_rate(
     assert_one_line_error(code, out, err, "passes.csv", "line 2", "fast")
 
 
-def test_sphere_non_numeric_point(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
+def test_sphere_non_numeric_point(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     folder = copy_of(sim_folder, tmp_path)
     pass_file = sorted(folder.glob("pass_*.csv"))[0]
     lines = pass_file.read_text().splitlines()
@@ -140,7 +138,7 @@ def test_sphere_non_numeric_point(run_cli: RunCli, sim_folder: Path, tmp_path: P
 
 
 def test_sphere_axis_pointing_at_the_sphere(
-    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
     folder = copy_of(sim_folder, tmp_path)
     centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
@@ -157,7 +155,9 @@ def test_sphere_axis_pointing_at_the_sphere(
     assert_one_line_error(code, out, err, "unobservable")
 
 
-def test_sphere_no_sphere_in_the_passes(run_cli: RunCli, tmp_path: Path) -> None:
+def test_sphere_no_sphere_in_the_passes(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
     folder = tmp_path / "floor"
     folder.mkdir()
     rng = np.random.default_rng(2)
@@ -199,13 +199,15 @@ def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
         (["--radius-m", "3"], "smaller"),
     ],
 )
-def test_plan_bad_input(run_cli: RunCli, extra: list[str], fragment: str) -> None:
+def test_plan_bad_input(
+    run_cli: RunCli, extra: list[str], fragment: str, assert_one_line_error: OneLineError
+) -> None:
     code, out, err = run_cli(["latency", "plan", *extra])
     assert_one_line_error(code, out, err, fragment)
 
 
 def test_sphere_raw_applies_the_mount_latency(
-    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
     """--raw georeferences raw/ with the latency of raw/mount.toml: none is left to find."""
     folder = tmp_path / "raw_set"

@@ -16,15 +16,7 @@ from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.trajectory import Trajectory
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
-
-
-def assert_one_line_error(code: int, err: str, *fragments: str) -> None:
-    assert code == 2
-    assert err.count("\n") == 1, err
-    assert err.startswith("kinsync: error: ")
-    assert "Traceback" not in err
-    for frag in fragments:
-        assert frag in err
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
 
 
 def test_version(run_cli: RunCli) -> None:
@@ -45,13 +37,15 @@ def test_module_entry_point_runs_in_a_subprocess() -> None:
     assert proc.stdout == ""
 
 
-def test_usage_errors_exit_2_in_one_line(run_cli: RunCli) -> None:
-    code, _, err = run_cli(["budget", "latency", "--range-m", "abc"])
-    assert_one_line_error(code, err, "--range-m")
-    code, _, err = run_cli(["budget", "latency", "--no-such-option"])
-    assert_one_line_error(code, err, "--no-such-option")
-    code, _, err = run_cli(["budget", "serial", "--bytes", "3"])
-    assert_one_line_error(code, err, "--baud")
+def test_usage_errors_exit_2_in_one_line(
+    run_cli: RunCli, assert_one_line_error: OneLineError
+) -> None:
+    code, _out, err = run_cli(["budget", "latency", "--range-m", "abc"])
+    assert_one_line_error(code, _out, err, "--range-m")
+    code, _out, err = run_cli(["budget", "latency", "--no-such-option"])
+    assert_one_line_error(code, _out, err, "--no-such-option")
+    code, _out, err = run_cli(["budget", "serial", "--bytes", "3"])
+    assert_one_line_error(code, _out, err, "--baud")
 
 
 def test_mount_check(tmp_path: Path, run_cli: RunCli) -> None:
@@ -72,13 +66,15 @@ def test_mount_check(tmp_path: Path, run_cli: RunCli) -> None:
     assert "lever_arm_body_m" in out
 
 
-def test_mount_check_malformed_toml(tmp_path: Path, run_cli: RunCli) -> None:
+def test_mount_check_malformed_toml(
+    tmp_path: Path, run_cli: RunCli, assert_one_line_error: OneLineError
+) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[mount]\nlever_arm_body_m = [0.1, 0.2\n")
-    code, _, err = run_cli(["mount", "check", str(bad)])
-    assert_one_line_error(code, err, str(bad), "malformed TOML")
-    code, _, err = run_cli(["mount", "check", str(tmp_path / "missing.toml")])
-    assert_one_line_error(code, err, "missing.toml", "not found")
+    code, _out, err = run_cli(["mount", "check", str(bad)])
+    assert_one_line_error(code, _out, err, str(bad), "malformed TOML")
+    code, _out, err = run_cli(["mount", "check", str(tmp_path / "missing.toml")])
+    assert_one_line_error(code, _out, err, "missing.toml", "not found")
 
 
 HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
@@ -102,19 +98,25 @@ HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
     ],
 )
 def test_trajectory_info_bad_files(
-    tmp_path: Path, run_cli: RunCli, body: str, fragments: tuple[str, ...]
+    tmp_path: Path,
+    run_cli: RunCli,
+    body: str,
+    fragments: tuple[str, ...],
+    assert_one_line_error: OneLineError,
 ) -> None:
     path = tmp_path / "traj.csv"
     path.write_text(HEADER + body)
-    code, _, err = run_cli(["trajectory", "info", str(path)])
-    assert_one_line_error(code, err, str(path), *fragments)
+    code, _out, err = run_cli(["trajectory", "info", str(path)])
+    assert_one_line_error(code, _out, err, str(path), *fragments)
 
 
-def test_trajectory_missing_column(tmp_path: Path, run_cli: RunCli) -> None:
+def test_trajectory_missing_column(
+    tmp_path: Path, run_cli: RunCli, assert_one_line_error: OneLineError
+) -> None:
     path = tmp_path / "traj.csv"
     path.write_text("t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg\n0,1,2,3,4,5\n")
-    code, _, err = run_cli(["trajectory", "info", str(path)])
-    assert_one_line_error(code, err, "yaw_deg", "missing column")
+    code, _out, err = run_cli(["trajectory", "info", str(path)])
+    assert_one_line_error(code, _out, err, "yaw_deg", "missing column")
 
 
 def test_trajectory_csv_round_trip_and_info(tmp_path: Path, run_cli: RunCli) -> None:
