@@ -1,0 +1,324 @@
+"""Applanix SBET trajectory files (Smoothed Best Estimate of Trajectory).
+
+An SBET is a headerless sequence of 136-byte records, each 17 little-endian float64:
+
+====  ==========================  ====================================================
+ #    field (`SBET_DTYPE` name)   meaning
+====  ==========================  ====================================================
+ 0    ``time_sow_s``              GPS seconds of week (s)
+ 1    ``lat_rad``                 geodetic latitude, WGS84 (rad)
+ 2    ``lon_rad``                 longitude (rad)
+ 3    ``h_m``                     ellipsoidal height (m)
+ 4-6  ``vel_{x,y,z}_wander_m_s``  velocity in the wander frame (m/s)
+ 7    ``roll_rad``                roll (rad)
+ 8    ``pitch_rad``               pitch (rad)
+ 9    ``platform_heading_rad``    heading measured from the wander-frame x axis (rad)
+ 10   ``wander_angle_rad``        wander angle alpha (rad)
+11-13 ``acc_{x,y,z}_body_m_s2``   body-frame accelerations (m/s2)
+14-16 ``rate_{x,y,z}_body_rad_s`` body-frame angular rates (rad/s)
+====  ==========================  ====================================================
+
+Wander frame
+------------
+True heading is ``yaw = platform_heading - wander_angle``. The wander frame is the
+locally level frame whose z axis points Down and whose x axis lies at azimuth
+``-alpha`` (a positive wander angle turns x from North towards West); y completes the
+right-handed triad (azimuth ``90 deg - alpha``). A heading measured from x is then the
+true heading plus alpha, as the relation above requires, and the velocities rotate as
+
+    v_N = v_x cos(alpha) + v_y sin(alpha)
+    v_E = -v_x sin(alpha) + v_y cos(alpha)
+    v_D = v_z
+
+(`wander_to_ned_velocity`; `ned_to_wander_velocity` is its inverse).
+
+Time scale
+----------
+SBET times are GPS seconds of week. `read_sbet` returns them unchanged unless
+``gps_week`` is given, in which case they become continuous GPS seconds
+``gps_week * 604800 + sow`` (the kinsync reference scale). `write_sbet` writes times
+below one week as they are; continuous GPS times are written as seconds of the week of
+the first record (a trajectory crossing into the next week keeps counting past
+604800 s, so times stay increasing), and ``read_sbet(path, gps_week=week)`` gives the
+original times back exactly.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path
+from kinsync.trajectory import Trajectory
+
+__all__ = [
+    "SBET_DTYPE",
+    "SBET_RECORD_BYTES",
+    "SECONDS_PER_WEEK",
+    "ned_to_wander_velocity",
+    "read_sbet",
+    "read_sbet_records",
+    "wander_to_ned_velocity",
+    "write_sbet",
+]
+
+SECONDS_PER_WEEK = 604800.0
+"""Seconds in one GPS week."""
+
+SBET_DTYPE: np.dtype[np.void] = np.dtype(
+    [
+        ("time_sow_s", "<f8"),
+        ("lat_rad", "<f8"),
+        ("lon_rad", "<f8"),
+        ("h_m", "<f8"),
+        ("vel_x_wander_m_s", "<f8"),
+        ("vel_y_wander_m_s", "<f8"),
+        ("vel_z_wander_m_s", "<f8"),
+        ("roll_rad", "<f8"),
+        ("pitch_rad", "<f8"),
+        ("platform_heading_rad", "<f8"),
+        ("wander_angle_rad", "<f8"),
+        ("acc_x_body_m_s2", "<f8"),
+        ("acc_y_body_m_s2", "<f8"),
+        ("acc_z_body_m_s2", "<f8"),
+        ("rate_x_body_rad_s", "<f8"),
+        ("rate_y_body_rad_s", "<f8"),
+        ("rate_z_body_rad_s", "<f8"),
+    ]
+)
+"""One SBET record: 17 little-endian float64 (136 bytes), names carrying units."""
+
+SBET_RECORD_BYTES = SBET_DTYPE.itemsize
+"""Size of one SBET record (136 bytes)."""
+
+
+def wander_to_ned_velocity(
+    vel_x_m_s: FloatArray,
+    vel_y_m_s: FloatArray,
+    vel_z_m_s: FloatArray,
+    wander_angle_rad: FloatArray,
+) -> FloatArray:
+    """Wander-frame velocities to NED (see the module docstring for the convention).
+
+    Parameters
+    ----------
+    vel_x_m_s, vel_y_m_s, vel_z_m_s : ndarray, shape (N,)
+        Velocity components along the wander-frame axes (m/s; z Down).
+    wander_angle_rad : ndarray, shape (N,)
+        Wander angle alpha (rad).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        Velocity in NED (m/s).
+    """
+    c, s = np.cos(wander_angle_rad), np.sin(wander_angle_rad)
+    return np.column_stack(
+        [vel_x_m_s * c + vel_y_m_s * s, -vel_x_m_s * s + vel_y_m_s * c, vel_z_m_s]
+    )
+
+
+def ned_to_wander_velocity(vel_ned_m_s: FloatArray, wander_angle_rad: FloatArray) -> FloatArray:
+    """NED velocities to the wander frame; inverse of `wander_to_ned_velocity`.
+
+    Parameters
+    ----------
+    vel_ned_m_s : ndarray, shape (N, 3)
+        Velocity in NED (m/s).
+    wander_angle_rad : ndarray, shape (N,)
+        Wander angle alpha (rad).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        Velocity along the wander-frame x, y, z axes (m/s; z Down).
+    """
+    c, s = np.cos(wander_angle_rad), np.sin(wander_angle_rad)
+    n, e, d = vel_ned_m_s[:, 0], vel_ned_m_s[:, 1], vel_ned_m_s[:, 2]
+    return np.column_stack([n * c - e * s, n * s + e * c, d])
+
+
+def read_sbet_records(path: Path) -> np.memmap[tuple[int], np.dtype[np.void]]:
+    """Memory-map the raw records of an SBET file (read-only).
+
+    Parameters
+    ----------
+    path : Path
+        SBET file.
+
+    Returns
+    -------
+    numpy.memmap, shape (N,), dtype `SBET_DTYPE`
+        The records as stored; nothing is converted or validated beyond the length.
+
+    Raises
+    ------
+    InputError
+        Missing or empty file, or a length that is not a multiple of 136 bytes.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found; give the path of an SBET file"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot read ({err})"
+        raise InputError(msg) from err
+    n, left = divmod(size, SBET_RECORD_BYTES)
+    if left:
+        msg = (
+            f"{path}: length {size} bytes is not a multiple of the {SBET_RECORD_BYTES}-byte "
+            f"SBET record: {n} whole records and {left} bytes left over; the file is "
+            "truncated or not an SBET (re-export or copy it again)"
+        )
+        raise InputError(msg)
+    if n == 0:
+        msg = f"{path}: empty file; an SBET holds {SBET_RECORD_BYTES}-byte records"
+        raise InputError(msg)
+    try:
+        return np.memmap(path, dtype=SBET_DTYPE, mode="r", shape=(n,))
+    except OSError as err:
+        msg = f"{path}: cannot memory-map ({err})"
+        raise InputError(msg) from err
+
+
+def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
+    """Read an SBET file into a geodetic `Trajectory`.
+
+    Parameters
+    ----------
+    path : Path
+        SBET file (memory-mapped while the trajectory is built).
+    gps_week : int, optional
+        GPS week of the first record. When given, times become continuous GPS seconds
+        ``gps_week * 604800 + sow``; otherwise they stay GPS seconds of week.
+
+    Returns
+    -------
+    Trajectory
+        ``t_s`` (s; see ``gps_week``), ``lat_lon_h`` (deg, deg, m), attitude from roll,
+        pitch and true heading ``platform_heading - wander_angle``, and ``vel_ned_m_s``
+        rotated from the wander frame.
+
+    Raises
+    ------
+    InputError
+        A truncated file (bytes left over), fewer than 2 records, non-finite values,
+        repeated or decreasing times (naming the file and the record, 0-based).
+    """
+    path = Path(path)
+    if gps_week is not None and gps_week < 0:
+        msg = f"{path}: gps_week must be >= 0, got {gps_week}"
+        raise InputError(msg)
+    rec = read_sbet_records(path)
+    if rec.shape[0] < 2:
+        msg = f"{path}: a trajectory needs at least 2 records, the SBET holds {rec.shape[0]}"
+        raise InputError(msg)
+    t = np.array(rec["time_sow_s"], dtype=np.float64)
+    if gps_week is not None:
+        t = gps_week * SECONDS_PER_WEEK + t
+    wander = np.asarray(rec["wander_angle_rad"], dtype=np.float64)
+    vel = wander_to_ned_velocity(
+        np.asarray(rec["vel_x_wander_m_s"], dtype=np.float64),
+        np.asarray(rec["vel_y_wander_m_s"], dtype=np.float64),
+        np.asarray(rec["vel_z_wander_m_s"], dtype=np.float64),
+        wander,
+    )
+    llh = np.column_stack(
+        [np.degrees(rec["lat_rad"]), np.degrees(rec["lon_rad"]), np.asarray(rec["h_m"])]
+    )
+    try:
+        return Trajectory.from_euler(
+            t,
+            np.asarray(rec["roll_rad"], dtype=np.float64),
+            np.asarray(rec["pitch_rad"], dtype=np.float64),
+            np.asarray(rec["platform_heading_rad"], dtype=np.float64) - wander,
+            lat_lon_h=llh,
+            vel_ned_m_s=vel,
+        )
+    except InputError as err:
+        text = re.sub(
+            r"\brow (\d+)\b",
+            lambda m: f"record {m.group(1)} (byte {int(m.group(1)) * SBET_RECORD_BYTES})",
+            str(err),
+        )
+        msg = f"{path}: {text}"
+        raise InputError(msg) from err
+    finally:
+        del rec
+
+
+def _seconds_of_week(t_s: FloatArray) -> FloatArray:
+    """Times as seconds of the first record's GPS week (unchanged below one week)."""
+    week = math.floor(float(t_s[0]) / SECONDS_PER_WEEK)
+    if week <= 0:
+        return t_s
+    out: FloatArray = t_s - week * SECONDS_PER_WEEK
+    return out
+
+
+def write_sbet(trajectory: Trajectory, path: Path, *, wander_angle_rad: float = 0.0) -> None:
+    """Write a geodetic trajectory as an SBET file, atomically.
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        Geodetic trajectory (``lat_lon_h``). Times below 604800 s are written as
+        seconds of week as they are; larger (continuous GPS) times as seconds of the
+        first record's week.
+    path : Path
+        Output file; written to a temporary name and renamed when complete.
+    wander_angle_rad : float, optional
+        Constant wander angle alpha (rad) to write; platform heading and wander-frame
+        velocities are written for it. Default 0 (wander frame = NED).
+
+    Notes
+    -----
+    Velocities are written as zero when the trajectory has none; body accelerations
+    are written as zero; body angular rates come from
+    `Trajectory.angular_rate_body_rad_s`.
+
+    Raises
+    ------
+    InputError
+        A local-NED trajectory, or a non-finite wander angle.
+    """
+    path = Path(path)
+    if trajectory.lat_lon_h is None:
+        msg = (
+            f"{path}: write_sbet needs a geodetic trajectory (lat_lon_h); convert the "
+            "local NED positions to geodetic first"
+        )
+        raise InputError(msg)
+    if not math.isfinite(wander_angle_rad):
+        msg = f"{path}: wander_angle_rad must be finite, got {wander_angle_rad}"
+        raise InputError(msg)
+    n = len(trajectory)
+    alpha = np.full(n, float(wander_angle_rad))
+    rpy = trajectory.euler_rpy_rad()
+    vel = trajectory.vel_ned_m_s if trajectory.vel_ned_m_s is not None else np.zeros((n, 3))
+    vel_w = ned_to_wander_velocity(vel, alpha)
+    rate = trajectory.angular_rate_body_rad_s()
+    rec = np.zeros(n, dtype=SBET_DTYPE)
+    rec["time_sow_s"] = _seconds_of_week(trajectory.t_s)
+    rec["lat_rad"] = np.radians(trajectory.lat_lon_h[:, 0])
+    rec["lon_rad"] = np.radians(trajectory.lat_lon_h[:, 1])
+    rec["h_m"] = trajectory.lat_lon_h[:, 2]
+    rec["vel_x_wander_m_s"] = vel_w[:, 0]
+    rec["vel_y_wander_m_s"] = vel_w[:, 1]
+    rec["vel_z_wander_m_s"] = vel_w[:, 2]
+    rec["roll_rad"] = rpy[:, 0]
+    rec["pitch_rad"] = rpy[:, 1]
+    rec["platform_heading_rad"] = rpy[:, 2] + alpha
+    rec["wander_angle_rad"] = alpha
+    rec["rate_x_body_rad_s"] = rate[:, 0]
+    rec["rate_y_body_rad_s"] = rate[:, 1]
+    rec["rate_z_body_rad_s"] = rate[:, 2]
+    with atomic_path(path) as tmp:
+        rec.tofile(tmp)
