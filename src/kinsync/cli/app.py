@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, clock, demo, inspect, latency, simulate
+from kinsync.cli import budget, clock, demo, georef, inspect, latency, simulate
 
 app = typer.Typer(
     name="kinsync",
@@ -23,6 +23,7 @@ app.add_typer(inspect.trajectory_app, name="trajectory")
 app.command(name="demo")(demo.demo)
 app.add_typer(simulate.app, name="simulate")
 app.add_typer(clock.app, name="clock")
+app.command(name="georef")(georef.georef)
 
 
 def _version(value: bool) -> None:

@@ -1,0 +1,123 @@
+"""``kinsync georef``: direct georeferencing of a scanner-frame point file (SPEC section 5)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.errors import InputError
+from kinsync.georef import OutsidePolicy, georeference_file
+from kinsync.io.mount_file import read_mount
+
+_OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
+
+
+def georef(
+    points: Annotated[
+        Path,
+        typer.Option(
+            "--points",
+            help="Scanner-frame points: .las/.laz (time in gps_time) or .csv/.parquet with "
+            "t_s,x_m,y_m,z_m (+ any other columns, kept).",
+        ),
+    ],
+    trajectory: Annotated[
+        Path,
+        typer.Option(
+            "--trajectory", help="Trajectory: .csv (t_s,lat_deg,lon_deg,...) or SBET .out/.sbet."
+        ),
+    ],
+    mount: Annotated[
+        Path, typer.Option("--mount", help="Mount TOML (lever arm, boresight, latency).")
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Output; format from the suffix (.las/.laz for LAS input, .csv/.parquet for "
+            "tables). Written under a temporary name and renamed when complete.",
+        ),
+    ],
+    crs: Annotated[
+        str, typer.Option("--crs", help="Output CRS (axis order easting/longitude first).")
+    ] = "EPSG:4978",
+    latency_ms: Annotated[
+        float | None,
+        typer.Option("--latency-ms", help="Latency (ms), replacing the mount's latency_s."),
+    ] = None,
+    chunk_points: Annotated[
+        int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).", min=1)
+    ] = 1_000_000,
+    outside: Annotated[
+        str,
+        typer.Option(
+            "--outside",
+            help="Points outside the trajectory span: 'error' (default, nothing written) or "
+            "'reject' (written to OUT.rejected.<ext>).",
+        ),
+    ] = "error",
+    gps_week: Annotated[
+        int | None,
+        typer.Option(
+            "--gps-week",
+            help="GPS week of SBET / LAS seconds-of-week times, to put them on GPS time.",
+            min=0,
+        ),
+    ] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object instead of a table.")
+    ] = False,
+) -> None:
+    """Georeference a point file: scanner frame + trajectory + mount -> CRS coordinates."""
+    if outside not in _OUTSIDE:
+        msg = f"--outside must be 'error' or 'reject', got {outside!r}"
+        raise InputError(msg)
+    the_mount = read_mount(mount)
+    if latency_ms is not None:
+        the_mount = the_mount.with_latency(latency_ms * 1e-3)
+    with Progress(
+        TextColumn("georef"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("points"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+        disable=not err_console.is_terminal,  # keep a redirected stderr to the one error line
+    ) as bar:
+        task = bar.add_task("points", total=None)
+
+        def progress(done: int, total: int | None) -> None:
+            bar.update(task, completed=done, total=total)
+
+        summary = georeference_file(
+            points,
+            trajectory,
+            the_mount,
+            out,
+            crs=crs,
+            chunk_points=chunk_points,
+            outside=_OUTSIDE[outside],
+            gps_week=gps_week,
+            progress=progress,
+        )
+    if as_json:
+        print_json(summary.as_document())
+        return
+    table = Table(title=f"Georeferenced {points} -> {out} ({crs})")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("points in", str(summary.points_in))
+    table.add_row("points out", str(summary.points_out))
+    table.add_row("points rejected (outside the trajectory span)", str(summary.points_rejected))
+    table.add_row("latency (ms)", fmt(the_mount.latency_s, 1e3, 6))
+    table.add_row("seconds", fmt(summary.seconds))
+    table.add_row("points per second", fmt(summary.points_per_s))
+    console.print(table)
+    if summary.rejected_path is not None:
+        console.print(f"rejected points: {summary.rejected_path}")

@@ -1,0 +1,252 @@
+"""``kinsync georef``: tables and LAS/LAZ through the streaming pipeline."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pyarrow.csv as pa_csv
+import pyarrow.parquet as pq
+import pyproj
+import pytest
+
+from kinsync.frames import ecef_to_geodetic
+from kinsync.georef import GeorefTrajectory, georeference
+from kinsync.io.las import las_info
+from kinsync.io.mount_file import write_mount
+from kinsync.io.points import TableChunkWriter
+from kinsync.io.sbet import write_sbet
+from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
+from kinsync.mount import Mount
+from kinsync.trajectory import Trajectory
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+T0 = 1.3e9  # GPS seconds
+MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
+N_POINTS = 2_500
+
+
+def _trajectory() -> Trajectory:
+    t = T0 + np.arange(0.0, 10.0, 0.01)
+    s = t - T0
+    lat = 46.8 + 1e-5 * s
+    lon = -71.2 + 2e-5 * s
+    llh = np.column_stack([lat, lon, 10.0 + 0.1 * s])
+    roll = 0.02 * np.sin(s)
+    pitch = 0.01 * np.cos(0.5 * s)
+    yaw = 0.3 + 0.05 * s
+    return Trajectory.from_euler(t, roll, pitch, yaw, lat_lon_h=llh)
+
+
+def _points(
+    rng: np.random.Generator, t_lo: float = 0.1, t_hi: float = 9.9
+) -> dict[str, np.ndarray]:
+    t = T0 + np.sort(rng.uniform(t_lo, t_hi, N_POINTS))
+    return {
+        "t_s": t,
+        "x_m": rng.uniform(-1, 1, N_POINTS),
+        "y_m": rng.uniform(-20, 20, N_POINTS),
+        "z_m": rng.uniform(-5, 5, N_POINTS),
+        "intensity": rng.integers(0, 1000, N_POINTS),
+        "label": np.array(["a", "b"] * (N_POINTS // 2)),
+    }
+
+
+@pytest.fixture
+def setup(tmp_path: Path) -> dict[str, Path]:
+    traj = _trajectory()
+    write_trajectory_csv(traj, tmp_path / "traj.csv")
+    write_mount(MOUNT, tmp_path / "mount.toml")
+    cols = _points(np.random.default_rng(3))
+    with TableChunkWriter(tmp_path / "points.csv") as w:
+        w.write(cols)
+    return {
+        "dir": tmp_path,
+        "traj": tmp_path / "traj.csv",
+        "mount": tmp_path / "mount.toml",
+        "points": tmp_path / "points.csv",
+    }
+
+
+def _expected_ecef(traj_path: Path, t: np.ndarray, xyz: np.ndarray, mount: Mount) -> np.ndarray:
+    gt = GeorefTrajectory.from_trajectory(read_trajectory_csv(traj_path), mount.latency_s)
+    out, inside = georeference(t, xyz, gt, mount)
+    assert inside.all()
+    return out
+
+
+def _args(s: dict[str, Path], out: Path, *extra: str) -> list[str]:
+    return [
+        "georef",
+        "--points",
+        str(s["points"]),
+        "--trajectory",
+        str(s["traj"]),
+        "--mount",
+        str(s["mount"]),
+        "--out",
+        str(out),
+        *extra,
+    ]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_table_to_table_keeps_columns_and_matches_kernel(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    out = setup["dir"] / f"geo{suffix}"
+    code, stdout, err = run_cli(_args(setup, out, "--json", "--chunk-points", "700"))
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["points_in"] == doc["points_out"] == N_POINTS
+    assert doc["points_rejected"] == 0
+    assert set(doc) == {"points_in", "points_out", "points_rejected", "seconds", "points_per_s"}
+    table = pq.read_table(out) if suffix == ".parquet" else None
+    if table is None:
+        table = pa_csv.read_csv(out)
+    assert table.column_names == ["t_s", "X", "Y", "Z", "intensity", "label"]
+    cols = _points(np.random.default_rng(3))
+    xyz = np.column_stack([cols["x_m"], cols["y_m"], cols["z_m"]])
+    expected = _expected_ecef(setup["traj"], cols["t_s"], xyz, MOUNT)
+    got = np.column_stack([table.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    assert np.abs(got - expected).max() < 1e-6
+    np.testing.assert_array_equal(table.column("intensity").to_numpy(), cols["intensity"])
+    np.testing.assert_array_equal(table.column("label").to_pylist(), cols["label"].tolist())
+
+
+def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
+    out = setup["dir"] / "geo.parquet"
+    code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))
+    assert code == 0, err
+    cols = _points(np.random.default_rng(3))
+    xyz = np.column_stack([cols["x_m"], cols["y_m"], cols["z_m"]])
+    mount = MOUNT.with_latency(0.0125)
+    llh = ecef_to_geodetic(_expected_ecef(setup["traj"], cols["t_s"], xyz, mount))
+    table = pq.read_table(out)
+    np.testing.assert_allclose(table.column("X").to_numpy(), llh[:, 1], atol=1e-10)  # lon first
+    np.testing.assert_allclose(table.column("Y").to_numpy(), llh[:, 0], atol=1e-10)
+    np.testing.assert_allclose(table.column("Z").to_numpy(), llh[:, 2], atol=1e-6)
+
+
+def test_outside_span_error_and_reject(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    cols = _points(np.random.default_rng(4), t_lo=-1.0, t_hi=9.9)
+    n_out = int(np.count_nonzero(cols["t_s"] < T0))
+    assert n_out > 0
+    with TableChunkWriter(setup["points"]) as w:
+        w.write(cols)
+    out = setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(setup, out, "--chunk-points", "500"))
+    assert_one_line_error(code, stdout, err, f"{n_out} point(s)", "outside the trajectory span")
+    assert not out.exists()
+    assert list(setup["dir"].glob("*.part")) == []
+    code, stdout, err = run_cli(_args(setup, out, "--outside", "reject", "--json"))
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["points_rejected"] == n_out
+    assert doc["points_out"] == N_POINTS - n_out
+    rejected = pa_csv.read_csv(setup["dir"] / "geo.rejected.csv")
+    assert rejected.num_rows == n_out
+    assert rejected.column_names == list(cols)
+    assert (rejected.column("t_s").to_numpy() < T0).all()
+
+
+def _write_las(path: Path, cols: dict[str, np.ndarray], *, adjusted: bool) -> None:
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.array([1e-4, 1e-4, 1e-4])
+    header.offsets = np.zeros(3)
+    if adjusted:
+        header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
+    las.gps_time = cols["t_s"] - (1e9 if adjusted else 0.0)
+    las.intensity = cols["intensity"].astype(np.uint16)
+    las.write(path)
+
+
+def test_las_to_laz_keeps_attributes_and_writes_crs(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    cols = _points(np.random.default_rng(5))
+    src = setup["dir"] / "scan.las"
+    _write_las(src, cols, adjusted=True)
+    setup["points"] = src
+    out = setup["dir"] / "geo.laz"
+    code, stdout, err = run_cli(_args(setup, out, "--json", "--chunk-points", "1000"))
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == N_POINTS
+    las = laspy.read(out)
+    assert len(las.points) == N_POINTS
+    np.testing.assert_array_equal(np.asarray(las.intensity), cols["intensity"])
+    np.testing.assert_allclose(np.asarray(las.gps_time), cols["t_s"] - 1e9, atol=1e-6)
+    stored = laspy.read(src)
+    t = np.asarray(stored.gps_time) + 1e9
+    xyz = np.column_stack([np.asarray(stored.x), np.asarray(stored.y), np.asarray(stored.z)])
+    expected = _expected_ecef(setup["traj"], t, xyz, MOUNT)
+    got = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    assert np.abs(got - expected).max() <= 0.5e-4 + 1e-9
+    info = las_info(out)
+    assert info.crs_wkt is not None
+    assert pyproj.CRS.from_wkt(info.crs_wkt).equals(pyproj.CRS.from_epsg(4978))
+
+
+def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    traj = _trajectory()
+    sbet = setup["dir"] / "traj.out"
+    write_sbet(traj, sbet)
+    cols = _points(np.random.default_rng(6))
+    src = setup["dir"] / "scan.las"
+    _write_las(src, cols, adjusted=True)
+    setup["points"], setup["traj"] = src, sbet
+    out = setup["dir"] / "geo.las"
+    code, stdout, err = run_cli(_args(setup, out))
+    assert_one_line_error(code, stdout, err, "--gps-week")
+    week = int(T0 // 604800)
+    code, stdout, err = run_cli(_args(setup, out, "--gps-week", str(week), "--json"))
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == N_POINTS
+
+
+@pytest.mark.parametrize(
+    ("change", "fragments"),
+    [
+        ("out_suffix", ["unknown output type", ".txt"]),
+        ("missing_column", ["z_m"]),
+        ("nan", ["not finite"]),
+        ("las_to_table", ["not supported"]),
+    ],
+)
+def test_bad_input_is_one_line_error(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    change: str,
+    fragments: list[str],
+) -> None:
+    out = setup["dir"] / "geo.csv"
+    cols = _points(np.random.default_rng(7))
+    if change == "out_suffix":
+        out = setup["dir"] / "geo.txt"
+    elif change == "missing_column":
+        del cols["z_m"]
+        with TableChunkWriter(setup["points"]) as w:
+            w.write(cols)
+    elif change == "nan":
+        cols["y_m"][17] = np.nan
+        with TableChunkWriter(setup["points"]) as w:
+            w.write(cols)
+    else:
+        src = setup["dir"] / "scan.las"
+        _write_las(src, cols, adjusted=True)
+        setup["points"] = src
+    code, stdout, err = run_cli(_args(setup, out))
+    assert_one_line_error(code, stdout, err, *fragments)
+    assert not out.exists()

@@ -1,0 +1,268 @@
+"""Direct georeferencing kernel: analytic truth, numpy reference, latency, masks, errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from kinsync.budget import beach_scenario, latency_beam_error
+from kinsync.errors import InputError
+from kinsync.frames import (
+    ecef_to_geodetic,
+    ecef_to_ned,
+    euler_rpy_to_matrix,
+    geodetic_to_ecef,
+    matrix_to_quaternion,
+    quaternion_to_matrix,
+    rotation_ned_to_ecef,
+)
+from kinsync.georef import GeorefTrajectory, PositionMethod, georeference, georeference_numpy
+from kinsync.mount import Mount
+from kinsync.trajectory import Trajectory
+
+ORIGIN = (46.8, -71.2, 10.0)
+RATE_HZ = 100.0
+SPEED_M_S = 20.0
+TURN_RATE_RAD_S = 0.1  # radius 200 m
+ECEF_ULPS = 5e-9  # m: five units in the last place of an ECEF coordinate near 4.6e6 m
+MOUNT = Mount(lever_arm_body_m=(0.8, -0.3, -1.2), boresight_rpy_deg=(0.4, -0.7, 91.0))
+
+
+def _tangent_state(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact motion in the tangent NED frame at ORIGIN: position, velocity, R_body_to_tangent."""
+    w, r = TURN_RATE_RAD_S, SPEED_M_S / TURN_RATE_RAD_S
+    pos = np.column_stack([r * np.sin(w * t), r * (1 - np.cos(w * t)), -0.5 * np.sin(0.2 * t)])
+    vel = np.column_stack([r * w * np.cos(w * t), r * w * np.sin(w * t), -0.1 * np.cos(0.2 * t)])
+    roll = math.radians(2.0) * np.sin(2 * np.pi * 0.2 * t)
+    pitch = math.radians(1.0) * np.sin(2 * np.pi * 0.13 * t + 0.3)
+    return pos, vel, euler_rpy_to_matrix(roll, pitch, w * t)
+
+
+def _analytic_trajectory(duration_s: float = 20.0) -> Trajectory:
+    """Geodetic records at 100 Hz of the tangent-frame motion, with NED velocities."""
+    t = np.arange(0.0, duration_s + 0.5 / RATE_HZ, 1.0 / RATE_HZ)
+    pos, vel, R_bt = _tangent_state(t)
+    R_te = rotation_ned_to_ecef(ORIGIN[0], ORIGIN[1])
+    ecef = geodetic_to_ecef(*ORIGIN) + pos @ R_te.T
+    llh = ecef_to_geodetic(ecef)
+    R_ne = rotation_ned_to_ecef(llh[:, 0], llh[:, 1])
+    R_bn = np.einsum("nji,jk,nkl->nil", R_ne, R_te, R_bt)  # R_ne^T R_te R_bt
+    vel_ned = np.einsum("nji,jk,nk->ni", R_ne, R_te, vel)
+    return Trajectory(
+        t_s=t + 1.0e9, q_body_to_ned=matrix_to_quaternion(R_bn), lat_lon_h=llh, vel_ned_m_s=vel_ned
+    )
+
+
+def _truth_ecef(t_rel: np.ndarray, xyz_scanner: np.ndarray, mount: Mount) -> np.ndarray:
+    pos, _, R_bt = _tangent_state(t_rel)
+    R_te = rotation_ned_to_ecef(ORIGIN[0], ORIGIN[1])
+    body = mount.lever_arm_body_m_array + xyz_scanner @ mount.R_scanner_to_body.T
+    local = pos + np.einsum("nij,nj->ni", R_bt, body)
+    out: np.ndarray = geodetic_to_ecef(*ORIGIN) + local @ R_te.T
+    return out
+
+
+def _scan(n: int, rng: np.random.Generator, t_end: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
+    """Profile-like scan: times in the span, points 3-30 m from the scanner."""
+    t_rel = np.sort(rng.uniform(0.05, t_end - 0.05, n))
+    angle = rng.uniform(0, 2 * np.pi, n)
+    rng_m = rng.uniform(3.0, 30.0, n)
+    xyz = np.column_stack([rng.normal(0, 0.5, n), rng_m * np.cos(angle), rng_m * np.sin(angle)])
+    return t_rel, xyz
+
+
+@pytest.fixture(scope="module")
+def traj() -> Trajectory:
+    return _analytic_trajectory()
+
+
+def test_hermite_within_a_tenth_of_a_millimetre_of_analytic_truth(traj: Trajectory) -> None:
+    rng = np.random.default_rng(5)
+    t_rel, xyz = _scan(20_000, rng)
+    gt = GeorefTrajectory.from_trajectory(traj)
+    out, inside = georeference(t_rel + 1.0e9, xyz, gt, MOUNT)
+    assert inside.all()
+    err = np.linalg.norm(out - _truth_ecef(t_rel, xyz, MOUNT), axis=1)
+    assert err.max() < 1e-4
+    # Linear position is visibly worse on the turn (chord sag ~ v^2 dt^2 / 8 r).
+    lin, _ = georeference(t_rel + 1.0e9, xyz, gt, MOUNT, position="linear")
+    err_lin = np.linalg.norm(lin - _truth_ecef(t_rel, xyz, MOUNT), axis=1)
+    assert err_lin.max() > err.max()
+    assert err_lin.max() < 1e-3
+
+
+@pytest.mark.parametrize("position", ["linear", "hermite"])
+def test_kernel_matches_numpy_reference(traj: Trajectory, position: PositionMethod) -> None:
+    rng = np.random.default_rng(6)
+    t_rel, xyz = _scan(5_000, rng)
+    gt = GeorefTrajectory.from_trajectory(traj)
+    fast, in_fast = georeference(t_rel + 1.0e9, xyz, gt, MOUNT, position=position)
+    ref, in_ref = georeference_numpy(t_rel + 1.0e9, xyz, gt, MOUNT, position=position)
+    np.testing.assert_array_equal(in_fast, in_ref)
+    # One ulp of an ECEF coordinate (~4.6e6 m) is 9.3e-10 m; the reference interpolates in
+    # geodetic coordinates and converts through pyproj, so agreement is a few ulp.
+    assert np.abs(fast - ref).max() < ECEF_ULPS
+
+
+def test_local_ned_trajectory_matches_numpy_reference() -> None:
+    t = np.arange(0.0, 10.0, 0.01)
+    pos, vel, R_bt = _tangent_state(t)
+    local = Trajectory(
+        t_s=t,
+        q_body_to_ned=matrix_to_quaternion(R_bt),
+        pos_ned_m=pos,
+        origin_lat_lon_h=ORIGIN,
+        vel_ned_m_s=vel,
+    )
+    t_rel, xyz = _scan(2_000, np.random.default_rng(7), t_end=10.0)
+    gt = GeorefTrajectory.from_trajectory(local)
+    fast, _ = georeference(t_rel, xyz, gt, MOUNT)
+    ref, _ = georeference_numpy(t_rel, xyz, gt, MOUNT)
+    assert np.abs(fast - ref).max() < ECEF_ULPS
+    assert np.linalg.norm(fast - _truth_ecef(t_rel, xyz, MOUNT), axis=1).max() < 1e-4
+
+
+def test_slerp_of_composed_quaternion_equals_composed_interpolation(traj: Trajectory) -> None:
+    """Slerping q_body_to_ecef vs R_ned_to_ecef(interpolated lat, lon) · slerp(q_body_to_ned)."""
+    gt = GeorefTrajectory.from_trajectory(traj)
+    t_mid = 0.5 * (gt.t_s[:-1] + gt.t_s[1:])
+    t_q = np.concatenate([t_mid, gt.t_s[:-1] + 0.37 * np.diff(gt.t_s)])
+    # Trajectory's slerp applied to the ECEF quaternions (positions are placeholders).
+    as_ecef = Trajectory(
+        t_s=gt.t_s,
+        q_body_to_ned=gt.q_body_to_ecef,
+        pos_ned_m=np.zeros((len(gt), 3)),
+        origin_lat_lon_h=ORIGIN,
+    )
+    R_composed_slerp = quaternion_to_matrix(as_ecef.interpolate(t_q).q_body_to_ned)
+    sample = traj.interpolate(t_q)
+    assert sample.lat_lon_h is not None
+    R_ne = rotation_ned_to_ecef(sample.lat_lon_h[:, 0], sample.lat_lon_h[:, 1])
+    R_separate = np.einsum("nij,njk->nik", R_ne, sample.R_body_to_ned)
+    dR = np.einsum("nji,njk->nik", R_separate, R_composed_slerp)
+    angle = np.arccos(np.clip((np.trace(dR, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    # arccos is ill-conditioned near 0; use the skew part for the small angle.
+    skew = 0.5 * np.stack(
+        [dR[:, 2, 1] - dR[:, 1, 2], dR[:, 0, 2] - dR[:, 2, 0], dR[:, 1, 0] - dR[:, 0, 1]], axis=1
+    )
+    small = np.linalg.norm(skew, axis=1)
+    assert np.all(angle < 1e-6)
+    assert small.max() < 1e-9  # rad
+    # The NED frame turns by v·dt/R_earth per record, ~3e-8 rad here: the effect is second order.
+    assert 10 * small.max() < SPEED_M_S * 0.01 / 6.37e6
+
+
+def test_latency_error_matches_budget_prediction() -> None:
+    """A 2 ms latency error under a 10 deg/s roll: point error vs budget.latency_beam_error."""
+    rate = math.radians(10.0)
+    scenario = beach_scenario(range_m=50.0, slope_deg=10.0, rate_deg_s=10.0)
+    tau = 0.002
+    t0 = 1000.0
+    t = np.arange(t0 - 1.0, t0 + 1.0 + 1e-9, 0.01)
+    zeros = np.zeros_like(t)
+    llh = np.tile(ORIGIN, (t.size, 1))
+    records = Trajectory.from_euler(
+        t, rate * (t - t0), zeros, zeros, lat_lon_h=llh, vel_ned_m_s=np.zeros((t.size, 3))
+    )  # true records: no latency; heading North, rolling about North
+    t_point = t0 - tau  # georeferenced with the record tagged t0: roll 0, beam due East
+    eps = rate * (t_point - t0)  # true roll at the point time
+    d_true = euler_rpy_to_matrix(eps, 0.0, 0.0) @ np.array([0.0, 1.0, 0.0])
+    n = np.asarray(scenario.normal_ned)
+    p0 = scenario.range_m * np.asarray(scenario.beam_ned)
+    r_true = float(n @ p0) / float(n @ d_true)
+    hit_true_ned = r_true * d_true
+    mount = Mount(latency_s=tau)  # the deliberate latency error
+    gt = GeorefTrajectory.from_trajectory(records, latency_s=tau)
+    out, inside = georeference([t_point], [[0.0, r_true, 0.0]], gt, mount)
+    assert inside.all()
+    placed_ned = ecef_to_ned(out, *ORIGIN)[0]
+    err = float(np.linalg.norm(placed_ned - hit_true_ned))
+    predicted = latency_beam_error(scenario, tau).point_error_m
+    assert err > 1e-3  # a real, visible error (~ 8 cm here)
+    assert err == pytest.approx(predicted, rel=0.03)
+    # With the right latency (0) the same point lands on the true hit.
+    gt0 = GeorefTrajectory.from_trajectory(records)
+    good, _ = georeference([t_point], [[0.0, r_true, 0.0]], gt0, Mount())
+    assert np.linalg.norm(ecef_to_ned(good, *ORIGIN)[0] - hit_true_ned) < 1e-6
+
+
+def test_latency_reads_record_tagged_t_plus_tau(traj: Trajectory) -> None:
+    gt = GeorefTrajectory.from_trajectory(traj, latency_s=0.05)
+    rec = 700
+    out, _ = georeference([traj.t_s[rec] - 0.05], [[0.0, 0.0, 0.0]], gt, Mount(latency_s=0.05))
+    assert np.abs(out[0] - gt.pos_ecef_m[rec]).max() < ECEF_ULPS
+    assert traj.lat_lon_h is not None
+    expected = geodetic_to_ecef(*traj.lat_lon_h[rec])
+    assert np.abs(gt.pos_ecef_m[rec] - expected).max() < ECEF_ULPS
+
+
+def test_outside_span_is_masked_nan_not_extrapolated(traj: Trajectory) -> None:
+    gt = GeorefTrajectory.from_trajectory(traj)
+    t = np.array([gt.t_start_s - 1e-3, gt.t_start_s, 1.0e9 + 5.0, gt.t_end_s, gt.t_end_s + 1.0])
+    xyz = np.ones((5, 3))
+    for fn in (georeference, georeference_numpy):
+        out, inside = fn(t, xyz, gt, MOUNT)
+        np.testing.assert_array_equal(inside, [False, True, True, True, False])
+        assert np.isnan(out[~inside]).all()
+        assert np.isfinite(out[inside]).all()
+    fast, _ = georeference(t, xyz, gt, MOUNT)
+    ref, _ = georeference_numpy(t, xyz, gt, MOUNT)
+    assert np.abs(fast[1:4] - ref[1:4]).max() < ECEF_ULPS
+
+
+def test_unsorted_times_give_the_same_points(traj: Trajectory) -> None:
+    rng = np.random.default_rng(8)
+    t_rel, xyz = _scan(3_000, rng)
+    gt = GeorefTrajectory.from_trajectory(traj)
+    sorted_out, _ = georeference(t_rel + 1.0e9, xyz, gt, MOUNT)
+    perm = rng.permutation(t_rel.size)
+    shuffled, inside = georeference(t_rel[perm] + 1.0e9, xyz[perm], gt, MOUNT)
+    assert inside.all()
+    np.testing.assert_array_equal(shuffled, sorted_out[perm])
+    # Backwards in time and with repeats of record times.
+    t_back = np.concatenate([gt.t_s[::-1], gt.t_s[::7]])
+    back, _ = georeference(t_back, np.zeros((t_back.size, 3)), gt, MOUNT)
+    ref, _ = georeference_numpy(t_back, np.zeros((t_back.size, 3)), gt, MOUNT)
+    assert np.abs(back - ref).max() < ECEF_ULPS
+
+
+@pytest.mark.parametrize(
+    ("t", "xyz", "match"),
+    [
+        ([1.0e9 + 1.0, np.nan], [[0, 0, 0], [0, 0, 0]], "time at index 1 is not finite"),
+        ([1.0e9 + 1.0, 1.0e9 + 2.0], [[0, 0, 0], [0, np.inf, 0]], "index 1 are not finite"),
+        ([1.0e9 + 1.0], [[0, 0]], "shape"),
+        ([[1.0e9]], [[0, 0, 0]], "1-D"),
+    ],
+)
+def test_bad_points_raise_input_error(traj: Trajectory, t: object, xyz: object, match: str) -> None:
+    gt = GeorefTrajectory.from_trajectory(traj)
+    for fn in (georeference, georeference_numpy):
+        with pytest.raises(InputError, match=match):
+            fn(t, xyz, gt, MOUNT)  # type: ignore[arg-type]
+
+
+def test_option_errors(traj: Trajectory) -> None:
+    gt = GeorefTrajectory.from_trajectory(traj)
+    with pytest.raises(InputError, match="latency"):
+        georeference([1.0e9 + 1], [[0, 0, 0]], gt, Mount(latency_s=0.01))
+    with pytest.raises(InputError, match="auto, linear or hermite"):
+        georeference([1.0e9 + 1], [[0, 0, 0]], gt, MOUNT, position="cubic")  # type: ignore[arg-type]
+    no_vel = Trajectory(t_s=traj.t_s, q_body_to_ned=traj.q_body_to_ned, lat_lon_h=traj.lat_lon_h)
+    gt_nv = GeorefTrajectory.from_trajectory(no_vel)
+    assert gt_nv.vel_ecef_m_s is None
+    with pytest.raises(InputError, match="velocities"):
+        georeference([1.0e9 + 1], [[0, 0, 0]], gt_nv, MOUNT, position="hermite")
+    out, _ = georeference([1.0e9 + 1], [[0, 0, 0]], gt_nv, MOUNT)  # auto -> linear
+    assert np.isfinite(out).all()
+    with pytest.raises(InputError, match="finite"):
+        GeorefTrajectory.from_trajectory(traj, latency_s=math.nan)
+
+
+def test_empty_input(traj: Trajectory) -> None:
+    gt = GeorefTrajectory.from_trajectory(traj)
+    out, inside = georeference(np.empty(0), np.empty((0, 3)), gt, MOUNT)
+    assert out.shape == (0, 3)
+    assert inside.shape == (0,)
