@@ -89,10 +89,17 @@ def _suffix(path: Path) -> str:
     return suffix
 
 
+_LAZ_BACKEND = next(
+    (b for b in (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs) if b.is_available()),
+    laspy.LazBackend.Lazrs,
+)
+"""lazrs with its thread pool where available: LAZ chunks (de)compress in parallel."""
+
+
 def _open_reader(path: Path) -> Any:
     _suffix(path)
     try:
-        return laspy.open(path, laz_backend=laspy.LazBackend.Lazrs)
+        return laspy.open(path, laz_backend=_LAZ_BACKEND)
     except FileNotFoundError as err:
         msg = f"{path}: file not found"
         raise InputError(msg) from err
@@ -238,7 +245,7 @@ class LasChunkWriter:
                     fh,
                     self.header,
                     do_compress=True,
-                    laz_backend=laspy.LazBackend.Lazrs,
+                    laz_backend=_LAZ_BACKEND,
                     closefd=False,
                 )
             else:

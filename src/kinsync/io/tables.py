@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import csv
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pa_csv
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
@@ -75,6 +76,32 @@ def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
     return InputError(f"{path}: cannot read as a numeric CSV table")
 
 
+def _read_float_columns_arrow(path: Path, header: list[str]) -> dict[str, FloatArray] | None:
+    """All columns as float64 through pyarrow's multi-threaded CSV reader.
+
+    Returns None when the file is not clean numeric CSV (a non-number, an empty cell,
+    a ragged row); the caller then names the first bad line. ``nan`` is a number, as
+    for ``float()``.
+    """
+    try:
+        table = pa_csv.read_csv(
+            path,
+            read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
+            convert_options=pa_csv.ConvertOptions(
+                column_types=dict.fromkeys(header, pa.float64()),
+                null_values=["nan", "NaN", "-nan", "+nan"],
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
+        )
+    except (pa.ArrowInvalid, pa.ArrowTypeError):
+        return None
+    return {
+        name: np.asarray(table.column(name).to_numpy(zero_copy_only=False), dtype=np.float64)
+        for name in header
+    }
+
+
 def read_numeric_csv(
     path: Path, required: Sequence[str], optional: Sequence[str] = ()
 ) -> NumericTable:
@@ -118,20 +145,10 @@ def read_numeric_csv(
     if missing:
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
-    try:
-        with warnings.catch_warnings():
-            # A header-only file is reported by the caller; numpy's warning is noise.
-            warnings.filterwarnings("ignore", message="loadtxt: input contained no data")
-            data = np.loadtxt(path, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
-    except ValueError as err:
-        raise _locate_bad_cell(path, header) from err
-    if data.size == 0:
-        data = np.empty((0, len(header)))
-    if data.shape[1] != len(header):
+    columns = _read_float_columns_arrow(path, header)
+    if columns is None:  # not clean numeric CSV: find and name the bad line
         raise _locate_bad_cell(path, header)
-    return NumericTable(
-        source=str(path), columns={name: data[:, i].copy() for i, name in enumerate(header)}
-    )
+    return NumericTable(source=str(path), columns=columns)
 
 
 def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
