@@ -27,12 +27,16 @@ Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp)
 
 from __future__ import annotations
 
+import importlib
 import math
+import multiprocessing
 import time
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import ExitStack
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any, Literal, cast
 
@@ -43,7 +47,7 @@ from numba import njit
 from scipy.spatial.transform import Rotation
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncError
 from kinsync.frames import (
     geodetic_to_ecef,
     matrix_to_quaternion,
@@ -604,6 +608,7 @@ def rejected_path_for(out_path: Path) -> Path:
     return out_path.with_name(f"{out_path.stem}.rejected{out_path.suffix}")
 
 
+@lru_cache(maxsize=8)
 def _ecef_transformer(crs: str) -> Callable[[FloatArray], FloatArray] | None:
     """ECEF -> ``crs`` (axis order easting/longitude first), or None for ECEF itself."""
     try:
@@ -677,6 +682,173 @@ def _las_point_times(
     return t
 
 
+# ---------------------------------------------------------------------- scale-out
+_DASK_CONNECT_TIMEOUT_S = 10.0
+_CHUNKS_IN_FLIGHT_PER_WORKER = 2
+
+
+@dataclass(frozen=True, eq=False)
+class _ChunkContext:
+    """What every worker holds once: the trajectory, the mount and the options."""
+
+    traj: GeorefTrajectory
+    mount: Mount
+    position: PositionMethod
+    crs: str
+
+
+def _georef_chunk(
+    ctx: _ChunkContext, t: FloatArray, xyz: FloatArray
+) -> tuple[BoolArray, FloatArray]:
+    """Georeference one chunk: the ``inside`` mask and the inside points in ``ctx.crs``."""
+    pos, inside = georeference(t, xyz, ctx.traj, ctx.mount, position=ctx.position)
+    if not inside.all():
+        pos = pos[inside]
+    to_crs = _ecef_transformer(ctx.crs)
+    return inside, (pos if to_crs is None else to_crs(pos))
+
+
+_WORKER_CONTEXT: list[_ChunkContext] = []
+
+
+def _init_process_worker(ctx: _ChunkContext) -> None:
+    """Process-pool initializer: keep the context for every chunk of this worker."""
+    _WORKER_CONTEXT[:] = [ctx]
+
+
+def _georef_chunk_in_process(t: FloatArray, xyz: FloatArray) -> tuple[BoolArray, FloatArray]:
+    return _georef_chunk(_WORKER_CONTEXT[0], t, xyz)
+
+
+_ChunkResult = Callable[[], tuple[BoolArray, FloatArray]]
+
+
+class _Runner:
+    """Serial, in-process: each chunk is computed when its result is asked for."""
+
+    window = 1
+
+    def __init__(self, ctx: _ChunkContext) -> None:
+        self.ctx = ctx
+
+    def submit(self, t: FloatArray, xyz: FloatArray) -> _ChunkResult:
+        return lambda: _georef_chunk(self.ctx, t, xyz)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+class _ProcessRunner(_Runner):
+    """A local process pool; the context is shipped once per worker (initializer)."""
+
+    def __init__(self, ctx: _ChunkContext, workers: int) -> None:
+        super().__init__(ctx)
+        methods = multiprocessing.get_all_start_methods()
+        mp_context = multiprocessing.get_context(
+            "forkserver" if "forkserver" in methods else "spawn"
+        )
+        self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * workers
+        self.pool = ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=mp_context,
+            initializer=_init_process_worker,
+            initargs=(ctx,),
+        )
+
+    def submit(self, t: FloatArray, xyz: FloatArray) -> _ChunkResult:
+        future: Future[tuple[BoolArray, FloatArray]] = self.pool.submit(
+            _georef_chunk_in_process, t, xyz
+        )
+        return future.result
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class _DaskRunner(_Runner):
+    """An existing dask.distributed scheduler; the context is broadcast once."""
+
+    def __init__(self, ctx: _ChunkContext, address: str, workers: int | None) -> None:
+        super().__init__(ctx)
+        try:
+            distributed: Any = importlib.import_module("dask.distributed")  # optional extra
+        except ImportError as err:
+            msg = (
+                f"--scheduler {address} needs dask.distributed, which is not installed; "
+                "install kinsync[scale] (pip install 'kinsync[scale]') or use "
+                "--scheduler local|processes"
+            )
+            raise InputError(msg) from err
+        try:
+            self.client: Any = distributed.Client(address, timeout=_DASK_CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as err:
+            reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+            msg = (
+                f"cannot reach the Dask scheduler at {address} ({reason}); start one with "
+                "'dask scheduler' and workers with 'dask worker ADDRESS', or use "
+                "--scheduler local|processes"
+            )
+            raise InputError(msg) from err
+        n_workers = workers or max(1, len(self.client.scheduler_info().get("workers", {})))
+        self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * n_workers
+        self.ctx_future = self.client.scatter(ctx, broadcast=True)
+
+    def submit(self, t: FloatArray, xyz: FloatArray) -> _ChunkResult:
+        future = self.client.submit(_georef_chunk, self.ctx_future, t, xyz, pure=False)
+
+        def result() -> tuple[BoolArray, FloatArray]:
+            out: tuple[BoolArray, FloatArray] = future.result()
+            return out
+
+        return result
+
+    def close(self) -> None:
+        self.client.close()
+
+
+def _make_runner(ctx: _ChunkContext, scheduler: str, workers: int | None) -> _Runner:
+    if workers is not None and workers < 1:
+        msg = f"--workers must be >= 1, got {workers}"
+        raise InputError(msg)
+    if scheduler == "local":
+        return _Runner(ctx)
+    if scheduler == "processes":
+        return _ProcessRunner(ctx, workers or multiprocessing.cpu_count())
+    if scheduler.startswith(("tcp://", "tls://")):
+        return _DaskRunner(ctx, scheduler, workers)
+    msg = f"--scheduler must be local, processes or tcp://HOST:PORT, got {scheduler!r}"
+    raise InputError(msg)
+
+
+def _in_order(
+    reads: Iterator[tuple[Any, FloatArray, FloatArray]], runner: _Runner
+) -> Iterator[tuple[Any, FloatArray, _ChunkResult]]:
+    """Submit chunks ahead (at most ``runner.window`` in flight); yield them in input order.
+
+    An error while reading is raised only when its place in the input is reached, so
+    that every run reports the same first error as the serial one.
+    """
+    pending: deque[tuple[Any, FloatArray, _ChunkResult] | KinsyncError] = deque()
+    more = True
+    while True:
+        while more and len(pending) < runner.window:
+            try:
+                chunk, t, xyz = next(reads)
+            except StopIteration:
+                more = False
+            except KinsyncError as err:
+                pending.append(err)
+                more = False
+            else:
+                pending.append((chunk, t, runner.submit(t, xyz)))
+        if not pending:
+            return
+        item = pending.popleft()
+        if isinstance(item, KinsyncError):
+            raise item
+        yield item
+
+
 def georeference_file(
     points_path: Path,
     trajectory_path: Path,
@@ -689,6 +861,8 @@ def georeference_file(
     gps_week: int | None = None,
     position: PositionMethod = "auto",
     progress: Callable[[int, int | None], None] | None = None,
+    scheduler: str = "local",
+    workers: int | None = None,
 ) -> GeorefSummary:
     """Georeference a point file chunk by chunk into ``out_path`` (streaming, atomic).
 
@@ -719,6 +893,16 @@ def georeference_file(
         Position interpolation (see `georeference`).
     progress : callable, optional
         Called after each chunk with (points done, total points or None).
+    scheduler : str
+        Where chunks are georeferenced: ``"local"`` (in this process, serial),
+        ``"processes"`` (a local process pool) or ``"tcp://HOST:PORT"`` (an existing
+        dask.distributed scheduler, extra ``kinsync[scale]``). The trajectory is
+        shipped once per worker; chunks are read and written here, in input order,
+        so the output is identical to the serial run.
+    workers : int, optional
+        Processes of the pool (default: the CPU count); for a Dask scheduler, the
+        workers to keep busy (default: those connected). At most two chunks per worker
+        are in flight.
 
     Returns
     -------
@@ -763,37 +947,30 @@ def georeference_file(
     trajectory, traj_scale = read_trajectory_file(trajectory_path, gps_week=gps_week)
     traj = GeorefTrajectory.from_trajectory(trajectory, latency_s=mount.latency_s)
     _use_hermite(traj, position)
-    to_crs = _ecef_transformer(crs)
+    _check_latency(traj, mount)
+    _ecef_transformer(crs)  # a bad --crs fails here, before any output
     tally = _OutsideTally()
-    if in_suffix in _LAS_SUFFIXES:
-        counts = _georef_las(
-            points_path,
-            out_path,
-            traj,
-            traj_scale,
-            mount,
-            crs,
-            to_crs,
-            chunk_points,
-            outside,
-            gps_week,
-            position,
-            progress,
-            tally,
-        )
-    else:
-        counts = _georef_table(
-            points_path,
-            out_path,
-            traj,
-            mount,
-            to_crs,
-            chunk_points,
-            outside,
-            position,
-            progress,
-            tally,
-        )
+    with ExitStack() as stack:
+        runner = _make_runner(_ChunkContext(traj, mount, position, crs), scheduler, workers)
+        stack.callback(runner.close)
+        if in_suffix in _LAS_SUFFIXES:
+            counts = _georef_las(
+                points_path,
+                out_path,
+                traj,
+                traj_scale,
+                crs,
+                chunk_points,
+                outside,
+                gps_week,
+                progress,
+                tally,
+                runner,
+            )
+        else:
+            counts = _georef_table(
+                points_path, out_path, traj, chunk_points, outside, progress, tally, runner
+            )
     points_in, points_out, points_rejected = counts
     return GeorefSummary(
         points_in=points_in,
@@ -808,31 +985,32 @@ def _georef_table(
     points_path: Path,
     out_path: Path,
     traj: GeorefTrajectory,
-    mount: Mount,
-    to_crs: Callable[[FloatArray], FloatArray] | None,
     chunk_points: int,
     outside: OutsidePolicy,
-    position: PositionMethod,
     progress: Callable[[int, int | None], None] | None,
     tally: _OutsideTally,
+    runner: _Runner,
 ) -> tuple[int, int, int]:
     total = count_table_rows(points_path) if points_path.suffix.lower() == ".parquet" else None
     required = ("t_s", *_XYZ_COLUMNS)
     n_in = n_out = 0
     failing = False
+
+    def reads() -> Iterator[tuple[Any, FloatArray, FloatArray]]:
+        for chunk in iter_table_chunks(points_path, chunk_points, required):
+            yield chunk, chunk["t_s"], np.column_stack([chunk[c] for c in _XYZ_COLUMNS])
+
     with ExitStack() as stack:
         writer = stack.enter_context(TableChunkWriter(out_path))
         rejected: TableChunkWriter | None = None
-        for chunk in iter_table_chunks(points_path, chunk_points, required):
-            t = chunk["t_s"]
+        for chunk, t, result in _in_order(reads(), runner):
             n = int(t.size)
             if failing:  # only count what lies outside, for the error message
                 tally.add(t[~((t >= traj.t_start_s) & (t <= traj.t_end_s))])
                 n_in += n
                 continue
-            xyz = np.column_stack([chunk[c] for c in _XYZ_COLUMNS])
             try:
-                pos, inside = georeference(t, xyz, traj, mount, position=position)
+                inside, coords = result()
             except InputError as err:
                 msg = f"{points_path}: rows {n_in}..{n_in + n - 1}: {err}"
                 raise InputError(msg) from err
@@ -845,8 +1023,6 @@ def _georef_table(
                 if rejected is None:
                     rejected = stack.enter_context(TableChunkWriter(rejected_path_for(out_path)))
                 rejected.write({k: v[~inside] for k, v in chunk.items()})
-                pos = pos[inside]
-            coords = pos if to_crs is None else to_crs(pos)
             out_cols: dict[str, Any] = {}
             for name, values in chunk.items():
                 if name in _XYZ_COLUMNS:
@@ -869,15 +1045,13 @@ def _georef_las(  # noqa: PLR0915 - one streaming loop, branches for outside poi
     out_path: Path,
     traj: GeorefTrajectory,
     traj_scale: TimeScale,
-    mount: Mount,
     crs: str,
-    to_crs: Callable[[FloatArray], FloatArray] | None,
     chunk_points: int,
     outside: OutsidePolicy,
     gps_week: int | None,
-    position: PositionMethod,
     progress: Callable[[int, int | None], None] | None,
     tally: _OutsideTally,
+    runner: _Runner,
 ) -> tuple[int, int, int]:
     info = las_info(points_path)
     with laspy.open(points_path) as reader:
@@ -886,22 +1060,27 @@ def _georef_las(  # noqa: PLR0915 - one streaming loop, branches for outside poi
     scale = _LAS_SCALE_DEG if target_crs.is_geographic else _LAS_SCALE_M
     n_in = n_out = 0
     failing = False
+
+    def reads() -> Iterator[tuple[Any, FloatArray, FloatArray]]:
+        for chunk in iter_las_chunks(points_path, chunk_points):
+            t = _las_point_times(points_path, chunk, info.gps_time_type, traj_scale, gps_week)
+            xyz = np.column_stack(
+                [np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]
+            ).astype(np.float64)
+            yield chunk, t, xyz
+
     with ExitStack() as stack:
         writer: LasChunkWriter | None = None
         rejected: LasChunkWriter | None = None
-        for full_chunk in iter_las_chunks(points_path, chunk_points):
+        for full_chunk, t, result in _in_order(reads(), runner):
             chunk = full_chunk
-            t = _las_point_times(points_path, chunk, info.gps_time_type, traj_scale, gps_week)
             n = int(t.size)
             if failing:
                 tally.add(t[~((t >= traj.t_start_s) & (t <= traj.t_end_s))])
                 n_in += n
                 continue
-            xyz = np.column_stack(
-                [np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]
-            ).astype(np.float64)
             try:
-                pos, inside = georeference(t, xyz, traj, mount, position=position)
+                inside, coords = result()
             except InputError as err:
                 msg = f"{points_path}: points {n_in}..{n_in + n - 1}: {err}"
                 raise InputError(msg) from err
@@ -925,8 +1104,6 @@ def _georef_las(  # noqa: PLR0915 - one streaming loop, branches for outside poi
                 bad = chunk[~inside]
                 rejected.write(bad, np.asarray(bad.x), np.asarray(bad.y), np.asarray(bad.z))
                 chunk = chunk[inside]
-                pos = pos[inside]
-            coords = pos if to_crs is None else to_crs(pos)
             if writer is None and coords.shape[0]:
                 offset = np.round(coords[0] / _LAS_OFFSET_ROUND) * _LAS_OFFSET_ROUND
                 if target_crs.is_geographic:

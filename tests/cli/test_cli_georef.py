@@ -250,3 +250,30 @@ def test_bad_input_is_one_line_error(
     code, stdout, err = run_cli(_args(setup, out))
     assert_one_line_error(code, stdout, err, *fragments)
     assert not out.exists()
+
+
+def test_scheduler_processes_gives_the_serial_output(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    serial, scaled = setup["dir"] / "serial.csv", setup["dir"] / "scaled.csv"
+    code, _, err = run_cli(_args(setup, serial, "--chunk-points", "600"))
+    assert code == 0, err
+    extra = ("--chunk-points", "600", "--scheduler", "processes", "--workers", "2", "--json")
+    code, stdout, err = run_cli(_args(setup, scaled, *extra))
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == N_POINTS
+    assert scaled.read_bytes() == serial.read_bytes()
+
+
+def test_unreachable_scheduler_is_one_line_error(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr("kinsync.georef._DASK_CONNECT_TIMEOUT_S", 1.0)
+    out = setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(setup, out, "--scheduler", "tcp://127.0.0.1:9"))
+    assert_one_line_error(code, stdout, err, "cannot reach the Dask scheduler at tcp://127.0.0.1:9")
+    assert not out.exists()

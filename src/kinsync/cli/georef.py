@@ -69,6 +69,24 @@ def georef(
             min=0,
         ),
     ] = None,
+    scheduler: Annotated[
+        str,
+        typer.Option(
+            "--scheduler",
+            help="Where chunks are georeferenced: 'local' (this process), 'processes' (a "
+            "local process pool) or tcp://HOST:PORT (a running Dask scheduler; needs "
+            "kinsync[scale]). The output is identical whichever is used.",
+        ),
+    ] = "local",
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers",
+            help="Processes for --scheduler processes (default: CPU count); for a Dask "
+            "scheduler, workers to keep busy (default: those connected).",
+            min=1,
+        ),
+    ] = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
@@ -105,6 +123,8 @@ def georef(
             outside=_OUTSIDE[outside],
             gps_week=gps_week,
             progress=progress,
+            scheduler=scheduler,
+            workers=workers,
         )
     if as_json:
         print_json(summary.as_document())

@@ -1,0 +1,93 @@
+"""Scale-out of ``kinsync georef``: throughput with 1, 2, 4, ... process-pool workers.
+
+Writes a multi-million-point LAZ scan and georeferences it to geographic coordinates
+(EPSG:4979, so the workers do the kernel and the CRS transform) with the serial path
+and with ``scheduler="processes"`` for each worker count the machine has; prints
+points/s and the ratio to 1 worker. Reading and LAZ writing stay in the main process,
+so the ceiling is set by laspy/lazrs I/O there.
+
+Usage: ``python benchmarks/bench_georef_scale.py [--points N] [--chunk-points N]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import laspy
+import numpy as np
+
+from kinsync.georef import georeference_file
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.mount import Mount
+from kinsync.trajectory import Trajectory
+
+T0 = 1.3e9
+MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
+
+
+def write_inputs(folder: Path, n_points: int) -> None:
+    t = T0 + np.arange(0.0, 100.0, 0.005)
+    s = t - T0
+    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
+    traj = Trajectory.from_euler(
+        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh
+    )
+    write_trajectory_csv(traj, folder / "traj.csv")
+    rng = np.random.default_rng(1)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.array([1e-4, 1e-4, 1e-4])
+    header.offsets = np.zeros(3)
+    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x = rng.uniform(-1, 1, n_points)
+    las.y = rng.uniform(-20, 20, n_points)
+    las.z = rng.uniform(-5, 5, n_points)
+    las.gps_time = T0 - 1e9 + np.linspace(0.1, 99.9, n_points)  # adjusted GPS time
+    las.intensity = rng.integers(0, 1000, n_points).astype(np.uint16)
+    las.write(folder / "scan.laz")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--points", type=int, default=4_000_000)
+    parser.add_argument("--chunk-points", type=int, default=500_000)
+    args = parser.parse_args()
+    cores = os.cpu_count() or 1
+    counts = [w for w in (1, 2, 4, 8, 16) if w <= max(cores, 2)]
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        write_inputs(folder, args.points)
+        rows: list[tuple[str, float]] = []
+
+        def run(label: str, scheduler: str, workers: int | None) -> None:
+            start = time.perf_counter()
+            summary = georeference_file(
+                folder / "scan.laz",
+                folder / "traj.csv",
+                MOUNT,
+                folder / "out.laz",
+                crs="EPSG:4979",
+                chunk_points=args.chunk_points,
+                scheduler=scheduler,
+                workers=workers,
+            )
+            rows.append((label, summary.points_in / (time.perf_counter() - start)))
+
+        run("local (serial)", "local", None)  # also warms the JIT cache
+        rows.clear()
+        run("local (serial)", "local", None)
+        for w in counts:
+            run(f"processes, {w} worker(s)", "processes", w)
+    base = next(rate for label, rate in rows if label.startswith("processes, 1 "))
+    print(f"georef LAZ -> LAZ (EPSG:4979), {args.points:,} points, {cores} core(s)")
+    print(f"{'scheduler':<28}{'Mpts/s':>10}{'vs 1 worker':>14}")
+    for label, rate in rows:
+        print(f"{label:<28}{rate / 1e6:>10.2f}{rate / base:>13.2f}x")
+
+
+if __name__ == "__main__":
+    main()

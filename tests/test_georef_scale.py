@@ -1,0 +1,135 @@
+"""Scale-out of the georeferencing pipeline: process pool and Dask give the serial output."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+from kinsync.errors import InputError
+from kinsync.georef import georeference_file
+from kinsync.io.points import TableChunkWriter
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.mount import Mount
+from kinsync.trajectory import Trajectory
+
+T0 = 1.3e9
+MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
+N = 6_000
+CHUNK = 700
+
+
+@pytest.fixture(scope="module")
+def dask_address() -> Iterator[str]:
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        yield str(cluster.scheduler_address)
+
+
+@pytest.fixture(scope="module", params=["processes", "dask"])
+def scheduler(request: pytest.FixtureRequest) -> str:
+    if request.param == "dask":
+        return str(request.getfixturevalue("dask_address"))
+    return "processes"
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("scale")
+    t = T0 + np.arange(0.0, 10.0, 0.01)
+    s = t - T0
+    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
+    traj = Trajectory.from_euler(
+        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh
+    )
+    write_trajectory_csv(traj, folder / "traj.csv")
+    rng = np.random.default_rng(11)
+    cols = {
+        "t_s": T0 + np.sort(rng.uniform(-0.5, 9.9, N)),  # some before the span
+        "x_m": rng.uniform(-1, 1, N),
+        "y_m": rng.uniform(-20, 20, N),
+        "z_m": rng.uniform(-5, 5, N),
+        "intensity": rng.integers(0, 1000, N),
+    }
+    with TableChunkWriter(folder / "points.csv") as w:
+        w.write(cols)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.array([1e-4, 1e-4, 1e-4])
+    header.offsets = np.zeros(3)
+    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
+    las.gps_time = cols["t_s"] - 1e9
+    las.intensity = cols["intensity"].astype(np.uint16)
+    las.write(folder / "points.laz")
+    cols["y_m"][4 * CHUNK + 3] = np.nan
+    with TableChunkWriter(folder / "bad.csv") as w:
+        w.write(cols)
+    return {"dir": folder, "traj": folder / "traj.csv"}
+
+
+def _run(inputs: dict[str, Path], name: str, out: str, **kw: object) -> Path:
+    path = inputs["dir"] / out
+    georeference_file(
+        inputs["dir"] / name,
+        inputs["traj"],
+        MOUNT,
+        path,
+        chunk_points=CHUNK,
+        outside="reject",
+        **kw,  # type: ignore[arg-type]
+    )
+    return path
+
+
+def test_csv_output_is_byte_identical(inputs: dict[str, Path], scheduler: str) -> None:
+    serial = _run(inputs, "points.csv", "serial.csv", crs="EPSG:4979")
+    done: list[int] = []
+    scaled = _run(
+        inputs,
+        "points.csv",
+        "scaled.csv",
+        crs="EPSG:4979",
+        scheduler=scheduler,
+        workers=2,
+        progress=lambda n, _total: done.append(n),
+    )
+    assert scaled.read_bytes() == serial.read_bytes()
+    rej_serial = inputs["dir"] / "serial.rejected.csv"
+    assert (inputs["dir"] / "scaled.rejected.csv").read_bytes() == rej_serial.read_bytes()
+    assert done == sorted(done)
+    assert done[-1] == N
+
+
+def test_laz_output_is_point_by_point_identical(inputs: dict[str, Path], scheduler: str) -> None:
+    serial = laspy.read(_run(inputs, "points.laz", "serial.laz"))
+    scaled = laspy.read(_run(inputs, "points.laz", "scaled.laz", scheduler=scheduler))
+    assert len(scaled.points) == len(serial.points) > 0
+    for name in serial.point_format.dimension_names:
+        np.testing.assert_array_equal(scaled[name], serial[name], err_msg=name)
+    assert scaled.header.offsets.tolist() == serial.header.offsets.tolist()
+
+
+def test_worker_error_is_the_serial_error(inputs: dict[str, Path], scheduler: str) -> None:
+    with pytest.raises(InputError) as serial:
+        _run(inputs, "bad.csv", "bad_serial.csv")
+    with pytest.raises(InputError) as scaled:
+        _run(inputs, "bad.csv", "bad_scaled.csv", scheduler=scheduler)
+    assert str(scaled.value) == str(serial.value)
+    assert "not finite" in str(serial.value)
+    assert not (inputs["dir"] / "bad_scaled.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("scheduler_arg", "match"),
+    [("threads", "--scheduler must be local, processes or tcp://"), ("processes", "--workers")],
+)
+def test_bad_scheduler_options(inputs: dict[str, Path], scheduler_arg: str, match: str) -> None:
+    workers = 0 if scheduler_arg == "processes" else None
+    with pytest.raises(InputError, match=match):
+        _run(inputs, "points.csv", "x.csv", scheduler=scheduler_arg, workers=workers)
