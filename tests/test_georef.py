@@ -10,7 +10,6 @@ import pytest
 from kinsync.budget import beach_scenario, latency_beam_error
 from kinsync.errors import InputError
 from kinsync.frames import (
-    ecef_to_geodetic,
     ecef_to_ned,
     euler_rpy_to_matrix,
     geodetic_to_ecef,
@@ -20,6 +19,7 @@ from kinsync.frames import (
 )
 from kinsync.georef import GeorefTrajectory, PositionMethod, georeference, georeference_numpy
 from kinsync.mount import Mount
+from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import Trajectory
 
 ORIGIN = (46.8, -71.2, 10.0)
@@ -30,47 +30,25 @@ ECEF_ULPS = 5e-9  # m: five units in the last place of an ECEF coordinate near 4
 MOUNT = Mount(lever_arm_body_m=(0.8, -0.3, -1.2), boresight_rpy_deg=(0.4, -0.7, 91.0))
 
 
+VEHICLE = TurningVehicle(
+    origin_lat_lon_h=ORIGIN, speed_m_s=SPEED_M_S, turn_rate_rad_s=TURN_RATE_RAD_S
+)
+
+
 def _tangent_state(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact motion in the tangent NED frame at ORIGIN: position, velocity, R_body_to_tangent."""
-    w, r = TURN_RATE_RAD_S, SPEED_M_S / TURN_RATE_RAD_S
-    pos = np.column_stack([r * np.sin(w * t), r * (1 - np.cos(w * t)), -0.5 * np.sin(0.2 * t)])
-    vel = np.column_stack([r * w * np.cos(w * t), r * w * np.sin(w * t), -0.1 * np.cos(0.2 * t)])
-    roll = math.radians(2.0) * np.sin(2 * np.pi * 0.2 * t)
-    pitch = math.radians(1.0) * np.sin(2 * np.pi * 0.13 * t + 0.3)
-    return pos, vel, euler_rpy_to_matrix(roll, pitch, w * t)
+    return VEHICLE.tangent_state(t)
 
 
 def _analytic_trajectory(duration_s: float = 20.0) -> Trajectory:
-    """Geodetic records at 100 Hz of the tangent-frame motion, with NED velocities."""
-    t = np.arange(0.0, duration_s + 0.5 / RATE_HZ, 1.0 / RATE_HZ)
-    pos, vel, R_bt = _tangent_state(t)
-    R_te = rotation_ned_to_ecef(ORIGIN[0], ORIGIN[1])
-    ecef = geodetic_to_ecef(*ORIGIN) + pos @ R_te.T
-    llh = ecef_to_geodetic(ecef)
-    R_ne = rotation_ned_to_ecef(llh[:, 0], llh[:, 1])
-    R_bn = np.einsum("nji,jk,nkl->nil", R_ne, R_te, R_bt)  # R_ne^T R_te R_bt
-    vel_ned = np.einsum("nji,jk,nk->ni", R_ne, R_te, vel)
-    return Trajectory(
-        t_s=t + 1.0e9, q_body_to_ned=matrix_to_quaternion(R_bn), lat_lon_h=llh, vel_ned_m_s=vel_ned
-    )
+    return VEHICLE.trajectory(duration_s, RATE_HZ)
 
 
 def _truth_ecef(t_rel: np.ndarray, xyz_scanner: np.ndarray, mount: Mount) -> np.ndarray:
-    pos, _, R_bt = _tangent_state(t_rel)
-    R_te = rotation_ned_to_ecef(ORIGIN[0], ORIGIN[1])
-    body = mount.lever_arm_body_m_array + xyz_scanner @ mount.R_scanner_to_body.T
-    local = pos + np.einsum("nij,nj->ni", R_bt, body)
-    out: np.ndarray = geodetic_to_ecef(*ORIGIN) + local @ R_te.T
-    return out
+    return VEHICLE.truth_ecef_m(t_rel, xyz_scanner, mount)
 
 
 def _scan(n: int, rng: np.random.Generator, t_end: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
-    """Profile-like scan: times in the span, points 3-30 m from the scanner."""
-    t_rel = np.sort(rng.uniform(0.05, t_end - 0.05, n))
-    angle = rng.uniform(0, 2 * np.pi, n)
-    rng_m = rng.uniform(3.0, 30.0, n)
-    xyz = np.column_stack([rng.normal(0, 0.5, n), rng_m * np.cos(angle), rng_m * np.sin(angle)])
-    return t_rel, xyz
+    return TurningVehicle.scan(n, rng, t_end)
 
 
 @pytest.fixture(scope="module")

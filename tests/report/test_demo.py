@@ -58,6 +58,8 @@ def test_demo_writes_a_self_contained_report(
     assert (out_dir / "method-a-passes" / "passes.csv").exists()
     assert "Method A latency" in out
     assert any("PPS" in h or "clock" in h.lower() for h in parser.headings)
+    assert any("georeferencing" in h.lower() for h in parser.headings)
+    assert "georeferencing" in out
     assert "http://" not in html_text
     assert "https://" not in html_text
     doc = json.loads((out_dir / "budget.json").read_text())

@@ -1,0 +1,110 @@
+"""Demo section for direct georeferencing (SPEC section 5).
+
+A vehicle turns at 20 m/s on a 200 m radius while rolling and pitching; a million
+scanner points are georeferenced with the compiled kernel and compared with the
+analytic truth, then again with a deliberate 2 ms latency to show the damage.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import matplotlib as mpl
+
+mpl.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from kinsync.georef import GeorefTrajectory, georeference
+from kinsync.io.atomic import atomic_write_bytes
+from kinsync.mount import Mount
+from kinsync.report.figures import png_bytes
+from kinsync.report.html import Figure, Section, Table
+from kinsync.sim.turning_scan import TurningVehicle
+
+__all__ = ["georef_section"]
+
+Summary = list[tuple[str, str, str]]
+
+N_POINTS = 1_000_000
+DURATION_S = 60.0
+LATENCY_ERROR_S = 0.002
+MOUNT = Mount(lever_arm_body_m=(0.8, -0.3, -1.2), boresight_rpy_deg=(0.4, -0.7, 91.0))
+
+
+def georef_section(out_dir: Path, summary: Summary) -> Section:
+    """Georeference a simulated scan against analytic truth, with and without a latency error."""
+    vehicle = TurningVehicle()
+    traj = vehicle.trajectory(DURATION_S, rate_hz=100.0)
+    rng = np.random.default_rng(5)
+    t_rel, xyz = TurningVehicle.scan(N_POINTS, rng, DURATION_S)
+    t = t_rel + vehicle.t0_s
+    truth = vehicle.truth_ecef_m(t_rel, xyz, MOUNT)
+    exact = GeorefTrajectory.from_trajectory(traj)
+    georeference(t[:100], xyz[:100], exact, MOUNT)  # compile (or load the cache) first
+    start = time.perf_counter()
+    out, inside = georeference(t, xyz, exact, MOUNT)
+    seconds = time.perf_counter() - start
+    err_mm = np.linalg.norm(out - truth, axis=1) * 1e3
+    late_mount = MOUNT.with_latency(LATENCY_ERROR_S)
+    late = GeorefTrajectory.from_trajectory(traj, latency_s=LATENCY_ERROR_S)
+    out_late, inside_late = georeference(t, xyz, late, late_mount)
+    ok = inside & inside_late
+    err_late_mm = np.linalg.norm(out_late[ok] - truth[ok], axis=1) * 1e3
+    rate = N_POINTS / seconds / 1e6
+    summary.append(
+        (
+            "georeferencing",
+            f"{N_POINTS // 1_000_000} M points, vehicle turning at 20 m/s, rolling",
+            (
+                f"max error {err_mm.max():.4f} mm vs analytic truth, {rate:.0f} Mpts/s; "
+                f"a 2 ms latency error: RMS {np.sqrt(np.mean(err_late_mm**2)):.1f} mm"
+            ),
+        )
+    )
+    fig, ax = plt.subplots(figsize=(10, 3.8))
+    step = max(1, N_POINTS // 20000)
+    ax.plot(t_rel[::step], err_late_mm[::step], ".", ms=1.5, label="2 ms latency error")
+    ax.plot(t_rel[::step], err_mm[::step], ".", ms=1.5, label="correct latency")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("point error (mm)")
+    ax.set_title("Georeferenced points against analytic truth")
+    ax.grid(visible=True, which="both", alpha=0.3)
+    ax.legend(markerscale=6)
+    png = png_bytes(fig)
+    atomic_write_bytes(out_dir / "georef_1.png", png)
+    rows = [
+        [
+            "correct latency",
+            f"{np.sqrt(np.mean(err_mm**2)):.5f}",
+            f"{err_mm.max():.5f}",
+        ],
+        [
+            "2 ms latency error",
+            f"{np.sqrt(np.mean(err_late_mm**2)):.2f}",
+            f"{err_late_mm.max():.2f}",
+        ],
+    ]
+    return Section(
+        title="Direct georeferencing (SPEC section 5)",
+        paragraphs=(
+            (
+                f"{N_POINTS:,} scanner points 3-30 m from a scanner on a vehicle turning at "
+                "20 m/s on a 200 m radius while rolling 2 deg at 0.2 Hz, with lever arm and "
+                "boresight; 100 Hz records with velocities (cubic Hermite positions, slerp of "
+                f"the body-to-ECEF attitude). Kernel: {rate:.1f} Mpts/s on one core. The same "
+                "points georeferenced with a deliberate 2 ms latency show what an "
+                "uncalibrated latency costs."
+            ),
+        ),
+        tables=(
+            Table(
+                caption="Point error against the analytic truth",
+                headers=("case", "RMS (mm)", "max (mm)"),
+                rows=rows,
+            ),
+        ),
+        figures=(Figure(caption="Point error over time", png=png),),
+    )
