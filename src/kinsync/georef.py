@@ -346,32 +346,31 @@ _georef_kernel = cast(
 
 
 # ---------------------------------------------------------------------- validation
-def _shaped_points(t_s: ArrayLike, xyz_scanner_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
+def _shaped_points(
+    t_s: ArrayLike, xyz_scanner_m: ArrayLike, what: str = "georeference"
+) -> tuple[FloatArray, FloatArray]:
     try:
         t = np.ascontiguousarray(t_s, dtype=np.float64)
         xyz = np.ascontiguousarray(xyz_scanner_m, dtype=np.float64)
     except (TypeError, ValueError) as err:
-        msg = f"georeference: point times and coordinates must be numbers ({err})"
+        msg = f"{what}: point times and coordinates must be numbers ({err})"
         raise InputError(msg) from err
     if t.ndim != 1:
-        msg = f"georeference: point times t_s must be 1-D, got shape {t.shape}"
+        msg = f"{what}: point times t_s must be 1-D, got shape {t.shape}"
         raise InputError(msg)
     if xyz.shape != (t.size, 3):
-        msg = (
-            f"georeference: xyz_scanner_m must have shape ({t.size}, 3) to match t_s, "
-            f"got {xyz.shape}"
-        )
+        msg = f"{what}: xyz_scanner_m must have shape ({t.size}, 3) to match t_s, got {xyz.shape}"
         raise InputError(msg)
     return t, xyz
 
 
-def _raise_not_finite(t: FloatArray, xyz: FloatArray) -> None:
+def _raise_not_finite(t: FloatArray, xyz: FloatArray, what: str = "georeference") -> None:
     """Raise `InputError` naming the first non-finite point time or coordinate, if any."""
     bad_t = ~np.isfinite(t)
     if np.any(bad_t):
         row = int(np.flatnonzero(bad_t)[0])
         msg = (
-            f"georeference: point time at index {row} is not finite ({float(t[row])!r}); "
+            f"{what}: point time at index {row} is not finite ({float(t[row])!r}); "
             f"{int(np.count_nonzero(bad_t))} such point(s): drop or fix them"
         )
         raise InputError(msg)
@@ -379,16 +378,22 @@ def _raise_not_finite(t: FloatArray, xyz: FloatArray) -> None:
     if np.any(bad_xyz):
         row = int(np.flatnonzero(bad_xyz)[0])
         msg = (
-            f"georeference: scanner coordinates at index {row} are not finite "
-            f"({xyz[row].tolist()}); {int(np.count_nonzero(bad_xyz))} such point(s): "
+            f"{what}: scanner coordinates at index {row} are not finite (point {row} of "
+            f"{t.size}: {xyz[row].tolist()}); {int(np.count_nonzero(bad_xyz))} such point(s): "
             "drop or fix them"
         )
         raise InputError(msg)
 
 
-def _validated_points(t_s: ArrayLike, xyz_scanner_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    t, xyz = _shaped_points(t_s, xyz_scanner_m)
-    _raise_not_finite(t, xyz)
+def validated_scanner_points(
+    t_s: ArrayLike, xyz_scanner_m: ArrayLike, what: str = "georeference"
+) -> tuple[FloatArray, FloatArray]:
+    """Point times (N,) and scanner-frame coordinates (N, 3) as finite float64 arrays.
+
+    Raises `InputError`, prefixed with ``what``, naming the first bad shape or point.
+    """
+    t, xyz = _shaped_points(t_s, xyz_scanner_m, what)
+    _raise_not_finite(t, xyz, what)
     return t, xyz
 
 
@@ -491,7 +496,7 @@ def georeference_numpy(
     the reference for the kernel and as the benchmark baseline. Parameters, returns
     and errors as in `georeference`.
     """
-    t, xyz = _validated_points(t_s, xyz_scanner_m)
+    t, xyz = validated_scanner_points(t_s, xyz_scanner_m)
     _check_latency(traj, mount)
     hermite = _use_hermite(traj, position)
     sample = traj.trajectory.interpolate(

@@ -34,6 +34,7 @@ import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
+from kinsync.georef import validated_scanner_points
 from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import PASSES_CSV, _read_index
 from kinsync.io.tables import NumericTable, read_numeric_csv
@@ -153,27 +154,6 @@ def read_raw_attitude(path: Path) -> Trajectory:
         raise InputError(msg) from err
 
 
-def _validated_points(t_s: ArrayLike, points_scanner_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    try:
-        t = np.asarray(t_s, dtype=np.float64)
-        xs = np.asarray(points_scanner_m, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"georeference_table_points: expected numbers ({err})"
-        raise InputError(msg) from err
-    if t.ndim != 1 or xs.shape != (t.size, 3):
-        msg = (
-            "georeference_table_points: expected t_s of shape (N,) and points_scanner_m of "
-            f"shape (N, 3), got {t.shape} and {xs.shape}"
-        )
-        raise InputError(msg)
-    finite = np.isfinite(t) & np.all(np.isfinite(xs), axis=1)
-    if not np.all(finite):
-        row = int(np.flatnonzero(~finite)[0])
-        msg = f"georeference_table_points: non-finite time or coordinate in point {row}"
-        raise InputError(msg)
-    return t, xs
-
-
 def _georeference(t: FloatArray, xs: FloatArray, corrected: Trajectory, mount: Mount) -> FloatArray:
     """Kernel on validated input, attitude already on the scanner's time scale."""
     R_body_to_ned = corrected.interpolate(t).R_body_to_ned
@@ -216,7 +196,7 @@ def georeference_table_points(
     OutsideSpanError
         A point time outside the corrected attitude span (never extrapolated).
     """
-    t, xs = _validated_points(t_s, points_scanner_m)
+    t, xs = validated_scanner_points(t_s, points_scanner_m, "georeference_table_points")
     corrected = attitude.corrected_for_latency(mount.latency_s)
     return _georeference(t, xs, corrected, mount)
 
