@@ -249,3 +249,47 @@ def test_write_into_missing_folder_raises(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="does not exist"):
         write_mount(Mount(), path)
     assert not path.exists()
+
+
+# --- [profiler] section (2D profile scanners, SPEC section 4) ---
+
+
+@given(az=st.floats(-360.0, 360.0, allow_nan=False))
+def test_profiler_azimuth_round_trips_exactly(az: float) -> None:
+    mount = Mount(lever_arm_body_m=(0.1, 0.2, 0.3), profiler_azimuth_deg=az)
+    text = mount_to_toml_text(mount)
+    assert "[profiler]" in text
+    assert mount_from_toml_text(text) == mount
+
+
+def test_no_profiler_table_means_none_and_no_section() -> None:
+    mount = mount_from_toml_text("[mount]\nlatency_s = 0.001\n")
+    assert mount.profiler_azimuth_deg is None
+    assert "[profiler]" not in mount_to_toml_text(mount)
+
+
+def test_profile_to_scanner_follows_spec_formula() -> None:
+    phi = np.array([0.0, np.pi / 2, -np.pi / 6])
+    r = np.array([2.0, 3.0, 4.0])
+    xyz = Mount().profile_to_scanner(phi, r)
+    # azimuth 0: (0, r sin phi, r cos phi)
+    np.testing.assert_allclose(xyz[0], [0.0, 0.0, 2.0], atol=1e-15)
+    np.testing.assert_allclose(xyz[1], [0.0, 3.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(xyz[2], [0.0, -2.0, 4.0 * np.cos(np.pi / 6)], atol=1e-15)
+    # azimuth 90 deg rotates +Y onto -X (Rz(90) (0, 1, 0) = (-1, 0, 0))
+    xyz90 = Mount(profiler_azimuth_deg=90.0).profile_to_scanner(phi[1:2], r[1:2])
+    np.testing.assert_allclose(xyz90[0], [-3.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), r)
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("[mount]\n[profiler]\nazimuth = 3.0\n", "unknown key.*profiler"),
+        ("[mount]\n[profiler]\nazimuth_deg = 'x'\n", "azimuth_deg"),
+        ("[mount]\nprofiler = 3\n", "unknown key"),
+    ],
+)
+def test_bad_profiler_section(text: str, pattern: str) -> None:
+    with pytest.raises(InputError, match=pattern):
+        mount_from_toml_text(text)

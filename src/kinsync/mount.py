@@ -7,6 +7,9 @@ The TOML schema (exactly these keys)::
     boresight_rpy_deg = [0.0, 0.0, 0.0]
     antenna_lever_arm_body_m = [0.0, 0.0, 0.0]
     latency_s = 0.0
+
+    [profiler]          # optional: 2D profile scanners only
+    azimuth_deg = 0.0   # fixed rotation about the scanner Z axis of the profile plane
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -63,12 +66,18 @@ class Mount:
     latency_s : float
         Total latency tau (s); tau > 0 means the navigation record lags the scanner
         (SPEC section 1).
+    profiler_azimuth_deg : float or None
+        For a 2D profile scanner, the fixed azimuth (deg) about the scanner Z axis that
+        puts the profile plane into the scanner frame (SPEC section 4): a profile point
+        at mirror angle phi and range r is ``Rz(azimuth) (0, r sin phi, r cos phi)``.
+        None when the scanner is not a profiler (no ``[profiler]`` table).
     """
 
     lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
     boresight_rpy_deg: Vector3 = (0.0, 0.0, 0.0)
     antenna_lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
     latency_s: float = 0.0
+    profiler_azimuth_deg: float | None = None
 
     def __post_init__(self) -> None:
         for name in _KEYS[:3]:
@@ -81,6 +90,15 @@ class Mount:
             msg = f"mount latency_s: must be finite, got {lat!r}"
             raise InputError(msg)
         object.__setattr__(self, "latency_s", float(lat))
+        az = self.profiler_azimuth_deg
+        if az is not None:
+            if isinstance(az, bool) or not isinstance(az, (int, float, np.floating, np.integer)):
+                msg = f"mount [profiler] azimuth_deg: expected a number of degrees, got {az!r}"
+                raise InputError(msg)
+            if not math.isfinite(float(az)):
+                msg = f"mount [profiler] azimuth_deg: must be finite, got {az!r}"
+                raise InputError(msg)
+            object.__setattr__(self, "profiler_azimuth_deg", float(az))
 
     @property
     def R_scanner_to_body(self) -> FloatArray:
@@ -95,9 +113,30 @@ class Mount:
 
     def with_latency(self, latency_s: float) -> Mount:
         """Return a copy with another latency (s)."""
-        return Mount(
-            self.lever_arm_body_m, self.boresight_rpy_deg, self.antenna_lever_arm_body_m, latency_s
-        )
+        return replace(self, latency_s=latency_s)
+
+    def profile_to_scanner(self, angle_rad: FloatArray, range_m: FloatArray) -> FloatArray:
+        """2D profile points (mirror angle, range) in the scanner frame (SPEC section 4).
+
+        Parameters
+        ----------
+        angle_rad : ndarray, shape (n,)
+            Mirror angle phi from nadir, positive towards +Y (rad).
+        range_m : ndarray, shape (n,)
+            Range (m).
+
+        Returns
+        -------
+        ndarray, shape (n, 3)
+            ``Rz(azimuth) (0, r sin phi, r cos phi)``, scanner frame (m); azimuth 0 when
+            the mount has no ``[profiler]`` table.
+        """
+        phi = np.asarray(angle_rad, dtype=np.float64)
+        r = np.asarray(range_m, dtype=np.float64)
+        az = math.radians(self.profiler_azimuth_deg or 0.0)
+        y = r * np.sin(phi)
+        z = r * np.cos(phi)
+        return np.column_stack([-math.sin(az) * y, math.cos(az) * y, z])
 
 
 def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
@@ -126,9 +165,9 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     if not isinstance(table, Mapping):
         msg = f"{source}: no [mount] table; expected keys {', '.join(_KEYS)}"
         raise InputError(msg)
-    unknown_tables = sorted(set(doc) - {"mount"})
+    unknown_tables = sorted(set(doc) - {"mount", "profiler"})
     if unknown_tables:
-        msg = f"{source}: unknown table(s) {unknown_tables}; only [mount] is read"
+        msg = f"{source}: unknown table(s) {unknown_tables}; only [mount] and [profiler] are read"
         raise InputError(msg)
     unknown = sorted(set(table) - set(_KEYS))
     if unknown:
@@ -144,6 +183,16 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             msg = f"{where}latency_s: expected a number of seconds, got {lat!r}"
             raise InputError(msg)
         kwargs["latency_s"] = float(lat)
+    if "profiler" in doc:
+        prof = doc["profiler"]
+        if not isinstance(prof, Mapping):
+            msg = f"{source}: [profiler] must be a table with azimuth_deg"
+            raise InputError(msg)
+        unknown_p = sorted(set(prof) - {"azimuth_deg"})
+        if unknown_p:
+            msg = f"{source}: unknown key(s) in [profiler]: {unknown_p}; expected azimuth_deg"
+            raise InputError(msg)
+        kwargs["profiler_azimuth_deg"] = prof.get("azimuth_deg", 0.0)
     try:
         return Mount(**kwargs)
     except InputError as err:
@@ -167,4 +216,8 @@ def mount_to_toml_text(mount: Mount) -> str:
         f"boresight_rpy_deg = {vec(mount.boresight_rpy_deg)}\n"
         f"antenna_lever_arm_body_m = {vec(mount.antenna_lever_arm_body_m)}\n"
         f"latency_s = {float(mount.latency_s)!r}\n"
+    ) + (
+        ""
+        if mount.profiler_azimuth_deg is None
+        else f"\n[profiler]\nazimuth_deg = {float(mount.profiler_azimuth_deg)!r}\n"
     )

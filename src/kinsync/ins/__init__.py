@@ -1,0 +1,9 @@
+"""Loosely coupled INS/GNSS (SPEC section 6).
+
+Earth model, strapdown mechanisation, 15-state error-state Kalman filter with GNSS
+position/velocity updates, and the Rauch–Tung–Striebel smoother.
+
+Frames: body X forward, Y right, Z down; navigation frame local NED; position as
+geodetic latitude, longitude (rad inside the algorithms, deg at the file boundary) and
+ellipsoidal height (WGS84).
+"""

@@ -1,0 +1,145 @@
+"""Containers for inertial and GNSS measurements.
+
+What the readers and the simulator produce and the filter consumes.
+
+IMU: angular rate and specific force in the body frame (X forward, Y right, Z down),
+sampled at times ``t_s``; the sample at ``t_s[k]`` is taken to represent the interval
+``(t_s[k-1], t_s[k]]`` (increment data is converted to mean rates over that interval
+at the file boundary). GNSS: antenna positions (geodetic, WGS84), optional NED
+velocities, per-epoch standard deviations (NaN where the file gives none; the filter
+then uses the configured defaults).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+
+__all__ = ["GnssData", "ImuData"]
+
+
+def _rows(values: FloatArray, n: int, name: str, *, allow_nan: bool = False) -> FloatArray:
+    arr = np.ascontiguousarray(values, dtype=np.float64)
+    if arr.shape != (n, 3):
+        msg = f"{name}: expected shape ({n}, 3), got {arr.shape}"
+        raise InputError(msg)
+    bad = ~np.isfinite(arr) & ~(np.isnan(arr) if allow_nan else False)
+    if bad.any():
+        row = int(np.flatnonzero(bad.any(axis=1))[0])
+        msg = f"{name}: non-finite value in row {row}"
+        raise InputError(msg)
+    arr.setflags(write=False)
+    return arr
+
+
+def _times(values: FloatArray, name: str) -> FloatArray:
+    t = np.ascontiguousarray(values, dtype=np.float64)
+    if t.ndim != 1 or t.size < 2:
+        msg = f"{name}: expected at least 2 times in a 1-D array, got shape {t.shape}"
+        raise InputError(msg)
+    if not np.isfinite(t).all():
+        row = int(np.flatnonzero(~np.isfinite(t))[0])
+        msg = f"{name}: non-finite time in row {row}"
+        raise InputError(msg)
+    dt = np.diff(t)
+    if (dt <= 0).any():
+        row = int(np.flatnonzero(dt <= 0)[0]) + 1
+        kind = "duplicate" if dt[row - 1] == 0 else "decreasing"
+        msg = (
+            f"{name}: {kind} time in row {row} ({t[row]:.6f} s after {t[row - 1]:.6f} s); "
+            "times must increase strictly - sort the file or remove repeated records"
+        )
+        raise InputError(msg)
+    t.setflags(write=False)
+    return t
+
+
+@dataclass(frozen=True)
+class ImuData:
+    """IMU samples.
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (n,)
+        Sample times (s), strictly increasing, on the navigation time scale.
+    gyro_body_rad_s : ndarray, shape (n, 3)
+        Angular rate of the body with respect to inertial space, body frame (rad/s).
+    acc_body_m_s2 : ndarray, shape (n, 3)
+        Specific force, body frame (m/s^2); about (0, 0, -9.8) when level and static.
+    """
+
+    t_s: FloatArray
+    gyro_body_rad_s: FloatArray
+    acc_body_m_s2: FloatArray
+
+    def __post_init__(self) -> None:
+        t = _times(self.t_s, "IMU t_s")
+        object.__setattr__(self, "t_s", t)
+        object.__setattr__(self, "gyro_body_rad_s", _rows(self.gyro_body_rad_s, t.size, "IMU gyro"))
+        object.__setattr__(self, "acc_body_m_s2", _rows(self.acc_body_m_s2, t.size, "IMU acc"))
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+
+@dataclass(frozen=True)
+class GnssData:
+    """GNSS antenna fixes.
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (m,)
+        Epoch times (s), strictly increasing.
+    lat_deg, lon_deg, h_m : ndarray, shape (m,)
+        Antenna position, WGS84 geodetic (deg, deg, m ellipsoidal).
+    std_pos_ned_m : ndarray, shape (m, 3)
+        Position standard deviations N, E, D (m); NaN = use the configured default.
+    vel_ned_m_s : ndarray, shape (m, 3) or None
+        Antenna velocity in NED (m/s), when the receiver gives it.
+    std_vel_ned_m_s : ndarray, shape (m, 3) or None
+        Velocity standard deviations (m/s); NaN = configured default.
+    """
+
+    t_s: FloatArray
+    lat_deg: FloatArray
+    lon_deg: FloatArray
+    h_m: FloatArray
+    std_pos_ned_m: FloatArray
+    vel_ned_m_s: FloatArray | None = None
+    std_vel_ned_m_s: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        t = _times(self.t_s, "GNSS t_s")
+        n = t.size
+        object.__setattr__(self, "t_s", t)
+        for name in ("lat_deg", "lon_deg", "h_m"):
+            arr = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
+            if arr.shape != (n,) or not np.isfinite(arr).all():
+                msg = f"GNSS {name}: expected {n} finite values"
+                raise InputError(msg)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        if (np.abs(self.lat_deg) > 90.0).any():
+            row = int(np.flatnonzero(np.abs(self.lat_deg) > 90.0)[0])
+            msg = f"GNSS lat_deg: {self.lat_deg[row]} outside [-90, 90] in row {row}"
+            raise InputError(msg)
+        std = _rows(self.std_pos_ned_m, n, "GNSS std_pos_ned_m", allow_nan=True)
+        if (std <= 0).any():
+            msg = "GNSS std_pos_ned_m: standard deviations must be positive"
+            raise InputError(msg)
+        object.__setattr__(self, "std_pos_ned_m", std)
+        if self.vel_ned_m_s is not None:
+            object.__setattr__(self, "vel_ned_m_s", _rows(self.vel_ned_m_s, n, "GNSS velocity"))
+        if self.std_vel_ned_m_s is not None:
+            sv = _rows(self.std_vel_ned_m_s, n, "GNSS std_vel_ned_m_s", allow_nan=True)
+            if (sv <= 0).any():
+                msg = "GNSS std_vel_ned_m_s: standard deviations must be positive"
+                raise InputError(msg)
+            object.__setattr__(self, "std_vel_ned_m_s", sv)
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)

@@ -1,0 +1,74 @@
+"""Result of the INS/GNSS filter or smoother.
+
+The navigation solution at the IMU rate with its standard deviations and the estimated
+sensor biases.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.frames import euler_rpy_to_quaternion
+from kinsync.trajectory import Trajectory
+
+__all__ = ["NavSolution"]
+
+
+@dataclass(frozen=True)
+class NavSolution:
+    """Navigation solution (IMU reference point), one row per IMU epoch.
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (n,)
+        Epoch times (s).
+    lat_deg, lon_deg, h_m : ndarray, shape (n,)
+        Geodetic position of the IMU (WGS84).
+    vel_ned_m_s : ndarray, shape (n, 3)
+        Velocity over the Earth, NED (m/s).
+    rpy_rad : ndarray, shape (n, 3)
+        Roll, pitch, yaw (DIN 9300, rad), body -> NED.
+    std_pos_ned_m, std_vel_ned_m_s, std_att_rad : ndarray, shape (n, 3)
+        1σ of position (N, E, D m), velocity, and misorientation (about N, E, D axes, rad).
+    gyro_bias_rad_s, acc_bias_m_s2 : ndarray, shape (n, 3)
+        Estimated gyro drift and accelerometer bias, body frame.
+    std_gyro_bias_rad_s, std_acc_bias_m_s2 : ndarray, shape (n, 3)
+        Their 1σ.
+    smoothed : bool
+        True for the RTS-smoothed solution, False for the forward filter.
+    n_gnss_used, n_gnss_rejected : int
+        GNSS epochs used and rejected by the χ² gate.
+    """
+
+    t_s: FloatArray
+    lat_deg: FloatArray
+    lon_deg: FloatArray
+    h_m: FloatArray
+    vel_ned_m_s: FloatArray
+    rpy_rad: FloatArray
+    std_pos_ned_m: FloatArray
+    std_vel_ned_m_s: FloatArray
+    std_att_rad: FloatArray
+    gyro_bias_rad_s: FloatArray
+    acc_bias_m_s2: FloatArray
+    std_gyro_bias_rad_s: FloatArray
+    std_acc_bias_m_s2: FloatArray
+    smoothed: bool = False
+    n_gnss_used: int = 0
+    n_gnss_rejected: int = 0
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+    def to_trajectory(self) -> Trajectory:
+        """The solution as a geodetic `Trajectory` (with velocities) for georeferencing."""
+        q = euler_rpy_to_quaternion(self.rpy_rad[:, 0], self.rpy_rad[:, 1], self.rpy_rad[:, 2])
+        return Trajectory(
+            t_s=np.asarray(self.t_s),
+            q_body_to_ned=q,
+            lat_lon_h=np.column_stack([self.lat_deg, self.lon_deg, self.h_m]),
+            vel_ned_m_s=np.asarray(self.vel_ned_m_s),
+        )
