@@ -14,7 +14,31 @@ from kinsync._typing import FloatArray
 from kinsync.frames import euler_rpy_to_quaternion
 from kinsync.trajectory import Trajectory
 
-__all__ = ["NavSolution"]
+__all__ = ["InitialState", "NavSolution"]
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """Navigation state the mechanisation starts from (IMU reference point).
+
+    Attributes
+    ----------
+    t_s : float
+        Time of the state (s).
+    lat_deg, lon_deg, h_m : float
+        Geodetic position (WGS84).
+    vel_ned_m_s : (float, float, float)
+        Velocity over the Earth, NED (m/s).
+    rpy_rad : (float, float, float)
+        Roll, pitch, yaw (DIN 9300, rad), body -> NED.
+    """
+
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    h_m: float
+    vel_ned_m_s: tuple[float, float, float]
+    rpy_rad: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
