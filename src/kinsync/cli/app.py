@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, clock, demo, georef, inspect, latency, simulate
+from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate
 
 app = typer.Typer(
     name="kinsync",
@@ -24,6 +24,7 @@ app.command(name="demo")(demo.demo)
 app.add_typer(simulate.app, name="simulate")
 app.add_typer(clock.app, name="clock")
 app.command(name="georef")(georef.georef)
+app.add_typer(ins.app, name="ins")
 
 
 def _version(value: bool) -> None:

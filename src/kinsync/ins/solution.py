@@ -31,6 +31,11 @@ class InitialState:
         Velocity over the Earth, NED (m/s).
     rpy_rad : (float, float, float)
         Roll, pitch, yaw (DIN 9300, rad), body -> NED.
+    gyro_bias_rad_s, acc_bias_m_s2 : (float, float, float)
+        Initial estimates of the gyro drift and accelerometer bias (body frame), e.g. a
+        laboratory turn-on calibration, subtracted from the IMU samples; the filter
+        estimates the remainder (its initial σ: ``InsConfig.gyro_bias_sigma_rad_s``,
+        ``acc_bias_sigma_m_s2``). Zero by default.
     """
 
     t_s: float
@@ -39,6 +44,8 @@ class InitialState:
     h_m: float
     vel_ned_m_s: tuple[float, float, float]
     rpy_rad: tuple[float, float, float]
+    gyro_bias_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    acc_bias_m_s2: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)

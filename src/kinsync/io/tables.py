@@ -152,9 +152,12 @@ def read_numeric_csv(
 
 
 def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
-    """Write columns as CSV with a header, floats with ``repr`` precision (exact round trip).
+    """Write columns as CSV with a header, floats in their shortest exact form.
 
-    The file appears only when complete (temporary name, then rename).
+    Doubles are written (by pyarrow) in the shortest text that reads back to the same
+    float64, like ``repr`` (``nan``/``inf`` for non-finite values) — about ten times
+    faster than a Python loop for tables at the IMU rate. The file appears only when
+    complete (temporary name, then rename).
     """
     names = list(columns)
     arrays = [np.asarray(columns[n], dtype=np.float64) for n in names]
@@ -162,10 +165,10 @@ def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
     if len(n) != 1 or len(next(iter(n))) != 1:
         msg = f"write_numeric_csv: columns must be 1-D of one length, got shapes {sorted(n)}"
         raise InputError(msg)
-    with atomic_path(Path(path)) as tmp, tmp.open("w", encoding="utf-8", newline="") as fh:
-        fh.write(",".join(names) + "\n")
-        for row in zip(*(a.tolist() for a in arrays), strict=True):
-            fh.write(",".join(repr(v) if math.isfinite(v) else "nan" for v in row) + "\n")
+    table = pa.table({str(i): a for i, a in enumerate(arrays)})
+    with atomic_path(Path(path)) as tmp, tmp.open("wb") as fh:
+        fh.write((",".join(names) + "\n").encode("utf-8"))
+        pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
 
 
 @dataclass(frozen=True, eq=False)

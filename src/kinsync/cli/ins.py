@@ -1,0 +1,308 @@
+"""``kinsync ins``: loosely coupled INS/GNSS (SPEC section 6).
+
+``kinsync ins run`` filters IMU and GNSS files into a navigation solution at the IMU
+rate (CSV with σ and biases, or SBET); ``kinsync ins compare`` compares a solution
+with a reference trajectory.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.errors import ConvergenceError, InputError
+from kinsync.frames import quaternion_to_euler_rpy
+from kinsync.ins.checks import check_inputs, gnss_within_imu_span
+from kinsync.ins.compare import compare_to_truth
+from kinsync.ins.filter import align_static_gnss_heading, run_ins
+from kinsync.ins.measurements import ImuData
+from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.io.gnss_csv import read_gnss_csv
+from kinsync.io.imu_csv import read_imu_csv
+from kinsync.io.ins_config import read_ins_config
+from kinsync.io.nav_csv import read_navigation, write_nav_csv
+from kinsync.io.sbet import write_sbet
+from kinsync.io.trajectory_csv import read_trajectory_csv
+
+__all__ = ["app", "compare", "run"]
+
+app = typer.Typer(
+    help="Loosely coupled INS/GNSS: filter IMU + GNSS files, compare with a reference.",
+    no_args_is_help=True,
+)
+
+_CSV_SUFFIXES = (".csv",)
+_SBET_SUFFIXES = (".sbet", ".out")
+
+
+def _check_output(out: Path) -> None:
+    suffix = out.suffix.lower()
+    if suffix not in _CSV_SUFFIXES + _SBET_SUFFIXES:
+        msg = (
+            f"--out {out}: unknown output type {suffix!r}; use .csv (solution with σ and "
+            "biases) or .sbet/.out (SBET)"
+        )
+        raise InputError(msg)
+    parent = out.parent if str(out.parent) else Path()
+    if not parent.is_dir():
+        msg = f"--out {out}: output folder {parent} does not exist; create it first"
+        raise InputError(msg)
+
+
+def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
+    """The reference state at the IMU start (interpolated when the file covers it).
+
+    When the file starts after the first IMU sample, its first record is used (the
+    filter then starts at that record's IMU epoch).
+    """
+    traj = read_trajectory_csv(path)
+    if traj.vel_ned_m_s is None or traj.lat_lon_h is None:
+        msg = (
+            f"--init-from {path}: needs geodetic positions and the velocity columns "
+            "vn_m_s,ve_m_s,vd_m_s (the truth layout)"
+        )
+        raise InputError(msg)
+    t0 = float(imu.t_s[0])
+    if traj.contains(t0):
+        sample = traj.interpolate([t0])
+        assert sample.lat_lon_h is not None
+        lat, lon, h = (float(v) for v in sample.lat_lon_h[0])
+        q = sample.q_body_to_ned[0]
+        vel = [float(np.interp(t0, traj.t_s, traj.vel_ned_m_s[:, i])) for i in range(3)]
+    else:
+        if traj.t_start_s < t0 or traj.t_start_s > float(imu.t_s[-1]):
+            msg = (
+                f"--init-from {path}: its span [{traj.t_start_s!r}, {traj.t_end_s!r}] s does "
+                f"not reach the IMU span [{t0!r}, {float(imu.t_s[-1])!r}] s"
+            )
+            raise InputError(msg)
+        lat, lon, h = (float(v) for v in traj.lat_lon_h[0])
+        q = traj.q_body_to_ned[0]
+        vel = [float(v) for v in traj.vel_ned_m_s[0]]
+        t0 = traj.t_start_s
+    roll, pitch, yaw = (float(v) for v in quaternion_to_euler_rpy(q))
+    return InitialState(
+        t_s=t0,
+        lat_deg=lat,
+        lon_deg=lon,
+        h_m=h,
+        vel_ned_m_s=(vel[0], vel[1], vel[2]),
+        rpy_rad=(roll, pitch, yaw),
+    )
+
+
+def _write_solution(solution: NavSolution, out: Path) -> None:
+    if out.suffix.lower() in _SBET_SUFFIXES:
+        write_sbet(solution.to_trajectory(), out)
+    else:
+        write_nav_csv(solution, out)
+
+
+@app.command("run")
+def run(
+    imu_path: Annotated[
+        Path,
+        typer.Option(
+            "--imu",
+            help="IMU CSV: t_s + gyro_[xyz]_rad_s + acc_[xyz]_m_s2, or t_s + dtheta_[xyz]_rad "
+            "+ dv_[xyz]_m_s (body X forward, Y right, Z down).",
+        ),
+    ],
+    gnss_path: Annotated[
+        Path,
+        typer.Option(
+            "--gnss",
+            help="GNSS CSV: t_s,lat_deg,lon_deg,h_m [+ std_n_m,std_e_m,std_d_m] "
+            "[+ vn_m_s,ve_m_s,vd_m_s [+ std_vn_m_s,std_ve_m_s,std_vd_m_s]].",
+        ),
+    ],
+    config_path: Annotated[
+        Path, typer.Option("--config", help="INS configuration TOML (IMU error model, ...).")
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Output solution at the IMU rate: .csv (with σ and biases) or .sbet/.out.",
+        ),
+    ],
+    init_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--init-from",
+            help="Initial state from a truth-layout CSV (t_s,lat_deg,lon_deg,h_m,vn_m_s,...,"
+            "yaw_deg): its state at the first IMU epoch (interpolated between records), or "
+            "its first record when it starts later. Default: static levelling + "
+            "GNSS-velocity heading.",
+        ),
+    ] = None,
+    static_s: Annotated[
+        float,
+        typer.Option(
+            "--static-s",
+            help="Without --init-from: length (s) of the static period at the IMU start "
+            "used for levelling.",
+        ),
+    ] = 5.0,
+    no_velocity: Annotated[
+        bool, typer.Option("--no-velocity", help="Use GNSS positions only, not velocities.")
+    ] = False,
+    smooth: Annotated[
+        bool,
+        typer.Option("--smooth", help="Write the Rauch-Tung-Striebel smoothed solution."),
+    ] = False,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object instead of a table.")
+    ] = False,
+) -> None:
+    """Filter IMU + GNSS into a navigation solution (15-state error-state EKF)."""
+    _check_output(out)
+    config = read_ins_config(config_path)
+    imu = read_imu_csv(imu_path)
+    gnss = read_gnss_csv(gnss_path)
+    warnings = check_inputs(
+        imu,
+        gnss,
+        config,
+        imu_source=str(imu_path),
+        gnss_source=str(gnss_path),
+        static_s=static_s,
+    )
+    for warning in warnings:
+        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+    gnss = gnss_within_imu_span(gnss, imu)
+    init = (
+        align_static_gnss_heading(
+            imu,
+            gnss,
+            static_s=static_s,
+            antenna_lever_arm_body_m=config.antenna_lever_arm_body_m,
+        )
+        if init_from is None
+        else _initial_state_from_file(init_from, imu)
+    )
+    with Progress(
+        TextColumn("ins run" + (" + smoother" if smooth else "")),
+        BarColumn(),
+        TaskProgressColumn(),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+        disable=not err_console.is_terminal,
+    ) as bar:
+        task = bar.add_task("ins", total=1.0)
+
+        def progress(fraction: float) -> None:
+            bar.update(task, completed=fraction)
+
+        start = time.perf_counter()
+        result = run_ins(
+            imu,
+            gnss,
+            config,
+            init,
+            use_velocity=not no_velocity,
+            smooth=smooth,
+            progress=progress,
+        )
+        seconds = time.perf_counter() - start
+    solution = result.smoothed if smooth else result.forward
+    if solution is None:
+        msg = "the smoother returned no solution; run without --smooth"
+        raise ConvergenceError(msg)
+    _write_solution(solution, out)
+    n = len(solution)
+    summary = {
+        "epochs": n,
+        "gnss_used": int(solution.n_gnss_used),
+        "gnss_rejected": int(solution.n_gnss_rejected),
+        "seconds": seconds,
+        "epochs_per_s": n / seconds if seconds > 0 else None,
+        "smoothed": smooth,
+        "out": str(out),
+        "warnings": warnings,
+    }
+    if as_json:
+        print_json(summary)
+        return
+    table = Table(title=f"INS/GNSS {imu_path} + {gnss_path} -> {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("epochs written", str(n))
+    table.add_row("solution", "smoothed (RTS)" if smooth else "forward filter")
+    table.add_row("GNSS epochs used", str(summary["gnss_used"]))
+    table.add_row("GNSS epochs rejected (χ² gate)", str(summary["gnss_rejected"]))
+    table.add_row("seconds", fmt(seconds))
+    table.add_row("epochs per second", fmt(n / seconds if seconds > 0 else None))
+    table.add_row(
+        "final σ N, E, D (m)",
+        ", ".join(fmt(float(v)) for v in solution.std_pos_ned_m[-1]),
+    )
+    console.print(table)
+
+
+def _triple(values: Sequence[float] | None, digits: int = 4) -> list[str]:
+    if values is None:
+        return ["-"] * 3
+    return [fmt(v, digits=digits) if math.isfinite(v) else "-" for v in values]
+
+
+@app.command("compare")
+def compare(
+    solution_path: Annotated[
+        Path,
+        typer.Argument(
+            help="Solution: .csv (kinsync ins run output, or any trajectory CSV) or .sbet/.out.",
+            metavar="TRAJ",
+        ),
+    ],
+    truth_path: Annotated[
+        Path,
+        typer.Argument(
+            help="Reference trajectory: .csv (t_s,lat_deg,lon_deg,h_m,[vn_m_s,...,]roll_deg,"
+            "pitch_deg,yaw_deg) or .sbet/.out.",
+            metavar="TRUTH",
+        ),
+    ],
+    gps_week: Annotated[
+        int | None,
+        typer.Option("--gps-week", help="GPS week of SBET seconds-of-week times.", min=0),
+    ] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object instead of a table.")
+    ] = False,
+) -> None:
+    """Compare a solution with a reference: RMS/max errors N/E/D, velocity, attitude."""
+    solution = read_navigation(solution_path, gps_week=gps_week)
+    truth = read_navigation(truth_path, gps_week=gps_week)
+    if isinstance(truth, NavSolution):
+        truth = truth.to_trajectory()
+    result = compare_to_truth(solution, truth)
+    if as_json:
+        print_json(result.as_document())
+        return
+    table = Table(title=f"{solution_path} vs {truth_path} ({result.n_epochs} epochs)")
+    table.add_column("error")
+    for axis in ("N / roll", "E / pitch", "D / yaw"):
+        table.add_column(axis, justify="right")
+    table.add_row("position RMS (m)", *_triple(result.rms_pos_ned_m))
+    table.add_row("position max (m)", *_triple(result.max_pos_ned_m))
+    table.add_row("velocity RMS (m/s)", *_triple(result.rms_vel_ned_m_s))
+    table.add_row("velocity max (m/s)", *_triple(result.max_vel_ned_m_s))
+    table.add_row("attitude RMS (deg)", *_triple(result.rms_att_deg))
+    table.add_row("attitude max (deg)", *_triple(result.max_att_deg))
+    if result.within_3sigma is not None:
+        w = result.within_3sigma
+        for kind, label in (("pos", "position"), ("vel", "velocity"), ("att", "misorientation")):
+            shares = tuple(w.get(f"{kind}_{a}", float("nan")) for a in "ned")
+            table.add_row(f"{label} within 3σ (share)", *_triple(shares, digits=3))
+    console.print(table)

@@ -1,0 +1,280 @@
+"""Plausibility checks of INS/GNSS inputs before filtering.
+
+Pure functions on the containers (`ImuData`, `GnssData`, `InsConfig`): nothing is read
+from files; ``imu_source`` and ``gnss_source`` only name the inputs in messages. Rows
+are 0-based data rows of the containers (in a CSV file with a header, row ``k`` is on
+line ``k + 2``).
+
+Errors (`InputError`, the filter must not run):
+
+- a gap between IMU samples longer than ``InsConfig.max_imu_gap_s``;
+- fewer than two GNSS epochs inside the IMU time span (different time scales?);
+- specific force whose median magnitude is far from 1 g (0.5 g to 1.5 g accepted):
+  units of g, ft/s^2, or counts;
+- angular rates whose median magnitude exceeds 1 rad/s (57 deg/s): rates in deg/s;
+- a static start (small accelerometer scatter and, where the GNSS gives velocities,
+  GNSS speed below 0.5 m/s over the first ``static_s`` seconds) whose mean specific
+  force differs from normal gravity by more than 10 %, or whose mean angular rate
+  exceeds 1 rad/s.
+
+Warnings (returned as text, the filter may run):
+
+- GNSS epochs outside the IMU span (they are not used; see `gnss_within_imu_span`);
+- IMU intervals longer than 1.5 times the median interval (missing samples) but within
+  the tolerated gap;
+- GNSS outages longer than 10 s (between epochs, or at the start or end of the IMU span);
+- a static start whose gravity magnitude is off by 2 % to 10 %;
+- a median angular rate between 0.3 and 1 rad/s (unusual for a land or sea vehicle).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from kinsync._typing import BoolArray, FloatArray
+from kinsync.errors import InputError
+from kinsync.ins.config import InsConfig
+from kinsync.ins.earth import normal_gravity_m_s2
+from kinsync.ins.measurements import GnssData, ImuData
+
+__all__ = ["check_inputs", "gnss_within_imu_span"]
+
+G0_M_S2 = 9.80665
+FT_M = 0.3048
+STATIC_ACC_STD_M_S2 = 0.3
+"""Largest per-axis accelerometer scatter (m/s^2) of a static start."""
+STATIC_GNSS_SPEED_M_S = 0.5
+"""Largest GNSS speed (m/s) during a static start."""
+GRAVITY_ERROR_REL = 0.10
+GRAVITY_WARNING_REL = 0.02
+GYRO_ERROR_RAD_S = 1.0
+GYRO_WARNING_RAD_S = 0.3
+GNSS_OUTAGE_S = 10.0
+_MAX_LISTED = 5
+
+
+def _rows_text(rows: list[int]) -> str:
+    shown = ", ".join(str(r) for r in rows[:_MAX_LISTED])
+    return shown + (f", ... ({len(rows)} in all)" if len(rows) > _MAX_LISTED else "")
+
+
+def _check_gaps(imu: ImuData, config: InsConfig, source: str) -> list[str]:
+    dt = np.diff(imu.t_s)
+    long_gap = np.flatnonzero(dt > config.max_imu_gap_s)
+    if long_gap.size:
+        k = int(long_gap[0]) + 1
+        msg = (
+            f"{source}: {long_gap.size} gap(s) between IMU samples longer than "
+            f"max_imu_gap_s = {config.max_imu_gap_s:g} s; the first between rows {k - 1} and "
+            f"{k} (t_s {imu.t_s[k - 1]:.6f} -> {imu.t_s[k]:.6f}, {dt[k - 1]:.6g} s). Fill or "
+            "split the record, or raise [filter] max_imu_gap_s in the configuration"
+        )
+        raise InputError(msg)
+    warnings: list[str] = []
+    median = float(np.median(dt))
+    slow = np.flatnonzero(dt > 1.5 * median)
+    if slow.size:
+        worst = int(slow[np.argmax(dt[slow])]) + 1
+        rows = _rows_text([int(s) + 1 for s in slow])
+        warnings.append(
+            f"{source}: {slow.size} interval(s) longer than 1.5 x the median sampling "
+            f"interval {median:.6g} s (missing samples?), before rows {rows}; "
+            f"the longest {dt[worst - 1]:.6g} s before row {worst} (t_s {imu.t_s[worst]:.6f})"
+        )
+    return warnings
+
+
+def _inside_span(gnss: GnssData, imu: ImuData) -> BoolArray:
+    inside: BoolArray = (gnss.t_s >= imu.t_s[0]) & (gnss.t_s <= imu.t_s[-1])
+    return inside
+
+
+def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str) -> list[str]:
+    inside = _inside_span(gnss, imu)
+    n_in = int(np.count_nonzero(inside))
+    if n_in < 2:
+        msg = (
+            f"{gnss_source}: {n_in} GNSS epoch(s) inside the IMU span of {imu_source} "
+            f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s (GNSS spans [{gnss.t_s[0]:.6f}, "
+            f"{gnss.t_s[-1]:.6f}] s); at least 2 are needed: are both files on the same time "
+            "scale (GPS seconds of week vs continuous GPS time, UTC vs GPS)?"
+        )
+        raise InputError(msg)
+    warnings: list[str] = []
+    outside = np.flatnonzero(~inside)
+    if outside.size:
+        warnings.append(
+            f"{gnss_source}: {outside.size} GNSS epoch(s) outside the IMU span "
+            f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s are not used (rows "
+            f"{_rows_text(outside.tolist())})"
+        )
+    t_in = gnss.t_s[inside]
+    rows_in = np.flatnonzero(inside)
+    gaps = np.diff(t_in)
+    warnings.extend(
+        f"{gnss_source}: GNSS outage of {gaps[k]:.3f} s between rows {rows_in[k]} and "
+        f"{rows_in[k + 1]} (t_s {t_in[k]:.3f} -> {t_in[k + 1]:.3f}); the solution drifts "
+        "on the IMU alone there"
+        for k in np.flatnonzero(gaps > GNSS_OUTAGE_S).tolist()
+    )
+    head, tail = t_in[0] - imu.t_s[0], imu.t_s[-1] - t_in[-1]
+    if head > GNSS_OUTAGE_S:
+        warnings.append(
+            f"{gnss_source}: no GNSS epoch in the first {head:.3f} s of the IMU span "
+            f"(first used epoch at t_s {t_in[0]:.3f}, row {rows_in[0]})"
+        )
+    if tail > GNSS_OUTAGE_S:
+        warnings.append(
+            f"{gnss_source}: no GNSS epoch in the last {tail:.3f} s of the IMU span "
+            f"(last used epoch at t_s {t_in[-1]:.3f}, row {rows_in[-1]})"
+        )
+    return warnings
+
+
+def _units_hint(value_m_s2: float) -> str:
+    for unit, scale in (("g", G0_M_S2), ("ft/s^2", FT_M)):
+        as_si = value_m_s2 * scale
+        if abs(as_si - G0_M_S2) < 0.15 * G0_M_S2:
+            return f"; it looks like {unit}: multiply by {scale:g} to get m/s^2"
+    return "; expected specific force in m/s^2 (about 9.8 when static)"
+
+
+def _check_units(imu: ImuData, source: str) -> list[str]:
+    acc_norm = np.linalg.norm(imu.acc_body_m_s2, axis=1)
+    med_acc = float(np.median(acc_norm))
+    if not 0.5 * G0_M_S2 <= med_acc <= 1.5 * G0_M_S2:
+        msg = (
+            f"{source}: the median specific-force magnitude is {med_acc:.6g} m/s^2, far from "
+            f"gravity (9.8){_units_hint(med_acc)}"
+        )
+        raise InputError(msg)
+    med_gyro = float(np.median(np.linalg.norm(imu.gyro_body_rad_s, axis=1)))
+    if med_gyro > GYRO_ERROR_RAD_S:
+        msg = (
+            f"{source}: the median angular-rate magnitude is {med_gyro:.6g} rad/s "
+            f"({math.degrees(med_gyro):.4g} deg/s), implausible for a vehicle; are the "
+            "rates in deg/s? Convert them to rad/s (multiply by pi/180)"
+        )
+        raise InputError(msg)
+    if med_gyro > GYRO_WARNING_RAD_S:
+        text = (
+            f"{source}: the median angular-rate magnitude is {med_gyro:.4g} rad/s "
+            f"({math.degrees(med_gyro):.4g} deg/s), unusually high; check that the rates "
+            "are in rad/s"
+        )
+        return [text]
+    return []
+
+
+def _check_static_start(imu: ImuData, gnss: GnssData, source: str, static_s: float) -> list[str]:
+    window = imu.t_s <= imu.t_s[0] + static_s
+    if np.count_nonzero(window) < 10:
+        return []
+    acc = imu.acc_body_m_s2[window]
+    if (acc.std(axis=0) > STATIC_ACC_STD_M_S2).any():
+        return []
+    in_window = (gnss.t_s >= imu.t_s[0]) & (gnss.t_s <= imu.t_s[0] + static_s)
+    if gnss.vel_ned_m_s is not None and in_window.any():
+        speed = np.linalg.norm(gnss.vel_ned_m_s[in_window], axis=1)
+        if (speed > STATIC_GNSS_SPEED_M_S).any():
+            return []
+    n_rows = int(np.count_nonzero(window))
+    where = f"{source}: static start (rows 0-{n_rows - 1}, first {static_s:g} s)"
+    gyro_mean = float(np.linalg.norm(imu.gyro_body_rad_s[window].mean(axis=0)))
+    if gyro_mean > GYRO_ERROR_RAD_S:
+        msg = (
+            f"{where}: mean angular rate {gyro_mean:.6g} rad/s where a static gyro reads "
+            "Earth rate and bias only (< 0.01 rad/s); check the gyro units (rad/s) and scale"
+        )
+        raise InputError(msg)
+    g_meas = float(np.linalg.norm(acc.mean(axis=0)))
+    k0 = int(np.argmin(np.abs(gnss.t_s - imu.t_s[0])))
+    g_normal = float(normal_gravity_m_s2(math.radians(gnss.lat_deg[k0]), float(gnss.h_m[k0])))
+    rel = abs(g_meas - g_normal) / g_normal
+    text = (
+        f"{where}: mean specific-force magnitude {g_meas:.6g} m/s^2 differs from normal "
+        f"gravity {g_normal:.6g} m/s^2 by {100.0 * rel:.3g} %"
+    )
+    if rel > GRAVITY_ERROR_REL:
+        msg = f"{text}{_units_hint(g_meas)}; or the accelerometer scale is wrong"
+        raise InputError(msg)
+    if rel > GRAVITY_WARNING_REL:
+        return [f"{text}; check the accelerometer scale and units"]
+    return []
+
+
+def check_inputs(
+    imu: ImuData,
+    gnss: GnssData,
+    config: InsConfig,
+    *,
+    imu_source: str = "imu.csv",
+    gnss_source: str = "gnss.csv",
+    static_s: float = 2.0,
+) -> list[str]:
+    """Check IMU and GNSS inputs for gaps, time-span mismatch and wrong units.
+
+    Parameters
+    ----------
+    imu : ImuData
+        IMU samples (times already strictly increasing: `ImuData` enforces it).
+    gnss : GnssData
+        GNSS epochs.
+    config : InsConfig
+        Filter configuration (``max_imu_gap_s``).
+    imu_source, gnss_source : str
+        Names of the inputs used in messages (usually the file paths).
+    static_s : float
+        Length (s) of the start window tested for a static start.
+
+    Returns
+    -------
+    list of str
+        Warnings, each naming its input, rows and times (empty when all is well).
+
+    Raises
+    ------
+    InputError
+        For the errors listed in the module docstring, naming the input, rows and times
+        and what to do.
+    """
+    warnings: list[str] = []
+    warnings += _check_gaps(imu, config, imu_source)
+    warnings += _check_span(imu, gnss, imu_source, gnss_source)
+    warnings += _check_units(imu, imu_source)
+    warnings += _check_static_start(imu, gnss, imu_source, static_s)
+    return warnings
+
+
+def _take(arr: FloatArray | None, keep: BoolArray) -> FloatArray | None:
+    return None if arr is None else arr[keep]
+
+
+def gnss_within_imu_span(gnss: GnssData, imu: ImuData) -> GnssData:
+    """The GNSS epochs inside the IMU span ``[imu.t_s[0], imu.t_s[-1]]``.
+
+    Raises
+    ------
+    InputError
+        Fewer than 2 epochs inside the span.
+    """
+    keep = _inside_span(gnss, imu)
+    if np.count_nonzero(keep) < 2:
+        msg = (
+            f"only {int(np.count_nonzero(keep))} GNSS epoch(s) inside the IMU span "
+            f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s; at least 2 are needed"
+        )
+        raise InputError(msg)
+    if keep.all():
+        return gnss
+    return GnssData(
+        t_s=gnss.t_s[keep],
+        lat_deg=gnss.lat_deg[keep],
+        lon_deg=gnss.lon_deg[keep],
+        h_m=gnss.h_m[keep],
+        std_pos_ned_m=gnss.std_pos_ned_m[keep],
+        vel_ned_m_s=_take(gnss.vel_ned_m_s, keep),
+        std_vel_ned_m_s=_take(gnss.std_vel_ned_m_s, keep),
+    )

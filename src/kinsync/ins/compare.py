@@ -1,0 +1,222 @@
+"""Compare a navigation solution with a reference (truth) trajectory.
+
+The truth is interpolated at the solution's epochs inside its span (position by cubic
+Hermite when the truth has velocities, else linearly; attitude by slerp; velocity
+linearly); epochs outside the truth span are left out. Errors are solution minus truth:
+
+- position in the local NED frame at each solution epoch (m), from the ECEF difference;
+- velocity in NED (m/s), when both carry velocities;
+- roll, pitch and yaw differences (deg), each wrapped to [-180, 180);
+- the misorientation: the rotation vector of ``R_sol · R_truthᵀ`` in NED (rad), the
+  quantity whose σ the filter reports (`NavSolution.std_att_rad`).
+
+When the solution is a `NavSolution` the share of epochs with ``|error| <= 3σ`` is given
+per state: ``pos_n, pos_e, pos_d, vel_n, vel_e, vel_d`` and ``att_n, att_e, att_d``
+(misorientation about N, E, D). A consistent filter gives about 0.997 for Gaussian
+errors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.frames import (
+    ecef_to_geodetic,
+    geodetic_to_ecef,
+    ned_to_ecef,
+    quaternion_to_euler_rpy,
+    rotation_ned_to_ecef,
+)
+from kinsync.ins.solution import NavSolution
+from kinsync.trajectory import Trajectory
+
+__all__ = ["Comparison", "compare_to_truth"]
+
+Vector3 = tuple[float, float, float]
+
+WITHIN_3SIGMA_KEYS = (
+    "pos_n",
+    "pos_e",
+    "pos_d",
+    "vel_n",
+    "vel_e",
+    "vel_d",
+    "att_n",
+    "att_e",
+    "att_d",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Errors of a solution against a truth trajectory at common epochs.
+
+    Attributes
+    ----------
+    n_epochs : int
+        Solution epochs inside the truth span (those compared).
+    t_s : ndarray, shape (n,)
+        Their times (s).
+    err_pos_ned_m : ndarray, shape (n, 3)
+        Position error N, E, D (m), local NED at each epoch.
+    err_vel_ned_m_s : ndarray, shape (n, 3) or None
+        Velocity error (m/s); None when the solution or the truth has no velocities.
+    err_att_deg : ndarray, shape (n, 3)
+        Roll, pitch, yaw error (deg), wrapped to [-180, 180).
+    err_misorientation_ned_rad : ndarray, shape (n, 3)
+        Rotation vector of ``R_sol · R_truthᵀ`` about N, E, D (rad).
+    rms_pos_ned_m, max_pos_ned_m : (float, float, float)
+        RMS and largest absolute position error per axis (m).
+    rms_vel_ned_m_s, max_vel_ned_m_s : (float, float, float) or None
+        The same for velocity (m/s).
+    rms_att_deg, max_att_deg : (float, float, float)
+        The same for roll, pitch, yaw (deg).
+    within_3sigma : mapping of str to float, or None
+        Share of epochs with ``|error| <= 3σ`` per state (keys in the module
+        docstring); None when the solution carries no σ.
+    """
+
+    n_epochs: int
+    t_s: FloatArray
+    err_pos_ned_m: FloatArray
+    err_vel_ned_m_s: FloatArray | None
+    err_att_deg: FloatArray
+    err_misorientation_ned_rad: FloatArray
+    rms_pos_ned_m: Vector3
+    max_pos_ned_m: Vector3
+    rms_vel_ned_m_s: Vector3 | None
+    max_vel_ned_m_s: Vector3 | None
+    rms_att_deg: Vector3
+    max_att_deg: Vector3
+    within_3sigma: Mapping[str, float] | None
+
+    def as_document(self) -> dict[str, Any]:
+        """The summary as a JSON-ready dict (the ``kinsync ins compare --json`` object)."""
+        return {
+            "rms_pos_ned_m": list(self.rms_pos_ned_m),
+            "rms_vel_ned_m_s": None if self.rms_vel_ned_m_s is None else list(self.rms_vel_ned_m_s),
+            "rms_att_deg": list(self.rms_att_deg),
+            "max_pos_ned_m": list(self.max_pos_ned_m),
+            "max_vel_ned_m_s": None if self.max_vel_ned_m_s is None else list(self.max_vel_ned_m_s),
+            "max_att_deg": list(self.max_att_deg),
+            "within_3sigma": None if self.within_3sigma is None else dict(self.within_3sigma),
+            "n_epochs": self.n_epochs,
+        }
+
+
+def _vec(values: FloatArray) -> Vector3:
+    return (float(values[0]), float(values[1]), float(values[2]))
+
+
+def _rms(err: FloatArray) -> Vector3:
+    return _vec(np.sqrt(np.mean(err**2, axis=0)))
+
+
+def _max(err: FloatArray) -> Vector3:
+    return _vec(np.max(np.abs(err), axis=0))
+
+
+def _wrap_deg(angle_deg: FloatArray) -> FloatArray:
+    out: FloatArray = (angle_deg + 180.0) % 360.0 - 180.0
+    return out
+
+
+def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> Comparison:
+    """Compare a solution with a truth trajectory at the solution's epochs.
+
+    Parameters
+    ----------
+    solution : NavSolution or Trajectory
+        The estimate (geodetic or local NED trajectory, or a filter solution with σ).
+    truth : Trajectory
+        Reference trajectory (geodetic or local NED; velocities optional).
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    InputError
+        No solution epoch lies inside the truth span (naming both spans).
+    """
+    sigma: tuple[FloatArray, FloatArray, FloatArray] | None = None
+    if isinstance(solution, NavSolution):
+        sigma = (solution.std_pos_ned_m, solution.std_vel_ned_m_s, solution.std_att_rad)
+        traj = solution.to_trajectory()
+    else:
+        traj = solution
+    keep = truth.contains(traj.t_s)
+    n = int(np.count_nonzero(keep))
+    if n == 0:
+        msg = (
+            f"no common times: the solution spans [{traj.t_start_s!r}, {traj.t_end_s!r}] s, "
+            f"the truth [{truth.t_start_s!r}, {truth.t_end_s!r}] s; are both on the same "
+            "time scale?"
+        )
+        raise InputError(msg)
+    t = traj.t_s[keep]
+    q_sol = traj.q_body_to_ned[keep]
+    ref = truth.interpolate(t)
+    if traj.lat_lon_h is not None:
+        lat, lon, h = traj.lat_lon_h[keep].T
+        pos_sol_ecef = geodetic_to_ecef(lat, lon, h)
+    else:
+        assert traj.pos_ned_m is not None
+        assert traj.origin_lat_lon_h is not None
+        pos_sol_ecef = ned_to_ecef(traj.pos_ned_m[keep], *traj.origin_lat_lon_h)
+        lat, lon = ecef_to_geodetic(pos_sol_ecef)[:, :2].T
+    R_ned_to_ecef = rotation_ned_to_ecef(lat, lon)
+    err_pos = np.einsum("nji,nj->ni", R_ned_to_ecef, pos_sol_ecef - ref.pos_ecef_m())
+
+    err_vel: FloatArray | None = None
+    if traj.vel_ned_m_s is not None and truth.vel_ned_m_s is not None:
+        v_ref = np.column_stack(
+            [np.interp(t, truth.t_s, truth.vel_ned_m_s[:, i]) for i in range(3)]
+        )
+        err_vel = traj.vel_ned_m_s[keep] - v_ref
+
+    rpy_sol = np.degrees(quaternion_to_euler_rpy(q_sol))
+    rpy_ref = np.degrees(quaternion_to_euler_rpy(ref.q_body_to_ned))
+    err_att = _wrap_deg(rpy_sol - rpy_ref)
+    r_sol = Rotation.from_quat(q_sol[:, [1, 2, 3, 0]])
+    r_ref = Rotation.from_quat(ref.q_body_to_ned[:, [1, 2, 3, 0]])
+    err_rot: FloatArray = (r_sol * r_ref.inv()).as_rotvec()
+
+    within: dict[str, float] | None = None
+    if sigma is not None:
+        std_pos, std_vel, std_att = (s[keep] for s in sigma)
+        within = {}
+        blocks: list[tuple[str, FloatArray | None, FloatArray]] = [
+            ("pos", err_pos, std_pos),
+            ("vel", err_vel, std_vel),
+            ("att", err_rot, std_att),
+        ]
+        for name, err, std in blocks:
+            if err is None:
+                continue
+            share = np.mean(np.abs(err) <= 3.0 * std, axis=0)
+            for axis, value in zip("ned", share.tolist(), strict=True):
+                within[f"{name}_{axis}"] = float(value)
+    return Comparison(
+        n_epochs=n,
+        t_s=t,
+        err_pos_ned_m=err_pos,
+        err_vel_ned_m_s=err_vel,
+        err_att_deg=err_att,
+        err_misorientation_ned_rad=err_rot,
+        rms_pos_ned_m=_rms(err_pos),
+        max_pos_ned_m=_max(err_pos),
+        rms_vel_ned_m_s=None if err_vel is None else _rms(err_vel),
+        max_vel_ned_m_s=None if err_vel is None else _max(err_vel),
+        rms_att_deg=_rms(err_att),
+        max_att_deg=_max(err_att),
+        within_3sigma=within,
+    )

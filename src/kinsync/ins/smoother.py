@@ -1,0 +1,310 @@
+"""Rauch–Tung–Striebel smoothing of the closed-loop error-state INS/GNSS filter.
+
+**What is smoothed.** The forward filter (`kinsync.ins.filter`) feeds every update back
+into the mechanisation, so its error-state estimate is zero after each epoch: the
+forward solution is the *nominal* state ``n_k`` with covariance ``P_k``. The smoother
+estimates, for every IMU epoch, the error ``x_k^s`` of that nominal state given all the
+data (``true ≈ n_k ⊖ x_k^s``, the same feedback operation as the filter), with
+covariance ``P_k^s``, and applies it to the forward nominal states.
+
+**Recursion.** The fixed-interval RTS smoother
+``x_k^s = x_k^+ + A_k (x_{k+1}^s - x_{k+1}^-)``, ``A_k = P_k^+ Φ_{k+1}^T (P_{k+1}^-)^{-1}``
+(Rauch, Tung & Striebel 1965) is run in its equivalent adjoint ("modified
+Bryson–Frazier", Bierman 1973) form, which needs no inverse of the 15×15 predicted
+covariance (ill-conditioned: bias variances ~1e-10 beside position variances ~1)::
+
+    λ_N = 0, Λ_N = 0                                   (after the last epoch)
+    at an update (z = H x + v, ν = z - H x^-, S = H P^- H^T + R,
+                  K = P^- H^T S^{-1}, C = I - K H):
+        λ_k^- = -H^T S^{-1} ν + C^T λ_k^+
+        Λ_k^- =  H^T S^{-1} H + C^T Λ_k^+ C
+    between epochs:  λ_{k-1}^+ = Φ_k^T λ_k^-,   Λ_{k-1}^+ = Φ_k^T Λ_k^- Φ_k
+    x_k^s = x_k^+ - P_k^+ λ_k^+,   P_k^s = P_k^+ - P_k^+ Λ_k^+ P_k^+
+
+**Closed-loop resets.** The forward estimates ``x_k^-`` (relative to the predicted
+nominal) and ``x_k^+`` (relative to the corrected nominal) are both zero, and the
+update's correction ``Δ_k = K ν`` went into the nominal state. The adjoint ``λ`` is
+the scaled difference ``P^{-1}(x^+ - x^s)`` of two estimates expressed in the same
+reference, so it does not change when the reference moves with the reset, and
+``ν = z`` (the stored INS-minus-GNSS value). Hence ``x_k^s = -P_k^+ λ_k^+`` relative
+to the forward output ``n_k``. This is the same as the textbook RTS form with resets,
+``x_k^s = A_k (x_{k+1}^s + Δ_{k+1})``, without storing ``Δ``.
+
+**Memory.** ``Φ`` and ``P`` are not stored per epoch (87 000 epochs × 3 × 15×15
+doubles would be 470 MB). The forward pass stores, at each GNSS update, ``P^-``,
+``P^+``, the accepted rows of ``H``, their variances and ``z``, plus a plain
+checkpoint every `kinsync.ins.filter.CHECKPOINT_EVERY` epochs (about 10 MB for the
+NaveGo set). Between two checkpoints no update happens, so ``P_k`` is recomputed by
+propagating ``P^+`` of the earlier checkpoint with ``Φ_k`` and ``Q_k`` rebuilt from
+the stored nominal states (the very same compiled code and inputs as in the forward
+pass, hence the same numbers), kept for that segment only, and the backward
+recursion runs through the segment. The cost is a second covariance propagation.
+
+References
+----------
+H. E. Rauch, F. Tung, C. T. Striebel, "Maximum likelihood estimates of linear dynamic
+systems", AIAA Journal 3(8), 1445-1450, 1965.
+G. J. Bierman, "Fixed interval smoothing with discrete measurements", International
+Journal of Control 18(1), 65-75, 1973.
+E.-H. Shin, *Estimation Techniques for Low-Cost Inertial Navigation*, PhD thesis,
+University of Calgary, UCGE Report 20219, 2005 (RTS smoothing of closed-loop INS
+error states).
+P. D. Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
+Systems*, 2nd ed., Artech House, 2013, ch. 3 (Kalman smoothing).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, cast
+
+import numpy as np
+from numba import njit
+
+from kinsync._typing import FloatArray
+from kinsync.ins._ekf import N_ERR, N_NAV, feedback, propagate_cov, step_matrices
+from kinsync.ins.filter import CHECKPOINT_EVERY, Checkpoints, ForwardRun
+from kinsync.ins.measurements import ImuData
+
+__all__ = ["SegmentMatrices", "smooth_checkpoints", "smooth_forward_run"]
+
+_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+
+SegmentMatrices = Callable[[int, int, bool, FloatArray, FloatArray], None]
+"""``fill(e, L, has_next, Phi_buf, q_buf)``: ``Φ_{e+i}`` and ``diag Q_{e+i}`` into
+``Phi_buf[i]``, ``q_buf[i]`` for ``i = 1 .. L-1`` (and ``i = L`` when ``has_next``)."""
+
+
+def _propagate_info(Lam: FloatArray, Phi: FloatArray, U: FloatArray) -> None:  # pragma: no cover
+    """``Λ ← Φ^T Λ Φ`` in place for a block-structured ``Φ`` (see `kinsync.ins._ekf`)."""
+    for i in range(N_ERR):
+        for j in range(N_ERR):
+            acc = 0.0
+            for m in range(N_NAV):
+                acc += Lam[i, m] * Phi[m, j]
+            if j >= N_NAV:
+                acc += Lam[i, j] * Phi[j, j]
+            U[i, j] = acc
+    for i in range(N_ERR):
+        for j in range(i, N_ERR):
+            acc = 0.0
+            for m in range(N_NAV):
+                acc += Phi[m, i] * U[m, j]
+            if i >= N_NAV:
+                acc += Phi[i, i] * U[i, j]
+            Lam[i, j] = acc
+            Lam[j, i] = acc
+
+
+propagate_info = _jit(_propagate_info)
+
+
+def _smooth_segment(  # noqa: PLR0912 - one flat loop is what numba compiles best
+    P_start: FloatArray,
+    Phi_buf: FloatArray,
+    q_buf: FloatArray,
+    L: int,
+    has_next: bool,
+    lam: FloatArray,
+    Lam: FloatArray,
+    out_dx: FloatArray,
+    out_var: FloatArray,
+    P_buf: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba; tested against batch least squares
+    """Backward recursion through one segment of ``L`` epochs without updates.
+
+    On entry ``lam``/``Lam`` hold ``λ^-``/``Λ^-`` at the next checkpoint's epoch (or
+    zero after the last epoch when ``has_next`` is False); on exit ``λ^+``/``Λ^+`` at the
+    first epoch of the segment. ``out_dx[i]`` and ``out_var[i]`` receive the smoothed
+    error and its variance at epoch ``i`` of the segment.
+    """
+    T = np.empty((N_NAV, N_ERR))
+    U = np.empty((N_ERR, N_ERR))
+    M = np.empty((N_ERR, N_ERR))
+    tmp = np.empty(N_ERR)
+    if L == 0:
+        return
+    P_buf[0] = P_start
+    for i in range(1, L):
+        P_buf[i] = P_buf[i - 1]
+        propagate_cov(P_buf[i], Phi_buf[i], q_buf[i], T)
+    for i in range(L - 1, -1, -1):
+        if has_next or i < L - 1:
+            Phi = Phi_buf[i + 1]
+            for a in range(N_ERR):
+                acc = 0.0
+                for b in range(N_ERR):
+                    acc += Phi[b, a] * lam[b]
+                tmp[a] = acc
+            lam[:] = tmp
+            propagate_info(Lam, Phi, U)
+        P = P_buf[i]
+        for a in range(N_ERR):
+            acc = 0.0
+            for b in range(N_ERR):
+                acc += P[a, b] * lam[b]
+            out_dx[i, a] = -acc
+        # diag(P Λ P) via M = Λ P
+        for a in range(N_ERR):
+            for b in range(N_ERR):
+                acc = 0.0
+                for c in range(N_ERR):
+                    acc += Lam[a, c] * P[c, b]
+                M[a, b] = acc
+        for a in range(N_ERR):
+            acc = 0.0
+            for b in range(N_ERR):
+                acc += P[a, b] * M[b, a]
+            out_var[i, a] = P[a, a] - acc
+
+
+smooth_segment = cast(Callable[..., None], _jit(_smooth_segment))
+
+
+def _mbf_update(
+    Pm: FloatArray,
+    H: FloatArray,
+    r: FloatArray,
+    z: FloatArray,
+    nrows: int,
+    lam: FloatArray,
+    Lam: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba
+    """Take ``λ^+``, ``Λ^+`` back through an update to ``λ^-``, ``Λ^-`` (in place)."""
+    if nrows == 0:
+        return
+    Hp = H[:nrows]
+    S = Hp @ Pm @ Hp.T
+    for i in range(nrows):
+        S[i, i] += r[i]
+    Sinv = np.linalg.inv(S)
+    Sinv = 0.5 * (Sinv + Sinv.T)
+    K = Pm @ Hp.T @ Sinv
+    Cm = np.eye(N_ERR) - K @ Hp
+    HtSi = Hp.T @ Sinv
+    new_lam = -(HtSi @ z[:nrows]) + Cm.T @ lam
+    new_Lam = HtSi @ Hp + Cm.T @ Lam @ Cm
+    lam[:] = new_lam
+    Lam[:, :] = 0.5 * (new_Lam + new_Lam.T)
+
+
+mbf_update = cast(Callable[..., None], _jit(_mbf_update))
+
+
+def _ins_matrices(
+    e: int,
+    L: int,
+    has_next: bool,
+    t: FloatArray,
+    acc: FloatArray,
+    states: FloatArray,
+    params: FloatArray,
+    Phi_buf: FloatArray,
+    q_buf: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba
+    """``Φ`` and ``diag Q`` of the INS intervals ending at epochs ``e+1 .. e+L(-1)``."""
+    C = np.empty((3, 3))
+    F = np.zeros((N_ERR, N_ERR))
+    f_b = np.empty(3)
+    top = L if has_next else L - 1
+    for i in range(1, top + 1):
+        k = e + i
+        step_matrices(
+            states[k - 1], acc[k], t[k] - t[k - 1], params, f_b, C, F, Phi_buf[i], q_buf[i]
+        )
+
+
+ins_matrices = cast(Callable[..., None], _jit(_ins_matrices))
+
+
+def _apply_corrections(states: FloatArray, dx: FloatArray, k0: int) -> None:  # pragma: no cover
+    """``states[k] ← states[k] ⊖ dx[k]`` for ``k >= k0`` (closed-loop feedback form)."""
+    qa = np.empty(4)
+    qb = np.empty(4)
+    for k in range(k0, states.shape[0]):
+        feedback(states[k], dx[k], qa, qb)
+
+
+apply_corrections = cast(Callable[..., None], _jit(_apply_corrections))
+
+
+def smooth_checkpoints(
+    ck: Checkpoints,
+    k_last: int,
+    matrices: SegmentMatrices,
+    out_dx: FloatArray,
+    out_var: FloatArray,
+    progress: Callable[[float], None] | None = None,
+) -> None:
+    """Backward pass over all checkpoints (generic in how ``Φ``, ``Q`` are produced).
+
+    Parameters
+    ----------
+    ck : Checkpoints
+        From the forward pass; ``ck.epoch[0]`` is the first epoch.
+    k_last : int
+        Last epoch (inclusive).
+    matrices : SegmentMatrices
+        Fills ``Φ`` and ``diag Q`` of the intervals inside a segment.
+    out_dx, out_var : ndarray, shape (k_last + 1, 15)
+        Receive the smoothed error state (``true ≈ nominal ⊖ dx``) and its variance at
+        epochs ``ck.epoch[0] .. k_last``.
+    progress : callable, optional
+        Fraction done, reported about every 10 000 epochs.
+    """
+    seg = CHECKPOINT_EVERY + 2
+    if ck.epoch.size:
+        seg = max(seg, int(np.max(np.diff(np.append(ck.epoch, k_last + 1)))) + 2)
+    Phi_buf = np.zeros((seg, N_ERR, N_ERR))
+    q_buf = np.zeros((seg, N_ERR))
+    P_buf = np.zeros((seg, N_ERR, N_ERR))
+    lam = np.zeros(N_ERR)
+    Lam = np.zeros((N_ERR, N_ERR))
+    n_c = ck.epoch.size
+    first = int(ck.epoch[0]) if n_c else 0
+    total = max(1, k_last + 1 - first)
+    reported = k_last + 1
+    for c in range(n_c - 1, -1, -1):
+        e = int(ck.epoch[c])
+        has_next = c < n_c - 1
+        L = int(ck.epoch[c + 1]) - e if has_next else k_last + 1 - e
+        if L > 0:
+            matrices(e, L, has_next, Phi_buf, q_buf)
+        smooth_segment(
+            ck.P_plus[c], Phi_buf, q_buf, L, has_next, lam, Lam,
+            out_dx[e : e + L], out_var[e : e + L], P_buf,
+        )  # fmt: skip
+        mbf_update(ck.P_minus[c], ck.H[c], ck.r[c], ck.z[c], int(ck.nrows[c]), lam, Lam)
+        if progress is not None and reported - e >= 10_000:
+            reported = e
+            progress((k_last + 1 - e) / total)
+    if progress is not None:
+        progress(1.0)
+
+
+def smooth_forward_run(
+    imu: ImuData, run: ForwardRun, progress: Callable[[float], None] | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Smoothed nominal states (n, 16) and error-state 1σ (n, 15) of a forward run.
+
+    Rows before ``run.k0`` are zero.
+    """
+    if run.checkpoints is None:
+        msg = "smooth_forward_run: the forward pass was run without storing checkpoints"
+        raise ValueError(msg)
+    n = run.states.shape[0]
+    dx = np.zeros((n, N_ERR))
+    var = np.zeros((n, N_ERR))
+    t = imu.t_s
+    acc = imu.acc_body_m_s2
+    states = run.states
+    params = run.params
+
+    def fill(e: int, L: int, has_next: bool, Phi_buf: FloatArray, q_buf: FloatArray) -> None:
+        ins_matrices(e, L, has_next, t, acc, states, params, Phi_buf, q_buf)
+
+    smooth_checkpoints(run.checkpoints, n - 1, fill, dx, var, progress)
+    out = np.array(run.states, dtype=np.float64)
+    apply_corrections(out, dx, run.k0)
+    std = np.sqrt(np.maximum(var, 0.0))
+    return out, std

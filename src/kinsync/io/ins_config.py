@@ -1,0 +1,260 @@
+"""INS/GNSS filter configuration as TOML (the `kinsync.ins.config.InsConfig` fields).
+
+Every key carries its unit in its name. The SI key of each `InsConfig` field is always
+accepted; where datasheets use other units, one alternative key per such unit is
+accepted too and converted on reading (give one key per quantity, not two)::
+
+    [imu]                                  # required: the six noise and bias terms
+    gyro_arw_rad_s_rthz = 8.7e-5           # or gyro_arw_deg_rthr (deg/sqrt(h))
+    acc_vrw_m_s2_rthz = 4.8e-4             # or acc_vrw_m_s_rthr (m/s/sqrt(h))
+    gyro_bias_sigma_rad_s = 3.5e-3         # turn-on σ; or gyro_bias_sigma_deg_h, _deg_s
+    acc_bias_sigma_m_s2 = 0.157            # turn-on σ; or acc_bias_sigma_mg
+    gyro_bias_instability_rad_s = 3.2e-5   # Gauss-Markov σ; or _deg_h, _deg_s
+    acc_bias_instability_m_s2 = 9.8e-4     # Gauss-Markov σ; or acc_bias_instability_mg
+    gyro_bias_corr_time_s = 3600.0         # optional (default 3600)
+    acc_bias_corr_time_s = 3600.0          # optional (default 3600)
+
+    [gnss]                                 # optional table, every key optional
+    std_pos_ned_m = [1.0, 1.0, 2.0]        # σ N, E, D where the GNSS file has none
+    std_vel_ned_m_s = [0.1, 0.1, 0.1]
+    antenna_lever_arm_body_m = [0.0, 0.0, 0.0]   # IMU -> antenna, body FRD (m)
+
+    [init]                                 # optional table, every key optional
+    std_att_rad = [0.01, 0.01, 0.02]       # roll, pitch, yaw σ; or std_att_deg
+    std_vel_ned_m_s = [0.1, 0.1, 0.1]
+    std_pos_ned_m = [1.0, 1.0, 2.0]
+
+    [filter]                               # optional table, every key optional
+    max_imu_gap_s = 0.1                    # longer gaps between IMU samples: input error
+    gate_probability = 0.9999              # χ² innovation gate
+
+Conversions: 1 deg/sqrt(h) = (pi/180)/60 rad/s/sqrt(Hz); 1 m/s/sqrt(h) = 1/60
+m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2. Unknown tables
+and keys are rejected (a typo must not silently fall back to a default), as are keys
+given in two units. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats,
+so a write/read round trip is exact.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from kinsync.errors import InputError
+from kinsync.ins.config import InsConfig
+from kinsync.io.atomic import atomic_write_text
+
+__all__ = [
+    "G0_M_S2",
+    "ins_config_from_toml_text",
+    "ins_config_to_toml_text",
+    "read_ins_config",
+    "write_ins_config",
+]
+
+G0_M_S2 = 9.80665
+"""Standard gravity used for milli-g (m/s^2)."""
+
+_DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class _Field:
+    """One `InsConfig` field: its table, accepted keys with factors to SI, vector or not."""
+
+    attr: str
+    table: str
+    keys: tuple[tuple[str, float], ...]
+    vector: bool = False
+    required: bool = False
+
+
+_FIELDS = (
+    _Field(
+        "gyro_arw_rad_s_rthz",
+        "imu",
+        (("gyro_arw_rad_s_rthz", 1.0), ("gyro_arw_deg_rthr", _DEG / 60.0)),
+        required=True,
+    ),
+    _Field(
+        "acc_vrw_m_s2_rthz",
+        "imu",
+        (("acc_vrw_m_s2_rthz", 1.0), ("acc_vrw_m_s_rthr", 1.0 / 60.0)),
+        required=True,
+    ),
+    _Field(
+        "gyro_bias_sigma_rad_s",
+        "imu",
+        (
+            ("gyro_bias_sigma_rad_s", 1.0),
+            ("gyro_bias_sigma_deg_h", _DEG / 3600.0),
+            ("gyro_bias_sigma_deg_s", _DEG),
+        ),
+        required=True,
+    ),
+    _Field(
+        "acc_bias_sigma_m_s2",
+        "imu",
+        (("acc_bias_sigma_m_s2", 1.0), ("acc_bias_sigma_mg", G0_M_S2 * 1e-3)),
+        required=True,
+    ),
+    _Field(
+        "gyro_bias_instability_rad_s",
+        "imu",
+        (
+            ("gyro_bias_instability_rad_s", 1.0),
+            ("gyro_bias_instability_deg_h", _DEG / 3600.0),
+            ("gyro_bias_instability_deg_s", _DEG),
+        ),
+        required=True,
+    ),
+    _Field(
+        "acc_bias_instability_m_s2",
+        "imu",
+        (("acc_bias_instability_m_s2", 1.0), ("acc_bias_instability_mg", G0_M_S2 * 1e-3)),
+        required=True,
+    ),
+    _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),)),
+    _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),)),
+    _Field("gnss_std_pos_ned_m", "gnss", (("std_pos_ned_m", 1.0),), vector=True),
+    _Field("gnss_std_vel_ned_m_s", "gnss", (("std_vel_ned_m_s", 1.0),), vector=True),
+    _Field("antenna_lever_arm_body_m", "gnss", (("antenna_lever_arm_body_m", 1.0),), vector=True),
+    _Field("init_std_att_rad", "init", (("std_att_rad", 1.0), ("std_att_deg", _DEG)), vector=True),
+    _Field("init_std_vel_ned_m_s", "init", (("std_vel_ned_m_s", 1.0),), vector=True),
+    _Field("init_std_pos_ned_m", "init", (("std_pos_ned_m", 1.0),), vector=True),
+    _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),)),
+    _Field("gate_probability", "filter", (("gate_probability", 1.0),)),
+)
+
+_TABLES = ("imu", "gnss", "init", "filter")
+
+
+def _number(value: object, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        msg = f"{where}: expected a number, got {value!r}"
+        raise InputError(msg)
+    out = float(value)
+    if not math.isfinite(out):
+        msg = f"{where}: must be finite, got {value!r}"
+        raise InputError(msg)
+    return out
+
+
+def _value(value: object, field: _Field, factor: float, where: str) -> Any:
+    if not field.vector:
+        return _number(value, where) * factor
+    if not isinstance(value, list) or len(value) != 3:
+        msg = f"{where}: expected a list of 3 numbers, got {value!r}"
+        raise InputError(msg)
+    return tuple(_number(v, f"{where}[{i}]") * factor for i, v in enumerate(value))
+
+
+def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
+    """Parse an INS configuration TOML document (schema in the module docstring).
+
+    Parameters
+    ----------
+    text : str
+        TOML document.
+    source : str
+        Name used in error messages (usually the file path).
+
+    Returns
+    -------
+    InsConfig
+        Values converted to SI.
+
+    Raises
+    ------
+    InputError
+        Malformed TOML (line and column), an unknown table or key, a quantity given in
+        two units, a missing required ``[imu]`` key, a value of the wrong type or
+        length, a non-positive σ or time, a gate probability outside (0, 1).
+    """
+    try:
+        doc: dict[str, Any] = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        msg = f"{source}: malformed TOML: {err}"
+        raise InputError(msg) from err
+    unknown_tables = sorted(set(doc) - set(_TABLES))
+    if unknown_tables:
+        msg = (
+            f"{source}: unknown table(s) or top-level key(s) {unknown_tables}; "
+            f"expected tables {['[' + t + ']' for t in _TABLES]}"
+        )
+        raise InputError(msg)
+    for name in _TABLES:
+        table = doc.get(name, {})
+        if not isinstance(table, Mapping):
+            msg = f"{source}: {name} must be a table [{name}], got {table!r}"
+            raise InputError(msg)
+        known = [k for f in _FIELDS if f.table == name for k, _ in f.keys]
+        unknown = sorted(set(table) - set(known))
+        if unknown:
+            msg = f"{source}: unknown key(s) in [{name}]: {unknown}; expected one of {known}"
+            raise InputError(msg)
+    kwargs: dict[str, Any] = {}
+    for field in _FIELDS:
+        table = doc.get(field.table, {})
+        given = [(k, f) for k, f in field.keys if k in table]
+        if len(given) > 1:
+            msg = (
+                f"{source}: [{field.table}] gives {[k for k, _ in given]}, the same quantity "
+                "in two units; keep one"
+            )
+            raise InputError(msg)
+        if not given:
+            if field.required:
+                keys = " or ".join(k for k, _ in field.keys)
+                msg = f"{source}: [{field.table}] needs {keys}"
+                raise InputError(msg)
+            continue
+        key, factor = given[0]
+        kwargs[field.attr] = _value(table[key], field, factor, f"{source}: [{field.table}] {key}")
+    try:
+        return InsConfig(**kwargs)
+    except InputError as err:
+        msg = f"{source}: {err}"
+        raise InputError(msg) from err
+
+
+def ins_config_to_toml_text(config: InsConfig) -> str:
+    """Serialise a configuration to TOML with the SI keys (exact round trip)."""
+    lines: list[str] = []
+    for table in _TABLES:
+        lines.append(f"[{table}]")
+        for field in _FIELDS:
+            if field.table != table:
+                continue
+            key = field.keys[0][0]
+            value = getattr(config, field.attr)
+            if field.vector:
+                text = "[" + ", ".join(repr(float(v)) for v in value) + "]"
+            else:
+                text = repr(float(value))
+            lines.append(f"{key} = {text}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def read_ins_config(path: Path) -> InsConfig:
+    """Read an INS configuration TOML file; errors name the file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as err:
+        msg = f"{path}: INS configuration file not found"
+        raise InputError(msg) from err
+    except (OSError, UnicodeDecodeError) as err:
+        msg = f"{path}: cannot read INS configuration ({err})"
+        raise InputError(msg) from err
+    return ins_config_from_toml_text(text, source=str(path))
+
+
+def write_ins_config(config: InsConfig, path: Path) -> None:
+    """Write an INS configuration TOML file (SI keys) atomically."""
+    atomic_write_text(Path(path), ins_config_to_toml_text(config))

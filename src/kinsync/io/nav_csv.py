@@ -1,0 +1,276 @@
+"""Navigation solution and truth trajectory CSV files.
+
+**Solution** (`write_nav_csv` / `read_nav_csv`), one row per IMU epoch::
+
+    t_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg
+    std_n_m,std_e_m,std_d_m,std_vn_m_s,std_ve_m_s,std_vd_m_s,
+    std_roll_deg,std_pitch_deg,std_yaw_deg
+    gyro_bias_x_rad_s,gyro_bias_y_rad_s,gyro_bias_z_rad_s,
+    acc_bias_x_m_s2,acc_bias_y_m_s2,acc_bias_z_m_s2,
+    std_gyro_bias_x_rad_s,std_gyro_bias_y_rad_s,std_gyro_bias_z_rad_s,
+    std_acc_bias_x_m_s2,std_acc_bias_y_m_s2,std_acc_bias_z_m_s2
+
+Position: WGS84 geodetic of the IMU reference point; velocity over the Earth in NED;
+attitude DIN 9300 roll, pitch, yaw (deg) body -> NED; biases in the body frame.
+
+The filter's attitude σ is the σ of the **misorientation about the N, E and D axes**;
+the columns ``std_roll_deg, std_pitch_deg, std_yaw_deg`` hold those three values as
+they are. This is an approximation of the Euler-angle σ: roll and pitch σ equal the N
+and E values only at yaw 0 (in general each mixes both through the heading, and the
+cross-covariances are not kept), and yaw σ equals the D value for small pitch. Kept
+this way the file reads back into exactly the filter's quantities, which
+`kinsync.ins.compare` tests against the misorientation about N, E, D.
+
+``smoothed`` and the GNSS counts of a `NavSolution` are not stored; `read_nav_csv`
+returns False and 0 for them.
+
+**Truth / plain trajectory**: the first ten columns without σ (the NaveGo ``truth.csv``
+layout), read by `read_truth_csv` into a `Trajectory` with velocities through
+`kinsync.io.trajectory_csv.read_trajectory_csv` (which reads these columns by name, in
+any order, velocities optional).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.ins.solution import NavSolution
+from kinsync.io.sbet import read_sbet
+from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
+from kinsync.io.trajectory_csv import read_trajectory_csv
+from kinsync.trajectory import Trajectory
+
+__all__ = [
+    "NAV_BIAS_COLUMNS",
+    "NAV_COLUMNS",
+    "NAV_STD_COLUMNS",
+    "read_nav_csv",
+    "read_navigation",
+    "read_truth_csv",
+    "write_nav_csv",
+]
+
+NAV_COLUMNS = (
+    "t_s",
+    "lat_deg",
+    "lon_deg",
+    "h_m",
+    "vn_m_s",
+    "ve_m_s",
+    "vd_m_s",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+)
+"""State columns (also the truth layout)."""
+
+NAV_STD_COLUMNS = (
+    "std_n_m",
+    "std_e_m",
+    "std_d_m",
+    "std_vn_m_s",
+    "std_ve_m_s",
+    "std_vd_m_s",
+    "std_roll_deg",
+    "std_pitch_deg",
+    "std_yaw_deg",
+)
+"""1σ columns of position, velocity and attitude (misorientation about N, E, D)."""
+
+NAV_BIAS_COLUMNS = tuple(
+    f"{prefix}{kind}_bias_{axis}_{unit}"
+    for prefix in ("", "std_")
+    for kind, unit in (("gyro", "rad_s"), ("acc", "m_s2"))
+    for axis in "xyz"
+)
+"""Bias estimates and their 1σ, body frame."""
+
+_SBET_SUFFIXES = (".sbet", ".out")
+
+
+def _triple(c: dict[str, FloatArray], names: tuple[str, ...]) -> FloatArray:
+    return np.column_stack([c[n] for n in names])
+
+
+def write_nav_csv(solution: NavSolution, path: Path) -> None:
+    """Write a navigation solution with σ and biases as CSV, atomically.
+
+    Parameters
+    ----------
+    solution : NavSolution
+        Solution at the IMU rate.
+    path : Path
+        Output file (columns in the module docstring; floats in round-trip precision).
+    """
+    rpy_deg = np.degrees(solution.rpy_rad)
+    cols: dict[str, FloatArray] = {
+        "t_s": solution.t_s,
+        "lat_deg": solution.lat_deg,
+        "lon_deg": solution.lon_deg,
+        "h_m": solution.h_m,
+    }
+    blocks: list[tuple[tuple[str, ...], FloatArray]] = [
+        (NAV_COLUMNS[4:7], solution.vel_ned_m_s),
+        (NAV_COLUMNS[7:10], rpy_deg),
+        (NAV_STD_COLUMNS[0:3], solution.std_pos_ned_m),
+        (NAV_STD_COLUMNS[3:6], solution.std_vel_ned_m_s),
+        (NAV_STD_COLUMNS[6:9], np.degrees(solution.std_att_rad)),
+        (NAV_BIAS_COLUMNS[0:3], solution.gyro_bias_rad_s),
+        (NAV_BIAS_COLUMNS[3:6], solution.acc_bias_m_s2),
+        (NAV_BIAS_COLUMNS[6:9], solution.std_gyro_bias_rad_s),
+        (NAV_BIAS_COLUMNS[9:12], solution.std_acc_bias_m_s2),
+    ]
+    n = len(solution)
+    for names, arr in blocks:
+        a = np.asarray(arr, dtype=np.float64)
+        if a.shape != (n, 3):
+            msg = f"write_nav_csv: {names} expected shape ({n}, 3), got {a.shape}"
+            raise InputError(msg)
+        for i, name in enumerate(names):
+            cols[name] = a[:, i]
+    write_numeric_csv(Path(path), cols)
+
+
+def _check_solution_table(table: NumericTable) -> None:
+    """Finite cells, strictly increasing times, latitudes in range, σ >= 0 (naming lines)."""
+    c = table.columns
+    for name in NAV_COLUMNS + NAV_STD_COLUMNS + NAV_BIAS_COLUMNS:
+        bad = ~np.isfinite(c[name])
+        if name.startswith("std_"):
+            bad |= c[name] < 0.0
+        if name == "lat_deg":
+            bad |= np.abs(c[name]) > 90.0
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            msg = (
+                f"{table.source}: line {table.line_of_row(row)}, column {name!r}: "
+                f"{c[name][row]!r} is out of range"
+            )
+            raise InputError(msg)
+    dt = np.diff(c["t_s"])
+    if (dt <= 0.0).any():
+        row = int(np.flatnonzero(dt <= 0.0)[0]) + 1
+        kind = "repeated" if dt[row - 1] == 0.0 else "decreasing"
+        msg = (
+            f"{table.source}: line {table.line_of_row(row)}: {kind} time t_s="
+            f"{c['t_s'][row]!r}; times must increase strictly"
+        )
+        raise InputError(msg)
+
+
+def read_nav_csv(path: Path) -> NavSolution:
+    """Read a solution CSV written by `write_nav_csv` (every column required).
+
+    Parameters
+    ----------
+    path : Path
+        CSV file.
+
+    Returns
+    -------
+    NavSolution
+        With ``smoothed=False`` and GNSS counts 0 (not stored in the file).
+
+    Raises
+    ------
+    InputError
+        Missing file or columns, a non-numeric or non-finite cell, a negative σ, a
+        latitude outside [-90, 90], fewer than 2 rows, repeated or decreasing times
+        (each naming the line).
+    """
+    path = Path(path)
+    table = read_numeric_csv(path, NAV_COLUMNS + NAV_STD_COLUMNS + NAV_BIAS_COLUMNS)
+    if table.n_rows < 2:
+        msg = f"{path}: a navigation solution needs at least 2 records, found {table.n_rows}"
+        raise InputError(msg)
+    _check_solution_table(table)
+    c = table.columns
+    return NavSolution(
+        t_s=c["t_s"],
+        lat_deg=c["lat_deg"],
+        lon_deg=c["lon_deg"],
+        h_m=c["h_m"],
+        vel_ned_m_s=_triple(c, NAV_COLUMNS[4:7]),
+        rpy_rad=np.radians(_triple(c, NAV_COLUMNS[7:10])),
+        std_pos_ned_m=_triple(c, NAV_STD_COLUMNS[0:3]),
+        std_vel_ned_m_s=_triple(c, NAV_STD_COLUMNS[3:6]),
+        std_att_rad=np.radians(_triple(c, NAV_STD_COLUMNS[6:9])),
+        gyro_bias_rad_s=_triple(c, NAV_BIAS_COLUMNS[0:3]),
+        acc_bias_m_s2=_triple(c, NAV_BIAS_COLUMNS[3:6]),
+        std_gyro_bias_rad_s=_triple(c, NAV_BIAS_COLUMNS[6:9]),
+        std_acc_bias_m_s2=_triple(c, NAV_BIAS_COLUMNS[9:12]),
+    )
+
+
+def read_truth_csv(path: Path) -> Trajectory:
+    """Read a truth trajectory (``t_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,...``).
+
+    Parameters
+    ----------
+    path : Path
+        CSV with the ten `NAV_COLUMNS` (any order; extra columns ignored).
+
+    Returns
+    -------
+    Trajectory
+        Geodetic, attitude from DIN 9300 Euler angles, with NED velocities.
+
+    Raises
+    ------
+    InputError
+        As `kinsync.io.trajectory_csv.read_trajectory_csv`, and when the velocity
+        columns are absent.
+    """
+    path = Path(path)
+    traj = read_trajectory_csv(path)
+    if traj.vel_ned_m_s is None:
+        msg = f"{path}: a truth trajectory needs the velocity columns vn_m_s,ve_m_s,vd_m_s"
+        raise InputError(msg)
+    return traj
+
+
+def _csv_header(path: Path) -> list[str]:
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            row = next(csv.reader(fh), None)
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found"
+        raise InputError(msg) from err
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        msg = f"{path}: cannot read ({err})"
+        raise InputError(msg) from err
+    return [h.strip() for h in row or []]
+
+
+def read_navigation(path: Path, *, gps_week: int | None = None) -> NavSolution | Trajectory:
+    """Read a navigation file of any kind kinsync writes, by suffix and header.
+
+    Parameters
+    ----------
+    path : Path
+        ``.sbet``/``.out`` (SBET, see `kinsync.io.sbet.read_sbet`), or ``.csv``: a
+        solution with σ (any σ column in the header -> `read_nav_csv`), otherwise a
+        trajectory (`read_trajectory_csv`, velocities optional).
+    gps_week : int, optional
+        GPS week of SBET seconds-of-week times, to put them on GPS time.
+
+    Returns
+    -------
+    NavSolution or Trajectory
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in _SBET_SUFFIXES:
+        return read_sbet(path, gps_week=gps_week)
+    if suffix != ".csv":
+        msg = f"{path}: unknown navigation file type {suffix!r}; expected .csv, .sbet or .out"
+        raise InputError(msg)
+    header = _csv_header(path)
+    if any(h in NAV_STD_COLUMNS for h in header):
+        return read_nav_csv(path)
+    return read_trajectory_csv(path)

@@ -1,0 +1,259 @@
+"""``kinsync ins run`` and ``kinsync ins compare`` on a NaveGo slice; bad input."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.ins.solution import NavSolution
+from kinsync.io.nav_csv import read_nav_csv, read_navigation
+from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simulation
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+NAVEGO = Path("/work/shared/data/navego-synthetic")
+CONFIG = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.toml"
+SLICE_S = 60.0
+IMU_ROWS = 12_000  # 200 Hz for 60 s
+GNSS_ROWS = 300  # 5 Hz
+
+
+def _head(src: Path, dst: Path, rows: int) -> Path:
+    with src.open() as fh:
+        lines = [next(fh) for _ in range(rows + 1)]
+    dst.write_text("".join(lines))
+    return dst
+
+
+@pytest.fixture(scope="module")
+def navego(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The first 60 s of the NaveGo set."""
+    d = tmp_path_factory.mktemp("navego")
+    return {
+        "dir": d,
+        "imu": _head(NAVEGO / "imu.csv", d / "imu.csv", IMU_ROWS),
+        "gnss": _head(NAVEGO / "gnss.csv", d / "gnss.csv", GNSS_ROWS),
+        "truth": _head(NAVEGO / "truth.csv", d / "truth.csv", IMU_ROWS),
+    }
+
+
+def _run_args(navego: dict[str, Path], out: Path, *extra: str) -> list[str]:
+    return [
+        "ins",
+        "run",
+        "--imu",
+        str(navego["imu"]),
+        "--gnss",
+        str(navego["gnss"]),
+        "--config",
+        str(CONFIG),
+        "--init-from",
+        str(navego["truth"]),
+        "--out",
+        str(out),
+        *extra,
+    ]
+
+
+def test_run_json_then_compare(run_cli: RunCli, navego: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "nav.csv"
+    code, stdout, stderr = run_cli(_run_args(navego, out, "--json"))
+    assert code == 0, stderr
+    assert stdout.count("\n") == 1
+    doc = json.loads(stdout)
+    assert doc["epochs"] == IMU_ROWS
+    assert doc["gnss_used"] + doc["gnss_rejected"] == GNSS_ROWS
+    assert doc["gnss_used"] >= 0.95 * GNSS_ROWS
+    assert doc["seconds"] > 0
+    assert doc["epochs_per_s"] == pytest.approx(IMU_ROWS / doc["seconds"])
+    assert doc["out"] == str(out)
+    assert doc["smoothed"] is False
+    assert doc["warnings"] == []
+    sol = read_nav_csv(out)
+    assert len(sol) == IMU_ROWS
+
+    code, stdout, stderr = run_cli(["ins", "compare", str(out), str(navego["truth"]), "--json"])
+    assert code == 0, stderr
+    cmp = json.loads(stdout)
+    assert cmp["n_epochs"] == IMU_ROWS
+    # GNSS σ 5/5/10 m: the 60 s forward solution stays within a few metres of the truth.
+    assert max(cmp["rms_pos_ned_m"]) < 3.0, cmp
+    assert max(cmp["rms_vel_ned_m_s"]) < 0.1, cmp
+    roll, pitch, yaw = cmp["rms_att_deg"]
+    assert max(roll, pitch) < 0.5, cmp
+    assert yaw < 2.0, cmp  # heading converges over the first minute (measured ~1.0 deg)
+    assert all(m >= r for m, r in zip(cmp["max_pos_ned_m"], cmp["rms_pos_ned_m"], strict=True))
+    shares = cmp["within_3sigma"]
+    for key in ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d"):
+        assert shares[key] > 0.9, (key, shares)
+
+
+def test_run_smoothed_sbet_with_table(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    out = tmp_path / "nav.sbet"
+    code, stdout, stderr = run_cli(_run_args(navego, out, "--smooth"))
+    assert code == 0, stderr
+    for text in ("epochs written", "12000", "smoothed (RTS)", "GNSS epochs used", "final σ"):
+        assert text in stdout, stdout
+    nav = read_navigation(out)
+    assert not isinstance(nav, NavSolution)
+    assert len(nav) == IMU_ROWS
+    code, stdout, stderr = run_cli(["ins", "compare", str(out), str(navego["truth"])])
+    assert code == 0, stderr
+    for text in ("position RMS (m)", "attitude max (deg)", "12000 epochs"):
+        assert text in stdout, stdout
+    assert "within 3σ" not in stdout  # an SBET carries no σ
+    code, stdout, _ = run_cli(["ins", "compare", str(out), str(navego["truth"]), "--json"])
+    cmp = json.loads(stdout)
+    assert cmp["within_3sigma"] is None
+    assert max(cmp["rms_pos_ned_m"]) < 2.0, cmp
+
+
+def test_run_positions_only_warns_about_gnss_outside_the_imu_span(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    gnss = _head(NAVEGO / "gnss.csv", tmp_path / "gnss_long.csv", GNSS_ROWS + 5)
+    argv = _run_args(navego, tmp_path / "nav.csv", "--no-velocity", "--json")
+    argv[argv.index(str(navego["gnss"]))] = str(gnss)
+    code, stdout, stderr = run_cli(argv)
+    assert code == 0, stderr
+    assert stderr.startswith("kinsync: warning: ")
+    assert "5 GNSS epoch(s) outside the IMU span" in stderr
+    assert "rows 300, 301, 302, 303, 304" in stderr
+    doc = json.loads(stdout)
+    assert doc["gnss_used"] + doc["gnss_rejected"] == GNSS_ROWS
+    assert len(doc["warnings"]) == 1
+
+
+def test_run_with_static_alignment_on_a_simulated_drive(run_cli: RunCli, tmp_path: Path) -> None:
+    """Without --init-from: static levelling + GNSS heading (navigation-grade IMU, RTK)."""
+    sim = simulate_drive(DriveSimConfig(duration_s=60.0, static_s=10.0, imu="navigation"))
+    write_drive_simulation(sim, tmp_path)
+    out = tmp_path / "nav.csv"
+    argv = ["ins", "run", "--imu", str(tmp_path / "imu.csv"), "--gnss", str(tmp_path / "gnss.csv")]
+    argv += ["--config", str(tmp_path / "ins.toml"), "--static-s", "8", "--out", str(out)]
+    code, stdout, stderr = run_cli([*argv, "--json"])
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    t_static_end = sim.imu.t_s[0] + 8.0
+    assert doc["epochs"] == int(np.count_nonzero(sim.imu.t_s >= t_static_end - 1e-9))
+    code, stdout, stderr = run_cli(
+        ["ins", "compare", str(out), str(tmp_path / "truth.csv"), "--json"]
+    )
+    assert code == 0, stderr
+    cmp = json.loads(stdout)
+    # Measured: RMS 6-8 mm, roll/pitch 0.03/0.02 deg, yaw 0.11 deg.
+    assert max(cmp["rms_pos_ned_m"]) < 0.05, cmp
+    roll, pitch, yaw = cmp["rms_att_deg"]
+    assert max(roll, pitch) < 0.2, cmp
+    assert yaw < 0.5, cmp
+
+
+def test_run_help_lists_options(run_cli: RunCli) -> None:
+    code, stdout, _ = run_cli(["ins", "run", "--help"])
+    assert code == 0
+    for option in ("--imu", "--gnss", "--config", "--init-from", "--no-velocity", "--smooth"):
+        assert option in stdout
+
+
+def test_bad_output_suffix_and_folder(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    assert_one_line_error(*run_cli(_run_args(navego, tmp_path / "nav.txt")), "'.txt'", ".sbet")
+    missing = tmp_path / "no" / "nav.csv"
+    assert_one_line_error(*run_cli(_run_args(navego, missing)), "does not exist")
+
+
+def test_bad_inputs_are_one_line_errors(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    out = tmp_path / "nav.csv"
+    # A gap of 0.5 s in the IMU record (rows 1000-1099 removed).
+    lines = navego["imu"].read_text().splitlines(keepends=True)
+    gap = tmp_path / "gap.csv"
+    gap.write_text("".join(lines[:1001] + lines[1101:]))
+    argv = _run_args(navego, out)
+    argv[argv.index(str(navego["imu"]))] = str(gap)
+    assert_one_line_error(*run_cli(argv), str(gap), "rows 999 and 1000", "max_imu_gap_s")
+    # IMU specific force in g.
+    header, *rows = lines
+    in_g = tmp_path / "in_g.csv"
+    scaled = []
+    for row in rows:
+        cells = row.strip().split(",")
+        cells[4:] = [repr(float(c) / 9.80665) for c in cells[4:]]
+        scaled.append(",".join(cells) + "\n")
+    in_g.write_text(header + "".join(scaled))
+    argv[argv.index(str(gap))] = str(in_g)
+    assert_one_line_error(*run_cli(argv), "looks like g")
+    # GNSS on another time scale.
+    far = tmp_path / "far.csv"
+    g_lines = navego["gnss"].read_text().splitlines()
+    far.write_text(
+        "\n".join(
+            [g_lines[0]]
+            + [f"{float(r.split(',')[0]) + 1e5}," + r.split(",", 1)[1] for r in g_lines[1:]]
+        )
+        + "\n"
+    )
+    argv = _run_args(navego, out)
+    argv[argv.index(str(navego["gnss"]))] = str(far)
+    assert_one_line_error(*run_cli(argv), "0 GNSS epoch(s) inside", "same time scale")
+    # Configuration with a typo.
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(CONFIG.read_text().replace("max_imu_gap_s", "max_gap_s"))
+    argv = _run_args(navego, out)
+    argv[argv.index(str(CONFIG))] = str(cfg)
+    assert_one_line_error(*run_cli(argv), str(cfg), "max_gap_s")
+    # Initial state without velocities, and one that does not reach the IMU span.
+    plain = tmp_path / "plain.csv"
+    plain.write_text(
+        "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n0,1,2,3,0,0,0\n1,1,2,3,0,0,0\n"
+    )
+    argv = _run_args(navego, out)
+    argv[argv.index(str(navego["truth"]))] = str(plain)
+    assert_one_line_error(*run_cli(argv), "--init-from", "vn_m_s")
+    late = tmp_path / "late.csv"
+    late.write_text(
+        "t_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg\n"
+        "100,1,2,3,0,0,0,0,0,0\n101,1,2,3,0,0,0,0,0,0\n"
+    )
+    argv[argv.index(str(plain))] = str(late)
+    assert_one_line_error(*run_cli(argv), "--init-from", "does not reach the IMU span")
+    assert not out.exists()
+    # No --init-from on data without a static start, and a bad static period.
+    argv = _run_args(navego, out)
+    i = argv.index("--init-from")
+    del argv[i : i + 2]
+    assert_one_line_error(*run_cli(argv), "static")
+    assert_one_line_error(*run_cli([*argv, "--static-s", "-1"]), "static_s", "positive")
+    # Missing input file.
+    argv = _run_args(navego, out)
+    argv[argv.index(str(navego["imu"]))] = str(tmp_path / "none.csv")
+    assert_one_line_error(*run_cli(argv), "none.csv", "not found")
+
+
+def test_compare_bad_inputs(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    later = tmp_path / "later.csv"
+    later.write_text(
+        "t_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg\n"
+        "100,1,2,3,0,0,0,0,0,0\n101,1,2,3,0,0,0,0,0,0\n"
+    )
+    assert_one_line_error(
+        *run_cli(["ins", "compare", str(later), str(navego["truth"])]), "no common times"
+    )
+    assert_one_line_error(
+        *run_cli(["ins", "compare", str(tmp_path / "x.txt"), str(navego["truth"])]), "'.txt'"
+    )
+    assert_one_line_error(
+        *run_cli(["ins", "compare", str(tmp_path / "none.csv"), str(navego["truth"])]),
+        "not found",
+    )

@@ -1,0 +1,194 @@
+"""Input checks: gaps, time spans, units, static start; errors and warnings name rows."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.errors import InputError
+from kinsync.ins.checks import check_inputs, gnss_within_imu_span
+from kinsync.ins.config import InsConfig
+from kinsync.ins.earth import normal_gravity_m_s2
+from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.io.gnss_csv import read_gnss_csv
+from kinsync.io.imu_csv import read_imu_csv
+from kinsync.io.ins_config import read_ins_config
+
+NAVEGO = Path("/work/shared/data/navego-synthetic")
+CONFIG = InsConfig(1e-4, 1e-3, 1e-3, 0.01, 1e-5, 1e-4, max_imu_gap_s=0.1)
+LAT, H = 46.8, 50.0
+G = float(normal_gravity_m_s2(math.radians(LAT), H))
+T0 = 5000.0
+RATE_HZ = 100.0
+STATIC_S = 3.0
+DURATION_S = 30.0
+
+
+def _imu(*, static: bool = True, yaw_rate: float = 0.1, seed: int = 0) -> ImuData:
+    """Level vehicle: static for STATIC_S (if asked), then accelerating and turning."""
+    rng = np.random.default_rng(seed)
+    t = T0 + np.arange(0.0, DURATION_S, 1.0 / RATE_HZ)
+    moving = (t - T0 >= STATIC_S) if static else np.ones(t.size, dtype=bool)
+    gyro = rng.normal(0.0, 1e-3, (t.size, 3))
+    gyro[moving, 2] += yaw_rate
+    acc = rng.normal(0.0, 0.02, (t.size, 3))
+    acc[:, 2] -= G
+    acc[moving, 0] += 1.0
+    return ImuData(t_s=t, gyro_body_rad_s=gyro, acc_body_m_s2=acc)
+
+
+def _gnss(*, static: bool = True, t_s: np.ndarray | None = None) -> GnssData:
+    t = T0 + np.arange(0.0, DURATION_S, 1.0) if t_s is None else t_s
+    speed = np.clip(t - T0 - (STATIC_S if static else -1.0), 0.0, None)
+    vel = np.column_stack([speed, np.zeros_like(t), np.zeros_like(t)])
+    return GnssData(
+        t_s=t,
+        lat_deg=np.full(t.size, LAT),
+        lon_deg=np.full(t.size, 6.6),
+        h_m=np.full(t.size, H),
+        std_pos_ned_m=np.full((t.size, 3), np.nan),
+        vel_ned_m_s=vel,
+    )
+
+
+def _with(imu: ImuData, **changes: np.ndarray) -> ImuData:
+    return dataclasses.replace(imu, **changes)
+
+
+def test_clean_inputs_give_no_warning() -> None:
+    assert check_inputs(_imu(), _gnss(), CONFIG) == []
+    assert check_inputs(_imu(static=False), _gnss(static=False), CONFIG) == []
+
+
+def test_navego_inputs_pass() -> None:
+    imu = read_imu_csv(NAVEGO / "imu.csv")
+    gnss = read_gnss_csv(NAVEGO / "gnss.csv")
+    cfg = read_ins_config(Path(__file__).resolve().parents[2] / "configs/navego-adis16488.toml")
+    assert check_inputs(imu, gnss, cfg) == []
+
+
+def test_gap_longer_than_the_limit_is_an_error_naming_rows() -> None:
+    imu = _imu()
+    keep = (imu.t_s < T0 + 10.0) | (imu.t_s > T0 + 10.5)
+    cut = ImuData(imu.t_s[keep], imu.gyro_body_rad_s[keep], imu.acc_body_m_s2[keep])
+    k = int(np.count_nonzero(imu.t_s < T0 + 10.0))
+    with pytest.raises(InputError) as exc:
+        check_inputs(cut, _gnss(), CONFIG, imu_source="my_imu.csv")
+    msg = str(exc.value)
+    for frag in ["my_imu.csv", f"rows {k - 1} and {k}", "max_imu_gap_s = 0.1 s", "1 gap(s)"]:
+        assert frag in msg, msg
+    # The same gap passes with a larger limit, as a missing-samples warning.
+    loose = dataclasses.replace(CONFIG, max_imu_gap_s=1.0)
+    (warning,) = check_inputs(cut, _gnss(), loose, imu_source="my_imu.csv")
+    assert "missing samples" in warning
+    assert f"before rows {k}" in warning
+
+
+def test_single_missing_sample_is_a_warning() -> None:
+    imu = _imu()
+    keep = np.ones(len(imu), dtype=bool)
+    keep[[700, 1500]] = False
+    cut = ImuData(imu.t_s[keep], imu.gyro_body_rad_s[keep], imu.acc_body_m_s2[keep])
+    (warning,) = check_inputs(cut, _gnss(), CONFIG)
+    assert "2 interval(s) longer than 1.5 x the median" in warning
+    assert "before rows 700, 1499" in warning
+
+
+def test_gnss_on_another_time_scale_is_an_error() -> None:
+    gnss = _gnss(t_s=T0 + 604800.0 + np.arange(0.0, DURATION_S, 1.0))
+    with pytest.raises(InputError, match=r"0 GNSS epoch.*same time scale"):
+        check_inputs(_imu(), gnss, CONFIG)
+    one_inside = _gnss(t_s=T0 + DURATION_S + np.arange(-0.5, 5.0, 1.0))
+    with pytest.raises(InputError, match="1 GNSS epoch"):
+        check_inputs(_imu(), one_inside, CONFIG)
+    with pytest.raises(InputError, match="only 1 GNSS epoch"):
+        gnss_within_imu_span(one_inside, _imu())
+
+
+def test_gnss_epochs_outside_the_span_are_a_warning_and_trimmed() -> None:
+    t = T0 + np.arange(-2.0, DURATION_S + 3.0, 1.0)  # 2 before, 3 after (last IMU: T0+29.99)
+    gnss = _gnss(t_s=t)
+    (warning,) = check_inputs(_imu(), gnss, CONFIG, gnss_source="rx.csv")
+    assert "rx.csv: 5 GNSS epoch(s) outside the IMU span" in warning
+    assert "rows 0, 1, 32, 33, 34" in warning
+    inside = gnss_within_imu_span(gnss, _imu())
+    np.testing.assert_array_equal(inside.t_s, t[2:32])
+    assert inside.vel_ned_m_s is not None
+    assert gnss.vel_ned_m_s is not None
+    np.testing.assert_array_equal(inside.vel_ned_m_s, gnss.vel_ned_m_s[2:32])
+    assert gnss_within_imu_span(_gnss(), _imu()) is not None
+
+
+def test_gnss_outages_are_warnings() -> None:
+    t = T0 + np.concatenate([np.arange(0.0, 5.0), np.arange(17.0, 18.0)])
+    warnings = check_inputs(_imu(), _gnss(t_s=t), CONFIG)
+    assert len(warnings) == 2, warnings
+    assert "GNSS outage of 13.000 s between rows 4 and 5" in warnings[0]
+    assert "no GNSS epoch in the last 12.990 s" in warnings[1]
+    late = _gnss(t_s=T0 + np.arange(12.0, 30.0))
+    (warning,) = check_inputs(_imu(), late, CONFIG)
+    assert "no GNSS epoch in the first 12.000 s" in warning
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(1.0 / 9.80665, "g"), (1.0 / 0.3048, "ft/s^2")])
+def test_specific_force_in_other_units_is_an_error(scale: float, unit: str) -> None:
+    imu = _imu()
+    bad = _with(imu, acc_body_m_s2=imu.acc_body_m_s2 * scale)
+    with pytest.raises(InputError, match=f"median specific-force.*looks like {re.escape(unit)}"):
+        check_inputs(bad, _gnss(), CONFIG)
+
+
+def test_rates_in_degrees_are_an_error() -> None:
+    imu = _imu(yaw_rate=0.1)
+    bad = _with(imu, gyro_body_rad_s=np.degrees(imu.gyro_body_rad_s))
+    with pytest.raises(InputError, match=r"median angular-rate magnitude is 5\.\d+ rad/s.*deg/s"):
+        check_inputs(bad, _gnss(), CONFIG)
+
+
+def test_high_median_rate_is_a_warning() -> None:
+    (warning,) = check_inputs(_imu(yaw_rate=0.5), _gnss(), CONFIG)
+    assert "unusually high" in warning
+
+
+def test_static_start_gravity_scale() -> None:
+    imu = _imu()
+    with pytest.raises(InputError) as exc:
+        check_inputs(_with(imu, acc_body_m_s2=imu.acc_body_m_s2 * 0.85), _gnss(), CONFIG)
+    msg = str(exc.value)
+    assert "static start (rows 0-200, first 2 s)" in msg
+    assert "by 15 %" in msg
+    (warning,) = check_inputs(_with(imu, acc_body_m_s2=imu.acc_body_m_s2 * 1.05), _gnss(), CONFIG)
+    assert "differs from normal gravity" in warning
+    assert "by 5 %" in warning
+    # The window length is a parameter: a 0.05 s window has too few samples to judge.
+    assert (
+        check_inputs(
+            _with(imu, acc_body_m_s2=imu.acc_body_m_s2 * 0.85), _gnss(), CONFIG, static_s=0.05
+        )
+        == []
+    )
+
+
+def test_moving_start_is_not_judged_static() -> None:
+    # 15 % low specific force, but the GNSS says the vehicle moves: no static-start test.
+    imu = _imu(static=False)
+    scaled = _with(imu, acc_body_m_s2=imu.acc_body_m_s2 * 0.85)
+    assert check_inputs(scaled, _gnss(static=False), CONFIG) == []
+    # Without GNSS velocities the accelerometer scatter decides: a static IMU is static.
+    gnss = dataclasses.replace(_gnss(), vel_ned_m_s=None)
+    static = _imu()
+    with pytest.raises(InputError, match="static start"):
+        check_inputs(_with(static, acc_body_m_s2=static.acc_body_m_s2 * 0.85), gnss, CONFIG)
+
+
+def test_static_start_with_large_rates_is_an_error() -> None:
+    imu = _imu()
+    gyro = np.array(imu.gyro_body_rad_s)
+    gyro[imu.t_s < T0 + 2.5, 0] += 1.5
+    with pytest.raises(InputError, match=r"static start.*mean angular rate 1\.4999"):
+        check_inputs(_with(imu, gyro_body_rad_s=gyro), _gnss(), CONFIG)

@@ -1,0 +1,477 @@
+"""15-state error-state filter: Φ, error model, lever arm, χ² gate, feedback, biases, alignment."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.frames import euler_rpy_to_quaternion, quaternion_to_matrix
+from kinsync.ins._ekf import feedback, system_matrix, transition_from_system
+from kinsync.ins._reference import forward_numpy
+from kinsync.ins.config import InsConfig
+from kinsync.ins.earth import OMEGA_IE_RAD_S, radii_m
+from kinsync.ins.filter import (
+    GnssStatus,
+    InsResult,
+    align_static_gnss_heading,
+    filter_params,
+    observation,
+    run_ins,
+    transition_matrix,
+)
+from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.ins.strapdown import free_inertial, mech_step
+
+SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
+Errors = Callable[..., Any]  # fixture errors_of in conftest.py
+
+GYRO_ARW = math.radians(0.1) / 60.0  # 0.1 deg/sqrt(h)
+ACC_VRW = 0.05 / 60.0  # 0.05 m/s/sqrt(h)
+BG = (math.radians(0.05), math.radians(-0.08), math.radians(0.06))
+BA = (0.05, -0.08, 0.1)
+CONFIG = InsConfig(
+    gyro_arw_rad_s_rthz=GYRO_ARW,
+    acc_vrw_m_s2_rthz=ACC_VRW,
+    gyro_bias_sigma_rad_s=math.radians(0.1),
+    acc_bias_sigma_m_s2=0.2,
+    gyro_bias_instability_rad_s=1e-6,
+    acc_bias_instability_m_s2=1e-5,
+    gyro_bias_corr_time_s=3600.0,
+    acc_bias_corr_time_s=3600.0,
+    gnss_std_pos_ned_m=(0.5, 0.5, 1.0),
+    gnss_std_vel_ned_m_s=(0.05, 0.05, 0.05),
+    init_std_att_rad=(0.002, 0.002, 0.005),
+    init_std_vel_ned_m_s=(0.05, 0.05, 0.05),
+    init_std_pos_ned_m=(0.5, 0.5, 1.0),
+)
+
+
+def _state(
+    lat: float = 0.8,
+    h: float = 500.0,
+    v: tuple[float, float, float] = (30.0, -20.0, 2.0),
+    rpy: tuple[float, float, float] = (0.2, -0.3, 2.0),
+) -> np.ndarray:
+    s = np.zeros(16)
+    s[0], s[1], s[2] = lat, 0.3, h
+    s[3:6] = v
+    s[6:10] = euler_rpy_to_quaternion(*rpy)
+    s[10:13] = (1e-3, -2e-3, 5e-4)
+    s[13:16] = (0.05, -0.1, 0.2)
+    return s
+
+
+def _error(nominal: np.ndarray, true: np.ndarray) -> np.ndarray:
+    """Error state of ``nominal`` relative to ``true`` (the filter's definition)."""
+    E = quaternion_to_matrix(nominal[6:10]) @ quaternion_to_matrix(true[6:10]).T
+    A = 0.5 * (E - E.T)
+    r_m, r_n = radii_m(true[0])
+    return np.concatenate(
+        [
+            -np.array([A[2, 1], A[0, 2], A[1, 0]]),
+            nominal[3:6] - true[3:6],
+            [
+                (nominal[0] - true[0]) * (r_m + true[2]),
+                (nominal[1] - true[1]) * (r_n + true[2]) * math.cos(true[0]),
+                -(nominal[2] - true[2]),
+            ],
+            true[10:13] - nominal[10:13],
+            true[13:16] - nominal[13:16],
+        ]
+    )
+
+
+def _perturbed(true: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Nominal state with error ``x`` (inverse of the feedback)."""
+    s = true.copy()
+    feedback(s, -x, np.empty(4), np.empty(4))
+    return s
+
+
+def _F(s: np.ndarray, acc: np.ndarray, tau: float = 100.0) -> np.ndarray:
+    F = np.zeros((15, 15))
+    system_matrix(s, acc - s[13:16], tau, tau, np.empty((3, 3)), F)
+    return F
+
+
+@pytest.fixture(scope="module")
+def drive(sim_drive: SimDrive) -> tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]:
+    return sim_drive(
+        duration_s=240.0, static_s=20.0, seed=3, gyro_bias_rad_s=BG, acc_bias_m_s2=BA,
+        gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW,
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------- Φ and F
+def test_transition_matrix_matches_expm() -> None:
+    F = _F(_state(), np.array([2.0, -1.0, -9.5]))
+    for dt in (0.005, 0.02, 0.1):
+        Phi = transition_matrix(F, dt)
+        ref = expm(F * dt)
+        bound = np.linalg.norm(F * dt, 2) ** 3 / 6.0 * math.exp(np.linalg.norm(F * dt, 2))
+        assert np.abs(Phi - ref).max() <= bound
+        assert np.abs(Phi - ref).max() > 0.0  # second order, not exact
+        kernel = np.zeros((15, 15))
+        transition_from_system(F, dt, kernel)  # the filter's structured version
+        np.testing.assert_allclose(kernel, Phi, rtol=0, atol=1e-15)
+    # third-order convergence: halving dt divides the truncation error by ~8
+    e1 = np.abs(transition_matrix(F, 0.2) - expm(F * 0.2)).max()
+    e2 = np.abs(transition_matrix(F, 0.1) - expm(F * 0.1)).max()
+    assert 6.0 < e1 / e2 < 10.0
+
+
+def test_transition_matrix_rejects_bad_input() -> None:
+    with pytest.raises(InputError, match="square"):
+        transition_matrix(np.zeros((3, 4)), 0.1)
+    with pytest.raises(InputError, match="square"):
+        transition_matrix(np.full((2, 2), np.nan), 0.1)
+    with pytest.raises(InputError, match="dt_s"):
+        transition_matrix(np.zeros((2, 2)), math.inf)
+
+
+def test_error_model_matches_the_nonlinear_mechanisation() -> None:
+    """Φ·x over one IMU step against the difference of two mechanised states."""
+    true = _state()
+    gyro = np.array([0.3, -0.2, 0.5])
+    acc = np.array([2.0, -1.0, -9.5])
+    dt = 0.01
+    Phi = transition_matrix(_F(true, acc, tau=1e12), dt)  # bias decay is not mechanised
+
+    first = coning = True
+
+    def step(s: np.ndarray) -> np.ndarray:
+        s = s.copy()
+        scratch = (np.empty(4), np.empty(4), np.empty((3, 3)))
+        mech_step(s, np.zeros(6), gyro, acc, dt, first, coning, *scratch)
+        return s
+
+    true1 = step(true)
+    eps = np.array([1e-5] * 3 + [1e-3] * 3 + [1.0] * 3 + [1e-6] * 3 + [1e-4] * 3)
+    for i in range(15):
+        x = np.zeros(15)
+        x[i] = eps[i]
+        nominal = _perturbed(true, x)
+        np.testing.assert_allclose(_error(nominal, true), x, atol=1e-9 * eps[i] + 1e-13)
+        e1 = _error(step(nominal), true1)
+        pred = Phi @ x
+        # agreement to a few per cent of the propagated error (remaining terms are
+        # O(Δt³) or below the double-precision resolution of latitude/longitude)
+        assert np.abs(e1 - pred).max() <= 0.02 * np.abs(pred).max() + 2e-9, i
+
+
+# ---------------------------------------------------------------------- observations
+def test_lever_arm_observation_geometry() -> None:
+    """z = 0 when the GNSS sees the exact antenna; z ≈ H x for a small error x."""
+    cfg = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=(1.2, -0.4, -1.5))
+    params = filter_params(cfg, use_velocity=True)
+    true = _state(v=(12.0, 5.0, 0.5))
+    gyro = np.array([0.05, -0.1, 0.3])
+    C = quaternion_to_matrix(true[6:10])
+    arm = np.array(cfg.antenna_lever_arm_body_m)
+    arm_n = C @ arm
+    r_m, r_n = radii_m(true[0])
+    w = gyro - true[10:13]
+    w_ie = np.array([OMEGA_IE_RAD_S * math.cos(true[0]), 0.0, -OMEGA_IE_RAD_S * math.sin(true[0])])
+    g_llh = np.array(
+        [
+            true[0] + arm_n[0] / (r_m + true[2]),
+            true[1] + arm_n[1] / ((r_n + true[2]) * math.cos(true[0])),
+            true[2] - arm_n[2],
+        ]
+    )
+    g_vel = true[3:6] + C @ np.cross(w, arm) - np.cross(w_ie, arm_n)
+    H = np.zeros((6, 15))
+    z = np.zeros(6)
+    observation(true, gyro, params, 0.0, g_llh, g_vel, np.empty((3, 3)), H, z)
+    np.testing.assert_allclose(z, 0.0, atol=1e-8)
+    rng = np.random.default_rng(1)
+    scale = np.array([1e-4] * 3 + [1e-2] * 3 + [0.5] * 3 + [1e-4] * 3 + [1e-2] * 3)
+    for _ in range(5):
+        x = rng.normal(0.0, 1.0, 15) * scale
+        zx = np.zeros(6)
+        observation(_perturbed(true, x), gyro, params, 0.0, g_llh, g_vel, np.empty((3, 3)), H, zx)
+        np.testing.assert_allclose(zx, H @ x, atol=1e-3 * np.abs(H @ x).max())
+    # the time shift of the GNSS epoch is applied with the INS velocity
+    observation(true, gyro, params, 0.004, g_llh, g_vel, np.empty((3, 3)), H, z)
+    np.testing.assert_allclose(z[:3], -0.004 * true[3:6], atol=1e-8)
+
+
+def test_lever_arm_is_needed_end_to_end(sim_drive: SimDrive, errors_of: Errors) -> None:
+    arm = (1.5, -0.5, -1.8)
+    _, imu, gnss, truth, init = sim_drive(
+        duration_s=90.0, seed=4, gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW, lever_arm_body_m=arm
+    )
+    with_arm = run_ins(imu, gnss, dataclasses.replace(CONFIG, antenna_lever_arm_body_m=arm), init)
+    without = run_ins(imu, gnss, CONFIG, init)
+    pos_ok = np.sqrt(np.mean(errors_of(with_arm.forward, truth)[0] ** 2, axis=0))
+    pos_bad = np.sqrt(np.mean(errors_of(without.forward, truth)[0] ** 2, axis=0))
+    assert (pos_ok < 0.3).all()
+    assert pos_bad.max() > 3.0 * pos_ok.max()
+    assert without.forward.n_gnss_rejected > with_arm.forward.n_gnss_rejected
+
+
+# ---------------------------------------------------------------------- gate, feedback
+def test_gate_rejects_a_100_m_outlier(drive: Any, errors_of: Errors) -> None:
+    _, imu, gnss, truth, init = drive
+    j = 700  # 140 s, while driving
+    lat = gnss.lat_deg.copy()
+    lat[j] += np.degrees(100.0 / 6.37e6)  # 100 m north
+    bad = dataclasses.replace(gnss, lat_deg=lat)
+    res = run_ins(imu, bad, CONFIG, init)
+    assert res.gnss_rejected_t_s.tolist() == [gnss.t_s[j]]
+    assert res.forward.n_gnss_rejected == 1
+    assert res.forward.n_gnss_used == len(gnss) - 1
+    assert np.isnan(res.innovations_pos_ned_m[j]).all()
+    assert np.isnan(res.innovations_vel_ned_m_s[j]).all()
+    assert res.gnss_status[j] == GnssStatus.REJECTED
+    assert np.isfinite(np.delete(res.innovations_pos_ned_m, j, axis=0)).all()
+    dpos = errors_of(res.forward, truth)[0]
+    k = int(np.searchsorted(res.forward.t_s, gnss.t_s[j]))
+    assert np.abs(dpos[k - 5 : k + 50]).max() < 1.0  # the solution did not jump
+
+
+def test_innovations_are_consistent(drive: Any) -> None:
+    _, imu, gnss, _, init = drive
+    res = run_ins(imu, gnss, CONFIG, init)
+    nu = res.innovations_pos_ned_m[10:] / res.innovation_std_pos_ned_m[10:]
+    assert res.innovations_t_s.shape == (len(gnss),)
+    assert 0.8 < float(np.mean(nu**2)) < 1.2  # normalised innovations have unit variance
+    assert np.abs(np.mean(nu, axis=0)).max() < 0.1
+
+
+def test_closed_loop_feedback_resets_the_error_state(drive: Any) -> None:
+    """Between two updates the forward solution is the pure mechanisation of the state
+    left by the last update (with its bias estimates): nothing is applied twice."""
+    _, imu, gnss, _, init = drive
+    res = run_ins(imu, gnss, CONFIG, init).forward
+    k = int(np.searchsorted(res.t_s, gnss.t_s[600]))
+    restart = InitialState(
+        t_s=float(res.t_s[k]),
+        lat_deg=float(res.lat_deg[k]),
+        lon_deg=float(res.lon_deg[k]),
+        h_m=float(res.h_m[k]),
+        vel_ned_m_s=tuple(res.vel_ned_m_s[k]),
+        rpy_rad=tuple(res.rpy_rad[k]),
+        gyro_bias_rad_s=tuple(res.gyro_bias_rad_s[k]),
+        acc_bias_m_s2=tuple(res.acc_bias_m_s2[k]),
+    )
+    free = free_inertial(imu, restart)
+    m = 20  # IMU epochs up to the next GNSS epoch (100 Hz / 5 Hz)
+    np.testing.assert_allclose(free.lat_deg[1:m], res.lat_deg[k + 1 : k + m], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(free.vel_ned_m_s[1:m], res.vel_ned_m_s[k + 1 : k + m], atol=1e-7)
+    np.testing.assert_allclose(free.rpy_rad[1:m], res.rpy_rad[k + 1 : k + m], atol=1e-9)
+    # ... and the update at k + m moved the state away from the free run
+    jump = abs(free.vel_ned_m_s[m] - res.vel_ned_m_s[k + m]).max()
+    assert jump > 1e-5
+    # the bias estimates only change at updates
+    assert (res.gyro_bias_rad_s[k + 1 : k + m] == res.gyro_bias_rad_s[k]).all()
+
+
+def test_feedback_inverts_the_error_definition() -> None:
+    true = _state()
+    x = np.array(
+        [1e-3, -2e-3, 3e-3, 0.1, -0.2, 0.05, 3.0, -4.0, 1.5, 1e-4, -1e-4, 2e-4, 0.01, 0.02, -0.03]
+    )
+    nominal = _perturbed(true, x)
+    np.testing.assert_allclose(_error(nominal, true), x, rtol=1e-5, atol=1e-9)
+    back = nominal.copy()
+    feedback(back, x, np.empty(4), np.empty(4))
+    np.testing.assert_allclose(back[3:], true[3:], atol=1e-9)
+    np.testing.assert_allclose(back[:2], true[:2], atol=1e-14)
+    assert back[2] == pytest.approx(true[2], abs=1e-9)
+
+
+# ---------------------------------------------------------------------- simulation
+def test_injected_biases_are_recovered(drive: Any, errors_of: Errors) -> None:
+    _, imu, gnss, truth, init = drive
+    res = run_ins(imu, gnss, CONFIG, init)
+    sol = res.forward
+    for est, sd, true, tol in (
+        (sol.gyro_bias_rad_s[-1], sol.std_gyro_bias_rad_s[-1], BG, math.radians(0.002)),
+        (sol.acc_bias_m_s2[-1], sol.std_acc_bias_m_s2[-1], BA, 0.003),
+    ):
+        err = est - np.asarray(true)
+        assert (np.abs(err) <= 3.0 * sd).all(), (err, sd)
+        assert (np.abs(err) < tol).all(), err
+    dpos, dvel, datt = errors_of(sol, truth)
+    assert np.sqrt(np.mean(dpos**2, axis=0)).max() < 0.3
+    assert np.degrees(np.sqrt(np.mean(datt[2000:] ** 2, axis=0))).max() < 0.3
+    # reported σ against actual errors: normalised errors of unit size (they are
+    # correlated in time, so one run's share inside 3σ scatters; ≥ 0.99 on most seeds)
+    z = np.abs(np.column_stack([dpos, dvel, datt])) / np.column_stack(
+        [sol.std_pos_ned_m, sol.std_vel_ned_m_s, sol.std_att_rad]
+    )
+    assert (z <= 3.0).mean(axis=0).min() > 0.9
+    rms_z = np.sqrt(np.mean(z**2, axis=0))
+    assert (rms_z > 0.5).all()
+    assert (rms_z < 1.6).all()
+
+
+def test_position_only_and_nan_sigma_defaults(drive: Any) -> None:
+    _, imu, gnss, _, init = drive
+    nan_std = dataclasses.replace(
+        gnss, std_pos_ned_m=np.full((len(gnss), 3), np.nan), std_vel_ned_m_s=None
+    )
+    explicit = dataclasses.replace(
+        gnss,
+        std_pos_ned_m=np.tile(CONFIG.gnss_std_pos_ned_m, (len(gnss), 1)),
+        std_vel_ned_m_s=np.tile(CONFIG.gnss_std_vel_ned_m_s, (len(gnss), 1)),
+    )
+    a = run_ins(imu, nan_std, CONFIG, init).forward
+    b = run_ins(imu, explicit, CONFIG, init).forward
+    np.testing.assert_array_equal(a.lat_deg, b.lat_deg)
+    pos_only = run_ins(imu, gnss, CONFIG, init, use_velocity=False)
+    assert np.isnan(pos_only.innovations_vel_ned_m_s).all()
+    assert not np.array_equal(pos_only.forward.lat_deg, b.lat_deg)
+    no_vel = run_ins(
+        imu, dataclasses.replace(gnss, vel_ned_m_s=None, std_vel_ned_m_s=None), CONFIG, init
+    )
+    np.testing.assert_array_equal(no_vel.forward.lat_deg, pos_only.forward.lat_deg)
+
+
+def test_gnss_outside_the_span_is_ignored_and_progress_reported(drive: Any) -> None:
+    _, imu, gnss, _, _ = drive
+    k0 = 1000  # start 10 s into the record
+    truth_free = free_inertial(drive[0], drive[4])
+    init = InitialState(
+        t_s=float(imu.t_s[k0]),
+        lat_deg=float(truth_free.lat_deg[k0]),
+        lon_deg=float(truth_free.lon_deg[k0]),
+        h_m=float(truth_free.h_m[k0]),
+        vel_ned_m_s=tuple(truth_free.vel_ned_m_s[k0]),
+        rpy_rad=tuple(truth_free.rpy_rad[k0]),
+    )
+    fractions: list[float] = []
+    res = run_ins(imu, gnss, CONFIG, init, progress=fractions.append)
+    before = gnss.t_s < imu.t_s[k0] - 0.005
+    assert (res.gnss_status[before] == GnssStatus.OUTSIDE).all()
+    assert res.forward.n_gnss_used == int(np.count_nonzero(~before))
+    assert res.innovations_pos_ned_m.shape == (int(np.count_nonzero(~before)), 3)
+    assert len(res.forward) == len(imu) - k0
+    assert res.forward.t_s[0] == imu.t_s[k0]
+    assert fractions == sorted(fractions)
+    assert fractions[-1] == 1.0
+    assert len(fractions) == math.ceil((len(imu) - k0) / 10_000)
+    smooth_fr: list[float] = []
+    run_ins(imu, gnss, CONFIG, init, smooth=True, progress=smooth_fr.append)
+    assert smooth_fr == sorted(smooth_fr)
+    assert smooth_fr[-1] == 1.0
+    assert max(f for f in smooth_fr if f <= 0.5) == 0.5
+
+
+def test_bad_inputs(drive: Any) -> None:
+    _, imu, gnss, _, init = drive
+    t = imu.t_s.copy()
+    t[5000:] += 0.5
+    gap = ImuData(t, imu.gyro_body_rad_s, imu.acc_body_m_s2)
+    with pytest.raises(InputError, match=r"IMU gap of 0\.51.*row 5000"):
+        run_ins(gap, gnss, CONFIG, init)
+    with pytest.raises(InputError, match="not an IMU sample time"):
+        run_ins(imu, gnss, CONFIG, dataclasses.replace(init, t_s=1e6))
+    with pytest.raises(InputError, match="ImuData"):
+        run_ins(gnss, gnss, CONFIG, init)
+    diverge = ImuData(imu.t_s, imu.gyro_body_rad_s * 1e6, imu.acc_body_m_s2 * 1e6)
+    with pytest.raises(InputError, match=r"diverged|non-finite"):
+        run_ins(diverge, gnss, CONFIG, init)
+
+
+def test_result_is_frozen(drive: Any) -> None:
+    _, imu, gnss, _, init = drive
+    res = run_ins(imu, gnss, CONFIG, init)
+    assert isinstance(res, InsResult)
+    assert res.smoothed is None
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.forward = res.forward  # type: ignore[misc]
+
+
+# ---------------------------------------------------------------------- alignment
+def test_static_levelling_and_gnss_heading(sim_drive: SimDrive) -> None:
+    _, imu, gnss, truth, _ = sim_drive(
+        duration_s=60.0, static_s=20.0, seed=5, gyro_bias_rad_s=BG, acc_bias_m_s2=BA,
+        gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW, lever_arm_body_m=(0.5, 0.2, -1.0),
+    )  # fmt: skip
+    init = align_static_gnss_heading(
+        imu, gnss, static_s=15.0, antenna_lever_arm_body_m=(0.5, 0.2, -1.0)
+    )
+    k = int(np.searchsorted(truth.t_s, init.t_s))
+    assert init.t_s == pytest.approx(15.0)
+    # accelerometer biases tilt the levelling by b/g (0.5 deg here); heading within 0.3 deg
+    expect_roll = truth.rpy_rad[k, 0] - BA[1] / 9.81
+    expect_pitch = truth.rpy_rad[k, 1] + BA[0] / 9.81
+    assert init.rpy_rad[0] == pytest.approx(expect_roll, abs=2e-3)
+    assert init.rpy_rad[1] == pytest.approx(expect_pitch, abs=2e-3)
+    assert abs(init.rpy_rad[2] - truth.rpy_rad[k, 2]) < math.radians(0.3)
+    np.testing.assert_allclose(init.gyro_bias_rad_s, BG, atol=math.radians(0.003))
+    r_m, _ = radii_m(math.radians(truth.lat_deg[k]))
+    assert abs(math.radians(init.lat_deg - truth.lat_deg[k]) * r_m) < 0.5  # 75 fixes of 0.5 m
+    assert init.vel_ned_m_s == (0.0, 0.0, 0.0)
+    # without GNSS velocities the heading comes from the displacement
+    no_vel = dataclasses.replace(gnss, vel_ned_m_s=None, std_vel_ned_m_s=None)
+    init2 = align_static_gnss_heading(imu, no_vel, static_s=15.0)
+    assert abs(init2.rpy_rad[2] - truth.rpy_rad[k, 2]) < math.radians(3.0)
+    # and the filter runs from it
+    res = run_ins(
+        imu,
+        gnss,
+        dataclasses.replace(
+            CONFIG, antenna_lever_arm_body_m=(0.5, 0.2, -1.0), init_std_att_rad=(0.02, 0.02, 0.02)
+        ),
+        init,
+    )
+    assert res.forward.n_gnss_rejected == 0
+
+
+def test_alignment_errors(sim_drive: SimDrive) -> None:
+    _, moving, gnss_m, _, _ = sim_drive(duration_s=30.0, static_s=0.0, seed=6)
+    with pytest.raises(ObservabilityError, match="no static start"):
+        align_static_gnss_heading(moving, gnss_m, static_s=5.0)
+    _, still, gnss_s, _, _ = sim_drive(duration_s=30.0, static_s=40.0, seed=7)
+    with pytest.raises(ObservabilityError, match="no motion"):
+        align_static_gnss_heading(still, gnss_s, static_s=5.0)
+    with pytest.raises(ObservabilityError, match="no motion"):
+        align_static_gnss_heading(
+            still, dataclasses.replace(gnss_s, vel_ned_m_s=None), static_s=5.0
+        )
+    late = dataclasses.replace(gnss_s, t_s=gnss_s.t_s + 20.0)
+    with pytest.raises(ObservabilityError, match="no GNSS fix during the static period"):
+        align_static_gnss_heading(still, late, static_s=5.0)
+    with pytest.raises(ObservabilityError, match="shorter than the static period"):
+        align_static_gnss_heading(still, gnss_s, static_s=100.0)
+    with pytest.raises(InputError, match="static_s"):
+        align_static_gnss_heading(still, gnss_s, static_s=-1.0)
+
+
+def test_compiled_loop_matches_the_numpy_reference(sim_drive: SimDrive) -> None:
+    """Dense numpy products and joint updates give the structured, sequential loop's numbers."""
+    arm = (1.0, -0.5, -1.5)
+    _, imu, gnss, _, init = sim_drive(
+        duration_s=20.0, seed=2, gyro_bias_rad_s=BG, acc_bias_m_s2=BA, gyro_arw=GYRO_ARW,
+        acc_vrw=ACC_VRW, lever_arm_body_m=arm,
+    )  # fmt: skip
+    cfg = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=arm)
+    n = 1500
+    states, std = forward_numpy(imu, gnss, cfg, init, n)
+    fwd = run_ins(imu, gnss, cfg, init).forward
+    np.testing.assert_allclose(np.degrees(states[:, 0]), fwd.lat_deg[:n], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(states[:, 2], fwd.h_m[:n], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(states[:, 3:6], fwd.vel_ned_m_s[:n], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(states[:, 10:13], fwd.gyro_bias_rad_s[:n], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(states[:, 13:16], fwd.acc_bias_m_s2[:n], rtol=0, atol=1e-10)
+    sd_fwd = np.column_stack(
+        [
+            fwd.std_att_rad,
+            fwd.std_vel_ned_m_s,
+            fwd.std_pos_ned_m,
+            fwd.std_gyro_bias_rad_s,
+            fwd.std_acc_bias_m_s2,
+        ]
+    )
+    np.testing.assert_allclose(std, sd_fwd[:n], rtol=1e-9)

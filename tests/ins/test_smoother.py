@@ -1,0 +1,250 @@
+"""RTS smoother: equals batch least squares on a linear model, never less certain than the
+forward filter, better than it on a simulated drive, a no-op without measurements."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+from kinsync.ins._ekf import propagate_cov, scalar_update
+from kinsync.ins.config import InsConfig
+from kinsync.ins.filter import Checkpoints, run_ins, transition_matrix
+from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.smoother import smooth_checkpoints
+from kinsync.ins.solution import InitialState, NavSolution
+
+SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
+Errors = Callable[..., Any]  # fixture errors_of in conftest.py
+
+N_EPOCHS = 41
+MEAS = {0: 3, 5: 6, 10: 3, 11: 6, 20: 6, 20.5: 3, 33: 6, 40: 3}
+"""Epoch -> rows; 20.5 is a second measurement at epoch 20 (two checkpoints, one epoch)."""
+FORCED = (26,)  # a plain checkpoint without measurement
+
+
+def _linear_model(rng: np.random.Generator) -> dict[str, Any]:
+    """A 15-state linear model with the INS block structure of F (bias rows diagonal)."""
+    dt = 0.1
+    Phis = np.zeros((N_EPOCHS, 15, 15))
+    for k in range(N_EPOCHS):
+        F = np.zeros((15, 15))
+        F[:9, :] = rng.normal(0.0, 0.3, (9, 15))
+        for i in range(9, 15):
+            F[i, i] = -1.0 / rng.uniform(20.0, 200.0)
+        Phis[k] = transition_matrix(F, dt)
+    q = rng.uniform(1e-4, 1e-2, (N_EPOCHS, 15))
+    P0 = np.diag(rng.uniform(0.5, 2.0, 15))
+    m0 = rng.normal(0.0, 1.0, 15)
+    meas = {}
+    for key, rows in MEAS.items():
+        H = np.zeros((6, 15))
+        H[:rows] = rng.normal(0.0, 1.0, (rows, 15))
+        r = np.zeros(6)
+        r[:rows] = rng.uniform(0.05, 0.5, rows)
+        meas[key] = (int(key), H, r, rows)
+    # truth and measurements
+    x = rng.multivariate_normal(m0, P0)
+    xs = np.zeros((N_EPOCHS, 15))
+    for k in range(N_EPOCHS):
+        if k > 0:
+            x = Phis[k] @ x + rng.normal(0.0, np.sqrt(q[k]))
+        xs[k] = x
+    ys = {}
+    for key, (k, H, r, rows) in meas.items():
+        ys[key] = H[:rows] @ xs[k] + rng.normal(0.0, np.sqrt(r[:rows]))
+    return {"Phis": Phis, "q": q, "P0": P0, "m0": m0, "meas": meas, "ys": ys, "truth": xs}
+
+
+def _closed_loop_forward(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, Checkpoints]:
+    """Error-state filter with feedback on the linear model, storing checkpoints exactly
+    as the INS forward pass does (the same compiled propagation and scalar updates)."""
+    P = model["P0"].copy()
+    nominal = model["m0"].copy()
+    nominals = np.zeros((N_EPOCHS, 15))
+    fwd_var = np.zeros((N_EPOCHS, 15))
+    ck: dict[str, list[Any]] = {k: [] for k in ("epoch", "Pm", "Pp", "H", "r", "z", "nrows")}
+
+    def add(
+        k: int,
+        Pm: np.ndarray,
+        Pp: np.ndarray,
+        H: np.ndarray,
+        r: np.ndarray,
+        z: np.ndarray,
+        rows: int,
+    ) -> None:
+        for name, val in zip(ck, (k, Pm.copy(), Pp.copy(), H, r, z, rows), strict=True):
+            ck[name].append(val)
+
+    add(0, P, P, np.zeros((6, 15)), np.zeros(6), np.zeros(6), 0)
+    T = np.empty((9, 15))
+    ph = np.empty(15)
+    for k in range(N_EPOCHS):
+        if k > 0:
+            nominal = model["Phis"][k] @ nominal
+            propagate_cov(P, model["Phis"][k], model["q"][k], T)
+        for key in sorted(kk for kk in model["meas"] if int(kk) == k):
+            _, H, r, rows = model["meas"][key]
+            z = np.zeros(6)
+            z[:rows] = H[:rows] @ nominal - model["ys"][key]  # "INS minus GNSS"
+            Pm = P.copy()
+            x = np.zeros(15)
+            for i in range(rows):
+                scalar_update(P, x, H[i].copy(), r[i], z[i], ph)
+            nominal = nominal - x  # feedback: true = nominal - error
+            add(k, Pm, P, H, r, z, rows)
+        if k in FORCED:
+            add(k, P, P, np.zeros((6, 15)), np.zeros(6), np.zeros(6), 0)
+        nominals[k] = nominal
+        fwd_var[k] = np.diag(P)
+    ckp = Checkpoints(
+        epoch=np.array(ck["epoch"], dtype=np.int64),
+        P_minus=np.array(ck["Pm"]),
+        P_plus=np.array(ck["Pp"]),
+        H=np.array(ck["H"]),
+        r=np.array(ck["r"]),
+        z=np.array(ck["z"]),
+        nrows=np.array(ck["nrows"], dtype=np.int64),
+    )
+    return nominals, fwd_var, ckp
+
+
+def _batch_least_squares(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Minimiser of the full quadratic cost over all states and its covariance diagonal."""
+    n = N_EPOCHS * 15
+    A = np.zeros((n, n))
+    b = np.zeros(n)
+
+    def blk(k: int) -> slice:
+        return slice(15 * k, 15 * k + 15)
+
+    P0i = np.linalg.inv(model["P0"])
+    A[blk(0), blk(0)] += P0i
+    b[blk(0)] += P0i @ model["m0"]
+    for k in range(1, N_EPOCHS):
+        Qi = np.diag(1.0 / model["q"][k])
+        Phi = model["Phis"][k]
+        # (x_k - Φ x_{k-1})^T Q^-1 (x_k - Φ x_{k-1})
+        A[blk(k), blk(k)] += Qi
+        A[blk(k), blk(k - 1)] -= Qi @ Phi
+        A[blk(k - 1), blk(k)] -= Phi.T @ Qi
+        A[blk(k - 1), blk(k - 1)] += Phi.T @ Qi @ Phi
+    for key, (k, H, r, rows) in model["meas"].items():
+        Hr = H[:rows]
+        Ri = np.diag(1.0 / r[:rows])
+        A[blk(k), blk(k)] += Hr.T @ Ri @ Hr
+        b[blk(k)] += Hr.T @ Ri @ model["ys"][key]
+    x = np.linalg.solve(A, b).reshape(N_EPOCHS, 15)
+    var = np.diag(np.linalg.inv(A)).reshape(N_EPOCHS, 15)
+    return x, var
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_smoother_equals_batch_least_squares(seed: int) -> None:
+    model = _linear_model(np.random.default_rng(seed))
+    nominals, fwd_var, ck = _closed_loop_forward(model)
+    dx = np.zeros((N_EPOCHS, 15))
+    var = np.zeros((N_EPOCHS, 15))
+
+    def fill(e: int, L: int, has_next: bool, Phi_buf: np.ndarray, q_buf: np.ndarray) -> None:
+        top = L if has_next else L - 1
+        for i in range(1, top + 1):
+            Phi_buf[i] = model["Phis"][e + i]
+            q_buf[i] = model["q"][e + i]
+
+    smooth_checkpoints(ck, N_EPOCHS - 1, fill, dx, var)
+    smoothed = nominals - dx
+    x_ls, var_ls = _batch_least_squares(model)
+    scale = np.abs(x_ls).max()
+    np.testing.assert_allclose(smoothed, x_ls, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(var, var_ls, rtol=1e-9)
+    # the forward filter's last epoch is already the smoothed one
+    np.testing.assert_allclose(fwd_var[-1], var_ls[-1], rtol=1e-9)
+    assert (var <= fwd_var * (1 + 1e-12)).all()
+    # and the smoothed estimate is an estimate of the truth: normalised errors of unit size
+    zeta = (smoothed - model["truth"]) / np.sqrt(var)
+    assert 0.5 < float(np.sqrt(np.mean(zeta**2))) < 1.5
+
+
+GYRO_ARW = math.radians(0.1) / 60.0
+ACC_VRW = 0.05 / 60.0
+CONFIG = InsConfig(
+    gyro_arw_rad_s_rthz=GYRO_ARW,
+    acc_vrw_m_s2_rthz=ACC_VRW,
+    gyro_bias_sigma_rad_s=math.radians(0.1),
+    acc_bias_sigma_m_s2=0.2,
+    gyro_bias_instability_rad_s=1e-6,
+    acc_bias_instability_m_s2=1e-5,
+    gyro_bias_corr_time_s=3600.0,
+    acc_bias_corr_time_s=3600.0,
+    gnss_std_pos_ned_m=(0.5, 0.5, 1.0),
+    gnss_std_vel_ned_m_s=(0.05, 0.05, 0.05),
+    init_std_att_rad=(0.002, 0.002, 0.005),
+    init_std_vel_ned_m_s=(0.05, 0.05, 0.05),
+    init_std_pos_ned_m=(0.5, 0.5, 1.0),
+)
+
+
+@pytest.fixture(scope="module")
+def smoothed_run(sim_drive: SimDrive) -> tuple[Any, NavSolution]:
+    _, imu, gnss, truth, init = sim_drive(
+        duration_s=150.0, seed=11, gyro_bias_rad_s=(2e-4, -3e-4, 1e-4),
+        acc_bias_m_s2=(0.03, -0.05, 0.04), gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW,
+    )  # fmt: skip
+    return run_ins(imu, gnss, CONFIG, init, smooth=True, use_velocity=False), truth
+
+
+def test_smoothed_sigma_never_exceeds_forward_sigma(smoothed_run: tuple[Any, NavSolution]) -> None:
+    res, _ = smoothed_run
+    fwd, smo = res.forward, res.smoothed
+    assert smo is not None
+    assert smo.smoothed
+    assert not fwd.smoothed
+    assert (smo.n_gnss_used, smo.n_gnss_rejected) == (fwd.n_gnss_used, fwd.n_gnss_rejected)
+    for name in (
+        "std_pos_ned_m",
+        "std_vel_ned_m_s",
+        "std_att_rad",
+        "std_gyro_bias_rad_s",
+        "std_acc_bias_m_s2",
+    ):
+        a, b = getattr(smo, name), getattr(fwd, name)
+        assert (a <= b * (1 + 1e-9) + 1e-15).all(), name
+        np.testing.assert_allclose(a[-1], b[-1], rtol=1e-9)
+    # well inside the record the smoother is much more certain
+    mid = len(fwd) // 2
+    assert (smo.std_pos_ned_m[mid] < 0.8 * fwd.std_pos_ned_m[mid]).all()
+    np.testing.assert_array_equal(smo.lat_deg[-1], fwd.lat_deg[-1])
+
+
+def test_smoothed_errors_smaller_and_consistent(
+    smoothed_run: tuple[Any, NavSolution], errors_of: Errors
+) -> None:
+    res, truth = smoothed_run
+    e_fwd = np.column_stack(errors_of(res.forward, truth))
+    e_smo = np.column_stack(errors_of(res.smoothed, truth))
+    rms_fwd = np.sqrt(np.mean(e_fwd**2, axis=0))
+    rms_smo = np.sqrt(np.mean(e_smo**2, axis=0))
+    assert (rms_smo < rms_fwd).all(), (rms_smo, rms_fwd)
+    assert (rms_smo[:3] < 0.6 * rms_fwd[:3]).all()
+    smo = res.smoothed
+    sd = np.column_stack([smo.std_pos_ned_m, smo.std_vel_ned_m_s, smo.std_att_rad])
+    z = np.abs(e_smo) / sd
+    assert (z <= 3.0).mean(axis=0).min() > 0.9
+    assert (np.sqrt(np.mean(z**2, axis=0)) < 1.6).all()
+
+
+def test_without_measurements_the_smoother_changes_nothing(sim_drive: SimDrive) -> None:
+    _, imu, gnss, _, init = sim_drive(duration_s=30.0, seed=12, gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW)
+    far = dataclasses.replace(gnss, t_s=gnss.t_s + 1000.0)  # all outside the IMU span
+    res = run_ins(imu, far, CONFIG, init, smooth=True)
+    assert res.smoothed is not None
+    assert res.forward.n_gnss_used == 0
+    np.testing.assert_array_equal(res.smoothed.lat_deg, res.forward.lat_deg)
+    np.testing.assert_array_equal(res.smoothed.std_pos_ned_m, res.forward.std_pos_ned_m)
+    assert res.innovations_pos_ned_m.shape == (0, 3)

@@ -1,0 +1,209 @@
+"""INS configuration TOML: the shipped NaveGo file, units, round trip, bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.ins.config import InsConfig
+from kinsync.io.ins_config import (
+    ins_config_from_toml_text,
+    ins_config_to_toml_text,
+    read_ins_config,
+    write_ins_config,
+)
+
+SHIPPED = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.toml"
+SPEC_JSON = Path("/work/shared/data/navego-synthetic/imu_gnss_spec.json")
+
+MINIMAL = """
+[imu]
+gyro_arw_rad_s_rthz = 1e-4
+acc_vrw_m_s2_rthz = 1e-3
+gyro_bias_sigma_rad_s = 1e-3
+acc_bias_sigma_m_s2 = 0.01
+gyro_bias_instability_rad_s = 1e-5
+acc_bias_instability_m_s2 = 1e-4
+"""
+
+
+def _one(values: list[float]) -> float:
+    """The JSON gives one value per axis; the configuration holds one per sensor type."""
+    assert len(set(values)) == 1, values
+    return float(values[0])
+
+
+def test_shipped_navego_file_equals_the_generator_spec() -> None:
+    spec = json.loads(SPEC_JSON.read_text())
+    cfg = read_ins_config(SHIPPED)
+    pairs = {
+        "gyro_arw_rad_s_rthz": "arw",
+        "acc_vrw_m_s2_rthz": "vrw",
+        "gyro_bias_sigma_rad_s": "gb_sta",
+        "acc_bias_sigma_m_s2": "ab_sta",
+        "gyro_bias_instability_rad_s": "gb_dyn",
+        "acc_bias_instability_m_s2": "ab_dyn",
+    }
+    for attr, key in pairs.items():  # datasheet units in the file: equal to rounding
+        assert getattr(cfg, attr) == pytest.approx(_one(spec[key]), rel=1e-12, abs=0.0), attr
+    assert cfg.gyro_bias_corr_time_s == _one(spec["gb_corr"])
+    assert cfg.acc_bias_corr_time_s == _one(spec["ab_corr"])
+    np.testing.assert_allclose(cfg.gnss_std_pos_ned_m, spec["gnss"]["stdm"], rtol=1e-12)
+    np.testing.assert_allclose(cfg.gnss_std_vel_ned_m_s, spec["gnss"]["stdv"], rtol=1e-12)
+    np.testing.assert_array_equal(cfg.antenna_lever_arm_body_m, spec["gnss"]["larm"])
+    np.testing.assert_allclose(cfg.init_std_att_rad, spec["ini_align_err"], rtol=1e-12)
+
+
+def test_minimal_file_takes_the_defaults() -> None:
+    cfg = ins_config_from_toml_text(MINIMAL)
+    defaults = InsConfig(1e-4, 1e-3, 1e-3, 0.01, 1e-5, 1e-4)
+    assert cfg == defaults
+
+
+@pytest.mark.parametrize(
+    ("si_key", "alt_key", "alt_value", "si_value"),
+    [
+        ("gyro_arw_rad_s_rthz", "gyro_arw_deg_rthr", 60.0, math.pi / 180.0),
+        ("acc_vrw_m_s2_rthz", "acc_vrw_m_s_rthr", 0.6, 0.01),
+        ("gyro_bias_sigma_rad_s", "gyro_bias_sigma_deg_h", 3600.0, math.pi / 180.0),
+        ("gyro_bias_sigma_rad_s", "gyro_bias_sigma_deg_s", 2.0, math.pi / 90.0),
+        ("acc_bias_sigma_m_s2", "acc_bias_sigma_mg", 1000.0, 9.80665),
+        ("gyro_bias_instability_rad_s", "gyro_bias_instability_deg_h", 7200.0, math.pi / 90.0),
+        ("gyro_bias_instability_rad_s", "gyro_bias_instability_deg_s", 0.5, math.pi / 360.0),
+        ("acc_bias_instability_m_s2", "acc_bias_instability_mg", 0.5, 0.5 * 9.80665e-3),
+    ],
+)
+def test_datasheet_units_convert_to_si(
+    si_key: str, alt_key: str, alt_value: float, si_value: float
+) -> None:
+    text = MINIMAL.replace(f"{si_key} =", f"{alt_key} = {alt_value!r}\n# was ")
+    cfg = ins_config_from_toml_text(text)
+    assert getattr(cfg, si_key) == pytest.approx(si_value, rel=1e-14)
+
+
+def test_attitude_sigma_in_degrees() -> None:
+    cfg = ins_config_from_toml_text(MINIMAL + "[init]\nstd_att_deg = [1.0, 2.0, 180.0]\n")
+    np.testing.assert_allclose(cfg.init_std_att_rad, [math.pi / 180, math.pi / 90, math.pi])
+
+
+positive = st.floats(1e-9, 1e6, allow_nan=False, allow_infinity=False)
+vec3 = st.tuples(positive, positive, positive)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(positive, min_size=9, max_size=9),
+    vec3,
+    vec3,
+    st.tuples(*(st.floats(-10.0, 10.0),) * 3),
+    vec3,
+    vec3,
+    vec3,
+    st.floats(1e-6, 1.0 - 1e-9, exclude_max=True),
+)
+def test_round_trip_is_exact(
+    scalars: list[float],
+    pos: tuple[float, float, float],
+    vel: tuple[float, float, float],
+    arm: tuple[float, float, float],
+    att: tuple[float, float, float],
+    init_vel: tuple[float, float, float],
+    init_pos: tuple[float, float, float],
+    gate: float,
+) -> None:
+    cfg = InsConfig(
+        gyro_arw_rad_s_rthz=scalars[0],
+        acc_vrw_m_s2_rthz=scalars[1],
+        gyro_bias_sigma_rad_s=scalars[2],
+        acc_bias_sigma_m_s2=scalars[3],
+        gyro_bias_instability_rad_s=scalars[4],
+        acc_bias_instability_m_s2=scalars[5],
+        gyro_bias_corr_time_s=scalars[6],
+        acc_bias_corr_time_s=scalars[7],
+        gnss_std_pos_ned_m=pos,
+        gnss_std_vel_ned_m_s=vel,
+        antenna_lever_arm_body_m=arm,
+        init_std_att_rad=att,
+        init_std_vel_ned_m_s=init_vel,
+        init_std_pos_ned_m=init_pos,
+        max_imu_gap_s=scalars[8],
+        gate_probability=gate,
+    )
+    assert ins_config_from_toml_text(ins_config_to_toml_text(cfg)) == cfg
+
+
+def test_file_round_trip(tmp_path: Path) -> None:
+    cfg = dataclasses.replace(read_ins_config(SHIPPED), antenna_lever_arm_body_m=(0.1, -0.2, -1.5))
+    write_ins_config(cfg, tmp_path / "cfg.toml")
+    assert read_ins_config(tmp_path / "cfg.toml") == cfg
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragments"),
+    [
+        ("[imu\n", ["malformed TOML"]),
+        ("[gnsss]\nstd_pos_ned_m = [1, 1, 1]\n", ["unknown table", "gnsss"]),
+        ("[gnss]\nstd_pos_m = [1, 1, 1]\n", ["unknown key", "[gnss]", "std_pos_m"]),
+        ("[init]\nstd_att_deg = [1, 1, 1]\nstd_att_rad = [1, 1, 1]\n", ["two units"]),
+        ("[gnss]\nstd_pos_ned_m = [1, 1]\n", ["std_pos_ned_m", "3 numbers"]),
+        ("[gnss]\nstd_pos_ned_m = 1.0\n", ["std_pos_ned_m", "3 numbers"]),
+        ("[gnss]\nstd_pos_ned_m = [1, 'a', 1]\n", ["std_pos_ned_m[1]", "number"]),
+        ("[gnss]\nstd_pos_ned_m = [1, 0, 1]\n", ["gnss_std_pos_ned_m[1]", "positive"]),
+        ("[gnss]\nstd_vel_ned_m_s = [1, nan, 1]\n", ["std_vel_ned_m_s[1]", "finite"]),
+        ("[filter]\nmax_imu_gap_s = true\n", ["max_imu_gap_s", "number"]),
+        ("[filter]\nmax_imu_gap_s = -0.1\n", ["max_imu_gap_s", "positive"]),
+        ("[filter]\ngate_probability = 1.0\n", ["gate_probability", "(0, 1)"]),
+        ("[filter]\ngate_probability = '0.99'\n", ["gate_probability", "number"]),
+    ],
+)
+def test_bad_documents(extra: str, fragments: list[str]) -> None:
+    with pytest.raises(InputError) as exc:
+        ins_config_from_toml_text(MINIMAL + extra, source="cfg.toml")
+    message = str(exc.value)
+    assert message.startswith("cfg.toml: ")
+    for frag in fragments:
+        assert frag in message, message
+
+
+@pytest.mark.parametrize(
+    ("top", "fragment"),
+    [
+        ("title = 'x'\n", "unknown table(s) or top-level key(s) ['title']"),
+        ("gnss = 3\n", "gnss must be a table"),
+    ],
+)
+def test_bad_top_level_keys(top: str, fragment: str) -> None:
+    with pytest.raises(InputError) as exc:
+        ins_config_from_toml_text(top + MINIMAL, source="cfg.toml")
+    assert fragment in str(exc.value)
+
+
+def test_two_units_for_an_imu_term() -> None:
+    with pytest.raises(InputError, match=r"gyro_arw_rad_s_rthz.*gyro_arw_deg_rthr.*two units"):
+        ins_config_from_toml_text(MINIMAL.replace("[imu]", "[imu]\ngyro_arw_deg_rthr = 0.3"))
+
+
+def test_missing_required_imu_term_names_both_keys() -> None:
+    text = MINIMAL.replace("acc_bias_sigma_m_s2 = 0.01\n", "")
+    with pytest.raises(InputError, match="needs acc_bias_sigma_m_s2 or acc_bias_sigma_mg"):
+        ins_config_from_toml_text(text)
+
+
+def test_negative_imu_term_is_rejected() -> None:
+    with pytest.raises(InputError, match="acc_vrw_m_s2_rthz must be positive"):
+        ins_config_from_toml_text(
+            MINIMAL.replace("acc_vrw_m_s2_rthz = 1e-3", "acc_vrw_m_s2_rthz = -1e-3")
+        )
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not found"):
+        read_ins_config(tmp_path / "none.toml")
