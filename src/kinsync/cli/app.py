@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate
+from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate, validate
 
 app = typer.Typer(
     name="kinsync",
@@ -25,6 +25,7 @@ app.add_typer(simulate.app, name="simulate")
 app.add_typer(clock.app, name="clock")
 app.command(name="georef")(georef.georef)
 app.add_typer(ins.app, name="ins")
+app.add_typer(validate.app, name="validate")
 
 
 def _version(value: bool) -> None:

@@ -1,0 +1,419 @@
+"""``kinsync validate``: control points and flatness from files, and every bad input.
+
+The clouds are the real pipeline's output: a simulated scan written as files and
+georeferenced by `kinsync.georef.georeference_file` (CSV, Parquet), or written as
+LAS/LAZ (with adjusted standard GPS time, or in UTM with the CRS in the file).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pyarrow.csv as pa_csv
+import pyproj
+import pytest
+
+from kinsync.georef import georeference_file
+from kinsync.io.control_points import ControlPoints, read_control_points, write_control_points
+from kinsync.io.mount_file import read_mount
+from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.points import TableChunkWriter
+from kinsync.io.sbet import SECONDS_PER_WEEK
+from kinsync.sim.validation_scene import control_target_scene, curved_wall_scene, write_scene
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+LATENCY_ERROR_S = 0.002
+WALL_LATENCY_ERROR_S = 0.005
+GPS_WEEK = 2149  # the scenes start at GPS time 1.3e9 s, in week 2149
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    base = tmp_path_factory.mktemp("validate")
+    ctl_dir, wall_dir = base / "control", base / "wall"
+    ctl_dir.mkdir()
+    wall_dir.mkdir()
+    ctl = write_scene(control_target_scene(targets_per_side=2, seed=21), ctl_dir)
+    mount = read_mount(ctl["mount"])
+    late = mount.with_latency(LATENCY_ERROR_S)
+    georeference_file(ctl["points"], ctl["trajectory"], late, ctl_dir / "cloud.csv")
+    georeference_file(ctl["points"], ctl["trajectory"], late, ctl_dir / "cloud.parquet")
+    wall = write_scene(curved_wall_scene(seed=21), wall_dir)
+    wall_mount = read_mount(wall["mount"])
+    georeference_file(wall["points"], wall["trajectory"], wall_mount, wall_dir / "ok.csv")
+    georeference_file(
+        wall["points"],
+        wall["trajectory"],
+        wall_mount.with_latency(WALL_LATENCY_ERROR_S),
+        wall_dir / "late.csv",
+    )
+    return {
+        "control": ctl["control"],
+        "trajectory": ctl["trajectory"],
+        "cloud_csv": ctl_dir / "cloud.csv",
+        "cloud_parquet": ctl_dir / "cloud.parquet",
+        "wall_ok": wall_dir / "ok.csv",
+        "wall_late": wall_dir / "late.csv",
+        "box": wall["box"],
+        "dir": base,
+    }
+
+
+def _box(files: dict[str, Path]) -> str:
+    return files["box"].read_text().strip()
+
+
+def _columns(path: Path) -> dict[str, np.ndarray]:
+    table = pa_csv.read_csv(path)
+    return {name: table.column(name).to_numpy() for name in table.column_names}
+
+
+# ------------------------------------------------------------------ control points
+@pytest.mark.parametrize("cloud", ["cloud_csv", "cloud_parquet"])
+def test_control_points_json(run_cli: RunCli, files: dict[str, Path], cloud: str) -> None:
+    code, out, err = run_cli(
+        [
+            "validate", "control-points", "--cloud", str(files[cloud]),
+            "--control", str(files["control"]), "--trajectory", str(files["trajectory"]),
+            "--centre", "sphere", "--target-radius-m", "0.2", "--json",
+        ]
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_control_points"] == 4
+    assert doc["n_observations"] == 4 * 8
+    assert doc["n_missing"] == 0
+    assert doc["n_passes"] == 8
+    te = doc["time_error"]
+    assert te["significant"] is True
+    assert abs(te["time_error_s"] - LATENCY_ERROR_S) < 4 * te["time_error_std_s"]
+    assert abs(te["time_error_s"] - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
+    assert doc["heading_error"]["significant"] is False
+    obs = doc["observations"][0]
+    assert set(obs) >= {"name", "dx_m", "dy_m", "dz_m", "speed_m_s", "side", "n_points"}
+    assert obs["side"] in ("left", "right")
+    assert doc["png"] is None
+
+
+def test_control_points_table_and_figure(run_cli: RunCli, files: dict[str, Path]) -> None:
+    png = files["dir"] / "cp.png"
+    code, out, err = run_cli(
+        [
+            "validate", "control-points", "--cloud", str(files["cloud_csv"]),
+            "--control", str(files["control"]), "--trajectory", str(files["trajectory"]),
+            "--centre", "sphere", "--target-radius-m", "0.2", "--png", str(png),
+        ]
+    )  # fmt: skip
+    assert code == 0, err
+    for fragment in ("dY fwd", "time error (ms)", "heading error (deg)", "SIGNIFICANT", "W1"):
+        assert fragment in out
+    assert png.read_bytes().startswith(b"\x89PNG")
+
+
+def test_control_point_without_target_is_reported_not_fatal(
+    run_cli: RunCli, files: dict[str, Path]
+) -> None:
+    cp = read_control_points(files["control"])
+    far = cp.pos_ecef_m[0] + np.array([0.0, 0.0, 40.0])
+    extra = files["dir"] / "control_extra.csv"
+    write_control_points(
+        ControlPoints((*cp.names, "GHOST"), np.vstack([cp.pos_ecef_m, far])), extra, form="ecef"
+    )
+    code, out, err = run_cli(
+        [
+            "validate", "control-points", "--cloud", str(files["cloud_csv"]),
+            "--control", str(extra), "--trajectory", str(files["trajectory"]), "--json",
+        ]
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [m["name"] for m in doc["missing"]] == ["GHOST"]
+    assert "within 0.5 m" in doc["missing"][0]["reason"]
+    assert doc["n_observations"] == 4 * 8
+    # With the Tukey centroid of spheres the time error still shows (the cap's bias is
+    # lateral, not along-track).
+    assert doc["time_error"]["significant"] is True
+
+
+def _control_las(files: dict[str, Path], path: Path, *, adjusted: bool) -> None:
+    cols = _columns(files["cloud_csv"])
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.full(3, 1e-4)
+    header.offsets = np.round(np.array([cols["X"][0], cols["Y"][0], cols["Z"][0]]))
+    if adjusted:
+        header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cols["X"], cols["Y"], cols["Z"]
+    t = cols["t_s"]
+    las.gps_time = t - ADJUSTED_GPS_OFFSET_S if adjusted else t - GPS_WEEK * SECONDS_PER_WEEK
+    las.intensity = cols["intensity"].astype(np.uint16)
+    las.write(path, laz_backend=laspy.LazBackend.Lazrs if path.suffix == ".laz" else None)
+
+
+def test_las_clouds_on_both_gps_time_scales(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path]
+) -> None:
+    adjusted, week = files["dir"] / "cloud.laz", files["dir"] / "cloud_week.las"
+    _control_las(files, adjusted, adjusted=True)
+    _control_las(files, week, adjusted=False)
+    args = ["--control", str(files["control"]), "--trajectory", str(files["trajectory"])]
+    sphere = ["--centre", "sphere", "--target-radius-m", "0.2", "--json"]
+    for cloud, extra in ((adjusted, []), (week, ["--gps-week", str(GPS_WEEK)])):
+        code, out, err = run_cli(
+            ["validate", "control-points", "--cloud", str(cloud), *args, *sphere, *extra]
+        )
+        assert code == 0, err
+        te = json.loads(out)["time_error"]
+        assert abs(te["time_error_s"] - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
+    code, out, err = run_cli(["validate", "control-points", "--cloud", str(week), *args])
+    assert_one_line_error(code, out, err, "GPS seconds of week", "--gps-week")
+
+
+def test_non_finite_cells_name_the_point(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path], tmp_path: Path
+) -> None:
+    cols = _columns(files["cloud_csv"])
+    cols["t_s"] = cols["t_s"].copy()
+    cols["t_s"][17] = np.nan
+    path = tmp_path / "nan.csv"
+    with TableChunkWriter(path) as w:
+        w.write(cols)
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(path), "--control", str(files["control"]),
+         "--trajectory", str(files["trajectory"])]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, str(path), "point 17 has a non-finite time")
+
+
+# ------------------------------------------------------------------ flatness
+def test_flatness_flags_the_late_wall_only(run_cli: RunCli, files: dict[str, Path]) -> None:
+    png = files["dir"] / "wall.png"
+    docs = {}
+    for key in ("wall_ok", "wall_late"):
+        code, out, err = run_cli(
+            ["validate", "flatness", "--cloud", str(files[key]), "--box", _box(files), "--json"]
+            + (["--png", str(png)] if key == "wall_late" else [])
+        )
+        assert code == 0, err
+        docs[key] = json.loads(out)
+    ok, late = docs["wall_ok"], docs["wall_late"]
+    assert ok["curvature_significant"] is False
+    assert late["curvature_significant"] is True
+    assert late["curvature_p_value"] < 1e-10
+    assert late["bow_m"] > 0.006
+    assert ok["bow_m"] < 0.001
+    assert ok["rms_m"] == pytest.approx(0.005, rel=0.1)
+    assert ok["n_points"] + ok["n_rejected"] == ok["n_selected"]
+    assert 20.0 < ok["extent_u_m"] < 26.0
+    assert png.read_bytes().startswith(b"\x89PNG")
+    assert late["png"] == str(png)
+
+
+def test_flatness_table(run_cli: RunCli, files: dict[str, Path]) -> None:
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(files["wall_late"]), "--box", _box(files)]
+    )
+    assert code == 0, err
+    assert "curvature significant" in out
+    assert "YES" in out
+    assert "bow" in out
+
+
+def _utm_las(files: dict[str, Path], crs_in_file: bool) -> tuple[Path, str]:
+    cols = _columns(files["wall_late"])
+    to_utm = pyproj.Transformer.from_crs(4978, 32619, always_xy=True)
+    e, n, h = to_utm.transform(cols["X"], cols["Y"], cols["Z"])
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.full(3, 1e-4)
+    header.offsets = np.round(np.array([e[0], n[0], h[0]]))
+    if crs_in_file:
+        header.add_crs(pyproj.CRS.from_epsg(32619))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = e, n, h
+    las.gps_time = cols["t_s"] - ADJUSTED_GPS_OFFSET_S
+    las.intensity = cols["intensity"].astype(np.uint16)
+    path = files["dir"] / f"wall_utm_{crs_in_file}.las"
+    las.write(path)
+    lo = np.array([np.min(e), np.min(n), np.min(h)]) - 0.1
+    hi = np.array([np.max(e), np.max(n), np.max(h)]) + 0.1
+    return path, ",".join(repr(float(v)) for v in (*lo, *hi))
+
+
+def test_flatness_las_in_utm_reads_the_crs_from_the_file(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path]
+) -> None:
+    path, box = _utm_las(files, crs_in_file=True)
+    code, out, err = run_cli(["validate", "flatness", "--cloud", str(path), "--box", box, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["curvature_significant"] is True
+    assert doc["bow_m"] > 0.006
+    code, out, err = run_cli(
+        [
+            "validate",
+            "flatness",
+            "--cloud",
+            str(path),
+            "--box",
+            box,
+            "--crs",
+            "EPSG:32619",
+            "--json",
+        ]
+    )
+    assert code == 0, err
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(path), "--box", box, "--crs", "EPSG:4978"]
+    )
+    assert_one_line_error(code, out, err, "WGS 84 / UTM zone 19N", "omit --crs")
+    bare, box = _utm_las(files, crs_in_file=False)
+    code, out, err = run_cli(
+        [
+            "validate",
+            "flatness",
+            "--cloud",
+            str(bare),
+            "--box",
+            box,
+            "--crs",
+            "EPSG:32619",
+            "--json",
+        ]
+    )
+    assert code == 0, err
+    assert json.loads(out)["bow_m"] == pytest.approx(doc["bow_m"], abs=2e-4)
+
+
+# ------------------------------------------------------------------ bad input
+def test_empty_box(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path]
+) -> None:
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(files["wall_ok"]), "--box", "0,0,0,1,1,1"]
+    )
+    assert_one_line_error(code, out, err, "no point inside the box", "the cloud's", "span X")
+
+
+def test_too_few_and_degenerate_points(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    base = np.array([1409555.0, -4140560.0, 4626600.0])
+    few = tmp_path / "few.csv"
+    with TableChunkWriter(few) as w:
+        pts = base + np.random.default_rng(0).uniform(0, 1, (7, 3))
+        w.write({"X": pts[:, 0], "Y": pts[:, 1], "Z": pts[:, 2]})
+    box = ",".join(str(v) for v in (*(base - 1), *(base + 2)))
+    code, out, err = run_cli(["validate", "flatness", "--cloud", str(few), "--box", box])
+    assert_one_line_error(code, out, err, "too few points for a plane: 7 selected", str(few))
+    line = tmp_path / "line.csv"
+    with TableChunkWriter(line) as w:
+        pts = base + np.linspace(0, 1, 40)[:, None] * np.array([1.0, 0.5, 0.2])
+        w.write({"X": pts[:, 0], "Y": pts[:, 1], "Z": pts[:, 2]})
+    code, out, err = run_cli(["validate", "flatness", "--cloud", str(line), "--box", box])
+    assert_one_line_error(code, out, err, "lie on a line")
+
+
+@pytest.mark.parametrize(
+    ("box", "fragment"),
+    [
+        ("1,2,3", "expected 6"),
+        ("1,2,3,4,5,x", "item 6 ('x') is not a number"),
+        ("5,0,0,1,1,1", "xmin 5.0 must be below xmax 1.0"),
+    ],
+)
+def test_bad_box(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    files: dict[str, Path],
+    box: str,
+    fragment: str,
+) -> None:
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(files["wall_ok"]), "--box", box]
+    )
+    assert_one_line_error(code, out, err, fragment)
+
+
+def test_unknown_crs(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path]
+) -> None:
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(files["wall_ok"]), "--box", _box(files),
+         "--crs", "EPSG:999999"]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, "--crs 'EPSG:999999'", "unknown coordinate reference")
+
+
+def test_missing_columns_and_files(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path], tmp_path: Path
+) -> None:
+    cols = _columns(files["cloud_csv"])
+    no_intensity = tmp_path / "no_intensity.csv"
+    with TableChunkWriter(no_intensity) as w:
+        w.write({k: v for k, v in cols.items() if k != "intensity"})
+    args = ["--control", str(files["control"]), "--trajectory", str(files["trajectory"])]
+    code, out, err = run_cli(["validate", "control-points", "--cloud", str(no_intensity), *args])
+    assert_one_line_error(code, out, err, "missing column(s) ['intensity']")
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(tmp_path / "none.csv"), *args]
+    )
+    assert_one_line_error(code, out, err, "file not found")
+    code, out, err = run_cli(
+        ["validate", "flatness", "--cloud", str(tmp_path / "c.txt"), "--box", "0,0,0,1,1,1"]
+    )
+    assert_one_line_error(code, out, err, "file not found")
+    bad_control = tmp_path / "control.csv"
+    bad_control.write_text("name,northing,easting\nA,1,2\n")
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(files["cloud_csv"]),
+         "--control", str(bad_control), "--trajectory", str(files["trajectory"])]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, "missing coordinate columns")
+
+
+def test_no_control_point_found(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path], tmp_path: Path
+) -> None:
+    cp = read_control_points(files["control"])
+    elsewhere = tmp_path / "elsewhere.csv"
+    write_control_points(ControlPoints(cp.names, cp.pos_ecef_m + 100.0), elsewhere)
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(files["cloud_csv"]),
+         "--control", str(elsewhere), "--trajectory", str(files["trajectory"])]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, "no point within 0.5 m of any of the 4 control points")
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(files["cloud_csv"]),
+         "--control", str(files["control"]), "--trajectory", str(files["trajectory"]),
+         "--min-intensity", "1e9"]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, "no control point found in the cloud", "W1:")
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        (["--centre", "mean"], "--centre must be tukey, median or sphere"),
+        (["--centre", "sphere"], "needs the target radius"),
+        (["--centre", "sphere", "--target-radius-m", "0.8"], "smaller than the search radius"),
+        (["--level", "2"], "--level"),
+    ],
+)
+def test_bad_options(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    files: dict[str, Path],
+    extra: list[str],
+    fragment: str,
+) -> None:
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(files["cloud_csv"]),
+         "--control", str(files["control"]), "--trajectory", str(files["trajectory"]), *extra]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, fragment)

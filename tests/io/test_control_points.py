@@ -1,0 +1,149 @@
+"""Control-point CSV: round trips (geodetic and ECEF) and every bad file a user can give."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.frames import geodetic_to_ecef
+from kinsync.io.control_points import ControlPoints, read_control_points, write_control_points
+
+names_st = st.lists(
+    st.text(
+        alphabet=st.characters(blacklist_categories=("Cs", "Cc", "Zs", "Zl", "Zp")),
+        min_size=1,
+        max_size=12,
+    ),
+    min_size=1,
+    max_size=8,
+    unique=True,
+)
+lat_st = st.floats(-89.9, 89.9)
+lon_st = st.floats(-180.0, 180.0)
+h_st = st.floats(-500.0, 9000.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(names=names_st, data=st.data())
+def test_geodetic_round_trip(
+    tmp_path_factory: pytest.TempPathFactory, names: list[str], data: st.DataObject
+) -> None:
+    n = len(names)
+    lat = np.array(data.draw(st.lists(lat_st, min_size=n, max_size=n)))
+    lon = np.array(data.draw(st.lists(lon_st, min_size=n, max_size=n)))
+    h = np.array(data.draw(st.lists(h_st, min_size=n, max_size=n)))
+    points = ControlPoints.from_geodetic(names, lat, lon, h)
+    path = tmp_path_factory.mktemp("cp") / "control.csv"
+    write_control_points(points, path)
+    back = read_control_points(path)
+    assert back.names == tuple(names)
+    # Geodetic -> ECEF -> text -> ECEF: pyproj's iterative inverse, well below 1 um.
+    np.testing.assert_allclose(back.pos_ecef_m, points.pos_ecef_m, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(back.pos_ecef_m, geodetic_to_ecef(lat, lon, h), rtol=0, atol=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    names=names_st,
+    coords=st.lists(
+        st.tuples(*[st.floats(-7e6, 7e6, allow_nan=False)] * 3), min_size=8, max_size=8
+    ),
+)
+def test_ecef_round_trip_is_exact(
+    tmp_path_factory: pytest.TempPathFactory,
+    names: list[str],
+    coords: list[tuple[float, float, float]],
+) -> None:
+    pos = np.array(coords[: len(names)])
+    points = ControlPoints(tuple(names), pos)
+    path = tmp_path_factory.mktemp("cp") / "control.csv"
+    write_control_points(points, path, form="ecef")
+    back = read_control_points(path)
+    assert back.names == tuple(names)
+    np.testing.assert_array_equal(back.pos_ecef_m, pos)
+
+
+def test_extra_columns_blank_lines_and_bom_are_fine(tmp_path: Path) -> None:
+    path = tmp_path / "c.csv"
+    path.write_text(
+        "\ufeffname, x_m ,y_m,z_m,comment\n A ,1.5,2.5,3.5,on the wall\n\nB,4,5,6,\n",
+        encoding="utf-8",
+    )
+    cp = read_control_points(path)
+    assert cp.names == ("A", "B")
+    np.testing.assert_array_equal(cp.pos_ecef_m, [[1.5, 2.5, 3.5], [4.0, 5.0, 6.0]])
+    assert cp.source == str(path)
+    np.testing.assert_allclose(
+        ControlPoints.from_geodetic(["P"], [46.8], [-71.2], [10.0]).lat_lon_h(),
+        [[46.8, -71.2, 10.0]],
+        atol=1e-9,
+    )
+
+
+@pytest.mark.parametrize(
+    ("text", "fragments"),
+    [
+        ("", ["empty file"]),
+        ("name,lat_deg,lon_deg,h_m\n", ["no control points"]),
+        ("id,lat_deg,lon_deg,h_m\nA,1,2,3\n", ["missing column 'name'"]),
+        ("name,lat_deg,lon_deg\nA,1,2\n", ["missing coordinate columns", "name,x_m,y_m,z_m"]),
+        ("name,lat_deg,lon_deg,h_m,x_m,y_m,z_m\nA,1,2,3,4,5,6\n", ["both geodetic"]),
+        ("name,x_m,x_m,y_m,z_m\nA,1,1,2,3\n", ["duplicated column"]),
+        ("name,x_m,y_m,z_m\nA,1,2\n", ["line 2 has 3 fields"]),
+        ("name,x_m,y_m,z_m\n ,1,2,3\n", ["line 2: empty name"]),
+        ("name,x_m,y_m,z_m\nA,1,2,3\nA,4,5,6\n", ["line 3", "'A' already used on line 2"]),
+        ("name,x_m,y_m,z_m\nA,1,two,3\n", ["line 2, column 'y_m'", "'two'"]),
+        ("name,x_m,y_m,z_m\nA,1,nan,3\n", ["line 2, column 'y_m'", "not a finite number"]),
+        ("name,x_m,y_m,z_m\nA,1,,3\n", ["line 2, column 'y_m'"]),
+        ("name,lat_deg,lon_deg,h_m\nA,95,2,3\n", ["line 2: latitude 95.0 outside"]),
+    ],
+)
+def test_bad_files(tmp_path: Path, text: str, fragments: list[str]) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        read_control_points(path)
+    assert str(path) in str(exc.value)
+    for frag in fragments:
+        assert frag in str(exc.value)
+
+
+def test_missing_and_unreadable_files(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not found"):
+        read_control_points(tmp_path / "none.csv")
+    binary = tmp_path / "bin.csv"
+    binary.write_bytes(b"\xff\xfe\x00\x81garbage")
+    with pytest.raises(InputError, match="cannot read"):
+        read_control_points(binary)
+
+
+def test_container_checks() -> None:
+    with pytest.raises(InputError, match="shape"):
+        ControlPoints(("A", "B"), np.zeros((3, 3)))
+    with pytest.raises(InputError, match="non-finite"):
+        ControlPoints(("A",), np.array([[0.0, np.inf, 0.0]]))
+    with pytest.raises(InputError, match="duplicated"):
+        ControlPoints(("A", "A"), np.zeros((2, 3)))
+    with pytest.raises(InputError, match="empty name"):
+        ControlPoints(("A", " "), np.zeros((2, 3)))
+    with pytest.raises(InputError, match="no control points"):
+        ControlPoints((), np.zeros((0, 3)))
+    with pytest.raises(InputError, match="numbers"):
+        ControlPoints(("A",), np.array([["x", 0, 0]]))
+    cp = ControlPoints(("A",), np.array([[1.0, 2.0, 3.0]]))
+    assert len(cp) == 1
+    assert not cp.pos_ecef_m.flags.writeable
+
+
+def test_write_rejects_unknown_form_and_missing_folder(tmp_path: Path) -> None:
+    cp = ControlPoints(("A",), np.array([[6378137.0, 0.0, 0.0]]))
+    with pytest.raises(InputError, match="form"):
+        write_control_points(cp, tmp_path / "c.csv", form="utm")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="does not exist"):
+        write_control_points(cp, tmp_path / "nowhere" / "c.csv")
+    assert not (tmp_path / "c.csv").exists()

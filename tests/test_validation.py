@@ -1,0 +1,569 @@
+"""Validation by simulation: control points in the vehicle frame, wall flatness/curvature.
+
+Clouds come from `kinsync.sim.validation_scene` (a profiler on a vehicle passing
+targets at 5-20 m/s both ways; a wall on the outside of a tight right turn) and the
+compiled georeferencing kernel, with errors injected through the mount (latency,
+boresight yaw). Estimates are checked against the estimator's own sigma and an
+absolute bound.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.frames import ecef_to_ned, euler_rpy_to_matrix, ned_to_ecef
+from kinsync.georef import GeorefTrajectory, georeference
+from kinsync.io.control_points import ControlPoints
+from kinsync.mount import Mount
+from kinsync.sim.validation_scene import (
+    ControlTargetScene,
+    SimulatedScan,
+    control_target_scene,
+    curved_wall_scene,
+)
+from kinsync.trajectory import Trajectory
+from kinsync.validation import (
+    CentreMethod,
+    CloudPoints,
+    ControlPointDifference,
+    ControlPointReport,
+    TargetObservation,
+    control_point_differences,
+    extract_targets,
+    fit_wall,
+    otsu_threshold,
+    parse_box,
+    pass_labels,
+    select_box,
+    signature_tests,
+    validate_control_points,
+)
+
+LATENCY_ERROR_S = 0.002
+YAW_ERROR_DEG = 0.1
+
+
+def _cloud(scan: SimulatedScan, mount: Mount) -> CloudPoints:
+    traj = GeorefTrajectory.from_trajectory(scan.trajectory, mount.latency_s)
+    pos, inside = georeference(scan.t_s, scan.xyz_scanner_m, traj, mount)
+    assert inside.all()
+    return CloudPoints(pos, scan.t_s, scan.intensity)
+
+
+def _yawed(mount: Mount, d_yaw_deg: float) -> Mount:
+    r, p, y = mount.boresight_rpy_deg
+    return replace(mount, boresight_rpy_deg=(r, p, y + d_yaw_deg))
+
+
+@pytest.fixture(scope="module")
+def scene() -> ControlTargetScene:
+    return control_target_scene(seed=11)
+
+
+@pytest.fixture(scope="module")
+def reports(scene: ControlTargetScene) -> dict[str, ControlPointReport]:
+    scan = scene.scan
+    mounts = {
+        "correct": scan.mount,
+        "late": scan.mount.with_latency(LATENCY_ERROR_S),
+        "yaw": _yawed(scan.mount, YAW_ERROR_DEG),
+    }
+    return {
+        key: validate_control_points(
+            _cloud(scan, m),
+            scene.control,
+            scan.trajectory,
+            centre="sphere",
+            target_radius_m=scene.target_radius_m,
+        )
+        for key, m in mounts.items()
+    }
+
+
+# ------------------------------------------------------------------ control points
+def test_every_visit_is_found(
+    scene: ControlTargetScene, reports: dict[str, ControlPointReport]
+) -> None:
+    rep = reports["correct"]
+    n_passes = len(scene.speeds_m_s)
+    assert len(rep.differences) == len(scene.control) * n_passes
+    assert rep.missing == ()
+    assert rep.n_passes == n_passes
+    counts = {n: sum(d.observation.name == n for d in rep.differences) for n in scene.control.names}
+    assert set(counts.values()) == {n_passes}
+    speeds = sorted({round(d.speed_m_s) for d in rep.differences})
+    assert speeds == sorted({round(v) for v in scene.speeds_m_s})
+
+
+def test_vehicle_frame_sides_follow_the_direction_of_travel(
+    reports: dict[str, ControlPointReport],
+) -> None:
+    # West targets are on the left driving north (heading 0) and on the right driving south.
+    for d in reports["correct"].differences:
+        north = abs(d.heading_deg) < 1.0
+        assert north or abs(abs(d.heading_deg) - 180.0) < 1.0
+        west = d.observation.name.startswith("W")
+        assert (d.side == "left") == (west == north)
+        assert 3.0 < abs(d.lateral_m) < 11.0
+        assert abs(d.forward_m) < 1.0  # the profile plane is across the direction of travel
+        assert abs(d.yaw_rate_deg_s) < 0.1
+        assert d.along_speed_m_s == pytest.approx(d.speed_m_s, abs=0.05)
+
+
+def test_correct_calibration_shows_no_signature(reports: dict[str, ControlPointReport]) -> None:
+    rep = reports["correct"]
+    assert rep.time_error.testable
+    assert rep.heading_error.testable
+    assert not rep.time_error.significant
+    assert not rep.heading_error.significant
+    assert abs(rep.time_error.estimate) < 4 * rep.time_error.std
+    assert abs(rep.heading_error.estimate) < 4 * rep.heading_error.std
+    # Differences at the level of the simulated noise: 2 mm survey, 2 mm trajectory.
+    rms = np.sqrt(np.mean(rep.diff_vehicle_m() ** 2, axis=0))
+    assert np.all(rms < 0.006)
+    assert 0.5e-3 < rep.residual_std_m < 4e-3
+
+
+def test_time_error_shows_as_speed_times_error(reports: dict[str, ControlPointReport]) -> None:
+    rep = reports["late"]
+    te = rep.time_error
+    assert te.significant
+    assert te.p_value < 1e-4
+    assert abs(te.estimate - LATENCY_ERROR_S) < 4 * te.std
+    assert abs(te.estimate - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
+    assert te.std < 0.1e-3
+    assert not rep.heading_error.significant
+    # Each visit: dY = speed x 2 ms on top of the correct run's difference; dX, dZ unmoved.
+    correct = reports["correct"]
+    for late, ok in zip(rep.differences, correct.differences, strict=True):
+        assert late.observation.name == ok.observation.name
+        shift = np.subtract(late.diff_vehicle_m, ok.diff_vehicle_m)
+        assert shift[1] == pytest.approx(ok.speed_m_s * LATENCY_ERROR_S, abs=0.003)
+        assert abs(shift[0]) < 0.003
+        assert abs(shift[2]) < 0.003
+
+
+def test_heading_error_shows_as_opposite_offsets_left_and_right(
+    reports: dict[str, ControlPointReport],
+) -> None:
+    rep = reports["yaw"]
+    he = rep.heading_error
+    assert he.significant
+    assert he.p_value < 1e-4
+    assert abs(he.estimate - YAW_ERROR_DEG) < 4 * he.std
+    assert abs(he.estimate - YAW_ERROR_DEG) < 0.2 * YAW_ERROR_DEG
+    assert not rep.time_error.significant
+    correct = reports["correct"]
+    shifts = np.array(
+        [
+            (d.lateral_m, d.diff_vehicle_m[1] - ok.diff_vehicle_m[1])
+            for d, ok in zip(rep.differences, correct.differences, strict=True)
+        ]
+    )
+    left, right = shifts[shifts[:, 0] < 0], shifts[shifts[:, 0] > 0]
+    assert np.all(left[:, 1] > 0.005)  # a clockwise yaw error pushes the left side forward
+    assert np.all(right[:, 1] < -0.003)
+
+
+def _difference(
+    obs: TargetObservation, dy_m: float, speed_m_s: float, direction: int, lateral_m: float
+) -> ControlPointDifference:
+    return ControlPointDifference(
+        observation=obs,
+        diff_vehicle_m=(0.0, dy_m, 0.0),
+        diff_ned_m=(direction * dy_m, 0.0, 0.0),
+        speed_m_s=speed_m_s,
+        along_speed_m_s=speed_m_s,
+        heading_deg=0.0 if direction > 0 else 180.0,
+        yaw_rate_deg_s=0.0,
+        lateral_m=lateral_m,
+        forward_m=0.0,
+        up_m=0.0,
+    )
+
+
+def test_reported_sigma_matches_the_spread_of_the_mixed_model() -> None:
+    """Monte Carlo of the signature test with pass, survey and visit noise (no signature).
+
+    Treating the 64 visits as independent would under-state the sigma of both slopes
+    (pass errors alias into the speed slope, survey errors into the heading slope) and
+    flag signatures that are not there; the mixed model's t-statistics stay calibrated.
+    """
+    rng = np.random.default_rng(0)
+    targets = [(f"T{i}", x) for i, x in enumerate((-8.0, -6.5, -7.5, -9.0, 5.0, 6.0, 4.5, 7.0))]
+    passes = [(v, d) for v in (5.0, 10.0, 15.0, 20.0) for d in (1, -1)]
+    t_time, t_head = [], []
+    false_alarms = 0
+    for _ in range(100):
+        survey = rng.normal(0.0, 0.004, len(targets))  # north error of each target
+        diffs = []
+        for k, (v, direction) in enumerate(passes):
+            common = rng.normal(0.0, 0.002)
+            for j, (name, x) in enumerate(targets):
+                lateral = x * direction
+                dy = common + direction * survey[j] + rng.normal(0.0, 0.002)
+                obs = TargetObservation(name, k, 100.0 * k + j, (0, 0, 0), (0, 0, 0), 50, 1.0)
+                diffs.append(_difference(obs, dy, v, direction, lateral))
+        tests = signature_tests(tuple(diffs))
+        t_time.append(tests.time_error.t_statistic)
+        t_head.append(tests.heading_error.t_statistic)
+        false_alarms += tests.time_error.significant + tests.heading_error.significant
+    assert 0.7 < float(np.std(t_time)) < 1.45
+    assert 0.7 < float(np.std(t_head)) < 1.45
+    assert false_alarms <= 6  # 200 tests at 1 %: 2 expected
+
+
+def test_untestable_signatures_say_why(reports: dict[str, ControlPointReport]) -> None:
+    diffs = reports["late"].differences
+    fast = tuple(d for d in diffs if d.speed_m_s > 19.0)
+    tests = signature_tests(fast)
+    assert not tests.time_error.testable
+    assert "several speeds" in tests.time_error.reason
+    assert not tests.time_error.significant
+    assert math.isnan(tests.time_error.estimate)
+    assert tests.heading_error.testable
+    one_side = tuple(d for d in diffs if d.side == "left")
+    tests = signature_tests(one_side)
+    assert not tests.heading_error.testable
+    assert "one side" in tests.heading_error.reason
+    assert tests.time_error.testable
+    assert tests.time_error.estimate == pytest.approx(LATENCY_ERROR_S, rel=0.2)
+    few_passes = tuple(d for d in diffs if d.observation.visit in (0, 2))  # 5 and 10 m/s
+    assert "passes" in signature_tests(few_passes).time_error.reason
+    with pytest.raises(InputError, match="level"):
+        signature_tests(diffs, level=1.5)
+
+
+def test_pass_labels() -> None:
+    def obs(name: str, t: float) -> ControlPointDifference:
+        o = TargetObservation(name, 0, t, (0, 0, 0), (0, 0, 0), 10, 1.0)
+        return _difference(o, 0.0, 5.0, 1, 1.0)
+
+    diffs = (obs("A", 0.0), obs("B", 1.0), obs("A", 2.0), obs("B", 30.0), obs("C", 31.0))
+    np.testing.assert_array_equal(pass_labels(diffs), [0, 0, 1, 2, 2])
+    np.testing.assert_array_equal(pass_labels(diffs[::-1]), [2, 2, 1, 0, 0])
+
+
+def test_disc_targets_with_the_robust_centroid() -> None:
+    scene = control_target_scene(target_shape="disc", targets_per_side=3, seed=4)
+    scan = scene.scan
+    rep = validate_control_points(
+        _cloud(scan, scan.mount.with_latency(LATENCY_ERROR_S)), scene.control, scan.trajectory
+    )
+    assert len(rep.differences) == 6 * len(scene.speeds_m_s)
+    te = rep.time_error
+    assert te.significant
+    assert abs(te.estimate - LATENCY_ERROR_S) < 4 * te.std
+    assert abs(te.estimate - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
+    assert not rep.heading_error.significant
+
+
+def test_missing_targets_are_reported_per_point(scene: ControlTargetScene) -> None:
+    scan = scene.scan
+    cloud = _cloud(scan, scan.mount)
+    far = scene.control.pos_ecef_m[0] + np.array([50.0, 0.0, 0.0])
+    control = ControlPoints(
+        (*scene.control.names, "FAR"), np.vstack([scene.control.pos_ecef_m, far])
+    )
+    rep = validate_control_points(
+        cloud, control, scan.trajectory, centre="sphere", target_radius_m=scene.target_radius_m
+    )
+    assert [m.name for m in rep.missing] == ["FAR"]
+    assert "no point of the cloud within 0.5 m" in rep.missing[0].reason
+    assert rep.n_control_points == len(control)
+    # A threshold above every return: each target is reported, and with none left it is fatal.
+    _, missing = extract_targets(cloud, scene.control, min_intensity=1e9)
+    assert len(missing) == len(scene.control)
+    assert all("intensity >= 1e+09" in m.reason for m in missing)
+    with pytest.raises(InputError, match="no control point found in the cloud"):
+        validate_control_points(cloud, scene.control, scan.trajectory, min_intensity=1e9)
+    # No contrast: every point equally bright.
+    flat = CloudPoints(cloud.pos_ecef_m, cloud.t_s, np.full(len(cloud), 100.0))
+    _, missing = extract_targets(flat, scene.control)
+    assert all("no intensity contrast" in m.reason for m in missing)
+
+
+def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetScene) -> None:
+    scan = scene.scan
+    cloud = _cloud(scan, scan.mount)
+    first_pass_end = scan.t_s[0] + 9.0
+    short = scan.trajectory.sliced(scan.trajectory.t_start_s, first_pass_end)
+    rep = validate_control_points(
+        cloud, scene.control, short, centre="sphere", target_radius_m=scene.target_radius_m
+    )
+    assert len(rep.differences) == len(scene.control)
+    outside = [m for m in rep.missing if "outside the trajectory span" in m.reason]
+    assert len(outside) == len(scene.control) * (len(scene.speeds_m_s) - 1)
+    assert all(m.t_s is not None and m.t_s > first_pass_end for m in outside)
+
+
+def test_extraction_options_are_checked(scene: ControlTargetScene) -> None:
+    cloud = _cloud(scene.scan, scene.scan.mount)
+    with pytest.raises(InputError, match="needs the target radius"):
+        extract_targets(cloud, scene.control, centre="sphere")
+    with pytest.raises(InputError, match="smaller than the search radius"):
+        extract_targets(cloud, scene.control, centre="sphere", target_radius_m=0.6)
+    with pytest.raises(InputError, match="centre must be one of"):
+        extract_targets(cloud, scene.control, centre="mean")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="search_radius_m"):
+        extract_targets(cloud, scene.control, search_radius_m=-1.0)
+    with pytest.raises(InputError, match="min_points"):
+        extract_targets(cloud, scene.control, min_points=2)
+    with pytest.raises(InputError, match="point times"):
+        extract_targets(CloudPoints(cloud.pos_ecef_m), scene.control)
+    assert cloud.t_s is not None
+    with pytest.raises(InputError, match="shape"):
+        CloudPoints(cloud.pos_ecef_m, cloud.t_s[:-1])
+    with pytest.raises(InputError, match="non-finite value at point 3"):
+        CloudPoints(np.where(np.arange(len(cloud))[:, None] == 3, np.nan, cloud.pos_ecef_m))
+
+
+def test_median_and_tukey_centres_agree_on_a_symmetric_target() -> None:
+    rng = np.random.default_rng(2)
+    centre_ned = np.array([0.01, -0.02, 0.005])
+    disc = rng.uniform(-0.2, 0.2, (2000, 2))
+    disc = disc[np.hypot(disc[:, 0], disc[:, 1]) < 0.2]
+    local = np.column_stack([disc[:, 0], np.zeros(len(disc)), disc[:, 1]]) + centre_ned
+    local += rng.normal(0.0, 0.003, local.shape)
+    strays = np.array([[0.4, 0.0, 0.3], [-0.35, 0.1, -0.3], [0.3, -0.2, 0.4]])
+    local = np.vstack([local, strays])
+    origin = (46.8, -71.2, 10.0)
+    pos = ned_to_ecef(local, *origin)
+    control = ControlPoints(("C",), ned_to_ecef(np.zeros((1, 3)), *origin))
+    inten = np.full(len(pos), 3000.0)
+    bg = ned_to_ecef(rng.uniform(-0.45, 0.45, (300, 3)) * [1, 0, 1] + [0, 0.1, 0], *origin)
+    cloud = CloudPoints(
+        np.vstack([pos, bg]), np.zeros(len(pos) + 300), np.concatenate([inten, np.full(300, 200.0)])
+    )
+    methods: tuple[CentreMethod, ...] = ("tukey", "median")
+    for method in methods:
+        obs, missing = extract_targets(cloud, control, centre=method)
+        assert missing == ()
+        (one,) = obs
+        assert one.intensity_threshold == pytest.approx(1600.0)
+        err = ecef_to_ned(np.asarray(one.centre_ecef_m), *origin) - centre_ned
+        std = np.asarray(one.centre_std_ned_m)
+        assert np.all(std > 0.0)
+        assert np.all(np.abs(err) < 4.0 * std + 1e-4)
+        assert np.linalg.norm(err) < 0.01
+
+
+def test_otsu_threshold() -> None:
+    rng = np.random.default_rng(1)
+    values = np.concatenate([rng.normal(300, 30, 500), rng.normal(2500, 200, 80)])
+    thr, contrast = otsu_threshold(values)
+    assert 500 < thr < 2000
+    assert contrast > 5
+    assert all(math.isnan(v) for v in otsu_threshold(np.full(10, 7.0)))
+    assert all(math.isnan(v) for v in otsu_threshold([1.0]))
+    assert otsu_threshold([0.0, 0.0, 10.0]) == (5.0, math.inf)
+
+
+# ------------------------------------------------------------------ flatness
+def _plane_points(
+    rng: np.random.Generator, n: int, noise_m: float, bend_per_m: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Vertical wall facing north-east, 20 m x 4 m, optional bow d u^2 along it (ECEF)."""
+    u = rng.uniform(-10, 10, n)
+    v = rng.uniform(-2, 2, n)
+    w = bend_per_m * u**2 + rng.normal(0.0, noise_m, n)
+    R = euler_rpy_to_matrix(0.0, 0.0, math.radians(40.0))
+    local = np.column_stack([w, u, -v]) @ R.T  # body x = normal, y = along, z = down
+    return ned_to_ecef(local, 46.8, -71.2, 30.0), u
+
+
+def test_flat_wall_is_not_curved_and_bow_is_measured() -> None:
+    rng = np.random.default_rng(3)
+    pts, _ = _plane_points(rng, 20000, 0.005)
+    flat = fit_wall(pts)
+    assert not flat.curvature_significant
+    assert flat.rms_m == pytest.approx(0.005, rel=0.05)
+    assert flat.n_rejected < 10
+    assert flat.bow_m < 1e-3
+    assert (
+        abs(flat.normal_ned @ np.array([math.cos(math.radians(40)), math.sin(math.radians(40)), 0]))
+        > 0.999
+    )
+    assert abs(flat.v_axis_ned[2] + 1.0) < 1e-3  # v points up
+    bend = 0.0001  # 1e-4 /m: sagitta d (L/2)^2 = 10 mm over 20 m
+    pts, _ = _plane_points(rng, 20000, 0.005, bend)
+    bent = fit_wall(pts)
+    assert bent.curvature_significant
+    assert bent.p_value < 1e-10
+    assert bent.bow_m == pytest.approx(0.010, rel=0.1)
+    d = bent.quadratic_m[3]
+    assert abs(abs(d) - bend) < 4 * bent.quadratic_std_m[3]
+    assert abs(abs(d) - bend) < 0.1 * bend
+    doc = bent.as_document()
+    assert doc["curvature_significant"] is True
+    assert doc["bow_m"] == bent.bow_m
+    # A tolerance on the bow: a 10 mm bow is not flagged below 20 mm.
+    assert not fit_wall(pts, min_bow_m=0.02).curvature_significant
+
+
+def test_gross_outliers_are_rejected() -> None:
+    rng = np.random.default_rng(4)
+    pts, _ = _plane_points(rng, 10000, 0.005)
+    bad = rng.choice(len(pts), 200, replace=False)
+    shift = rng.uniform(0.2, 1.0, 200)
+    R = euler_rpy_to_matrix(0.0, 0.0, math.radians(40.0))
+    normal_ecef = (
+        ned_to_ecef(R[:, 0][None], 46.8, -71.2, 30.0)[0]
+        - ned_to_ecef(np.zeros((1, 3)), 46.8, -71.2, 30.0)[0]
+    )
+    pts[bad] += shift[:, None] * normal_ecef
+    result = fit_wall(pts)
+    assert 200 <= result.n_rejected < 215
+    assert result.rms_m == pytest.approx(0.005, rel=0.05)
+    assert not result.curvature_significant
+    assert "MAD" in result.rule
+
+
+def test_curvature_test_false_alarm_rate_matches_its_level() -> None:
+    rng = np.random.default_rng(5)
+    p_values = np.array([fit_wall(_plane_points(rng, 300, 0.005)[0]).p_value for _ in range(200)])
+    # p is uniform on a flat wall: 5 % (10 of 200) expected below 0.05.
+    assert 2 <= int(np.sum(p_values < 0.05)) <= 22
+    assert 0.35 < float(np.mean(p_values)) < 0.65
+
+
+def test_wall_in_a_tight_turn_bends_with_a_time_error() -> None:
+    wall = curved_wall_scene(seed=7)
+    scan = wall.scan
+    results = {}
+    for latency in (0.0, 0.005):
+        cloud = _cloud(scan, scan.mount.with_latency(latency))
+        results[latency] = fit_wall(cloud.pos_ecef_m[select_box(cloud.pos_ecef_m, wall.box_ecef_m)])
+    ok, late = results[0.0], results[0.005]
+    assert not ok.curvature_significant
+    assert ok.bow_m < 1e-3
+    assert late.curvature_significant
+    assert late.p_value < 1e-12
+    assert late.bow_m > 0.006
+    # The RMS alone hardly tells: 5 mm range noise, a few tenths of a mm more with the error.
+    assert late.rms_m < 1.3 * ok.rms_m
+    assert ok.rms_m == pytest.approx(0.005, rel=0.1)
+    assert 0 < ok.n_rejected < 0.01 * ok.n_selected  # the simulated clutter in front
+
+
+def test_rigid_shift_of_a_wall_is_not_curvature() -> None:
+    # The wall stands along the straight approach only: a time error slides it along itself.
+    wall = curved_wall_scene(wall_start_m=0.0, wall_length_m=12.0, approach_m=20.0, seed=8)
+    scan = wall.scan
+    cloud = _cloud(scan, scan.mount.with_latency(0.005))
+    result = fit_wall(cloud.pos_ecef_m[select_box(cloud.pos_ecef_m, wall.box_ecef_m)])
+    assert not result.curvature_significant
+    assert result.bow_m < 1e-3
+
+
+def test_bad_wall_selections() -> None:
+    rng = np.random.default_rng(6)
+    pts, _ = _plane_points(rng, 100, 0.005)
+    with pytest.raises(InputError, match="too few points for a plane: 9 selected"):
+        fit_wall(pts[:9])
+    line = ned_to_ecef(
+        np.column_stack([np.linspace(0, 5, 50), np.zeros(50), np.zeros(50)]), 46.8, -71.2, 0.0
+    )
+    with pytest.raises(InputError, match="lie on a line"):
+        fit_wall(line)
+    with pytest.raises(InputError, match="level"):
+        fit_wall(pts, level=0.0)
+    with pytest.raises(InputError, match="min_bow_m"):
+        fit_wall(pts, min_bow_m=-1.0)
+    with pytest.raises(InputError, match="non-finite"):
+        fit_wall(np.vstack([pts, [[np.nan, 0, 0]]]))
+    with pytest.raises(InputError, match="shape"):
+        fit_wall(pts[:, :2])
+
+
+# ------------------------------------------------------------------ box parser
+@settings(max_examples=60, deadline=None)
+@given(
+    lo=st.tuples(*[st.floats(-1e7, 1e7)] * 3),
+    size=st.tuples(*[st.floats(1e-3, 1e3)] * 3),
+)
+def test_parse_box_round_trip(lo: tuple[float, ...], size: tuple[float, ...]) -> None:
+    hi = tuple(a + b for a, b in zip(lo, size, strict=True))
+    if any(h <= a for a, h in zip(lo, hi, strict=True)):
+        return
+    box = (*lo, *hi)
+    text = ", ".join(repr(v) for v in box)
+    assert parse_box(text) == box
+    mid = np.array([[(a + h) / 2 for a, h in zip(lo, hi, strict=True)]])
+    assert select_box(mid, parse_box(text)).tolist() == [True]
+    assert select_box(np.array([lo, hi]), parse_box(text)).tolist() == [True, True]
+    assert select_box(mid + np.array([[0.0, 0.0, 2 * size[2]]]), parse_box(text)).tolist() == [
+        False
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("1,2,3,4,5", "expected 6"),
+        ("1,2,3,4,5,6,7", "expected 6"),
+        ("1,2,x,4,5,6", "item 3 ('x') is not a number"),
+        ("1,2,3,4,inf,6", "item 5 ('inf') is not finite"),
+        ("1,2,3,1,5,6", "xmin 1.0 must be below xmax 1.0"),
+        ("1,9,3,4,5,6", "ymin 9.0 must be below ymax 5.0"),
+        ("", "expected 6"),
+    ],
+)
+def test_parse_box_errors(text: str, fragment: str) -> None:
+    with pytest.raises(InputError, match="--box") as exc:
+        parse_box(text)
+    assert fragment in str(exc.value)
+
+
+def test_vehicle_frame_of_a_constructed_trajectory() -> None:
+    """A known attitude and a known offset: dY and dX land on the right axes."""
+    origin = (46.8, -71.2, 10.0)
+    t = np.arange(0.0, 10.0, 0.01) + 1e9
+    yaw = math.radians(90.0)  # driving east
+    pos = np.column_stack([np.zeros_like(t), 10.0 * (t - t[0]), np.zeros_like(t)])
+    traj = Trajectory.from_euler(
+        t, np.zeros_like(t), np.zeros_like(t), np.full_like(t, yaw),
+        pos_ned_m=pos, origin_lat_lon_h=origin,
+    )  # fmt: skip
+    target = np.array([[6.0, 50.0, -1.0]])  # 6 m north of the road: left when driving east
+    control = ControlPoints(("P",), ned_to_ecef(target, *origin))
+    # The cloud sees the target 2 cm east (forward when driving east) and 1 cm down.
+    x, y, z = (float(c) for c in ned_to_ecef(target + np.array([0.0, 0.02, 0.01]), *origin)[0])
+    obs = TargetObservation("P", 0, float(t[0] + 5.0), (x, y, z), (0.0, 0.0, 0.0), 20, 1.0)
+    (d,), missing = control_point_differences((obs,), control, traj)
+    assert missing == ()
+    np.testing.assert_allclose(d.diff_vehicle_m, (0.0, 0.02, -0.01), atol=1e-6)
+    assert d.lateral_m == pytest.approx(-6.0, abs=1e-3)
+    assert d.side == "left"
+    assert d.forward_m == pytest.approx(0.0, abs=1e-3)
+    assert d.up_m == pytest.approx(1.0, abs=1e-3)
+    assert d.speed_m_s == pytest.approx(10.0, abs=1e-4)
+    assert d.heading_deg == pytest.approx(90.0, abs=1e-6)
+
+
+def test_confounded_speed_and_side_is_not_tested() -> None:
+    diffs = []
+    for k, (v, x) in enumerate(((5.0, -6.0), (10.0, -6.0), (20.0, 6.0), (25.0, 6.0))):
+        for j in range(3):
+            obs = TargetObservation(f"T{j}{k}", k, 100.0 * k + j, (0, 0, 0), (0, 0, 0), 30, 1.0)
+            diffs.append(_difference(obs, 0.001 * j, v, 1, x))
+    # Left targets at 5 and 10 m/s only, right ones at 20 and 25 m/s: dY on speed and on
+    # side are separable (two speeds per side), so both terms stay.
+    tests = signature_tests(tuple(diffs))
+    assert tests.time_error.testable
+    assert tests.heading_error.testable
+    same = [
+        _difference(d.observation, 0.0, 5.0 if d.lateral_m < 0 else 20.0, 1, d.lateral_m)
+        for d in diffs
+    ]
+    tests = signature_tests(tuple(same))
+    assert tests.time_error.testable
+    assert not tests.heading_error.testable
+    assert "confounded" in tests.heading_error.reason
