@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate, validate
+from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate, sync, validate
 
 app = typer.Typer(
     name="kinsync",
@@ -26,6 +26,7 @@ app.add_typer(clock.app, name="clock")
 app.command(name="georef")(georef.georef)
 app.add_typer(ins.app, name="ins")
 app.add_typer(validate.app, name="validate")
+app.add_typer(sync.app, name="sync")
 
 
 def _version(value: bool) -> None:

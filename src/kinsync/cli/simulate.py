@@ -16,6 +16,21 @@ from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
 from kinsync.io.passes import PassFileFormat
 from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
+from kinsync.sim.drive import (
+    DRIVE_FILES,
+    IMU_KINDS,
+    ROUTE_KINDS,
+    DriveSimConfig,
+    DriveSimulation,
+    simulate_drive,
+    write_drive_simulation,
+)
+from kinsync.sim.profiler import (
+    DRIVE_SCAN_FILES,
+    DriveScanConfig,
+    simulate_drive_scan,
+    write_drive_scan,
+)
 from kinsync.sim.rotating_table import (
     RotatingTableConfig,
     RotatingTableSimulation,
@@ -207,5 +222,243 @@ def clock(
     table.add_row("missing / spurious pulses", f"{truth['n_missing']} / {truth['n_spurious']}")
     table.add_row("wrong ZDAs / bad lines", f"{truth['n_wrong_zda']} / {truth['n_bad_lines']}")
     table.add_row("ZDA convention", config.convention)
+    console.print(table)
+    console.print(f"truth: {out / 'truth.json'}")
+
+
+def _parse_outage(text: str) -> tuple[float, float]:
+    """Parse ``START:END`` (s) of ``--gnss-outage``."""
+    start_text, sep, end_text = text.partition(":")
+    try:
+        if not sep:
+            raise ValueError(text)
+        start, end = float(start_text), float(end_text)
+    except ValueError:
+        msg = f"--gnss-outage {text!r}: expected START:END in seconds, such as 120:150"
+        raise InputError(msg) from None
+    if not (math.isfinite(start) and math.isfinite(end)) or end <= start:
+        msg = f"--gnss-outage {text!r}: END must be a finite time after START"
+        raise InputError(msg)
+    return start, end
+
+
+def _parse_vector3(text: str, option: str) -> tuple[float, float, float]:
+    """Parse ``x,y,z`` (three finite numbers)."""
+    items = text.split(",")
+    try:
+        vals = [float(v) for v in items]
+    except ValueError:
+        vals = []
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        msg = f"{option} {text!r}: expected three comma-separated numbers such as 0.3,-0.2,-1.5"
+        raise InputError(msg)
+    return vals[0], vals[1], vals[2]
+
+
+def drive_summary(sim: DriveSimulation, out: Path) -> dict[str, Any]:
+    """JSON-ready summary of a written drive simulation (what ``simulate drive`` prints)."""
+    c = sim.config
+    err = sim.imu_errors
+    return {
+        "out": str(out),
+        "files": list(DRIVE_FILES),
+        "route": c.route,
+        "route_length_m": sim.route.length_m,
+        "duration_s": sim.truth.duration_s,
+        "speed_m_s": c.speed_m_s,
+        "imu": c.imu,
+        "imu_model": err.model.name,
+        "imu_rate_hz": err.model.rate_hz,
+        "n_imu": len(sim.imu),
+        "gnss_rate_hz": c.gnss_rate_hz,
+        "n_gnss": len(sim.gnss),
+        "gnss_outages": [list(o) for o in c.gnss_outages],
+        "antenna_lever_arm_body_m": list(c.antenna_lever_arm_body_m),
+        "seed": c.seed,
+        "gyro_bias_rad_s": err.gyro_bias_rad_s.tolist(),
+        "acc_bias_m_s2": err.acc_bias_m_s2.tolist(),
+        "gyro_scale_ppm": err.gyro_scale_ppm.tolist(),
+        "acc_scale_ppm": err.acc_scale_ppm.tolist(),
+    }
+
+
+@app.command("drive")
+def drive(
+    out: Annotated[
+        Path, typer.Option(help="Output folder (imu.csv, gnss.csv, truth.csv, truth.json).")
+    ],
+    route: Annotated[
+        str, typer.Option(help="Route: oval, loop (figure-eight) or lines (survey lines).")
+    ] = "oval",
+    duration_s: Annotated[
+        float | None, typer.Option(help="Record length (s); default: the whole route.")
+    ] = None,
+    laps: Annotated[
+        int | None, typer.Option(help="Laps (oval, loop) or lines; default: fill the duration.")
+    ] = None,
+    speed_m_s: Annotated[float, typer.Option(help="Cruise speed (m/s).")] = 2.0,
+    static_s: Annotated[float, typer.Option(help="Standstill at the start (s).")] = 60.0,
+    imu: Annotated[
+        str, typer.Option(help="IMU preset: navigation (RLG, 50 Hz) or mems (200 Hz).")
+    ] = "navigation",
+    imu_rate_hz: Annotated[
+        float | None, typer.Option(help="IMU (and truth) rate (Hz); default the preset's.")
+    ] = None,
+    gnss_rate_hz: Annotated[float, typer.Option(help="GNSS epoch rate (Hz).")] = 5.0,
+    gnss_outage: Annotated[
+        list[str] | None,
+        typer.Option(help="GNSS outage START:END (s); repeat for several."),
+    ] = None,
+    lever_arm_m: Annotated[
+        str, typer.Option(help="IMU -> GNSS antenna lever arm x,y,z (m, body FRD).")
+    ] = "0.3,-0.2,-1.5",
+    roll_amplitude_deg: Annotated[
+        float, typer.Option(help="Vessel roll oscillation amplitude (deg).")
+    ] = 0.0,
+    roll_period_s: Annotated[float, typer.Option(help="Roll oscillation period (s).")] = 6.0,
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).")] = 1,
+    as_json: JsonOpt = False,
+) -> None:
+    """Simulate a drive: IMU with errors, GNSS with noise and outages, and the truth."""
+    route_key = route.strip().lower()
+    if route_key not in ROUTE_KINDS:
+        msg = f"--route must be oval, loop or lines, got {route!r}"
+        raise InputError(msg)
+    imu_key = imu.strip().lower()
+    if imu_key not in IMU_KINDS:
+        msg = f"--imu must be navigation or mems, got {imu!r}"
+        raise InputError(msg)
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out}: exists and is not a folder; give a folder to write the drive to"
+        raise InputError(msg)
+    for option, value in (
+        ("--speed-m-s", speed_m_s),
+        ("--gnss-rate-hz", gnss_rate_hz),
+        ("--duration-s", duration_s),
+        ("--imu-rate-hz", imu_rate_hz),
+    ):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            msg = f"{option} must be a number > 0, got {value}"
+            raise InputError(msg)
+    if laps is not None and laps < 1:
+        msg = f"--laps must be at least 1, got {laps}"
+        raise InputError(msg)
+    config = DriveSimConfig(
+        route=ROUTE_KINDS[ROUTE_KINDS.index(route_key)],
+        speed_m_s=speed_m_s,
+        laps=laps,
+        duration_s=duration_s,
+        static_s=static_s,
+        imu=IMU_KINDS[IMU_KINDS.index(imu_key)],
+        imu_rate_hz=imu_rate_hz,
+        gnss_rate_hz=gnss_rate_hz,
+        gnss_outages=tuple(_parse_outage(o) for o in gnss_outage or ()),
+        antenna_lever_arm_body_m=_parse_vector3(lever_arm_m, "--lever-arm-m"),
+        roll_amplitude_deg=roll_amplitude_deg,
+        roll_period_s=roll_period_s,
+        seed=seed,
+    )
+    with err_console.status("simulating the drive"):
+        sim = simulate_drive(config)
+    with err_console.status("writing files"):
+        write_drive_simulation(sim, out)
+    doc = drive_summary(sim, out)
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title=f"Drive simulation written to {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("route", f"{doc['route']} ({doc['route_length_m']:.1f} m)")
+    table.add_row("duration (s)", fmt(doc["duration_s"], 1.0, 6))
+    table.add_row("IMU", f"{doc['imu_model']} at {doc['imu_rate_hz']:g} Hz")
+    table.add_row("IMU samples (imu.csv)", str(doc["n_imu"]))
+    table.add_row("GNSS epochs (gnss.csv)", str(doc["n_gnss"]))
+    table.add_row("GNSS outages", str(len(doc["gnss_outages"])))
+    gb = ", ".join(fmt(b, 180.0 / math.pi * 3600.0, 3) for b in doc["gyro_bias_rad_s"])
+    ab = ", ".join(fmt(b, 1e3 / 9.80665, 3) for b in doc["acc_bias_m_s2"])
+    table.add_row("truth gyro turn-on bias (deg/h)", gb)
+    table.add_row("truth acc turn-on bias (mg)", ab)
+    console.print(table)
+    console.print(f"truth: {out / 'truth.csv'}, {out / 'truth.json'}")
+
+
+@app.command("drive-scan")
+def drive_scan(
+    out: Annotated[
+        Path, typer.Option(help="Output folder (scan, trajectory, mount, targets, pulses, truth).")
+    ],
+    period_s: Annotated[float, typer.Option(help="True mirror period T (s).")] = 0.030545,
+    t0_s: Annotated[
+        float | None,
+        typer.Option(help="True start of profile 0 (GPS s); default 0.4371 s after the start."),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).", min=0)] = 1,
+    duration_s: Annotated[float, typer.Option(help="Length of the drive (s).")] = 300.0,
+    route: Annotated[
+        str, typer.Option(help="oval (two laps) or loop (figure-eight, as many laps as fit).")
+    ] = "oval",
+    trajectory_noise_m: Annotated[
+        float, typer.Option(help="Position noise of the written trajectory, 1 sigma per axis (m).")
+    ] = 0.0,
+    extra_first_pulse: Annotated[
+        bool, typer.Option("--extra-first-pulse", help="One pulse more than profiles, first.")
+    ] = False,
+    near_targets_only: Annotated[
+        bool,
+        typer.Option(
+            "--near-targets-only", help="Simulate only the profiles that can see a target."
+        ),
+    ] = False,
+    as_json: JsonOpt = False,
+) -> None:
+    """Simulate a profile scanner driven through a scene with sync targets (Method B)."""
+    if route not in ("oval", "loop"):
+        msg = f"--route must be oval or loop, got {route!r}"
+        raise InputError(msg)
+    if out.exists() and not out.is_dir():
+        msg = f"--out {out}: exists and is not a folder; give a folder to write the data set to"
+        raise InputError(msg)
+    config = DriveScanConfig(
+        period_s=period_s,
+        t0_s=t0_s,
+        seed=seed,
+        duration_s=duration_s,
+        route="oval" if route == "oval" else "loop",
+        trajectory_noise_m=trajectory_noise_m,
+        extra_first_pulse=extra_first_pulse,
+        near_targets_only=near_targets_only,
+    )
+    with err_console.status("simulating the drive and the scan"):
+        sim = simulate_drive_scan(config)
+    with err_console.status("writing files"):
+        write_drive_scan(sim, out)
+    truth = sim.truth
+    doc = {
+        "out": str(out),
+        "files": list(DRIVE_SCAN_FILES),
+        "seed": seed,
+        "route": route,
+        "duration_s": duration_s,
+        "t0_s": truth["t0_s"],
+        "period_s": truth["period_s"],
+        "n_profiles": truth["n_profiles"],
+        "n_points": truth["n_points"],
+        "pulse_offset": truth["pulse_offset"],
+        "trajectory_noise_m": trajectory_noise_m,
+        "passes": {t["name"]: len(t["passes"]) for t in truth["targets"]},
+    }
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title=f"Profile-scanner drive simulation written to {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("profiles / returns", f"{doc['n_profiles']} / {doc['n_points']}")
+    table.add_row("truth t0 (s)", f"{truth['t0_s']:.6f}")
+    table.add_row("truth period (s)", f"{truth['period_s']:.9f}")
+    table.add_row("pulse offset", str(doc["pulse_offset"]))
+    for name, n in doc["passes"].items():
+        table.add_row(f"passes of {name}", str(n))
     console.print(table)
     console.print(f"truth: {out / 'truth.json'}")

@@ -28,6 +28,7 @@ from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.report.demo_clock import clock_section
 from kinsync.report.demo_georef import georef_section
 from kinsync.report.demo_method_a import cidco_section, find_cidco_folder, method_a_section
+from kinsync.report.demo_method_b import method_b_section
 from kinsync.report.demo_validation import validation_section
 from kinsync.report.figures import beach_budget_figure, rolling_table_figure
 from kinsync.report.html import Figure, Section, Table, render_report
@@ -240,6 +241,10 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     if progress:
         progress("georeferencing a simulated scan")
     sections.append(georef_section(out_dir, summary))
+    if progress:
+        progress("Method B: profile scanner synchronised in object space")
+    method_b, _ = method_b_section(out_dir, summary)
+    sections.append(method_b)
     if progress:
         progress("validation: control points and wall flatness, right and wrong calibration")
     sections.append(validation_section(out_dir, summary))

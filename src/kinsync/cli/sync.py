@@ -1,0 +1,216 @@
+"""``kinsync sync``: put a profile scanner on the trajectory's time scale (Method B)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.errors import InputError
+from kinsync.georef import read_trajectory_file
+from kinsync.io.mount_file import read_mount
+from kinsync.io.profile_scan import (
+    apply_profile_clock,
+    read_clock_document,
+    read_profile_scan,
+    read_pulses,
+    read_sync_points,
+)
+from kinsync.sync.object_space import (
+    ObjectSpaceConfig,
+    require_profiler_azimuth,
+    synchronise_object_space,
+)
+
+app = typer.Typer(
+    help="Synchronise a profile scanner to the trajectory in object space (Method B)."
+)
+
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+
+
+@app.command("object-space")
+def object_space(
+    scan: Annotated[
+        Path,
+        typer.Option(
+            "--scan", help="Scan table (.csv/.parquet): profile,angle_rad,range_m,intensity."
+        ),
+    ],
+    trajectory: Annotated[
+        Path,
+        typer.Option(
+            "--trajectory", help="Trajectory: .csv (t_s,lat_deg,lon_deg,...) or SBET .out/.sbet."
+        ),
+    ],
+    mount: Annotated[
+        Path,
+        typer.Option("--mount", help="Mount TOML with a [profiler] azimuth_deg."),
+    ],
+    sync_points: Annotated[
+        Path, typer.Option("--sync-points", help="Sync points CSV: name,lat_deg,lon_deg,h_m.")
+    ],
+    pulses: Annotated[
+        Path | None,
+        typer.Option("--pulses", help="Hardware profile pulses CSV (t_s, GPS time), optional."),
+    ] = None,
+    period_prior_s: Annotated[
+        float, typer.Option("--period-prior-s", help="Prior mirror period (s).")
+    ] = 0.0303,
+    period_tolerance: Annotated[
+        float,
+        typer.Option("--period-tolerance", help="Relative tolerance of the prior (0.01 = 1 %)."),
+    ] = 0.01,
+    intensity_threshold: Annotated[
+        float,
+        typer.Option("--intensity-threshold", help="Returns this bright are target candidates."),
+    ] = 0.8,
+    position_std_m: Annotated[
+        float,
+        typer.Option(
+            "--position-std-m",
+            help="A-priori sigma of trajectory and sync-point positions (m); 0 for exact data.",
+        ),
+    ] = 0.02,
+    max_range_m: Annotated[
+        float, typer.Option("--max-range-m", help="Farthest sync-point crossing considered (m).")
+    ] = 80.0,
+    gps_week: Annotated[
+        int | None,
+        typer.Option("--gps-week", help="GPS week of an SBET's seconds-of-week times.", min=0),
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Find the profile clock t0, T from sync points seen in the scan."""
+    config = ObjectSpaceConfig(
+        period_prior_s=period_prior_s,
+        period_tolerance=period_tolerance,
+        intensity_threshold=intensity_threshold,
+        position_std_m=position_std_m,
+        max_range_m=max_range_m,
+    )
+    the_mount = read_mount(mount)
+    require_profiler_azimuth(the_mount, str(mount))
+    with err_console.status("reading inputs"):
+        the_scan = read_profile_scan(scan)
+        traj, _scale = read_trajectory_file(trajectory, gps_week=gps_week)
+        points = read_sync_points(sync_points)
+        pulse_t = None if pulses is None else read_pulses(pulses)
+    with err_console.status("matching sightings to sync-point crossings"):
+        result = synchronise_object_space(
+            the_scan, traj, the_mount, points, config, pulses_t_s=pulse_t
+        )
+    if result.ambiguous:
+        err_console.print(
+            f"warning: ambiguous: {len(result.alternatives)} other assignment(s) of sightings "
+            "to crossings fit almost as well; see 'alternatives'"
+        )
+    if as_json:
+        print_json(result.as_document())
+        return
+    table = Table(title=f"Profile clock of {scan} from {len(result.sightings)} sightings")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("t0 (s)", f"{result.t0_s:.6f}")
+    table.add_row("t0 sigma (ms)", fmt(result.t0_std_s, 1e3))
+    table.add_row("period (s)", f"{result.period_s:.9f}")
+    table.add_row("period sigma (us)", fmt(result.period_std_s, 1e6))
+    table.add_row("sigma scale (residuals)", fmt(result.sigma_scale))
+    table.add_row("unmatched sightings", str(len(result.unmatched)))
+    table.add_row("ambiguous", "yes" if result.ambiguous else "no")
+    if result.pulses is not None:
+        sure = "" if result.pulses.sure else " (not sure)"
+        table.add_row("pulse offset", f"{result.pulses.offset}{sure}")
+    console.print(table)
+    rows = Table(title="Sightings (regression pairs)")
+    for col in ("sync point", "profile", "angle (deg)", "t (s)", "helix (ms)", "residual (ms)"):
+        rows.add_column(col, justify="right")
+    for s in result.sightings:
+        rows.add_row(
+            s.name,
+            f"{s.profile:.3f}",
+            f"{math.degrees(s.angle_rad):.2f}",
+            f"{s.t_s:.4f}",
+            f"{s.helix_correction_s * 1e3:.3f}",
+            f"{s.residual_s * 1e3:.3f}",
+        )
+    console.print(rows)
+
+
+@app.command("apply")
+def apply(
+    scan: Annotated[
+        Path, typer.Option("--scan", help="Scan table (.csv/.parquet) with profile,angle_rad.")
+    ],
+    mount: Annotated[
+        Path, typer.Option("--mount", help="Mount TOML with a [profiler] azimuth_deg.")
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Output table (.csv/.parquet): every input column + t_s,x_m,y_m,z_m.",
+        ),
+    ],
+    t0_s: Annotated[float | None, typer.Option("--t0-s", help="Clock t0 (s).")] = None,
+    period_s: Annotated[float | None, typer.Option("--period-s", help="Clock period (s).")] = None,
+    clock: Annotated[
+        Path | None,
+        typer.Option("--clock", help="JSON with t0_s and period_s (object-space --json output)."),
+    ] = None,
+    chunk_points: Annotated[
+        int, typer.Option("--chunk-points", help="Rows per chunk (bounds memory).", min=1)
+    ] = 1_000_000,
+    as_json: JsonOpt = False,
+) -> None:
+    """Write the scan with a time and scanner-frame coordinates per return."""
+    if clock is not None and (t0_s is not None or period_s is not None):
+        msg = "give either --clock or --t0-s with --period-s, not both"
+        raise InputError(msg)
+    if clock is not None:
+        t0, period = read_clock_document(clock)
+    elif t0_s is not None and period_s is not None:
+        t0, period = t0_s, period_s
+    else:
+        msg = "give the clock: --t0-s and --period-s, or --clock RESULT.json"
+        raise InputError(msg)
+    if not (math.isfinite(t0) and math.isfinite(period) and period > 0.0):
+        msg = f"--t0-s must be finite and --period-s > 0, got {t0!r} and {period!r}"
+        raise InputError(msg)
+    the_mount = read_mount(mount)
+    require_profiler_azimuth(the_mount, str(mount))
+    with Progress(
+        TextColumn("sync apply"),
+        BarColumn(),
+        TextColumn("{task.completed} returns"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+        disable=not err_console.is_terminal,
+    ) as bar:
+        task = bar.add_task("returns", total=None)
+        n = apply_profile_clock(
+            scan,
+            out,
+            t0,
+            period,
+            the_mount,
+            chunk_points=chunk_points,
+            progress=lambda done: bar.update(task, completed=done),
+        )
+    doc = {"out": str(out), "points": n, "t0_s": t0, "period_s": period}
+    if as_json:
+        print_json(doc)
+        return
+    table = Table(title=f"Time-tagged {scan} -> {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("returns written", str(n))
+    table.add_row("t0 (s)", f"{t0:.6f}")
+    table.add_row("period (s)", f"{period:.9f}")
+    console.print(table)

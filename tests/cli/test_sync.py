@@ -1,0 +1,225 @@
+"""``kinsync sync object-space / apply`` and ``kinsync simulate drive-scan``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pyarrow.csv as pa_csv
+import pytest
+
+from kinsync.frames import geodetic_to_ecef
+from kinsync.io.mount_file import write_mount
+from kinsync.mount import Mount
+from kinsync.sim.profiler import (
+    DriveScanConfig,
+    DriveScanSimulation,
+    simulate_drive_scan,
+    write_drive_scan,
+)
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> tuple[DriveScanSimulation, Path]:
+    sim = simulate_drive_scan(DriveScanConfig(near_targets_only=True, extra_first_pulse=True))
+    folder = tmp_path_factory.mktemp("drive-scan")
+    write_drive_scan(sim, folder)
+    return sim, folder
+
+
+def _object_space(folder: Path, *extra: str) -> list[str]:
+    return [
+        "sync",
+        "object-space",
+        "--scan",
+        str(folder / "scan.csv"),
+        "--trajectory",
+        str(folder / "trajectory.csv"),
+        "--mount",
+        str(folder / "mount.toml"),
+        "--sync-points",
+        str(folder / "sync_points.csv"),
+        *extra,
+    ]
+
+
+def test_object_space_json(run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path]) -> None:
+    sim, folder = dataset
+    args = _object_space(folder, "--pulses", str(folder / "pulses.csv"))
+    code, out, err = run_cli([*args, "--position-std-m", "0", "--json"])
+    assert code == 0, err
+    assert out.count("\n") == 1
+    doc = json.loads(out)
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) < 4 * doc["t0_std_s"]
+    assert abs(doc["period_s"] - sim.truth["period_s"]) < 4 * doc["period_std_s"]
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) < 2e-3
+    assert doc["pulse_offset"] == 1
+    assert doc["pulse_offset_sure"] is True
+    assert len(doc["residuals_s"]) == len(doc["sightings"]) >= 4
+    for s in doc["sightings"]:
+        assert {"name", "profile", "angle_rad", "t_s"} <= set(s)
+        assert s["name"] in ("S1", "S2")
+    assert doc["ambiguous"] is False
+
+
+def test_object_space_table(run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path]) -> None:
+    _, folder = dataset
+    code, out, err = run_cli(_object_space(folder))
+    assert code == 0, err
+    assert "t0 (s)" in out
+    assert "period sigma (us)" in out
+    assert "S1" in out
+    assert "S2" in out
+
+
+def test_apply_then_georeference(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
+) -> None:
+    sim, folder = dataset
+    code, out, err = run_cli([*_object_space(folder, "--position-std-m", "0"), "--json"])
+    assert code == 0, err
+    clock = tmp_path / "clock.json"
+    clock.write_text(out)
+    doc = json.loads(out)
+    timed = tmp_path / "timed.csv"
+    base = ["sync", "apply", "--scan", str(folder / "scan.csv"), "--mount"]
+    code, out, err = run_cli(
+        [*base, str(folder / "mount.toml"), "--out", str(timed), "--clock", str(clock), "--json"]
+    )
+    assert code == 0, err
+    assert json.loads(out)["points"] == len(sim.scanner.scan)
+    table = pa_csv.read_csv(timed)
+    assert table.column_names == [
+        "profile",
+        "angle_rad",
+        "range_m",
+        "intensity",
+        "t_s",
+        "x_m",
+        "y_m",
+        "z_m",
+    ]
+    t = table.column("t_s").to_numpy()
+    # The clock error is a fraction of a millisecond, within its sigma.
+    assert np.max(np.abs(t - sim.scanner.t_s)) < 4 * doc["t0_std_s"] + 1e-3
+    same = tmp_path / "same.csv"
+    code, _, err = run_cli(
+        [
+            *base,
+            str(folder / "mount.toml"),
+            "--out",
+            str(same),
+            "--t0-s",
+            repr(doc["t0_s"]),
+            "--period-s",
+            repr(doc["period_s"]),
+        ]
+    )
+    assert code == 0, err
+    assert same.read_text() == timed.read_text()
+    # Georeferenced with the recovered clock, the S1 returns lie on the S1 sphere.
+    geo = tmp_path / "geo.csv"
+    code, _, err = run_cli(
+        [
+            "georef",
+            "--points",
+            str(timed),
+            "--trajectory",
+            str(folder / "trajectory.csv"),
+            "--mount",
+            str(folder / "mount.toml"),
+            "--out",
+            str(geo),
+            "--point-columns",
+            "xyz",
+        ]
+    )
+    assert code == 0, err
+    g = pa_csv.read_csv(geo)
+    xyz = np.column_stack([g.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    s1 = geodetic_to_ecef(*sim.sync_points.lat_lon_h[0])
+    dist = np.linalg.norm(xyz - s1, axis=1)
+    on = dist < 0.5
+    assert on.sum() >= 16
+    radius = sim.config.layout.target_radius_m
+    assert np.abs(dist[on] - radius).max() < 0.015
+
+
+def test_simulate_drive_scan(run_cli: RunCli, tmp_path: Path) -> None:
+    out = tmp_path / "sim"
+    code, stdout, err = run_cli(
+        [
+            "simulate",
+            "drive-scan",
+            "--out",
+            str(out),
+            "--duration-s",
+            "60",
+            "--near-targets-only",
+            "--extra-first-pulse",
+            "--period-s",
+            "0.0301",
+            "--json",
+        ]
+    )
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["pulse_offset"] == 1
+    assert doc["period_s"] == 0.0301
+    assert set(doc["passes"]) == {"S1", "S2", "C1", "C2", "C3", "C4"}
+    for name in doc["files"]:
+        assert (out / name).is_file(), name
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["n_profiles"] == doc["n_profiles"]
+    code, stdout, err = run_cli(
+        ["simulate", "drive-scan", "--out", str(tmp_path / "b"), "--duration-s", "45"]
+    )
+    assert code == 0, err
+    assert "passes of S1" in stdout
+
+
+def test_bad_input(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+) -> None:
+    _, folder = dataset
+    plain = tmp_path / "plain.toml"
+    write_mount(Mount(), plain)
+    args = _object_space(folder)
+    args[args.index("--mount") + 1] = str(plain)
+    assert_one_line_error(*run_cli(args), "[profiler] azimuth_deg")
+    far = tmp_path / "far.csv"
+    far.write_text("name,lat_deg,lon_deg,h_m\nS1,10.0,20.0,0.0\nS2,10.0,20.001,0.0\n")
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(far)
+    assert_one_line_error(*run_cli(args), "far.csv", "'S1' lies", "km")
+    args = _object_space(folder)
+    args[args.index("--scan") + 1] = str(tmp_path / "none.csv")
+    assert_one_line_error(*run_cli(args), "none.csv", "not found")
+    assert_one_line_error(*run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "wide")
+    scan = str(folder / "scan.csv")
+    mount = str(folder / "mount.toml")
+    out = str(tmp_path / "o.csv")
+    base = ["sync", "apply", "--scan", scan, "--mount", mount, "--out", out]
+    assert_one_line_error(*run_cli(base), "--t0-s and --period-s, or --clock")
+    clock = tmp_path / "c.json"
+    clock.write_text("{")
+    assert_one_line_error(*run_cli([*base, "--clock", str(clock), "--t0-s", "1"]), "not both")
+    assert_one_line_error(*run_cli([*base, "--clock", str(clock)]), "c.json", "not valid JSON")
+    assert_one_line_error(*run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s > 0")
+    timed = tmp_path / "timed.csv"
+    timed.write_text("profile,angle_rad,range_m,t_s\n0,0.1,2.0,5.0\n")
+    bad = ["sync", "apply", "--scan", str(timed), "--mount", mount, "--out", out]
+    assert_one_line_error(*run_cli([*bad, "--t0-s", "1", "--period-s", "0.03"]), "already has")
+    assert not Path(out).exists()
+    sim = ["simulate", "drive-scan", "--out", str(tmp_path / "s")]
+    assert_one_line_error(*run_cli([*sim, "--route", "square"]), "--route")
+    assert_one_line_error(*run_cli([*sim, "--duration-s", "10"]), "at least 40 s")
+    assert_one_line_error(*run_cli(["simulate", "drive-scan", "--out", str(timed)]), "not a folder")

@@ -1,0 +1,258 @@
+"""Method B files: scan tables, sync points, pulses, clock documents, the apply pipeline."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.frames import geodetic_to_ecef
+from kinsync.io.points import iter_table_chunks
+from kinsync.io.profile_scan import (
+    ProfileScan,
+    SyncPoints,
+    apply_profile_clock,
+    read_clock_document,
+    read_profile_scan,
+    read_pulses,
+    read_sync_points,
+    write_profile_scan,
+    write_pulses,
+    write_sync_points,
+)
+from kinsync.mount import Mount
+
+MOUNT = Mount(profiler_azimuth_deg=30.0)
+
+
+def _scan(n: int = 500, seed: int = 0) -> ProfileScan:
+    rng = np.random.default_rng(seed)
+    return ProfileScan(
+        profile=np.sort(rng.integers(0, 50, n)),
+        angle_rad=rng.uniform(-2.3, 2.3, n),
+        range_m=rng.uniform(0.5, 40.0, n),
+        intensity=rng.uniform(0.0, 1.0, n),
+    )
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_scan_round_trip_is_exact(tmp_path: Path, suffix: str) -> None:
+    scan = _scan()
+    path = tmp_path / f"scan{suffix}"
+    write_profile_scan(scan, path, extra={"label": np.arange(len(scan))})
+    back = read_profile_scan(path)
+    np.testing.assert_array_equal(back.profile, scan.profile)
+    for name in ("angle_rad", "range_m", "intensity"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(scan, name))
+    assert back.n_profiles == int(scan.profile[-1]) + 1
+    assert back.source == str(path)
+
+
+@given(
+    rows=st.lists(
+        st.tuples(
+            st.integers(0, 3),
+            st.floats(-math.pi, math.pi, allow_nan=False),
+            st.floats(0.0, 1e3, allow_nan=False),
+            st.floats(-1e3, 1e3, allow_nan=False),
+        ),
+        min_size=1,
+        max_size=30,
+    )
+)
+@settings(max_examples=40, deadline=None)
+def test_scan_csv_round_trip_property(
+    rows: list[tuple[int, float, float, float]], tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    steps = np.array([r[0] for r in rows])
+    scan = ProfileScan(
+        profile=np.cumsum(steps),
+        angle_rad=np.array([r[1] for r in rows]),
+        range_m=np.array([r[2] for r in rows]),
+        intensity=np.array([r[3] for r in rows]),
+    )
+    path = tmp_path_factory.mktemp("p") / "s.csv"
+    write_profile_scan(scan, path)
+    back = read_profile_scan(path)
+    np.testing.assert_array_equal(back.profile, scan.profile)
+    np.testing.assert_array_equal(back.angle_rad, scan.angle_rad)
+    np.testing.assert_array_equal(back.range_m, scan.range_m)
+    np.testing.assert_array_equal(back.intensity, scan.intensity)
+
+
+def _write_text(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("text", "fragments"),
+    [
+        ("profile,angle_rad,range_m\n0,0.1,2\n", ["missing column", "intensity"]),
+        ("profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n1,x,2,0.5\n", ["row 1", "angle_rad"]),
+        (
+            "profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n3,0.1,2,0.5\n2,0.1,2,0.5\n",
+            ["row 2 (line 4)", "must not decrease", "2 after 3"],
+        ),
+        ("profile,angle_rad,range_m,intensity\n0.5,0.1,2,0.5\n", ["row 0 (line 2)", "whole"]),
+        ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["row 0", ">= 0"]),
+        ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["negative range"]),
+        ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
+        ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
+        ("", ["empty file"]),
+    ],
+)
+def test_bad_scans_name_the_problem(tmp_path: Path, text: str, fragments: list[str]) -> None:
+    path = _write_text(tmp_path, "scan.csv", text)
+    with pytest.raises(InputError) as err:
+        read_profile_scan(path)
+    for frag in fragments:
+        assert frag in str(err.value)
+
+
+def test_scan_missing_file_and_bad_suffix(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not found"):
+        read_profile_scan(tmp_path / "nope.csv")
+    with pytest.raises(InputError, match="unknown table type"):
+        read_profile_scan(_write_text(tmp_path, "scan.txt", "profile\n"))
+
+
+def test_scan_container_checks_lengths() -> None:
+    with pytest.raises(InputError, match=r"shape \(1,\), expected \(2,\)"):
+        ProfileScan(
+            profile=np.array([0, 1]),
+            angle_rad=np.array([0.0]),
+            range_m=np.ones(2),
+            intensity=np.ones(2),
+        )
+    with pytest.raises(InputError, match="no returns"):
+        ProfileScan(
+            profile=np.array([], dtype=np.int64),
+            angle_rad=np.array([]),
+            range_m=np.array([]),
+            intensity=np.array([]),
+        )
+
+
+def test_sync_points_round_trip_and_ecef(tmp_path: Path) -> None:
+    pts = SyncPoints(
+        names=("S1", "S 2"),
+        lat_lon_h=np.array([[46.8, -71.2, 10.0], [46.8001, -71.2002, 11.5]]),
+    )
+    path = tmp_path / "pts.csv"
+    write_sync_points(pts, path)
+    back = read_sync_points(path)
+    assert back.names == pts.names
+    np.testing.assert_array_equal(back.lat_lon_h, pts.lat_lon_h)
+    np.testing.assert_allclose(
+        back.pos_ecef_m(), geodetic_to_ecef([46.8, 46.8001], [-71.2, -71.2002], [10.0, 11.5])
+    )
+
+
+@pytest.mark.parametrize(
+    ("text", "fragments"),
+    [
+        ("name,lat_deg,lon_deg\nA,1,2\n", ["missing column", "h_m"]),
+        ("name,lat_deg,lon_deg,h_m\nA,1,2,3\nA,1,2,3\n", ["line 3", "already used on line 2"]),
+        ("name,lat_deg,lon_deg,h_m\n,1,2,3\n", ["line 2", "empty name"]),
+        ("name,lat_deg,lon_deg,h_m\nA,91,2,3\n", ["line 2", "latitude"]),
+        ("name,lat_deg,lon_deg,h_m\nA,x,2,3\n", ["line 2", "lat_deg", "'x'"]),
+        ("name,lat_deg,lon_deg,h_m\nA,1,nan,3\n", ["lon_deg", "finite"]),
+        ("name,lat_deg,lon_deg,h_m\nA,1,2\n", ["line 2 has 3 fields"]),
+        ("name,lat_deg,lon_deg,h_m\n", ["no data rows"]),
+        ("", ["empty file"]),
+    ],
+)
+def test_bad_sync_points(tmp_path: Path, text: str, fragments: list[str]) -> None:
+    path = _write_text(tmp_path, "pts.csv", text)
+    with pytest.raises(InputError) as err:
+        read_sync_points(path)
+    for frag in fragments:
+        assert frag in str(err.value)
+    with pytest.raises(InputError, match="not found"):
+        read_sync_points(tmp_path / "missing.csv")
+
+
+def test_sync_points_container_checks() -> None:
+    with pytest.raises(InputError, match="more than once"):
+        SyncPoints(names=("A", "A"), lat_lon_h=np.zeros((2, 3)))
+    with pytest.raises(InputError, match="one"):
+        SyncPoints(names=("A",), lat_lon_h=np.zeros((2, 3)))
+
+
+def test_pulses_round_trip_and_bad_input(tmp_path: Path) -> None:
+    t = 1.4e9 + 0.0305 * np.arange(100) + 1e-7
+    path = tmp_path / "pulses.csv"
+    write_pulses(t, path)
+    np.testing.assert_array_equal(read_pulses(path), t)
+    with pytest.raises(InputError, match=r"line 4: pulse time .* strictly increasing"):
+        read_pulses(_write_text(tmp_path, "p1.csv", "t_s\n1.0\n2.0\n1.5\n"))
+    with pytest.raises(InputError, match="1 pulse"):
+        read_pulses(_write_text(tmp_path, "p2.csv", "t_s\n1.0\n"))
+    with pytest.raises(InputError, match="'t_s'"):
+        read_pulses(_write_text(tmp_path, "p3.csv", "t_s\n1.0\nabc\n"))
+    with pytest.raises(InputError, match="missing column"):
+        read_pulses(_write_text(tmp_path, "p4.csv", "time\n1.0\n2.0\n"))
+
+
+def test_clock_document(tmp_path: Path) -> None:
+    good = _write_text(tmp_path, "c.json", json.dumps({"t0_s": 12.5, "period_s": 0.03, "x": 1}))
+    assert read_clock_document(good) == (12.5, 0.03)
+    cases = {
+        "{": "not valid JSON",
+        "[1, 2]": "JSON object",
+        json.dumps({"t0_s": 1.0}): "'period_s' must be a finite number",
+        json.dumps({"t0_s": "1", "period_s": 0.03}): "'t0_s' must be a finite number",
+        json.dumps({"t0_s": 1.0, "period_s": -0.03}): "must be > 0",
+    }
+    for i, (text, frag) in enumerate(cases.items()):
+        with pytest.raises(InputError, match=frag):
+            read_clock_document(_write_text(tmp_path, f"bad{i}.json", text))
+    with pytest.raises(InputError, match="not found"):
+        read_clock_document(tmp_path / "none.json")
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_apply_adds_time_and_scanner_coordinates(tmp_path: Path, suffix: str) -> None:
+    scan = _scan(700)
+    src = tmp_path / f"scan{suffix}"
+    write_profile_scan(scan, src, extra={"label": np.array([f"r{i}" for i in range(len(scan))])})
+    out = tmp_path / f"out{suffix}"
+    seen: list[int] = []
+    n = apply_profile_clock(src, out, 100.0, 0.03, MOUNT, chunk_points=256, progress=seen.append)
+    assert n == len(scan)
+    assert seen == [256, 512, 700]
+    (chunk,) = iter_table_chunks(out, 10_000, ("t_s", "x_m", "y_m", "z_m"))
+    assert list(chunk)[:5] == ["profile", "angle_rad", "range_m", "intensity", "label"]
+    assert chunk["label"].tolist() == [f"r{i}" for i in range(len(scan))]
+    expected_t = 100.0 + (scan.profile + scan.angle_rad / (2 * np.pi)) * 0.03
+    np.testing.assert_allclose(chunk["t_s"], expected_t, rtol=0, atol=1e-12)
+    xyz = np.column_stack([chunk["x_m"], chunk["y_m"], chunk["z_m"]])
+    np.testing.assert_allclose(xyz, MOUNT.profile_to_scanner(scan.angle_rad, scan.range_m))
+    # Azimuth 30 deg: the profile plane is the scanner Y-Z plane turned about Z.
+    normal = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0)), 0.0])
+    np.testing.assert_allclose(xyz @ normal, 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), scan.range_m)
+
+
+def test_apply_bad_input(tmp_path: Path) -> None:
+    src = _write_text(tmp_path, "scan.csv", "profile,angle_rad,range_m,t_s\n0,0.1,2,5\n1,0.1,2,5\n")
+    with pytest.raises(InputError, match=r"already has column\(s\) \['t_s'\]"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    with pytest.raises(InputError, match=r"\[profiler\]"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, Mount())
+    with pytest.raises(InputError, match="period_s > 0"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.0, MOUNT)
+    lines = "profile,angle_rad,range_m\n" + "".join(f"{p},0.1,2\n" for p in [0, 1, 2, 3, 1])
+    dec = _write_text(tmp_path, "dec.csv", lines)
+    with pytest.raises(InputError, match=r"row 4 \(line 6\).*1 after 3"):
+        apply_profile_clock(dec, tmp_path / "o.csv", 0.0, 0.03, MOUNT, chunk_points=2)
+    assert not (tmp_path / "o.csv").exists()
+    assert not list(tmp_path.glob("*.part"))

@@ -1,0 +1,399 @@
+"""Method B: clock from sync points in object space, by simulation with known truth."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from kinsync.budget import period_error_budget
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.frames import ecef_to_geodetic, euler_rpy_to_quaternion, ned_to_ecef
+from kinsync.io.profile_scan import ProfileScan, SyncPoints
+from kinsync.mount import Mount
+from kinsync.sim.drive import noisy_trajectory
+from kinsync.sim.profiler import (
+    DriveScanConfig,
+    DriveScanSimulation,
+    ProfilerConfig,
+    profiles_near_targets,
+    simulate_drive_scan,
+    simulate_profiler,
+)
+from kinsync.sim.scene import SceneLayout
+from kinsync.sync.object_space import (
+    ObjectSpaceConfig,
+    ObjectSpaceResult,
+    ProfileClock,
+    detect_sightings,
+    find_crossings,
+    pulse_offset,
+    synchronise_object_space,
+)
+from kinsync.trajectory import Trajectory
+
+EXACT = ObjectSpaceConfig(position_std_m=0.0)
+
+
+@pytest.fixture(scope="module")
+def oval() -> DriveScanSimulation:
+    """The issue's scenario: 5 min oval, sync points at start and end (exact trajectory)."""
+    return simulate_drive_scan(DriveScanConfig(near_targets_only=True))
+
+
+@pytest.fixture(scope="module")
+def oval_result(oval: DriveScanSimulation) -> ObjectSpaceResult:
+    return synchronise_object_space(
+        oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, EXACT
+    )
+
+
+def _errors(result: ObjectSpaceResult, sim: DriveScanSimulation) -> tuple[float, float]:
+    return result.t0_s - sim.truth["t0_s"], result.period_s - sim.truth["period_s"]
+
+
+def test_oval_exact_trajectory(oval: DriveScanSimulation, oval_result: ObjectSpaceResult) -> None:
+    r = oval_result
+    dt0, dT = _errors(r, oval)
+    assert abs(dT) < 5e-7
+    assert abs(dt0) < 2e-3
+    assert abs(dT) < 4 * r.period_std_s
+    assert abs(dt0) < 4 * r.t0_std_s
+    near = [s for s in r.sightings if s.range_m < 5.0]
+    assert sorted(s.name for s in near) == ["S1", "S1", "S2", "S2"]
+    assert not r.ambiguous
+    assert r.n_crossings["S1"] >= 2
+    assert r.n_crossings["S2"] >= 2
+    assert len(r.unmatched) >= 4  # the control targets are not sync points
+    # Every regression pair is the true crossing of the target seen.
+    passes = {t["name"]: [p["t_s"] for p in t["passes"]] for t in oval.truth["targets"]}
+    for s in r.sightings:
+        assert min(abs(np.array(passes[s.name]) - s.t_s)) < 0.05
+        assert s.helix_correction_s == pytest.approx(s.angle_rad / (2 * np.pi) * r.period_s)
+
+
+def test_helix_correction_is_needed(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult
+) -> None:
+    """Regressing on the profile number alone (no helix correction) biases t0."""
+    r = oval_result
+    n = np.array([s.profile for s in r.sightings])
+    t = np.array([s.t_s for s in r.sightings])
+    w = 1.0 / np.array([s.std_s for s in r.sightings])
+    _, t0_naive = np.polyfit(n, t, 1, w=w)
+    helix = np.array([s.helix_correction_s for s in r.sightings])
+    assert abs(np.mean(helix)) > 3e-3  # targets about 70 deg from nadir: ~6 ms
+    assert abs(t0_naive - oval.truth["t0_s"]) > 4 * r.t0_std_s
+    assert abs(r.t0_s - oval.truth["t0_s"]) < 4 * r.t0_std_s
+
+
+def test_oval_with_2cm_trajectory_noise(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult
+) -> None:
+    noisy = noisy_trajectory(
+        oval.truth_trajectory,
+        std_pos_ned_m=(0.02, 0.02, 0.02),
+        std_att_deg=(0.0, 0.0, 0.0),
+        corr_time_s=5.0,
+        seed=11,
+    )
+    r = synchronise_object_space(
+        oval.scanner.scan,
+        noisy,
+        oval.config.mount,
+        oval.sync_points,
+        ObjectSpaceConfig(position_std_m=0.02),
+    )
+    dt0, dT = _errors(r, oval)
+    assert abs(dt0) < 4 * r.t0_std_s
+    assert abs(dT) < 4 * r.period_std_s
+    assert r.t0_std_s > 3 * oval_result.t0_std_s  # 2 cm at 2 m/s is ~10 ms a sighting
+    assert abs(dt0) < 0.05
+    assert abs(dT) < 1e-5
+
+
+def test_period_error_propagates_like_the_budget(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult
+) -> None:
+    """sigma_T over N profiles is N sigma_T in time and v N sigma_T in position (SPEC 3)."""
+    r = oval_result
+    (c00, c01), (_, c11) = r.covariance
+    n_ref = -c01 / c11  # profile where the clock is best known
+    sigma_min = math.sqrt(c00 - c01 * c01 / c11)
+    speed = oval.config.speed_m_s
+    for n_profiles in (1000, 5000, oval.truth["n_profiles"]):
+        budget = period_error_budget(n_profiles, r.period_std_s, speed)
+        grown = float(r.time_std_s(n_ref + n_profiles))
+        assert math.sqrt(grown**2 - sigma_min**2) == pytest.approx(budget.time_error_s, rel=1e-6)
+        assert speed * math.sqrt(grown**2 - sigma_min**2) == pytest.approx(
+            budget.position_error_m, rel=1e-6
+        )
+    # The clock's real error at the last profile is within the propagated sigma.
+    last = oval.truth["n_profiles"] - 1
+    truth_t = oval.truth["t0_s"] + last * oval.truth["period_s"]
+    assert abs(float(r.clock.time_s(last, 0.0)) - truth_t) < 4 * float(r.time_std_s(last))
+    # Against the prior alone (1 % of T) the budget would be hopeless: metres.
+    prior = period_error_budget(last, 0.01 * 0.0303, speed)
+    assert prior.position_error_m > 1.0
+    assert speed * float(r.time_std_s(last)) < 0.01
+
+
+@pytest.fixture(scope="module")
+def loop() -> DriveScanSimulation:
+    return simulate_drive_scan(
+        DriveScanConfig(
+            route="loop", duration_s=80.0, extra_first_pulse=True, near_targets_only=True, seed=3
+        )
+    )
+
+
+def test_loop_with_five_candidate_crossings_and_an_extra_pulse(
+    loop: DriveScanSimulation,
+) -> None:
+    r = synchronise_object_space(
+        loop.scanner.scan,
+        loop.trajectory,
+        loop.config.mount,
+        loop.sync_points,
+        EXACT,
+        pulses_t_s=loop.pulses_t_s,
+    )
+    assert min(r.n_crossings.values()) >= 5
+    dt0, dT = _errors(r, loop)
+    assert abs(dt0) < 4 * r.t0_std_s
+    assert abs(dT) < 4 * r.period_std_s
+    assert abs(dt0) < 2e-3
+    passes = {t["name"]: [p["t_s"] for p in t["passes"]] for t in loop.truth["targets"]}
+    for s in r.sightings:
+        assert min(abs(np.array(passes[s.name]) - s.t_s)) < 0.05
+    assert {s.name for s in r.sightings} == {"S1", "S2"}
+    assert r.pulses is not None
+    assert r.pulses.offset == 1
+    assert r.pulses.sure
+    assert not r.ambiguous
+
+
+def test_ambiguity_is_reported() -> None:
+    """Two sightings of one target a lap apart fit every pair of consecutive laps."""
+    sim = simulate_drive_scan(DriveScanConfig(route="loop", near_targets_only=True, seed=5))
+    s1 = next(t for t in sim.truth["targets"] if t["name"] == "S1")
+    close = [p for p in s1["passes"] if p["n_returns"] >= 8][1:3]
+    keep = np.zeros(len(sim.scanner.scan), dtype=bool)
+    for p in close:
+        keep |= (sim.scanner.scan.profile >= p["first_profile"] - 2) & (
+            sim.scanner.scan.profile <= p["last_profile"] + 2
+        )
+    s = sim.scanner.scan
+    scan = ProfileScan(s.profile[keep], s.angle_rad[keep], s.range_m[keep], s.intensity[keep])
+    only_s1 = SyncPoints(("S1",), sim.sync_points.lat_lon_h[:1])
+    r = synchronise_object_space(scan, sim.trajectory, sim.config.mount, only_s1, EXACT)
+    assert r.ambiguous
+    assert len(r.alternatives) >= 2
+    shifts = sorted(abs(a.t0_s - r.t0_s) for a in r.alternatives)
+    assert shifts[0] > 30.0  # whole laps apart
+    assert all(abs(a.period_s - r.period_s) < 1e-6 for a in r.alternatives)
+
+
+def _straight_trajectory() -> tuple[Trajectory, tuple[float, float, float]]:
+    origin = (46.8, -71.2, 10.0)
+    t = 1000.0 + np.arange(0.0, 20.0, 0.1)
+    pos = np.column_stack([2.0 * (t - 1000.0), np.zeros_like(t), np.zeros_like(t)])
+    vel = np.tile([2.0, 0.0, 0.0], (t.size, 1))
+    q = euler_rpy_to_quaternion(np.zeros_like(t), np.zeros_like(t), np.zeros_like(t))
+    traj = Trajectory(
+        t_s=t, q_body_to_ned=q, pos_ned_m=pos, origin_lat_lon_h=origin, vel_ned_m_s=vel
+    )
+    return traj, origin
+
+
+def test_crossing_of_a_straight_drive_is_analytic() -> None:
+    traj, origin = _straight_trajectory()
+    mount = Mount(lever_arm_body_m=(0.5, 0.0, -1.0), profiler_azimuth_deg=0.0, latency_s=0.01)
+    point_ned = np.array([10.0, 3.0, 1.0])
+    llh = ecef_to_geodetic(ned_to_ecef(point_ned, *origin))
+    (c,) = find_crossings(traj, mount, SyncPoints(("P",), llh[None, :]))
+    # The scanner's Y-Z plane passes N = 10 when 2 (t - 1000) + 0.5 = 10, read from the
+    # record tagged t + latency: the crossing time on the scanner's scale is 10 ms early.
+    assert c.t_s == pytest.approx(1000.0 + 9.5 / 2.0 - 0.01, abs=1e-9)
+    assert c.angle_rad == pytest.approx(math.atan2(3.0, 2.0), abs=1e-9)
+    assert c.range_m == pytest.approx(math.hypot(3.0, 2.0), abs=1e-6)
+    assert c.rate_m_s == pytest.approx(-2.0, abs=1e-6)
+    assert c.drift_m_s == pytest.approx((0.0, 0.0), abs=1e-6)
+
+
+def test_detection_rejects_glints_and_refines_by_sphere() -> None:
+    # A sphere of 0.15 m at 3 m swept at 6 cm per profile, 1 deg beams, plus glints.
+    centre_x, T, radius, dist = 100.37, 0.03, 0.15, 3.0
+    prof, ang, rng_m = [], [], []
+    for n in range(95, 106):
+        for a in np.radians(np.arange(50.0, 70.0, 1.0)):
+            x = n + a / (2 * np.pi)
+            u = 0.06 * (x - centre_x)
+            # In-plane: centre at angle 60 deg, range dist; beam at angle a.
+            d = dist * math.sin(a - math.radians(60.0))
+            rho2 = radius**2 - u**2 - d**2
+            if rho2 > 0:
+                prof.append(n)
+                ang.append(a)
+                rng_m.append(dist * math.cos(a - math.radians(60.0)) - math.sqrt(rho2))
+    prof += [20, 300, 301]
+    ang += [0.1, -1.0, 2.0]
+    rng_m += [5.0, 6.0, 7.0]
+    order = np.argsort(prof, kind="stable")
+    scan = ProfileScan(
+        np.array(prof)[order],
+        np.array(ang)[order],
+        np.array(rng_m)[order],
+        np.full(len(prof), 0.95),
+    )
+    (s,) = detect_sightings(scan)
+    assert s.refinement == "sphere"
+    assert s.x == pytest.approx(centre_x, abs=0.02)
+    assert s.angle_rad == pytest.approx(math.radians(60.0), abs=1e-3)
+    assert s.range_m == pytest.approx(dist, abs=1e-3)
+    (c,) = detect_sightings(scan, ObjectSpaceConfig(refinement="centroid"))
+    assert c.refinement == "centroid"
+    assert c.x == pytest.approx(centre_x, abs=3 * c.profile_std)
+    assert detect_sightings(scan, ObjectSpaceConfig(intensity_threshold=0.99)) == ()
+    del T
+
+
+def test_pulse_offset() -> None:
+    clock = ProfileClock(1000.0, 0.03)
+    n = np.arange(500)
+    for k in (-2, 0, 1, 3):
+        pulses = 1000.0 + (np.arange(500 + k) - k) * 0.03 if k >= 0 else 1000.0 + (n - k) * 0.03
+        got = pulse_offset(pulses, clock, reference_profile=250, time_std_s=0.001)
+        assert got.offset == k
+        assert got.sure
+        assert abs(got.fraction) < 1e-9
+    shaky = pulse_offset(1000.0 + n * 0.03 + 0.012, clock, time_std_s=0.001)
+    assert not shaky.sure
+    uncertain = pulse_offset(1000.0 + n * 0.03, clock, time_std_s=0.01)
+    assert not uncertain.sure
+    with pytest.raises(ObservabilityError, match=r"pulse 101 comes 2\.00 periods"):
+        pulse_offset(1000.0 + np.delete(n, 101) * 0.03, clock)
+    with pytest.raises(ObservabilityError, match="every"):
+        pulse_offset(1000.0 + n * 0.031, clock)
+    with pytest.raises(InputError, match="strictly increasing"):
+        pulse_offset([1.0, 1.0], clock)
+
+
+def test_bad_input(oval: DriveScanSimulation) -> None:
+    scan = oval.scanner.scan
+    traj, mount, pts = oval.trajectory, oval.config.mount, oval.sync_points
+    dim = ProfileScan(scan.profile, scan.angle_rad, scan.range_m, scan.intensity * 0.5)
+    with pytest.raises(ObservabilityError, match="0 target sighting"):
+        synchronise_object_space(dim, traj, mount, pts, EXACT)
+    first = scan.profile <= scan.profile[np.argmax(scan.intensity > 0.8)] + 10
+    one = ProfileScan(
+        scan.profile[first], scan.angle_rad[first], scan.range_m[first], scan.intensity[first]
+    )
+    with pytest.raises(ObservabilityError, match="1 target sighting"):
+        synchronise_object_space(one, traj, mount, pts, EXACT)
+    away = SyncPoints(pts.names, pts.lat_lon_h + np.array([0.0, 0.01, 0.0]))  # ~760 m east
+    with pytest.raises(ObservabilityError, match="never crosses a sync point"):
+        synchronise_object_space(scan, traj, mount, away, EXACT)
+    far = SyncPoints(pts.names, pts.lat_lon_h + np.array([0.5, 0.0, 0.0]))
+    with pytest.raises(InputError, match=r"'S1' lies 55.\d km .* not in the same frame"):
+        synchronise_object_space(scan, traj, mount, far, EXACT)
+    with pytest.raises(InputError, match=r"no \[profiler\] azimuth_deg"):
+        synchronise_object_space(scan, traj, Mount(), pts, EXACT)
+    # Only the two close sightings of S1: no pair of its crossings fits a 0.04 s period.
+    s1 = next(t for t in oval.truth["targets"] if t["name"] == "S1")
+    keep = np.zeros(len(scan), dtype=bool)
+    for p in s1["passes"]:
+        if p["n_returns"] >= 8:
+            keep |= (scan.profile >= p["first_profile"]) & (scan.profile <= p["last_profile"])
+    two = ProfileScan(
+        scan.profile[keep], scan.angle_rad[keep], scan.range_m[keep], scan.intensity[keep]
+    )
+    only_s1 = SyncPoints(("S1",), pts.lat_lon_h[:1])
+    assert len(synchronise_object_space(two, traj, mount, only_s1, EXACT).sightings) == 2
+    wrong = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=0.04)
+    with pytest.raises(ObservabilityError, match=r"no assignment .* within 0\.01"):
+        synchronise_object_space(two, traj, mount, only_s1, wrong)
+    with pytest.raises(InputError, match="must not decrease"):
+        ProfileScan(scan.profile[::-1], scan.angle_rad, scan.range_m, scan.intensity)
+    for kwargs, frag in [
+        ({"period_tolerance": 0.6}, "too wide"),
+        ({"period_prior_s": -1.0}, "period-prior-s"),
+        ({"position_std_m": -0.1}, "position_std_m"),
+        ({"min_returns": 0}, "min_returns"),
+        ({"refinement": "median"}, "refinement"),
+    ]:
+        with pytest.raises(InputError, match=frag):
+            ObjectSpaceConfig(**kwargs)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def cheap() -> DriveScanSimulation:
+    """The oval with 25 Hz records, no control targets, scanned over 50-100 deg: fast."""
+    return simulate_drive_scan(
+        DriveScanConfig(
+            rate_hz=25.0,
+            near_targets_only=True,
+            profiler=ProfilerConfig(range_noise_m=0.003, angle_min_deg=50.0, angle_max_deg=100.0),
+            layout=SceneLayout(n_control=0),
+        )
+    )
+
+
+def _ratio(errors: list[float], sigmas: list[float]) -> float:
+    return float(np.sqrt(np.mean(np.square(errors))) / np.sqrt(np.mean(np.square(sigmas))))
+
+
+@pytest.mark.slow
+def test_monte_carlo_sigma_is_honest_exact_trajectory(cheap: DriveScanSimulation) -> None:
+    """30 scans of the oval (new noise, new clock phase): reported sigma = spread."""
+    sim = cheap
+    rng = np.random.default_rng(2024)
+    e0, eT, s0, sT = [], [], [], []
+    for run in range(30):
+        t0 = sim.truth["t0_s"] + rng.uniform(0.0, sim.config.period_s)
+        cfg = dataclasses.replace(
+            sim.config.profiler, t0_s=t0, seed=1000 + run, period_s=sim.config.period_s
+        )
+        wanted = profiles_near_targets(sim.truth_trajectory, sim.config.mount, sim.scene, cfg, t0)
+        sc = simulate_profiler(
+            sim.truth_trajectory, sim.config.mount, sim.scene, cfg, profiles=wanted
+        )
+        r = synchronise_object_space(
+            sc.scan, sim.truth_trajectory, sim.config.mount, sim.sync_points, EXACT
+        )
+        e0.append(r.t0_s - t0)
+        eT.append(r.period_s - sim.config.period_s)
+        s0.append(r.t0_std_s)
+        sT.append(r.period_std_s)
+    assert 0.6 <= _ratio(e0, s0) <= 1.6
+    assert 0.6 <= _ratio(eT, sT) <= 1.6
+    assert max(abs(np.array(eT))) < 5e-7
+    assert max(abs(np.array(e0))) < 2e-3
+
+
+@pytest.mark.slow
+def test_monte_carlo_sigma_is_honest_with_trajectory_noise(cheap: DriveScanSimulation) -> None:
+    """30 noisy trajectories (2 cm, correlated over 5 s) against one scan."""
+    sim = cheap
+    e0, eT, s0, sT = [], [], [], []
+    cfg = ObjectSpaceConfig(position_std_m=0.02)
+    for run in range(30):
+        noisy = noisy_trajectory(
+            sim.truth_trajectory,
+            std_pos_ned_m=(0.02, 0.02, 0.02),
+            std_att_deg=(0.0, 0.0, 0.0),
+            corr_time_s=5.0,
+            seed=500 + run,
+        )
+        r = synchronise_object_space(
+            sim.scanner.scan, noisy, sim.config.mount, sim.sync_points, cfg
+        )
+        dt0, dT = _errors(r, sim)
+        e0.append(dt0)
+        eT.append(dT)
+        s0.append(r.t0_std_s)
+        sT.append(r.period_std_s)
+    assert 0.6 <= _ratio(e0, s0) <= 1.6
+    assert 0.6 <= _ratio(eT, sT) <= 1.6
