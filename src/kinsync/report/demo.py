@@ -27,6 +27,7 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.report.demo_clock import clock_section
 from kinsync.report.demo_georef import georef_section
+from kinsync.report.demo_ins import find_navego_folder, ins_section, navego_section
 from kinsync.report.demo_method_a import cidco_section, find_cidco_folder, method_a_section
 from kinsync.report.demo_method_b import method_b_section
 from kinsync.report.demo_validation import validation_section
@@ -241,6 +242,10 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     if progress:
         progress("georeferencing a simulated scan")
     sections.append(georef_section(out_dir, summary))
+    sections.append(ins_section(out_dir, summary, progress=progress)[0])
+    navego = find_navego_folder()
+    if navego is not None:
+        sections.append(navego_section(navego, out_dir, summary, progress)[0])
     if progress:
         progress("Method B: profile scanner synchronised in object space")
     method_b, _ = method_b_section(out_dir, summary)
