@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +18,14 @@ from kinsync.frames import (
     quaternion_to_matrix,
     rotation_ned_to_ecef,
 )
-from kinsync.georef import GeorefTrajectory, PositionMethod, georeference, georeference_numpy
+from kinsync.georef import (
+    GeorefTrajectory,
+    PositionMethod,
+    georeference,
+    georeference_numpy,
+    georeference_profile,
+    profile_points_to_scanner,
+)
 from kinsync.mount import Mount
 from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import Trajectory
@@ -244,3 +252,62 @@ def test_empty_input(traj: Trajectory) -> None:
     out, inside = georeference(np.empty(0), np.empty((0, 3)), gt, MOUNT)
     assert out.shape == (0, 3)
     assert inside.shape == (0,)
+
+
+def _profile_scan(
+    n: int, rng: np.random.Generator, t_end: float = 20.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Relative times, ranges (m) and mirror angles (rad) of a 2D profile scan."""
+    t_rel = np.sort(rng.uniform(0.05, t_end - 0.05, n))
+    return t_rel, rng.uniform(3.0, 30.0, n), rng.uniform(-np.pi, np.pi, n)
+
+
+def _profile_truth_scanner(range_m: np.ndarray, angle_rad: np.ndarray, az_deg: float) -> np.ndarray:
+    """Rz(azimuth) (0, r sin phi, r cos phi), built from a rotation matrix (SPEC section 4)."""
+    profile_plane = np.column_stack(
+        [np.zeros_like(range_m), range_m * np.sin(angle_rad), range_m * np.cos(angle_rad)]
+    )
+    Rz = euler_rpy_to_matrix(0.0, 0.0, math.radians(az_deg))
+    out: np.ndarray = profile_plane @ Rz.T
+    return out
+
+
+@pytest.mark.parametrize("azimuth_deg", [0.0, 17.5, -90.0])
+def test_profile_points_within_a_tenth_of_a_millimetre_of_analytic_truth(
+    traj: Trajectory, azimuth_deg: float
+) -> None:
+    rng = np.random.default_rng(21)
+    t_rel, r, phi = _profile_scan(20_000, rng)
+    mount = Mount(
+        lever_arm_body_m=MOUNT.lever_arm_body_m,
+        boresight_rpy_deg=MOUNT.boresight_rpy_deg,
+        profiler_azimuth_deg=azimuth_deg,
+    )
+    gt = GeorefTrajectory.from_trajectory(traj)
+    out, inside = georeference_profile(t_rel + 1.0e9, r, phi, gt, mount)
+    assert inside.all()
+    truth = _truth_ecef(t_rel, _profile_truth_scanner(r, phi, azimuth_deg), mount)
+    assert np.linalg.norm(out - truth, axis=1).max() < 1e-4
+    # A wrong azimuth moves points by ~ r * angle: the test sees the azimuth.
+    wrong = replace(mount, profiler_azimuth_deg=azimuth_deg + 0.01)
+    moved, _ = georeference_profile(t_rel + 1.0e9, r, phi, gt, wrong)
+    assert np.linalg.norm(moved - truth, axis=1).max() > 1e-3
+
+
+@pytest.mark.parametrize(
+    ("r", "phi", "mount", "match"),
+    [
+        ([1.0, 2.0], [0.0, 0.1], Mount(), r"\[profiler\] azimuth_deg"),
+        ([1.0, np.nan], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "index 1 not finite"),
+        ([1.0, 2.0], [np.inf, 0.1], Mount(profiler_azimuth_deg=0.0), "index 0 not finite"),
+        ([1.0, -2.0], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "index 1 is negative"),
+        ([1.0, 2.0], [0.0], Mount(profiler_azimuth_deg=0.0), "one length"),
+        ([[1.0]], [[0.0]], Mount(profiler_azimuth_deg=0.0), "1-D"),
+        (["a", "b"], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "must be numbers"),
+    ],
+)
+def test_bad_profile_points_raise_input_error(
+    r: object, phi: object, mount: Mount, match: str
+) -> None:
+    with pytest.raises(InputError, match=match):
+        profile_points_to_scanner(r, phi, mount)  # type: ignore[arg-type]

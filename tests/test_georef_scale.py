@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import laspy
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from kinsync.errors import InputError
@@ -67,9 +69,24 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     las.gps_time = cols["t_s"] - 1e9
     las.intensity = cols["intensity"].astype(np.uint16)
     las.write(folder / "points.laz")
+    rng_p = np.random.default_rng(12)
+    profile = {
+        "t_s": cols["t_s"],
+        "range_m": rng_p.uniform(2.0, 40.0, N),
+        "angle_rad": rng_p.uniform(-np.pi, np.pi, N),
+        "intensity": cols["intensity"],
+    }
+    with TableChunkWriter(folder / "profile.parquet") as w:  # row groups of 500 rows
+        for i in range(0, N, 500):
+            w.write({k: v[i : i + 500] for k, v in profile.items()})
     cols["y_m"][4 * CHUNK + 3] = np.nan
     with TableChunkWriter(folder / "bad.csv") as w:
         w.write(cols)
+    x_text = np.array([repr(float(v)) for v in cols["x_m"]], dtype=object)
+    x_text[3003] = "x"  # in the 5th chunk (row groups of 700 rows)
+    with TableChunkWriter(folder / "bad.parquet") as w:
+        for i in range(0, N, CHUNK):
+            w.write({k: v[i : i + CHUNK] for k, v in (cols | {"x_m": x_text}).items()})
     return {"dir": folder, "traj": folder / "traj.csv"}
 
 
@@ -106,23 +123,69 @@ def test_csv_output_is_byte_identical(inputs: dict[str, Path], scheduler: str) -
     assert done[-1] == N
 
 
-def test_laz_output_is_point_by_point_identical(inputs: dict[str, Path], scheduler: str) -> None:
+def test_laz_output_is_point_by_point_identical(
+    inputs: dict[str, Path], scheduler: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     serial = laspy.read(_run(inputs, "points.laz", "serial.laz"))
-    scaled = laspy.read(_run(inputs, "points.laz", "scaled.laz", scheduler=scheduler))
+
+    def no_reading_here(*_: object) -> None:
+        raise AssertionError("the main process read points: the workers should")
+
+    with monkeypatch.context() as patch:  # the workers read their chunks by seek
+        patch.setattr("kinsync.georef.read_las_points", no_reading_here)
+        patch.setattr("kinsync.georef.LasPointReader", no_reading_here)
+        scaled = laspy.read(_run(inputs, "points.laz", "scaled.laz", scheduler=scheduler))
     assert len(scaled.points) == len(serial.points) > 0
     for name in serial.point_format.dimension_names:
         np.testing.assert_array_equal(scaled[name], serial[name], err_msg=name)
     assert scaled.header.offsets.tolist() == serial.header.offsets.tolist()
 
 
-def test_worker_error_is_the_serial_error(inputs: dict[str, Path], scheduler: str) -> None:
+def test_profile_parquet_output_is_identical_and_read_by_the_workers(
+    inputs: dict[str, Path], scheduler: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    mount = replace(MOUNT, profiler_azimuth_deg=30.0)
+    kw = {"chunk_points": CHUNK, "outside": "reject", "crs": "EPSG:4979"}
+    folder = inputs["dir"]
+    serial = folder / "profile_serial.parquet"
+    summary = georeference_file(folder / "profile.parquet", inputs["traj"], mount, serial, **kw)  # type: ignore[arg-type]
+    assert summary.points_rejected > 0
+    scaled = folder / "profile_scaled.parquet"
+    with monkeypatch.context() as patch:
+        patch.setattr("kinsync.georef.read_table_slice", lambda *_: 1 / 0)
+        georeference_file(
+            folder / "profile.parquet",
+            inputs["traj"],
+            mount,
+            scaled,
+            scheduler=scheduler,
+            workers=2,
+            **kw,  # type: ignore[arg-type]
+        )
+    assert pq.read_table(scaled).equals(pq.read_table(serial))
+    rejected = pq.read_table(folder / "profile_scaled.rejected.parquet")
+    assert rejected.equals(pq.read_table(folder / "profile_serial.rejected.parquet"))
+    assert rejected.num_rows == summary.points_rejected
+
+
+@pytest.mark.parametrize(
+    ("name", "fragment"),
+    [
+        ("bad.csv", "rows 2800..3499: georeference: scanner coordinates at index 3"),
+        ("bad.parquet", "data row 3003, column 'x_m': 'x' is not a number"),  # a read error
+    ],
+)
+def test_worker_error_is_the_serial_error(
+    inputs: dict[str, Path], scheduler: str, name: str, fragment: str
+) -> None:
+    out = name.replace("bad", "bad_out")
     with pytest.raises(InputError) as serial:
-        _run(inputs, "bad.csv", "bad_serial.csv")
+        _run(inputs, name, f"serial_{out}")
     with pytest.raises(InputError) as scaled:
-        _run(inputs, "bad.csv", "bad_scaled.csv", scheduler=scheduler)
+        _run(inputs, name, f"scaled_{out}", scheduler=scheduler, workers=2)
     assert str(scaled.value) == str(serial.value)
-    assert "not finite" in str(serial.value)
-    assert not (inputs["dir"] / "bad_scaled.csv").exists()
+    assert fragment in str(serial.value)
+    assert not (inputs["dir"] / f"scaled_{out}").exists()
 
 
 @pytest.mark.parametrize(

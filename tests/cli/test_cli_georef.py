@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import laspy
@@ -13,7 +14,7 @@ import pyarrow.parquet as pq
 import pyproj
 import pytest
 
-from kinsync.frames import ecef_to_geodetic
+from kinsync.frames import ecef_to_geodetic, euler_rpy_to_matrix
 from kinsync.georef import GeorefTrajectory, georeference
 from kinsync.io.las import las_info
 from kinsync.io.mount_file import write_mount
@@ -21,6 +22,7 @@ from kinsync.io.points import TableChunkWriter
 from kinsync.io.sbet import write_sbet
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import Trajectory
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
@@ -277,3 +279,152 @@ def test_unreachable_scheduler_is_one_line_error(
     code, stdout, err = run_cli(_args(setup, out, "--scheduler", "tcp://127.0.0.1:9"))
     assert_one_line_error(code, stdout, err, "cannot reach the Dask scheduler at tcp://127.0.0.1:9")
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------- profile scanners
+VEHICLE = TurningVehicle()  # 20 m/s on a 200 m radius, rolling and pitching, t0 = 1e9 s
+PROFILE_AZIMUTH_DEG = 12.5
+
+
+def _profile_columns(rng: np.random.Generator, n: int = N_POINTS) -> dict[str, np.ndarray]:
+    t_rel = np.sort(rng.uniform(0.05, 9.95, n))
+    return {
+        "t_s": VEHICLE.t0_s + t_rel,
+        "range_m": rng.uniform(3.0, 30.0, n),
+        "angle_rad": rng.uniform(-np.pi, np.pi, n),
+        "intensity": rng.integers(0, 1000, n),
+    }
+
+
+def _profile_truth(cols: dict[str, np.ndarray], mount: Mount, azimuth_deg: float) -> np.ndarray:
+    r, phi = cols["range_m"], cols["angle_rad"]
+    in_plane = np.column_stack([np.zeros_like(r), r * np.sin(phi), r * np.cos(phi)])
+    xyz = in_plane @ euler_rpy_to_matrix(0.0, 0.0, np.radians(azimuth_deg)).T
+    return VEHICLE.truth_ecef_m(cols["t_s"] - VEHICLE.t0_s, xyz, mount)
+
+
+@pytest.fixture
+def profile_setup(tmp_path: Path) -> dict[str, Path]:
+    write_trajectory_csv(VEHICLE.trajectory(10.0, 100.0), tmp_path / "traj.csv")
+    write_mount(replace(MOUNT, profiler_azimuth_deg=PROFILE_AZIMUTH_DEG), tmp_path / "mount.toml")
+    write_mount(MOUNT, tmp_path / "plain_mount.toml")
+    with TableChunkWriter(tmp_path / "profile.csv") as w:
+        w.write(_profile_columns(np.random.default_rng(31)))
+    return {
+        "dir": tmp_path,
+        "traj": tmp_path / "traj.csv",
+        "mount": tmp_path / "mount.toml",
+        "points": tmp_path / "profile.csv",
+    }
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_profile_table_within_a_tenth_of_a_millimetre_of_analytic_truth(
+    run_cli: RunCli, profile_setup: dict[str, Path], suffix: str
+) -> None:
+    cols = _profile_columns(np.random.default_rng(31))
+    if suffix == ".parquet":
+        profile_setup["points"] = profile_setup["dir"] / "profile.parquet"
+        with TableChunkWriter(profile_setup["points"]) as w:
+            w.write(cols)
+    out = profile_setup["dir"] / f"geo{suffix}"
+    code, stdout, err = run_cli(_args(profile_setup, out, "--json", "--chunk-points", "700"))
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == N_POINTS
+    table = pq.read_table(out) if suffix == ".parquet" else pa_csv.read_csv(out)
+    assert table.column_names == ["t_s", "range_m", "angle_rad", "intensity", "X", "Y", "Z"]
+    for name in ("t_s", "range_m", "angle_rad", "intensity"):
+        np.testing.assert_array_equal(table.column(name).to_numpy(), cols[name], err_msg=name)
+    got = np.column_stack([table.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    err_m = np.linalg.norm(got - _profile_truth(cols, MOUNT, PROFILE_AZIMUTH_DEG), axis=1)
+    assert err_m.max() < 1e-4
+
+
+def test_profile_azimuth_option_overrides_the_mount(
+    run_cli: RunCli, profile_setup: dict[str, Path]
+) -> None:
+    cols = _profile_columns(np.random.default_rng(31))
+    first, second = profile_setup["dir"] / "first.csv", profile_setup["dir"] / "second.csv"
+    option = ("--profiler-azimuth-deg", "-35.0", "--chunk-points", "600")
+    code, _, err = run_cli(_args(profile_setup, first, *option))
+    assert code == 0, err
+    table = pa_csv.read_csv(first)
+    got = np.column_stack([table.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    assert np.linalg.norm(got - _profile_truth(cols, MOUNT, -35.0), axis=1).max() < 1e-4
+    # A mount without [profiler] works with the option (and fails without it, below).
+    profile_setup["mount"] = profile_setup["dir"] / "plain_mount.toml"
+    code, _, err = run_cli(_args(profile_setup, second, *option))
+    assert code == 0, err
+    assert second.read_bytes() == first.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("change", "extra", "fragments"),
+    [
+        ("no_azimuth", (), ["[profiler] azimuth_deg", "--profiler-azimuth-deg"]),
+        ("both_sets", (), ["x_m,y_m,z_m and range_m,angle_rad", "--point-columns"]),
+        ("neither_set", (), ["range_m,angle_rad", "x_m,y_m,z_m", "the file has columns"]),
+        ("xyz_with_azimuth", ("--profiler-azimuth-deg", "3"), ["applies to profile files"]),
+        ("clash", (), ["['X']", "clash with the output coordinates"]),
+        ("nan_range", (), ["rows 0..2499", "index 40 not finite"]),
+        ("negative_range", (), ["index 7 is negative"]),
+        ("none", ("--point-columns", "polar"), ["--point-columns must be"]),
+        ("none", ("--profiler-azimuth-deg", "inf"), ["azimuth_deg", "finite"]),
+    ],
+)
+def test_bad_profile_input_is_one_line_error(
+    run_cli: RunCli,
+    profile_setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    change: str,
+    extra: tuple[str, ...],
+    fragments: list[str],
+) -> None:
+    cols: dict[str, np.ndarray] = _profile_columns(np.random.default_rng(32))
+    if change == "no_azimuth":
+        profile_setup["mount"] = profile_setup["dir"] / "plain_mount.toml"
+    elif change in ("both_sets", "xyz_with_azimuth"):
+        n = N_POINTS
+        cols |= {"x_m": np.zeros(n), "y_m": np.ones(n), "z_m": np.ones(n)}
+        if change == "xyz_with_azimuth":
+            del cols["range_m"], cols["angle_rad"]
+    elif change == "neither_set":
+        del cols["angle_rad"]
+    elif change == "clash":
+        cols["X"] = np.zeros(N_POINTS)
+    elif change == "nan_range":
+        cols["range_m"][40] = np.nan
+    elif change == "negative_range":
+        cols["range_m"][7] = -1.0
+    with TableChunkWriter(profile_setup["points"]) as w:
+        w.write(cols)
+    out = profile_setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(profile_setup, out, *extra))
+    assert_one_line_error(code, stdout, err, *fragments)
+    assert not out.exists()
+
+
+def test_profile_columns_can_be_chosen_when_both_sets_exist(
+    run_cli: RunCli, profile_setup: dict[str, Path]
+) -> None:
+    cols = _profile_columns(np.random.default_rng(33))
+    rng = np.random.default_rng(34)
+    xyz = {c: rng.uniform(-5, 5, N_POINTS) for c in ("x_m", "y_m", "z_m")}
+    with TableChunkWriter(profile_setup["points"]) as w:
+        w.write(cols | xyz)
+    out_p, out_x = profile_setup["dir"] / "p.parquet", profile_setup["dir"] / "x.parquet"
+    code, _, err = run_cli(_args(profile_setup, out_p, "--point-columns", "profile"))
+    assert code == 0, err
+    table = pq.read_table(out_p)
+    assert table.column_names == [*cols, "x_m", "y_m", "z_m", "X", "Y", "Z"]
+    got = np.column_stack([table.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    truth = _profile_truth(cols, MOUNT, PROFILE_AZIMUTH_DEG)
+    assert np.linalg.norm(got - truth, axis=1).max() < 1e-4
+    code, _, err = run_cli(_args(profile_setup, out_x, "--point-columns", "xyz"))
+    assert code == 0, err
+    table = pq.read_table(out_x)
+    assert table.column_names == [*cols, "X", "Y", "Z"]  # x_m,y_m,z_m replaced in place
+    got = np.column_stack([table.column(c).to_numpy() for c in ("X", "Y", "Z")])
+    scanner = np.column_stack([xyz["x_m"], xyz["y_m"], xyz["z_m"]])
+    truth = VEHICLE.truth_ecef_m(cols["t_s"] - VEHICLE.t0_s, scanner, MOUNT)
+    assert np.linalg.norm(got - truth, axis=1).max() < 1e-4

@@ -11,7 +11,13 @@ import pytest
 from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.errors import InputError
-from kinsync.io.las import LasChunkWriter, iter_las_chunks, las_info
+from kinsync.io.las import (
+    LasChunkWriter,
+    LasPointReader,
+    iter_las_chunks,
+    las_info,
+    read_las_points,
+)
 
 
 def _make_las(path: Path, n: int = 1000, seed: int = 0) -> laspy.LasData:
@@ -139,3 +145,35 @@ def test_bad_coordinates_and_inputs(tmp_path: Path) -> None:
     (tmp_path / "trunc.las").write_bytes(src.read_bytes()[:200])
     with pytest.raises(InputError, match=r"trunc\.las"):
         list(iter_las_chunks(tmp_path / "trunc.las", 5))
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_read_las_points_by_seek_equals_the_sequential_read(tmp_path: Path, suffix: str) -> None:
+    path = tmp_path / f"s{suffix}"
+    las = _make_las(path, n=130_000)  # LAZ chunks of 50 000 points: seeks inside them
+    sequential = list(iter_las_chunks(path, 17_000))
+    for k, chunk in enumerate(sequential):
+        got = read_las_points(path, 17_000 * k, len(chunk))
+        assert got.array.tobytes() == chunk.array.tobytes()
+    with LasPointReader(path, laz_threads=False) as reader:  # any order, one open file
+        for k in (3, 0, 1, 2, 7, 6):
+            got = reader.read(17_000 * k, len(sequential[k]))
+            assert got.array.tobytes() == sequential[k].array.tobytes()
+    tail = read_las_points(path, 129_990, 10)
+    np.testing.assert_array_equal(tail.gps_time, las.gps_time[-10:])
+    assert len(read_las_points(path, 5, 0)) == 0
+
+
+def test_read_las_points_bad_range_and_truncated_file(tmp_path: Path) -> None:
+    path = tmp_path / "r.las"
+    _make_las(path, n=100)
+    with pytest.raises(InputError, match=r"points 95\.\.104 requested, the file holds 100"):
+        read_las_points(path, 95, 10)
+    with pytest.raises(InputError, match="requested"):
+        read_las_points(path, -1, 2)
+    cut = tmp_path / "cut.las"
+    cut.write_bytes(path.read_bytes()[:-200])  # the last points cut off (EVLRs and some)
+    with pytest.raises(InputError, match=r"cut\.las: .*points 90\.\.99.*(complete|truncated)"):
+        read_las_points(cut, 90, 10)
+    with pytest.raises(InputError, match="not found"):
+        read_las_points(tmp_path / "missing.laz", 0, 1)

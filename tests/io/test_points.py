@@ -7,9 +7,18 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kinsync.errors import InputError
-from kinsync.io.points import TableChunkWriter, count_table_rows, iter_table_chunks
+from kinsync.io.points import (
+    TableChunkWriter,
+    count_table_rows,
+    csv_text_columns,
+    iter_table_chunks,
+    plan_table_slices,
+    read_table_slice,
+)
 
 REQUIRED = ("t_s", "x_m", "y_m", "z_m")
 
@@ -116,3 +125,144 @@ def test_failing_writer_leaves_no_file_and_bad_suffix(tmp_path: Path) -> None:
         w.write({"a": np.zeros(2)})
         w.write({"b": np.zeros(2)})
     assert not path.exists()
+
+
+# ---------------------------------------------------------------------- slices
+def _concat(chunks: list[dict[str, np.ndarray[Any, Any]]]) -> dict[str, list[Any]]:
+    return {k: np.concatenate([c[k] for c in chunks]).tolist() for k in chunks[0]}
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n_rows=st.integers(1, 40),
+    chunk_points=st.integers(1, 12),
+    blank_after=st.sets(st.integers(0, 40), max_size=6),
+    crlf=st.booleans(),
+    trailing_newline=st.booleans(),
+    scan_block=st.sampled_from([5, 64, 1 << 24]),
+)
+def test_csv_slices_cover_every_row_once_in_exact_chunks(
+    tmp_path_factory: pytest.TempPathFactory,
+    n_rows: int,
+    chunk_points: int,
+    blank_after: set[int],
+    crlf: bool,
+    trailing_newline: bool,
+    scan_block: int,
+) -> None:
+    """Blank lines, CRLF, no final newline, newlines at any block edge: same rows as a read."""
+    eol = "\r\n" if crlf else "\n"
+    lines = ["t_s,x_m,y_m,z_m,label"]
+    for i in range(n_rows):
+        lines.append(f"{i}.5,{i},{-i},{2 * i},w{i}")
+        if i in blank_after:
+            lines.append("")
+    text = eol.join(lines) + (eol if trailing_newline else "")
+    path = tmp_path_factory.mktemp("slices") / "p.csv"
+    path.write_bytes(text.encode())
+    with pytest.MonkeyPatch.context() as patch:  # newlines at block edges too
+        patch.setattr("kinsync.io.points._SCAN_BLOCK_BYTES", scan_block)
+        layout, slices = plan_table_slices(path, chunk_points, REQUIRED)
+    assert layout.total_rows == n_rows
+    sizes = [s.n_rows for s in slices]
+    assert sizes[:-1] == [chunk_points] * (len(sizes) - 1)
+    assert 0 < sizes[-1] <= chunk_points
+    assert [s.first_row for s in slices] == list(range(0, n_rows, chunk_points))
+    chunks = [read_table_slice(layout, s) for s in slices]
+    expected = _concat(list(iter_table_chunks(path, 1000, REQUIRED)))
+    assert _concat(chunks) == expected
+    # Each slice starts at a line start (first_line) and its first row is first_row.
+    for s in slices:
+        lines_here = text[s.byte_start : s.byte_end].split(eol)
+        assert text.split(eol)[s.first_line - 1] == lines_here[0]
+        assert next(x for x in lines_here if x).startswith(f"{s.first_row}.5,")
+
+
+def test_csv_slice_errors_name_the_file_line_and_data_row(tmp_path: Path) -> None:
+    path = tmp_path / "bad.csv"
+    n = 150_000  # the bad rows lie beyond the first (1 MiB) block
+    rows = [f"{i},1,2,3" for i in range(n)]
+    rows[140_037] = "140037,1,zz,3"
+    rows[145_044] = "145044,1,,3"
+    path.write_text("t_s,x_m,y_m,z_m\n" + "\n\n".join(rows[:20]) + "\n" + "\n".join(rows[20:]))
+    layout, slices = plan_table_slices(path, 5_000, REQUIRED)
+    assert [s.n_rows for s in slices] == [5_000] * 30
+    read_table_slice(layout, slices[27])
+    with pytest.raises(
+        InputError, match=r"bad\.csv: line 140058 \(data row 140037\), column 'y_m'"
+    ):
+        read_table_slice(layout, slices[28])
+    with pytest.raises(InputError, match=r"data row 145044, column 'y_m': empty cell"):
+        read_table_slice(layout, slices[29])
+
+
+def test_csv_types_are_fixed_from_the_first_block(tmp_path: Path) -> None:
+    path = tmp_path / "t.csv"
+    n = 120_000  # more than the first (1 MiB) block
+    body = "".join(f"{i},0,0,0,{i % 7}\n" for i in range(n))
+    path.write_text("t_s,x_m,y_m,z_m,n\n" + body + f"{n},0,0,0,5.5\n")
+    layout, slices = plan_table_slices(path, 10_000, REQUIRED)
+    assert read_table_slice(layout, slices[0])["n"].dtype == np.int64
+    with pytest.raises(InputError, match="change type after the first rows"):
+        read_table_slice(layout, slices[-1])
+
+
+def test_changed_file_is_detected(tmp_path: Path) -> None:
+    path = tmp_path / "c.csv"
+    _write(path, _columns(30), 30)
+    layout, slices = plan_table_slices(path, 10, REQUIRED)
+    _, fine = plan_table_slices(path, 5, REQUIRED)
+    path.write_bytes(path.read_bytes()[: fine[5].byte_start])  # rows 25.. cut off
+    read_table_slice(layout, slices[1])
+    with pytest.raises(InputError, match=r"data rows 20\.\.29 read back as 5 rows"):
+        read_table_slice(layout, slices[2])
+
+
+def test_parquet_slices_follow_row_groups(tmp_path: Path) -> None:
+    cols = _columns(2500)
+    path = tmp_path / "p.parquet"
+    _write(path, cols, 700)  # row groups 700, 700, 700, 400
+    layout, slices = plan_table_slices(path, 1500, REQUIRED)
+    assert [(s.row_groups, s.n_rows) for s in slices] == [((0, 1), 1400), ((2, 3), 1100)]
+    layout, small = plan_table_slices(path, 300, REQUIRED)  # row groups split in pieces
+    assert [s.n_rows for s in small] == [300, 300, 100] * 3 + [300, 100]
+    assert {s.skip_rows for s in small} == {0, 300, 600}
+    for plan in (slices, small):
+        got = _concat([read_table_slice(layout, s) for s in plan])
+        assert got == _concat([cols])
+    assert layout.total_rows == 2500
+    assert layout.schema.field("intensity").type == "int64"
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    values=st.lists(
+        st.floats(allow_nan=False, allow_infinity=True, width=64)
+        | st.integers(-(2**53), 2**53).map(float),  # integral floats must stay floats
+        min_size=1,
+        max_size=50,
+    )
+)
+def test_csv_floats_read_back_exactly_and_as_floats(
+    tmp_path_factory: pytest.TempPathFactory, values: list[float]
+) -> None:
+    x = np.array(values, dtype=np.float64)
+    n = x.size
+    path = tmp_path_factory.mktemp("floats") / "f.csv"
+    with TableChunkWriter(path) as w:
+        w.write({"t_s": np.zeros(n), "x_m": x, "y_m": x, "z_m": x, "other": x})
+    (chunk,) = iter_table_chunks(path, 1000, REQUIRED)
+    assert chunk["other"].dtype == np.float64
+    np.testing.assert_array_equal(chunk["other"].view(np.int64), x.view(np.int64))
+
+
+def test_csv_text_columns_give_the_same_file(tmp_path: Path) -> None:
+    cols = _columns(3000) | {"refl": np.linspace(0, 1, 3000, dtype=np.float32)}
+    cols["x_m"][5] = np.nan
+    direct, prepared = tmp_path / "direct.csv", tmp_path / "prepared.csv"
+    _write(direct, cols, 1000)
+    with TableChunkWriter(prepared) as w:
+        for i in range(0, 3000, 1000):
+            w.write(csv_text_columns({k: v[i : i + 1000] for k, v in cols.items()}))
+    assert prepared.read_bytes() == direct.read_bytes()
+    assert ',"nan",' in direct.read_text()

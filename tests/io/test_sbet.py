@@ -188,3 +188,10 @@ def test_bad_inputs(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="geodetic"):
         write_sbet(local, tmp_path / "x.sbet")
     assert not (tmp_path / "x.sbet").exists()
+
+
+def test_smrmsg_file_given_as_sbet_is_named(tmp_path: Path) -> None:
+    path = tmp_path / "smrmsg_mission.out"
+    path.write_bytes(b"\0" * 1360)  # 10 SBET or 17 smrmsg records: the length cannot tell
+    with pytest.raises(InputError, match="looks like an smrmsg accuracy file"):
+        read_sbet(path)

@@ -11,10 +11,11 @@ from rich.table import Table
 
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import InputError
-from kinsync.georef import OutsidePolicy, georeference_file
+from kinsync.georef import OutsidePolicy, PointColumns, georeference_file
 from kinsync.io.mount_file import read_mount
 
 _OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
+_POINT_COLUMNS: dict[str, PointColumns] = {"auto": "auto", "xyz": "xyz", "profile": "profile"}
 
 
 def georef(
@@ -23,7 +24,8 @@ def georef(
         typer.Option(
             "--points",
             help="Scanner-frame points: .las/.laz (time in gps_time) or .csv/.parquet with "
-            "t_s,x_m,y_m,z_m (+ any other columns, kept).",
+            "t_s,x_m,y_m,z_m, or t_s,range_m,angle_rad for a 2D profile scanner (+ any other "
+            "columns, kept).",
         ),
     ],
     trajectory: Annotated[
@@ -87,6 +89,22 @@ def georef(
             min=1,
         ),
     ] = None,
+    point_columns: Annotated[
+        str,
+        typer.Option(
+            "--point-columns",
+            help="Table columns that give the points: 'xyz' (x_m,y_m,z_m), 'profile' "
+            "(range_m,angle_rad) or 'auto' (the set the file has).",
+        ),
+    ] = "auto",
+    profiler_azimuth_deg: Annotated[
+        float | None,
+        typer.Option(
+            "--profiler-azimuth-deg",
+            help="Azimuth (deg) of a profile scanner's plane about the scanner Z axis, "
+            "replacing the mount's [profiler] azimuth_deg (profile files only).",
+        ),
+    ] = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
@@ -94,6 +112,9 @@ def georef(
     """Georeference a point file: scanner frame + trajectory + mount -> CRS coordinates."""
     if outside not in _OUTSIDE:
         msg = f"--outside must be 'error' or 'reject', got {outside!r}"
+        raise InputError(msg)
+    if point_columns not in _POINT_COLUMNS:
+        msg = f"--point-columns must be 'auto', 'xyz' or 'profile', got {point_columns!r}"
         raise InputError(msg)
     the_mount = read_mount(mount)
     if latency_ms is not None:
@@ -125,6 +146,8 @@ def georef(
             progress=progress,
             scheduler=scheduler,
             workers=workers,
+            point_columns=_POINT_COLUMNS[point_columns],
+            profiler_azimuth_deg=profiler_azimuth_deg,
         )
     if as_json:
         print_json(summary.as_document())

@@ -10,8 +10,10 @@ import typer
 from rich.table import Table
 
 from kinsync.cli._output import console, print_json
+from kinsync.errors import InputError
+from kinsync.georef import read_trajectory_file
 from kinsync.io.mount_file import read_mount
-from kinsync.io.trajectory_csv import read_trajectory_csv
+from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
 
 mount_app = typer.Typer(help="Mount (system calibration) TOML files.")
 trajectory_app = typer.Typer(help="Trajectory files.")
@@ -52,18 +54,85 @@ def mount_check(
     _print_quantities(f"Mount {path}", {**rows, "latency_s": f"{mount.latency_s:g}"})
 
 
+def _smrmsg_document(
+    path: Path, gps_week: int | None, t_start_s: float, t_end_s: float
+) -> dict[str, Any]:
+    """Span and standard-deviation statistics (median, max) of an smrmsg file."""
+    data = read_smrmsg(path, gps_week=gps_week)
+
+    def stats(values: np.ndarray[Any, Any]) -> dict[str, list[float]]:
+        return {
+            "median": np.median(values, axis=0).tolist(),
+            "max": np.max(values, axis=0).tolist(),
+        }
+
+    t_min, t_max = float(data.t_s.min()), float(data.t_s.max())
+    return {
+        "path": str(path),
+        "records": len(data),
+        "t_start_s": t_min,
+        "t_end_s": t_max,
+        "overlaps_trajectory": bool(t_min <= t_end_s and t_max >= t_start_s),
+        "std_pos_ned_m": stats(data.std_pos_ned_m),
+        "std_vel_ned_m_s": stats(data.std_vel_ned_m_s),
+        "std_rpy_deg": stats(np.degrees(data.std_rpy_rad)),
+    }
+
+
+def _smrmsg_rows(doc: dict[str, Any]) -> dict[str, str]:
+    rows = {
+        "smrmsg": doc["path"],
+        "smrmsg records": str(doc["records"]),
+        "smrmsg span (s)": f"{doc['t_start_s']:.10g} .. {doc['t_end_s']:.10g}",
+        "smrmsg overlaps the trajectory": str(doc["overlaps_trajectory"]),
+    }
+    for key, label in (
+        ("std_pos_ned_m", "sigma position N, E, D (m)"),
+        ("std_vel_ned_m_s", "sigma velocity N, E, D (m/s)"),
+        ("std_rpy_deg", "sigma roll, pitch, heading (deg)"),
+    ):
+        for stat in ("median", "max"):
+            rows[f"{label}, {stat}"] = ", ".join(f"{v:.4g}" for v in doc[key][stat])
+    return rows
+
+
 @trajectory_app.command("info")
 def trajectory_info(
     path: Annotated[
-        Path, typer.Argument(help="Trajectory CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...).")
+        Path,
+        typer.Argument(
+            help="Trajectory: CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...) or SBET (.out, .sbet)."
+        ),
     ],
+    gps_week: Annotated[
+        int | None,
+        typer.Option(
+            "--gps-week",
+            help="GPS week of an SBET (and its smrmsg): times become GPS time.",
+            min=0,
+        ),
+    ] = None,
+    smrmsg: Annotated[
+        Path | None,
+        typer.Option(
+            "--smrmsg",
+            help="The SBET's accuracy file (default: smrmsg<rest> beside sbet<rest>, or "
+            "the folder's only smrmsg*.out).",
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Validate a trajectory CSV and print its span, rate and motion."""
-    traj = read_trajectory_csv(path)
+    """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy)."""
+    traj, _ = read_trajectory_file(path, gps_week=gps_week)
+    is_sbet = path.suffix.lower() != ".csv"
+    if smrmsg is not None and not is_sbet:
+        msg = f"--smrmsg: {path} is a trajectory CSV; an smrmsg file goes with an SBET"
+        raise InputError(msg)
+    accuracy = smrmsg if smrmsg is not None else (find_smrmsg_companion(path) if is_sbet else None)
     dt = np.diff(traj.t_s)
     rate = np.degrees(np.linalg.norm(traj.angular_rate_body_rad_s(), axis=1))
     doc: dict[str, Any] = {
+        "format": "sbet" if is_sbet else "csv",
         "records": len(traj),
         "t_start_s": traj.t_start_s,
         "t_end_s": traj.t_end_s,
@@ -73,10 +142,18 @@ def trajectory_info(
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,
     }
+    if is_sbet:
+        doc["smrmsg"] = (
+            None
+            if accuracy is None
+            else _smrmsg_document(accuracy, gps_week, traj.t_start_s, traj.t_end_s)
+        )
     if as_json:
         print_json(doc)
         return
-    _print_quantities(
-        f"Trajectory {path}",
-        {k: f"{v:.10g}" if isinstance(v, float) else str(v) for k, v in doc.items()},
-    )
+    rows = {
+        k: f"{v:.10g}" if isinstance(v, float) else str(v) for k, v in doc.items() if k != "smrmsg"
+    }
+    if is_sbet:
+        rows |= {"smrmsg": "none found"} if doc["smrmsg"] is None else _smrmsg_rows(doc["smrmsg"])
+    _print_quantities(f"Trajectory {path}", rows)

@@ -1,7 +1,10 @@
 """LAS/LAZ point clouds, read and written in chunks (laspy; LAZ through lazrs).
 
 Reading: `las_info` reads the header only; `iter_las_chunks` streams the points as
-``laspy.ScaleAwarePointRecord`` chunks (``laspy.open(...).chunk_iterator``).
+``laspy.ScaleAwarePointRecord`` chunks (``laspy.open(...).chunk_iterator``);
+`read_las_points` / `LasPointReader` read any run of points on their own (``seek``
+then ``read_points``; LAZ seeks through its chunk table), so that separate processes
+can each read their own part of one file.
 
 GPS time: with the global-encoding bit "adjusted standard GPS time" set
 (``gps_time_type == "adjusted_standard"``), ``gps_time`` is GPS time - 1e9 s
@@ -34,7 +37,14 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 
-__all__ = ["LasChunkWriter", "LasInfo", "iter_las_chunks", "las_info"]
+__all__ = [
+    "LasChunkWriter",
+    "LasInfo",
+    "LasPointReader",
+    "iter_las_chunks",
+    "las_info",
+    "read_las_points",
+]
 
 _CRS_VLR_NAMES = (
     "WktCoordinateSystemVlr",
@@ -171,6 +181,119 @@ def iter_las_chunks(path: Path, chunk_points: int) -> Iterator[laspy.ScaleAwareP
         except (laspy.errors.LaspyException, OSError, ValueError) as err:
             msg = f"{path}: cannot read the points ({err}); check that the file is complete"
             raise InputError(msg) from err
+
+
+class LasPointReader:
+    """Read runs of points of one LAS/LAZ file by position, keeping the file open.
+
+    A run that starts where the previous one ended is read on without seeking, so
+    reading a file in order costs no more than `iter_las_chunks`; any other run seeks
+    (LAZ: through its chunk table, decompressing from the start of the LAZ chunk that
+    holds the first point). Use as a context manager, or call `close`.
+
+    Parameters
+    ----------
+    path : Path
+        ``.las`` or ``.laz`` file.
+    laz_threads : bool
+        Decompress LAZ with lazrs's thread pool (default); False decompresses in the
+        calling thread, for processes that are themselves run in parallel.
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown suffix, unreadable header.
+    """
+
+    def __init__(self, path: Path, *, laz_threads: bool = True) -> None:
+        self.path = Path(path)
+        backend = _LAZ_BACKEND if laz_threads else laspy.LazBackend.Lazrs
+        _suffix(self.path)
+        try:
+            self._reader: Any = laspy.open(self.path, laz_backend=backend)
+        except FileNotFoundError as err:
+            msg = f"{self.path}: file not found"
+            raise InputError(msg) from err
+        except (laspy.errors.LaspyException, OSError, ValueError) as err:
+            msg = f"{self.path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
+            raise InputError(msg) from err
+        self.point_count = int(self._reader.header.point_count)
+        self._position = 0
+
+    def read(self, start: int, count: int) -> laspy.ScaleAwarePointRecord:
+        """Read ``count`` points from point index ``start`` (see `read_las_points`)."""
+        if start < 0 or count < 0 or start + count > self.point_count:
+            msg = (
+                f"{self.path}: points {start}..{start + count - 1} requested, the file holds "
+                f"{self.point_count} points"
+            )
+            raise InputError(msg)
+        try:
+            if start != self._position:
+                self._reader.seek(start)
+                self._position = start
+            points = self._reader.read_points(count)
+        except (laspy.errors.LaspyException, OSError, ValueError) as err:
+            self._position = -1  # unknown: seek before the next read
+            msg = (
+                f"{self.path}: cannot read points {start}..{start + count - 1} ({err}); "
+                "check that the file is complete"
+            )
+            raise InputError(msg) from err
+        self._position += len(points)
+        if len(points) != count:
+            msg = (
+                f"{self.path}: points {start}..{start + count - 1}: only {len(points)} could "
+                "be read; the file is truncated"
+            )
+            raise InputError(msg)
+        return points
+
+    def close(self) -> None:
+        """Close the file."""
+        self._reader.close()
+
+    def __enter__(self) -> LasPointReader:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def read_las_points(
+    path: Path, start: int, count: int, *, laz_threads: bool = True
+) -> laspy.ScaleAwarePointRecord:
+    """Read ``count`` points from point index ``start`` of a LAS/LAZ file.
+
+    Parameters
+    ----------
+    path : Path
+        ``.las`` or ``.laz`` file (LAZ: seeking decompresses from the start of the LAZ
+        chunk holding ``start``).
+    start : int
+        Index of the first point (0-based).
+    count : int
+        Number of points, >= 0; ``start + count`` must not exceed the point count.
+    laz_threads : bool
+        See `LasPointReader`.
+
+    Returns
+    -------
+    laspy.ScaleAwarePointRecord
+        The points as stored, as `iter_las_chunks` gives them.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, a range beyond the file's points, a truncated file.
+    """
+    with LasPointReader(path, laz_threads=laz_threads) as reader:
+        return reader.read(start, count)
 
 
 class LasChunkWriter:

@@ -12,30 +12,57 @@ the file, the row and the column); other columns keep their type: Parquet's stor
 type, or for CSV the type pyarrow infers from the first block (int64, float64, bool,
 string). CSV cannot say float32 from float64: such a column reads back as float64.
 
+Random access (`plan_table_slices`, `read_table_slice`): the table is cut once into
+slices that any process can read on its own, so that workers read their chunks
+themselves and every run, serial or parallel, sees the same chunks. A CSV is cut at line
+boundaries into byte ranges of exactly ``chunk_points`` data rows (one pass counting
+the newlines; empty lines are skipped, as pyarrow does); column types are inferred once
+from the file's first MiB (pyarrow's default block) and fixed for every slice. Like
+pyarrow's own reader (its default ``newlines_in_values=False``) this assumes no line
+break inside a quoted value. A Parquet file is cut at row-group boundaries: consecutive
+row groups are merged up to ``chunk_points`` rows, and a row group larger than that is
+read in pieces of ``chunk_points`` rows. Slices never hold more than ``chunk_points``
+rows.
+
 Writing (`TableChunkWriter`) goes through a temporary file renamed on success.
-Float columns are written to CSV in numpy's shortest round-trip form (always with a
-``.`` or exponent, so ``1.0`` reads back as a float and every value exactly).
+Float columns are written to CSV in the shortest form that reads back to the same value
+(pyarrow's float formatting, with ``.0`` added to integral values so that ``1.0`` reads
+back as a float: every value comes back exactly). `csv_text_columns` does that
+formatting ahead, so that worker processes can take it off the writing process.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import sys
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 
-__all__ = ["TableChunkWriter", "count_table_rows", "iter_table_chunks", "table_columns"]
+__all__ = [
+    "TableChunkWriter",
+    "TableLayout",
+    "TableSlice",
+    "count_table_rows",
+    "csv_text_columns",
+    "iter_table_chunks",
+    "plan_table_slices",
+    "read_table_slice",
+    "table_columns",
+]
 
 _SUFFIXES = (".csv", ".parquet")
 
@@ -106,23 +133,40 @@ def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | No
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = [c.strip() for c in next(reader)]
-        cols = [(name, header.index(name)) for name in required]
-        row = -1
-        for cells in reader:
-            if not cells or all(not c.strip() for c in cells):
-                continue
-            row += 1
-            for name, i in cols:
-                cell = cells[i].strip() if i < len(cells) else ""
-                try:
-                    float(cell)
-                except ValueError:
-                    what = "empty cell" if not cell else f"{cell!r} is not a number"
-                    msg = (
-                        f"{path}: line {reader.line_num} (data row {row}), column {name!r}: "
-                        f"{what}; fix or remove the row"
-                    )
-                    return InputError(msg)
+        return _first_bad_cell(path, reader, header, required, first_line=0, first_row=0)
+
+
+def _first_bad_cell(
+    path: Path,
+    reader: Any,
+    header: Sequence[str],
+    required: Sequence[str],
+    *,
+    first_line: int,
+    first_row: int,
+) -> InputError | None:
+    """First empty or non-numeric required cell read by ``reader`` (a ``csv.reader``).
+
+    The reader's line 1 is file line ``first_line + 1``; its first non-empty line is
+    data row ``first_row``.
+    """
+    cols = [(name, list(header).index(name)) for name in required]
+    row = first_row - 1
+    for cells in reader:
+        if not cells or all(not c.strip() for c in cells):
+            continue
+        row += 1
+        for name, i in cols:
+            cell = cells[i].strip() if i < len(cells) else ""
+            try:
+                float(cell)
+            except ValueError:
+                what = "empty cell" if not cell else f"{cell!r} is not a number"
+                msg = (
+                    f"{path}: line {first_line + reader.line_num} (data row {row}), column "
+                    f"{name!r}: {what}; fix or remove the row"
+                )
+                return InputError(msg)
     return None
 
 
@@ -280,7 +324,373 @@ def count_table_rows(path: Path) -> int:
         raise InputError(msg) from err
 
 
-def _arrow_column(name: str, values: np.ndarray[Any, Any]) -> Any:
+# ---------------------------------------------------------------------- random access
+_SCAN_BLOCK_BYTES = 1 << 24
+_SCHEMA_BLOCK_BYTES = 1 << 20  # pyarrow's default block: types inferred from the first MiB
+_LF, _CR = 10, 13
+
+
+@dataclass(frozen=True)
+class TableSlice:
+    """One chunk of a point table, readable on its own (`read_table_slice`).
+
+    Attributes
+    ----------
+    first_row : int
+        Data row (0-based, header and empty lines not counted) of the slice's first row.
+    n_rows : int
+        Data rows in the slice (at most the planned ``chunk_points``).
+    byte_start, byte_end : int
+        CSV: byte range ``[byte_start, byte_end)`` from the start of the slice's first
+        line to just after its last line. Parquet: 0.
+    first_line : int
+        CSV: file line (1-based, header = line 1) at ``byte_start``. Parquet: 0.
+    row_groups : tuple of int
+        Parquet: row groups holding the slice (empty for CSV).
+    skip_rows : int
+        Parquet: rows of ``row_groups[0]`` before the slice (a row group larger than
+        ``chunk_points`` is read in pieces); 0 otherwise.
+    """
+
+    first_row: int
+    n_rows: int
+    byte_start: int = 0
+    byte_end: int = 0
+    first_line: int = 0
+    row_groups: tuple[int, ...] = ()
+    skip_rows: int = 0
+
+
+@dataclass(frozen=True, eq=False)
+class TableLayout:
+    """What a process needs to read slices of a table: path, columns and their types.
+
+    Attributes
+    ----------
+    path : Path
+        The table (``.csv`` or ``.parquet``).
+    columns : tuple of str
+        Column names in file order.
+    required : tuple of str
+        Columns read as float64 (they must be numbers).
+    schema : pyarrow.Schema
+        Column types: Parquet's stored types; for CSV the types pyarrow infers from the
+        file's first MiB (required columns float64), fixed for every slice.
+    total_rows : int
+        Data rows in the file.
+    """
+
+    path: Path
+    columns: tuple[str, ...]
+    required: tuple[str, ...]
+    schema: Any
+    total_rows: int
+
+
+def _csv_convert_options(column_types: Mapping[str, Any]) -> Any:
+    return pa_csv.ConvertOptions(
+        column_types=dict(column_types), null_values=[""], strings_can_be_null=False
+    )
+
+
+def _csv_block_bytes(chunk_points: int, n_columns: int) -> int:
+    return int(min(max(chunk_points * 16 * max(n_columns, 1), 1 << 20), 1 << 30))
+
+
+def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
+    """Column types from the first block, as the streaming reader infers them."""
+    try:
+        reader = pa_csv.open_csv(
+            path,
+            read_options=pa_csv.ReadOptions(block_size=block_bytes),
+            convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
+        )
+    except pa.ArrowInvalid as err:
+        if "conversion error" in str(err):
+            bad = _locate_bad_csv_cell(path, required)
+            if bad is not None:
+                raise bad from err
+        msg = f"{path}: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+    except (pa.ArrowException, OSError) as err:
+        msg = f"{path}: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+    schema = reader.schema
+    reader.close()
+    return schema
+
+
+def _csv_header_bytes(path: Path) -> int:
+    """Byte offset just after the header line."""
+    with path.open("rb") as fh:
+        line = fh.readline()
+    return len(line)
+
+
+def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
+    """Cut the data lines of a CSV into slices of ``chunk_points`` non-empty lines."""
+    slices: list[TableSlice] = []
+    data_start = _csv_header_bytes(path)
+    size = path.stat().st_size
+    line_start = data_start  # start byte of the line being read
+    line_no = 2  # file line number of the line starting at line_start
+    slice_start, slice_line, slice_row = data_start, 2, 0
+    rows_in_slice = 0  # non-empty lines since slice_start
+    prev_byte = -1  # last byte of the previous block
+    with path.open("rb") as fh:
+        fh.seek(data_start)
+        pos = data_start
+        while True:
+            buf = fh.read(_SCAN_BLOCK_BYTES)
+            if not buf:
+                break
+            arr = np.frombuffer(buf, dtype=np.uint8)
+            nl = np.flatnonzero(arr == _LF)
+            if nl.size:
+                ends = nl + pos  # absolute offsets of the newlines
+                starts = np.empty(nl.size, dtype=np.int64)
+                starts[0] = line_start
+                starts[1:] = ends[:-1] + 1
+                length = ends - starts
+                before = np.where(nl > 0, arr[np.maximum(nl - 1, 0)], prev_byte)
+                nonempty = ~((length == 0) | ((length == 1) & (before == _CR)))
+                cum = rows_in_slice + np.cumsum(nonempty)
+                for k in np.flatnonzero(nonempty & (cum % chunk_points == 0)).tolist():
+                    end = int(ends[k]) + 1
+                    slices.append(
+                        TableSlice(
+                            first_row=slice_row,
+                            n_rows=chunk_points,
+                            byte_start=slice_start,
+                            byte_end=end,
+                            first_line=slice_line,
+                        )
+                    )
+                    slice_start, slice_line = end, line_no + k + 1
+                    slice_row += chunk_points
+                rows_in_slice = int(cum[-1]) % chunk_points
+                line_no += int(nl.size)
+                line_start = int(ends[-1]) + 1
+            pos += len(buf)
+            prev_byte = int(arr[-1])
+    last_len = size - line_start  # an unterminated last line
+    if last_len > 1 or (last_len == 1 and prev_byte != _CR):
+        rows_in_slice += 1
+    if rows_in_slice:
+        slices.append(
+            TableSlice(
+                first_row=slice_row,
+                n_rows=rows_in_slice,
+                byte_start=slice_start,
+                byte_end=size,
+                first_line=slice_line,
+            )
+        )
+    return slices, slice_row + rows_in_slice
+
+
+def _plan_parquet(pf: Any, chunk_points: int) -> tuple[list[TableSlice], int]:
+    """Slices of whole row groups (merged up to ``chunk_points`` rows) or row-group pieces."""
+    slices: list[TableSlice] = []
+    groups: list[int] = []
+    first = rows = 0  # first row and rows of the slice being built
+
+    def flush() -> None:
+        nonlocal groups, first, rows
+        if groups:
+            slices.append(TableSlice(first_row=first, n_rows=rows, row_groups=tuple(groups)))
+        first, groups, rows = first + rows, [], 0
+
+    for g in range(pf.metadata.num_row_groups):
+        n = int(pf.metadata.row_group(g).num_rows)
+        if n == 0:
+            continue
+        if n > chunk_points:
+            flush()
+            for skip in range(0, n, chunk_points):
+                take = min(chunk_points, n - skip)
+                slices.append(
+                    TableSlice(first_row=first, n_rows=take, row_groups=(g,), skip_rows=skip)
+                )
+                first += take
+            continue
+        if rows + n > chunk_points:
+            flush()
+        groups.append(g)
+        rows += n
+    flush()
+    return slices, first
+
+
+def _open_parquet(path: Path) -> Any:
+    try:
+        return pq.ParquetFile(path)
+    except (pa.ArrowException, OSError) as err:
+        msg = f"{path}: cannot read as Parquet ({err})"
+        raise InputError(msg) from err
+
+
+def plan_table_slices(
+    path: Path, chunk_points: int, required: Sequence[str]
+) -> tuple[TableLayout, list[TableSlice]]:
+    """Cut a CSV or Parquet table into independently readable slices.
+
+    Parameters
+    ----------
+    path : Path
+        ``.csv`` (header line, comma-separated, no line break inside a value) or
+        ``.parquet``.
+    chunk_points : int
+        Most rows per slice, >= 1 (CSV: every slice but the last has exactly this many).
+    required : sequence of str
+        Columns that must be present and numeric (read as float64).
+
+    Returns
+    -------
+    layout : TableLayout
+        Path, columns, types and row count, for `read_table_slice`.
+    slices : list of TableSlice
+        In file order, covering every data row once.
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown suffix, missing or duplicated columns, a bad cell of a
+        required column in the CSV's first block, an unreadable file.
+    """
+    path = Path(path)
+    if chunk_points < 1:
+        msg = f"{path}: chunk_points must be >= 1, got {chunk_points}"
+        raise InputError(msg)
+    suffix = _suffix(path)
+    names = table_columns(path)
+    _check_required(path, names, required)
+    if suffix == ".csv":
+        inferred = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
+        schema = pa.schema(  # the header's names (stripped), required columns float64
+            [
+                pa.field(name, pa.float64() if name in required else field.type)
+                for name, field in zip(names, inferred, strict=True)
+            ]
+        )
+        try:
+            slices, total = _plan_csv(path, chunk_points)
+        except OSError as err:
+            msg = f"{path}: cannot read ({err})"
+            raise InputError(msg) from err
+    else:
+        pf = _open_parquet(path)
+        schema = pf.schema_arrow
+        slices, total = _plan_parquet(pf, chunk_points)
+    layout = TableLayout(
+        path=path,
+        columns=tuple(schema.names),
+        required=tuple(required),
+        schema=schema,
+        total_rows=total,
+    )
+    return layout, slices
+
+
+def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
+    path = layout.path
+    with path.open("rb") as fh:
+        fh.seek(sl.byte_start)
+        data = fh.read(sl.byte_end - sl.byte_start)
+    types = {f.name: f.type for f in layout.schema}
+    try:
+        return pa_csv.read_csv(
+            io.BytesIO(data),
+            read_options=pa_csv.ReadOptions(column_names=list(layout.columns)),
+            convert_options=_csv_convert_options(types),
+        )
+    except pa.ArrowInvalid as err:
+        if "conversion error" in str(err):
+            reader = csv.reader(io.StringIO(data.decode("utf-8", errors="replace"), newline=""))
+            bad = _first_bad_cell(
+                path,
+                reader,
+                layout.columns,
+                layout.required,
+                first_line=sl.first_line - 1,
+                first_row=sl.first_row,
+            )
+            if bad is not None:
+                raise bad from err
+            msg = (
+                f"{path}: lines {sl.first_line}.. (data rows {sl.first_row}.."
+                f"{sl.first_row + sl.n_rows - 1}): {err}; a column's values change type "
+                "after the first rows (types are inferred from the first block): make the "
+                "column uniform"
+            )
+            raise InputError(msg) from err
+        msg = f"{path}: lines {sl.first_line}..: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+    except pa.ArrowException as err:
+        msg = f"{path}: lines {sl.first_line}..: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+
+
+def _read_parquet_slice(layout: TableLayout, sl: TableSlice) -> Any:
+    pf = _open_parquet(layout.path)
+    try:
+        if sl.skip_rows == 0 and len(sl.row_groups) > 1:
+            return pf.read_row_groups(list(sl.row_groups))
+        if sl.skip_rows == 0 and pf.metadata.row_group(sl.row_groups[0]).num_rows == sl.n_rows:
+            return pf.read_row_group(sl.row_groups[0])
+        parts, seen = [], 0
+        batch = min(sl.n_rows, 1 << 16)
+        for rb in pf.iter_batches(batch_size=batch, row_groups=list(sl.row_groups)):
+            lo, hi = max(sl.skip_rows - seen, 0), min(sl.skip_rows + sl.n_rows - seen, rb.num_rows)
+            if hi > lo:
+                parts.append(rb.slice(lo, hi - lo))
+            seen += rb.num_rows
+            if seen >= sl.skip_rows + sl.n_rows:
+                break
+        return pa.Table.from_batches(parts, schema=pf.schema_arrow)
+    except (pa.ArrowException, OSError) as err:
+        msg = f"{layout.path}: row groups {list(sl.row_groups)}: cannot read ({err})"
+        raise InputError(msg) from err
+
+
+def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarray[Any, Any]]:
+    """Read one slice planned by `plan_table_slices`.
+
+    Returns
+    -------
+    dict of str to ndarray, each of shape (``sl.n_rows``,)
+        Every column in file order, with the types of ``layout.schema`` (required
+        columns float64), as `iter_table_chunks` gives them.
+
+    Raises
+    ------
+    InputError
+        An empty or non-numeric cell of a required column (naming the file line and
+        data row), a value that does not fit its column's type, a file that changed
+        since it was planned (another number of rows), an unreadable file.
+    """
+    path = layout.path
+    try:
+        if path.suffix.lower() == ".csv":
+            table = _read_csv_slice(layout, sl)
+        else:
+            table = _read_parquet_slice(layout, sl)
+    except OSError as err:
+        msg = f"{path}: cannot read ({err})"
+        raise InputError(msg) from err
+    if table.num_rows != sl.n_rows:
+        msg = (
+            f"{path}: data rows {sl.first_row}..{sl.first_row + sl.n_rows - 1} read back "
+            f"as {table.num_rows} rows; the file changed while it was read, or a quoted "
+            "value holds a line break (not supported: remove line breaks from values)"
+        )
+        raise InputError(msg)
+    return _chunk_to_numpy(path, table, layout.required, sl.first_row)
+
+
+def _arrow_column(name: str, values: Any) -> Any:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return values
     arr = np.asarray(values)
     if arr.ndim != 1:
         msg = f"column {name!r}: expected a 1-D array, got shape {arr.shape}"
@@ -290,6 +700,48 @@ def _arrow_column(name: str, values: np.ndarray[Any, Any]) -> Any:
     except (pa.ArrowException, TypeError, ValueError) as err:
         msg = f"column {name!r}: cannot store dtype {arr.dtype} in a table ({err})"
         raise InputError(msg) from err
+
+
+def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, Any]:
+    """Float columns turned into the text a ``.csv`` `TableChunkWriter` writes for them.
+
+    Lets another process do that formatting, the costly part of writing a CSV: the
+    writer takes the text columns (pyarrow string arrays) as they are, and the file is
+    byte for byte the one it writes from the floats. Other columns are unchanged.
+
+    Parameters
+    ----------
+    columns : mapping of str to ndarray, each of shape (M,)
+        A chunk as `TableChunkWriter.write` takes it.
+
+    Returns
+    -------
+    dict of str to ndarray or pyarrow.Array
+        The same columns, in order, floats as text.
+    """
+    return {
+        name: _float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
+        for name, values in columns.items()
+    }
+
+
+def _column_length(values: Any) -> int:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return len(values)
+    return int(np.shape(values)[0]) if np.ndim(values) else -1
+
+
+def _float_text(col: Any) -> Any:
+    """Float column as text: shortest round-trip digits, always with ``.``, ``e`` or a name.
+
+    pyarrow's float -> string cast gives the shortest text that reads back to the same
+    value (``0.1``, ``1e-7``, ``1.23456789012e+11``), but integral values without a
+    point (``1``); those get ``.0`` so that the column reads back as floats. Nulls are
+    written ``nan``.
+    """
+    text = pc.cast(pc.fill_null(col, float("nan")), pa.string())
+    integral = pc.utf8_is_digit(pc.utf8_ltrim(text, "-"))  # no ".", "e", "nan", "inf"
+    return pc.if_else(integral, pc.binary_join_element_wise(text, ".0", ""), text)
 
 
 class TableChunkWriter:
@@ -326,12 +778,16 @@ class TableChunkWriter:
         self._stack = stack
         return self
 
-    def write(self, columns: Mapping[str, np.ndarray[Any, Any]]) -> None:
-        """Append one chunk: a mapping of column name to 1-D array, all one length."""
+    def write(self, columns: Mapping[str, Any]) -> None:
+        """Append one chunk: a mapping of column name to 1-D array, all one length.
+
+        Arrays are numpy arrays, or pyarrow arrays taken as they are (e.g. the text
+        columns of `csv_text_columns`).
+        """
         if self._stack is None or self._tmp is None:
             msg = f"{self.path}: TableChunkWriter.write called outside its 'with' block"
             raise InputError(msg)
-        lengths = {name: np.shape(v)[0] if np.ndim(v) else -1 for name, v in columns.items()}
+        lengths = {name: _column_length(v) for name, v in columns.items()}
         if len(set(lengths.values())) > 1:
             msg = f"{self.path}: columns of one chunk differ in length: {lengths}"
             raise InputError(msg)
@@ -383,8 +839,7 @@ class TableChunkWriter:
         for name in table.column_names:
             col = table.column(name)
             if pa.types.is_floating(col.type):
-                text = col.to_numpy(zero_copy_only=False).astype(str)
-                cols[name] = pa.array(text, type=pa.string())
+                cols[name] = _float_text(col)
             else:
                 cols[name] = col
         self._writer.write_table(pa.table(cols, schema=self._csv_schema(table.schema)))

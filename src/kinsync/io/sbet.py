@@ -32,6 +32,22 @@ true heading plus alpha, as the relation above requires, and the velocities rota
 
 (`wander_to_ned_velocity`; `ned_to_wander_velocity` is its inverse).
 
+What was verified, and against what: Applanix publishes no SBET specification. The
+field order and units (17 little-endian doubles, angles in radians, time in GPS
+seconds of week) agree with PDAL (``io/SbetCommon.hpp``: GpsTime, Y, X, Z, X/Y/Z
+velocity, Roll, Pitch, Azimuth, WanderAngle, body accelerations, body angular rates)
+and NOAA's ``HSTB/drivers/sbet.py`` (noaa-ocs-hydrography/drivers). The heading
+relation ``true_heading = platform_heading - wander_angle`` is stated in the NAVO
+PFM/ABE ``FilePOSOutput.h`` SBET reader and used by other public SBET readers; PDAL and
+NOAA's driver leave the heading and the velocities in the wander frame. No public
+reader found converts the wander-frame velocities, so the velocity rotation above is
+derived, not copied: it is the only one consistent with that heading relation (the
+platform heading is the heading measured from the wander x axis). Beware that the
+"wander azimuth" of the n-vector library (Gade 2010) is measured the other way (its x
+axis at azimuth ``+alpha``); an SBET's wander angle is not that angle. A trajectory
+read here therefore has the right heading for any wander angle; the velocities (used
+only for Hermite position interpolation between records) rely on the derivation.
+
 Time scale
 ----------
 SBET times are GPS seconds of week. `read_sbet` returns them unchanged unless
@@ -63,6 +79,7 @@ __all__ = [
     "ned_to_wander_velocity",
     "read_sbet",
     "read_sbet_records",
+    "seconds_of_first_week",
     "wander_to_ned_velocity",
     "write_sbet",
 ]
@@ -216,6 +233,13 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     if gps_week is not None and gps_week < 0:
         msg = f"{path}: gps_week must be >= 0, got {gps_week}"
         raise InputError(msg)
+    if path.name.lower().startswith("smrmsg"):
+        msg = (
+            f"{path}: this looks like an smrmsg accuracy file (name starting with "
+            "'smrmsg'), not an SBET trajectory; give the sbet_*.out file (kinsync trajectory "
+            "info reports the smrmsg beside it)"
+        )
+        raise InputError(msg)
     rec = read_sbet_records(path)
     if rec.shape[0] < 2:
         msg = f"{path}: a trajectory needs at least 2 records, the SBET holds {rec.shape[0]}"
@@ -254,8 +278,12 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
         del rec
 
 
-def _seconds_of_week(t_s: FloatArray) -> FloatArray:
-    """Times as seconds of the first record's GPS week (unchanged below one week)."""
+def seconds_of_first_week(t_s: FloatArray) -> FloatArray:
+    """Times (s) as seconds of the first record's GPS week (unchanged below one week).
+
+    Continuous GPS times past the end of that week keep counting beyond 604800 s, so
+    that they stay increasing.
+    """
     week = math.floor(float(t_s[0]) / SECONDS_PER_WEEK)
     if week <= 0:
         return t_s
@@ -306,7 +334,7 @@ def write_sbet(trajectory: Trajectory, path: Path, *, wander_angle_rad: float = 
     vel_w = ned_to_wander_velocity(vel, alpha)
     rate = trajectory.angular_rate_body_rad_s()
     rec = np.zeros(n, dtype=SBET_DTYPE)
-    rec["time_sow_s"] = _seconds_of_week(trajectory.t_s)
+    rec["time_sow_s"] = seconds_of_first_week(trajectory.t_s)
     rec["lat_rad"] = np.radians(trajectory.lat_lon_h[:, 0])
     rec["lon_rad"] = np.radians(trajectory.lat_lon_h[:, 1])
     rec["h_m"] = trajectory.lat_lon_h[:, 2]

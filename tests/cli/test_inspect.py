@@ -1,0 +1,134 @@
+"""``kinsync trajectory info`` on SBET files, with the accuracy of their smrmsg companion."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.io.sbet import SECONDS_PER_WEEK, write_sbet
+from kinsync.io.smrmsg import SmrmsgData, write_smrmsg
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.trajectory import Trajectory
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+WEEK = 2301
+T0 = WEEK * SECONDS_PER_WEEK + 345600.0
+
+
+def _trajectory() -> Trajectory:
+    t = T0 + np.arange(0.0, 20.0, 0.005)
+    s = t - T0
+    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
+    return Trajectory.from_euler(
+        t, 0.02 * np.sin(s), 0.01 * np.cos(s), 0.3 + 0.05 * s, lat_lon_h=llh
+    )
+
+
+def _accuracy(t0: float = T0) -> SmrmsgData:
+    rng = np.random.default_rng(4)
+    n = 21
+    return SmrmsgData(
+        t_s=t0 + np.arange(n, dtype=np.float64),
+        std_pos_ned_m=rng.uniform(0.01, 0.05, (n, 3)),
+        std_vel_ned_m_s=rng.uniform(0.001, 0.01, (n, 3)),
+        std_rpy_rad=np.radians(rng.uniform(0.002, 0.05, (n, 3))),
+    )
+
+
+@pytest.fixture
+def sbet(tmp_path: Path) -> Path:
+    path = tmp_path / "sbet_run7.out"
+    write_sbet(_trajectory(), path, wander_angle_rad=math.radians(20.0))
+    return path
+
+
+def test_sbet_info_reports_the_companion_accuracy(sbet: Path, run_cli: RunCli) -> None:
+    acc = _accuracy()
+    write_smrmsg(acc, sbet.with_name("smrmsg_run7.out"))
+    code, out, err = run_cli(["trajectory", "info", str(sbet), "--gps-week", str(WEEK), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["format"] == "sbet"
+    assert doc["records"] == 4000
+    assert doc["t_start_s"] == T0
+    assert doc["median_rate_hz"] == pytest.approx(200.0, rel=1e-4)  # times near 1.4e9 s
+    sm = doc["smrmsg"]
+    assert sm["path"] == str(sbet.with_name("smrmsg_run7.out"))
+    assert sm["records"] == 21
+    assert (sm["t_start_s"], sm["t_end_s"]) == (T0, T0 + 20.0)
+    assert sm["overlaps_trajectory"] is True
+    np.testing.assert_allclose(sm["std_pos_ned_m"]["median"], np.median(acc.std_pos_ned_m, 0))
+    np.testing.assert_allclose(sm["std_pos_ned_m"]["max"], acc.std_pos_ned_m.max(0))
+    np.testing.assert_allclose(sm["std_vel_ned_m_s"]["max"], acc.std_vel_ned_m_s.max(0))
+    np.testing.assert_allclose(
+        sm["std_rpy_deg"]["median"], np.degrees(np.median(acc.std_rpy_rad, 0)), rtol=1e-12
+    )
+    code, out, err = run_cli(["trajectory", "info", str(sbet)])  # seconds of week, a table
+    assert code == 0, err
+    assert out.count("sigma") == 6  # position, velocity, attitude: median and max rows
+
+
+def test_explicit_smrmsg_and_none_found(sbet: Path, run_cli: RunCli, tmp_path: Path) -> None:
+    code, out, err = run_cli(["trajectory", "info", str(sbet), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["smrmsg"] is None
+    code, out, err = run_cli(["trajectory", "info", str(sbet)])
+    assert code == 0, err
+    assert "none found" in out
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    write_smrmsg(_accuracy(t0=T0 + 1000.0), elsewhere / "acc.out")  # another span
+    args = ["trajectory", "info", str(sbet), "--smrmsg", str(elsewhere / "acc.out")]
+    code, out, err = run_cli([*args, "--gps-week", str(WEEK), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["smrmsg"]["overlaps_trajectory"] is False
+
+
+def test_csv_info_has_no_smrmsg(tmp_path: Path, run_cli: RunCli) -> None:
+    path = tmp_path / "traj.csv"
+    write_trajectory_csv(_trajectory(), path)
+    code, out, err = run_cli(["trajectory", "info", str(path), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["format"] == "csv"
+    assert "smrmsg" not in doc
+
+
+@pytest.mark.parametrize(
+    ("case", "fragments"),
+    [
+        ("smrmsg_as_trajectory", ["looks like an smrmsg accuracy file"]),
+        ("truncated_smrmsg", ["smrmsg_run7.out", "1 whole records and 3 bytes left over"]),
+        ("smrmsg_with_csv", ["--smrmsg", "trajectory CSV"]),
+        ("unknown_suffix", ["unknown trajectory type"]),
+    ],
+)
+def test_bad_input_is_one_line_error(
+    sbet: Path,
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    case: str,
+    fragments: list[str],
+) -> None:
+    acc = sbet.with_name("smrmsg_run7.out")
+    write_smrmsg(_accuracy(), acc)
+    args = ["trajectory", "info", str(sbet)]
+    if case == "smrmsg_as_trajectory":
+        args = ["trajectory", "info", str(acc)]
+    elif case == "truncated_smrmsg":
+        acc.write_bytes(acc.read_bytes()[:83])
+    elif case == "smrmsg_with_csv":
+        csv = sbet.with_name("traj.csv")
+        write_trajectory_csv(_trajectory(), csv)
+        args = ["trajectory", "info", str(csv), "--smrmsg", str(acc)]
+    else:
+        args = ["trajectory", "info", str(sbet.with_name("traj.txt"))]
+    code, out, err = run_cli(args)
+    assert_one_line_error(code, out, err, *fragments)
