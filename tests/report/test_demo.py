@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from kinsync.cli import main
+from kinsync.report.render_check import check_renders, find_chromium
 
 
 class _Collector(HTMLParser):
@@ -66,6 +67,15 @@ def test_demo_writes_a_self_contained_report(
     assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
     assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
     assert not list(out_dir.glob("*.part"))
+    for title in ("INS/GNSS", "Method B", "Validation", "End to end"):
+        assert any(h.startswith(title) for h in parser.headings), title
+    for key in ("INS/GNSS", "Method B", "end-to-end: validation"):
+        assert key in out
+    if find_chromium() is not None:
+        check = check_renders(out_dir / "report.html")
+        assert check.ok, check
+        assert check.n_images == len(parser.imgs)
+        assert check.n_sections == len(parser.headings)
 
 
 def test_demo_refuses_a_file_as_output_folder(

@@ -1,11 +1,13 @@
-"""The demo: every landed capability run on built-in data, written as one report folder.
+"""The demo: every capability run on built-in data, written as one report folder.
 
-Sections so far: the error budgets of SPEC section 3 (beach and rolling-table
-scenarios, serial FIFO delay, profile-clock period); Method A on a simulated
-rotating-table campaign (estimate, per-rate figure, residuals, planner); the PPS + ZDA
-clock model on simulated logs with faults; and, when the
-CIDCO data sit in ``../shared``, sphere fits on real vessel passes. Later capabilities
-add their own sections.
+Sections: the error budgets of SPEC section 3; Method A on a simulated rotating-table
+campaign; the PPS + ZDA clock model on simulated logs with faults; direct
+georeferencing of a simulated million-point scan against analytic truth; INS/GNSS on a
+simulated MEMS drive (and on the NaveGo set when ``../shared`` is present); Method B on
+a simulated profile-scanner drive; the end-to-end chain on one simulated survey
+(INS/GNSS -> Method B -> georeferencing -> validation) with the correct calibration, a
+wrong latency and a wrong clock; validation of control points and wall flatness; and,
+when the CIDCO data sit in ``../shared``, sphere fits on real vessel passes.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from kinsync.budget import (
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.report.demo_clock import clock_section
+from kinsync.report.demo_end_to_end import end_to_end_section
 from kinsync.report.demo_georef import georef_section
 from kinsync.report.demo_ins import find_navego_folder, ins_section, navego_section
 from kinsync.report.demo_method_a import cidco_section, find_cidco_folder, method_a_section
@@ -250,6 +253,7 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
         progress("Method B: profile scanner synchronised in object space")
     method_b, _ = method_b_section(out_dir, summary)
     sections.append(method_b)
+    sections.append(end_to_end_section(out_dir, summary, progress)[0])
     if progress:
         progress("validation: control points and wall flatness, right and wrong calibration")
     sections.append(validation_section(out_dir, summary))
