@@ -912,9 +912,14 @@ def _scanner_xyz(
     ctx: _ChunkContext, record: Any, columns: dict[str, np.ndarray[Any, Any]] | None
 ) -> FloatArray:
     if columns is None:
-        return np.column_stack(
-            [np.asarray(record.x), np.asarray(record.y), np.asarray(record.z)]
-        ).astype(np.float64)
+        # scaled coordinates straight from the stored integers into one (n, 3) array
+        xyz = np.empty((len(record), 3))
+        for j, (name, scale, offset) in enumerate(
+            zip(("X", "Y", "Z"), record.scales, record.offsets, strict=True)
+        ):
+            np.multiply(record.array[name], scale, out=xyz[:, j])
+            xyz[:, j] += offset
+        return xyz
     if ctx.source.points == "profile":
         return profile_points_to_scanner(columns["range_m"], columns["angle_rad"], ctx.mount)
     return np.column_stack([columns[c] for c in _XYZ_COLUMNS])
@@ -1496,7 +1501,9 @@ def _write_las(
                     )
                 )
             if writer is not None and coords.shape[0]:
-                writer.write(records(out.records), coords[:, 0], coords[:, 1], coords[:, 2])
+                writer.write(
+                    records(out.records), coords[:, 0], coords[:, 1], coords[:, 2], reuse_chunk=True
+                )
             n_in += out.count
             n_out += int(coords.shape[0])
         if writer is None:  # no point inside (or an empty file): still write a valid file

@@ -385,6 +385,8 @@ class LasChunkWriter:
         x: FloatArray,
         y: FloatArray,
         z: FloatArray,
+        *,
+        reuse_chunk: bool = False,
     ) -> None:
         """Append a chunk with its coordinates replaced.
 
@@ -395,6 +397,9 @@ class LasChunkWriter:
             written unchanged.
         x, y, z : ndarray, shape (M,)
             New coordinates (output CRS units, e.g. m), float64, M = ``len(chunk)``.
+        reuse_chunk : bool
+            Write the new X, Y, Z into ``chunk``'s own array instead of a copy (saves a
+            copy of every record; the caller must not use ``chunk`` afterwards).
 
         Raises
         ------
@@ -414,7 +419,7 @@ class LasChunkWriter:
             )
             raise InputError(msg)
         n = len(chunk)
-        array = chunk.array.copy()
+        array = chunk.array if reuse_chunk else chunk.array.copy()
         for name, values, offset, scale in zip(
             ("X", "Y", "Z"), (x, y, z), self.header.offsets, self.header.scales, strict=True
         ):
