@@ -24,6 +24,7 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef
 from kinsync.io.atomic import atomic_path
+from kinsync.io.tables import read_csv_rows
 
 __all__ = [
     "ControlPoints",
@@ -112,19 +113,6 @@ class ControlPoints:
         return ecef_to_geodetic(self.pos_ecef_m)
 
 
-def _read_rows(path: Path) -> list[tuple[int, list[str]]]:
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:
-            records = list(enumerate(csv.reader(fh), start=1))
-    except FileNotFoundError as err:
-        msg = f"{path}: control point file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read as CSV ({err})"
-        raise InputError(msg) from err
-    return [(line, row) for line, row in records if row and any(c.strip() for c in row)]
-
-
 def _coordinate_columns(path: Path, header: list[str]) -> tuple[str, ...]:
     has_geo = [c in header for c in GEODETIC_COLUMNS]
     has_ecef = [c in header for c in ECEF_COLUMNS]
@@ -202,7 +190,7 @@ def read_control_points(path: Path) -> ControlPoints:
         that is not a finite number, a latitude outside [-90, 90] (each naming the line).
     """
     path = Path(path)
-    records = _read_rows(path)
+    records = read_csv_rows(path, "control point file")
     if not records:
         msg = f"{path}: empty file; expected a header such as name,lat_deg,lon_deg,h_m"
         raise InputError(msg)

@@ -38,7 +38,7 @@ from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
-from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.mount import Mount
 
 __all__ = [
@@ -337,16 +337,7 @@ def read_sync_points(path: Path) -> SyncPoints:
         no data rows (each naming the line).
     """
     path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:
-            records = [(line, row) for line, row in enumerate(csv.reader(fh), start=1)]
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read as CSV ({err})"
-        raise InputError(msg) from err
-    records = [(line, row) for line, row in records if row and any(c.strip() for c in row)]
+    records = read_csv_rows(path)
     if not records:
         msg = f"{path}: empty file; expected a header {','.join(SYNC_POINT_COLUMNS)}"
         raise InputError(msg)

@@ -70,6 +70,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.records import memmap_records
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -178,31 +179,12 @@ def read_sbet_records(path: Path) -> np.memmap[tuple[int], np.dtype[np.void]]:
     InputError
         Missing or empty file, or a length that is not a multiple of 136 bytes.
     """
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found; give the path of an SBET file"
-        raise InputError(msg) from err
-    except OSError as err:
-        msg = f"{path}: cannot read ({err})"
-        raise InputError(msg) from err
-    n, left = divmod(size, SBET_RECORD_BYTES)
-    if left:
-        msg = (
-            f"{path}: length {size} bytes is not a multiple of the {SBET_RECORD_BYTES}-byte "
-            f"SBET record: {n} whole records and {left} bytes left over; the file is "
-            "truncated or not an SBET (re-export or copy it again)"
-        )
-        raise InputError(msg)
-    if n == 0:
-        msg = f"{path}: empty file; an SBET holds {SBET_RECORD_BYTES}-byte records"
-        raise InputError(msg)
-    try:
-        return np.memmap(path, dtype=SBET_DTYPE, mode="r", shape=(n,))
-    except OSError as err:
-        msg = f"{path}: cannot memory-map ({err})"
-        raise InputError(msg) from err
+    return memmap_records(
+        path,
+        SBET_DTYPE,
+        "SBET",
+        "the file is truncated or not an SBET (re-export or copy it again)",
+    )
 
 
 def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:

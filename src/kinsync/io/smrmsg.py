@@ -55,6 +55,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.records import memmap_records
 from kinsync.io.sbet import SECONDS_PER_WEEK, seconds_of_first_week
 
 __all__ = [
@@ -169,31 +170,12 @@ def read_smrmsg_records(path: Path) -> np.memmap[tuple[int], np.dtype[np.void]]:
     InputError
         Missing or empty file, or a length that is not a multiple of 80 bytes.
     """
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found; give the path of an smrmsg file"
-        raise InputError(msg) from err
-    except OSError as err:
-        msg = f"{path}: cannot read ({err})"
-        raise InputError(msg) from err
-    n, left = divmod(size, SMRMSG_RECORD_BYTES)
-    if left:
-        msg = (
-            f"{path}: length {size} bytes is not a multiple of the {SMRMSG_RECORD_BYTES}-byte "
-            f"smrmsg record: {n} whole records and {left} bytes left over; the file is "
-            "truncated or not an smrmsg file (an SBET has 136-byte records)"
-        )
-        raise InputError(msg)
-    if n == 0:
-        msg = f"{path}: empty file; an smrmsg file holds {SMRMSG_RECORD_BYTES}-byte records"
-        raise InputError(msg)
-    try:
-        return np.memmap(path, dtype=SMRMSG_DTYPE, mode="r", shape=(n,))
-    except OSError as err:
-        msg = f"{path}: cannot memory-map ({err})"
-        raise InputError(msg) from err
+    return memmap_records(
+        path,
+        SMRMSG_DTYPE,
+        "smrmsg",
+        "the file is truncated or not an smrmsg file (an SBET has 136-byte records)",
+    )
 
 
 def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:

@@ -23,6 +23,7 @@ from kinsync.io.atomic import atomic_path
 __all__ = [
     "NumericTable",
     "TextTable",
+    "read_csv_rows",
     "read_numeric_csv",
     "read_time_column",
     "write_numeric_csv",
@@ -193,6 +194,33 @@ class TextTable:
     lines: tuple[int, ...]
 
 
+def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]:
+    """The non-blank rows of a small CSV file with their 1-based line numbers.
+
+    Parameters
+    ----------
+    path : Path
+        The file (UTF-8, a BOM is skipped).
+    what : str
+        What the file is, for the not-found message ("control point file", ...).
+
+    Raises
+    ------
+    InputError
+        Missing file, or a file that cannot be read as CSV.
+    """
+    try:
+        with Path(path).open(newline="", encoding="utf-8-sig") as fh:
+            records = list(enumerate(csv.reader(fh), start=1))
+    except FileNotFoundError as err:
+        msg = f"{path}: {what} not found"
+        raise InputError(msg) from err
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        msg = f"{path}: cannot read as CSV ({err})"
+        raise InputError(msg) from err
+    return [(line, row) for line, row in records if row and any(c.strip() for c in row)]
+
+
 def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
     """Read a CSV with a header, keeping every cell, and parse one column as times.
 
@@ -218,16 +246,7 @@ def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
         line).
     """
     path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:
-            records = [(line, row) for line, row in enumerate(csv.reader(fh), start=1)]
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read as CSV ({err})"
-        raise InputError(msg) from err
-    records = [(line, row) for line, row in records if row and any(c.strip() for c in row)]
+    records = read_csv_rows(path)
     if not records:
         msg = f"{path}: empty file; expected a header row with a column {column!r}"
         raise InputError(msg)

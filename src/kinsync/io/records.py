@@ -1,0 +1,61 @@
+"""Binary files of fixed-size little-endian records (SBET, smrmsg), memory-mapped."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from kinsync.errors import InputError
+
+__all__ = ["memmap_records"]
+
+
+def memmap_records(
+    path: Path, dtype: np.dtype[Any], kind: str, mismatch_hint: str
+) -> np.memmap[tuple[int], np.dtype[np.void]]:
+    """Memory-map a file of fixed-size records (read-only), checking its length.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    dtype : numpy.dtype
+        One record (its ``itemsize`` is the record length in bytes).
+    kind : str
+        What the file is, for messages ("SBET", "smrmsg").
+    mismatch_hint : str
+        What to tell the user when the length is not a whole number of records.
+
+    Raises
+    ------
+    InputError
+        Missing, unreadable or empty file, or a length that is not a multiple of the
+        record size.
+    """
+    path = Path(path)
+    size_b = dtype.itemsize
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found; give the path of an {kind} file"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot read ({err})"
+        raise InputError(msg) from err
+    n, left = divmod(size, size_b)
+    if left:
+        msg = (
+            f"{path}: length {size} bytes is not a multiple of the {size_b}-byte "
+            f"{kind} record: {n} whole records and {left} bytes left over; {mismatch_hint}"
+        )
+        raise InputError(msg)
+    if n == 0:
+        msg = f"{path}: empty file; an {kind} file holds {size_b}-byte records"
+        raise InputError(msg)
+    try:
+        return np.memmap(path, dtype=dtype, mode="r", shape=(n,))
+    except OSError as err:
+        msg = f"{path}: cannot memory-map ({err})"
+        raise InputError(msg) from err
