@@ -88,14 +88,11 @@ F. E., Biometrics Bulletin 2(6), 1946, 110-114.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import pyproj
 from scipy import stats
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
@@ -111,11 +108,14 @@ from kinsync.frames import (
     rotation_ned_to_ecef,
 )
 from kinsync.georef import read_trajectory_file
+from kinsync.io.cloud import (
+    CloudExtent,
+    check_finite_chunk,
+    cloud_crs,
+    cloud_crs_to_ecef,
+    iter_cloud,
+)
 from kinsync.io.control_points import ControlPoints, read_control_points
-from kinsync.io.las import iter_las_chunks, las_info
-from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
-from kinsync.io.points import iter_table_chunks
-from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -1542,161 +1542,6 @@ def select_box(xyz: ArrayLike, box: Box) -> BoolArray:
 
 
 # =============================================================================== file layer
-_LAS_SUFFIXES = (".las", ".laz")
-_TABLE_SUFFIXES = (".csv", ".parquet")
-_XYZ = ("X", "Y", "Z")
-TimeScale = Literal["gps", "week"]
-
-
-@lru_cache(maxsize=8)
-def _to_ecef(crs_text: str) -> Callable[[FloatArray], FloatArray] | None:
-    """Cloud CRS -> ECEF (axis order easting/longitude first), None for ECEF itself."""
-    try:
-        crs = pyproj.CRS.from_user_input(crs_text)
-    except pyproj.exceptions.CRSError as err:
-        msg = f"--crs {crs_text!r}: unknown coordinate reference system ({err}); e.g. EPSG:4978"
-        raise InputError(msg) from err
-    if crs.equals(pyproj.CRS.from_epsg(4978), ignore_axis_order=True):
-        return None
-    try:
-        transformer = pyproj.Transformer.from_crs(crs, pyproj.CRS.from_epsg(4978), always_xy=True)
-    except pyproj.exceptions.ProjError as err:
-        msg = f"--crs {crs_text!r}: no transformation to ECEF (EPSG:4978) ({err})"
-        raise InputError(msg) from err
-
-    def apply(xyz: FloatArray) -> FloatArray:
-        x, y, z = transformer.transform(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-        out = np.column_stack([x, y, z]).astype(np.float64)
-        if not np.all(np.isfinite(out)):
-            row = int(np.flatnonzero(~np.all(np.isfinite(out), axis=1))[0])
-            msg = (
-                f"--crs {crs_text!r}: point {xyz[row].tolist()} does not convert to ECEF; "
-                "is the cloud in this CRS?"
-            )
-            raise InputError(msg)
-        return out
-
-    return apply
-
-
-def _cloud_crs(path: Path, crs: str | None) -> str:
-    """The cloud's CRS: given, else a LAS file's own, else ECEF."""
-    if path.suffix.lower() not in _LAS_SUFFIXES:
-        return crs or _ECEF_CRS
-    wkt = las_info(path).crs_wkt
-    if crs is None:
-        return wkt or _ECEF_CRS
-    _to_ecef(crs)  # an unknown --crs fails first
-    if wkt is not None and not pyproj.CRS.from_user_input(crs).equals(
-        pyproj.CRS.from_wkt(wkt), ignore_axis_order=True
-    ):
-        name = pyproj.CRS.from_wkt(wkt).name
-        msg = (
-            f"{path}: the file says its CRS is {name!r}, --crs says {crs!r}; omit --crs to "
-            "use the file's"
-        )
-        raise InputError(msg)
-    return crs
-
-
-@dataclass
-class _Extent:
-    lo: FloatArray = field(default_factory=lambda: np.full(3, np.inf))
-    hi: FloatArray = field(default_factory=lambda: np.full(3, -np.inf))
-    count: int = 0
-
-    def add(self, xyz: FloatArray) -> None:
-        if xyz.shape[0]:
-            self.lo = np.minimum(self.lo, xyz.min(axis=0))
-            self.hi = np.maximum(self.hi, xyz.max(axis=0))
-            self.count += int(xyz.shape[0])
-
-    def text(self) -> str:
-        if self.count == 0:
-            return "the cloud has no points"
-        return (
-            f"the cloud's {self.count} points span X {self.lo[0]:.3f}..{self.hi[0]:.3f}, "
-            f"Y {self.lo[1]:.3f}..{self.hi[1]:.3f}, Z {self.lo[2]:.3f}..{self.hi[2]:.3f}"
-        )
-
-
-def _las_times(
-    path: Path, chunk: Any, time_type: str, traj_scale: TimeScale, gps_week: int | None
-) -> FloatArray:
-    if "gps_time" not in chunk.point_format.dimension_names:
-        msg = (
-            f"{path}: point format {chunk.point_format.id} has no gps_time; the control-point "
-            "check needs a time per point"
-        )
-        raise InputError(msg)
-    t = np.asarray(chunk.gps_time, dtype=np.float64)
-    if time_type == "adjusted_standard":
-        if traj_scale == "week":
-            msg = (
-                f"{path}: the points carry adjusted standard GPS time, the trajectory GPS "
-                "seconds of week; give --gps-week"
-            )
-            raise InputError(msg)
-        return t + ADJUSTED_GPS_OFFSET_S
-    if traj_scale == "gps":
-        if gps_week is None:
-            msg = (
-                f"{path}: the points carry GPS seconds of week, the trajectory GPS time; "
-                "give --gps-week"
-            )
-            raise InputError(msg)
-        return gps_week * SECONDS_PER_WEEK + t
-    return t
-
-
-def _iter_cloud(
-    path: Path,
-    chunk_points: int,
-    *,
-    need_time: bool,
-    traj_scale: TimeScale = "gps",
-    gps_week: int | None = None,
-) -> Iterator[tuple[FloatArray, FloatArray | None, FloatArray | None]]:
-    """Chunks of (xyz in the cloud's CRS, times or None, intensities or None)."""
-    suffix = path.suffix.lower()
-    if suffix in _LAS_SUFFIXES:
-        info = las_info(path)
-        for chunk in iter_las_chunks(path, chunk_points):
-            xyz = np.column_stack(
-                [np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]
-            ).astype(np.float64)
-            t = (
-                _las_times(path, chunk, info.gps_time_type, traj_scale, gps_week)
-                if need_time
-                else None
-            )
-            yield xyz, t, np.asarray(chunk.intensity, dtype=np.float64)
-        return
-    if suffix not in _TABLE_SUFFIXES:
-        msg = f"{path}: unknown cloud type {path.suffix!r}; use .las, .laz, .csv or .parquet"
-        raise InputError(msg)
-    required = (*_XYZ, "t_s", "intensity") if need_time else _XYZ
-    for cols in iter_table_chunks(path, chunk_points, required):
-        xyz = np.column_stack([cols[c] for c in _XYZ])
-        if need_time:
-            yield xyz, cols["t_s"], cols["intensity"]
-        else:
-            yield xyz, None, None
-
-
-def _check_finite_chunk(
-    path: Path, xyz: FloatArray, done: int, **columns: FloatArray | None
-) -> None:
-    """Raise naming the file, the point (row) and the column of the first non-finite value."""
-    checks = {"coordinates": ~np.all(np.isfinite(xyz), axis=1)}
-    checks.update({name: ~np.isfinite(v) for name, v in columns.items() if v is not None})
-    for name, bad in checks.items():
-        if np.any(bad):
-            row = done + int(np.flatnonzero(bad)[0])
-            msg = f"{path}: point {row} has a non-finite {name}; drop or fix it"
-            raise InputError(msg)
-
-
 def control_points_file(
     cloud_path: Path,
     control_path: Path,
@@ -1757,19 +1602,19 @@ def control_points_file(
     if not cloud_path.is_file():
         msg = f"{cloud_path}: file not found"
         raise InputError(msg)
-    crs_text = _cloud_crs(cloud_path, crs)
-    to_ecef = _to_ecef(crs_text)
+    crs_text = cloud_crs(cloud_path, crs)
+    to_ecef = cloud_crs_to_ecef(crs_text)
     pos_parts: list[FloatArray] = []
     t_parts: list[FloatArray] = []
     i_parts: list[FloatArray] = []
-    extent = _Extent()
+    extent = CloudExtent()
     done = 0
-    for xyz, t, inten in _iter_cloud(
+    for xyz, t, inten in iter_cloud(
         cloud_path, chunk_points, need_time=True, traj_scale=traj_scale, gps_week=gps_week
     ):
         assert t is not None
         assert inten is not None
-        _check_finite_chunk(cloud_path, xyz, done, time=t, intensity=inten)
+        check_finite_chunk(cloud_path, xyz, done, time=t, intensity=inten)
         done += xyz.shape[0]
         extent.add(xyz)
         ecef = xyz if to_ecef is None else to_ecef(xyz)
@@ -1845,13 +1690,13 @@ def flatness_file(
     if not cloud_path.is_file():
         msg = f"{cloud_path}: file not found"
         raise InputError(msg)
-    crs_text = _cloud_crs(cloud_path, crs)
-    to_ecef = _to_ecef(crs_text)
+    crs_text = cloud_crs(cloud_path, crs)
+    to_ecef = cloud_crs_to_ecef(crs_text)
     parts: list[FloatArray] = []
-    extent = _Extent()
+    extent = CloudExtent()
     done = 0
-    for xyz, _, _ in _iter_cloud(cloud_path, chunk_points, need_time=False):
-        _check_finite_chunk(cloud_path, xyz, done)
+    for xyz, _, _ in iter_cloud(cloud_path, chunk_points, need_time=False):
+        check_finite_chunk(cloud_path, xyz, done)
         done += xyz.shape[0]
         extent.add(xyz)
         parts.append(xyz[select_box(xyz, box)])
