@@ -198,7 +198,12 @@ def pipeline(traj: Trajectory, n_points: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--pipe-points", type=int, default=5_000_000)
+    parser.add_argument(
+        "--pipe-points",
+        default="5000000,20000000",
+        help="comma-separated file sizes for the LAZ -> LAZ comparison (points); the ratio "
+        "depends on size because reading and preparing the trajectory is a fixed cost per file",
+    )
     args = parser.parse_args()
     rng = np.random.default_rng(1)
     traj = geodetic_trajectory()
@@ -239,7 +244,8 @@ def main() -> None:
     b, _ = georeference_numpy(t[:200_000], xyz[:200_000], gt, MOUNT)
     print(f"kernel vs numpy reference: max |difference| {np.abs(a - b).max():.2e} m")
     del t, xyz, tu, xu, a, b
-    pipeline(traj, args.pipe_points)
+    for n_points in (int(v) for v in str(args.pipe_points).split(",")):
+        pipeline(traj, n_points)
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"this process: peak RSS {peak_mib:.0f} MiB")
 
