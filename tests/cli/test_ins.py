@@ -16,7 +16,7 @@ from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simula
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
 
-NAVEGO = Path("/work/shared/data/navego-synthetic")
+NAVEGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.toml"
 SLICE_S = 60.0
 IMU_ROWS = 12_000  # 200 Hz for 60 s

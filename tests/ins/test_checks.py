@@ -19,7 +19,7 @@ from kinsync.io.gnss_csv import read_gnss_csv
 from kinsync.io.imu_csv import read_imu_csv
 from kinsync.io.ins_config import read_ins_config
 
-NAVEGO = Path("/work/shared/data/navego-synthetic")
+NAVEGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
 CONFIG = InsConfig(1e-4, 1e-3, 1e-3, 0.01, 1e-5, 1e-4, max_imu_gap_s=0.1)
 LAT, H = 46.8, 50.0
 G = float(normal_gravity_m_s2(math.radians(LAT), H))

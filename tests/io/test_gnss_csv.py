@@ -13,7 +13,7 @@ from kinsync.errors import InputError
 from kinsync.ins.measurements import GnssData
 from kinsync.io.gnss_csv import read_gnss_csv, write_gnss_csv
 
-NAVEGO = Path("/work/shared/data/navego-synthetic")
+NAVEGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
 HEAD = "t_s,lat_deg,lon_deg,h_m"
 
 

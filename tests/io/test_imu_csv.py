@@ -13,7 +13,7 @@ from kinsync.errors import InputError
 from kinsync.ins.measurements import ImuData
 from kinsync.io.imu_csv import IMU_INCREMENT_COLUMNS, IMU_RATE_COLUMNS, read_imu_csv, write_imu_csv
 
-NAVEGO = Path("/work/shared/data/navego-synthetic")
+NAVEGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
 RATE_HEADER = ",".join(IMU_RATE_COLUMNS)
 INC_HEADER = ",".join(IMU_INCREMENT_COLUMNS)
 

@@ -22,7 +22,13 @@ from kinsync.io.ins_config import (
 )
 
 SHIPPED = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.toml"
-SPEC_JSON = Path("/work/shared/data/navego-synthetic/imu_gnss_spec.json")
+SPEC_JSON = (
+    Path(__file__).resolve().parents[3]
+    / "shared"
+    / "data"
+    / "navego-synthetic"
+    / "imu_gnss_spec.json"
+)
 
 MINIMAL = """
 [imu]

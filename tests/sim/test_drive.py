@@ -353,7 +353,15 @@ def test_presets_carry_the_issue_values() -> None:
     assert nav.acc_bias_sigma_m_s2 == pytest.approx(0.06 * MG)
     assert nav.acc_scale_sigma_ppm == 5.0
     mems = ImuErrorModel.mems()
-    spec = json.loads(Path("/work/shared/data/navego-synthetic/imu_gnss_spec.json").read_text())
+    spec = json.loads(
+        (
+            Path(__file__).resolve().parents[3]
+            / "shared"
+            / "data"
+            / "navego-synthetic"
+            / "imu_gnss_spec.json"
+        ).read_text()
+    )
     assert mems.rate_hz == spec["imu_freq_hz"]
     assert mems.gyro_arw_rad_s_rthz == pytest.approx(spec["arw"][0])
     assert mems.acc_vrw_m_s2_rthz == pytest.approx(spec["vrw"][0])
@@ -581,7 +589,11 @@ def test_drive_files_round_trip(tmp_path: Path) -> None:
     np.testing.assert_array_equal(gnss["std_d_m"], 0.04)
     assert not ((gnss["t_s"] >= 50.0) & (gnss["t_s"] <= 60.0)).any()
     truth_cols = read_numeric_csv(folder / "truth.csv", ["t_s"]).columns
-    reference = (Path("/work/shared/data/navego-synthetic/truth.csv").read_text().splitlines())[0]
+    reference = (
+        (Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic" / "truth.csv")
+        .read_text()
+        .splitlines()
+    )[0]
     assert ",".join(truth_cols) == reference
     rpy = np.degrees(sim.truth.euler_rpy_rad())
     np.testing.assert_array_equal(truth_cols["yaw_deg"], rpy[:, 2])
