@@ -19,12 +19,13 @@ from kinsync.io.nav_csv import (
     read_navigation,
     read_truth_csv,
     write_nav_csv,
+    write_truth_csv,
 )
 from kinsync.io.sbet import write_sbet
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.trajectory import Trajectory
 
-NAVEGO = Path("/work/shared/data/navego-synthetic")
+NAVEGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
 
 
 def nav_solution(n: int = 40, seed: int = 2) -> NavSolution:
@@ -101,6 +102,30 @@ def test_reads_the_navego_truth() -> None:
     np.testing.assert_array_equal(truth.lat_lon_h[0], [-32.83077399956, -68.79278200014, 700.0])
     np.testing.assert_allclose(np.degrees(truth.euler_rpy_rad()[0]), [0.0, 0.0, -15.0], atol=1e-12)
     np.testing.assert_array_equal(truth.vel_ned_m_s[0], [0.019319, -0.005176, -0.0])
+
+
+def test_truth_csv_round_trip_in_the_navego_layout(tmp_path: Path) -> None:
+    traj = nav_solution().to_trajectory()
+    write_truth_csv(traj, tmp_path / "truth.csv")
+    header = (tmp_path / "truth.csv").read_text().splitlines()[0]
+    assert header == (NAVEGO / "truth.csv").read_text().splitlines()[0]
+    back = read_truth_csv(tmp_path / "truth.csv")
+    assert back.lat_lon_h is not None
+    assert traj.lat_lon_h is not None
+    np.testing.assert_array_equal(back.lat_lon_h, traj.lat_lon_h)
+    assert back.vel_ned_m_s is not None
+    assert traj.vel_ned_m_s is not None
+    np.testing.assert_array_equal(back.vel_ned_m_s, traj.vel_ned_m_s)
+    dots = np.abs(np.sum(back.q_body_to_ned * traj.q_body_to_ned, axis=1))
+    np.testing.assert_allclose(dots, 1.0, atol=1e-14)
+
+
+def test_truth_writer_needs_velocities(tmp_path: Path) -> None:
+    traj = nav_solution().to_trajectory()
+    plain = Trajectory(t_s=traj.t_s, q_body_to_ned=traj.q_body_to_ned, lat_lon_h=traj.lat_lon_h)
+    with pytest.raises(InputError, match="velocities"):
+        write_truth_csv(plain, tmp_path / "t.csv")
+    assert not (tmp_path / "t.csv").exists()
 
 
 def test_truth_without_velocities_is_rejected(tmp_path: Path) -> None:

@@ -53,6 +53,7 @@ __all__ = [
     "read_navigation",
     "read_truth_csv",
     "write_nav_csv",
+    "write_truth_csv",
 ]
 
 NAV_COLUMNS = (
@@ -232,6 +233,39 @@ def read_truth_csv(path: Path) -> Trajectory:
         msg = f"{path}: a truth trajectory needs the velocity columns vn_m_s,ve_m_s,vd_m_s"
         raise InputError(msg)
     return traj
+
+
+def write_truth_csv(trajectory: Trajectory, path: Path) -> None:
+    """Write a geodetic trajectory with velocities in the truth layout, atomically.
+
+    Columns ``t_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg``
+    (the NaveGo ``truth.csv`` layout); `read_truth_csv` reads it back exactly.
+
+    Raises
+    ------
+    InputError
+        A local-NED trajectory or one without velocities.
+    """
+    if trajectory.lat_lon_h is None or trajectory.vel_ned_m_s is None:
+        msg = "write_truth_csv: the trajectory needs geodetic positions and NED velocities"
+        raise InputError(msg)
+    llh, vel = trajectory.lat_lon_h, trajectory.vel_ned_m_s
+    rpy = np.degrees(trajectory.euler_rpy_rad())
+    write_numeric_csv(
+        Path(path),
+        {
+            "t_s": trajectory.t_s,
+            "lat_deg": llh[:, 0],
+            "lon_deg": llh[:, 1],
+            "h_m": llh[:, 2],
+            "vn_m_s": vel[:, 0],
+            "ve_m_s": vel[:, 1],
+            "vd_m_s": vel[:, 2],
+            "roll_deg": rpy[:, 0],
+            "pitch_deg": rpy[:, 1],
+            "yaw_deg": rpy[:, 2],
+        },
+    )
 
 
 def _csv_header(path: Path) -> list[str]:

@@ -65,8 +65,10 @@ from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 from kinsync.io.atomic import atomic_write_text
+from kinsync.io.gnss_csv import write_gnss_csv
+from kinsync.io.imu_csv import write_imu_csv
 from kinsync.io.ins_config import write_ins_config
-from kinsync.io.tables import write_numeric_csv
+from kinsync.io.nav_csv import write_truth_csv
 from kinsync.sim._route import (
     KinematicState,
     Route,
@@ -1244,59 +1246,8 @@ def write_drive_simulation(sim: DriveSimulation, out_dir: Path) -> None:
         msg = f"{folder}: exists and is not a folder; give a folder for the simulation"
         raise InputError(msg)
     folder.mkdir(parents=True, exist_ok=True)
-    imu = sim.imu
-    g, a = imu.gyro_body_rad_s, imu.acc_body_m_s2
-    write_numeric_csv(
-        folder / "imu.csv",
-        {
-            "t_s": imu.t_s,
-            "gyro_x_rad_s": g[:, 0],
-            "gyro_y_rad_s": g[:, 1],
-            "gyro_z_rad_s": g[:, 2],
-            "acc_x_m_s2": a[:, 0],
-            "acc_y_m_s2": a[:, 1],
-            "acc_z_m_s2": a[:, 2],
-        },
-    )
-    gn = sim.gnss
-    assert gn.vel_ned_m_s is not None
-    assert gn.std_vel_ned_m_s is not None
-    write_numeric_csv(
-        folder / "gnss.csv",
-        {
-            "t_s": gn.t_s,
-            "lat_deg": gn.lat_deg,
-            "lon_deg": gn.lon_deg,
-            "h_m": gn.h_m,
-            "std_n_m": gn.std_pos_ned_m[:, 0],
-            "std_e_m": gn.std_pos_ned_m[:, 1],
-            "std_d_m": gn.std_pos_ned_m[:, 2],
-            "vn_m_s": gn.vel_ned_m_s[:, 0],
-            "ve_m_s": gn.vel_ned_m_s[:, 1],
-            "vd_m_s": gn.vel_ned_m_s[:, 2],
-            "std_vn_m_s": gn.std_vel_ned_m_s[:, 0],
-            "std_ve_m_s": gn.std_vel_ned_m_s[:, 1],
-            "std_vd_m_s": gn.std_vel_ned_m_s[:, 2],
-        },
-    )
-    tr = sim.truth
-    assert tr.lat_lon_h is not None
-    assert tr.vel_ned_m_s is not None
-    rpy = np.degrees(tr.euler_rpy_rad())
-    write_numeric_csv(
-        folder / "truth.csv",
-        {
-            "t_s": tr.t_s,
-            "lat_deg": tr.lat_lon_h[:, 0],
-            "lon_deg": tr.lat_lon_h[:, 1],
-            "h_m": tr.lat_lon_h[:, 2],
-            "vn_m_s": tr.vel_ned_m_s[:, 0],
-            "ve_m_s": tr.vel_ned_m_s[:, 1],
-            "vd_m_s": tr.vel_ned_m_s[:, 2],
-            "roll_deg": rpy[:, 0],
-            "pitch_deg": rpy[:, 1],
-            "yaw_deg": rpy[:, 2],
-        },
-    )
+    write_imu_csv(sim.imu, folder / "imu.csv")
+    write_gnss_csv(sim.gnss, folder / "gnss.csv")
+    write_truth_csv(sim.truth, folder / "truth.csv")
     atomic_write_text(folder / "truth.json", json.dumps(sim.truth_doc, indent=2) + "\n")
     write_ins_config(sim.ins_config, folder / "ins.toml")
