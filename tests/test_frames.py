@@ -28,6 +28,7 @@ from kinsync.frames import (
     matrix_to_quaternion,
     ned_to_ecef,
     ned_to_vehicle,
+    quaternion_ned_to_ecef,
     quaternion_to_euler_rpy,
     quaternion_to_matrix,
     rot_x,
@@ -300,6 +301,14 @@ def test_rotation_ned_to_ecef_is_proper(lat: float, lon: float) -> None:
     _assert_rotation(rotation_ned_to_ecef(lat, lon), atol=1e-14)
 
 
+@settings(max_examples=200, deadline=None)
+@given(lat=st.floats(min_value=-90.0, max_value=90.0, allow_nan=False), lon=longitudes)
+def test_quaternion_ned_to_ecef_is_the_rotation_matrix(lat: float, lon: float) -> None:
+    q = quaternion_ned_to_ecef(lat, lon)
+    assert_allclose(np.linalg.norm(q), 1.0, atol=1e-15)
+    assert_allclose(quaternion_to_matrix(q), rotation_ned_to_ecef(lat, lon), atol=2e-15)
+
+
 def test_rotation_ned_to_ecef_vectorised() -> None:
     rng = np.random.default_rng(3)
     lat = rng.uniform(-90, 90, size=(6, 1))
@@ -489,6 +498,7 @@ _NAN_CALLS: list[Callable[[], object]] = [
     lambda: matrix_to_quaternion(np.where(np.eye(3) > 0, math.nan, 0.0)),
     lambda: quaternion_to_matrix([math.nan, 0.0, 0.0, 0.0]),
     lambda: rotation_ned_to_ecef(math.nan, 0.0),
+    lambda: quaternion_ned_to_ecef(0.0, math.nan),
     lambda: geodetic_to_ecef(10.0, math.nan, 0.0),
     lambda: geodetic_to_ecef(10.0, 0.0, math.inf),
     lambda: ecef_to_geodetic([math.nan, 0.0, 6.4e6]),
@@ -534,6 +544,7 @@ _BAD_LATITUDE_CALLS: list[Callable[[], object]] = [
     lambda: geodetic_to_ecef([10.0, -95.0], 0.0, 0.0),
     lambda: rotation_ned_to_ecef(95.0, 0.0),
     lambda: rotation_ned_to_ecef([0.0, -90.5], 0.0),
+    lambda: quaternion_ned_to_ecef([0.0, 90.5], 0.0),
     lambda: ned_to_ecef([0.0, 0.0, 0.0], 95.0, 0.0, 0.0),
     lambda: ecef_to_ned([6.4e6, 0.0, 0.0], 95.0, 0.0, 0.0),
 ]

@@ -337,6 +337,38 @@ def rotation_ned_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike) -> FloatArray:
     return out
 
 
+def quaternion_ned_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike) -> FloatArray:
+    """`rotation_ned_to_ecef` as a scalar-first unit quaternion, without a matrix.
+
+    ``R_ned_to_ecef = Rz(lon) Ry(-lat - 90 deg)`` (active rotations), so the quaternion
+    is the product of the two elementary ones, in closed form.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like, broadcastable shapes (...)
+        Geodetic latitude and longitude (deg, WGS84).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q_ned_to_ecef``, scalar first (sign not normalised).
+    """
+    lat_checked = _as_float(lat_deg, "lat_deg")
+    if np.any(np.abs(lat_checked) > 90.0):
+        bad = float(lat_checked[np.abs(lat_checked) > 90.0][0])
+        msg = f"lat_deg: latitude outside [-90, 90]: {bad}"
+        raise InputError(msg)
+    lat, lon = np.broadcast_arrays(
+        np.radians(lat_checked), np.radians(_as_float(lon_deg, "lon_deg"))
+    )
+    half_lon = 0.5 * lon
+    half_y = -0.5 * lat - 0.25 * np.pi
+    cz, sz = np.cos(half_lon), np.sin(half_lon)
+    cy, sy = np.cos(half_y), np.sin(half_y)
+    # (cz, 0, 0, sz) ⊗ (cy, 0, sy, 0)
+    return np.stack([cz * cy, -sz * sy, cz * sy, sz * cy], axis=-1)
+
+
 @lru_cache(maxsize=1)
 def _geodetic_ecef_transformer() -> Transformer:
     # EPSG:4979 = WGS84 geographic 3-D, EPSG:4978 = WGS84 geocentric.
