@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from kinsync.budget import beach_scenario, latency_beam_error
 from kinsync.errors import InputError
@@ -21,6 +22,7 @@ from kinsync.frames import (
 from kinsync.georef import (
     GeorefTrajectory,
     PositionMethod,
+    _interval_rotvec,
     georeference,
     georeference_numpy,
     georeference_profile,
@@ -311,3 +313,25 @@ def test_bad_profile_points_raise_input_error(
 ) -> None:
     with pytest.raises(InputError, match=match):
         profile_points_to_scanner(r, phi, mount)  # type: ignore[arg-type]
+
+
+def test_interval_rotation_vectors_equal_scipy() -> None:
+    """The slerp increments (numpy) equal scipy's relative rotations, from tiny to
+    near-pi angles, whatever the sign of each quaternion."""
+    rng = np.random.default_rng(11)
+    n = 400
+    rotvecs = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-12, 0, (n, 1))
+    half_turns = np.tile([0.0, 0.0, np.pi - 1e-9], (10, 1))
+    step = Rotation.from_rotvec(np.vstack([rotvecs, half_turns]))
+    left = Rotation.random(n + 10, random_state=rng)
+    pairs = np.empty((2 * len(left), 4))
+    pairs[0::2] = left.as_quat()[:, [3, 0, 1, 2]]
+    pairs[1::2] = (left * step).as_quat()[:, [3, 0, 1, 2]]
+    pairs *= np.where(rng.random(len(pairs)) < 0.5, -1.0, 1.0)[:, None]  # either sign
+    got = _interval_rotvec(pairs)[0::2]
+    want = step.as_rotvec()
+    residual = (Rotation.from_rotvec(got) * step.inv()).magnitude()
+    np.testing.assert_allclose(residual, 0.0, atol=1e-14)
+    np.testing.assert_array_less(np.linalg.norm(got, axis=1), np.pi + 1e-12)
+    not_half_turn = np.linalg.norm(want, axis=1) < 3.0  # at pi the axis sign is arbitrary
+    np.testing.assert_allclose(got[not_half_turn], want[not_half_turn], rtol=0, atol=1e-15)

@@ -13,6 +13,7 @@ import pytest
 
 from kinsync.errors import InputError
 from kinsync.georef import georeference_file
+from kinsync.io.las import las_end_times
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
@@ -131,10 +132,19 @@ def test_laz_output_is_point_by_point_identical(
     def no_reading_here(*_: object) -> None:
         raise AssertionError("the main process read points: the workers should")
 
+    end_times_read: list[Path] = []
+
+    def end_times(path: Path) -> tuple[float, float] | None:
+        end_times_read.append(path)
+        return las_end_times(path)
+
     with monkeypatch.context() as patch:  # the workers read their chunks by seek
         patch.setattr("kinsync.georef.read_las_points", no_reading_here)
         patch.setattr("kinsync.georef.LasPointReader", no_reading_here)
+        patch.setattr("kinsync.georef.las_end_times", end_times)
         scaled = laspy.read(_run(inputs, "points.laz", "scaled.laz", scheduler=scheduler))
+    # the main process reads only the first and last point's time (for the offsets)
+    assert end_times_read == [inputs["dir"] / "points.laz"]
     assert len(scaled.points) == len(serial.points) > 0
     for name in serial.point_format.dimension_names:
         np.testing.assert_array_equal(scaled[name], serial[name], err_msg=name)

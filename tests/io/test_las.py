@@ -15,8 +15,11 @@ from kinsync.io.las import (
     LasChunkWriter,
     LasPointReader,
     iter_las_chunks,
+    las_end_times,
     las_info,
     read_las_points,
+    scaled_coordinates,
+    store_coordinates,
 )
 
 
@@ -177,3 +180,73 @@ def test_read_las_points_bad_range_and_truncated_file(tmp_path: Path) -> None:
         read_las_points(cut, 90, 10)
     with pytest.raises(InputError, match="not found"):
         read_las_points(tmp_path / "missing.laz", 0, 1)
+
+
+def test_scaled_coordinates_equal_laspy_scaling(tmp_path: Path) -> None:
+    las = _make_las(tmp_path / "a.las", n=500)
+    stored = laspy.read(tmp_path / "a.las")
+    got = scaled_coordinates(stored.points.array, stored.header.scales, stored.header.offsets)
+    expected = np.column_stack([np.asarray(stored.x), np.asarray(stored.y), np.asarray(stored.z)])
+    np.testing.assert_array_equal(got, expected)
+    np.testing.assert_allclose(got[:, 0], np.asarray(las.x), atol=0.5e-4)
+
+
+def test_store_coordinates_masked_and_first_bad_index(tmp_path: Path) -> None:
+    _make_las(tmp_path / "a.las", n=10)
+    array = laspy.read(tmp_path / "a.las").points.array.copy()
+    before = array.copy()
+    xyz = np.column_stack([np.linspace(0.0, 1.0, 10), np.full(10, -2.5), np.full(10, 1e3)])
+    mask = np.arange(10) % 2 == 0
+    offsets, scales = (0.0, 0.0, 1000.0), (1e-3, 1e-3, 1e-2)
+    assert store_coordinates(array, xyz, offsets, scales, mask) == -1
+    np.testing.assert_array_equal(array["X"][mask], np.round(xyz[mask, 0] / 1e-3))
+    np.testing.assert_array_equal(array["Y"][mask], -2500)
+    np.testing.assert_array_equal(array["Z"][mask], 0)
+    for name in ("X", "Y", "Z"):  # the others keep their integers
+        np.testing.assert_array_equal(array[name][~mask], before[name][~mask])
+    xyz[6, 1] = np.nan
+    xyz[4, 2] = 1000.0 + 1e-2 * 2.0**31  # beyond int32 at this scale
+    assert store_coordinates(array, xyz, offsets, scales) == 4
+    assert store_coordinates(array, xyz, offsets, scales, np.arange(10) != 4) == 6
+
+
+def test_per_axis_scales_and_write_stored(tmp_path: Path) -> None:
+    _make_las(tmp_path / "a.laz", n=400)
+    with laspy.open(tmp_path / "a.laz") as r:
+        template = r.header
+    offsets, scales = (-71.0, 46.0, 0.0), (1e-7, 1e-7, 1e-4)
+    src = laspy.read(tmp_path / "a.laz")
+    lon = -71.2 + 1e-4 * np.asarray(src.x)
+    lat = 46.8 + 1e-4 * np.asarray(src.y)
+    h = 800.0 + 100.0 * np.asarray(src.z)  # +- 500 m: beyond what 1e-7 would hold
+    array = src.points.array.copy()
+    assert store_coordinates(array, np.column_stack([lon, lat, h]), offsets, scales) == -1
+    out = tmp_path / "b.laz"
+    with LasChunkWriter(out, template, pyproj.CRS.from_epsg(4979), offsets, scales) as w:
+        w.write_stored(laspy.ScaleAwarePointRecord(array, template.point_format, scales, offsets))
+    back = laspy.read(out)
+    assert back.header.scales.tolist() == list(scales)
+    np.testing.assert_allclose(np.asarray(back.x), lon, atol=0.5e-7)
+    np.testing.assert_allclose(np.asarray(back.z), h, atol=0.5e-4)
+    np.testing.assert_array_equal(np.asarray(back.intensity), np.asarray(src.intensity))
+    with pytest.raises(InputError, match="positive"):
+        LasChunkWriter(out, template, None, offsets, (1e-7, 0.0, 1e-4))
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_las_end_times(tmp_path: Path, suffix: str) -> None:
+    las = _make_las(tmp_path / f"a{suffix}", n=120_000)
+    t = np.asarray(las.gps_time)
+    assert las_end_times(tmp_path / f"a{suffix}") == (float(t[0]), float(t[-1]))
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    laspy.LasData(header).write(tmp_path / "empty.las")
+    assert las_end_times(tmp_path / "empty.las") is None
+    no_time = laspy.LasData(laspy.LasHeader(point_format=1, version="1.2"))
+    no_time.x = np.zeros(3)
+    no_time.write(tmp_path / "f1.las")
+    assert las_end_times(tmp_path / "f1.las") is not None  # format 1 has gps_time
+    no_time = laspy.LasData(laspy.LasHeader(point_format=0, version="1.2"))
+    no_time.x = np.zeros(3)
+    no_time.write(tmp_path / "f0.las")
+    with pytest.raises(InputError, match="no gps_time"):
+        las_end_times(tmp_path / "f0.las")

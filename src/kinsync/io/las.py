@@ -20,20 +20,20 @@ scales and offsets, and the output CRS. The file appears only when complete.
 from __future__ import annotations
 
 import copy
-import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack, suppress
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, BinaryIO, Literal
+from typing import Any, BinaryIO, Literal, cast
 
 import laspy
 import numpy as np
 import pyproj
 from laspy.vlrs.vlrlist import VLRList
+from numba import njit
 
-from kinsync._typing import FloatArray
+from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 
@@ -42,8 +42,11 @@ __all__ = [
     "LasInfo",
     "LasPointReader",
     "iter_las_chunks",
+    "las_end_times",
     "las_info",
     "read_las_points",
+    "scaled_coordinates",
+    "store_coordinates",
 ]
 
 _CRS_VLR_NAMES = (
@@ -52,6 +55,116 @@ _CRS_VLR_NAMES = (
     "GeoAsciiParamsVlr",
     "GeoDoubleParamsVlr",
 )
+
+
+_INT32_MAX = float(np.iinfo(np.int32).max)
+
+
+def _store_scaled_loop(
+    values: FloatArray,
+    offset: float,
+    scale: float,
+    out: np.ndarray[Any, Any],
+    mask: np.ndarray[Any, Any] | None,
+) -> int:
+    """``out[i] = rint((values[i] - offset) / scale)`` as int32 where ``mask`` (or everywhere).
+
+    Returns the index of the first value that is not finite or does not fit in int32
+    (``out`` is then incomplete), or -1. The same arithmetic as
+    ``np.round((v - offset) / scale)`` (round half to even).
+    """
+    for i in range(values.shape[0]):
+        if mask is not None and not mask[i]:
+            continue
+        q = np.rint((values[i] - offset) / scale)
+        if not (abs(q) <= _INT32_MAX):  # also catches NaN
+            return i
+        out[i] = np.int32(q)
+    return -1
+
+
+_store_scaled = cast(Callable[..., int], njit(cache=True, nogil=True)(_store_scaled_loop))
+
+
+def store_coordinates(
+    array: np.ndarray[Any, Any],
+    xyz: FloatArray,
+    offsets: tuple[float, float, float],
+    scales: tuple[float, float, float],
+    mask: np.ndarray[Any, Any] | None = None,
+) -> int:
+    """Store coordinates as the LAS integers ``X, Y, Z`` of a point array, in place.
+
+    Parameters
+    ----------
+    array : structured ndarray, shape (N,)
+        Point records (``ScaleAwarePointRecord.array``) with int32 fields X, Y, Z.
+    xyz : ndarray, shape (N, 3)
+        Coordinates (units of the output CRS) to store.
+    offsets, scales : tuple of 3 float
+        The LAS header's offsets and scales the integers are meant for.
+    mask : ndarray of bool, shape (N,), optional
+        Store only these points; the others keep their integers.
+
+    Returns
+    -------
+    int
+        Index of the first coordinate that is not finite or out of the int32 range for
+        this offset and scale (nothing stored from there on in that axis), or -1.
+    """
+    first_bad = -1
+    for j, name in enumerate(("X", "Y", "Z")):
+        i = _store_scaled(xyz[:, j], float(offsets[j]), float(scales[j]), array[name], mask)
+        if i >= 0 and (first_bad < 0 or i < first_bad):
+            first_bad = i
+    return first_bad
+
+
+def _scale_into_loop(
+    X: np.ndarray[Any, Any],
+    Y: np.ndarray[Any, Any],
+    Z: np.ndarray[Any, Any],
+    scales: FloatArray,
+    offsets: FloatArray,
+    out: FloatArray,
+) -> None:
+    for i in range(X.shape[0]):
+        out[i, 0] = X[i] * scales[0] + offsets[0]
+        out[i, 1] = Y[i] * scales[1] + offsets[1]
+        out[i, 2] = Z[i] * scales[2] + offsets[2]
+
+
+_scale_into = cast(Callable[..., None], njit(cache=True, nogil=True)(_scale_into_loop))
+
+
+def scaled_coordinates(
+    array: np.ndarray[Any, Any], scales: ArrayLike, offsets: ArrayLike
+) -> FloatArray:
+    """x, y, z of LAS point records as one (N, 3) float64 array (integers × scale + offset).
+
+    Parameters
+    ----------
+    array : structured ndarray, shape (N,)
+        Point records (``ScaleAwarePointRecord.array``) with int32 fields X, Y, Z.
+    scales, offsets : array_like, shape (3,)
+        The header's scales and offsets.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        One pass over the stored integers, without laspy's per-dimension copies; the
+        same values as ``np.column_stack([record.x, record.y, record.z])``.
+    """
+    out = np.empty((array.shape[0], 3))
+    _scale_into(
+        array["X"],
+        array["Y"],
+        array["Z"],
+        np.asarray(scales, dtype=np.float64),
+        np.asarray(offsets, dtype=np.float64),
+        out,
+    )
+    return out
 
 
 @dataclass(frozen=True)
@@ -150,6 +263,28 @@ def las_info(path: Path) -> LasInfo:
         )
 
 
+def las_end_times(path: Path) -> tuple[float, float] | None:
+    """``gps_time`` of a LAS/LAZ file's first and last point, as stored.
+
+    Two points are read (LAZ: the last one decompresses its LAZ chunk only); None for a
+    file without points.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, a point format without ``gps_time``, a truncated file.
+    """
+    with LasPointReader(path) as reader:
+        if reader.point_count == 0:
+            return None
+        if "gps_time" not in reader.point_format.dimension_names:
+            msg = f"{reader.path}: point format {reader.point_format.id} has no gps_time"
+            raise InputError(msg)
+        first = float(reader.read(0, 1).array["gps_time"][0])
+        last = float(reader.read(reader.point_count - 1, 1).array["gps_time"][0])
+    return first, last
+
+
 def iter_las_chunks(path: Path, chunk_points: int) -> Iterator[laspy.ScaleAwarePointRecord]:
     """Stream the points of a LAS/LAZ file in chunks of at most ``chunk_points``.
 
@@ -218,6 +353,7 @@ class LasPointReader:
             msg = f"{self.path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
             raise InputError(msg) from err
         self.point_count = int(self._reader.header.point_count)
+        self.point_format = self._reader.header.point_format
         self._position = 0
 
     def read(self, start: int, count: int) -> laspy.ScaleAwarePointRecord:
@@ -317,9 +453,10 @@ class LasChunkWriter:
     coordinate_offset_m : tuple of float
         x, y, z offsets (m, output CRS units) stored in the header. Choose them near
         the data (e.g. the rounded first point in ECEF) so that integers stay small.
-    scale_m : float
-        Resolution of the stored coordinates (output CRS units, e.g. m); 1e-4 m or
-        finer for ECEF. Coordinates must lie within ``scale_m * 2**31`` of the offset.
+    scale_m : float or tuple of 3 float
+        Resolution of the stored coordinates (output CRS units, e.g. m), one for all
+        axes or x, y, z; 1e-4 m or finer for ECEF. Coordinates must lie within
+        ``scale_m * 2**31`` of the offset.
 
     Raises
     ------
@@ -333,12 +470,13 @@ class LasChunkWriter:
         template_header: laspy.LasHeader,
         crs: pyproj.CRS | None,
         coordinate_offset_m: tuple[float, float, float],
-        scale_m: float,
+        scale_m: float | tuple[float, float, float],
     ) -> None:
         self.path = Path(path)
         self._compress = _suffix(self.path) == ".laz"
-        if not (math.isfinite(scale_m) and scale_m > 0.0):
-            msg = f"{self.path}: scale_m must be a positive number, got {scale_m}"
+        scales = np.broadcast_to(np.asarray(scale_m, dtype=np.float64), (3,)).copy()
+        if not (np.all(np.isfinite(scales)) and np.all(scales > 0.0)):
+            msg = f"{self.path}: scale_m must be positive numbers, got {scale_m}"
             raise InputError(msg)
         offsets = np.asarray(coordinate_offset_m, dtype=np.float64)
         if offsets.shape != (3,) or not np.all(np.isfinite(offsets)):
@@ -346,7 +484,7 @@ class LasChunkWriter:
             raise InputError(msg)
         header = copy.deepcopy(template_header)
         header.offsets = offsets
-        header.scales = np.full(3, float(scale_m))
+        header.scales = scales
         if crs is not None:
             if header.evlrs is not None:
                 for name in _CRS_VLR_NAMES:
@@ -385,10 +523,8 @@ class LasChunkWriter:
         x: FloatArray,
         y: FloatArray,
         z: FloatArray,
-        *,
-        reuse_chunk: bool = False,
     ) -> None:
-        """Append a chunk with its coordinates replaced.
+        """Append a chunk with its coordinates replaced (the chunk itself is not changed).
 
         Parameters
         ----------
@@ -397,9 +533,6 @@ class LasChunkWriter:
             written unchanged.
         x, y, z : ndarray, shape (M,)
             New coordinates (output CRS units, e.g. m), float64, M = ``len(chunk)``.
-        reuse_chunk : bool
-            Write the new X, Y, Z into ``chunk``'s own array instead of a copy (saves a
-            copy of every record; the caller must not use ``chunk`` afterwards).
 
         Raises
         ------
@@ -408,8 +541,43 @@ class LasChunkWriter:
             non-finite coordinates, or coordinates beyond the integer range of the
             chosen scale and offset.
         """
+        self._check_chunk(chunk, "write")
+        n = len(chunk)
+        array = chunk.array.copy()
+        for name, values, offset, scale in zip(
+            ("X", "Y", "Z"), (x, y, z), self.header.offsets, self.header.scales, strict=True
+        ):
+            v = np.asarray(values, dtype=np.float64)
+            if v.shape != (n,):
+                msg = f"{self.path}: {name.lower()} has shape {v.shape}, the chunk {n} points"
+                raise InputError(msg)
+            i = _store_scaled(v, float(offset), float(scale), array[name], None)
+            if i >= 0:
+                msg = (
+                    f"{self.path}: point {self.points_written + i}: {name.lower()}="
+                    f"{v[i]!r} cannot be stored with offset {offset} and scale {scale}; "
+                    "give finite coordinates and an offset near the data (or a coarser scale)"
+                )
+                raise InputError(msg)
+        self._write_points(array)
+
+    def write_stored(self, chunk: laspy.ScaleAwarePointRecord) -> None:
+        """Append a chunk whose X, Y, Z already hold this writer's integers.
+
+        For points stored with `store_coordinates` and this writer's
+        ``header.offsets`` and ``header.scales``: nothing is converted or copied.
+
+        Raises
+        ------
+        InputError
+            Outside the ``with`` block, another point format, a write error.
+        """
+        self._check_chunk(chunk, "write_stored")
+        self._write_points(chunk.array)
+
+    def _check_chunk(self, chunk: laspy.ScaleAwarePointRecord, method: str) -> None:
         if self._writer is None or self._stack is None:
-            msg = f"{self.path}: LasChunkWriter.write called outside its 'with' block"
+            msg = f"{self.path}: LasChunkWriter.{method} called outside its 'with' block"
             raise InputError(msg)
         if chunk.point_format != self.header.point_format:
             msg = (
@@ -418,26 +586,8 @@ class LasChunkWriter:
                 f"{self.header.point_format.id}; write chunks of the template's file"
             )
             raise InputError(msg)
-        n = len(chunk)
-        array = chunk.array if reuse_chunk else chunk.array.copy()
-        for name, values, offset, scale in zip(
-            ("X", "Y", "Z"), (x, y, z), self.header.offsets, self.header.scales, strict=True
-        ):
-            v = np.asarray(values, dtype=np.float64)
-            if v.shape != (n,):
-                msg = f"{self.path}: {name.lower()} has shape {v.shape}, the chunk {n} points"
-                raise InputError(msg)
-            ints = np.round((v - offset) / scale)
-            bad = ~np.isfinite(ints) | (np.abs(ints) > np.iinfo(np.int32).max)
-            if np.any(bad):
-                i = int(np.flatnonzero(bad)[0])
-                msg = (
-                    f"{self.path}: point {self.points_written + i}: {name.lower()}="
-                    f"{v[i]!r} cannot be stored with offset {offset} and scale {scale}; "
-                    "give finite coordinates and an offset near the data (or a coarser scale)"
-                )
-                raise InputError(msg)
-            array[name] = ints.astype(np.int32)
+
+    def _write_points(self, array: np.ndarray[Any, Any]) -> None:
         record = laspy.ScaleAwarePointRecord(
             array, self.header.point_format, self.header.scales, self.header.offsets
         )
@@ -446,7 +596,7 @@ class LasChunkWriter:
         except (laspy.errors.LaspyException, OSError) as err:
             msg = f"{self.path}: cannot write points ({err})"
             raise InputError(msg) from err
-        self.points_written += n
+        self.points_written += len(array)
 
     def __exit__(
         self,
