@@ -5,8 +5,8 @@ georeferences it to geographic coordinates (EPSG:4979, so the workers do the ker
 the CRS transform) with the serial path and with ``scheduler="processes"`` for each
 worker count the machine has; prints points/s and the ratio to 1 worker. The workers
 read their own chunks (LAZ by seek and decompression, CSV by byte range, Parquet by row
-group) and send back the records and coordinates; the main process only writes (for
-LAZ it compresses), so that writing is the ceiling.
+group) and send back the records with their georeferenced integers; the main process
+only writes (for LAZ it compresses), so that writing is the ceiling.
 
 Each configuration runs ``--repeat`` times and the best time is kept; on a shared
 machine the figures are still noisy.
