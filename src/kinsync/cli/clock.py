@@ -19,9 +19,6 @@ from kinsync.clock import (
 )
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
-from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
-from kinsync.io.nmea import read_nmea_log
-from kinsync.io.tables import read_time_column, write_with_column
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
 
@@ -75,6 +72,10 @@ def fit(
     as_json: JsonOpt = False,
 ) -> None:
     """Fit offset and drift of the local clock from PPS edges and ZDA messages."""
+    # Readers imported here, not at module level: they pull pyarrow, which other commands skip.
+    from kinsync.io.clock_model import read_pps_csv, write_clock_model  # noqa: PLC0415
+    from kinsync.io.nmea import read_nmea_log  # noqa: PLC0415
+
     conv = parse_convention(convention)
     pulses = read_pps_csv(pps)
     log = read_nmea_log(nmea)
@@ -142,6 +143,10 @@ def apply(
     as_json: JsonOpt = False,
 ) -> None:
     """Add GPS time (s since 1980-01-06) to a CSV by applying a clock model to a column."""
+    # Readers imported here, not at module level: they pull pyarrow, which other commands skip.
+    from kinsync.io.clock_model import read_clock_model  # noqa: PLC0415
+    from kinsync.io.tables import read_time_column, write_with_column  # noqa: PLC0415
+
     policy = _parse_outside(outside)
     clock = read_clock_model(model)
     if in_path.resolve() == out.resolve():

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -11,8 +11,10 @@ from rich.table import Table
 
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import InputError
-from kinsync.georef import OutsidePolicy, PointColumns, georeference_file
 from kinsync.io.mount_file import read_mount
+
+if TYPE_CHECKING:
+    from kinsync.georef import OutsidePolicy, PointColumns
 
 _OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
 _POINT_COLUMNS: dict[str, PointColumns] = {"auto": "auto", "xyz": "xyz", "profile": "profile"}
@@ -110,6 +112,9 @@ def georef(
     ] = False,
 ) -> None:
     """Georeference a point file: scanner frame + trajectory + mount -> CRS coordinates."""
+    # numba, laspy and pyarrow load with the pipeline: only when this command runs.
+    from kinsync.georef import georeference_file  # noqa: PLC0415
+
     if outside not in _OUTSIDE:
         msg = f"--outside must be 'error' or 'reject', got {outside!r}"
         raise InputError(msg)

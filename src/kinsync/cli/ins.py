@@ -11,7 +11,7 @@ import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
@@ -21,17 +21,11 @@ from rich.table import Table
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy
-from kinsync.ins.checks import check_inputs, gnss_within_imu_span
-from kinsync.ins.compare import compare_to_truth
-from kinsync.ins.filter import align_static_gnss_heading, run_ins
-from kinsync.ins.measurements import ImuData
-from kinsync.ins.solution import InitialState, NavSolution
-from kinsync.io.gnss_csv import read_gnss_csv
-from kinsync.io.imu_csv import read_imu_csv
-from kinsync.io.ins_config import read_ins_config
-from kinsync.io.nav_csv import read_navigation, write_nav_csv
-from kinsync.io.sbet import write_sbet
-from kinsync.io.trajectory_csv import read_trajectory_csv
+
+# The INS (numba, scipy.stats) and its readers load inside the commands, only when they run.
+if TYPE_CHECKING:
+    from kinsync.ins.measurements import ImuData
+    from kinsync.ins.solution import InitialState, NavSolution
 
 __all__ = ["app", "compare", "run"]
 
@@ -64,6 +58,9 @@ def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
     When the file starts after the first IMU sample, its first record is used (the
     filter then starts at that record's IMU epoch).
     """
+    from kinsync.ins.solution import InitialState  # noqa: PLC0415
+    from kinsync.io.trajectory_csv import read_trajectory_csv  # noqa: PLC0415
+
     traj = read_trajectory_csv(path)
     if traj.vel_ned_m_s is None or traj.lat_lon_h is None:
         msg = (
@@ -101,6 +98,9 @@ def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
 
 
 def _write_solution(solution: NavSolution, out: Path) -> None:
+    from kinsync.io.nav_csv import write_nav_csv  # noqa: PLC0415
+    from kinsync.io.sbet import write_sbet  # noqa: PLC0415
+
     if out.suffix.lower() in _SBET_SUFFIXES:
         write_sbet(solution.to_trajectory(), out)
     else:
@@ -165,6 +165,12 @@ def run(
     ] = False,
 ) -> None:
     """Filter IMU + GNSS into a navigation solution (15-state error-state EKF)."""
+    from kinsync.ins.checks import check_inputs, gnss_within_imu_span  # noqa: PLC0415
+    from kinsync.ins.filter import align_static_gnss_heading, run_ins  # noqa: PLC0415
+    from kinsync.io.gnss_csv import read_gnss_csv  # noqa: PLC0415
+    from kinsync.io.imu_csv import read_imu_csv  # noqa: PLC0415
+    from kinsync.io.ins_config import read_ins_config  # noqa: PLC0415
+
     _check_output(out)
     config = read_ins_config(config_path)
     imu = read_imu_csv(imu_path)
@@ -282,6 +288,10 @@ def compare(
     ] = False,
 ) -> None:
     """Compare a solution with a reference: RMS/max errors N/E/D, velocity, attitude."""
+    from kinsync.ins.compare import compare_to_truth  # noqa: PLC0415
+    from kinsync.ins.solution import NavSolution  # noqa: PLC0415
+    from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
+
     solution = read_navigation(solution_path, gps_week=gps_week)
     truth = read_navigation(truth_path, gps_week=gps_week)
     if isinstance(truth, NavSolution):

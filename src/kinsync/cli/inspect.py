@@ -11,7 +11,6 @@ from rich.table import Table
 
 from kinsync.cli._output import console, print_json
 from kinsync.errors import InputError
-from kinsync.georef import read_trajectory_file
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
 
@@ -123,6 +122,9 @@ def trajectory_info(
     as_json: JsonOpt = False,
 ) -> None:
     """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy)."""
+    # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
+    from kinsync.georef import read_trajectory_file  # noqa: PLC0415
+
     traj, _ = read_trajectory_file(path, gps_week=gps_week)
     is_sbet = path.suffix.lower() != ".csv"
     if smrmsg is not None and not is_sbet:

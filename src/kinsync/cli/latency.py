@@ -11,11 +11,6 @@ from rich.table import Table
 from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, print_json
 from kinsync.io.atomic import atomic_write_bytes
-from kinsync.io.passes import read_passes
-from kinsync.io.raw_passes import read_raw_passes
-from kinsync.latency.planning import TableDesign, plan_latency_experiment
-from kinsync.latency.sphere import estimate_latency_sphere
-from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
 
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
 
@@ -50,6 +45,12 @@ def sphere(
     as_json: JsonOpt = False,
 ) -> None:
     """Estimate the total latency from sphere passes at opposite table rates."""
+    # The estimator (scipy.optimize, scipy.stats) and the readers load only when this
+    # command runs.
+    from kinsync.io.passes import read_passes  # noqa: PLC0415
+    from kinsync.io.raw_passes import read_raw_passes  # noqa: PLC0415
+    from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
+
     passes = read_raw_passes(folder) if raw else read_passes(folder)
     with err_console.status(f"fitting {len(passes)} passes"):
         result = estimate_latency_sphere(
@@ -57,6 +58,8 @@ def sphere(
         )
     fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")
     if fig_path is not None:
+        from kinsync.report.latency_figures import latency_per_rate_figure  # noqa: PLC0415
+
         atomic_write_bytes(fig_path, latency_per_rate_figure(result))
     doc = result.as_document()
     if fig_path is not None:
@@ -115,6 +118,8 @@ def plan(
     as_json: JsonOpt = False,
 ) -> None:
     """Predict centre and latency precision of a rotating-table experiment (Cramér-Rao)."""
+    from kinsync.latency.planning import TableDesign, plan_latency_experiment  # noqa: PLC0415
+
     design = TableDesign(
         sphere_range_m=range_m,
         sphere_radius_m=radius_m,
@@ -128,6 +133,8 @@ def plan(
     result = plan_latency_experiment(design)
     doc = result.as_document(target_ms * 1e-3)
     if figure is not None:
+        from kinsync.report.latency_figures import plan_figure  # noqa: PLC0415  (matplotlib)
+
         atomic_write_bytes(figure, plan_figure(result, target_ms * 1e-3))
         doc["figure"] = str(figure)
     if as_json:

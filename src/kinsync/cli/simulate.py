@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -14,29 +14,12 @@ from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
-from kinsync.io.passes import PassFileFormat
-from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
-from kinsync.sim.drive import (
-    DRIVE_FILES,
-    IMU_KINDS,
-    ROUTE_KINDS,
-    DriveSimConfig,
-    DriveSimulation,
-    simulate_drive,
-    write_drive_simulation,
-)
-from kinsync.sim.profiler import (
-    DRIVE_SCAN_FILES,
-    DriveScanConfig,
-    simulate_drive_scan,
-    write_drive_scan,
-)
-from kinsync.sim.rotating_table import (
-    RotatingTableConfig,
-    RotatingTableSimulation,
-    simulate_rotating_table,
-    write_simulation,
-)
+
+# The simulators (scipy, numba, laspy, pyarrow) load inside the commands, only when they run.
+if TYPE_CHECKING:
+    from kinsync.io.passes import PassFileFormat
+    from kinsync.sim.drive import DriveSimulation
+    from kinsync.sim.rotating_table import RotatingTableSimulation
 
 app = typer.Typer(help="Simulate test data (pass folders, logs) with known ground truth.")
 
@@ -89,6 +72,12 @@ def rotating_table(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a rotating-table latency test (Method A) and write its pass folder."""
+    from kinsync.sim.rotating_table import (  # noqa: PLC0415
+        RotatingTableConfig,
+        simulate_rotating_table,
+        write_simulation,
+    )
+
     fmt_key = file_format.strip().lower()
     if fmt_key not in _FORMATS:
         msg = f"--format must be csv, las or laz, got {file_format!r}"
@@ -172,6 +161,12 @@ def clock(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a PPS log and an NMEA log of a drifting acquisition clock."""
+    from kinsync.sim.clock import (  # noqa: PLC0415
+        ClockSimConfig,
+        simulate_clock,
+        write_clock_simulation,
+    )
+
     if out.exists() and not out.is_dir():
         msg = f"--out {out}: exists and is not a folder; give a folder to write the logs to"
         raise InputError(msg)
@@ -257,6 +252,8 @@ def _parse_vector3(text: str, option: str) -> tuple[float, float, float]:
 
 def drive_summary(sim: DriveSimulation, out: Path) -> dict[str, Any]:
     """JSON-ready summary of a written drive simulation (what ``simulate drive`` prints)."""
+    from kinsync.sim.drive import DRIVE_FILES  # noqa: PLC0415
+
     c = sim.config
     err = sim.imu_errors
     return {
@@ -320,6 +317,14 @@ def drive(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a drive: IMU with errors, GNSS with noise and outages, and the truth."""
+    from kinsync.sim.drive import (  # noqa: PLC0415
+        IMU_KINDS,
+        ROUTE_KINDS,
+        DriveSimConfig,
+        simulate_drive,
+        write_drive_simulation,
+    )
+
     route_key = route.strip().lower()
     if route_key not in ROUTE_KINDS:
         msg = f"--route must be oval, loop or lines, got {route!r}"
@@ -413,6 +418,13 @@ def drive_scan(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a profile scanner driven through a scene with sync targets (Method B)."""
+    from kinsync.sim.profiler import (  # noqa: PLC0415
+        DRIVE_SCAN_FILES,
+        DriveScanConfig,
+        simulate_drive_scan,
+        write_drive_scan,
+    )
+
     if route not in ("oval", "loop"):
         msg = f"--route must be oval or loop, got {route!r}"
         raise InputError(msg)

@@ -12,20 +12,7 @@ from rich.table import Table
 
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import InputError
-from kinsync.georef import read_trajectory_file
 from kinsync.io.mount_file import read_mount
-from kinsync.io.profile_scan import (
-    apply_profile_clock,
-    read_clock_document,
-    read_profile_scan,
-    read_pulses,
-    read_sync_points,
-)
-from kinsync.sync.object_space import (
-    ObjectSpaceConfig,
-    require_profiler_azimuth,
-    synchronise_object_space,
-)
 
 app = typer.Typer(
     help="Synchronise a profile scanner to the trajectory in object space (Method B)."
@@ -87,6 +74,19 @@ def object_space(
     as_json: JsonOpt = False,
 ) -> None:
     """Find the profile clock t0, T from sync points seen in the scan."""
+    # Method B (scipy.optimize), kinsync.georef and the readers load only when this runs.
+    from kinsync.georef import read_trajectory_file  # noqa: PLC0415
+    from kinsync.io.profile_scan import (  # noqa: PLC0415
+        read_profile_scan,
+        read_pulses,
+        read_sync_points,
+    )
+    from kinsync.sync.object_space import (  # noqa: PLC0415
+        ObjectSpaceConfig,
+        require_profiler_azimuth,
+        synchronise_object_space,
+    )
+
     config = ObjectSpaceConfig(
         period_prior_s=period_prior_s,
         period_tolerance=period_tolerance,
@@ -169,6 +169,9 @@ def apply(
     as_json: JsonOpt = False,
 ) -> None:
     """Write the scan with a time and scanner-frame coordinates per return."""
+    from kinsync.io.profile_scan import apply_profile_clock, read_clock_document  # noqa: PLC0415
+    from kinsync.sync.object_space import require_profiler_azimuth  # noqa: PLC0415
+
     if clock is not None and (t0_s is not None or period_s is not None):
         msg = "give either --clock or --t0-s with --period-s, not both"
         raise InputError(msg)

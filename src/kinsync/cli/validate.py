@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.table import Table
@@ -12,13 +12,10 @@ from rich.table import Table
 from kinsync.cli._output import console, fmt, print_json
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
-from kinsync.validation import (
-    CentreMethod,
-    SignatureTest,
-    control_points_file,
-    flatness_file,
-    parse_box,
-)
+
+# kinsync.validation (scipy.stats, scipy.optimize, numba) loads inside the commands.
+if TYPE_CHECKING:
+    from kinsync.validation import CentreMethod, SignatureTest
 
 app = typer.Typer(
     help="Validate a georeferenced cloud: control points in the vehicle frame, wall flatness."
@@ -124,6 +121,8 @@ def control_points(
     as_json: JsonOpt = False,
 ) -> None:
     """Cloud - control differences in the vehicle frame; time-error and heading tests."""
+    from kinsync.validation import control_points_file  # noqa: PLC0415
+
     key = centre.strip().lower()
     if key not in _CENTRES:
         msg = f"--centre must be tukey, median or sphere, got {centre!r}"
@@ -216,6 +215,8 @@ def flatness(
     as_json: JsonOpt = False,
 ) -> None:
     """Plane fit of a wall, residual statistics and the curvature F-test."""
+    from kinsync.validation import flatness_file, parse_box  # noqa: PLC0415
+
     the_box = parse_box(box)
     result = flatness_file(
         cloud, the_box, crs=crs, level=level, outlier_k=outlier_k, min_bow_m=min_bow_mm * 1e-3
