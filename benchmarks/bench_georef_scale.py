@@ -1,9 +1,11 @@
-"""Scale-out of ``kinsync georef``: throughput with 1, 2, 4, ... process-pool workers.
+"""Scale-out of ``kinsync georef``: throughput with 1, 2, 4, ... process-pool and Dask workers.
 
 Writes a multi-million-point scan (LAZ, or a CSV/Parquet table with ``--input``) and
 georeferences it to geographic coordinates (EPSG:4979, so the workers do the kernel and
-the CRS transform) with the serial path and with ``scheduler="processes"`` for each
-worker count the machine has; prints points/s and the ratio to 1 worker. The workers
+the CRS transform) with the serial path, with ``scheduler="processes"`` and with a
+dask.distributed ``LocalCluster`` (one thread per worker process, the cluster started
+before timing, as a running cluster is used) for each worker count the machine has;
+prints points/s and the ratio to 1 worker of the same kind. The workers
 read their own chunks (LAZ by seek and decompression, CSV by byte range, Parquet by row
 group) and send back the records with their georeferenced integers; the main process
 only writes (for LAZ it compresses), so that writing is the ceiling.
@@ -18,11 +20,13 @@ Usage: ``python benchmarks/bench_georef_scale.py [--points N] [--chunk-points N]
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import os
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import laspy
 import numpy as np
@@ -34,6 +38,7 @@ from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
 
 T0 = 1.3e9
+distributed: Any = importlib.import_module("dask.distributed")  # untyped
 MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
 
 
@@ -115,9 +120,17 @@ def main() -> None:
         run("local (serial)", "local", None)
         for w in counts:
             run(f"processes, {w} worker(s)", "processes", w)
+        for w in counts:  # a running dask.distributed cluster: its start-up is not counted
+            with distributed.LocalCluster(
+                n_workers=w, threads_per_worker=1, processes=True, dashboard_address=None
+            ) as cluster:
+                run(f"dask, {w} worker(s)", str(cluster.scheduler_address), w)
         tiny = write_inputs(folder / "tiny", 1000, args.input)
         startup = {w: run("", "processes", w, tiny) - run("", "local", None, tiny) for w in (1, 2)}
-    base = next(rate for label, rate in rows if label.startswith("processes, 1 "))
+    base = {
+        kind: next(rate for label, rate in rows if label.startswith(f"{kind}, 1 "))
+        for kind in ("processes", "dask")
+    }
     kind = args.input.upper()
     print(
         f"georef {kind} -> {kind} (EPSG:4979), {args.points:,} points, "
@@ -125,7 +138,8 @@ def main() -> None:
     )
     print(f"{'scheduler':<28}{'Mpts/s':>10}{'vs 1 worker':>14}")
     for label, rate in rows:
-        print(f"{label:<28}{rate / 1e6:>10.2f}{rate / base:>13.2f}x")
+        one = base.get(label.split(",")[0], base["processes"])
+        print(f"{label:<28}{rate / 1e6:>10.2f}{rate / one:>13.2f}x")
     print(
         "process-pool start-up (a 1000-point file, pool minus serial): "
         + ", ".join(f"{w} worker(s) {t:.1f} s" for w, t in startup.items())
