@@ -17,7 +17,7 @@ import pyproj
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.io.las import iter_las_chunks, las_info
+from kinsync.io.las import iter_las_chunks, las_info, scaled_coordinates
 from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.sbet import SECONDS_PER_WEEK
@@ -156,9 +156,7 @@ def iter_cloud(
     if suffix in _LAS_SUFFIXES:
         info = las_info(path)
         for chunk in iter_las_chunks(path, chunk_points):
-            xyz = np.column_stack(
-                [np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)]
-            ).astype(np.float64)
+            xyz = scaled_coordinates(chunk.array, chunk.scales, chunk.offsets)
             t = (
                 _las_times(path, chunk, info.gps_time_type, traj_scale, gps_week)
                 if need_time

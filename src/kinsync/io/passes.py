@@ -41,6 +41,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.las import scaled_coordinates
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
 
@@ -186,13 +187,7 @@ def _read_las_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
     except (laspy.errors.LaspyException, OSError, ValueError) as err:
         msg = f"{path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
         raise InputError(msg) from err
-    pts = np.column_stack(
-        [
-            np.asarray(las.x, np.float64),
-            np.asarray(las.y, np.float64),
-            np.asarray(las.z, np.float64),
-        ]
-    )
+    pts = scaled_coordinates(las.points.array, las.header.scales, las.header.offsets)
     t: FloatArray | None = None
     if "gps_time" in las.point_format.dimension_names:
         t = np.asarray(las.gps_time, dtype=np.float64)
