@@ -14,6 +14,7 @@ from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
+from kinsync.io.atomic import output_folder
 
 # The simulators (scipy, numba, laspy, pyarrow) load inside the commands, only when they run.
 if TYPE_CHECKING:
@@ -82,9 +83,7 @@ def rotating_table(
     if fmt_key not in _FORMATS:
         msg = f"--format must be csv, las or laz, got {file_format!r}"
         raise InputError(msg)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out}: exists and is not a folder; give a folder to write the passes to"
-        raise InputError(msg)
+    output_folder(out, "give a folder to write the passes to", create=False, option="--out")
     if passes < 1:
         msg = f"--passes must be at least 1, got {passes}"
         raise InputError(msg)
@@ -167,9 +166,7 @@ def clock(
         write_clock_simulation,
     )
 
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out}: exists and is not a folder; give a folder to write the logs to"
-        raise InputError(msg)
+    output_folder(out, "give a folder to write the logs to", create=False, option="--out")
     config = ClockSimConfig(
         offset_s=offset_s,
         drift_ppm=drift_ppm,
@@ -333,9 +330,7 @@ def drive(
     if imu_key not in IMU_KINDS:
         msg = f"--imu must be navigation or mems, got {imu!r}"
         raise InputError(msg)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out}: exists and is not a folder; give a folder to write the drive to"
-        raise InputError(msg)
+    output_folder(out, "give a folder to write the drive to", create=False, option="--out")
     for option, value in (
         ("--speed-m-s", speed_m_s),
         ("--gnss-rate-hz", gnss_rate_hz),
@@ -428,9 +423,7 @@ def drive_scan(
     if route not in ("oval", "loop"):
         msg = f"--route must be oval or loop, got {route!r}"
         raise InputError(msg)
-    if out.exists() and not out.is_dir():
-        msg = f"--out {out}: exists and is not a folder; give a folder to write the data set to"
-        raise InputError(msg)
+    output_folder(out, "give a folder to write the data set to", create=False, option="--out")
     config = DriveScanConfig(
         period_s=period_s,
         t0_s=t0_s,

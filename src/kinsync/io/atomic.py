@@ -46,3 +46,33 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 def atomic_write_text(path: Path, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` through a temporary file and an atomic rename."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def output_folder(path: Path, hint: str, *, create: bool = True, option: str = "") -> Path:
+    """Check that ``path`` can be an output folder (absent or a folder); create it.
+
+    Parameters
+    ----------
+    path : Path
+        The folder.
+    hint : str
+        What to do instead, ending the error message (e.g. "give a folder for the
+        simulation").
+    create : bool
+        Create the folder (and its parents) when it is missing.
+    option : str
+        Command-line option naming the folder in the message (e.g. "--out"), if any.
+
+    Raises
+    ------
+    InputError
+        ``path`` exists and is not a folder.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        prefix = f"{option} " if option else ""
+        msg = f"{prefix}{path}: exists and is not a folder; {hint}"
+        raise InputError(msg)
+    if create:
+        path.mkdir(parents=True, exist_ok=True)
+    return path

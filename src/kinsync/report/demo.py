@@ -25,8 +25,7 @@ from kinsync.budget import (
     rolling_table_scenario,
     serial_transmission_time_s,
 )
-from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
+from kinsync.io.atomic import atomic_write_bytes, atomic_write_text, output_folder
 from kinsync.report.demo_clock import clock_section
 from kinsync.report.demo_end_to_end import end_to_end_section
 from kinsync.report.demo_georef import georef_section
@@ -222,11 +221,7 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     -------
     DemoResult
     """
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        msg = f"{out_dir}: exists and is not a folder; choose another --out"
-        raise InputError(msg)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_folder(out_dir, "choose another --out")
     summary: list[tuple[str, str, str]] = []
     sections: list[Section] = []
 

@@ -49,7 +49,7 @@ from kinsync._validate import finite_number, positive_number
 from kinsync.budget import serial_transmission_time_s
 from kinsync.clock import CLOCK_FORMULA, CONVENTIONS, Convention, gps_to_utc_posix_s, utc_to_gps_s
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path, atomic_write_text
+from kinsync.io.atomic import atomic_path, atomic_write_text, output_folder
 from kinsync.io.nmea import format_sentence
 from kinsync.io.tables import write_numeric_csv
 
@@ -431,11 +431,7 @@ def write_clock_simulation(sim: ClockSimulation, folder: Path) -> None:
     InputError
         ``folder`` is an existing file.
     """
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        msg = f"{folder}: exists and is not a folder; give a folder for the simulation"
-        raise InputError(msg)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = output_folder(folder, "give a folder for the simulation")
     write_numeric_csv(folder / "pps.csv", {"t_local_s": sim.pps_t_local_s})
     with (
         atomic_path(folder / "nmea.csv") as tmp,

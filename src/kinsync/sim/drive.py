@@ -64,7 +64,7 @@ from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
-from kinsync.io.atomic import atomic_write_text
+from kinsync.io.atomic import atomic_write_text, output_folder
 from kinsync.io.gnss_csv import write_gnss_csv
 from kinsync.io.imu_csv import write_imu_csv
 from kinsync.io.ins_config import write_ins_config
@@ -1241,11 +1241,7 @@ def write_drive_simulation(sim: DriveSimulation, out_dir: Path) -> None:
     InputError
         ``out_dir`` is an existing file.
     """
-    folder = Path(out_dir)
-    if folder.exists() and not folder.is_dir():
-        msg = f"{folder}: exists and is not a folder; give a folder for the simulation"
-        raise InputError(msg)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = output_folder(out_dir, "give a folder for the simulation")
     write_imu_csv(sim.imu, folder / "imu.csv")
     write_gnss_csv(sim.gnss, folder / "gnss.csv")
     write_truth_csv(sim.truth, folder / "truth.csv")

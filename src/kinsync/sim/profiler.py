@@ -50,7 +50,7 @@ from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef, quaternion_to_matrix, rotation_ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
-from kinsync.io.atomic import atomic_write_text
+from kinsync.io.atomic import atomic_write_text, output_folder
 from kinsync.io.mount_file import write_mount
 from kinsync.io.profile_scan import (
     ProfileScan,
@@ -682,11 +682,7 @@ def write_drive_scan(sim: DriveScanSimulation, out_dir: Path) -> None:
     InputError
         ``out_dir`` exists and is not a folder.
     """
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        msg = f"{out}: exists and is not a folder; give a folder for the simulation"
-        raise InputError(msg)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(out_dir, "give a folder for the simulation")
     write_profile_scan(sim.scanner.scan, out / "scan.csv")
     write_trajectory_csv(sim.trajectory, out / "trajectory.csv")
     write_mount(sim.config.mount, out / "mount.toml")

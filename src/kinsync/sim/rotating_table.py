@@ -65,7 +65,7 @@ from kinsync._validate import finite_number
 from kinsync.budget import serial_transmission_time_s
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix, quaternion_to_euler_rpy, quaternion_to_matrix
-from kinsync.io.atomic import atomic_write_text
+from kinsync.io.atomic import atomic_write_text, output_folder
 from kinsync.io.mount_file import write_mount
 from kinsync.io.passes import PassFileFormat, pass_file_name, write_passes
 from kinsync.io.tables import write_numeric_csv
@@ -888,10 +888,7 @@ def write_simulation(
     InputError
         ``folder`` is an existing file, or an unknown format.
     """
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        msg = f"{folder}: exists and is not a folder; give a folder for the simulation"
-        raise InputError(msg)
+    folder = output_folder(folder, "give a folder for the simulation", create=False)
     if file_format not in ("csv", "las", "laz"):
         msg = f"pass file format must be csv, las or laz, got {file_format!r}"
         raise InputError(msg)
