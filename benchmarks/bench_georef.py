@@ -38,16 +38,11 @@ import laspy
 import numpy as np
 
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_matrix, matrix_to_quaternion
-from kinsync.georef import (
-    GeorefTrajectory,
-    PositionMethod,
-    georeference,
-    georeference_file,
-    georeference_numpy,
-)
+from kinsync.georef import GeorefTrajectory, PositionMethod, georeference, georeference_numpy
 from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.pipelines.georef import georeference_file
 from kinsync.trajectory import Trajectory
 
 RATE_HZ = 200.0
@@ -102,13 +97,13 @@ _HWM = 're.search(r"VmHWM:\\s+(\\d+)", Path("/proc/self/status").read_text()).gr
 _BASE_CHILD = f"""
 import re
 from pathlib import Path
-import kinsync.georef
+import kinsync.pipelines.georef
 print({_HWM})
 """
 _MEMORY_CHILD = f"""
 import re, sys
 from pathlib import Path
-from kinsync.georef import georeference_file
+from kinsync.pipelines.georef import georeference_file
 from kinsync.io.mount_file import read_mount
 d = Path(sys.argv[1])
 s = georeference_file(d / "scan.laz", d / "traj.csv", read_mount(d / "mount.toml"),

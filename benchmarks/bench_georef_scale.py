@@ -31,10 +31,10 @@ from typing import Any
 import laspy
 import numpy as np
 
-from kinsync.georef import georeference_file
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.pipelines.georef import georeference_file
 from kinsync.trajectory import Trajectory
 
 T0 = 1.3e9

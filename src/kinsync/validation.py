@@ -99,6 +99,7 @@ from scipy.spatial.transform import Rotation
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._validate import finite_number, positive_number
+from kinsync.crs import crs_to_ecef_transformer
 from kinsync.errors import ConvergenceError, InputError, KinsyncError
 from kinsync.fit import segment_sphere
 from kinsync.frames import (
@@ -107,15 +108,9 @@ from kinsync.frames import (
     ecef_to_ned,
     rotation_ned_to_ecef,
 )
-from kinsync.georef import read_trajectory_file
-from kinsync.io.cloud import (
-    CloudExtent,
-    check_finite_chunk,
-    cloud_crs,
-    cloud_crs_to_ecef,
-    iter_cloud,
-)
+from kinsync.io.cloud import CloudExtent, check_finite_chunk, cloud_crs, iter_cloud
 from kinsync.io.control_points import ControlPoints, read_control_points
+from kinsync.io.trajectory import read_trajectory_file
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -1603,7 +1598,7 @@ def control_points_file(
         msg = f"{cloud_path}: file not found"
         raise InputError(msg)
     crs_text = cloud_crs(cloud_path, crs)
-    to_ecef = cloud_crs_to_ecef(crs_text)
+    to_ecef = crs_to_ecef_transformer(crs_text)
     pos_parts: list[FloatArray] = []
     t_parts: list[FloatArray] = []
     i_parts: list[FloatArray] = []
@@ -1691,7 +1686,7 @@ def flatness_file(
         msg = f"{cloud_path}: file not found"
         raise InputError(msg)
     crs_text = cloud_crs(cloud_path, crs)
-    to_ecef = cloud_crs_to_ecef(crs_text)
+    to_ecef = crs_to_ecef_transformer(crs_text)
     parts: list[FloatArray] = []
     extent = CloudExtent()
     done = 0

@@ -274,7 +274,7 @@ def test_unreachable_scheduler_is_one_line_error(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     pytest.importorskip("dask.distributed")
-    monkeypatch.setattr("kinsync.georef._DASK_CONNECT_TIMEOUT_S", 1.0)
+    monkeypatch.setattr("kinsync.pipelines.schedulers.DASK_CONNECT_TIMEOUT_S", 1.0)
     out = setup["dir"] / "geo.csv"
     code, stdout, err = run_cli(_args(setup, out, "--scheduler", "tcp://127.0.0.1:9"))
     assert_one_line_error(code, stdout, err, "cannot reach the Dask scheduler at tcp://127.0.0.1:9")

@@ -34,6 +34,7 @@ NOT_AT_START = (
     "kinsync.sync.object_space",
     "kinsync.validation",
     "kinsync.georef",
+    "kinsync.pipelines",
     "kinsync.latency",
     "dask",
 )
@@ -168,5 +169,5 @@ def test_georef_loads_only_what_it_needs(tmp_path: Path, georef_inputs: dict[str
     doc = json.loads(stdout)
     assert doc["points_in"] == doc["points_out"] == N_POINTS
     assert len(p["out"].read_text(encoding="utf-8").splitlines()) == N_POINTS + 1  # + header
-    assert "kinsync.georef" in modules  # the command ran its pipeline here
+    assert "kinsync.pipelines.georef" in modules  # the command ran its pipeline here
     assert _loaded(modules, NOT_FOR_GEOREF) == []

@@ -14,7 +14,7 @@ from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
 
 if TYPE_CHECKING:
-    from kinsync.georef import OutsidePolicy, PointColumns
+    from kinsync.pipelines.georef import OutsidePolicy, PointColumns
 
 _OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
 _POINT_COLUMNS: dict[str, PointColumns] = {"auto": "auto", "xyz": "xyz", "profile": "profile"}
@@ -113,7 +113,7 @@ def georef(
 ) -> None:
     """Georeference a point file: scanner frame + trajectory + mount -> CRS coordinates."""
     # numba, laspy and pyarrow load with the pipeline: only when this command runs.
-    from kinsync.georef import georeference_file  # noqa: PLC0415
+    from kinsync.pipelines.georef import georeference_file  # noqa: PLC0415
 
     if outside not in _OUTSIDE:
         msg = f"--outside must be 'error' or 'reject', got {outside!r}"

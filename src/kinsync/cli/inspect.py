@@ -123,7 +123,7 @@ def trajectory_info(
 ) -> None:
     """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy)."""
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
-    from kinsync.georef import read_trajectory_file  # noqa: PLC0415
+    from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
 
     traj, _ = read_trajectory_file(path, gps_week=gps_week)
     is_sbet = path.suffix.lower() != ".csv"

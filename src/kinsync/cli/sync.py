@@ -75,12 +75,12 @@ def object_space(
 ) -> None:
     """Find the profile clock t0, T from sync points seen in the scan."""
     # Method B (scipy.optimize), kinsync.georef and the readers load only when this runs.
-    from kinsync.georef import read_trajectory_file  # noqa: PLC0415
     from kinsync.io.profile_scan import (  # noqa: PLC0415
         read_profile_scan,
         read_pulses,
         read_sync_points,
     )
+    from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
     from kinsync.sync.object_space import (  # noqa: PLC0415
         ObjectSpaceConfig,
         require_profiler_azimuth,

@@ -6,28 +6,27 @@ A cloud is what ``kinsync georef`` writes: LAS/LAZ (coordinates in the file's CR
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import pyproj
 
 from kinsync._typing import FloatArray
+from kinsync.crs import crs_to_ecef_transformer
 from kinsync.errors import InputError
 from kinsync.io.las import iter_las_chunks, las_info, scaled_coordinates
 from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.sbet import SECONDS_PER_WEEK
+from kinsync.io.trajectory import TimeScale
 
 __all__ = [
     "CloudExtent",
-    "TimeScale",
     "check_finite_chunk",
     "cloud_crs",
-    "cloud_crs_to_ecef",
     "iter_cloud",
 ]
 
@@ -35,38 +34,6 @@ _ECEF_CRS = "EPSG:4978"
 _LAS_SUFFIXES = (".las", ".laz")
 _TABLE_SUFFIXES = (".csv", ".parquet")
 _XYZ = ("X", "Y", "Z")
-TimeScale = Literal["gps", "week"]
-
-
-@lru_cache(maxsize=8)
-def cloud_crs_to_ecef(crs_text: str) -> Callable[[FloatArray], FloatArray] | None:
-    """Cloud CRS -> ECEF (axis order easting/longitude first), None for ECEF itself."""
-    try:
-        crs = pyproj.CRS.from_user_input(crs_text)
-    except pyproj.exceptions.CRSError as err:
-        msg = f"--crs {crs_text!r}: unknown coordinate reference system ({err}); e.g. EPSG:4978"
-        raise InputError(msg) from err
-    if crs.equals(pyproj.CRS.from_epsg(4978), ignore_axis_order=True):
-        return None
-    try:
-        transformer = pyproj.Transformer.from_crs(crs, pyproj.CRS.from_epsg(4978), always_xy=True)
-    except pyproj.exceptions.ProjError as err:
-        msg = f"--crs {crs_text!r}: no transformation to ECEF (EPSG:4978) ({err})"
-        raise InputError(msg) from err
-
-    def apply(xyz: FloatArray) -> FloatArray:
-        x, y, z = transformer.transform(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-        out = np.column_stack([x, y, z]).astype(np.float64)
-        if not np.all(np.isfinite(out)):
-            row = int(np.flatnonzero(~np.all(np.isfinite(out), axis=1))[0])
-            msg = (
-                f"--crs {crs_text!r}: point {xyz[row].tolist()} does not convert to ECEF; "
-                "is the cloud in this CRS?"
-            )
-            raise InputError(msg)
-        return out
-
-    return apply
 
 
 def cloud_crs(path: Path, crs: str | None) -> str:
@@ -76,7 +43,7 @@ def cloud_crs(path: Path, crs: str | None) -> str:
     wkt = las_info(path).crs_wkt
     if crs is None:
         return wkt or _ECEF_CRS
-    cloud_crs_to_ecef(crs)  # an unknown --crs fails first
+    crs_to_ecef_transformer(crs)  # an unknown --crs fails first
     if wkt is not None and not pyproj.CRS.from_user_input(crs).equals(
         pyproj.CRS.from_wkt(wkt), ignore_axis_order=True
     ):

@@ -22,12 +22,12 @@ from kinsync.frames import (
 from kinsync.georef import (
     GeorefTrajectory,
     PositionMethod,
-    _interval_rotvec,
     georeference,
     georeference_numpy,
     georeference_profile,
     profile_points_to_scanner,
 )
+from kinsync.georef.trajectory import _interval_rotvec
 from kinsync.mount import Mount
 from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import Trajectory

@@ -12,11 +12,11 @@ import pyarrow.parquet as pq
 import pytest
 
 from kinsync.errors import InputError
-from kinsync.georef import georeference_file
 from kinsync.io.las import las_end_times
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.pipelines.georef import georeference_file
 from kinsync.trajectory import Trajectory
 
 T0 = 1.3e9
@@ -139,9 +139,9 @@ def test_laz_output_is_point_by_point_identical(
         return las_end_times(path)
 
     with monkeypatch.context() as patch:  # the workers read their chunks by seek
-        patch.setattr("kinsync.georef.read_las_points", no_reading_here)
-        patch.setattr("kinsync.georef.LasPointReader", no_reading_here)
-        patch.setattr("kinsync.georef.las_end_times", end_times)
+        patch.setattr("kinsync.pipelines.georef_chunks.read_las_points", no_reading_here)
+        patch.setattr("kinsync.pipelines.schedulers.LasPointReader", no_reading_here)
+        patch.setattr("kinsync.pipelines.georef.las_end_times", end_times)
         scaled = laspy.read(_run(inputs, "points.laz", "scaled.laz", scheduler=scheduler))
     # the main process reads only the first and last point's time (for the offsets)
     assert end_times_read == [inputs["dir"] / "points.laz"]
@@ -162,7 +162,7 @@ def test_profile_parquet_output_is_identical_and_read_by_the_workers(
     assert summary.points_rejected > 0
     scaled = folder / "profile_scaled.parquet"
     with monkeypatch.context() as patch:
-        patch.setattr("kinsync.georef.read_table_slice", lambda *_: 1 / 0)
+        patch.setattr("kinsync.pipelines.georef_chunks.read_table_slice", lambda *_: 1 / 0)
         georeference_file(
             folder / "profile.parquet",
             inputs["traj"],

@@ -1,0 +1,320 @@
+"""One chunk of a point file: read, georeferenced and made ready to write.
+
+A `ChunkTask` names a run of points (LAS/LAZ) or data rows (CSV byte range, Parquet
+row groups) that any process can read on its own; `process_chunk` reads it, runs the
+kernel (`kinsync.georef.kernel.georeference`), converts to the output CRS and returns
+a `ChunkOutput` with the accounting (points outside the trajectory's span, the first
+bad point) and what the main process writes. It runs in this process, in pool workers
+or on Dask workers (`kinsync.pipelines.schedulers`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Literal, cast
+
+import laspy
+import numpy as np
+from numba import njit
+
+from kinsync._typing import BoolArray, FloatArray
+from kinsync.crs import ecef_to_crs_transformer
+from kinsync.errors import InputError
+from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
+from kinsync.georef.profile import profile_points_to_scanner
+from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.io.las import (
+    LasPointReader,
+    read_las_points,
+    scaled_coordinates,
+    store_coordinates,
+)
+from kinsync.io.points import (
+    TableLayout,
+    TableSlice,
+    csv_text_columns,
+    read_table_slice,
+)
+from kinsync.mount import Mount
+
+__all__ = [
+    "OUT_COLUMNS",
+    "XYZ_COLUMNS",
+    "ChunkContext",
+    "ChunkOutput",
+    "ChunkSource",
+    "ChunkTask",
+    "LasOutputFrame",
+    "OutsidePolicy",
+    "PointColumns",
+    "outside_tally",
+    "process_chunk",
+]
+
+OutsidePolicy = Literal["error", "reject"]
+"""Points outside the trajectory span: an error (nothing written), or a rejected file."""
+PointColumns = Literal["auto", "xyz", "profile"]
+"""Which table columns give the points: x_m,y_m,z_m, range_m,angle_rad, or either."""
+
+XYZ_COLUMNS = ("x_m", "y_m", "z_m")
+"""Scanner-frame coordinates (m) in a point table."""
+OUT_COLUMNS = ("X", "Y", "Z")
+"""Georeferenced coordinates (output CRS) in an output table."""
+_LAS_BLOCK_POINTS = 65_536  # LAS chunks are georeferenced this many points at a time
+
+
+@dataclass(frozen=True, eq=False)
+class ChunkSource:
+    """The input file as every worker reads it."""
+
+    path: Path
+    points: Literal["xyz", "profile"]
+    table: TableLayout | None = None  # None for LAS/LAZ
+    las_time_offset_s: float = 0.0  # added to LAS gps_time
+
+
+@dataclass(frozen=True)
+class LasOutputFrame:
+    """Offsets and scales of a georeferenced LAS/LAZ output.
+
+    Attributes
+    ----------
+    offsets : tuple of 3 float
+        x, y, z header offsets (output CRS units).
+    scales : tuple of 3 float
+        x, y, z resolution (output CRS units): 1e-4 m for ECEF and projected CRSs;
+        1e-7 deg for longitude/latitude and 1e-4 m for the height of geographic ones.
+    """
+
+    offsets: tuple[float, float, float]
+    scales: tuple[float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class ChunkContext:
+    """What every worker holds once: input, trajectory, mount and options."""
+
+    source: ChunkSource
+    traj: GeorefTrajectory
+    mount: Mount
+    position: PositionMethod
+    crs: str
+    outside: OutsidePolicy
+    csv_text: bool = False  # table output to CSV: workers format the floats as text
+    las_frame: LasOutputFrame | None = None  # LAS output: where workers store X, Y, Z
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """One chunk: points (LAS) or data rows (tables) ``[first, first + count)``."""
+
+    first: int
+    count: int
+    table_slice: TableSlice | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ChunkOutput:
+    """What a worker sends back: accounting, and what the main process writes."""
+
+    count: int
+    outside_count: int = 0
+    outside_t_min_s: float = math.inf
+    outside_t_max_s: float = -math.inf
+    error: str | None = None
+    columns: dict[str, Any] | None = None  # tables: the output rows (CSV: floats as text)
+    rejected_columns: dict[str, Any] | None = None
+    records: np.ndarray[Any, Any] | None = None  # LAS: inside points, X/Y/Z georeferenced
+    rejected_records: np.ndarray[Any, Any] | None = None
+
+
+def _read_las_task(
+    ctx: ChunkContext, task: ChunkTask, las_reader: LasPointReader | None
+) -> laspy.ScaleAwarePointRecord:
+    """Read a LAS/LAZ chunk.
+
+    Through ``las_reader`` (kept open between chunks) or, without one, from the file
+    opened for this chunk alone, decompressed in this thread.
+    """
+    if las_reader is not None:
+        return las_reader.read(task.first, task.count)
+    return read_las_points(ctx.source.path, task.first, task.count, laz_threads=False)
+
+
+def _scanner_xyz(ctx: ChunkContext, columns: dict[str, np.ndarray[Any, Any]]) -> FloatArray:
+    if ctx.source.points == "profile":
+        return profile_points_to_scanner(columns["range_m"], columns["angle_rad"], ctx.mount)
+    return np.column_stack([columns[c] for c in XYZ_COLUMNS])
+
+
+def _outside_tally_loop(
+    t_s: FloatArray, offset_s: float, t_start_s: float, t_end_s: float
+) -> tuple[int, float, float]:
+    """Points with ``t_s + offset_s`` outside ``[t_start_s, t_end_s]`` (or NaN).
+
+    Their count and the time range of the finite ones, without temporary arrays
+    (``t_s`` may be strided).
+    """
+    count = 0
+    t_min = np.inf
+    t_max = -np.inf
+    for i in range(t_s.shape[0]):
+        t = t_s[i] + offset_s
+        if not (t >= t_start_s and t <= t_end_s):
+            count += 1
+            if np.isfinite(t):
+                t_min = min(t_min, t)
+                t_max = max(t_max, t)
+    return count, t_min, t_max
+
+
+outside_tally = cast(
+    Callable[..., tuple[int, float, float]], njit(cache=True, nogil=True)(_outside_tally_loop)
+)
+
+
+def tallied(n: int, count: int, t_min_s: float, t_max_s: float) -> ChunkOutput:
+    finite = math.isfinite(t_min_s)
+    return ChunkOutput(
+        count=n,
+        outside_count=count,
+        outside_t_min_s=t_min_s if finite else math.nan,
+        outside_t_max_s=t_max_s if finite else math.nan,
+    )
+
+
+def _output_columns(
+    ctx: ChunkContext,
+    columns: dict[str, np.ndarray[Any, Any]],
+    inside: BoolArray,
+    all_inside: bool,
+    coords: FloatArray,
+) -> dict[str, np.ndarray[Any, Any]]:
+    """Every input column (inside rows); x_m,y_m,z_m replaced by X,Y,Z, or X,Y,Z added."""
+    out: dict[str, np.ndarray[Any, Any]] = {}
+    for name, values in columns.items():
+        if ctx.source.points == "xyz" and name in XYZ_COLUMNS:
+            j = XYZ_COLUMNS.index(name)
+            out[OUT_COLUMNS[j]] = coords[:, j]
+        else:
+            out[name] = values if all_inside else values[inside]
+    if ctx.source.points == "profile":
+        for j, name in enumerate(OUT_COLUMNS):
+            out[name] = coords[:, j]
+    return out
+
+
+def process_chunk(
+    ctx: ChunkContext, task: ChunkTask, tally_only: bool, las_reader: LasPointReader | None = None
+) -> ChunkOutput:
+    """Read and georeference one chunk (in a worker or in the main process).
+
+    Read errors raise; errors of the points themselves (non-finite values) come back
+    in ``error`` with the chunk's accounting, so that the main process can still count
+    points outside the span after an earlier chunk failed.
+    """
+    if ctx.source.table is None:
+        return _process_las_task(ctx, task, tally_only, las_reader)
+    assert task.table_slice is not None
+    columns = read_table_slice(ctx.source.table, task.table_slice)
+    t = columns["t_s"]
+    traj, src = ctx.traj, ctx.source
+    base = tallied(int(t.size), *outside_tally(t, 0.0, traj.t_start_s, traj.t_end_s))
+    if tally_only:
+        return base
+    try:
+        xyz = _scanner_xyz(ctx, columns)
+        pos, inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
+    except InputError as err:
+        error = f"{src.path}: rows {task.first}..{task.first + base.count - 1}: {err}"
+        return replace(base, error=error)
+    all_inside = bool(inside.all())
+    if not all_inside and ctx.outside == "error":
+        return base
+    if not all_inside:
+        pos = pos[inside]
+    to_crs = ecef_to_crs_transformer(ctx.crs)
+    coords = pos if to_crs is None else to_crs(pos)
+    out_columns = _output_columns(ctx, columns, inside, all_inside, coords)
+    rejected = None if all_inside else {k: v[~inside] for k, v in columns.items()}
+    if ctx.csv_text:
+        out_columns = csv_text_columns(out_columns)
+        rejected = None if rejected is None else csv_text_columns(rejected)
+    return replace(base, columns=out_columns, rejected_columns=rejected)
+
+
+def _process_las_task(
+    ctx: ChunkContext, task: ChunkTask, tally_only: bool, las_reader: LasPointReader | None
+) -> ChunkOutput:
+    """`process_chunk` for LAS/LAZ: georeference in blocks, X, Y, Z stored in place.
+
+    The chunk is processed ``_LAS_BLOCK_POINTS`` at a time, so that no chunk-sized
+    float array is made (fresh large arrays cost page faults on every chunk) and the
+    blocks stay in cache; the georeferenced coordinates go straight into the records'
+    integers with the output's offsets and scales. Points outside the span keep their
+    scanner-frame integers (they are written unchanged to the rejected file).
+    """
+    record = _read_las_task(ctx, task, las_reader)
+    traj, src, frame = ctx.traj, ctx.source, ctx.las_frame
+    assert frame is not None
+    array = record.array
+    gps_time = array["gps_time"]
+    n = len(array)
+    base = tallied(n, *outside_tally(gps_time, src.las_time_offset_s, traj.t_start_s, traj.t_end_s))
+    if tally_only:
+        return base
+    to_crs = ecef_to_crs_transformer(ctx.crs)
+    inside = np.empty(n, dtype=np.bool_)
+    for start in range(0, n, _LAS_BLOCK_POINTS):
+        block = array[start : start + _LAS_BLOCK_POINTS]
+        t = gps_time[start : start + _LAS_BLOCK_POINTS] + src.las_time_offset_s
+        xyz = scaled_coordinates(block, record.scales, record.offsets)
+        try:
+            pos, block_inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
+        except InputError as err:
+            return replace(base, error=_las_chunk_error(ctx, task, record, err))
+        coords = pos if to_crs is None else to_crs(pos)
+        bad = store_coordinates(block, coords, frame.offsets, frame.scales, block_inside)
+        if bad >= 0:
+            return replace(
+                base, error=_las_storage_error(ctx, task.first + start + bad, coords[bad])
+            )
+        inside[start : start + len(block)] = block_inside
+    all_inside = bool(inside.all())
+    if not all_inside and ctx.outside == "error":
+        return base
+    return replace(
+        base,
+        records=array if all_inside else array[inside],
+        rejected_records=None if all_inside else array[~inside],
+    )
+
+
+def _las_chunk_error(ctx: ChunkContext, task: ChunkTask, record: Any, err: InputError) -> str:
+    """The message for a LAS chunk that failed to georeference.
+
+    It names the first non-finite point by its index in the chunk (the failing block's
+    own error names its index in the block).
+    """
+    t = np.asarray(record.gps_time, dtype=np.float64) + ctx.source.las_time_offset_s
+    xyz = scaled_coordinates(record.array, record.scales, record.offsets)
+    try:
+        raise_not_finite_points(t, xyz)
+    except InputError as chunk_err:
+        err = chunk_err
+    return f"{ctx.source.path}: points {task.first}..{task.first + t.size - 1}: {err}"
+
+
+def _las_storage_error(ctx: ChunkContext, index: int, coords: FloatArray) -> str:
+    frame = ctx.las_frame
+    assert frame is not None
+    reach = [2.0**31 * s for s in frame.scales]
+    return (
+        f"{ctx.source.path}: point {index} georeferences to {coords.tolist()} ({ctx.crs}), "
+        f"beyond what LAS integers hold at offsets {list(frame.offsets)} and scales "
+        f"{list(frame.scales)} (± {reach} around the offsets, chosen at the middle of the "
+        "file's time span); split the file into shorter spans"
+    )

@@ -1,0 +1,197 @@
+"""Where georeferencing chunks run: this process, a local process pool or a Dask cluster.
+
+A runner takes `ChunkTask` s and returns, for each, a callable that gives its
+`ChunkOutput`; `in_order` keeps at most ``runner.window`` chunks in flight and yields
+them in input order, so that every scheduler writes the same output as the serial
+run and reports the same first error. Workers read their own chunks (the context,
+with the prepared trajectory, is shipped once per worker).
+"""
+
+from __future__ import annotations
+
+import importlib
+import multiprocessing
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from typing import Any
+
+from kinsync.errors import InputError
+from kinsync.io.las import LasPointReader
+from kinsync.pipelines.georef_chunks import ChunkContext, ChunkOutput, ChunkTask, process_chunk
+
+__all__ = [
+    "DASK_CONNECT_TIMEOUT_S",
+    "ChunkResult",
+    "DaskRunner",
+    "ProcessRunner",
+    "SerialRunner",
+    "in_order",
+    "make_runner",
+]
+
+DASK_CONNECT_TIMEOUT_S = 10.0
+"""How long to wait for a Dask scheduler before giving up (s)."""
+_CHUNKS_IN_FLIGHT_PER_WORKER = 2
+
+# A pool worker's context and open LAS reader, kept between its chunks.
+_WORKER_CONTEXT: list[ChunkContext] = []
+_WORKER_LAS_READER: list[LasPointReader] = []
+
+
+def init_process_worker(ctx: ChunkContext) -> None:
+    """Process-pool initializer: keep the context for every chunk of this worker."""
+    _WORKER_CONTEXT[:] = [ctx]
+    _WORKER_LAS_READER.clear()
+
+
+def process_chunk_in_worker(task: ChunkTask, tally_only: bool) -> ChunkOutput:
+    """A pool worker's task; a LAS/LAZ input stays open in the worker between chunks.
+
+    LAZ is decompressed in the worker's own thread: the pool is the parallelism.
+    """
+    ctx = _WORKER_CONTEXT[0]
+    if ctx.source.table is None and not _WORKER_LAS_READER:
+        _WORKER_LAS_READER.append(LasPointReader(ctx.source.path, laz_threads=False))
+    reader = _WORKER_LAS_READER[0] if _WORKER_LAS_READER else None
+    return process_chunk(ctx, task, tally_only, reader)
+
+
+ChunkResult = Callable[[], ChunkOutput]
+
+
+class SerialRunner:
+    """Serial, in-process: each chunk is read and computed when its result is asked for.
+
+    A LAS/LAZ input stays open between chunks (read in order, without seeking) and is
+    decompressed with lazrs's thread pool.
+    """
+
+    window = 1
+
+    def __init__(self, ctx: ChunkContext) -> None:
+        self.ctx = ctx
+        self._las_reader: LasPointReader | None = None
+
+    def _reader(self) -> LasPointReader | None:
+        if self.ctx.source.table is None and self._las_reader is None:
+            self._las_reader = LasPointReader(self.ctx.source.path)
+        return self._las_reader
+
+    def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
+        """Start ``task`` (only counting points outside the span if ``tally_only``)."""
+        return lambda: process_chunk(self.ctx, task, tally_only, self._reader())
+
+    def close(self) -> None:
+        """Close the input file, if open."""
+        if self._las_reader is not None:
+            self._las_reader.close()
+            self._las_reader = None
+
+
+class ProcessRunner(SerialRunner):
+    """A local process pool; the context is shipped once per worker (initializer)."""
+
+    def __init__(self, ctx: ChunkContext, workers: int) -> None:
+        super().__init__(ctx)
+        methods = multiprocessing.get_all_start_methods()
+        mp_context = multiprocessing.get_context(
+            "forkserver" if "forkserver" in methods else "spawn"
+        )
+        self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * workers
+        self.pool = ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=mp_context,
+            initializer=init_process_worker,
+            initargs=(ctx,),
+        )
+
+    def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
+        """Send ``task`` to the pool; the callable waits for its result."""
+        future: Future[ChunkOutput] = self.pool.submit(process_chunk_in_worker, task, tally_only)
+        return future.result
+
+    def close(self) -> None:
+        """Stop the pool (chunks not yet started are cancelled)."""
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class DaskRunner(SerialRunner):
+    """An existing dask.distributed scheduler; the context is broadcast once."""
+
+    def __init__(self, ctx: ChunkContext, address: str, workers: int | None) -> None:
+        super().__init__(ctx)
+        try:
+            distributed: Any = importlib.import_module("dask.distributed")  # optional extra
+        except ImportError as err:
+            msg = (
+                f"--scheduler {address} needs dask.distributed, which is not installed; "
+                "install kinsync[scale] (pip install 'kinsync[scale]') or use "
+                "--scheduler local|processes"
+            )
+            raise InputError(msg) from err
+        try:
+            self.client: Any = distributed.Client(address, timeout=DASK_CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as err:
+            reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+            msg = (
+                f"cannot reach the Dask scheduler at {address} ({reason}); start one with "
+                "'dask scheduler' and workers with 'dask worker ADDRESS', or use "
+                "--scheduler local|processes"
+            )
+            raise InputError(msg) from err
+        n_workers = workers or max(1, len(self.client.scheduler_info().get("workers", {})))
+        self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * n_workers
+        self.ctx_future = self.client.scatter(ctx, broadcast=True)
+
+    def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
+        """Send ``task`` to the cluster; the callable waits for its result."""
+        future = self.client.submit(process_chunk, self.ctx_future, task, tally_only, pure=False)
+
+        def result() -> ChunkOutput:
+            out: ChunkOutput = future.result()
+            return out
+
+        return result
+
+    def close(self) -> None:
+        """Disconnect from the scheduler (the cluster keeps running)."""
+        self.client.close()
+
+
+def make_runner(ctx: ChunkContext, scheduler: str, workers: int | None) -> SerialRunner:
+    """The runner for ``--scheduler`` (local, processes or tcp://...) and ``--workers``."""
+    if workers is not None and workers < 1:
+        msg = f"--workers must be >= 1, got {workers}"
+        raise InputError(msg)
+    if scheduler == "local":
+        return SerialRunner(ctx)
+    if scheduler == "processes":
+        return ProcessRunner(ctx, workers or multiprocessing.cpu_count())
+    if scheduler.startswith(("tcp://", "tls://")):
+        return DaskRunner(ctx, scheduler, workers)
+    msg = f"--scheduler must be local, processes or tcp://HOST:PORT, got {scheduler!r}"
+    raise InputError(msg)
+
+
+def in_order(
+    tasks: Sequence[ChunkTask], runner: SerialRunner, tally_only: Callable[[], bool]
+) -> Iterator[ChunkResult]:
+    """Submit chunks ahead (at most ``runner.window`` in flight); yield them in input order.
+
+    Each chunk's error is raised (by its result) only when its place in the input is
+    reached, so that every run reports the same first error as the serial one.
+    """
+    pending: deque[ChunkResult] = deque()
+    upcoming = iter(tasks)
+    more = True
+    while True:
+        while more and len(pending) < runner.window:
+            task = next(upcoming, None)
+            if task is None:
+                more = False
+            else:
+                pending.append(runner.submit(task, tally_only()))
+        if not pending:
+            return
+        yield pending.popleft()
