@@ -69,6 +69,7 @@ import numpy as np
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import ConvergenceError, InputError
+from kinsync.robust import robust_sigma
 
 __all__ = ["SphereFit", "fit_sphere", "fit_sphere_algebraic", "segment_sphere"]
 
@@ -80,7 +81,6 @@ _PLANE_TO_SPHERE_RMS = 1.25
 _DEGENERATE_SPREAD = 1e-7
 """Relative spread below which points count as collinear or coplanar."""
 _TUKEY_C = 4.685
-_MAD_TO_SIGMA = 1.4826
 _HYPOTHESIS_BATCH = 256
 _SUBSET_SIZE = 1024
 _TOP_HYPOTHESES = 16
@@ -853,7 +853,7 @@ def _robust_sigma(abs_res: FloatArray, band: float, floor: float) -> float:
     inside = abs_res[abs_res < band]
     if inside.size < _MIN_INLIERS:
         return max(band / 3.0, floor)
-    return max(_MAD_TO_SIGMA * float(np.median(inside)), floor)
+    return max(robust_sigma(inside), floor)
 
 
 def _irls_tukey(

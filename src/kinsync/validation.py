@@ -111,6 +111,7 @@ from kinsync.frames import (
 from kinsync.io.cloud import CloudExtent, check_finite_chunk, cloud_crs, iter_cloud
 from kinsync.io.control_points import ControlPoints, read_control_points
 from kinsync.io.trajectory import read_trajectory_file
+from kinsync.robust import robust_sigma, robust_sigma_per_column
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -154,7 +155,6 @@ PASS_GAP_S = 10.0
 _REML_ITERATIONS = 100
 """Time gap between visits (s) that starts a new pass of the vehicle."""
 _TUKEY_C = 4.685
-_MAD_TO_SIGMA = 1.4826
 _RATE_STEP_S = 0.05
 _ECEF_CRS = "EPSG:4978"
 _CENTRES: tuple[CentreMethod, ...] = ("tukey", "median", "sphere")
@@ -516,7 +516,7 @@ def otsu_threshold(values: ArrayLike) -> tuple[float, float]:
 def _tukey_location(x: FloatArray) -> tuple[float, float]:
     """Biweight location of a 1-D sample and its standard error (sandwich form)."""
     mu = float(np.median(x))
-    scale = _MAD_TO_SIGMA * float(np.median(np.abs(x - mu)))
+    scale = robust_sigma(x - mu)
     if scale <= 0.0:
         return mu, 0.0
     for _ in range(50):
@@ -539,7 +539,7 @@ def _centre_local(
     """Centre (3,) and its standard deviation (3,) of points in a local NED frame."""
     if centre == "median":
         med = np.median(local, axis=0)
-        mad = _MAD_TO_SIGMA * np.median(np.abs(local - med), axis=0)
+        mad = robust_sigma_per_column(local - med)
         return med, 1.2533 * mad / math.sqrt(local.shape[0])
     if centre == "tukey":
         loc = [_tukey_location(local[:, j]) for j in range(3)]
@@ -1365,7 +1365,7 @@ def _robust_inliers(local: FloatArray, outlier_k: float, max_iterations: int) ->
         quad = _lstsq(_design(u[inl], v[inl], 6), w[inl])
         r = w - _design(u, v, 6) @ quad
         med = float(np.median(r[inl]))
-        sigma = _MAD_TO_SIGMA * float(np.median(np.abs(r[inl] - med)))
+        sigma = robust_sigma(r[inl] - med)
         new = np.abs(r - med) <= max(outlier_k * sigma, 1e-12)
         if int(new.sum()) < MIN_FLATNESS_POINTS:
             msg = (

@@ -15,6 +15,14 @@ from hypothesis import strategies as st
 
 from kinsync.errors import InputError
 from kinsync.io.nmea import (
+    format_sentence,
+    nmea_checksum,
+    parse_em3000,
+    parse_sentence,
+    parse_tss1,
+    read_nmea_log,
+)
+from kinsync.messages import (
     Em3000Record,
     GgaRecord,
     HdtRecord,
@@ -25,12 +33,6 @@ from kinsync.io.nmea import (
     RmcRecord,
     Tss1Record,
     ZdaRecord,
-    format_sentence,
-    nmea_checksum,
-    parse_em3000,
-    parse_sentence,
-    parse_tss1,
-    read_nmea_log,
 )
 
 # Published examples (checksums verified in test_published_checksums).

@@ -18,10 +18,12 @@ import numpy as np
 import pytest
 
 from kinsync._typing import FloatArray
+from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.frames import ned_to_ecef
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import compare_to_truth
-from kinsync.ins.filter import align_static_gnss_heading, run_ins
+from kinsync.ins.filter import run_ins
 from kinsync.report.demo_end_to_end import (
     CASE_LABELS,
     EndToEndConfig,
@@ -36,7 +38,6 @@ from kinsync.report.end_to_end_figures import (
     wall_cases_figure,
 )
 from kinsync.report.html import Section, render_report
-from kinsync.sync.object_space import ProfileClock
 from kinsync.validation import fit_wall
 
 CORRECT, LATE, DRIFT = CASE_LABELS

@@ -12,7 +12,8 @@ import pytest
 from kinsync.clock import utc_fields_to_gps_s, zda_to_gps_s
 from kinsync.errors import InputError
 from kinsync.io.clock_model import read_pps_csv
-from kinsync.io.nmea import GgaRecord, HdtRecord, RmcRecord, ZdaRecord, read_nmea_log
+from kinsync.io.nmea import read_nmea_log
+from kinsync.messages import GgaRecord, HdtRecord, RmcRecord, ZdaRecord
 from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
 
 

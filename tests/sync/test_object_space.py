@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from kinsync.budget import period_error_budget
+from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_quaternion, ned_to_ecef
 from kinsync.io.profile_scan import ProfileScan, SyncPoints
@@ -26,7 +27,6 @@ from kinsync.sim.scene import SceneLayout
 from kinsync.sync.object_space import (
     ObjectSpaceConfig,
     ObjectSpaceResult,
-    ProfileClock,
     detect_sightings,
     find_crossings,
     pulse_offset,

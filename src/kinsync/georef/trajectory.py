@@ -23,6 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
+from kinsync._arrays import readonly_copy
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import (
@@ -78,12 +79,6 @@ def _interval_rotvec(q: FloatArray) -> FloatArray:
     )
     rotvec: FloatArray = vec * scale[:, None]
     return rotvec
-
-
-def _readonly(arr: FloatArray) -> FloatArray:
-    out = np.ascontiguousarray(arr, dtype=np.float64)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,11 +161,11 @@ class GeorefTrajectory:
         return cls(
             trajectory=corrected,
             latency_s=float(latency_s),
-            t_s=_readonly(corrected.t_s),
-            pos_ecef_m=_readonly(pos),
-            vel_ecef_m_s=None if vel is None else _readonly(vel),
-            q_body_to_ecef=_readonly(q),
-            rotvec_interval_body=_readonly(rotvec),
+            t_s=readonly_copy(corrected.t_s),
+            pos_ecef_m=readonly_copy(pos),
+            vel_ecef_m_s=None if vel is None else readonly_copy(vel),
+            q_body_to_ecef=readonly_copy(q),
+            rotvec_interval_body=readonly_copy(rotvec),
         )
 
     def __len__(self) -> int:
@@ -181,7 +176,7 @@ class GeorefTrajectory:
         """Per interval ``p(s) = c0 + s c1 + s² c2 + s³ c3`` (linear), shape (N-1, 4, 3)."""
         p0, p1 = self.pos_ecef_m[:-1], self.pos_ecef_m[1:]
         zero = np.zeros_like(p0)
-        return _readonly(np.stack([p0, p1 - p0, zero, zero], axis=1))
+        return readonly_copy(np.stack([p0, p1 - p0, zero, zero], axis=1))
 
     @cached_property
     def _poly_hermite(self) -> FloatArray:
@@ -191,17 +186,19 @@ class GeorefTrajectory:
         p0, p1 = self.pos_ecef_m[:-1], self.pos_ecef_m[1:]
         m0, m1 = h * self.vel_ecef_m_s[:-1], h * self.vel_ecef_m_s[1:]
         dp = p1 - p0
-        return _readonly(np.stack([p0, m0, 3.0 * dp - 2.0 * m0 - m1, m0 + m1 - 2.0 * dp], axis=1))
+        return readonly_copy(
+            np.stack([p0, m0, 3.0 * dp - 2.0 * m0 - m1, m0 + m1 - 2.0 * dp], axis=1)
+        )
 
     @cached_property
     def _inv_interval_s(self) -> FloatArray:
         """``1 / (t[k+1] - t[k])`` per interval (1/s), shape (N-1,): no division per point."""
-        return _readonly(1.0 / np.diff(self.t_s))
+        return readonly_copy(1.0 / np.diff(self.t_s))
 
     @cached_property
     def _R_body_to_ecef_left(self) -> FloatArray:
         """Rotation matrix of each interval's left record, body -> ECEF, shape (N-1, 3, 3)."""
-        return _readonly(quaternion_to_matrix(self.q_body_to_ecef[:-1]))
+        return readonly_copy(quaternion_to_matrix(self.q_body_to_ecef[:-1]))
 
     @property
     def t_start_s(self) -> float:

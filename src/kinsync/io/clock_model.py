@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync.clock import ClockFit, ClockModel, clock_model_from_document
+from kinsync.clock import ClockFit, ClockModel
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.tables import read_numeric_csv
@@ -88,7 +88,7 @@ def read_clock_model(path: Path) -> ClockModel:
     except json.JSONDecodeError as err:
         msg = f"{path}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
         raise InputError(msg) from err
-    return clock_model_from_document(doc, source=str(path))
+    return ClockModel.from_document(doc, source=str(path))
 
 
 def read_pps_csv(path: Path) -> FloatArray:

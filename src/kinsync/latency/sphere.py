@@ -32,6 +32,7 @@ from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
+from kinsync.robust import robust_sigma
 
 __all__ = [
     "DEFAULT_MAX_INCIDENCE_DEG",
@@ -43,7 +44,6 @@ __all__ = [
     "latency_from_pool_pair",
 ]
 
-_MAD_TO_SIGMA = 1.4826
 _TAIL_CUT_SIGMA = 4.0
 _RATE_KEY_DECIMALS = 6
 _AXIS_KEY_DECIMALS = 3
@@ -263,13 +263,13 @@ def fit_pool(
         cos = _incidence_cos(points, centre, origin)
         keep &= cos >= cos_cap
         miss_m = miss_m / np.maximum(cos, cos_cap)
-    band_m = (_TAIL_CUT_SIGMA + 1.0) * _MAD_TO_SIGMA * float(np.median(miss_m[seg.inliers]))
+    band_m = (_TAIL_CUT_SIGMA + 1.0) * robust_sigma(miss_m[seg.inliers])
     keep &= miss_m <= max(band_m, 1e-6)
     final = _fit_kept(points, keep, radius_m, origin, label)
     for _ in range(2):
         resid = np.full(len(points), np.inf)
         resid[np.flatnonzero(keep)] = np.abs(final.residuals_m)
-        sigma = _MAD_TO_SIGMA * float(np.nanmedian(np.abs(final.residuals_m)))
+        sigma = robust_sigma(final.residuals_m, omit_nan=True)
         keep = keep & (resid <= _TAIL_CUT_SIGMA * sigma)
         final = _fit_kept(points, keep, radius_m, origin, label)
     inliers = np.zeros(len(points), dtype=bool)

@@ -48,12 +48,14 @@ import numpy as np
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync._validate import positive_number
+from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
-from kinsync.ins.filter import InsResult, align_static_gnss_heading, run_ins
+from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.control_points import ControlPoints
@@ -87,12 +89,7 @@ from kinsync.sim.profiler import (
 )
 from kinsync.sim.scene import Scene, SceneLayout, Target, Wall, build_drive_scene
 from kinsync.sim.scene import trajectory_to_local as _to_local
-from kinsync.sync.object_space import (
-    ObjectSpaceConfig,
-    ObjectSpaceResult,
-    ProfileClock,
-    synchronise_object_space,
-)
+from kinsync.sync.object_space import ObjectSpaceConfig, ObjectSpaceResult, synchronise_object_space
 from kinsync.trajectory import Trajectory
 from kinsync.validation import (
     CloudPoints,

@@ -105,6 +105,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from kinsync._typing import ArrayLike, FloatArray, IntArray
 from kinsync._validate import finite_number, positive_number
+from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import quaternion_to_matrix
 from kinsync.georef import GeorefTrajectory, georeference
@@ -127,37 +128,6 @@ __all__ = [
     "require_profiler_azimuth",
     "synchronise_object_space",
 ]
-
-_TWO_PI = 2.0 * math.pi
-
-
-@dataclass(frozen=True)
-class ProfileClock:
-    """The profile clock ``t(n, phi) = t0 + (n + phi / 2 pi) T`` (SPEC section 4).
-
-    Attributes
-    ----------
-    t0_s : float
-        Start of profile 0 (s, the trajectory's time scale, GPS time).
-    period_s : float
-        Mirror period T (s), > 0.
-    """
-
-    t0_s: float
-    period_s: float
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "t0_s", finite_number(self.t0_s, "profile clock t0_s"))
-        object.__setattr__(
-            self, "period_s", positive_number(self.period_s, "profile clock period_s")
-        )
-
-    def time_s(self, profile: ArrayLike, angle_rad: ArrayLike) -> FloatArray:
-        """Time (s) of returns at profile numbers and mirror angles (rad), same shape."""
-        n = np.asarray(profile, dtype=np.float64)
-        phi = np.asarray(angle_rad, dtype=np.float64)
-        out: FloatArray = self.t0_s + (n + phi / _TWO_PI) * self.period_s
-        return out
 
 
 @dataclass(frozen=True)
@@ -301,7 +271,7 @@ class Sighting:
     @property
     def x(self) -> float:
         """Clock abscissa ``n_P + phi_P / 2 pi`` (profiles)."""
-        return self.profile + self.angle_rad / _TWO_PI
+        return self.profile + self.angle_rad / math.tau
 
 
 @dataclass(frozen=True)
@@ -660,7 +630,7 @@ def _sphere_refine(
     """
     if prof.size < max(cfg.sphere_min_returns, 6) or np.unique(prof).size < 3:
         return None
-    x = prof + ang / _TWO_PI
+    x = prof + ang / math.tau
     y = rng_m * np.sin(ang)
     z = rng_m * np.cos(ang)
     span = float(np.ptp(prof)) + 1.0
@@ -743,7 +713,7 @@ def _sighting(
     if fitted is not None:
         x_p, phi_p, range_p, std_x = fitted
         return Sighting(
-            profile=x_p - phi_p / _TWO_PI,
+            profile=x_p - phi_p / math.tau,
             angle_rad=phi_p,
             range_m=range_p,
             n_returns=int(idx.size),
@@ -1127,7 +1097,7 @@ def _result(
                 t_s=c.t_s,
                 crossing_angle_rad=c.angle_rad,
                 crossing_range_m=c.range_m,
-                helix_correction_s=s.angle_rad / _TWO_PI * fit.period_s,
+                helix_correction_s=s.angle_rad / math.tau * fit.period_s,
                 residual_s=float(res),
                 std_s=float(sd),
             )

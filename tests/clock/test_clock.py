@@ -16,7 +16,6 @@ from kinsync.clock import (
     ClockFit,
     ClockModel,
     Convention,
-    clock_model_from_document,
     fit_clock,
     fit_clock_to_log,
     gps_minus_utc_s,
@@ -27,7 +26,8 @@ from kinsync.clock import (
 )
 from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
 from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
-from kinsync.io.nmea import NmeaLog, format_sentence, read_nmea_log
+from kinsync.io.nmea import format_sentence, read_nmea_log
+from kinsync.messages import NmeaLog
 from kinsync.report.demo_clock import clock_section
 from kinsync.sim.clock import (
     ClockSimConfig,
@@ -407,7 +407,7 @@ def test_model_document_errors(tmp_path: Path) -> None:
     good = ClockModel(
         reference_local_s=10.0, reference_gps_s=1.4e9, drift_ppm=3.0, span_local_s=(10.0, 20.0)
     ).as_document()
-    assert clock_model_from_document(good).offset_s == 1.4e9 - 10.0
+    assert ClockModel.from_document(good).offset_s == 1.4e9 - 10.0
     changes: list[tuple[dict[str, Any], str]] = [
         ({"reference_gps_s": None}, "reference_gps_s"),
         ({"drift_ppm": "25"}, "drift_ppm"),
@@ -420,13 +420,13 @@ def test_model_document_errors(tmp_path: Path) -> None:
     for change, match in changes:
         doc = {**good, **change}
         with pytest.raises(InputError, match=match):
-            clock_model_from_document(doc, source="m.json")
+            ClockModel.from_document(doc, source="m.json")
     doc = dict(good)
     del doc["reference_local_s"]
     with pytest.raises(InputError, match="missing key 'reference_local_s'"):
-        clock_model_from_document(doc)
+        ClockModel.from_document(doc)
     with pytest.raises(InputError, match="JSON object"):
-        clock_model_from_document([1, 2])
+        ClockModel.from_document([1, 2])
     bad = tmp_path / "bad.json"
     bad.write_text("{\n  'x': 1\n}")
     with pytest.raises(InputError, match=r"bad\.json: line 2"):

@@ -2,15 +2,8 @@
 
 An acquisition computer time-tags, with its own drifting clock, every edge of a GNSS
 receiver's pulse per second (PPS) and the arrival of each ZDA message that names the
-UTC second of an edge. This module turns those two logs into a `ClockModel`
-
-    ``t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)``
-
-(GPS time: continuous seconds since 1980-01-06T00:00:00, SPEC section 1). ``drift_ppm
-> 0`` means the local clock runs slow: one local second lasts ``1 + drift_ppm * 1e-6``
-GPS seconds. ``reference_local_s`` is the local time of the first good pulse and
-``reference_gps_s`` the fitted GPS time of that instant; ``offset_s = reference_gps_s
-- reference_local_s`` is the clock offset there.
+UTC second of an edge. This module turns those two logs into a
+`kinsync.clock.model.ClockModel` (offset and drift, optionally piecewise).
 
 Pairing a ZDA with its pulse
     The ZDA's arrival time is the end of its reception. Its transmission started
@@ -42,291 +35,52 @@ Robust fit (`fit_clock`)
        *missing*.
 
 Optionally (``piecewise=True``) the model also interpolates linearly between
-consecutive good pulses, passing exactly through them; outside their span it refuses
-by default (`ClockModel.apply`).
-
-Leap seconds
-    ``t_gps_s = utc_posix_s - 315964800 + (GPS - UTC)`` with GPS - UTC from
-    `LEAP_SECONDS` (18 s since 2017-01-01). A UTC time before the GPS epoch is refused.
-    A ZDA reading 23:59:60 on a leap-second day maps to its own GPS second.
+consecutive good pulses. A ZDA's UTC date and time become GPS time through the
+leap-second table (`kinsync.clock.leap_seconds`).
 """
 
 from __future__ import annotations
 
-import bisect
-import calendar
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import date
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import numpy as np
 
+from kinsync._arrays import readonly_copy
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
-from kinsync._validate import finite_number, positive_number
+from kinsync._validate import positive_number
 from kinsync.budget import Parity, serial_transmission_time_s
-from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
-
-if TYPE_CHECKING:
-    from kinsync.io.nmea import NmeaLog, ZdaRecord
+from kinsync.clock.leap_seconds import zda_to_gps_s
+from kinsync.clock.model import CLOCK_FORMULA, ClockModel, _finite_times
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.messages import NmeaLog, ZdaRecord
+from kinsync.robust import robust_sigma
 
 __all__ = [
-    "CLOCK_FORMULA",
-    "GPS_EPOCH_POSIX_S",
-    "LEAP_SECONDS",
+    "CONVENTIONS",
     "ClockFit",
-    "ClockModel",
     "Convention",
-    "OutsidePolicy",
-    "clock_model_from_document",
     "fit_clock",
     "fit_clock_to_log",
-    "gps_minus_utc_s",
-    "gps_to_utc_posix_s",
     "message_transmission_time_s",
-    "utc_fields_to_gps_s",
-    "utc_to_gps_s",
-    "zda_to_gps_s",
 ]
 
 Convention = Literal["preceding", "following"]
 """Which PPS edge a ZDA names: the last before its transmission, or the next one."""
-
-OutsidePolicy = Literal["extrapolate", "raise", "nan"]
-"""What `ClockModel.apply` does with a time outside the span of the fitted pulses."""
-
 CONVENTIONS: tuple[Convention, ...] = ("preceding", "following")
-OUTSIDE_POLICIES: tuple[OutsidePolicy, ...] = ("extrapolate", "raise", "nan")
-
-CLOCK_FORMULA = (
-    "t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)"
-)
-"""The linear clock model, as written in model files and JSON output."""
-
-GPS_EPOCH_POSIX_S = 315_964_800
-"""The GPS epoch 1980-01-06T00:00:00 UTC in POSIX seconds."""
-
-LEAP_SECONDS: tuple[tuple[str, int], ...] = (
-    ("1981-07-01", 1),
-    ("1982-07-01", 2),
-    ("1983-07-01", 3),
-    ("1985-07-01", 4),
-    ("1988-01-01", 5),
-    ("1990-01-01", 6),
-    ("1991-01-01", 7),
-    ("1992-07-01", 8),
-    ("1993-07-01", 9),
-    ("1994-07-01", 10),
-    ("1996-01-01", 11),
-    ("1997-07-01", 12),
-    ("1999-01-01", 13),
-    ("2006-01-01", 14),
-    ("2009-01-01", 15),
-    ("2012-07-01", 16),
-    ("2015-07-01", 17),
-    ("2017-01-01", 18),
-)
-"""(UTC date from which it applies, GPS - UTC in s); 0 from the GPS epoch to 1981-07-01.
-
-Each leap second was inserted as 23:59:60 UTC on the day before the date. Add a row
-when the IERS announces a new one (Bulletin C)."""
 
 
-def _posix_of_date(iso: str) -> int:
-    d = date.fromisoformat(iso)
-    return calendar.timegm((d.year, d.month, d.day, 0, 0, 0, 0, 0, 0))
-
-
-_LEAP_POSIX_S = np.array([_posix_of_date(d) for d, _ in LEAP_SECONDS], dtype=np.float64)
-_LEAP_COUNT_S = np.array([n for _, n in LEAP_SECONDS], dtype=np.int64)
-_LEAP_POSIX_LIST = _LEAP_POSIX_S.tolist()
-
-_SECONDS_PER_DAY = 86_400
 _PERIOD_TOLERANCE = 0.01
 """Pulse intervals within 1 % of a whole number of seconds set the local period."""
 _COARSE_TOLERANCE_S = 0.1
 """Pulses within this of the coarse grid seed the robust fit."""
 _REJECT_SIGMAS = 6.0
 _MIN_REJECT_THRESHOLD_S = 1e-6
-_MAD_TO_SIGMA = 1.4826
 _MAX_ITERATIONS = 50
 _THRESHOLD_SHRINK = 10.0
 _WHOLE_SECOND_TOLERANCE_S = 1e-3
 """A ZDA must name a whole second to this tolerance."""
-
-
-# --------------------------------------------------------------------------- UTC / GPS
-
-
-def _utc_iso(utc_posix_s: float) -> str:
-    days = math.floor(utc_posix_s / _SECONDS_PER_DAY)
-    d = date.fromordinal(date(1970, 1, 1).toordinal() + days)
-    rest = utc_posix_s - days * _SECONDS_PER_DAY
-    hh, rem = divmod(rest, 3600.0)
-    mm, ss = divmod(rem, 60.0)
-    return f"{d.isoformat()}T{int(hh):02d}:{int(mm):02d}:{ss:06.3f}"
-
-
-def _leap_count_at(utc_posix_s: FloatArray) -> IntArray:
-    idx = np.searchsorted(_LEAP_POSIX_S, utc_posix_s, side="right")
-    padded = np.concatenate(([0], _LEAP_COUNT_S))
-    return padded[idx]
-
-
-def _leap_count_scalar(utc_posix_s: float) -> int:
-    i = bisect.bisect_right(_LEAP_POSIX_LIST, utc_posix_s)
-    return LEAP_SECONDS[i - 1][1] if i else 0
-
-
-def _check_after_gps_epoch(utc_posix_s: FloatArray) -> None:
-    early = utc_posix_s < GPS_EPOCH_POSIX_S
-    if np.any(early):
-        first = float(utc_posix_s[early][0])
-        msg = (
-            f"UTC {_utc_iso(first)} is before the GPS epoch 1980-01-06T00:00:00: GPS time "
-            "is not defined there; check the date fields of the log"
-        )
-        raise InputError(msg)
-
-
-def gps_minus_utc_s(utc_posix_s: float) -> int:
-    """GPS - UTC (leap seconds since 1980) in force at a UTC instant.
-
-    Parameters
-    ----------
-    utc_posix_s : float
-        UTC as POSIX seconds (s since 1970-01-01T00:00:00 UTC, leap seconds not
-        counted), on or after the GPS epoch.
-
-    Returns
-    -------
-    int
-        Seconds (0 before 1981-07-01, 18 since 2017-01-01).
-
-    Raises
-    ------
-    InputError
-        A non-finite time or a time before the GPS epoch.
-    """
-    t = np.array([finite_number(utc_posix_s, "utc_posix_s")])
-    _check_after_gps_epoch(t)
-    return int(_leap_count_at(t)[0])
-
-
-def utc_to_gps_s(utc_posix_s: ArrayLike) -> FloatArray:
-    """UTC (POSIX seconds) to GPS time (s since the GPS epoch), vectorised.
-
-    Parameters
-    ----------
-    utc_posix_s : array_like, shape (...)
-        UTC as POSIX seconds, on or after 1980-01-06T00:00:00. A POSIX time cannot
-        express 23:59:60; use `utc_fields_to_gps_s` for a leap second itself.
-
-    Returns
-    -------
-    ndarray, shape (...)
-        ``utc_posix_s - 315964800 + (GPS - UTC)``.
-
-    Raises
-    ------
-    InputError
-        Non-numeric or non-finite values, or a time before the GPS epoch.
-    """
-    try:
-        t = np.asarray(utc_posix_s, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"utc_posix_s: expected numbers ({err})"
-        raise InputError(msg) from err
-    if not np.all(np.isfinite(t)):
-        msg = "utc_posix_s: every time must be finite"
-        raise InputError(msg)
-    flat = t.reshape(-1)
-    _check_after_gps_epoch(flat)
-    out = flat - GPS_EPOCH_POSIX_S + _leap_count_at(flat)
-    return out.reshape(t.shape)
-
-
-def gps_to_utc_posix_s(t_gps_s: float) -> float:
-    """GPS time to UTC POSIX seconds (inverse of `utc_to_gps_s`).
-
-    During an inserted leap second (23:59:60) POSIX time repeats: the result is the
-    POSIX time of the following 00:00:00.
-    """
-    g = finite_number(t_gps_s, "t_gps_s")
-    if g < 0.0:
-        msg = f"t_gps_s: {g} is before the GPS epoch"
-        raise InputError(msg)
-    base = g + GPS_EPOCH_POSIX_S
-    for leap in range(len(LEAP_SECONDS), -1, -1):
-        if _leap_count_scalar(base - leap) == leap:
-            return base - leap
-    # Inside an inserted leap second: no POSIX time; give the following 00:00:00.
-    for leap in range(len(LEAP_SECONDS)):
-        if _leap_count_scalar(base - leap) == leap + 1:
-            return float(_LEAP_POSIX_S[leap])
-    msg = f"t_gps_s: {g} has no UTC time in the leap-second table"  # pragma: no cover
-    raise InputError(msg)  # pragma: no cover
-
-
-def utc_fields_to_gps_s(year: int, month: int, day: int, time_of_day_s: float) -> float:
-    """A UTC calendar date and time of day to GPS time, leap seconds included.
-
-    Parameters
-    ----------
-    year, month, day : int
-        UTC date (Gregorian), on or after 1980-01-06.
-    time_of_day_s : float
-        Seconds since 00:00:00 UTC of that day, in [0, 86400); up to 86401 on a day
-        that ends with an inserted leap second (23:59:60 is 86400).
-
-    Returns
-    -------
-    float
-        GPS seconds since 1980-01-06T00:00:00.
-
-    Raises
-    ------
-    InputError
-        An invalid date, a time of day out of range, or a date before the GPS epoch.
-    """
-    try:
-        d = date(int(year), int(month), int(day))
-    except (TypeError, ValueError) as err:
-        msg = f"UTC date {year}-{month}-{day} is not a valid date ({err})"
-        raise InputError(msg) from err
-    tod = finite_number(time_of_day_s, "time_of_day_s")
-    day_start = float(calendar.timegm((d.year, d.month, d.day, 0, 0, 0, 0, 0, 0)))
-    if day_start < GPS_EPOCH_POSIX_S:
-        msg = (
-            f"UTC date {d.isoformat()} is before the GPS epoch 1980-01-06: GPS time is not "
-            "defined there; check the date fields of the log"
-        )
-        raise InputError(msg)
-    if tod < 0.0 or tod >= _SECONDS_PER_DAY + 1:
-        msg = f"UTC time of day {tod} s on {d.isoformat()} is outside [0, 86400]"
-        raise InputError(msg)
-    # The count in force during the day's last regular second applies to 23:59:60 too.
-    probe = day_start + min(tod, _SECONDS_PER_DAY - 1.0)
-    leap_today = _leap_count_scalar(probe)
-    if tod >= _SECONDS_PER_DAY:
-        next_day = _leap_count_scalar(day_start + _SECONDS_PER_DAY)
-        if next_day != leap_today + 1:
-            msg = (
-                f"UTC {d.isoformat()} 23:59:60: no leap second was inserted at the end of "
-                "that day (see kinsync.clock.LEAP_SECONDS)"
-            )
-            raise InputError(msg)
-    return day_start + tod - GPS_EPOCH_POSIX_S + leap_today
-
-
-def zda_to_gps_s(record: ZdaRecord) -> float:
-    """GPS time of the UTC instant a ZDA names (its date and time fields; zones ignored).
-
-    The ZDA's local-zone fields describe the receiver's local time zone; the time and
-    date fields are UTC whatever they say.
-    """
-    return utc_fields_to_gps_s(record.year, record.month, record.day, record.utc_time_of_day_s)
 
 
 def message_transmission_time_s(
@@ -355,275 +109,6 @@ def message_transmission_time_s(
 
 
 # --------------------------------------------------------------------------- model
-
-
-def _readonly(values: ArrayLike) -> FloatArray:
-    out = np.array(values, dtype=np.float64, copy=True)
-    out.setflags(write=False)
-    return out
-
-
-def _finite_times(t_local_s: ArrayLike, name: str) -> FloatArray:
-    try:
-        t = np.asarray(t_local_s, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"{name}: expected numbers ({err})"
-        raise InputError(msg) from err
-    bad = ~np.isfinite(t)
-    if np.any(bad):
-        first = int(np.flatnonzero(bad.reshape(-1))[0])
-        msg = f"{name}: value at index {first} is not finite; every time must be a number"
-        raise InputError(msg)
-    return t
-
-
-@dataclass(frozen=True, eq=False)
-class ClockModel:
-    """Mapping of a local clock to GPS time (linear, optionally piecewise-linear).
-
-    ``t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)``
-
-    Attributes
-    ----------
-    reference_local_s : float
-        Local time of the reference instant (s, local clock); a fit sets it to the
-        first good pulse.
-    reference_gps_s : float
-        GPS time of the reference instant (s since the GPS epoch), full precision.
-    drift_ppm : float
-        Rate error of the local clock (ppm); > 0: the local clock runs slow.
-    span_local_s : tuple of (float, float)
-        Local times of the first and last pulse the model was fitted on.
-    knots_local_s, knots_gps_s : ndarray, shape (K,), or None
-        Piecewise-linear model: local and GPS times of the good pulses (K >= 2,
-        strictly increasing), interpolated linearly inside the span; None for the
-        linear model.
-    """
-
-    reference_local_s: float
-    reference_gps_s: float
-    drift_ppm: float
-    span_local_s: tuple[float, float]
-    knots_local_s: FloatArray | None = None
-    knots_gps_s: FloatArray | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("reference_local_s", "reference_gps_s", "drift_ppm"):
-            object.__setattr__(self, name, finite_number(getattr(self, name), f"clock {name}"))
-        if abs(self.drift_ppm) >= 1e6:
-            msg = f"clock drift_ppm: {self.drift_ppm} ppm would stop or reverse the clock"
-            raise InputError(msg)
-        span = self.span_local_s
-        if not isinstance(span, Sequence | np.ndarray) or len(span) != 2:
-            msg = f"clock span_local_s: expected two times (first, last), got {span!r}"
-            raise InputError(msg)
-        lo = finite_number(span[0], "clock span_local_s[0]")
-        hi = finite_number(span[1], "clock span_local_s[1]")
-        if hi < lo:
-            msg = f"clock span_local_s: last time {hi} is before first time {lo}"
-            raise InputError(msg)
-        object.__setattr__(self, "span_local_s", (lo, hi))
-        if (self.knots_local_s is None) != (self.knots_gps_s is None):
-            msg = "clock knots: give both knots_local_s and knots_gps_s, or neither"
-            raise InputError(msg)
-        if self.knots_local_s is not None and self.knots_gps_s is not None:
-            kl = _finite_times(self.knots_local_s, "clock knots_local_s")
-            kg = _finite_times(self.knots_gps_s, "clock knots_gps_s")
-            if kl.ndim != 1 or kl.shape != kg.shape or len(kl) < 2:
-                msg = (
-                    "clock knots: knots_local_s and knots_gps_s must be 1-D, of one length, "
-                    f"with at least 2 knots; got shapes {kl.shape} and {kg.shape}"
-                )
-                raise InputError(msg)
-            if np.any(np.diff(kl) <= 0.0) or np.any(np.diff(kg) <= 0.0):
-                msg = "clock knots: knot times must be strictly increasing"
-                raise InputError(msg)
-            if (float(kl[0]), float(kl[-1])) != (lo, hi):
-                msg = (
-                    f"clock knots: the knots span [{kl[0]!r}, {kl[-1]!r}] but span_local_s is "
-                    f"[{lo!r}, {hi!r}]"
-                )
-                raise InputError(msg)
-            object.__setattr__(self, "knots_local_s", _readonly(kl))
-            object.__setattr__(self, "knots_gps_s", _readonly(kg))
-
-    @property
-    def offset_s(self) -> float:
-        """Clock offset at the reference: ``reference_gps_s - reference_local_s`` (s)."""
-        return self.reference_gps_s - self.reference_local_s
-
-    @property
-    def piecewise(self) -> bool:
-        """True when the model interpolates between pulses."""
-        return self.knots_local_s is not None
-
-    def linear(self) -> ClockModel:
-        """The same model without the piecewise knots."""
-        return ClockModel(
-            reference_local_s=self.reference_local_s,
-            reference_gps_s=self.reference_gps_s,
-            drift_ppm=self.drift_ppm,
-            span_local_s=self.span_local_s,
-        )
-
-    def inside_span(self, t_local_s: ArrayLike) -> BoolArray:
-        """Which local times lie within the span of the fitted pulses (ends included)."""
-        t = _finite_times(t_local_s, "t_local_s")
-        lo, hi = self.span_local_s
-        return np.asarray((t >= lo) & (t <= hi), dtype=np.bool_)
-
-    def _linear_gps_s(self, t: FloatArray) -> FloatArray:
-        scale = 1.0 + self.drift_ppm * 1e-6
-        return np.asarray(
-            self.reference_gps_s + (t - self.reference_local_s) * scale, dtype=np.float64
-        )
-
-    def apply(self, t_local_s: ArrayLike, outside: OutsidePolicy | None = None) -> FloatArray:
-        """GPS time of local timestamps.
-
-        Parameters
-        ----------
-        t_local_s : array_like, shape (...)
-            Local clock times (s), finite.
-        outside : {"extrapolate", "raise", "nan"}, optional
-            Times outside `span_local_s`: ``"extrapolate"`` uses the linear model
-            (the piecewise model's linear fit too), ``"raise"`` raises
-            `OutsideSpanError`, ``"nan"`` returns NaN there. Default: ``"extrapolate"``
-            for the linear model, ``"raise"`` for the piecewise model (never silently).
-            `inside_span` says which times were outside.
-
-        Returns
-        -------
-        ndarray, shape (...)
-            GPS seconds since the GPS epoch.
-
-        Raises
-        ------
-        InputError
-            A non-finite time or an unknown policy.
-        OutsideSpanError
-            A time outside the span with ``outside="raise"``.
-        """
-        policy: OutsidePolicy = outside or ("raise" if self.piecewise else "extrapolate")
-        if policy not in OUTSIDE_POLICIES:
-            msg = f"outside must be one of {', '.join(OUTSIDE_POLICIES)}, got {outside!r}"
-            raise InputError(msg)
-        t = _finite_times(t_local_s, "t_local_s")
-        out = self._linear_gps_s(t)
-        inside = self.inside_span(t)
-        if self.knots_local_s is not None and self.knots_gps_s is not None:
-            out = np.where(inside, np.interp(t, self.knots_local_s, self.knots_gps_s), out)
-        if not np.all(inside):
-            if policy == "raise":
-                first = float(t.reshape(-1)[~inside.reshape(-1)][0])
-                lo, hi = self.span_local_s
-                kind = "piecewise " if self.piecewise else ""
-                msg = (
-                    f"{int(np.count_nonzero(~inside))} local time(s) lie outside the "
-                    f"{kind}clock model's span [{lo!r}, {hi!r}] s (first: {first!r}); "
-                    "fit the clock over a longer log, or allow extrapolation with the "
-                    "linear model"
-                )
-                raise OutsideSpanError(msg)
-            if policy == "nan":
-                out = np.where(inside, out, np.nan)
-        return np.asarray(out, dtype=np.float64)
-
-    def as_document(self) -> dict[str, Any]:
-        """JSON-ready document with every field needed to apply the model (full precision).
-
-        ``offset_s`` is written for reading; `clock_model_from_document` checks that it
-        agrees with the reference times.
-        """
-        doc: dict[str, Any] = {
-            "kind": "kinsync clock model",
-            "version": 1,
-            "time_scale": "GPS seconds since 1980-01-06T00:00:00",
-            "formula": CLOCK_FORMULA,
-            "reference_local_s": self.reference_local_s,
-            "reference_gps_s": self.reference_gps_s,
-            "drift_ppm": self.drift_ppm,
-            "offset_s": self.offset_s,
-            "span_local_s": list(self.span_local_s),
-            "piecewise": None,
-        }
-        if self.knots_local_s is not None and self.knots_gps_s is not None:
-            doc["piecewise"] = {
-                "knots_local_s": self.knots_local_s.tolist(),
-                "knots_gps_s": self.knots_gps_s.tolist(),
-            }
-        return doc
-
-
-def _doc_number(doc: dict[str, Any], key: str, where: str) -> float:
-    if key not in doc:
-        msg = f"{where}: missing key {key!r}; a clock model needs {CLOCK_FORMULA}"
-        raise InputError(msg)
-    return finite_number(doc[key], f"{where}: {key}")
-
-
-def _doc_list(value: object, name: str, where: str) -> FloatArray:
-    if not isinstance(value, list) or not all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in value
-    ):
-        msg = f"{where}: {name} must be a list of numbers"
-        raise InputError(msg)
-    return np.asarray(value, dtype=np.float64)
-
-
-def clock_model_from_document(doc: object, source: str = "<document>") -> ClockModel:
-    """Build a `ClockModel` from the document `ClockModel.as_document` writes.
-
-    Raises
-    ------
-    InputError
-        Not an object, missing or non-numeric keys, an ``offset_s`` that disagrees
-        with ``reference_gps_s - reference_local_s`` by more than 1 us (an edited file),
-        or inconsistent piecewise knots.
-    """
-    if not isinstance(doc, dict):
-        msg = f"{source}: expected a JSON object with the clock model's keys"
-        raise InputError(msg)
-    ref_local = _doc_number(doc, "reference_local_s", source)
-    ref_gps = _doc_number(doc, "reference_gps_s", source)
-    drift = _doc_number(doc, "drift_ppm", source)
-    if "offset_s" in doc:
-        offset = finite_number(doc["offset_s"], f"{source}: offset_s")
-        if abs(offset - (ref_gps - ref_local)) > 1e-6:
-            msg = (
-                f"{source}: offset_s {offset!r} disagrees with reference_gps_s - "
-                f"reference_local_s = {ref_gps - ref_local!r}; the model is defined by the "
-                "reference times: edit those (or delete offset_s)"
-            )
-            raise InputError(msg)
-    span = doc.get("span_local_s")
-    if span is None:
-        msg = f"{source}: missing key 'span_local_s' (local times of the first and last pulse)"
-        raise InputError(msg)
-    span_arr = _doc_list(span, "span_local_s", source)
-    if span_arr.shape != (2,):
-        msg = f"{source}: span_local_s must hold two times, got {span!r}"
-        raise InputError(msg)
-    knots_local = knots_gps = None
-    pw = doc.get("piecewise")
-    if pw is not None:
-        if not isinstance(pw, dict):
-            msg = f"{source}: piecewise must be null or an object with knots_local_s, knots_gps_s"
-            raise InputError(msg)
-        knots_local = _doc_list(pw.get("knots_local_s"), "piecewise.knots_local_s", source)
-        knots_gps = _doc_list(pw.get("knots_gps_s"), "piecewise.knots_gps_s", source)
-    try:
-        return ClockModel(
-            reference_local_s=ref_local,
-            reference_gps_s=ref_gps,
-            drift_ppm=drift,
-            span_local_s=(float(span_arr[0]), float(span_arr[1])),
-            knots_local_s=knots_local,
-            knots_gps_s=knots_gps,
-        )
-    except InputError as err:
-        msg = f"{source}: {err}"
-        raise InputError(msg) from err
 
 
 # --------------------------------------------------------------------------- fit
@@ -871,7 +356,7 @@ def _grid_labels(t: FloatArray) -> tuple[IntArray, BoolArray, float, float]:
         labels = np.rint(u).astype(np.int64)
         resid = labels - u
         r_good = resid[good]
-        scale = _MAD_TO_SIGMA * float(np.median(np.abs(r_good - np.median(r_good))))
+        scale = robust_sigma(r_good - np.median(r_good))
         target = max(_REJECT_SIGMAS * scale, _MIN_REJECT_THRESHOLD_S)
         # Shrink by at most 10x per pass: a fit tilted by an outlier still inside the
         # coarse tolerance must not reject the good pulses along with it.
@@ -1058,19 +543,19 @@ def fit_clock(
         model=model,
         convention=convention,
         baud=rate,
-        t_local_s=_readonly(t_good),
-        t_gps_s=_readonly(gps_good),
-        residuals_s=_readonly(resid),
+        t_local_s=readonly_copy(t_good),
+        t_gps_s=readonly_copy(gps_good),
+        residuals_s=readonly_copy(resid),
         residual_rms_s=float(np.sqrt(np.mean(resid**2))),
         offset_std_s=math.sqrt(cov[0, 0]),
         drift_std_ppm=math.sqrt(cov[1, 1]),
-        offset_drift_cov=_readonly(cov),
+        offset_drift_cov=readonly_copy(cov),
         n_pulses_read=len(t),
-        missing_gps_s=_readonly(missing.astype(np.float64)),
-        spurious_t_local_s=_readonly(t[~good]),
+        missing_gps_s=readonly_copy(missing.astype(np.float64)),
+        spurious_t_local_s=readonly_copy(t[~good]),
         n_zda=len(z_t),
-        wrong_zda_t_local_s=_readonly(z_t[wrong]),
-        unpaired_zda_t_local_s=_readonly(z_t[unpaired]),
+        wrong_zda_t_local_s=readonly_copy(z_t[wrong]),
+        unpaired_zda_t_local_s=readonly_copy(z_t[unpaired]),
         n_bad_lines=int(n_bad_lines),
         zda_delay_s=zda_delay,
     )
@@ -1142,8 +627,6 @@ _UNSUPPORTED_REASON = "unsupported sentence type"
 
 def _log_zdas(log: NmeaLog) -> tuple[FloatArray, list[ZdaRecord], list[str], list[int]]:
     """ZDA arrival times, records, raw sentences and file lines of a log, in log order."""
-    from kinsync.io.nmea import ZdaRecord  # noqa: PLC0415  (io imports stay out of import time)
-
     idx = [i for i, r in enumerate(log.records) if isinstance(r, ZdaRecord)]
     records = [r for r in log.records if isinstance(r, ZdaRecord)]
     t = np.asarray(log.t_local_s, dtype=np.float64)[idx]

@@ -1,0 +1,244 @@
+"""Leap seconds: UTC <-> GPS time (SPEC section 1).
+
+``t_gps_s = utc_posix_s - 315964800 + (GPS - UTC)`` with GPS - UTC from the one table
+`LEAP_SECONDS` (18 s since 2017-01-01), looked up in one place (`leap_count_s`). A
+UTC time before the GPS epoch is refused. A UTC 23:59:60 on a leap-second day maps to
+its own GPS second (`utc_fields_to_gps_s`); POSIX time cannot express it.
+"""
+
+from __future__ import annotations
+
+import calendar
+import math
+from datetime import date
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, FloatArray, IntArray
+from kinsync._validate import finite_number
+from kinsync.errors import InputError
+
+if TYPE_CHECKING:
+    from kinsync.messages import ZdaRecord
+
+
+GPS_EPOCH_POSIX_S = 315_964_800
+"""The GPS epoch 1980-01-06T00:00:00 UTC in POSIX seconds."""
+
+
+LEAP_SECONDS: tuple[tuple[str, int], ...] = (
+    ("1981-07-01", 1),
+    ("1982-07-01", 2),
+    ("1983-07-01", 3),
+    ("1985-07-01", 4),
+    ("1988-01-01", 5),
+    ("1990-01-01", 6),
+    ("1991-01-01", 7),
+    ("1992-07-01", 8),
+    ("1993-07-01", 9),
+    ("1994-07-01", 10),
+    ("1996-01-01", 11),
+    ("1997-07-01", 12),
+    ("1999-01-01", 13),
+    ("2006-01-01", 14),
+    ("2009-01-01", 15),
+    ("2012-07-01", 16),
+    ("2015-07-01", 17),
+    ("2017-01-01", 18),
+)
+"""(UTC date from which it applies, GPS - UTC in s); 0 from the GPS epoch to 1981-07-01.
+
+Each leap second was inserted as 23:59:60 UTC on the day before the date. Add a row
+when the IERS announces a new one (Bulletin C)."""
+
+
+def _posix_of_date(iso: str) -> int:
+    d = date.fromisoformat(iso)
+    return calendar.timegm((d.year, d.month, d.day, 0, 0, 0, 0, 0, 0))
+
+
+_LEAP_POSIX_S = np.array([_posix_of_date(d) for d, _ in LEAP_SECONDS], dtype=np.float64)
+
+
+_LEAP_COUNT_S = np.array([0] + [n for _, n in LEAP_SECONDS], dtype=np.int64)
+_SECONDS_PER_DAY = 86_400
+
+
+def _utc_iso(utc_posix_s: float) -> str:
+    days = math.floor(utc_posix_s / _SECONDS_PER_DAY)
+    d = date.fromordinal(date(1970, 1, 1).toordinal() + days)
+    rest = utc_posix_s - days * _SECONDS_PER_DAY
+    hh, rem = divmod(rest, 3600.0)
+    mm, ss = divmod(rem, 60.0)
+    return f"{d.isoformat()}T{int(hh):02d}:{int(mm):02d}:{ss:06.3f}"
+
+
+def leap_count_s(utc_posix_s: ArrayLike) -> IntArray:
+    """GPS - UTC (s) in force at UTC instants: the one lookup of `LEAP_SECONDS`.
+
+    Parameters
+    ----------
+    utc_posix_s : array_like, shape (...)
+        UTC as POSIX seconds (not checked: 0 before 1981-07-01 whatever the time).
+
+    Returns
+    -------
+    ndarray of int, shape (...)
+    """
+    idx = np.searchsorted(_LEAP_POSIX_S, utc_posix_s, side="right")
+    out: IntArray = _LEAP_COUNT_S[idx]
+    return out
+
+
+def _check_after_gps_epoch(utc_posix_s: FloatArray) -> None:
+    early = utc_posix_s < GPS_EPOCH_POSIX_S
+    if np.any(early):
+        first = float(utc_posix_s[early][0])
+        msg = (
+            f"UTC {_utc_iso(first)} is before the GPS epoch 1980-01-06T00:00:00: GPS time "
+            "is not defined there; check the date fields of the log"
+        )
+        raise InputError(msg)
+
+
+def gps_minus_utc_s(utc_posix_s: float) -> int:
+    """GPS - UTC (leap seconds since 1980) in force at a UTC instant.
+
+    Parameters
+    ----------
+    utc_posix_s : float
+        UTC as POSIX seconds (s since 1970-01-01T00:00:00 UTC, leap seconds not
+        counted), on or after the GPS epoch.
+
+    Returns
+    -------
+    int
+        Seconds (0 before 1981-07-01, 18 since 2017-01-01).
+
+    Raises
+    ------
+    InputError
+        A non-finite time or a time before the GPS epoch.
+    """
+    t = np.array([finite_number(utc_posix_s, "utc_posix_s")])
+    _check_after_gps_epoch(t)
+    return int(leap_count_s(t)[0])
+
+
+def utc_to_gps_s(utc_posix_s: ArrayLike) -> FloatArray:
+    """UTC (POSIX seconds) to GPS time (s since the GPS epoch), vectorised.
+
+    Parameters
+    ----------
+    utc_posix_s : array_like, shape (...)
+        UTC as POSIX seconds, on or after 1980-01-06T00:00:00. A POSIX time cannot
+        express 23:59:60; use `utc_fields_to_gps_s` for a leap second itself.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``utc_posix_s - 315964800 + (GPS - UTC)``.
+
+    Raises
+    ------
+    InputError
+        Non-numeric or non-finite values, or a time before the GPS epoch.
+    """
+    try:
+        t = np.asarray(utc_posix_s, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"utc_posix_s: expected numbers ({err})"
+        raise InputError(msg) from err
+    if not np.all(np.isfinite(t)):
+        msg = "utc_posix_s: every time must be finite"
+        raise InputError(msg)
+    flat = t.reshape(-1)
+    _check_after_gps_epoch(flat)
+    out = flat - GPS_EPOCH_POSIX_S + leap_count_s(flat)
+    return out.reshape(t.shape)
+
+
+def gps_to_utc_posix_s(t_gps_s: float) -> float:
+    """GPS time to UTC POSIX seconds (inverse of `utc_to_gps_s`).
+
+    During an inserted leap second (23:59:60) POSIX time repeats: the result is the
+    POSIX time of the following 00:00:00.
+    """
+    g = finite_number(t_gps_s, "t_gps_s")
+    if g < 0.0:
+        msg = f"t_gps_s: {g} is before the GPS epoch"
+        raise InputError(msg)
+    base = g + GPS_EPOCH_POSIX_S
+    # The UTC time u = base - n with n the count in force at u; largest n first.
+    leaps = np.arange(len(LEAP_SECONDS), -1, -1)
+    match = np.flatnonzero(leap_count_s(base - leaps) == leaps)
+    if match.size:
+        return float(base - leaps[match[0]])
+    # Inside an inserted leap second: no POSIX time; give the following 00:00:00.
+    leaps = np.arange(len(LEAP_SECONDS))
+    match = np.flatnonzero(leap_count_s(base - leaps) == leaps + 1)
+    if match.size:
+        return float(_LEAP_POSIX_S[leaps[match[0]]])
+    msg = f"t_gps_s: {g} has no UTC time in the leap-second table"  # pragma: no cover
+    raise InputError(msg)  # pragma: no cover
+
+
+def utc_fields_to_gps_s(year: int, month: int, day: int, time_of_day_s: float) -> float:
+    """A UTC calendar date and time of day to GPS time, leap seconds included.
+
+    Parameters
+    ----------
+    year, month, day : int
+        UTC date (Gregorian), on or after 1980-01-06.
+    time_of_day_s : float
+        Seconds since 00:00:00 UTC of that day, in [0, 86400); up to 86401 on a day
+        that ends with an inserted leap second (23:59:60 is 86400).
+
+    Returns
+    -------
+    float
+        GPS seconds since 1980-01-06T00:00:00.
+
+    Raises
+    ------
+    InputError
+        An invalid date, a time of day out of range, or a date before the GPS epoch.
+    """
+    try:
+        d = date(int(year), int(month), int(day))
+    except (TypeError, ValueError) as err:
+        msg = f"UTC date {year}-{month}-{day} is not a valid date ({err})"
+        raise InputError(msg) from err
+    tod = finite_number(time_of_day_s, "time_of_day_s")
+    day_start = float(calendar.timegm((d.year, d.month, d.day, 0, 0, 0, 0, 0, 0)))
+    if day_start < GPS_EPOCH_POSIX_S:
+        msg = (
+            f"UTC date {d.isoformat()} is before the GPS epoch 1980-01-06: GPS time is not "
+            "defined there; check the date fields of the log"
+        )
+        raise InputError(msg)
+    if tod < 0.0 or tod >= _SECONDS_PER_DAY + 1:
+        msg = f"UTC time of day {tod} s on {d.isoformat()} is outside [0, 86400]"
+        raise InputError(msg)
+    # The count in force during the day's last regular second applies to 23:59:60 too.
+    probe = day_start + min(tod, _SECONDS_PER_DAY - 1.0)
+    leap_today = int(leap_count_s(probe))
+    if tod >= _SECONDS_PER_DAY:
+        next_day = int(leap_count_s(day_start + _SECONDS_PER_DAY))
+        if next_day != leap_today + 1:
+            msg = (
+                f"UTC {d.isoformat()} 23:59:60: no leap second was inserted at the end of "
+                "that day (see kinsync.clock.leap_seconds.LEAP_SECONDS)"
+            )
+            raise InputError(msg)
+    return day_start + tod - GPS_EPOCH_POSIX_S + leap_today
+
+
+def zda_to_gps_s(record: ZdaRecord) -> float:
+    """GPS time of the UTC instant a ZDA names (its date and time fields; zones ignored).
+
+    The ZDA's local-zone fields describe the receiver's local time zone; the time and
+    date fields are UTC whatever they say.
+    """
+    return utc_fields_to_gps_s(record.year, record.month, record.day, record.utc_time_of_day_s)

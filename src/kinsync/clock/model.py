@@ -1,0 +1,305 @@
+"""The clock model: a local acquisition clock mapped to GPS time (SPEC section 6).
+
+``t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)``
+
+(GPS time: continuous seconds since 1980-01-06T00:00:00, SPEC section 1). ``drift_ppm
+> 0`` means the local clock runs slow: one local second lasts ``1 + drift_ppm * 1e-6``
+GPS seconds. ``reference_local_s`` is the local time of the first good pulse and
+``reference_gps_s`` the fitted GPS time of that instant; ``offset_s = reference_gps_s
+- reference_local_s`` is the clock offset there. A piecewise model also interpolates
+linearly between consecutive good pulses, passing exactly through them; outside their
+span it refuses by default (`ClockModel.apply`). `kinsync.clock.fit` makes one from
+PPS and ZDA logs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from kinsync._arrays import readonly_copy
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._validate import finite_number
+from kinsync.errors import InputError, OutsideSpanError
+
+__all__ = ["CLOCK_FORMULA", "OUTSIDE_POLICIES", "ClockModel", "OutsidePolicy"]
+
+OutsidePolicy = Literal["extrapolate", "raise", "nan"]
+"""What `ClockModel.apply` does with a time outside the span of the fitted pulses."""
+
+
+OUTSIDE_POLICIES: tuple[OutsidePolicy, ...] = ("extrapolate", "raise", "nan")
+
+
+CLOCK_FORMULA = (
+    "t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)"
+)
+"""The linear clock model, as written in model files and JSON output."""
+
+
+def _finite_times(t_local_s: ArrayLike, name: str) -> FloatArray:
+    try:
+        t = np.asarray(t_local_s, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{name}: expected numbers ({err})"
+        raise InputError(msg) from err
+    bad = ~np.isfinite(t)
+    if np.any(bad):
+        first = int(np.flatnonzero(bad.reshape(-1))[0])
+        msg = f"{name}: value at index {first} is not finite; every time must be a number"
+        raise InputError(msg)
+    return t
+
+
+@dataclass(frozen=True, eq=False)
+class ClockModel:
+    """Mapping of a local clock to GPS time (linear, optionally piecewise-linear).
+
+    ``t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)``
+
+    Attributes
+    ----------
+    reference_local_s : float
+        Local time of the reference instant (s, local clock); a fit sets it to the
+        first good pulse.
+    reference_gps_s : float
+        GPS time of the reference instant (s since the GPS epoch), full precision.
+    drift_ppm : float
+        Rate error of the local clock (ppm); > 0: the local clock runs slow.
+    span_local_s : tuple of (float, float)
+        Local times of the first and last pulse the model was fitted on.
+    knots_local_s, knots_gps_s : ndarray, shape (K,), or None
+        Piecewise-linear model: local and GPS times of the good pulses (K >= 2,
+        strictly increasing), interpolated linearly inside the span; None for the
+        linear model.
+    """
+
+    reference_local_s: float
+    reference_gps_s: float
+    drift_ppm: float
+    span_local_s: tuple[float, float]
+    knots_local_s: FloatArray | None = None
+    knots_gps_s: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("reference_local_s", "reference_gps_s", "drift_ppm"):
+            object.__setattr__(self, name, finite_number(getattr(self, name), f"clock {name}"))
+        if abs(self.drift_ppm) >= 1e6:
+            msg = f"clock drift_ppm: {self.drift_ppm} ppm would stop or reverse the clock"
+            raise InputError(msg)
+        span = self.span_local_s
+        if not isinstance(span, Sequence | np.ndarray) or len(span) != 2:
+            msg = f"clock span_local_s: expected two times (first, last), got {span!r}"
+            raise InputError(msg)
+        lo = finite_number(span[0], "clock span_local_s[0]")
+        hi = finite_number(span[1], "clock span_local_s[1]")
+        if hi < lo:
+            msg = f"clock span_local_s: last time {hi} is before first time {lo}"
+            raise InputError(msg)
+        object.__setattr__(self, "span_local_s", (lo, hi))
+        if (self.knots_local_s is None) != (self.knots_gps_s is None):
+            msg = "clock knots: give both knots_local_s and knots_gps_s, or neither"
+            raise InputError(msg)
+        if self.knots_local_s is not None and self.knots_gps_s is not None:
+            kl = _finite_times(self.knots_local_s, "clock knots_local_s")
+            kg = _finite_times(self.knots_gps_s, "clock knots_gps_s")
+            if kl.ndim != 1 or kl.shape != kg.shape or len(kl) < 2:
+                msg = (
+                    "clock knots: knots_local_s and knots_gps_s must be 1-D, of one length, "
+                    f"with at least 2 knots; got shapes {kl.shape} and {kg.shape}"
+                )
+                raise InputError(msg)
+            if np.any(np.diff(kl) <= 0.0) or np.any(np.diff(kg) <= 0.0):
+                msg = "clock knots: knot times must be strictly increasing"
+                raise InputError(msg)
+            if (float(kl[0]), float(kl[-1])) != (lo, hi):
+                msg = (
+                    f"clock knots: the knots span [{kl[0]!r}, {kl[-1]!r}] but span_local_s is "
+                    f"[{lo!r}, {hi!r}]"
+                )
+                raise InputError(msg)
+            object.__setattr__(self, "knots_local_s", readonly_copy(kl))
+            object.__setattr__(self, "knots_gps_s", readonly_copy(kg))
+
+    @property
+    def offset_s(self) -> float:
+        """Clock offset at the reference: ``reference_gps_s - reference_local_s`` (s)."""
+        return self.reference_gps_s - self.reference_local_s
+
+    @property
+    def piecewise(self) -> bool:
+        """True when the model interpolates between pulses."""
+        return self.knots_local_s is not None
+
+    def linear(self) -> ClockModel:
+        """The same model without the piecewise knots."""
+        return ClockModel(
+            reference_local_s=self.reference_local_s,
+            reference_gps_s=self.reference_gps_s,
+            drift_ppm=self.drift_ppm,
+            span_local_s=self.span_local_s,
+        )
+
+    def inside_span(self, t_local_s: ArrayLike) -> BoolArray:
+        """Which local times lie within the span of the fitted pulses (ends included)."""
+        t = _finite_times(t_local_s, "t_local_s")
+        lo, hi = self.span_local_s
+        return np.asarray((t >= lo) & (t <= hi), dtype=np.bool_)
+
+    def _linear_gps_s(self, t: FloatArray) -> FloatArray:
+        scale = 1.0 + self.drift_ppm * 1e-6
+        return np.asarray(
+            self.reference_gps_s + (t - self.reference_local_s) * scale, dtype=np.float64
+        )
+
+    def apply(self, t_local_s: ArrayLike, outside: OutsidePolicy | None = None) -> FloatArray:
+        """GPS time of local timestamps.
+
+        Parameters
+        ----------
+        t_local_s : array_like, shape (...)
+            Local clock times (s), finite.
+        outside : {"extrapolate", "raise", "nan"}, optional
+            Times outside `span_local_s`: ``"extrapolate"`` uses the linear model
+            (the piecewise model's linear fit too), ``"raise"`` raises
+            `OutsideSpanError`, ``"nan"`` returns NaN there. Default: ``"extrapolate"``
+            for the linear model, ``"raise"`` for the piecewise model (never silently).
+            `inside_span` says which times were outside.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            GPS seconds since the GPS epoch.
+
+        Raises
+        ------
+        InputError
+            A non-finite time or an unknown policy.
+        OutsideSpanError
+            A time outside the span with ``outside="raise"``.
+        """
+        policy: OutsidePolicy = outside or ("raise" if self.piecewise else "extrapolate")
+        if policy not in OUTSIDE_POLICIES:
+            msg = f"outside must be one of {', '.join(OUTSIDE_POLICIES)}, got {outside!r}"
+            raise InputError(msg)
+        t = _finite_times(t_local_s, "t_local_s")
+        out = self._linear_gps_s(t)
+        inside = self.inside_span(t)
+        if self.knots_local_s is not None and self.knots_gps_s is not None:
+            out = np.where(inside, np.interp(t, self.knots_local_s, self.knots_gps_s), out)
+        if not np.all(inside):
+            if policy == "raise":
+                first = float(t.reshape(-1)[~inside.reshape(-1)][0])
+                lo, hi = self.span_local_s
+                kind = "piecewise " if self.piecewise else ""
+                msg = (
+                    f"{int(np.count_nonzero(~inside))} local time(s) lie outside the "
+                    f"{kind}clock model's span [{lo!r}, {hi!r}] s (first: {first!r}); "
+                    "fit the clock over a longer log, or allow extrapolation with the "
+                    "linear model"
+                )
+                raise OutsideSpanError(msg)
+            if policy == "nan":
+                out = np.where(inside, out, np.nan)
+        return np.asarray(out, dtype=np.float64)
+
+    def as_document(self) -> dict[str, Any]:
+        """JSON-ready document with every field needed to apply the model (full precision).
+
+        ``offset_s`` is written for reading; `ClockModel.from_document` checks that it
+        agrees with the reference times.
+        """
+        doc: dict[str, Any] = {
+            "kind": "kinsync clock model",
+            "version": 1,
+            "time_scale": "GPS seconds since 1980-01-06T00:00:00",
+            "formula": CLOCK_FORMULA,
+            "reference_local_s": self.reference_local_s,
+            "reference_gps_s": self.reference_gps_s,
+            "drift_ppm": self.drift_ppm,
+            "offset_s": self.offset_s,
+            "span_local_s": list(self.span_local_s),
+            "piecewise": None,
+        }
+        if self.knots_local_s is not None and self.knots_gps_s is not None:
+            doc["piecewise"] = {
+                "knots_local_s": self.knots_local_s.tolist(),
+                "knots_gps_s": self.knots_gps_s.tolist(),
+            }
+        return doc
+
+    @classmethod
+    def from_document(cls, doc: object, source: str = "<document>") -> ClockModel:
+        """Build a `ClockModel` from the document `ClockModel.as_document` writes.
+
+        Raises
+        ------
+        InputError
+            Not an object, missing or non-numeric keys, an ``offset_s`` that disagrees
+            with ``reference_gps_s - reference_local_s`` by more than 1 us (an edited file),
+            or inconsistent piecewise knots.
+        """
+        if not isinstance(doc, dict):
+            msg = f"{source}: expected a JSON object with the clock model's keys"
+            raise InputError(msg)
+        ref_local = _doc_number(doc, "reference_local_s", source)
+        ref_gps = _doc_number(doc, "reference_gps_s", source)
+        drift = _doc_number(doc, "drift_ppm", source)
+        if "offset_s" in doc:
+            offset = finite_number(doc["offset_s"], f"{source}: offset_s")
+            if abs(offset - (ref_gps - ref_local)) > 1e-6:
+                msg = (
+                    f"{source}: offset_s {offset!r} disagrees with reference_gps_s - "
+                    f"reference_local_s = {ref_gps - ref_local!r}; the model is defined by the "
+                    "reference times: edit those (or delete offset_s)"
+                )
+                raise InputError(msg)
+        span = doc.get("span_local_s")
+        if span is None:
+            msg = f"{source}: missing key 'span_local_s' (local times of the first and last pulse)"
+            raise InputError(msg)
+        span_arr = _doc_list(span, "span_local_s", source)
+        if span_arr.shape != (2,):
+            msg = f"{source}: span_local_s must hold two times, got {span!r}"
+            raise InputError(msg)
+        knots_local = knots_gps = None
+        pw = doc.get("piecewise")
+        if pw is not None:
+            if not isinstance(pw, dict):
+                msg = (
+                    f"{source}: piecewise must be null or an object with knots_local_s, knots_gps_s"
+                )
+                raise InputError(msg)
+            knots_local = _doc_list(pw.get("knots_local_s"), "piecewise.knots_local_s", source)
+            knots_gps = _doc_list(pw.get("knots_gps_s"), "piecewise.knots_gps_s", source)
+        try:
+            return cls(
+                reference_local_s=ref_local,
+                reference_gps_s=ref_gps,
+                drift_ppm=drift,
+                span_local_s=(float(span_arr[0]), float(span_arr[1])),
+                knots_local_s=knots_local,
+                knots_gps_s=knots_gps,
+            )
+        except InputError as err:
+            msg = f"{source}: {err}"
+            raise InputError(msg) from err
+
+
+def _doc_number(doc: dict[str, Any], key: str, where: str) -> float:
+    if key not in doc:
+        msg = f"{where}: missing key {key!r}; a clock model needs {CLOCK_FORMULA}"
+        raise InputError(msg)
+    return finite_number(doc[key], f"{where}: {key}")
+
+
+def _doc_list(value: object, name: str, where: str) -> FloatArray:
+    if not isinstance(value, list) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in value
+    ):
+        msg = f"{where}: {name} must be a list of numbers"
+        raise InputError(msg)
+    return np.asarray(value, dtype=np.float64)
