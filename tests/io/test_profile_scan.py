@@ -13,11 +13,7 @@ from hypothesis import strategies as st
 
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
-from kinsync.io.points import iter_table_chunks
 from kinsync.io.profile_scan import (
-    ProfileScan,
-    SyncPoints,
-    apply_profile_clock,
     read_clock_document,
     read_profile_scan,
     read_pulses,
@@ -27,6 +23,7 @@ from kinsync.io.profile_scan import (
     write_sync_points,
 )
 from kinsync.mount import Mount
+from kinsync.sync.scan import ProfileScan, SyncPoints
 
 MOUNT = Mount(profiler_azimuth_deg=30.0)
 
@@ -217,42 +214,3 @@ def test_clock_document(tmp_path: Path) -> None:
             read_clock_document(_write_text(tmp_path, f"bad{i}.json", text))
     with pytest.raises(InputError, match="not found"):
         read_clock_document(tmp_path / "none.json")
-
-
-@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
-def test_apply_adds_time_and_scanner_coordinates(tmp_path: Path, suffix: str) -> None:
-    scan = _scan(700)
-    src = tmp_path / f"scan{suffix}"
-    write_profile_scan(scan, src, extra={"label": np.array([f"r{i}" for i in range(len(scan))])})
-    out = tmp_path / f"out{suffix}"
-    seen: list[int] = []
-    n = apply_profile_clock(src, out, 100.0, 0.03, MOUNT, chunk_points=256, progress=seen.append)
-    assert n == len(scan)
-    assert seen == [256, 512, 700]
-    (chunk,) = iter_table_chunks(out, 10_000, ("t_s", "x_m", "y_m", "z_m"))
-    assert list(chunk)[:5] == ["profile", "angle_rad", "range_m", "intensity", "label"]
-    assert chunk["label"].tolist() == [f"r{i}" for i in range(len(scan))]
-    expected_t = 100.0 + (scan.profile + scan.angle_rad / (2 * np.pi)) * 0.03
-    np.testing.assert_allclose(chunk["t_s"], expected_t, rtol=0, atol=1e-12)
-    xyz = np.column_stack([chunk["x_m"], chunk["y_m"], chunk["z_m"]])
-    np.testing.assert_allclose(xyz, MOUNT.profile_to_scanner(scan.angle_rad, scan.range_m))
-    # Azimuth 30 deg: the profile plane is the scanner Y-Z plane turned about Z.
-    normal = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0)), 0.0])
-    np.testing.assert_allclose(xyz @ normal, 0.0, atol=1e-12)
-    np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), scan.range_m)
-
-
-def test_apply_bad_input(tmp_path: Path) -> None:
-    src = _write_text(tmp_path, "scan.csv", "profile,angle_rad,range_m,t_s\n0,0.1,2,5\n1,0.1,2,5\n")
-    with pytest.raises(InputError, match=r"already has column\(s\) \['t_s'\]"):
-        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
-    with pytest.raises(InputError, match=r"\[profiler\]"):
-        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, Mount())
-    with pytest.raises(InputError, match="period_s > 0"):
-        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.0, MOUNT)
-    lines = "profile,angle_rad,range_m\n" + "".join(f"{p},0.1,2\n" for p in [0, 1, 2, 3, 1])
-    dec = _write_text(tmp_path, "dec.csv", lines)
-    with pytest.raises(InputError, match=r"row 4 \(line 6\).*1 after 3"):
-        apply_profile_clock(dec, tmp_path / "o.csv", 0.0, 0.03, MOUNT, chunk_points=2)
-    assert not (tmp_path / "o.csv").exists()
-    assert not list(tmp_path.glob("*.part"))

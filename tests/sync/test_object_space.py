@@ -12,7 +12,6 @@ from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_quaternion, ned_to_ecef
-from kinsync.io.profile_scan import ProfileScan, SyncPoints
 from kinsync.mount import Mount
 from kinsync.sim.drive import noisy_trajectory
 from kinsync.sim.profiler import (
@@ -24,14 +23,12 @@ from kinsync.sim.profiler import (
     simulate_profiler,
 )
 from kinsync.sim.scene import SceneLayout
-from kinsync.sync.object_space import (
-    ObjectSpaceConfig,
-    ObjectSpaceResult,
-    detect_sightings,
-    find_crossings,
-    pulse_offset,
-    synchronise_object_space,
-)
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.crossings import find_crossings
+from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
+from kinsync.sync.pulses import pulse_offset
+from kinsync.sync.scan import ProfileScan, SyncPoints
+from kinsync.sync.sightings import detect_sightings
 from kinsync.trajectory import Trajectory
 
 EXACT = ObjectSpaceConfig(position_std_m=0.0)

@@ -81,7 +81,7 @@ def object_space(
         read_sync_points,
     )
     from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
-    from kinsync.sync.object_space import (  # noqa: PLC0415
+    from kinsync.sync import (  # noqa: PLC0415
         ObjectSpaceConfig,
         require_profiler_azimuth,
         synchronise_object_space,
@@ -169,8 +169,9 @@ def apply(
     as_json: JsonOpt = False,
 ) -> None:
     """Write the scan with a time and scanner-frame coordinates per return."""
-    from kinsync.io.profile_scan import apply_profile_clock, read_clock_document  # noqa: PLC0415
-    from kinsync.sync.object_space import require_profiler_azimuth  # noqa: PLC0415
+    from kinsync.io.profile_scan import read_clock_document  # noqa: PLC0415
+    from kinsync.pipelines.sync_apply import apply_profile_clock  # noqa: PLC0415
+    from kinsync.sync.crossings import require_profiler_azimuth  # noqa: PLC0415
 
     if clock is not None and (t0_s is not None or period_s is not None):
         msg = "give either --clock or --t0-s with --period-s, not both"

@@ -24,8 +24,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,22 +31,20 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 
-from kinsync._typing import ArrayLike, FloatArray, IntArray
+from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
-from kinsync.frames import geodetic_to_ecef
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
-from kinsync.mount import Mount
+from kinsync.sync.scan import (
+    SCAN_COLUMNS,
+    SYNC_POINT_COLUMNS,
+    ProfileScan,
+    SyncPoints,
+    check_profile_numbers,
+)
 
 __all__ = [
-    "APPLY_COLUMNS",
-    "SCAN_COLUMNS",
-    "SYNC_POINT_COLUMNS",
-    "ProfileScan",
-    "SyncPoints",
-    "apply_profile_clock",
-    "check_profile_numbers",
     "read_clock_document",
     "read_profile_scan",
     "read_pulses",
@@ -58,126 +54,8 @@ __all__ = [
     "write_sync_points",
 ]
 
-SCAN_COLUMNS = ("profile", "angle_rad", "range_m", "intensity")
-APPLY_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
-"""Columns `apply_profile_clock` adds: time (s) and scanner-frame coordinates (m)."""
-SYNC_POINT_COLUMNS = ("name", "lat_deg", "lon_deg", "h_m")
+
 _READ_CHUNK = 1 << 20
-
-
-def _row_text(row: int, line_offset: int | None) -> str:
-    """``row 5`` or ``row 5 (line 7)`` when rows map to file lines."""
-    return f"row {row}" if line_offset is None else f"row {row} (line {row + line_offset})"
-
-
-def check_profile_numbers(
-    profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
-) -> IntArray:
-    """Profile numbers as int64: whole, >= 0 and never decreasing.
-
-    Parameters
-    ----------
-    profile : array_like, shape (N,)
-        Profile number of each return.
-    source : str
-        Name used in messages (file path).
-    line_offset : int, optional
-        File line of data row 0 (2 for a CSV with a header), to name lines.
-    row_offset : int
-        Data row of ``profile[0]`` (for chunks of a longer table).
-
-    Raises
-    ------
-    InputError
-        Naming the first row that is not finite, not whole, negative or smaller than
-        the row before.
-    """
-    p = np.asarray(profile, dtype=np.float64)
-    bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 0)
-    if np.any(bad):
-        row = int(np.flatnonzero(bad)[0])
-        msg = (
-            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: "
-            f"{p[row]!r} is not a profile number (a whole number >= 0)"
-        )
-        raise InputError(msg)
-    down = np.diff(p) < 0
-    if np.any(down):
-        row = int(np.flatnonzero(down)[0]) + 1
-        msg = (
-            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: profile "
-            f"number {int(p[row])} after {int(p[row - 1])}; profile numbers must not decrease "
-            "(returns in acquisition order): sort the scan by profile, keeping the order "
-            "within each profile"
-        )
-        raise InputError(msg)
-    return p.astype(np.int64)
-
-
-def _finite_column(values: ArrayLike, name: str, n: int, source: str) -> FloatArray:
-    arr = np.asarray(values, dtype=np.float64)
-    if arr.shape != (n,):
-        msg = f"{source}: column {name!r} has shape {arr.shape}, expected ({n},) like 'profile'"
-        raise InputError(msg)
-    bad = ~np.isfinite(arr)
-    if np.any(bad):
-        row = int(np.flatnonzero(bad)[0])
-        msg = f"{source}: column {name!r}, row {row}: {arr[row]!r} is not a finite number"
-        raise InputError(msg)
-    out = np.array(arr, dtype=np.float64, copy=True)
-    out.setflags(write=False)
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class ProfileScan:
-    """Returns of a 2D profile scanner, without times (SPEC section 4).
-
-    Attributes
-    ----------
-    profile : ndarray of int64, shape (N,)
-        Profile number n of each return, >= 0, never decreasing.
-    angle_rad : ndarray, shape (N,)
-        Mirror angle phi from nadir, positive towards the scanner's +Y (rad).
-    range_m : ndarray, shape (N,)
-        Range (m), >= 0.
-    intensity : ndarray, shape (N,)
-        Return intensity (unit of the scanner).
-    source : str
-        Where the scan came from (file path), for messages.
-    """
-
-    profile: IntArray
-    angle_rad: FloatArray
-    range_m: FloatArray
-    intensity: FloatArray
-    source: str = "<scan>"
-
-    def __post_init__(self) -> None:
-        prof = check_profile_numbers(self.profile, self.source)
-        n = prof.size
-        if prof.ndim != 1 or n == 0:
-            msg = f"{self.source}: the scan has no returns; expected columns {list(SCAN_COLUMNS)}"
-            raise InputError(msg)
-        prof.setflags(write=False)
-        object.__setattr__(self, "profile", prof)
-        for name in ("angle_rad", "range_m", "intensity"):
-            object.__setattr__(
-                self, name, _finite_column(getattr(self, name), name, n, self.source)
-            )
-        neg = self.range_m < 0
-        if np.any(neg):
-            row = int(np.flatnonzero(neg)[0])
-            msg = f"{self.source}: column 'range_m', row {row}: negative range {self.range_m[row]}"
-            raise InputError(msg)
-
-    def __len__(self) -> int:
-        return int(self.profile.size)
-
-    @property
-    def n_profiles(self) -> int:
-        """Profiles spanned, ``last profile number + 1`` (profiles without returns count)."""
-        return int(self.profile[-1]) + 1
 
 
 def read_profile_scan(path: Path) -> ProfileScan:
@@ -247,64 +125,6 @@ def write_profile_scan(
         step = _READ_CHUNK
         for i in range(0, len(scan), step):
             writer.write({k: v[i : i + step] for k, v in cols.items()})
-
-
-@dataclass(frozen=True, eq=False)
-class SyncPoints:
-    """Named targets with known WGS84 coordinates (sync points or control points).
-
-    Attributes
-    ----------
-    names : tuple of str
-        Unique, non-empty names.
-    lat_lon_h : ndarray, shape (K, 3)
-        Latitude (deg), longitude (deg), ellipsoidal height (m) of each target centre.
-    source : str
-        Where they came from (file path), for messages.
-    """
-
-    names: tuple[str, ...]
-    lat_lon_h: FloatArray
-    source: str = "<sync points>"
-
-    def __post_init__(self) -> None:
-        names = tuple(str(n) for n in self.names)
-        llh = np.asarray(self.lat_lon_h, dtype=np.float64)
-        if llh.ndim != 2 or llh.shape[1] != 3 or llh.shape[0] != len(names):
-            msg = (
-                f"{self.source}: expected one (lat_deg, lon_deg, h_m) row per name "
-                f"({len(names)} names), got shape {llh.shape}"
-            )
-            raise InputError(msg)
-        if not names:
-            msg = f"{self.source}: no points; expected rows of {','.join(SYNC_POINT_COLUMNS)}"
-            raise InputError(msg)
-        for i, name in enumerate(names):
-            if not name.strip():
-                msg = f"{self.source}: point {i} has an empty name"
-                raise InputError(msg)
-            if names.count(name) > 1:
-                msg = f"{self.source}: name {name!r} appears more than once; names must be unique"
-                raise InputError(msg)
-        bad = ~np.all(np.isfinite(llh), axis=1) | (np.abs(llh[:, 0]) > 90.0)
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
-            msg = (
-                f"{self.source}: point {names[i]!r}: lat/lon/h {llh[i].tolist()} is not a "
-                "finite WGS84 position with latitude in [-90, 90]"
-            )
-            raise InputError(msg)
-        llh = llh.copy()
-        llh.setflags(write=False)
-        object.__setattr__(self, "names", names)
-        object.__setattr__(self, "lat_lon_h", llh)
-
-    def __len__(self) -> int:
-        return len(self.names)
-
-    def pos_ecef_m(self) -> FloatArray:
-        """Target centres in ECEF (m), shape (K, 3)."""
-        return geodetic_to_ecef(self.lat_lon_h[:, 0], self.lat_lon_h[:, 1], self.lat_lon_h[:, 2])
 
 
 def _coordinates(path: Path, line: int, row: list[str], idx: dict[str, int]) -> list[float]:
@@ -459,97 +279,3 @@ def read_clock_document(path: Path) -> tuple[float, float]:
         msg = f"{path}: 'period_s' must be > 0, got {values[1]!r}"
         raise InputError(msg)
     return values[0], values[1]
-
-
-def apply_profile_clock(
-    scan_path: Path,
-    out_path: Path,
-    t0_s: float,
-    period_s: float,
-    mount: Mount,
-    *,
-    chunk_points: int = 1_000_000,
-    progress: Callable[[int], None] | None = None,
-) -> int:
-    """Time-tag a scan and put its returns in the scanner frame, streaming in chunks.
-
-    Each return gets ``t_s = t0_s + (profile + angle_rad / 2 pi) period_s`` and
-    ``(x_m, y_m, z_m) = Rz(azimuth) (0, r sin phi, r cos phi)`` (the mount's
-    ``[profiler] azimuth_deg``), appended after every input column (all kept), ready
-    for ``kinsync georef --points``.
-
-    Parameters
-    ----------
-    scan_path : Path
-        Scan table (``.csv`` / ``.parquet``) with ``profile,angle_rad,range_m``.
-    out_path : Path
-        Output table (``.csv`` / ``.parquet``), written atomically.
-    t0_s, period_s : float
-        The profile clock (s).
-    mount : Mount
-        Needs ``[profiler] azimuth_deg``.
-    chunk_points : int
-        Rows per chunk.
-    progress : callable, optional
-        Called with the number of rows done after each chunk.
-
-    Returns
-    -------
-    int
-        Rows written.
-
-    Raises
-    ------
-    InputError
-        A mount without ``[profiler]``, a bad clock, an input that already has one of
-        the output columns, bad profile numbers (naming the row), unreadable files.
-    """
-    if mount.profiler_azimuth_deg is None:
-        msg = (
-            "mount: no [profiler] azimuth_deg; the scanner-frame coordinates of a profile "
-            "need the profile plane's azimuth: add a [profiler] table with azimuth_deg"
-        )
-        raise InputError(msg)
-    if not (math.isfinite(t0_s) and math.isfinite(period_s) and period_s > 0.0):
-        msg = f"clock: t0_s must be finite and period_s > 0, got {t0_s!r}, {period_s!r}"
-        raise InputError(msg)
-    scan_path = Path(scan_path)
-    required = ("profile", "angle_rad", "range_m")
-    done = 0
-    last_profile = 0.0
-    line_offset = 2 if scan_path.suffix.lower() == ".csv" else None
-    with TableChunkWriter(Path(out_path)) as writer:
-        for chunk in iter_table_chunks(scan_path, chunk_points, required):
-            clash = [c for c in APPLY_COLUMNS if c in chunk]
-            if clash:
-                msg = (
-                    f"{scan_path}: already has column(s) {clash}; rename them, sync apply "
-                    f"adds {list(APPLY_COLUMNS)}"
-                )
-                raise InputError(msg)
-            if done == 0:
-                check_profile_numbers(chunk["profile"], str(scan_path), line_offset)
-            else:
-                check_profile_numbers(
-                    np.concatenate([[last_profile], chunk["profile"]]),
-                    str(scan_path),
-                    line_offset,
-                    row_offset=done - 1,
-                )
-            last_profile = float(chunk["profile"][-1])
-            phi = chunk["angle_rad"]
-            rng_m = chunk["range_m"]
-            bad = ~(np.isfinite(phi) & np.isfinite(rng_m))
-            if np.any(bad):
-                row = int(np.flatnonzero(bad)[0])
-                msg = f"{scan_path}: data row {done + row}: angle_rad or range_m is not finite"
-                raise InputError(msg)
-            xyz = mount.profile_to_scanner(phi, rng_m)
-            out = dict(chunk)
-            out["t_s"] = t0_s + (chunk["profile"] + phi / (2.0 * math.pi)) * period_s
-            out["x_m"], out["y_m"], out["z_m"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-            writer.write(out)
-            done += phi.size
-            if progress is not None:
-                progress(done)
-    return done

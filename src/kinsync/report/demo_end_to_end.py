@@ -59,7 +59,6 @@ from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.control_points import ControlPoints
-from kinsync.io.profile_scan import SyncPoints
 from kinsync.mount import Mount
 from kinsync.report.demo_method_a import DEMO_LATENCY_S
 from kinsync.report.end_to_end_figures import (
@@ -89,7 +88,9 @@ from kinsync.sim.profiler import (
 )
 from kinsync.sim.scene import Scene, SceneLayout, Target, Wall, build_drive_scene
 from kinsync.sim.scene import trajectory_to_local as _to_local
-from kinsync.sync.object_space import ObjectSpaceConfig, ObjectSpaceResult, synchronise_object_space
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
+from kinsync.sync.scan import SyncPoints
 from kinsync.trajectory import Trajectory
 from kinsync.validation import (
     CloudPoints,

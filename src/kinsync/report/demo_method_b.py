@@ -22,7 +22,8 @@ from kinsync.report.html import Figure, Section, Table
 from kinsync.report.method_b_figures import clock_error_figure, clock_regression_figure
 from kinsync.sim.drive import noisy_trajectory
 from kinsync.sim.profiler import DriveScanConfig, simulate_drive_scan, write_drive_scan
-from kinsync.sync.object_space import ObjectSpaceConfig, ObjectSpaceResult, synchronise_object_space
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
 
 __all__ = ["method_b_section"]
 

@@ -52,17 +52,12 @@ from kinsync.frames import geodetic_to_ecef, quaternion_to_matrix, rotation_ned_
 from kinsync.georef import GeorefTrajectory, georeference
 from kinsync.io.atomic import atomic_write_text, output_folder
 from kinsync.io.mount_file import write_mount
-from kinsync.io.profile_scan import (
-    ProfileScan,
-    SyncPoints,
-    write_profile_scan,
-    write_pulses,
-    write_sync_points,
-)
+from kinsync.io.profile_scan import write_profile_scan, write_pulses, write_sync_points
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.sim.drive import figure_eight_route, noisy_trajectory, oval_route, simulate_truth
 from kinsync.sim.scene import NO_HIT, Scene, SceneLayout, Target, build_drive_scene
+from kinsync.sync.scan import ProfileScan, SyncPoints
 from kinsync.trajectory import Trajectory
 
 __all__ = [

@@ -1,0 +1,124 @@
+"""Method B applied to a scan file: every return time-tagged and put in the scanner frame.
+
+`apply_profile_clock` streams a scan table in chunks, gives each return its time from
+the profile clock (`kinsync.clock.profile.ProfileClock`) and its scanner-frame
+coordinates from the mount's profiler azimuth (`kinsync.mount.Mount.profile_to_scanner`),
+and writes every input column plus ``t_s,x_m,y_m,z_m`` atomically, ready for
+``kinsync georef --points``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from kinsync.clock.profile import ProfileClock
+from kinsync.errors import InputError
+from kinsync.io.points import TableChunkWriter, iter_table_chunks
+from kinsync.mount import Mount
+from kinsync.sync.scan import (
+    check_profile_numbers,
+)
+
+__all__ = ["APPLY_COLUMNS", "apply_profile_clock"]
+
+APPLY_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
+"""Columns `apply_profile_clock` adds: time (s) and scanner-frame coordinates (m)."""
+
+
+def apply_profile_clock(
+    scan_path: Path,
+    out_path: Path,
+    t0_s: float,
+    period_s: float,
+    mount: Mount,
+    *,
+    chunk_points: int = 1_000_000,
+    progress: Callable[[int], None] | None = None,
+) -> int:
+    """Time-tag a scan and put its returns in the scanner frame, streaming in chunks.
+
+    Each return gets ``t_s = t0_s + (profile + angle_rad / 2 pi) period_s`` and
+    ``(x_m, y_m, z_m) = Rz(azimuth) (0, r sin phi, r cos phi)`` (the mount's
+    ``[profiler] azimuth_deg``), appended after every input column (all kept), ready
+    for ``kinsync georef --points``.
+
+    Parameters
+    ----------
+    scan_path : Path
+        Scan table (``.csv`` / ``.parquet``) with ``profile,angle_rad,range_m``.
+    out_path : Path
+        Output table (``.csv`` / ``.parquet``), written atomically.
+    t0_s, period_s : float
+        The profile clock (s).
+    mount : Mount
+        Needs ``[profiler] azimuth_deg``.
+    chunk_points : int
+        Rows per chunk.
+    progress : callable, optional
+        Called with the number of rows done after each chunk.
+
+    Returns
+    -------
+    int
+        Rows written.
+
+    Raises
+    ------
+    InputError
+        A mount without ``[profiler]``, a bad clock, an input that already has one of
+        the output columns, bad profile numbers (naming the row), unreadable files.
+    """
+    if mount.profiler_azimuth_deg is None:
+        msg = (
+            "mount: no [profiler] azimuth_deg; the scanner-frame coordinates of a profile "
+            "need the profile plane's azimuth: add a [profiler] table with azimuth_deg"
+        )
+        raise InputError(msg)
+    if not (math.isfinite(t0_s) and math.isfinite(period_s) and period_s > 0.0):
+        msg = f"clock: t0_s must be finite and period_s > 0, got {t0_s!r}, {period_s!r}"
+        raise InputError(msg)
+    clock = ProfileClock(t0_s, period_s)
+    scan_path = Path(scan_path)
+    required = ("profile", "angle_rad", "range_m")
+    done = 0
+    last_profile = 0.0
+    line_offset = 2 if scan_path.suffix.lower() == ".csv" else None
+    with TableChunkWriter(Path(out_path)) as writer:
+        for chunk in iter_table_chunks(scan_path, chunk_points, required):
+            clash = [c for c in APPLY_COLUMNS if c in chunk]
+            if clash:
+                msg = (
+                    f"{scan_path}: already has column(s) {clash}; rename them, sync apply "
+                    f"adds {list(APPLY_COLUMNS)}"
+                )
+                raise InputError(msg)
+            if done == 0:
+                check_profile_numbers(chunk["profile"], str(scan_path), line_offset)
+            else:
+                check_profile_numbers(
+                    np.concatenate([[last_profile], chunk["profile"]]),
+                    str(scan_path),
+                    line_offset,
+                    row_offset=done - 1,
+                )
+            last_profile = float(chunk["profile"][-1])
+            phi = chunk["angle_rad"]
+            rng_m = chunk["range_m"]
+            bad = ~(np.isfinite(phi) & np.isfinite(rng_m))
+            if np.any(bad):
+                row = int(np.flatnonzero(bad)[0])
+                msg = f"{scan_path}: data row {done + row}: angle_rad or range_m is not finite"
+                raise InputError(msg)
+            xyz = mount.profile_to_scanner(phi, rng_m)
+            out = dict(chunk)
+            out["t_s"] = clock.time_s(chunk["profile"], phi)
+            out["x_m"], out["y_m"], out["z_m"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+            writer.write(out)
+            done += phi.size
+            if progress is not None:
+                progress(done)
+    return done

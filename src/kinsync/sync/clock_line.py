@@ -1,0 +1,165 @@
+"""Method B steps 3 and 4: sightings matched to crossings on one clock line, and its fit.
+
+A hypothesis is a line ``t = t0 + T x`` (``x = n + phi / 2 pi``) through two
+compatible (sighting, crossing) pairs with a plausible period; `refine_assignment`
+takes, for each sighting, the crossing nearest the line within its gate and refits by
+weighted least squares until the assignment is stable; `candidate_assignments` gives
+every distinct assignment, best first (see `kinsync.sync.object_space`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import FloatArray, IntArray
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.crossings import Crossing
+from kinsync.sync.sightings import Sighting
+
+__all__ = [
+    "Assignment",
+    "LineFit",
+    "candidate_assignments",
+    "pair_timing_std",
+    "refine_assignment",
+    "weighted_line",
+]
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """Weighted line ``t = t0 + T x``: estimate, a-priori covariance of (t0, T), chi2, residuals."""
+
+    t0_s: float
+    period_s: float
+    covariance: FloatArray  # a-priori, unscaled
+    chi2: float
+    residuals_s: FloatArray
+
+
+def weighted_line(x: FloatArray, t: FloatArray, std: FloatArray) -> LineFit:
+    """Weighted least squares ``t = t0 + T x``; x is centred for conditioning."""
+    w = 1.0 / std**2
+    xm = float(np.sum(w * x) / np.sum(w))
+    A = np.column_stack([np.ones_like(x), x - xm])
+    N = A.T @ (A * w[:, None])
+    cov_c = np.linalg.inv(N)
+    beta = cov_c @ (A.T @ (w * t))
+    T = float(beta[1])
+    t0 = float(beta[0]) - T * xm
+    J = np.array([[1.0, -xm], [0.0, 1.0]])  # (t0, T) from (t at xm, T)
+    cov = J @ cov_c @ J.T
+    res = t - (t0 + T * x)
+    return LineFit(t0, T, cov, float(np.sum(w * res * res)), res)
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """(sighting, crossing) pairs on one clock line, its fit and its score (lower is better)."""
+
+    pairs: tuple[tuple[int, int], ...]  # (sighting, crossing), sighting order
+    fit: LineFit
+    score: float
+
+
+def pair_timing_std(
+    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig, T: float
+) -> FloatArray:
+    """Timing sigma (s) of every (sighting, crossing) pair, shape (S, C) (module step 5)."""
+    rate = np.array([abs(c.rate_m_s) for c in crossings])
+    pos_part = cfg.position_std_m / np.maximum(rate, 1e-3)
+    scan_part = np.array([s.profile_std for s in sightings]) * T
+    out: FloatArray = np.sqrt(scan_part[:, None] ** 2 + pos_part[None, :] ** 2)
+    return out
+
+
+def refine_assignment(
+    seed_t0: float,
+    seed_T: float,
+    x: FloatArray,
+    t_c: FloatArray,
+    compat: list[IntArray],
+    std: FloatArray,
+    cfg: ObjectSpaceConfig,
+) -> Assignment | None:
+    """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3)."""
+    t0, T = seed_t0, seed_T
+    previous: tuple[tuple[int, int], ...] | None = None
+    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
+    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
+    for _ in range(10):
+        claimed: dict[int, tuple[float, int]] = {}
+        for i, js in enumerate(compat):
+            if js.size == 0:
+                continue
+            err = t_c[js] - (t0 + T * x[i])
+            k = int(np.argmin(np.abs(err)))
+            j = int(js[k])
+            gate = max(cfg.gate_sigma * std[i, j], cfg.min_gate_profiles * T)
+            if abs(err[k]) > gate:
+                continue
+            z = abs(err[k]) / std[i, j]
+            if j not in claimed or z < claimed[j][0]:
+                claimed[j] = (z, i)
+        pairs = tuple(sorted((i, j) for j, (_, i) in claimed.items()))
+        if len(pairs) < 2:
+            return None
+        xs = np.array([x[i] for i, _ in pairs])
+        if np.ptp(xs) <= 0.0:
+            return None
+        if pairs == previous:
+            break
+        previous = pairs
+        fit = weighted_line(
+            xs, np.array([t_c[j] for _, j in pairs]), np.array([std[i, j] for i, j in pairs])
+        )
+        t0, T = fit.t0_s, fit.period_s
+        if not lo <= T <= hi:
+            return None
+    assert previous is not None
+    prior = ((fit.period_s - cfg.period_prior_s) / (cfg.period_tolerance * cfg.period_prior_s)) ** 2
+    return Assignment(pairs=previous, fit=fit, score=fit.chi2 + prior)
+
+
+def candidate_assignments(
+    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
+) -> list[Assignment]:
+    """Every distinct assignment reached from a two-pair hypothesis, best first."""
+    x = np.array([s.x for s in sightings])
+    t_c = np.array([c.t_s for c in crossings])
+    std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
+    ang_c = np.array([c.angle_rad for c in crossings])
+    rng_c = np.array([c.range_m for c in crossings])
+    compat: list[IntArray] = []
+    for s in sightings:
+        d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
+        ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
+        compat.append(np.flatnonzero(ok).astype(np.int64))
+    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
+    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
+    found: dict[tuple[tuple[int, int], ...], Assignment] = {}
+    # A hypothesis seeded by two pairs of one assignment already found leads back to
+    # it: skip those (keeps the search near-linear in the number of assignments).
+    member: dict[tuple[int, int], set[int]] = {}
+    for i in range(len(sightings)):
+        for i2 in range(i + 1, len(sightings)):
+            dx = x[i2] - x[i]
+            if dx <= 0.0:
+                continue
+            for j in compat[i]:
+                for j2 in compat[i2]:
+                    T = (t_c[j2] - t_c[j]) / dx
+                    if j == j2 or not lo <= T <= hi:
+                        continue
+                    if member.get((i, int(j)), set()) & member.get((i2, int(j2)), set()):
+                        continue
+                    a = refine_assignment(t_c[j] - T * x[i], T, x, t_c, compat, std, cfg)
+                    if a is None or a.pairs in found:
+                        continue
+                    found[a.pairs] = a
+                    for pair in a.pairs:
+                        member.setdefault(pair, set()).add(len(found))
+    return sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))

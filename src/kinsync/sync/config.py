@@ -1,0 +1,120 @@
+"""Settings of the object-space synchronisation (Method B, `kinsync.sync.object_space`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from kinsync._validate import finite_number, positive_number
+from kinsync.errors import InputError
+
+__all__ = [
+    "ObjectSpaceConfig",
+]
+
+
+@dataclass(frozen=True)
+class ObjectSpaceConfig:
+    """Settings of the object-space synchronisation (defaults suit a 33 rev/s profiler).
+
+    Attributes
+    ----------
+    period_prior_s : float
+        Prior mirror period T (s).
+    period_tolerance : float
+        Relative tolerance of the prior: hypotheses need ``|T / prior - 1| <= tol``.
+    intensity_threshold : float
+        Returns at least this bright are target candidates (scanner's intensity unit).
+    min_returns : int
+        Fewest returns that make a sighting (isolated glints are rejected).
+    cluster_gap_profiles : float
+        Returns of one target are at most this many profiles apart.
+    cluster_gap_rad : float
+        ... and this far apart in mirror angle (rad).
+    cluster_gap_m : float
+        ... and this far apart in range (m).
+    max_range_m : float
+        Crossings farther from the scanner are not candidates (m).
+    angle_gate_rad : float
+        A sighting and a crossing are compatible within this mirror-angle difference.
+    range_gate_m : float
+        ... and this range difference (m); it must exceed the target radius.
+    refinement : {"sphere", "centroid"}
+        Sub-profile refinement: sphere fit (with centroid fallback) or centroid only.
+    sphere_min_returns : int
+        Fewest returns for the sphere fit.
+    centroid_profile_std : float
+        A-priori sigma of a centroid sub-profile position (profiles).
+    profile_model_std : float
+        Model error of the sphere fit, added in quadrature to its covariance sigma
+        (profiles): the centre drifts in the plane during the sweep and the fit sees
+        one side of the sphere (>= 0; 0 by default: with the drift modelled, the
+        simulated spread is within the fit's sigma).
+    position_std_m : float
+        A-priori sigma of the trajectory and sync-point positions along the plane
+        normal (m); 0 for an exact (simulated) trajectory.
+    gate_sigma : float
+        Inlier gate of a hypothesis, in timing sigmas.
+    min_gate_profiles : float
+        The gate is never narrower than this many profiles.
+    ambiguity_chi2 : float
+        Another assignment within this chi-square of the best is an ambiguity.
+    max_sync_distance_m : float
+        A sync point farther than this from every trajectory position is an input error
+        (wrong datum, swapped latitude and longitude, another site).
+    """
+
+    period_prior_s: float = 0.0303
+    period_tolerance: float = 0.01
+    intensity_threshold: float = 0.8
+    min_returns: int = 3
+    cluster_gap_profiles: float = 2.0
+    cluster_gap_rad: float = math.radians(3.0)
+    cluster_gap_m: float = 0.5
+    max_range_m: float = 80.0
+    angle_gate_rad: float = math.radians(5.0)
+    range_gate_m: float = 1.0
+    refinement: Literal["sphere", "centroid"] = "sphere"
+    sphere_min_returns: int = 8
+    centroid_profile_std: float = 0.12
+    profile_model_std: float = 0.0
+    position_std_m: float = 0.02
+    gate_sigma: float = 5.0
+    min_gate_profiles: float = 1.0
+    ambiguity_chi2: float = 9.0
+    max_sync_distance_m: float = 5000.0
+
+    def __post_init__(self) -> None:
+        positive_number(self.period_prior_s, "--period-prior-s")
+        tol = positive_number(self.period_tolerance, "--period-tolerance")
+        if tol >= 0.5:
+            msg = f"--period-tolerance is relative (0.01 = 1 %); {tol} is too wide (< 0.5)"
+            raise InputError(msg)
+        finite_number(self.intensity_threshold, "intensity_threshold")
+        for name in ("min_returns", "sphere_min_returns"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value or value < 1:
+                msg = f"{name} must be a whole number >= 1, got {value!r}"
+                raise InputError(msg)
+        if self.refinement not in ("sphere", "centroid"):
+            msg = f"refinement must be 'sphere' or 'centroid', got {self.refinement!r}"
+            raise InputError(msg)
+        for name in (
+            "cluster_gap_profiles",
+            "cluster_gap_rad",
+            "cluster_gap_m",
+            "max_range_m",
+            "angle_gate_rad",
+            "range_gate_m",
+            "centroid_profile_std",
+            "gate_sigma",
+            "min_gate_profiles",
+            "ambiguity_chi2",
+            "max_sync_distance_m",
+        ):
+            positive_number(getattr(self, name), name)
+        for name in ("position_std_m", "profile_model_std"):
+            if finite_number(getattr(self, name), name) < 0.0:
+                msg = f"{name} must be >= 0, got {getattr(self, name)!r}"
+                raise InputError(msg)

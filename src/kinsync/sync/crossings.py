@@ -1,0 +1,188 @@
+"""Method B step 1, geometric time: when the scan plane sweeps over each sync point.
+
+With the trajectory and the mount the scan plane is known at every time; the signed
+distance of a sync point to it changes sign where the mirror sweeps over the point.
+The roots are bracketed between trajectory records and found with Brent's method on
+the trajectory interpolated exactly as georeferencing does it (see
+`kinsync.sync.object_space` for the whole method).
+
+References
+----------
+Brent, R. P., "Algorithms for Minimization without Derivatives", 1973 (root finding).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.frames import quaternion_to_matrix
+from kinsync.georef import GeorefTrajectory, georeference
+from kinsync.mount import Mount
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.scan import SyncPoints
+from kinsync.trajectory import Trajectory
+
+__all__ = [
+    "Crossing",
+    "find_crossings",
+    "require_profiler_azimuth",
+]
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A zero crossing of a sync point's distance to the scan plane.
+
+    Attributes
+    ----------
+    name : str
+        Sync point.
+    t_s : float
+        Time of the crossing (s, trajectory time scale, after the mount's latency).
+    angle_rad : float
+        Mirror angle at which the point lies in the scan plane (rad).
+    range_m : float
+        Distance from the scanner origin to the point (m).
+    rate_m_s : float
+        ``d d_P / dt`` at the crossing (m/s): how fast the plane sweeps the point.
+    drift_m_s : tuple of 2 float
+        Velocity of the point within the profile plane, along the plane's
+        ``(r sin phi, r cos phi)`` axes (m/s): the scanner moves sideways in a turn.
+    """
+
+    name: str
+    t_s: float
+    angle_rad: float
+    range_m: float
+    rate_m_s: float
+    drift_m_s: tuple[float, float] = (0.0, 0.0)
+
+
+def require_profiler_azimuth(mount: Mount, source: str = "mount") -> float:
+    """The mount's ``[profiler] azimuth_deg`` in radians, or an `InputError` saying so."""
+    if mount.profiler_azimuth_deg is None:
+        msg = (
+            f"{source}: no [profiler] azimuth_deg; Method B needs the azimuth of the profile "
+            "plane in the scanner frame: add a [profiler] table with azimuth_deg (0 when the "
+            "scan plane is the scanner's Y-Z plane)"
+        )
+        raise InputError(msg)
+    return math.radians(mount.profiler_azimuth_deg)
+
+
+def _plane_normal_scanner(azimuth_rad: float) -> FloatArray:
+    """Normal of the profile plane in the scanner frame: ``Rz(az) e_x``."""
+    return np.array([math.cos(azimuth_rad), math.sin(azimuth_rad), 0.0])
+
+
+def _check_sync_distance(
+    gtraj: GeorefTrajectory, points: SyncPoints, pos_ecef: FloatArray, limit_m: float
+) -> None:
+    step = max(1, len(gtraj) // 20000)
+    sampled = gtraj.pos_ecef_m[::step]
+    for name, p in zip(points.names, pos_ecef, strict=True):
+        dist = float(np.min(np.linalg.norm(sampled - p, axis=1)))
+        if dist > limit_m:
+            msg = (
+                f"{points.source}: sync point {name!r} lies {dist / 1000.0:.3g} km from the "
+                f"nearest trajectory position (limit {limit_m / 1000.0:g} km): the sync points "
+                "and the trajectory are not in the same frame or place; check the datum, "
+                "latitude/longitude order and signs, and that both files belong to this survey"
+            )
+            raise InputError(msg)
+
+
+def find_crossings(
+    trajectory: Trajectory,
+    mount: Mount,
+    sync_points: SyncPoints,
+    config: ObjectSpaceConfig | None = None,
+) -> tuple[Crossing, ...]:
+    """Times at which the scan plane sweeps over each sync point (step 1 of the module).
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        Body trajectory at its record tags (the mount's latency is applied here).
+    mount : Mount
+        Lever arm, boresight, latency and ``[profiler] azimuth_deg``.
+    sync_points : SyncPoints
+        Target centres (WGS84).
+    config : ObjectSpaceConfig, optional
+        ``max_range_m`` and ``max_sync_distance_m`` are used.
+
+    Returns
+    -------
+    tuple of Crossing
+        In time order.
+
+    Raises
+    ------
+    InputError
+        A mount without ``[profiler]``; a sync point farther than
+        ``max_sync_distance_m`` from the trajectory.
+    """
+    cfg = config or ObjectSpaceConfig()
+    az = require_profiler_azimuth(mount)
+    gtraj = GeorefTrajectory.from_trajectory(trajectory, mount.latency_s)
+    pos_p = sync_points.pos_ecef_m()
+    _check_sync_distance(gtraj, sync_points, pos_p, cfg.max_sync_distance_m)
+    n_s = _plane_normal_scanner(az)
+    R_be = quaternion_to_matrix(gtraj.q_body_to_ecef)
+    origin = gtraj.pos_ecef_m + R_be @ mount.lever_arm_body_m_array
+    normal = R_be @ (mount.R_scanner_to_body @ n_s)
+    probe = np.vstack([np.zeros(3), np.eye(3)])  # scanner origin and axes
+
+    def distance(t: float, p: FloatArray) -> float:
+        xyz, _ = georeference(np.array([t, t]), np.vstack([np.zeros(3), n_s]), gtraj, mount)
+        return float(np.dot(xyz[1] - xyz[0], p - xyz[0]))
+
+    def in_plane(t: float, p: FloatArray) -> tuple[float, float, float]:
+        """Profile-plane coordinates (r sin phi, r cos phi) of p and its range (m)."""
+        xyz, _ = georeference(np.full(4, t), probe, gtraj, mount)
+        v = (xyz[1:] - xyz[0]) @ (p - xyz[0])  # rows: scanner axes in ECEF
+        y_plane = -math.sin(az) * v[0] + math.cos(az) * v[1]
+        return y_plane, float(v[2]), float(np.linalg.norm(v))
+
+    out: list[Crossing] = []
+    t_rec = gtraj.t_s
+    for name, p in zip(sync_points.names, pos_p, strict=True):
+        rel = p - origin
+        d = np.einsum("ij,ij->i", normal, rel)
+        near = np.linalg.norm(rel, axis=1) <= cfg.max_range_m
+        sign_change = (np.sign(d[:-1]) != np.sign(d[1:])) | (d[:-1] == 0.0)
+        for k in np.flatnonzero(sign_change & (near[:-1] | near[1:])):
+            a, b = float(t_rec[k]), float(t_rec[k + 1])
+            fa, fb = distance(a, p), distance(b, p)
+            if fa == 0.0:
+                t_c = a
+            elif fa * fb > 0.0:
+                continue
+            else:
+                t_c = float(brentq(distance, a, b, args=(p,), xtol=1e-10, rtol=1e-15))
+            y_c, z_c, rng_m = in_plane(t_c, p)
+            if rng_m > cfg.max_range_m:
+                continue
+            h = min(1e-3, 0.25 * (b - a))
+            lo, hi = max(t_c - h, gtraj.t_start_s), min(t_c + h, gtraj.t_end_s)
+            rate = (distance(hi, p) - distance(lo, p)) / (hi - lo)
+            y_lo, z_lo, _ = in_plane(lo, p)
+            y_hi, z_hi, _ = in_plane(hi, p)
+            out.append(
+                Crossing(
+                    name=name,
+                    t_s=t_c,
+                    angle_rad=math.atan2(y_c, z_c),
+                    range_m=rng_m,
+                    rate_m_s=rate,
+                    drift_m_s=((y_hi - y_lo) / (hi - lo), (z_hi - z_lo) / (hi - lo)),
+                )
+            )
+    out.sort(key=lambda c: c.t_s)
+    return tuple(out)

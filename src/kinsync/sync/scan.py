@@ -1,0 +1,203 @@
+"""What Method B works on: a profile scan without times, and sync points (SPEC section 4).
+
+`ProfileScan` holds the returns of a 2D profile scanner in acquisition order (profile
+number, mirror angle, range, intensity); `SyncPoints` the named targets of known WGS84
+position. Both check themselves on construction. `kinsync.io.profile_scan` reads and
+writes them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, FloatArray, IntArray
+from kinsync.errors import InputError
+from kinsync.frames import geodetic_to_ecef
+
+__all__ = [
+    "SCAN_COLUMNS",
+    "SYNC_POINT_COLUMNS",
+    "ProfileScan",
+    "SyncPoints",
+    "check_profile_numbers",
+]
+
+SCAN_COLUMNS = ("profile", "angle_rad", "range_m", "intensity")
+
+
+SYNC_POINT_COLUMNS = ("name", "lat_deg", "lon_deg", "h_m")
+
+
+def _row_text(row: int, line_offset: int | None) -> str:
+    """``row 5`` or ``row 5 (line 7)`` when rows map to file lines."""
+    return f"row {row}" if line_offset is None else f"row {row} (line {row + line_offset})"
+
+
+def check_profile_numbers(
+    profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
+) -> IntArray:
+    """Profile numbers as int64: whole, >= 0 and never decreasing.
+
+    Parameters
+    ----------
+    profile : array_like, shape (N,)
+        Profile number of each return.
+    source : str
+        Name used in messages (file path).
+    line_offset : int, optional
+        File line of data row 0 (2 for a CSV with a header), to name lines.
+    row_offset : int
+        Data row of ``profile[0]`` (for chunks of a longer table).
+
+    Raises
+    ------
+    InputError
+        Naming the first row that is not finite, not whole, negative or smaller than
+        the row before.
+    """
+    p = np.asarray(profile, dtype=np.float64)
+    bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 0)
+    if np.any(bad):
+        row = int(np.flatnonzero(bad)[0])
+        msg = (
+            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: "
+            f"{p[row]!r} is not a profile number (a whole number >= 0)"
+        )
+        raise InputError(msg)
+    down = np.diff(p) < 0
+    if np.any(down):
+        row = int(np.flatnonzero(down)[0]) + 1
+        msg = (
+            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: profile "
+            f"number {int(p[row])} after {int(p[row - 1])}; profile numbers must not decrease "
+            "(returns in acquisition order): sort the scan by profile, keeping the order "
+            "within each profile"
+        )
+        raise InputError(msg)
+    return p.astype(np.int64)
+
+
+def _finite_column(values: ArrayLike, name: str, n: int, source: str) -> FloatArray:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.shape != (n,):
+        msg = f"{source}: column {name!r} has shape {arr.shape}, expected ({n},) like 'profile'"
+        raise InputError(msg)
+    bad = ~np.isfinite(arr)
+    if np.any(bad):
+        row = int(np.flatnonzero(bad)[0])
+        msg = f"{source}: column {name!r}, row {row}: {arr[row]!r} is not a finite number"
+        raise InputError(msg)
+    out = np.array(arr, dtype=np.float64, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ProfileScan:
+    """Returns of a 2D profile scanner, without times (SPEC section 4).
+
+    Attributes
+    ----------
+    profile : ndarray of int64, shape (N,)
+        Profile number n of each return, >= 0, never decreasing.
+    angle_rad : ndarray, shape (N,)
+        Mirror angle phi from nadir, positive towards the scanner's +Y (rad).
+    range_m : ndarray, shape (N,)
+        Range (m), >= 0.
+    intensity : ndarray, shape (N,)
+        Return intensity (unit of the scanner).
+    source : str
+        Where the scan came from (file path), for messages.
+    """
+
+    profile: IntArray
+    angle_rad: FloatArray
+    range_m: FloatArray
+    intensity: FloatArray
+    source: str = "<scan>"
+
+    def __post_init__(self) -> None:
+        prof = check_profile_numbers(self.profile, self.source)
+        n = prof.size
+        if prof.ndim != 1 or n == 0:
+            msg = f"{self.source}: the scan has no returns; expected columns {list(SCAN_COLUMNS)}"
+            raise InputError(msg)
+        prof.setflags(write=False)
+        object.__setattr__(self, "profile", prof)
+        for name in ("angle_rad", "range_m", "intensity"):
+            object.__setattr__(
+                self, name, _finite_column(getattr(self, name), name, n, self.source)
+            )
+        neg = self.range_m < 0
+        if np.any(neg):
+            row = int(np.flatnonzero(neg)[0])
+            msg = f"{self.source}: column 'range_m', row {row}: negative range {self.range_m[row]}"
+            raise InputError(msg)
+
+    def __len__(self) -> int:
+        return int(self.profile.size)
+
+    @property
+    def n_profiles(self) -> int:
+        """Profiles spanned, ``last profile number + 1`` (profiles without returns count)."""
+        return int(self.profile[-1]) + 1
+
+
+@dataclass(frozen=True, eq=False)
+class SyncPoints:
+    """Named targets with known WGS84 coordinates (sync points or control points).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Unique, non-empty names.
+    lat_lon_h : ndarray, shape (K, 3)
+        Latitude (deg), longitude (deg), ellipsoidal height (m) of each target centre.
+    source : str
+        Where they came from (file path), for messages.
+    """
+
+    names: tuple[str, ...]
+    lat_lon_h: FloatArray
+    source: str = "<sync points>"
+
+    def __post_init__(self) -> None:
+        names = tuple(str(n) for n in self.names)
+        llh = np.asarray(self.lat_lon_h, dtype=np.float64)
+        if llh.ndim != 2 or llh.shape[1] != 3 or llh.shape[0] != len(names):
+            msg = (
+                f"{self.source}: expected one (lat_deg, lon_deg, h_m) row per name "
+                f"({len(names)} names), got shape {llh.shape}"
+            )
+            raise InputError(msg)
+        if not names:
+            msg = f"{self.source}: no points; expected rows of {','.join(SYNC_POINT_COLUMNS)}"
+            raise InputError(msg)
+        for i, name in enumerate(names):
+            if not name.strip():
+                msg = f"{self.source}: point {i} has an empty name"
+                raise InputError(msg)
+            if names.count(name) > 1:
+                msg = f"{self.source}: name {name!r} appears more than once; names must be unique"
+                raise InputError(msg)
+        bad = ~np.all(np.isfinite(llh), axis=1) | (np.abs(llh[:, 0]) > 90.0)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            msg = (
+                f"{self.source}: point {names[i]!r}: lat/lon/h {llh[i].tolist()} is not a "
+                "finite WGS84 position with latitude in [-90, 90]"
+            )
+            raise InputError(msg)
+        llh = llh.copy()
+        llh.setflags(write=False)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "lat_lon_h", llh)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def pos_ecef_m(self) -> FloatArray:
+        """Target centres in ECEF (m), shape (K, 3)."""
+        return geodetic_to_ecef(self.lat_lon_h[:, 0], self.lat_lon_h[:, 1], self.lat_lon_h[:, 2])
