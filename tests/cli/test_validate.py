@@ -17,13 +17,14 @@ import pyarrow.csv as pa_csv
 import pyproj
 import pytest
 
-from kinsync.io.control_points import ControlPoints, read_control_points, write_control_points
+from kinsync.io.control_points import read_control_points, write_control_points
 from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.pipelines.georef import georeference_file
 from kinsync.sim.validation_scene import control_target_scene, curved_wall_scene, write_scene
+from kinsync.validation.control_points import ControlPoints
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py

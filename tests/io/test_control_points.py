@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
-from kinsync.io.control_points import ControlPoints, read_control_points, write_control_points
+from kinsync.io.control_points import read_control_points, write_control_points
+from kinsync.validation.control_points import ControlPoints
 
 names_st = st.lists(
     st.text(

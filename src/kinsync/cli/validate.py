@@ -121,7 +121,7 @@ def control_points(
     as_json: JsonOpt = False,
 ) -> None:
     """Cloud - control differences in the vehicle frame; time-error and heading tests."""
-    from kinsync.validation import control_points_file  # noqa: PLC0415
+    from kinsync.pipelines.validation import control_points_file  # noqa: PLC0415
 
     key = centre.strip().lower()
     if key not in _CENTRES:
@@ -215,7 +215,8 @@ def flatness(
     as_json: JsonOpt = False,
 ) -> None:
     """Plane fit of a wall, residual statistics and the curvature F-test."""
-    from kinsync.validation import flatness_file, parse_box  # noqa: PLC0415
+    from kinsync.cli._box import parse_box  # noqa: PLC0415
+    from kinsync.pipelines.validation import flatness_file  # noqa: PLC0415
 
     the_box = parse_box(box)
     result = flatness_file(

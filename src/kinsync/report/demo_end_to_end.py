@@ -58,7 +58,6 @@ from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
-from kinsync.io.control_points import ControlPoints
 from kinsync.mount import Mount
 from kinsync.report.demo_method_a import DEMO_LATENCY_S
 from kinsync.report.end_to_end_figures import (
@@ -101,6 +100,7 @@ from kinsync.validation import (
     pass_labels,
     validate_control_points,
 )
+from kinsync.validation.control_points import ControlPoints
 
 __all__ = [
     "CASE_LABELS",

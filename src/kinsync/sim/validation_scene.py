@@ -57,12 +57,13 @@ from kinsync.frames import (
     rotation_ned_to_ecef,
 )
 from kinsync.io.atomic import atomic_write_text
-from kinsync.io.control_points import ControlPoints, write_control_points
+from kinsync.io.control_points import write_control_points
 from kinsync.io.mount_file import write_mount
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
+from kinsync.validation.control_points import ControlPoints
 
 __all__ = [
     "ControlTargetScene",

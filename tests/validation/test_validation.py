@@ -17,10 +17,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from kinsync.cli._box import parse_box
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, euler_rpy_to_matrix, ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
-from kinsync.io.control_points import ControlPoints
 from kinsync.mount import Mount
 from kinsync.sim.validation_scene import (
     ControlTargetScene,
@@ -39,12 +39,12 @@ from kinsync.validation import (
     extract_targets,
     fit_wall,
     otsu_threshold,
-    parse_box,
     pass_labels,
     select_box,
     signature_tests,
     validate_control_points,
 )
+from kinsync.validation.control_points import ControlPoints
 
 LATENCY_ERROR_S = 0.002
 YAW_ERROR_DEG = 0.1

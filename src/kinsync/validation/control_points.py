@@ -1,0 +1,96 @@
+"""Control points: independently surveyed targets, the reference of a cloud's validation.
+
+`ControlPoints` holds named positions in ECEF (WGS84); it checks itself on
+construction. `kinsync.io.control_points` reads and writes them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, FloatArray
+from kinsync.errors import InputError
+from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef
+
+__all__ = [
+    "ControlPoints",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class ControlPoints:
+    """Named control points in ECEF.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Point names, non-empty and unique.
+    pos_ecef_m : array_like, shape (N, 3)
+        Surveyed positions, ECEF WGS84 (m), finite.
+    source : str
+        Where they came from (a file name, for messages).
+
+    Raises
+    ------
+    InputError
+        Empty or duplicated names, a shape that does not match, non-finite values.
+    """
+
+    names: tuple[str, ...]
+    pos_ecef_m: FloatArray
+    source: str = "<control points>"
+
+    def __post_init__(self) -> None:
+        names = tuple(str(n).strip() for n in self.names)
+        if not names:
+            msg = f"{self.source}: no control points"
+            raise InputError(msg)
+        empty = [i for i, n in enumerate(names) if not n]
+        if empty:
+            msg = f"{self.source}: control point {empty[0]} has an empty name; name every point"
+            raise InputError(msg)
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            msg = f"{self.source}: duplicated control point name(s) {dupes}; names must be unique"
+            raise InputError(msg)
+        try:
+            pos = np.array(self.pos_ecef_m, dtype=np.float64)
+        except (TypeError, ValueError) as err:
+            msg = f"{self.source}: control point coordinates must be numbers ({err})"
+            raise InputError(msg) from err
+        if pos.shape != (len(names), 3):
+            msg = (
+                f"{self.source}: pos_ecef_m must have shape ({len(names)}, 3) to match the "
+                f"names, got {pos.shape}"
+            )
+            raise InputError(msg)
+        bad = ~np.all(np.isfinite(pos), axis=1)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            msg = f"{self.source}: control point {names[i]!r} has non-finite coordinates"
+            raise InputError(msg)
+        pos.setflags(write=False)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "pos_ecef_m", pos)
+
+    @classmethod
+    def from_geodetic(
+        cls,
+        names: tuple[str, ...] | list[str],
+        lat_deg: ArrayLike,
+        lon_deg: ArrayLike,
+        h_m: ArrayLike,
+        source: str = "<control points>",
+    ) -> ControlPoints:
+        """Control points from geodetic WGS84 coordinates (deg, deg, m), each shape (N,)."""
+        pos = geodetic_to_ecef(lat_deg, lon_deg, h_m)
+        return cls(names=tuple(names), pos_ecef_m=np.atleast_2d(pos), source=source)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def lat_lon_h(self) -> FloatArray:
+        """Geodetic coordinates ``(lat_deg, lon_deg, h_m)``, shape (N, 3)."""
+        return ecef_to_geodetic(self.pos_ecef_m)

@@ -1,0 +1,181 @@
+"""A cloud validated against control points, end to end on containers (SPEC section 7).
+
+`validate_control_points` extracts the targets from the cloud
+(`kinsync.validation.targets`), expresses their differences to the control points in
+the vehicle frame (`kinsync.validation.differences`) and tests the time-error and
+heading signatures in one mixed model (`kinsync.validation.signatures`); the
+`ControlPointReport` holds all of it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.trajectory import Trajectory
+from kinsync.validation.control_points import ControlPoints
+from kinsync.validation.differences import ControlPointDifference, control_point_differences
+from kinsync.validation.signatures import PASS_GAP_S, SignatureTest, signature_tests
+from kinsync.validation.targets import CentreMethod, CloudPoints, MissingTarget, extract_targets
+
+__all__ = [
+    "ControlPointReport",
+    "validate_control_points",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class ControlPointReport:
+    """Control-point differences and the synchronisation / heading signature tests.
+
+    Attributes
+    ----------
+    differences : tuple of ControlPointDifference
+        One per visit found, in time order.
+    missing : tuple of MissingTarget
+        Control points (or visits) without an observation, with the reason.
+    time_error : SignatureTest
+        Implied time error (s): latency applied minus the true latency; subtract it
+        from the mount's ``latency_s``.
+    heading_error : SignatureTest
+        Implied heading misorientation (deg), DIN 9300 yaw sense.
+    intercept_m : float
+        Constant along-track offset of the regression (m).
+    residual_std_m : float
+        Noise of one difference within a pass (m); NaN without degrees of freedom.
+    pass_std_m : float
+        Standard deviation of the along-track offset common to a pass (m).
+    survey_std_m : float
+        Standard deviation of a control point's horizontal survey error (m, per axis),
+        as the repeated visits show it.
+    n_passes : int
+        Passes of the vehicle found among the visits.
+    level : float
+        Confidence level of the tests.
+    n_control_points : int
+        Control points given.
+    """
+
+    differences: tuple[ControlPointDifference, ...]
+    missing: tuple[MissingTarget, ...]
+    time_error: SignatureTest
+    heading_error: SignatureTest
+    intercept_m: float
+    residual_std_m: float
+    pass_std_m: float
+    survey_std_m: float
+    n_passes: int
+    level: float
+    n_control_points: int
+
+    def diff_vehicle_m(self) -> FloatArray:
+        """All differences (dX, dY, dZ) in the vehicle frame (m), shape (K, 3)."""
+        return np.array([d.diff_vehicle_m for d in self.differences]).reshape(-1, 3)
+
+    def as_document(self) -> dict[str, Any]:
+        """The ``--json`` document of ``kinsync validate control-points``."""
+        diff = self.diff_vehicle_m()
+        mean = diff.mean(axis=0) if diff.size else np.full(3, np.nan)
+        rms = np.sqrt((diff**2).mean(axis=0)) if diff.size else np.full(3, np.nan)
+        return {
+            "n_control_points": self.n_control_points,
+            "n_observations": len(self.differences),
+            "n_missing": len(self.missing),
+            "level": self.level,
+            "time_error": self.time_error.as_document(),
+            "heading_error": self.heading_error.as_document(),
+            "intercept_m": self.intercept_m,
+            "residual_std_m": self.residual_std_m,
+            "pass_std_m": self.pass_std_m,
+            "survey_std_m": self.survey_std_m,
+            "n_passes": self.n_passes,
+            "mean_vehicle_m": [float(v) for v in mean],
+            "rms_vehicle_m": [float(v) for v in rms],
+            "observations": [
+                {
+                    "name": d.observation.name,
+                    "visit": d.observation.visit,
+                    "t_s": d.observation.t_s,
+                    "n_points": d.observation.n_points,
+                    "dx_m": d.diff_vehicle_m[0],
+                    "dy_m": d.diff_vehicle_m[1],
+                    "dz_m": d.diff_vehicle_m[2],
+                    "speed_m_s": d.speed_m_s,
+                    "along_speed_m_s": d.along_speed_m_s,
+                    "heading_deg": d.heading_deg,
+                    "yaw_rate_deg_s": d.yaw_rate_deg_s,
+                    "lateral_m": d.lateral_m,
+                    "side": d.side,
+                    "centre_std_ned_m": list(d.observation.centre_std_ned_m),
+                    "intensity_threshold": d.observation.intensity_threshold,
+                }
+                for d in self.differences
+            ],
+            "missing": [{"name": m.name, "t_s": m.t_s, "reason": m.reason} for m in self.missing],
+        }
+
+
+def validate_control_points(
+    cloud: CloudPoints,
+    control: ControlPoints,
+    trajectory: Trajectory,
+    *,
+    search_radius_m: float = 0.5,
+    min_intensity: float | None = None,
+    centre: CentreMethod = "tukey",
+    target_radius_m: float | None = None,
+    min_points: int = 10,
+    visit_gap_s: float = 1.0,
+    level: float = 0.99,
+    pass_gap_s: float = PASS_GAP_S,
+) -> ControlPointReport:
+    """Extract targets, express the differences in the vehicle frame, test the signatures.
+
+    Parameters are those of `extract_targets`, `control_point_differences` and
+    `signature_tests`.
+
+    Returns
+    -------
+    ControlPointReport
+
+    Raises
+    ------
+    InputError
+        Bad options, or no control point found at all (each missing one is listed with
+        its reason in the message).
+    """
+    observations, missing = extract_targets(
+        cloud,
+        control,
+        search_radius_m=search_radius_m,
+        min_intensity=min_intensity,
+        centre=centre,
+        target_radius_m=target_radius_m,
+        min_points=min_points,
+        visit_gap_s=visit_gap_s,
+    )
+    differences, outside = control_point_differences(observations, control, trajectory)
+    missing = missing + outside
+    if not differences:
+        listed = "; ".join(f"{m.name}: {m.reason}" for m in missing[:5])
+        more = f" (and {len(missing) - 5} more)" if len(missing) > 5 else ""
+        msg = f"no control point found in the cloud: {listed}{more}"
+        raise InputError(msg)
+    tests = signature_tests(differences, level, pass_gap_s)
+    return ControlPointReport(
+        differences=differences,
+        missing=missing,
+        time_error=tests.time_error,
+        heading_error=tests.heading_error,
+        intercept_m=tests.intercept_m,
+        residual_std_m=tests.residual_std_m,
+        pass_std_m=tests.pass_std_m,
+        survey_std_m=tests.survey_std_m,
+        n_passes=tests.n_passes,
+        level=level,
+        n_control_points=len(control),
+    )

@@ -1,0 +1,401 @@
+"""Control targets taken from a georeferenced cloud where they are brightest (SPEC section 7).
+
+Each retro-reflective target is taken
+from the cloud where it is brightest:
+
+1. Points within ``search_radius_m`` of the surveyed position (each point goes to its
+   nearest control point).
+2. Intensity threshold: ``min_intensity`` when given, else Otsu's threshold of the
+   intensities in that neighbourhood, accepted only when the bright class is at least
+   ``AUTO_CONTRAST`` (2) times brighter on average than the dull one (a target needs
+   a dull background in the radius: board, pole, wall or ground).
+3. Visits: the bright points are split in time wherever consecutive points are more
+   than ``visit_gap_s`` apart, so each pass of the vehicle gives one observation.
+4. Centre of each visit with at least ``min_points`` points: ``"tukey"`` (default;
+   Tukey-biweight location per axis, c = 4.685 robust sigma, from the median: flat
+   discs), ``"median"`` (per-axis median) or ``"sphere"`` (spherical targets of known
+   radius: RANSAC + robust sphere fit, `kinsync.fit.segment_sphere`).
+
+References
+----------
+Otsu, N., "A threshold selection method from gray-level histograms", IEEE Trans.
+Systems, Man and Cybernetics 9(1), 1979, 62-66.
+Mosteller, F. & Tukey, J. W., *Data Analysis and Regression*, Addison-Wesley 1977
+(biweight location).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from kinsync._typing import ArrayLike, FloatArray, IntArray
+from kinsync._validate import finite_number, positive_number
+from kinsync.errors import ConvergenceError, InputError
+from kinsync.fit import segment_sphere
+from kinsync.frames import (
+    rotation_ned_to_ecef,
+)
+from kinsync.robust import robust_sigma, robust_sigma_per_column
+from kinsync.validation._common import finite_rows
+from kinsync.validation.control_points import ControlPoints
+
+__all__ = [
+    "AUTO_CONTRAST",
+    "CentreMethod",
+    "CloudPoints",
+    "MissingTarget",
+    "TargetObservation",
+    "check_extraction_options",
+    "extract_targets",
+    "nearest_control",
+    "otsu_threshold",
+]
+
+CentreMethod = Literal["tukey", "median", "sphere"]
+"""How a target's centre is taken from its bright points (see the module docstring)."""
+_CENTRES: tuple[CentreMethod, ...] = ("tukey", "median", "sphere")
+
+
+AUTO_CONTRAST = 2.0
+"""Least ratio of the mean intensities (bright / dull) an automatic threshold accepts."""
+
+
+_TUKEY_C = 4.685
+
+
+@dataclass(frozen=True, eq=False)
+class CloudPoints:
+    """Georeferenced points with their time and intensity.
+
+    Parameters
+    ----------
+    pos_ecef_m : array_like, shape (N, 3)
+        Positions, ECEF WGS84 (m).
+    t_s : array_like, shape (N,), optional
+        Measurement times (s), on the trajectory's time scale (GPS time).
+    intensity : array_like, shape (N,), optional
+        Return intensity (any scale; retro-reflective targets are the bright returns).
+
+    Raises
+    ------
+    InputError
+        Wrong shapes, non-finite values.
+    """
+
+    pos_ecef_m: FloatArray
+    t_s: FloatArray | None = None
+    intensity: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        pos = finite_rows(self.pos_ecef_m, None, 3, "cloud pos_ecef_m")
+        n = pos.shape[0]
+        object.__setattr__(self, "pos_ecef_m", pos)
+        if self.t_s is not None:
+            object.__setattr__(self, "t_s", finite_rows(self.t_s, n, None, "cloud t_s"))
+        if self.intensity is not None:
+            inten = finite_rows(self.intensity, n, None, "cloud intensity")
+            object.__setattr__(self, "intensity", inten)
+
+    def __len__(self) -> int:
+        return int(self.pos_ecef_m.shape[0])
+
+
+@dataclass(frozen=True)
+class TargetObservation:
+    """One visit of a control target, extracted from the cloud.
+
+    Attributes
+    ----------
+    name : str
+        Control point name.
+    visit : int
+        Visit number of this target (0, 1, ... in time order).
+    t_s : float
+        Median time of the target's points (s): the moment of scanning.
+    centre_ecef_m : tuple of 3 float
+        Target centre from the cloud, ECEF (m).
+    centre_std_ned_m : tuple of 3 float
+        Standard deviation of the centre along North, East, Down (m), from the spread
+        of the points (Tukey/median) or the sphere fit's covariance.
+    n_points : int
+        Points the centre was computed from.
+    intensity_threshold : float
+        Intensity threshold used for this target.
+    """
+
+    name: str
+    visit: int
+    t_s: float
+    centre_ecef_m: tuple[float, float, float]
+    centre_std_ned_m: tuple[float, float, float]
+    n_points: int
+    intensity_threshold: float
+
+
+@dataclass(frozen=True)
+class MissingTarget:
+    """A control point (or one visit of it) that gave no observation, and why."""
+
+    name: str
+    reason: str
+    t_s: float | None = None
+
+
+def otsu_threshold(values: ArrayLike) -> tuple[float, float]:
+    """Otsu's threshold of a sample (exact, on the sorted values) and the class contrast.
+
+    Parameters
+    ----------
+    values : array_like, shape (N,)
+        Intensities.
+
+    Returns
+    -------
+    threshold : float
+        Midway between the two values the split falls between (NaN when all equal).
+    contrast : float
+        Mean of the upper class over mean of the lower class (inf when the lower
+        mean is zero, NaN when there is no split).
+
+    References
+    ----------
+    Otsu 1979 (IEEE SMC 9, 62-66).
+    """
+    v = np.sort(np.asarray(values, dtype=np.float64).ravel())
+    n = v.size
+    if n < 2 or v[0] == v[-1]:
+        return math.nan, math.nan
+    cs = np.cumsum(v)
+    k = np.arange(1, n)
+    valid = v[1:] > v[:-1]
+    mu0 = cs[:-1] / k
+    mu1 = (cs[-1] - cs[:-1]) / (n - k)
+    between = (k / n) * (1 - k / n) * (mu0 - mu1) ** 2
+    between = np.where(valid, between, -1.0)
+    i = int(np.argmax(between))
+    threshold = 0.5 * (v[i] + v[i + 1])
+    contrast = mu1[i] / mu0[i] if mu0[i] > 0 else math.inf
+    return float(threshold), float(contrast)
+
+
+def _tukey_location(x: FloatArray) -> tuple[float, float]:
+    """Biweight location of a 1-D sample and its standard error (sandwich form)."""
+    mu = float(np.median(x))
+    scale = robust_sigma(x - mu)
+    if scale <= 0.0:
+        return mu, 0.0
+    for _ in range(50):
+        u = (x - mu) / (_TUKEY_C * scale)
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        new = float(np.sum(w * x) / np.sum(w))
+        if abs(new - mu) < 1e-9 * scale:
+            mu = new
+            break
+        mu = new
+    u = (x - mu) / (_TUKEY_C * scale)
+    w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+    std = float(np.sqrt(np.sum((w * (x - mu)) ** 2)) / np.sum(w))
+    return mu, std
+
+
+def _centre_local(
+    local: FloatArray, centre: CentreMethod, radius_m: float | None
+) -> tuple[FloatArray, FloatArray]:
+    """Centre (3,) and its standard deviation (3,) of points in a local NED frame."""
+    if centre == "median":
+        med = np.median(local, axis=0)
+        mad = robust_sigma_per_column(local - med)
+        return med, 1.2533 * mad / math.sqrt(local.shape[0])
+    if centre == "tukey":
+        loc = [_tukey_location(local[:, j]) for j in range(3)]
+        return np.array([m for m, _ in loc]), np.array([s for _, s in loc])
+    fit = segment_sphere(local, radius_m=radius_m)
+    return fit.center_m, np.sqrt(np.diag(fit.cov_center_m2))
+
+
+def check_extraction_options(
+    search_radius_m: float,
+    min_intensity: float | None,
+    centre: str,
+    target_radius_m: float | None,
+    min_points: int,
+    visit_gap_s: float,
+) -> None:
+    """Raise `InputError` naming the first bad target-extraction option."""
+    positive_number(search_radius_m, "search_radius_m")
+    if min_intensity is not None:
+        finite_number(min_intensity, "min_intensity")
+    if centre not in _CENTRES:
+        msg = f"centre must be one of {', '.join(_CENTRES)}, got {centre!r}"
+        raise InputError(msg)
+    if centre == "sphere":
+        if target_radius_m is None:
+            msg = "centre 'sphere' needs the target radius (target_radius_m / --target-radius-m)"
+            raise InputError(msg)
+        positive_number(target_radius_m, "target_radius_m")
+        if target_radius_m >= search_radius_m:
+            msg = (
+                f"target radius {target_radius_m} m must be smaller than the search radius "
+                f"{search_radius_m} m; enlarge --search-radius-m"
+            )
+            raise InputError(msg)
+    if min_points < 4:
+        msg = f"min_points must be >= 4, got {min_points}"
+        raise InputError(msg)
+    positive_number(visit_gap_s, "visit_gap_s")
+
+
+def nearest_control(
+    pos_ecef_m: FloatArray, control: ControlPoints, search_radius_m: float
+) -> IntArray:
+    """Index of the nearest control point within ``search_radius_m`` of each point.
+
+    Parameters
+    ----------
+    pos_ecef_m : ndarray, shape (N, 3)
+        Points, ECEF (m).
+    control : ControlPoints
+    search_radius_m : float
+        Reach (m).
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+        Index into ``control.names``, or -1 where no control point is within reach.
+    """
+    tree = cKDTree(control.pos_ecef_m)
+    dist, idx = tree.query(pos_ecef_m, distance_upper_bound=search_radius_m)
+    out: IntArray = np.where(np.isfinite(dist), idx, -1).astype(np.int64)
+    return out
+
+
+def extract_targets(
+    cloud: CloudPoints,
+    control: ControlPoints,
+    *,
+    search_radius_m: float = 0.5,
+    min_intensity: float | None = None,
+    centre: CentreMethod = "tukey",
+    target_radius_m: float | None = None,
+    min_points: int = 10,
+    visit_gap_s: float = 1.0,
+) -> tuple[tuple[TargetObservation, ...], tuple[MissingTarget, ...]]:
+    """Find each control target in the cloud: bright points near it, one centre per visit.
+
+    Parameters
+    ----------
+    cloud : CloudPoints
+        Georeferenced points with ``t_s`` and ``intensity``.
+    control : ControlPoints
+        Surveyed positions (ECEF).
+    search_radius_m : float
+        Radius around each control point where its target is looked for (m).
+    min_intensity : float, optional
+        Intensity threshold of the target's returns; default: Otsu's threshold in
+        each neighbourhood (see the module docstring).
+    centre : {"tukey", "median", "sphere"}
+        Centre estimator (see the module docstring).
+    target_radius_m : float, optional
+        Sphere radius (m), required with ``centre="sphere"``.
+    min_points : int
+        Fewest bright points of a visit for a centre (>= 4).
+    visit_gap_s : float
+        Time gap (s) that separates two visits of a target.
+
+    Returns
+    -------
+    observations : tuple of TargetObservation
+        In time order.
+    missing : tuple of MissingTarget
+        Targets or visits without an observation, with the reason (never fatal here).
+
+    Raises
+    ------
+    InputError
+        Bad options; a cloud without ``t_s`` or ``intensity``.
+    """
+    check_extraction_options(
+        search_radius_m, min_intensity, centre, target_radius_m, min_points, visit_gap_s
+    )
+    if cloud.t_s is None or cloud.intensity is None:
+        msg = "extract_targets: the cloud needs point times (t_s) and intensities"
+        raise InputError(msg)
+    owner = nearest_control(cloud.pos_ecef_m, control, search_radius_m)
+    observations: list[TargetObservation] = []
+    missing: list[MissingTarget] = []
+    llh = control.lat_lon_h()
+    for j, name in enumerate(control.names):
+        near = np.flatnonzero(owner == j)
+        if near.size == 0:
+            missing.append(
+                MissingTarget(name, f"no point of the cloud within {search_radius_m:g} m")
+            )
+            continue
+        inten = cloud.intensity[near]
+        if min_intensity is None:
+            threshold, contrast = otsu_threshold(inten)
+            if math.isnan(contrast) or contrast < AUTO_CONTRAST:
+                missing.append(
+                    MissingTarget(
+                        name,
+                        f"no intensity contrast among the {near.size} points within "
+                        f"{search_radius_m:g} m (bright/dull mean ratio {contrast:.3g} < "
+                        f"{AUTO_CONTRAST:g}); give --min-intensity",
+                    )
+                )
+                continue
+        else:
+            threshold = float(min_intensity)
+        bright = near[inten >= threshold]
+        if bright.size < min_points:
+            missing.append(
+                MissingTarget(
+                    name,
+                    f"only {bright.size} point(s) with intensity >= {threshold:.6g} within "
+                    f"{search_radius_m:g} m (need {min_points}); check --min-intensity and "
+                    "--search-radius-m",
+                )
+            )
+            continue
+        order = bright[np.argsort(cloud.t_s[bright], kind="stable")]
+        t = cloud.t_s[order]
+        cuts = np.flatnonzero(np.diff(t) > visit_gap_s) + 1
+        R_ne = rotation_ned_to_ecef(llh[j, 0], llh[j, 1])
+        visit = 0
+        for part in np.split(order, cuts):
+            t_mid = float(np.median(cloud.t_s[part]))
+            if part.size < min_points:
+                missing.append(
+                    MissingTarget(
+                        name,
+                        f"visit with only {part.size} bright point(s) (need {min_points})",
+                        t_mid,
+                    )
+                )
+                continue
+            local = (cloud.pos_ecef_m[part] - control.pos_ecef_m[j]) @ R_ne
+            try:
+                c_local, std = _centre_local(local, centre, target_radius_m)
+            except (InputError, ConvergenceError) as err:
+                missing.append(MissingTarget(name, f"no {centre} centre: {err}", t_mid))
+                continue
+            c_ecef = control.pos_ecef_m[j] + R_ne @ c_local
+            observations.append(
+                TargetObservation(
+                    name=name,
+                    visit=visit,
+                    t_s=t_mid,
+                    centre_ecef_m=(float(c_ecef[0]), float(c_ecef[1]), float(c_ecef[2])),
+                    centre_std_ned_m=(float(std[0]), float(std[1]), float(std[2])),
+                    n_points=int(part.size),
+                    intensity_threshold=float(threshold),
+                )
+            )
+            visit += 1
+    observations.sort(key=lambda o: o.t_s)
+    return tuple(observations), tuple(missing)
