@@ -16,7 +16,7 @@ from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import read_passes
-from kinsync.io.raw_passes import read_raw_passes
+from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
     LABEL_FLOOR,
     LABEL_SPHERE,

@@ -48,8 +48,8 @@ def sphere(
     # The estimator (scipy.optimize, scipy.stats) and the readers load only when this
     # command runs.
     from kinsync.io.passes import read_passes  # noqa: PLC0415
-    from kinsync.io.raw_passes import read_raw_passes  # noqa: PLC0415
     from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
+    from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
     passes = read_raw_passes(folder) if raw else read_passes(folder)
     with err_console.status(f"fitting {len(passes)} passes"):

@@ -49,8 +49,10 @@ __all__ = [
     "ADJUSTED_GPS_OFFSET_S",
     "PASSES_CSV",
     "PassFileFormat",
+    "PassIndexRow",
     "pass_file_name",
     "read_pass_file",
+    "read_pass_index",
     "read_passes",
     "write_passes",
 ]
@@ -71,7 +73,7 @@ _FORMATS: tuple[PassFileFormat, ...] = ("csv", "las", "laz")
 
 # ---------------------------------------------------------------------- reading
 @dataclass(frozen=True)
-class _IndexRow:
+class PassIndexRow:
     """One data line of passes.csv."""
 
     line: int
@@ -92,7 +94,7 @@ def _number(cell: str, column: str, where: str) -> float:
     return value
 
 
-def _read_index(index_path: Path) -> list[_IndexRow]:
+def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     """Parse passes.csv into rows; errors name the file and the line."""
     try:
         with index_path.open(newline="", encoding="utf-8") as fh:
@@ -139,7 +141,7 @@ def _read_index(index_path: Path) -> list[_IndexRow]:
 
 def _parse_index_row(
     index_path: Path, line: int, row: list[str], header: list[str], col: dict[str, int]
-) -> _IndexRow | None:
+) -> PassIndexRow | None:
     if not row or all(not c.strip() for c in row):
         return None
     where = f"{index_path}: line {line}"
@@ -165,7 +167,7 @@ def _parse_index_row(
                 "fill all of axis_n,axis_e,axis_d or leave all three empty for 0,0,1"
             )
             raise InputError(msg)
-    return _IndexRow(line=line, file=file, rate_deg_s=rate, axis_ned=axis)
+    return PassIndexRow(line=line, file=file, rate_deg_s=rate, axis_ned=axis)
 
 
 def _read_csv_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
@@ -260,7 +262,7 @@ def read_passes(folder: Path) -> list[SpherePass]:
         raise InputError(msg)
     index_path = folder / PASSES_CSV
     passes: list[SpherePass] = []
-    for row in _read_index(index_path):
+    for row in read_pass_index(index_path):
         where = f"{index_path}: line {row.line}"
         path = folder / row.file
         if not path.is_file():

@@ -18,11 +18,8 @@ table-centred NED frame; the IMU sits on the table, so positions are zero (the t
 centre). The attitude log becomes a local `Trajectory` with zero positions about the
 nominal origin `RAW_ORIGIN_LAT_LON_H`, which attitude-only georeferencing never uses.
 
-**Georeferencing.** A point ``x_s`` measured at ``t`` goes to the table-centred NED
-frame as ``x_n = R_body_to_ned(t) @ (lever_arm_body_m + R_scanner_to_body @ x_s)`` with
-the attitude of the log corrected for the latency tau (SPEC section 1): the record
-tagged ``t + tau`` is read, ``attitude.corrected_for_latency(tau).interpolate(t)``.
-Nothing is extrapolated: a point outside the corrected log's span is an error.
+**Georeferencing** the passes with the attitude log is done by
+`kinsync.pipelines.raw_passes` (`kinsync.georef.table`); this module only reads.
 """
 
 from __future__ import annotations
@@ -32,14 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from kinsync._typing import ArrayLike, FloatArray
+from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.georef import validated_scanner_points
-from kinsync.io.mount_file import read_mount
-from kinsync.io.passes import PASSES_CSV, _read_index
 from kinsync.io.tables import NumericTable, read_numeric_csv
-from kinsync.latency.passes import SpherePass
-from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -47,10 +39,9 @@ __all__ = [
     "RAW_DIR",
     "RAW_MOUNT_TOML",
     "RAW_ORIGIN_LAT_LON_H",
-    "georeference_table_points",
     "raw_pass_name",
     "read_raw_attitude",
-    "read_raw_passes",
+    "read_raw_pass",
 ]
 
 RAW_DIR = "raw"
@@ -154,54 +145,8 @@ def read_raw_attitude(path: Path) -> Trajectory:
         raise InputError(msg) from err
 
 
-def _georeference(t: FloatArray, xs: FloatArray, corrected: Trajectory, mount: Mount) -> FloatArray:
-    """Kernel on validated input, attitude already on the scanner's time scale."""
-    R_body_to_ned = corrected.interpolate(t).R_body_to_ned
-    x_body = mount.lever_arm_body_m_array + xs @ mount.R_scanner_to_body.T
-    out: FloatArray = np.einsum("nij,nj->ni", R_body_to_ned, x_body)
-    return out
-
-
-def georeference_table_points(
-    t_s: ArrayLike, points_scanner_m: ArrayLike, attitude: Trajectory, mount: Mount
-) -> FloatArray:
-    """Georeference scanner points into the table-centred NED frame (attitude only).
-
-    ``x_ned = R_body_to_ned(t) @ (lever_arm_body_m + R_scanner_to_body @ x_scanner)``,
-    the attitude read from ``attitude.corrected_for_latency(mount.latency_s)`` at the
-    point times, i.e. from the record tagged ``t + tau`` (SPEC section 1). Positions of
-    the trajectory are not used: the table centre is the origin.
-
-    Parameters
-    ----------
-    t_s : array_like, shape (N,)
-        Point times (s), the scanner's time scale.
-    points_scanner_m : array_like, shape (N, 3)
-        Points in the scanner frame (m).
-    attitude : Trajectory
-        Attitude records at their tags (body FRD -> table-centred NED), not yet
-        corrected for latency.
-    mount : Mount
-        Lever arm (m, body), boresight scanner -> body and latency tau (s).
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-        Points in the table-centred NED frame (m).
-
-    Raises
-    ------
-    InputError
-        Mismatched shapes or non-finite input.
-    OutsideSpanError
-        A point time outside the corrected attitude span (never extrapolated).
-    """
-    t, xs = validated_scanner_points(t_s, points_scanner_m, "georeference_table_points")
-    corrected = attitude.corrected_for_latency(mount.latency_s)
-    return _georeference(t, xs, corrected, mount)
-
-
-def _read_raw_pass(path: Path) -> tuple[FloatArray, FloatArray, NumericTable]:
+def read_raw_pass(path: Path) -> tuple[FloatArray, FloatArray, NumericTable]:
+    """Point times (N,), scanner-frame points (N, 3) and the table of one raw pass file."""
     if not path.is_file():
         msg = f"{path}: raw pass file not found"
         raise InputError(msg)
@@ -213,85 +158,3 @@ def _read_raw_pass(path: Path) -> tuple[FloatArray, FloatArray, NumericTable]:
     t = table.columns["t_s"]
     xs = np.column_stack([table.columns[c] for c in ("x_m", "y_m", "z_m")])
     return t, xs, table
-
-
-def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[SpherePass]:
-    """Read and georeference the raw passes of a pass folder (Method A, raw input).
-
-    Parameters
-    ----------
-    folder : Path
-        Pass folder holding ``passes.csv`` (pass order, signed rates, axes) and the
-        ``raw/`` sub-folder (``attitude.csv``, ``mount.toml`` and one
-        ``t_s,x_m,y_m,z_m`` scanner-frame file per pass, named by `raw_pass_name`).
-    latency_s : float, optional
-        Latency tau (s) to correct the attitude for (SPEC section 1: tau > 0 reads the
-        record tagged ``t + tau``); default the mount's ``latency_s``.
-
-    Returns
-    -------
-    list of SpherePass
-        In the order of ``passes.csv``: points georeferenced into the table-centred
-        NED frame (m) with their times (s); ``source`` is the raw pass file.
-
-    Raises
-    ------
-    InputError
-        Naming the file and line at fault: a missing folder, ``raw/`` folder,
-        ``passes.csv``, ``attitude.csv``, ``mount.toml`` or raw pass file; missing
-        columns; non-numeric or non-finite cells; attitude tags not increasing; an
-        empty pass; a point time outside the latency-corrected attitude span.
-    """
-    folder = Path(folder)
-    if not folder.is_dir():
-        what = "is not a folder" if folder.exists() else "not found"
-        msg = f"{folder}: pass folder {what}; give the folder that holds {PASSES_CSV}"
-        raise InputError(msg)
-    index_path = folder / PASSES_CSV
-    rows = _read_index(index_path)
-    raw_dir = folder / RAW_DIR
-    if not raw_dir.is_dir():
-        msg = (
-            f"{raw_dir}: raw folder not found; it must hold {RAW_ATTITUDE_CSV}, "
-            f"{RAW_MOUNT_TOML} and one t_s,x_m,y_m,z_m file per pass"
-        )
-        raise InputError(msg)
-    attitude_path = raw_dir / RAW_ATTITUDE_CSV
-    attitude = read_raw_attitude(attitude_path)
-    mount = read_mount(raw_dir / RAW_MOUNT_TOML)
-    tau = mount.latency_s if latency_s is None else float(latency_s)
-    if not np.isfinite(tau):
-        msg = f"latency_s must be finite, got {latency_s!r}"
-        raise InputError(msg)
-    corrected = attitude.corrected_for_latency(tau)
-    passes: list[SpherePass] = []
-    for row in rows:
-        where = f"{index_path}: line {row.line}"
-        path = raw_dir / raw_pass_name(row.file)
-        try:
-            t, xs, table = _read_raw_pass(path)
-            outside = ~corrected.contains(t)
-            if np.any(outside):
-                k = int(np.flatnonzero(outside)[0])
-                msg = (
-                    f"{path}: line {table.line_of_row(k)}: point time t_s={float(t[k])!r} "
-                    f"({int(np.count_nonzero(outside))} point(s) in all) lies outside the "
-                    f"attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
-                    f"{attitude.t_end_s!r}] s, read at the tag t + tau with latency "
-                    f"tau = {tau!r} s); "
-                    "kinsync does not extrapolate: extend the log or trim the pass"
-                )
-                raise InputError(msg)
-            passes.append(
-                SpherePass(
-                    source=str(path),
-                    rate_deg_s=row.rate_deg_s,
-                    points_ned_m=_georeference(t, xs, corrected, mount),
-                    axis_ned=row.axis_ned,
-                    t_s=t,
-                )
-            )
-        except InputError as err:
-            msg = f"{where}: {err}"
-            raise InputError(msg) from err
-    return passes

@@ -1,4 +1,4 @@
-"""Raw input of Method A: scanner points + attitude log + mount -> georeferenced passes."""
+"""Method A raw input: raw passes read, georeferenced with the attitude log (pipelines.raw_passes)."""
 
 from __future__ import annotations
 
@@ -12,16 +12,13 @@ import pytest
 
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.frames import euler_rpy_to_matrix
+from kinsync.georef.table import georeference_table_points
 from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.passes import read_passes
-from kinsync.io.raw_passes import (
-    georeference_table_points,
-    raw_pass_name,
-    read_raw_attitude,
-    read_raw_passes,
-)
+from kinsync.io.raw_passes import raw_pass_name, read_raw_attitude
 from kinsync.latency.sphere import estimate_latency_sphere
 from kinsync.mount import Mount
+from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
     RotatingTableConfig,
     RotatingTableSimulation,

@@ -1,0 +1,114 @@
+"""Method A from raw files: scanner-frame passes and an attitude log made into sphere passes.
+
+`read_raw_passes` reads a pass folder's raw data (`kinsync.io.raw_passes`: the pass
+index, ``raw/attitude.csv``, ``raw/mount.toml`` and one scanner-frame file per pass)
+and georeferences every pass into the table-centred NED frame with the
+latency-corrected attitude (`kinsync.georef.table`), ready for
+`kinsync.latency.sphere.estimate_latency_sphere`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from kinsync.errors import InputError
+from kinsync.georef.table import georeference_attitude_only
+from kinsync.io.mount_file import read_mount
+from kinsync.io.passes import PASSES_CSV, read_pass_index
+from kinsync.io.raw_passes import (
+    RAW_ATTITUDE_CSV,
+    RAW_DIR,
+    RAW_MOUNT_TOML,
+    raw_pass_name,
+    read_raw_attitude,
+    read_raw_pass,
+)
+from kinsync.latency.passes import SpherePass
+
+__all__ = [
+    "read_raw_passes",
+]
+
+
+def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[SpherePass]:
+    """Read and georeference the raw passes of a pass folder (Method A, raw input).
+
+    Parameters
+    ----------
+    folder : Path
+        Pass folder holding ``passes.csv`` (pass order, signed rates, axes) and the
+        ``raw/`` sub-folder (``attitude.csv``, ``mount.toml`` and one
+        ``t_s,x_m,y_m,z_m`` scanner-frame file per pass, named by `raw_pass_name`).
+    latency_s : float, optional
+        Latency tau (s) to correct the attitude for (SPEC section 1: tau > 0 reads the
+        record tagged ``t + tau``); default the mount's ``latency_s``.
+
+    Returns
+    -------
+    list of SpherePass
+        In the order of ``passes.csv``: points georeferenced into the table-centred
+        NED frame (m) with their times (s); ``source`` is the raw pass file.
+
+    Raises
+    ------
+    InputError
+        Naming the file and line at fault: a missing folder, ``raw/`` folder,
+        ``passes.csv``, ``attitude.csv``, ``mount.toml`` or raw pass file; missing
+        columns; non-numeric or non-finite cells; attitude tags not increasing; an
+        empty pass; a point time outside the latency-corrected attitude span.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        what = "is not a folder" if folder.exists() else "not found"
+        msg = f"{folder}: pass folder {what}; give the folder that holds {PASSES_CSV}"
+        raise InputError(msg)
+    index_path = folder / PASSES_CSV
+    rows = read_pass_index(index_path)
+    raw_dir = folder / RAW_DIR
+    if not raw_dir.is_dir():
+        msg = (
+            f"{raw_dir}: raw folder not found; it must hold {RAW_ATTITUDE_CSV}, "
+            f"{RAW_MOUNT_TOML} and one t_s,x_m,y_m,z_m file per pass"
+        )
+        raise InputError(msg)
+    attitude_path = raw_dir / RAW_ATTITUDE_CSV
+    attitude = read_raw_attitude(attitude_path)
+    mount = read_mount(raw_dir / RAW_MOUNT_TOML)
+    tau = mount.latency_s if latency_s is None else float(latency_s)
+    if not np.isfinite(tau):
+        msg = f"latency_s must be finite, got {latency_s!r}"
+        raise InputError(msg)
+    corrected = attitude.corrected_for_latency(tau)
+    passes: list[SpherePass] = []
+    for row in rows:
+        where = f"{index_path}: line {row.line}"
+        path = raw_dir / raw_pass_name(row.file)
+        try:
+            t, xs, table = read_raw_pass(path)
+            outside = ~corrected.contains(t)
+            if np.any(outside):
+                k = int(np.flatnonzero(outside)[0])
+                msg = (
+                    f"{path}: line {table.line_of_row(k)}: point time t_s={float(t[k])!r} "
+                    f"({int(np.count_nonzero(outside))} point(s) in all) lies outside the "
+                    f"attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
+                    f"{attitude.t_end_s!r}] s, read at the tag t + tau with latency "
+                    f"tau = {tau!r} s); "
+                    "kinsync does not extrapolate: extend the log or trim the pass"
+                )
+                raise InputError(msg)
+            passes.append(
+                SpherePass(
+                    source=str(path),
+                    rate_deg_s=row.rate_deg_s,
+                    points_ned_m=georeference_attitude_only(t, xs, corrected, mount),
+                    axis_ned=row.axis_ned,
+                    t_s=t,
+                )
+            )
+        except InputError as err:
+            msg = f"{where}: {err}"
+            raise InputError(msg) from err
+    return passes
