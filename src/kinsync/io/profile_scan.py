@@ -41,7 +41,6 @@ from kinsync.sync.scan import (
     SYNC_POINT_COLUMNS,
     ProfileScan,
     SyncPoints,
-    check_profile_numbers,
 )
 
 __all__ = [
@@ -79,7 +78,7 @@ def read_profile_scan(path: Path) -> ProfileScan:
         raise InputError(msg)
     cols = {c: np.concatenate(v) for c, v in parts.items()}
     line_offset = 2 if path.suffix.lower() == ".csv" else None
-    profile = check_profile_numbers(cols["profile"], str(path), line_offset)
+    profile = ProfileScan.checked_profile_numbers(cols["profile"], str(path), line_offset)
     return ProfileScan(
         profile=profile,
         angle_rad=cols["angle_rad"],

@@ -19,9 +19,7 @@ from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
 from kinsync.mount import Mount
-from kinsync.sync.scan import (
-    check_profile_numbers,
-)
+from kinsync.sync.scan import ProfileScan
 
 __all__ = ["APPLY_COLUMNS", "apply_profile_clock"]
 
@@ -97,9 +95,9 @@ def apply_profile_clock(
                 )
                 raise InputError(msg)
             if done == 0:
-                check_profile_numbers(chunk["profile"], str(scan_path), line_offset)
+                ProfileScan.checked_profile_numbers(chunk["profile"], str(scan_path), line_offset)
             else:
-                check_profile_numbers(
+                ProfileScan.checked_profile_numbers(
                     np.concatenate([[last_profile], chunk["profile"]]),
                     str(scan_path),
                     line_offset,

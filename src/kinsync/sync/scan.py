@@ -21,7 +21,6 @@ __all__ = [
     "SYNC_POINT_COLUMNS",
     "ProfileScan",
     "SyncPoints",
-    "check_profile_numbers",
 ]
 
 SCAN_COLUMNS = ("profile", "angle_rad", "range_m", "intensity")
@@ -35,7 +34,7 @@ def _row_text(row: int, line_offset: int | None) -> str:
     return f"row {row}" if line_offset is None else f"row {row} (line {row + line_offset})"
 
 
-def check_profile_numbers(
+def _checked_profile_numbers(
     profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
 ) -> IntArray:
     """Profile numbers as int64: whole, >= 0 and never decreasing.
@@ -119,7 +118,7 @@ class ProfileScan:
     source: str = "<scan>"
 
     def __post_init__(self) -> None:
-        prof = check_profile_numbers(self.profile, self.source)
+        prof = _checked_profile_numbers(self.profile, self.source)
         n = prof.size
         if prof.ndim != 1 or n == 0:
             msg = f"{self.source}: the scan has no returns; expected columns {list(SCAN_COLUMNS)}"
@@ -138,6 +137,19 @@ class ProfileScan:
 
     def __len__(self) -> int:
         return int(self.profile.size)
+
+    @staticmethod
+    def checked_profile_numbers(
+        profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
+    ) -> IntArray:
+        """Profile numbers as int64: whole, >= 0 and never decreasing.
+
+        For readers and pipelines that check a column (or a chunk of it) before the
+        scan is built; parameters and errors as in the module's
+        ``_checked_profile_numbers``: ``source`` names the file, ``line_offset`` the
+        file line of data row 0, ``row_offset`` the data row of ``profile[0]``.
+        """
+        return _checked_profile_numbers(profile, source, line_offset, row_offset)
 
     @property
     def n_profiles(self) -> int:

@@ -1,0 +1,548 @@
+"""Robust segmentation of a sphere from a cloud with clutter (floor, stand, walls).
+
+`segment_sphere`: RANSAC on minimal 4-point spheres (solved in batches), scored on a
+random subset then on all points, hypotheses rejected by the known radius or radius
+bounds; then an iteratively reweighted (Tukey biweight) refinement, an inlier
+threshold from a robust scale (`kinsync.robust`), and a final least-squares
+`kinsync.fit.sphere.fit_sphere` on the inliers, along the scanner rays when the
+scanner origin is known.
+
+References
+----------
+Fischler, M. A. & Bolles, R. C., "Random sample consensus...", Communications of the
+ACM 24(6), 1981, 381-395 (RANSAC).
+Mosteller, F. & Tukey, J. W., *Data Analysis and Regression*, Addison-Wesley 1977
+(biweight).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync.errors import ConvergenceError, InputError
+from kinsync.fit.sphere import (
+    _MIN_POINTS,
+    SphereFit,
+    _centred,
+    _check_not_degenerate,
+    _fit_local,
+    _levenberg_marquardt,
+    _LocalFit,
+    _ortho_model,
+    _ray_residuals_all,
+    _validated_origin,
+    _validated_points,
+    _validated_radius,
+)
+from kinsync.robust import robust_sigma
+
+__all__ = [
+    "segment_sphere",
+]
+
+_MIN_INLIERS = 10
+"""Fewest inliers `segment_sphere` accepts as a sphere."""
+
+
+_PLANE_TO_SPHERE_RMS = 1.25
+"""A segmented sphere must fit its inliers this much better (RMS) than a plane does."""
+
+
+_TUKEY_C = 4.685
+
+
+_HYPOTHESIS_BATCH = 256
+
+
+_SUBSET_SIZE = 1024
+
+
+_TOP_HYPOTHESES = 16
+
+
+_RANSAC_CONFIDENCE = 0.999
+
+
+_KNOWN_RADIUS_TOLERANCE = 0.2
+"""Relative radius tolerance of a RANSAC hypothesis when the radius is known."""
+
+
+_KNOWN_RADIUS_RATIO = 1.5
+"""Largest ratio between the free-radius fit of the inliers and a known radius."""
+
+
+def _minimal_spheres(quads: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Spheres through 4 points each, batched.
+
+    Parameters
+    ----------
+    quads : ndarray, shape (H, 4, 3)
+        Four points per hypothesis (centred coordinates, m).
+
+    Returns
+    -------
+    centres : ndarray, shape (H, 3)
+        NaN for degenerate (coplanar) quadruples.
+    radii : ndarray, shape (H,)
+    """
+    p0 = quads[:, 0]
+    q1, q2, q3 = (quads[:, k] - p0 for k in (1, 2, 3))
+    c23, c31, c12 = np.cross(q2, q3), np.cross(q3, q1), np.cross(q1, q2)
+    det = np.einsum("ij,ij->i", q1, c23)
+    n1, n2, n3 = (np.einsum("ij,ij->i", q, q) for q in (q1, q2, q3))
+    # Coplanar (or nearly): |det| tiny against the product of the edge lengths.
+    scale = np.sqrt(n1 * n2 * n3)
+    good = np.abs(det) > 1e-9 * scale
+    safe_det = np.where(good, det, 1.0)
+    rel = (0.5 * (n1[:, None] * c23 + n2[:, None] * c31 + n3[:, None] * c12)) / safe_det[:, None]
+    rel[~good] = np.nan
+    return p0 + rel, np.sqrt(np.einsum("ij,ij->i", rel, rel))
+
+
+def _hypothesis_residuals(
+    xc_sub: FloatArray, sq_sub: FloatArray, centres: FloatArray, radii: FloatArray
+) -> FloatArray:
+    """|distance - radius| of (3, S) points to H spheres, shape (H, S)."""
+    d2 = (
+        sq_sub[None, :]
+        - 2.0 * (centres @ xc_sub)
+        + np.einsum("ij,ij->i", centres, centres)[:, None]
+    )
+    np.maximum(d2, 0.0, out=d2)
+    res: FloatArray = np.abs(np.sqrt(d2) - radii[:, None])
+    return res
+
+
+@dataclass(frozen=True)
+class _Hypothesis:
+    centre: FloatArray
+    radius: float
+    n_inliers: int
+    tried: int
+    admissible: int
+
+
+def _ransac(
+    xc: FloatArray,
+    rng: np.random.Generator,
+    radius_lo: float,
+    radius_hi: float,
+    threshold: float,
+    max_hypotheses: int,
+) -> _Hypothesis | None:
+    """Best sphere hypothesis by MSAC score (subset, then all points) or None."""
+    n = xc.shape[1]
+    sub_idx = rng.choice(n, size=min(n, _SUBSET_SIZE), replace=False)
+    xc_sub = xc[:, sub_idx]
+    sq_sub = np.einsum("ij,ij->j", xc_sub, xc_sub)
+    t2 = threshold * threshold
+    kept_c: list[FloatArray] = []
+    kept_r: list[FloatArray] = []
+    kept_score: list[FloatArray] = []
+    tried = 0
+    admissible = 0
+    best_ratio = 0.0
+    needed = max_hypotheses
+    while tried < min(needed, max_hypotheses):
+        batch = min(_HYPOTHESIS_BATCH, max_hypotheses - tried)
+        idx = rng.integers(0, n, size=(batch, 4))
+        tried += batch
+        distinct = (
+            (idx[:, 0] != idx[:, 1])
+            & (idx[:, 0] != idx[:, 2])
+            & (idx[:, 0] != idx[:, 3])
+            & (idx[:, 1] != idx[:, 2])
+            & (idx[:, 1] != idx[:, 3])
+            & (idx[:, 2] != idx[:, 3])
+        )
+        idx = idx[distinct]
+        centres, radii = _minimal_spheres(xc.T[idx])
+        ok = np.isfinite(radii) & (radii >= radius_lo) & (radii <= radius_hi)
+        if not ok.any():
+            continue
+        centres, radii = centres[ok], radii[ok]
+        admissible += len(radii)
+        res = _hypothesis_residuals(xc_sub, sq_sub, centres, radii)
+        score = np.minimum(res * res, t2).sum(axis=1)
+        kept_c.append(centres)
+        kept_r.append(radii)
+        kept_score.append(score)
+        ratio = float((res < threshold).sum(axis=1).max()) / xc_sub.shape[1]
+        if ratio > best_ratio:
+            best_ratio = ratio
+            p_good = best_ratio**4
+            if p_good >= 1.0:
+                needed = tried
+            elif p_good > 0.0:
+                needed = math.ceil(math.log(1.0 - _RANSAC_CONFIDENCE) / math.log1p(-p_good))
+    if not kept_c:
+        return None
+    centres = np.concatenate(kept_c)
+    radii = np.concatenate(kept_r)
+    scores = np.concatenate(kept_score)
+    top = np.argsort(scores)[: min(_TOP_HYPOTHESES, len(scores))]
+    sq_all = np.einsum("ij,ij->j", xc, xc)
+    res_all = _hypothesis_residuals(xc, sq_all, centres[top], radii[top])
+    score_all = np.minimum(res_all * res_all, t2).sum(axis=1)
+    k = int(np.argmin(score_all))
+    return _Hypothesis(
+        centre=centres[top[k]],
+        radius=float(radii[top[k]]),
+        n_inliers=int((res_all[k] < threshold).sum()),
+        tried=tried,
+        admissible=admissible,
+    )
+
+
+def _robust_sigma(abs_res: FloatArray, band: float, floor: float) -> float:
+    """1.4826 x median |r| of the residuals inside the band (floored); band/3 if too few."""
+    inside = abs_res[abs_res < band]
+    if inside.size < _MIN_INLIERS:
+        return max(band / 3.0, floor)
+    return max(robust_sigma(inside), floor)
+
+
+def _irls_tukey(
+    xc: FloatArray,
+    p0: FloatArray,
+    radius_fixed: float | None,
+    band0: float,
+    sigma_fixed: float | None,
+    floor: float,
+) -> tuple[FloatArray, float]:
+    """Tukey-biweight IRLS on the orthogonal residual; returns parameters and sigma."""
+    res_fn, jac_fn = _ortho_model(xc, radius_fixed)
+    p = p0.copy()
+    e, _ = res_fn(p)
+    abs_e = np.abs(e)
+    band = band0
+    sigma = sigma_fixed if sigma_fixed is not None else _robust_sigma(abs_e, band, floor)
+    for _ in range(20):
+        c = _TUKEY_C * sigma
+        u = e / c
+        w = np.where(np.abs(u) < 1.0, (1.0 - u * u) ** 2, 0.0)
+        if int((w > 0.0).sum()) < _MIN_POINTS:
+            break
+        lm = _levenberg_marquardt(res_fn, jac_fn, p, w, 5, 1e-3 * sigma)
+        step = float(np.linalg.norm(lm.params - p))
+        p, e = lm.params, lm.residuals
+        abs_e = np.abs(e)
+        if sigma_fixed is None:
+            sigma = _robust_sigma(abs_e, 3.0 * sigma, floor)
+        if step < 1e-3 * sigma:
+            break
+    return p, sigma
+
+
+def _plane_rms(xc: FloatArray) -> float:
+    centred = xc - xc.mean(axis=1, keepdims=True)
+    eig = np.linalg.eigvalsh((centred @ centred.T) / xc.shape[1])
+    return float(np.sqrt(max(eig[0], 0.0)))
+
+
+def _fit_inliers(
+    xc: FloatArray,
+    mask: BoolArray,
+    p: FloatArray,
+    radius_fixed: float | None,
+    origin_local: FloatArray | None,
+    what: str,
+) -> tuple[_LocalFit, BoolArray]:
+    """Least squares on the masked points, recentred on them for conditioning.
+
+    Returns the fit (centre in the coordinates of ``xc``) and the mask, into all
+    points, of those used in it.
+    """
+    sub = np.ascontiguousarray(xc[:, mask])
+    sub_ref = sub.mean(axis=1)
+    sub -= sub_ref[:, None]
+    p_start = p.copy()
+    p_start[:3] -= sub_ref
+    origin_sub = None if origin_local is None else origin_local - sub_ref
+    fit = _fit_local(sub, radius_fixed, origin_sub, 50, 1e-10, what, p0=p_start)
+    used = np.zeros(xc.shape[1], dtype=bool)
+    used[np.flatnonzero(mask)[fit.used]] = True
+    return replace(fit, centre=fit.centre + sub_ref), used
+
+
+@dataclass(frozen=True)
+class _RadiusWindow:
+    lo: float  # admissible hypothesis radii (m)
+    hi: float
+    reference: float  # radius scale for the default threshold and floors (m)
+    text: str  # for messages
+
+
+def _check_segment_options(
+    radius: float | None,
+    radius_bounds_m: tuple[float, float] | None,
+    inlier_threshold_m: float | None,
+    max_hypotheses: int,
+) -> None:
+    what = "segment_sphere"
+    if radius is not None and radius_bounds_m is not None:
+        msg = f"{what}: give radius_m or radius_bounds_m, not both"
+        raise InputError(msg)
+    if max_hypotheses < 1:
+        msg = f"{what}: max_hypotheses must be >= 1, got {max_hypotheses}"
+        raise InputError(msg)
+    if inlier_threshold_m is not None and not (
+        math.isfinite(inlier_threshold_m) and inlier_threshold_m > 0.0
+    ):
+        msg = f"{what}: inlier_threshold_m must be finite and > 0 (m), got {inlier_threshold_m!r}"
+        raise InputError(msg)
+
+
+def _radius_window(
+    radius: float | None, radius_bounds_m: tuple[float, float] | None, diagonal_m: float
+) -> _RadiusWindow:
+    if radius is not None:
+        return _RadiusWindow(
+            radius * (1.0 - _KNOWN_RADIUS_TOLERANCE),
+            radius * (1.0 + _KNOWN_RADIUS_TOLERANCE),
+            radius,
+            f"radius {radius:g} m",
+        )
+    if radius_bounds_m is None:
+        return _RadiusWindow(0.0, diagonal_m, 0.2 * diagonal_m, "any radius")
+    try:
+        lo, hi = (float(v) for v in radius_bounds_m)
+    except (TypeError, ValueError) as err:
+        msg = f"segment_sphere: radius_bounds_m must be (min, max) in m, got {radius_bounds_m!r}"
+        raise InputError(msg) from err
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
+        msg = (
+            "segment_sphere: radius_bounds_m must satisfy 0 < min < max (m), got "
+            f"{radius_bounds_m!r}"
+        )
+        raise InputError(msg)
+    return _RadiusWindow(lo, hi, math.sqrt(lo * hi), f"radius {lo:g}-{hi:g} m")
+
+
+def _hypothesis_start(
+    xc: FloatArray, hyp: _Hypothesis, radius: float | None, threshold: float
+) -> FloatArray:
+    """Start parameters from a hypothesis; for a known radius, moved along the cap axis.
+
+    The centre moves along the mean direction of the hypothesis' inliers by the radius
+    difference, so that the known radius fits where the hypothesis did.
+    """
+    if radius is None:
+        return np.append(hyp.centre, hyp.radius)
+    diff = xc - hyp.centre[:, None]
+    dist = np.sqrt(np.einsum("ij,ij->j", diff, diff))
+    near = np.abs(dist - hyp.radius) < threshold
+    mean_dir = (diff[:, near] / dist[near]).mean(axis=1)
+    start: FloatArray = hyp.centre + (hyp.radius - radius) * mean_dir
+    return start
+
+
+def _fit_until_stable(
+    xc: FloatArray,
+    p: FloatArray,
+    radius: float | None,
+    origin_local: FloatArray | None,
+    threshold: float,
+    nothing: str,
+    hyp: _Hypothesis,
+) -> tuple[_LocalFit, BoolArray, FloatArray]:
+    """Least squares on |r| <= threshold, repeated until the inliers stop changing.
+
+    Returns the last fit, the mask of the points it used and the orthogonal residuals
+    of every point to it.
+    """
+    res_fn, _ = _ortho_model(xc, radius)
+    e_orth, _ = res_fn(p)
+    inliers = np.abs(e_orth) <= threshold
+    fitted: tuple[_LocalFit, BoolArray] | None = None
+    for _ in range(3):
+        if int(inliers.sum()) < _MIN_INLIERS:
+            break
+        try:
+            fitted = _fit_inliers(xc, inliers, p, radius, origin_local, "segment_sphere")
+        except ConvergenceError as err:
+            msg = (
+                f"{nothing}: the {int(inliers.sum())} inliers of the best hypothesis "
+                f"(radius {hyp.radius:.4g} m) do not converge to a sphere ({err})"
+            )
+            raise InputError(msg) from err
+        p = fitted[0].params if radius is None else fitted[0].centre
+        e_orth, _ = res_fn(p)
+        new_inliers = np.abs(e_orth) <= threshold
+        if np.array_equal(new_inliers, inliers):
+            break
+        inliers = new_inliers
+    if fitted is None:
+        msg = (
+            f"{nothing}: best hypothesis had {hyp.n_inliers} inliers, "
+            f"{int(inliers.sum())} after robust refinement (threshold {threshold:.3g} m); "
+            f"at least {_MIN_INLIERS} are needed"
+        )
+        raise InputError(msg)
+    return fitted[0], fitted[1], e_orth
+
+
+def _check_is_sphere(
+    xc: FloatArray,
+    fit: _LocalFit,
+    used: BoolArray,
+    e_orth: FloatArray,
+    radius: float | None,
+    window: _RadiusWindow,
+    nothing: str,
+) -> None:
+    """Reject a candidate that is not a sphere of the requested size."""
+    k = int(used.sum())
+    if radius is None and not window.lo <= fit.radius <= window.hi:
+        msg = f"{nothing}: the best candidate ({k} inliers) has radius {fit.radius:.4g} m"
+        raise InputError(msg)
+    sphere_rms = float(np.sqrt(np.mean(e_orth[used] ** 2)))
+    plane_rms = _plane_rms(xc[:, used])
+    if plane_rms < _PLANE_TO_SPHERE_RMS * sphere_rms:
+        msg = (
+            f"{nothing}: the best candidate's {k} inliers fit a plane about as well as a "
+            f"sphere (plane RMS {plane_rms * 1e3:.3g} mm, sphere RMS {sphere_rms * 1e3:.3g} "
+            f"mm, radius {fit.radius:.4g} m); check the radius or the region of interest"
+        )
+        raise InputError(msg)
+    if radius is None:
+        return
+    try:
+        free = _fit_inliers(xc, used, np.append(fit.centre, radius), None, None, "segment_sphere")[
+            0
+        ]
+    except ConvergenceError as err:
+        msg = f"{nothing}: the best candidate's {k} inliers do not converge to a free sphere"
+        raise InputError(msg) from err
+    if not 1.0 / _KNOWN_RADIUS_RATIO <= free.radius / radius <= _KNOWN_RADIUS_RATIO:
+        msg = (
+            f"{nothing}: the best candidate's {k} inliers fit a sphere of radius "
+            f"{free.radius:.4g} m (RMS {free.rms * 1e3:.3g} mm, against {fit.rms * 1e3:.3g} "
+            "mm with the given radius); check radius_m (a diameter?)"
+        )
+        raise InputError(msg)
+
+
+def segment_sphere(
+    points_m: ArrayLike,
+    *,
+    radius_m: float | None = None,
+    radius_bounds_m: tuple[float, float] | None = None,
+    inlier_threshold_m: float | None = None,
+    origin_m: ArrayLike | None = None,
+    max_hypotheses: int = 2000,
+    seed: int = 0,
+) -> SphereFit:
+    """Find a sphere in a cluttered cloud and fit it (RANSAC, robust refinement, LSQ).
+
+    1. RANSAC: minimal spheres through 4 random points, solved in batches; hypotheses
+       whose radius is off the known radius (by more than 20 %) or outside
+       ``radius_bounds_m`` are rejected; the rest are scored (MSAC, truncated squared
+       residual) on a random subset of up to 1024 points, the best 16 again on all
+       points. Sampling stops early once 99.9 % confidence of an all-inlier sample is
+       reached, or after ``max_hypotheses``.
+    2. Refinement: iteratively reweighted least squares with Tukey's biweight
+       (``c = 4.685 sigma``), ``sigma = 1.4826 MAD`` of the residuals near the sphere.
+    3. Inliers: ``|r| <= inlier_threshold_m``, by default ``3 sigma`` (with a floor of
+       1e-6 of the radius); final least squares `fit_sphere` on the inliers (ray
+       model with ``origin_m``), repeated until the inlier set is stable (3 rounds at
+       most).
+    4. Checks: at least 10 inliers; the inliers must fit a sphere clearly better
+       (RMS at least 1.25 x smaller) than a plane; a free radius must lie within
+       ``radius_bounds_m``; with a known radius, a free-radius fit of the inliers must
+       lie within a factor 1.5 of it (catches a diameter given as a radius). Else no
+       sphere was found.
+
+    Parameters
+    ----------
+    points_m : array_like, shape (N, 3)
+        Cloud (m), any Cartesian frame, with clutter (floor, stand, strays). N >= 4.
+    radius_m : float, optional
+        Known radius (m); the final fit keeps it fixed.
+    radius_bounds_m : tuple of float, optional
+        ``(min, max)`` radius (m) of an admissible sphere when the radius is free.
+        Without either, hypotheses larger than the cloud's bounding-box diagonal are
+        rejected.
+    inlier_threshold_m : float, optional
+        Largest |orthogonal residual| (m) of an inlier. Default from a robust scale.
+    origin_m : array_like, shape (3,), optional
+        Scanner origin (m), same frame; the final fit uses the ray model.
+    max_hypotheses : int
+        Most minimal samples drawn.
+    seed : int
+        Seed of the random generator (results are reproducible).
+
+    Returns
+    -------
+    SphereFit
+        ``inliers`` and ``residuals_m`` refer to every point given.
+
+    Raises
+    ------
+    InputError
+        Bad input (shape, NaN, radius, bounds, threshold), degenerate cloud, or no
+        sphere found (message gives the best hypothesis and its inlier count).
+    ConvergenceError
+        The final least-squares fit did not converge.
+
+    References
+    ----------
+    Fischler & Bolles 1981 (RANSAC); Torr & Zisserman, "MLESAC", CVIU 78, 2000
+    (truncated-quadratic scoring); Al-Sharadqah & Chernov 2009; Seube et al. 2012.
+    """
+    what = "segment_sphere"
+    pts = _validated_points(points_m, what)
+    radius = _validated_radius(radius_m, what)
+    origin = _validated_origin(origin_m, what)
+    _check_segment_options(radius, radius_bounds_m, inlier_threshold_m, max_hypotheses)
+    n = pts.shape[0]
+    ref, xc = _centred(pts)
+    spread = _check_not_degenerate(xc, what)
+    window = _radius_window(radius, radius_bounds_m, float(np.linalg.norm(np.ptp(xc, axis=1))))
+    nothing = f"{what}: no sphere of {window.text} found among {n} points"
+    threshold0 = inlier_threshold_m if inlier_threshold_m is not None else 0.05 * window.reference
+    hyp = _ransac(xc, np.random.default_rng(seed), window.lo, window.hi, threshold0, max_hypotheses)
+    if hyp is None:
+        msg = (
+            f"{nothing}: none of the {max_hypotheses} minimal samples gave an admissible "
+            f"sphere (cloud spread {spread:.3g} m); check the radius or the region of interest"
+        )
+        raise InputError(msg)
+    if hyp.n_inliers < _MIN_INLIERS:
+        msg = (
+            f"{nothing}: best hypothesis had {hyp.n_inliers} inliers within "
+            f"{threshold0:.3g} m (centre {(ref + hyp.centre).round(4).tolist()}, radius "
+            f"{hyp.radius:.4g} m; {hyp.admissible} admissible of {hyp.tried} samples); at "
+            f"least {_MIN_INLIERS} are needed"
+        )
+        raise InputError(msg)
+
+    p0 = _hypothesis_start(xc, hyp, radius, threshold0)
+    sigma_fixed = None if inlier_threshold_m is None else inlier_threshold_m / 3.0
+    p, sigma = _irls_tukey(xc, p0, radius, threshold0, sigma_fixed, 1e-6 * window.reference)
+    threshold = inlier_threshold_m if inlier_threshold_m is not None else 3.0 * sigma
+    origin_local = None if origin is None else origin - ref
+    fit, used, e_orth = _fit_until_stable(xc, p, radius, origin_local, threshold, nothing, hyp)
+    _check_is_sphere(xc, fit, used, e_orth, radius, window, nothing)
+    if fit.method == "ray":
+        assert origin_local is not None
+        residuals, _, _ = _ray_residuals_all(xc, origin_local, fit.centre, fit.radius)
+    else:
+        residuals = e_orth
+    return SphereFit(
+        center_m=ref + fit.centre,
+        radius_m=fit.radius,
+        radius_fixed=radius is not None,
+        cov_center_m2=fit.cov,
+        radius_std_m=fit.radius_std,
+        residual_rms_m=fit.rms,
+        n_points=int(used.sum()),
+        inliers=used,
+        residuals_m=residuals,
+        method=fit.method,
+        iterations=fit.iterations,
+    )
