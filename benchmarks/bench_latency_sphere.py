@@ -26,10 +26,8 @@ import numpy as np  # noqa: E402  (after the thread settings)
 
 from kinsync.latency.planning import TableDesign, plan_latency_experiment  # noqa: E402
 from kinsync.latency.sphere import estimate_latency_sphere  # noqa: E402
-from kinsync.sim.rotating_table import (  # noqa: E402
-    RotatingTableConfig,
-    simulate_rotating_table,
-)
+from kinsync.sim.rotating_table import simulate_rotating_table  # noqa: E402
+from kinsync.sim.table_config import RotatingTableConfig  # noqa: E402
 
 TAU_S = 0.00421
 

@@ -12,11 +12,8 @@ import numpy as np
 import pytest
 
 from kinsync.io.mount_file import read_mount, write_mount
-from kinsync.sim.rotating_table import (
-    RotatingTableConfig,
-    simulate_rotating_table,
-    write_simulation,
-)
+from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
+from kinsync.sim.table_config import RotatingTableConfig
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py

@@ -58,19 +58,10 @@ from kinsync._typing import FloatArray
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import InsResult, run_ins
-from kinsync.sim.drive import (
-    DriveTrajectory,
-    ImuErrorModel,
-    ImuErrorTruth,
-    Route,
-    Stop,
-    Straight,
-    Turn,
-    initial_state,
-    simulate_gnss,
-    simulate_imu,
-    simulate_truth,
-)
+from kinsync.sim.drive import Route, Stop, Straight, Turn, initial_state
+from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
+from kinsync.sim.gnss import simulate_gnss
+from kinsync.sim.imu import ImuErrorModel, ImuErrorTruth, simulate_imu
 
 SEEDS = (1, 2, 3, 4, 5, 6)
 PRIMARY_SEED = SEEDS[0]

@@ -35,18 +35,10 @@ from kinsync.ins.compare import compare_to_truth
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.solution import NavSolution
-from kinsync.sim.drive import (
-    DriveTrajectory,
-    ImuErrorModel,
-    Route,
-    Stop,
-    Straight,
-    Turn,
-    initial_state,
-    simulate_gnss,
-    simulate_imu,
-    simulate_truth,
-)
+from kinsync.sim.drive import Route, Stop, Straight, Turn, initial_state
+from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
+from kinsync.sim.gnss import simulate_gnss
+from kinsync.sim.imu import ImuErrorModel, simulate_imu
 
 RATE_HZ = 100.0
 DEG_H = math.pi / 180.0 / 3600.0  # 1 deg/h in rad/s

@@ -19,7 +19,8 @@ from kinsync.latency.sphere import (
     estimate_latency_sphere,
     latency_from_pool_pair,
 )
-from kinsync.sim.rotating_table import RotatingTableConfig, simulate_rotating_table
+from kinsync.sim.rotating_table import simulate_rotating_table
+from kinsync.sim.table_config import RotatingTableConfig
 
 TAU_S = 0.00421
 

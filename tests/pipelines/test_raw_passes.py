@@ -1,4 +1,4 @@
-"""Method A raw input: raw passes read, georeferenced with the attitude log (pipelines.raw_passes)."""
+"""Method A raw input: raw passes read and georeferenced with the attitude log."""
 
 from __future__ import annotations
 
@@ -20,11 +20,11 @@ from kinsync.latency.sphere import estimate_latency_sphere
 from kinsync.mount import Mount
 from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
-    RotatingTableConfig,
     RotatingTableSimulation,
     simulate_rotating_table,
     write_simulation,
 )
+from kinsync.sim.table_config import RotatingTableConfig
 from kinsync.trajectory import Trajectory
 
 BORESIGHT_DEG = (0.2, -0.1, 3.0)

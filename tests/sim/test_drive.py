@@ -28,26 +28,23 @@ from kinsync.io.ins_config import read_ins_config
 from kinsync.io.tables import read_numeric_csv
 from kinsync.sim.drive import (
     DriveSimConfig,
-    DriveTrajectory,
-    ImuErrorModel,
     Route,
     Segment,
     Stop,
     Straight,
     Turn,
     figure_eight_route,
-    ideal_imu_mean,
     initial_state,
-    noisy_trajectory,
     oval_route,
     simulate_drive,
-    simulate_gnss,
-    simulate_imu,
-    simulate_truth,
     survey_lines_route,
     turn_chord_m,
     write_drive_simulation,
 )
+from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
+from kinsync.sim.gnss import simulate_gnss
+from kinsync.sim.imu import ImuErrorModel, ideal_imu_mean, simulate_imu
+from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.trajectory import Trajectory
 
 DEG_H = math.pi / 180.0 / 3600.0

@@ -17,7 +17,8 @@ from kinsync.io.mount_file import read_mount
 from kinsync.io.profile_scan import read_profile_scan, read_pulses, read_sync_points
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.mount import Mount
-from kinsync.sim.drive import oval_route, simulate_truth
+from kinsync.sim.drive import oval_route
+from kinsync.sim.drive_truth import simulate_truth
 from kinsync.sim.profiler import (
     DRIVE_SCAN_FILES,
     DriveScanConfig,

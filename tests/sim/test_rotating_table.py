@@ -18,14 +18,16 @@ from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import read_passes
 from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
+    RotatingTableSimulation,
+    simulate_rotating_table,
+    write_simulation,
+)
+from kinsync.sim.table_config import (
     LABEL_FLOOR,
     LABEL_SPHERE,
     LABEL_STAND,
     LABEL_STRAY,
     RotatingTableConfig,
-    RotatingTableSimulation,
-    simulate_rotating_table,
-    write_simulation,
 )
 
 QUIET: dict[str, Any] = {

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.sim.drive import oval_route, simulate_truth
+from kinsync.sim.drive import oval_route
+from kinsync.sim.drive_truth import simulate_truth
 from kinsync.sim.scene import (
     NO_HIT,
     Scene,

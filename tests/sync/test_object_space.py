@@ -13,7 +13,7 @@ from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_quaternion, ned_to_ecef
 from kinsync.mount import Mount
-from kinsync.sim.drive import noisy_trajectory
+from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,

@@ -73,11 +73,8 @@ def rotating_table(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a rotating-table latency test (Method A) and write its pass folder."""
-    from kinsync.sim.rotating_table import (  # noqa: PLC0415
-        RotatingTableConfig,
-        simulate_rotating_table,
-        write_simulation,
-    )
+    from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation  # noqa: PLC0415
+    from kinsync.sim.table_config import RotatingTableConfig  # noqa: PLC0415
 
     fmt_key = file_format.strip().lower()
     if fmt_key not in _FORMATS:

@@ -69,16 +69,10 @@ from kinsync.report.end_to_end_figures import (
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.method_b_figures import clock_regression_figure
 from kinsync.report.validation_figures import plus_minus
-from kinsync.sim.drive import (
-    DriveTrajectory,
-    ImuErrorModel,
-    Route,
-    Straight,
-    Turn,
-    simulate_gnss,
-    simulate_imu,
-    simulate_truth,
-)
+from kinsync.sim.drive import Route, Straight, Turn
+from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
+from kinsync.sim.gnss import simulate_gnss
+from kinsync.sim.imu import ImuErrorModel, simulate_imu
 from kinsync.sim.profiler import (
     ProfilerConfig,
     ProfilerSimulation,

@@ -21,11 +21,8 @@ from kinsync.latency.sphere import estimate_latency_sphere
 from kinsync.report.fit_figures import sphere_residual_figure
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
-from kinsync.sim.rotating_table import (
-    RotatingTableConfig,
-    simulate_rotating_table,
-    write_simulation,
-)
+from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
+from kinsync.sim.table_config import RotatingTableConfig
 
 __all__ = ["cidco_section", "find_cidco_folder", "method_a_section"]
 

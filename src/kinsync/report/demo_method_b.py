@@ -20,7 +20,7 @@ from kinsync.io.profile_scan import read_profile_scan, read_pulses, read_sync_po
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.method_b_figures import clock_error_figure, clock_regression_figure
-from kinsync.sim.drive import noisy_trajectory
+from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.profiler import DriveScanConfig, simulate_drive_scan, write_drive_scan
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space

@@ -55,7 +55,9 @@ from kinsync.io.mount_file import write_mount
 from kinsync.io.profile_scan import write_profile_scan, write_pulses, write_sync_points
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
-from kinsync.sim.drive import figure_eight_route, noisy_trajectory, oval_route, simulate_truth
+from kinsync.sim.drive import figure_eight_route, oval_route
+from kinsync.sim.drive_truth import simulate_truth
+from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.scene import NO_HIT, Scene, SceneLayout, Target, build_drive_scene
 from kinsync.sync.scan import ProfileScan, SyncPoints
 from kinsync.trajectory import Trajectory
