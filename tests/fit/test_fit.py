@@ -444,3 +444,22 @@ def test_residual_figure_is_png() -> None:
         sphere_residual_figure([("free", free), ("fixed", fixed)], [pts])
     with pytest.raises(InputError, match="no fits"):
         sphere_residual_figure([], [])
+
+
+def test_segment_sphere_inlier_band_is_three_robust_sigma() -> None:
+    # Isotropic noise sigma: the orthogonal residual is N(0, sigma). Returns placed on
+    # purpose at 2.5 sigma off the surface are inside the 3-sigma band, at 4 to 6 sigma
+    # outside; a band built on the raw median deviation (0.67 sigma) would keep only
+    # ~96 % of the Gaussian returns and lose the 2.5-sigma ones.
+    rng = np.random.default_rng(23)
+    sigma = 0.0005
+    pts = visible_cap(rng, 20_000, iso_noise_m=sigma)
+    shell = visible_cap(rng, 60)
+    normal = (shell - CENTRE_M) / RADIUS_M
+    k = np.repeat([2.5, -2.5, 4.0, -4.0, 6.0, -6.0], 10) * sigma
+    fit = segment_sphere(np.vstack([pts, shell + k[:, None] * normal]), radius_m=RADIUS_M)
+    near, far = fit.inliers[20_000:][:20], fit.inliers[20_000:][20:]
+    assert near.all()
+    assert not far.any()
+    kept = float(fit.inliers[:20_000].mean())
+    assert 0.99 < kept < 0.9995, kept  # 3 sigma keeps 99.73 %

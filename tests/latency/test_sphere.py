@@ -17,6 +17,7 @@ from kinsync.latency.planning import TableDesign, plan_latency_experiment
 from kinsync.latency.sphere import (
     PoolFit,
     estimate_latency_sphere,
+    fit_pool,
     latency_from_pool_pair,
 )
 from kinsync.sim.rotating_table import simulate_rotating_table
@@ -198,3 +199,59 @@ def test_no_sphere_among_the_points() -> None:
 def test_bad_radius() -> None:
     with pytest.raises(InputError, match="radius"):
         estimate_latency_sphere(small_simulation(TAU_S, seed=3), radius_m=-0.1)
+
+
+def _beams_on_sphere(
+    rng: np.random.Generator, n: int, centre: np.ndarray, radius: float, max_incidence_deg: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Unit beams from the origin that meet the sphere below an incidence, and their ranges."""
+    dist = float(np.linalg.norm(centre))
+    axis = centre / dist
+    e1 = np.cross(axis, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    beams: list[np.ndarray] = []
+    ranges: list[np.ndarray] = []
+    while sum(len(b) for b in beams) < n:
+        cz = rng.uniform(math.sqrt(1.0 - (radius / dist) ** 2), 1.0, n)
+        phi = rng.uniform(0.0, 2.0 * np.pi, n)
+        sz = np.sqrt(1.0 - cz * cz)
+        u = cz[:, None] * axis + sz[:, None] * (
+            np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+        )
+        b = u @ centre
+        r = b - np.sqrt(np.maximum(b * b - dist * dist + radius * radius, 0.0))
+        normal = (r[:, None] * u - centre) / radius
+        ok = np.abs(np.einsum("ij,ij->i", u, normal)) >= math.cos(math.radians(max_incidence_deg))
+        beams.append(u[ok])
+        ranges.append(r[ok])
+    return np.concatenate(beams)[:n], np.concatenate(ranges)[:n]
+
+
+def test_pool_keeps_the_gaussian_tail_to_four_robust_sigma_and_cuts_beyond() -> None:
+    # Range noise along the beams; a few returns placed on purpose near the 4-sigma cut:
+    # 3.3 sigma (inside: kept) and 4.7 to 6 sigma (outside: left out). A cut made with
+    # the raw median deviation (0.67 sigma) instead of the robust sigma would lose the
+    # 3.3-sigma returns and ~0.7 % of the Gaussian ones; the wider first band likewise.
+    rng = np.random.default_rng(21)
+    centre, radius, sigma = np.array([1.5, 0.1, -0.2]), 0.1, 0.002
+    offsets = np.concatenate(
+        [
+            sigma * rng.standard_normal(40_000),
+            np.repeat([3.3, -3.3], 25) * sigma,
+            np.repeat([4.7, -4.7, 6.0, -6.0], 12) * sigma,
+        ]
+    )
+    u, r = _beams_on_sphere(rng, len(offsets), centre, radius, 70.0)
+    points = (r + offsets)[:, None] * u
+    near = np.abs(offsets) == 3.3 * sigma
+    far = np.abs(offsets) >= 4.7 * sigma
+    pool = fit_pool([SpherePass("cut", 10.0, points)], radius_m=radius)
+    used = pool.fit.inliers
+    assert used[near].all(), int((~used[near]).sum())
+    assert not used[far].any(), int(used[far].sum())
+    gaussian = ~near & ~far
+    dropped = int((~used[gaussian]).sum())
+    # beyond 4 sigma: 6.3e-5 of 40 000 points, about 3
+    assert dropped <= 12, dropped
+    assert pool.fit.residual_rms_m == pytest.approx(sigma, rel=0.02)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef, rotation_ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
@@ -54,6 +55,11 @@ def test_returns_follow_the_clock_and_lie_on_the_scene(short_drive: Trajectory) 
     scan = sim.scan
     expected_t = 1.4e9 + 0.31 + (scan.profile + scan.angle_rad / (2 * math.pi)) * 0.0307
     np.testing.assert_allclose(sim.t_s, expected_t, rtol=0, atol=1e-9)
+    clock = ProfileClock(sim.t0_s, sim.period_s)  # the clock Method B estimates
+    np.testing.assert_allclose(
+        clock.time_s(scan.profile, scan.angle_rad), sim.t_s, rtol=0, atol=1e-6
+    )
+    assert np.ptp(scan.angle_rad) > 1.0  # returns on both sides of nadir
     assert sim.n_profiles == math.floor((short_drive.t_end_s - 1.4e9 - 0.31) / 0.0307 - 0.375) + 1
     # Georeference every return with its true time: it lies on what it hit.
     gtraj = GeorefTrajectory.from_trajectory(short_drive)
