@@ -359,7 +359,9 @@ def test_rotation_ned_to_ecef_matches_pyproj_differences(lat: float, lon: float,
 def test_geodetic_to_ecef_known_values() -> None:
     assert_allclose(geodetic_to_ecef(0.0, 0.0, 0.0), [6378137.0, 0.0, 0.0], rtol=0, atol=1e-6)
     assert_allclose(geodetic_to_ecef(90.0, 0.0, 0.0), [0.0, 0.0, 6356752.314245], rtol=0, atol=1e-6)
-    assert_allclose(geodetic_to_ecef(-90.0, 0.0, 0.0), [0.0, 0.0, -6356752.314245], rtol=0, atol=1e-6)
+    assert_allclose(
+        geodetic_to_ecef(-90.0, 0.0, 0.0), [0.0, 0.0, -6356752.314245], rtol=0, atol=1e-6
+    )
     assert_allclose(geodetic_to_ecef(0.0, 90.0, 100.0), [0.0, 6378237.0, 0.0], rtol=0, atol=1e-6)
     assert_allclose(geodetic_to_ecef(0.0, 180.0, 0.0), [-6378137.0, 0.0, 0.0], rtol=0, atol=1e-6)
     assert WGS84_A_M == 6378137.0

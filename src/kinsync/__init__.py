@@ -33,6 +33,26 @@ Names
     Every quantity with a unit or a frame carries it in its name: ``t_gps_s``,
     ``pos_ecef_m``, ``rate_deg_s``, ``R_body_to_ned``, ``lever_arm_body_m``.
     Angles in public APIs are radians unless the name ends in ``_deg``.
+
+Layers (docs/architecture.md; ``tests/test_architecture.py`` enforces them)
+----------------------------------------------------------------------------
+Lowest first; a module imports only from its own layer or a lower one:
+
+core
+    this package, ``errors``, ``frames``, ``trajectory``, ``mount``, ``messages``,
+    ``crs``, ``robust``: conventions and the containers several domains share.
+algorithms
+    ``budget``, ``fit``, ``clock``, ``latency``, ``sync``, ``ins``, ``georef``,
+    ``validation``: each domain's containers and maths. They take and return
+    containers, never paths; they never print, exit or open a file.
+io
+    file formats; takes only containers (classes, constants) from the algorithms.
+pipelines
+    files streamed through the algorithms (chunks, schedulers, atomic outputs).
+sim
+    simulators with known truth, producing the containers and files sensors do.
+report, demo, cli
+    figures and the HTML report; the demo's sections; the command line.
 """
 
 from __future__ import annotations

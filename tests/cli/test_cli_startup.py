@@ -27,7 +27,7 @@ NOT_AT_START = (
     "matplotlib",
     "scipy.stats",
     "scipy.optimize",
-    "kinsync.report.demo",
+    "kinsync.demo",
     "kinsync.ins.filter",
     "kinsync.ins.smoother",
     "kinsync.sim.drive",
@@ -39,7 +39,14 @@ NOT_AT_START = (
     "dask",
 )
 # Loaded by ``kinsync georef``: it needs none of these.
-NOT_FOR_GEOREF = ("matplotlib", "scipy.stats", "kinsync.ins", "kinsync.report", "kinsync.sim")
+NOT_FOR_GEOREF = (
+    "matplotlib",
+    "scipy.stats",
+    "kinsync.ins",
+    "kinsync.report",
+    "kinsync.demo",
+    "kinsync.sim",
+)
 
 # Runs ``kinsync ARGS...`` (argv[2:]) and writes its exit code and sys.modules to argv[1].
 _RUN_MAIN = """

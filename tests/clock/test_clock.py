@@ -24,11 +24,11 @@ from kinsync.clock import (
     utc_fields_to_gps_s,
     utc_to_gps_s,
 )
+from kinsync.demo.clock import clock_section
 from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
 from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
 from kinsync.io.nmea import format_sentence, read_nmea_log
 from kinsync.messages import NmeaLog
-from kinsync.report.demo_clock import clock_section
 from kinsync.sim.clock import (
     ClockSimConfig,
     ClockSimulation,

@@ -11,9 +11,9 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
+from kinsync.demo.validation import validation_section
 from kinsync.errors import InputError
 from kinsync.frames import ned_to_ecef
-from kinsync.report.demo_validation import validation_section
 from kinsync.report.validation_figures import (
     control_point_figure,
     plus_minus,

@@ -54,7 +54,9 @@ def test_physics_of_the_truth() -> None:
     assert truth["reference_gps_s"] == g0 == truth["edges_gps_s"][0]
     assert truth["reference_local_s"] == g0 - 0.37
     edges_gps = np.asarray(truth["edges_gps_s"])
-    np.testing.assert_allclose(sim.true_local_s(edges_gps), truth["edges_t_local_s"], rtol=0, atol=0)
+    np.testing.assert_allclose(
+        sim.true_local_s(edges_gps), truth["edges_t_local_s"], rtol=0, atol=0
+    )
     np.testing.assert_allclose(sim.true_gps_s(sim.pps_t_local_s), edges_gps, rtol=0, atol=3e-7)
     # 25 ppm slow: 30 GPS seconds last 30 / (1 + 25e-6) local seconds.
     assert sim.pps_t_local_s[-1] - sim.pps_t_local_s[0] == pytest.approx(30 / (1 + 25e-6), abs=1e-6)

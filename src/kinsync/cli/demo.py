@@ -15,7 +15,7 @@ def demo(
     out: Annotated[Path, typer.Option(help="Report folder to write.")] = Path("demo-output"),
 ) -> None:
     """Run the demo on built-in simulated data; writes OUT/report.html and prints a summary."""
-    from kinsync.report.demo import run_demo  # noqa: PLC0415 - every other command starts faster
+    from kinsync.demo.run import run_demo  # noqa: PLC0415 - every other command starts faster
 
     with err_console.status("demo") as status:
         result = run_demo(out, progress=lambda label: status.update(f"demo: {label}"))

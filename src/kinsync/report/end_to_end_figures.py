@@ -1,7 +1,7 @@
 """Figures of the end-to-end demo: the survey, the clocks, control points and wall per case.
 
 Each figure compares the calibration cases of one simulated survey
-(`kinsync.report.demo_end_to_end`): the correct calibration and the deliberately wrong
+(`kinsync.demo.end_to_end`): the correct calibration and the deliberately wrong
 ones, on common axes and colour scales so that the damage reads at a glance.
 """
 

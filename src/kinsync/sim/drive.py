@@ -28,7 +28,7 @@ from kinsync.io.gnss_csv import write_gnss_csv
 from kinsync.io.imu_csv import write_imu_csv
 from kinsync.io.ins_config import write_ins_config
 from kinsync.io.nav_csv import write_truth_csv
-from kinsync.sim._common import Vector3, _vector3
+from kinsync.sim._common import Vector3, _non_negative, _vector3
 from kinsync.sim._route import (
     KinematicState,
     Route,
@@ -45,7 +45,7 @@ from kinsync.sim._route import (
 )
 from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
 from kinsync.sim.gnss import _outages, simulate_gnss
-from kinsync.sim.imu import ImuErrorModel, ImuErrorTruth, _non_negative, simulate_imu
+from kinsync.sim.imu import ImuErrorModel, ImuErrorTruth, simulate_imu
 from kinsync.trajectory import Trajectory
 
 __all__ = [

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from kinsync.report.demo_method_b import method_b_section
+from kinsync.demo.method_b import method_b_section
 from kinsync.report.html import render_report
 from kinsync.sim.profiler import DRIVE_SCAN_FILES
 

@@ -19,19 +19,19 @@ import pytest
 
 from kinsync._typing import FloatArray
 from kinsync.clock.profile import ProfileClock
+from kinsync.demo.end_to_end import end_to_end_section
+from kinsync.demo.end_to_end_chain import CASE_LABELS
+from kinsync.demo.end_to_end_survey import (
+    EndToEndConfig,
+    georeference_scan,
+    simulate_survey,
+    wall_selection,
+)
 from kinsync.errors import InputError
 from kinsync.frames import ned_to_ecef
 from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import compare_to_truth
 from kinsync.ins.filter import run_ins
-from kinsync.report.demo_end_to_end import (
-    CASE_LABELS,
-    EndToEndConfig,
-    end_to_end_section,
-    georeference_scan,
-    simulate_survey,
-    wall_selection,
-)
 from kinsync.report.end_to_end_figures import (
     clock_cases_figure,
     control_point_cases_figure,
