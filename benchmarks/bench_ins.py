@@ -34,7 +34,7 @@ import numpy as np
 from kinsync.ins._reference import forward_numpy
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import radii_m
-from kinsync.ins.filter import forward_pass, gnss_epochs, run_ins
+from kinsync.ins.filter import forward_pass, gnss_epochs, new_gnss_log, run_ins
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.io.tables import read_numeric_csv
@@ -143,11 +143,9 @@ def main() -> None:
     print(f"    compiled speed-up over numpy             {rate_fwd / rate_np:10.0f}x")
 
     g_epoch = gnss_epochs(imu.t_s, 0, gnss.t_s)
-    m = len(gnss)
     run = forward_pass(
-        imu, gnss, config, init, use_velocity=True, store=True, progress=None, g_epoch=g_epoch,
-        g_status=np.zeros(m, dtype=np.int64), innov=np.full((m, 6), np.nan),
-        innov_sd=np.full((m, 3), np.nan),
+        imu, gnss, config, init, use_velocity=True, store=True, progress=None,
+        gnss_imu_epoch=g_epoch, log=new_gnss_log(len(gnss)),
     )  # fmt: skip
     ck = run.checkpoints
     assert ck is not None

@@ -10,25 +10,29 @@ from typing import Any
 import numpy as np
 import pytest
 from scipy.linalg import expm
+from scipy.stats import chi2
 
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import euler_rpy_to_quaternion, quaternion_to_matrix
 from kinsync.ins._ekf import feedback, system_matrix, transition_from_system
 from kinsync.ins._reference import forward_numpy
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, radii_m
 from kinsync.ins.filter import (
     GnssStatus,
     InsResult,
-    align_static_gnss_heading,
     filter_params,
-    observation,
+    forward_pass,
+    gnss_epochs,
+    new_gnss_log,
     run_ins,
     transition_matrix,
 )
+from kinsync.ins.gnss_observation import observation
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
-from kinsync.ins.strapdown import free_inertial, mech_step
+from kinsync.ins.strapdown import free_inertial, mech_step, start_epoch
 
 SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
 Errors = Callable[..., Any]  # fixture errors_of in conftest.py
@@ -236,6 +240,93 @@ def test_gate_rejects_a_100_m_outlier(drive: Any, errors_of: Errors) -> None:
     dpos = errors_of(res.forward, truth)[0]
     k = int(np.searchsorted(res.forward.t_s, gnss.t_s[j]))
     assert np.abs(dpos[k - 5 : k + 50]).max() < 1.0  # the solution did not jump
+
+
+GATE_EPOCH = 700
+"""GNSS epoch (140 s, while driving) where the gate tests place their outliers."""
+
+
+@pytest.fixture(scope="module")
+def gate_prior(drive: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``z`` (6,) and the predicted ``S`` of the position and velocity blocks (3, 3) of
+    GNSS epoch `GATE_EPOCH`, from the forward pass's checkpoint of that update (the
+    ``P^-``, ``H``, ``r`` and ``z`` the gate saw)."""
+    _, imu, gnss, _, init = drive
+    g_epoch = gnss_epochs(imu.t_s, start_epoch(imu, init), gnss.t_s)
+    run = forward_pass(
+        imu, gnss, CONFIG, init, use_velocity=True, store=True, progress=None,
+        gnss_imu_epoch=g_epoch, log=new_gnss_log(len(gnss)),
+    )  # fmt: skip
+    ck = run.checkpoints
+    assert ck is not None
+    update = np.flatnonzero((ck.epoch == g_epoch[GATE_EPOCH]) & (ck.nrows == 6))
+    assert update.size == 1, "the filter did not use GNSS epoch GATE_EPOCH"
+    c = int(update[0])
+    S = ck.H[c] @ ck.P_minus[c] @ ck.H[c].T + np.diag(ck.r[c])
+    return ck.z[c].copy(), S[:3, :3], S[3:, 3:]
+
+
+def _chi2_stat(nu: np.ndarray, S: np.ndarray) -> float:
+    return float(nu @ np.linalg.solve(S, nu))
+
+
+@pytest.mark.parametrize("block", ["position", "velocity"])
+@pytest.mark.parametrize(
+    ("scale", "expected"),
+    [
+        pytest.param(0.95, GnssStatus.USED, id="just_inside"),
+        pytest.param(1.05, GnssStatus.REJECTED, id="just_outside"),
+    ],
+)
+def test_gate_threshold_is_chi2_3_dof_at_the_gate_probability(
+    drive: Any,
+    gate_prior: tuple[np.ndarray, np.ndarray, np.ndarray],
+    block: str,
+    scale: float,
+    expected: GnssStatus,
+) -> None:
+    """An outlier placed so that ``ν^T S^{-1} ν = 0.95 χ²₃(p)`` is used, one at
+    ``1.05 χ²₃(p)`` is rejected. A threshold with other degrees of freedom (2: 0.87 χ²₃(p),
+    4: 1.11, 6: 1.32), at ``1 - p``, or a gate on a single axis (each axis carries about a
+    third of the statistic here, below even χ²₁(p)) gets one of the cases wrong."""
+    _, imu, gnss, _, init = drive
+    j = GATE_EPOCH
+    z, S_pos, S_vel = gate_prior
+    gate = float(chi2.ppf(CONFIG.gate_probability, 3))
+    rows = slice(0, 3) if block == "position" else slice(3, 6)
+    S = S_pos if block == "position" else S_vel
+    # the other block of this epoch passes by far
+    if block == "position":
+        assert _chi2_stat(z[3:], S_vel) < 0.5 * gate
+    else:
+        assert _chi2_stat(z[:3], S_pos) < 0.5 * gate
+    # z (INS minus GNSS) that the outlier should produce: equal shares in whitened space
+    target = np.linalg.cholesky(S) @ np.full(3, math.sqrt(scale * gate / 3.0))
+    assert _chi2_stat(target, S) == pytest.approx(scale * gate, rel=1e-12)
+    assert (target**2 / np.diag(S)).max() < chi2.ppf(CONFIG.gate_probability, 1)
+    dz = target - z[rows]
+    if block == "position":
+        lat = math.radians(gnss.lat_deg[j])
+        r_m, r_n = radii_m(lat)
+        h = gnss.h_m[j]
+        lat_deg, lon_deg, h_m = gnss.lat_deg.copy(), gnss.lon_deg.copy(), gnss.h_m.copy()
+        lat_deg[j] -= math.degrees(dz[0] / (r_m + h))
+        lon_deg[j] -= math.degrees(dz[1] / ((r_n + h) * math.cos(lat)))
+        h_m[j] += dz[2]
+        bad = dataclasses.replace(gnss, lat_deg=lat_deg, lon_deg=lon_deg, h_m=h_m)
+    else:
+        assert gnss.vel_ned_m_s is not None
+        vel = gnss.vel_ned_m_s.copy()
+        vel[j] -= dz
+        bad = dataclasses.replace(gnss, vel_ned_m_s=vel)
+    res = run_ins(imu, bad, CONFIG, init)
+    assert res.gnss_status[j] == expected
+    assert (res.gnss_status[:j] == GnssStatus.USED).all()
+    if expected == GnssStatus.USED:  # the outlier produced the intended innovation
+        innov = res.innovations_pos_ned_m if block == "position" else res.innovations_vel_ned_m_s
+        np.testing.assert_allclose(-innov[j], target, rtol=0, atol=1e-5 * np.abs(target).max())
+    else:
+        assert res.gnss_rejected_t_s.tolist() == [gnss.t_s[j]]
 
 
 def test_innovations_are_consistent(drive: Any) -> None:

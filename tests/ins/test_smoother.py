@@ -13,7 +13,8 @@ import pytest
 
 from kinsync.ins._ekf import propagate_cov, scalar_update
 from kinsync.ins.config import InsConfig
-from kinsync.ins.filter import Checkpoints, run_ins, transition_matrix
+from kinsync.ins.filter import run_ins, transition_matrix
+from kinsync.ins.forward_run import Checkpoints
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.smoother import smooth_checkpoints
 from kinsync.ins.solution import InitialState, NavSolution

@@ -180,6 +180,7 @@ def test_checkpoint_spacing_does_not_change_the_smoothed_solution(
     every 37 epochs through the outage (65 of them instead of one) give the same smoothed
     states and σ as the default spacing."""
     ref = _run(truth, 0).smoothed
+    # forward_pass reads the spacing from its own module's namespace
     monkeypatch.setattr(ins_filter, "CHECKPOINT_EVERY", 37)
     dense = _run(truth, 0).smoothed
     assert ref is not None

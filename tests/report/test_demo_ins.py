@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from kinsync.errors import InputError
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth
-from kinsync.ins.filter import align_static_gnss_heading, run_ins
+from kinsync.ins.filter import run_ins
 from kinsync.report.demo_ins import (
     ERROR_HEADERS,
     NAVEGO_PEERS,
@@ -30,7 +31,8 @@ from kinsync.report.demo_ins import (
 )
 from kinsync.report.html import Section, render_report
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure, route_map_figure
-from kinsync.sim.drive import ImuErrorModel, simulate_drive
+from kinsync.sim.drive import simulate_drive
+from kinsync.sim.imu import ImuErrorModel
 
 SHORT = InsDemoSetup(duration_s=100.0, static_s=20.0, align_s=15.0, outage_s=(60.0, 75.0), seed=3)
 MG = 9.80665e-3

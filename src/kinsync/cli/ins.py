@@ -165,8 +165,9 @@ def run(
     ] = False,
 ) -> None:
     """Filter IMU + GNSS into a navigation solution (15-state error-state EKF)."""
+    from kinsync.ins.alignment import align_static_gnss_heading  # noqa: PLC0415
     from kinsync.ins.checks import check_inputs, gnss_within_imu_span  # noqa: PLC0415
-    from kinsync.ins.filter import align_static_gnss_heading, run_ins  # noqa: PLC0415
+    from kinsync.ins.filter import run_ins  # noqa: PLC0415
     from kinsync.io.gnss_csv import read_gnss_csv  # noqa: PLC0415
     from kinsync.io.imu_csv import read_imu_csv  # noqa: PLC0415
     from kinsync.io.ins_config import read_ins_config  # noqa: PLC0415

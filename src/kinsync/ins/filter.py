@@ -14,12 +14,9 @@ from the state at the start of the interval, ``P ← Φ P Φ^T + Q``, one strapd
   position is moved to ``t_k`` with the INS velocity (``p + v (t_k - t_gnss)``, at most
   half an IMU interval). GNSS epochs more than half an interval outside the IMU span
   from the initial epoch on are ignored (`GnssStatus.OUTSIDE`).
-- **Observations.** ``z = INS - GNSS`` at the antenna:
-  position ``p_ant = p + C_b^n l`` with ``H = [[(C l)×], 0, I, 0, 0]``; velocity
-  ``v_ant = v + C_b^n (ω_ib × l) - ω_ie × (C_b^n l)`` with
-  ``H = [[(C(ω×l))×] - [ω_ie×][(C l)×], I, 0, -C_b^n [l×], 0]`` (Groves 2013,
-  ch. 14, written for the misorientation ``C(nominal) = (I - [φ×]) C(true)``).
-  Standard deviations given as NaN take the configured defaults.
+- **Observations.** ``z = INS - GNSS`` at the antenna, position and (optionally)
+  velocity rows with the lever arm (`kinsync.ins.gnss_observation`). Standard
+  deviations given as NaN take the configured defaults.
 - **χ² gate.** Position and velocity innovations are each tested against
   ``ν^T S^{-1} ν <= χ²₃(gate_probability)`` with the predicted ``S = H P H^T + R``; if
   either fails the epoch is rejected as a whole (a receiver that produced one bad
@@ -28,12 +25,17 @@ from the state at the start of the interval, ``P ← Φ P Φ^T + Q``, one strapd
   (exact for the diagonal ``R``), the error state is fed back into the mechanisation
   (closed loop) and reset to zero.
 
+The compiled loop reads and writes named tuples of arrays (`ImuArrays`, `GnssArrays`,
+`FilterState`, `ForwardOutput`, `GnssLog` and the smoother's
+`kinsync.ins.forward_run.CheckpointStore`), which numba compiles like separate array
+arguments.
+
 When smoothing is requested, the forward pass also stores a compact *checkpoint* per
 GNSS update (the prior and posterior covariance, the accepted rows of ``H``, their
-variances and ``z``) and one every `CHECKPOINT_EVERY` epochs; `kinsync.ins.smoother`
-recomputes ``Φ`` and the covariances between checkpoints from the stored nominal
-states, so the memory is O(n · 31 + m · 600) floats instead of three 15×15 matrices
-per epoch.
+variances and ``z``) and one every `CHECKPOINT_EVERY` epochs
+(`kinsync.ins.forward_run`); `kinsync.ins.smoother` recomputes ``Φ`` and the
+covariances between checkpoints from the stored nominal states, so the memory is
+O(n · 31 + m · 600) floats instead of three 15×15 matrices per epoch.
 
 References
 ----------
@@ -49,15 +51,14 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numba import njit
 from scipy.stats import chi2
 
 from kinsync._typing import FloatArray, IntArray
-from kinsync.errors import InputError, ObservabilityError
-from kinsync.frames import euler_rpy_to_matrix
+from kinsync.errors import InputError
 from kinsync.ins._ekf import (
     N_ERR,
     N_PARAMS,
@@ -76,43 +77,43 @@ from kinsync.ins._ekf import (
     step_matrices,
 )
 from kinsync.ins.config import InsConfig
-from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
+from kinsync.ins.forward_run import (
+    CHECKPOINT_EVERY,
+    CheckpointStore,
+    ForwardRun,
+    checkpoints_from_store,
+    new_checkpoint_store,
+)
+from kinsync.ins.gnss_observation import MAX_ROWS, gate_stat, observation
 from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.smoother import smooth_forward_run
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.ins.strapdown import (
-    I_BG,
     I_H,
     I_LAT,
-    I_LON,
-    I_Q,
-    I_VEL,
     N_PREV,
     N_STATE,
     check_imu_gaps,
     initial_state_vector,
     mech_step,
     nav_solution_from_states,
-    quat_to_dcm,
     start_epoch,
 )
 
 __all__ = [
-    "CHECKPOINT_EVERY",
     "CHUNK_EPOCHS",
     "GnssStatus",
     "InsResult",
-    "align_static_gnss_heading",
     "run_ins",
     "transition_matrix",
 ]
 
 CHUNK_EPOCHS = 10_000
 """IMU epochs per call of the compiled loop (progress is reported between calls)."""
-CHECKPOINT_EVERY = 2_000
-"""Longest run of IMU epochs between two smoother checkpoints."""
-MAX_ROWS = 6  # observation rows per GNSS epoch (position 3 + velocity 3)
 MAX_ABS_HEIGHT_M = 1.0e6
 """A mechanised height beyond ±1000 km means the solution diverged."""
+MAX_ABS_LAT_RAD = 1.5707
+"""A mechanised latitude beyond this (just short of π/2) means the solution diverged."""
 
 _jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
 
@@ -198,189 +199,156 @@ def transition_matrix(F: FloatArray, dt_s: float) -> FloatArray:
 
 
 # ---------------------------------------------------------------------- compiled loop
-def _skew_into(
-    v0: float, v1: float, v2: float, M: FloatArray, r: int, c: int, sign: float
-) -> None:  # pragma: no cover
-    """Add ``sign · [v×]`` into the 3x3 block of ``M`` at (r, c)."""
-    M[r, c + 1] += -sign * v2
-    M[r, c + 2] += sign * v1
-    M[r + 1, c] += sign * v2
-    M[r + 1, c + 2] += -sign * v0
-    M[r + 2, c] += -sign * v1
-    M[r + 2, c + 1] += sign * v0
+class ImuArrays(NamedTuple):
+    """IMU samples as the compiled loop reads them (the arrays of `ImuData`).
 
-
-skew_into = _jit(_skew_into)
-
-
-def _observation(  # noqa: PLR0915 - one flat function is what numba compiles best
-    s: FloatArray,
-    gyro: FloatArray,
-    params: FloatArray,
-    dt_shift: float,
-    g_llh: FloatArray,
-    g_vel: FloatArray,
-    C: FloatArray,
-    H: FloatArray,
-    z: FloatArray,
-) -> None:  # pragma: no cover - compiled by numba
-    """Rows of ``H`` (6, 15) and ``z`` (6,) (INS minus GNSS at the antenna).
-
-    ``dt_shift = t_imu - t_gnss``; rows 3..5 are filled only when ``g_vel`` is finite.
+    Attributes
+    ----------
+    t_s : ndarray, shape (n,)
+        Sample times (s), strictly increasing.
+    gyro_body_rad_s : ndarray, shape (n, 3)
+        Angular rate of the body w.r.t. inertial space, body FRD (rad/s).
+    acc_body_m_s2 : ndarray, shape (n, 3)
+        Specific force, body FRD (m/s^2).
     """
-    lat = s[I_LAT]
-    h = s[I_H]
-    sl = math.sin(lat)
-    cl = math.cos(lat)
-    den = 1.0 - E2 * sl * sl
-    r_n = A_M / math.sqrt(den)
-    r_m = A_M * (1.0 - E2) / (den * math.sqrt(den))
-    quat_to_dcm(s[I_Q : I_Q + 4], C)
-    l0, l1, l2 = params[P_ARM], params[P_ARM + 1], params[P_ARM + 2]
-    ln0 = C[0, 0] * l0 + C[0, 1] * l1 + C[0, 2] * l2
-    ln1 = C[1, 0] * l0 + C[1, 1] * l1 + C[1, 2] * l2
-    ln2 = C[2, 0] * l0 + C[2, 1] * l1 + C[2, 2] * l2
-    vn, ve, vd = s[I_VEL], s[I_VEL + 1], s[I_VEL + 2]
-    dlon = s[I_LON] - g_llh[1]
-    dlon = (dlon + math.pi) % (2.0 * math.pi) - math.pi
-    z[0] = (lat - g_llh[0]) * (r_m + h) + ln0 - vn * dt_shift
-    z[1] = dlon * (r_n + h) * cl + ln1 - ve * dt_shift
-    z[2] = -(h - g_llh[2]) + ln2 - vd * dt_shift
-    for i in range(MAX_ROWS):
-        for j in range(N_ERR):
-            H[i, j] = 0.0
-    skew_into(ln0, ln1, ln2, H, 0, 0, 1.0)
-    for i in range(3):
-        H[i, 6 + i] = 1.0
-    if not math.isfinite(g_vel[0]):
-        return
-    # Velocity at the antenna: v + C (ω × l) - ω_ie × (C l).
-    w0 = gyro[0] - s[I_BG]
-    w1 = gyro[1] - s[I_BG + 1]
-    w2 = gyro[2] - s[I_BG + 2]
-    wl0 = w1 * l2 - w2 * l1
-    wl1 = w2 * l0 - w0 * l2
-    wl2 = w0 * l1 - w1 * l0
-    cw0 = C[0, 0] * wl0 + C[0, 1] * wl1 + C[0, 2] * wl2
-    cw1 = C[1, 0] * wl0 + C[1, 1] * wl1 + C[1, 2] * wl2
-    cw2 = C[2, 0] * wl0 + C[2, 1] * wl1 + C[2, 2] * wl2
-    e0 = OMEGA_IE_RAD_S * cl
-    e2 = -OMEGA_IE_RAD_S * sl
-    # ω_ie × (C l) with ω_ie = (e0, 0, e2)
-    x0 = -e2 * ln1
-    x1 = e2 * ln0 - e0 * ln2
-    x2 = e0 * ln1
-    z[3] = vn + cw0 - x0 - g_vel[0]
-    z[4] = ve + cw1 - x1 - g_vel[1]
-    z[5] = vd + cw2 - x2 - g_vel[2]
-    skew_into(cw0, cw1, cw2, H, 3, 0, 1.0)
-    # - [ω_ie×][(C l)×]
-    Wx = np.zeros((3, 3))
-    Lx = np.zeros((3, 3))
-    skew_into(e0, 0.0, e2, Wx, 0, 0, 1.0)
-    skew_into(ln0, ln1, ln2, Lx, 0, 0, 1.0)
-    for i in range(3):
-        for j in range(3):
-            acc = 0.0
-            for m in range(3):
-                acc += Wx[i, m] * Lx[m, j]
-            H[3 + i, j] -= acc
-        H[3 + i, 3 + i] = 1.0
-    # -C [l×]
-    for i in range(3):
-        H[3 + i, 9 + 0] = -(C[i, 1] * l2 - C[i, 2] * l1)
-        H[3 + i, 9 + 1] = -(-C[i, 0] * l2 + C[i, 2] * l0)
-        H[3 + i, 9 + 2] = -(C[i, 0] * l1 - C[i, 1] * l0)
+
+    t_s: FloatArray
+    gyro_body_rad_s: FloatArray
+    acc_body_m_s2: FloatArray
 
 
-observation = _jit(_observation)
+class GnssArrays(NamedTuple):
+    """GNSS epochs as the compiled loop reads them (see `GnssData`).
 
-
-def _gate_stat(
-    P: FloatArray, H: FloatArray, r0: int, r: FloatArray, z: FloatArray, sd: FloatArray
-) -> float:  # pragma: no cover
-    """``z^T S^{-1} z`` for rows ``r0..r0+2`` with ``S = H P H^T + diag(r)``.
-
-    ``sd`` receives ``sqrt(diag S)``; a non-positive-definite ``S`` gives infinity.
+    Attributes
+    ----------
+    t_s : ndarray, shape (m,)
+        Epoch times (s).
+    imu_epoch : ndarray of int, shape (m,)
+        IMU epoch at which each GNSS epoch is processed; -1 outside the IMU span
+        (`gnss_epochs`).
+    lat_lon_rad_h_m : ndarray, shape (m, 3)
+        Antenna latitude, longitude (rad) and ellipsoidal height (m), WGS84.
+    vel_ned_m_s : ndarray, shape (m, 3)
+        Antenna velocity, NED (m/s); NaN rows where no velocity is used.
+    obs_var : ndarray, shape (m, 6)
+        Noise variances of the observation rows: position N, E, D (m^2), then
+        velocity N, E, D (m^2/s^2), configured defaults in place of NaN σ.
     """
-    S = np.empty((3, 3))
-    HP = np.empty((3, N_ERR))
-    for i in range(3):
-        for j in range(N_ERR):
-            acc = 0.0
-            for m in range(N_ERR):
-                acc += H[r0 + i, m] * P[m, j]
-            HP[i, j] = acc
-    for i in range(3):
-        for j in range(3):
-            acc = 0.0
-            for m in range(N_ERR):
-                acc += HP[i, m] * H[r0 + j, m]
-            S[i, j] = acc
-        S[i, i] += r[r0 + i]
-        sd[i] = math.sqrt(S[i, i])
-    # z^T S^{-1} z through the adjugate (S symmetric 3x3); not positive: never accepted.
-    c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
-    c01 = S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]
-    c02 = S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]
-    c11 = S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]
-    c12 = S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]
-    c22 = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-    det = (
-        S[0, 0] * c00
-        + S[0, 1] * (S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2])
-        + S[0, 2] * (S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0])
+
+    t_s: FloatArray
+    imu_epoch: IntArray
+    lat_lon_rad_h_m: FloatArray
+    vel_ned_m_s: FloatArray
+    obs_var: FloatArray
+
+
+class FilterState(NamedTuple):
+    """The filter's state between two calls of the compiled loop (updated in place).
+
+    Attributes
+    ----------
+    nominal : ndarray, shape (16,)
+        Nominal navigation state in the layout of `kinsync.ins.strapdown`: latitude,
+        longitude (rad), height (m), velocity NED (m/s), ``q_body_to_ned`` (w, x, y, z),
+        gyro drift (rad/s) and accelerometer bias (m/s^2) estimates.
+    increments_prev : ndarray, shape (6,)
+        Previous interval's bias-corrected ``Δθ`` (rad) and ``Δv`` (m/s), body frame
+        (coning and sculling corrections).
+    P : ndarray, shape (15, 15)
+        Error-state covariance (order of `kinsync.ins._ekf`).
+    """
+
+    nominal: FloatArray
+    increments_prev: FloatArray
+    P: FloatArray
+
+
+class ForwardOutput(NamedTuple):
+    """Per-epoch output of the compiled loop, indexed by absolute IMU epoch.
+
+    Attributes
+    ----------
+    states : ndarray, shape (n, 16)
+        Nominal state after the epoch's updates (layout of `FilterState.nominal`).
+    std : ndarray, shape (n, 15)
+        1σ of the error state.
+    """
+
+    states: FloatArray
+    std: FloatArray
+
+
+class GnssLog(NamedTuple):
+    """What the compiled loop did with each GNSS epoch (written in place).
+
+    Attributes
+    ----------
+    next_index : ndarray of int, shape (1,)
+        First GNSS epoch the loop has not visited yet.
+    status : ndarray of int, shape (m,)
+        `GnssStatus` of each epoch (`GnssStatus.OUTSIDE` until visited).
+    innovation : ndarray, shape (m, 6)
+        GNSS minus predicted antenna position N, E, D (m) and velocity N, E, D (m/s)
+        before the update; NaN where not used.
+    innovation_std_pos_ned_m : ndarray, shape (m, 3)
+        ``sqrt(diag S)`` of the position innovations (m); NaN where not used.
+    """
+
+    next_index: IntArray
+    status: IntArray
+    innovation: FloatArray
+    innovation_std_pos_ned_m: FloatArray
+
+
+def new_gnss_log(m: int) -> GnssLog:
+    """Empty `GnssLog` for ``m`` GNSS epochs (all `GnssStatus.OUTSIDE`, NaN innovations)."""
+    return GnssLog(
+        next_index=np.zeros(1, dtype=np.int64),
+        status=np.full(m, GnssStatus.OUTSIDE, dtype=np.int64),
+        innovation=np.full((m, MAX_ROWS), np.nan),
+        innovation_std_pos_ned_m=np.full((m, 3), np.nan),
     )
-    if not (det > 0.0 and math.isfinite(det)):
-        return math.inf
-    a, b, c = z[r0], z[r0 + 1], z[r0 + 2]
-    q = a * (c00 * a + c01 * b + c02 * c) + b * (c01 * a + c11 * b + c12 * c)
-    q += c * (c02 * a + c12 * b + c22 * c)
-    return float(q / det)
 
 
-gate_stat = _jit(_gate_stat)
+def _add_plain_checkpoint(
+    checkpoints: CheckpointStore, k: int, P: FloatArray
+) -> None:  # pragma: no cover - compiled by numba
+    """Store a checkpoint without update (``P^- = P^+ = P``) at IMU epoch ``k``."""
+    c = checkpoints.n_filled[0]
+    checkpoints.epoch[c] = k
+    checkpoints.P_minus[c] = P
+    checkpoints.P_plus[c] = P
+    checkpoints.nrows[c] = 0
+    checkpoints.n_filled[0] = c + 1
+    checkpoints.last_epoch[0] = k
+
+
+add_plain_checkpoint = _jit(_add_plain_checkpoint)
 
 
 def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compiles best
     k_begin: int,
     k_end: int,
     k0: int,
-    t: FloatArray,
-    gyro: FloatArray,
-    acc: FloatArray,
-    g_t: FloatArray,
-    g_epoch: IntArray,
-    g_llh: FloatArray,
-    g_vel: FloatArray,
-    g_var: FloatArray,
+    imu: ImuArrays,
+    gnss: GnssArrays,
     params: FloatArray,
-    state: FloatArray,
-    prev: FloatArray,
-    P: FloatArray,
-    ctr: IntArray,
-    out_state: FloatArray,
-    out_std: FloatArray,
-    g_status: IntArray,
-    innov: FloatArray,
-    innov_sd: FloatArray,
-    store: bool,
-    ck_every: int,
-    ck_epoch: IntArray,
-    ck_Pm: FloatArray,
-    ck_Pp: FloatArray,
-    ck_H: FloatArray,
-    ck_r: FloatArray,
-    ck_z: FloatArray,
-    ck_nrows: IntArray,
+    filt: FilterState,
+    out: ForwardOutput,
+    log: GnssLog,
+    checkpoints: CheckpointStore,
 ) -> int:  # pragma: no cover - compiled by numba; tested through run_ins
     """Forward filter over epochs ``k_begin .. k_end-1`` (see the module docstring).
 
-    ``ctr`` = [next GNSS index, number of checkpoints, epoch of the last checkpoint].
+    ``filt``, ``out``, ``log`` and ``checkpoints`` are updated in place, so that the
+    next chunk continues where this one stopped; ``k0`` is the initial epoch.
     Returns -1, or the first epoch whose state or covariance is not finite, whose
     latitude passes a pole or whose height leaves ±`MAX_ABS_HEIGHT_M` (the loop stops).
     """
-    m = g_t.shape[0]
+    m = gnss.t_s.shape[0]
+    nominal = filt.nominal
+    P = filt.P
     qa = np.empty(4)
     qb = np.empty(4)
     C = np.empty((3, 3))
@@ -403,84 +371,80 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
     gate = params[P_GATE]
     for k in range(k_begin, k_end):
         if k > k0:
-            dt = t[k] - t[k - 1]
-            step_matrices(state, acc[k], dt, params, f_b, C, F, Phi, q)
+            dt = imu.t_s[k] - imu.t_s[k - 1]
+            acc_k = imu.acc_body_m_s2[k]
+            step_matrices(nominal, acc_k, dt, params, f_b, C, F, Phi, q)
             propagate_cov(P, Phi, q, T)
-            mech_step(state, prev, gyro[k], acc[k], dt, k == k0 + 1, coning, qa, qb, C)
+            mech_step(
+                nominal, filt.increments_prev, imu.gyro_body_rad_s[k], acc_k, dt, k == k0 + 1,
+                coning, qa, qb, C,
+            )  # fmt: skip
             ok_k = True
             for i in range(N_STATE):
-                ok_k = ok_k and math.isfinite(state[i])
+                ok_k = ok_k and math.isfinite(nominal[i])
             for i in range(N_ERR):
                 ok_k = ok_k and math.isfinite(P[i, i])
-            ok_k = ok_k and abs(state[I_LAT]) < 1.5707 and abs(state[I_H]) < MAX_ABS_HEIGHT_M
+            ok_k = (
+                ok_k
+                and abs(nominal[I_LAT]) < MAX_ABS_LAT_RAD
+                and abs(nominal[I_H]) < MAX_ABS_HEIGHT_M
+            )
             if not ok_k:
                 return k
-        elif store:
-            c = ctr[1]
-            ck_epoch[c] = k
-            ck_Pm[c] = P
-            ck_Pp[c] = P
-            ck_nrows[c] = 0
-            ctr[1] = c + 1
-            ctr[2] = k
-        while ctr[0] < m and g_epoch[ctr[0]] <= k:
-            j = ctr[0]
-            ctr[0] = j + 1
-            if g_epoch[j] < k:
+        elif checkpoints.enabled:
+            add_plain_checkpoint(checkpoints, k, P)
+        while log.next_index[0] < m and gnss.imu_epoch[log.next_index[0]] <= k:
+            j = log.next_index[0]
+            log.next_index[0] = j + 1
+            if gnss.imu_epoch[j] < k:
                 continue
-            with_vel = use_vel and math.isfinite(g_vel[j, 0])
+            with_vel = use_vel and math.isfinite(gnss.vel_ned_m_s[j, 0])
             observation(
-                state, gyro[k], params, t[k] - g_t[j], g_llh[j], g_vel[j] if with_vel else nan3,
-                C, H, z,
+                nominal, imu.gyro_body_rad_s[k], params, imu.t_s[k] - gnss.t_s[j],
+                gnss.lat_lon_rad_h_m[j], gnss.vel_ned_m_s[j] if with_vel else nan3, C, H, z,
             )  # fmt: skip
             for i in range(MAX_ROWS):
-                r[i] = g_var[j, i]
+                r[i] = gnss.obs_var[j, i]
             d2p = gate_stat(P, H, 0, r, z, sd_p)
             ok = d2p <= gate
             if with_vel:
                 d2v = gate_stat(P, H, 3, r, z, sd_v)
                 ok = ok and d2v <= gate
             if not ok:
-                g_status[j] = 2
+                log.status[j] = GnssStatus.REJECTED
                 continue
-            g_status[j] = 1
+            log.status[j] = GnssStatus.USED
             nrows = 6 if with_vel else 3
             for i in range(3):
-                innov[j, i] = -z[i]
-                innov_sd[j, i] = sd_p[i]
+                log.innovation[j, i] = -z[i]
+                log.innovation_std_pos_ned_m[j, i] = sd_p[i]
                 if with_vel:
-                    innov[j, 3 + i] = -z[3 + i]
-            if store:
-                c = ctr[1]
-                ck_epoch[c] = k
-                ck_Pm[c] = P
+                    log.innovation[j, 3 + i] = -z[3 + i]
+            if checkpoints.enabled:
+                c = checkpoints.n_filled[0]
+                checkpoints.epoch[c] = k
+                checkpoints.P_minus[c] = P
             for i in range(N_ERR):
                 x[i] = 0.0
             for i in range(nrows):
                 for jj in range(N_ERR):
                     hrow[jj] = H[i, jj]
                 scalar_update(P, x, hrow, r[i], z[i], ph)
-            feedback(state, x, qa, qb)
-            if store:
-                c = ctr[1]
-                ck_Pp[c] = P
-                ck_H[c] = H
-                ck_r[c] = r
-                ck_z[c] = z
-                ck_nrows[c] = nrows
-                ctr[1] = c + 1
-                ctr[2] = k
-        if store and k - ctr[2] >= ck_every:
-            c = ctr[1]
-            ck_epoch[c] = k
-            ck_Pm[c] = P
-            ck_Pp[c] = P
-            ck_nrows[c] = 0
-            ctr[1] = c + 1
-            ctr[2] = k
-        out_state[k] = state
+            feedback(nominal, x, qa, qb)
+            if checkpoints.enabled:
+                c = checkpoints.n_filled[0]
+                checkpoints.P_plus[c] = P
+                checkpoints.H[c] = H
+                checkpoints.r[c] = r
+                checkpoints.z[c] = z
+                checkpoints.nrows[c] = nrows
+                checkpoints.n_filled[0] = c + 1
+                checkpoints.last_epoch[0] = k
+        if checkpoints.enabled and k - checkpoints.last_epoch[0] >= checkpoints.every_epochs:
+            add_plain_checkpoint(checkpoints, k, P)
+        out.states[k] = nominal
         for i in range(N_ERR):
-            out_std[k, i] = math.sqrt(max(P[i, i], 0.0))
+            out.std[k, i] = math.sqrt(max(P[i, i], 0.0))
     return -1
 
 
@@ -488,35 +452,6 @@ _forward_kernel = cast(Callable[..., int], _jit(_forward_loop))
 
 
 # ---------------------------------------------------------------------- Python side
-@dataclass(frozen=True, eq=False)
-class Checkpoints:
-    """What the smoother needs from the forward pass (see the module docstring).
-
-    Attributes
-    ----------
-    epoch : ndarray of int, shape (c,)
-        IMU epoch of each checkpoint (non-decreasing; the first is the initial epoch).
-    P_minus, P_plus : ndarray, shape (c, 15, 15)
-        Error covariance before and after the checkpoint's update.
-    H : ndarray, shape (c, 6, 15)
-        Observation rows (the first ``nrows`` are used).
-    r : ndarray, shape (c, 6)
-        Their noise variances.
-    z : ndarray, shape (c, 6)
-        Their values (INS minus GNSS; the innovation, as the prior error is zero).
-    nrows : ndarray of int, shape (c,)
-        Rows used (0: no update, a plain checkpoint).
-    """
-
-    epoch: IntArray
-    P_minus: FloatArray
-    P_plus: FloatArray
-    H: FloatArray
-    r: FloatArray
-    z: FloatArray
-    nrows: IntArray
-
-
 def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     """Parameter vector of the compiled loop for ``config``."""
     p = np.zeros(N_PARAMS)
@@ -561,8 +496,9 @@ def gnss_epochs(imu_t_s: FloatArray, k0: int, gnss_t_s: FloatArray) -> IntArray:
 
 
 def _gnss_arrays(
-    gnss: GnssData, config: InsConfig, *, use_velocity: bool
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+    gnss: GnssData, imu_epoch: IntArray, config: InsConfig, *, use_velocity: bool
+) -> GnssArrays:
+    """The loop's view of ``gnss``: radians, NaN σ replaced by the configured defaults."""
     m = len(gnss)
     llh = np.column_stack([np.radians(gnss.lat_deg), np.radians(gnss.lon_deg), gnss.h_m])
     var = np.empty((m, MAX_ROWS))
@@ -577,31 +513,9 @@ def _gnss_arrays(
         if gnss.std_vel_ned_m_s is not None:
             sv = gnss.std_vel_ned_m_s
             var[:, 3:] = np.where(np.isnan(sv), np.asarray(config.gnss_std_vel_ned_m_s), sv) ** 2
-    return llh, vel, var
-
-
-@dataclass(frozen=True, eq=False)
-class ForwardRun:
-    """Raw output of the forward pass (internal; the smoother reads it).
-
-    Attributes
-    ----------
-    k0 : int
-        Initial IMU epoch; arrays below are indexed by absolute IMU epoch.
-    states : ndarray, shape (n, 16)
-        Nominal states after feedback (rows before ``k0`` unused).
-    std : ndarray, shape (n, 15)
-        1σ of the error state.
-    params : ndarray
-        Parameter vector of the loop.
-    checkpoints : Checkpoints or None
-    """
-
-    k0: int
-    states: FloatArray
-    std: FloatArray
-    params: FloatArray
-    checkpoints: Checkpoints | None
+    return GnssArrays(
+        t_s=gnss.t_s, imu_epoch=imu_epoch, lat_lon_rad_h_m=llh, vel_ned_m_s=vel, obs_var=var
+    )
 
 
 def forward_pass(
@@ -613,39 +527,54 @@ def forward_pass(
     use_velocity: bool,
     store: bool,
     progress: Callable[[float], None] | None,
-    g_epoch: IntArray,
-    g_status: IntArray,
-    innov: FloatArray,
-    innov_sd: FloatArray,
+    gnss_imu_epoch: IntArray,
+    log: GnssLog,
 ) -> ForwardRun:
-    """Run the compiled forward loop in chunks; fills the GNSS bookkeeping arrays."""
+    """Run the compiled forward loop in chunks of `CHUNK_EPOCHS` epochs.
+
+    Parameters
+    ----------
+    imu, gnss, config, init, use_velocity
+        As for `run_ins`.
+    store : bool
+        Store the smoother's checkpoints (`kinsync.ins.forward_run`).
+    progress : callable, optional
+        Called with the fraction of the epochs done after each chunk.
+    gnss_imu_epoch : ndarray of int, shape (m,)
+        IMU epoch of each GNSS epoch, -1 outside the span (`gnss_epochs`).
+    log : GnssLog
+        Filled with the status and innovations of each GNSS epoch (`new_gnss_log`).
+
+    Returns
+    -------
+    ForwardRun
+
+    Raises
+    ------
+    InputError
+        The solution diverged.
+    """
     k0 = start_epoch(imu, init)
     n = len(imu)
     params = filter_params(config, use_velocity=use_velocity)
-    llh, vel, var = _gnss_arrays(gnss, config, use_velocity=use_velocity)
-    state = initial_state_vector(init)
-    P = initial_covariance(config)
-    prev = np.zeros(N_PREV)
-    ctr = np.zeros(3, dtype=np.int64)
-    out_state = np.zeros((n, N_STATE))
-    out_std = np.zeros((n, N_ERR))
-    n_in = int(np.count_nonzero(g_epoch >= 0))
-    n_ck = (n_in + (n - k0) // CHECKPOINT_EVERY + 2) if store else 1
-    ck_epoch = np.zeros(n_ck, dtype=np.int64)
-    ck_Pm = np.zeros((n_ck, N_ERR, N_ERR))
-    ck_Pp = np.zeros((n_ck, N_ERR, N_ERR))
-    ck_H = np.zeros((n_ck, MAX_ROWS, N_ERR))
-    ck_r = np.zeros((n_ck, MAX_ROWS))
-    ck_z = np.zeros((n_ck, MAX_ROWS))
-    ck_nrows = np.zeros(n_ck, dtype=np.int64)
+    imu_arrays = ImuArrays(imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2)
+    gnss_arrays = _gnss_arrays(gnss, gnss_imu_epoch, config, use_velocity=use_velocity)
+    filt = FilterState(
+        nominal=initial_state_vector(init),
+        increments_prev=np.zeros(N_PREV),
+        P=initial_covariance(config),
+    )
+    out = ForwardOutput(states=np.zeros((n, N_STATE)), std=np.zeros((n, N_ERR)))
+    n_in = int(np.count_nonzero(gnss_imu_epoch >= 0))
+    checkpoints = new_checkpoint_store(
+        n_in + (n - k0) // CHECKPOINT_EVERY + 2, CHECKPOINT_EVERY, enabled=store
+    )
+    bad = -1
     for k_begin in range(k0, n, CHUNK_EPOCHS):
         k_end = min(n, k_begin + CHUNK_EPOCHS)
         bad = _forward_kernel(
-            k_begin, k_end, k0, imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2,
-            gnss.t_s, g_epoch, llh, vel, var, params, state, prev, P, ctr,
-            out_state, out_std, g_status, innov, innov_sd, store, CHECKPOINT_EVERY,
-            ck_epoch, ck_Pm, ck_Pp, ck_H, ck_r, ck_z, ck_nrows,
-        )  # fmt: skip
+            k_begin, k_end, k0, imu_arrays, gnss_arrays, params, filt, out, log, checkpoints
+        )
         if bad >= 0:
             break
         if progress is not None:
@@ -657,14 +586,13 @@ def forward_pass(
             "IMU units (rad/s, m/s^2), axes (X forward, Y right, Z down) and the initial state"
         )
         raise InputError(msg)
-    ck: Checkpoints | None = None
-    if store:
-        c = int(ctr[1])
-        ck = Checkpoints(
-            epoch=ck_epoch[:c], P_minus=ck_Pm[:c], P_plus=ck_Pp[:c], H=ck_H[:c],
-            r=ck_r[:c], z=ck_z[:c], nrows=ck_nrows[:c],
-        )  # fmt: skip
-    return ForwardRun(k0=k0, states=out_state, std=out_std, params=params, checkpoints=ck)
+    return ForwardRun(
+        k0=k0,
+        states=out.states,
+        std=out.std,
+        params=params,
+        checkpoints=checkpoints_from_store(checkpoints),
+    )
 
 
 def run_ins(
@@ -714,10 +642,7 @@ def run_ins(
     k0 = start_epoch(imu, init)
     check_imu_gaps(imu, k0, config.max_imu_gap_s)
     g_epoch = gnss_epochs(imu.t_s, k0, gnss.t_s)
-    m = len(gnss)
-    g_status = np.zeros(m, dtype=np.int64)
-    innov = np.full((m, MAX_ROWS), np.nan)
-    innov_sd = np.full((m, 3), np.nan)
+    log = new_gnss_log(len(gnss))
     fwd_progress = progress
     if smooth and progress is not None:
         outer = progress
@@ -727,19 +652,16 @@ def run_ins(
 
     run = forward_pass(
         imu, gnss, config, init, use_velocity=use_velocity, store=smooth,
-        progress=fwd_progress, g_epoch=g_epoch, g_status=g_status, innov=innov,
-        innov_sd=innov_sd,
+        progress=fwd_progress, gnss_imu_epoch=g_epoch, log=log,
     )  # fmt: skip
-    n_used = int(np.count_nonzero(g_status == GnssStatus.USED))
-    n_rej = int(np.count_nonzero(g_status == GnssStatus.REJECTED))
+    n_used = int(np.count_nonzero(log.status == GnssStatus.USED))
+    n_rej = int(np.count_nonzero(log.status == GnssStatus.REJECTED))
     t_out = imu.t_s[k0:]
     forward = nav_solution_from_states(
         t_out, run.states[k0:], run.std[k0:], n_gnss_used=n_used, n_gnss_rejected=n_rej
     )
     smoothed: NavSolution | None = None
     if smooth:
-        from kinsync.ins.smoother import smooth_forward_run  # noqa: PLC0415 - import cycle
-
         states_s, std_s = smooth_forward_run(
             imu, run, None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
         )
@@ -751,244 +673,10 @@ def run_ins(
     return InsResult(
         forward=forward,
         smoothed=smoothed,
-        innovations_pos_ned_m=innov[inside, :3],
-        gnss_rejected_t_s=gnss.t_s[g_status == GnssStatus.REJECTED].copy(),
+        innovations_pos_ned_m=log.innovation[inside, :3],
+        gnss_rejected_t_s=gnss.t_s[log.status == GnssStatus.REJECTED].copy(),
         innovations_t_s=gnss.t_s[inside].copy(),
-        innovations_vel_ned_m_s=innov[inside, 3:],
-        innovation_std_pos_ned_m=innov_sd[inside],
-        gnss_status=g_status,
-    )
-
-
-# ---------------------------------------------------------------------- alignment
-STATIC_ACC_STD_M_S2 = 0.3
-"""Largest accelerometer standard deviation (per axis) accepted as "static" (m/s^2)."""
-STATIC_GYRO_STD_RAD_S = 0.02
-"""Largest gyro standard deviation (per axis) accepted as "static" (rad/s)."""
-STATIC_GRAVITY_TOL_M_S2 = 0.5
-"""Largest difference between the mean specific-force magnitude and normal gravity."""
-STATIC_GNSS_SPEED_M_S = 0.5
-"""Largest GNSS horizontal speed accepted during the static period (m/s)."""
-HEADING_MIN_SPEED_M_S = 2.0
-"""GNSS horizontal speed from which the course over ground is taken as heading (m/s)."""
-HEADING_MIN_DISTANCE_M = 10.0
-"""Without GNSS velocities: displacement from the static position that gives the heading."""
-
-
-def _static_window(imu: ImuData, static_s: float) -> int:
-    if not (isinstance(static_s, int | float) and math.isfinite(static_s) and static_s > 0):
-        msg = f"align_static_gnss_heading: static_s must be a positive number, got {static_s!r}"
-        raise InputError(msg)
-    t0 = float(imu.t_s[0])
-    if imu.t_s[-1] < t0 + static_s:
-        msg = (
-            f"no static start: the IMU record ({imu.t_s[-1] - t0:.3f} s) is shorter than the "
-            f"static period static_s = {static_s} s"
-        )
-        raise ObservabilityError(msg)
-    k_end = int(np.searchsorted(imu.t_s, t0 + static_s, side="right")) - 1
-    if k_end < 10:
-        msg = (
-            f"no static start: only {k_end + 1} IMU samples in the first {static_s} s; "
-            "a longer static_s is needed for levelling"
-        )
-        raise ObservabilityError(msg)
-    return k_end
-
-
-def _check_static(
-    imu: ImuData, gnss: GnssData, k_end: int, static_s: float, lat_rad: float, h_m: float
-) -> None:
-    acc = imu.acc_body_m_s2[: k_end + 1]
-    gyro = imu.gyro_body_rad_s[: k_end + 1]
-    acc_std = float(acc.std(axis=0).max())
-    gyro_std = float(gyro.std(axis=0).max())
-    g = float(normal_gravity_m_s2(lat_rad, h_m))
-    g_err = abs(float(np.linalg.norm(acc.mean(axis=0))) - g)
-    t0 = imu.t_s[0]
-    speed = 0.0
-    if gnss.vel_ned_m_s is not None:
-        sel = (gnss.t_s >= t0) & (gnss.t_s <= imu.t_s[k_end])
-        if sel.any():
-            speed = float(np.hypot(gnss.vel_ned_m_s[sel, 0], gnss.vel_ned_m_s[sel, 1]).max())
-    if (
-        acc_std > STATIC_ACC_STD_M_S2
-        or gyro_std > STATIC_GYRO_STD_RAD_S
-        or g_err > STATIC_GRAVITY_TOL_M_S2
-        or speed > STATIC_GNSS_SPEED_M_S
-    ):
-        msg = (
-            f"no static start: over the first {static_s} s (from t = {t0:.3f} s) the "
-            f"accelerometer std is {acc_std:.3f} m/s^2 (limit {STATIC_ACC_STD_M_S2}), the gyro "
-            f"std {gyro_std:.4f} rad/s (limit {STATIC_GYRO_STD_RAD_S}), |mean specific force| - "
-            f"gravity {g_err:.3f} m/s^2 (limit {STATIC_GRAVITY_TOL_M_S2}), the GNSS speed up to "
-            f"{speed:.2f} m/s (limit {STATIC_GNSS_SPEED_M_S}); start the record with the vehicle "
-            "at rest, shorten static_s, or give an InitialState"
-        )
-        raise ObservabilityError(msg)
-
-
-HEADING_WINDOW_S = 5.0
-"""Course-over-ground epochs used for the heading: this long after the first one (s)."""
-
-
-def _yaw_turned(
-    imu: ImuData, k_end: int, gyro_bias: FloatArray, roll: float, pitch: float
-) -> FloatArray:
-    """Yaw turned since the end of the static period at each IMU epoch (rad, n,)."""
-    w = imu.gyro_body_rad_s - gyro_bias
-    rate = (w[:, 1] * math.sin(roll) + w[:, 2] * math.cos(roll)) / math.cos(pitch)
-    inc = np.zeros(len(imu))
-    inc[1:] = rate[1:] * np.diff(imu.t_s)
-    inc[: k_end + 1] = 0.0
-    out: FloatArray = np.cumsum(inc)
-    return out
-
-
-def _heading(
-    imu: ImuData,
-    gnss: GnssData,
-    k_end: int,
-    lat0: float,
-    lon0: float,
-    roll: float,
-    pitch: float,
-    gyro_bias: FloatArray,
-    arm_body_m: FloatArray,
-) -> float:
-    """Heading at the end of the static period from GNSS course over ground (rad)."""
-    t_end = float(imu.t_s[k_end])
-    after = np.flatnonzero((gnss.t_s > t_end) & (gnss.t_s <= imu.t_s[-1]))
-    turned = _yaw_turned(imu, k_end, gyro_bias, roll, pitch)
-    k_of = np.clip(np.searchsorted(imu.t_s, gnss.t_s[after]), 0, len(imu) - 1)
-    if gnss.vel_ned_m_s is not None:
-        vel = gnss.vel_ned_m_s[after]
-        speed = np.hypot(vel[:, 0], vel[:, 1])
-        moving = np.flatnonzero(speed >= HEADING_MIN_SPEED_M_S)
-        if moving.size == 0:
-            msg = (
-                f"no motion to get heading from: the GNSS horizontal speed never reaches "
-                f"{HEADING_MIN_SPEED_M_S} m/s after the static period (t > {t_end:.3f} s); "
-                "drive off after the static start, or give an InitialState"
-            )
-            raise ObservabilityError(msg)
-        t_first = gnss.t_s[after[moving[0]]]
-        use = moving[gnss.t_s[after[moving]] <= t_first + HEADING_WINDOW_S]
-        yaw = 0.0
-        for _ in range(2):  # second pass: lever-arm velocity with the first heading
-            yaws = np.empty(use.size)
-            for i, u in enumerate(use):
-                k = int(k_of[u])
-                R = euler_rpy_to_matrix(roll, pitch, yaw + turned[k])
-                w = imu.gyro_body_rad_s[k] - gyro_bias
-                v_imu = vel[u] - R @ np.cross(w, arm_body_m)
-                yaws[i] = math.atan2(v_imu[1], v_imu[0]) - turned[k]
-            wts = speed[use] ** 2
-            yaw = math.atan2(float(np.sum(wts * np.sin(yaws))), float(np.sum(wts * np.cos(yaws))))
-        return yaw
-    r_m, r_n = radii_m(lat0)
-    dn = np.radians(gnss.lat_deg[after] - math.degrees(lat0)) * r_m
-    de = np.radians(gnss.lon_deg[after] - math.degrees(lon0)) * r_n * math.cos(lat0)
-    sig = np.nan_to_num(np.hypot(gnss.std_pos_ned_m[after, 0], gnss.std_pos_ned_m[after, 1]))
-    far = np.flatnonzero(np.hypot(dn, de) >= np.maximum(HEADING_MIN_DISTANCE_M, 10.0 * sig))
-    if far.size == 0:
-        msg = (
-            "no motion to get heading from: no GNSS fix after the static period lies "
-            f"{HEADING_MIN_DISTANCE_M} m (or 10 sigma) from the static position, and the file "
-            "has no velocities; drive off after the static start, or give an InitialState"
-        )
-        raise ObservabilityError(msg)
-    i = int(far[0])
-    # bearing of the displacement, taken as the mean heading since the static end
-    return math.atan2(float(de[i]), float(dn[i])) - 0.5 * float(turned[k_of[i]])
-
-
-def align_static_gnss_heading(
-    imu: ImuData,
-    gnss: GnssData,
-    *,
-    static_s: float = 5.0,
-    antenna_lever_arm_body_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
-) -> InitialState:
-    """Initial state by static levelling and GNSS course-over-ground heading.
-
-    1. The first ``static_s`` seconds of IMU data must be static (accelerometer and
-       gyro standard deviations, specific-force magnitude against normal gravity, and
-       GNSS speed when available, within the module's ``STATIC_*`` limits).
-    2. Levelling: ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, sqrt(f_y² + f_z²))``
-       from the mean specific force (accelerometer biases enter as tilt:
-       1 mg ≈ 0.06°).
-    3. The mean gyro output is the initial gyro drift estimate (the Earth rate,
-       projected with the final attitude, is removed). MEMS gyros are far too noisy for
-       gyrocompassing, so the heading comes from GNSS:
-    4. Heading: the course over ground (antenna velocity minus the lever-arm term
-       ``C (ω × l)``) of the GNSS epochs with a horizontal speed of at least
-       `HEADING_MIN_SPEED_M_S` during `HEADING_WINDOW_S` after the first one, each
-       carried back to the end of the static period by integrating the bias-corrected
-       yaw rate ``(ω_y sin φ + ω_z cos φ) / cos θ``, averaged with weights ``speed²``
-       (no side slip assumed). Without GNSS velocities: the bearing of the first fix
-       `HEADING_MIN_DISTANCE_M` (or 10σ) away from the static position, corrected by
-       half the yaw turned until then.
-    5. Position: mean GNSS fix of the static period, moved from the antenna to the
-       IMU with the lever arm; velocity zero.
-
-    Parameters
-    ----------
-    imu : ImuData
-        IMU samples starting with the static period.
-    gnss : GnssData
-        GNSS fixes (velocities strongly preferred).
-    static_s : float
-        Length of the static period at the start of ``imu`` (s).
-    antenna_lever_arm_body_m : (float, float, float)
-        IMU -> antenna lever arm, body frame (m).
-
-    Returns
-    -------
-    InitialState
-        At the last IMU epoch of the static period, with the gyro drift estimate.
-
-    Raises
-    ------
-    ObservabilityError
-        No static start, no GNSS fix during it, or no motion to take the heading from.
-    InputError
-        ``static_s`` is not a positive number.
-    """
-    k_end = _static_window(imu, static_s)
-    t0 = float(imu.t_s[0])
-    t_end = float(imu.t_s[k_end])
-    in_static = (gnss.t_s >= t0) & (gnss.t_s <= t_end)
-    if not in_static.any():
-        msg = (
-            f"no GNSS fix during the static period {t0:.3f} .. {t_end:.3f} s: the initial "
-            "position is unknown; lengthen static_s or give an InitialState"
-        )
-        raise ObservabilityError(msg)
-    lat0 = math.radians(float(gnss.lat_deg[in_static].mean()))
-    lon0 = math.radians(float(gnss.lon_deg[in_static].mean()))
-    h0 = float(gnss.h_m[in_static].mean())
-    _check_static(imu, gnss, k_end, static_s, lat0, h0)
-    f = imu.acc_body_m_s2[: k_end + 1].mean(axis=0)
-    roll = math.atan2(-f[1], -f[2])
-    pitch = math.atan2(f[0], math.hypot(f[1], f[2]))
-    gyro_mean = imu.gyro_body_rad_s[: k_end + 1].mean(axis=0)
-    arm = np.asarray(antenna_lever_arm_body_m, dtype=np.float64)
-    yaw = _heading(imu, gnss, k_end, lat0, lon0, roll, pitch, gyro_mean, arm)
-    yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
-    R = euler_rpy_to_matrix(roll, pitch, yaw)
-    w_ie = np.array([OMEGA_IE_RAD_S * math.cos(lat0), 0.0, -OMEGA_IE_RAD_S * math.sin(lat0)])
-    gyro_bias = gyro_mean - R.T @ w_ie
-    arm_ned = R @ arm
-    r_m, r_n = radii_m(lat0)
-    lat = lat0 - arm_ned[0] / (r_m + h0)
-    lon = lon0 - arm_ned[1] / ((r_n + h0) * math.cos(lat0))
-    return InitialState(
-        t_s=t_end,
-        lat_deg=math.degrees(lat),
-        lon_deg=math.degrees(lon),
-        h_m=float(h0 + arm_ned[2]),
-        vel_ned_m_s=(0.0, 0.0, 0.0),
-        rpy_rad=(roll, pitch, yaw),
-        gyro_bias_rad_s=(float(gyro_bias[0]), float(gyro_bias[1]), float(gyro_bias[2])),
+        innovations_vel_ned_m_s=log.innovation[inside, 3:],
+        innovation_std_pos_ned_m=log.innovation_std_pos_ned_m[inside],
+        gnss_status=log.status,
     )

@@ -33,7 +33,7 @@ to the forward output ``n_k``. This is the same as the textbook RTS form with re
 **Memory.** ``Φ`` and ``P`` are not stored per epoch (87 000 epochs × 3 × 15×15
 doubles would be 470 MB). The forward pass stores, at each GNSS update, ``P^-``,
 ``P^+``, the accepted rows of ``H``, their variances and ``z``, plus a plain
-checkpoint every `kinsync.ins.filter.CHECKPOINT_EVERY` epochs (about 10 MB for the
+checkpoint every `kinsync.ins.forward_run.CHECKPOINT_EVERY` epochs (about 10 MB for the
 NaveGo set). Between two checkpoints no update happens, so ``P_k`` is recomputed by
 propagating ``P^+`` of the earlier checkpoint with ``Φ_k`` and ``Q_k`` rebuilt from
 the stored nominal states (the very same compiled code and inputs as in the forward
@@ -63,7 +63,7 @@ from numba import njit
 
 from kinsync._typing import FloatArray
 from kinsync.ins._ekf import N_ERR, N_NAV, feedback, propagate_cov, step_matrices
-from kinsync.ins.filter import CHECKPOINT_EVERY, Checkpoints, ForwardRun
+from kinsync.ins.forward_run import CHECKPOINT_EVERY, Checkpoints, ForwardRun
 from kinsync.ins.measurements import ImuData
 
 __all__ = ["SegmentMatrices", "smooth_checkpoints", "smooth_forward_run"]

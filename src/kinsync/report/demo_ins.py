@@ -27,9 +27,10 @@ from kinsync._typing import BoolArray, FloatArray
 from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, geodetic_to_ecef
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
-from kinsync.ins.filter import InsResult, align_static_gnss_heading, run_ins
+from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.measurements import GnssData
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text

@@ -1,0 +1,268 @@
+"""Initial state from a static start: levelling, gyro drift, GNSS course-over-ground heading.
+
+`align_static_gnss_heading` gives the `InitialState` that `kinsync.ins.filter.run_ins`
+starts from when no reference state is known: the vehicle stands still for the first
+seconds of the record (tested against the ``STATIC_*`` limits), the mean specific
+force levels the IMU, the mean gyro output is the drift estimate, and the heading is
+the GNSS course over ground once the vehicle drives off (MEMS gyros are far too noisy
+for gyrocompassing).
+
+References
+----------
+P. D. Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
+Systems*, 2nd ed., Artech House, 2013, ch. 5 (initialisation and alignment).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError, ObservabilityError
+from kinsync.frames import euler_rpy_to_matrix
+from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
+from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.solution import InitialState
+
+__all__ = [
+    "HEADING_MIN_DISTANCE_M",
+    "HEADING_MIN_SPEED_M_S",
+    "HEADING_WINDOW_S",
+    "STATIC_ACC_STD_M_S2",
+    "STATIC_GNSS_SPEED_M_S",
+    "STATIC_GRAVITY_TOL_M_S2",
+    "STATIC_GYRO_STD_RAD_S",
+    "align_static_gnss_heading",
+]
+
+STATIC_ACC_STD_M_S2 = 0.3
+"""Largest accelerometer standard deviation (per axis) accepted as "static" (m/s^2)."""
+STATIC_GYRO_STD_RAD_S = 0.02
+"""Largest gyro standard deviation (per axis) accepted as "static" (rad/s)."""
+STATIC_GRAVITY_TOL_M_S2 = 0.5
+"""Largest difference between the mean specific-force magnitude and normal gravity."""
+STATIC_GNSS_SPEED_M_S = 0.5
+"""Largest GNSS horizontal speed accepted during the static period (m/s)."""
+HEADING_MIN_SPEED_M_S = 2.0
+"""GNSS horizontal speed from which the course over ground is taken as heading (m/s)."""
+HEADING_MIN_DISTANCE_M = 10.0
+"""Without GNSS velocities: displacement from the static position that gives the heading."""
+HEADING_WINDOW_S = 5.0
+"""Course-over-ground epochs used for the heading: this long after the first one (s)."""
+
+
+def _static_window(imu: ImuData, static_s: float) -> int:
+    if not (isinstance(static_s, int | float) and math.isfinite(static_s) and static_s > 0):
+        msg = f"align_static_gnss_heading: static_s must be a positive number, got {static_s!r}"
+        raise InputError(msg)
+    t0 = float(imu.t_s[0])
+    if imu.t_s[-1] < t0 + static_s:
+        msg = (
+            f"no static start: the IMU record ({imu.t_s[-1] - t0:.3f} s) is shorter than the "
+            f"static period static_s = {static_s} s"
+        )
+        raise ObservabilityError(msg)
+    k_end = int(np.searchsorted(imu.t_s, t0 + static_s, side="right")) - 1
+    if k_end < 10:
+        msg = (
+            f"no static start: only {k_end + 1} IMU samples in the first {static_s} s; "
+            "a longer static_s is needed for levelling"
+        )
+        raise ObservabilityError(msg)
+    return k_end
+
+
+def _check_static(
+    imu: ImuData, gnss: GnssData, k_end: int, static_s: float, lat_rad: float, h_m: float
+) -> None:
+    acc = imu.acc_body_m_s2[: k_end + 1]
+    gyro = imu.gyro_body_rad_s[: k_end + 1]
+    acc_std = float(acc.std(axis=0).max())
+    gyro_std = float(gyro.std(axis=0).max())
+    g = float(normal_gravity_m_s2(lat_rad, h_m))
+    g_err = abs(float(np.linalg.norm(acc.mean(axis=0))) - g)
+    t0 = imu.t_s[0]
+    speed = 0.0
+    if gnss.vel_ned_m_s is not None:
+        sel = (gnss.t_s >= t0) & (gnss.t_s <= imu.t_s[k_end])
+        if sel.any():
+            speed = float(np.hypot(gnss.vel_ned_m_s[sel, 0], gnss.vel_ned_m_s[sel, 1]).max())
+    if (
+        acc_std > STATIC_ACC_STD_M_S2
+        or gyro_std > STATIC_GYRO_STD_RAD_S
+        or g_err > STATIC_GRAVITY_TOL_M_S2
+        or speed > STATIC_GNSS_SPEED_M_S
+    ):
+        msg = (
+            f"no static start: over the first {static_s} s (from t = {t0:.3f} s) the "
+            f"accelerometer std is {acc_std:.3f} m/s^2 (limit {STATIC_ACC_STD_M_S2}), the gyro "
+            f"std {gyro_std:.4f} rad/s (limit {STATIC_GYRO_STD_RAD_S}), |mean specific force| - "
+            f"gravity {g_err:.3f} m/s^2 (limit {STATIC_GRAVITY_TOL_M_S2}), the GNSS speed up to "
+            f"{speed:.2f} m/s (limit {STATIC_GNSS_SPEED_M_S}); start the record with the vehicle "
+            "at rest, shorten static_s, or give an InitialState"
+        )
+        raise ObservabilityError(msg)
+
+
+def _yaw_turned(
+    imu: ImuData, k_end: int, gyro_bias: FloatArray, roll: float, pitch: float
+) -> FloatArray:
+    """Yaw turned since the end of the static period at each IMU epoch (rad, n,)."""
+    w = imu.gyro_body_rad_s - gyro_bias
+    rate = (w[:, 1] * math.sin(roll) + w[:, 2] * math.cos(roll)) / math.cos(pitch)
+    inc = np.zeros(len(imu))
+    inc[1:] = rate[1:] * np.diff(imu.t_s)
+    inc[: k_end + 1] = 0.0
+    out: FloatArray = np.cumsum(inc)
+    return out
+
+
+def _heading(
+    imu: ImuData,
+    gnss: GnssData,
+    k_end: int,
+    lat0: float,
+    lon0: float,
+    roll: float,
+    pitch: float,
+    gyro_bias: FloatArray,
+    arm_body_m: FloatArray,
+) -> float:
+    """Heading at the end of the static period from GNSS course over ground (rad)."""
+    t_end = float(imu.t_s[k_end])
+    after = np.flatnonzero((gnss.t_s > t_end) & (gnss.t_s <= imu.t_s[-1]))
+    turned = _yaw_turned(imu, k_end, gyro_bias, roll, pitch)
+    k_of = np.clip(np.searchsorted(imu.t_s, gnss.t_s[after]), 0, len(imu) - 1)
+    if gnss.vel_ned_m_s is not None:
+        vel = gnss.vel_ned_m_s[after]
+        speed = np.hypot(vel[:, 0], vel[:, 1])
+        moving = np.flatnonzero(speed >= HEADING_MIN_SPEED_M_S)
+        if moving.size == 0:
+            msg = (
+                f"no motion to get heading from: the GNSS horizontal speed never reaches "
+                f"{HEADING_MIN_SPEED_M_S} m/s after the static period (t > {t_end:.3f} s); "
+                "drive off after the static start, or give an InitialState"
+            )
+            raise ObservabilityError(msg)
+        t_first = gnss.t_s[after[moving[0]]]
+        use = moving[gnss.t_s[after[moving]] <= t_first + HEADING_WINDOW_S]
+        yaw = 0.0
+        for _ in range(2):  # second pass: lever-arm velocity with the first heading
+            yaws = np.empty(use.size)
+            for i, u in enumerate(use):
+                k = int(k_of[u])
+                R = euler_rpy_to_matrix(roll, pitch, yaw + turned[k])
+                w = imu.gyro_body_rad_s[k] - gyro_bias
+                v_imu = vel[u] - R @ np.cross(w, arm_body_m)
+                yaws[i] = math.atan2(v_imu[1], v_imu[0]) - turned[k]
+            wts = speed[use] ** 2
+            yaw = math.atan2(float(np.sum(wts * np.sin(yaws))), float(np.sum(wts * np.cos(yaws))))
+        return yaw
+    r_m, r_n = radii_m(lat0)
+    dn = np.radians(gnss.lat_deg[after] - math.degrees(lat0)) * r_m
+    de = np.radians(gnss.lon_deg[after] - math.degrees(lon0)) * r_n * math.cos(lat0)
+    sig = np.nan_to_num(np.hypot(gnss.std_pos_ned_m[after, 0], gnss.std_pos_ned_m[after, 1]))
+    far = np.flatnonzero(np.hypot(dn, de) >= np.maximum(HEADING_MIN_DISTANCE_M, 10.0 * sig))
+    if far.size == 0:
+        msg = (
+            "no motion to get heading from: no GNSS fix after the static period lies "
+            f"{HEADING_MIN_DISTANCE_M} m (or 10 sigma) from the static position, and the file "
+            "has no velocities; drive off after the static start, or give an InitialState"
+        )
+        raise ObservabilityError(msg)
+    i = int(far[0])
+    # bearing of the displacement, taken as the mean heading since the static end
+    return math.atan2(float(de[i]), float(dn[i])) - 0.5 * float(turned[k_of[i]])
+
+
+def align_static_gnss_heading(
+    imu: ImuData,
+    gnss: GnssData,
+    *,
+    static_s: float = 5.0,
+    antenna_lever_arm_body_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> InitialState:
+    """Initial state by static levelling and GNSS course-over-ground heading.
+
+    1. The first ``static_s`` seconds of IMU data must be static (accelerometer and
+       gyro standard deviations, specific-force magnitude against normal gravity, and
+       GNSS speed when available, within the module's ``STATIC_*`` limits).
+    2. Levelling: ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, sqrt(f_y² + f_z²))``
+       from the mean specific force (accelerometer biases enter as tilt:
+       1 mg ≈ 0.06°).
+    3. The mean gyro output is the initial gyro drift estimate (the Earth rate,
+       projected with the final attitude, is removed). MEMS gyros are far too noisy for
+       gyrocompassing, so the heading comes from GNSS:
+    4. Heading: the course over ground (antenna velocity minus the lever-arm term
+       ``C (ω × l)``) of the GNSS epochs with a horizontal speed of at least
+       `HEADING_MIN_SPEED_M_S` during `HEADING_WINDOW_S` after the first one, each
+       carried back to the end of the static period by integrating the bias-corrected
+       yaw rate ``(ω_y sin φ + ω_z cos φ) / cos θ``, averaged with weights ``speed²``
+       (no side slip assumed). Without GNSS velocities: the bearing of the first fix
+       `HEADING_MIN_DISTANCE_M` (or 10σ) away from the static position, corrected by
+       half the yaw turned until then.
+    5. Position: mean GNSS fix of the static period, moved from the antenna to the
+       IMU with the lever arm; velocity zero.
+
+    Parameters
+    ----------
+    imu : ImuData
+        IMU samples starting with the static period.
+    gnss : GnssData
+        GNSS fixes (velocities strongly preferred).
+    static_s : float
+        Length of the static period at the start of ``imu`` (s).
+    antenna_lever_arm_body_m : (float, float, float)
+        IMU -> antenna lever arm, body frame (m).
+
+    Returns
+    -------
+    InitialState
+        At the last IMU epoch of the static period, with the gyro drift estimate.
+
+    Raises
+    ------
+    ObservabilityError
+        No static start, no GNSS fix during it, or no motion to take the heading from.
+    InputError
+        ``static_s`` is not a positive number.
+    """
+    k_end = _static_window(imu, static_s)
+    t0 = float(imu.t_s[0])
+    t_end = float(imu.t_s[k_end])
+    in_static = (gnss.t_s >= t0) & (gnss.t_s <= t_end)
+    if not in_static.any():
+        msg = (
+            f"no GNSS fix during the static period {t0:.3f} .. {t_end:.3f} s: the initial "
+            "position is unknown; lengthen static_s or give an InitialState"
+        )
+        raise ObservabilityError(msg)
+    lat0 = math.radians(float(gnss.lat_deg[in_static].mean()))
+    lon0 = math.radians(float(gnss.lon_deg[in_static].mean()))
+    h0 = float(gnss.h_m[in_static].mean())
+    _check_static(imu, gnss, k_end, static_s, lat0, h0)
+    f = imu.acc_body_m_s2[: k_end + 1].mean(axis=0)
+    roll = math.atan2(-f[1], -f[2])
+    pitch = math.atan2(f[0], math.hypot(f[1], f[2]))
+    gyro_mean = imu.gyro_body_rad_s[: k_end + 1].mean(axis=0)
+    arm = np.asarray(antenna_lever_arm_body_m, dtype=np.float64)
+    yaw = _heading(imu, gnss, k_end, lat0, lon0, roll, pitch, gyro_mean, arm)
+    yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
+    R = euler_rpy_to_matrix(roll, pitch, yaw)
+    w_ie = np.array([OMEGA_IE_RAD_S * math.cos(lat0), 0.0, -OMEGA_IE_RAD_S * math.sin(lat0)])
+    gyro_bias = gyro_mean - R.T @ w_ie
+    arm_ned = R @ arm
+    r_m, r_n = radii_m(lat0)
+    lat = lat0 - arm_ned[0] / (r_m + h0)
+    lon = lon0 - arm_ned[1] / ((r_n + h0) * math.cos(lat0))
+    return InitialState(
+        t_s=t_end,
+        lat_deg=math.degrees(lat),
+        lon_deg=math.degrees(lon),
+        h_m=float(h0 + arm_ned[2]),
+        vel_ned_m_s=(0.0, 0.0, 0.0),
+        rpy_rad=(roll, pitch, yaw),
+        gyro_bias_rad_s=(float(gyro_bias[0]), float(gyro_bias[1]), float(gyro_bias[2])),
+    )
