@@ -16,11 +16,7 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from kinsync.errors import InputError
-from kinsync.ins.alignment import align_static_gnss_heading
-from kinsync.ins.compare import Comparison, compare_to_truth
-from kinsync.ins.filter import run_ins
-from kinsync.report.demo_ins import (
+from kinsync.demo.ins import (
     ERROR_HEADERS,
     NAVEGO_PEERS,
     InsDemoSetup,
@@ -29,6 +25,10 @@ from kinsync.report.demo_ins import (
     navego_section,
     random_walk_bias_config,
 )
+from kinsync.errors import InputError
+from kinsync.ins.alignment import align_static_gnss_heading
+from kinsync.ins.compare import Comparison, compare_to_truth
+from kinsync.ins.filter import run_ins
 from kinsync.report.html import Section, render_report
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure, route_map_figure
 from kinsync.sim.drive import simulate_drive

@@ -31,7 +31,7 @@ from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import InsResult, run_ins
-from kinsync.ins.measurements import GnssData
+from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.gnss_csv import read_gnss_csv
@@ -401,6 +401,204 @@ def _mems_figures(run: _MemsRun, s: InsDemoSetup, in_outage: BoolArray) -> tuple
     )
 
 
+@dataclass(frozen=True, eq=False)
+class _MemsOutcome:
+    """The MEMS run's figures of merit, as the document, tables and text use them."""
+
+    in_outage: BoolArray
+    whole: dict[str, Any]
+    outage: dict[str, Any]
+    drift_m: dict[str, float]
+    align_err_deg: FloatArray
+    bias_rows: list[list[str]]
+    bias_doc: dict[str, Any]
+    preset_acc_start_z: FloatArray
+
+
+def _mems_outcome(s: InsDemoSetup, run: _MemsRun) -> _MemsOutcome:
+    """Errors over the run and the outage, outage drift, alignment and bias errors."""
+    a, b = s.outage_s
+    in_outage = (run.forward.t_s >= a) & (run.forward.t_s <= b)
+    last = int(np.flatnonzero(in_outage)[-1])
+    k_init = int(np.searchsorted(run.sim.truth.t_s, run.init.t_s))
+    truth_rpy = np.degrees(run.sim.truth.euler_rpy_rad()[k_init])
+    align_err = np.degrees(run.init.rpy_rad) - truth_rpy
+    bias_rows, bias_doc = _bias_rows(run)
+    preset_sol = run.preset.smoothed
+    assert preset_sol is not None
+    return _MemsOutcome(
+        in_outage=in_outage,
+        whole={"forward": run.forward.as_document(), "smoothed": run.smoothed.as_document()},
+        outage={
+            "forward": _subset_errors(run.forward, in_outage),
+            "smoothed": _subset_errors(run.smoothed, in_outage),
+        },
+        drift_m={
+            name: float(np.hypot(*cmp.err_pos_ned_m[last, :2]))
+            for name, cmp in (("forward", run.forward), ("smoothed", run.smoothed))
+        },
+        align_err_deg=(align_err + 180.0) % 360.0 - 180.0,
+        bias_rows=bias_rows,
+        bias_doc=bias_doc,
+        preset_acc_start_z=np.abs(
+            (preset_sol.acc_bias_m_s2[0] - np.array(bias_doc["acc_bias_m_s2"]["injected_start"]))
+            / preset_sol.std_acc_bias_m_s2[0]
+        ),
+    )
+
+
+def _mems_document(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> dict[str, Any]:
+    """The ``ins.json`` document."""
+    sim, fwd_sol = run.sim, run.result.forward
+    return {
+        "setup": asdict(s),
+        "imu_model": asdict(sim.config.imu_model()),
+        "gnss_std_pos_ned_m": list(sim.config.gnss_std_pos_ned_m),
+        "gnss_std_vel_ned_m_s": list(sim.config.gnss_std_vel_ned_m_s),
+        "antenna_lever_arm_body_m": list(sim.config.antenna_lever_arm_body_m),
+        "filter_config": asdict(run.config),
+        "initial_state": asdict(run.init),
+        "alignment_error_rpy_deg": o.align_err_deg.tolist(),
+        "errors": o.whole,
+        "errors_in_outage": o.outage,
+        "horizontal_error_at_outage_end_m": o.drift_m,
+        "preset_bias_model_smoothed": {
+            "gyro_bias_corr_time_s": sim.ins_config.gyro_bias_corr_time_s,
+            "acc_bias_corr_time_s": sim.ins_config.acc_bias_corr_time_s,
+            "errors": run.preset_smoothed.as_document(),
+            "acc_bias_start_error_sigma": o.preset_acc_start_z.tolist(),
+        },
+        "biases": o.bias_doc,
+        "gnss_used": fwd_sol.n_gnss_used,
+        "gnss_rejected": fwd_sol.n_gnss_rejected,
+    }
+
+
+def _mems_tables(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[Table, ...]:
+    """Errors against the truth, 3-sigma shares and sensor biases."""
+    a, b = s.outage_s
+    t_out = f"{a:g}-{b:g} s"
+    error_rows = [
+        _error_row("forward filter", o.whole["forward"]),
+        _error_row("smoothed", o.whole["smoothed"]),
+        _error_row(f"forward filter, outage {t_out}", o.outage["forward"]),
+        _error_row(f"smoothed, outage {t_out}", o.outage["smoothed"]),
+    ]
+    tau_s = run.sim.ins_config.acc_bias_corr_time_s
+    share_rows = [
+        [
+            label,
+            _shares(cmp.within_3sigma, "pos"),
+            _shares(cmp.within_3sigma, "vel"),
+            _shares(cmp.within_3sigma, "att"),
+        ]
+        for label, cmp in (
+            ("forward filter", run.forward),
+            ("smoothed", run.smoothed),
+            (f"smoothed, preset bias model (tau = {tau_s:g} s)", run.preset_smoothed),
+        )
+    ]
+    bias_headers = (
+        "bias",
+        "injected, start",
+        "smoothed, start",
+        "injected, end",
+        "forward, end",
+        "static alignment",
+    )
+    return (
+        Table(
+            caption="Errors against the truth (whole run from the alignment epoch, and "
+            "inside the GNSS outage only)",
+            headers=ERROR_HEADERS,
+            rows=error_rows,
+        ),
+        Table(
+            caption="Share of epochs (%) with |error| within the filter's 3 sigma, "
+            "N/E/D (attitude: misorientation about N/E/D)",
+            headers=("solution", "position", "velocity", "attitude"),
+            rows=share_rows,
+        ),
+        Table(
+            caption="Sensor biases: injected (turn-on plus instability at that epoch) "
+            "against the smoothed estimate at the start, the forward estimate at the end "
+            "(1 sigma) and the static alignment's gyro estimate",
+            headers=bias_headers,
+            rows=o.bias_rows,
+        ),
+    )
+
+
+def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[str, ...]:
+    """The section's text: set-up, workflow, outage, bias model."""
+    a, b = s.outage_s
+    fwd_sol = run.result.forward
+    assert run.smoothed.within_3sigma is not None
+    pw = run.preset_smoothed.within_3sigma
+    assert pw is not None
+    return (
+        (
+            f"An ADIS16488-like MEMS IMU (200 Hz; turn-on bias 0.2 deg/s and 16 mg per "
+            "axis, bias instability 6.5 deg/h and 0.1 mg over 100 s, ARW 0.3 deg/sqrt(h), "
+            f"VRW 0.029 m/s/sqrt(h)) on a car that stands still for {s.static_s:g} s, then "
+            f"drives an oval (40 m straights, 10 m turns) at {s.speed_m_s:g} m/s until "
+            f"{s.duration_s:g} s. RTK GNSS at 5 Hz (2/2/4 cm, 1/1/2 cm/s) on an antenna "
+            "1.5 m above the IMU (lever arm 0.3, -0.2, -1.5 m), with no fixes from "
+            f"{a:g} to {b:g} s."
+        ),
+        (
+            f"The workflow: levelling over the first {s.align_s:g} s (roll and pitch from "
+            "the mean specific force, gyro biases from the mean rate), heading from the "
+            "GNSS course over ground once the car moves, then the 15-state forward filter "
+            "with position and velocity updates (lever arm applied) and the RTS smoother, "
+            f"from t = {run.init.t_s:g} s. Alignment error roll/pitch/yaw: "
+            f"{_triple(o.align_err_deg.tolist())} deg; the accelerometer biases enter the "
+            "levelling as tilt (10 mg is 0.57 deg) until the turns let the filter "
+            f"separate them. {fwd_sol.n_gnss_used} GNSS epochs used, "
+            f"{fwd_sol.n_gnss_rejected} rejected by the chi-square gate."
+        ),
+        (
+            "Through the outage the forward solution drifts to "
+            f"{o.drift_m['forward']:.2f} m horizontally by its last epoch; the smoother, "
+            "which also uses the fixes after the outage, keeps the error to "
+            f"{o.drift_m['smoothed'] * 100:.1f} cm. The smoothed errors stay inside the "
+            "filter's 3-sigma on at least "
+            f"{100 * min(run.smoothed.within_3sigma.values()):.1f} % of the epochs on "
+            "every axis."
+        ),
+        (
+            "Bias model: the filter models each residual bias as one first-order "
+            "Gauss-Markov state. With the unit's 100 s correlation time and the turn-on "
+            "sigma as the initial sigma, the filter's bias variance decays to the 0.1 mg "
+            "instability within minutes whatever the data say, and it becomes "
+            "over-confident (last row of the 3-sigma table: the smoothed accelerometer "
+            f"biases at the start are up to {float(o.preset_acc_start_z.max()):.0f} sigma "
+            f"off, {100 * pw['att_n']:.0f} % of the smoothed tilt errors about North inside "
+            f"3 sigma). The demo therefore uses a {BIAS_CORR_TIME_S:g} s correlation "
+            "time with the same driving noise (instability scaled by sqrt(3600/100)): a "
+            "near random walk that keeps the turn-on bias."
+        ),
+    )
+
+
+def _mems_summary_row(s: InsDemoSetup, o: _MemsOutcome) -> tuple[str, str, str]:
+    """The terminal summary's row for the MEMS drive."""
+    a, b = s.outage_s
+    sm = o.whole["smoothed"]
+    return (
+        "INS/GNSS (MEMS)",
+        (
+            f"oval {s.duration_s / 60:.0f} min at {s.speed_m_s:g} m/s, static alignment, "
+            f"{b - a:g} s GNSS outage"
+        ),
+        (
+            f"outage drift forward {o.drift_m['forward']:.2f} m, smoothed "
+            f"{o.drift_m['smoothed'] * 100:.1f} cm; smoothed RMS position "
+            f"{_triple(sm['rms_pos_ned_m'])} m, roll/pitch/yaw {_triple(sm['rms_att_deg'])} deg"
+        ),
+    )
+
+
 def ins_section(
     out_dir: Path,
     summary: Summary,
@@ -433,174 +631,20 @@ def ins_section(
     run = _run_mems(s, progress)
     if progress:
         progress("INS/GNSS: figures")
-    sim, fwd_sol, smo_sol = run.sim, run.result.forward, run.result.smoothed
-    assert smo_sol is not None
-    a, b = s.outage_s
-    in_outage = (run.forward.t_s >= a) & (run.forward.t_s <= b)
-    outage = {
-        "forward": _subset_errors(run.forward, in_outage),
-        "smoothed": _subset_errors(run.smoothed, in_outage),
-    }
-    whole = {"forward": run.forward.as_document(), "smoothed": run.smoothed.as_document()}
-    last = int(np.flatnonzero(in_outage)[-1])
-    drift_m = {
-        name: float(np.hypot(*cmp.err_pos_ned_m[last, :2]))
-        for name, cmp in (("forward", run.forward), ("smoothed", run.smoothed))
-    }
-    k_init = int(np.searchsorted(sim.truth.t_s, run.init.t_s))
-    truth_rpy = np.degrees(sim.truth.euler_rpy_rad()[k_init])
-    align_err = np.degrees(run.init.rpy_rad) - truth_rpy
-    align_err = (align_err + 180.0) % 360.0 - 180.0
-    bias_rows, bias_doc = _bias_rows(run)
     assert run.forward.within_3sigma is not None
     assert run.smoothed.within_3sigma is not None
     assert run.preset_smoothed.within_3sigma is not None
-    preset_sol = run.preset.smoothed
-    assert preset_sol is not None
-    preset_acc_start_z = np.abs(
-        (preset_sol.acc_bias_m_s2[0] - np.array(bias_doc["acc_bias_m_s2"]["injected_start"]))
-        / preset_sol.std_acc_bias_m_s2[0]
-    )
-    doc: dict[str, Any] = {
-        "setup": asdict(s),
-        "imu_model": asdict(sim.config.imu_model()),
-        "gnss_std_pos_ned_m": list(sim.config.gnss_std_pos_ned_m),
-        "gnss_std_vel_ned_m_s": list(sim.config.gnss_std_vel_ned_m_s),
-        "antenna_lever_arm_body_m": list(sim.config.antenna_lever_arm_body_m),
-        "filter_config": asdict(run.config),
-        "initial_state": asdict(run.init),
-        "alignment_error_rpy_deg": align_err.tolist(),
-        "errors": whole,
-        "errors_in_outage": outage,
-        "horizontal_error_at_outage_end_m": drift_m,
-        "preset_bias_model_smoothed": {
-            "gyro_bias_corr_time_s": sim.ins_config.gyro_bias_corr_time_s,
-            "acc_bias_corr_time_s": sim.ins_config.acc_bias_corr_time_s,
-            "errors": run.preset_smoothed.as_document(),
-            "acc_bias_start_error_sigma": preset_acc_start_z.tolist(),
-        },
-        "biases": bias_doc,
-        "gnss_used": fwd_sol.n_gnss_used,
-        "gnss_rejected": fwd_sol.n_gnss_rejected,
-    }
+    outcome = _mems_outcome(s, run)
+    doc = _mems_document(s, run, outcome)
     atomic_write_text(out_dir / "ins.json", json.dumps(doc, indent=2) + "\n")
-
-    t_out = f"{a:g}-{b:g} s"
-    error_rows = [
-        _error_row("forward filter", whole["forward"]),
-        _error_row("smoothed", whole["smoothed"]),
-        _error_row(f"forward filter, outage {t_out}", outage["forward"]),
-        _error_row(f"smoothed, outage {t_out}", outage["smoothed"]),
-    ]
-    share_rows = [
-        [
-            label,
-            _shares(cmp.within_3sigma, "pos"),
-            _shares(cmp.within_3sigma, "vel"),
-            _shares(cmp.within_3sigma, "att"),
-        ]
-        for label, cmp in (
-            ("forward filter", run.forward),
-            ("smoothed", run.smoothed),
-            (
-                f"smoothed, preset bias model (tau = {sim.ins_config.acc_bias_corr_time_s:g} s)",
-                run.preset_smoothed,
-            ),
-        )
-    ]
-    figures = _mems_figures(run, s, in_outage)
+    figures = _mems_figures(run, s, outcome.in_outage)
     for i, fig in enumerate(figures):
         atomic_write_bytes(out_dir / f"ins_{i + 1}.png", fig.png)
-
-    sm = whole["smoothed"]
-    summary.append(
-        (
-            "INS/GNSS (MEMS)",
-            (
-                f"oval {s.duration_s / 60:.0f} min at {s.speed_m_s:g} m/s, static alignment, "
-                f"{b - a:g} s GNSS outage"
-            ),
-            (
-                f"outage drift forward {drift_m['forward']:.2f} m, smoothed "
-                f"{drift_m['smoothed'] * 100:.1f} cm; smoothed RMS position "
-                f"{_triple(sm['rms_pos_ned_m'])} m, roll/pitch/yaw {_triple(sm['rms_att_deg'])} deg"
-            ),
-        )
-    )
-    pw = run.preset_smoothed.within_3sigma
+    summary.append(_mems_summary_row(s, outcome))
     section = Section(
         title="INS/GNSS: MEMS drive, static alignment, GNSS outage (SPEC section 6)",
-        paragraphs=(
-            (
-                f"An ADIS16488-like MEMS IMU (200 Hz; turn-on bias 0.2 deg/s and 16 mg per "
-                "axis, bias instability 6.5 deg/h and 0.1 mg over 100 s, ARW 0.3 deg/sqrt(h), "
-                f"VRW 0.029 m/s/sqrt(h)) on a car that stands still for {s.static_s:g} s, then "
-                f"drives an oval (40 m straights, 10 m turns) at {s.speed_m_s:g} m/s until "
-                f"{s.duration_s:g} s. RTK GNSS at 5 Hz (2/2/4 cm, 1/1/2 cm/s) on an antenna "
-                "1.5 m above the IMU (lever arm 0.3, -0.2, -1.5 m), with no fixes from "
-                f"{a:g} to {b:g} s."
-            ),
-            (
-                f"The workflow: levelling over the first {s.align_s:g} s (roll and pitch from "
-                "the mean specific force, gyro biases from the mean rate), heading from the "
-                "GNSS course over ground once the car moves, then the 15-state forward filter "
-                "with position and velocity updates (lever arm applied) and the RTS smoother, "
-                f"from t = {run.init.t_s:g} s. Alignment error roll/pitch/yaw: "
-                f"{_triple(align_err.tolist())} deg; the accelerometer biases enter the "
-                "levelling as tilt (10 mg is 0.57 deg) until the turns let the filter "
-                f"separate them. {fwd_sol.n_gnss_used} GNSS epochs used, "
-                f"{fwd_sol.n_gnss_rejected} rejected by the chi-square gate."
-            ),
-            (
-                "Through the outage the forward solution drifts to "
-                f"{drift_m['forward']:.2f} m horizontally by its last epoch; the smoother, "
-                "which also uses the fixes after the outage, keeps the error to "
-                f"{drift_m['smoothed'] * 100:.1f} cm. The smoothed errors stay inside the "
-                "filter's 3-sigma on at least "
-                f"{100 * min(run.smoothed.within_3sigma.values()):.1f} % of the epochs on "
-                "every axis."
-            ),
-            (
-                "Bias model: the filter models each residual bias as one first-order "
-                "Gauss-Markov state. With the unit's 100 s correlation time and the turn-on "
-                "sigma as the initial sigma, the filter's bias variance decays to the 0.1 mg "
-                "instability within minutes whatever the data say, and it becomes "
-                "over-confident (last row of the 3-sigma table: the smoothed accelerometer "
-                f"biases at the start are up to {float(preset_acc_start_z.max()):.0f} sigma off, "
-                f"{100 * pw['att_n']:.0f} % of the smoothed tilt errors about North inside "
-                f"3 sigma). The demo therefore uses a {BIAS_CORR_TIME_S:g} s correlation "
-                "time with the same driving noise (instability scaled by sqrt(3600/100)): a "
-                "near random walk that keeps the turn-on bias."
-            ),
-        ),
-        tables=(
-            Table(
-                caption="Errors against the truth (whole run from the alignment epoch, and "
-                "inside the GNSS outage only)",
-                headers=ERROR_HEADERS,
-                rows=error_rows,
-            ),
-            Table(
-                caption="Share of epochs (%) with |error| within the filter's 3 sigma, "
-                "N/E/D (attitude: misorientation about N/E/D)",
-                headers=("solution", "position", "velocity", "attitude"),
-                rows=share_rows,
-            ),
-            Table(
-                caption="Sensor biases: injected (turn-on plus instability at that epoch) "
-                "against the smoothed estimate at the start, the forward estimate at the end "
-                "(1 sigma) and the static alignment's gyro estimate",
-                headers=(
-                    "bias",
-                    "injected, start",
-                    "smoothed, start",
-                    "injected, end",
-                    "forward, end",
-                    "static alignment",
-                ),
-                rows=bias_rows,
-            ),
-        ),
+        paragraphs=_mems_paragraphs(s, run, outcome),
+        tables=_mems_tables(s, run, outcome),
         figures=figures,
     )
     return section, doc
@@ -670,6 +714,120 @@ def _peer_cells(cmp: Comparison, updates: str, smoothed: bool) -> tuple[list[str
     return [_triple(pos), _triple(att), "yes" if meets else "no"], meets
 
 
+@dataclass(frozen=True, eq=False)
+class _NavegoData:
+    """The NaveGo set as read: spec, IMU, GNSS and truth."""
+
+    folder: Path
+    spec: dict[str, Any]
+    imu: ImuData
+    gnss: GnssData
+    truth: Trajectory
+
+
+def _read_navego(folder: Path) -> _NavegoData:
+    """Read the set's spec and its IMU, GNSS and truth files."""
+    spec_path = folder / "imu_gnss_spec.json"
+    try:
+        spec: dict[str, Any] = json.loads(spec_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        msg = f"{spec_path}: cannot read the NaveGo spec ({err})"
+        raise InputError(msg) from err
+    return _NavegoData(
+        folder=folder,
+        spec=spec,
+        imu=read_imu_csv(folder / "imu.csv"),
+        gnss=read_gnss_csv(folder / "gnss.csv"),
+        truth=read_truth_csv(folder / "truth.csv"),
+    )
+
+
+def _navego_runs(
+    data: _NavegoData,
+) -> tuple[list[dict[str, Any]], list[list[str]], list[ErrorSeries]]:
+    """Every variant forward and smoothed: documents, table rows and the figure's series."""
+    rows: list[list[str]] = []
+    runs: list[dict[str, Any]] = []
+    series: list[ErrorSeries] = []
+    for turn_on, known, use_vel in NAVEGO_VARIANTS:
+        updates = "position + velocity" if use_vel else "position"
+        result = run_ins(
+            data.imu,
+            data.gnss,
+            _navego_config(data.spec, known_turn_on=known),
+            _navego_init(data.truth, data.spec, known_turn_on=known),
+            use_velocity=use_vel,
+            smooth=True,
+        )
+        assert result.smoothed is not None
+        entry: dict[str, Any] = {"turn_on_biases": turn_on, "updates": updates}
+        for sol in (result.forward, result.smoothed):
+            cmp = compare_to_truth(sol, data.truth)
+            kind = "smoothed" if sol.smoothed else "forward"
+            peer, meets = _peer_cells(cmp, updates, sol.smoothed)
+            entry[kind] = cmp.as_document()
+            if meets is not None:
+                entry["meets_peer"] = meets
+            rows.append(
+                [
+                    turn_on,
+                    updates,
+                    kind,
+                    _triple(cmp.rms_pos_ned_m),
+                    _triple(cmp.rms_att_deg),
+                    *peer,
+                ]
+            )
+            if known and use_vel:
+                series.append(
+                    _series(f"{kind}, position + velocity", cmp, sol, "pos")  # same epochs
+                )
+        runs.append(entry)
+    return runs, rows, series
+
+
+def _navego_paragraphs(data: _NavegoData, runs: list[dict[str, Any]]) -> tuple[str, ...]:
+    """The section's text: the set and its peers, and the turn-on bias conventions."""
+    est = runs[2]
+    return (
+        (
+            f"NaveGo's synthetic drive ({len(data.imu):,} IMU epochs at 200 Hz of an "
+            f"ADIS16488-like unit, {len(data.gnss):,} GNSS epochs at 5 Hz with 5/5/10 m and "
+            "0.05 m/s noise; an independent project's data, LGPL-3.0), initial state from "
+            "the first truth epoch, noise and bias model from its imu_gnss_spec.json. "
+            "The peer figures are those quoted in the set's README: a C++ 15/21-state "
+            "filter with position updates and a Python filter with position and "
+            "velocity updates, both forward."
+        ),
+        (
+            "Turn-on biases: NaveGo's own filter subtracts the generator's turn-on "
+            "biases (0.2 deg/s, 16 mg per axis) as known deterministic values, and the "
+            "peer figures were obtained that way; kinsync does the same by giving them "
+            "as the initial bias estimates and estimating the residual with sigma = "
+            f"{NAVEGO_RESIDUAL_SIGMA_FACTOR:g} x the bias instability. Estimated from "
+            "zero instead (sigma = the turn-on biases), the position figures still hold "
+            f"(forward RMS {_triple(est['forward']['rms_pos_ned_m'])} m), but before the "
+            "first turn (55 s of straight driving) roll and pitch cannot be told from "
+            "the horizontal accelerometer biases nor yaw from the vertical gyro bias, "
+            "so the forward attitude RMS "
+            f"({_triple(est['forward']['rms_att_deg'])} deg) carries that transient; the "
+            f"smoother brings it to {_triple(est['smoothed']['rms_att_deg'])} deg."
+        ),
+    )
+
+
+_NAVEGO_HEADERS = (
+    "turn-on biases",
+    "GNSS updates",
+    "solution",
+    "RMS position N/E/D (m)",
+    "RMS roll/pitch/yaw (deg)",
+    "peer position (m)",
+    "peer roll/pitch/yaw (deg)",
+    "meets peer",
+)
+
+
 def navego_section(
     folder: Path,
     out_dir: Path,
@@ -706,59 +864,14 @@ def navego_section(
     InputError
         A file of the set is missing or malformed.
     """
-    folder = Path(folder)
     if progress:
         progress("INS/GNSS: NaveGo synthetic set")
-    spec_path = folder / "imu_gnss_spec.json"
-    try:
-        spec: dict[str, Any] = json.loads(spec_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        msg = f"{spec_path}: cannot read the NaveGo spec ({err})"
-        raise InputError(msg) from err
-    imu = read_imu_csv(folder / "imu.csv")
-    gnss: GnssData = read_gnss_csv(folder / "gnss.csv")
-    truth = read_truth_csv(folder / "truth.csv")
-    rows: list[list[str]] = []
-    runs: list[dict[str, Any]] = []
-    series: list[ErrorSeries] = []
-    for turn_on, known, use_vel in NAVEGO_VARIANTS:
-        updates = "position + velocity" if use_vel else "position"
-        result = run_ins(
-            imu,
-            gnss,
-            _navego_config(spec, known_turn_on=known),
-            _navego_init(truth, spec, known_turn_on=known),
-            use_velocity=use_vel,
-            smooth=True,
-        )
-        assert result.smoothed is not None
-        entry: dict[str, Any] = {"turn_on_biases": turn_on, "updates": updates}
-        for sol in (result.forward, result.smoothed):
-            cmp = compare_to_truth(sol, truth)
-            kind = "smoothed" if sol.smoothed else "forward"
-            peer, meets = _peer_cells(cmp, updates, sol.smoothed)
-            entry[kind] = cmp.as_document()
-            if meets is not None:
-                entry["meets_peer"] = meets
-            rows.append(
-                [
-                    turn_on,
-                    updates,
-                    kind,
-                    _triple(cmp.rms_pos_ned_m),
-                    _triple(cmp.rms_att_deg),
-                    *peer,
-                ]
-            )
-            if known and use_vel:
-                series.append(
-                    _series(f"{kind}, position + velocity", cmp, sol, "pos")  # same epochs
-                )
-        runs.append(entry)
+    data = _read_navego(Path(folder))
+    runs, rows, series = _navego_runs(data)
     doc: dict[str, Any] = {
-        "folder": str(folder),
-        "n_imu": len(imu),
-        "n_gnss": len(gnss),
+        "folder": str(data.folder),
+        "n_imu": len(data.imu),
+        "n_gnss": len(data.gnss),
         "peers": {k: {"rms_pos_ned_m": p, "rms_att_deg": a} for k, (p, a) in NAVEGO_PEERS.items()},
         "residual_sigma_factor": NAVEGO_RESIDUAL_SIGMA_FACTOR,
         "runs": runs,
@@ -769,58 +882,25 @@ def navego_section(
     )
     atomic_write_bytes(out_dir / "navego_1.png", png)
     pv = runs[1]["forward"]
+    duration_s = data.imu.t_s[-1] - data.imu.t_s[0]
     summary.append(
         (
             "INS/GNSS, external data",
-            f"NaveGo synthetic set, {imu.t_s[-1] - imu.t_s[0]:.0f} s, turn-on biases known",
+            f"NaveGo synthetic set, {duration_s:.0f} s, turn-on biases known",
             (
                 f"forward pos+vel RMS {_triple(pv['rms_pos_ned_m'])} m (peer 0.32/0.42/0.56), "
                 f"roll/pitch/yaw {_triple(pv['rms_att_deg'])} deg (peer 0.03/0.04/0.29)"
             ),
         )
     )
-    est = runs[2]
     section = Section(
         title="INS/GNSS on the NaveGo synthetic set (external check)",
-        paragraphs=(
-            (
-                f"NaveGo's synthetic drive ({len(imu):,} IMU epochs at 200 Hz of an "
-                f"ADIS16488-like unit, {len(gnss):,} GNSS epochs at 5 Hz with 5/5/10 m and "
-                "0.05 m/s noise; an independent project's data, LGPL-3.0), initial state from "
-                "the first truth epoch, noise and bias model from its imu_gnss_spec.json. "
-                "The peer figures are those quoted in the set's README: a C++ 15/21-state "
-                "filter with position updates and a Python filter with position and "
-                "velocity updates, both forward."
-            ),
-            (
-                "Turn-on biases: NaveGo's own filter subtracts the generator's turn-on "
-                "biases (0.2 deg/s, 16 mg per axis) as known deterministic values, and the "
-                "peer figures were obtained that way; kinsync does the same by giving them "
-                "as the initial bias estimates and estimating the residual with sigma = "
-                f"{NAVEGO_RESIDUAL_SIGMA_FACTOR:g} x the bias instability. Estimated from "
-                "zero instead (sigma = the turn-on biases), the position figures still hold "
-                f"(forward RMS {_triple(est['forward']['rms_pos_ned_m'])} m), but before the "
-                "first turn (55 s of straight driving) roll and pitch cannot be told from "
-                "the horizontal accelerometer biases nor yaw from the vertical gyro bias, "
-                "so the forward attitude RMS "
-                f"({_triple(est['forward']['rms_att_deg'])} deg) carries that transient; the "
-                f"smoother brings it to {_triple(est['smoothed']['rms_att_deg'])} deg."
-            ),
-        ),
+        paragraphs=_navego_paragraphs(data, runs),
         tables=(
             Table(
                 caption="RMS errors against truth.csv over the whole run, and the peers' "
                 "forward figures",
-                headers=(
-                    "turn-on biases",
-                    "GNSS updates",
-                    "solution",
-                    "RMS position N/E/D (m)",
-                    "RMS roll/pitch/yaw (deg)",
-                    "peer position (m)",
-                    "peer roll/pitch/yaw (deg)",
-                    "meets peer",
-                ),
+                headers=_NAVEGO_HEADERS,
                 rows=rows,
             ),
         ),
