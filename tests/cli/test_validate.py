@@ -18,8 +18,8 @@ import pyproj
 import pytest
 
 from kinsync.io.control_points import read_control_points, write_control_points
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.mount_file import read_mount
-from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.pipelines.georef import georeference_file

@@ -14,13 +14,8 @@ from hypothesis import strategies as st
 import kinsync.io.passes as passes_io
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.io.passes import (
-    ADJUSTED_GPS_OFFSET_S,
-    pass_file_name,
-    read_pass_file,
-    read_passes,
-    write_passes,
-)
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.passes import pass_file_name, read_pass_file, read_passes, write_passes
 from kinsync.io.tables import write_numeric_csv
 from kinsync.latency.passes import SpherePass
 

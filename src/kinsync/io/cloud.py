@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pyproj
@@ -17,10 +16,13 @@ import pyproj
 from kinsync._typing import FloatArray
 from kinsync.crs import crs_to_ecef_transformer
 from kinsync.errors import InputError
-from kinsync.io.las import iter_las_chunks, las_info, scaled_coordinates
-from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.las import (
+    iter_las_chunks,
+    las_info,
+    las_time_offset_s,
+    scaled_coordinates,
+)
 from kinsync.io.points import iter_table_chunks
-from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale
 
 __all__ = [
@@ -81,35 +83,6 @@ class CloudExtent:
         )
 
 
-def _las_times(
-    path: Path, chunk: Any, time_type: str, traj_scale: TimeScale, gps_week: int | None
-) -> FloatArray:
-    if "gps_time" not in chunk.point_format.dimension_names:
-        msg = (
-            f"{path}: point format {chunk.point_format.id} has no gps_time; the control-point "
-            "check needs a time per point"
-        )
-        raise InputError(msg)
-    t = np.asarray(chunk.gps_time, dtype=np.float64)
-    if time_type == "adjusted_standard":
-        if traj_scale == "week":
-            msg = (
-                f"{path}: the points carry adjusted standard GPS time, the trajectory GPS "
-                "seconds of week; give --gps-week"
-            )
-            raise InputError(msg)
-        return t + ADJUSTED_GPS_OFFSET_S
-    if traj_scale == "gps":
-        if gps_week is None:
-            msg = (
-                f"{path}: the points carry GPS seconds of week, the trajectory GPS time; "
-                "give --gps-week"
-            )
-            raise InputError(msg)
-        return gps_week * SECONDS_PER_WEEK + t
-    return t
-
-
 def iter_cloud(
     path: Path,
     chunk_points: int,
@@ -121,14 +94,16 @@ def iter_cloud(
     """Chunks of (xyz in the cloud's CRS, times or None, intensities or None)."""
     suffix = path.suffix.lower()
     if suffix in _LAS_SUFFIXES:
-        info = las_info(path)
+        time_offset_s = (
+            las_time_offset_s(
+                las_info(path), traj_scale, gps_week, needed_by="the control-point check"
+            )
+            if need_time
+            else 0.0
+        )
         for chunk in iter_las_chunks(path, chunk_points):
             xyz = scaled_coordinates(chunk.array, chunk.scales, chunk.offsets)
-            t = (
-                _las_times(path, chunk, info.gps_time_type, traj_scale, gps_week)
-                if need_time
-                else None
-            )
+            t = np.asarray(chunk.gps_time, dtype=np.float64) + time_offset_s if need_time else None
             yield xyz, t, np.asarray(chunk.intensity, dtype=np.float64)
         return
     if suffix not in _TABLE_SUFFIXES:

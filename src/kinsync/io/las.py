@@ -36,14 +36,18 @@ from numba import njit
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.sbet import SECONDS_PER_WEEK
+from kinsync.io.trajectory import TimeScale
 
 __all__ = [
+    "ADJUSTED_GPS_OFFSET_S",
     "LasChunkWriter",
     "LasInfo",
     "LasPointReader",
     "iter_las_chunks",
     "las_end_times",
     "las_info",
+    "las_time_offset_s",
     "read_las_points",
     "scaled_coordinates",
     "store_coordinates",
@@ -229,6 +233,57 @@ def _open_reader(path: Path) -> Any:
     except (laspy.errors.LaspyException, OSError, ValueError) as err:
         msg = f"{path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
         raise InputError(msg) from err
+
+
+ADJUSTED_GPS_OFFSET_S = 1.0e9
+"""LAS "adjusted standard GPS time" is GPS time minus this (s)."""
+
+
+def las_time_offset_s(
+    info: LasInfo, traj_scale: TimeScale, gps_week: int | None, *, needed_by: str
+) -> float:
+    """What to add to a LAS file's ``gps_time`` to reach a trajectory's time scale (s).
+
+    Parameters
+    ----------
+    info : LasInfo
+        The file's header facts (`las_info`): its point format must have ``gps_time``.
+    traj_scale : {"gps", "week"}
+        The trajectory's (`kinsync.io.trajectory.read_trajectory_file`).
+    gps_week : int, optional
+        GPS week of seconds-of-week times, when the two scales differ.
+    needed_by : str
+        What needs the times (``"georeferencing"``), for the message of a file without.
+
+    Raises
+    ------
+    InputError
+        No ``gps_time`` in the file, or scales that cannot be matched without a GPS week.
+    """
+    path = info.path
+    if "gps_time" not in laspy.PointFormat(info.point_format_id).dimension_names:
+        msg = (
+            f"{path}: point format {info.point_format_id} has no gps_time; {needed_by} "
+            "needs a time per point"
+        )
+        raise InputError(msg)
+    if info.gps_time_type == "adjusted_standard":
+        if traj_scale == "week":
+            msg = (
+                f"{path}: the points carry adjusted standard GPS time, the trajectory GPS "
+                "seconds of week; give --gps-week so that kinsync can put both on GPS time"
+            )
+            raise InputError(msg)
+        return ADJUSTED_GPS_OFFSET_S
+    if traj_scale == "gps":
+        if gps_week is None:
+            msg = (
+                f"{path}: the points carry GPS seconds of week, the trajectory GPS time; "
+                "give --gps-week so that kinsync can put both on GPS time"
+            )
+            raise InputError(msg)
+        return gps_week * SECONDS_PER_WEEK
+    return 0.0
 
 
 def las_info(path: Path) -> LasInfo:

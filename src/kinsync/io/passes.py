@@ -41,12 +41,11 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
-from kinsync.io.las import scaled_coordinates
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, scaled_coordinates
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
 
 __all__ = [
-    "ADJUSTED_GPS_OFFSET_S",
     "PASSES_CSV",
     "PassFileFormat",
     "PassIndexRow",
@@ -59,9 +58,6 @@ __all__ = [
 
 PASSES_CSV = "passes.csv"
 """Name of the index file of a pass folder."""
-
-ADJUSTED_GPS_OFFSET_S = 1.0e9
-"""LAS "adjusted standard GPS time" is GPS time minus this (s)."""
 
 PassFileFormat = Literal["csv", "las", "laz"]
 

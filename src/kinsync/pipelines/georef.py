@@ -36,14 +36,13 @@ from kinsync.io.las import (
     LasChunkWriter,
     las_end_times,
     las_info,
+    las_time_offset_s,
 )
-from kinsync.io.passes import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.points import (
     TableChunkWriter,
     plan_table_slices,
     table_columns,
 )
-from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.pipelines.georef_chunks import (
@@ -146,35 +145,6 @@ class _OutsideTally:
             f"{rejected_path_for(out_path)}"
         )
         return InputError(msg)
-
-
-def _las_time_offset_s(
-    path: Path, header: Any, scale: str, traj_scale: TimeScale, gps_week: int | None
-) -> float:
-    """What to add to a LAS file's ``gps_time`` to reach the trajectory's time scale."""
-    if "gps_time" not in header.point_format.dimension_names:
-        msg = (
-            f"{path}: point format {header.point_format.id} has no gps_time; georeferencing "
-            "needs a time per point"
-        )
-        raise InputError(msg)
-    if scale == "adjusted_standard":
-        if traj_scale == "week":
-            msg = (
-                f"{path}: the points carry adjusted standard GPS time, the trajectory GPS "
-                "seconds of week; give --gps-week so that kinsync can put both on GPS time"
-            )
-            raise InputError(msg)
-        return ADJUSTED_GPS_OFFSET_S
-    if traj_scale == "gps":
-        if gps_week is None:
-            msg = (
-                f"{path}: the points carry GPS seconds of week, the trajectory GPS time; "
-                "give --gps-week so that kinsync can put both on GPS time"
-            )
-            raise InputError(msg)
-        return gps_week * SECONDS_PER_WEEK
-    return 0.0
 
 
 # ---------------------------------------------------------------------- file pipeline
@@ -338,7 +308,7 @@ def _plan_las(
     info = las_info(path)
     with laspy.open(path) as reader:
         template = reader.header
-    offset = _las_time_offset_s(path, template, info.gps_time_type, traj_scale, gps_week)
+    offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
     return template, ChunkSource(path, "xyz", None, offset), tasks, n
