@@ -533,16 +533,4 @@ def segment_sphere(
         residuals, _, _ = _ray_residuals_all(xc, origin_local, fit.centre, fit.radius)
     else:
         residuals = e_orth
-    return SphereFit(
-        center_m=ref + fit.centre,
-        radius_m=fit.radius,
-        radius_fixed=radius is not None,
-        cov_center_m2=fit.cov,
-        radius_std_m=fit.radius_std,
-        residual_rms_m=fit.rms,
-        n_points=int(used.sum()),
-        inliers=used,
-        residuals_m=residuals,
-        method=fit.method,
-        iterations=fit.iterations,
-    )
+    return fit.sphere_fit(ref, used, residuals, radius_fixed=radius is not None)

@@ -539,6 +539,24 @@ class _LocalFit:
         """(c, R) parameter vector."""
         return np.append(self.centre, self.radius)
 
+    def sphere_fit(
+        self, ref: FloatArray, inliers: BoolArray, residuals_m: FloatArray, *, radius_fixed: bool
+    ) -> SphereFit:
+        """The result in the caller's coordinates (``ref`` added back)."""
+        return SphereFit(
+            center_m=ref + self.centre,
+            radius_m=self.radius,
+            radius_fixed=radius_fixed,
+            cov_center_m2=self.cov,
+            radius_std_m=self.radius_std,
+            residual_rms_m=self.rms,
+            n_points=int(inliers.sum()),
+            inliers=inliers,
+            residuals_m=residuals_m,
+            method=self.method,
+            iterations=self.iterations,
+        )
+
 
 _MAX_INCIDENCE_DEG = 85.0
 """Beams meeting the sphere more obliquely are left out of the ray model."""
@@ -687,19 +705,7 @@ def fit_sphere(
     _check_not_degenerate(xc, what)
     origin_local = None if origin is None else origin - ref
     fit = _fit_local(xc, radius, origin_local, max_iterations, tol_m, what)
-    return SphereFit(
-        center_m=ref + fit.centre,
-        radius_m=fit.radius,
-        radius_fixed=radius is not None,
-        cov_center_m2=fit.cov,
-        radius_std_m=fit.radius_std,
-        residual_rms_m=fit.rms,
-        n_points=int(fit.used.sum()),
-        inliers=fit.used,
-        residuals_m=fit.residuals,
-        method=fit.method,
-        iterations=fit.iterations,
-    )
+    return fit.sphere_fit(ref, fit.used, fit.residuals, radius_fixed=radius is not None)
 
 
 # --------------------------------------------------------------------------- RANSAC
