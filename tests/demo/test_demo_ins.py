@@ -16,15 +16,8 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from kinsync.demo.ins import (
-    ERROR_HEADERS,
-    NAVEGO_PEERS,
-    InsDemoSetup,
-    find_navego_folder,
-    ins_section,
-    navego_section,
-    random_walk_bias_config,
-)
+from kinsync.demo.ins import ERROR_HEADERS, InsDemoSetup, ins_section, random_walk_bias_config
+from kinsync.demo.navego import NAVEGO_PEERS, find_navego_folder, navego_section
 from kinsync.errors import InputError
 from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth

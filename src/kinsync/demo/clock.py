@@ -8,14 +8,17 @@ write it as ``pps.csv`` / ``nmea.csv``, read it back, fit, and compare with the 
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib as mpl
 
 mpl.use("Agg")
 import numpy as np
 
-from kinsync.clock import fit_clock_to_log
+from kinsync._typing import FloatArray
+from kinsync.clock import ClockFit, fit_clock_to_log
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.clock_model import read_pps_csv, write_clock_model
 from kinsync.io.nmea import read_nmea_log
@@ -28,11 +31,25 @@ __all__ = ["clock_section"]
 Summary = list[tuple[str, str, str]]
 
 
-def clock_section(out_dir: Path, summary: Summary) -> Section:
-    """Simulate, write, read back and fit the issue's PPS + ZDA scenario."""
+@dataclass(frozen=True, eq=False)
+class _ClockRun:
+    """The fitted clock of the simulated logs and its errors against the truth."""
+
+    config: ClockSimConfig
+    truth: dict[str, Any]
+    fit: ClockFit
+    edges_t_local_s: FloatArray
+    edge_error_s: FloatArray  # mapped minus true GPS time of every true edge
+    max_error_us: float
+    drift_error_ppm: float
+    true_offset_s: float
+    offset_error_s: float
+
+
+def _simulate_and_fit(folder: Path) -> _ClockRun:
+    """Simulate the logs into ``folder``, read them back, fit and compare with the truth."""
     config = ClockSimConfig()
     sim = simulate_clock(config)
-    folder = out_dir / "clock"
     write_clock_simulation(sim, folder)
     log = read_nmea_log(folder / "nmea.csv")
     fit = fit_clock_to_log(read_pps_csv(folder / "pps.csv"), log, baud=config.baud)
@@ -40,52 +57,64 @@ def clock_section(out_dir: Path, summary: Summary) -> Section:
     truth = sim.truth
     edges_local = np.asarray(truth["edges_t_local_s"])
     err = fit.model.apply(edges_local) - np.asarray(truth["edges_gps_s"])
-    max_err_us = float(np.max(np.abs(err))) * 1e6
-    drift_err = fit.model.drift_ppm - config.drift_ppm
     true_offset = float(sim.true_gps_s(fit.model.reference_local_s)) - fit.model.reference_local_s
-    offset_err = fit.model.offset_s - true_offset
-    atomic_write_text(
-        out_dir / "clock.json",
-        json.dumps(
-            {
-                "fit": fit.as_document(),
-                "truth": {k: v for k, v in truth.items() if k not in ("edges_gps_s",)},
-                "max_mapped_error_s": max_err_us * 1e-6,
-                "drift_error_ppm": drift_err,
-                "offset_error_s": offset_err,
-            },
-            indent=2,
-        )
-        + "\n",
+    return _ClockRun(
+        config=config,
+        truth=truth,
+        fit=fit,
+        edges_t_local_s=edges_local,
+        edge_error_s=err,
+        max_error_us=float(np.max(np.abs(err))) * 1e6,
+        drift_error_ppm=fit.model.drift_ppm - config.drift_ppm,
+        true_offset_s=true_offset,
+        offset_error_s=fit.model.offset_s - true_offset,
     )
-    png = clock_residual_figure(fit, (edges_local, err))
-    atomic_write_bytes(out_dir / "clock_1.png", png)
-    summary.append(
+
+
+def _document(run: _ClockRun) -> dict[str, object]:
+    """What ``clock.json`` holds: the fit, the truth and the errors."""
+    return {
+        "fit": run.fit.as_document(),
+        "truth": {k: v for k, v in run.truth.items() if k not in ("edges_gps_s",)},
+        "max_mapped_error_s": run.max_error_us * 1e-6,
+        "drift_error_ppm": run.drift_error_ppm,
+        "offset_error_s": run.offset_error_s,
+    }
+
+
+def _summary_row(run: _ClockRun) -> tuple[str, str, str]:
+    """The (capability, scenario, result) row of the terminal summary."""
+    fit = run.fit
+    return (
+        "clock model (PPS + ZDA)",
+        "10 min, 25 ppm, 1 us jitter, 3 missing + 2 spurious pulses, 1 wrong ZDA",
         (
-            "clock model (PPS + ZDA)",
-            "10 min, 25 ppm, 1 us jitter, 3 missing + 2 spurious pulses, 1 wrong ZDA",
-            (
-                f"drift error {drift_err * 1e3:+.3f} ppb, max mapped error {max_err_us:.2f} us, "
-                f"faults {fit.n_missing}/{fit.n_spurious}/{fit.n_wrong_zda}"
-            ),
-        )
+            f"drift error {run.drift_error_ppm * 1e3:+.3f} ppb, max mapped error "
+            f"{run.max_error_us:.2f} us, "
+            f"faults {fit.n_missing}/{fit.n_spurious}/{fit.n_wrong_zda}"
+        ),
     )
+
+
+def _tables(run: _ClockRun) -> tuple[Table, ...]:
+    """The fitted-against-true model table and the faults table."""
+    fit, truth = run.fit, run.truth
     rows = [
         [
             "offset at reference (s)",
             f"{fit.model.offset_s:.9f}",
-            f"{true_offset:.9f}",
-            f"{offset_err * 1e6:+.3f} us",
+            f"{run.true_offset_s:.9f}",
+            f"{run.offset_error_s * 1e6:+.3f} us",
             f"{fit.offset_std_s * 1e6:.3f} us",
         ],
         [
             "drift (ppm)",
             f"{fit.model.drift_ppm:.6f}",
-            f"{config.drift_ppm:.6f}",
-            f"{drift_err:+.6f}",
+            f"{run.config.drift_ppm:.6f}",
+            f"{run.drift_error_ppm:+.6f}",
             f"{fit.drift_std_ppm:.6f}",
         ],
-        ["mapped time, every true edge", "-", "-", f"max {max_err_us:.3f} us", "-"],
+        ["mapped time, every true edge", "-", "-", f"max {run.max_error_us:.3f} us", "-"],
     ]
     fault_rows = [
         ["missing pulses", str(fit.n_missing), str(truth["n_missing"])],
@@ -99,38 +128,53 @@ def clock_section(out_dir: Path, summary: Summary) -> Section:
         ],
         ["pulses used", str(fit.n_pulses), str(truth["n_pulses"])],
     ]
+    return (
+        Table(
+            caption="Fitted against true clock model",
+            headers=("quantity", "fitted", "truth", "error", "1 sigma"),
+            rows=rows,
+        ),
+        Table(
+            caption="Faults found against faults simulated",
+            headers=("fault", "found", "simulated"),
+            rows=fault_rows,
+        ),
+    )
+
+
+def _paragraphs(fit: ClockFit) -> tuple[str, ...]:
+    """The scenario and the fitted model, in words."""
+    return (
+        (
+            "An acquisition computer whose clock runs 25 ppm slow and 0.37 s behind GPS "
+            "tags the receiver's pulse per second (1 us jitter) and the NMEA sentences it "
+            "receives at 115200 baud (ZDA 15 ms after each edge, then GGA, RMC, HDT). "
+            "Three pulses are lost, two spurious edges are added, one ZDA names the wrong "
+            "second and two lines are corrupted. kinsync reads pps.csv and nmea.csv, "
+            "finds the 1 s grid of the pulses, names its seconds with the ZDAs (their "
+            "transmission time removed), rejects what does not fit and fits offset and "
+            "drift by least squares."
+        ),
+        (
+            f"Model: t_gps_s = {fit.model.reference_gps_s!r} + (t_local_s - "
+            f"{fit.model.reference_local_s!r}) * (1 + {fit.model.drift_ppm:.6f}e-6). "
+            f"ZDA transmission starts {fit.zda_delay_s * 1e3:.2f} ms after the edge it "
+            "names."
+        ),
+    )
+
+
+def clock_section(out_dir: Path, summary: Summary) -> Section:
+    """Simulate, write, read back and fit the issue's PPS + ZDA scenario."""
+    run = _simulate_and_fit(out_dir / "clock")
+    atomic_write_text(out_dir / "clock.json", json.dumps(_document(run), indent=2) + "\n")
+    png = clock_residual_figure(run.fit, (run.edges_t_local_s, run.edge_error_s))
+    atomic_write_bytes(out_dir / "clock_1.png", png)
+    summary.append(_summary_row(run))
     return Section(
         title="PPS + ZDA time tagging: local clock to GPS time (SPEC section 6)",
-        paragraphs=(
-            (
-                "An acquisition computer whose clock runs 25 ppm slow and 0.37 s behind GPS "
-                "tags the receiver's pulse per second (1 us jitter) and the NMEA sentences it "
-                "receives at 115200 baud (ZDA 15 ms after each edge, then GGA, RMC, HDT). "
-                "Three pulses are lost, two spurious edges are added, one ZDA names the wrong "
-                "second and two lines are corrupted. kinsync reads pps.csv and nmea.csv, "
-                "finds the 1 s grid of the pulses, names its seconds with the ZDAs (their "
-                "transmission time removed), rejects what does not fit and fits offset and "
-                "drift by least squares."
-            ),
-            (
-                f"Model: t_gps_s = {fit.model.reference_gps_s!r} + (t_local_s - "
-                f"{fit.model.reference_local_s!r}) * (1 + {fit.model.drift_ppm:.6f}e-6). "
-                f"ZDA transmission starts {fit.zda_delay_s * 1e3:.2f} ms after the edge it "
-                "names."
-            ),
-        ),
-        tables=(
-            Table(
-                caption="Fitted against true clock model",
-                headers=("quantity", "fitted", "truth", "error", "1 sigma"),
-                rows=rows,
-            ),
-            Table(
-                caption="Faults found against faults simulated",
-                headers=("fault", "found", "simulated"),
-                rows=fault_rows,
-            ),
-        ),
+        paragraphs=_paragraphs(run.fit),
+        tables=_tables(run),
         figures=(
             Figure(
                 caption="Left: residuals of the good pulses, missing pulses (dotted), spurious "

@@ -286,19 +286,17 @@ def _summary_rows(result: ChainResult) -> list[tuple[str, str, str]]:
     ]
 
 
-def _tables(result: ChainResult) -> tuple[Table, ...]:
-    sv = result.survey
-    sim = sv.scan
-    sync = result.sync
+def _ins_table(result: ChainResult) -> Table:
+    """The forward filter and the RTS smoother against the truth."""
     assert result.ins.smoothed is not None
-    ins_rows = []
+    rows = []
     for label, cmp, sol in (
         ("forward filter", result.forward, result.ins.forward),
         ("RTS smoothed", result.smoothed, result.ins.smoothed),
     ):
         r, a = cmp.rms_pos_ned_m, cmp.rms_att_deg
         share = cmp.within_3sigma or {}
-        ins_rows.append(
+        rows.append(
             [
                 label,
                 f"{r[0] * 1e3:.1f} / {r[1] * 1e3:.1f} / {r[2] * 1e3:.1f}",
@@ -307,8 +305,24 @@ def _tables(result: ChainResult) -> tuple[Table, ...]:
                 f"{sol.n_gnss_used} / {sol.n_gnss_rejected}",
             ]
         )
+    return Table(
+        caption="INS/GNSS against the truth",
+        headers=(
+            "solution",
+            "position RMS N / E / D (mm)",
+            "attitude RMS roll / pitch / yaw (deg)",
+            "share within 3 sigma N / E / D",
+            "GNSS used / rejected",
+        ),
+        rows=rows,
+    )
+
+
+def _sync_table(result: ChainResult) -> Table:
+    """Method B on the INS trajectory and on the exact one, against the truth."""
+    sim = result.survey.scan
     n_last = sim.n_profiles - 1
-    sync_rows = [
+    rows = [
         [
             label,
             f"{(r.t0_s - sim.t0_s) * 1e3:+.3f}",
@@ -320,11 +334,32 @@ def _tables(result: ChainResult) -> tuple[Table, ...]:
             str(len(r.sightings)),
         ]
         for label, r in (
-            ("INS/GNSS smoothed (used)", sync),
+            ("INS/GNSS smoothed (used)", result.sync),
             ("exact trajectory (reference)", result.sync_exact),
         )
     ]
-    case_rows = [
+    return Table(
+        caption=(
+            f"Method B against the truth (t0 = {sim.t0_s:.4f} s, T = {sim.period_s * 1e3:.6f} ms)"
+        ),
+        headers=(
+            "trajectory",
+            "t0 error (ms)",
+            "t0 sigma (ms)",
+            "T error (ns)",
+            "T sigma (ns)",
+            f"clock error at profile {n_last} (ms)",
+            "its sigma (ms)",
+            "pairs",
+        ),
+        rows=rows,
+    )
+
+
+def _case_table(result: ChainResult) -> Table:
+    """Each calibration case's clock and latency, and its signature tests."""
+    sync = result.sync
+    rows = [
         [
             c.label,
             _ms(c.clock.t0_s - sync.t0_s),
@@ -338,8 +373,27 @@ def _tables(result: ChainResult) -> tuple[Table, ...]:
         ]
         for c in result.cases
     ]
+    return Table(
+        caption="Calibration cases and the control-point signature tests",
+        headers=(
+            "case",
+            "t0 - Method B (ms)",
+            "T - Method B (ns)",
+            "latency (ms)",
+            "true time error, first .. last profile (ms)",
+            "implied time error (ms)",
+            "implied heading error (deg)",
+            "RMS dY (mm)",
+            "mean dY per pass (mm)",
+        ),
+        rows=rows,
+    )
+
+
+def _visit_table(result: ChainResult) -> Table:
+    """The dY of every control-point visit of the correct case, beside each case's."""
     correct = result.cases[0]
-    visit_rows = []
+    rows = []
     for d, p in zip(
         correct.control.differences, pass_labels(correct.control.differences), strict=True
     ):
@@ -347,9 +401,24 @@ def _tables(result: ChainResult) -> tuple[Table, ...]:
         for c in result.cases:
             dy = _matching_dy(c.control, d.observation.name, d.observation.t_s)
             cells.append("-" if dy is None else f"{dy * 1e3:+.1f}")
-        visit_rows.append(cells)
+        rows.append(cells)
+    return Table(
+        caption="Along-track offset dY (cloud - control, vehicle frame) per visit",
+        headers=(
+            "point",
+            "pass",
+            "side",
+            "along-track speed (m/s)",
+            *(f"dY {c.label} (mm)" for c in result.cases),
+        ),
+        rows=rows,
+    )
+
+
+def _wall_table(result: ChainResult) -> Table:
+    """The wall's plane fit and curvature test, per case and pass."""
     names = _pass_names(result)
-    wall_rows = [
+    rows = [
         [
             c.label,
             names[j],
@@ -363,164 +432,142 @@ def _tables(result: ChainResult) -> tuple[Table, ...]:
         for c in result.cases
         for j, w in enumerate(c.walls)
     ]
-    return (
-        Table(
-            caption="INS/GNSS against the truth",
-            headers=(
-                "solution",
-                "position RMS N / E / D (mm)",
-                "attitude RMS roll / pitch / yaw (deg)",
-                "share within 3 sigma N / E / D",
-                "GNSS used / rejected",
-            ),
-            rows=ins_rows,
+    return Table(
+        caption="Wall beside the turn entry: plane fit and curvature test per pass",
+        headers=(
+            "case",
+            "pass",
+            "points",
+            "RMS (mm)",
+            "bow (mm)",
+            "F",
+            "p-value",
+            f"curved (p < 1 %, bow >= {result.survey.config.wall_tolerance_m * 1e3:g} mm)",
         ),
-        Table(
-            caption=(
-                f"Method B against the truth (t0 = {sim.t0_s:.4f} s, T = "
-                f"{sim.period_s * 1e3:.6f} ms)"
-            ),
-            headers=(
-                "trajectory",
-                "t0 error (ms)",
-                "t0 sigma (ms)",
-                "T error (ns)",
-                "T sigma (ns)",
-                f"clock error at profile {n_last} (ms)",
-                "its sigma (ms)",
-                "pairs",
-            ),
-            rows=sync_rows,
-        ),
-        Table(
-            caption="Calibration cases and the control-point signature tests",
-            headers=(
-                "case",
-                "t0 - Method B (ms)",
-                "T - Method B (ns)",
-                "latency (ms)",
-                "true time error, first .. last profile (ms)",
-                "implied time error (ms)",
-                "implied heading error (deg)",
-                "RMS dY (mm)",
-                "mean dY per pass (mm)",
-            ),
-            rows=case_rows,
-        ),
-        Table(
-            caption="Along-track offset dY (cloud - control, vehicle frame) per visit",
-            headers=(
-                "point",
-                "pass",
-                "side",
-                "along-track speed (m/s)",
-                *(f"dY {c.label} (mm)" for c in result.cases),
-            ),
-            rows=visit_rows,
-        ),
-        Table(
-            caption="Wall beside the turn entry: plane fit and curvature test per pass",
-            headers=(
-                "case",
-                "pass",
-                "points",
-                "RMS (mm)",
-                "bow (mm)",
-                "F",
-                "p-value",
-                f"curved (p < 1 %, bow >= {sv.config.wall_tolerance_m * 1e3:g} mm)",
-            ),
-            rows=wall_rows,
-        ),
+        rows=rows,
     )
 
 
-def _paragraphs(result: ChainResult) -> tuple[str, ...]:
+def _tables(result: ChainResult) -> tuple[Table, ...]:
+    return (
+        _ins_table(result),
+        _sync_table(result),
+        _case_table(result),
+        _visit_table(result),
+        _wall_table(result),
+    )
+
+
+def _survey_paragraph(result: ChainResult) -> str:
+    """The drive, the sensors and the scene."""
     sv = result.survey
     cfg = sv.config
     sim = sv.scan
+    n_simulated = int(np.unique(sim.scan.profile).size)
+    return (
+        f"One simulated survey carries the whole chain. A van drives {cfg.laps} laps of an "
+        f"oval ({cfg.straight_m:g} m straights, {cfg.turn_radius_m:g} m radius right turns, "
+        f"{cfg.speed_m_s:g} m/s cruise), then its first straight once more, braking to a "
+        f"stop: {sv.route.length_m:.0f} m in {sv.truth.duration_s:.0f} s after a static "
+        "start. One truth trajectory feeds a navigation-grade IMU (50 Hz), RTK GNSS (5 Hz) "
+        f"and a profile scanner ({1.0 / sim.period_s:.2f} rev/s, "
+        f"{cfg.angular_step_deg:g} deg steps, {cfg.range_noise_m * 1e3:g} mm range noise) "
+        "whose returns carry profile numbers and mirror angles but no time. The navigation "
+        f"records lag the scanner by {sv.mount.latency_s * 1e3:.2f} ms: the latency the "
+        "Method A section estimates on its simulated rotating table, used here at its true "
+        "value as the calibrated one. Two sync spheres and six control spheres stand "
+        "beside the first straight, passed accelerating, cruising and braking; a wall "
+        "stands outside the first turn's entry. Only the profiles that can see a target or "
+        f"the wall are simulated ({n_simulated} of {sim.n_profiles}, {len(sim.scan)} "
+        "returns)."
+    )
+
+
+def _sync_paragraph(result: ChainResult) -> str:
+    """The INS/GNSS trajectory and Method B on it."""
+    sim = result.survey.scan
     sync = result.sync
     exact = result.sync_exact
-    correct = result.cases[0]
-    n_last = sim.n_profiles - 1
-    n_simulated = int(np.unique(sim.scan.profile).size)
+    return (
+        "The INS/GNSS solution (static levelling, GNSS course-over-ground heading, 15-state "
+        "filter, RTS smoother) is compared with the truth; it, not the truth, is the "
+        "trajectory of every later step. Method B synchronises the scan on it: t0 "
+        f"{(sync.t0_s - sim.t0_s) * 1e3:+.2f} ms (sigma {sync.t0_std_s * 1e3:.2f}) and T "
+        f"{(sync.period_s - sim.period_s) * 1e9:+.0f} ns (sigma "
+        f"{sync.period_std_s * 1e9:.0f}) from the truth. The INS position error along the "
+        "track, divided by the speed, adds to the sightings' own timing noise: on the exact "
+        f"trajectory the same scan gives t0 {(exact.t0_s - sim.t0_s) * 1e3:+.3f} ms (sigma "
+        f"{exact.t0_std_s * 1e3:.3f})."
+    )
+
+
+def _cases_paragraph(result: ChainResult) -> str:
+    """The three calibrations and the t0-latency equivalence."""
+    cfg = result.survey.config
+    n_last = result.survey.scan.n_profiles - 1
     same = (
         "the two clouds are identical"
         if result.equivalence_m == 0.0
         else f"the two clouds differ by at most {result.equivalence_m:.1e} m"
     )
-
-    def outcome(case: CalibrationCase) -> str:
-        per_pass = " / ".join(f"{v * 1e3:+.1f}" for v in mean_dy_per_pass(case.control))
-        bows = ", ".join(f"{w.bow_m * 1e3:.1f}" for w in case.walls)
-        curved = sum(w.curvature_significant for w in case.walls)
-        return (
-            f"{case.label}: implied time error "
-            f"{_signature_cell(case.control.time_error, 1e3, ' ms')}, heading "
-            f"{_signature_cell(case.control.heading_error, 1.0, ' deg')}, mean dY per pass "
-            f"{per_pass} mm, wall bows {bows} mm ({curved} of {len(case.walls)} passes curved)"
-        )
-
     return (
-        (
-            f"One simulated survey carries the whole chain. A van drives {cfg.laps} laps of an "
-            f"oval ({cfg.straight_m:g} m straights, {cfg.turn_radius_m:g} m radius right turns, "
-            f"{cfg.speed_m_s:g} m/s cruise), then its first straight once more, braking to a "
-            f"stop: {sv.route.length_m:.0f} m in {sv.truth.duration_s:.0f} s after a static "
-            "start. One truth trajectory feeds a navigation-grade IMU (50 Hz), RTK GNSS (5 Hz) "
-            f"and a profile scanner ({1.0 / sim.period_s:.2f} rev/s, "
-            f"{cfg.angular_step_deg:g} deg steps, {cfg.range_noise_m * 1e3:g} mm range noise) "
-            "whose returns carry profile numbers and mirror angles but no time. The navigation "
-            f"records lag the scanner by {sv.mount.latency_s * 1e3:.2f} ms: the latency the "
-            "Method A section estimates on its simulated rotating table, used here at its true "
-            "value as the calibrated one. Two sync spheres and six control spheres stand "
-            "beside the first straight, passed accelerating, cruising and braking; a wall "
-            "stands outside the first turn's entry. Only the profiles that can see a target or "
-            f"the wall are simulated ({n_simulated} of {sim.n_profiles}, {len(sim.scan)} "
-            "returns)."
-        ),
-        (
-            "The INS/GNSS solution (static levelling, GNSS course-over-ground heading, 15-state "
-            "filter, RTS smoother) is compared with the truth; it, not the truth, is the "
-            "trajectory of every later step. Method B synchronises the scan on it: t0 "
-            f"{(sync.t0_s - sim.t0_s) * 1e3:+.2f} ms (sigma {sync.t0_std_s * 1e3:.2f}) and T "
-            f"{(sync.period_s - sim.period_s) * 1e9:+.0f} ns (sigma "
-            f"{sync.period_std_s * 1e9:.0f}) from the truth. The INS position error along the "
-            "track, divided by the speed, adds to the sightings' own timing noise: on the exact "
-            f"trajectory the same scan gives t0 {(exact.t0_s - sim.t0_s) * 1e3:+.3f} ms (sigma "
-            f"{exact.t0_std_s * 1e3:.3f})."
-        ),
-        (
-            "The scan is then georeferenced three times: (a) the Method B clock and the "
-            f"calibrated latency; (b) a latency {cfg.latency_error_s * 1e3:g} ms too large; (c) "
-            f"a period error that grows to {cfg.clock_error_s * 1e3:g} ms at the last profile "
-            f"({cfg.clock_error_s / n_last * 1e9:.0f} ns per profile, "
-            f"{cfg.clock_error_s / n_last / sync.period_std_s:.0f} times Method B's sigma: a "
-            "period Method B rejects). A Method B clock absorbs any constant latency (only "
-            f"t0 + latency is observable), so (b) is also a t0 off by the same amount: {same}."
-        ),
-        (
-            "Control points: every sphere visit is found by intensity and fitted, the "
-            "difference cloud - control is expressed in the vehicle frame, and the time and "
-            "heading signatures are tested in one mixed model at 99 %. A time error shows as dY "
-            "growing with the target's along-track speed; a period error as dY growing from "
-            "pass to pass. Wall: the points of each pass through the turn are fitted with a "
-            "plane and tested for curvature (F-test of a quadratic surface at 99 %). Entering "
-            "the turn the displacement tau (v + omega x r) changes along the wall, so a time "
-            "error bends it; the RMS barely moves. With about "
-            f"{correct.walls[0].n_points} points per pass the F-test alone sees "
-            "sub-millimetre bends (correct calibration: bows "
-            + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in correct.walls)
-            + "; with the exact trajectory and clock "
-            + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in result.walls_exact)
-            + ": the INS/GNSS trajectory's millimetre errors in the turn leave a small real "
-            "bend), so a bend is flagged when p < 1 % and "
-            f"the bow reaches {cfg.wall_tolerance_m * 1e3:g} mm. Views of the targets from the "
-            "far straight give too few points and are listed as missing in the JSON document."
-        ),
+        "The scan is then georeferenced three times: (a) the Method B clock and the "
+        f"calibrated latency; (b) a latency {cfg.latency_error_s * 1e3:g} ms too large; (c) "
+        f"a period error that grows to {cfg.clock_error_s * 1e3:g} ms at the last profile "
+        f"({cfg.clock_error_s / n_last * 1e9:.0f} ns per profile, "
+        f"{cfg.clock_error_s / n_last / result.sync.period_std_s:.0f} times Method B's sigma: "
+        "a period Method B rejects). A Method B clock absorbs any constant latency (only "
+        f"t0 + latency is observable), so (b) is also a t0 off by the same amount: {same}."
+    )
+
+
+def _validation_paragraph(result: ChainResult) -> str:
+    """How control points and the wall are tested."""
+    correct = result.cases[0]
+    return (
+        "Control points: every sphere visit is found by intensity and fitted, the "
+        "difference cloud - control is expressed in the vehicle frame, and the time and "
+        "heading signatures are tested in one mixed model at 99 %. A time error shows as dY "
+        "growing with the target's along-track speed; a period error as dY growing from "
+        "pass to pass. Wall: the points of each pass through the turn are fitted with a "
+        "plane and tested for curvature (F-test of a quadratic surface at 99 %). Entering "
+        "the turn the displacement tau (v + omega x r) changes along the wall, so a time "
+        "error bends it; the RMS barely moves. With about "
+        f"{correct.walls[0].n_points} points per pass the F-test alone sees "
+        "sub-millimetre bends (correct calibration: bows "
+        + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in correct.walls)
+        + "; with the exact trajectory and clock "
+        + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in result.walls_exact)
+        + ": the INS/GNSS trajectory's millimetre errors in the turn leave a small real "
+        "bend), so a bend is flagged when p < 1 % and "
+        f"the bow reaches {result.survey.config.wall_tolerance_m * 1e3:g} mm. Views of the "
+        "targets from the far straight give too few points and are listed as missing in the "
+        "JSON document."
+    )
+
+
+def _outcome(case: CalibrationCase) -> str:
+    """One case's signature tests, mean dY per pass and wall bows, in words."""
+    per_pass = " / ".join(f"{v * 1e3:+.1f}" for v in mean_dy_per_pass(case.control))
+    bows = ", ".join(f"{w.bow_m * 1e3:.1f}" for w in case.walls)
+    curved = sum(w.curvature_significant for w in case.walls)
+    return (
+        f"{case.label}: implied time error "
+        f"{_signature_cell(case.control.time_error, 1e3, ' ms')}, heading "
+        f"{_signature_cell(case.control.heading_error, 1.0, ' deg')}, mean dY per pass "
+        f"{per_pass} mm, wall bows {bows} mm ({curved} of {len(case.walls)} passes curved)"
+    )
+
+
+def _paragraphs(result: ChainResult) -> tuple[str, ...]:
+    return (
+        _survey_paragraph(result),
+        _sync_paragraph(result),
+        _cases_paragraph(result),
+        _validation_paragraph(result),
         (
             "Outcome. "
-            + "; ".join(outcome(c) for c in result.cases)
+            + "; ".join(_outcome(c) for c in result.cases)
             + ". A period error is not a constant time error: it grows along the survey, and "
             "so do the offsets from pass to pass and the bend of the later pass."
         ),

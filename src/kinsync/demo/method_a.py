@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -16,8 +18,9 @@ from kinsync.fit import SphereFit, segment_sphere
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.cidco import read_cidco_pass
 from kinsync.io.passes import read_passes
-from kinsync.latency.planning import TableDesign, plan_latency_experiment
-from kinsync.latency.sphere import estimate_latency_sphere
+from kinsync.latency.passes import SpherePass
+from kinsync.latency.planning import LatencyPlan, TableDesign, plan_latency_experiment
+from kinsync.latency.sphere import SphereLatencyResult, estimate_latency_sphere
 from kinsync.report.fit_figures import sphere_residual_figure
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
@@ -32,10 +35,18 @@ DEMO_LATENCY_S = 0.00421
 CIDCO_RELATIVE = Path("..") / "shared" / "data" / "cidco-port-de-quebec"
 
 
-def method_a_section(
-    out_dir: Path, summary: Summary, progress: Callable[[str], None] | None = None
-) -> Section:
-    """Simulate the published set-up, write it as a pass folder, read it back, estimate."""
+@dataclass(frozen=True, eq=False)
+class _MethodARun:
+    """The simulated campaign as read back, its estimate and the planner's bound."""
+
+    truth: dict[str, Any]
+    passes: list[SpherePass]
+    result: SphereLatencyResult
+    plan: LatencyPlan
+
+
+def _simulate_and_estimate(out_dir: Path, progress: Callable[[str], None] | None) -> _MethodARun:
+    """Simulate the table into ``method-a-passes/``, read it back, estimate and plan."""
     config = RotatingTableConfig(latency_s=DEMO_LATENCY_S, seed=1)
     if progress:
         progress("Method A: simulating the rotating table")
@@ -47,25 +58,25 @@ def method_a_section(
     passes = read_passes(folder)
     result = estimate_latency_sphere(passes, radius_m=config.sphere_radius_m)
     plan = plan_latency_experiment(TableDesign())
-    atomic_write_text(
-        out_dir / "method_a.json",
-        json.dumps(
-            {"estimate": result.as_document(), "plan": plan.as_document(), "truth": sim.truth},
-            indent=2,
-        )
-        + "\n",
-    )
+    return _MethodARun(truth=sim.truth, passes=passes, result=result, plan=plan)
+
+
+def _summary_row(run: _MethodARun) -> tuple[str, str, str]:
+    """The (capability, scenario, result) row of the terminal summary."""
+    result = run.result
     err_ms = (result.latency_s - DEMO_LATENCY_S) * 1e3
-    summary.append(
+    return (
+        "Method A latency",
+        f"simulated table, tau = {DEMO_LATENCY_S * 1e3:g} ms, {len(run.passes)} passes",
         (
-            "Method A latency",
-            f"simulated table, tau = {DEMO_LATENCY_S * 1e3:g} ms, {len(passes)} passes",
-            (
-                f"{result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
-                f"(error {err_ms:+.4f} ms; plan predicted {plan.latency_std_s * 1e3:.4f})"
-            ),
-        )
+            f"{result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
+            f"(error {err_ms:+.4f} ms; plan predicted {run.plan.latency_std_s * 1e3:.4f})"
+        ),
     )
+
+
+def _rate_table(run: _MethodARun) -> Table:
+    """Latency per table rate, with the planner's sigma beside the estimate's."""
     rows = [
         [
             f"{r.rate_deg_s:g}",
@@ -76,16 +87,35 @@ def method_a_section(
             f"{r.latency_first_order_s * 1e3:.4f}",
             f"{p.latency_std_s * 1e3:.4f}",
         ]
-        for r, p in zip(result.per_rate, plan.per_rate, strict=True)
+        for r, p in zip(run.result.per_rate, run.plan.per_rate, strict=True)
     ]
-    six = next(r for r in result.per_rate if r.rate_deg_s == 6.0)
-    pooled = np.concatenate([p.points_ned_m for p in passes if p.rate_deg_s == six.plus.rate_deg_s])
-    figures = (
+    return Table(
+        caption="Latency per table rate",
+        headers=(
+            "rate (deg/s)",
+            "points",
+            "centre sigma (mm)",
+            "latency (ms)",
+            "latency sigma (ms)",
+            "first-order (ms)",
+            "planner sigma (ms)",
+        ),
+        rows=rows,
+    )
+
+
+def _figures(run: _MethodARun) -> tuple[Figure, ...]:
+    """Latency per rate, the +6 deg/s pool's sphere residuals and the planner."""
+    six = next(r for r in run.result.per_rate if r.rate_deg_s == 6.0)
+    pooled = np.concatenate(
+        [p.points_ned_m for p in run.passes if p.rate_deg_s == six.plus.rate_deg_s]
+    )
+    return (
         Figure(
             caption="Latency per table rate (exact model, 1-sigma bars), the first-order "
             "formula, the combined estimate and the truth; right: pool centres pushed apart "
             "by omega*tau*D",
-            png=latency_per_rate_figure(result, truth_latency_s=DEMO_LATENCY_S),
+            png=latency_per_rate_figure(run.result, truth_latency_s=DEMO_LATENCY_S),
         ),
         Figure(
             caption="Sphere fit of the +6 deg/s pool (15 passes, clutter removed): residuals",
@@ -93,48 +123,61 @@ def method_a_section(
         ),
         Figure(
             caption="Planner: Cramér-Rao latency sigma per rate and against passes",
-            png=plan_figure(plan),
+            png=plan_figure(run.plan),
         ),
     )
+
+
+def _paragraphs(run: _MethodARun) -> tuple[str, ...]:
+    """The campaign and its result, in words."""
+    result, plan = run.result, run.plan
+    return (
+        (
+            "A profile scanner and an IMU turn on a table (6 rates, 15 passes each way, "
+            "2 mm range noise, levelling error, optical centre off the axis, floor and "
+            "stand clutter) past a 0.2 m sphere at 1.5 m. The IMU records lag the "
+            f"scanner by {DEMO_LATENCY_S * 1e3:g} ms; the simulated acquisition software "
+            "georeferences with them and writes one LAZ file per pass. kinsync reads the "
+            "folder, segments the sphere from the clutter, fits one centre per signed "
+            "rate along the scanner rays and estimates the latency from the rotation "
+            "between the clockwise and counter-clockwise centres."
+        ),
+        (
+            f"Result: {result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
+            f"against {DEMO_LATENCY_S * 1e3:g} ms; rates agree (chi2 "
+            f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, p = "
+            f"{result.p_value_between_rates:.2f}). Planner bound for this design: "
+            f"{plan.latency_std_s * 1e3:.4f} ms; "
+            f"{plan.passes_for_target(1e-4)} pass(es) per rate and direction reach 0.1 ms."
+        ),
+    )
+
+
+def method_a_section(
+    out_dir: Path, summary: Summary, progress: Callable[[str], None] | None = None
+) -> Section:
+    """Simulate the published set-up, write it as a pass folder, read it back, estimate."""
+    run = _simulate_and_estimate(out_dir, progress)
+    atomic_write_text(
+        out_dir / "method_a.json",
+        json.dumps(
+            {
+                "estimate": run.result.as_document(),
+                "plan": run.plan.as_document(),
+                "truth": run.truth,
+            },
+            indent=2,
+        )
+        + "\n",
+    )
+    summary.append(_summary_row(run))
+    figures = _figures(run)
     for i, fig in enumerate(figures):
         atomic_write_bytes(out_dir / f"method_a_{i + 1}.png", fig.png)
     return Section(
         title="Method A: latency from a sphere on a rotating table (SPEC section 2)",
-        paragraphs=(
-            (
-                "A profile scanner and an IMU turn on a table (6 rates, 15 passes each way, "
-                "2 mm range noise, levelling error, optical centre off the axis, floor and "
-                "stand clutter) past a 0.2 m sphere at 1.5 m. The IMU records lag the "
-                f"scanner by {DEMO_LATENCY_S * 1e3:g} ms; the simulated acquisition software "
-                "georeferences with them and writes one LAZ file per pass. kinsync reads the "
-                "folder, segments the sphere from the clutter, fits one centre per signed "
-                "rate along the scanner rays and estimates the latency from the rotation "
-                "between the clockwise and counter-clockwise centres."
-            ),
-            (
-                f"Result: {result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
-                f"against {DEMO_LATENCY_S * 1e3:g} ms; rates agree (chi2 "
-                f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, p = "
-                f"{result.p_value_between_rates:.2f}). Planner bound for this design: "
-                f"{plan.latency_std_s * 1e3:.4f} ms; "
-                f"{plan.passes_for_target(1e-4)} pass(es) per rate and direction reach 0.1 ms."
-            ),
-        ),
-        tables=(
-            Table(
-                caption="Latency per table rate",
-                headers=(
-                    "rate (deg/s)",
-                    "points",
-                    "centre sigma (mm)",
-                    "latency (ms)",
-                    "latency sigma (ms)",
-                    "first-order (ms)",
-                    "planner sigma (ms)",
-                ),
-                rows=rows,
-            ),
-        ),
+        paragraphs=_paragraphs(run),
+        tables=(_rate_table(run),),
         figures=figures,
     )
 

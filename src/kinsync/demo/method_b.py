@@ -10,6 +10,7 @@ The clock and the pulse offset are compared with the truth.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,12 @@ from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.method_b_figures import clock_error_figure, clock_regression_figure
 from kinsync.sim.nav_noise import noisy_trajectory
-from kinsync.sim.profiler import DriveScanConfig, simulate_drive_scan, write_drive_scan
+from kinsync.sim.profiler import (
+    DriveScanConfig,
+    DriveScanSimulation,
+    simulate_drive_scan,
+    write_drive_scan,
+)
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
 
@@ -30,6 +36,17 @@ __all__ = ["method_b_section"]
 Summary = list[tuple[str, str, str]]
 
 NOISE_M = 0.02
+
+
+@dataclass(frozen=True, eq=False)
+class _MethodBRun:
+    """The simulated data set's truth and the two synchronisations."""
+
+    sim: DriveScanSimulation
+    t0_s: float
+    period_s: float
+    exact: ObjectSpaceResult
+    noisy: ObjectSpaceResult
 
 
 def _row(label: str, r: ObjectSpaceResult, t0: float, period: float) -> list[str]:
@@ -44,26 +61,9 @@ def _row(label: str, r: ObjectSpaceResult, t0: float, period: float) -> list[str
     ]
 
 
-def method_b_section(out_dir: Path, summary: Summary) -> tuple[Section, dict[str, object]]:
-    """Simulate, write, read back and synchronise the issue's Method B scenario.
-
-    Parameters
-    ----------
-    out_dir : Path
-        Report folder: ``method-b/`` (the data set), ``method_b.json`` and
-        ``method_b_1.png``, ``method_b_2.png`` are written there.
-    summary : list of (str, str, str)
-        Gets one (capability, scenario, result) row.
-
-    Returns
-    -------
-    section : Section
-    doc : dict
-        What ``method_b.json`` holds: truth, both estimates and their errors.
-    """
-    config = DriveScanConfig(near_targets_only=True, extra_first_pulse=True)
-    sim = simulate_drive_scan(config)
-    folder = Path(out_dir) / "method-b"
+def _simulate_and_synchronise(folder: Path) -> _MethodBRun:
+    """Simulate the data set into ``folder``, read it back, synchronise exact and noisy."""
+    sim = simulate_drive_scan(DriveScanConfig(near_targets_only=True, extra_first_pulse=True))
     write_drive_scan(sim, folder)
     scan = read_profile_scan(folder / "scan.csv")
     traj = read_trajectory_csv(folder / "trajectory.csv")
@@ -88,22 +88,40 @@ def method_b_section(out_dir: Path, summary: Summary) -> tuple[Section, dict[str
         ObjectSpaceConfig(position_std_m=NOISE_M),
         pulses_t_s=pulses,
     )
-    t0, period = float(sim.truth["t0_s"]), float(sim.truth["period_s"])
-    n = np.linspace(0.0, sim.truth["n_profiles"] - 1, 300)
+    return _MethodBRun(
+        sim=sim,
+        t0_s=float(sim.truth["t0_s"]),
+        period_s=float(sim.truth["period_s"]),
+        exact=exact,
+        noisy=noisy,
+    )
+
+
+def _figures(run: _MethodBRun) -> tuple[bytes, bytes]:
+    """PNGs of the clock regression and of the clock error along the drive."""
+    t0, period = run.t0_s, run.period_s
+    n = np.linspace(0.0, run.sim.truth["n_profiles"] - 1, 300)
     cases = [
         (
             label,
             np.asarray(r.clock.time_s(n, np.zeros_like(n))) - (t0 + n * period),
             r.time_std_s(n),
         )
-        for label, r in (("exact trajectory", exact), (f"{NOISE_M * 100:g} cm noise", noisy))
+        for label, r in (
+            ("exact trajectory", run.exact),
+            (f"{NOISE_M * 100:g} cm noise", run.noisy),
+        )
     ]
-    png1 = clock_regression_figure(exact)
-    png2 = clock_error_figure(n, cases, config.speed_m_s)
-    atomic_write_bytes(Path(out_dir) / "method_b_1.png", png1)
-    atomic_write_bytes(Path(out_dir) / "method_b_2.png", png2)
-    doc: dict[str, object] = {
-        "truth": {"t0_s": t0, "period_s": period, "pulse_offset": sim.truth["pulse_offset"]},
+    png1 = clock_regression_figure(run.exact)
+    png2 = clock_error_figure(n, cases, run.sim.config.speed_m_s)
+    return png1, png2
+
+
+def _document(run: _MethodBRun) -> dict[str, object]:
+    """What ``method_b.json`` holds: truth, both estimates and their errors."""
+    t0, period, exact, noisy = run.t0_s, run.period_s, run.exact, run.noisy
+    return {
+        "truth": {"t0_s": t0, "period_s": period, "pulse_offset": run.sim.truth["pulse_offset"]},
         "exact": exact.as_document(),
         "noisy": {"trajectory_noise_m": NOISE_M, **noisy.as_document()},
         "errors": {
@@ -111,19 +129,25 @@ def method_b_section(out_dir: Path, summary: Summary) -> tuple[Section, dict[str
             "noisy": {"t0_s": noisy.t0_s - t0, "period_s": noisy.period_s - period},
         },
     }
-    atomic_write_text(Path(out_dir) / "method_b.json", json.dumps(doc, indent=2) + "\n")
-    summary.append(
+
+
+def _summary_row(run: _MethodBRun) -> tuple[str, str, str]:
+    """The (capability, scenario, result) row of the terminal summary."""
+    exact, t0, period = run.exact, run.t0_s, run.period_s
+    return (
+        "Method B (object-space sync)",
+        "5 min oval at 2 m/s, 2 sync spheres seen twice, extra first pulse",
         (
-            "Method B (object-space sync)",
-            "5 min oval at 2 m/s, 2 sync spheres seen twice, extra first pulse",
-            (
-                f"t0 error {(exact.t0_s - t0) * 1e3:+.2f} ms (sigma {exact.t0_std_s * 1e3:.2f}), "
-                f"T error {(exact.period_s - period) * 1e9:+.0f} ns "
-                f"(sigma {exact.period_std_s * 1e9:.0f}), pulse offset "
-                f"{'-' if exact.pulses is None else exact.pulses.offset}"
-            ),
-        )
+            f"t0 error {(exact.t0_s - t0) * 1e3:+.2f} ms (sigma {exact.t0_std_s * 1e3:.2f}), "
+            f"T error {(exact.period_s - period) * 1e9:+.0f} ns "
+            f"(sigma {exact.period_std_s * 1e9:.0f}), pulse offset "
+            f"{'-' if exact.pulses is None else exact.pulses.offset}"
+        ),
     )
+
+
+def _table(run: _MethodBRun) -> Table:
+    """Both clocks against the truth."""
     headers = (
         "trajectory",
         "t0 error (ms)",
@@ -134,31 +158,63 @@ def method_b_section(out_dir: Path, summary: Summary) -> tuple[Section, dict[str
         "pulse offset",
     )
     rows = [
-        _row("exact", exact, t0, period),
-        _row(f"{NOISE_M * 100:g} cm noise (smooth, 5 s)", noisy, t0, period),
+        _row("exact", run.exact, run.t0_s, run.period_s),
+        _row(f"{NOISE_M * 100:g} cm noise (smooth, 5 s)", run.noisy, run.t0_s, run.period_s),
     ]
+    return Table(caption="Clock against the truth", headers=headers, rows=rows)
+
+
+def _paragraphs(period_s: float) -> tuple[str, ...]:
+    """The scenario and the uncertainty model, in words."""
+    return (
+        (
+            f"A 2D profiler turning at {1.0 / period_s:.2f} rev/s (1 deg steps over +-135 deg) "
+            "is driven twice round an oval at 2 m/s for 5 minutes past two retro-reflective "
+            "sync spheres (r = 0.15 m, 3.5 m right of the road, one where the drive starts, "
+            "one where it ends), four control spheres and a wall; its scan has profile numbers "
+            "and mirror angles but no times. The scan plane's crossings of each sync point are "
+            "found on the trajectory (Brent), the spheres in the intensity image (sphere fit "
+            "in profile-number space), matched by position and relative timing within the "
+            "period prior (0.0303 s +- 1 %), and the pairs (n + phi/2pi, t) give t0 and T. "
+            "The hardware pulses carry one pulse too many; the offset is found."
+        ),
+        (
+            "The uncertainty combines the sphere fit's sub-profile sigma and the position "
+            "sigma along the plane normal divided by the plane's speed over the point; a "
+            "period error dT shifts profile N by N dT (the budget of SPEC section 3), which "
+            "the second figure shows against the true clock error."
+        ),
+    )
+
+
+def method_b_section(out_dir: Path, summary: Summary) -> tuple[Section, dict[str, object]]:
+    """Simulate, write, read back and synchronise the issue's Method B scenario.
+
+    Parameters
+    ----------
+    out_dir : Path
+        Report folder: ``method-b/`` (the data set), ``method_b.json`` and
+        ``method_b_1.png``, ``method_b_2.png`` are written there.
+    summary : list of (str, str, str)
+        Gets one (capability, scenario, result) row.
+
+    Returns
+    -------
+    section : Section
+    doc : dict
+        What ``method_b.json`` holds: truth, both estimates and their errors.
+    """
+    run = _simulate_and_synchronise(Path(out_dir) / "method-b")
+    png1, png2 = _figures(run)
+    atomic_write_bytes(Path(out_dir) / "method_b_1.png", png1)
+    atomic_write_bytes(Path(out_dir) / "method_b_2.png", png2)
+    doc = _document(run)
+    atomic_write_text(Path(out_dir) / "method_b.json", json.dumps(doc, indent=2) + "\n")
+    summary.append(_summary_row(run))
     section = Section(
         title="Method B: profile scanner synchronised in object space (SPEC section 4)",
-        paragraphs=(
-            (
-                f"A 2D profiler turning at {1.0 / period:.2f} rev/s (1 deg steps over +-135 deg) "
-                "is driven twice round an oval at 2 m/s for 5 minutes past two retro-reflective "
-                "sync spheres (r = 0.15 m, 3.5 m right of the road, one where the drive starts, "
-                "one where it ends), four control spheres and a wall; its scan has profile numbers "
-                "and mirror angles but no times. The scan plane's crossings of each sync point are "
-                "found on the trajectory (Brent), the spheres in the intensity image (sphere fit "
-                "in profile-number space), matched by position and relative timing within the "
-                "period prior (0.0303 s +- 1 %), and the pairs (n + phi/2pi, t) give t0 and T. "
-                "The hardware pulses carry one pulse too many; the offset is found."
-            ),
-            (
-                "The uncertainty combines the sphere fit's sub-profile sigma and the position "
-                "sigma along the plane normal divided by the plane's speed over the point; a "
-                "period error dT shifts profile N by N dT (the budget of SPEC section 3), which "
-                "the second figure shows against the true clock error."
-            ),
-        ),
-        tables=(Table(caption="Clock against the truth", headers=headers, rows=rows),),
+        paragraphs=_paragraphs(run.period_s),
+        tables=(_table(run),),
         figures=(
             Figure(caption="Clock regression (exact trajectory) and residuals", png=png1),
             Figure(caption="Clock error along the drive with its 3-sigma band", png=png2),

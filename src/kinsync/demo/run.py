@@ -21,9 +21,10 @@ from kinsync.demo.budget import budget_section
 from kinsync.demo.clock import clock_section
 from kinsync.demo.end_to_end import end_to_end_section
 from kinsync.demo.georef import georef_section
-from kinsync.demo.ins import find_navego_folder, ins_section, navego_section
+from kinsync.demo.ins import ins_section
 from kinsync.demo.method_a import cidco_section, find_cidco_folder, method_a_section
 from kinsync.demo.method_b import method_b_section
+from kinsync.demo.navego import find_navego_folder, navego_section
 from kinsync.demo.validation import validation_section
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text, output_folder
 from kinsync.report.html import Section, render_report

@@ -9,7 +9,7 @@ on the outside of a tight right turn, georeferenced with the correct clock and w
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,13 @@ from kinsync.report.validation_figures import (
     plus_minus,
     wall_residual_figure,
 )
-from kinsync.sim.validation_scene import SimulatedScan, control_target_scene, curved_wall_scene
+from kinsync.sim.validation_scene import (
+    ControlTargetScene,
+    SimulatedScan,
+    WallScene,
+    control_target_scene,
+    curved_wall_scene,
+)
 from kinsync.validation import (
     CloudPoints,
     ControlPointReport,
@@ -58,14 +64,18 @@ def _cell(test: SignatureTest, scale: float) -> str:
     )
 
 
-def validation_section(out_dir: Path, summary: Summary) -> Section:
-    """Run the correct-vs-wrong calibration comparison on simulated data.
+@dataclass(frozen=True, eq=False)
+class _ValidationRun:
+    """The two scenes and their results, correct calibration first."""
 
-    Writes ``validation_control_points.png``, ``validation_wall_correct.png``,
-    ``validation_wall_5ms.png`` and ``validation.json`` into ``out_dir`` and appends
-    the headline figures to ``summary``.
-    """
-    scene = control_target_scene(seed=3)
+    scene: ControlTargetScene
+    reports: list[tuple[str, ControlPointReport]]
+    wall: WallScene
+    walls: list[tuple[str, FlatnessResult]]
+
+
+def _control_point_reports(scene: ControlTargetScene) -> list[tuple[str, ControlPointReport]]:
+    """Control-point reports with the correct, the late and the yawed mount."""
     scan = scene.scan
     b = scan.mount.boresight_rpy_deg
     cases: list[tuple[str, Mount]] = [
@@ -86,48 +96,54 @@ def validation_section(out_dir: Path, summary: Summary) -> Section:
             target_radius_m=scene.target_radius_m,
         )
         reports.append((label, report))
-    wall = curved_wall_scene(seed=3)
+    return reports
+
+
+def _wall_fits(wall: WallScene) -> list[tuple[str, FlatnessResult]]:
+    """Wall flatness with the correct clock and with a 5 ms time error."""
     walls: list[tuple[str, FlatnessResult]] = []
     for label, latency in (("correct clock", 0.0), ("5 ms time error", WALL_LATENCY_ERROR_S)):
         cloud = _cloud(wall.scan, wall.scan.mount.with_latency(latency))
         walls.append(
             (label, fit_wall(cloud.pos_ecef_m[select_box(cloud.pos_ecef_m, wall.box_ecef_m)]))
         )
+    return walls
 
-    cp_png = control_point_figure(reports[1][1])
-    wall_pngs = [wall_residual_figure(r, title=f"Wall, {label}") for label, r in walls]
-    atomic_write_bytes(out_dir / "validation_control_points.png", cp_png)
-    atomic_write_bytes(out_dir / "validation_wall_correct.png", wall_pngs[0])
-    atomic_write_bytes(out_dir / "validation_wall_5ms.png", wall_pngs[1])
-    atomic_write_text(
-        out_dir / "validation.json",
-        json.dumps(
-            {
-                "control_points": {
-                    label: {
-                        k: v
-                        for k, v in r.as_document().items()
-                        if k not in ("observations", "missing")
-                    }
-                    for label, r in reports
-                },
-                "truth": {
-                    "latency_error_s": LATENCY_ERROR_S,
-                    "heading_error_deg": HEADING_ERROR_DEG,
-                    "wall_latency_error_s": WALL_LATENCY_ERROR_S,
-                },
-                "wall": {label: r.as_document() for label, r in walls},
-            },
-            indent=2,
-            allow_nan=True,
-        )
-        + "\n",
-    )
-    late = reports[1][1].time_error
-    yaw = reports[2][1].heading_error
-    clean = reports[0][1]
+
+def _simulate_and_validate() -> _ValidationRun:
+    """Both scenes georeferenced right and wrong, and validated."""
+    scene = control_target_scene(seed=3)
+    reports = _control_point_reports(scene)
+    wall = curved_wall_scene(seed=3)
+    return _ValidationRun(scene=scene, reports=reports, wall=wall, walls=_wall_fits(wall))
+
+
+def _document(run: _ValidationRun) -> dict[str, object]:
+    """What ``validation.json`` holds: the reports (without the visits), truth and walls."""
+    return {
+        "control_points": {
+            label: {
+                k: v for k, v in r.as_document().items() if k not in ("observations", "missing")
+            }
+            for label, r in run.reports
+        },
+        "truth": {
+            "latency_error_s": LATENCY_ERROR_S,
+            "heading_error_deg": HEADING_ERROR_DEG,
+            "wall_latency_error_s": WALL_LATENCY_ERROR_S,
+        },
+        "wall": {label: r.as_document() for label, r in run.walls},
+    }
+
+
+def _summary_rows(run: _ValidationRun) -> Summary:
+    """The control-point and the wall rows of the terminal summary."""
+    late = run.reports[1][1].time_error
+    yaw = run.reports[2][1].heading_error
+    clean = run.reports[0][1]
     false_alarm = clean.time_error.significant or clean.heading_error.significant
-    summary.append(
+    wall, walls = run.wall, run.walls
+    return [
         (
             "validation",
             "control targets 5-20 m/s, 2 ms latency / 0.1 deg yaw error",
@@ -136,9 +152,7 @@ def validation_section(out_dir: Path, summary: Summary) -> Section:
                 f"{plus_minus(yaw.estimate, yaw.std)} deg; correct calibration: "
                 + ("a signature flagged (false alarm)" if false_alarm else "nothing significant")
             ),
-        )
-    )
-    summary.append(
+        ),
         (
             "validation",
             f"wall in a {wall.radius_m:g} m turn at {wall.speed_m_s:g} m/s, 5 ms error",
@@ -147,8 +161,12 @@ def validation_section(out_dir: Path, summary: Summary) -> Section:
                 f"correct clock: bow {walls[0][1].bow_m * 1e3:.2f} mm, "
                 f"p {walls[0][1].p_value:.2g}"
             ),
-        )
-    )
+        ),
+    ]
+
+
+def _tables(run: _ValidationRun) -> tuple[Table, ...]:
+    """The control-point signature tests and the wall flatness tests."""
     cp_rows = [
         [
             label,
@@ -157,7 +175,7 @@ def validation_section(out_dir: Path, summary: Summary) -> Section:
             _cell(r.heading_error, 1.0),
             f"{np.sqrt(np.mean(r.diff_vehicle_m()[:, 1] ** 2)) * 1e3:.1f}",
         ]
-        for label, r in reports
+        for label, r in run.reports
     ]
     wall_rows = [
         [
@@ -168,45 +186,72 @@ def validation_section(out_dir: Path, summary: Summary) -> Section:
             f"{r.p_value:.2g}",
             "yes" if r.curvature_significant else "no",
         ]
-        for label, r in walls
+        for label, r in run.walls
     ]
+    return (
+        Table(
+            caption="Control points: implied errors (estimate ± sigma, p-value)",
+            headers=("case", "visits", "time error (ms)", "heading error (deg)", "RMS dY (mm)"),
+            rows=cp_rows,
+        ),
+        Table(
+            caption="Wall flatness: plane residuals and the curvature test",
+            headers=("case", "RMS (mm)", "bow (mm)", "F", "p-value", "curvature at 99 %"),
+            rows=wall_rows,
+        ),
+    )
+
+
+def _paragraphs(run: _ValidationRun) -> tuple[str, ...]:
+    """The two scenes and what each error does to them, in words."""
+    scene, wall = run.scene, run.wall
+    return (
+        (
+            f"{len(scene.control)} retro-reflective spheres (radius "
+            f"{scene.target_radius_m:g} m) on both sides of a road, driven at "
+            f"{', '.join(f'{v:g}' for v in sorted(set(scene.speeds_m_s)))} m/s in both "
+            "directions by a profiler (250 profiles/s, 0.1 deg, 5 mm range noise) with "
+            "2 mm survey and trajectory noise. Each visit's target is found by "
+            "intensity and fitted as a sphere; the difference cloud - control is "
+            "expressed in the vehicle frame at the moment of scanning. A time error "
+            "shows as dY growing with speed, a heading error as dY of opposite sign "
+            "left and right; both slopes are tested in one mixed model (pass and "
+            "survey errors as random effects, Satterthwaite t-tests at 99 %)."
+        ),
+        (
+            f"A 25 m wall on the outside of a right turn (radius {wall.radius_m:g} m at "
+            f"{wall.speed_m_s:g} m/s, yaw rate up to "
+            f"{np.degrees(wall.speed_m_s / wall.radius_m):.0f} deg/s), 6-10 m from the "
+            "scanner, 5 mm range noise. A time error displaces each profile by "
+            "tau (v + omega x r), which changes along the wall as the vehicle enters "
+            "the turn: the wall bends. The residual RMS barely moves; the F-test of a "
+            "quadratic surface against the plane does."
+        ),
+    )
+
+
+def validation_section(out_dir: Path, summary: Summary) -> Section:
+    """Run the correct-vs-wrong calibration comparison on simulated data.
+
+    Writes ``validation_control_points.png``, ``validation_wall_correct.png``,
+    ``validation_wall_5ms.png`` and ``validation.json`` into ``out_dir`` and appends
+    the headline figures to ``summary``.
+    """
+    run = _simulate_and_validate()
+    cp_png = control_point_figure(run.reports[1][1])
+    wall_pngs = [wall_residual_figure(r, title=f"Wall, {label}") for label, r in run.walls]
+    atomic_write_bytes(out_dir / "validation_control_points.png", cp_png)
+    atomic_write_bytes(out_dir / "validation_wall_correct.png", wall_pngs[0])
+    atomic_write_bytes(out_dir / "validation_wall_5ms.png", wall_pngs[1])
+    atomic_write_text(
+        out_dir / "validation.json",
+        json.dumps(_document(run), indent=2, allow_nan=True) + "\n",
+    )
+    summary.extend(_summary_rows(run))
     return Section(
         title="Validation: control points and wall flatness (SPEC section 7)",
-        paragraphs=(
-            (
-                f"{len(scene.control)} retro-reflective spheres (radius "
-                f"{scene.target_radius_m:g} m) on both sides of a road, driven at "
-                f"{', '.join(f'{v:g}' for v in sorted(set(scene.speeds_m_s)))} m/s in both "
-                "directions by a profiler (250 profiles/s, 0.1 deg, 5 mm range noise) with "
-                "2 mm survey and trajectory noise. Each visit's target is found by "
-                "intensity and fitted as a sphere; the difference cloud - control is "
-                "expressed in the vehicle frame at the moment of scanning. A time error "
-                "shows as dY growing with speed, a heading error as dY of opposite sign "
-                "left and right; both slopes are tested in one mixed model (pass and "
-                "survey errors as random effects, Satterthwaite t-tests at 99 %)."
-            ),
-            (
-                f"A 25 m wall on the outside of a right turn (radius {wall.radius_m:g} m at "
-                f"{wall.speed_m_s:g} m/s, yaw rate up to "
-                f"{np.degrees(wall.speed_m_s / wall.radius_m):.0f} deg/s), 6-10 m from the "
-                "scanner, 5 mm range noise. A time error displaces each profile by "
-                "tau (v + omega x r), which changes along the wall as the vehicle enters "
-                "the turn: the wall bends. The residual RMS barely moves; the F-test of a "
-                "quadratic surface against the plane does."
-            ),
-        ),
-        tables=(
-            Table(
-                caption="Control points: implied errors (estimate ± sigma, p-value)",
-                headers=("case", "visits", "time error (ms)", "heading error (deg)", "RMS dY (mm)"),
-                rows=cp_rows,
-            ),
-            Table(
-                caption="Wall flatness: plane residuals and the curvature test",
-                headers=("case", "RMS (mm)", "bow (mm)", "F", "p-value", "curvature at 99 %"),
-                rows=wall_rows,
-            ),
-        ),
+        paragraphs=_paragraphs(run),
+        tables=_tables(run),
         figures=(
             Figure(
                 caption="Control points georeferenced with a 2 ms latency error: dY against "
