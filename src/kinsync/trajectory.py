@@ -21,7 +21,7 @@ from typing import Literal
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from kinsync._arrays import readonly_copy
+from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.frames import (
@@ -216,16 +216,16 @@ class Trajectory:
             msg = "trajectory: give exactly one of lat_lon_h (geodetic) or pos_ned_m (local NED)"
             raise InputError(msg)
         set_ = object.__setattr__
-        set_(self, "t_s", readonly_copy(t))
-        set_(self, "q_body_to_ned", readonly_copy(q))
+        set_(self, "t_s", readonly_array(t))
+        set_(self, "q_body_to_ned", readonly_array(q))
         if self.lat_lon_h is not None:
             if self.origin_lat_lon_h is not None:
                 msg = "trajectory: origin_lat_lon_h applies only to a local NED trajectory"
                 raise InputError(msg)
             llh = _validated_rows(self.lat_lon_h, n, 3, "lat_lon_h")
             _check_latitudes(llh[:, 0], "lat_lon_h")
-            set_(self, "lat_lon_h", readonly_copy(llh))
-            set_(self, "_lon_unwrapped_deg", readonly_copy(np.unwrap(llh[:, 1], period=360.0)))
+            set_(self, "lat_lon_h", readonly_array(llh))
+            set_(self, "_lon_unwrapped_deg", readonly_array(np.unwrap(llh[:, 1], period=360.0)))
         else:
             if self.origin_lat_lon_h is None:
                 msg = "trajectory: pos_ned_m needs origin_lat_lon_h (lat_deg, lon_deg, h_m)"
@@ -233,12 +233,14 @@ class Trajectory:
             origin = _validated_rows([self.origin_lat_lon_h], 1, 3, "origin_lat_lon_h")[0]
             _check_latitudes(origin[:1], "origin_lat_lon_h")
             set_(
-                self, "pos_ned_m", readonly_copy(_validated_rows(self.pos_ned_m, n, 3, "pos_ned_m"))
+                self,
+                "pos_ned_m",
+                readonly_array(_validated_rows(self.pos_ned_m, n, 3, "pos_ned_m")),
             )
             set_(self, "origin_lat_lon_h", (float(origin[0]), float(origin[1]), float(origin[2])))
         if self.vel_ned_m_s is not None:
             vel = _validated_rows(self.vel_ned_m_s, n, 3, "vel_ned_m_s")
-            set_(self, "vel_ned_m_s", readonly_copy(vel))
+            set_(self, "vel_ned_m_s", readonly_array(vel))
 
     # ------------------------------------------------------------------ constructors
     @classmethod

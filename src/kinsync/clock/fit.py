@@ -47,7 +47,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_copy
+from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._validate import positive_number
 from kinsync.budget import Parity, serial_transmission_time_s
@@ -543,19 +543,19 @@ def fit_clock(
         model=model,
         convention=convention,
         baud=rate,
-        t_local_s=readonly_copy(t_good),
-        t_gps_s=readonly_copy(gps_good),
-        residuals_s=readonly_copy(resid),
+        t_local_s=readonly_array(t_good),
+        t_gps_s=readonly_array(gps_good),
+        residuals_s=readonly_array(resid),
         residual_rms_s=float(np.sqrt(np.mean(resid**2))),
         offset_std_s=math.sqrt(cov[0, 0]),
         drift_std_ppm=math.sqrt(cov[1, 1]),
-        offset_drift_cov=readonly_copy(cov),
+        offset_drift_cov=readonly_array(cov),
         n_pulses_read=len(t),
-        missing_gps_s=readonly_copy(missing.astype(np.float64)),
-        spurious_t_local_s=readonly_copy(t[~good]),
+        missing_gps_s=readonly_array(missing.astype(np.float64)),
+        spurious_t_local_s=readonly_array(t[~good]),
         n_zda=len(z_t),
-        wrong_zda_t_local_s=readonly_copy(z_t[wrong]),
-        unpaired_zda_t_local_s=readonly_copy(z_t[unpaired]),
+        wrong_zda_t_local_s=readonly_array(z_t[wrong]),
+        unpaired_zda_t_local_s=readonly_array(z_t[unpaired]),
         n_bad_lines=int(n_bad_lines),
         zda_delay_s=zda_delay,
     )

@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_copy
+from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import finite_number
 from kinsync.errors import InputError, OutsideSpanError
@@ -121,8 +121,8 @@ class ClockModel:
                     f"[{lo!r}, {hi!r}]"
                 )
                 raise InputError(msg)
-            object.__setattr__(self, "knots_local_s", readonly_copy(kl))
-            object.__setattr__(self, "knots_gps_s", readonly_copy(kg))
+            object.__setattr__(self, "knots_local_s", readonly_array(kl))
+            object.__setattr__(self, "knots_gps_s", readonly_array(kg))
 
     @property
     def offset_s(self) -> float:

@@ -23,7 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
-from kinsync._arrays import readonly_copy
+from kinsync._arrays import readonly_array
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import (
@@ -161,11 +161,11 @@ class GeorefTrajectory:
         return cls(
             trajectory=corrected,
             latency_s=float(latency_s),
-            t_s=readonly_copy(corrected.t_s),
-            pos_ecef_m=readonly_copy(pos),
-            vel_ecef_m_s=None if vel is None else readonly_copy(vel),
-            q_body_to_ecef=readonly_copy(q),
-            rotvec_interval_body=readonly_copy(rotvec),
+            t_s=readonly_array(corrected.t_s, copy=False),
+            pos_ecef_m=readonly_array(pos, copy=False),
+            vel_ecef_m_s=None if vel is None else readonly_array(vel, copy=False),
+            q_body_to_ecef=readonly_array(q, copy=False),
+            rotvec_interval_body=readonly_array(rotvec, copy=False),
         )
 
     def __len__(self) -> int:
@@ -176,7 +176,7 @@ class GeorefTrajectory:
         """Per interval ``p(s) = c0 + s c1 + s² c2 + s³ c3`` (linear), shape (N-1, 4, 3)."""
         p0, p1 = self.pos_ecef_m[:-1], self.pos_ecef_m[1:]
         zero = np.zeros_like(p0)
-        return readonly_copy(np.stack([p0, p1 - p0, zero, zero], axis=1))
+        return readonly_array(np.stack([p0, p1 - p0, zero, zero], axis=1), copy=False)
 
     @cached_property
     def _poly_hermite(self) -> FloatArray:
@@ -186,19 +186,19 @@ class GeorefTrajectory:
         p0, p1 = self.pos_ecef_m[:-1], self.pos_ecef_m[1:]
         m0, m1 = h * self.vel_ecef_m_s[:-1], h * self.vel_ecef_m_s[1:]
         dp = p1 - p0
-        return readonly_copy(
-            np.stack([p0, m0, 3.0 * dp - 2.0 * m0 - m1, m0 + m1 - 2.0 * dp], axis=1)
+        return readonly_array(
+            np.stack([p0, m0, 3.0 * dp - 2.0 * m0 - m1, m0 + m1 - 2.0 * dp], axis=1), copy=False
         )
 
     @cached_property
     def _inv_interval_s(self) -> FloatArray:
         """``1 / (t[k+1] - t[k])`` per interval (1/s), shape (N-1,): no division per point."""
-        return readonly_copy(1.0 / np.diff(self.t_s))
+        return readonly_array(1.0 / np.diff(self.t_s), copy=False)
 
     @cached_property
     def _R_body_to_ecef_left(self) -> FloatArray:
         """Rotation matrix of each interval's left record, body -> ECEF, shape (N-1, 3, 3)."""
-        return readonly_copy(quaternion_to_matrix(self.q_body_to_ecef[:-1]))
+        return readonly_array(quaternion_to_matrix(self.q_body_to_ecef[:-1]), copy=False)
 
     @property
     def t_start_s(self) -> float:
