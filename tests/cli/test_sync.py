@@ -204,6 +204,9 @@ def test_bad_input(
     args[args.index("--scan") + 1] = str(tmp_path / "none.csv")
     assert_one_line_error(*run_cli(args), "none.csv", "not found")
     assert_one_line_error(*run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "wide")
+    assert_one_line_error(
+        *run_cli([*_object_space(folder), "--position-corr-time-s", "-1"]), "position_corr_time_s"
+    )
     scan = str(folder / "scan.csv")
     mount = str(folder / "mount.toml")
     out = str(tmp_path / "o.csv")

@@ -11,7 +11,12 @@ import pytest
 from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, ObservabilityError
-from kinsync.frames import ecef_to_geodetic, euler_rpy_to_quaternion, ned_to_ecef
+from kinsync.frames import (
+    ecef_to_geodetic,
+    euler_rpy_to_quaternion,
+    ned_to_ecef,
+    rotation_ned_to_ecef,
+)
 from kinsync.mount import Mount
 from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.profiler import (
@@ -218,6 +223,9 @@ def test_crossing_of_a_straight_drive_is_analytic() -> None:
     assert c.range_m == pytest.approx(math.hypot(3.0, 2.0), abs=1e-6)
     assert c.rate_m_s == pytest.approx(-2.0, abs=1e-6)
     assert c.drift_m_s == pytest.approx((0.0, 0.0), abs=1e-6)
+    # Heading north, azimuth 0: the plane's normal is north (ECEF at the origin).
+    north = rotation_ned_to_ecef(origin[0], origin[1])[:, 0]
+    assert c.normal_ecef == pytest.approx(tuple(north), abs=1e-6)
 
 
 def test_detection_rejects_glints_and_refines_by_sphere() -> None:

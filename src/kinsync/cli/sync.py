@@ -64,6 +64,16 @@ def object_space(
             help="A-priori sigma of trajectory and sync-point positions (m); 0 for exact data.",
         ),
     ] = 0.02,
+    position_corr_time_s: Annotated[
+        float,
+        typer.Option(
+            "--position-corr-time-s",
+            help=(
+                "Correlation time of the trajectory's position error (s): sightings a few "
+                "seconds apart share it; 0 takes the errors as independent."
+            ),
+        ),
+    ] = 15.0,
     max_range_m: Annotated[
         float, typer.Option("--max-range-m", help="Farthest sync-point crossing considered (m).")
     ] = 80.0,
@@ -92,6 +102,7 @@ def object_space(
         period_tolerance=period_tolerance,
         intensity_threshold=intensity_threshold,
         position_std_m=position_std_m,
+        position_corr_time_s=position_corr_time_s,
         max_range_m=max_range_m,
     )
     the_mount = read_mount(mount)

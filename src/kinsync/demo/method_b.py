@@ -180,9 +180,11 @@ def _paragraphs(period_s: float) -> tuple[str, ...]:
         ),
         (
             "The uncertainty combines the sphere fit's sub-profile sigma and the position "
-            "sigma along the plane normal divided by the plane's speed over the point; a "
-            "period error dT shifts profile N by N dT (the budget of SPEC section 3), which "
-            "the second figure shows against the true clock error."
+            "sigma along the plane normal divided by the plane's speed over the point; the "
+            "position errors of sightings a few seconds apart are correlated (15 s "
+            "Gauss-Markov model, fitted by generalised least squares). A period error dT "
+            "shifts profile N by N dT (the budget of SPEC section 3), which the second figure "
+            "shows against the true clock error."
         ),
     )
 

@@ -1,10 +1,13 @@
-"""Method B steps 3 and 4: sightings matched to crossings on one clock line, and its fit.
+"""Method B steps 3 to 5: sightings matched to crossings on one clock line, and its fit.
 
 A hypothesis is a line ``t = t0 + T x`` (``x = n + phi / 2 pi``) through two
 compatible (sighting, crossing) pairs with a plausible period; `refine_assignment`
 takes, for each sighting, the crossing nearest the line within its gate and refits by
 weighted least squares until the assignment is stable; `candidate_assignments` gives
-every distinct assignment, best first (see `kinsync.sync.object_space`).
+every distinct assignment, best first. The matching uses each pair's own sigma
+(`pair_timing_std`); the final line is fitted by generalised least squares
+(`gls_line`) with the pairs' full covariance (`pair_covariance`: trajectory errors
+correlated in time). See `kinsync.sync.object_space` for the whole method.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.sync.config import ObjectSpaceConfig
@@ -23,6 +27,8 @@ __all__ = [
     "Assignment",
     "LineFit",
     "candidate_assignments",
+    "gls_line",
+    "pair_covariance",
     "pair_timing_std",
     "refine_assignment",
     "weighted_line",
@@ -56,6 +62,50 @@ def weighted_line(x: FloatArray, t: FloatArray, std: FloatArray) -> LineFit:
     return LineFit(t0, T, cov, float(np.sum(w * res * res)), res)
 
 
+def gls_line(x: FloatArray, t: FloatArray, cov: FloatArray) -> LineFit:
+    """Generalised least squares ``t = t0 + T x`` with the full covariance of t.
+
+    Parameters
+    ----------
+    x : ndarray, shape (m,)
+        Clock abscissae ``n + phi / 2 pi`` (profiles).
+    t : ndarray, shape (m,)
+        Crossing times (s).
+    cov : ndarray, shape (m, m)
+        Covariance of the times' errors (s^2), symmetric positive definite.
+
+    Returns
+    -------
+    LineFit
+        ``covariance`` is ``(A^T C^-1 A)^-1``, ``chi2`` is ``r^T C^-1 r``.
+
+    Notes
+    -----
+    With ``C = L L^T`` (Cholesky) the fit is ordinary least squares of ``L^-1 t`` on
+    ``L^-1 A``; x is centred and t referred to its first value for conditioning. A
+    diagonal ``cov`` gives `weighted_line`.
+    """
+    var = np.diag(cov)
+    try:
+        chol = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:  # positive semi-definite to rounding: a tiny ridge
+        chol = np.linalg.cholesky(cov + np.diag(np.full(x.size, 1e-12 * float(np.max(var)))))
+    w = 1.0 / var
+    xm = float(np.sum(w * x) / np.sum(w))
+    t_ref = float(t[0])
+    A = np.column_stack([np.ones_like(x), x - xm])
+    A_w = solve_triangular(chol, A, lower=True)
+    t_w = solve_triangular(chol, t - t_ref, lower=True)
+    cov_c = np.linalg.inv(A_w.T @ A_w)
+    beta = cov_c @ (A_w.T @ t_w)
+    T = float(beta[1])
+    t0 = t_ref + (float(beta[0]) - T * xm)
+    J = np.array([[1.0, -xm], [0.0, 1.0]])  # (t0, T) from (t at xm, T)
+    res = (t - t_ref) - (float(beta[0]) + T * (x - xm))
+    res_w = solve_triangular(chol, res, lower=True)
+    return LineFit(t0, T, J @ cov_c @ J.T, float(res_w @ res_w), res)
+
+
 @dataclass(frozen=True)
 class Assignment:
     """(sighting, crossing) pairs on one clock line, its fit and its score (lower is better)."""
@@ -74,6 +124,49 @@ def pair_timing_std(
     scan_part = np.array([s.profile_std for s in sightings]) * T
     out: FloatArray = np.sqrt(scan_part[:, None] ** 2 + pos_part[None, :] ** 2)
     return out
+
+
+def pair_covariance(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    pairs: Sequence[tuple[int, int]],
+    cfg: ObjectSpaceConfig,
+    T: float,
+) -> FloatArray:
+    """Covariance (s^2) of the timing errors of (sighting, crossing) pairs (module step 5).
+
+    ``C_ij = sigma_p^2 rho(t_i - t_j) (m_i . m_j) / (d'_i d'_j) + delta_ij (sigma_x,i T)^2``
+    with ``rho(dt) = exp(-|dt| / position_corr_time_s)`` (the identity when the
+    correlation time is 0); its diagonal is `pair_timing_std` squared.
+
+    Parameters
+    ----------
+    sightings, crossings : sequence of Sighting, Crossing
+    pairs : sequence of (int, int)
+        (sighting, crossing) indices, m pairs.
+    cfg : ObjectSpaceConfig
+        ``position_std_m`` and ``position_corr_time_s``.
+    T : float
+        Period (s) that turns the sightings' sub-profile sigma into time.
+
+    Returns
+    -------
+    ndarray, shape (m, m)
+    """
+    scan_part = np.array([sightings[i].profile_std for i, _ in pairs]) * T
+    cov: FloatArray = np.diag(scan_part**2)
+    if cfg.position_std_m > 0.0:
+        chosen = [crossings[j] for _, j in pairs]
+        rate = np.array([c.rate_m_s for c in chosen])
+        rate = np.where(rate < 0.0, -1.0, 1.0) * np.maximum(np.abs(rate), 1e-3)
+        g = np.array([c.normal_ecef for c in chosen]) / rate[:, None]  # s/m: dt = g . dp
+        t = np.array([c.t_s for c in chosen])
+        if cfg.position_corr_time_s > 0.0:
+            rho = np.exp(-np.abs(t[:, None] - t[None, :]) / cfg.position_corr_time_s)
+        else:
+            rho = np.eye(len(chosen))
+        cov += cfg.position_std_m**2 * rho * (g @ g.T)
+    return cov
 
 
 def refine_assignment(

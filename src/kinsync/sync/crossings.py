@@ -51,6 +51,12 @@ class Crossing:
         Distance from the scanner origin to the point (m).
     rate_m_s : float
         ``d d_P / dt`` at the crossing (m/s): how fast the plane sweeps the point.
+    normal_ecef : tuple of 3 float
+        Unit normal m of the scan plane at the crossing (ECEF), the direction in which
+        ``d_P = m . (P - o)`` is measured: a position error ``dp`` of the trajectory
+        moves the crossing by ``m . dp / rate_m_s`` (s); the covariance of two
+        crossings' timing errors needs both normals (`kinsync.sync.object_space`,
+        step 5).
     drift_m_s : tuple of 2 float
         Velocity of the point within the profile plane, along the plane's
         ``(r sin phi, r cos phi)`` axes (m/s): the scanner moves sideways in a turn.
@@ -61,6 +67,7 @@ class Crossing:
     angle_rad: float
     range_m: float
     rate_m_s: float
+    normal_ecef: tuple[float, float, float]
     drift_m_s: tuple[float, float] = (0.0, 0.0)
 
 
@@ -139,9 +146,14 @@ def find_crossings(
     normal = R_be @ (mount.R_scanner_to_body @ n_s)
     probe = np.vstack([np.zeros(3), np.eye(3)])  # scanner origin and axes
 
-    def distance(t: float, p: FloatArray) -> float:
+    def plane(t: float) -> tuple[FloatArray, FloatArray]:
+        """Scanner origin and unit plane normal at t (ECEF)."""
         xyz, _ = georeference(np.array([t, t]), np.vstack([np.zeros(3), n_s]), gtraj, mount)
-        return float(np.dot(xyz[1] - xyz[0], p - xyz[0]))
+        return xyz[0], xyz[1] - xyz[0]
+
+    def distance(t: float, p: FloatArray) -> float:
+        o, m = plane(t)
+        return float(np.dot(m, p - o))
 
     def in_plane(t: float, p: FloatArray) -> tuple[float, float, float]:
         """Profile-plane coordinates (r sin phi, r cos phi) of p and its range (m)."""
@@ -174,6 +186,7 @@ def find_crossings(
             rate = (distance(hi, p) - distance(lo, p)) / (hi - lo)
             y_lo, z_lo, _ = in_plane(lo, p)
             y_hi, z_hi, _ = in_plane(hi, p)
+            m_c = plane(t_c)[1]
             out.append(
                 Crossing(
                     name=name,
@@ -181,6 +194,7 @@ def find_crossings(
                     angle_rad=math.atan2(y_c, z_c),
                     range_m=rng_m,
                     rate_m_s=rate,
+                    normal_ecef=(float(m_c[0]), float(m_c[1]), float(m_c[2])),
                     drift_m_s=((y_hi - y_lo) / (hi - lo), (z_hi - z_lo) / (hi - lo)),
                 )
             )

@@ -52,21 +52,53 @@ and T. The algorithm:
    the result *ambiguous* (reported, with the alternatives). Sightings left unmatched
    (control targets, glints) are reported, never used.
 4. **Regression.** The pairs ``(x_P = n_P + phi_P / 2 pi, t_P)`` give t0 and T by
-   weighted least squares. Regressing on x_P applies the helix correction
-   ``t_P - (phi_P / 2 pi) T = t0 + n_P T`` with the *estimated* T exactly (the issue's
-   "iterate once with the estimated T" converges in this one linear step); each
-   matched sighting reports its correction ``(phi_P / 2 pi) T``.
-5. **Uncertainty.** Each pair's timing sigma is
-   ``sigma_i^2 = (sigma_x,i T)^2 + (position_std_m / |d'(t_P)|)^2``: the sighting's
-   sub-profile sigma (fit covariance and ``profile_model_std`` in quadrature, or
-   ``centroid_profile_std``) and the trajectory
-   and sync-point position error along the plane normal turned into time by the
-   plane's speed over the point. The covariance ``(A^T W A)^-1`` is scaled by the
-   a-posteriori variance factor ``chi2 / (m - 2)`` when there are more than two pairs
-   and the global test fails (chi2 above its 95 % quantile): the residuals set the
-   sigma when they show significantly more scatter than expected, the a-priori sigmas
-   are the floor. Position errors are taken as independent between sightings (true for
-   trajectory noise correlated over less than the time between passes).
+   generalised least squares with the covariance of step 5. Regressing on x_P
+   applies the helix correction ``t_P - (phi_P / 2 pi) T = t0 + n_P T`` with the
+   *estimated* T exactly (the issue's "iterate once with the estimated T" converges
+   in this one linear step); each matched sighting reports its correction
+   ``(phi_P / 2 pi) T``.
+5. **Uncertainty.** A pair's timing error has two parts. The *scan part* is the
+   sighting's sub-profile sigma times T (fit covariance and ``profile_model_std`` in
+   quadrature, or ``centroid_profile_std``), independent between sightings. The
+   *position part*: a trajectory position error ``dp`` at the crossing moves the scan
+   plane by ``m_i . dp`` along its normal and the crossing by ``m_i . dp(t_i) / d'_i``
+   (m_i the unit plane normal at the crossing, d'_i the rate of the signed distance,
+   m/s: `Crossing.normal_ecef`, `Crossing.rate_m_s`). INS/GNSS position errors are
+   correlated in time over 10-20 s, so sightings a few seconds apart (several sync
+   points passed on one pass) share most of theirs. With an isotropic first-order
+   Gauss-Markov error (sigma_p = ``position_std_m`` on every axis, correlation
+   ``rho(dt) = exp(-|dt| / tau_c)``, tau_c = ``position_corr_time_s``) the pairs'
+   covariance is::
+
+       C_ij = sigma_p^2 rho(t_i - t_j) (m_i . m_j) / (d'_i d'_j) + delta_ij (sigma_x,i T)^2
+
+   Its diagonal is each pair's own sigma, ``sigma_i^2 = (sigma_x,i T)^2 +
+   (sigma_p / |d'_i|)^2``; ``tau_c = 0`` makes it diagonal (errors independent between
+   sightings, weighted least squares, the model before). C is positive definite: an
+   exponential correlation in time times the Gram matrix of ``m_i / d'_i`` (a Schur
+   product) plus a positive diagonal. On opposite headings ``m_i / d'_i`` changes
+   sign: one north error makes one crossing early and the other late. t0 and T come
+   from generalised least squares, covariance ``(A^T C^-1 A)^-1``, chi2
+   ``r^T C^-1 r``; the matching of step 3 keeps the diagonal sigmas (it only chooses
+   pairs). In simulation (`benchmarks/bench_sync_sigma.py`, 15 s Gauss-Markov errors)
+   the independent model's sigma of t0 and T was 1.75-1.95 times too small with two
+   sync points passed 2.6 s apart on each of two passes (1.25-1.4 times without the
+   twin targets); with C the spread over the sigma is 0.9-1.0, and within 0.8-1.2 for
+   true correlation times of 5 s and 40 s and for the smooth spline errors of
+   `kinsync.sim.nav_noise`.
+
+   The covariance is scaled by the a-posteriori variance factor ``chi2 / (m - 2)``
+   when there are more than two pairs and the global test (chi2 above its 95 %
+   quantile) fails both with C and with the pairs' own sigmas (``sum (r_i /
+   sigma_i)^2``), by the smaller factor: the residuals set the sigma when they show
+   significantly more scatter than expected, the a-priori covariance is the floor. A
+   failure with C alone says that near-simultaneous sightings differ more than
+   ``rho`` allows, i.e. the errors are less correlated than modelled; scaling by the
+   GLS chi2 then made the sigma up to 2.4 times too large, while the unscaled GLS
+   sigma stayed within 0.9-1.15 of the spread for true correlation times from 0.3 s
+   to 15 s. Sync-point coordinate errors are not modelled apart (a point's error is
+   shared by all its passes, however far apart): survey them well below
+   ``position_std_m``.
 6. **Counting faults** (`pulse_offset`). Hardware pulses, one per profile on GPS time,
    are matched to the clock where it is best known: at the profile n_ref of least
    time variance (the sightings' weighted centre) the pulse m nearest to
@@ -106,8 +138,8 @@ from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     Assignment,
     candidate_assignments,
-    pair_timing_std,
-    weighted_line,
+    gls_line,
+    pair_covariance,
 )
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import Crossing, find_crossings, require_profiler_azimuth
@@ -144,7 +176,8 @@ class MatchedSighting:
     residual_s : float
         ``t_s - t(n_P, phi_P)`` with the estimated clock (s).
     std_s : float
-        A-priori timing sigma of the pair (s).
+        A-priori timing sigma of the pair (s): the square root of its diagonal element
+        of the covariance (pairs a few seconds apart are correlated, module step 5).
     """
 
     name: str
@@ -197,10 +230,11 @@ class ObjectSpaceResult:
     covariance : tuple of tuple of float
         2 x 2 covariance of (t0, T) (s^2).
     chi2 : float
-        Weighted sum of squared residuals with the a-priori sigmas.
+        ``r^T C^-1 r``: squared residuals weighted by the pairs' a-priori covariance C
+        (module step 5).
     sigma_scale : float
-        ``sqrt(chi2 / (m - 2))`` when the global test widened the a-priori sigmas,
-        else 1 (always 1 with two pairs).
+        Square root of the a-posteriori variance factor when the global test widened
+        the a-priori covariance (module step 5), else 1 (always 1 with two pairs).
     sightings : tuple of MatchedSighting
         The regression pairs, in profile order.
     unmatched : tuple of Sighting
@@ -380,6 +414,24 @@ def synchronise_object_space(
     )
 
 
+def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
+    """A-posteriori variance factor of the final fit, 1 when the global test passes.
+
+    The residuals widen the covariance only when they are significantly larger (95 %)
+    than the full covariance says (``chi2_gls = r^T C^-1 r``) *and* than the pairs'
+    own sigmas say (``chi2_own = sum (r_i / sigma_i)^2``), by the smaller factor: a
+    misfit of the first kind alone is the correlation being weaker than modelled
+    (near-simultaneous sightings differ more than ``rho`` allows), which leaves the
+    GLS sigma of t0 and T right (module step 5).
+    """
+    if dof <= 0:
+        return 1.0
+    limit = float(chi2_dist.ppf(0.95, dof))
+    if chi2_gls > limit and chi2_own > limit:
+        return min(chi2_gls, chi2_own) / dof
+    return 1.0
+
+
 def _result(
     best: Assignment,
     rivals: list[Assignment],
@@ -391,17 +443,15 @@ def _result(
     pulses_t_s: ArrayLike | None,
     n_profiles: int,
 ) -> ObjectSpaceResult:
-    fit = best.fit
-    std = pair_timing_std(sightings, crossings, cfg, fit.period_s)
+    # Final T in the scan-side sigma; the pairs' full covariance (step 5) in a GLS fit.
+    cov_t = pair_covariance(sightings, crossings, best.pairs, cfg, best.fit.period_s)
     xs = np.array([sightings[i].x for i, _ in best.pairs])
     ts = np.array([crossings[j].t_s for _, j in best.pairs])
-    stds = np.array([std[i, j] for i, j in best.pairs])
-    fit = weighted_line(xs, ts, stds)  # final T in the scan-side sigma
+    stds = np.sqrt(np.diag(cov_t))
+    fit = gls_line(xs, ts, cov_t)
     m = len(best.pairs)
     dof = m - 2
-    # Global test of the adjustment: widen by the a-posteriori variance factor only
-    # when the residuals are significantly larger than the a-priori sigmas say.
-    scale = fit.chi2 / dof if dof > 0 and fit.chi2 > chi2_dist.ppf(0.95, dof) else 1.0
+    scale = _variance_factor(fit.chi2, float(np.sum((fit.residuals_s / stds) ** 2)), dof)
     cov = fit.covariance * scale
     matched = []
     for (i, j), res, sd in zip(best.pairs, fit.residuals_s, stds, strict=True):

@@ -1,0 +1,105 @@
+"""Method B's regression: the pairs' covariance (correlated trajectory errors) and GLS."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from kinsync.errors import InputError
+from kinsync.sync.clock_line import gls_line, pair_covariance, pair_timing_std, weighted_line
+from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.crossings import Crossing
+from kinsync.sync.sightings import Sighting
+
+T = 0.03
+
+
+def _sighting(profile: float, std: float = 0.02) -> Sighting:
+    return Sighting(profile, 1.2, 3.7, 40, int(profile) - 2, int(profile) + 2, std, "sphere")
+
+
+def _crossing(t_s: float, normal: tuple[float, float, float], rate_m_s: float) -> Crossing:
+    return Crossing("S1", t_s, 1.2, 3.7, rate_m_s, normal)
+
+
+NORTH, EAST, SOUTH = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)
+SIGHTINGS = [_sighting(100.0), _sighting(180.0, 0.1), _sighting(2100.0), _sighting(3400.0)]
+CROSSINGS = [
+    _crossing(1003.0, NORTH, -2.0),  # heading north at 2 m/s
+    _crossing(1005.4, NORTH, -1.0),  # 2.4 s later, slower
+    _crossing(1063.0, EAST, -2.0),  # a minute later, heading east
+    _crossing(1102.0, SOUTH, -2.0),  # heading south
+]
+PAIRS = [(0, 0), (1, 1), (2, 2), (3, 3)]
+
+
+def test_pair_covariance_is_the_gauss_markov_model() -> None:
+    cfg = ObjectSpaceConfig(position_std_m=0.02, position_corr_time_s=15.0)
+    C = pair_covariance(SIGHTINGS, CROSSINGS, PAIRS, cfg, T)
+    own = pair_timing_std(SIGHTINGS, CROSSINGS, cfg, T)
+    assert np.sqrt(np.diag(C)) == pytest.approx([own[i, j] for i, j in PAIRS], rel=1e-12)
+    # Same normal 2.4 s apart: sigma_p^2 rho / (d'_0 d'_1).
+    assert C[0, 1] == pytest.approx(0.02**2 * math.exp(-2.4 / 15.0) / 2.0, rel=1e-9)
+    assert C[0, 2] == pytest.approx(0.0, abs=1e-18)  # perpendicular normals
+    # Opposite headings: a north error makes one crossing early, the other late.
+    assert C[0, 3] == pytest.approx(-(0.02**2) * math.exp(-99.0 / 15.0) / 4.0, rel=1e-9)
+    assert np.all(np.linalg.eigvalsh(C) > 0.0)
+    assert np.array_equal(C, C.T)
+    independent = pair_covariance(
+        SIGHTINGS, CROSSINGS, PAIRS, ObjectSpaceConfig(position_corr_time_s=0.0), T
+    )
+    assert np.array_equal(independent, np.diag(np.diag(C)))
+    exact = pair_covariance(SIGHTINGS, CROSSINGS, PAIRS, ObjectSpaceConfig(position_std_m=0.0), T)
+    assert np.diag(exact) == pytest.approx([(s.profile_std * T) ** 2 for s in SIGHTINGS])
+
+
+def test_gls_line() -> None:
+    x = np.array([s.x for s in SIGHTINGS])
+    t = 1e9 + 2.0 + T * x + np.array([1e-3, -2e-3, 0.5e-3, 1.5e-3])
+    cfg = ObjectSpaceConfig(position_std_m=0.02)
+    C = pair_covariance(SIGHTINGS, CROSSINGS, PAIRS, cfg, T)
+    # A diagonal covariance is weighted least squares.
+    diag = gls_line(x, t, np.diag(np.diag(C)))
+    wls = weighted_line(x, t, np.sqrt(np.diag(C)))
+    assert diag.t0_s == pytest.approx(wls.t0_s, abs=1e-6, rel=0)  # 1e9 s: 1.2e-7 s steps
+    assert diag.period_s == pytest.approx(wls.period_s, rel=1e-9)
+    assert diag.covariance == pytest.approx(wls.covariance, rel=1e-9)
+    assert diag.chi2 == pytest.approx(wls.chi2, rel=1e-4)
+    # The full covariance: normal equations with C^-1, chi2 = r^T C^-1 r.
+    full = gls_line(x, t, C)
+    A = np.column_stack([np.ones_like(x), x])
+    W = np.linalg.inv(C)
+    cov = np.linalg.inv(A.T @ W @ A)
+    beta = cov @ A.T @ W @ (t - 1e9)
+    assert full.t0_s - 1e9 == pytest.approx(beta[0], abs=1e-6)
+    assert full.period_s == pytest.approx(beta[1], rel=1e-9)
+    assert full.covariance == pytest.approx(cov, rel=1e-7)
+    res = t - (full.t0_s + full.period_s * x)
+    assert full.residuals_s == pytest.approx(res, abs=1e-6)
+    r = full.residuals_s
+    assert full.chi2 == pytest.approx(float(r @ W @ r), rel=1e-9)
+
+
+def test_correlated_sightings_count_once() -> None:
+    """Two sync points seen at the same instant on the same heading share their error."""
+    x = np.array([100.0, 100.5, 3000.0, 3000.5])
+    t = 10.0 + T * x
+    sightings = [_sighting(v, 0.001) for v in x]
+    crossings = [_crossing(float(v), NORTH, -2.0) for v in t]
+    pairs = [(k, k) for k in range(4)]
+    cfg = ObjectSpaceConfig(position_std_m=0.02, position_corr_time_s=15.0)
+    both = gls_line(x, t, pair_covariance(sightings, crossings, pairs, cfg, T))
+    one = gls_line(x[::2], t[::2], pair_covariance(sightings, crossings, pairs[::2], cfg, T))
+    assert both.covariance == pytest.approx(one.covariance, rel=0.01)
+    independent = ObjectSpaceConfig(position_std_m=0.02, position_corr_time_s=0.0)
+    naive = gls_line(x, t, pair_covariance(sightings, crossings, pairs, independent, T))
+    assert naive.covariance[1, 1] == pytest.approx(0.5 * one.covariance[1, 1], rel=0.01)
+
+
+def test_position_corr_time_must_be_non_negative() -> None:
+    assert ObjectSpaceConfig().position_corr_time_s == 15.0
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(InputError, match="position_corr_time_s"):
+            ObjectSpaceConfig(position_corr_time_s=bad)
