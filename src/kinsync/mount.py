@@ -18,6 +18,7 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -100,11 +101,13 @@ class Mount:
                 raise InputError(msg)
             object.__setattr__(self, "profiler_azimuth_deg", float(az))
 
-    @property
+    @cached_property
     def R_scanner_to_body(self) -> FloatArray:
-        """Boresight rotation matrix scanner -> body, shape (3, 3)."""
+        """Boresight rotation matrix scanner -> body, shape (3, 3), read-only."""
         r, p, y = np.radians(self.boresight_rpy_deg)
-        return euler_rpy_to_matrix(r, p, y)
+        out = euler_rpy_to_matrix(r, p, y)
+        out.setflags(write=False)
+        return out
 
     @property
     def lever_arm_body_m_array(self) -> FloatArray:

@@ -1,0 +1,88 @@
+"""What the mount calibration works on: lines (or passes) of scanner-frame points.
+
+A `ScanLine` is one line of a survey (or one pass over a target): the returns in the
+scanner frame with their times, and the navigation solution that covers them. Lines
+are the unit of the calibration's error model: trajectory errors are correlated
+within a line and taken as independent between lines (the jackknife of
+`kinsync.calibration.uncertainty` deletes one line at a time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._arrays import readonly_array
+from kinsync._typing import ArrayLike, FloatArray
+from kinsync.errors import InputError
+from kinsync.trajectory import Trajectory
+
+__all__ = ["ScanLine"]
+
+
+@dataclass(frozen=True, eq=False)
+class ScanLine:
+    """Scanner-frame returns of one line or pass, with their times and trajectory.
+
+    Attributes
+    ----------
+    name : str
+        What the line is called in messages and reports (a file name, ``line 3``).
+    t_s : ndarray, shape (N,)
+        Time of each return on the trajectory's time scale (s, GPS time), finite.
+    xyz_scanner_m : ndarray, shape (N, 3)
+        Returns in the scanner frame (m), finite.
+    trajectory : Trajectory
+        Navigation solution at its own time tags (not corrected for latency): the
+        calibration applies the latency it estimates (SPEC section 1).
+    """
+
+    name: str
+    t_s: FloatArray
+    xyz_scanner_m: FloatArray
+    trajectory: Trajectory
+
+    def __post_init__(self) -> None:
+        name = str(self.name)
+        try:
+            t = np.asarray(self.t_s, dtype=np.float64)
+            xyz = np.asarray(self.xyz_scanner_m, dtype=np.float64)
+        except (TypeError, ValueError) as err:
+            msg = f"line {name!r}: times and scanner coordinates must be numbers ({err})"
+            raise InputError(msg) from err
+        if t.ndim != 1 or t.size == 0:
+            msg = f"line {name!r}: needs at least one return, got times of shape {t.shape}"
+            raise InputError(msg)
+        if xyz.shape != (t.size, 3):
+            msg = f"line {name!r}: xyz_scanner_m must have shape ({t.size}, 3), got {xyz.shape}"
+            raise InputError(msg)
+        bad = ~(np.isfinite(t) & np.all(np.isfinite(xyz), axis=1))
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            msg = f"line {name!r}: return {i} has a non-finite time or coordinate"
+            raise InputError(msg)
+        if not isinstance(self.trajectory, Trajectory):
+            msg = f"line {name!r}: trajectory must be a Trajectory"
+            raise InputError(msg)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "t_s", readonly_array(t))
+        object.__setattr__(self, "xyz_scanner_m", readonly_array(xyz))
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+    @property
+    def t_start_s(self) -> float:
+        """First return's time (s)."""
+        return float(self.t_s.min())
+
+    @property
+    def t_end_s(self) -> float:
+        """Last return's time (s)."""
+        return float(self.t_s.max())
+
+    def subset(self, index: ArrayLike) -> ScanLine:
+        """The same line with only the returns ``index`` selects (mask or indices)."""
+        idx = np.asarray(index)
+        return ScanLine(self.name, self.t_s[idx], self.xyz_scanner_m[idx], self.trajectory)
