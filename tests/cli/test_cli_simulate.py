@@ -1,4 +1,4 @@
-"""``kinsync simulate rotating-table``: JSON, table, files written and bad input."""
+"""``kinsync simulate rotating-table`` and ``patch-test``: JSON, table, files, bad input."""
 
 from __future__ import annotations
 
@@ -6,11 +6,17 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from kinsync.cli._options import parse_rates
 from kinsync.errors import InputError
+from kinsync.io.las import las_info, read_las_points
+from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.passes import read_passes
+from kinsync.io.sbet import read_sbet
+from kinsync.mount import Mount
+from kinsync.sim.patch_test import PatchTestConfig, simulate_patch_test
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
@@ -105,3 +111,147 @@ def test_parse_rates() -> None:
     assert parse_rates(" 2, 4.5 ,18") == (2.0, 4.5, 18.0)
     with pytest.raises(InputError, match="inf"):
         parse_rates("2,inf")
+
+
+# ---------------------------------------------------------------- simulate patch-test
+PATCH = ["simulate", "patch-test", "--density", "0.01", "--passes", "1"]
+
+
+def test_patch_test_json_summary_and_files(run_cli: RunCli, tmp_path: Path) -> None:
+
+    out = tmp_path / "patch"
+    code, stdout, stderr = run_cli([*PATCH, "--out", str(out), "--seed", "3", "--json"])
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["scenario"] == "vehicle"
+    assert doc["seed"] == 3
+    assert doc["format"] == "laz"
+    assert doc["n_lines"] == 4
+    assert doc["files"] == [
+        "trajectory.out",
+        "mount.toml",
+        "line_01.laz",
+        "line_02.laz",
+        "line_03.laz",
+        "line_04.laz",
+        "truth.json",
+    ]
+    assert sorted(p.name for p in out.iterdir()) == sorted(doc["files"])
+    assert [line["direction"] for line in doc["lines"]] == ["outbound", "return"] * 2
+    assert [line["speed_m_s"] for line in doc["lines"]] == [5.0, 5.0, 12.0, 12.0]
+    counts = [las_info(out / line["file"]).point_count for line in doc["lines"]]
+    assert counts == [line["n_points"] for line in doc["lines"]]
+    assert sum(counts) == doc["n_points"]
+    assert doc["errors"]["latency_s"] == pytest.approx(0.005)
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["gps_week"] == doc["gps_week"] == 2345
+    assert truth["mount_true"] == doc["mount_true"]
+    nav = read_sbet(out / "trajectory.out", gps_week=doc["gps_week"])
+    assert nav.t_start_s == pytest.approx(2345 * 604800.0 + 216000.0, abs=1e-6)
+    nominal = read_mount(out / "mount.toml")
+    assert list(nominal.boresight_rpy_deg) == doc["mount_nominal"]["boresight_rpy_deg"]
+
+
+def test_patch_test_table_and_options(run_cli: RunCli, tmp_path: Path) -> None:
+    out = tmp_path / "vessel"
+    argv = [*PATCH, "--out", str(out), "--scenario", "vessel", "--format", "las"]
+    argv += ["--latency-ms", "-2.5", "--boresight-error-deg", "0.1,0.2,-0.3"]
+    argv += ["--lever-arm-error-m", "0,0,0.05", "--speeds-m-s", "3", "--no-spheres"]
+    code, stdout, stderr = run_cli([*argv, "--range-noise-m", "0.005"])
+    assert code == 0, stderr
+    assert "Patch-test simulation (vessel)" in stdout
+    assert "GPS week (--gps-week)" in stdout
+    assert "line_02.las (return, 3 m/s)" in stdout
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["errors"]["latency_s"] == pytest.approx(-2.5e-3)
+    assert truth["errors"]["boresight_rpy_deg"] == [0.1, 0.2, -0.3]
+    assert truth["errors"]["lever_arm_body_m"] == [0.0, 0.0, 0.05]
+    assert truth["config"]["range_noise_m"] == 0.005
+    assert truth["scene"]["spheres"] == []
+    assert len(truth["lines"]) == 2
+    assert (out / "line_01.las").is_file()
+    # running again into the same folder replaces the earlier simulation
+    code, _, stderr = run_cli([*PATCH, "--out", str(out), "--json"])
+    assert code == 0, stderr
+    assert not (out / "line_01.las").exists()
+    assert (out / "line_04.laz").is_file()
+
+
+def test_patch_test_lines_georeference_onto_the_scene(run_cli: RunCli, tmp_path: Path) -> None:
+    """kinsync georef with the true mount puts a written line back on the scene."""
+
+    out = tmp_path / "patch"
+    code, stdout, stderr = run_cli([*PATCH, "--out", str(out), "--json"])
+    assert code == 0, stderr
+    truth = json.loads((out / "truth.json").read_text())
+    for which in ("mount_true", "mount_nominal"):
+        m = truth[which]
+        mount = Mount(
+            lever_arm_body_m=tuple(m["lever_arm_body_m"]),
+            boresight_rpy_deg=tuple(m["boresight_rpy_deg"]),
+            latency_s=m["latency_s"],
+            profiler_azimuth_deg=m["profiler_azimuth_deg"],
+        )
+        write_mount(mount, tmp_path / f"{which}.toml")
+    # the same simulation in memory says which feature each return hit
+    sim = simulate_patch_test(PatchTestConfig(density=0.01, passes_per_direction=1))
+    rms = {}
+    for which in ("mount_true", "mount_nominal"):
+        geo = tmp_path / f"line_03_{which}.laz"
+        argv = ["georef", "--points", str(out / "line_03.laz"), "--trajectory"]
+        argv += [str(out / "trajectory.out"), "--gps-week", str(truth["gps_week"])]
+        argv += ["--mount", str(tmp_path / f"{which}.toml"), "--out", str(geo), "--json"]
+        code, stdout, stderr = run_cli(argv)
+        assert code == 0, stderr
+        assert json.loads(stdout)["points_rejected"] == 0
+        pts = read_las_points(geo, 0, las_info(geo).point_count)
+        ecef = np.column_stack([pts.x, pts.y, pts.z])
+        d = sim.scene.distance_to_hit_feature_m(sim.scene.ecef_to_scene(ecef), sim.line_hit_ids[2])
+        rms[which] = float(np.sqrt(np.mean(d**2)))
+    assert rms["mount_true"] < 0.06  # the navigation errors: a few cm
+    assert rms["mount_nominal"] > 1.3 * rms["mount_true"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        (["--scenario", "plane"], "--scenario must be vehicle or vessel"),
+        (["--format", "csv"], "--format must be laz or las"),
+        (["--density", "0"], "--density must lie in (0, 1]"),
+        (["--density", "1.5"], "--density must lie in (0, 1]"),
+        (["--passes", "0"], "--passes must be at least 1"),
+        (["--latency-ms", "nan"], "--latency-ms must be finite"),
+        (["--latency-ms", "900"], "latency error 0.9 s"),
+        (["--speeds-m-s", "5,x"], "item 2 ('x') is not a number"),
+        (["--speeds-m-s", "5,-1"], "must be a speed > 0 m/s"),
+        (["--speeds-m-s", "5,100"], "outside [0.2, 40] m/s"),
+        (["--boresight-error-deg", "1,2"], "--boresight-error-deg '1,2': expected three"),
+        (["--boresight-error-deg", "0,9,0"], "within 5 deg"),
+        (["--lever-arm-error-m", "a,b,c"], "--lever-arm-error-m"),
+        (["--range-noise-m", "-1"], "--range-noise-m must be a number >= 0"),
+        (["--seed", "-1"], "--seed"),
+    ],
+)
+def test_patch_test_bad_input_exits_2_with_one_line(
+    run_cli: RunCli, tmp_path: Path, extra: list[str], fragment: str
+) -> None:
+    code, stdout, stderr = run_cli([*PATCH, "--out", str(tmp_path / "o"), *extra])
+    assert code == 2
+    assert stdout == ""
+    assert stderr.startswith("kinsync: error:")
+    assert stderr.count("\n") == 1, stderr
+    assert fragment in stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_patch_test_refuses_a_folder_of_other_files(run_cli: RunCli, tmp_path: Path) -> None:
+    out = tmp_path / "busy"
+    out.mkdir()
+    (out / "survey.laz").write_bytes(b"not ours")
+    code, stdout, stderr = run_cli([*PATCH, "--out", str(out)])
+    assert code == 2
+    assert stdout == ""
+    assert "--out" in stderr
+    assert "holds other files" in stderr
+    assert (out / "survey.laz").read_bytes() == b"not ours"
+    assert sorted(p.name for p in out.iterdir()) == ["survey.laz"]

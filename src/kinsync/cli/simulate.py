@@ -20,6 +20,7 @@ from kinsync.io.atomic import output_folder
 if TYPE_CHECKING:
     from kinsync.io.passes import PassFileFormat
     from kinsync.sim.drive import DriveSimulation
+    from kinsync.sim.patch_test import PatchTestSimulation
     from kinsync.sim.rotating_table import RotatingTableSimulation
 
 app = typer.Typer(help="Simulate test data (pass folders, logs) with known ground truth.")
@@ -464,3 +465,170 @@ def drive_scan(
         table.add_row(f"passes of {name}", str(n))
     console.print(table)
     console.print(f"truth: {out / 'truth.json'}")
+
+
+def _parse_speeds(text: str) -> tuple[float, ...]:
+    """Parse ``--speeds-m-s`` (comma-separated speeds > 0, m/s)."""
+    items = [s.strip() for s in text.split(",")]
+    speeds: list[float] = []
+    for pos, item in enumerate(items, start=1):
+        try:
+            value = float(item)
+        except ValueError:
+            msg = f"--speeds-m-s {text!r}: item {pos} ({item!r}) is not a number; give e.g. 5,12"
+            raise InputError(msg) from None
+        if not (math.isfinite(value) and value > 0.0):
+            msg = f"--speeds-m-s {text!r}: item {pos} ({item!r}) must be a speed > 0 m/s"
+            raise InputError(msg)
+        speeds.append(value)
+    return tuple(speeds)
+
+
+def patch_test_summary(sim: PatchTestSimulation, out: Path, file_format: str) -> dict[str, Any]:
+    """JSON-ready summary of a written patch test (what ``simulate patch-test`` prints)."""
+    from kinsync.sim.patch_test import patch_test_files  # noqa: PLC0415
+
+    truth = sim.truth
+    files = patch_test_files(len(sim.lines), "las" if file_format == "las" else "laz")
+    return {
+        "out": str(out),
+        "files": list(files),
+        "scenario": truth["scenario"],
+        "seed": truth["seed"],
+        "format": file_format,
+        "gps_week": sim.gps_week,
+        "n_lines": len(sim.lines),
+        "n_points": sim.n_points,
+        "lines": [
+            {
+                "file": files[2 + i],
+                "direction": doc["direction"],
+                "speed_m_s": doc["speed_m_s"],
+                "heading_deg": doc["heading_deg"],
+                "n_points": doc["n_points"],
+            }
+            for i, doc in enumerate(truth["lines"])
+        ],
+        "mount_nominal": truth["mount_nominal"],
+        "mount_true": truth["mount_true"],
+        "errors": truth["errors"],
+    }
+
+
+@app.command("patch-test")
+def patch_test(
+    out: Annotated[
+        Path,
+        typer.Option(help="Output folder (trajectory.out, mount.toml, line_NN.laz, truth.json)."),
+    ],
+    scenario: Annotated[
+        str, typer.Option(help="vehicle (town block, 5 and 12 m/s) or vessel (harbour, 2, 4 m/s).")
+    ] = "vehicle",
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).", min=0)] = 1,
+    file_format: Annotated[
+        str, typer.Option("--format", help="Point files: laz (compressed) or las.")
+    ] = "laz",
+    latency_ms: Annotated[
+        float, typer.Option(help="Latency error injected: true minus nominal (ms).")
+    ] = 5.0,
+    boresight_error_deg: Annotated[
+        str, typer.Option(help="Boresight error roll,pitch,yaw: true minus nominal (deg).")
+    ] = "0.25,-0.30,0.40",
+    lever_arm_error_m: Annotated[
+        str, typer.Option(help="Lever-arm error x,y,z: true minus nominal (m, body FRD).")
+    ] = "0.03,-0.02,0.04",
+    density: Annotated[
+        float,
+        typer.Option(help="Fraction of the scanner's beams simulated, in (0, 1] (1: all)."),
+    ] = 1.0,
+    passes: Annotated[int, typer.Option(help="Lines each way per speed.")] = 2,
+    speeds_m_s: Annotated[
+        str | None, typer.Option(help="Speeds of the blocks of lines (m/s), e.g. 5,12.")
+    ] = None,
+    spheres: Annotated[
+        bool | None,
+        typer.Option(
+            "--spheres/--no-spheres", help="Put two spheres in the scene (default: vessel only)."
+        ),
+    ] = None,
+    range_noise_m: Annotated[
+        float, typer.Option(help="Range noise along the beam, 1 sigma (m).")
+    ] = 0.01,
+    as_json: JsonOpt = False,
+) -> None:
+    """Simulate a mount patch test: SBET, one point file per line, nominal mount, truth."""
+    from kinsync.sim.patch_test import (  # noqa: PLC0415
+        SCENARIOS,
+        PatchTestConfig,
+        check_patch_test_folder,
+        simulate_patch_test,
+        write_patch_test,
+    )
+
+    scenario_key = scenario.strip().lower()
+    if scenario_key not in SCENARIOS:
+        msg = f"--scenario must be vehicle or vessel, got {scenario!r}"
+        raise InputError(msg)
+    fmt_key = file_format.strip().lower()
+    if fmt_key not in ("laz", "las"):
+        msg = f"--format must be laz or las, got {file_format!r}"
+        raise InputError(msg)
+    if not (math.isfinite(density) and 0.0 < density <= 1.0):
+        msg = f"--density must lie in (0, 1] (fraction of the beams), got {density}"
+        raise InputError(msg)
+    if passes < 1:
+        msg = f"--passes must be at least 1, got {passes}"
+        raise InputError(msg)
+    if not math.isfinite(latency_ms):
+        msg = f"--latency-ms must be finite, got {latency_ms}"
+        raise InputError(msg)
+    if not (math.isfinite(range_noise_m) and range_noise_m >= 0.0):
+        msg = f"--range-noise-m must be a number >= 0, got {range_noise_m}"
+        raise InputError(msg)
+    check_patch_test_folder(out, option="--out")
+    config = PatchTestConfig(
+        scenario=SCENARIOS[SCENARIOS.index(scenario_key)],
+        seed=seed,
+        latency_error_s=latency_ms * 1e-3,
+        boresight_error_rpy_deg=_parse_vector3(boresight_error_deg, "--boresight-error-deg"),
+        lever_arm_error_body_m=_parse_vector3(lever_arm_error_m, "--lever-arm-error-m"),
+        density=density,
+        passes_per_direction=passes,
+        speeds_m_s=None if speeds_m_s is None else _parse_speeds(speeds_m_s),
+        spheres=spheres,
+        range_noise_m=range_noise_m,
+    )
+    with err_console.status("simulating the drive and the scans"):
+        sim = simulate_patch_test(config)
+    with err_console.status("writing files"):
+        write_patch_test(sim, out, file_format="las" if fmt_key == "las" else "laz")
+    doc = patch_test_summary(sim, out, fmt_key)
+    if as_json:
+        print_json(doc)
+        return
+    _print_patch_test(doc)
+
+
+def _print_patch_test(doc: dict[str, Any]) -> None:
+    """The human table of ``simulate patch-test``."""
+    out = Path(doc["out"])
+    table = Table(title=f"Patch-test simulation ({doc['scenario']}) written to {out}")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    table.add_row("lines / points", f"{doc['n_lines']} / {doc['n_points']}")
+    table.add_row("GPS week (--gps-week)", str(doc["gps_week"]))
+    err = doc["errors"]
+    table.add_row("truth latency error (ms)", fmt(err["latency_s"], 1e3, 6))
+    table.add_row(
+        "truth boresight error r,p,y (deg)", ", ".join(fmt(v) for v in err["boresight_rpy_deg"])
+    )
+    table.add_row(
+        "truth lever-arm error x,y,z (m)", ", ".join(fmt(v) for v in err["lever_arm_body_m"])
+    )
+    for line in doc["lines"]:
+        table.add_row(
+            f"{line['file']} ({line['direction']}, {line['speed_m_s']:g} m/s)",
+            str(line["n_points"]),
+        )
+    console.print(table)
+    console.print(f"nominal mount: {out / 'mount.toml'}; truth: {out / 'truth.json'}")

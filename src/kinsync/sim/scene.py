@@ -5,23 +5,30 @@ Everything lives in one local-level NED frame tangent at ``origin_lat_lon_h`` (m
 - the **ground**, a horizontal plane ``D = ground_down_m``;
 - **walls**, vertical rectangles standing on a horizontal segment between two (N, E)
   points, from ``bottom_down_m`` up to ``top_down_m`` (``top_down_m < bottom_down_m``);
+- **panels**, flat convex polygons of any orientation (sloping roofs and shores, walls
+  of any azimuth, gable ends), `Panel.rectangle` for the common rectangular case;
 - **targets**, spheres of known centre and radius with a retro-reflective coating
   (high intensity): *sync* targets (Method B, SPEC section 4) and *control* targets
   (validation, SPEC section 7).
 
 `Scene.cast` intersects rays with every primitive, vectorised with numpy, and returns
-the range to the nearest hit and what was hit. `build_drive_scene` places the
-primitives along a driven trajectory: two sync targets beside the road at the start and
-the end of the drive, control targets on both sides, a wall along the tightest curve.
+the range to the nearest hit and what was hit (panels out of reach of every ray of a
+call are skipped, so a large scene costs little when the rays come in short chunks).
+`build_drive_scene` places the primitives along a driven trajectory: two sync targets
+beside the road at the start and the end of the drive, control targets on both sides, a
+wall along the tightest curve.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from functools import cached_property
+from typing import Literal, NamedTuple, cast
 
 import numpy as np
+from numba import njit
 
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync._validate import finite_number, positive_number
@@ -38,6 +45,7 @@ from kinsync.trajectory import Trajectory
 
 __all__ = [
     "NO_HIT",
+    "Panel",
     "Scene",
     "SceneLayout",
     "Target",
@@ -91,6 +99,129 @@ class Wall:
         object.__setattr__(self, "end_ne_m", b)
 
 
+Vector3 = tuple[float, float, float]
+
+_PLANAR_TOL_M = 1e-6
+"""Largest distance of a panel vertex from the panel's plane (m)."""
+
+
+@dataclass(frozen=True)
+class Panel:
+    """A flat convex polygon: a roof plane, a sloping shore, a wall of any azimuth.
+
+    Attributes
+    ----------
+    vertices_ned_m : tuple of (N, E, D) tuples
+        Corners in order around the outline (either sense), scene frame (m): at least
+        3, coplanar (within 1e-6 m), convex, no two consecutive ones equal.
+    name : str
+        Name used in messages (and by scene builders to match panels to features).
+
+    Notes
+    -----
+    Rays hit either face. A closed building made of panels hides what is inside it.
+    """
+
+    vertices_ned_m: tuple[Vector3, ...]
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        label = f"panel {self.name!r}"
+        raw = tuple(self.vertices_ned_m)
+        if len(raw) < 3:
+            msg = f"{label}: needs at least 3 vertices, got {len(raw)}"
+            raise InputError(msg)
+        verts = tuple(tuple(_vec(tuple(v), 3, f"{label} vertex {i}")) for i, v in enumerate(raw))
+        object.__setattr__(self, "vertices_ned_m", verts)
+        v = np.array(verts)
+        edges = np.roll(v, -1, axis=0) - v
+        lengths = np.linalg.norm(edges, axis=1)
+        if np.any(lengths <= 0.0):
+            i = int(np.flatnonzero(lengths <= 0.0)[0])
+            msg = f"{label}: vertices {i} and {(i + 1) % len(v)} coincide"
+            raise InputError(msg)
+        # Newell's normal: robust for any planar polygon, |n| = 2 * area.
+        n = np.cross(v, np.roll(v, -1, axis=0)).sum(axis=0)
+        size = float(np.max(lengths))
+        if float(np.linalg.norm(n)) <= 1e-9 * size * size:
+            msg = f"{label}: the vertices enclose no area (collinear?)"
+            raise InputError(msg)
+        n /= np.linalg.norm(n)
+        off = np.abs((v - v.mean(axis=0)) @ n)
+        if float(off.max()) > _PLANAR_TOL_M:
+            msg = (
+                f"{label}: the vertices are not coplanar (vertex {int(np.argmax(off))} lies "
+                f"{float(off.max()):.3g} m off the plane)"
+            )
+            raise InputError(msg)
+        turn = np.cross(edges, np.roll(edges, -1, axis=0)) @ n
+        if np.any(turn < -1e-9 * size * size):
+            msg = f"{label}: the outline is not convex; split it into convex panels"
+            raise InputError(msg)
+
+    @property
+    def vertices_array_ned_m(self) -> FloatArray:
+        """Vertices, shape (K, 3), scene frame (m)."""
+        return np.array(self.vertices_ned_m)
+
+    @property
+    def normal_ned(self) -> FloatArray:
+        """Unit normal, shape (3,): right-handed about the vertex order."""
+        v = self.vertices_array_ned_m
+        n = np.cross(v, np.roll(v, -1, axis=0)).sum(axis=0)
+        out: FloatArray = n / np.linalg.norm(n)
+        return out
+
+    @property
+    def centroid_ned_m(self) -> FloatArray:
+        """Area centroid, shape (3,), scene frame (m)."""
+        v = self.vertices_array_ned_m
+        n = self.normal_ned
+        tri_area = np.cross(v[1:-1] - v[0], v[2:] - v[0]) @ n
+        tri_centre = (v[0] + v[1:-1] + v[2:]) / 3.0
+        out: FloatArray = (tri_area[:, None] * tri_centre).sum(axis=0) / tri_area.sum()
+        return out
+
+    @property
+    def area_m2(self) -> float:
+        """Area (m^2)."""
+        v = self.vertices_array_ned_m
+        return float(0.5 * np.sum(np.cross(v[1:-1] - v[0], v[2:] - v[0]) @ self.normal_ned))
+
+    @classmethod
+    def rectangle(
+        cls, corner_ned_m: Vector3, edge_u_ned_m: Vector3, edge_v_ned_m: Vector3, name: str = ""
+    ) -> Panel:
+        """The parallelogram ``corner + s u + t v``, ``0 <= s, t <= 1``.
+
+        A rectangle when ``u`` and ``v`` are perpendicular; corner and edges in the scene
+        frame (m).
+        """
+        c = np.array(_vec(tuple(corner_ned_m), 3, f"panel {name!r} corner_ned_m"))
+        u = np.array(_vec(tuple(edge_u_ned_m), 3, f"panel {name!r} edge_u_ned_m"))
+        w = np.array(_vec(tuple(edge_v_ned_m), 3, f"panel {name!r} edge_v_ned_m"))
+        corners = (c, c + u, c + u + w, c + w)
+        return cls(tuple(_as_vector3(p) for p in corners), name)
+
+    def _casting_terms(self) -> tuple[FloatArray, float, FloatArray, FloatArray]:
+        """Normal, plane offset, inward edge normals (K, 3) and their offsets (K,)."""
+        v = self.vertices_array_ned_m
+        n = self.normal_ned
+        edges = np.roll(v, -1, axis=0) - v
+        inward = np.cross(n, edges)  # points into the polygon for the right-handed order
+        return n, float(n @ v[0]), inward, np.einsum("ij,ij->i", inward, v)
+
+    def bounding_sphere(self) -> tuple[FloatArray, float]:
+        """Centre (3,) and radius of a sphere holding the panel (m, scene frame)."""
+        v = self.vertices_array_ned_m
+        centre: FloatArray = v.mean(axis=0)
+        return centre, float(np.max(np.linalg.norm(v - centre, axis=1)))
+
+
+def _as_vector3(p: FloatArray) -> Vector3:
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
 @dataclass(frozen=True)
 class Target:
     """A retro-reflective sphere.
@@ -123,7 +254,7 @@ class Target:
 
 @dataclass(frozen=True)
 class Scene:
-    """Ground, walls and targets in a local NED frame.
+    """Ground, walls, panels and targets in a local NED frame.
 
     Attributes
     ----------
@@ -134,12 +265,15 @@ class Scene:
     walls : tuple of Wall
     targets : tuple of Target
         Names unique.
+    panels : tuple of Panel
+        Flat convex polygons of any orientation.
     """
 
     origin_lat_lon_h: tuple[float, float, float]
     ground_down_m: float
     walls: tuple[Wall, ...] = ()
     targets: tuple[Target, ...] = ()
+    panels: tuple[Panel, ...] = ()
 
     def __post_init__(self) -> None:
         o = _vec(self.origin_lat_lon_h, 3, "scene origin_lat_lon_h")
@@ -155,9 +289,14 @@ class Scene:
             raise InputError(msg)
 
     @property
-    def first_target_id(self) -> int:
-        """``hit_id`` of the first target; walls are ``1 .. len(walls)``, ground 0."""
+    def first_panel_id(self) -> int:
+        """``hit_id`` of the first panel; walls are ``1 .. len(walls)``, ground 0."""
         return 1 + len(self.walls)
+
+    @property
+    def first_target_id(self) -> int:
+        """``hit_id`` of the first target: after the ground (0), the walls and the panels."""
+        return 1 + len(self.walls) + len(self.panels)
 
     def targets_of_kind(self, kind: TargetKind) -> tuple[Target, ...]:
         """The sync or the control targets, in scene order."""
@@ -189,8 +328,8 @@ class Scene:
         range_m : ndarray, shape (N,)
             Distance to the nearest hit (m); ``inf`` where nothing is hit.
         hit_id : ndarray of int64, shape (N,)
-            `NO_HIT`, 0 for the ground, ``1 .. len(walls)`` for walls, then targets
-            from `first_target_id` in scene order.
+            `NO_HIT`, 0 for the ground, ``1 .. len(walls)`` for walls, panels from
+            `first_panel_id`, then targets from `first_target_id`, in scene order.
         """
         o = np.asarray(origin_ned_m, dtype=np.float64)
         d = np.asarray(direction_ned, dtype=np.float64)
@@ -227,6 +366,8 @@ class Scene:
                     & (down <= wall.bottom_down_m)
                 )
                 keep(t_w, ok, k)
+            if self.panels and n:
+                self._cast_panels(o, d, max_range_m, best, hit)
             for k, target in enumerate(self.targets, start=self.first_target_id):
                 c = np.array(target.centre_ned_m)
                 oc = o - c
@@ -236,6 +377,123 @@ class Scene:
                 t_s = -b_half - np.sqrt(np.maximum(disc, 0.0))
                 keep(t_s, (disc >= 0) & (cc > 0) & (t_s > 0), k)
         return best, hit
+
+    @cached_property
+    def _panel_table(self) -> _PanelTable:
+        return _panel_table(self.panels, self.first_panel_id)
+
+    def _cast_panels(
+        self,
+        o: FloatArray,
+        d: FloatArray,
+        max_range_m: float,
+        best: FloatArray,
+        hit: IntArray,
+    ) -> None:
+        """Update ``best``/``hit`` with the panels in reach of any of the rays."""
+        tab = self._panel_table
+        lo, hi = o.min(axis=0), o.max(axis=0)
+        gap = np.linalg.norm(
+            np.maximum(0.0, np.maximum(lo - tab.centre_m, tab.centre_m - hi)), axis=1
+        )
+        near = np.flatnonzero(gap - tab.radius_m <= max_range_m)
+        if near.size == 0:
+            return
+        _cast_panels_kernel(
+            np.ascontiguousarray(o),
+            np.ascontiguousarray(d),
+            np.ascontiguousarray(tab.normal[near]),
+            np.ascontiguousarray(tab.offset_m[near]),
+            np.ascontiguousarray(tab.edge_normal[near]),
+            np.ascontiguousarray(tab.edge_offset_m[near]),
+            np.ascontiguousarray(tab.n_edges[near]),
+            np.ascontiguousarray(tab.hit_id[near]),
+            float(max_range_m),
+            best,
+            hit,
+        )
+
+
+class _PanelTable(NamedTuple):
+    """Panels as arrays for the casting kernel (K: most vertices of any panel)."""
+
+    normal: FloatArray  # (P, 3)
+    offset_m: FloatArray  # (P,)
+    edge_normal: FloatArray  # (P, K, 3), inward, zero-padded
+    edge_offset_m: FloatArray  # (P, K)
+    n_edges: IntArray  # (P,)
+    hit_id: IntArray  # (P,)
+    centre_m: FloatArray  # (P, 3), bounding sphere
+    radius_m: FloatArray  # (P,)
+
+
+def _panel_table(panels: tuple[Panel, ...], first_id: int) -> _PanelTable:
+    n_p = len(panels)
+    k_max = max(len(p.vertices_ned_m) for p in panels)
+    normal = np.zeros((n_p, 3))
+    offset = np.zeros(n_p)
+    edge_normal = np.zeros((n_p, k_max, 3))
+    edge_offset = np.zeros((n_p, k_max))
+    n_edges = np.zeros(n_p, dtype=np.int64)
+    centre = np.zeros((n_p, 3))
+    radius = np.zeros(n_p)
+    for i, panel in enumerate(panels):
+        n, off, inward, inward_off = panel._casting_terms()
+        k = inward.shape[0]
+        normal[i], offset[i], n_edges[i] = n, off, k
+        edge_normal[i, :k] = inward
+        edge_offset[i, :k] = inward_off
+        centre[i], radius[i] = panel.bounding_sphere()
+    return _PanelTable(
+        normal,
+        offset,
+        edge_normal,
+        edge_offset,
+        n_edges,
+        np.arange(first_id, first_id + n_p, dtype=np.int64),
+        centre,
+        radius,
+    )
+
+
+def _cast_panels_loop(
+    o: FloatArray,
+    d: FloatArray,
+    normal: FloatArray,
+    offset: FloatArray,
+    edge_normal: FloatArray,
+    edge_offset: FloatArray,
+    n_edges: IntArray,
+    ids: IntArray,
+    max_range_m: float,
+    best: FloatArray,
+    hit: IntArray,
+) -> None:
+    """Nearest panel hit per ray, nearer than ``best`` (updated in place with ``hit``)."""
+    for i in range(o.shape[0]):
+        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        for p in range(normal.shape[0]):
+            nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
+            denom = dx * nx + dy * ny + dz * nz
+            if abs(denom) <= 1e-12:
+                continue
+            t = (offset[p] - (ox * nx + oy * ny + oz * nz)) / denom
+            if t <= 0.0 or t >= best[i] or t > max_range_m:
+                continue
+            fx, fy, fz = ox + t * dx, oy + t * dy, oz + t * dz
+            inside = True
+            for k in range(n_edges[p]):
+                e = edge_normal[p, k]
+                if fx * e[0] + fy * e[1] + fz * e[2] < edge_offset[p, k] - 1e-9:
+                    inside = False
+                    break
+            if inside:
+                best[i] = t
+                hit[i] = ids[p]
+
+
+_cast_panels_kernel = cast(Callable[..., None], njit(cache=True, nogil=True)(_cast_panels_loop))
 
 
 def trajectory_to_local(
