@@ -1,0 +1,410 @@
+"""Mount self-calibration from survey lines: the whole estimator on containers.
+
+`calibrate_mount` takes the lines of a survey (`ScanLine`: scanner-frame returns with
+times, and the trajectory), the mount they were acquired with and which parameters to
+estimate, and returns a `CalibrationResult`:
+
+1. Every line is georeferenced with the starting mount; features seen by several
+   lines are found (`kinsync.calibration.planes` for planar patches,
+   `kinsync.calibration.spheres` for sphere targets).
+2. Observability before solving (`kinsync.calibration.observability`): parameters the
+   data cannot determine are held at their prior values and reported, with advice.
+3. The adjustment (`kinsync.calibration.adjustment`): Gauss-Newton with the features
+   as nuisance parameters, robust weights, the real georeferencing model.
+4. Honest sigma (`kinsync.calibration.uncertainty`): the jackknife over lines, which
+   holds the errors every return of a line shares; the formal sigma beside it.
+5. Status: ``weak`` when the sigma exceeds the stated threshold.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.calibration.adjustment import (
+    Adjustment,
+    AdjustmentOptions,
+    Observation,
+    adjust,
+    reduced_normal_matrix,
+)
+from kinsync.calibration.features import Feature
+from kinsync.calibration.lines import ScanLine
+from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
+from kinsync.calibration.observability import (
+    Observability,
+    analyse,
+    correlation,
+    hold_after_solution,
+    status_of,
+)
+from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatter_m
+from kinsync.calibration.parameters import (
+    DEFAULT_ESTIMATE,
+    PARAMETER_NAMES,
+    REPORT_SCALE,
+    estimated_indices,
+    mount_from_values,
+    mount_values,
+)
+from kinsync.calibration.planes import PatchOptions, find_plane_patches
+from kinsync.calibration.result import CalibrationResult, FeatureSummary, ParameterEstimate
+from kinsync.calibration.spheres import SphereOptions, find_sphere_targets
+from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS, Jackknife, jackknife
+from kinsync.errors import InputError
+from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.mount import Mount
+
+__all__ = ["CalibrationOptions", "calibrate_mount", "find_features"]
+
+FeatureKind = Literal["planes", "spheres"]
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """How to calibrate.
+
+    Attributes
+    ----------
+    features : {"planes", "spheres"}
+        Planar patches found in the lines' overlap, or sphere targets.
+    estimate : tuple of str
+        Parameter groups to estimate (`kinsync.calibration.parameters.GROUPS`).
+    patches : PatchOptions
+        Settings of the patch search.
+    spheres : SphereOptions
+        Settings of the sphere search (the known radius, if any).
+    adjustment : AdjustmentOptions
+        Iteration settings.
+    jackknife : bool
+        Compute the jackknife sigma (else the formal sigma is reported).
+    """
+
+    features: FeatureKind = "planes"
+    estimate: tuple[str, ...] = DEFAULT_ESTIMATE
+    patches: PatchOptions = field(default_factory=PatchOptions)
+    spheres: SphereOptions = field(default_factory=SphereOptions)
+    adjustment: AdjustmentOptions = field(default_factory=AdjustmentOptions)
+    jackknife: bool = True
+
+    def __post_init__(self) -> None:
+        if self.features not in ("planes", "spheres"):
+            msg = f"--features must be planes or spheres, got {self.features!r}"
+            raise InputError(msg)
+        estimated_indices(self.estimate)  # an unknown group fails here
+
+
+def _check_lines(lines: Sequence[ScanLine], latency_s: float) -> None:
+    if len(lines) < 2:
+        msg = (
+            f"{len(lines)} line given: a calibration needs at least 2 overlapping lines (or "
+            f"passes), and {MIN_JACKKNIFE_GROUPS} or more for an honest standard deviation"
+        )
+        raise InputError(msg)
+    names = [line.name for line in lines]
+    for line in lines:
+        traj = line.trajectory
+        tt = line.t_s + latency_s
+        outside = (tt < traj.t_start_s) | (tt > traj.t_end_s)
+        if not np.any(outside):
+            continue
+        n_out = int(np.count_nonzero(outside))
+        hint = ""
+        if n_out == len(line):
+            gap = float(np.median(tt)) - 0.5 * (traj.t_start_s + traj.t_end_s)
+            if abs(gap) > 1e5:
+                hint = (
+                    " (they are far apart: mixed time scales? GPS seconds of week need "
+                    "--gps-week; LAS adjusted standard time is GPS time - 1e9 s)"
+                )
+        msg = (
+            f"line {line.name!r}: {n_out} of {len(line)} returns (times "
+            f"{float(tt[outside].min())!r} .. {float(tt[outside].max())!r} s, latency "
+            f"{latency_s * 1e3:g} ms applied) lie outside its trajectory "
+            f"[{traj.t_start_s!r}, {traj.t_end_s!r}] s{hint}; kinsync does not extrapolate: "
+            "give a trajectory that covers the lines or trim them"
+        )
+        raise InputError(msg)
+    if len(set(names)) != len(names):
+        msg = f"line names must be unique, got {names}"
+        raise InputError(msg)
+
+
+def find_features(
+    models: Sequence[LineModel], values: FloatArray, frame: LocalFrame, opt: CalibrationOptions
+) -> tuple[list[Feature], list[Observation]]:
+    """The features of ``opt.features`` seen by several lines, with their observations."""
+    if opt.features == "spheres":
+        targets = find_sphere_targets(models, values, frame, opt.spheres)
+        return list(targets.features), list(targets.observations)
+    patches = find_plane_patches(models, values, frame, opt.patches)
+    return list(patches.features), list(patches.observations)
+
+
+def _rms_before(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    values: FloatArray,
+    frame: LocalFrame,
+) -> list[float]:
+    """RMS residual of each feature with the starting mount (robust: 3-sigma trimmed)."""
+    parts: list[list[FloatArray]] = [[] for _ in features]
+    for o in observations:
+        x = models[o.line].points(o.index, values, frame)
+        ok = np.all(np.isfinite(x), axis=1)
+        parts[o.feature].append(features[o.feature].residuals(x[ok]))
+    out = []
+    for p in parts:
+        e = np.concatenate(p) if p else np.zeros(0)
+        out.append(float(np.sqrt(np.mean(e**2))) if e.size else math.nan)
+    return out
+
+
+def _summaries(
+    solution: Adjustment,
+    before: list[float],
+    overlaps_before: tuple[LineOverlap, ...],
+    overlaps_after: tuple[LineOverlap, ...],
+) -> tuple[FeatureSummary, ...]:
+    return tuple(
+        FeatureSummary(
+            kind=f.feature.kind,
+            description=f.feature.describe(),
+            n_points=f.n_points,
+            n_passes=f.n_lines,
+            rms_before_m=before[i],
+            rms_after_m=f.rms_m,
+            scatter_before_m=scatter_m(overlaps_before, i),
+            scatter_after_m=scatter_m(overlaps_after, i),
+        )
+        for i, f in enumerate(solution.features)
+    )
+
+
+def _pooled_rms(values: Sequence[float], weights: Sequence[int]) -> float:
+    v = np.array(values)
+    w = np.array(weights, dtype=np.float64)
+    ok = np.isfinite(v)
+    if not np.any(ok):
+        return math.nan
+    return float(np.sqrt(np.sum(w[ok] * v[ok] ** 2) / np.sum(w[ok])))
+
+
+def _parameters(
+    prior: FloatArray,
+    requested: tuple[int, ...],
+    obs: Observability,
+    solution: Adjustment | None,
+    std: FloatArray | None,
+) -> tuple[ParameterEstimate, ...]:
+    out = []
+    for i, name in enumerate(PARAMETER_NAMES):
+        scale = REPORT_SCALE[i]
+        value = prior[i] if solution is None else solution.values[i]
+        if i in obs.estimated and solution is not None and std is not None:
+            j = obs.estimated.index(i)
+            s = float(std[j]) * scale
+            formal = math.sqrt(max(float(solution.covariance[j, j]), 0.0)) * scale
+            status = status_of(i, s)
+        else:
+            s = formal = math.nan
+            status = "unobservable" if i in requested else "fixed"
+        out.append(
+            ParameterEstimate(
+                name=name,
+                value=float(value) * scale,
+                prior=float(prior[i]) * scale,
+                std=s,
+                formal_std=formal,
+                status=status,  # type: ignore[arg-type]
+            )
+        )
+    return tuple(out)
+
+
+def calibrate_mount(
+    lines: Sequence[ScanLine],
+    mount: Mount,
+    options: CalibrationOptions | None = None,
+    *,
+    groups: Sequence[tuple[str, set[int]]] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> CalibrationResult:
+    """Calibrate boresight, lever arm and latency from overlapping survey lines.
+
+    Parameters
+    ----------
+    lines : sequence of ScanLine
+        The lines (or passes): scanner-frame returns with times and their trajectory.
+    mount : Mount
+        The mount they were acquired with: the starting and prior values.
+    options : CalibrationOptions, optional
+        Features, parameters to estimate, search and iteration settings.
+    groups : sequence of (name, set of line indices), optional
+        The independent units of the jackknife; default one per line.
+    progress : callable, optional
+        Called with a short message as each stage starts (for a progress display).
+
+    Returns
+    -------
+    CalibrationResult
+
+    Raises
+    ------
+    InputError
+        Fewer than two lines, returns outside their trajectory, no feature found or
+        none seen by two lines.
+    ConvergenceError
+        The adjustment did not converge.
+    """
+    opt = options or CalibrationOptions()
+    requested = estimated_indices(opt.estimate)
+    lines = list(lines)
+    _check_lines(lines, mount.latency_s)
+    say = progress or (lambda _: None)
+    say(f"finding {opt.features} in {len(lines)} lines")
+    cache: dict[int, GeorefTrajectory] = {}
+    models = [LineModel.prepare(line, cache) for line in lines]
+    frame = local_frame_for(lines)
+    prior = mount_values(mount)
+    features, observations = find_features(models, prior, frame, opt)
+    S, motion, _ = reduced_normal_matrix(
+        models, observations, features, prior, requested, frame, robust=False
+    )
+    units = len(groups) if groups is not None else len(lines)
+    honest = opt.jackknife and units >= MIN_JACKKNIFE_GROUPS
+    obs = analyse(S, motion, requested, honest_sigma=honest)
+    before = _rms_before(models, observations, features, prior, frame)
+    counts = [
+        sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
+    ]
+    if not obs.estimated:
+        return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+    while True:
+        say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
+        solution = adjust(
+            models, observations, features, prior, obs.estimated, frame, opt.adjustment
+        )
+        jk = _jackknife(models, observations, solution, frame, lines, groups, opt, say)
+        std, method = _std(solution, jk)
+        moved = [abs(float(solution.values[i] - prior[i])) > 3.0 * std[j]
+                 for j, i in enumerate(obs.estimated)]  # fmt: skip
+        held = hold_after_solution(obs.estimated, std, moved, _covariance(solution, jk))
+        if held is None:
+            break
+        obs = obs.without(held)
+        if not obs.estimated:
+            return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+    params = _parameters(prior, requested, obs, solution, std)
+    fitted = [f.feature for f in solution.features]
+    overlaps_before = overlap_differences(models, observations, features, prior, frame)
+    overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
+    summaries = _summaries(solution, before, overlaps_before, overlaps_after)
+    return CalibrationResult(
+        mount=mount_from_values(mount, solution.values),
+        prior=mount,
+        parameters=params,
+        sigma_method=method,
+        correlation_names=tuple(PARAMETER_NAMES[i] for i in obs.estimated),
+        correlation=correlation(_covariance(solution, jk)),
+        features=summaries,
+        residual_rms_before_m=_pooled_rms(before, counts),
+        residual_rms_after_m=_pooled_rms(
+            [s.rms_after_m for s in summaries], [s.n_points for s in summaries]
+        ),
+        unobservable_reasons=obs.explanation(),
+        advice=obs.advice(),
+        lines=tuple(line.name for line in lines),
+        iterations=solution.iterations,
+        overlaps_before=overlaps_before,
+        overlaps_after=overlaps_after,
+        std_plain_jackknife=_plain_std(obs.estimated, jk),
+    )
+
+
+def _jackknife(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    solution: Adjustment,
+    frame: LocalFrame,
+    lines: Sequence[ScanLine],
+    groups: Sequence[tuple[str, set[int]]] | None,
+    opt: CalibrationOptions,
+    progress: Callable[[str], None],
+) -> Jackknife | None:
+    if not opt.jackknife:
+        return None
+    units = list(groups) if groups is not None else [(ln.name, {i}) for i, ln in enumerate(lines)]
+    if len(units) < MIN_JACKKNIFE_GROUPS:
+        return None
+    return jackknife(models, observations, solution, frame, units, opt.adjustment, progress)
+
+
+def _plain_std(estimated: tuple[int, ...], jk: Jackknife | None) -> tuple[float, ...]:
+    if jk is None or not jk.valid:
+        return ()
+    sd = np.sqrt(np.maximum(np.diag(jk.covariance_plain), 0.0))
+    return tuple(float(sd[j] * REPORT_SCALE[i]) for j, i in enumerate(estimated))
+
+
+def _covariance(solution: Adjustment, jk: Jackknife | None) -> FloatArray:
+    """The reported covariance: the jackknife's when valid, else the formal one."""
+    return solution.covariance if jk is None or not jk.valid else jk.covariance
+
+
+def _std(solution: Adjustment, jk: Jackknife | None) -> tuple[FloatArray, str]:
+    formal = np.sqrt(np.maximum(np.diag(solution.covariance), 0.0))
+    if jk is not None and jk.valid:
+        return jk.std, (
+            f"jackknife over {len(jk.groups)} lines (delete one line at a time, leverage "
+            "corrected): holds the errors shared by the returns of a line (navigation "
+            f"errors, range biases); with {jk.dof} degrees of freedom a 95 % interval is "
+            f"+-{jk.t95:.2f} sigma (Student t)"
+        )
+    if jk is None:
+        why = f"fewer than {MIN_JACKKNIFE_GROUPS} lines for a jackknife, or it was not asked for"
+    else:
+        why = f"without {', '.join(jk.failed)} the parameters are not determined"
+    return formal, (
+        f"formal ({why}): assumes independent errors from return to return and is "
+        "optimistic on real data"
+    )
+
+
+def _unsolved(
+    lines: Sequence[ScanLine],
+    mount: Mount,
+    prior: FloatArray,
+    requested: tuple[int, ...],
+    obs: Observability,
+    features: Sequence[Feature],
+    before: list[float],
+    counts: list[int],
+) -> CalibrationResult:
+    """Nothing the data can determine: the prior mount, every parameter's status, advice."""
+    summaries = tuple(
+        FeatureSummary(f.kind, f.describe(), counts[i], 0, before[i], before[i])
+        for i, f in enumerate(features)
+    )
+    rms = _pooled_rms(before, counts)
+    return CalibrationResult(
+        mount=mount,
+        prior=mount,
+        parameters=_parameters(prior, requested, obs, None, None),
+        sigma_method="none: no parameter could be determined",
+        correlation_names=(),
+        correlation=np.zeros((0, 0)),
+        features=summaries,
+        residual_rms_before_m=rms,
+        residual_rms_after_m=rms,
+        unobservable_reasons=obs.explanation(),
+        advice=obs.advice(),
+        lines=tuple(line.name for line in lines),
+        iterations=0,
+    )

@@ -1,0 +1,338 @@
+"""Planning a calibration survey: each parameter's predicted sigma and status.
+
+Before the survey, from its design: simulated lines (noise-free) over the planned
+scene with the planned mount. The prediction uses the estimator's own model
+(`kinsync.calibration.adjustment`): the same features, the same reduced normal
+matrix ``S`` and the same observability analysis, with two error sources:
+
+- range noise ``range_noise_m`` along each beam (what the formal sigma holds):
+  ``Cov_noise = S^-1`` with weights ``1 / (range_noise_m |cos(incidence)|)^2``;
+- navigation errors, correlated in time (what the jackknife of the estimator holds):
+  a position error (N, E, D) and a misorientation (about N, E, D, through the body
+  reference point) that follow a first-order Gauss-Markov process with the
+  trajectory's standard deviations and correlation time ``corr_time_s``, independent
+  between lines. Each line's error is represented at knots ``corr_time_s / 3`` apart
+  (linear in between) with correlation ``R = exp(-|t_i - t_j| / corr_time_s)``; with
+  ``U = J_theta' W (I - H_f) G`` the reduced gradient that unit knot errors put on
+  the mount parameters (``H_f`` the projector on the features),
+  ``Cov_nav = S^-1 U (R (x) diag(sigma_c^2)) U' S^-1``.
+
+The predicted sigma is ``sqrt(diag(Cov_noise + Cov_nav))``; a parameter is
+``unobservable`` by the information test, or when its predicted sigma exceeds what a
+crew knows without calibrating (the estimator's rule after its solution), ``weak``
+above the thresholds of `kinsync.calibration.observability`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import sparse
+
+from kinsync._typing import FloatArray, IntArray
+from kinsync.calibration.adjustment import (
+    Observation,
+    ObservationLayout,
+    georeference_observed,
+    incidence_factor,
+    reduced_normal_matrix,
+)
+from kinsync.calibration.estimator import CalibrationOptions, find_features
+from kinsync.calibration.features import Feature
+from kinsync.calibration.lines import ScanLine
+from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
+from kinsync.calibration.observability import analyse, hold_after_solution, status_of
+from kinsync.calibration.parameters import (
+    PARAMETER_NAMES,
+    REPORT_SCALE,
+    estimated_indices,
+    mount_values,
+)
+from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS
+from kinsync.errors import InputError
+from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.mount import Mount
+
+__all__ = ["NavigationErrors", "PlanResult", "PlannedParameter", "plan_calibration"]
+
+
+@dataclass(frozen=True)
+class NavigationErrors:
+    """Errors assumed for the plan (one sigma).
+
+    Attributes
+    ----------
+    range_noise_m : float
+        Scanner range noise along the beam (m).
+    position_std_m : float
+        Trajectory position error, per axis (m).
+    attitude_std_deg : tuple of 3 float
+        Trajectory misorientation about N, E, D (deg).
+    corr_time_s : float
+        Correlation time of the trajectory errors (s): first-order Gauss-Markov.
+    """
+
+    range_noise_m: float = 0.01
+    position_std_m: float = 0.02
+    attitude_std_deg: tuple[float, float, float] = (0.005, 0.005, 0.01)
+    corr_time_s: float = 15.0
+
+    def __post_init__(self) -> None:
+        values = (self.range_noise_m, self.position_std_m, *self.attitude_std_deg)
+        if not all(math.isfinite(v) and v >= 0.0 for v in values) or self.range_noise_m <= 0:
+            msg = (
+                "planning errors must be finite and >= 0 (range noise > 0), got "
+                f"{self.range_noise_m!r}, {self.position_std_m!r}, {self.attitude_std_deg!r}"
+            )
+            raise InputError(msg)
+        if not (math.isfinite(self.corr_time_s) and self.corr_time_s > 0.0):
+            msg = f"--corr-time-s must be a number of seconds > 0, got {self.corr_time_s!r}"
+            raise InputError(msg)
+
+
+@dataclass(frozen=True)
+class PlannedParameter:
+    """One parameter's prediction (report units)."""
+
+    name: str
+    status: str
+    std: float
+    std_noise_only: float
+
+    def as_document(self) -> dict[str, Any]:
+        """``{"status", "std", "std_noise_only"}`` (null where not estimated)."""
+        return {
+            "status": self.status,
+            "std": None if not math.isfinite(self.std) else self.std,
+            "std_noise_only": None
+            if not math.isfinite(self.std_noise_only)
+            else self.std_noise_only,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """A calibration plan's prediction.
+
+    Attributes
+    ----------
+    parameters : tuple of PlannedParameter
+        All seven parameters (``fixed`` when not asked for).
+    n_features : int
+        Features the estimator would use.
+    n_lines : int
+    unobservable_reasons, advice : tuple of str
+        As in `kinsync.calibration.result.CalibrationResult`.
+    errors : NavigationErrors
+        The errors assumed.
+    """
+
+    parameters: tuple[PlannedParameter, ...]
+    n_features: int
+    n_lines: int
+    unobservable_reasons: tuple[str, ...]
+    advice: tuple[str, ...]
+    errors: NavigationErrors
+
+    def as_document(self) -> dict[str, Any]:
+        """The ``kinsync calibrate plan --json`` document."""
+        return {
+            "parameters": {p.name: p.as_document() for p in self.parameters},
+            "n_features": self.n_features,
+            "n_lines": self.n_lines,
+            "unobservable": list(self.unobservable_reasons),
+            "advice": list(self.advice),
+            "assumed_errors": {
+                "range_noise_m": self.errors.range_noise_m,
+                "position_std_m": self.errors.position_std_m,
+                "attitude_std_deg": list(self.errors.attitude_std_deg),
+                "corr_time_s": self.errors.corr_time_s,
+            },
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class _Knots:
+    """Each line's pose-error knots, ``corr_time_s / 3`` apart, and their correlation."""
+
+    times: dict[int, FloatArray]
+    first: dict[int, int]
+    R: FloatArray
+
+    @classmethod
+    def build(
+        cls, models: Sequence[LineModel], layout: ObservationLayout, corr_time_s: float
+    ) -> _Knots:
+        times, first = {}, {}
+        n = 0
+        for li in sorted(layout.by_line):
+            t = models[li].line.t_s[layout.by_line[li]]
+            t0, t1 = float(np.min(t)), float(np.max(t))
+            count = max(2, int(np.ceil(3.0 * (t1 - t0) / corr_time_s)) + 1)
+            times[li], first[li] = np.linspace(t0, t1, count), n
+            n += count
+        R = np.zeros((n, n))
+        for li, kt in times.items():
+            j = first[li]
+            R[j : j + kt.size, j : j + kt.size] = np.exp(
+                -np.abs(kt[:, None] - kt[None, :]) / corr_time_s
+            )
+        return cls(times, first, R)
+
+    def design(self, line: IntArray, t: FloatArray, g6: FloatArray) -> sparse.csr_matrix:
+        """Sparse ``G`` (n, 6 K): each return's six pose gradients on its two knots."""
+        n = t.size
+        cols = np.empty((n, 12), dtype=np.int64)
+        vals = np.empty((n, 12))
+        for li in np.unique(line):
+            on = np.flatnonzero(line == li)
+            kt = self.times[int(li)]
+            j = np.clip(np.searchsorted(kt, t[on], side="right") - 1, 0, kt.size - 2)
+            a = np.clip((t[on] - kt[j]) / (kt[j + 1] - kt[j]), 0.0, 1.0)
+            base = 6 * (self.first[int(li)] + j)
+            for c in range(6):
+                cols[on, c], vals[on, c] = base + c, (1.0 - a) * g6[on, c]
+                cols[on, 6 + c], vals[on, 6 + c] = base + 6 + c, a * g6[on, c]
+        rows = np.repeat(np.arange(n), 12)
+        shape = (n, 6 * self.R.shape[0])
+        return sparse.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=shape)
+
+
+def _navigation_gradients(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    values: FloatArray,
+    estimated: tuple[int, ...],
+    frame: LocalFrame,
+    err: NavigationErrors,
+) -> tuple[FloatArray, FloatArray]:
+    """``U = J_theta' W (I - H_f) G`` (k, 6 K) and the knots' correlation ``R`` (K, K)."""
+    k = len(estimated)
+    layout = ObservationLayout(models, observations, len(features))
+    knots = _Knots.build(models, layout, err.corr_time_s)
+    geo = georeference_observed(models, layout.by_line, values, estimated, frame)
+    body = {li: models[li].body_positions(idx, values, frame) for li, idx in layout.by_line.items()}
+    t_obs = {li: models[li].line.t_s[idx] for li, idx in layout.by_line.items()}
+    rets = layout.gather(geo)
+    U = np.zeros((k, 6 * knots.R.shape[0]))
+    for fi, feature in enumerate(features):
+        parts = [(li, sl) for f, li, sl in layout.slices if f == fi]
+        if not parts:
+            continue
+        ret = rets[fi]
+        line = np.concatenate([np.full(sl.stop - sl.start, li) for li, sl in parts])
+        t = np.concatenate([t_obs[li][sl] for li, sl in parts])
+        arm = np.concatenate([geo[li][0][sl] - body[li][sl] for li, sl in parts])
+        grad = feature.gradient_x(ret.x)
+        jt = np.einsum("ni,nik->nk", grad, ret.jac)
+        jf = feature.jacobian(ret.x)
+        w = 1.0 / (err.range_noise_m * incidence_factor(feature, ret)) ** 2
+        B = (jt * w[:, None]).T @ jf
+        # d e / d pose: a position error moves every return; a misorientation turns the
+        # returns about the body reference point: grad . (omega x arm) = omega . (arm x grad)
+        G = knots.design(line, t, np.concatenate([grad, np.cross(arm, grad)], axis=1))
+        WG = sparse.csr_matrix(G.multiply(w[:, None]))
+        C_inv_FtWG = np.linalg.pinv(jf.T @ (jf * w[:, None])) @ np.asarray(WG.T @ jf).T
+        U += np.asarray((WG.T @ jt).T) - B @ C_inv_FtWG
+    return U, knots.R
+
+
+def _predicted(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    values: FloatArray,
+    estimated: tuple[int, ...],
+    frame: LocalFrame,
+    err: NavigationErrors,
+) -> tuple[FloatArray, FloatArray]:
+    """Predicted covariance (range noise and navigation errors) and range noise alone."""
+    k = len(estimated)
+    if k == 0:
+        return np.zeros((0, 0)), np.zeros((0, 0))
+    sig = [err.range_noise_m] * len(features)
+    S, _, _ = reduced_normal_matrix(
+        models, observations, features, values, estimated, frame, sig, robust=False
+    )
+    S_inv = np.asarray(np.linalg.pinv(S), dtype=np.float64)
+    U, R = _navigation_gradients(models, observations, features, values, estimated, frame, err)
+    pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
+    middle = U @ np.kron(R, np.diag(pose_sd**2)) @ U.T
+    cov = np.asarray(S_inv + S_inv @ middle @ S_inv, dtype=np.float64)
+    return cov, S_inv
+
+
+def plan_calibration(
+    lines: Sequence[ScanLine],
+    mount: Mount,
+    options: CalibrationOptions | None = None,
+    errors: NavigationErrors | None = None,
+) -> PlanResult:
+    """Predict each parameter's sigma and status for a planned survey.
+
+    Parameters
+    ----------
+    lines : sequence of ScanLine
+        Noise-free simulated lines of the design (geometry only).
+    mount : Mount
+        The planned mount.
+    options : CalibrationOptions, optional
+        Features and parameters to estimate, as for the estimator.
+    errors : NavigationErrors, optional
+        Range noise and the navigation errors shared by a line.
+
+    Returns
+    -------
+    PlanResult
+    """
+    opt = options or CalibrationOptions()
+    err = errors or NavigationErrors()
+    requested = estimated_indices(opt.estimate)
+    cache: dict[int, GeorefTrajectory] = {}
+    models = [LineModel.prepare(line, cache) for line in lines]
+    frame = local_frame_for(list(lines))
+    values = mount_values(mount)
+    features, observations = find_features(models, values, frame, opt)
+    sig = [err.range_noise_m] * len(features)
+    S, motion, _ = reduced_normal_matrix(
+        models, observations, features, values, requested, frame, sig, robust=False
+    )
+    obs = analyse(S, motion, requested, honest_sigma=len(lines) >= MIN_JACKKNIFE_GROUPS)
+    cov, cov_noise = _predicted(models, observations, features, values, obs.estimated, frame, err)
+    while obs.estimated:
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        held = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
+        if held is None:
+            break
+        obs = obs.without(held)
+        cov, cov_noise = _predicted(
+            models, observations, features, values, obs.estimated, frame, err
+        )
+    est = obs.estimated
+    std_all = np.full(7, math.nan)
+    std_noise = np.full(7, math.nan)
+    for j, i in enumerate(est):
+        std_all[i] = math.sqrt(max(float(cov[j, j]), 0.0)) * REPORT_SCALE[i]
+        std_noise[i] = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * REPORT_SCALE[i]
+    params = []
+    for i, name in enumerate(PARAMETER_NAMES):
+        if i in est:
+            status = status_of(i, float(std_all[i]))
+        elif i in obs.held:
+            status = "unobservable"
+        else:
+            status = "fixed"
+        params.append(PlannedParameter(name, status, float(std_all[i]), float(std_noise[i])))
+    return PlanResult(
+        parameters=tuple(params),
+        n_features=len(features),
+        n_lines=len(lines),
+        unobservable_reasons=obs.explanation(),
+        advice=obs.advice(),
+        errors=err,
+    )

@@ -1,0 +1,68 @@
+"""The planner: predicted sigma and status of a survey design, before the survey."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from kinsync.calibration.estimator import CalibrationOptions
+from kinsync.calibration.planning import NavigationErrors, PlanResult, plan_calibration
+from kinsync.errors import InputError
+from kinsync.sim.patch_config import PatchTestConfig
+from kinsync.sim.patch_test import simulate_patch_test
+
+ALL = CalibrationOptions(estimate=("boresight", "lever", "latency"))
+QUIET = {"range_noise_m": 0.0, "std_pos_ned_m": (0.0,) * 3, "std_att_deg": (0.0,) * 3}
+
+
+def _plan(errors: NavigationErrors | None = None, **config: object) -> PlanResult:
+    cfg = PatchTestConfig(scenario="vehicle", density=0.03, **QUIET, **config)  # type: ignore[arg-type]
+    sim = simulate_patch_test(cfg)
+    return plan_calibration(sim.lines, sim.mount_true, ALL, errors)
+
+
+def _std(plan: PlanResult, name: str) -> float:
+    return next(p.std for p in plan.parameters if p.name == name)
+
+
+def test_vehicle_design() -> None:
+    plan = _plan()
+    status = {p.name: p.status for p in plan.parameters}
+    assert status["lever_z_m"] == "unobservable"
+    assert all(s in ("estimated", "weak") for n, s in status.items() if n != "lever_z_m")
+    for p in plan.parameters:
+        if p.status != "unobservable":
+            # the navigation errors a line shares dominate the range noise
+            assert p.std > 3.0 * p.std_noise_only > 0.0
+    assert any("lever z" in a for a in plan.advice)
+    doc = plan.as_document()
+    assert doc["parameters"]["lever_z_m"]["std"] is None
+    assert doc["assumed_errors"]["corr_time_s"] == 15.0
+
+
+def test_sigma_scales_with_the_assumed_errors() -> None:
+    quiet = _plan(NavigationErrors(position_std_m=0.0, attitude_std_deg=(0.0, 0.0, 0.0)))
+    noisy = _plan(NavigationErrors(position_std_m=0.04))
+    for name in ("boresight_roll_deg", "lever_y_m", "latency_ms"):
+        assert _std(quiet, name) < _std(noisy, name)
+        assert math.isclose(
+            next(p.std_noise_only for p in quiet.parameters if p.name == name),
+            _std(quiet, name),
+            rel_tol=1e-9,
+        )
+
+
+def test_one_speed_leaves_the_latency_undetermined() -> None:
+    plan = _plan(speeds_m_s=(8.0,))
+    assert {p.name: p.status for p in plan.parameters}["latency_ms"] != "estimated"
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"range_noise_m": 0.0}, {"position_std_m": -1.0}, {"corr_time_s": 0.0},
+     {"attitude_std_deg": (0.0, float("nan"), 0.0)}],
+)  # fmt: skip
+def test_bad_errors(kwargs: dict[str, object]) -> None:
+    with pytest.raises(InputError):
+        NavigationErrors(**kwargs)  # type: ignore[arg-type]
