@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 import typer
 
+from kinsync.cli._options import expand_multi_value_options
 from kinsync.cli.app import app
 from kinsync.errors import KinsyncError
 
@@ -26,7 +27,7 @@ def _one_line(text: str) -> str:
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
-    args = list(sys.argv[1:] if argv is None else argv)
+    args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
     try:
         result = app(args=args, prog_name="kinsync", standalone_mode=False)
     except KinsyncError as err:

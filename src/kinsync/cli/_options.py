@@ -3,10 +3,45 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from kinsync.errors import InputError
 
-__all__ = ["parse_rates"]
+__all__ = ["MULTI_VALUE_OPTIONS", "expand_multi_value_options", "parse_rates"]
+
+MULTI_VALUE_OPTIONS: dict[tuple[str, ...], tuple[str, ...]] = {
+    ("calibrate", "mount"): ("--points", "--trajectory"),
+}
+"""Options of a command that take several values after one flag (``--points lines/*.laz``)."""
+
+
+def _command_path(args: Sequence[str], depth: int) -> tuple[str, ...]:
+    return tuple(a for a in args if not a.startswith("-"))[:depth]
+
+
+def expand_multi_value_options(args: Sequence[str]) -> list[str]:
+    """``--points A B C`` -> ``--points A --points B --points C`` where a command allows it.
+
+    typer (click) takes one value per option flag; a shell glob gives many. For the
+    commands in `MULTI_VALUE_OPTIONS`, every token after such a flag up to the next
+    token starting with ``-`` is one more value of it.
+    """
+    out = list(args)
+    for path, names in MULTI_VALUE_OPTIONS.items():
+        if _command_path(args, len(path)) != path:
+            continue
+        out = []
+        current: str | None = None
+        for token in args:
+            if token.startswith("-"):
+                current = token if token in names else None
+                out.append(token)
+            elif current is not None and out[-1] != current:
+                out.extend([current, token])
+            else:
+                out.append(token)
+        return out
+    return out
 
 
 def parse_rates(text: str) -> tuple[float, ...]:

@@ -7,7 +7,19 @@ from typing import Annotated
 import typer
 
 from kinsync import __version__
-from kinsync.cli import budget, clock, demo, georef, ins, inspect, latency, simulate, sync, validate
+from kinsync.cli import (
+    budget,
+    calibrate,
+    clock,
+    demo,
+    georef,
+    ins,
+    inspect,
+    latency,
+    simulate,
+    sync,
+    validate,
+)
 
 app = typer.Typer(
     name="kinsync",
@@ -27,6 +39,7 @@ app.command(name="georef")(georef.georef)
 app.add_typer(ins.app, name="ins")
 app.add_typer(validate.app, name="validate")
 app.add_typer(sync.app, name="sync")
+app.add_typer(calibrate.app, name="calibrate")
 
 
 def _version(value: bool) -> None:

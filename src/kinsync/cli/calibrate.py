@@ -1,0 +1,254 @@
+"""``kinsync calibrate``: mount self-calibration from survey lines, and its planner."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.table import Table
+
+from kinsync.cli._output import console, err_console, print_json
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_write_text
+from kinsync.io.mount_file import read_mount
+
+if TYPE_CHECKING:
+    from kinsync.calibration.estimator import CalibrationOptions
+    from kinsync.calibration.result import CalibrationResult
+
+app = typer.Typer(
+    help="Mount self-calibration (boresight, lever arm, latency) from survey lines.",
+    no_args_is_help=True,
+)
+
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object, nothing else.")]
+EstimateOpt = Annotated[
+    str,
+    typer.Option(
+        "--estimate",
+        help="Parameter groups to estimate: boresight, lever (or lever_xy, lever_z), latency.",
+    ),
+]
+FeaturesOpt = Annotated[
+    str,
+    typer.Option(
+        "--features",
+        help="'planes': planar patches found where the lines overlap (ground, walls, roofs); "
+        "'spheres': sphere targets seen on several lines.",
+    ),
+]
+RadiusOpt = Annotated[
+    float | None,
+    typer.Option("--sphere-radius-m", help="Known sphere radius (m); fitted when not given."),
+]
+
+
+def _options(features: str, estimate: str, sphere_radius_m: float | None) -> CalibrationOptions:
+    from kinsync.calibration.estimator import CalibrationOptions  # noqa: PLC0415
+    from kinsync.calibration.parameters import estimated_indices  # noqa: PLC0415
+    from kinsync.calibration.spheres import SphereOptions  # noqa: PLC0415
+
+    if features not in ("planes", "spheres"):
+        msg = f"--features must be planes or spheres, got {features!r}"
+        raise InputError(msg)
+    groups = tuple(g.strip() for g in estimate.split(",") if g.strip())
+    estimated_indices(groups)
+    if sphere_radius_m is not None and features != "spheres":
+        msg = "--sphere-radius-m applies to --features spheres"
+        raise InputError(msg)
+    return CalibrationOptions(
+        features=features,  # type: ignore[arg-type]
+        estimate=groups,
+        spheres=SphereOptions(radius_m=sphere_radius_m),
+    )
+
+
+def _fmt(value: float, digits: int = 4) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def _print_result(result: CalibrationResult) -> None:
+    table = Table(title="Mount calibration")
+    for col in ("parameter", "prior", "calibrated", "sigma", "status"):
+        table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
+    for p in result.parameters:
+        table.add_row(p.name, _fmt(p.prior, 6), _fmt(p.value, 6), _fmt(p.std, 2), p.status)
+    console.print(table)
+    console.print(f"sigma: {result.sigma_method}")
+    for reason in result.unobservable_reasons:
+        console.print(f"not determined: {reason}")
+    for advice in result.advice:
+        console.print(f"would determine it: {advice}")
+    console.print(
+        f"{len(result.features)} features, {len(result.lines)} lines; residual RMS "
+        f"{result.residual_rms_before_m * 100:.2f} cm -> {result.residual_rms_after_m * 100:.2f} cm"
+    )
+
+
+def _write_certificate(result: CalibrationResult, path: Path) -> None:
+    from kinsync.report.calibration import calibration_certificate  # noqa: PLC0415
+
+    atomic_write_text(path, calibration_certificate(result))
+
+
+@app.command("mount")
+def mount(
+    points: Annotated[
+        list[Path],
+        typer.Option(
+            "--points",
+            help="Scanner-frame points, one file per line or pass: .las/.laz (gps_time) or "
+            ".csv/.parquet with t_s,x_m,y_m,z_m, or CIDCO LidarToolkit pass files (.txt, "
+            "with their own trajectory). Repeat the option for each file.",
+        ),
+    ],
+    mount_file: Annotated[
+        Path, typer.Option("--mount", help="The mount the data were acquired with (TOML).")
+    ],
+    trajectory: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--trajectory",
+            help="Trajectory (.csv or SBET): one for all files, or one per --points file "
+            "(none with CIDCO pass files).",
+        ),
+    ] = None,
+    features: FeaturesOpt = "planes",
+    sphere_radius_m: RadiusOpt = None,
+    estimate: EstimateOpt = "boresight,latency",
+    gps_week: Annotated[
+        int | None,
+        typer.Option("--gps-week", help="GPS week of SBET / LAS seconds-of-week times.", min=0),
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Write the calibrated mount (TOML) here.")
+    ] = None,
+    report: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write the calibration certificate (HTML) here."),
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Calibrate boresight, lever arm and latency from overlapping lines."""
+    from kinsync.pipelines.calibration import calibrate_files  # noqa: PLC0415
+
+    opts = _options(features, estimate, sphere_radius_m)
+    trajectory = trajectory or []
+    inputs = {p.resolve() for p in [*points, *trajectory, mount_file]}
+    for target in (out, report):
+        if target is not None and target.resolve() in inputs:
+            msg = f"{target}: is one of the inputs; write the output elsewhere"
+            raise InputError(msg)
+    prior = read_mount(mount_file)
+    # A transient spinner: shown on a terminal only, so a redirected stderr keeps to
+    # the one error line.
+    with err_console.status("calibrating") as status:
+        run = calibrate_files(
+            points,
+            trajectory,
+            prior,
+            opts,
+            gps_week=gps_week,
+            mount_out=out,
+            report_out=report,
+            write_report=_write_certificate,
+            progress=lambda text: status.update(f"calibrating: {text}"),
+        )
+    if as_json:
+        doc: dict[str, Any] = run.result.as_document()
+        doc["n_points"] = run.n_points
+        print_json(doc)
+        return
+    _print_result(run.result)
+    for path in (run.mount_path, run.report_path):
+        if path is not None:
+            console.print(f"wrote {path}")
+
+
+@app.command("plan")
+def plan(
+    scenario: Annotated[
+        str,
+        typer.Option("--scenario", help="Simulated survey design: vehicle or vessel."),
+    ] = "vehicle",
+    features: FeaturesOpt = "planes",
+    estimate: EstimateOpt = "boresight,lever,latency",
+    speeds_m_s: Annotated[
+        str | None,
+        typer.Option("--speeds-m-s", help="Line speeds, comma-separated (m/s)."),
+    ] = None,
+    passes: Annotated[
+        int, typer.Option("--passes", help="Lines per direction and speed.", min=1)
+    ] = 2,
+    range_noise_m: Annotated[
+        float, typer.Option("--range-noise-m", help="Scanner range noise (m).")
+    ] = 0.01,
+    position_std_m: Annotated[
+        float,
+        typer.Option("--position-std-m", help="Trajectory position error, per axis (m)."),
+    ] = 0.02,
+    attitude_std_deg: Annotated[
+        str,
+        typer.Option(
+            "--attitude-std-deg",
+            help="Trajectory misorientation about N,E,D (deg).",
+        ),
+    ] = "0.005,0.005,0.01",
+    corr_time_s: Annotated[
+        float,
+        typer.Option("--corr-time-s", help="Correlation time of the trajectory errors (s)."),
+    ] = 15.0,
+    as_json: JsonOpt = False,
+) -> None:
+    """Predict each parameter's sigma and status for a survey design, before the survey."""
+    from kinsync.calibration.planning import NavigationErrors, plan_calibration  # noqa: PLC0415
+    from kinsync.sim.patch_test import PatchTestConfig, simulate_patch_test  # noqa: PLC0415
+
+    opts = _options(features, estimate, None)
+    att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
+    errors = NavigationErrors(range_noise_m, position_std_m, (att[0], att[1], att[2]), corr_time_s)
+    speeds = None if speeds_m_s is None else _floats(speeds_m_s, "--speeds-m-s", None)
+    if scenario not in ("vehicle", "vessel"):
+        msg = f"--scenario must be vehicle or vessel, got {scenario!r}"
+        raise InputError(msg)
+    config = PatchTestConfig(
+        scenario=scenario,  # type: ignore[arg-type]
+        speeds_m_s=speeds,
+        passes_per_direction=passes,
+        range_noise_m=0.0,
+        std_pos_ned_m=(0.0, 0.0, 0.0),
+        std_att_deg=(0.0, 0.0, 0.0),
+        density=0.25,
+    )
+    sim = simulate_patch_test(config)
+    result = plan_calibration(sim.lines, sim.mount_true, opts, errors)
+    if as_json:
+        print_json(result.as_document())
+        return
+    table = Table(title=f"Calibration plan: {scenario}, {result.n_lines} lines")
+    for col in ("parameter", "status", "sigma", "sigma (range noise only)"):
+        table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
+    for p in result.parameters:
+        table.add_row(p.name, p.status, _fmt(p.std, 2), _fmt(p.std_noise_only, 2))
+    console.print(table)
+    for reason in result.unobservable_reasons:
+        console.print(f"not determined: {reason}")
+    for advice in result.advice:
+        console.print(f"would determine it: {advice}")
+
+
+def _floats(text: str, option: str, count: int | None) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        msg = f"{option} {text!r}: expected comma-separated numbers"
+        raise InputError(msg) from None
+    if count is not None and len(values) != count:
+        msg = f"{option} {text!r}: expected {count} numbers, got {len(values)}"
+        raise InputError(msg)
+    if not all(math.isfinite(v) and v >= 0.0 for v in values):
+        msg = f"{option} {text!r}: every value must be a finite number >= 0"
+        raise InputError(msg)
+    return values

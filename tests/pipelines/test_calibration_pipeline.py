@@ -1,0 +1,144 @@
+"""Reading a survey's files into scan lines for the mount calibration, and writing its
+outputs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from kinsync.calibration.estimator import CalibrationOptions
+from kinsync.errors import InputError
+from kinsync.io.mount_file import read_mount
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.pipelines.calibration import calibrate_files, read_scan_lines
+from kinsync.sim.patch_config import PatchTestConfig
+from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
+
+CIDCO = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "cidco-port-de-quebec"
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, PatchTestSimulation]:
+    sim = simulate_patch_test(
+        PatchTestConfig(scenario="vehicle", density=0.01, passes_per_direction=1, seed=4)
+    )
+    folder = tmp_path_factory.mktemp("survey")
+    write_patch_test(sim, folder)
+    return folder, sim
+
+
+def test_las_lines_and_sbet_come_back_on_gps_time(survey: tuple[Path, PatchTestSimulation]) -> None:
+    folder, sim = survey
+    laz = sorted(folder.glob("line_*.laz"))
+    lines = read_scan_lines(laz, [folder / "trajectory.out"], gps_week=sim.gps_week)
+    assert [ln.name for ln in lines] == [p.name for p in laz]
+    for got, want in zip(lines, sim.lines, strict=True):
+        assert np.allclose(got.t_s, want.t_s, atol=1e-6, rtol=0.0)
+        assert np.allclose(got.xyz_scanner_m, want.xyz_scanner_m, atol=1e-4, rtol=0.0)
+        assert got.trajectory is lines[0].trajectory  # one trajectory read once
+
+
+def test_csv_and_parquet_lines_with_one_trajectory_each(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path
+) -> None:
+    _, sim = survey
+    a, b = sim.lines[0], sim.lines[1]
+    csv = tmp_path / "a.csv"
+    np.savetxt(csv, np.column_stack([a.t_s, a.xyz_scanner_m]), delimiter=",",
+               header="t_s,x_m,y_m,z_m", comments="", fmt="%.9f")  # fmt: skip
+    parquet = tmp_path / "b.parquet"
+    table = {"t_s": b.t_s, "x_m": b.xyz_scanner_m[:, 0], "y_m": b.xyz_scanner_m[:, 1],
+             "z_m": b.xyz_scanner_m[:, 2]}  # fmt: skip
+    pq.write_table(pa.table(table), parquet)
+    trajs = []
+    for i, line in enumerate((a, b)):
+        path = tmp_path / f"traj{i}.csv"
+        write_trajectory_csv(line.trajectory, path)
+        trajs.append(path)
+    lines = read_scan_lines([csv, parquet], trajs)
+    assert np.allclose(lines[0].xyz_scanner_m, a.xyz_scanner_m, atol=1e-8)
+    assert np.array_equal(lines[1].t_s, b.t_s)
+    assert lines[0].trajectory is not lines[1].trajectory
+
+
+def test_same_file_names_in_two_folders_stay_apart(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path
+) -> None:
+    folder, sim = survey
+    for sub in ("day1", "day2"):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "line.laz").write_bytes((folder / "line_01.laz").read_bytes())
+    lines = read_scan_lines(
+        [tmp_path / "day1" / "line.laz", tmp_path / "day2" / "line.laz"],
+        [folder / "trajectory.out"],
+        gps_week=sim.gps_week,
+    )
+    assert lines[0].name != lines[1].name
+
+
+@pytest.mark.parametrize(
+    ("case", "words"),
+    [("no points", "at least one points file"), ("two of three", "2 trajectories for 3"),
+     ("empty", "no returns"), ("suffix", "unknown points file type")],
+)  # fmt: skip
+def test_bad_files(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path, case: str, words: str
+) -> None:
+    folder, sim = survey
+    laz = sorted(folder.glob("line_*.laz"))
+    sbet = folder / "trajectory.out"
+    empty = tmp_path / "empty.csv"
+    empty.write_text("t_s,x_m,y_m,z_m\n")
+    args = {
+        "no points": ([], [sbet]),
+        "two of three": (laz[:3], [sbet, sbet]),
+        "empty": ([empty, laz[0]], [sbet]),
+        "suffix": ([tmp_path / "x.ply"], [sbet]),
+    }[case]
+    with pytest.raises(InputError, match=words):
+        read_scan_lines(*args, gps_week=sim.gps_week)
+
+
+def test_calibrate_files_writes_the_mount_and_the_report(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path
+) -> None:
+    folder, sim = survey
+    written: list[Path] = []
+    stages: list[str] = []
+
+    def report(_result: object, path: Path) -> None:
+        path.write_text("certificate")
+        written.append(path)
+
+    run = calibrate_files(
+        sorted(folder.glob("line_*.laz")),
+        [folder / "trajectory.out"],
+        read_mount(folder / "mount.toml"),
+        CalibrationOptions(estimate=("boresight",)),
+        gps_week=sim.gps_week,
+        mount_out=tmp_path / "new.toml",
+        report_out=tmp_path / "cert.html",
+        write_report=report,
+        progress=stages.append,
+    )
+    assert run.n_points == sum(len(ln) for ln in sim.lines)
+    assert read_mount(tmp_path / "new.toml") == run.result.mount
+    assert written == [tmp_path / "cert.html"]
+    assert stages[0].startswith("reading 4 point files")
+    assert any(s.startswith("jackknife: without line_04.laz (4 of 4)") for s in stages)
+
+
+@pytest.mark.skipif(not CIDCO.is_dir(), reason="CIDCO data not in ../shared")
+def test_cidco_pass_files_carry_their_trajectory() -> None:
+    paths = sorted(CIDCO.glob("sphere*/passage_*.txt"))[:3]
+    lines = read_scan_lines(paths, [])
+    assert [ln.name for ln in lines] == [f"{p.parent.name}/{p.stem}" for p in paths]
+    for line in lines:
+        assert line.trajectory.t_start_s <= line.t_s.min() <= line.t_s.max()
+        assert line.t_s.max() <= line.trajectory.t_end_s
+    with pytest.raises(InputError, match="carry their own trajectory"):
+        read_scan_lines(paths, [paths[0]])
