@@ -59,7 +59,7 @@ def test_hold_after_solution_holds_the_lever_not_the_boresight() -> None:
     std = np.array([_internal(1.5, 1), _internal(0.05, LEVER_X)])
     cov = np.array([[1.0, 0.98], [0.98, 1.0]])
     held = hold_after_solution(est, std, [False, False], cov)
-    assert held is not None
+    assert isinstance(held, HeldAfterSolution)
     assert (held.index, held.cause, held.partners) == (LEVER_X, 1, (1,))
     assert held.std_report == pytest.approx(1.5)
     text = held.explanation()
@@ -80,7 +80,7 @@ def test_hold_after_solution_spares_what_the_data_moved() -> None:
     std = np.array([_internal(2.0 * UNOBSERVABLE_THRESHOLDS[LATENCY], LATENCY)])
     assert hold_after_solution(est, std, [True], np.eye(1)) is None
     held = hold_after_solution(est, std, [False], np.eye(1))
-    assert held is not None
+    assert isinstance(held, HeldAfterSolution)
     assert held.index == held.cause == LATENCY
     assert held.explanation().endswith("(more than 10): held at its prior value")
     within = np.array([_internal(0.5 * UNOBSERVABLE_THRESHOLDS[LATENCY], LATENCY)])

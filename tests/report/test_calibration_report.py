@@ -45,7 +45,7 @@ def _result() -> CalibrationResult:
         mount=Mount(boresight_rpy_deg=(180.15, -7.99, 0.48)),
         prior=Mount(boresight_rpy_deg=(180.0, 0.0, 0.0)),
         parameters=params,
-        sigma_method="jackknife over 6 lines (delete one line at a time, leverage corrected)",
+        sigma_method="jackknife over 6 lines (delete one line at a time)",
         correlation_names=("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"),
         correlation=np.array([[1.0, 0.37, -0.72], [0.37, 1.0, -0.56], [-0.72, -0.56, 1.0]]),
         features=features,

@@ -324,7 +324,6 @@ def calibrate_mount(
         iterations=solution.iterations,
         overlaps_before=overlaps_before,
         overlaps_after=overlaps_after,
-        std_plain_jackknife=_plain_std(obs.estimated, jk),
     )
 
 
@@ -346,13 +345,6 @@ def _jackknife(
     return jackknife(models, observations, solution, frame, units, opt.adjustment, progress)
 
 
-def _plain_std(estimated: tuple[int, ...], jk: Jackknife | None) -> tuple[float, ...]:
-    if jk is None or not jk.valid:
-        return ()
-    sd = np.sqrt(np.maximum(np.diag(jk.covariance_plain), 0.0))
-    return tuple(float(sd[j] * REPORT_SCALE[i]) for j, i in enumerate(estimated))
-
-
 def _covariance(solution: Adjustment, jk: Jackknife | None) -> FloatArray:
     """The reported covariance: the jackknife's when valid, else the formal one."""
     return solution.covariance if jk is None or not jk.valid else jk.covariance
@@ -362,8 +354,8 @@ def _std(solution: Adjustment, jk: Jackknife | None) -> tuple[FloatArray, str]:
     formal = np.sqrt(np.maximum(np.diag(solution.covariance), 0.0))
     if jk is not None and jk.valid:
         return jk.std, (
-            f"jackknife over {len(jk.groups)} lines (delete one line at a time, leverage "
-            "corrected): holds the errors shared by the returns of a line (navigation "
+            f"jackknife over {len(jk.groups)} lines (delete one line at a time): holds "
+            "the errors shared by the returns of a line (navigation "
             f"errors, range biases); with {jk.dof} degrees of freedom a 95 % interval is "
             f"+-{jk.t95:.2f} sigma (Student t)"
         )

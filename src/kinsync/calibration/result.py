@@ -146,10 +146,6 @@ class CalibrationResult:
         Gauss-Newton iterations of the full solution.
     overlaps_before, overlaps_after : tuple of LineOverlap
         Every (feature, line)'s offset from the feature, prior and calibrated mount.
-    std_plain_jackknife : tuple of float
-        The plain delete-one jackknife sigma of the estimated parameters, without the
-        leverage correction (report units, order of ``correlation_names``; empty
-        without a jackknife): for comparison (`kinsync.calibration.uncertainty`).
     """
 
     mount: Mount
@@ -167,7 +163,6 @@ class CalibrationResult:
     iterations: int
     overlaps_before: tuple[LineOverlap, ...] = ()
     overlaps_after: tuple[LineOverlap, ...] = ()
-    std_plain_jackknife: tuple[float, ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``)."""

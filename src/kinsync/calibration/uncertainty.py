@@ -25,14 +25,17 @@ estimate for reasons that have nothing to do with the deleted line: on the simul
 vehicle patch test that made the jackknife sigma 1.2-1.3x too large (Monte Carlo ratio
 of the spread to the sigma 0.59-0.77; 0.74-0.99 with the scales held).
 
-**Leverage.** Lines are not exchangeable: in a patch test with two lines per speed
-and direction, deleting one line removes half of what separates the latency from the
-lever x, and the plain jackknife (the CR3 estimator of the cluster-robust literature)
-then overstates the variance. Each deleted-line deviation is therefore scaled by the
-square root of the information that remains (CR2, Bell & McCaffrey 2002;
-`_leverage_corrected`): unbiased for independent errors within a line, and equal to
-the plain jackknife when the lines are alike (ratio 0.83-1.07 on the vehicle patch
-test, `benchmarks/bench_calibration_sigma.py`).
+**No leverage correction.** Lines are not exchangeable (in a patch test with two
+lines per speed and direction, deleting one removes half of what separates the latency
+from the lever x), and the cluster-robust literature scales each deleted-line deviation
+by the information that remains (CR2, Bell & McCaffrey 2002). That correction assumes
+the errors within a line independent, which is exactly what they are not here, and it
+was measured worse than the plain jackknife: spread / sigma 0.52-0.96 against
+0.83-1.04 on 100 synthetic runs (roll and pitch overstated 1.7-1.9x), 0.80-1.24 against
+0.86-1.23 on 140 runs of each simulated patch test. The plain delete-one jackknife is
+reported: Monte Carlo (`benchmarks/bench_calibration_sigma.py`, navigation errors
+correlated over 20 s) 0.86-1.09 on the vehicle, 0.89-1.23 on the vessel, where the
+formal sigma is 2.9-31x too small.
 
 **Its own uncertainty.** From m lines the jackknife variance has at most m - 1
 degrees of freedom, fewer when the parameters take up the lines' contrasts (3-6 for
@@ -63,7 +66,6 @@ from kinsync.calibration.adjustment import (
     AdjustmentOptions,
     Observation,
     adjust,
-    reduced_normal_matrix,
 )
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import KinsyncError
@@ -86,10 +88,8 @@ class Jackknife:
         The estimated parameters without each group (internal units); NaN rows where
         that solution failed.
     covariance : ndarray, shape (k, k)
-        Jackknife covariance with the leverage correction (internal units); NaN when
-        it could not be formed.
-    covariance_plain : ndarray, shape (k, k)
-        The plain delete-one jackknife covariance (no leverage correction).
+        Delete-one jackknife covariance (internal units); NaN when it could not be
+        formed.
     failed : tuple of str
         Groups whose deleted-group solution failed (the parameters are then not
         determined without them: a warning, and no jackknife).
@@ -98,7 +98,6 @@ class Jackknife:
     groups: tuple[str, ...]
     estimates: FloatArray
     covariance: FloatArray
-    covariance_plain: FloatArray
     failed: tuple[str, ...]
 
     @property
@@ -163,7 +162,6 @@ def jackknife(
     k = len(solution.estimated)
     features = [f.feature for f in solution.features]
     estimates = np.full((len(groups), k), np.nan)
-    normals = np.full((len(groups), k, k), np.nan)
     failed = []
     for j, (name, members) in enumerate(groups):
         if progress is not None:
@@ -188,69 +186,14 @@ def jackknife(
             failed.append(name)
             continue
         estimates[j] = sol.values[list(solution.estimated)]
-        # The information left without the group, at the full solution and with its
-        # noise scales (a deleted-line solution re-estimates them smaller: the
-        # line-to-line disagreement it measured is gone).
-        normals[j] = reduced_normal_matrix(
-            models,
-            obs,
-            feats,
-            solution.values,
-            solution.estimated,
-            frame,
-            [solution.features[i].sigma_m for i in seen],
-        )[0]
     m = len(groups)
-    cov = plain = np.full((k, k), np.nan)
+    cov = np.full((k, k), np.nan)
     if not failed and m >= 2:
         dev = estimates - estimates.mean(axis=0)
-        plain = (m - 1) / m * (dev.T @ dev)
-        theta = solution.values[list(solution.estimated)]
-        sigmas = [f.sigma_m for f in solution.features]
-        S = reduced_normal_matrix(
-            models, observations, features, solution.values, solution.estimated, frame, sigmas
-        )[0]
-        cov = _leverage_corrected(estimates - theta, normals, S)
+        cov = (m - 1) / m * (dev.T @ dev)
     return Jackknife(
         groups=tuple(name for name, _ in groups),
         estimates=estimates,
         covariance=cov,
-        covariance_plain=plain,
         failed=tuple(failed),
     )
-
-
-def _sym_power(M: FloatArray, power: float) -> FloatArray:
-    """``M^power`` of a symmetric positive semi-definite matrix, a pseudo-power.
-
-    Directions with no information (eigenvalue below 1e-12 of the largest) get 0.
-    """
-    w, v = np.linalg.eigh(0.5 * (M + M.T))
-    keep = w > 1e-12 * max(float(np.max(w)), 1e-300)
-    scaled = np.zeros_like(w)
-    scaled[keep] = w[keep] ** power
-    out: FloatArray = (v * scaled) @ v.T
-    return out
-
-
-def _leverage_corrected(dev: FloatArray, normals: FloatArray, S: FloatArray) -> FloatArray:
-    """``sum_j a_j a_j'`` with ``a_j = S^-1/2 (S^-1/2 S_(j) S^-1/2)^1/2 S^1/2 d_j``.
-
-    ``d_j`` is the change of the estimate when group ``j`` is deleted and ``S_(j)`` the
-    information left without it. In a linear model ``d_j = -(I - L_j)^-1 u_j`` with
-    ``u_j = S^-1 g_j`` group ``j``'s own pull and ``L_j = S^-1 (S - S_(j))`` its
-    leverage: the plain jackknife squares ``(I - L_j)^-1 u_j`` (the CR3 estimator),
-    which overstates the variance when some groups weigh more than others (the only
-    lines at one speed); ``(I - L_j)^-1/2 u_j`` is CR2, unbiased for independent
-    errors within a group. With exchangeable groups (``S_(j) = (m - 1)/m S``) it equals
-    the plain jackknife.
-    """
-    root = _sym_power(S, 0.5)
-    inv_root = _sym_power(S, -0.5)
-    k = S.shape[0]
-    cov = np.zeros((k, k))
-    for d, Sj in zip(dev, normals, strict=True):
-        M = inv_root @ Sj @ inv_root
-        a = inv_root @ (_sym_power(M, 0.5) @ (root @ d))
-        cov += np.outer(a, a)
-    return cov
