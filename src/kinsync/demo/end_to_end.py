@@ -40,7 +40,6 @@ synchronisation, or equally a t0 off by 5 ms.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import asdict
@@ -52,7 +51,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.demo.end_to_end_chain import CalibrationCase, ChainResult, run_chain
 from kinsync.demo.end_to_end_survey import EndToEndConfig, simulate_survey, time_at_path
-from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
+from kinsync.demo.files import write_section_files
 from kinsync.report.end_to_end_figures import (
     clock_cases_figure,
     control_point_cases_figure,
@@ -607,9 +606,7 @@ def end_to_end_section(
     result = run_chain(simulate_survey(config), progress)
     doc = chain_document(result)
     figures = _figures(result)
-    for i, fig in enumerate(figures, start=1):
-        atomic_write_bytes(out / f"end_to_end_{i}.png", fig.png)
-    atomic_write_text(out / "end_to_end.json", json.dumps(doc, indent=2, allow_nan=True) + "\n")
+    write_section_files(out, "end_to_end", figures, doc)
     summary.extend(_summary_rows(result))
     section = Section(
         title="End to end: one survey from INS/GNSS to validation, right and wrong calibration",

@@ -11,7 +11,6 @@ The NaveGo check on external data is `kinsync.demo.navego`.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
@@ -22,6 +21,7 @@ import numpy as np
 
 from kinsync._typing import BoolArray, FloatArray
 from kinsync._validate import finite_number, positive_number
+from kinsync.demo.files import write_section_files
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, geodetic_to_ecef
 from kinsync.ins.alignment import align_static_gnss_heading
@@ -29,7 +29,6 @@ from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.solution import InitialState, NavSolution
-from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure, route_map_figure
 from kinsync.sim.drive import DriveSimConfig, DriveSimulation, simulate_drive
@@ -613,10 +612,8 @@ def ins_section(
     assert run.preset_smoothed.within_3sigma is not None
     outcome = _mems_outcome(s, run)
     doc = _mems_document(s, run, outcome)
-    atomic_write_text(out_dir / "ins.json", json.dumps(doc, indent=2) + "\n")
     figures = _mems_figures(run, s, outcome.in_outage)
-    for i, fig in enumerate(figures):
-        atomic_write_bytes(out_dir / f"ins_{i + 1}.png", fig.png)
+    write_section_files(out_dir, "ins", figures, doc)
     summary.append(_mems_summary_row(s, outcome))
     section = Section(
         title="INS/GNSS: MEMS drive, static alignment, GNSS outage (SPEC section 6)",

@@ -6,7 +6,6 @@ the CIDCO set when ``../shared`` is beside the checkout.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from kinsync.demo.files import write_section_files
 from kinsync.fit import SphereFit, segment_sphere
-from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.cidco import read_cidco_pass
 from kinsync.io.passes import read_passes
 from kinsync.latency.passes import SpherePass
@@ -158,22 +157,10 @@ def method_a_section(
 ) -> Section:
     """Simulate the published set-up, write it as a pass folder, read it back, estimate."""
     run = _simulate_and_estimate(out_dir, progress)
-    atomic_write_text(
-        out_dir / "method_a.json",
-        json.dumps(
-            {
-                "estimate": run.result.as_document(),
-                "plan": run.plan.as_document(),
-                "truth": run.truth,
-            },
-            indent=2,
-        )
-        + "\n",
-    )
     summary.append(_summary_row(run))
     figures = _figures(run)
-    for i, fig in enumerate(figures):
-        atomic_write_bytes(out_dir / f"method_a_{i + 1}.png", fig.png)
+    doc = {"estimate": run.result.as_document(), "plan": run.plan.as_document(), "truth": run.truth}
+    write_section_files(out_dir, "method_a", figures, doc)
     return Section(
         title="Method A: latency from a sphere on a rotating table (SPEC section 2)",
         paragraphs=_paragraphs(run),
