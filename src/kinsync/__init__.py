@@ -43,7 +43,7 @@ core
     ``crs``, ``robust``: conventions and the containers several domains share.
 algorithms
     ``budget``, ``fit``, ``clock``, ``latency``, ``sync``, ``ins``, ``georef``,
-    ``validation``: each domain's containers and maths. They take and return
+    ``validation``, ``calibration``: each domain's containers and maths. They take and return
     containers, never paths; they never print, exit or open a file.
 io
     file formats; takes only containers (classes, constants) from the algorithms.

@@ -67,8 +67,17 @@ def test_demo_writes_a_self_contained_report(
     assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
     assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
     assert not list(out_dir.glob("*.part"))
-    for title in ("INS/GNSS", "Method B", "Validation", "End to end"):
+    for title in ("INS/GNSS", "Method B", "Validation", "End to end", "Mount self-calibration"):
         assert any(h.startswith(title) for h in parser.headings), title
+    calibration = json.loads((out_dir / "calibration.json").read_text())
+    for scenario in ("vehicle", "vessel"):
+        truth = calibration[scenario]["truth"]
+        params = calibration[scenario]["result"]["parameters"]
+        latency = params["latency_ms"]
+        assert abs(latency["value"] - truth[6]) < 4 * latency["std"]
+        assert (out_dir / f"patch-test-{scenario}" / "truth.json").exists()
+    assert calibration["vehicle"]["result"]["parameters"]["lever_z_m"]["status"] == "unobservable"
+    assert "mount self-calibration" in out
     for key in ("INS/GNSS", "Method B", "end-to-end: validation"):
         assert key in out
     if find_chromium() is not None:

@@ -6,8 +6,10 @@ georeferencing of a simulated million-point scan against analytic truth; INS/GNS
 simulated MEMS drive (and on the NaveGo set when ``../shared`` is present); Method B on
 a simulated profile-scanner drive; the end-to-end chain on one simulated survey
 (INS/GNSS -> Method B -> georeferencing -> validation) with the correct calibration, a
-wrong latency and a wrong clock; validation of control points and wall flatness; and,
-when the CIDCO data sit in ``../shared``, sphere fits on real vessel passes.
+wrong latency and a wrong clock; validation of control points and wall flatness; mount
+self-calibration (boresight, lever arm, latency) on simulated vehicle and vessel patch
+tests; and, when the CIDCO data sit in ``../shared``, the boresight calibrated on and
+spheres fitted to real vessel passes.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from kinsync.demo.budget import budget_section
+from kinsync.demo.calibration import calibration_section
 from kinsync.demo.clock import clock_section
 from kinsync.demo.end_to_end import end_to_end_section
 from kinsync.demo.georef import georef_section
@@ -98,6 +101,9 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
         progress("validation: control points and wall flatness, right and wrong calibration")
     sections.append(validation_section(out_dir, summary))
     cidco = find_cidco_folder()
+    if progress:
+        progress("mount self-calibration from survey lines (simulated patch tests, CIDCO)")
+    sections.append(calibration_section(out_dir, summary, cidco)[0])
     if cidco is not None:
         if progress:
             progress("sphere fits on the CIDCO real passes")
