@@ -77,15 +77,7 @@ def _print_result(result: CalibrationResult) -> None:
         table.add_row(p.name, _fmt(p.prior, 6), _fmt(p.value, 6), _fmt(p.std, 2), p.status)
     console.print(table)
     console.print(f"sigma: {result.sigma_method}")
-    for reason in result.unobservable_reasons:
-        console.print(f"not determined: {reason}")
-    for advice in result.advice:
-        console.print(f"would determine it: {advice}")
-    console.print(
-        "note: against a Monte Carlo of the same designs the planned sigma is optimistic "
-        "where trajectory position errors dominate (2x for the roll boresight, 4x for the "
-        "vessel's latency); the statuses held"
-    )
+    _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
         f"{len(result.features)} features, {len(result.lines)} lines; residual RMS "
         f"{result.residual_rms_before_m * 100:.2f} cm -> {result.residual_rms_after_m * 100:.2f} cm"
@@ -238,15 +230,20 @@ def plan(
     for p in result.parameters:
         table.add_row(p.name, p.status, _fmt(p.std, 2), _fmt(p.std_noise_only, 2))
     console.print(table)
-    for reason in result.unobservable_reasons:
-        console.print(f"not determined: {reason}")
-    for advice in result.advice:
-        console.print(f"would determine it: {advice}")
+    _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
         "note: against a Monte Carlo of the same designs the planned sigma is optimistic "
         "where trajectory position errors dominate (2x for the roll boresight, 4x for the "
         "vessel's latency); the statuses held"
     )
+
+
+def _print_undetermined(reasons: tuple[str, ...], advice: tuple[str, ...]) -> None:
+    """What the data could not determine, and which data would."""
+    for reason in reasons:
+        console.print(f"not determined: {reason}")
+    for line in advice:
+        console.print(f"would determine it: {line}")
 
 
 def _floats(text: str, option: str, count: int | None) -> tuple[float, ...]:
