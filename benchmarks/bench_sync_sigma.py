@@ -54,8 +54,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef, rotation_ned_to_ecef
-from kinsync.sim.nav_noise import noisy_trajectory
+from kinsync.sim.nav_noise import gauss_markov_trajectory, noisy_trajectory
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
@@ -68,7 +67,6 @@ from kinsync.sim.scene import Scene, SceneLayout, trajectory_to_local
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
 from kinsync.sync.scan import SyncPoints
-from kinsync.trajectory import Trajectory
 
 NOISE_M = 0.02
 RUNS = 200
@@ -130,37 +128,6 @@ def drive(name: str) -> Setup:
     return Setup(sim, scene, points)
 
 
-def gauss_markov_trajectory(
-    truth: Trajectory, std_m: float, corr_time_s: float, seed: int
-) -> Trajectory:
-    """The truth plus an isotropic first-order Gauss-Markov position error (m).
-
-    Each NED component follows ``e_k = phi e_(k-1) + sigma sqrt(1 - phi^2) w_k`` with
-    ``phi = exp(-dt / corr_time_s)``: stationary, sigma ``std_m``, correlation
-    ``exp(-|dt| / corr_time_s)``. Velocities get the error's rate.
-    """
-    assert truth.lat_lon_h is not None
-    assert truth.vel_ned_m_s is not None
-    rng = np.random.default_rng([seed, 31])
-    t = truth.t_s
-    phi = np.exp(-np.diff(t) / corr_time_s)
-    w = rng.normal(0.0, std_m, (t.size, 3))
-    err = np.empty_like(w)
-    err[0] = w[0]
-    gain = np.sqrt(1.0 - phi**2)
-    for k in range(1, t.size):
-        err[k] = phi[k - 1] * err[k - 1] + gain[k - 1] * w[k]
-    llh = truth.lat_lon_h
-    R = rotation_ned_to_ecef(llh[:, 0], llh[:, 1])
-    ecef = geodetic_to_ecef(llh[:, 0], llh[:, 1], llh[:, 2]) + np.einsum("nij,nj->ni", R, err)
-    return Trajectory(
-        t_s=t,
-        q_body_to_ned=truth.q_body_to_ned,
-        lat_lon_h=ecef_to_geodetic(ecef),
-        vel_ned_m_s=truth.vel_ned_m_s + np.gradient(err, t, axis=0),
-    )
-
-
 def _errors(
     r: ObjectSpaceResult, t0_s: float, period_s: float, n_profiles: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -186,7 +153,9 @@ def one_run(
     wanted = profiles_near_targets(sim.truth_trajectory, mount, setup.scene, cfg, t0)
     scan = simulate_profiler(sim.truth_trajectory, mount, setup.scene, cfg, profiles=wanted)
     if generator == "gm":
-        traj = gauss_markov_trajectory(sim.truth_trajectory, NOISE_M, corr_s, 500 + run)
+        traj = gauss_markov_trajectory(
+            sim.truth_trajectory, std_m=NOISE_M, corr_time_s=corr_s, seed=500 + run
+        )
     else:
         traj = noisy_trajectory(
             sim.truth_trajectory,

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from kinsync._typing import FloatArray
-from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef, rotation_ned_to_ecef
+from kinsync.sim.nav_noise import gauss_markov_trajectory
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
@@ -27,7 +27,6 @@ from kinsync.sim.scene import Scene, SceneLayout, trajectory_to_local
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import synchronise_object_space
 from kinsync.sync.scan import SyncPoints
-from kinsync.trajectory import Trajectory
 
 NOISE_M = 0.02
 RUNS = 50
@@ -66,29 +65,6 @@ def bursts() -> _Setup:
     return _Setup(sim, scene, SyncPoints(tuple(t.name for t in sync), scene.target_lat_lon_h(sync)))
 
 
-def _gauss_markov(truth: Trajectory, corr_time_s: float, seed: int) -> Trajectory:
-    """The truth plus an isotropic first-order Gauss-Markov position error (NOISE_M)."""
-    assert truth.lat_lon_h is not None
-    assert truth.vel_ned_m_s is not None
-    rng = np.random.default_rng([seed, 31])
-    t = truth.t_s
-    phi = np.exp(-np.diff(t) / corr_time_s)
-    w = rng.normal(0.0, NOISE_M, (t.size, 3))
-    err = np.empty_like(w)
-    err[0] = w[0]
-    for k in range(1, t.size):
-        err[k] = phi[k - 1] * err[k - 1] + np.sqrt(1.0 - phi[k - 1] ** 2) * w[k]
-    llh = truth.lat_lon_h
-    R = rotation_ned_to_ecef(llh[:, 0], llh[:, 1])
-    ecef = geodetic_to_ecef(llh[:, 0], llh[:, 1], llh[:, 2]) + np.einsum("nij,nj->ni", R, err)
-    return Trajectory(
-        t_s=t,
-        q_body_to_ned=truth.q_body_to_ned,
-        lat_lon_h=ecef_to_geodetic(ecef),
-        vel_ned_m_s=truth.vel_ned_m_s + np.gradient(err, t, axis=0),
-    )
-
-
 def _ratios(
     setup: _Setup, corr_time_s: float, configs: list[ObjectSpaceConfig], *, twins: bool = True
 ) -> list[FloatArray]:
@@ -107,7 +83,9 @@ def _ratios(
         cfg = dataclasses.replace(sim.config.profiler, t0_s=t0, seed=100 + run, period_s=period)
         wanted = profiles_near_targets(sim.truth_trajectory, mount, setup.scene, cfg, t0)
         scan = simulate_profiler(sim.truth_trajectory, mount, setup.scene, cfg, profiles=wanted)
-        traj = _gauss_markov(sim.truth_trajectory, corr_time_s, 700 + run)
+        traj = gauss_markov_trajectory(
+            sim.truth_trajectory, std_m=NOISE_M, corr_time_s=corr_time_s, seed=700 + run
+        )
         mid = scan.n_profiles / 2.0
         for k, ocfg in enumerate(configs):
             r = synchronise_object_space(scan.scan, traj, mount, points, ocfg)

@@ -14,8 +14,11 @@ from scipy.interpolate import CubicSpline
 from kinsync._validate import positive_number
 from kinsync.errors import InputError
 from kinsync.frames import (
+    ecef_to_geodetic,
+    geodetic_to_ecef,
     matrix_to_quaternion,
     quaternion_to_matrix,
+    rotation_ned_to_ecef,
     skew,
 )
 from kinsync.ins.earth import radii_m
@@ -23,8 +26,60 @@ from kinsync.sim._common import _NOISE_STREAM, Vector3, _non_negative
 from kinsync.trajectory import Trajectory
 
 __all__ = [
+    "gauss_markov_trajectory",
     "noisy_trajectory",
 ]
+
+
+def gauss_markov_trajectory(
+    truth: Trajectory, *, std_m: float, corr_time_s: float, seed: int
+) -> Trajectory:
+    """The truth plus an isotropic first-order Gauss-Markov position error.
+
+    Each NED component follows ``e_k = phi e_(k-1) + sigma sqrt(1 - phi^2) w_k`` with
+    ``phi = exp(-dt / corr_time_s)``: stationary, sigma ``std_m``, correlation
+    ``exp(-|dt| / corr_time_s)`` (the model Method B's generalised least squares
+    assumes). Velocities get the error's rate; the attitude is left true.
+
+    Parameters
+    ----------
+    truth : Trajectory
+        Geodetic trajectory with velocities.
+    std_m : float
+        Position error sigma per NED axis (m), >= 0.
+    corr_time_s : float
+        Correlation time (s), > 0.
+    seed : int
+        Seed (same seed, same errors).
+
+    Returns
+    -------
+    Trajectory
+        Same times and attitude; perturbed ``lat_lon_h`` and ``vel_ned_m_s``.
+    """
+    if truth.lat_lon_h is None or truth.vel_ned_m_s is None:
+        msg = "gauss_markov_trajectory: the truth must be geodetic with velocities"
+        raise InputError(msg)
+    sigma = _non_negative(std_m, "std_m")
+    tau = positive_number(corr_time_s, "corr_time_s")
+    rng = np.random.default_rng([int(seed), 31])
+    t = truth.t_s
+    phi = np.exp(-np.diff(t) / tau)
+    w = rng.normal(0.0, sigma, (t.size, 3))
+    err = np.empty_like(w)
+    err[0] = w[0]
+    gain = np.sqrt(1.0 - phi**2)
+    for k in range(1, t.size):
+        err[k] = phi[k - 1] * err[k - 1] + gain[k - 1] * w[k]
+    llh = truth.lat_lon_h
+    R = rotation_ned_to_ecef(llh[:, 0], llh[:, 1])
+    ecef = geodetic_to_ecef(llh[:, 0], llh[:, 1], llh[:, 2]) + np.einsum("nij,nj->ni", R, err)
+    return Trajectory(
+        t_s=t,
+        q_body_to_ned=truth.q_body_to_ned,
+        lat_lon_h=ecef_to_geodetic(ecef),
+        vel_ned_m_s=truth.vel_ned_m_s + np.gradient(err, t, axis=0),
+    )
 
 
 def noisy_trajectory(
