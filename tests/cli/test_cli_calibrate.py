@@ -191,7 +191,7 @@ def _file_cases(folder: Path, tmp: Path) -> dict[str, Case]:
         "radius on planes": (["--points", *lines, *week, "--sphere-radius-m", "0.2"],
                              ("--sphere-radius-m applies to --features spheres",)),
         "output is input": (["--points", *lines, *week, "--out", mount],
-                            ("is one of the inputs",)),
+                            ("is the input --mount",)),
     }  # fmt: skip
 
 

@@ -268,5 +268,5 @@ def test_apply_bad_input(
     code, o, e = run_cli(
         ["clock", "apply", "--model", str(model_path), "--in", str(data), "--out", str(data)]
     )
-    assert_one_line_error(code, o, e, "input file")
+    assert_one_line_error(code, o, e, "is the input --in")
     assert not out.exists()

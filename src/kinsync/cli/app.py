@@ -20,6 +20,7 @@ from kinsync.cli import (
     sync,
     validate,
 )
+from kinsync.cli._guard import guard_commands
 
 app = typer.Typer(
     name="kinsync",
@@ -58,3 +59,6 @@ def root(
     ] = False,
 ) -> None:
     """Time synchronisation and latency calibration of kinematic laser scanning systems."""
+
+
+guard_commands(app)

@@ -133,11 +133,6 @@ def mount(
 
     opts = _options(features, estimate, sphere_radius_m)
     trajectory = trajectory or []
-    inputs = {p.resolve() for p in [*points, *trajectory, mount_file]}
-    for target in (out, report):
-        if target is not None and target.resolve() in inputs:
-            msg = f"{target}: is one of the inputs; write the output elsewhere"
-            raise InputError(msg)
     prior = read_mount(mount_file)
     # A transient spinner: shown on a terminal only, so a redirected stderr keeps to
     # the one error line.

@@ -149,9 +149,6 @@ def apply(
 
     policy = _parse_outside(outside)
     clock = read_clock_model(model)
-    if in_path.resolve() == out.resolve():
-        msg = f"--out {out} is the input file; write to another file"
-        raise InputError(msg)
     table, t_local = read_time_column(in_path, column)
     if out_column.strip() in [h.strip() for h in table.header]:
         msg = (

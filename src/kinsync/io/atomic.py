@@ -1,30 +1,175 @@
-"""Write files so that they appear only when complete."""
+"""Write files so that they appear only when complete, and never over an input.
+
+Every file kinsync writes goes through `atomic_path`: the data go to a hidden
+temporary beside the output (``.NAME.PID.XXXXXXXX.part``), renamed onto the output
+only when complete, and removed on any error or interruption. Two rules hold for
+every output by construction:
+
+* **An output never replaces an input.** Inside `protected_inputs` (the command line
+  wraps every command in it, with every input file and folder it was given),
+  `atomic_path` refuses a target that is one of those files (by any path: relative,
+  through a symbolic or a hard link) or an existing file inside an input folder,
+  figures and reports excepted (kinsync never reads ``.png``, ``.svg``, ``.pdf`` or
+  ``.html``).
+* **Nothing is left behind.** A temporary left by a killed run (its process no longer
+  exists) is removed when the same output is written next.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import re
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 
 from kinsync.errors import InputError
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text"]
+__all__ = [
+    "ProtectedInput",
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "check_not_an_input",
+    "output_folder",
+    "protected_inputs",
+]
+
+WRITE_ONLY_SUFFIXES = frozenset({".png", ".svg", ".pdf", ".html"})
+"""Suffixes of files kinsync writes (figures, reports) but never reads."""
+
+
+@dataclass(frozen=True)
+class ProtectedInput:
+    """An input file or folder that no output may replace.
+
+    Attributes
+    ----------
+    path : Path
+        The file or folder as given.
+    label : str
+        How to name it in a message (e.g. ``"--points lines/a.laz"``).
+    """
+
+    path: Path
+    label: str
+
+
+_PROTECTED: ContextVar[tuple[ProtectedInput, ...]] = ContextVar("kinsync_protected_inputs")
+
+
+@contextmanager
+def protected_inputs(inputs: Iterable[ProtectedInput]) -> Iterator[None]:
+    """Within this block, `atomic_path` refuses to replace any of ``inputs``."""
+    token = _PROTECTED.set((*_PROTECTED.get(()), *inputs))
+    try:
+        yield
+    finally:
+        _PROTECTED.reset(token)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.samefile(b)
+    except OSError:  # one of them does not exist (yet)
+        return a.resolve() == b.resolve()
+
+
+def check_not_an_input(
+    path: Path, inputs: Iterable[ProtectedInput] | None = None, option: str = ""
+) -> None:
+    """Refuse an output ``path`` that would replace one of ``inputs``.
+
+    Parameters
+    ----------
+    path : Path
+        The output file.
+    inputs : iterable of ProtectedInput, optional
+        The inputs; default: those of the enclosing `protected_inputs` block.
+    option : str
+        Command-line option naming the output in the message (e.g. ``"--out"``).
+
+    Raises
+    ------
+    InputError
+        ``path`` is an input file (by any path), an input folder, or an existing
+        file inside an input folder (figures and reports excepted).
+    """
+    path = Path(path)
+    shown = f"{option} {path}" if option else str(path)
+    for item in _PROTECTED.get(()) if inputs is None else inputs:
+        if item.path.is_dir():
+            if _same_file(path, item.path):
+                msg = f"{shown}: is the input folder {item.label}; give an output file"
+                raise InputError(msg)
+            inside = path.resolve().is_relative_to(item.path.resolve())
+            if inside and path.is_file() and path.suffix.lower() not in WRITE_ONLY_SUFFIXES:
+                msg = (
+                    f"{shown}: would replace a file of the input folder {item.label}; "
+                    "write the output elsewhere"
+                )
+                raise InputError(msg)
+        elif _same_file(path, item.path):
+            msg = f"{shown}: is the input {item.label}; write the output to another file"
+            raise InputError(msg)
+
+
+_PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.part")
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    return True
+
+
+def _remove_stale_parts(parent: Path, name: str) -> None:
+    """Remove temporaries of ``parent/name`` whose writing process no longer exists."""
+    prefix = f".{name}."
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(parent):
+            if not entry.name.startswith(prefix) or not entry.is_file(follow_symlinks=False):
+                continue
+            match = _PART.fullmatch(entry.name[len(prefix) :])
+            if match is not None and not _process_alive(int(match["pid"])):
+                with contextlib.suppress(OSError):
+                    Path(entry.path).unlink()
 
 
 @contextmanager
 def atomic_path(path: Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
-    On any exception the temporary file is removed and ``path`` is left untouched.
+    On any exception (an interruption included) the temporary file is removed and
+    ``path`` is left untouched. Refuses a ``path`` that is an input of the enclosing
+    `protected_inputs` block, an existing folder, or in a folder that is missing or
+    not writable.
     """
     path = Path(path)
+    check_not_an_input(path)
     parent = path.parent if str(path.parent) else Path()
     if not parent.is_dir():
         msg = f"{path}: output folder {parent} does not exist; create it first"
         raise InputError(msg)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=parent)
+    if path.is_dir():
+        msg = f"{path}: is an existing folder; give a file name for the output"
+        raise InputError(msg)
+    _remove_stale_parts(parent, path.name)
+    try:
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent
+        )
+    except PermissionError:
+        msg = f"{path}: cannot write in the folder {parent} (permission denied); choose another"
+        raise InputError(msg) from None
     os.close(fd)
     tmp = Path(tmp_name)
     umask = os.umask(0)
@@ -66,13 +211,17 @@ def output_folder(path: Path, hint: str, *, create: bool = True, option: str = "
     Raises
     ------
     InputError
-        ``path`` exists and is not a folder.
+        ``path`` exists and is not a folder, or cannot be created.
     """
     path = Path(path)
+    prefix = f"{option} " if option else ""
     if path.exists() and not path.is_dir():
-        prefix = f"{option} " if option else ""
         msg = f"{prefix}{path}: exists and is not a folder; {hint}"
         raise InputError(msg)
     if create:
-        path.mkdir(parents=True, exist_ok=True)
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            msg = f"{prefix}{path}: cannot create the folder ({err.strerror}); {hint}"
+            raise InputError(msg) from None
     return path

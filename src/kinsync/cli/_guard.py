@@ -1,0 +1,107 @@
+"""One rule for every command: no output replaces an input.
+
+`guard_commands` wraps every command of the program. Each ``Path`` parameter of a
+command is an input, except those named in `OUTPUT_PARAMETERS`. Before the command
+runs, each output is checked against each input (`kinsync.io.atomic.check_not_an_input`:
+the same file by any path, an input folder, a file inside one); while it runs, every
+file written (all go through `kinsync.io.atomic.atomic_path`) is checked again, so a
+figure or report written into an input folder cannot replace an input either.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import types
+import typing
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from kinsync.io.atomic import ProtectedInput, check_not_an_input, protected_inputs
+
+__all__ = ["OUTPUT_PARAMETERS", "guard_commands", "path_parameters"]
+
+OUTPUT_PARAMETERS = frozenset({"out", "model_out", "figure", "png", "report"})
+"""Names of the ``Path`` parameters that are outputs (files or folders) of a command."""
+
+
+def _is_path_type(hint: Any) -> bool:
+    if hint is Path:
+        return True
+    origin = typing.get_origin(hint)
+    if origin is typing.Annotated:
+        return _is_path_type(typing.get_args(hint)[0])
+    if origin in (list, tuple, typing.Union, types.UnionType):
+        return any(_is_path_type(a) for a in typing.get_args(hint))
+    return False
+
+
+def _option_name(name: str, hint: Any) -> str:
+    """The command-line spelling of parameter ``name`` (``--in`` for ``in_path``)."""
+    for meta in getattr(hint, "__metadata__", ()):
+        # In Annotated, typer.Option("--in") keeps the name as its "default".
+        first = getattr(meta, "default", None)
+        decls = [
+            *(getattr(meta, "param_decls", None) or ()),
+            *([first] if isinstance(first, str) else []),
+        ]
+        longs = [d for d in decls if d.startswith("--")]
+        if longs:
+            return str(longs[0])
+        if isinstance(meta, typer.models.ArgumentInfo):
+            return name.upper()
+    return "--" + name.replace("_", "-")
+
+
+def path_parameters(callback: Callable[..., Any]) -> dict[str, str]:
+    """``{parameter name: option spelling}`` of the ``Path`` parameters of a command."""
+    hints = typing.get_type_hints(callback, include_extras=True)
+    return {
+        name: _option_name(name, hint)
+        for name, hint in hints.items()
+        if name != "return" and _is_path_type(hint)
+    }
+
+
+def _paths(value: Any) -> Iterator[Path]:
+    if isinstance(value, Path):
+        yield value
+    elif isinstance(value, list | tuple):
+        for v in value:
+            yield from _paths(v)
+
+
+def _guard(callback: Callable[..., Any]) -> Callable[..., Any]:
+    spelled = path_parameters(callback)
+    signature = inspect.signature(callback)
+
+    @functools.wraps(callback)
+    def guarded(*args: Any, **kwargs: Any) -> Any:
+        bound = signature.bind(*args, **kwargs)
+        inputs = [
+            ProtectedInput(p, f"{spelled[name]} {p}")
+            for name, value in bound.arguments.items()
+            if name in spelled and name not in OUTPUT_PARAMETERS
+            for p in _paths(value)
+        ]
+        for name, value in bound.arguments.items():
+            if name in spelled and name in OUTPUT_PARAMETERS:
+                for p in _paths(value):
+                    check_not_an_input(p, inputs, spelled[name])
+        with protected_inputs(inputs):
+            return callback(*args, **kwargs)
+
+    return guarded
+
+
+def guard_commands(app: typer.Typer) -> None:
+    """Wrap every command of ``app`` and of its groups (recursively) in the rule."""
+    for info in app.registered_commands:
+        if info.callback is not None and not hasattr(info.callback, "__wrapped__"):
+            info.callback = _guard(info.callback)
+    for group in app.registered_groups:
+        if group.typer_instance is not None:
+            guard_commands(group.typer_instance)
