@@ -2,17 +2,21 @@
 
 Commands are thin: parse options, call the library, print. One JSON object on stdout
 with ``--json``, a rich table otherwise. Exit status 0 on success, 2 on bad input
-(a `KinsyncError` or a usage error, reported in one line on stderr), 1 on any other
-failure (set ``KINSYNC_DEBUG=1`` to see its traceback).
+(a `KinsyncError` or a usage error, reported in one line on stderr), 128 + the signal
+number when interrupted (130 for Ctrl-C / SIGINT, 143 for SIGTERM: unfinished outputs
+are removed on the way out, as on any error), 1 on any other failure (set
+``KINSYNC_DEBUG=1`` to see its traceback).
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
-from collections.abc import Sequence
-
-import typer
+import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from types import FrameType
 
 from kinsync.cli._options import expand_multi_value_options
 from kinsync.cli.app import app
@@ -25,18 +29,72 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+class Interrupted(KeyboardInterrupt):
+    """A stop signal (SIGINT or SIGTERM) received while a command runs."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+_RECEIVED: list[int] = []
+"""Stop signals received during this run (typer returns 130 for any KeyboardInterrupt)."""
+
+
+def _raise_interrupted(signum: int, _frame: FrameType | None) -> None:
+    _RECEIVED.append(signum)
+    raise Interrupted(signum)
+
+
+@contextmanager
+def _stop_signals_unwind() -> Iterator[None]:
+    """SIGINT and SIGTERM raise `Interrupted`: every ``finally`` runs (temporaries go)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    stops = (signal.SIGINT, signal.SIGTERM)
+    _RECEIVED.clear()
+    before = {s: signal.signal(s, _raise_interrupted) for s in stops}
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
+
+
+def _signal_of(err: BaseException) -> int | None:
+    """The stop signal behind ``err``, if any (typer turns KeyboardInterrupt into Exit(130))."""
+    seen: BaseException | None = err
+    while seen is not None:
+        if isinstance(seen, Interrupted):
+            return seen.signum
+        if isinstance(seen, KeyboardInterrupt):
+            return int(signal.SIGINT)
+        seen = seen.__cause__ or seen.__context__
+    return None
+
+
+def _exit_interrupted(signum: int) -> None:
+    name = signal.Signals(signum).name
+    print(f"kinsync: interrupted by {name}; unfinished outputs removed", file=sys.stderr)
+    sys.exit(128 + signum)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
     args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
     try:
-        result = app(args=args, prog_name="kinsync", standalone_mode=False)
+        with _stop_signals_unwind():
+            result = app(args=args, prog_name="kinsync", standalone_mode=False)
     except KinsyncError as err:
         print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
         sys.exit(2)
-    except typer.Abort:
-        print("kinsync: aborted", file=sys.stderr)
-        sys.exit(1)
+    except KeyboardInterrupt as err:
+        _exit_interrupted(_signal_of(err) or int(signal.SIGINT))
     except Exception as err:
+        signum = _signal_of(err)
+        if signum is not None:
+            _exit_interrupted(signum)
         code = getattr(err, "exit_code", None)
         fmt = getattr(err, "format_message", None)
         if isinstance(code, int) and fmt is None:  # Exit raised by a command or --version
@@ -54,4 +112,6 @@ def main(argv: Sequence[str] | None = None) -> None:
             file=sys.stderr,
         )
         sys.exit(1)
+    if _RECEIVED:  # typer turned the interruption into a return value of 130
+        _exit_interrupted(_RECEIVED[0])
     sys.exit(result if isinstance(result, int) else 0)

@@ -11,9 +11,15 @@ from __future__ import annotations
 
 import importlib
 import multiprocessing
+import os
+import signal
+import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 from kinsync.errors import InputError
@@ -39,8 +45,45 @@ _WORKER_CONTEXT: list[ChunkContext] = []
 _WORKER_LAS_READER: list[LasPointReader] = []
 
 
-def init_process_worker(ctx: ChunkContext) -> None:
-    """Process-pool initializer: keep the context for every chunk of this worker."""
+_PARENT_POLL_S = 0.25
+
+
+def _process_gone(pid: int) -> bool:
+    """Whether process ``pid`` has ended (a zombie, not yet reaped, has ended)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:  # no /proc (macOS): os.kill is the answer
+        return False
+    return stat[stat.rindex(")") + 2 :][:1] in {"Z", "X"}
+
+
+def _die_with(main_pid: int) -> None:
+    """End this worker as soon as the main process ``main_pid`` has ended.
+
+    A killed main process (SIGKILL cannot be caught) must not leave workers computing
+    for minutes, nor the forkserver and resource tracker that live as long as a worker
+    holds their pipes: a daemon thread checks every 0.25 s. Workers ignore SIGINT: a
+    Ctrl-C reaches the whole process group, and the main process stops the pool.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while not _process_gone(main_pid):
+            time.sleep(_PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="kinsync-main-watch", daemon=True).start()
+
+
+def init_process_worker(ctx: ChunkContext, main_pid: int) -> None:
+    """Process-pool initializer: die with the main process; keep the context for every chunk."""
+    _die_with(main_pid)
     _WORKER_CONTEXT[:] = [ctx]
     _WORKER_LAS_READER.clear()
 
@@ -58,6 +101,17 @@ def process_chunk_in_worker(task: ChunkTask, tally_only: bool) -> ChunkOutput:
 
 
 ChunkResult = Callable[[], ChunkOutput]
+
+
+@contextmanager
+def _stop_signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back from this thread within the block."""
+    stops = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, stops)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 class SerialRunner:
@@ -103,12 +157,20 @@ class ProcessRunner(SerialRunner):
             max_workers=workers,
             mp_context=mp_context,
             initializer=init_process_worker,
-            initargs=(ctx,),
+            initargs=(ctx, os.getpid()),
         )
 
     def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
-        """Send ``task`` to the pool; the callable waits for its result."""
-        future: Future[ChunkOutput] = self.pool.submit(process_chunk_in_worker, task, tally_only)
+        """Send ``task`` to the pool; the callable waits for its result.
+
+        The pool may start a worker here, writing it the context through a pipe: stop
+        signals are held meanwhile (delivered right after), so that an interruption
+        never leaves a worker reading a truncated context (and printing a traceback).
+        """
+        with _stop_signals_held():
+            future: Future[ChunkOutput] = self.pool.submit(
+                process_chunk_in_worker, task, tally_only
+            )
         return future.result
 
     def close(self) -> None:

@@ -1,0 +1,163 @@
+"""Interrupted runs leave nothing: SIGTERM and SIGINT exit 128+signal with no output and no
+temporary; after SIGKILL no child process survives and the next run removes the stale
+temporary. The commands run in a subprocess, as a user runs them."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+
+from kinsync.io.points import TableChunkWriter
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.trajectory import Trajectory
+
+T0 = 1.3e9
+N_POINTS = 1_500_000
+KINSYNC = [sys.executable, "-c", "from kinsync.cli import main; main()"]
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A trajectory, a mount and a point file big enough to take seconds to georeference."""
+    folder = tmp_path_factory.mktemp("interrupt")
+    t = T0 + np.arange(0.0, 60.0, 0.01)
+    s = t - T0
+    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.01 * s])
+    traj = Trajectory.from_euler(
+        t, 0.02 * np.sin(s), 0.01 * np.cos(s), 0.3 + 0.0 * s, lat_lon_h=llh
+    )
+    write_trajectory_csv(traj, folder / "traj.csv")
+    rng = np.random.default_rng(3)
+    with TableChunkWriter(folder / "points.parquet") as w:
+        for i in range(0, N_POINTS, 250_000):
+            n = min(250_000, N_POINTS - i)
+            w.write(
+                {
+                    "t_s": T0 + np.sort(rng.uniform(0.0, 59.0, n)),
+                    "x_m": rng.uniform(-1, 1, n),
+                    "y_m": rng.uniform(-20, 20, n),
+                    "z_m": rng.uniform(-5, 5, n),
+                }
+            )
+    (folder / "mount.toml").write_text(
+        "[mount]\nlever_arm_body_m = [0.5, 0.1, -1.0]\nboresight_rpy_deg = [0.5, -0.3, 90.0]\n"
+        "latency_s = 0.0\n"
+    )
+    return folder
+
+
+def _georef(survey: Path, out: Path, *extra: str) -> list[str]:
+    return [
+        *KINSYNC, "georef", "--points", str(survey / "points.parquet"),
+        "--trajectory", str(survey / "traj.csv"), "--mount", str(survey / "mount.toml"),
+        "--out", str(out), "--chunk-points", "20000", *extra,
+    ]  # fmt: skip
+
+
+def _temporaries(folder: Path) -> list[Path]:
+    return sorted(folder.glob(".*.part"))
+
+
+def _start_and_wait_for_part(
+    cmd: list[str], folder: Path
+) -> tuple[subprocess.Popen[str], list[psutil.Process]]:
+    """Start ``cmd``; return once its temporary output has data (it is mid-write)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120.0
+    while not any(p.stat().st_size for p in _temporaries(folder)):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no temporary output appeared"
+        time.sleep(0.01)
+    time.sleep(0.2)
+    children = psutil.Process(proc.pid).children(recursive=True)
+    return proc, children
+
+
+def _assert_all_gone(procs: list[psutil.Process], timeout_s: float = 10.0) -> None:
+    _, alive = psutil.wait_procs(procs, timeout=timeout_s)
+    assert not alive, [p.as_dict(attrs=["pid", "name", "cmdline"]) for p in alive]
+
+
+@pytest.mark.parametrize("scheduler", ["local", "processes"])
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_leaves_nothing(
+    survey: Path, tmp_path: Path, scheduler: str, signum: signal.Signals
+) -> None:
+    out = tmp_path / "out.csv"
+    proc, children = _start_and_wait_for_part(
+        _georef(survey, out, "--scheduler", scheduler, "--workers", "2"), tmp_path
+    )
+    assert scheduler == "local" or children, "the pool has no worker"
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signum, err
+    assert err.strip().splitlines()[-1] == (
+        f"kinsync: interrupted by {signum.name}; unfinished outputs removed"
+    ), err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert _temporaries(tmp_path) == []
+    _assert_all_gone(children)
+
+
+def test_sigkill_leaves_no_process_and_the_next_run_cleans_up(survey: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out.csv"
+    cmd = _georef(survey, out, "--scheduler", "processes", "--workers", "2")
+    proc, children = _start_and_wait_for_part(cmd, tmp_path)
+    assert children
+    stale = _temporaries(tmp_path)
+    proc.kill()
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    _assert_all_gone(children)  # forkserver, resource tracker and workers
+    assert "Traceback" not in err
+    assert _temporaries(tmp_path) == stale  # SIGKILL cannot be caught: the debris stays...
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    assert out.exists()
+    assert _temporaries(tmp_path) == []  # ...until the same output is written next
+
+
+def test_ins_run_sigterm_leaves_nothing(tmp_path: Path) -> None:
+    sim = tmp_path / "drive"
+    subprocess.run(
+        [*KINSYNC, "simulate", "drive", "--out", str(sim), "--duration-s", "1500"],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    out = tmp_path / "nav.csv"
+    cmd = [
+        *KINSYNC, "ins", "run", "--imu", str(sim / "imu.csv"), "--gnss", str(sim / "gnss.csv"),
+        "--config", str(sim / "ins.toml"), "--out", str(out), "--smooth",
+    ]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)  # reading or filtering
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive"]
+
+
+def test_stale_temporaries_of_live_processes_and_other_outputs_are_kept(tmp_path: Path) -> None:
+    from kinsync.io.atomic import atomic_write_text  # noqa: PLC0415
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".a.csv.{dead.pid}.abcd1234.part"
+    live = tmp_path / f".a.csv.{os.getpid()}.abcd1234.part"
+    other = tmp_path / f".b.csv.{dead.pid}.abcd1234.part"
+    for p in (stale, live, other):
+        p.write_text("x")
+    atomic_write_text(tmp_path / "a.csv", "t\n")
+    assert not stale.exists()
+    assert live.exists()
+    assert other.exists()
