@@ -191,7 +191,7 @@ def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
     [
         (["--rates-deg-s", "2,,x"], "empty"),
         (["--rates-deg-s", "2,x"], "not a number"),
-        (["--range-noise-m", "-0.002"], "range_noise_m"),
+        (["--range-noise-m", "-0.002"], "--range-noise-m"),
         (["--passes", "0"], "passes"),
         (["--radius-m", "3"], "smaller"),
     ],
@@ -225,3 +225,26 @@ def test_sphere_raw_applies_the_mount_latency(
     assert tau * 1e3 > 10 * corrected["latency_std_ms"]
     code, out, err = run_cli(["latency", "sphere", str(sim_folder), "--raw", "--no-figure"])
     assert_one_line_error(code, out, err, "raw folder not found")
+
+
+@pytest.mark.parametrize(
+    ("options", "fragments"),
+    [
+        (["--range-m", "100"], ("too few or too narrow a cap", "0.1 m at 100 m")),
+        (["--profile-rate-hz", "0.1"], ("too few or too narrow a cap", "profile spacing (20 deg)")),
+        (
+            ["--angular-step-deg", "0.001", "--profile-rate-hz", "10000"],
+            ("rays over the sphere", "too fine"),
+        ),
+    ],
+)
+def test_plan_refuses_designs_it_cannot_compute(
+    run_cli: RunCli,
+    assert_one_line_error: Callable[..., None],
+    options: list[str],
+    fragments: tuple[str, ...],
+) -> None:
+    """Within each option's span, a combination may still give a singular fit or an
+    allocation of gigabytes: the planner says which before it allocates."""
+    code, out, err = run_cli(["latency", "plan", *options])
+    assert_one_line_error(code, out, err, *fragments)

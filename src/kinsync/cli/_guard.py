@@ -1,4 +1,4 @@
-"""One rule for every command: no output replaces an input.
+"""Rules every command obeys: no output replaces an input; numbers are finite and sane.
 
 `guard_commands` wraps every command of the program. Each ``Path`` parameter of a
 command is an input, except those named in `OUTPUT_PARAMETERS`. Before the command
@@ -6,6 +6,9 @@ runs, each output is checked against each input (`kinsync.io.atomic.check_not_an
 the same file by any path, an input folder, a file inside one); while it runs, every
 file written (all go through `kinsync.io.atomic.atomic_path`) is checked again, so a
 figure or report written into an input folder cannot replace an input either.
+
+Each ``int`` or ``float`` parameter must be finite and inside its span in
+`kinsync.cli._bounds.OPTION_BOUNDS`, checked before the command starts.
 """
 
 from __future__ import annotations
@@ -20,9 +23,10 @@ from typing import Any
 
 import typer
 
+from kinsync.cli._bounds import check_numeric_option
 from kinsync.io.atomic import ProtectedInput, check_not_an_input, protected_inputs
 
-__all__ = ["OUTPUT_PARAMETERS", "guard_commands", "path_parameters"]
+__all__ = ["OUTPUT_PARAMETERS", "guard_commands", "numeric_parameters", "path_parameters"]
 
 OUTPUT_PARAMETERS = frozenset({"out", "model_out", "figure", "png", "report"})
 """Names of the ``Path`` parameters that are outputs (files or folders) of a command."""
@@ -66,6 +70,28 @@ def path_parameters(callback: Callable[..., Any]) -> dict[str, str]:
     }
 
 
+def _is_number_type(hint: Any) -> bool:
+    if typing.get_origin(hint) is typing.Annotated:
+        return _is_number_type(typing.get_args(hint)[0])
+    if hint is bool:
+        return False
+    if hint in (int, float):
+        return True
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return any(_is_number_type(a) for a in typing.get_args(hint))
+    return False
+
+
+def numeric_parameters(callback: Callable[..., Any]) -> dict[str, str]:
+    """``{parameter name: option spelling}`` of the ``int``/``float`` parameters."""
+    hints = typing.get_type_hints(callback, include_extras=True)
+    return {
+        name: _option_name(name, hint)
+        for name, hint in hints.items()
+        if name != "return" and _is_number_type(hint)
+    }
+
+
 def _paths(value: Any) -> Iterator[Path]:
     if isinstance(value, Path):
         yield value
@@ -74,13 +100,18 @@ def _paths(value: Any) -> Iterator[Path]:
             yield from _paths(v)
 
 
-def _guard(callback: Callable[..., Any]) -> Callable[..., Any]:
+def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
     spelled = path_parameters(callback)
+    numbers = numeric_parameters(callback)
     signature = inspect.signature(callback)
 
     @functools.wraps(callback)
     def guarded(*args: Any, **kwargs: Any) -> Any:
         bound = signature.bind(*args, **kwargs)
+        for name, option in numbers.items():
+            value = bound.arguments.get(name)
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                check_numeric_option(command, option, value)
         inputs = [
             ProtectedInput(p, f"{spelled[name]} {p}")
             for name, value in bound.arguments.items()
@@ -97,11 +128,12 @@ def _guard(callback: Callable[..., Any]) -> Callable[..., Any]:
     return guarded
 
 
-def guard_commands(app: typer.Typer) -> None:
-    """Wrap every command of ``app`` and of its groups (recursively) in the rule."""
+def guard_commands(app: typer.Typer, prefix: tuple[str, ...] = ()) -> None:
+    """Wrap every command of ``app`` and of its groups (recursively) in the rules."""
     for info in app.registered_commands:
         if info.callback is not None and not hasattr(info.callback, "__wrapped__"):
-            info.callback = _guard(info.callback)
+            name = info.name or info.callback.__name__
+            info.callback = _guard(info.callback, " ".join((*prefix, name)))
     for group in app.registered_groups:
         if group.typer_instance is not None:
-            guard_commands(group.typer_instance)
+            guard_commands(group.typer_instance, (*prefix, str(group.name)))

@@ -47,6 +47,9 @@ DEFAULT_MAX_INCIDENCE_DEG = 80.0
 and real returns degrade."""
 
 _PHASES = 16
+_MAX_RAYS_PER_PASS = 2e7  # 16 phases x 2e7 rays x 3 float64 ~ 0.5 GB at a time
+_MIN_POINTS_PER_PASS = 10.0
+_MAX_CONDITION = 1e12  # of the pass's Fisher information: beyond, the fit is singular
 
 
 @dataclass(frozen=True)
@@ -207,6 +210,15 @@ def _pass_information(
     info = np.zeros((4, 4))
     hits = 0.0
     span_el = half / max(math.cos(el_c), 1e-6)
+    n_rays = (2.1 * half / max(math.cos(el_c), 1e-6) / abs(d_az) + 2) * (2.1 * span_el / d_el + 2)
+    if n_rays > _MAX_RAYS_PER_PASS:
+        msg = (
+            f"at {rate_deg_s:g} deg/s a pass would trace {n_rays:.3g} rays over the sphere "
+            f"(more than {_MAX_RAYS_PER_PASS:.0e}): the angular step "
+            f"({design.angular_step_deg:g} deg) or the profile spacing (rate / profile rate "
+            f"= {rate_deg_s / design.profile_rate_hz:g} deg) is too fine; coarsen them"
+        )
+        raise InputError(msg)
     for _ in range(_PHASES):
         az = np.arange(-half * 1.05, half * 1.05, d_az) + rng.uniform(0, d_az)
         az = az / max(math.cos(el_c), 1e-6)
@@ -253,6 +265,17 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
     for rate in design.rates_deg_s:
         info_pass, per_pass = _pass_information(design, rate, rng)
         info = info_pass * design.passes
+        used = info if not design.radius_known else info[:3, :3]
+        if per_pass < _MIN_POINTS_PER_PASS or np.linalg.cond(used) > _MAX_CONDITION:
+            msg = (
+                f"at {rate:g} deg/s a pass puts {per_pass:.3g} points on the sphere, too few "
+                "or too narrow a cap to fit its centre: the sphere is too small or too far "
+                f"({design.sphere_radius_m:g} m at {design.sphere_range_m:g} m) for the "
+                f"angular step ({design.angular_step_deg:g} deg) and the profile spacing "
+                f"({rate / design.profile_rate_hz:g} deg); bring it closer, use a larger "
+                "sphere, or scan more finely"
+            )
+            raise ObservabilityError(msg)
         cov = np.linalg.inv(info[:3, :3]) if design.radius_known else np.linalg.inv(info)[:3, :3]
         w = math.radians(rate) * np.array([0.0, 0.0, 1.0])
         jac = np.zeros((6, 4))

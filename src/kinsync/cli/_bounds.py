@@ -1,0 +1,141 @@
+"""The values every numeric option accepts: one table, checked for every command.
+
+A finite-but-absurd option value (a 1e308 m range, a 1e-9 deg angular step, a
+1e-9 s correlation time) used to reach the algorithms and come back as an overflow,
+a singular matrix, a 60 GiB allocation or a confident number computed from
+infinities. Every numeric option of every command has an entry here, by option
+spelling (``--range-m``) or, where one spelling means different things in different
+commands, by command and spelling; `check_numeric_options` refuses a non-finite value
+or one outside its span before the command starts. The spans are physical (what a
+scanner, an IMU, a serial line or a survey can be) and computational (what runs in
+minutes and fits in memory on a workstation); a test checks that every numeric option
+has one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from kinsync.errors import InputError
+
+__all__ = ["OPTION_BOUNDS", "Bounds", "bounds_for", "check_numeric_option"]
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Closed span ``[low, high]`` of an option, with its unit and why."""
+
+    low: float
+    high: float
+    unit: str = ""
+    why: str = ""
+
+
+_DAY_S = 86_400.0
+_GPS_S_MAX = 1e10  # GPS seconds: year ~2297
+
+OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
+    # time and latency
+    "--latency-ms": Bounds(
+        -10_000.0, 10_000.0, "ms", "a latency beyond 10 s is a time-scale error"
+    ),
+    "--gps-week": Bounds(0, 10_000, "", "GPS weeks since 1980"),
+    "--t0-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
+    "--offset-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
+    "--drift-ppm": Bounds(-100_000.0, 100_000.0, "ppm"),
+    "--jitter-us": Bounds(0.0, 100_000.0, "us"),
+    "--zda-delay-ms": Bounds(0.0, 1_000.0, "ms", "a ZDA names the edge of its own second"),
+    "--period-s": Bounds(1e-5, 100.0, "s"),
+    "--period-prior-s": Bounds(1e-5, 100.0, "s"),
+    "--period-tolerance": Bounds(0.0, 0.5, "", "relative"),
+    "--period-error-s": Bounds(-1.0, 1.0, "s"),
+    "--target-ms": Bounds(1e-6, 1_000.0, "ms"),
+    # serial line
+    "--baud": Bounds(50.0, 20_000_000.0, "bit/s"),
+    "--bytes": Bounds(1, 10_000_000, "bytes"),
+    "--fifo-bytes": Bounds(0, 10_000_000, "bytes"),
+    "--data-bits": Bounds(5, 8, "bits"),
+    "--stop-bits": Bounds(1.0, 2.0, "bits"),
+    # geometry
+    "--range-m": Bounds(0.01, 100_000.0, "m"),
+    ("latency plan", "--range-m"): Bounds(0.1, 100.0, "m", "a table scanner sees its sphere"),
+    "--slope-deg": Bounds(0.0, 89.0, "deg"),
+    "--rate-deg-s": Bounds(-1_000.0, 1_000.0, "deg/s"),
+    "--radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
+    "--sphere-radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
+    "--target-radius-m": Bounds(0.0, 10.0, "m"),
+    "--search-radius-m": Bounds(0.0, 100.0, "m"),
+    "--max-range-m": Bounds(0.1, 10_000.0, "m"),
+    "--profiler-azimuth-deg": Bounds(-360.0, 360.0, "deg"),
+    "--angular-step-deg": Bounds(0.001, 10.0, "deg"),
+    "--roll-amplitude-deg": Bounds(0.0, 45.0, "deg"),
+    "--roll-period-s": Bounds(0.5, 600.0, "s"),
+    # noise and navigation errors
+    "--range-noise-m": Bounds(0.0, 1.0, "m", "a scanner noisier than 1 m is not calibrated"),
+    "--position-std-m": Bounds(0.0, 100.0, "m"),
+    "--position-corr-time-s": Bounds(0.0, 1e6, "s"),
+    "--corr-time-s": Bounds(0.1, 1e5, "s", "the simulated errors are sampled at this scale"),
+    "--trajectory-noise-m": Bounds(0.0, 100.0, "m"),
+    # platform and record
+    "--speed-m-s": Bounds(0.0, 1_000.0, "m/s"),
+    ("simulate drive", "--speed-m-s"): Bounds(0.1, 100.0, "m/s"),
+    "--static-s": Bounds(0.0, 3_600.0, "s"),
+    "--duration-s": Bounds(1.0, _DAY_S, "s"),
+    ("simulate drive", "--duration-s"): Bounds(1.0, 21_600.0, "s", "6 h of IMU data in memory"),
+    ("simulate drive-scan", "--duration-s"): Bounds(1.0, 7_200.0, "s"),
+    "--imu-rate-hz": Bounds(1.0, 2_000.0, "Hz"),
+    "--gnss-rate-hz": Bounds(0.01, 100.0, "Hz"),
+    "--profile-rate-hz": Bounds(0.1, 10_000.0, "Hz"),
+    "--profiles": Bounds(0, 1e12, "profiles"),
+    "--laps": Bounds(1, 1_000, "laps"),
+    "--passes": Bounds(1, 1_000, "passes"),
+    ("simulate rotating-table", "--passes"): Bounds(1, 100, "passes per rate and direction"),
+    ("simulate patch-test", "--passes"): Bounds(1, 20, "lines each way per speed"),
+    ("calibrate plan", "--passes"): Bounds(1, 20, "lines each way per speed"),
+    "--density": Bounds(1e-6, 1.0, "", "a fraction of the beams"),
+    # counts, seeds, chunks
+    "--seed": Bounds(0, 2**63 - 1),
+    "--missing": Bounds(0, 1_000_000, "pulses"),
+    "--spurious": Bounds(0, 1_000_000, "pulses"),
+    "--bad-zda": Bounds(0, 1_000_000, "messages"),
+    "--bad-lines": Bounds(0, 1_000_000, "lines"),
+    "--chunk-points": Bounds(1, 20_000_000, "points", "a chunk is held in memory"),
+    "--workers": Bounds(1, 1_024, "workers"),
+    "--min-points": Bounds(4, 1_000_000_000, "points"),
+    # tests and thresholds
+    "--level": Bounds(0.5, 0.9999),
+    "--min-bow-mm": Bounds(0.0, 1e6, "mm"),
+    "--outlier-k": Bounds(1.0, 1_000.0),
+    "--min-intensity": Bounds(-1e12, 1e12),
+    "--intensity-threshold": Bounds(-1e12, 1e12),
+}
+
+
+def bounds_for(command: str, option: str) -> Bounds | None:
+    """The span of ``option`` in ``command`` (e.g. ``"latency plan"``), if any."""
+    return OPTION_BOUNDS.get((command, option)) or OPTION_BOUNDS.get(option)
+
+
+def check_numeric_option(command: str, option: str, value: float) -> None:
+    """Refuse a non-finite ``value`` or one outside the option's span.
+
+    Raises
+    ------
+    InputError
+        ``value`` is nan or infinite, or outside `bounds_for` ``(command, option)``.
+    """
+    if not math.isfinite(value):
+        msg = f"{option} {value}: not a finite number"
+        raise InputError(msg)
+    span = bounds_for(command, option)
+    if span is None:
+        return
+    if not span.low <= value <= span.high:
+        unit = f" {span.unit}" if span.unit else ""
+        why = f" ({span.why})" if span.why else ""
+        msg = (
+            f"{option} {value:g}: outside the span kinsync accepts, "
+            f"{span.low:g} to {span.high:g}{unit}{why}"
+        )
+        raise InputError(msg)

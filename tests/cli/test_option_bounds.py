@@ -1,0 +1,99 @@
+"""Every numeric option of every command is finite and inside a declared span (issue 15,
+classes 3-5): absurd values are refused before any work, in one line, exit 2."""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from kinsync.cli._bounds import bounds_for
+from kinsync.cli._guard import OUTPUT_PARAMETERS, numeric_parameters, path_parameters
+from kinsync.cli.app import app
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+REQUIRED_VALUES = {"--box": "0,0,0,1,1,1", "--baud": "115200", "--bytes": "80"}
+
+
+def _commands(
+    typer_app: Any = app, prefix: tuple[str, ...] = ()
+) -> Iterator[tuple[tuple[str, ...], Callable[..., Any]]]:
+    for info in typer_app.registered_commands:
+        yield (*prefix, info.name), info.callback
+    for group in typer_app.registered_groups:
+        yield from _commands(group.typer_instance, (*prefix, group.name))
+
+
+def _numeric_options() -> Iterator[tuple[tuple[str, ...], Callable[..., Any], str, str]]:
+    for path, callback in _commands():
+        for name, option in numeric_parameters(callback).items():
+            yield path, callback, name, option
+
+
+def test_every_numeric_option_has_a_span() -> None:
+    missing = [
+        f"{' '.join(path)} {option}"
+        for path, _, _, option in _numeric_options()
+        if bounds_for(" ".join(path), option) is None
+    ]
+    assert not missing
+
+
+def _base_argv(path: tuple[str, ...], callback: Callable[..., Any], tmp: Path) -> list[str]:
+    """The command with every required option given (dummy files: the check comes first)."""
+    argv = [*path]
+    signature = inspect.signature(callback)
+    spelled = {**path_parameters(callback), **numeric_parameters(callback)}
+    for name, param in signature.parameters.items():
+        if param.default is not inspect.Parameter.empty:
+            continue
+        option = spelled.get(name)
+        if option is None:
+            option = "--" + name.replace("_", "-")
+        if name in path_parameters(callback):
+            f = tmp / (f"{name}.dat" if name not in OUTPUT_PARAMETERS else "out.dat")
+            if name not in OUTPUT_PARAMETERS:
+                f.write_text("x\n")
+            argv += [str(f)] if option.isupper() else [option, str(f)]
+        else:
+            argv += [option, REQUIRED_VALUES.get(option, "1")]
+    return argv
+
+
+def _outside_cases() -> Iterator[Any]:
+    for path, callback, name, option in _numeric_options():
+        span = bounds_for(" ".join(path), option)
+        assert span is not None
+        is_int = "int" in str(inspect.signature(callback).parameters[name].annotation)
+        step = 1 if is_int else max(abs(span.low), abs(span.high), 1.0) * 1e-6
+        values = [span.low - step, span.high + step]
+        values = [int(v) for v in values] if is_int else [*values, float("nan"), float("inf")]
+        for v in values:
+            yield pytest.param(
+                path, callback, option, repr(v), id=f"{' '.join(path)} {option} {v!r}"
+            )
+
+
+@pytest.mark.parametrize(("path", "callback", "option", "value"), list(_outside_cases()))
+def test_values_outside_the_span_are_refused(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    option: str,
+    value: str,
+) -> None:
+    argv = _base_argv(path, callback, tmp_path)
+    if option in argv:  # a required numeric option: replace its value
+        i = argv.index(option)
+        del argv[i : i + 2]
+    code, out, err = run_cli([*argv, option, value])
+    assert_one_line_error(code, out, err, option)
+    reasons = ("not a finite number", "outside the span kinsync accepts", "Invalid value for")
+    assert any(r in err for r in reasons), err
