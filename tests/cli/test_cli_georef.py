@@ -107,7 +107,15 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
     doc = json.loads(stdout)
     assert doc["points_in"] == doc["points_out"] == N_POINTS
     assert doc["points_rejected"] == 0
-    assert set(doc) == {"points_in", "points_out", "points_rejected", "seconds", "points_per_s"}
+    assert set(doc) == {
+        "points_in",
+        "points_out",
+        "points_rejected",
+        "seconds",
+        "points_per_s",
+        "warnings",
+    }
+    assert doc["warnings"] == []
     table = pq.read_table(out) if suffix == ".parquet" else None
     if table is None:
         table = pa_csv.read_csv(out)
@@ -223,6 +231,7 @@ def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
         ("out_suffix", ["unknown output type", ".txt"]),
         ("missing_column", ["z_m"]),
         ("nan", ["not finite"]),
+        ("absurd", ["index 17", "beyond the 100000 m any laser scanner reaches"]),
         ("las_to_table", ["not supported"]),
     ],
 )
@@ -241,8 +250,8 @@ def test_bad_input_is_one_line_error(
         del cols["z_m"]
         with TableChunkWriter(setup["points"]) as w:
             w.write(cols)
-    elif change == "nan":
-        cols["y_m"][17] = np.nan
+    elif change in ("nan", "absurd"):
+        cols["y_m"][17] = np.nan if change == "nan" else 1e307
         with TableChunkWriter(setup["points"]) as w:
             w.write(cols)
     else:
@@ -369,7 +378,7 @@ def test_profile_azimuth_option_overrides_the_mount(
         ("nan_range", (), ["rows 0..2499", "index 40 not finite"]),
         ("negative_range", (), ["index 7 is negative"]),
         ("none", ("--point-columns", "polar"), ["--point-columns must be"]),
-        ("none", ("--profiler-azimuth-deg", "inf"), ["azimuth_deg", "finite"]),
+        ("none", ("--profiler-azimuth-deg", "inf"), ["--profiler-azimuth-deg", "finite"]),
     ],
 )
 def test_bad_profile_input_is_one_line_error(

@@ -36,6 +36,7 @@ from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
 
 __all__ = [
+    "MAX_SCANNER_RANGE_M",
     "PositionMethod",
     "check_latency",
     "georeference",
@@ -44,6 +45,10 @@ __all__ = [
     "use_hermite",
     "validated_scanner_points",
 ]
+
+MAX_SCANNER_RANGE_M = 100_000.0
+"""Largest scanner-frame coordinate accepted (m): beyond any laser scanner's reach, and a
+bound that keeps every georeferenced coordinate finite and meaningful."""
 
 PositionMethod = Literal["auto", "linear", "hermite"]
 """Position interpolation: linear, cubic Hermite with velocities, or Hermite when they exist."""
@@ -70,7 +75,7 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
     ``c0 + s c1 + s² c2 + s³ c3`` in the interval fraction s (linear or cubic Hermite,
     ECEF), the left record's body -> ECEF matrix and the slerp increment (rotation
     vector, body frame). Returns the index of the first point with a non-finite time or
-    coordinate (the loop stops there), or -1.
+    a coordinate not within ±`MAX_SCANNER_RANGE_M` (the loop stops there), or -1.
     """
     n = t_s.shape[0]
     m = t_rec_s.shape[0]
@@ -87,8 +92,11 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
         sy = xyz_scanner_m[i, 1]
         sz = xyz_scanner_m[i, 2]
         if not (
-            math.isfinite(ti) and math.isfinite(sx) and math.isfinite(sy) and math.isfinite(sz)
-        ):
+            math.isfinite(ti)
+            and abs(sx) <= MAX_SCANNER_RANGE_M
+            and abs(sy) <= MAX_SCANNER_RANGE_M
+            and abs(sz) <= MAX_SCANNER_RANGE_M
+        ):  # also false for nan and inf
             return i
         if not (ti >= t_first and ti <= t_last):
             out_ecef_m[i, 0] = np.nan
@@ -198,7 +206,11 @@ def _shaped_points(
 
 
 def raise_not_finite_points(t: FloatArray, xyz: FloatArray, what: str = "georeference") -> None:
-    """Raise `InputError` naming the first non-finite point time or coordinate, if any."""
+    """Raise `InputError` naming the first bad point, if any.
+
+    A bad point has a non-finite time or coordinate, or a coordinate beyond
+    ±`MAX_SCANNER_RANGE_M`.
+    """
     bad_t = ~np.isfinite(t)
     if np.any(bad_t):
         row = int(np.flatnonzero(bad_t)[0])
@@ -214,6 +226,16 @@ def raise_not_finite_points(t: FloatArray, xyz: FloatArray, what: str = "georefe
             f"{what}: scanner coordinates at index {row} are not finite (point {row} of "
             f"{t.size}: {xyz[row].tolist()}); {int(np.count_nonzero(bad_xyz))} such point(s): "
             "drop or fix them"
+        )
+        raise InputError(msg)
+    far = ~np.all(np.abs(xyz) <= MAX_SCANNER_RANGE_M, axis=1)
+    if np.any(far):
+        row = int(np.flatnonzero(far)[0])
+        msg = (
+            f"{what}: scanner coordinates at index {row} are {xyz[row].tolist()} m, beyond "
+            f"the {MAX_SCANNER_RANGE_M:.0f} m any laser scanner reaches (point {row} of "
+            f"{t.size}); {int(np.count_nonzero(far))} such point(s): are these scanner-frame "
+            "coordinates in metres?"
         )
         raise InputError(msg)
 

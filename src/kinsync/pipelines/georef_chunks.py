@@ -238,6 +238,14 @@ def process_chunk(
         pos = pos[inside]
     to_crs = ecef_to_crs_transformer(ctx.crs)
     coords = pos if to_crs is None else to_crs(pos)
+    not_finite = ~np.isfinite(coords).all(axis=1)
+    if not_finite.any():  # finite inputs, absurd combination (a trajectory, a CRS)
+        row = int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
+        error = (
+            f"{src.path}: row {task.first + row}: georeferences to {coords[not_finite][0]} "
+            f"in {ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
+        )
+        return replace(base, error=error)
     out_columns = _output_columns(ctx, columns, inside, all_inside, coords)
     rejected = None if all_inside else {k: v[~inside] for k, v in columns.items()}
     if ctx.csv_text:
