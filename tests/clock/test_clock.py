@@ -466,3 +466,14 @@ def test_unsupported_sentence_types_are_not_counted_as_rejected_messages(tmp_pat
     n_corrupt = sum(1 for r in reasons if not r.startswith("unsupported sentence type"))
     assert fit.n_bad_lines == n_corrupt
     assert any(r.startswith("unsupported sentence type") for r in reasons)
+
+
+def test_fit_in_which_no_zda_pairs_with_a_pulse_refuses() -> None:
+    """ZDAs from another part of the day than the pulses: the majority second is
+    self-consistent but rests on no pulse; a confident model would be silently wrong."""
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    late = slice(60, None)
+    with pytest.raises(ObservabilityError, match="names the second of a detected pulse"):
+        fit_clock(pps[:50], zda_t[late], gps[late], n_bytes[late])
+    fit = fit_clock(pps[:61], zda_t[late], gps[late], n_bytes[late])  # one pair is enough
+    assert fit.n_zda_paired == 1

@@ -491,7 +491,8 @@ def fit_clock(
         pulses not one second apart, ZDAs that do not agree on the second (no strict
         majority), an unknown convention.
     ObservabilityError
-        Fewer than 3 pulses on a common 1 s grid.
+        Fewer than 3 pulses on a common 1 s grid, or no ZDA names the second of a good
+        pulse (the GPS second of the pulses would rest on nothing).
     """
     if convention not in CONVENTIONS:
         msg = f"convention must be 'preceding' or 'following', got {convention!r}"
@@ -534,11 +535,16 @@ def fit_clock(
     full = np.arange(int(labels[good][0]), int(labels[good][-1]) + 1)
     missing = np.setdiff1d(full, labels[good]) + k
     paired = ~wrong & ~unpaired
-    if np.any(paired):
-        start_gps = model.linear().apply(z_t[paired] - tx_s[paired])
-        zda_delay = float(np.median(start_gps - z_gps[paired]))
-    else:
-        zda_delay = math.nan
+    if not np.any(paired):
+        msg = (
+            f"none of the {len(z_t)} ZDA message(s) names the second of a detected pulse "
+            f"(ZDAs at local {float(z_t[0])!r}..{float(z_t[-1])!r} s, good pulses at "
+            f"{span[0]!r}..{span[1]!r} s): the GPS second of the pulses is not determined; "
+            "check that the two logs overlap in time and the --convention"
+        )
+        raise ObservabilityError(msg)
+    start_gps = model.linear().apply(z_t[paired] - tx_s[paired])
+    zda_delay = float(np.median(start_gps - z_gps[paired]))
     return ClockFit(
         model=model,
         convention=convention,
