@@ -203,9 +203,9 @@ def test_bad_input(
     args = _object_space(folder)
     args[args.index("--scan") + 1] = str(tmp_path / "none.csv")
     assert_one_line_error(*run_cli(args), "none.csv", "not found")
-    assert_one_line_error(*run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "wide")
+    assert_one_line_error(*run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "--period-tolerance")
     assert_one_line_error(
-        *run_cli([*_object_space(folder), "--position-corr-time-s", "-1"]), "position_corr_time_s"
+        *run_cli([*_object_space(folder), "--position-corr-time-s", "-1"]), "--position-corr-time-s"
     )
     scan = str(folder / "scan.csv")
     mount = str(folder / "mount.toml")

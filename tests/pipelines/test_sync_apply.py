@@ -65,3 +65,21 @@ def test_apply_bad_input(tmp_path: Path) -> None:
         apply_profile_clock(dec, tmp_path / "o.csv", 0.0, 0.03, MOUNT, chunk_points=2)
     assert not (tmp_path / "o.csv").exists()
     assert not list(tmp_path.glob("*.part"))
+
+
+@pytest.mark.parametrize("bad_range", ["-0.5", "1e307", "nan"])
+def test_apply_refuses_a_negative_or_absurd_range(tmp_path: Path, bad_range: str) -> None:
+    src = tmp_path / "scan.csv"
+    src.write_text(f"profile,angle_rad,range_m\n0,0.1,2\n1,0.1,{bad_range}\n2,0.1,3\n")
+    with pytest.raises(InputError, match=r"data row 1: .*a range is a finite distance"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_apply_carries_extra_csv_columns_as_their_text(tmp_path: Path) -> None:
+    src = tmp_path / "scan.csv"
+    src.write_text("profile,angle_rad,range_m,code,big\n0,0.1,2,007,1180591620717411303424\n")
+    apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    text = (tmp_path / "o.csv").read_text()
+    assert '"007"' in text
+    assert '"1180591620717411303424"' in text

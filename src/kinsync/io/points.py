@@ -51,6 +51,7 @@ import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.sanity import check_text_file, not_utf8_cell
 
 __all__ = [
     "TableChunkWriter",
@@ -82,6 +83,7 @@ def _check_exists(path: Path) -> None:
 
 
 def _csv_header(path: Path) -> list[str]:
+    check_text_file(path, "point table (CSV)")
     try:
         with path.open(newline="", encoding="utf-8") as fh:
             row = next(csv.reader(fh), None)
@@ -130,9 +132,12 @@ def _check_required(path: Path, names: Sequence[str], required: Sequence[str]) -
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
     """Scan a CSV for the first empty or non-numeric cell of a required column."""
-    with path.open(newline="", encoding="utf-8") as fh:
+    with path.open(newline="", encoding="utf-8", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
-        header = [c.strip() for c in next(reader)]
+        try:
+            header = [c.strip() for c in next(reader)]
+        except (csv.Error, StopIteration) as err:
+            return InputError(f"{path}: cannot read the header ({err})")
         return _first_bad_cell(path, reader, header, required, first_line=0, first_row=0)
 
 
@@ -148,26 +153,36 @@ def _first_bad_cell(
     """First empty or non-numeric required cell read by ``reader`` (a ``csv.reader``).
 
     The reader's line 1 is file line ``first_line + 1``; its first non-empty line is
-    data row ``first_row``.
+    data row ``first_row``. A byte that is not UTF-8 in any cell (text decoded with
+    ``errors="surrogateescape"``) and a line the ``csv`` module cannot read are bad too.
     """
     cols = [(name, list(header).index(name)) for name in required]
     row = first_row - 1
-    for cells in reader:
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            return None
+        except csv.Error as err:
+            line = first_line + reader.line_num
+            return InputError(f"{path}: line {line}: cannot read as CSV ({err})")
         if not cells or all(not c.strip() for c in cells):
             continue
         row += 1
+        for cell in cells:
+            if (err := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
+                return err
         for name, i in cols:
             cell = cells[i].strip() if i < len(cells) else ""
             try:
                 float(cell)
             except ValueError:
-                what = "empty cell" if not cell else f"{cell!r} is not a number"
+                what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
                 msg = (
                     f"{path}: line {first_line + reader.line_num} (data row {row}), column "
                     f"{name!r}: {what}; fix or remove the row"
                 )
                 return InputError(msg)
-    return None
 
 
 def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
@@ -222,9 +237,11 @@ def _chunk_to_numpy(
     return out
 
 
-def _csv_batches(path: Path, required: Sequence[str], block_bytes: int) -> Iterator[Any]:
+def _csv_batches(
+    path: Path, required: Sequence[str], block_bytes: int, text: Sequence[str] = ()
+) -> Iterator[Any]:
     convert = pa_csv.ConvertOptions(
-        column_types=dict.fromkeys(required, pa.float64()),
+        column_types=dict.fromkeys(required, pa.float64()) | dict.fromkeys(text, pa.string()),
         null_values=[""],
         strings_can_be_null=False,
     )
@@ -250,7 +267,7 @@ def _csv_batches(path: Path, required: Sequence[str], block_bytes: int) -> Itera
 
 
 def iter_table_chunks(
-    path: Path, chunk_points: int, required: Sequence[str]
+    path: Path, chunk_points: int, required: Sequence[str], *, extra_as_text: bool = False
 ) -> Iterator[dict[str, np.ndarray[Any, Any]]]:
     """Stream a CSV or Parquet point table in chunks of at most ``chunk_points`` rows.
 
@@ -262,6 +279,9 @@ def iter_table_chunks(
         Rows per chunk (every chunk but the last has exactly this many), >= 1.
     required : sequence of str
         Columns that must be present and numeric; returned as float64.
+    extra_as_text : bool
+        Read the other columns of a CSV as text (to write them back exactly as they
+        were: ``007`` stays ``007``) instead of inferring their types.
 
     Yields
     ------
@@ -285,7 +305,8 @@ def iter_table_chunks(
     _check_required(path, names, required)
     if suffix == ".csv":
         block = int(min(max(chunk_points * 16 * max(len(names), 1), 1 << 20), 1 << 30))
-        batches: Iterator[Any] = _csv_batches(path, required, block)
+        text = [n for n in names if n not in required] if extra_as_text else []
+        batches: Iterator[Any] = _csv_batches(path, required, block, text)
     else:
         try:
             pf = pq.ParquetFile(path)
@@ -543,7 +564,10 @@ def plan_table_slices(
     chunk_points : int
         Most rows per slice, >= 1 (CSV: every slice but the last has exactly this many).
     required : sequence of str
-        Columns that must be present and numeric (read as float64).
+        Columns that must be present and numeric (read as float64). The other columns
+        of a CSV are read as text, so that they are written back exactly as they were
+        (``007`` stays ``007``, a 2**70 integer stays whole); those of a Parquet file
+        keep their types.
 
     Returns
     -------
@@ -569,8 +593,8 @@ def plan_table_slices(
         inferred = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
         schema = pa.schema(  # the header's names (stripped), required columns float64
             [
-                pa.field(name, pa.float64() if name in required else field.type)
-                for name, field in zip(names, inferred, strict=True)
+                pa.field(name, pa.float64() if name in required else pa.string())
+                for name, _ in zip(names, inferred, strict=True)
             ]
         )
         try:
@@ -606,7 +630,8 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
         )
     except pa.ArrowInvalid as err:
         if "conversion error" in str(err):
-            reader = csv.reader(io.StringIO(data.decode("utf-8", errors="replace"), newline=""))
+            text = data.decode("utf-8", errors="surrogateescape")
+            reader = csv.reader(io.StringIO(text, newline=""))
             bad = _first_bad_cell(
                 path,
                 reader,

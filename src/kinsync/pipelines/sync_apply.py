@@ -17,6 +17,7 @@ import numpy as np
 
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
+from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
 from kinsync.mount import Mount
 from kinsync.sync.scan import ProfileScan
@@ -86,7 +87,7 @@ def apply_profile_clock(
     last_profile = 0.0
     line_offset = 2 if scan_path.suffix.lower() == ".csv" else None
     with TableChunkWriter(Path(out_path)) as writer:
-        for chunk in iter_table_chunks(scan_path, chunk_points, required):
+        for chunk in iter_table_chunks(scan_path, chunk_points, required, extra_as_text=True):
             clash = [c for c in APPLY_COLUMNS if c in chunk]
             if clash:
                 msg = (
@@ -106,10 +107,14 @@ def apply_profile_clock(
             last_profile = float(chunk["profile"][-1])
             phi = chunk["angle_rad"]
             rng_m = chunk["range_m"]
-            bad = ~(np.isfinite(phi) & np.isfinite(rng_m))
+            bad = ~(np.isfinite(phi) & (rng_m >= 0.0) & (rng_m <= MAX_SCANNER_RANGE_M))
             if np.any(bad):
                 row = int(np.flatnonzero(bad)[0])
-                msg = f"{scan_path}: data row {done + row}: angle_rad or range_m is not finite"
+                msg = (
+                    f"{scan_path}: data row {done + row}: angle_rad {float(phi[row])!r}, "
+                    f"range_m {float(rng_m[row])!r}: a range is a finite distance, 0 to "
+                    f"{MAX_SCANNER_RANGE_M:.0f} m, and an angle finite; fix or remove the row"
+                )
                 raise InputError(msg)
             xyz = mount.profile_to_scanner(phi, rng_m)
             out = dict(chunk)
