@@ -216,7 +216,7 @@ def test_bad_input(
     clock.write_text("{")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock), "--t0-s", "1"]), "not both")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock)]), "c.json", "not valid JSON")
-    assert_one_line_error(*run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s > 0")
+    assert_one_line_error(*run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s 0: outside")
     timed = tmp_path / "timed.csv"
     timed.write_text("profile,angle_rad,range_m,t_s\n0,0.1,2.0,5.0\n")
     bad = ["sync", "apply", "--scan", str(timed), "--mount", mount, "--out", out]
