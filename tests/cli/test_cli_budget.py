@@ -58,10 +58,13 @@ def test_period_json(run_cli: RunCli) -> None:
 @pytest.mark.parametrize(
     ("argv", "fragment"),
     [
-        (["budget", "serial", "--baud", "-115200", "--bytes", "14"], "baud must be positive"),
+        (
+            ["budget", "serial", "--baud", "-115200", "--bytes", "14"],
+            "--baud -115200: outside the span",
+        ),
         (["budget", "serial", "--baud", "115200", "--bytes", "-1"], "bytes"),
         (["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"], "parity"),
-        (["budget", "latency", "--range-m", "-50"], "range_m"),
+        (["budget", "latency", "--range-m", "-50"], "--range-m -50: outside the span"),
         (["budget", "latency", "--slope-deg", "0"], "slope_deg"),
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
         (

@@ -68,15 +68,15 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("extra", "fragment"),
     [
-        (["--passes", "-1"], "--passes must be at least 1"),
+        (["--passes", "-1"], "--passes -1: outside the span"),
         (["--rates-deg-s", "2,,x"], "item 2 is empty"),
         (["--rates-deg-s", "2,x"], "'x') is not a number"),
         (["--rates-deg-s", ""], "--rates-deg-s is empty"),
         (["--rates-deg-s", "0"], "must be a rate magnitude > 0"),
         (["--rates-deg-s", "-2"], "must be a rate magnitude > 0"),
         (["--format", "ply"], "--format must be csv, las or laz"),
-        (["--fifo-bytes", "-3"], "fifo_bytes"),
-        (["--range-noise-m", "-0.1"], "range_noise_m"),
+        (["--fifo-bytes", "-3"], "--fifo-bytes -3: outside the span"),
+        (["--range-noise-m", "-0.1"], "--range-noise-m -0.1: outside the span"),
         (["--passes", "two"], "--passes"),
     ],
 )
@@ -217,10 +217,10 @@ def test_patch_test_lines_georeference_onto_the_scene(run_cli: RunCli, tmp_path:
     [
         (["--scenario", "plane"], "--scenario must be vehicle or vessel"),
         (["--format", "csv"], "--format must be laz or las"),
-        (["--density", "0"], "--density must lie in (0, 1]"),
-        (["--density", "1.5"], "--density must lie in (0, 1]"),
-        (["--passes", "0"], "--passes must be at least 1"),
-        (["--latency-ms", "nan"], "--latency-ms must be finite"),
+        (["--density", "0"], "--density 0: outside the span"),
+        (["--density", "1.5"], "--density 1.5: outside the span"),
+        (["--passes", "0"], "--passes 0: outside the span"),
+        (["--latency-ms", "nan"], "--latency-ms nan: not a finite number"),
         (["--latency-ms", "900"], "latency error 0.9 s"),
         (["--speeds-m-s", "5,x"], "item 2 ('x') is not a number"),
         (["--speeds-m-s", "5,-1"], "must be a speed > 0 m/s"),
@@ -228,7 +228,7 @@ def test_patch_test_lines_georeference_onto_the_scene(run_cli: RunCli, tmp_path:
         (["--boresight-error-deg", "1,2"], "--boresight-error-deg '1,2': expected three"),
         (["--boresight-error-deg", "0,9,0"], "within 5 deg"),
         (["--lever-arm-error-m", "a,b,c"], "--lever-arm-error-m"),
-        (["--range-noise-m", "-1"], "--range-noise-m must be a number >= 0"),
+        (["--range-noise-m", "-1"], "--range-noise-m -1: outside the span"),
         (["--seed", "-1"], "--seed"),
     ],
 )

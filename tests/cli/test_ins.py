@@ -232,7 +232,7 @@ def test_bad_inputs_are_one_line_errors(
     i = argv.index("--init-from")
     del argv[i : i + 2]
     assert_one_line_error(*run_cli(argv), "static")
-    assert_one_line_error(*run_cli([*argv, "--static-s", "-1"]), "static_s", "positive")
+    assert_one_line_error(*run_cli([*argv, "--static-s", "-1"]), "--static-s -1: outside the span")
     # Missing input file.
     argv = _run_args(navego, out)
     argv[argv.index(str(navego["imu"]))] = str(tmp_path / "none.csv")

@@ -84,7 +84,7 @@ def test_table_output_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--duration-s", "-3"], ("--duration-s",)),
         (["--imu-rate-hz", "nan"], ("--imu-rate-hz",)),
         (["--laps", "0"], ("--laps",)),
-        (["--static-s", "-1"], ("static_s",)),
+        (["--static-s", "-1"], ("--static-s -1: outside the span",)),
         (["--seed", "-2"], ("seed",)),
     ],
 )

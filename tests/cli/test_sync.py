@@ -203,7 +203,9 @@ def test_bad_input(
     args = _object_space(folder)
     args[args.index("--scan") + 1] = str(tmp_path / "none.csv")
     assert_one_line_error(*run_cli(args), "none.csv", "not found")
-    assert_one_line_error(*run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "--period-tolerance")
+    assert_one_line_error(
+        *run_cli([*_object_space(folder), "--period-tolerance", "0.7"]), "--period-tolerance"
+    )
     assert_one_line_error(
         *run_cli([*_object_space(folder), "--position-corr-time-s", "-1"]), "--position-corr-time-s"
     )
@@ -216,7 +218,9 @@ def test_bad_input(
     clock.write_text("{")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock), "--t0-s", "1"]), "not both")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock)]), "c.json", "not valid JSON")
-    assert_one_line_error(*run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s 0: outside")
+    assert_one_line_error(
+        *run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s 0: outside"
+    )
     timed = tmp_path / "timed.csv"
     timed.write_text("profile,angle_rad,range_m,t_s\n0,0.1,2.0,5.0\n")
     bad = ["sync", "apply", "--scan", str(timed), "--mount", mount, "--out", out]
