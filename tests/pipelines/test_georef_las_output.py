@@ -12,7 +12,7 @@ import pytest
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
-from kinsync.io.las import LasChunkWriter
+from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.mount import Mount

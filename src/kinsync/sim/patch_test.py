@@ -81,7 +81,8 @@ from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef, rotation_ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
 from kinsync.io.atomic import atomic_write_text, output_folder
-from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasChunkWriter
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.mount_file import write_mount
 from kinsync.io.sbet import SECONDS_PER_WEEK, write_sbet
 from kinsync.mount import Mount

@@ -1,0 +1,187 @@
+"""LAS/LAZ headers, checked against the file before laspy parses them.
+
+laspy reads past the end of its header bytes without complaint (a VLR count of 2**31
+is two billion empty VLRs) and raises whatever its parsing meets in damaged bytes;
+`read_las_header` checks the header's sizes, VLRs and EVLRs against the file first, and
+an uncompressed file's size against the header's point count, so that a truncated or
+corrupt file is an `InputError` naming what is missing.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+from pathlib import Path
+from typing import BinaryIO
+
+import laspy
+from laspy.vlrs.vlrlist import VLRList
+
+from kinsync.errors import InputError
+
+__all__ = ["las_header", "las_suffix", "open_las_file", "read_las_header"]
+
+_LAS_MAX_MINOR = 4  # LAS 1.0 to 1.4
+_LAS_HEADER_MIN_BYTES = 227  # LAS 1.0-1.2 header; 1.3 and 1.4 are longer
+_VLR_HEADER_BYTES = 54
+_EVLR_HEADER_BYTES = 60
+
+
+def las_suffix(path: Path) -> str:
+    """``.las`` or ``.laz`` (lower case); any other suffix is an `InputError`."""
+    suffix = path.suffix.lower()
+    if suffix not in (".las", ".laz"):
+        msg = f"{path}: unknown point cloud type {path.suffix!r}; use .las or .laz"
+        raise InputError(msg)
+    return suffix
+
+
+def open_las_file(path: Path) -> io.BufferedReader:
+    """Open a ``.las``/``.laz`` file for reading; a missing or unreadable one is an `InputError`."""
+    las_suffix(path)
+    try:
+        return path.open("rb")
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot open ({err.strerror or err})"
+        raise InputError(msg) from err
+
+
+def _check_las_size(path: Path, header: laspy.LasHeader, file_size: int) -> None:
+    """An uncompressed file must hold the header's points: else name the missing ones."""
+    n = int(header.point_count)
+    size = int(header.point_format.size)
+    start = int(header.offset_to_point_data)
+    complete = max(0, (file_size - start) // size)
+    if complete < n:
+        held = f"points 0..{complete - 1} are complete" if complete else "no point is complete"
+        msg = (
+            f"{path}: the header says {n} points of {size} bytes from byte {start}, the file "
+            f"ends at byte {file_size}: {held}, points {complete}..{n - 1} are missing; the "
+            "file is truncated: copy it again"
+        )
+        raise InputError(msg)
+
+
+def _check_header_bytes(path: Path, fh: BinaryIO, file_size: int) -> None:
+    """The header's sizes and VLR records must fit the file, before laspy parses them.
+
+    laspy reads past the end of its header bytes without complaint (a VLR count of
+    2**31 is two billion empty VLRs), so the sizes are checked here first.
+    """
+    fh.seek(0)
+    head = fh.read(_LAS_HEADER_MIN_BYTES)
+    if len(head) < _LAS_HEADER_MIN_BYTES or head[:4] != b"LASF":
+        what = "does not start with 'LASF'" if head[:4] != b"LASF" else "is too short"
+        msg = f"{path}: not a LAS/LAZ file (it {what}); check the file"
+        raise InputError(msg)
+    header_size, data_start, n_vlrs = struct.unpack_from("<HII", head, 94)
+    if not _LAS_HEADER_MIN_BYTES <= header_size <= data_start <= file_size:
+        msg = (
+            f"{path}: the header says {header_size} header bytes and points from byte "
+            f"{data_start}, in a file of {file_size} bytes; the file is truncated or corrupt"
+        )
+        raise InputError(msg)
+    fh.seek(header_size)
+    region = fh.read(data_start - header_size)
+    at = 0
+    for k in range(n_vlrs):
+        length = (
+            int.from_bytes(region[at + 20 : at + 22], "little")
+            if at + _VLR_HEADER_BYTES <= len(region)
+            else -1
+        )
+        if length < 0 or at + _VLR_HEADER_BYTES + length > len(region):
+            msg = (
+                f"{path}: VLR {k + 1} of {n_vlrs} (from byte {header_size + at}) runs past "
+                f"the start of the points (byte {data_start}); the file is corrupt"
+            )
+            raise InputError(msg)
+        at += _VLR_HEADER_BYTES + length
+
+
+def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader:
+    """The header, VLRs and EVLRs of an open LAS/LAZ file, every failure an `InputError`.
+
+    An uncompressed file is also checked to hold all the header's points.
+    """
+    _check_header_bytes(path, fh, file_size)
+    fh.seek(0)
+    try:
+        header = laspy.LasHeader.read_from(fh, read_evlrs=False)
+    # laspy raises whatever its parsing meets in damaged bytes (LaspyException,
+    # ValueError, struct.error, UnicodeDecodeError, IndexError, ...): all mean that the
+    # file is not a readable LAS/LAZ.
+    except Exception as err:
+        msg = (
+            f"{path}: cannot read the LAS/LAZ header ({type(err).__name__}: {err}); check "
+            "that the file is a complete LAS or LAZ file"
+        )
+        raise InputError(msg) from err
+    version = (int(header.version.major), int(header.version.minor))
+    if version[0] != 1 or version[1] > _LAS_MAX_MINOR:
+        msg = f"{path}: LAS version {version[0]}.{version[1]} is not supported (1.0 to 1.4)"
+        raise InputError(msg)
+    if not header.are_points_compressed:
+        _check_las_size(path, header, file_size)
+    n_evlrs = int(header.number_of_evlrs) if header.version.minor >= 4 else 0
+    if n_evlrs:
+        _check_evlrs(path, fh, header, file_size)
+        try:
+            header.read_evlrs(fh)
+        except Exception as err:  # as above
+            msg = (
+                f"{path}: cannot read the extended VLRs at byte {header.start_of_first_evlr} "
+                f"({type(err).__name__}: {err}); the file is corrupt"
+            )
+            raise InputError(msg) from err
+    else:
+        header.evlrs = VLRList() if header.version.minor >= 4 else None
+    return header
+
+
+def _check_evlrs(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int) -> None:
+    """Each extended VLR's header and data must lie in the file (laspy reads short ones)."""
+    n_evlrs = int(header.number_of_evlrs)
+    at = int(header.start_of_first_evlr)
+    for k in range(n_evlrs):
+        if at < header.offset_to_point_data or at + _EVLR_HEADER_BYTES > file_size:
+            what = f"at byte {at}" if k == 0 else f"{k + 1} of {n_evlrs} at byte {at}"
+            msg = (
+                f"{path}: the header places extended VLR {what} beyond the end of the "
+                f"file ({file_size} bytes); the file is truncated or corrupt"
+            )
+            raise InputError(msg)
+        fh.seek(at)
+        raw = fh.read(_EVLR_HEADER_BYTES)
+        user_id = raw[2:18].split(b"\0", 1)[0].decode("ascii", "replace")
+        record_id = int.from_bytes(raw[18:20], "little")
+        length = int.from_bytes(raw[20:28], "little")
+        end = at + _EVLR_HEADER_BYTES + length
+        if end > file_size:
+            msg = (
+                f"{path}: extended VLR {k + 1} of {n_evlrs} ({user_id!r}, record {record_id}) "
+                f"runs from byte {at} to {end}, beyond the end of the file ({file_size} "
+                "bytes); the file is truncated or corrupt"
+            )
+            raise InputError(msg)
+        at = end
+
+
+def las_header(path: Path) -> laspy.LasHeader:
+    """Read the header of a LAS/LAZ file with its VLRs and EVLRs (no points).
+
+    The template for `kinsync.io.las_writer.LasChunkWriter` (the LAZ description VLR
+    is kept: writers replace it).
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown suffix, unreadable header, VLRs or EVLRs.
+    """
+    path = Path(path)
+    with open_las_file(path) as fh:
+        return read_las_header(path, fh, os.fstat(fh.fileno()).st_size)
