@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -114,6 +115,7 @@ def georef(
     """Georeference a point file: scanner frame + trajectory + mount -> CRS coordinates."""
     # numba, laspy and pyarrow load with the pipeline: only when this command runs.
     from kinsync.pipelines.georef import georeference_file  # noqa: PLC0415
+    from kinsync.trajectory import VelocityConsistencyWarning  # noqa: PLC0415
 
     if outside not in _OUTSIDE:
         msg = f"--outside must be 'error' or 'reject', got {outside!r}"
@@ -124,16 +126,20 @@ def georef(
     the_mount = read_mount(mount)
     if latency_ms is not None:
         the_mount = the_mount.with_latency(latency_ms * 1e-3)
-    with Progress(
-        TextColumn("georef"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("points"),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-        disable=not err_console.is_terminal,  # keep a redirected stderr to the one error line
-    ) as bar:
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        Progress(
+            TextColumn("georef"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("points"),
+            TimeElapsedColumn(),
+            console=err_console,
+            transient=True,
+            disable=not err_console.is_terminal,  # keep a redirected stderr to the one error line
+        ) as bar,
+    ):
+        warnings.simplefilter("always", VelocityConsistencyWarning)
         task = bar.add_task("points", total=None)
 
         def progress(done: int, total: int | None) -> None:
@@ -154,8 +160,17 @@ def georef(
             point_columns=_POINT_COLUMNS[point_columns],
             profiler_azimuth_deg=profiler_azimuth_deg,
         )
+    notes = []  # trajectory velocities that disagree with the positions: said, never silent
+    for w in caught:
+        if issubclass(w.category, VelocityConsistencyWarning):
+            notes.append(f"{trajectory}: {w.message}")
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    notes += summary.warnings
+    for note in notes:
+        typer.echo(f"kinsync: warning: {note}", err=True)
     if as_json:
-        print_json(summary.as_document())
+        print_json({**summary.as_document(), "warnings": notes})
         return
     table = Table(title=f"Georeferenced {points} -> {out} ({crs})")
     table.add_column("quantity")

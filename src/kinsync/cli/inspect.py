@@ -95,6 +95,24 @@ def _smrmsg_rows(doc: dict[str, Any]) -> dict[str, str]:
     return rows
 
 
+def _velocity_rows(doc: dict[str, Any]) -> dict[str, str]:
+    """Table rows of a velocity check (`kinsync.trajectory.VelocityCheck.as_document`)."""
+    window = f"{doc['window_s']:.3g} s"
+    scale = doc["velocity_scale"]
+    return {
+        "positions interpolated": "cubic Hermite (velocities agree)"
+        if doc["consistent"]
+        else "linearly (velocities disagree with the positions)",
+        "velocity scale (1 = agree)": "-" if scale is None else f"{scale:.4g}",
+        f"velocity mismatch per {window}, horizontal (m RMS)": (
+            f"{doc['rms_mismatch_horizontal_m']:.3g} of {doc['rms_displacement_horizontal_m']:.3g}"
+        ),
+        f"velocity mismatch per {window}, vertical (m RMS)": (
+            f"{doc['rms_mismatch_vertical_m']:.3g} of {doc['rms_displacement_vertical_m']:.3g}"
+        ),
+    }
+
+
 @trajectory_app.command("info")
 def trajectory_info(
     path: Annotated[
@@ -121,7 +139,12 @@ def trajectory_info(
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy)."""
+    """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy).
+
+    Velocities are checked against the positions; when they disagree a warning says so
+    (on stderr, and under ``warnings`` with --json): georeferencing then interpolates
+    positions linearly.
+    """
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
     from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
 
@@ -133,6 +156,8 @@ def trajectory_info(
     accuracy = smrmsg if smrmsg is not None else (find_smrmsg_companion(path) if is_sbet else None)
     dt = np.diff(traj.t_s)
     rate = np.degrees(np.linalg.norm(traj.angular_rate_body_rad_s(), axis=1))
+    check = traj.velocity_check
+    warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
     doc: dict[str, Any] = {
         "format": "sbet" if is_sbet else "csv",
         "records": len(traj),
@@ -143,6 +168,8 @@ def trajectory_info(
         "max_gap_s": float(dt.max()),
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,
+        "velocity_check": None if check is None else check.as_document(),
+        "warnings": warnings,
     }
     if is_sbet:
         doc["smrmsg"] = (
@@ -150,12 +177,19 @@ def trajectory_info(
             if accuracy is None
             else _smrmsg_document(accuracy, gps_week, traj.t_start_s, traj.t_end_s)
         )
+    for warning in warnings:
+        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     if as_json:
         print_json(doc)
         return
+    nested = ("smrmsg", "velocity_check", "warnings")
     rows = {
-        k: f"{v:.10g}" if isinstance(v, float) else str(v) for k, v in doc.items() if k != "smrmsg"
+        k: f"{v:.10g}" if isinstance(v, float) else str(v)
+        for k, v in doc.items()
+        if k not in nested
     }
+    if check is not None:
+        rows |= _velocity_rows(check.as_document())
     if is_sbet:
         rows |= {"smrmsg": "none found"} if doc["smrmsg"] is None else _smrmsg_rows(doc["smrmsg"])
     _print_quantities(f"Trajectory {path}", rows)

@@ -10,6 +10,12 @@ quaternion instead of composing separately interpolated NED and body rotations c
 the attitude by far less than 1e-9 rad at vehicle speeds: the NED frame turns by only
 ``v·dt/R_earth`` per record (``tests/georef/test_georef.py`` shows it).
 
+Velocities that disagree with the positions (`kinsync.trajectory.check_velocities`:
+zero, scaled, swapped or unrotated velocities of a converted file) are dropped here,
+with a `kinsync.trajectory.VelocityConsistencyWarning`: the kernel then interpolates
+positions linearly, as for a trajectory without velocities, and
+`GeorefTrajectory.velocity_warning` keeps the reason.
+
 References
 ----------
 Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp).
@@ -18,7 +24,8 @@ Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -33,7 +40,8 @@ from kinsync.frames import (
     quaternion_to_matrix,
     rotation_ned_to_ecef,
 )
-from kinsync.trajectory import Trajectory
+from kinsync.mount import MAX_LATENCY_S
+from kinsync.trajectory import Trajectory, VelocityConsistencyWarning
 
 __all__ = [
     "GeorefTrajectory",
@@ -105,6 +113,9 @@ class GeorefTrajectory:
     rotvec_interval_body : ndarray, shape (N-1, 3)
         Rotation vector (rad, body frame of the left record) of each record-to-record
         increment of ``q_body_to_ecef``, shortest arc: the slerp increments.
+    velocity_warning : str or None
+        Why the source trajectory's velocities were dropped (they disagree with its
+        positions; positions are then interpolated linearly), or None.
     """
 
     trajectory: Trajectory
@@ -114,6 +125,7 @@ class GeorefTrajectory:
     vel_ecef_m_s: FloatArray | None
     q_body_to_ecef: FloatArray
     rotvec_interval_body: FloatArray
+    velocity_warning: str | None = None
 
     @classmethod
     def from_trajectory(cls, trajectory: Trajectory, latency_s: float = 0.0) -> GeorefTrajectory:
@@ -130,15 +142,32 @@ class GeorefTrajectory:
         Returns
         -------
         GeorefTrajectory
+            Without velocities (``vel_ecef_m_s`` None, ``velocity_warning`` saying why)
+            when the trajectory's velocities disagree with its positions; a
+            `VelocityConsistencyWarning` is issued then.
 
         Raises
         ------
         InputError
-            A non-finite latency.
+            A non-finite latency, or one beyond `kinsync.mount.MAX_LATENCY_S` (a
+            time-scale or unit mistake, not a latency).
         """
         if not math.isfinite(latency_s):
             msg = f"georeference latency_s must be finite, got {latency_s!r}"
             raise InputError(msg)
+        if abs(latency_s) > MAX_LATENCY_S:
+            msg = (
+                f"georeference latency_s = {latency_s!r} s is beyond +-{MAX_LATENCY_S:g} s: "
+                "a latency is a delay of milliseconds; a larger offset is a time-scale or "
+                "unit mistake (put the trajectory and the points on one time scale)"
+            )
+            raise InputError(msg)
+        check = trajectory.velocity_check
+        velocity_warning = None
+        if check is not None and not check.consistent:
+            velocity_warning = check.message
+            warnings.warn(velocity_warning, VelocityConsistencyWarning, stacklevel=2)
+            trajectory = replace(trajectory, vel_ned_m_s=None)
         corrected = trajectory.corrected_for_latency(float(latency_s))
         if corrected.lat_lon_h is not None:
             lat, lon, h = corrected.lat_lon_h.T
@@ -166,6 +195,7 @@ class GeorefTrajectory:
             vel_ecef_m_s=None if vel is None else readonly_array(vel, copy=False),
             q_body_to_ecef=readonly_array(q, copy=False),
             rotvec_interval_body=readonly_array(rotvec, copy=False),
+            velocity_warning=velocity_warning,
         )
 
     def __len__(self) -> int:
