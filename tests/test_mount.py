@@ -16,7 +16,14 @@ from numpy.testing import assert_allclose, assert_array_equal
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.io.mount_file import read_mount, write_mount
-from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
+from kinsync.mount import (
+    MAX_ANGLE_DEG,
+    MAX_LATENCY_S,
+    MAX_LEVER_ARM_M,
+    Mount,
+    mount_from_toml_text,
+    mount_to_toml_text,
+)
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 """Any finite float64: subnormals, -0.0, 1e-300, 1.7e308 and everything between."""
@@ -28,6 +35,22 @@ mounts = st.builds(
     antenna_lever_arm_body_m=triples,
     latency_s=finite,
 )
+"""Any mount the container takes (it takes every finite value)."""
+
+
+def _within(limit: float) -> st.SearchStrategy[float]:
+    """Floats a mount file may hold: subnormals, -0.0 and the bound itself included."""
+    return st.floats(min_value=-limit, max_value=limit, allow_nan=False)
+
+
+file_mounts = st.builds(
+    Mount,
+    lever_arm_body_m=st.tuples(*[_within(MAX_LEVER_ARM_M)] * 3),
+    boresight_rpy_deg=st.tuples(*[_within(MAX_ANGLE_DEG)] * 3),
+    antenna_lever_arm_body_m=st.tuples(*[_within(MAX_LEVER_ARM_M)] * 3),
+    latency_s=_within(MAX_LATENCY_S),
+)
+"""Mounts a mount file may hold (within the plausibility bounds of the reader)."""
 
 SCHEMA_DEFAULT = (
     "[mount]\n"
@@ -56,7 +79,7 @@ def _bits(m: Mount) -> list[str]:
 
 
 @settings(max_examples=200, deadline=None)
-@given(mount=mounts)
+@given(mount=file_mounts)
 def test_toml_text_round_trip_is_exact(mount: Mount) -> None:
     back = mount_from_toml_text(mount_to_toml_text(mount))
     assert back == mount
@@ -66,7 +89,7 @@ def test_toml_text_round_trip_is_exact(mount: Mount) -> None:
 @settings(
     max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
-@given(mount=mounts)
+@given(mount=file_mounts)
 def test_file_round_trip_is_exact(mount: Mount, tmp_path: Path) -> None:
     path = tmp_path / "mount.toml"
     write_mount(mount, path)
@@ -76,13 +99,34 @@ def test_file_round_trip_is_exact(mount: Mount, tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mount.toml"]  # no temporary left
 
 
+@settings(max_examples=50, deadline=None)
+@given(mount=mounts)
+def test_any_finite_mount_is_written_exactly(mount: Mount) -> None:
+    """The container takes any finite value and its text keeps every bit (the reader bounds)."""
+    doc = tomllib.loads(mount_to_toml_text(mount))["mount"]
+    keys = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m")
+    values = [*(v for k in keys for v in doc[k]), doc["latency_s"]]
+    assert [float(v).hex() for v in values] == _bits(mount)
+
+
 @pytest.mark.parametrize(
-    "value", [5e-324, 2.2250738585072014e-308, 1e-300, 1.7976931348623157e308, -0.0, 1e16, 0.1]
+    "value", [5e-324, 2.2250738585072014e-308, 1e-300, -0.0, 0.1, 1.0 / 3.0, 9.999999999999998]
 )
 def test_extreme_values_round_trip(value: float) -> None:
     mount = Mount((value, -value, 1.0), (value, 0.0, -value), (0.0, value, 0.0), value)
     text = mount_to_toml_text(mount)
     assert _bits(mount_from_toml_text(text)) == _bits(mount)
+
+
+def test_values_at_the_bounds_round_trip() -> None:
+    mount = Mount(
+        (MAX_LEVER_ARM_M, -MAX_LEVER_ARM_M, 0.0),
+        (-MAX_ANGLE_DEG, MAX_ANGLE_DEG, 0.0),
+        (0.0, 0.0, -MAX_LEVER_ARM_M),
+        -MAX_LATENCY_S,
+        profiler_azimuth_deg=MAX_ANGLE_DEG,
+    )
+    assert mount_from_toml_text(mount_to_toml_text(mount)) == mount
 
 
 def test_text_layout_is_the_schema() -> None:
@@ -100,14 +144,14 @@ def test_text_layout_is_the_schema() -> None:
     ]
 
 
-def test_integers_and_missing_keys_are_accepted() -> None:
+def test_integers_and_missing_vectors_are_accepted() -> None:
     mount = mount_from_toml_text("[mount]\nlever_arm_body_m = [1, 2, -3]\nlatency_s = 0\n")
     assert mount.lever_arm_body_m == (1.0, 2.0, -3.0)
     assert all(isinstance(v, float) for v in mount.lever_arm_body_m)
     assert isinstance(mount.latency_s, float)
     assert mount.boresight_rpy_deg == (0.0, 0.0, 0.0)
     assert mount.antenna_lever_arm_body_m == (0.0, 0.0, 0.0)
-    assert mount_from_toml_text("[mount]\n") == Mount()
+    assert mount_from_toml_text("[mount]\nlatency_s = 0.0\n") == Mount()
 
 
 # ---------------------------------------------------------------- the container

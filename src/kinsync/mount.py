@@ -10,11 +10,23 @@ The TOML schema (exactly these keys)::
 
     [profiler]          # optional: 2D profile scanners only
     azimuth_deg = 0.0   # fixed rotation about the scanner Z axis of the profile plane
+
+``latency_s`` is required: the latency is what kinsync measures, and a file without it
+must not silently mean zero (write ``latency_s = 0.0`` when zero is meant). A missing
+lever arm or boresight means zero. Values a mount cannot have are refused on reading:
+a latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond +-`MAX_LEVER_ARM_M`,
+an angle beyond +-`MAX_ANGLE_DEG`. The `Mount` container itself takes any finite
+values (estimators and simulators build mounts freely).
+
+`toml_document` is the one TOML parser of kinsync's readers (mounts, INS
+configurations): it accepts a UTF-8 byte-order mark and names the line and column of a
+syntax error.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -27,11 +39,92 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix
 
-__all__ = ["Mount", "mount_from_toml_text", "mount_to_toml_text"]
+__all__ = [
+    "MAX_ANGLE_DEG",
+    "MAX_LATENCY_S",
+    "MAX_LEVER_ARM_M",
+    "Mount",
+    "mount_from_toml_text",
+    "mount_to_toml_text",
+    "toml_document",
+]
 
 Vector3 = tuple[float, float, float]
 
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
+
+MAX_LATENCY_S = 10.0
+"""Largest latency (s, either sign) a mount file may give. Latencies are milliseconds
+(sensor delay, serial transmission, buffering: SPEC section 2); seconds are a time-scale
+or unit mistake (UTC for GPS time, ms written as s) that georeferencing must not hide,
+and 1e308 would wipe out every trajectory time."""
+
+MAX_LEVER_ARM_M = 1000.0
+"""Largest lever arm component (m, either sign): beyond any vehicle or vessel."""
+
+MAX_ANGLE_DEG = 360.0
+"""Largest boresight or profiler angle (deg, either sign): one turn."""
+
+_BOM = "\ufeff"
+_TOML_END = " (at end of document)"
+_TOML_WHERE = re.compile(r"^(?P<what>.*?) \(at line (?P<line>\d+), column (?P<col>\d+)\)$")
+
+
+def toml_document(text: str, source: str) -> dict[str, Any]:
+    """Parse a TOML document; the one TOML parser of kinsync's readers.
+
+    Parameters
+    ----------
+    text : str
+        The document; a leading UTF-8 byte-order mark (as some Windows editors write)
+        is dropped.
+    source : str
+        Name used in error messages (usually the file path).
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Raises
+    ------
+    InputError
+        Malformed TOML: ``<source>: line L, column C: malformed TOML: <reason>``; an
+        integer of more than 4300 digits; nesting too deep for the parser.
+    """
+    body = text.removeprefix(_BOM)
+    try:
+        doc: dict[str, Any] = tomllib.loads(body)
+    except tomllib.TOMLDecodeError as err:
+        where = _TOML_WHERE.match(str(err))
+        if where is not None:
+            place, reason = f"line {where['line']}, column {where['col']}: ", where["what"]
+        elif str(err).endswith(_TOML_END):
+            last = body.rsplit("\n", 1)[-1]
+            line = body.count("\n") + 1
+            place = f"line {line}, column {len(last) + 1} (end of document): "
+            reason = str(err).removesuffix(_TOML_END)
+        else:
+            place, reason = "", str(err)
+        msg = f"{source}: {place}malformed TOML: {reason}; fix the TOML syntax there"
+        raise InputError(msg) from err
+    except ValueError as err:  # tomllib's int() of more than 4300 digits
+        reason = str(err).split(";")[0].split(":")[0]
+        msg = f"{source}: malformed TOML: a number too long to read ({reason})"
+        raise InputError(msg) from err
+    except RecursionError as err:
+        msg = f"{source}: malformed TOML: arrays or tables nested too deeply"
+        raise InputError(msg) from err
+    return doc
+
+
+def _as_float(value: float | np.floating[Any] | np.integer[Any], label: str) -> float:
+    """``float(value)``; an integer too large for a float64 is an `InputError`."""
+    try:
+        return float(value)
+    except OverflowError as err:
+        msg = f"{label}: a {len(str(value))}-digit integer is too large (floats end near 1.8e308)"
+        raise InputError(msg) from err
 
 
 def _vector3(value: object, name: str, where: str) -> Vector3:
@@ -45,7 +138,8 @@ def _vector3(value: object, name: str, where: str) -> Vector3:
     ):
         msg = f"{where}{name}: expected a list of 3 numbers, got {value!r}"
         raise InputError(msg)
-    out = (float(items[0]), float(items[1]), float(items[2]))
+    x, y, z = (_as_float(v, f"{where}{name}") for v in items)
+    out = (x, y, z)
     if not all(math.isfinite(v) for v in out):
         msg = f"{where}{name}: values must be finite, got {list(out)}"
         raise InputError(msg)
@@ -87,19 +181,21 @@ class Mount:
         if isinstance(lat, bool) or not isinstance(lat, (int, float, np.floating, np.integer)):
             msg = f"mount latency_s: expected a number of seconds, got {lat!r}"
             raise InputError(msg)
-        if not math.isfinite(float(lat)):
+        lat_s = _as_float(lat, "mount latency_s")
+        if not math.isfinite(lat_s):
             msg = f"mount latency_s: must be finite, got {lat!r}"
             raise InputError(msg)
-        object.__setattr__(self, "latency_s", float(lat))
+        object.__setattr__(self, "latency_s", lat_s)
         az = self.profiler_azimuth_deg
         if az is not None:
             if isinstance(az, bool) or not isinstance(az, (int, float, np.floating, np.integer)):
                 msg = f"mount [profiler] azimuth_deg: expected a number of degrees, got {az!r}"
                 raise InputError(msg)
-            if not math.isfinite(float(az)):
+            az_deg = _as_float(az, "mount [profiler] azimuth_deg")
+            if not math.isfinite(az_deg):
                 msg = f"mount [profiler] azimuth_deg: must be finite, got {az!r}"
                 raise InputError(msg)
-            object.__setattr__(self, "profiler_azimuth_deg", float(az))
+            object.__setattr__(self, "profiler_azimuth_deg", az_deg)
 
     @cached_property
     def R_scanner_to_body(self) -> FloatArray:
@@ -148,8 +244,9 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     Parameters
     ----------
     text : str
-        TOML with a ``[mount]`` table holding the schema's keys (missing keys take
-        their zero default; unknown keys are rejected so a typo cannot pass unnoticed).
+        TOML with a ``[mount]`` table holding the schema's keys: ``latency_s`` is
+        required, a missing lever arm or boresight is zero; unknown keys are rejected
+        so a typo cannot pass unnoticed. A UTF-8 byte-order mark is accepted.
     source : str
         Name used in error messages (usually the file path).
 
@@ -157,13 +254,10 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     ------
     InputError
         Malformed TOML (with line and column), a missing ``[mount]`` table, unknown
-        keys, or values of the wrong type or length.
+        keys, values of the wrong type or length, a missing ``latency_s``, or values
+        beyond `MAX_LATENCY_S`, `MAX_LEVER_ARM_M` or `MAX_ANGLE_DEG`.
     """
-    try:
-        doc: dict[str, Any] = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        msg = f"{source}: malformed TOML: {err}"
-        raise InputError(msg) from err
+    doc = toml_document(text, source)
     table = doc.get("mount")
     if not isinstance(table, Mapping):
         msg = f"{source}: no [mount] table; expected keys {', '.join(_KEYS)}"
@@ -185,7 +279,7 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
         if isinstance(lat, bool) or not isinstance(lat, (int, float)):
             msg = f"{where}latency_s: expected a number of seconds, got {lat!r}"
             raise InputError(msg)
-        kwargs["latency_s"] = float(lat)
+        kwargs["latency_s"] = _as_float(lat, f"{where}latency_s")
     if "profiler" in doc:
         prof = doc["profiler"]
         if not isinstance(prof, Mapping):
@@ -197,10 +291,51 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             raise InputError(msg)
         kwargs["profiler_azimuth_deg"] = prof.get("azimuth_deg", 0.0)
     try:
-        return Mount(**kwargs)
+        mount = Mount(**kwargs)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
+    if "latency_s" not in table:
+        msg = (
+            f"{where}latency_s is missing; write latency_s = 0.0 explicitly if the latency "
+            "is zero (a missing latency is not taken to mean zero)"
+        )
+        raise InputError(msg)
+    _check_plausible(mount, source)
+    return mount
+
+
+def _check_plausible(mount: Mount, source: str) -> None:
+    """Refuse values no mount has (`MAX_LATENCY_S`, `MAX_LEVER_ARM_M`, `MAX_ANGLE_DEG`)."""
+    if abs(mount.latency_s) > MAX_LATENCY_S:
+        msg = (
+            f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
+            f"+-{MAX_LATENCY_S:g} s; latencies are milliseconds: a larger value is a unit "
+            "or time-scale mistake (give seconds, and put the trajectory and the points on "
+            "one time scale)"
+        )
+        raise InputError(msg)
+    limits = (
+        ("lever_arm_body_m", MAX_LEVER_ARM_M, "m", "no vehicle is that large: metres expected"),
+        ("antenna_lever_arm_body_m", MAX_LEVER_ARM_M, "m", "no vehicle is that large"),
+        ("boresight_rpy_deg", MAX_ANGLE_DEG, "deg", "give angles in degrees within one turn"),
+    )
+    for name, limit, unit, hint in limits:
+        values: Vector3 = getattr(mount, name)
+        for i, value in enumerate(values):
+            if abs(value) > limit:
+                msg = (
+                    f"{source}: [mount] {name}[{i}] = {value!r} {unit} is beyond "
+                    f"+-{limit:g} {unit} ({hint})"
+                )
+                raise InputError(msg)
+    az = mount.profiler_azimuth_deg
+    if az is not None and abs(az) > MAX_ANGLE_DEG:
+        msg = (
+            f"{source}: [profiler] azimuth_deg = {az!r} deg is beyond +-{MAX_ANGLE_DEG:g} deg "
+            "(give degrees within one turn)"
+        )
+        raise InputError(msg)
 
 
 def mount_to_toml_text(mount: Mount) -> str:

@@ -31,14 +31,16 @@ accepted too and converted on reading (give one key per quantity, not two)::
 Conversions: 1 deg/sqrt(h) = (pi/180)/60 rad/s/sqrt(Hz); 1 m/s/sqrt(h) = 1/60
 m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2. Unknown tables
 and keys are rejected (a typo must not silently fall back to a default), as are keys
-given in two units. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats,
-so a write/read round trip is exact.
+given in two units. Values must be plausible (in SI units): noise terms and σ within
+1e-12 to 1e6 (the filter squares them and divides by them), correlation times within
+1e-9 to 1e10 s, ``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components within
++-1000 m. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats, so a
+write/read round trip is exact.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +49,9 @@ from typing import Any
 from kinsync.errors import InputError
 from kinsync.ins.config import InsConfig
 from kinsync.io.atomic import atomic_write_text
+from kinsync.io.mount_file import read_toml_text
+from kinsync.io.sanity import Span, check_values
+from kinsync.mount import toml_document
 
 __all__ = [
     "G0_M_S2",
@@ -62,15 +67,25 @@ G0_M_S2 = 9.80665
 _DEG = math.pi / 180.0
 
 
+_TERM = Span(1e-12, 1e6, "(SI units)", "an IMU noise or bias term or a standard deviation")
+"""Plausible noise densities, bias terms and σ (`kinsync.io.sanity`): squared and divided
+by in the filter, so far from 0 and from float64's limits."""
+_CORR_TIME = Span(1e-9, 1e10, "s", "a bias correlation time")
+_GAP = Span(1e-9, 1e6, "s", "an IMU gap")
+_LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehicle)")
+_PROBABILITY = Span(0.0, 1.0, "", "a probability")
+
+
 @dataclass(frozen=True)
 class _Field:
-    """One `InsConfig` field: its table, accepted keys with factors to SI, vector or not."""
+    """One `InsConfig` field: its table, keys with factors to SI, vector or not, span."""
 
     attr: str
     table: str
     keys: tuple[tuple[str, float], ...]
     vector: bool = False
     required: bool = False
+    span: Span = _TERM
 
 
 _FIELDS = (
@@ -118,16 +133,22 @@ _FIELDS = (
         (("acc_bias_instability_m_s2", 1.0), ("acc_bias_instability_mg", G0_M_S2 * 1e-3)),
         required=True,
     ),
-    _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),)),
-    _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),)),
+    _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),), span=_CORR_TIME),
+    _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),), span=_CORR_TIME),
     _Field("gnss_std_pos_ned_m", "gnss", (("std_pos_ned_m", 1.0),), vector=True),
     _Field("gnss_std_vel_ned_m_s", "gnss", (("std_vel_ned_m_s", 1.0),), vector=True),
-    _Field("antenna_lever_arm_body_m", "gnss", (("antenna_lever_arm_body_m", 1.0),), vector=True),
+    _Field(
+        "antenna_lever_arm_body_m",
+        "gnss",
+        (("antenna_lever_arm_body_m", 1.0),),
+        vector=True,
+        span=_LEVER_ARM,
+    ),
     _Field("init_std_att_rad", "init", (("std_att_rad", 1.0), ("std_att_deg", _DEG)), vector=True),
     _Field("init_std_vel_ned_m_s", "init", (("std_vel_ned_m_s", 1.0),), vector=True),
     _Field("init_std_pos_ned_m", "init", (("std_pos_ned_m", 1.0),), vector=True),
-    _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),)),
-    _Field("gate_probability", "filter", (("gate_probability", 1.0),)),
+    _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),), span=_GAP),
+    _Field("gate_probability", "filter", (("gate_probability", 1.0),), span=_PROBABILITY),
 )
 
 _TABLES = ("imu", "gnss", "init", "filter")
@@ -137,7 +158,11 @@ def _number(value: object, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         msg = f"{where}: expected a number, got {value!r}"
         raise InputError(msg)
-    out = float(value)
+    try:
+        out = float(value)
+    except OverflowError as err:
+        msg = f"{where}: a {len(str(value))}-digit integer is too large (floats end near 1.8e308)"
+        raise InputError(msg) from err
     if not math.isfinite(out):
         msg = f"{where}: must be finite, got {value!r}"
         raise InputError(msg)
@@ -148,9 +173,30 @@ def _value(value: object, field: _Field, factor: float, where: str) -> Any:
     if not field.vector:
         return _number(value, where) * factor
     if not isinstance(value, list) or len(value) != 3:
-        msg = f"{where}: expected a list of 3 numbers, got {value!r}"
+        msg = f"{where}: expected a list of 3 numbers, got {str(value)[:80]}"
         raise InputError(msg)
     return tuple(_number(v, f"{where}[{i}]") * factor for i, v in enumerate(value))
+
+
+def _check_spans(config: InsConfig, given: dict[str, str], source: str) -> None:
+    """Every value given within its field's span (`_Field.span`), in SI units.
+
+    ``given`` maps a field to ``"[table] key"`` as written; `InsConfig` has already
+    refused non-positive values with its own messages.
+    """
+    for field in _FIELDS:
+        if field.attr not in given:
+            continue
+        value = getattr(config, field.attr)
+        where = f"{source}: {given[field.attr]}"
+        if field.vector:
+
+            def component(i: int, w: str = where) -> str:
+                return f"{w}[{i}] (in SI units)"
+
+            check_values(value, field.span, component)
+        else:
+            check_values([value], field.span, f"{where} (in SI units)")
 
 
 def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
@@ -159,7 +205,7 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
     Parameters
     ----------
     text : str
-        TOML document.
+        TOML document (a leading UTF-8 byte-order mark is accepted).
     source : str
         Name used in error messages (usually the file path).
 
@@ -173,13 +219,10 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
     InputError
         Malformed TOML (line and column), an unknown table or key, a quantity given in
         two units, a missing required ``[imu]`` key, a value of the wrong type or
-        length, a non-positive σ or time, a gate probability outside (0, 1).
+        length, a value outside its plausible span (module docstring), a gate
+        probability outside (0, 1).
     """
-    try:
-        doc: dict[str, Any] = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        msg = f"{source}: malformed TOML: {err}"
-        raise InputError(msg) from err
+    doc = toml_document(text, source)
     unknown_tables = sorted(set(doc) - set(_TABLES))
     if unknown_tables:
         msg = (
@@ -198,6 +241,7 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
             msg = f"{source}: unknown key(s) in [{name}]: {unknown}; expected one of {known}"
             raise InputError(msg)
     kwargs: dict[str, Any] = {}
+    written: dict[str, str] = {}
     for field in _FIELDS:
         table = doc.get(field.table, {})
         given = [(k, f) for k, f in field.keys if k in table]
@@ -215,11 +259,14 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
             continue
         key, factor = given[0]
         kwargs[field.attr] = _value(table[key], field, factor, f"{source}: [{field.table}] {key}")
+        written[field.attr] = f"[{field.table}] {key}"
     try:
-        return InsConfig(**kwargs)
+        config = InsConfig(**kwargs)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
+    _check_spans(config, written, source)
+    return config
 
 
 def ins_config_to_toml_text(config: InsConfig) -> str:
@@ -244,14 +291,7 @@ def ins_config_to_toml_text(config: InsConfig) -> str:
 def read_ins_config(path: Path) -> InsConfig:
     """Read an INS configuration TOML file; errors name the file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        msg = f"{path}: INS configuration file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{path}: cannot read INS configuration ({err})"
-        raise InputError(msg) from err
+    text = read_toml_text(path, "INS configuration file")
     return ins_config_from_toml_text(text, source=str(path))
 
 

@@ -1,4 +1,4 @@
-"""Mount TOML files (schema in `kinsync.mount`)."""
+"""Mount TOML files (schema in `kinsync.mount`), and the reading of kinsync's TOML files."""
 
 from __future__ import annotations
 
@@ -8,21 +8,63 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
 
-__all__ = ["read_mount", "write_mount"]
+__all__ = ["MAX_TOML_BYTES", "read_mount", "read_toml_text", "write_mount"]
+
+MAX_TOML_BYTES = 1 << 20
+"""Largest TOML file read (bytes): kinsync's TOML files hold a few dozen values."""
+
+
+def read_toml_text(path: Path, what: str) -> str:
+    """The text of a small UTF-8 TOML file, for `kinsync.mount.toml_document`.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    what : str
+        What the file is, for messages ("mount file", "INS configuration").
+
+    Returns
+    -------
+    str
+        The text as stored (a UTF-8 byte-order mark is kept; the parser drops it).
+
+    Raises
+    ------
+    InputError
+        A missing file, a directory, one larger than `MAX_TOML_BYTES`, or one that is
+        not UTF-8 text (naming the byte at fault), or any other read failure.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:  # a bounded read: a device or a huge file cannot hang it
+            data = fh.read(MAX_TOML_BYTES + 1)
+    except FileNotFoundError as err:
+        msg = f"{path}: {what} not found"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot read {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+    if len(data) > MAX_TOML_BYTES:
+        msg = (
+            f"{path}: larger than {MAX_TOML_BYTES} bytes, too large for a {what}; is this "
+            "the right file?"
+        )
+        raise InputError(msg)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        msg = (
+            f"{path}: the {what} is not UTF-8 text (byte {err.start}: {err.reason}); "
+            "save it as UTF-8"
+        )
+        raise InputError(msg) from err
 
 
 def read_mount(path: Path) -> Mount:
-    """Read a mount TOML file; errors name the file."""
+    """Read a mount TOML file; errors name the file (and the line, key or bound at fault)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        msg = f"{path}: mount file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{path}: cannot read mount file ({err})"
-        raise InputError(msg) from err
-    return mount_from_toml_text(text, source=str(path))
+    return mount_from_toml_text(read_toml_text(path, "mount file"), source=str(path))
 
 
 def write_mount(mount: Mount, path: Path) -> None:
