@@ -33,7 +33,9 @@ def test_module_entry_point_runs_in_a_subprocess() -> None:
         check=False,
     )
     assert proc.returncode == 2
-    assert proc.stderr.strip() == "kinsync: error: baud must be positive, got -1.0"
+    assert proc.stderr.strip() == (
+        "kinsync: error: --baud -1: outside the span kinsync accepts, 50 to 2e+07 bit/s"
+    )
     assert proc.stdout == ""
 
 
@@ -90,7 +92,7 @@ HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
         ("0,46,-71,10,0,0,0\n2,46,-71,10,0,0,1\n1,46,-71,10,0,0,2\n", ("decreasing", "row 2")),
         (
             "0,46,-71,10,0,0,0\n1,nan,-71,10,0,0,1\n2,46,-71,10,0,0,2\n",
-            ("non-finite", "row 1", "line 3"),
+            ("not a finite number", "line 3", "lat_deg"),
         ),
         ("0,46,-71,10,0,0,0\n1,46,-71,10,0,zz,1\n", ("line 3", "pitch_deg", "'zz'")),
         ("0,46,-71,10,0,0,0\n1,46,-71,10,0,0\n", ("line 3", "fields")),

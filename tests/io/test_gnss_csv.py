@@ -135,10 +135,10 @@ def test_reads_the_navego_file() -> None:
             ["line 3", "std_vn_m_s"],
         ),
         (f"{HEAD}\n0,1,2,3\n1,nan,2,3\n", ["line 3", "lat_deg", "finite"]),
-        (f"{HEAD}\n0,1,2,3\n1,91,2,3\n", ["outside [-90, 90]", "row 1 (line 3)"]),
+        (f"{HEAD}\n0,1,2,3\n1,91,2,3\n", ["'lat_deg'", "outside -90 to 90", "line 3"]),
         (f"{HEAD}\n0,1,2,3\n0,1,2,3\n", ["duplicate", "row 1 (line 3)"]),
         (f"{HEAD}\n5,1,2,3\n4,1,2,3\n", ["decreasing", "line 3"]),
-        (f"{HEAD},vn_m_s,ve_m_s,vd_m_s\n0,1,2,3,0,0,0\n1,1,2,3,0,nan,0\n", ["velocity", "line 3"]),
+        (f"{HEAD},vn_m_s,ve_m_s,vd_m_s\n0,1,2,3,0,0,0\n1,1,2,3,0,nan,0\n", ["ve_m_s", "line 3"]),
         (f"{HEAD}\n0,1,2,3\n1,1,x,3\n", ["line 3", "lon_deg"]),
     ],
 )

@@ -122,8 +122,11 @@ def test_write_rejects_unknown_form(tmp_path: Path) -> None:
             ["decreasing", "row 2 (line 4)", "sort"],
         ),
         (f"{INC_HEADER}\n0,0,0,0,0,0,-0.1\n0,0,0,0,0,0,-0.1\n", ["duplicate", "line 3"]),
-        (f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\n1,nan,0,0,0,0,-9.8\n", ["gyro", "row 1 (line 3)"]),
-        (f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\nnan,0,0,0,0,0,-9.8\n", ["non-finite time", "line 3"]),
+        (f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\n1,nan,0,0,0,0,-9.8\n", ["gyro_x", "line 3"]),
+        (
+            f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\nnan,0,0,0,0,0,-9.8\n",
+            ["'t_s'", "not a finite", "line 3"],
+        ),
         (f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\n1,0,0,0,0,0,g\n", ["line 3", "acc_z_m_s2"]),
         (f"{RATE_HEADER}\n0,0,0,0,0,0,-9.8\n1,0,0,0\n", ["line 3 has 4 fields"]),
     ],

@@ -100,7 +100,7 @@ def _write_text(tmp_path: Path, name: str, text: str) -> Path:
         ),
         ("profile,angle_rad,range_m,intensity\n0.5,0.1,2,0.5\n", ["row 0 (line 2)", "whole"]),
         ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["row 0", ">= 0"]),
-        ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["negative range"]),
+        ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["'range_m'", "negative"]),
         ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
         ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
         ("", ["empty file"]),
@@ -207,7 +207,7 @@ def test_clock_document(tmp_path: Path) -> None:
         "[1, 2]": "JSON object",
         json.dumps({"t0_s": 1.0}): "'period_s' must be a finite number",
         json.dumps({"t0_s": "1", "period_s": 0.03}): "'t0_s' must be a finite number",
-        json.dumps({"t0_s": 1.0, "period_s": -0.03}): "must be > 0",
+        json.dumps({"t0_s": 1.0, "period_s": -0.03}): "'period_s': -0.03 is negative",
     }
     for i, (text, frag) in enumerate(cases.items()):
         with pytest.raises(InputError, match=frag):

@@ -205,7 +205,7 @@ BREAKERS: dict[str, Callable[[Path], None]] = {
         ("attitude column", r"attitude\.csv: missing column\(s\) \['pitch_deg'\]"),
         ("pass column", r"pass_002\.csv: missing column\(s\) \['t_s'\]"),
         ("non-numeric", r"pass_000\.csv: line 5, column 'x_m': 'abc' is not a number"),
-        ("non-finite", r"pass_000\.csv: line 7, column 'x_m': not a finite number"),
+        ("non-finite", r"pass_000\.csv: line 7, column 'x_m': nan is not a finite number"),
         ("repeated tag", r"attitude\.csv: line 4: repeated time"),
         ("empty pass", r"pass_001\.csv: the raw pass holds no points"),
         ("no index", r"passes\.csv: file not found"),

@@ -35,6 +35,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "check_not_an_input",
+    "check_output_location",
     "output_folder",
     "protected_inputs",
 ]
@@ -118,6 +119,64 @@ def check_not_an_input(
             raise InputError(msg)
 
 
+def _probe_writable(folder: Path, shown: str) -> None:
+    """Create and remove a temporary file in ``folder``: the one sure test of writing.
+
+    ``os.access`` is not (root passes it on folders it cannot write, such as /sys).
+    """
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".kinsync.{os.getpid()}.", suffix=".part", dir=folder)
+    except OSError as err:
+        why = err.strerror or err
+        msg = f"{shown}: cannot write in the folder {folder} ({why}); choose another"
+        raise InputError(msg) from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        Path(name).unlink()
+
+
+def check_output_location(path: Path, option: str = "", *, folder: bool = False) -> None:
+    """Refuse an output that cannot be written there, before any work is done.
+
+    Parameters
+    ----------
+    path : Path
+        The output file, or folder (``folder=True``).
+    option : str
+        Command-line option naming it in the message (e.g. ``"--out"``).
+    folder : bool
+        The output is a folder (created if missing) rather than a file.
+
+    Raises
+    ------
+    InputError
+        A file output that is an existing folder or whose folder does not exist; a
+        folder output that is an existing file or lies below one; a location where no
+        file can be created (permissions, a read-only or virtual file system).
+    """
+    path = Path(path)
+    shown = f"{option} {path}" if option else str(path)
+    if folder:
+        if path.exists() and not path.is_dir():
+            msg = f"{shown}: exists and is not a folder; give a folder for the output"
+            raise InputError(msg)
+        probe = path
+        while not probe.exists() and probe != probe.parent:
+            probe = probe.parent
+        if not probe.is_dir():
+            msg = f"{shown}: {probe} is a file, not a folder; give a folder for the output"
+            raise InputError(msg)
+    else:
+        if path.is_dir():
+            msg = f"{shown}: is an existing folder; give a file name for the output"
+            raise InputError(msg)
+        probe = path.parent if str(path.parent) else Path()
+        if not probe.is_dir():
+            msg = f"{shown}: output folder {probe} does not exist; create it first"
+            raise InputError(msg)
+    _probe_writable(probe, shown)
+
+
 _PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.part")
 
 
@@ -167,8 +226,8 @@ def atomic_path(path: Path) -> Iterator[Path]:
         fd, tmp_name = tempfile.mkstemp(
             prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent
         )
-    except PermissionError:
-        msg = f"{path}: cannot write in the folder {parent} (permission denied); choose another"
+    except OSError as err:
+        msg = f"{path}: cannot write in the folder {parent} ({err.strerror or err}); choose another"
         raise InputError(msg) from None
     os.close(fd)
     tmp = Path(tmp_name)

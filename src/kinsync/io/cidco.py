@@ -99,6 +99,18 @@ from kinsync.frames import (
     euler_rpy_to_quaternion,
     rotation_ned_to_ecef,
 )
+from kinsync.io.sanity import (
+    ANGLE_DEG,
+    HEIGHT_M,
+    INTENSITY,
+    LATITUDE_DEG,
+    LENGTH_M,
+    LONGITUDE_DEG,
+    MAX_TEXT_ROWS_BYTES,
+    TIME_S,
+    check_columns,
+    check_text_file,
+)
 from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
 
@@ -148,6 +160,28 @@ DEFAULT_PAD_S = CIDCO_LINE_PERIOD_S
 """How far (s) the trajectory of `cidco_scan_line` extends beyond the first/last return."""
 
 _CIDCO_FILES = "sphere*/passage_*.txt"
+_COLUMNS = (
+    ("ECEF x", LENGTH_M),
+    ("ECEF y", LENGTH_M),
+    ("ECEF z", LENGTH_M),
+    ("local x", LENGTH_M),
+    ("local y", LENGTH_M),
+    ("local z", LENGTH_M),
+    ("intensity", INTENSITY),
+    ("LiDAR time", TIME_S),
+    ("LiDAR x", LENGTH_M),
+    ("LiDAR y", LENGTH_M),
+    ("LiDAR z", LENGTH_M),
+    ("heading", ANGLE_DEG),
+    ("pitch", ANGLE_DEG),
+    ("roll", ANGLE_DEG),
+    ("latitude", LATITUDE_DEG),
+    ("longitude", LONGITUDE_DEG),
+    ("height", HEIGHT_M),
+)
+_COLUMN_NAMES = tuple(f"{k} ({name})" for k, (name, _) in enumerate(_COLUMNS, start=1))
+_SPANS = tuple(span for _, span in _COLUMNS)
+"""Plausible values of the 17 columns (`kinsync.io.sanity`)."""
 _STAMP_TOLERANCE_S = 1e-3
 """Largest misfit (s), beyond the 32-bit rounding, of column 8 to the rebuilt times."""
 
@@ -267,15 +301,15 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
     Raises
     ------
     InputError
-        Missing or unreadable file, no data, a line with another number of fields or a
-        non-numeric / non-finite value (the message names the file, line and column).
+        Missing or unreadable file, not a text file or larger than 256 MiB
+        (`kinsync.io.sanity.check_text_file`), no data, a line with another number of
+        fields, a non-numeric, non-finite or implausible value (`kinsync.io.sanity`; the
+        message names the file, line and column).
     """
     path = Path(path)
+    check_text_file(path, "CIDCO pass file", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
         text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
     except (OSError, UnicodeDecodeError) as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
@@ -290,6 +324,11 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
     if data.shape[1] != CIDCO_COLUMNS or not np.isfinite(data).all():
         raise _locate_bad_line(path, text)
     file_line = np.array([no for no, _ in numbered], dtype=np.int64)
+    check_columns(
+        dict(zip(_COLUMN_NAMES, data.T, strict=True)),
+        dict(zip(_COLUMN_NAMES, _SPANS, strict=True)),
+        lambda row: f"{path}: line {int(file_line[row])}",
+    )
     file_line.setflags(write=False)
     return CidcoPass(
         source=str(path),

@@ -30,6 +30,7 @@ from kinsync._typing import FloatArray
 from kinsync.clock import ClockFit, ClockModel
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
+from kinsync.io.sanity import TIME_S, check_values, load_json
 from kinsync.io.tables import read_numeric_csv
 
 __all__ = [
@@ -71,23 +72,15 @@ def read_clock_model(path: Path) -> ClockModel:
     Raises
     ------
     InputError
-        Missing or unreadable file, invalid JSON (with line and column), missing or
-        invalid fields.
+        Missing or unreadable file, not a small UTF-8 JSON file, invalid JSON (with line
+        and column), NaN/Infinity or an integer too large for a float
+        (`kinsync.io.sanity.load_json`), missing or invalid fields.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
+    if not path.exists():
         msg = f"{path}: clock model file not found; write one with kinsync clock fit --model-out"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{path}: cannot read clock model ({err})"
-        raise InputError(msg) from err
-    try:
-        doc: Any = json.loads(text)
-    except json.JSONDecodeError as err:
-        msg = f"{path}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
-        raise InputError(msg) from err
+        raise InputError(msg)
+    doc: Any = load_json(path, "clock model file")
     return ClockModel.from_document(doc, source=str(path))
 
 
@@ -102,19 +95,15 @@ def read_pps_csv(path: Path) -> FloatArray:
     Raises
     ------
     InputError
-        Missing file or column, no rows, a non-numeric, non-finite, repeated or
-        decreasing time (with its line).
+        Missing file or column, no rows, a non-numeric, non-finite, implausible
+        (`kinsync.io.sanity.TIME_S`), repeated or decreasing time (with its line).
     """
     table = read_numeric_csv(Path(path), ["t_local_s"])
     t = table.columns["t_local_s"]
     if len(t) == 0:
         msg = f"{path}: no pulses (the file has a header and no rows)"
         raise InputError(msg)
-    bad = np.flatnonzero(~np.isfinite(t))
-    if len(bad):
-        line = table.line_of_row(int(bad[0]))
-        msg = f"{path}: line {line}, column 't_local_s': {t[bad[0]]!r} is not a finite time"
-        raise InputError(msg)
+    check_values(t, TIME_S, lambda i: f"{path}: line {table.line_of_row(i)}, column 't_local_s'")
     steps = np.flatnonzero(np.diff(t) <= 0.0)
     if len(steps):
         row = int(steps[0]) + 1

@@ -22,6 +22,14 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.sanity import (
+    HEIGHT_M,
+    LATITUDE_DEG,
+    LENGTH_M,
+    LONGITUDE_DEG,
+    Span,
+    check_values,
+)
 from kinsync.io.tables import read_csv_rows
 from kinsync.validation.control_points import ControlPoints
 
@@ -33,6 +41,13 @@ __all__ = [
 
 GEODETIC_COLUMNS = ("lat_deg", "lon_deg", "h_m")
 ECEF_COLUMNS = ("x_m", "y_m", "z_m")
+_SPANS: dict[str, Span] = {
+    "lat_deg": LATITUDE_DEG,
+    "lon_deg": LONGITUDE_DEG,
+    "h_m": HEIGHT_M,
+    **dict.fromkeys(ECEF_COLUMNS, LENGTH_M),
+}
+"""Plausible coordinates (`kinsync.io.sanity`)."""
 
 
 def _coordinate_columns(path: Path, header: list[str]) -> tuple[str, ...]:
@@ -81,12 +96,10 @@ def _parse_row(
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            msg = f"{path}: line {line}, column {col!r}: {cell!r} is not a finite number"
+            msg = f"{path}: line {line}, column {col!r}: {cell[:80]!r} is not a finite number"
             raise InputError(msg)
+        check_values([value], _SPANS[col], f"{path}: line {line}, column {col!r}")
         out[j] = value
-    if coords == GEODETIC_COLUMNS and abs(out[0]) > 90.0:
-        msg = f"{path}: line {line}: latitude {float(out[0])!r} outside [-90, 90]"
-        raise InputError(msg)
     return name, out
 
 
@@ -109,7 +122,8 @@ def read_control_points(path: Path) -> ControlPoints:
         Missing or unreadable file, empty file, no data rows, no ``name`` column,
         missing or ambiguous coordinate columns, duplicated column names, a row with
         another number of fields than the header, an empty or duplicated name, a cell
-        that is not a finite number, a latitude outside [-90, 90] (each naming the line).
+        that is not a finite number, an implausible coordinate (`kinsync.io.sanity`: a
+        latitude outside [-90, 90], a height beyond 100 km, ...) (each naming the line).
     """
     path = Path(path)
     records = read_csv_rows(path, "control point file")

@@ -23,6 +23,16 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.ins.measurements import GnssData
+from kinsync.io.sanity import (
+    HEIGHT_M,
+    LATITUDE_DEG,
+    LENGTH_M,
+    LONGITUDE_DEG,
+    SPEED_M_S,
+    TIME_S,
+    Span,
+    check_columns,
+)
 from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
 
 __all__ = [
@@ -59,6 +69,26 @@ def _group(table: NumericTable, names: tuple[str, ...]) -> FloatArray | None:
     return np.column_stack([c[n] for n in names]) if all(present) else None
 
 
+_SPANS: dict[str, Span] = {
+    "t_s": TIME_S,
+    "lat_deg": LATITUDE_DEG,
+    "lon_deg": LONGITUDE_DEG,
+    "h_m": HEIGHT_M,
+    **dict.fromkeys(GNSS_VELOCITY_COLUMNS, SPEED_M_S),
+}
+"""Plausible values of the position and velocity columns (`kinsync.io.sanity`)."""
+
+_STD_SPANS: dict[str, Span] = {
+    **dict.fromkeys(
+        GNSS_STD_POSITION_COLUMNS, LENGTH_M.positive(1e-6, "a position standard deviation")
+    ),
+    **dict.fromkeys(
+        GNSS_STD_VELOCITY_COLUMNS, SPEED_M_S.positive(1e-6, "a velocity standard deviation")
+    ),
+}
+"""A σ is at least 1 µm (or µm/s): the filter weighs an epoch by 1/σ²."""
+
+
 def _check_positive_or_nan(table: NumericTable, names: tuple[str, ...], arr: FloatArray) -> None:
     bad = ~(np.isnan(arr) | (np.isfinite(arr) & (arr > 0.0)))
     if bad.any():
@@ -69,6 +99,12 @@ def _check_positive_or_nan(table: NumericTable, names: tuple[str, ...], arr: Flo
             "configured default)"
         )
         raise InputError(msg)
+    check_columns(
+        dict(zip(names, arr.T, strict=True)),
+        _STD_SPANS,
+        lambda row: f"{table.source}: line {table.line_of_row(row)}",
+        allow_nan=names,
+    )
 
 
 def read_gnss_csv(path: Path) -> GnssData:
@@ -89,8 +125,10 @@ def read_gnss_csv(path: Path) -> GnssData:
     InputError
         Missing or unreadable file, missing required columns, a partial optional group,
         velocity σ without velocities, a non-numeric cell, fewer than 2 epochs,
-        non-finite positions or velocities, a latitude outside [-90, 90], repeated or
-        decreasing times, a σ that is zero, negative or infinite (each naming the line).
+        non-finite or implausible times, positions or velocities (`kinsync.io.sanity`:
+        a latitude outside [-90, 90], a height beyond 100 km, ...), repeated or
+        decreasing times, a σ that is zero, negative, infinite or below 1 µm (each
+        naming the line).
     """
     path = Path(path)
     table = read_numeric_csv(
@@ -117,15 +155,7 @@ def read_gnss_csv(path: Path) -> GnssData:
         _check_positive_or_nan(table, GNSS_STD_POSITION_COLUMNS, std_pos)
     if std_vel is not None:
         _check_positive_or_nan(table, GNSS_STD_VELOCITY_COLUMNS, std_vel)
-    for name in GNSS_POSITION_COLUMNS:
-        bad = ~np.isfinite(c[name])
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            msg = (
-                f"{path}: line {table.line_of_row(row)}, column {name!r}: "
-                f"{c[name][row]!r} is not a finite number"
-            )
-            raise InputError(msg)
+    check_columns(c, _SPANS, lambda row: f"{path}: line {table.line_of_row(row)}")
     try:
         return GnssData(
             t_s=c["t_s"],

@@ -19,6 +19,7 @@ Errors name the file and the line (header = line 1).
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Literal
@@ -28,6 +29,13 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.ins.measurements import ImuData
+from kinsync.io.sanity import (
+    ACCELERATION_M_S2,
+    ANGULAR_RATE_RAD_S,
+    TIME_S,
+    Span,
+    check_columns,
+)
 from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
 
 __all__ = ["IMU_INCREMENT_COLUMNS", "IMU_RATE_COLUMNS", "read_imu_csv", "write_imu_csv"]
@@ -56,6 +64,11 @@ IMU_INCREMENT_COLUMNS = (
 
 ImuForm = Literal["rates", "increments"]
 
+_ANY = Span(-math.inf, math.inf, "", "a number")
+_RATE_SPANS = (ANGULAR_RATE_RAD_S,) * 3 + (ACCELERATION_M_S2,) * 3
+"""Plausible rates and specific forces (`kinsync.io.sanity`), increments once divided by
+their interval."""
+
 
 def _rows_to_lines(text: str, table: NumericTable) -> str:
     """Add the file line to every ``row N`` (0-based data row) in a message."""
@@ -73,6 +86,39 @@ def _first_intervals_s(t_s: FloatArray) -> FloatArray:
     dt[1:] = diffs
     dt[0] = np.median(diffs)
     return dt
+
+
+def _rates(
+    table: NumericTable, names: tuple[str, ...], form: ImuForm
+) -> tuple[FloatArray, FloatArray]:
+    """Angular rates and specific forces (N, 3) of a table, checked finite and plausible.
+
+    Increments are divided by their interval; the spans are checked on the rates they
+    give (when the times increase: otherwise `ImuData` names the repeated time).
+    """
+    c = table.columns
+
+    def where(row: int) -> str:
+        return f"{table.source}: line {table.line_of_row(row)}"
+
+    check_columns(c, {"t_s": TIME_S, **dict.fromkeys(names[1:], _ANY)}, where)
+    t = c["t_s"]
+    first = np.column_stack([c[n] for n in names[1:4]])
+    second = np.column_stack([c[n] for n in names[4:7]])
+    if form == "increments":
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            dt = _first_intervals_s(t)[:, None]
+            first = first / dt
+            second = second / dt
+    if np.all(np.diff(t) > 0.0):
+
+        def where_rate(row: int) -> str:
+            text = " (increment / interval since the row before)" if form == "increments" else ""
+            return f"{where(row)}{text}"
+
+        rates = dict(zip(names[1:], [*first.T, *second.T], strict=True))
+        check_columns(rates, dict(zip(names[1:], _RATE_SPANS, strict=True)), where_rate)
+    return first, second
 
 
 def read_imu_csv(path: Path) -> ImuData:
@@ -93,8 +139,9 @@ def read_imu_csv(path: Path) -> ImuData:
     InputError
         Missing or unreadable file, a header with neither or both forms, or only part
         of one form's columns, a non-numeric cell, fewer than 2 rows, non-finite
-        values, repeated or decreasing times (naming the line; sort the file or drop
-        the repeated records).
+        values, an implausible time, angular rate or specific force (`kinsync.io.sanity`;
+        increments divided by their interval), repeated or decreasing times (naming the
+        line; sort the file or drop the repeated records).
     """
     path = Path(path)
     table = read_numeric_csv(path, ("t_s",), IMU_RATE_COLUMNS[1:] + IMU_INCREMENT_COLUMNS[1:])
@@ -125,13 +172,7 @@ def read_imu_csv(path: Path) -> ImuData:
         msg = f"{path}: an IMU file needs at least 2 records, found {table.n_rows}"
         raise InputError(msg)
     t = c["t_s"]
-    first = np.column_stack([c[n] for n in names[1:4]])
-    second = np.column_stack([c[n] for n in names[4:7]])
-    if form == "increments":
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dt = _first_intervals_s(t)[:, None]
-            first = first / dt
-            second = second / dt
+    first, second = _rates(table, names, form)
     try:
         return ImuData(t_s=t, gyro_body_rad_s=first, acc_body_m_s2=second)
     except InputError as err:

@@ -40,9 +40,19 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.ins.solution import NavSolution
+from kinsync.io.sanity import (
+    ACCELERATION_M_S2,
+    ANGLE_DEG,
+    ANGULAR_RATE_RAD_S,
+    LENGTH_M,
+    SPEED_M_S,
+    Span,
+    check_columns,
+    check_text_file,
+)
 from kinsync.io.sbet import read_sbet
 from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
-from kinsync.io.trajectory_csv import read_trajectory_csv
+from kinsync.io.trajectory_csv import SPANS, read_trajectory_csv
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -137,22 +147,29 @@ def write_nav_csv(solution: NavSolution, path: Path) -> None:
     write_numeric_csv(Path(path), cols)
 
 
+_SPANS: dict[str, Span] = {
+    **SPANS,
+    **{n: LENGTH_M.positive(0.0, "a position standard deviation") for n in NAV_STD_COLUMNS[0:3]},
+    **{n: SPEED_M_S.positive(0.0, "a velocity standard deviation") for n in NAV_STD_COLUMNS[3:6]},
+    **{n: ANGLE_DEG.positive(0.0, "an attitude standard deviation") for n in NAV_STD_COLUMNS[6:9]},
+    **dict.fromkeys(NAV_BIAS_COLUMNS[0:3], ANGULAR_RATE_RAD_S),
+    **dict.fromkeys(NAV_BIAS_COLUMNS[3:6], ACCELERATION_M_S2),
+    **{
+        n: ANGULAR_RATE_RAD_S.positive(0.0, "a gyro bias standard deviation")
+        for n in NAV_BIAS_COLUMNS[6:9]
+    },
+    **{
+        n: ACCELERATION_M_S2.positive(0.0, "an accelerometer bias standard deviation")
+        for n in NAV_BIAS_COLUMNS[9:12]
+    },
+}
+"""Plausible values of each column of a solution (`kinsync.io.sanity`)."""
+
+
 def _check_solution_table(table: NumericTable) -> None:
-    """Finite cells, strictly increasing times, latitudes in range, σ >= 0 (naming lines)."""
+    """Finite, plausible cells (σ >= 0), strictly increasing times (naming lines)."""
     c = table.columns
-    for name in NAV_COLUMNS + NAV_STD_COLUMNS + NAV_BIAS_COLUMNS:
-        bad = ~np.isfinite(c[name])
-        if name.startswith("std_"):
-            bad |= c[name] < 0.0
-        if name == "lat_deg":
-            bad |= np.abs(c[name]) > 90.0
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            msg = (
-                f"{table.source}: line {table.line_of_row(row)}, column {name!r}: "
-                f"{c[name][row]!r} is out of range"
-            )
-            raise InputError(msg)
+    check_columns(c, _SPANS, lambda row: f"{table.source}: line {table.line_of_row(row)}")
     dt = np.diff(c["t_s"])
     if (dt <= 0.0).any():
         row = int(np.flatnonzero(dt <= 0.0)[0]) + 1
@@ -180,9 +197,9 @@ def read_nav_csv(path: Path) -> NavSolution:
     Raises
     ------
     InputError
-        Missing file or columns, a non-numeric or non-finite cell, a negative σ, a
-        latitude outside [-90, 90], fewer than 2 rows, repeated or decreasing times
-        (each naming the line).
+        Missing file or columns, a non-numeric, non-finite or implausible cell
+        (`kinsync.io.sanity`: a latitude outside [-90, 90], a negative σ, ...), fewer
+        than 2 rows, repeated or decreasing times (each naming the line).
     """
     path = Path(path)
     table = read_numeric_csv(path, NAV_COLUMNS + NAV_STD_COLUMNS + NAV_BIAS_COLUMNS)
@@ -269,12 +286,10 @@ def write_truth_csv(trajectory: Trajectory, path: Path) -> None:
 
 
 def _csv_header(path: Path) -> list[str]:
+    check_text_file(path, "navigation CSV file")
     try:
         with path.open(newline="", encoding="utf-8") as fh:
             row = next(csv.reader(fh), None)
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err

@@ -44,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from kinsync.errors import InputError
+from kinsync.io.sanity import TIME_S, check_text_file
 from kinsync.messages import (
     TSS1_STATUS,
     Em3000Record,
@@ -571,6 +573,10 @@ def parse_em3000(data: bytes) -> Em3000Record:
 NMEA_LOG_HEADER = ("t_local_s", "sentence")
 """Columns of an NMEA log file (``nmea.csv``)."""
 
+MAX_NMEA_LOG_BYTES = 1 << 30
+"""Largest NMEA log read (1 GiB; a day of 10 sentences per second is about 70 MB): it is
+read whole, then split into lines."""
+
 
 def _display(raw: bytes) -> str:
     return raw.decode("utf-8", "backslashreplace")
@@ -583,12 +589,19 @@ def _unquote(cell: bytes) -> bytes:
     return s
 
 
-def _arrival_time(cell: bytes) -> float | None:
+def _arrival_time(cell: bytes) -> float | str:
+    """The arrival time of a line (s), or why it is not one."""
     s = cell.strip().decode("ascii", "replace")
-    if not _NUMBER.fullmatch(s):
-        return None
-    value = float(s)
-    return value if math.isfinite(value) else None
+    shown = _display(cell.strip()[:80])
+    value = float(s) if _NUMBER.fullmatch(s) else math.nan
+    if not math.isfinite(value):
+        return f"t_local_s {shown!r} is not a finite number"
+    if not TIME_S.low <= value <= TIME_S.high:
+        return (
+            f"t_local_s {shown!r} is outside {TIME_S.low:g} to {TIME_S.high:g} s, the "
+            f"plausible span of {TIME_S.what}"
+        )
+    return value
 
 
 def _read_line(line_no: int, raw: bytes) -> tuple[float, NmeaRecord, str] | RejectedLine:
@@ -599,9 +612,8 @@ def _read_line(line_no: int, raw: bytes) -> tuple[float, NmeaRecord, str] | Reje
         return RejectedLine(line_no, None, _display(raw.strip()), reason)
     sentence = _unquote(sentence_cell)
     t = _arrival_time(time_cell)
-    if t is None:
-        reason = f"t_local_s {_display(time_cell.strip())!r} is not a finite number"
-        return RejectedLine(line_no, None, _display(sentence), reason)
+    if isinstance(t, str):
+        return RejectedLine(line_no, None, _display(sentence), t)
     try:
         record = parse_sentence(sentence)
     except NmeaError as err:
@@ -631,15 +643,22 @@ def read_nmea_log(path: Path) -> NmeaLog:
     Raises
     ------
     NmeaError
-        Naming the file (and line): missing or unreadable file, missing or wrong
-        header, no data line, no line usable.
+        Naming the file (and line): missing or unreadable file, one larger than
+        `MAX_NMEA_LOG_BYTES` or whose first line is not text
+        (`kinsync.io.sanity.check_text_file`), missing or wrong header, no data line,
+        no line usable.
     """
     path = Path(path)
     try:
+        check_text_file(
+            path,
+            "NMEA log file",
+            max_bytes=MAX_NMEA_LOG_BYTES,
+            nul_after_first_line=True,
+        )
         data = path.read_bytes()
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found; give the NMEA log (columns t_local_s,sentence)"
-        raise NmeaError(msg) from err
+    except InputError as err:
+        raise NmeaError(str(err)) from err
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise NmeaError(msg) from err

@@ -29,7 +29,6 @@ A pass file holds the georeferenced points of one pass in the table-centred NED 
 from __future__ import annotations
 
 import csv
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,6 +41,15 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, scaled_coordinates
+from kinsync.io.sanity import (
+    LENGTH_M,
+    MAX_TEXT_ROWS_BYTES,
+    TIME_S,
+    Span,
+    check_columns,
+    check_text_file,
+    check_values,
+)
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
 
@@ -66,6 +74,13 @@ _AXIS = ("axis_n", "axis_e", "axis_d")
 _DEFAULT_AXIS = (0.0, 0.0, 1.0)
 _FORMATS: tuple[PassFileFormat, ...] = ("csv", "las", "laz")
 
+_INDEX_SPANS: dict[str, Span] = {
+    "rate_deg_s": Span(-1000.0, 1000.0, "deg/s", "a table rate"),
+    **dict.fromkeys(_AXIS, Span(-1e6, 1e6, "", "an axis component (the axis is normalised)")),
+}
+_POINT_SPANS: dict[str, Span] = {**dict.fromkeys(_XYZ, LENGTH_M), "t_s": TIME_S}
+"""Plausible values in passes.csv and in a pass file (`kinsync.io.sanity`)."""
+
 
 # ---------------------------------------------------------------------- reading
 @dataclass(frozen=True)
@@ -82,16 +97,16 @@ def _number(cell: str, column: str, where: str) -> float:
     try:
         value = float(cell)
     except ValueError:
-        msg = f"{where}, column {column!r}: {cell!r} is not a number"
+        msg = f"{where}, column {column!r}: {cell[:80]!r} is not a number"
         raise InputError(msg) from None
-    if not math.isfinite(value):
-        msg = f"{where}, column {column!r}: {cell!r} is not a finite number"
-        raise InputError(msg)
+    check_values([value], _INDEX_SPANS[column], f"{where}, column {column!r}")
     return value
 
 
 def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     """Parse passes.csv into rows; errors name the file and the line."""
+    if index_path.exists():
+        check_text_file(index_path, f"pass index ({PASSES_CSV})", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
         with index_path.open(newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh)
@@ -214,7 +229,8 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
     ------
     InputError
         Missing file, unknown extension, missing ``x_m,y_m,z_m``, a non-numeric cell
-        (line and column), an unreadable LAS/LAZ file, no points.
+        (line and column), an unreadable LAS/LAZ file, no points, a coordinate or time
+        that is not finite or not plausible (`kinsync.io.sanity`).
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -228,6 +244,12 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
     if pts.shape[0] == 0:
         msg = f"{path}: the pass holds no points"
         raise InputError(msg)
+
+    def where(i: int) -> str:
+        return f"{path}: line {i + 2}" if suffix == ".csv" else f"{path}: point {i}"
+
+    columns = dict(zip(_XYZ, pts.T, strict=True)) | ({} if t is None else {"t_s": t})
+    check_columns(columns, _POINT_SPANS, where)
     return pts, t
 
 
@@ -261,8 +283,13 @@ def read_passes(folder: Path) -> list[SpherePass]:
     for row in read_pass_index(index_path):
         where = f"{index_path}: line {row.line}"
         path = folder / row.file
-        if not path.is_file():
-            msg = f"{where}: pass file {row.file!r} not found in {folder}"
+        try:
+            found = path.is_file()
+        except OSError as err:
+            msg = f"{where}: pass file {row.file[:80]!r}: {err.strerror or err}"
+            raise InputError(msg) from err
+        if not found:
+            msg = f"{where}: pass file {row.file[:80]!r} not found in {folder}"
             raise InputError(msg)
         try:
             pts, t = read_pass_file(path)

@@ -170,8 +170,8 @@ def _first_bad_cell(
             continue
         row += 1
         for cell in cells:
-            if (err := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
-                return err
+            if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
+                return bad
         for name, i in cols:
             cell = cells[i].strip() if i < len(cells) else ""
             try:

@@ -22,7 +22,6 @@ Profile clock
 from __future__ import annotations
 
 import csv
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,19 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
+from kinsync.io.sanity import (
+    ANGLE_RAD,
+    HEIGHT_M,
+    INTENSITY,
+    LATITUDE_DEG,
+    LENGTH_M,
+    LONGITUDE_DEG,
+    TIME_S,
+    Span,
+    check_columns,
+    check_values,
+    load_json,
+)
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.sync.scan import (
     SCAN_COLUMNS,
@@ -56,6 +68,17 @@ __all__ = [
 
 _READ_CHUNK = 1 << 20
 
+_SCAN_SPANS: dict[str, Span] = {
+    "angle_rad": ANGLE_RAD,
+    "range_m": LENGTH_M.positive(0.0, "a range"),
+    "intensity": INTENSITY,
+}
+"""Plausible values of the scan's columns (`kinsync.io.sanity`); the profile numbers are
+checked by `ProfileScan.checked_profile_numbers`."""
+
+_SYNC_SPANS = (LATITUDE_DEG, LONGITUDE_DEG, HEIGHT_M)
+_PERIOD_S = Span(1e-5, 100.0, "s", "a profile period (as --period-s)")
+
 
 def read_profile_scan(path: Path) -> ProfileScan:
     """Read a scan table (``.csv`` or ``.parquet``) with ``profile,angle_rad,range_m,intensity``.
@@ -65,8 +88,9 @@ def read_profile_scan(path: Path) -> ProfileScan:
     Raises
     ------
     InputError
-        Missing file or columns, a non-numeric cell, or a bad profile number (naming the
-        row and, for CSV, the line).
+        Missing file or columns, a non-numeric cell, a value that is not finite or not
+        plausible (`kinsync.io.sanity`), or a bad profile number (naming the row and,
+        for CSV, the line).
     """
     path = Path(path)
     parts: dict[str, list[FloatArray]] = {c: [] for c in SCAN_COLUMNS}
@@ -78,6 +102,11 @@ def read_profile_scan(path: Path) -> ProfileScan:
         raise InputError(msg)
     cols = {c: np.concatenate(v) for c, v in parts.items()}
     line_offset = 2 if path.suffix.lower() == ".csv" else None
+
+    def where(row: int) -> str:
+        return f"{path}: " + (f"line {row + 2}" if line_offset else f"row {row}")
+
+    check_columns(cols, _SCAN_SPANS, where)
     profile = ProfileScan.checked_profile_numbers(cols["profile"], str(path), line_offset)
     return ProfileScan(
         profile=profile,
@@ -129,19 +158,17 @@ def write_profile_scan(
 def _coordinates(path: Path, line: int, row: list[str], idx: dict[str, int]) -> list[float]:
     """``[lat_deg, lon_deg, h_m]`` of one sync-point row; errors name the line."""
     values: list[float] = []
-    for col in SYNC_POINT_COLUMNS[1:]:
+    for col, span in zip(SYNC_POINT_COLUMNS[1:], _SYNC_SPANS, strict=True):
         cell = row[idx[col]].strip()
         try:
             value = float(cell)
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            msg = f"{path}: line {line}, column {col!r}: {cell!r} is not a finite number"
+            msg = f"{path}: line {line}, column {col!r}: {cell[:80]!r} is not a finite number"
             raise InputError(msg)
+        check_values([value], span, f"{path}: line {line}, column {col!r}")
         values.append(value)
-    if abs(values[0]) > 90.0:
-        msg = f"{path}: line {line}: latitude {values[0]} outside [-90, 90]"
-        raise InputError(msg)
     return values
 
 
@@ -151,9 +178,10 @@ def read_sync_points(path: Path) -> SyncPoints:
     Raises
     ------
     InputError
-        Missing or unreadable file, missing columns, ragged rows, a non-numeric or
-        non-finite coordinate, a latitude outside [-90, 90], empty or repeated names,
-        no data rows (each naming the line).
+        Missing or unreadable file, missing columns, ragged rows, a non-numeric,
+        non-finite or implausible coordinate (`kinsync.io.sanity`: a latitude outside
+        [-90, 90], a height beyond 100 km), empty or repeated names, no data rows (each
+        naming the line).
     """
     path = Path(path)
     records = read_csv_rows(path)
@@ -209,19 +237,16 @@ def read_pulses(path: Path) -> FloatArray:
     Raises
     ------
     InputError
-        Missing file or column, a non-numeric or non-finite time, fewer than two
-        pulses, a repeated or decreasing time (naming the line).
+        Missing file or column, a non-numeric, non-finite or implausible time
+        (`kinsync.io.sanity.TIME_S`), fewer than two pulses, a repeated or decreasing
+        time (naming the line).
     """
     table = read_numeric_csv(Path(path), ("t_s",))
     t = table.columns["t_s"]
     if t.size < 2:
         msg = f"{path}: {t.size} pulse(s); give one pulse time per profile (at least 2)"
         raise InputError(msg)
-    bad = ~np.isfinite(t)
-    if np.any(bad):
-        row = int(np.flatnonzero(bad)[0])
-        msg = f"{path}: line {table.line_of_row(row)}, column 't_s': not a finite time"
-        raise InputError(msg)
+    check_values(t, TIME_S, lambda row: f"{path}: line {table.line_of_row(row)}, column 't_s'")
     step = np.diff(t)
     if np.any(step <= 0):
         row = int(np.flatnonzero(step <= 0)[0]) + 1
@@ -246,35 +271,23 @@ def read_clock_document(path: Path) -> tuple[float, float]:
     ------
     InputError
         Missing or unreadable file, invalid JSON (line and column), not an object,
-        missing keys, non-finite numbers or a period <= 0.
+        missing keys, non-finite or implausible numbers (`kinsync.io.sanity`), a period
+        outside 10 µs to 100 s.
     """
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError as err:
+    if not path.exists():
         msg = f"{path}: clock file not found; write it with kinsync sync object-space --json"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{path}: cannot read clock file ({err})"
-        raise InputError(msg) from err
-    except json.JSONDecodeError as err:
-        msg = f"{path}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
-        raise InputError(msg) from err
+        raise InputError(msg)
+    doc = load_json(path, "clock file")
     if not isinstance(doc, dict):
         msg = f"{path}: expected a JSON object with t0_s and period_s"
         raise InputError(msg)
     values = []
-    for key in ("t0_s", "period_s"):
+    for key, span in (("t0_s", TIME_S), ("period_s", _PERIOD_S)):
         value = doc.get(key)
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(float(value))
-        ):
-            msg = f"{path}: {key!r} must be a finite number, got {value!r}"
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            msg = f"{path}: {key!r} must be a finite number, got {str(value)[:80]}"
             raise InputError(msg)
+        check_values([float(value)], span, f"{path}: {key!r}")
         values.append(float(value))
-    if values[1] <= 0.0:
-        msg = f"{path}: 'period_s' must be > 0, got {values[1]!r}"
-        raise InputError(msg)
     return values[0], values[1]

@@ -31,6 +31,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.io.sanity import ANGLE_DEG, LENGTH_M, TIME_S, Span, check_columns
 from kinsync.io.tables import NumericTable, read_numeric_csv
 from kinsync.trajectory import Trajectory
 
@@ -72,21 +73,20 @@ def raw_pass_name(file: str) -> str:
     return Path(file).with_suffix(".csv").as_posix()
 
 
-def _first_nonfinite_line(table: NumericTable, columns: tuple[str, ...]) -> str | None:
-    """``"line L, column 'c'"`` of the first non-finite cell, or None."""
-    for row in range(table.n_rows):
-        for name in columns:
-            if not np.isfinite(table.columns[name][row]):
-                return f"line {table.line_of_row(row)}, column {name!r}"
-    return None
+_SPANS: dict[str, Span] = {
+    "t_s": TIME_S,
+    **dict.fromkeys(("roll_deg", "pitch_deg", "yaw_deg"), ANGLE_DEG),
+    **dict.fromkeys(("x_m", "y_m", "z_m"), LENGTH_M),
+}
+"""Plausible values of the raw files' columns (`kinsync.io.sanity`)."""
 
 
 def _check_finite(table: NumericTable, columns: tuple[str, ...]) -> None:
-    data = np.column_stack([table.columns[c] for c in columns])
-    if not np.all(np.isfinite(data)):
-        where = _first_nonfinite_line(table, columns)
-        msg = f"{table.source}: {where}: not a finite number"
-        raise InputError(msg)
+    """Every cell of ``columns`` finite and plausible (`_SPANS`), naming the first bad one."""
+    spans = {name: _SPANS[name] for name in columns}
+    check_columns(
+        table.columns, spans, lambda row: f"{table.source}: line {table.line_of_row(row)}"
+    )
 
 
 def read_raw_attitude(path: Path) -> Trajectory:
@@ -107,8 +107,9 @@ def read_raw_attitude(path: Path) -> Trajectory:
     Raises
     ------
     InputError
-        Naming the file (and line): missing file or columns, a non-numeric or
-        non-finite cell, fewer than two records, repeated or decreasing tags.
+        Naming the file (and line): missing file or columns, a non-numeric,
+        non-finite or implausible cell (`kinsync.io.sanity`), fewer than two records,
+        repeated or decreasing tags.
     """
     path = Path(path)
     if not path.is_file():

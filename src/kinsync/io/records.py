@@ -8,8 +8,13 @@ from typing import Any
 import numpy as np
 
 from kinsync.errors import InputError
+from kinsync.io.sanity import check_record_file
 
-__all__ = ["memmap_records"]
+__all__ = ["MAX_RECORD_FILE_BYTES", "memmap_records"]
+
+MAX_RECORD_FILE_BYTES = 8 << 30
+"""Largest record file read (8 GiB: 2 days of a 200 Hz SBET). Its records are copied into
+arrays of about the file's size (twice for a trajectory)."""
 
 
 def memmap_records(
@@ -31,8 +36,9 @@ def memmap_records(
     Raises
     ------
     InputError
-        Missing, unreadable or empty file, or a length that is not a multiple of the
-        record size.
+        Missing, unreadable or empty file, a length that is not a multiple of the
+        record size, a file larger than `MAX_RECORD_FILE_BYTES`, or one whose first
+        64 KiB of records are all zero bytes (`kinsync.io.sanity.check_record_file`).
     """
     path = Path(path)
     size_b = dtype.itemsize
@@ -54,6 +60,7 @@ def memmap_records(
     if n == 0:
         msg = f"{path}: empty file; an {kind} file holds {size_b}-byte records"
         raise InputError(msg)
+    check_record_file(path, size_b, kind, MAX_RECORD_FILE_BYTES)
     try:
         return np.memmap(path, dtype=dtype, mode="r", shape=(n,))
     except OSError as err:

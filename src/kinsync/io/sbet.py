@@ -46,7 +46,10 @@ platform heading is the heading measured from the wander x axis). Beware that th
 "wander azimuth" of the n-vector library (Gade 2010) is measured the other way (its x
 axis at azimuth ``+alpha``); an SBET's wander angle is not that angle. A trajectory
 read here therefore has the right heading for any wander angle; the velocities (used
-only for Hermite position interpolation between records) rely on the derivation.
+only for Hermite position interpolation between records) rely on the derivation, and
+are checked against the positions before use (`kinsync.trajectory.check_velocities`):
+zero velocities, velocities in other units, or left in the wander frame (wander angles
+beyond about 11 deg) are caught there.
 
 Time scale
 ----------
@@ -71,6 +74,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.records import memmap_records
+from kinsync.io.sanity import ANGLE_RAD, HEIGHT_M, SPEED_M_S, TIME_S, Span, check_columns
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -113,6 +117,17 @@ SBET_DTYPE: np.dtype[np.void] = np.dtype(
 
 SBET_RECORD_BYTES = SBET_DTYPE.itemsize
 """Size of one SBET record (136 bytes)."""
+
+_SPANS: dict[str, Span] = {
+    "time_sow_s": TIME_S,
+    "lat_rad": Span(-math.pi / 2, math.pi / 2, "rad", "a latitude"),
+    "lon_rad": Span(-2 * math.pi, 2 * math.pi, "rad", "a longitude"),
+    "h_m": HEIGHT_M,
+    **dict.fromkeys(("vel_x_wander_m_s", "vel_y_wander_m_s", "vel_z_wander_m_s"), SPEED_M_S),
+    **dict.fromkeys(("roll_rad", "pitch_rad", "platform_heading_rad"), ANGLE_RAD),
+    "wander_angle_rad": ANGLE_RAD,
+}
+"""Plausible values of the fields a trajectory is made of (`kinsync.io.sanity`)."""
 
 
 def wander_to_ned_velocity(
@@ -208,8 +223,9 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     Raises
     ------
     InputError
-        A truncated file (bytes left over), fewer than 2 records, non-finite values,
-        repeated or decreasing times (naming the file and the record, 0-based).
+        A truncated file (bytes left over), fewer than 2 records, non-finite or
+        implausible values (`kinsync.io.sanity`: a height beyond 100 km, ...), repeated
+        or decreasing times (naming the file and the record, 0-based).
     """
     path = Path(path)
     if gps_week is not None and gps_week < 0:
@@ -226,6 +242,11 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     if rec.shape[0] < 2:
         msg = f"{path}: a trajectory needs at least 2 records, the SBET holds {rec.shape[0]}"
         raise InputError(msg)
+    check_columns(
+        {name: rec[name] for name in _SPANS},
+        _SPANS,
+        lambda i: f"{path}: record {i} (byte {i * SBET_RECORD_BYTES})",
+    )
     t = np.array(rec["time_sow_s"], dtype=np.float64)
     if gps_week is not None:
         t = gps_week * SECONDS_PER_WEEK + t
@@ -290,9 +311,10 @@ def write_sbet(trajectory: Trajectory, path: Path, *, wander_angle_rad: float = 
 
     Notes
     -----
-    Velocities are written as zero when the trajectory has none; body accelerations
-    are written as zero; body angular rates come from
-    `Trajectory.angular_rate_body_rad_s`.
+    Velocities are written as zero when the trajectory has none (read back, zero
+    velocities of a moving trajectory fail `Trajectory.velocity_check`: positions are
+    then interpolated linearly, with a warning); body accelerations are written as
+    zero; body angular rates come from `Trajectory.angular_rate_body_rad_s`.
 
     Raises
     ------

@@ -56,6 +56,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.records import memmap_records
+from kinsync.io.sanity import ANGLE_DEG, LENGTH_M, SPEED_M_S, TIME_S, Span, check_columns
 from kinsync.io.sbet import SECONDS_PER_WEEK, seconds_of_first_week
 
 __all__ = [
@@ -89,6 +90,22 @@ SMRMSG_RECORD_BYTES = SMRMSG_DTYPE.itemsize
 
 _ARCMIN_TO_RAD = math.pi / (180.0 * 60.0)
 _FIELDS = len(SMRMSG_DTYPE.names or ())
+_SPANS: dict[str, Span] = {
+    "time_sow_s": TIME_S,
+    **dict.fromkeys(
+        ("std_north_m", "std_east_m", "std_down_m"),
+        LENGTH_M.positive(0.0, "a position standard deviation"),
+    ),
+    **dict.fromkeys(
+        ("std_vel_n_m_s", "std_vel_e_m_s", "std_vel_d_m_s"),
+        SPEED_M_S.positive(0.0, "a velocity standard deviation"),
+    ),
+    **dict.fromkeys(
+        ("std_roll_arcmin", "std_pitch_arcmin", "std_heading_arcmin"),
+        Span(0.0, 60.0 * ANGLE_DEG.high, "arcmin", "an attitude standard deviation"),
+    ),
+}
+"""Plausible values of each field (`kinsync.io.sanity`)."""
 
 
 def _float_block(value: object, shape: tuple[int, ...], name: str) -> FloatArray:
@@ -196,8 +213,8 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
     Raises
     ------
     InputError
-        A truncated or empty file, non-finite values or negative RMS (naming the file
-        and the record, 0-based, with its byte offset).
+        A truncated or empty file, non-finite or implausible values, a negative RMS
+        (naming the file and the record, 0-based, with its byte offset).
     """
     path = Path(path)
     if gps_week is not None and gps_week < 0:
@@ -206,6 +223,11 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
     rec = read_smrmsg_records(path)
     values = np.array(rec.view("<f8").reshape(len(rec), _FIELDS), dtype=np.float64)
     del rec  # closes the map
+    check_columns(
+        dict(zip(SMRMSG_DTYPE.names or (), values.T, strict=True)),
+        _SPANS,
+        lambda i: f"{path}: record {i} (byte {i * SMRMSG_RECORD_BYTES})",
+    )
     t = values[:, 0] if gps_week is None else gps_week * SECONDS_PER_WEEK + values[:, 0]
     try:
         return SmrmsgData(

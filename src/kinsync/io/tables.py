@@ -19,6 +19,14 @@ import pyarrow.csv as pa_csv
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.sanity import (
+    MAX_TABLE_BYTES,
+    MAX_TEXT_ROWS_BYTES,
+    TIME_S,
+    check_text_file,
+    check_values,
+    not_utf8_cell,
+)
 
 __all__ = [
     "NumericTable",
@@ -57,23 +65,31 @@ class NumericTable:
 
 
 def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
-    with path.open(newline="", encoding="utf-8") as fh:
+    with path.open(newline="", encoding="utf-8", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
-        next(reader)
-        for line_no, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            if len(row) != len(header):
-                return InputError(
-                    f"{path}: line {line_no} has {len(row)} fields, the header has {len(header)}"
-                )
-            for name, cell in zip(header, row, strict=True):
-                try:
-                    float(cell)
-                except ValueError:
+        try:
+            next(reader)
+            for line_no, row in enumerate(reader, start=2):
+                if not row or all(not c.strip() for c in row):
+                    continue
+                for cell in row:
+                    if (err := not_utf8_cell(path, line_no, cell)) is not None:
+                        return err
+                if len(row) != len(header):
                     return InputError(
-                        f"{path}: line {line_no}, column {name!r}: {cell!r} is not a number"
+                        f"{path}: line {line_no} has {len(row)} fields, the header has "
+                        f"{len(header)}"
                     )
+                for name, cell in zip(header, row, strict=True):
+                    try:
+                        float(cell)
+                    except ValueError:
+                        return InputError(
+                            f"{path}: line {line_no}, column {name!r}: {cell[:80]!r} is not "
+                            "a number"
+                        )
+        except csv.Error as err:
+            return InputError(f"{path}: line {reader.line_num}: cannot read as CSV ({err})")
     return InputError(f"{path}: cannot read as a numeric CSV table")
 
 
@@ -120,19 +136,19 @@ def read_numeric_csv(
     Raises
     ------
     InputError
-        Missing file, empty file, missing required columns (listing what is there),
-        duplicated column names, a non-numeric cell (line and column), ragged rows.
+        Missing file, not a text file or larger than `MAX_TABLE_BYTES` (see
+        `kinsync.io.sanity.check_text_file`), empty file, missing required columns
+        (listing what is there), duplicated column names, a non-numeric cell (line and
+        column), ragged rows, bytes that are not UTF-8.
     """
     del optional  # every column is returned; the argument documents intent at call sites
     path = Path(path)
+    check_text_file(path, "CSV file", max_bytes=MAX_TABLE_BYTES)
     try:
         with path.open(newline="", encoding="utf-8") as fh:
             header_row = next(csv.reader(fh), None)
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"{path}: cannot read ({err})"
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        msg = f"{path}: cannot read the header ({err})"
         raise InputError(msg) from err
     if not header_row:
         msg = f"{path}: empty file; expected a header row with {', '.join(required)}"
@@ -207,14 +223,13 @@ def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]
     Raises
     ------
     InputError
-        Missing file, or a file that cannot be read as CSV.
+        Missing file, not a text file or larger than `MAX_TEXT_ROWS_BYTES` (see
+        `kinsync.io.sanity.check_text_file`), or a file that cannot be read as CSV.
     """
+    check_text_file(Path(path), what, max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
         with Path(path).open(newline="", encoding="utf-8-sig") as fh:
             records = list(enumerate(csv.reader(fh), start=1))
-    except FileNotFoundError as err:
-        msg = f"{path}: {what} not found"
-        raise InputError(msg) from err
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
@@ -242,8 +257,8 @@ def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
     InputError
         Missing or unreadable file, empty file, no such column (listing those there),
         a duplicated column name, a row with another number of fields than the header,
-        no data rows, or a cell of the column that is not a finite number (with its
-        line).
+        no data rows, or a cell of the column that is not a finite number or not a
+        plausible time (`kinsync.io.sanity.TIME_S`; with its line).
     """
     path = Path(path)
     records = read_csv_rows(path)
@@ -272,9 +287,10 @@ def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            msg = f"{path}: line {line}, column {column!r}: {cell!r} is not a finite number"
+            msg = f"{path}: line {line}, column {column!r}: {cell[:80]!r} is not a finite number"
             raise InputError(msg)
         times[i] = value
+    check_values(times, TIME_S, lambda i: f"{path}: line {body[i][0]}, column {column!r}")
     table = TextTable(
         source=str(path),
         header=header,

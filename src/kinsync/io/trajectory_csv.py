@@ -16,6 +16,16 @@ from pathlib import Path
 import numpy as np
 
 from kinsync.errors import InputError
+from kinsync.io.sanity import (
+    ANGLE_DEG,
+    HEIGHT_M,
+    LATITUDE_DEG,
+    LONGITUDE_DEG,
+    SPEED_M_S,
+    TIME_S,
+    Span,
+    check_columns,
+)
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.trajectory import Trajectory
 
@@ -24,14 +34,35 @@ __all__ = ["read_trajectory_csv", "write_trajectory_csv"]
 REQUIRED = ("t_s", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
 VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
 
+SPANS: dict[str, Span] = {
+    "t_s": TIME_S,
+    "lat_deg": LATITUDE_DEG,
+    "lon_deg": LONGITUDE_DEG,
+    "h_m": HEIGHT_M,
+    "roll_deg": ANGLE_DEG,
+    "pitch_deg": ANGLE_DEG,
+    "yaw_deg": ANGLE_DEG,
+    **dict.fromkeys(VELOCITY, SPEED_M_S),
+}
+"""Plausible values of each column (`kinsync.io.sanity`)."""
+
 
 def read_trajectory_csv(path: Path) -> Trajectory:
-    """Read a trajectory CSV; errors name the file and the line at fault."""
+    """Read a trajectory CSV; errors name the file and the line at fault.
+
+    Raises
+    ------
+    InputError
+        As `kinsync.io.tables.read_numeric_csv`; fewer than 2 records, a value that is
+        not finite or not plausible (`SPANS`), and what `Trajectory` refuses (repeated
+        or decreasing times, ...), naming the line.
+    """
     table = read_numeric_csv(Path(path), REQUIRED, VELOCITY)
     c = table.columns
     if table.n_rows < 2:
         msg = f"{path}: a trajectory needs at least 2 records, found {table.n_rows}"
         raise InputError(msg)
+    check_columns(c, SPANS, lambda row: f"{path}: line {table.line_of_row(row)}")
     present = [v in c for v in VELOCITY]
     if any(present) and not all(present):
         msg = f"{path}: give all of {list(VELOCITY)} or none, found only some"

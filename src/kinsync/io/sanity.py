@@ -1,0 +1,444 @@
+"""Cheap checks a reader makes before it trusts a file: size, text, plausible numbers.
+
+File guards, before anything is allocated
+    `check_text_file` reads the first 64 KiB of a text file and refuses NUL bytes (a
+    binary file, UTF-16 text, or a sparse file of zeros) and, for a table, a first line
+    that does not end within that block (a header is never that long); a reader that
+    holds the whole file in memory gives its bound and a larger file is refused with
+    its size. A 10 GB file of NUL bytes named ``.csv`` thus costs one 64 KiB read
+    instead of 10 GB of memory. `check_record_file` does the same for a file of
+    fixed-size binary records (SBET, smrmsg): a size bound, and a first block of
+    records that is all zero bytes (times repeated from the first record) refused
+    before the file is mapped.
+
+Value guards, after parsing
+    Every number a reader returns must be finite and inside the `Span` of what it is: a
+    time in seconds, a latitude, a height, a velocity, ... (`check_values`,
+    `check_columns`). The spans lie far beyond real data but close enough that squares
+    and products of the values stay finite in float64, so a finite-but-absurd value
+    (1e308 m, a time of 1e300 s) is refused with its file, line and column instead of
+    overflowing somewhere downstream into an internal error or a non-finite result.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import stat
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from kinsync.errors import InputError
+
+__all__ = [
+    "ACCELERATION_M_S2",
+    "ANGLE_DEG",
+    "ANGLE_RAD",
+    "ANGULAR_RATE_RAD_S",
+    "HEIGHT_M",
+    "INTENSITY",
+    "LATITUDE_DEG",
+    "LENGTH_M",
+    "LONGITUDE_DEG",
+    "MAX_JSON_BYTES",
+    "MAX_TABLE_BYTES",
+    "MAX_TEXT_ROWS_BYTES",
+    "PROBE_BYTES",
+    "SPEED_M_S",
+    "TIME_S",
+    "Span",
+    "check_columns",
+    "check_record_file",
+    "check_text_file",
+    "check_values",
+    "load_json",
+    "not_utf8_cell",
+    "size_text",
+]
+
+PROBE_BYTES = 1 << 16
+"""Bytes read at the start of a file for the NUL-byte and first-line checks (64 KiB)."""
+
+MAX_TABLE_BYTES = 4 << 30
+"""Largest numeric CSV read whole into memory (4 GiB; a day of 200 Hz IMU data is
+about 2 GB). Reading it needs about as much memory again."""
+
+MAX_TEXT_ROWS_BYTES = 256 << 20
+"""Largest CSV kept cell by cell as text (256 MiB): Python strings take about ten times
+the file's size in memory."""
+
+MAX_JSON_BYTES = 64 << 20
+"""Largest JSON document read (64 MiB; a clock model with a knot per pulse of a day is
+about 4 MB)."""
+
+
+def size_text(n_bytes: float) -> str:
+    """``12.3 GiB``, ``64 KiB``, ``100 bytes``: a file size for a message."""
+    for unit, scale in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n_bytes >= scale:
+            return f"{n_bytes / scale:.3g} {unit}"
+    return f"{int(n_bytes)} bytes"
+
+
+def _stat(path: Path, what: str) -> int:
+    """Size of a regular file; a missing file, a folder or a device is an `InputError`."""
+    try:
+        st = path.stat()
+    except FileNotFoundError as err:
+        msg = f"{path}: {what} not found"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+    if stat.S_ISDIR(st.st_mode):
+        msg = f"{path}: cannot read the {what}: this is a folder; give the file itself"
+        raise InputError(msg)
+    if not stat.S_ISREG(st.st_mode):
+        msg = f"{path}: not a regular file (a device or a pipe); give the {what} as a file"
+        raise InputError(msg)
+    return int(st.st_size)
+
+
+def _check_size(path: Path, size: int, what: str, max_bytes: int | None) -> None:
+    if max_bytes is not None and size > max_bytes:
+        msg = (
+            f"{path}: {size_text(size)}, larger than the {size_text(max_bytes)} kinsync reads "
+            f"into memory for a {what}; is this the right file? (split a longer record)"
+        )
+        raise InputError(msg)
+
+
+def check_text_file(
+    path: Path,
+    what: str,
+    *,
+    max_bytes: int | None = None,
+    lines: bool = True,
+    nul_after_first_line: bool = False,
+) -> int:
+    """Refuse a file that cannot be the text file a reader expects, reading 64 KiB at most.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    what : str
+        What it should be, for messages ("trajectory CSV", "NMEA log").
+    max_bytes : int, optional
+        Largest size accepted (a reader holding the whole file in memory); no bound
+        when None (a streaming reader).
+    lines : bool
+        The file is made of lines (a table's header, records): its first line must end
+        within `PROBE_BYTES`. False for a document (JSON) that may be one long line.
+    nul_after_first_line : bool
+        NUL bytes are refused in the first line only (a log whose reader rejects a
+        damaged line on its own).
+
+    Returns
+    -------
+    int
+        The file's size (bytes).
+
+    Raises
+    ------
+    InputError
+        A missing file, a folder or a device, a file larger than ``max_bytes``, a NUL
+        byte in the first 64 KiB (binary data, UTF-16 text or a sparse file), or a first
+        line longer than 64 KiB.
+    """
+    path = Path(path)
+    size = _stat(path, what)
+    _check_size(path, size, what, max_bytes)
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(PROBE_BYTES)
+    except OSError as err:
+        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+    nul = head.find(b"\x00", 0, head.find(b"\n") if nul_after_first_line else len(head))
+    if nul >= 0:
+        utf16 = head[:2] in (b"\xff\xfe", b"\xfe\xff") or head[1:8:2] == b"\x00" * 4
+        hint = (
+            "it looks like UTF-16 text: save it as UTF-8"
+            if utf16
+            else "is it a binary file, or a damaged or unfinished copy?"
+        )
+        msg = f"{path}: not a text file (byte {nul} is NUL); a {what} is text: {hint}"
+        raise InputError(msg)
+    if lines and len(head) == PROBE_BYTES and b"\n" not in head:
+        msg = (
+            f"{path}: the first line is longer than {size_text(PROBE_BYTES)}, too long for "
+            f"a {what} (a header, or a record): is this the right file?"
+        )
+        raise InputError(msg)
+    return size
+
+
+def check_record_file(path: Path, record_bytes: int, what: str, max_bytes: int) -> int:
+    """Refuse a binary record file that is too large or starts with records of zeros.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    record_bytes : int
+        Length of one record.
+    what : str
+        The file kind ("SBET"), for messages.
+    max_bytes : int
+        Largest size accepted.
+
+    Returns
+    -------
+    int
+        The file's size (bytes).
+
+    Raises
+    ------
+    InputError
+        A missing file, a folder or a device, a file larger than ``max_bytes``, or at
+        least two records whose first 64 KiB are all zero bytes (a sparse or zeroed
+        file: its times would all be 0).
+    """
+    path = Path(path)
+    size = _stat(path, f"{what} file")
+    _check_size(path, size, f"{what} file", max_bytes)
+    if size >= 2 * record_bytes:
+        try:
+            with path.open("rb") as fh:
+                head = fh.read(min(PROBE_BYTES, size) // record_bytes * record_bytes)
+        except OSError as err:
+            msg = f"{path}: cannot read the {what} file ({err.strerror or err})"
+            raise InputError(msg) from err
+        if not head.strip(b"\x00"):
+            msg = (
+                f"{path}: the first {len(head) // record_bytes} records ({size_text(len(head))}) "
+                f"are all zero bytes: not an {what} file, or a damaged or unfinished copy"
+            )
+            raise InputError(msg)
+    return size
+
+
+def not_utf8_cell(path: Path, line: int, cell: str) -> InputError | None:
+    """The error for a cell holding a byte that is not UTF-8, or None.
+
+    The text must have been decoded with ``errors="surrogateescape"``, which keeps
+    such a byte as a lone surrogate.
+    """
+    bad = next((c for c in cell if "\udc80" <= c <= "\udcff"), None)
+    if bad is None:
+        return None
+    return InputError(
+        f"{path}: line {line}: byte 0x{ord(bad) - 0xDC00:02X} is not UTF-8 text; save the "
+        "file as UTF-8 (or remove the damaged line)"
+    )
+
+
+# ---------------------------------------------------------------------- plausible values
+@dataclass(frozen=True)
+class Span:
+    """Closed span of plausible values of one kind of quantity.
+
+    Attributes
+    ----------
+    low, high : float
+        Bounds (inclusive).
+    unit : str
+        Unit of the values ("s", "m").
+    what : str
+        What such a value is, for messages ("a time", "an ellipsoidal height").
+    """
+
+    low: float
+    high: float
+    unit: str
+    what: str
+
+    def positive(self, smallest: float, what: str) -> Span:
+        """The span ``[smallest, high]`` of ``what``: a standard deviation, a range, ..."""
+        return Span(smallest, self.high, self.unit, what)
+
+
+TIME_S = Span(-1e10, 1e10, "s", "a time in seconds (317 years either side of its epoch)")
+"""Times: GPS time (1.4e9 s in 2024), GPS seconds of week, a local clock. Beyond 1e10 s
+a float64 resolves less than 2 microseconds; a larger value is a unit mistake (ms, ns)."""
+
+LATITUDE_DEG = Span(-90.0, 90.0, "deg", "a latitude")
+LONGITUDE_DEG = Span(-360.0, 360.0, "deg", "a longitude (-180 to 180 or 0 to 360)")
+
+HEIGHT_M = Span(-1e5, 1e5, "m", "an ellipsoidal height (100 km below or above the ellipsoid)")
+"""Heights: the deepest trench and the highest aircraft lie well inside 100 km."""
+
+LENGTH_M = Span(-1e8, 1e8, "m", "a coordinate or length (1e8 m is 16 Earth radii)")
+"""Coordinates (ECEF, projected, scanner or table frame), ranges: within 1e8 m."""
+
+SPEED_M_S = Span(-1e4, 1e4, "m/s", "a velocity (10 km/s is beyond orbital speed)")
+ANGLE_DEG = Span(-1e6, 1e6, "deg", "an angle (2,800 turns, even unwrapped)")
+ANGLE_RAD = Span(-math.radians(1e6), math.radians(1e6), "rad", "an angle (2,800 turns)")
+ANGULAR_RATE_RAD_S = Span(-1e3, 1e3, "rad/s", "an angular rate (beyond any gyro's range)")
+ACCELERATION_M_S2 = Span(-1e4, 1e4, "m/s^2", "a specific force (1,000 g, beyond any IMU)")
+INTENSITY = Span(-1e12, 1e12, "", "an intensity")
+
+
+def _span_text(span: Span) -> str:
+    unit = f" {span.unit}" if span.unit else ""
+    return f"{span.low:g} to {span.high:g}{unit}"
+
+
+def check_values(
+    values: npt.ArrayLike,
+    span: Span,
+    where: Callable[[int], str] | str,
+    *,
+    allow_nan: bool = False,
+) -> None:
+    """Refuse the first value that is not finite or lies outside ``span``.
+
+    Parameters
+    ----------
+    values : array_like, shape (N,)
+        The values.
+    span : Span
+        Plausible values.
+    where : callable or str
+        ``where(i)`` names value ``i`` in messages ("traj.csv: line 7, column 'h_m'");
+        a str names every value (a single value).
+    allow_nan : bool
+        NaN is accepted (it means "not given" in that column).
+
+    Raises
+    ------
+    InputError
+        Naming the first bad value, what it should be and the span.
+    """
+    v = np.asarray(values, dtype=np.float64).ravel()
+    bad = _bad(v, span, allow_nan=allow_nan)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(_message(where if isinstance(where, str) else where(i), float(v[i]), span))
+
+
+def _bad(v: npt.NDArray[np.float64], span: Span, *, allow_nan: bool) -> npt.NDArray[np.bool_]:
+    finite = np.isfinite(v)
+    out = ~finite
+    if allow_nan:
+        out &= ~np.isnan(v)
+    out[finite] |= (v[finite] < span.low) | (v[finite] > span.high)
+    return out
+
+
+def _message(where: str, value: float, span: Span) -> str:
+    if not math.isfinite(value):
+        return f"{where}: {value!r} is not a finite number; fix or remove it"
+    if value < 0.0 <= span.low:
+        return f"{where}: {value!r} is negative; {span.what} is >= 0: fix the value"
+    if value < span.low and span.low > 0.0:
+        return f"{where}: {value!r} is too small for {span.what} (at least {span.low:g}); fix it"
+    return (
+        f"{where}: {value!r} is outside {_span_text(span)}, the plausible span of "
+        f"{span.what}; check the unit and the column order, or fix the value"
+    )
+
+
+def check_columns(
+    columns: Mapping[str, npt.ArrayLike],
+    spans: Mapping[str, Span],
+    where: Callable[[int], str],
+    *,
+    allow_nan: tuple[str, ...] = (),
+) -> None:
+    """`check_values` for several columns of a table, naming the first bad row.
+
+    Parameters
+    ----------
+    columns : mapping of str to array_like, each of shape (N,)
+        The table's columns by name.
+    spans : mapping of str to Span
+        Span of each column to check; columns absent from ``columns`` are skipped.
+    where : callable
+        ``where(row)`` names a row ("traj.csv: line 7"); the column is appended.
+    allow_nan : tuple of str
+        Columns in which NaN means "not given" and is accepted.
+
+    Raises
+    ------
+    InputError
+        Naming the earliest row holding a bad value, its column and the span.
+    """
+    first: tuple[int, str, float] | None = None
+    for name, span in spans.items():
+        if name not in columns:
+            continue
+        v = np.asarray(columns[name], dtype=np.float64).ravel()
+        bad = _bad(v, span, allow_nan=name in allow_nan)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            if first is None or row < first[0]:
+                first = (row, name, float(v[row]))
+    if first is not None:
+        row, name, value = first
+        raise InputError(_message(f"{where(row)}, column {name!r}", value, spans[name]))
+
+
+# ---------------------------------------------------------------------- JSON
+def _no_constant(name: str) -> Any:
+    msg = f"{name} is not a number JSON allows"
+    raise ValueError(msg)
+
+
+def _float_int(text: str) -> int:
+    value = int(text)
+    try:
+        float(value)
+    except OverflowError:
+        msg = f"a {len(text.lstrip('-'))}-digit integer is too large for a float64"
+        raise ValueError(msg) from None
+    return value
+
+
+def load_json(path: Path, what: str) -> Any:
+    """Read a small UTF-8 JSON document; numbers are plain finite JSON numbers.
+
+    Parameters
+    ----------
+    path : Path
+        The file (at most `MAX_JSON_BYTES`).
+    what : str
+        What it is, for messages ("clock model file").
+
+    Returns
+    -------
+    Any
+        The parsed document. ``NaN``/``Infinity`` (which Python's parser accepts) and
+        integers too long for a float64 are refused; a float literal too large for a
+        float64 comes back as ``inf`` for the caller's finiteness check.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, too large, not UTF-8, invalid JSON (with line and
+        column), NaN/Infinity or an integer too large for a float64.
+    """
+    path = Path(path)
+    check_text_file(path, what, max_bytes=MAX_JSON_BYTES, lines=False)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as err:
+        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+    except UnicodeDecodeError as err:
+        msg = f"{path}: the {what} is not UTF-8 text (byte {err.start}: {err.reason})"
+        raise InputError(msg) from err
+    try:
+        return json.loads(text, parse_constant=_no_constant, parse_int=_float_int)
+    except json.JSONDecodeError as err:
+        msg = f"{path}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
+        raise InputError(msg) from err
+    except (ValueError, RecursionError) as err:
+        msg = f"{path}: not a valid {what} ({err})"
+        raise InputError(msg) from err
