@@ -132,6 +132,36 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
     np.testing.assert_array_equal(table.column("label").to_pylist(), cols["label"].tolist())
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_table_without_points_gives_an_empty_output_with_every_column(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    cols = {k: v[:0] for k, v in _points(np.random.default_rng(3)).items()}
+    cols["intensity"] = cols["intensity"].astype(np.int16)
+    empty = setup["dir"] / f"empty{suffix}"
+    if suffix == ".csv":
+        empty.write_text("t_s,x_m,y_m,z_m,intensity,label\n")
+    else:
+        pq.write_table(pa.table(cols), empty)
+    out = setup["dir"] / f"geo{suffix}"
+    code, stdout, err = run_cli([*_args({**setup, "points": empty}, out), "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert (doc["points_in"], doc["points_out"], doc["points_rejected"]) == (0, 0, 0)
+    table = pq.read_table(out) if suffix == ".parquet" else pa_csv.read_csv(out)
+    assert table.num_rows == 0
+    assert table.column_names == ["t_s", "X", "Y", "Z", "intensity", "label"]
+    if suffix == ".parquet":  # the types a chunk would have: carried columns unchanged
+        assert [str(t) for t in table.schema.types] == [
+            "double",
+            "double",
+            "double",
+            "double",
+            "int16",
+            "string",
+        ]
+
+
 def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
     out = setup["dir"] / "geo.parquet"
     code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))
@@ -207,6 +237,40 @@ def test_las_to_laz_keeps_attributes_and_writes_crs(
     info = las_info(out)
     assert info.crs_wkt is not None
     assert pyproj.CRS.from_wkt(info.crs_wkt).equals(pyproj.CRS.from_epsg(4978))
+
+
+def test_las_output_of_a_too_long_trajectory_says_to_split_the_file(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    # An aircraft line of 600 km in 2000 s: ECEF at 0.1 mm reaches 214 km from the
+    # offsets (the middle of the file's span), so the ends cannot be stored.
+    t = T0 + np.linspace(0.0, 2000.0, 201)
+    s = (t - T0) / 2000.0
+    llh = np.column_stack([46.8 + 0.0 * s, -74.0 + 7.9 * s, 3000.0 + 0.0 * s])
+    traj = Trajectory.from_euler(t, 0.0 * s, 0.0 * s, 0.0 * s + np.pi / 2, lat_lon_h=llh)
+    write_trajectory_csv(traj, setup["traj"])
+    n = 200
+    cols = {
+        "t_s": T0 + np.linspace(1.0, 1999.0, n),
+        "x_m": np.zeros(n),
+        "y_m": np.zeros(n),
+        "z_m": np.full(n, 100.0),
+        "intensity": np.zeros(n, dtype=np.int64),
+    }
+    src = setup["dir"] / "long.las"
+    _write_las(src, cols, adjusted=True)
+    setup["points"] = src
+    out = setup["dir"] / "geo.las"
+    code, stdout, err = run_cli(_args(setup, out))
+    assert_one_line_error(
+        code,
+        stdout,
+        err,
+        "point 0 georeferences",
+        "from the file's reference position",
+        "split the file into shorter time spans",
+    )
+    assert not out.exists()
 
 
 def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(

@@ -33,11 +33,12 @@ from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.io.las import (
-    LasChunkWriter,
     las_end_times,
+    las_header,
     las_info,
     las_time_offset_s,
 )
+from kinsync.io.las_writer import LasChunkWriter, las_output_notes
 from kinsync.io.points import (
     TableChunkWriter,
     plan_table_slices,
@@ -55,6 +56,7 @@ from kinsync.pipelines.georef_chunks import (
     LasOutputFrame,
     OutsidePolicy,
     PointColumns,
+    empty_table_output,
 )
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
@@ -91,6 +93,9 @@ class GeorefSummary:
         Wall-clock time of the run (s).
     rejected_path : Path or None
         The rejected-points file, when one was written.
+    warnings : tuple of str
+        What of the input the output does not carry, one sentence each naming the
+        input (LAS waveform data packets, a COPC index); empty when everything is.
     """
 
     points_in: int
@@ -98,13 +103,14 @@ class GeorefSummary:
     points_rejected: int
     seconds: float
     rejected_path: Path | None = None
+    warnings: tuple[str, ...] = ()
 
     @property
     def points_per_s(self) -> float:
         """Throughput, points read per second."""
         return self.points_in / self.seconds if self.seconds > 0.0 else math.inf
 
-    def as_document(self) -> dict[str, int | float]:
+    def as_document(self) -> dict[str, int | float | list[str]]:
         """The ``--json`` summary of ``kinsync georef``."""
         return {
             "points_in": self.points_in,
@@ -112,6 +118,7 @@ class GeorefSummary:
             "points_rejected": self.points_rejected,
             "seconds": self.seconds,
             "points_per_s": self.points_per_s,
+            "warnings": list(self.warnings),
         }
 
 
@@ -299,15 +306,22 @@ def georeference_file(
         points_rejected=points_rejected,
         seconds=time.perf_counter() - start,
         rejected_path=rejected_path_for(out_path) if points_rejected else None,
+        warnings=_las_warnings(points_path, template),
     )
+
+
+def _las_warnings(points_path: Path, template: Any) -> tuple[str, ...]:
+    """What of a LAS/LAZ input the output does not carry (none for tables)."""
+    if template is None:
+        return ()
+    return tuple(f"{points_path}: {note}" for note in las_output_notes(template))
 
 
 def _plan_las(
     path: Path, chunk_points: int, traj_scale: TimeScale, gps_week: int | None
 ) -> tuple[Any, ChunkSource, list[ChunkTask], int]:
     info = las_info(path)
-    with laspy.open(path) as reader:
-        template = reader.header
+    template = las_header(path)
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
@@ -477,6 +491,8 @@ def _write_table(
             n_in += out.count
             n_out += out.count - out.outside_count
         behind.wait()
+        if not tasks:  # a table without points: the output still gets its columns
+            writer.write(empty_table_output(ctx))
     return n_in, n_out, tally.count
 
 

@@ -18,6 +18,7 @@ from typing import Any, Literal, cast
 
 import laspy
 import numpy as np
+import pyarrow as pa
 from numba import njit
 
 from kinsync._typing import BoolArray, FloatArray
@@ -50,6 +51,7 @@ __all__ = [
     "LasOutputFrame",
     "OutsidePolicy",
     "PointColumns",
+    "empty_table_output",
     "outside_tally",
     "process_chunk",
 ]
@@ -207,6 +209,29 @@ def _output_columns(
     return out
 
 
+def empty_table_output(ctx: ChunkContext) -> dict[str, Any]:
+    """The output columns of a table with no data rows, typed as a full chunk's would be.
+
+    Written when an input table holds no points, so that the output still has the
+    header (CSV) or schema (Parquet) a chunk would give it: every input column with its
+    type (floats as text for CSV), ``x_m,y_m,z_m`` replaced by ``X,Y,Z`` or those added.
+    """
+    layout = ctx.source.table
+    assert layout is not None
+    float_type = pa.string() if ctx.csv_text else pa.float64()
+    types: dict[str, Any] = {}
+    for field in layout.schema:
+        if ctx.source.points == "xyz" and field.name in XYZ_COLUMNS:
+            types[OUT_COLUMNS[XYZ_COLUMNS.index(field.name)]] = float_type
+        elif ctx.csv_text and pa.types.is_floating(field.type):
+            types[field.name] = pa.string()
+        else:
+            types[field.name] = field.type
+    if ctx.source.points == "profile":
+        types |= dict.fromkeys(OUT_COLUMNS, float_type)
+    return {name: pa.array([], type=t) for name, t in types.items()}
+
+
 def process_chunk(
     ctx: ChunkContext, task: ChunkTask, tally_only: bool, las_reader: LasPointReader | None = None
 ) -> ChunkOutput:
@@ -317,12 +342,24 @@ def _las_chunk_error(ctx: ChunkContext, task: ChunkTask, record: Any, err: Input
 
 
 def _las_storage_error(ctx: ChunkContext, index: int, coords: FloatArray) -> str:
+    """The message for a point whose coordinates LAS integers cannot hold.
+
+    Scanner coordinates are within ±`kinsync.georef.kernel.MAX_SCANNER_RANGE_M` of the
+    trajectory (checked before), so a point this far from the offsets means a trajectory
+    that runs too far from the middle of the file's time span: the file is too long for
+    one LAS output at this resolution.
+    """
     frame = ctx.las_frame
     assert frame is not None
     reach = [2.0**31 * s for s in frame.scales]
+    away = [abs(float(c) - o) for c, o in zip(coords.tolist(), frame.offsets, strict=True)]
+    axis = max(range(3), key=lambda j: away[j] / reach[j])
     return (
         f"{ctx.source.path}: point {index} georeferences to {coords.tolist()} ({ctx.crs}), "
-        f"beyond what LAS integers hold at offsets {list(frame.offsets)} and scales "
-        f"{list(frame.scales)} (± {reach} around the offsets, chosen at the middle of the "
-        "file's time span); split the file into shorter spans"
+        f"{away[axis]:.6g} from the file's reference position along {'xyz'[axis]} "
+        f"(offsets {list(frame.offsets)}, the trajectory at the middle of the file's time "
+        f"span); LAS integers at scales {list(frame.scales)} reach only {reach[axis]:.6g} "
+        "either way: the points are within the scanner's range of their trajectory, so the "
+        "trajectory covers too long a distance for one LAS file at this resolution: split "
+        "the file into shorter time spans"
     )
