@@ -19,26 +19,15 @@ from typing import Any
 import pytest
 
 from kinsync.cli._guard import OUTPUT_PARAMETERS, path_parameters
-from kinsync.cli.app import app
+
+from ._commands import EXTRA_REQUIRED, commands
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
 
-EXTRA_REQUIRED: dict[tuple[str, ...], list[str]] = {("validate", "flatness"): ["--box", "0,0,0,1,1,1"]}
-"""Required options that are not paths, for the commands that have some."""
-
-
-def _commands(
-    typer_app: Any = app, prefix: tuple[str, ...] = ()
-) -> Iterator[tuple[tuple[str, ...], Callable[..., Any]]]:
-    for info in typer_app.registered_commands:
-        yield (*prefix, info.name), info.callback
-    for group in typer_app.registered_groups:
-        yield from _commands(group.typer_instance, (*prefix, group.name))
-
 
 def _cases() -> Iterator[Any]:
-    for path, callback in _commands():
+    for path, callback in commands():
         params = path_parameters(callback)
         outputs = [p for p in params if p in OUTPUT_PARAMETERS]
         inputs = [p for p in params if p not in OUTPUT_PARAMETERS]
@@ -52,7 +41,7 @@ def _cases() -> Iterator[Any]:
 
 def test_every_path_parameter_is_classified() -> None:
     """An output-like name that is not in OUTPUT_PARAMETERS would be taken for an input."""
-    for path, callback in _commands():
+    for path, callback in commands():
         for name in path_parameters(callback):
             looks_like_output = any(w in name for w in ("out", "figure", "png", "report", "html"))
             assert looks_like_output == (name in OUTPUT_PARAMETERS), (path, name)

@@ -5,7 +5,10 @@ command is an input, except those named in `OUTPUT_PARAMETERS`. Before the comma
 runs, each output is checked against each input (`kinsync.io.atomic.check_not_an_input`:
 the same file by any path, an input folder, a file inside one); while it runs, every
 file written (all go through `kinsync.io.atomic.atomic_path`) is checked again, so a
-figure or report written into an input folder cannot replace an input either.
+figure or report written into an input folder cannot replace an input either. Each
+output's location is checked too (`kinsync.io.atomic.check_output_location`): a file
+output that is an existing folder, a missing folder, a folder where nothing can be
+written are refused before any work.
 
 Each ``int`` or ``float`` parameter must be finite and inside its span in
 `kinsync.cli._bounds.OPTION_BOUNDS`, checked before the command starts.
@@ -24,12 +27,31 @@ from typing import Any
 import typer
 
 from kinsync.cli._bounds import check_numeric_option
-from kinsync.io.atomic import ProtectedInput, check_not_an_input, protected_inputs
+from kinsync.io.atomic import (
+    ProtectedInput,
+    check_not_an_input,
+    check_output_location,
+    protected_inputs,
+)
 
-__all__ = ["OUTPUT_PARAMETERS", "guard_commands", "numeric_parameters", "path_parameters"]
+__all__ = [
+    "OUTPUT_PARAMETERS",
+    "guard_commands",
+    "numeric_parameters",
+    "output_is_folder",
+    "path_parameters",
+]
 
 OUTPUT_PARAMETERS = frozenset({"out", "model_out", "figure", "png", "report"})
 """Names of the ``Path`` parameters that are outputs (files or folders) of a command."""
+
+FOLDER_OUTPUT_COMMANDS = ("simulate ", "demo")
+"""Commands (prefixes of their full names) whose ``--out`` is a folder, not a file."""
+
+
+def output_is_folder(command: str, name: str) -> bool:
+    """Whether output parameter ``name`` of ``command`` ("simulate drive") is a folder."""
+    return name == "out" and command.startswith(FOLDER_OUTPUT_COMMANDS)
 
 
 def _is_path_type(hint: Any) -> bool:
@@ -122,6 +144,8 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             if name in spelled and name in OUTPUT_PARAMETERS:
                 for p in _paths(value):
                     check_not_an_input(p, inputs, spelled[name])
+                    folder = output_is_folder(command, name)
+                    check_output_location(p, spelled[name], folder=folder)
         with protected_inputs(inputs):
             return callback(*args, **kwargs)
 

@@ -1,0 +1,98 @@
+"""Every output of every command is checked where it will be written, before any work.
+
+Class 4 of issue 15: ``--out`` an existing folder or a read-only folder used to end in
+an internal error (exit 1) after the work was done. The cases are generated from the
+commands themselves (as in ``test_outputs_never_replace_inputs.py``): each output is
+given as an existing folder, in a missing folder, in a folder where no file can be
+created (``/sys`` refuses even root; ``/proc/self`` takes no new file) and, for folder
+outputs, below a file. Each run must stop with exit 2 and one line naming the option,
+before any input is read (the inputs here are not valid files).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from kinsync.cli._guard import OUTPUT_PARAMETERS, output_is_folder, path_parameters
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path, check_output_location
+
+from ._commands import EXTRA_REQUIRED, commands
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+UNWRITABLE = [d for d in (Path("/sys"), Path("/proc/self")) if d.is_dir()]
+
+
+def _cases() -> Iterator[Any]:
+    for path, callback in commands():
+        command = " ".join(path)
+        for out in (p for p in path_parameters(callback) if p in OUTPUT_PARAMETERS):
+            folder = output_is_folder(command, out)
+            kinds = ["below_a_file"] if folder else ["existing_folder", "missing_folder"]
+            kinds += [f"unwritable:{d}" for d in UNWRITABLE]
+            for kind in kinds:
+                yield pytest.param(path, callback, out, kind, id=f"{command}:{out}:{kind}")
+
+
+def _argv(path: tuple[str, ...], callback: Callable[..., Any], tmp: Path) -> list[str]:
+    """The command with every required path given as a (not valid) input file."""
+    signature = inspect.signature(callback)
+    argv = [*path]
+    for name, option in path_parameters(callback).items():
+        if name in OUTPUT_PARAMETERS:
+            continue
+        if signature.parameters[name].default is inspect.Parameter.empty:
+            f = tmp / f"{name}.dat"
+            f.write_text("not read\n")
+            argv += [str(f)] if option.isupper() else [option, str(f)]
+    return [*argv, *EXTRA_REQUIRED.get(path, [])]
+
+
+@pytest.mark.parametrize(("path", "callback", "out", "kind"), list(_cases()))
+def test_an_output_that_cannot_be_written_is_refused_before_any_work(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    out: str,
+    kind: str,
+) -> None:
+    option = path_parameters(callback)[out]
+    if kind == "existing_folder":
+        (tmp_path / "dir.png").mkdir()
+        given, fragment = tmp_path / "dir.png", "is an existing folder"
+    elif kind == "missing_folder":
+        given, fragment = tmp_path / "none" / "o.png", "does not exist"
+    elif kind == "below_a_file":
+        (tmp_path / "file").write_text("x")
+        given, fragment = tmp_path / "file" / "sub", "is a file, not a folder"
+    else:
+        given, fragment = Path(kind.split(":", 1)[1]) / "o.png", "cannot write in the folder"
+    argv = [*_argv(path, callback, tmp_path), option, str(given)]
+    before = sorted(tmp_path.rglob("*"))
+    code, o, e = run_cli(argv)
+    assert_one_line_error(code, o, e, f"{option} {given}", fragment)
+    assert sorted(tmp_path.rglob("*")) == before  # nothing written, no probe left
+
+
+def test_the_probe_leaves_nothing(tmp_path: Path) -> None:
+    check_output_location(tmp_path / "o.csv", "--out")
+    check_output_location(tmp_path / "new" / "deeper", "--out", folder=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("folder", UNWRITABLE, ids=str)
+def test_atomic_path_refuses_an_unwritable_folder_as_an_input_error(folder: Path) -> None:
+    with (
+        pytest.raises(InputError, match="cannot write in the folder"),
+        atomic_path(folder / "o.csv"),
+    ):
+        pass
