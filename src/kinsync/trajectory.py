@@ -37,7 +37,7 @@ from scipy.spatial.transform import Rotation
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
-from kinsync.errors import InputError, OutsideSpanError
+from kinsync.errors import InputError, KinsyncWarning, OutsideSpanError
 from kinsync.frames import (
     WGS84_A_M,
     WGS84_F,
@@ -169,7 +169,7 @@ _VELOCITY_HINT = (
 )
 
 
-class VelocityConsistencyWarning(UserWarning):
+class VelocityConsistencyWarning(KinsyncWarning):
     """A trajectory's velocities disagree with its positions; Hermite is not used."""
 
 

@@ -22,8 +22,10 @@ from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.mount_file import read_mount
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.sbet import SECONDS_PER_WEEK
+from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.pipelines.georef import georeference_file
 from kinsync.sim.validation_scene import control_target_scene, curved_wall_scene, write_scene
+from kinsync.trajectory import Trajectory
 from kinsync.validation.control_points import ControlPoints
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
@@ -100,6 +102,33 @@ def test_control_points_json(run_cli: RunCli, files: dict[str, Path], cloud: str
     assert set(obs) >= {"name", "dx_m", "dy_m", "dz_m", "speed_m_s", "side", "n_points"}
     assert obs["side"] in ("left", "right")
     assert doc["png"] is None
+
+
+def test_inconsistent_trajectory_velocities_are_one_warning_line(
+    run_cli: RunCli, files: dict[str, Path], tmp_path: Path
+) -> None:
+    """Any command, not only georef: a KinsyncWarning is one line on stderr, once."""
+    traj = read_trajectory_csv(files["trajectory"])
+    assert traj.vel_ned_m_s is not None
+    zero = Trajectory(
+        t_s=traj.t_s,
+        q_body_to_ned=traj.q_body_to_ned,
+        lat_lon_h=traj.lat_lon_h,
+        vel_ned_m_s=np.zeros_like(traj.vel_ned_m_s),
+    )
+    write_trajectory_csv(zero, tmp_path / "zero.csv")
+    code, out, err = run_cli(
+        [
+            "validate", "control-points", "--cloud", str(files["cloud_csv"]),
+            "--control", str(files["control"]), "--trajectory", str(tmp_path / "zero.csv"),
+            "--centre", "sphere", "--target-radius-m", "0.2", "--json",
+        ]
+    )  # fmt: skip
+    assert code == 0, err
+    json.loads(out)
+    assert err.count("\n") == 1, err
+    assert err.startswith("kinsync: warning: trajectory velocities disagree with the positions")
+    assert "interpolated linearly" in err
 
 
 def test_control_points_table_and_figure(run_cli: RunCli, files: dict[str, Path]) -> None:

@@ -14,13 +14,15 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any, TextIO
 
 from kinsync.cli._options import expand_multi_value_options
 from kinsync.cli.app import app
-from kinsync.errors import KinsyncError
+from kinsync.errors import KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
 
@@ -80,11 +82,35 @@ def _exit_interrupted(signum: int) -> None:
     sys.exit(128 + signum)
 
 
+@contextmanager
+def _warnings_on_one_line() -> Iterator[None]:
+    """A `KinsyncWarning` is printed once, ``kinsync: warning: ...``, on stderr."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", KinsyncWarning)  # once per message and place
+        show = warnings.showwarning
+
+        def one_line(
+            message: Warning | str,
+            category: type[Warning],
+            filename: str,
+            lineno: int,
+            file: TextIO | None = None,
+            line: str | None = None,
+        ) -> Any:
+            if issubclass(category, KinsyncWarning):
+                print(f"kinsync: warning: {_one_line(str(message))}", file=sys.stderr)
+                return None
+            return show(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = one_line
+        yield
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
     args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
     try:
-        with _stop_signals_unwind():
+        with _stop_signals_unwind(), _warnings_on_one_line():
             result = app(args=args, prog_name="kinsync", standalone_mode=False)
     except KinsyncError as err:
         print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
