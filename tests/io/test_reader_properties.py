@@ -28,6 +28,7 @@ import os
 import re
 import signal
 import tempfile
+import tracemalloc
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -818,3 +819,55 @@ def test_reader_property(base: Base, case: Case) -> None:
             check_outcome(case, outcome, work, baseline)
 
     prop()
+
+
+SPARSE_BYTES = 10 << 30
+"""A sparse file of 10 GiB of NUL bytes (class 3 of issue 15: it used to cost 4 GB and hang)."""
+PEAK_BYTES = 256 << 20
+"""Most memory Python may allocate while refusing it (tracemalloc's peak; numpy counted)."""
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+def test_a_huge_sparse_file_is_refused_after_one_block(
+    base: Base, case: Case, tmp_path: Path
+) -> None:
+    if case.name == "cidco" and not CIDCO.is_dir():
+        pytest.skip(f"CIDCO data not found under {CIDCO}")
+    path = _work_copy(base, case, tmp_path, b"")
+    os.truncate(path, SPARSE_BYTES)
+    tracemalloc.start()
+    try:
+        outcome = run(case.argv(base, path, tmp_path))
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    text = f"exit {outcome.code}\nstderr: {outcome.err[-3000:]}"
+    assert outcome.code == 2, text
+    assert outcome.err.count("\n") == 1, text
+    assert str(path) in outcome.err or path.name in outcome.err, text
+    assert peak < PEAK_BYTES, f"peak {peak / 2**20:.0f} MiB\n{text}"
+
+
+@pytest.mark.parametrize("kind", ["mount.toml", "points.las", "points.laz", "ins.toml"])
+def test_a_huge_sparse_mount_configuration_or_las_file_is_refused(
+    base: Base, kind: str, tmp_path: Path
+) -> None:
+    path = tmp_path / kind
+    path.touch()
+    os.truncate(path, SPARSE_BYTES)
+    if kind == "ins.toml":
+        argv = _ins_args(base, "--out", tmp_path / "sol.csv", ins_config=path)
+    else:
+        suffix = "csv" if kind == "mount.toml" else kind.split(".")[1]
+        argv = _georef(suffix)(base, base["points_csv"], tmp_path)
+        argv[argv.index("--mount" if kind == "mount.toml" else "--points") + 1] = str(path)
+    tracemalloc.start()
+    try:
+        outcome = run(argv)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert outcome.code == 2, outcome.err
+    assert outcome.err.startswith(f"kinsync: error: {path}"), outcome.err
+    assert outcome.err.count("\n") == 1, outcome.err
+    assert peak < PEAK_BYTES, f"peak {peak / 2**20:.0f} MiB"
