@@ -15,6 +15,7 @@ from kinsync.io.las import (
     LasPointReader,
     iter_las_chunks,
     las_end_times,
+    las_header,
     las_info,
     read_las_points,
     scaled_coordinates,
@@ -254,3 +255,26 @@ def test_las_end_times(tmp_path: Path, suffix: str) -> None:
     no_time.write(tmp_path / "f0.las")
     with pytest.raises(InputError, match="no gps_time"):
         las_end_times(tmp_path / "f0.las")
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_a_header_laspy_cannot_write_leaves_no_output(tmp_path: Path, suffix: str) -> None:
+    """A damaged template fails in the writer's header: nothing appears, no temporary.
+
+    A non-ASCII byte in the system identifier reads back but cannot be written. The
+    writer used to close its file on this error as on success, so the unfinished file
+    was renamed onto the output.
+    """
+    src = tmp_path / "src.las"
+    _make_las(src, n=50)
+    data = bytearray(src.read_bytes())
+    data[26] = 0x80  # system identifier, bytes 26..57
+    src.write_bytes(bytes(data))
+    template = las_header(src)
+    out = tmp_path / f"out{suffix}"
+    with (
+        pytest.raises(InputError, match="cannot write the header and VLRs of the template"),
+        LasChunkWriter(out, template, None, (0.0, 0.0, 0.0), 1e-4),
+    ):
+        pass
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["src.las"]

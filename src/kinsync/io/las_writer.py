@@ -227,19 +227,19 @@ class LasChunkWriter:
                 )
             else:
                 self._writer = laspy.LasWriter(fh, self.header, do_compress=False, closefd=False)
-        except OSError as err:
-            stack.close()
-            msg = f"{self.path}: cannot write ({err.strerror or err})"
-            raise InputError(msg) from err
-        except Exception as err:  # laspy's errors on a damaged template are of many types
-            stack.close()
-            msg = (
-                f"{self.path}: cannot write the header and VLRs of the template "
-                f"({type(err).__name__}: {err}); its input file is damaged"
-            )
-            raise InputError(msg) from err
-        except BaseException:
-            stack.close()
+        except BaseException as err:
+            # Unwind with the error, so that atomic_path removes the temporary: a plain
+            # close would rename the unfinished file onto the output.
+            stack.__exit__(type(err), err, err.__traceback__)
+            if isinstance(err, OSError):
+                msg = f"{self.path}: cannot write ({err.strerror or err})"
+                raise InputError(msg) from err
+            if isinstance(err, Exception):  # laspy's errors on a damaged template vary
+                msg = (
+                    f"{self.path}: cannot write the header and VLRs of the template "
+                    f"({type(err).__name__}: {err}); its input file is damaged"
+                )
+                raise InputError(msg) from err
             raise
         self._stack = stack
         return self
