@@ -22,7 +22,13 @@ from laspy.vlrs.vlrlist import VLRList
 from kinsync.cli import main
 from kinsync.errors import InputError
 from kinsync.georef import GeorefTrajectory, georeference
-from kinsync.io.las import LasPointReader, iter_las_chunks, las_end_times, read_las_points
+from kinsync.io.las import (
+    LasPointReader,
+    iter_las_chunks,
+    las_end_times,
+    las_info,
+    read_las_points,
+)
 from kinsync.io.mount_file import write_mount
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.mount import Mount
@@ -407,3 +413,23 @@ def test_laz_fixed_size_chunk_shorter_than_the_header_says(tmp_path: Path) -> No
     _assert_one_line_error(
         code, stdout, err, str(points), "points 0..799 (LAZ chunk 0, bytes", "corrupt"
     )
+
+
+@pytest.mark.parametrize("count", [2**32 - 1, 2**64 - 1])
+def test_laz_header_with_an_absurd_point_count_is_refused_when_read(
+    tmp_path: Path, count: int
+) -> None:
+    """The header is checked against the chunk table as soon as it is read.
+
+    A count of 2**64 - 1 made georef plan work for every point the header claimed (and
+    hang) before any chunk was read.
+    """
+    data = bytearray(_recentred(COPC, tmp_path).read_bytes())
+    struct.pack_into("<Q", data, 247, count)  # LAS 1.4 point count
+    points = tmp_path / "absurd.copc.laz"
+    points.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=f"the header says {count} points"):
+        las_info(points)
+    files = _setup(tmp_path, COPC)
+    code, stdout, err = _georef(points, files, tmp_path / "geo.laz")
+    _assert_one_line_error(code, stdout, err, str(points), f"the header says {count} points")

@@ -3,8 +3,9 @@
 laspy reads past the end of its header bytes without complaint (a VLR count of 2**31
 is two billion empty VLRs) and raises whatever its parsing meets in damaged bytes;
 `read_las_header` checks the header's sizes, VLRs and EVLRs against the file first, and
-an uncompressed file's size against the header's point count, so that a truncated or
-corrupt file is an `InputError` naming what is missing.
+the header's point count against the file (an uncompressed file's size, a LAZ file's
+chunk table), so that a truncated or corrupt file is an `InputError` naming what is
+missing.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import laspy
 from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.errors import InputError
+from kinsync.io.laz_chunks import laz_chunks
 
 __all__ = ["las_header", "las_suffix", "open_las_file", "read_las_header"]
 
@@ -106,7 +108,8 @@ def _check_header_bytes(path: Path, fh: BinaryIO, file_size: int) -> None:
 def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader:
     """The header, VLRs and EVLRs of an open LAS/LAZ file, every failure an `InputError`.
 
-    An uncompressed file is also checked to hold all the header's points.
+    The file is also checked to hold all the header's points: an uncompressed file by
+    its size, a LAZ file by its chunk table (`kinsync.io.laz_chunks.laz_chunks`).
     """
     _check_header_bytes(path, fh, file_size)
     fh.seek(0)
@@ -127,6 +130,10 @@ def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader
         raise InputError(msg)
     if not header.are_points_compressed:
         _check_las_size(path, header, file_size)
+    elif int(header.point_count) > 0:
+        # The chunk table must hold the header's points: a count of 2**64 - 1 would
+        # otherwise plan (and allocate) work for points that are not there.
+        laz_chunks(path, fh, header, file_size)
     n_evlrs = int(header.number_of_evlrs) if header.version.minor >= 4 else 0
     if n_evlrs:
         _check_evlrs(path, fh, header, file_size)
