@@ -210,6 +210,8 @@ def _check(base: _Base, what: str, damaged: bytes) -> None:
             assert stdout == "", where
             assert err.startswith("kinsync: error: "), f"{where}: {err}"
             assert err.count("\n") == 1, f"{where}: {err}"
+            assert "np.float64(" not in err, f"{where}: {err}"
+            assert "np.int64(" not in err, f"{where}: {err}"
             assert not out.exists(), where
             return
         doc = json.loads(stdout)

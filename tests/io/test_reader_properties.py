@@ -734,6 +734,10 @@ def _check_output_file(path: Path, columns: tuple[str, ...]) -> None:
         assert bad.size == 0, f"{path.name}: column {name!r} row {bad[0]}: {values[bad[0]]}"
 
 
+PYTHON_REPRS = ("np.float64(", "np.int64(", "datetime.datetime(", "array(", "dtype=")
+"""Python and numpy reprs that have no place in a message to a surveyor (class 6)."""
+
+
 def check_outcome(case: Case, outcome: Outcome, work: Path, baseline: Any) -> None:
     """The property: exit 2 with one error line, or exit 0 with finite outputs."""
     text = f"exit {outcome.code}\nstderr: {outcome.err[-3000:]}\nwarnings: {outcome.warned}"
@@ -743,6 +747,8 @@ def check_outcome(case: Case, outcome: Outcome, work: Path, baseline: Any) -> No
         assert outcome.out == "", text
         assert outcome.err.startswith("kinsync: error: "), text
         assert outcome.err.count("\n") == 1, text
+        reprs = [r for r in PYTHON_REPRS if r in outcome.err]
+        assert not reprs, text  # a message shows values as a user writes them
         return
     assert outcome.code == 0, text
     assert "Traceback" not in outcome.err, text
