@@ -415,21 +415,40 @@ def test_laz_fixed_size_chunk_shorter_than_the_header_says(tmp_path: Path) -> No
     )
 
 
-@pytest.mark.parametrize("count", [2**32 - 1, 2**64 - 1])
+def _fixed_chunk_laz14(path: Path, n: int = 3000) -> None:
+    """A LAS 1.4 LAZ with fixed-size chunks (laspy writes 50,000-point chunks)."""
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.full(3, 1e-3)
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(2)
+    las.x = rng.uniform(-10, 10, n)
+    las.y = rng.uniform(1, 30, n)
+    las.z = rng.uniform(-2, 2, n)
+    las.gps_time = np.sort(rng.uniform(100.0, 110.0, n))  # seconds of week
+    las.write(path, laz_backend=laspy.LazBackend.Lazrs)
+
+
+@pytest.mark.parametrize("count", [2**32 - 1, 2**63, 2**64 - 1])
+@pytest.mark.parametrize("chunks", ["variable (COPC)", "fixed"])
 def test_laz_header_with_an_absurd_point_count_is_refused_when_read(
-    tmp_path: Path, count: int
+    tmp_path: Path, count: int, chunks: str
 ) -> None:
     """The header is checked against the chunk table as soon as it is read.
 
     A count of 2**64 - 1 made georef plan work for every point the header claimed (and
-    hang) before any chunk was read.
+    hang) before any chunk was read; with fixed-size chunks it overflowed int64.
     """
-    data = bytearray(_recentred(COPC, tmp_path).read_bytes())
+    if chunks == "fixed":
+        source = tmp_path / "fixed.laz"
+        _fixed_chunk_laz14(source)
+    else:
+        source = _recentred(COPC, tmp_path)
+    data = bytearray(source.read_bytes())
     struct.pack_into("<Q", data, 247, count)  # LAS 1.4 point count
-    points = tmp_path / "absurd.copc.laz"
+    points = tmp_path / "absurd.laz"
     points.write_bytes(bytes(data))
     with pytest.raises(InputError, match=f"the header says {count} points"):
         las_info(points)
-    files = _setup(tmp_path, COPC)
+    files = _setup(tmp_path, source)
     code, stdout, err = _georef(points, files, tmp_path / "geo.laz")
     _assert_one_line_error(code, stdout, err, str(points), f"the header says {count} points")

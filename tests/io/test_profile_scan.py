@@ -99,7 +99,7 @@ def _write_text(tmp_path: Path, name: str, text: str) -> Path:
             ["row 2 (line 4)", "must not decrease", "2 after 3"],
         ),
         ("profile,angle_rad,range_m,intensity\n0.5,0.1,2,0.5\n", ["row 0 (line 2)", "whole"]),
-        ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["row 0", ">= 0"]),
+        ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["row 0", "from 0 to 1e+12"]),
         ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["'range_m'", "negative"]),
         ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
         ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
@@ -112,6 +112,17 @@ def test_bad_scans_name_the_problem(tmp_path: Path, text: str, fragments: list[s
         read_profile_scan(path)
     for frag in fragments:
         assert frag in str(err.value)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("value", ["1e308", "1e13", "nan", "-inf"])
+def test_absurd_profile_numbers_are_refused_without_a_warning(tmp_path: Path, value: str) -> None:
+    """A column of 1e308 was cast to int64 (a RuntimeWarning) and went on at exit 0."""
+    text = f"profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n{value},0.1,2,0.5\n"
+    path = _write_text(tmp_path, "scan.csv", text)
+    with pytest.raises(InputError, match=r"row 1 \(line 3\): .* is not a profile number") as err:
+        read_profile_scan(path)
+    assert "np.float64" not in str(err.value)
 
 
 def test_scan_missing_file_and_bad_suffix(tmp_path: Path) -> None:

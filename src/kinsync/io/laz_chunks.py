@@ -130,10 +130,11 @@ def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int
     sizes = np.array([int(e[1]) for e in entries], dtype=np.int64)
     if not laz_vlr.uses_variable_size_chunks():
         # Fixed-size chunks: the table repeats the chunk size; the last chunk holds the rest.
+        # Python integers: a header count near 2**64 must not overflow int64.
         chunk_size = int(laz_vlr.chunk_size())
-        counts = np.clip(n - chunk_size * np.arange(len(counts), dtype=np.int64), 0, chunk_size)
-        sizes = sizes[counts > 0]
-        counts = counts[counts > 0]
+        held_by = [min(chunk_size, max(0, n - chunk_size * k)) for k in range(len(counts))]
+        counts = np.array([c for c in held_by if c > 0], dtype=np.int64)
+        sizes = sizes[: len(counts)]
     held = int(counts.sum())
     if held != n:
         missing = f" (points {held}..{n - 1} are missing)" if held < n else ""

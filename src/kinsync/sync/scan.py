@@ -17,6 +17,7 @@ from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 
 __all__ = [
+    "MAX_PROFILE_NUMBER",
     "SCAN_COLUMNS",
     "SYNC_POINT_COLUMNS",
     "ProfileScan",
@@ -32,6 +33,11 @@ SYNC_POINT_COLUMNS = ("name", "lat_deg", "lon_deg", "h_m")
 def _row_text(row: int, line_offset: int | None) -> str:
     """``row 5`` or ``row 5 (line 7)`` when rows map to file lines."""
     return f"row {row}" if line_offset is None else f"row {row} (line {row + line_offset})"
+
+
+MAX_PROFILE_NUMBER = 1e12
+"""Largest profile number accepted: 31 years of profiles at 1 kHz (a larger value is a
+damaged column, and its product with the period would lose the profile's time)."""
 
 
 def _checked_profile_numbers(
@@ -57,12 +63,14 @@ def _checked_profile_numbers(
         the row before.
     """
     p = np.asarray(profile, dtype=np.float64)
-    bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 0)
+    with np.errstate(invalid="ignore"):  # NaN and inf are reported below, not warned
+        bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 0) | (p > MAX_PROFILE_NUMBER)
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
         msg = (
             f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: "
-            f"{p[row]!r} is not a profile number (a whole number >= 0)"
+            f"{float(p[row])!r} is not a profile number (a whole number from 0 to "
+            f"{MAX_PROFILE_NUMBER:.0e})"
         )
         raise InputError(msg)
     down = np.diff(p) < 0
