@@ -17,6 +17,8 @@ import laspy
 import lazrs
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.cli import main
@@ -452,3 +454,39 @@ def test_laz_header_with_an_absurd_point_count_is_refused_when_read(
     files = _setup(tmp_path, source)
     code, stdout, err = _georef(points, files, tmp_path / "geo.laz")
     _assert_one_line_error(code, stdout, err, str(points), f"the header says {count} points")
+
+
+@pytest.fixture(scope="module")
+def two_chunk_laz(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
+    """A LAZ of 120,000 points in fixed-size chunks (laspy: 50,000), and its points."""
+    path = tmp_path_factory.mktemp("laz") / "fixed.laz"
+    _fixed_chunk_laz14(path, n=120_000)
+    return path, _reference_points(path).points.array
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    runs=st.lists(
+        st.tuples(st.integers(0, 119_999), st.integers(0, 70_000)), min_size=1, max_size=8
+    ),
+    sequential=st.booleans(),
+    laz_threads=st.booleans(),
+)
+def test_any_runs_read_by_one_reader_equal_laspys_read(
+    two_chunk_laz: tuple[Path, np.ndarray],
+    runs: list[tuple[int, int]],
+    sequential: bool,
+    laz_threads: bool,
+) -> None:
+    """Runs in any order and of any length, or in file order (the pipeline's case, which
+    starts each run in the chunk the previous one left part of), give laspy's points."""
+    path, expected = two_chunk_laz
+    n = len(expected)
+    s = runs[0][0]
+    with LasPointReader(path, laz_threads=laz_threads) as reader:
+        for start, count in runs:
+            s = s if sequential else start  # sequential: each run starts where one ended
+            c = min(count, n - s)
+            got = reader.read(s, c).array
+            np.testing.assert_array_equal(got, expected[s : s + c], f"{s}+{c}")
+            s += c

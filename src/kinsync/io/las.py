@@ -310,31 +310,49 @@ class LasPointReader:
         return array
 
     def _read_laz(self, laz: LazChunks, start: int, count: int) -> np.ndarray[Any, Any]:
-        """Points ``start .. start + count - 1``: whole chunks decompressed, the run cut out.
+        """Points ``start .. start + count - 1``, decompressed straight into the result.
 
-        ``self._tail`` keeps the undelivered end of the last chunk decompressed (chunk
+        Whole LAZ chunks inside the run are decompressed into the returned array itself;
+        a chunk the run only partly covers is decompressed on its own and the part
+        needed copied. ``self._tail`` keeps the undelivered end of such a chunk (chunk
         index, index of its first point kept, those points), so that the next run in
-        file order starts from it instead of decompressing that chunk again.
+        file order starts from it instead of decompressing that chunk again. Memory
+        beyond the result: one LAZ chunk.
         """
         end = start + count
-        k0, k1 = laz.chunk_of(start), laz.chunk_of(end - 1)
+        out = np.empty(count, dtype=self._dtype)
+        at = start  # the next point to deliver
         old, self._tail = self._tail, None
-        blocks: list[np.ndarray[Any, Any]] = []
-        if old is not None and old[0] == k0 and old[1] <= start:
-            _, holder_first, holder = old
-            blocks.append(holder[start - holder_first :])
-            k0 += 1
-        if k0 <= k1:
-            holder = self._decompress(laz, k0, k1)
-            holder_first = int(laz.first_point[k0])
-            blocks.append(holder[max(0, start - holder_first) :])
-        if end < int(laz.first_point[k1 + 1]):
-            self._tail = (k1, end, holder[end - holder_first :])
-        array = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
-        return array[:count]
+        if old is not None and old[1] <= start < old[1] + len(old[2]):
+            k, first, held = old
+            stop = min(end, first + len(held))
+            out[: stop - start] = held[start - first : stop - first]
+            if stop < first + len(held):
+                self._tail = (k, stop, held[stop - first :])
+            at = stop
+        fp = laz.first_point
+        while at < end:
+            k = laz.chunk_of(at)
+            a, b = int(fp[k]), int(fp[k + 1])
+            if a == at and b <= end:  # whole chunks: decompressed in place
+                k_last = laz.chunk_of(end - 1)
+                if int(fp[k_last + 1]) > end:
+                    k_last -= 1
+                stop = int(fp[k_last + 1])
+                self._decompress(laz, k, k_last, out[at - start : stop - start])
+                at = stop
+                continue
+            chunk = np.empty(b - a, dtype=self._dtype)  # a chunk the run covers in part
+            self._decompress(laz, k, k, chunk)
+            stop = min(end, b)
+            out[at - start : stop - start] = chunk[at - a : stop - a]
+            if stop < b:
+                self._tail = (k, stop, chunk[stop - a :])
+            at = stop
+        return out
 
-    def _decompress(self, laz: LazChunks, k0: int, k1: int) -> np.ndarray[Any, Any]:
-        """Decompress chunks ``k0 .. k1`` into one array of points."""
+    def _decompress(self, laz: LazChunks, k0: int, k1: int, points: np.ndarray[Any, Any]) -> None:
+        """Decompress chunks ``k0 .. k1`` into ``points`` (exactly their points)."""
         p0, p1 = int(laz.first_point[k0]), int(laz.first_point[k1 + 1])
         b0, b1 = int(laz.first_byte[k0]), int(laz.first_byte[k1 + 1])
         try:
@@ -349,7 +367,6 @@ class LasPointReader:
                 "while it was read); copy it again"
             )
             raise InputError(msg)
-        points = np.empty(p1 - p0, dtype=self._dtype)
         out = points.view(np.uint8)
         counts = np.diff(laz.first_point[k0 : k1 + 2])
         sizes = np.diff(laz.first_byte[k0 : k1 + 2])
@@ -360,7 +377,7 @@ class LasPointReader:
             except lazrs.LazrsError:
                 pass  # decompressed chunk by chunk below, to name the damaged one
             else:
-                return points
+                return
         item = self._dtype.itemsize
         for k, (c, _s) in enumerate(table, start=k0):
             pa, pb = int(laz.first_point[k]) - p0, int(laz.first_point[k + 1]) - p0
@@ -376,7 +393,6 @@ class LasPointReader:
                     "the file is corrupt: copy it again"
                 )
                 raise InputError(msg) from err
-        return points
 
     def close(self) -> None:
         """Close the file."""
