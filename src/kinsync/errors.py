@@ -11,9 +11,32 @@ each on one line, ``kinsync: warning: ...``, on stderr.
 
 from __future__ import annotations
 
+import re
+
+_NUMPY_SCALAR = re.compile(
+    r"np\.(?:float|int|uint|complex|longdouble|str_|bytes_)(?:8|16|32|64|128|256)?\(([^()]*)\)"
+)
+_NUMPY_BOOL = re.compile(r"np\.(True|False)_")
+
+
+def plain_values(text: str) -> str:
+    """``text`` with numpy scalar reprs as their plain values: ``np.float64(1.5)`` -> ``1.5``.
+
+    numpy 2 writes ``np.float64(1.5)`` for ``repr`` (and ``!r`` in an f-string) of a
+    scalar taken from an array; a message shows a value as a user writes it.
+    """
+    return _NUMPY_BOOL.sub(r"\1", _NUMPY_SCALAR.sub(r"\1", text))
+
 
 class KinsyncError(Exception):
-    """Base class of every error kinsync raises on purpose."""
+    """Base class of every error kinsync raises on purpose.
+
+    A message's numpy scalar reprs are shown as plain values (`plain_values`), however
+    the message was formatted.
+    """
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*(plain_values(a) if isinstance(a, str) else a for a in args))
 
 
 class InputError(KinsyncError, ValueError):
