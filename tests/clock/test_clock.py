@@ -24,6 +24,7 @@ from kinsync.clock import (
     utc_fields_to_gps_s,
     utc_to_gps_s,
 )
+from kinsync.clock.fit import MAX_LOG_SPAN_S
 from kinsync.demo.clock import clock_section
 from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
 from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
@@ -270,6 +271,23 @@ def test_zdas_outside_the_pulse_span_are_unpaired() -> None:
     assert fit.n_unpaired_zda == 10
     assert fit.n_wrong_zda == 0
     assert fit.unpaired_zda_t_local_s.tolist() == zda_t[:10].tolist()
+
+
+def test_a_stray_pulse_months_away_is_named_not_listed_second_by_second() -> None:
+    """A mistyped pulse 15 years before the log made the fit list 479 million missing
+    seconds (gigabytes, then the kernel's OOM killer); the span is bounded first."""
+    pps, zda_t, gps, n_bytes, _ = arrays(jitter_s=0.0, drift_ppm=0.0)  # on the grid
+    stray = np.r_[pps[0] - 479_384_017.0, pps]
+    with pytest.raises(InputError, match=r"pulse 0 \(t_local_s=.*\) and pulse 1 .*stray"):
+        fit_clock(stray, zda_t, gps, n_bytes)
+
+
+def test_a_day_long_gap_in_the_pulses_is_fine_and_counted() -> None:
+    pps, zda_t, gps, n_bytes, _ = arrays(jitter_s=0.0, drift_ppm=0.0)
+    later = np.r_[pps, pps[-1] + 86_400.0 + np.arange(1.0, 4.0)]
+    fit = fit_clock(later, zda_t, gps, n_bytes)
+    assert fit.n_missing == 86_400 - 1 + 1  # the seconds of the gap without a pulse
+    assert MAX_LOG_SPAN_S == 30 * 86_400.0
 
 
 def test_transmission_time_decides_the_named_edge_at_low_baud() -> None:

@@ -59,6 +59,7 @@ from kinsync.robust import robust_sigma
 
 __all__ = [
     "CONVENTIONS",
+    "MAX_LOG_SPAN_S",
     "ClockFit",
     "Convention",
     "fit_clock",
@@ -70,6 +71,11 @@ Convention = Literal["preceding", "following"]
 """Which PPS edge a ZDA names: the last before its transmission, or the next one."""
 CONVENTIONS: tuple[Convention, ...] = ("preceding", "following")
 
+MAX_LOG_SPAN_S = 30 * 86_400.0
+"""Longest span of good pulses one clock model covers (s, 30 days). Every missing
+second in between is listed (`ClockFit.missing_gps_s`), and one offset-and-drift line
+over months is not a clock model: a longer span is a stray or mistyped pulse, or the
+logs of several sessions run together."""
 
 _PERIOD_TOLERANCE = 0.01
 """Pulse intervals within 1 % of a whole number of seconds set the local period."""
@@ -374,6 +380,24 @@ def _grid_labels(t: FloatArray) -> tuple[IntArray, BoolArray, float, float]:
     return labels, good, alpha, beta
 
 
+def _check_log_span(t: FloatArray, labels: IntArray, good: BoolArray) -> None:
+    """Refuse good pulses spanning more than `MAX_LOG_SPAN_S`, naming the largest gap."""
+    g = np.flatnonzero(good)
+    span_s = float(labels[g[-1]] - labels[g[0]])
+    if span_s <= MAX_LOG_SPAN_S:
+        return
+    i = int(np.argmax(np.diff(t[g])))
+    a, b = int(g[i]), int(g[i + 1])
+    msg = (
+        f"the pulses span {span_s:.0f} s ({span_s / 86_400:.1f} days), more than the "
+        f"{MAX_LOG_SPAN_S / 86_400:.0f} days one clock model covers; the largest gap, "
+        f"{float(t[b] - t[a]):.0f} s, lies between pulse {a} (t_local_s={float(t[a])!r}) "
+        f"and pulse {b} (t_local_s={float(t[b])!r}), counted from 0: remove a stray or "
+        "mistyped pulse, or fit each session's log on its own"
+    )
+    raise InputError(msg)
+
+
 def _zda_arrays(
     zda_t_local_s: ArrayLike, zda_gps_s: ArrayLike, zda_n_bytes: ArrayLike
 ) -> tuple[FloatArray, FloatArray, IntArray]:
@@ -511,6 +535,7 @@ def fit_clock(
     )
 
     labels, good, alpha, beta = _grid_labels(t)
+    _check_log_span(t, labels, good)
     # Grid count each ZDA names: last count before the transmission start, or the next.
     start_count = alpha + beta * (z_t - tx_s - t[0])
     named = np.floor(start_count).astype(np.int64) + (1 if convention == "following" else 0)
