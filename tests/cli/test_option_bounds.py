@@ -12,7 +12,8 @@ import pytest
 
 from kinsync.cli._bounds import bounds_for
 from kinsync.cli._guard import OUTPUT_PARAMETERS, numeric_parameters, path_parameters
-from kinsync.cli.app import app
+
+from ._commands import commands
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
@@ -20,17 +21,8 @@ OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.
 REQUIRED_VALUES = {"--box": "0,0,0,1,1,1", "--baud": "115200", "--bytes": "80"}
 
 
-def _commands(
-    typer_app: Any = app, prefix: tuple[str, ...] = ()
-) -> Iterator[tuple[tuple[str, ...], Callable[..., Any]]]:
-    for info in typer_app.registered_commands:
-        yield (*prefix, info.name), info.callback
-    for group in typer_app.registered_groups:
-        yield from _commands(group.typer_instance, (*prefix, group.name))
-
-
 def _numeric_options() -> Iterator[tuple[tuple[str, ...], Callable[..., Any], str, str]]:
-    for path, callback in _commands():
+    for path, callback in commands():
         for name, option in numeric_parameters(callback).items():
             yield path, callback, name, option
 

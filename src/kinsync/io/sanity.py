@@ -113,6 +113,16 @@ def _check_size(path: Path, size: int, what: str, max_bytes: int | None) -> None
         raise InputError(msg)
 
 
+def _read_head(path: Path, n_bytes: int, what: str) -> bytes:
+    """The first ``n_bytes`` of a file (fewer if it is shorter); a read error is an InputError."""
+    try:
+        with path.open("rb") as fh:
+            return fh.read(n_bytes)
+    except OSError as err:
+        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+
+
 def check_text_file(
     path: Path,
     what: str,
@@ -154,12 +164,7 @@ def check_text_file(
     path = Path(path)
     size = _stat(path, what)
     _check_size(path, size, what, max_bytes)
-    try:
-        with path.open("rb") as fh:
-            head = fh.read(PROBE_BYTES)
-    except OSError as err:
-        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
-        raise InputError(msg) from err
+    head = _read_head(path, PROBE_BYTES, what)
     nul = head.find(b"\x00", 0, head.find(b"\n") if nul_after_first_line else len(head))
     if nul >= 0:
         utf16 = head[:2] in (b"\xff\xfe", b"\xfe\xff") or head[1:8:2] == b"\x00" * 4
@@ -209,12 +214,9 @@ def check_record_file(path: Path, record_bytes: int, what: str, max_bytes: int) 
     size = _stat(path, f"{what} file")
     _check_size(path, size, f"{what} file", max_bytes)
     if size >= 2 * record_bytes:
-        try:
-            with path.open("rb") as fh:
-                head = fh.read(min(PROBE_BYTES, size) // record_bytes * record_bytes)
-        except OSError as err:
-            msg = f"{path}: cannot read the {what} file ({err.strerror or err})"
-            raise InputError(msg) from err
+        head = _read_head(
+            path, min(PROBE_BYTES, size) // record_bytes * record_bytes, f"{what} file"
+        )
         if not head.strip(b"\x00"):
             msg = (
                 f"{path}: the first {len(head) // record_bytes} records ({size_text(len(head))}) "
