@@ -1,4 +1,5 @@
-"""15-state error-state filter: Φ, error model, lever arm, χ² gate, feedback, biases, alignment."""
+"""Error-state filter (modified φ-angle model, turn-on bias, instability, scale factors): Φ,
+error model, lever arm, χ² gate, feedback, biases, alignment."""
 
 from __future__ import annotations
 
@@ -10,11 +11,18 @@ from typing import Any
 import numpy as np
 import pytest
 from scipy.linalg import expm
+from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import euler_rpy_to_quaternion, quaternion_to_matrix
-from kinsync.ins._ekf import feedback, system_matrix, transition_from_system
+from kinsync.ins._ekf import (
+    N_ERR_SCALE,
+    corrected_imu,
+    feedback,
+    system_matrix,
+    transition_from_system,
+)
 from kinsync.ins._reference import forward_numpy
 from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.config import InsConfig
@@ -32,7 +40,7 @@ from kinsync.ins.filter import (
 from kinsync.ins.gnss_observation import observation
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
-from kinsync.ins.strapdown import free_inertial, mech_step, start_epoch
+from kinsync.ins.strapdown import I_BG, I_MG, free_inertial, mech_step, start_epoch
 
 SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
 Errors = Callable[..., Any]  # fixture errors_of in conftest.py
@@ -64,45 +72,56 @@ def _state(
     v: tuple[float, float, float] = (30.0, -20.0, 2.0),
     rpy: tuple[float, float, float] = (0.2, -0.3, 2.0),
 ) -> np.ndarray:
-    s = np.zeros(16)
+    s = np.zeros(28)
     s[0], s[1], s[2] = lat, 0.3, h
     s[3:6] = v
     s[6:10] = euler_rpy_to_quaternion(*rpy)
-    s[10:13] = (1e-3, -2e-3, 5e-4)
+    s[10:13] = (1e-3, -2e-3, 5e-4)  # turn-on biases
     s[13:16] = (0.05, -0.1, 0.2)
+    s[16:19] = (2e-5, 1e-5, -3e-5)  # instabilities
+    s[19:22] = (1e-3, -2e-3, 5e-4)
+    s[22:25] = (300e-6, -500e-6, 200e-6)  # scale factors
+    s[25:28] = (-100e-6, 400e-6, 250e-6)
     return s
 
 
+def _rot(rotvec: np.ndarray) -> np.ndarray:
+    out: np.ndarray = Rotation.from_rotvec(rotvec).as_matrix()
+    return out
+
+
 def _error(nominal: np.ndarray, true: np.ndarray) -> np.ndarray:
-    """Error state of ``nominal`` relative to ``true`` (the filter's definition)."""
+    """Error state (27) of ``nominal`` relative to ``true``: the filter's definition, the
+    exact inverse of the feedback (``true = nominal ⊖ x``)."""
     E = quaternion_to_matrix(nominal[6:10]) @ quaternion_to_matrix(true[6:10]).T
-    A = 0.5 * (E - E.T)
+    phi = -Rotation.from_matrix(E).as_rotvec()  # C(nominal) = Rot(-φ) C(true)
     r_m, r_n = radii_m(true[0])
     return np.concatenate(
         [
-            -np.array([A[2, 1], A[0, 2], A[1, 0]]),
-            nominal[3:6] - true[3:6],
+            phi,
+            nominal[3:6] - _rot(phi).T @ true[3:6],  # v(true) = Rot(φ) (v(nominal) - δv')
             [
                 (nominal[0] - true[0]) * (r_m + true[2]),
                 (nominal[1] - true[1]) * (r_n + true[2]) * math.cos(true[0]),
                 -(nominal[2] - true[2]),
             ],
-            true[10:13] - nominal[10:13],
-            true[13:16] - nominal[13:16],
+            true[10:28] - nominal[10:28],
         ]
     )
 
 
 def _perturbed(true: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Nominal state with error ``x`` (inverse of the feedback)."""
+    """Nominal state with error ``x`` (the inverse of the feedback for one error kind)."""
     s = true.copy()
-    feedback(s, -x, np.empty(4), np.empty(4))
+    feedback(s, -x, np.empty(4), np.empty(4), np.empty((3, 3)))
     return s
 
 
-def _F(s: np.ndarray, acc: np.ndarray, tau: float = 100.0) -> np.ndarray:
-    F = np.zeros((15, 15))
-    system_matrix(s, acc - s[13:16], tau, tau, np.empty((3, 3)), F)
+def _F(s: np.ndarray, gyro: np.ndarray, acc: np.ndarray, tau: float = 100.0) -> np.ndarray:
+    F = np.zeros((N_ERR_SCALE, N_ERR_SCALE))
+    w_b, f_b = np.empty(3), np.empty(3)
+    corrected_imu(s, gyro, acc, w_b, f_b)
+    system_matrix(s, w_b, f_b, tau, tau, np.empty((3, 3)), F)
     return F
 
 
@@ -116,14 +135,14 @@ def drive(sim_drive: SimDrive) -> tuple[ImuData, ImuData, GnssData, NavSolution,
 
 # ---------------------------------------------------------------------- Φ and F
 def test_transition_matrix_matches_expm() -> None:
-    F = _F(_state(), np.array([2.0, -1.0, -9.5]))
+    F = _F(_state(), np.array([0.3, -0.2, 0.5]), np.array([2.0, -1.0, -9.5]))
     for dt in (0.005, 0.02, 0.1):
         Phi = transition_matrix(F, dt)
         ref = expm(F * dt)
         bound = np.linalg.norm(F * dt, 2) ** 3 / 6.0 * math.exp(np.linalg.norm(F * dt, 2))
         assert np.abs(Phi - ref).max() <= bound
         assert np.abs(Phi - ref).max() > 0.0  # second order, not exact
-        kernel = np.zeros((15, 15))
+        kernel = np.zeros((N_ERR_SCALE, N_ERR_SCALE))
         transition_from_system(F, dt, kernel)  # the filter's structured version
         np.testing.assert_allclose(kernel, Phi, rtol=0, atol=1e-15)
     # third-order convergence: halving dt divides the truncation error by ~8
@@ -147,7 +166,8 @@ def test_error_model_matches_the_nonlinear_mechanisation() -> None:
     gyro = np.array([0.3, -0.2, 0.5])
     acc = np.array([2.0, -1.0, -9.5])
     dt = 0.01
-    Phi = transition_matrix(_F(true, acc, tau=1e12), dt)  # bias decay is not mechanised
+    # the instabilities' decay is not part of the mechanisation (the filter applies it)
+    Phi = transition_matrix(_F(true, gyro, acc, tau=1e12), dt)
 
     first = coning = True
 
@@ -158,9 +178,9 @@ def test_error_model_matches_the_nonlinear_mechanisation() -> None:
         return s
 
     true1 = step(true)
-    eps = np.array([1e-5] * 3 + [1e-3] * 3 + [1.0] * 3 + [1e-6] * 3 + [1e-4] * 3)
-    for i in range(15):
-        x = np.zeros(15)
+    eps = np.array([1e-5] * 3 + [1e-3] * 3 + [1.0] * 3 + ([1e-6] * 3 + [1e-4] * 3) * 2 + [1e-4] * 6)
+    for i in range(N_ERR_SCALE):
+        x = np.zeros(N_ERR_SCALE)
         x[i] = eps[i]
         nominal = _perturbed(true, x)
         np.testing.assert_allclose(_error(nominal, true), x, atol=1e-9 * eps[i] + 1e-13)
@@ -182,7 +202,7 @@ def test_lever_arm_observation_geometry() -> None:
     arm = np.array(cfg.antenna_lever_arm_body_m)
     arm_n = C @ arm
     r_m, r_n = radii_m(true[0])
-    w = gyro - true[10:13]
+    w = (gyro - true[10:13] - true[16:19]) / (1.0 + true[22:25])
     w_ie = np.array([OMEGA_IE_RAD_S * math.cos(true[0]), 0.0, -OMEGA_IE_RAD_S * math.sin(true[0])])
     g_llh = np.array(
         [
@@ -192,14 +212,16 @@ def test_lever_arm_observation_geometry() -> None:
         ]
     )
     g_vel = true[3:6] + C @ np.cross(w, arm) - np.cross(w_ie, arm_n)
-    H = np.zeros((6, 15))
+    H = np.zeros((6, N_ERR_SCALE))
     z = np.zeros(6)
     observation(true, gyro, params, 0.0, g_llh, g_vel, np.empty((3, 3)), H, z)
     np.testing.assert_allclose(z, 0.0, atol=1e-8)
     rng = np.random.default_rng(1)
-    scale = np.array([1e-4] * 3 + [1e-2] * 3 + [0.5] * 3 + [1e-4] * 3 + [1e-2] * 3)
+    scale = np.array(
+        [1e-4] * 3 + [1e-2] * 3 + [0.5] * 3 + ([1e-4] * 3 + [1e-2] * 3) * 2 + [1e-3] * 6
+    )
     for _ in range(5):
-        x = rng.normal(0.0, 1.0, 15) * scale
+        x = rng.normal(0.0, 1.0, N_ERR_SCALE) * scale
         zx = np.zeros(6)
         observation(_perturbed(true, x), gyro, params, 0.0, g_llh, g_vel, np.empty((3, 3)), H, zx)
         np.testing.assert_allclose(zx, H @ x, atol=1e-3 * np.abs(H @ x).max())
@@ -362,20 +384,37 @@ def test_closed_loop_feedback_resets_the_error_state(drive: Any) -> None:
     # ... and the update at k + m moved the state away from the free run
     jump = abs(free.vel_ned_m_s[m] - res.vel_ned_m_s[k + m]).max()
     assert jump > 1e-5
-    # the bias estimates only change at updates
-    assert (res.gyro_bias_rad_s[k + 1 : k + m] == res.gyro_bias_rad_s[k]).all()
+    # the turn-on bias estimates only change at updates; the instability estimates decay
+    # between them as their Gauss-Markov model says
+    g_epoch = gnss_epochs(imu.t_s, start_epoch(imu, init), gnss.t_s)
+    run = forward_pass(
+        imu, gnss, CONFIG, init, use_velocity=True, store=False, progress=None,
+        gnss_imu_epoch=g_epoch, log=new_gnss_log(len(gnss)),
+    )  # fmt: skip
+    kk = start_epoch(imu, init) + k
+    turn_on = run.states[kk : kk + m, I_BG : I_BG + 3]
+    assert (turn_on == turn_on[0]).all()
+    inst = run.states[kk : kk + m, I_MG : I_MG + 3]
+    assert np.abs(inst[0]).min() > 0.0
+    decay = math.exp(-float(np.diff(imu.t_s[:2])[0]) / CONFIG.gyro_bias_corr_time_s)
+    np.testing.assert_allclose(inst[1:], inst[:-1] * decay, rtol=1e-12)
 
 
 def test_feedback_inverts_the_error_definition() -> None:
     true = _state()
     x = np.array(
-        [1e-3, -2e-3, 3e-3, 0.1, -0.2, 0.05, 3.0, -4.0, 1.5, 1e-4, -1e-4, 2e-4, 0.01, 0.02, -0.03]
-    )
+        [1e-3, -2e-3, 3e-3, 0.1, -0.2, 0.05, 3.0, -4.0, 1.5, 1e-4, -1e-4, 2e-4, 0.01, 0.02, -0.03,
+         2e-6, -1e-6, 3e-6, 1e-4, -2e-4, 3e-4, 5e-5, -6e-5, 7e-5, -1e-4, 2e-4, 3e-5]
+    )  # fmt: skip
     nominal = _perturbed(true, x)
-    np.testing.assert_allclose(_error(nominal, true), x, rtol=1e-5, atol=1e-9)
+    # one feedback and its inverse agree but for the second-order term φ × δv'
+    second_order = float(np.linalg.norm(x[:3]) * np.linalg.norm(x[3:6]))
+    err = _error(nominal, true)
+    assert np.abs(err[3:6] - x[3:6]).max() <= second_order
+    np.testing.assert_allclose(np.delete(err, [3, 4, 5]), np.delete(x, [3, 4, 5]), atol=1e-9)
     back = nominal.copy()
-    feedback(back, x, np.empty(4), np.empty(4))
-    np.testing.assert_allclose(back[3:], true[3:], atol=1e-9)
+    feedback(back, _error(nominal, true), np.empty(4), np.empty(4), np.empty((3, 3)))
+    np.testing.assert_allclose(back[3:], true[3:], atol=1e-12)  # exact inverse
     np.testing.assert_allclose(back[:2], true[:2], atol=1e-14)
     assert back[2] == pytest.approx(true[2], abs=1e-9)
 
@@ -540,29 +579,51 @@ def test_alignment_errors(sim_drive: SimDrive) -> None:
         align_static_gnss_heading(still, gnss_s, static_s=-1.0)
 
 
-def test_compiled_loop_matches_the_numpy_reference(sim_drive: SimDrive) -> None:
+@pytest.mark.parametrize("scale_ppm", [0.0, 500.0], ids=["21_states", "27_states"])
+def test_compiled_loop_matches_the_numpy_reference(sim_drive: SimDrive, scale_ppm: float) -> None:
     """Dense numpy products and joint updates give the structured, sequential loop's numbers."""
     arm = (1.0, -0.5, -1.5)
     _, imu, gnss, _, init = sim_drive(
         duration_s=20.0, seed=2, gyro_bias_rad_s=BG, acc_bias_m_s2=BA, gyro_arw=GYRO_ARW,
         acc_vrw=ACC_VRW, lever_arm_body_m=arm,
     )  # fmt: skip
-    cfg = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=arm)
+    cfg = dataclasses.replace(
+        CONFIG,
+        antenna_lever_arm_body_m=arm,
+        gyro_scale_sigma_ppm=scale_ppm,
+        acc_scale_sigma_ppm=scale_ppm,
+        gyro_bias_corr_time_s=60.0,  # the instability's decay must show in 15 s
+    )
     n = 1500
     states, std = forward_numpy(imu, gnss, cfg, init, n)
     fwd = run_ins(imu, gnss, cfg, init).forward
     np.testing.assert_allclose(np.degrees(states[:, 0]), fwd.lat_deg[:n], rtol=0, atol=1e-12)
     np.testing.assert_allclose(states[:, 2], fwd.h_m[:n], rtol=0, atol=1e-9)
     np.testing.assert_allclose(states[:, 3:6], fwd.vel_ned_m_s[:n], rtol=0, atol=1e-9)
-    np.testing.assert_allclose(states[:, 10:13], fwd.gyro_bias_rad_s[:n], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(states[:, 13:16], fwd.acc_bias_m_s2[:n], rtol=0, atol=1e-10)
-    sd_fwd = np.column_stack(
-        [
-            fwd.std_att_rad,
-            fwd.std_vel_ned_m_s,
-            fwd.std_pos_ned_m,
-            fwd.std_gyro_bias_rad_s,
-            fwd.std_acc_bias_m_s2,
-        ]
+    np.testing.assert_allclose(
+        states[:, 10:13] + states[:, 16:19], fwd.gyro_bias_rad_s[:n], rtol=0, atol=1e-12
     )
-    np.testing.assert_allclose(std, sd_fwd[:n], rtol=1e-9)
+    np.testing.assert_allclose(
+        states[:, 13:16] + states[:, 19:22], fwd.acc_bias_m_s2[:n], rtol=0, atol=1e-10
+    )
+    assert np.abs(states[-1, 16:19]).max() > 0.0  # the instability states took part
+    columns = [
+        fwd.std_att_rad,
+        fwd.std_vel_ned_m_s,
+        fwd.std_pos_ned_m,
+        fwd.std_gyro_bias_rad_s,
+        fwd.std_acc_bias_m_s2,
+    ]
+    if scale_ppm:
+        assert fwd.gyro_scale_ppm is not None
+        assert fwd.acc_scale_ppm is not None
+        assert fwd.std_gyro_scale_ppm is not None
+        assert fwd.std_acc_scale_ppm is not None
+        np.testing.assert_allclose(states[:, 22:25] * 1e6, fwd.gyro_scale_ppm[:n], atol=1e-6)
+        np.testing.assert_allclose(states[:, 25:28] * 1e6, fwd.acc_scale_ppm[:n], atol=1e-6)
+        columns += [fwd.std_gyro_scale_ppm * 1e-6, fwd.std_acc_scale_ppm * 1e-6]
+    else:
+        assert fwd.gyro_scale_ppm is None
+        assert np.isnan(std[:, 15:]).all()
+    sd_fwd = np.column_stack(columns)
+    np.testing.assert_allclose(std[:, : sd_fwd.shape[1]], sd_fwd[:n], rtol=1e-9)

@@ -11,12 +11,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kinsync.ins._ekf import propagate_cov, scalar_update
+from kinsync.ins._ekf import N_ERR, X_BA, X_BG, X_MA, X_MG, propagate_cov, scalar_update
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import run_ins, transition_matrix
 from kinsync.ins.forward_run import Checkpoints
 from kinsync.ins.measurements import GnssData, ImuData
-from kinsync.ins.smoother import smooth_checkpoints
+from kinsync.ins.smoother import new_smoothed_covariance, smooth_checkpoints
 from kinsync.ins.solution import InitialState, NavSolution
 
 SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
@@ -28,37 +28,57 @@ MEAS = {0: 3, 5: 6, 10: 3, 11: 6, 20: 6, 20.5: 3, 33: 6, 40: 3}
 FORCED = (26,)  # a plain checkpoint without measurement
 
 
+N = N_ERR
+"""States of the linear model: the filter's 21 (navigation block dense, sensor rows
+diagonal)."""
+
+
 def _linear_model(rng: np.random.Generator) -> dict[str, Any]:
-    """A 15-state linear model with the INS block structure of F (bias rows diagonal)."""
+    """A 21-state linear model with the INS block structure of F (sensor rows diagonal)
+    and of Q (a dense 6×6 attitude-velocity block plus a diagonal)."""
     dt = 0.1
-    Phis = np.zeros((N_EPOCHS, 15, 15))
+    Phis = np.zeros((N_EPOCHS, N, N))
     for k in range(N_EPOCHS):
-        F = np.zeros((15, 15))
-        F[:9, :] = rng.normal(0.0, 0.3, (9, 15))
-        for i in range(9, 15):
+        F = np.zeros((N, N))
+        F[:9, :] = rng.normal(0.0, 0.3, (9, N))
+        for i in range(9, N):
             F[i, i] = -1.0 / rng.uniform(20.0, 200.0)
         Phis[k] = transition_matrix(F, dt)
-    q = rng.uniform(1e-4, 1e-2, (N_EPOCHS, 15))
-    P0 = np.diag(rng.uniform(0.5, 2.0, 15))
-    m0 = rng.normal(0.0, 1.0, 15)
+    q = rng.uniform(1e-4, 1e-2, (N_EPOCHS, N))
+    q[:, :6] = 0.0  # the attitude-velocity noise is in q_nav
+    q_nav = np.zeros((N_EPOCHS, 6, 6))
+    for k in range(N_EPOCHS):
+        A = rng.normal(0.0, 0.05, (6, 6))
+        q_nav[k] = A @ A.T + np.diag(rng.uniform(1e-4, 1e-2, 6))
+    P0 = np.diag(rng.uniform(0.5, 2.0, N))
+    m0 = rng.normal(0.0, 1.0, N)
     meas = {}
     for key, rows in MEAS.items():
-        H = np.zeros((6, 15))
-        H[:rows] = rng.normal(0.0, 1.0, (rows, 15))
+        H = np.zeros((6, N))
+        H[:rows] = rng.normal(0.0, 1.0, (rows, N))
         r = np.zeros(6)
         r[:rows] = rng.uniform(0.05, 0.5, rows)
         meas[key] = (int(key), H, r, rows)
     # truth and measurements
     x = rng.multivariate_normal(m0, P0)
-    xs = np.zeros((N_EPOCHS, 15))
+    xs = np.zeros((N_EPOCHS, N))
     for k in range(N_EPOCHS):
         if k > 0:
-            x = Phis[k] @ x + rng.normal(0.0, np.sqrt(q[k]))
+            x = Phis[k] @ x + rng.multivariate_normal(np.zeros(N), _full_q(q[k], q_nav[k]))
         xs[k] = x
     ys = {}
     for key, (k, H, r, rows) in meas.items():
         ys[key] = H[:rows] @ xs[k] + rng.normal(0.0, np.sqrt(r[:rows]))
-    return {"Phis": Phis, "q": q, "P0": P0, "m0": m0, "meas": meas, "ys": ys, "truth": xs}
+    return {
+        "Phis": Phis, "q": q, "q_nav": q_nav, "P0": P0, "m0": m0, "meas": meas, "ys": ys,
+        "truth": xs,
+    }  # fmt: skip
+
+
+def _full_q(q: np.ndarray, q_nav: np.ndarray) -> np.ndarray:
+    Q = np.diag(q)
+    Q[:6, :6] += q_nav
+    return Q
 
 
 def _closed_loop_forward(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, Checkpoints]:
@@ -66,8 +86,8 @@ def _closed_loop_forward(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray,
     as the INS forward pass does (the same compiled propagation and scalar updates)."""
     P = model["P0"].copy()
     nominal = model["m0"].copy()
-    nominals = np.zeros((N_EPOCHS, 15))
-    fwd_var = np.zeros((N_EPOCHS, 15))
+    nominals = np.zeros((N_EPOCHS, N))
+    fwd_var = np.zeros((N_EPOCHS, N))
     ck: dict[str, list[Any]] = {k: [] for k in ("epoch", "Pm", "Pp", "H", "r", "z", "nrows")}
 
     def add(
@@ -82,25 +102,25 @@ def _closed_loop_forward(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray,
         for name, val in zip(ck, (k, Pm.copy(), Pp.copy(), H, r, z, rows), strict=True):
             ck[name].append(val)
 
-    add(0, P, P, np.zeros((6, 15)), np.zeros(6), np.zeros(6), 0)
-    T = np.empty((9, 15))
-    ph = np.empty(15)
+    add(0, P, P, np.zeros((6, N)), np.zeros(6), np.zeros(6), 0)
+    T = np.empty((9, N))
+    ph = np.empty(N)
     for k in range(N_EPOCHS):
         if k > 0:
             nominal = model["Phis"][k] @ nominal
-            propagate_cov(P, model["Phis"][k], model["q"][k], T)
+            propagate_cov(P, model["Phis"][k], model["q"][k], model["q_nav"][k], T)
         for key in sorted(kk for kk in model["meas"] if int(kk) == k):
             _, H, r, rows = model["meas"][key]
             z = np.zeros(6)
             z[:rows] = H[:rows] @ nominal - model["ys"][key]  # "INS minus GNSS"
             Pm = P.copy()
-            x = np.zeros(15)
+            x = np.zeros(N)
             for i in range(rows):
                 scalar_update(P, x, H[i].copy(), r[i], z[i], ph)
             nominal = nominal - x  # feedback: true = nominal - error
             add(k, Pm, P, H, r, z, rows)
         if k in FORCED:
-            add(k, P, P, np.zeros((6, 15)), np.zeros(6), np.zeros(6), 0)
+            add(k, P, P, np.zeros((6, N)), np.zeros(6), np.zeros(6), 0)
         nominals[k] = nominal
         fwd_var[k] = np.diag(P)
     ckp = Checkpoints(
@@ -116,19 +136,20 @@ def _closed_loop_forward(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray,
 
 
 def _batch_least_squares(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """Minimiser of the full quadratic cost over all states and its covariance diagonal."""
-    n = N_EPOCHS * 15
+    """Minimiser of the full quadratic cost over all states and its covariance (per epoch)."""
+    n = N_EPOCHS * N
     A = np.zeros((n, n))
     b = np.zeros(n)
 
     def blk(k: int) -> slice:
-        return slice(15 * k, 15 * k + 15)
+        return slice(N * k, N * k + N)
 
     P0i = np.linalg.inv(model["P0"])
     A[blk(0), blk(0)] += P0i
     b[blk(0)] += P0i @ model["m0"]
     for k in range(1, N_EPOCHS):
-        Qi = np.diag(1.0 / model["q"][k])
+        Q = _full_q(model["q"][k], model["q_nav"][k])
+        Qi = np.linalg.inv(Q)
         Phi = model["Phis"][k]
         # (x_k - Φ x_{k-1})^T Q^-1 (x_k - Φ x_{k-1})
         A[blk(k), blk(k)] += Qi
@@ -140,35 +161,49 @@ def _batch_least_squares(model: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]
         Ri = np.diag(1.0 / r[:rows])
         A[blk(k), blk(k)] += Hr.T @ Ri @ Hr
         b[blk(k)] += Hr.T @ Ri @ model["ys"][key]
-    x = np.linalg.solve(A, b).reshape(N_EPOCHS, 15)
-    var = np.diag(np.linalg.inv(A)).reshape(N_EPOCHS, 15)
-    return x, var
+    x = np.linalg.solve(A, b).reshape(N_EPOCHS, N)
+    cov_all = np.linalg.inv(A)
+    cov = np.array([cov_all[blk(k), blk(k)] for k in range(N_EPOCHS)])
+    return x, cov
 
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_smoother_equals_batch_least_squares(seed: int) -> None:
     model = _linear_model(np.random.default_rng(seed))
     nominals, fwd_var, ck = _closed_loop_forward(model)
-    dx = np.zeros((N_EPOCHS, 15))
-    var = np.zeros((N_EPOCHS, 15))
+    dx = np.zeros((N_EPOCHS, N))
+    cov = new_smoothed_covariance(N_EPOCHS, N)
 
-    def fill(e: int, L: int, has_next: bool, Phi_buf: np.ndarray, q_buf: np.ndarray) -> None:
+    def fill(
+        e: int, L: int, has_next: bool, Phi_buf: np.ndarray, q_buf: np.ndarray, q_nav: np.ndarray
+    ) -> None:
         top = L if has_next else L - 1
         for i in range(1, top + 1):
             Phi_buf[i] = model["Phis"][e + i]
             q_buf[i] = model["q"][e + i]
+            q_nav[i] = model["q_nav"][e + i]
 
-    smooth_checkpoints(ck, N_EPOCHS - 1, fill, dx, var)
+    smooth_checkpoints(ck, N_EPOCHS - 1, fill, dx, cov)
     smoothed = nominals - dx
-    x_ls, var_ls = _batch_least_squares(model)
+    x_ls, cov_ls = _batch_least_squares(model)
+    var_ls = np.diagonal(cov_ls, axis1=1, axis2=2)
     scale = np.abs(x_ls).max()
     np.testing.assert_allclose(smoothed, x_ls, rtol=0, atol=1e-9 * scale)
-    np.testing.assert_allclose(var, var_ls, rtol=1e-9)
+    np.testing.assert_allclose(cov.var, var_ls, rtol=1e-9)
+    # the entries kept beside the variances: attitude-velocity block, bias cross terms
+    np.testing.assert_allclose(cov.nav, cov_ls[:, :6, :6], rtol=0, atol=1e-9 * var_ls.max())
+    for a in range(3):
+        np.testing.assert_allclose(
+            cov.bias_cross[:, a], cov_ls[:, X_BG + a, X_MG + a], atol=1e-9 * var_ls.max()
+        )
+        np.testing.assert_allclose(
+            cov.bias_cross[:, 3 + a], cov_ls[:, X_BA + a, X_MA + a], atol=1e-9 * var_ls.max()
+        )
     # the forward filter's last epoch is already the smoothed one
     np.testing.assert_allclose(fwd_var[-1], var_ls[-1], rtol=1e-9)
-    assert (var <= fwd_var * (1 + 1e-12)).all()
+    assert (cov.var <= fwd_var * (1 + 1e-12)).all()
     # and the smoothed estimate is an estimate of the truth: normalised errors of unit size
-    zeta = (smoothed - model["truth"]) / np.sqrt(var)
+    zeta = (smoothed - model["truth"]) / np.sqrt(cov.var)
     assert 0.5 < float(np.sqrt(np.mean(zeta**2))) < 1.5
 
 

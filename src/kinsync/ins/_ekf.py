@@ -1,41 +1,63 @@
-"""Compiled pieces of the 15-state error-state filter shared by the filter and smoother.
+"""Compiled pieces of the error-state filter shared by the filter and the smoother.
 
-Error state (all in the local NED frame of the nominal state, SI units)::
+Error state (local NED frame of the nominal state, SI units), 21 states, or 27 with
+scale factors::
 
-    x = [φ (3), δv (3), δp (3), δb_g (3), δb_a (3)]
+    x = [φ (3), δv' (3), δp (3), δb_g (3), δb_a (3), δm_g (3), δm_a (3), [δs_g (3), δs_a (3)]]
 
 - ``φ``: misorientation (rad) with ``C_b^n(nominal) = (I - [φ×]) C_b^n(true)``;
-- ``δv = v(nominal) - v(true)`` (m/s, NED);
+- ``δv'``: the velocity error of the *modified φ-angle* model (Scherzinger & Reid
+  1994): the nominal velocity minus the true velocity resolved in the nominal
+  ("platform") frame, ``δv' = δv - [v×] φ`` with ``δv = v(nominal) - v(true)``.
+  The specific force leaves the system matrix (``δv̇'`` sees gravity, not ``f``), so the
+  model stays accurate for heading errors of tens of degrees, which a filter whose
+  turn-on gyro bias is still unknown meets early in a run; the correction rotates the
+  velocity with the attitude;
 - ``δp``: position error in metres North, East, Down:
   ``δp_N = (R_M + h) δlat``, ``δp_E = (R_N + h) cos(lat) δlon``, ``δp_D = -δh``.
   Metres rather than radians keep the covariance well scaled and make the GNSS
   observation matrix a plain identity;
-- ``δb_g = b_g(true) - b_g(estimate)``, ``δb_a`` likewise: the residual sensor
-  biases, first-order Gauss–Markov (``δḃ = -δb/τ + w``).
+- sensor errors, each ``true - estimate`` in the body frame, the way a datasheet states
+  them: ``δb``, the **turn-on bias** (a random constant; initial σ from the turn-on
+  figure, or the σ of a laboratory calibration), ``δm``, the **in-run bias
+  instability** (first-order Gauss–Markov: ``δṁ = -δm/τ + w``, steady σ and ``τ`` from
+  the datasheet), and optionally ``δs``, the **scale factor** errors (random constants,
+  dimensionless). The sensor error of a corrected sample is
+  ``δω = δb_g + δm_g + diag(ω) δs_g`` (``δf`` likewise). Turn-on bias and instability
+  are separate states because one Gauss–Markov state for both decays its variance
+  from the turn-on σ to the instability σ within ``τ/2``: the filter then treats an
+  unobserved 0.2 deg/s turn-on bias as known to the instability (6.5 deg/h).
 
-Continuous model ``ẋ = F x + G w`` (Titterton & Weston 2004, ch. 12; Groves 2013,
-ch. 14, rewritten for metric position errors)::
+Continuous model ``ẋ = F x + G w`` (Scherzinger & Reid 1994, as in Groves 2013,
+ch. 14, for metric position errors; ``R`` is the curvature matrix with
+``ω_en = R v``)::
 
-    φ̇  = -[ω_in×] φ + δω_in - C_b^n δb_g - C_b^n w_g
-    δv̇ = [f^n×] φ + C_b^n δb_a - [(2ω_ie + ω_en)×] δv + [v×](2δω_ie + δω_en) + δg + C_b^n w_a
-    δṗ = δv + (terms of order v/R)
+    δṗ  = δv' + [v×] φ + (terms of order v/R)
+    δv̇' = -[(2ω_ie + ω_en)×] δv' - [g×] φ + (2g/R) δp_D e_D + [v×] C_b^n δω + C_b^n δf
+    φ̇  = [ω_ie×] R δp + R δv' + (R [v×] - [(ω_ie + ω_en)×]) φ - C_b^n δω
 
-``Φ = I + FΔt + F²Δt²/2`` and ``Q = G Q_c G^T Δt``; with isotropic white noise the
-rotation ``C_b^n`` drops out and ``Q`` is diagonal. ``F`` has zero rows below the
-navigation block except the bias decay on the diagonal, so ``Φ`` is
-``[[A (9×9), B (9×6)], [0, D (6, diagonal)]]`` and ``Φ P Φ^T`` costs about 2 800
-multiply-adds instead of 6 750.
+``Φ = I + FΔt + F²Δt²/2`` and ``Q = G Q_c G^T Δt``. The white sensor noise enters the
+attitude and velocity rows through ``-C`` and ``[v×] C``, so ``Q`` has a dense 6×6
+navigation block (`process_noise`) and a diagonal for the Gauss–Markov states. ``F``
+has zero rows below the navigation block except the Gauss–Markov decay on the
+diagonal, so ``Φ`` is ``[[A (9×9), B (9×m)], [0, D (m, diagonal)]]`` and ``Φ P Φ^T``
+is computed block by block.
 
 Closed-loop feedback (``_feedback``) applies ``true ≈ nominal ⊖ x``: attitude
-``q ← q(φ) ⊗ q``, ``v ← v - δv``, position back to latitude/longitude/height, bias
-estimates ``+= δb``; the error state is then zero again.
+``q ← q(φ) ⊗ q``, velocity ``v ← Rot(φ) (v - δv')``, position back to latitude,
+longitude and height, sensor estimates ``+= δb, δm, δs``; the error state is then zero
+again. Between updates the instability estimate decays as its model says
+(``m ← m e^{-Δt/τ}``, `kinsync.ins.strapdown`).
 
 References
 ----------
+B. M. Scherzinger, D. B. Reid, "Modified strapdown inertial navigator error models",
+Proc. IEEE PLANS 1994, 426-430 (the modified φ-angle model).
 D. H. Titterton, J. L. Weston, *Strapdown Inertial Navigation Technology*, 2nd ed.,
 IET 2004, ch. 12 (error equations). P. D. Groves, *Principles of GNSS, Inertial, and
 Multisensor Integrated Navigation Systems*, 2nd ed., Artech House, 2013, ch. 14
-(INS/GNSS state propagation and lever-arm measurement models).
+(INS/GNSS state propagation and lever-arm measurement models) and ch. 4 (sensor error
+models: fixed bias, bias instability, scale factor).
 """
 
 from __future__ import annotations
@@ -44,6 +66,7 @@ import math
 from collections.abc import Callable
 from typing import Any, cast
 
+import numpy as np
 from numba import njit
 
 from kinsync._typing import FloatArray
@@ -54,7 +77,11 @@ from kinsync.ins.strapdown import (
     I_H,
     I_LAT,
     I_LON,
+    I_MA,
+    I_MG,
     I_Q,
+    I_SA,
+    I_SG,
     I_VEL,
     quat_mul,
     quat_to_dcm,
@@ -63,27 +90,57 @@ from kinsync.ins.strapdown import (
 
 _jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
 
-N_ERR = 15
 N_NAV = 9  # attitude, velocity, position: the dense block of F and Φ
+X_BG, X_BA = 9, 12  # turn-on biases (random constants)
+X_MG, X_MA = 15, 18  # bias instabilities (Gauss–Markov)
+X_SG, X_SA = 21, 24  # scale factors (random constants), optional
+N_ERR = 21
+"""Error states without scale factors."""
+N_ERR_SCALE = 27
+"""Error states with gyro and accelerometer scale factors."""
+N_OUT = 21
+"""Standard deviations per epoch in the solution (`solution_std`): attitude (rad),
+velocity (m/s), position (m) errors, total gyro (rad/s) and accelerometer (m/s^2) bias,
+gyro and accelerometer scale factor (NaN when not modelled)."""
 
 # Parameter vector of the filter (one float64 array passed to the compiled loop).
 P_TAU_G, P_TAU_A = 0, 1  # Gauss–Markov correlation times (s)
 P_QC_ATT, P_QC_VEL = 2, 3  # white-noise PSDs: arw^2 (rad^2/s), vrw^2 (m^2/s^3)
-P_QC_BG, P_QC_BA = 4, 5  # bias driving-noise PSDs 2σ²/τ
+P_QC_BG, P_QC_BA = 4, 5  # instability driving-noise PSDs 2σ²/τ
 P_ARM = 6  # 6..8 antenna lever arm, body (m)
 P_GATE = 9  # χ² threshold, 3 degrees of freedom
 P_USE_VEL = 10  # 1.0: use GNSS velocities
 N_PARAMS = 11
 
 
-def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
-    s: FloatArray, f_b: FloatArray, tau_g: float, tau_a: float, C: FloatArray, F: FloatArray
+def _corrected_imu(
+    s: FloatArray, gyro: FloatArray, acc: FloatArray, w_b: FloatArray, f_b: FloatArray
 ) -> None:  # pragma: no cover - compiled by numba
-    """Fill ``F`` (15, 15) for the nominal state ``s`` and bias-corrected specific force.
+    """``w_b``, ``f_b`` (3,): the sample corrected with the state's sensor estimates.
+
+    ``ω = (ω_measured - b_g - m_g) / (1 + s_g)``; likewise the specific force.
+    """
+    for i in range(3):
+        w_b[i] = (gyro[i] - s[I_BG + i] - s[I_MG + i]) / (1.0 + s[I_SG + i])
+        f_b[i] = (acc[i] - s[I_BA + i] - s[I_MA + i]) / (1.0 + s[I_SA + i])
+
+
+def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
+    s: FloatArray,
+    w_b: FloatArray,
+    f_b: FloatArray,
+    tau_g: float,
+    tau_a: float,
+    C: FloatArray,
+    F: FloatArray,
+) -> None:  # pragma: no cover - compiled by numba
+    """Fill ``F`` (n, n) for the nominal state ``s`` and the corrected sample ``w_b, f_b``.
 
     ``C`` (3, 3) receives ``C_b^n`` of the state. Only the navigation rows and the
-    bias diagonal are written; callers keep the other entries zero.
+    Gauss–Markov diagonal are written; callers keep the other entries zero. ``n`` (21
+    or 27, with scale factors) is ``F``'s size.
     """
+    n = F.shape[0]
     lat = s[I_LAT]
     h = s[I_H]
     vn, ve, vd = s[I_VEL], s[I_VEL + 1], s[I_VEL + 2]
@@ -97,102 +154,88 @@ def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
     rnh = r_n + h
     om = OMEGA_IE_RAD_S
     wie0, wie2 = om * cl, -om * sl
-    wen0, wen1, wen2 = ve / rnh, -vn / rmh, -ve * tl / rnh
-    win0, win1, win2 = wie0 + wen0, wen1, wie2 + wen2
+    # Curvature matrix R (ω_en = R v): R[0,1] = 1/(R_N+h), R[1,0] = -1/(R_M+h),
+    # R[2,1] = -tan(lat)/(R_N+h).
+    r01, r10, r21 = 1.0 / rnh, -1.0 / rmh, -tl / rnh
+    wen0, wen1, wen2 = r01 * ve, r10 * vn, r21 * ve
+    g = normal_gravity_m_s2(lat, h)
     quat_to_dcm(s[I_Q : I_Q + 4], C)
-    fn0 = C[0, 0] * f_b[0] + C[0, 1] * f_b[1] + C[0, 2] * f_b[2]
-    fn1 = C[1, 0] * f_b[0] + C[1, 1] * f_b[1] + C[1, 2] * f_b[2]
-    fn2 = C[2, 0] * f_b[0] + C[2, 1] * f_b[1] + C[2, 2] * f_b[2]
 
-    # Derivatives of ω_ie and ω_en with respect to δv and δp (3x3 each, row = component).
-    # δω_ie = Ω (-sin, 0, -cos) δp_N / (R_M + h)
-    die00 = -om * sl / rmh
-    die20 = -om * cl / rmh
-    # δω_en / δv
-    dv01 = 1.0 / rnh
-    dv10 = -1.0 / rmh
-    dv21 = -tl / rnh
-    # δω_en / δp
-    dp02 = ve / (rnh * rnh)
-    dp12 = -vn / (rmh * rmh)
-    dp20 = -ve / (cl * cl * rnh * rmh)
-    dp22 = -ve * tl / (rnh * rnh)
-
-    # Attitude rows.
-    F[0, 0] = 0.0
-    F[0, 1] = win2
-    F[0, 2] = -win1
-    F[1, 0] = -win2
-    F[1, 1] = 0.0
-    F[1, 2] = win0
-    F[2, 0] = win1
-    F[2, 1] = -win0
-    F[2, 2] = 0.0
-    F[0, 3], F[0, 4], F[0, 5] = 0.0, dv01, 0.0
-    F[1, 3], F[1, 4], F[1, 5] = dv10, 0.0, 0.0
-    F[2, 3], F[2, 4], F[2, 5] = 0.0, dv21, 0.0
-    F[0, 6], F[0, 7], F[0, 8] = die00, 0.0, dp02
-    F[1, 6], F[1, 7], F[1, 8] = 0.0, 0.0, dp12
-    F[2, 6], F[2, 7], F[2, 8] = die20 + dp20, 0.0, dp22
-    for i in range(3):
-        for j in range(3):
-            F[i, 9 + j] = -C[i, j]
-            F[i, 12 + j] = 0.0
-            F[3 + i, 9 + j] = 0.0
-            F[3 + i, 12 + j] = C[i, j]
-            F[6 + i, 9 + j] = 0.0
-            F[6 + i, 12 + j] = 0.0
-            F[6 + i, j] = 0.0
-
-    # Velocity rows: [f^n×] φ.
-    F[3, 0], F[3, 1], F[3, 2] = 0.0, -fn2, fn1
-    F[4, 0], F[4, 1], F[4, 2] = fn2, 0.0, -fn0
-    F[5, 0], F[5, 1], F[5, 2] = -fn1, fn0, 0.0
-    # -[(2ω_ie + ω_en)×] δv + [v×] (δω_en/δv) δv
+    # Attitude rows. φ/δp = [ω_ie×] R, φ/δv' = R, φ/φ = R [v×] - [(ω_ie + ω_en)×].
+    # [ω_ie×] = [[0, -wie2, 0], [wie2, 0, -wie0], [0, wie0, 0]]
+    F[0, 6], F[0, 7], F[0, 8] = -wie2 * r10, 0.0, 0.0
+    F[1, 6], F[1, 7], F[1, 8] = 0.0, wie2 * r01 - wie0 * r21, 0.0
+    F[2, 6], F[2, 7], F[2, 8] = wie0 * r10, 0.0, 0.0
+    F[0, 3], F[0, 4], F[0, 5] = 0.0, r01, 0.0
+    F[1, 3], F[1, 4], F[1, 5] = r10, 0.0, 0.0
+    F[2, 3], F[2, 4], F[2, 5] = 0.0, r21, 0.0
+    # R [v×] with [v×] = [[0, -vd, ve], [vd, 0, -vn], [-ve, vn, 0]]
+    w0, w1, w2 = wie0 + wen0, wen1, wie2 + wen2
+    F[0, 0], F[0, 1], F[0, 2] = r01 * vd, 0.0 + w2, -r01 * vn - w1
+    F[1, 0], F[1, 1], F[1, 2] = 0.0 - w2, -r10 * vd, r10 * ve + w0
+    F[2, 0], F[2, 1], F[2, 2] = r21 * vd + w1, -w0, -r21 * vn
+    # Velocity rows. δv'/δv' = -[(2ω_ie + ω_en)×], δv'/φ = -[g×], gravity gradient.
     c0, c1, c2 = 2.0 * wie0 + wen0, wen1, 2.0 * wie2 + wen2
-    # [v×] = [[0, -vd, ve], [vd, 0, -vn], [-ve, vn, 0]]
-    F[3, 3] = 0.0 + (-vd * dv10)
-    F[3, 4] = c2 + (0.0 * dv01 + ve * dv21)
-    F[3, 5] = -c1
-    F[4, 3] = -c2
-    F[4, 4] = 0.0 + (vd * dv01 - vn * dv21)
-    F[4, 5] = c0
-    F[5, 3] = c1 + (vn * dv10)
-    F[5, 4] = -c0 + (-ve * dv01)
-    F[5, 5] = 0.0
-    # [v×] (2 δω_ie + δω_en) / δp, plus the vertical gravity gradient 2g/R δp_D.
-    a00 = 2.0 * die00
-    a20 = 2.0 * die20 + dp20
-    a02 = dp02
-    a12 = dp12
-    a22 = dp22
-    F[3, 6] = -vd * 0.0 + ve * a20
-    F[3, 7] = 0.0
-    F[3, 8] = -vd * a12 + ve * a22
-    F[4, 6] = vd * a00 - vn * a20
-    F[4, 7] = 0.0
-    F[4, 8] = vd * a02 - vn * a22
-    F[5, 6] = -ve * a00
-    F[5, 7] = 0.0
-    F[5, 8] = -ve * a02 + vn * a12 + 2.0 * normal_gravity_m_s2(lat, h) / math.sqrt(r_m * r_n)
-    # Position rows (metric errors).
+    F[3, 3], F[3, 4], F[3, 5] = 0.0, c2, -c1
+    F[4, 3], F[4, 4], F[4, 5] = -c2, 0.0, c0
+    F[5, 3], F[5, 4], F[5, 5] = c1, -c0, 0.0
+    F[3, 0], F[3, 1], F[3, 2] = 0.0, g, 0.0
+    F[4, 0], F[4, 1], F[4, 2] = -g, 0.0, 0.0
+    F[5, 0], F[5, 1], F[5, 2] = 0.0, 0.0, 0.0
+    for j in range(6, 9):
+        F[3, j] = 0.0
+        F[4, j] = 0.0
+        F[5, j] = 0.0
+    F[5, 8] = 2.0 * g / math.sqrt(r_m * r_n)
+    # Position rows (metric errors): δp = δv' + [v×] φ + (v/R terms).
+    F[6, 0], F[6, 1], F[6, 2] = 0.0, -vd, ve
+    F[7, 0], F[7, 1], F[7, 2] = vd, 0.0, -vn
+    F[8, 0], F[8, 1], F[8, 2] = -ve, vn, 0.0
     F[6, 3], F[6, 4], F[6, 5] = 1.0, 0.0, 0.0
     F[7, 3], F[7, 4], F[7, 5] = 0.0, 1.0, 0.0
     F[8, 3], F[8, 4], F[8, 5] = 0.0, 0.0, 1.0
     F[6, 6], F[6, 7], F[6, 8] = -vd / rmh, 0.0, vn / rmh
     F[7, 6], F[7, 7], F[7, 8] = ve * tl / rmh, -(vd / rnh + vn * tl / rmh), ve / rnh
     F[8, 6], F[8, 7], F[8, 8] = 0.0, 0.0, 0.0
-    # Bias rows: Gauss–Markov decay.
+    # Sensor columns: gyro errors through -C (attitude) and [v×] C (velocity),
+    # accelerometer errors through C (velocity).
     for i in range(3):
-        F[9 + i, 9 + i] = -1.0 / tau_g
-        F[12 + i, 12 + i] = -1.0 / tau_a
+        vc0 = -vd * C[1, i] + ve * C[2, i]
+        vc1 = vd * C[0, i] - vn * C[2, i]
+        vc2 = -ve * C[0, i] + vn * C[1, i]
+        for col in (X_BG + i, X_MG + i):
+            F[0, col], F[1, col], F[2, col] = -C[0, i], -C[1, i], -C[2, i]
+            F[3, col], F[4, col], F[5, col] = vc0, vc1, vc2
+            F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
+        for col in (X_BA + i, X_MA + i):
+            F[0, col], F[1, col], F[2, col] = 0.0, 0.0, 0.0
+            F[3, col], F[4, col], F[5, col] = C[0, i], C[1, i], C[2, i]
+            F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
+        if n > X_SG:
+            col = X_SG + i
+            F[0, col], F[1, col], F[2, col] = (
+                -C[0, i] * w_b[i],
+                -C[1, i] * w_b[i],
+                -C[2, i] * w_b[i],
+            )
+            F[3, col], F[4, col], F[5, col] = vc0 * w_b[i], vc1 * w_b[i], vc2 * w_b[i]
+            F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
+            col = X_SA + i
+            F[0, col], F[1, col], F[2, col] = 0.0, 0.0, 0.0
+            F[3, col], F[4, col], F[5, col] = C[0, i] * f_b[i], C[1, i] * f_b[i], C[2, i] * f_b[i]
+            F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
+    # Sensor rows: Gauss–Markov decay of the instabilities; constants do not move.
+    for i in range(3):
+        F[X_MG + i, X_MG + i] = -1.0 / tau_g
+        F[X_MA + i, X_MA + i] = -1.0 / tau_a
 
 
 def _phi_from_F(F: FloatArray, dt: float, Phi: FloatArray) -> None:  # pragma: no cover
     """``Φ = I + FΔt + F²Δt²/2`` exploiting the block structure of ``F`` (see module)."""
+    n = F.shape[0]
     half = 0.5 * dt * dt
     for i in range(N_NAV):
-        for j in range(N_ERR):
+        for j in range(n):
             acc = 0.0
             for m in range(N_NAV):
                 acc += F[i, m] * F[m, j]
@@ -200,41 +243,49 @@ def _phi_from_F(F: FloatArray, dt: float, Phi: FloatArray) -> None:  # pragma: n
                 acc += F[i, j] * F[j, j]
             Phi[i, j] = F[i, j] * dt + acc * half
         Phi[i, i] += 1.0
-    for i in range(N_NAV, N_ERR):
-        for j in range(N_ERR):
+    for i in range(N_NAV, n):
+        for j in range(n):
             Phi[i, j] = 0.0
         d = F[i, i]
         Phi[i, i] = 1.0 + d * dt + d * d * half
 
 
 def _propagate_cov(
-    P: FloatArray, Phi: FloatArray, qdiag: FloatArray, T: FloatArray
+    P: FloatArray, Phi: FloatArray, q: FloatArray, q_nav: FloatArray, T: FloatArray
 ) -> None:  # pragma: no cover
-    """``P ← Φ P Φ^T + diag(q)`` in place for a block-structured ``Φ``; ``T`` is (9, 15)."""
+    """``P ← Φ P Φ^T + Q`` in place for a block-structured ``Φ``.
+
+    ``Q`` is ``diag(q)`` (n,) plus the dense 6×6 attitude-velocity block ``q_nav``;
+    ``T`` is (9, n) scratch.
+    """
+    n = P.shape[0]
     for i in range(N_NAV):
-        for j in range(N_ERR):
+        for j in range(n):
             acc = 0.0
-            for m in range(N_ERR):
+            for m in range(n):
                 acc += Phi[i, m] * P[m, j]
             T[i, j] = acc
     for i in range(N_NAV):
         for j in range(i, N_NAV):
             acc = 0.0
-            for m in range(N_ERR):
+            for m in range(n):
                 acc += T[i, m] * Phi[j, m]
             P[i, j] = acc
             P[j, i] = acc
-        P[i, i] += qdiag[i]
-        for b in range(N_NAV, N_ERR):
+        P[i, i] += q[i]
+        for b in range(N_NAV, n):
             v = T[i, b] * Phi[b, b]
             P[i, b] = v
             P[b, i] = v
-    for a in range(N_NAV, N_ERR):
-        for b in range(a, N_ERR):
+    for i in range(6):
+        for j in range(6):
+            P[i, j] += q_nav[i, j]
+    for a in range(N_NAV, n):
+        for b in range(a, n):
             v = Phi[a, a] * P[a, b] * Phi[b, b]
             P[a, b] = v
             P[b, a] = v
-        P[a, a] += qdiag[a]
+        P[a, a] += q[a]
 
 
 def _scalar_update(
@@ -242,32 +293,37 @@ def _scalar_update(
 ) -> None:  # pragma: no cover
     """Kalman update with one scalar measurement ``z = h·x + v``, ``var(v) = r``.
 
-    ``x`` (15,) and ``P`` (15, 15) are updated in place (symmetric form
-    ``P ← P - (Ph)(Ph)^T / s``); ``ph`` (15,) is scratch.
+    ``x`` (n,) and ``P`` (n, n) are updated in place (symmetric form
+    ``P ← P - (Ph)(Ph)^T / s``); ``ph`` (n,) is scratch.
     """
-    for i in range(N_ERR):
+    n = P.shape[0]
+    for i in range(n):
         acc = 0.0
-        for j in range(N_ERR):
+        for j in range(n):
             acc += P[i, j] * h[j]
         ph[i] = acc
     s = r
     nu = z
-    for i in range(N_ERR):
+    for i in range(n):
         s += h[i] * ph[i]
         nu -= h[i] * x[i]
-    for i in range(N_ERR):
+    for i in range(n):
         k = ph[i] / s
         x[i] += k * nu
-        for j in range(i, N_ERR):
+        for j in range(i, n):
             v = P[i, j] - k * ph[j]
             P[i, j] = v
             P[j, i] = v
 
 
 def _feedback(
-    s: FloatArray, x: FloatArray, qa: FloatArray, qb: FloatArray
+    s: FloatArray, x: FloatArray, qa: FloatArray, qb: FloatArray, C: FloatArray
 ) -> None:  # pragma: no cover
-    """Correct the nominal state ``s`` with the error state ``x`` (``true ≈ s ⊖ x``)."""
+    """Correct the nominal state ``s`` with the error state ``x`` (``true ≈ s ⊖ x``).
+
+    ``qa``, ``qb`` (4,) and ``C`` (3, 3) are scratch.
+    """
+    n = x.shape[0]
     lat = s[I_LAT]
     h = s[I_H]
     sl = math.sin(lat)
@@ -279,48 +335,123 @@ def _feedback(
     nq = math.sqrt(qb[0] ** 2 + qb[1] ** 2 + qb[2] ** 2 + qb[3] ** 2)
     for i in range(4):
         s[I_Q + i] = qb[i] / nq
+    # v ← Rot(φ) (v - δv'): the velocity turns with the attitude correction.
+    quat_to_dcm(qa, C)
+    u0 = s[I_VEL] - x[3]
+    u1 = s[I_VEL + 1] - x[4]
+    u2 = s[I_VEL + 2] - x[5]
     for i in range(3):
-        s[I_VEL + i] -= x[3 + i]
-        s[I_BG + i] += x[9 + i]
-        s[I_BA + i] += x[12 + i]
+        s[I_VEL + i] = C[i, 0] * u0 + C[i, 1] * u1 + C[i, 2] * u2
+        s[I_BG + i] += x[X_BG + i]
+        s[I_BA + i] += x[X_BA + i]
+        s[I_MG + i] += x[X_MG + i]
+        s[I_MA + i] += x[X_MA + i]
+        if n > X_SG:
+            s[I_SG + i] += x[X_SG + i]
+            s[I_SA + i] += x[X_SA + i]
     s[I_LAT] = lat - x[6] / (r_m + h)
     s[I_LON] -= x[7] / ((r_n + h) * math.cos(lat))
     s[I_H] = h + x[8]
 
 
-def _qdiag(params: FloatArray, dt: float, q: FloatArray) -> None:  # pragma: no cover
-    """Diagonal of the discrete process noise ``Q`` for an interval ``dt``."""
+def _process_noise(
+    params: FloatArray, s: FloatArray, dt: float, q: FloatArray, q_nav: FloatArray
+) -> None:  # pragma: no cover
+    """Discrete process noise of an interval: ``diag(q)`` (n,) and the 6×6 ``q_nav``.
+
+    White gyro noise enters through ``G = [-C; [v×] C]`` and accelerometer noise through
+    ``[0; C]``; with isotropic noise ``C`` drops out of ``G Q_c G^T``::
+
+        q_nav = arw² Δt [[I, [v×]], [-[v×], -[v×]²]] + vrw² Δt [[0, 0], [0, I]]
+    """
+    n = q.shape[0]
+    qa = params[P_QC_ATT] * dt
+    qv = params[P_QC_VEL] * dt
+    vn, ve, vd = s[I_VEL], s[I_VEL + 1], s[I_VEL + 2]
+    # [v×]
+    V = ((0.0, -vd, ve), (vd, 0.0, -vn), (-ve, vn, 0.0))
+    vv = vn * vn + ve * ve + vd * vd
+    vel = (vn, ve, vd)
     for i in range(3):
-        q[i] = params[P_QC_ATT] * dt
-        q[3 + i] = params[P_QC_VEL] * dt
-        q[6 + i] = 0.0
-        q[9 + i] = params[P_QC_BG] * dt
-        q[12 + i] = params[P_QC_BA] * dt
+        for j in range(3):
+            q_nav[i, j] = qa if i == j else 0.0
+            q_nav[i, 3 + j] = qa * V[i][j]
+            q_nav[3 + i, j] = -qa * V[i][j]
+            # -[v×]² = |v|² I - v v^T
+            q_nav[3 + i, 3 + j] = qa * ((vv if i == j else 0.0) - vel[i] * vel[j])
+        q_nav[3 + i, 3 + i] += qv
+    for i in range(n):
+        q[i] = 0.0
+    for i in range(3):
+        q[X_MG + i] = params[P_QC_BG] * dt
+        q[X_MA + i] = params[P_QC_BA] * dt
 
 
 def _step_matrices(
     s: FloatArray,
+    gyro: FloatArray,
     acc: FloatArray,
     dt: float,
     params: FloatArray,
+    w_b: FloatArray,
     f_b: FloatArray,
     C: FloatArray,
     F: FloatArray,
     Phi: FloatArray,
     q: FloatArray,
+    q_nav: FloatArray,
 ) -> None:  # pragma: no cover
-    """``Φ`` and ``diag(Q)`` of the interval ending at an IMU sample (state at its start)."""
-    for i in range(3):
-        f_b[i] = acc[i] - s[I_BA + i]
-    system_matrix(s, f_b, params[P_TAU_G], params[P_TAU_A], C, F)
+    """``Φ`` and ``Q`` of the interval ending at an IMU sample (state at its start)."""
+    corrected_imu(s, gyro, acc, w_b, f_b)
+    system_matrix(s, w_b, f_b, params[P_TAU_G], params[P_TAU_A], C, F)
     transition_from_system(F, dt, Phi)
-    qdiag(params, dt, q)
+    process_noise(params, s, dt, q, q_nav)
 
 
+def _velocity_variance(P: FloatArray, s: FloatArray, out: FloatArray) -> None:  # pragma: no cover
+    """Variances (3,) of the NED velocity error ``δv = δv' + [v×] φ`` from ``P``."""
+    vn, ve, vd = s[I_VEL], s[I_VEL + 1], s[I_VEL + 2]
+    V = ((0.0, -vd, ve), (vd, 0.0, -vn), (-ve, vn, 0.0))
+    for i in range(3):
+        acc = P[3 + i, 3 + i]
+        for k in range(3):
+            acc += 2.0 * V[i][k] * P[k, 3 + i]
+            for m in range(3):
+                acc += V[i][k] * P[k, m] * V[i][m]
+        out[i] = acc
+
+
+def _solution_std(P: FloatArray, s: FloatArray, out: FloatArray) -> None:  # pragma: no cover
+    """The `N_OUT` standard deviations of the solution from the error covariance ``P``.
+
+    Velocity: of ``δv = δv' + [v×] φ``; bias: of the total ``δb + δm`` of each axis.
+    """
+    n = P.shape[0]
+    var = np.empty(3)
+    velocity_variance(P, s, var)
+    for i in range(3):
+        out[i] = math.sqrt(max(P[i, i], 0.0))
+        out[3 + i] = math.sqrt(max(var[i], 0.0))
+        out[6 + i] = math.sqrt(max(P[6 + i, 6 + i], 0.0))
+        bg = P[X_BG + i, X_BG + i] + P[X_MG + i, X_MG + i] + 2.0 * P[X_BG + i, X_MG + i]
+        ba = P[X_BA + i, X_BA + i] + P[X_MA + i, X_MA + i] + 2.0 * P[X_BA + i, X_MA + i]
+        out[9 + i] = math.sqrt(max(bg, 0.0))
+        out[12 + i] = math.sqrt(max(ba, 0.0))
+        if n > X_SG:
+            out[15 + i] = math.sqrt(max(P[X_SG + i, X_SG + i], 0.0))
+            out[18 + i] = math.sqrt(max(P[X_SA + i, X_SA + i], 0.0))
+        else:
+            out[15 + i] = math.nan
+            out[18 + i] = math.nan
+
+
+corrected_imu = _jit(_corrected_imu)
 system_matrix = _jit(_build_F)
 transition_from_system = _jit(_phi_from_F)
 propagate_cov = _jit(_propagate_cov)
 scalar_update = _jit(_scalar_update)
 feedback = _jit(_feedback)
-qdiag = _jit(_qdiag)
+process_noise = _jit(_process_noise)
 step_matrices = _jit(_step_matrices)
+velocity_variance = _jit(_velocity_variance)
+solution_std = _jit(_solution_std)

@@ -3,14 +3,18 @@
 IMU error model, GNSS defaults, lever arm, initial uncertainties (frozen dataclass;
 TOML form in ``kinsync.io.ins_config``).
 
-All values in SI units. Noise densities follow the usual convention: angle random walk
-in rad/s/sqrt(Hz) (= rad/sqrt(s)), velocity random walk in m/s^2/sqrt(Hz); bias
-instability as the steady-state standard deviation of a first-order Gauss–Markov
-process with the given correlation time.
+All values in SI units (scale factors in ppm). Noise densities follow the usual
+convention: angle random walk in rad/s/sqrt(Hz) (= rad/sqrt(s)), velocity random walk
+in m/s^2/sqrt(Hz). Each sensor's bias is a **turn-on bias** (a random constant with the
+datasheet's turn-on σ, or a laboratory calibration with its own σ, the ``init_*_bias``
+fields) plus an **in-run instability** (the steady-state σ of a first-order
+Gauss–Markov process with the given correlation time): two states per axis in the
+filter (`kinsync.ins._ekf`). Scale factor errors are modelled when their σ is given.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from kinsync._validate import positive_number
@@ -19,6 +23,18 @@ from kinsync.errors import InputError
 __all__ = ["InsConfig"]
 
 Vector3 = tuple[float, float, float]
+
+
+def _finite3(value: object, name: str) -> Vector3:
+    try:
+        vals = tuple(float(v) for v in value)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as err:
+        msg = f"{name}: expected 3 numbers, got {value!r}"
+        raise InputError(msg) from err
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        msg = f"{name}: expected 3 finite numbers, got {value!r}"
+        raise InputError(msg)
+    return (vals[0], vals[1], vals[2])
 
 
 @dataclass(frozen=True)
@@ -30,11 +46,15 @@ class InsConfig:
     gyro_arw_rad_s_rthz, acc_vrw_m_s2_rthz : float
         White-noise densities of gyros and accelerometers.
     gyro_bias_sigma_rad_s, acc_bias_sigma_m_s2 : float
-        Turn-on bias standard deviations (initial σ of the bias states).
+        Turn-on bias standard deviations (initial σ of the turn-on bias states when no
+        calibration is given).
     gyro_bias_instability_rad_s, acc_bias_instability_m_s2 : float
-        Steady-state σ of the Gauss–Markov bias variation.
+        Steady-state σ of the Gauss–Markov in-run bias variation.
     gyro_bias_corr_time_s, acc_bias_corr_time_s : float
         Gauss–Markov correlation times (s).
+    gyro_scale_sigma_ppm, acc_scale_sigma_ppm : float
+        Scale factor error σ (ppm); 0 (default) leaves scale factors out of the filter.
+        Either one above 0 adds six scale factor states (27 in all).
     gnss_std_pos_ned_m : (float, float, float)
         Default GNSS position σ N, E, D (m) where the file gives none.
     gnss_std_vel_ned_m_s : (float, float, float)
@@ -45,6 +65,11 @@ class InsConfig:
         Initial misorientation σ roll, pitch, yaw (rad).
     init_std_vel_ned_m_s, init_std_pos_ned_m : (float, float, float)
         Initial velocity and position σ.
+    init_gyro_bias_rad_s, init_acc_bias_m_s2 : (float, float, float) or None
+        Turn-on biases known from a laboratory calibration (body frame), the filter's
+        starting estimates; None: unknown (estimated from zero).
+    init_gyro_bias_std_rad_s, init_acc_bias_std_m_s2 : (float, float, float) or None
+        Their σ, given with them, replacing the turn-on σ.
     max_imu_gap_s : float
         Longest tolerated gap between IMU samples; longer gaps are an input error.
     gate_probability : float
@@ -59,14 +84,25 @@ class InsConfig:
     acc_bias_instability_m_s2: float
     gyro_bias_corr_time_s: float = 3600.0
     acc_bias_corr_time_s: float = 3600.0
+    gyro_scale_sigma_ppm: float = 0.0
+    acc_scale_sigma_ppm: float = 0.0
     gnss_std_pos_ned_m: Vector3 = (1.0, 1.0, 2.0)
     gnss_std_vel_ned_m_s: Vector3 = (0.1, 0.1, 0.1)
     antenna_lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
     init_std_att_rad: Vector3 = (0.01, 0.01, 0.02)
     init_std_vel_ned_m_s: Vector3 = (0.1, 0.1, 0.1)
     init_std_pos_ned_m: Vector3 = (1.0, 1.0, 2.0)
+    init_gyro_bias_rad_s: Vector3 | None = None
+    init_gyro_bias_std_rad_s: Vector3 | None = None
+    init_acc_bias_m_s2: Vector3 | None = None
+    init_acc_bias_std_m_s2: Vector3 | None = None
     max_imu_gap_s: float = 0.1
     gate_probability: float = 0.9999
+
+    @property
+    def models_scale_factors(self) -> bool:
+        """True when scale factor states are in the filter (either σ above 0)."""
+        return self.gyro_scale_sigma_ppm > 0.0 or self.acc_scale_sigma_ppm > 0.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -95,6 +131,34 @@ class InsConfig:
             object.__setattr__(
                 self, name, tuple(positive_number(v, f"{name}[{i}]") for i, v in enumerate(vals))
             )
+        for name in ("gyro_scale_sigma_ppm", "acc_scale_sigma_ppm"):
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value >= 0.0):
+                msg = f"{name}: must be a number >= 0 (0: not modelled), got {value!r}"
+                raise InputError(msg)
+            object.__setattr__(self, name, value)
+        for value_name, std_name in (
+            ("init_gyro_bias_rad_s", "init_gyro_bias_std_rad_s"),
+            ("init_acc_bias_m_s2", "init_acc_bias_std_m_s2"),
+        ):
+            value, std = getattr(self, value_name), getattr(self, std_name)
+            if (value is None) != (std is None):
+                msg = (
+                    f"{value_name} and {std_name} go together: a calibrated turn-on bias "
+                    "needs its σ, and a σ its bias"
+                )
+                raise InputError(msg)
+            if value is None:
+                continue
+            object.__setattr__(self, value_name, _finite3(value, value_name))
+            object.__setattr__(
+                self,
+                std_name,
+                tuple(positive_number(v, f"{std_name}[{i}]") for i, v in enumerate(std)),
+            )
+            if len(getattr(self, std_name)) != 3:
+                msg = f"{std_name}: expected 3 values, got {len(std)}"
+                raise InputError(msg)
         arm = tuple(float(v) for v in self.antenna_lever_arm_body_m)
         if len(arm) != 3:
             msg = f"antenna_lever_arm_body_m: expected 3 values, got {len(arm)}"

@@ -1,9 +1,10 @@
-"""Loosely coupled INS/GNSS: 15-state error-state Kalman filter (SPEC section 6).
+"""Loosely coupled INS/GNSS: 21- or 27-state error-state Kalman filter (SPEC section 6).
 
 The error state, its dynamics ``F``, the transition matrix ``Φ = I + FΔt + F²Δt²/2``
 and the closed-loop feedback are described in `kinsync.ins._ekf`: misorientation
-(rad, NED), velocity error (m/s, NED), position error in metres North/East/Down, gyro
-drift (rad/s) and accelerometer bias (m/s^2) as first-order Gauss–Markov processes.
+(rad, NED), velocity error of the modified φ-angle model (m/s, NED), position error in
+metres North/East/Down, and per sensor axis a turn-on bias (random constant), a bias
+instability (first-order Gauss–Markov) and, when configured, a scale factor error.
 
 Forward pass, one compiled loop over the IMU epochs (run in chunks of
 `CHUNK_EPOCHS` so that Python can report progress): for each epoch, ``Φ`` and ``Q``
@@ -49,7 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from typing import Any, NamedTuple, cast
 
@@ -61,6 +62,8 @@ from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import InputError
 from kinsync.ins._ekf import (
     N_ERR,
+    N_ERR_SCALE,
+    N_OUT,
     N_PARAMS,
     P_ARM,
     P_GATE,
@@ -71,9 +74,16 @@ from kinsync.ins._ekf import (
     P_TAU_A,
     P_TAU_G,
     P_USE_VEL,
+    X_BA,
+    X_BG,
+    X_MA,
+    X_MG,
+    X_SA,
+    X_SG,
     feedback,
     propagate_cov,
     scalar_update,
+    solution_std,
     step_matrices,
 )
 from kinsync.ins.config import InsConfig
@@ -91,6 +101,8 @@ from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.ins.strapdown import (
     I_H,
     I_LAT,
+    I_MA,
+    I_MG,
     N_PREV,
     N_STATE,
     check_imu_gaps,
@@ -248,15 +260,16 @@ class FilterState(NamedTuple):
 
     Attributes
     ----------
-    nominal : ndarray, shape (16,)
+    nominal : ndarray, shape (28,)
         Nominal navigation state in the layout of `kinsync.ins.strapdown`: latitude,
         longitude (rad), height (m), velocity NED (m/s), ``q_body_to_ned`` (w, x, y, z),
-        gyro drift (rad/s) and accelerometer bias (m/s^2) estimates.
+        and the sensor error estimates (turn-on biases, instabilities, scale factors).
     increments_prev : ndarray, shape (6,)
         Previous interval's bias-corrected ``Δθ`` (rad) and ``Δv`` (m/s), body frame
         (coning and sculling corrections).
-    P : ndarray, shape (15, 15)
-        Error-state covariance (order of `kinsync.ins._ekf`).
+    P : ndarray, shape (n, n)
+        Error-state covariance (order of `kinsync.ins._ekf`; n = 21, or 27 with scale
+        factors).
     """
 
     nominal: FloatArray
@@ -269,10 +282,10 @@ class ForwardOutput(NamedTuple):
 
     Attributes
     ----------
-    states : ndarray, shape (n, 16)
+    states : ndarray, shape (n, 28)
         Nominal state after the epoch's updates (layout of `FilterState.nominal`).
-    std : ndarray, shape (n, 15)
-        1σ of the error state.
+    std : ndarray, shape (n, 21)
+        1σ of the solution (`kinsync.ins._ekf.solution_std`).
     """
 
     states: FloatArray
@@ -349,20 +362,26 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
     m = gnss.t_s.shape[0]
     nominal = filt.nominal
     P = filt.P
+    n_err = P.shape[0]
     qa = np.empty(4)
     qb = np.empty(4)
     C = np.empty((3, 3))
-    F = np.zeros((N_ERR, N_ERR))
-    Phi = np.zeros((N_ERR, N_ERR))
-    q = np.empty(N_ERR)
-    T = np.empty((9, N_ERR))
+    F = np.zeros((n_err, n_err))
+    Phi = np.zeros((n_err, n_err))
+    q = np.empty(n_err)
+    q_nav = np.empty((6, 6))
+    T = np.empty((9, n_err))
+    w_b = np.empty(3)
     f_b = np.empty(3)
-    H = np.zeros((MAX_ROWS, N_ERR))
+    H = np.zeros((MAX_ROWS, n_err))
     z = np.empty(MAX_ROWS)
     r = np.empty(MAX_ROWS)
-    x = np.zeros(N_ERR)
-    ph = np.empty(N_ERR)
-    hrow = np.empty(N_ERR)
+    x = np.zeros(n_err)
+    ph = np.empty(n_err)
+    hrow = np.empty(n_err)
+    decay_g = 0.0
+    decay_a = 0.0
+    dt_decay = -1.0
     sd_p = np.empty(3)
     sd_v = np.empty(3)
     nan3 = np.full(3, np.nan)
@@ -373,16 +392,24 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
         if k > k0:
             dt = imu.t_s[k] - imu.t_s[k - 1]
             acc_k = imu.acc_body_m_s2[k]
-            step_matrices(nominal, acc_k, dt, params, f_b, C, F, Phi, q)
-            propagate_cov(P, Phi, q, T)
+            gyro_k = imu.gyro_body_rad_s[k]
+            step_matrices(nominal, gyro_k, acc_k, dt, params, w_b, f_b, C, F, Phi, q, q_nav)
+            propagate_cov(P, Phi, q, q_nav, T)
             mech_step(
-                nominal, filt.increments_prev, imu.gyro_body_rad_s[k], acc_k, dt, k == k0 + 1,
+                nominal, filt.increments_prev, gyro_k, acc_k, dt, k == k0 + 1,
                 coning, qa, qb, C,
             )  # fmt: skip
+            if dt != dt_decay:  # the instability estimates decay as their model says
+                dt_decay = dt
+                decay_g = math.exp(-dt / params[P_TAU_G])
+                decay_a = math.exp(-dt / params[P_TAU_A])
+            for i in range(3):
+                nominal[I_MG + i] *= decay_g
+                nominal[I_MA + i] *= decay_a
             ok_k = True
             for i in range(N_STATE):
                 ok_k = ok_k and math.isfinite(nominal[i])
-            for i in range(N_ERR):
+            for i in range(n_err):
                 ok_k = ok_k and math.isfinite(P[i, i])
             ok_k = (
                 ok_k
@@ -424,13 +451,13 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
                 c = checkpoints.n_filled[0]
                 checkpoints.epoch[c] = k
                 checkpoints.P_minus[c] = P
-            for i in range(N_ERR):
+            for i in range(n_err):
                 x[i] = 0.0
             for i in range(nrows):
-                for jj in range(N_ERR):
+                for jj in range(n_err):
                     hrow[jj] = H[i, jj]
                 scalar_update(P, x, hrow, r[i], z[i], ph)
-            feedback(nominal, x, qa, qb)
+            feedback(nominal, x, qa, qb, C)
             if checkpoints.enabled:
                 c = checkpoints.n_filled[0]
                 checkpoints.P_plus[c] = P
@@ -443,8 +470,7 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
         if checkpoints.enabled and k - checkpoints.last_epoch[0] >= checkpoints.every_epochs:
             add_plain_checkpoint(checkpoints, k, P)
         out.states[k] = nominal
-        for i in range(N_ERR):
-            out.std[k, i] = math.sqrt(max(P[i, i], 0.0))
+        solution_std(P, nominal, out.std[k])
     return -1
 
 
@@ -467,18 +493,61 @@ def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     return p
 
 
-def initial_covariance(config: InsConfig) -> FloatArray:
-    """Diagonal initial error covariance (15, 15) from the configured σ."""
-    sig = np.concatenate(
-        [
-            config.init_std_att_rad,
-            config.init_std_vel_ned_m_s,
-            config.init_std_pos_ned_m,
-            [config.gyro_bias_sigma_rad_s] * 3,
-            [config.acc_bias_sigma_m_s2] * 3,
-        ]
-    )
-    return np.diag(sig**2)
+def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
+    """Initial error covariance (n, n) from the configured σ.
+
+    n is 21, or 27 with scale factors (`InsConfig.models_scale_factors`). Attitude,
+    NED velocity, position and sensor errors are independent; the velocity state of
+    the modified φ-angle model, ``δv' = δv - [v×] φ``, is correlated with the attitude
+    through the initial velocity ``v``. The turn-on bias σ is the calibration's when
+    one is given, else the datasheet's turn-on σ.
+    """
+    n = N_ERR_SCALE if config.models_scale_factors else N_ERR
+    sig = np.zeros(n)
+    sig[0:3] = config.init_std_att_rad
+    sig[3:6] = config.init_std_vel_ned_m_s
+    sig[6:9] = config.init_std_pos_ned_m
+    gyro = config.init_gyro_bias_std_rad_s or (config.gyro_bias_sigma_rad_s,) * 3
+    acc = config.init_acc_bias_std_m_s2 or (config.acc_bias_sigma_m_s2,) * 3
+    sig[X_BG : X_BG + 3] = gyro
+    sig[X_BA : X_BA + 3] = acc
+    sig[X_MG : X_MG + 3] = config.gyro_bias_instability_rad_s
+    sig[X_MA : X_MA + 3] = config.acc_bias_instability_m_s2
+    if n > X_SG:
+        sig[X_SG : X_SG + 3] = config.gyro_scale_sigma_ppm * 1e-6
+        sig[X_SA : X_SA + 3] = config.acc_scale_sigma_ppm * 1e-6
+    P = np.diag(sig**2)
+    v = np.asarray(init.vel_ned_m_s, dtype=np.float64)
+    V = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    T = np.eye(n)
+    T[3:6, 0:3] = -V  # δv' = δv - [v×] φ
+    out: FloatArray = T @ P @ T.T
+    return out
+
+
+def starting_estimates(config: InsConfig, init: InitialState) -> InitialState:
+    """``init`` with the configured calibrated turn-on biases, when the config has them.
+
+    Raises
+    ------
+    InputError
+        Both ``init`` and ``config`` give a turn-on bias of one sensor (say which to use).
+    """
+    changes: dict[str, Any] = {}
+    for sensor, given, known in (
+        ("gyro", init.gyro_bias_rad_s, config.init_gyro_bias_rad_s),
+        ("acc", init.acc_bias_m_s2, config.init_acc_bias_m_s2),
+    ):
+        if known is None:
+            continue
+        if any(float(b) != 0.0 for b in given):
+            msg = (
+                f"the {sensor} turn-on bias is given twice, in the initial state and in the "
+                "configuration's [init]; give it in one place"
+            )
+            raise InputError(msg)
+        changes["gyro_bias_rad_s" if sensor == "gyro" else "acc_bias_m_s2"] = tuple(known)
+    return replace(init, **changes) if changes else init
 
 
 def gnss_epochs(imu_t_s: FloatArray, k0: int, gnss_t_s: FloatArray) -> IntArray:
@@ -559,15 +628,16 @@ def forward_pass(
     params = filter_params(config, use_velocity=use_velocity)
     imu_arrays = ImuArrays(imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2)
     gnss_arrays = _gnss_arrays(gnss, gnss_imu_epoch, config, use_velocity=use_velocity)
+    init = starting_estimates(config, init)
     filt = FilterState(
         nominal=initial_state_vector(init),
         increments_prev=np.zeros(N_PREV),
-        P=initial_covariance(config),
+        P=initial_covariance(config, init),
     )
-    out = ForwardOutput(states=np.zeros((n, N_STATE)), std=np.zeros((n, N_ERR)))
+    out = ForwardOutput(states=np.zeros((n, N_STATE)), std=np.zeros((n, N_OUT)))
     n_in = int(np.count_nonzero(gnss_imu_epoch >= 0))
     checkpoints = new_checkpoint_store(
-        n_in + (n - k0) // CHECKPOINT_EVERY + 2, CHECKPOINT_EVERY, enabled=store
+        n_in + (n - k0) // CHECKPOINT_EVERY + 2, CHECKPOINT_EVERY, filt.P.shape[0], enabled=store
     )
     bad = -1
     for k_begin in range(k0, n, CHUNK_EPOCHS):

@@ -18,7 +18,6 @@ from typing import NamedTuple
 import numpy as np
 
 from kinsync._typing import FloatArray, IntArray
-from kinsync.ins._ekf import N_ERR
 from kinsync.ins.gnss_observation import MAX_ROWS
 
 __all__ = [
@@ -42,9 +41,9 @@ class Checkpoints:
     ----------
     epoch : ndarray of int, shape (c,)
         IMU epoch of each checkpoint (non-decreasing; the first is the initial epoch).
-    P_minus, P_plus : ndarray, shape (c, 15, 15)
+    P_minus, P_plus : ndarray, shape (c, n, n)
         Error covariance before and after the checkpoint's update.
-    H : ndarray, shape (c, 6, 15)
+    H : ndarray, shape (c, 6, n)
         Observation rows (the first ``nrows`` are used).
     r : ndarray, shape (c, 6)
         Their noise variances.
@@ -98,8 +97,13 @@ class CheckpointStore(NamedTuple):
     nrows: IntArray
 
 
-def new_checkpoint_store(capacity: int, every_epochs: int, *, enabled: bool) -> CheckpointStore:
-    """Empty store for ``capacity`` checkpoints (one unused row when not ``enabled``)."""
+def new_checkpoint_store(
+    capacity: int, every_epochs: int, n_err: int, *, enabled: bool
+) -> CheckpointStore:
+    """Empty store for ``capacity`` checkpoints of ``n_err`` error states.
+
+    One unused row when not ``enabled``.
+    """
     c = capacity if enabled else 1
     return CheckpointStore(
         enabled=enabled,
@@ -107,9 +111,9 @@ def new_checkpoint_store(capacity: int, every_epochs: int, *, enabled: bool) -> 
         n_filled=np.zeros(1, dtype=np.int64),
         last_epoch=np.zeros(1, dtype=np.int64),
         epoch=np.zeros(c, dtype=np.int64),
-        P_minus=np.zeros((c, N_ERR, N_ERR)),
-        P_plus=np.zeros((c, N_ERR, N_ERR)),
-        H=np.zeros((c, MAX_ROWS, N_ERR)),
+        P_minus=np.zeros((c, n_err, n_err)),
+        P_plus=np.zeros((c, n_err, n_err)),
+        H=np.zeros((c, MAX_ROWS, n_err)),
         r=np.zeros((c, MAX_ROWS)),
         z=np.zeros((c, MAX_ROWS)),
         nrows=np.zeros(c, dtype=np.int64),
@@ -140,9 +144,9 @@ class ForwardRun:
     ----------
     k0 : int
         Initial IMU epoch; arrays below are indexed by absolute IMU epoch.
-    states : ndarray, shape (n, 16)
+    states : ndarray, shape (n, 28)
         Nominal states after feedback (rows before ``k0`` unused).
-    std : ndarray, shape (n, 15)
+    std : ndarray, shape (n, 21)
         1σ of the error state.
     params : ndarray
         Parameter vector of the loop.

@@ -3,11 +3,13 @@
 Compiled pieces called by the forward loop (`kinsync.ins.filter`) for each GNSS epoch:
 
 - **Observations** (`observation`). ``z = INS - GNSS`` at the antenna:
-  position ``p_ant = p + C_b^n l`` with ``H = [[(C l)×], 0, I, 0, 0]``; velocity
-  ``v_ant = v + C_b^n (ω_ib × l) - ω_ie × (C_b^n l)`` with
-  ``H = [[(C(ω×l))×] - [ω_ie×][(C l)×], I, 0, -C_b^n [l×], 0]`` (Groves 2013,
-  ch. 14, written for the misorientation ``C(nominal) = (I - [φ×]) C(true)``). The
-  GNSS position is moved to the IMU epoch with the INS velocity
+  position ``p_ant = p + C_b^n l`` with ``H = [[(C l)×], 0, I, 0, ...]``; velocity
+  ``v_ant = v + C_b^n (ω_ib × l) - ω_ie × (C_b^n l)``, whose error in the states of
+  `kinsync.ins._ekf` (``δv = δv' + [v×] φ``) has
+  ``H = [[(C(ω×l))×] - [ω_ie×][(C l)×] + [v×], I, 0, -C_b^n [l×] (δb_g, δm_g), ...,
+  -C_b^n [l×] diag(ω) (δs_g)]`` (Groves 2013, ch. 14, written for the misorientation
+  ``C(nominal) = (I - [φ×]) C(true)``). ``ω`` is the sample corrected with the sensor
+  estimates. The GNSS position is moved to the IMU epoch with the INS velocity
   (``p + v (t_imu - t_gnss)``).
 - **χ² statistic** (`gate_stat`). ``ν^T S^{-1} ν`` of a 3-row block (position or
   velocity) with the predicted ``S = H P H^T + R``; the filter compares it with
@@ -32,9 +34,9 @@ import numpy as np
 from numba import njit
 
 from kinsync._typing import FloatArray
-from kinsync.ins._ekf import N_ERR, P_ARM
+from kinsync.ins._ekf import P_ARM, X_BG, X_MG, X_SG
 from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S
-from kinsync.ins.strapdown import I_BG, I_H, I_LAT, I_LON, I_Q, I_VEL, quat_to_dcm
+from kinsync.ins.strapdown import I_BG, I_H, I_LAT, I_LON, I_MG, I_Q, I_SG, I_VEL, quat_to_dcm
 
 __all__ = ["MAX_ROWS", "gate_stat", "observation"]
 
@@ -70,7 +72,7 @@ def _observation(  # noqa: PLR0915 - one flat function is what numba compiles be
     H: FloatArray,
     z: FloatArray,
 ) -> None:  # pragma: no cover - compiled by numba
-    """Rows of ``H`` (6, 15) and ``z`` (6,) (INS minus GNSS at the antenna).
+    """Rows of ``H`` (6, n) and ``z`` (6,) (INS minus GNSS at the antenna).
 
     ``dt_shift = t_imu - t_gnss``; rows 3..5 are filled only when ``g_vel`` is finite.
     """
@@ -92,8 +94,9 @@ def _observation(  # noqa: PLR0915 - one flat function is what numba compiles be
     z[0] = (lat - g_llh[0]) * (r_m + h) + ln0 - vn * dt_shift
     z[1] = dlon * (r_n + h) * cl + ln1 - ve * dt_shift
     z[2] = -(h - g_llh[2]) + ln2 - vd * dt_shift
+    n = H.shape[1]
     for i in range(MAX_ROWS):
-        for j in range(N_ERR):
+        for j in range(n):
             H[i, j] = 0.0
     skew_into(ln0, ln1, ln2, H, 0, 0, 1.0)
     for i in range(3):
@@ -101,9 +104,9 @@ def _observation(  # noqa: PLR0915 - one flat function is what numba compiles be
     if not math.isfinite(g_vel[0]):
         return
     # Velocity at the antenna: v + C (ω × l) - ω_ie × (C l).
-    w0 = gyro[0] - s[I_BG]
-    w1 = gyro[1] - s[I_BG + 1]
-    w2 = gyro[2] - s[I_BG + 2]
+    w0 = (gyro[0] - s[I_BG] - s[I_MG]) / (1.0 + s[I_SG])
+    w1 = (gyro[1] - s[I_BG + 1] - s[I_MG + 1]) / (1.0 + s[I_SG + 1])
+    w2 = (gyro[2] - s[I_BG + 2] - s[I_MG + 2]) / (1.0 + s[I_SG + 2])
     wl0 = w1 * l2 - w2 * l1
     wl1 = w2 * l0 - w0 * l2
     wl2 = w0 * l1 - w1 * l0
@@ -132,11 +135,22 @@ def _observation(  # noqa: PLR0915 - one flat function is what numba compiles be
                 acc += Wx[i, m] * Lx[m, j]
             H[3 + i, j] -= acc
         H[3 + i, 3 + i] = 1.0
-    # -C [l×]
+    # δv = δv' + [v×] φ
+    skew_into(vn, ve, vd, H, 3, 0, 1.0)
+    # -C [l×] for the gyro bias states, times diag(ω) for the scale factors
+    w = (w0, w1, w2)
     for i in range(3):
-        H[3 + i, 9 + 0] = -(C[i, 1] * l2 - C[i, 2] * l1)
-        H[3 + i, 9 + 1] = -(-C[i, 0] * l2 + C[i, 2] * l0)
-        H[3 + i, 9 + 2] = -(C[i, 0] * l1 - C[i, 1] * l0)
+        cl0 = -(C[i, 1] * l2 - C[i, 2] * l1)
+        cl1 = -(-C[i, 0] * l2 + C[i, 2] * l0)
+        cl2 = -(C[i, 0] * l1 - C[i, 1] * l0)
+        for base in (X_BG, X_MG):
+            H[3 + i, base] = cl0
+            H[3 + i, base + 1] = cl1
+            H[3 + i, base + 2] = cl2
+        if n > X_SG:
+            H[3 + i, X_SG] = cl0 * w[0]
+            H[3 + i, X_SG + 1] = cl1 * w[1]
+            H[3 + i, X_SG + 2] = cl2 * w[2]
 
 
 observation = _jit(_observation)
@@ -149,18 +163,19 @@ def _gate_stat(
 
     ``sd`` receives ``sqrt(diag S)``; a non-positive-definite ``S`` gives infinity.
     """
+    n = P.shape[0]
     S = np.empty((3, 3))
-    HP = np.empty((3, N_ERR))
+    HP = np.empty((3, n))
     for i in range(3):
-        for j in range(N_ERR):
+        for j in range(n):
             acc = 0.0
-            for m in range(N_ERR):
+            for m in range(n):
                 acc += H[r0 + i, m] * P[m, j]
             HP[i, j] = acc
     for i in range(3):
         for j in range(3):
             acc = 0.0
-            for m in range(N_ERR):
+            for m in range(n):
                 acc += HP[i, m] * H[r0 + j, m]
             S[i, j] = acc
         S[i, i] += r[r0 + i]

@@ -10,7 +10,7 @@ covariance ``P_k^s``, and applies it to the forward nominal states.
 **Recursion.** The fixed-interval RTS smoother
 ``x_k^s = x_k^+ + A_k (x_{k+1}^s - x_{k+1}^-)``, ``A_k = P_k^+ Φ_{k+1}^T (P_{k+1}^-)^{-1}``
 (Rauch, Tung & Striebel 1965) is run in its equivalent adjoint ("modified
-Bryson–Frazier", Bierman 1973) form, which needs no inverse of the 15×15 predicted
+Bryson–Frazier", Bierman 1973) form, which needs no inverse of the n×n predicted
 covariance (ill-conditioned: bias variances ~1e-10 beside position variances ~1)::
 
     λ_N = 0, Λ_N = 0                                   (after the last epoch)
@@ -30,8 +30,8 @@ reference, so it does not change when the reference moves with the reset, and
 to the forward output ``n_k``. This is the same as the textbook RTS form with resets,
 ``x_k^s = A_k (x_{k+1}^s + Δ_{k+1})``, without storing ``Δ``.
 
-**Memory.** ``Φ`` and ``P`` are not stored per epoch (87 000 epochs × 3 × 15×15
-doubles would be 470 MB). The forward pass stores, at each GNSS update, ``P^-``,
+**Memory.** ``Φ`` and ``P`` are not stored per epoch (87 000 epochs × 3 × 21×21
+doubles would be 920 MB). The forward pass stores, at each GNSS update, ``P^-``,
 ``P^+``, the accepted rows of ``H``, their variances and ``z``, plus a plain
 checkpoint every `kinsync.ins.forward_run.CHECKPOINT_EVERY` epochs (about 10 MB for the
 NaveGo set). Between two checkpoints no update happens, so ``P_k`` is recomputed by
@@ -39,6 +39,11 @@ propagating ``P^+`` of the earlier checkpoint with ``Φ_k`` and ``Q_k`` rebuilt 
 the stored nominal states (the very same compiled code and inputs as in the forward
 pass, hence the same numbers), kept for that segment only, and the backward
 recursion runs through the segment. The cost is a second covariance propagation.
+
+**Output.** Per epoch, the smoothed error's variances and the covariance entries the
+solution's standard deviations need (`smoothed_solution_std`): the attitude-velocity
+block, for the NED velocity error ``δv = δv' + [v×] φ`` of the modified φ-angle model,
+and each axis' turn-on-bias/instability covariance, for the total bias.
 
 References
 ----------
@@ -56,37 +61,83 @@ Systems*, 2nd ed., Artech House, 2013, ch. 3 (Kalman smoothing).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numba import njit
 
 from kinsync._typing import FloatArray
-from kinsync.ins._ekf import N_ERR, N_NAV, feedback, propagate_cov, step_matrices
+from kinsync.ins._ekf import (
+    N_NAV,
+    N_OUT,
+    X_BA,
+    X_BG,
+    X_MA,
+    X_MG,
+    feedback,
+    propagate_cov,
+    solution_std,
+    step_matrices,
+)
 from kinsync.ins.forward_run import CHECKPOINT_EVERY, Checkpoints, ForwardRun
 from kinsync.ins.measurements import ImuData
 
-__all__ = ["SegmentMatrices", "smooth_checkpoints", "smooth_forward_run"]
+__all__ = [
+    "SegmentMatrices",
+    "SmoothedCovariance",
+    "smooth_checkpoints",
+    "smooth_forward_run",
+    "smoothed_solution_std",
+]
 
 _jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
 
-SegmentMatrices = Callable[[int, int, bool, FloatArray, FloatArray], None]
-"""``fill(e, L, has_next, Phi_buf, q_buf)``: ``Φ_{e+i}`` and ``diag Q_{e+i}`` into
-``Phi_buf[i]``, ``q_buf[i]`` for ``i = 1 .. L-1`` (and ``i = L`` when ``has_next``)."""
+SegmentMatrices = Callable[[int, int, bool, FloatArray, FloatArray, FloatArray], None]
+"""``fill(e, L, has_next, Phi_buf, q_buf, q_nav_buf)``: ``Φ_{e+i}``, the diagonal of
+``Q_{e+i}`` and its 6×6 attitude-velocity block into ``Phi_buf[i]``, ``q_buf[i]``,
+``q_nav_buf[i]`` for ``i = 1 .. L-1`` (and ``i = L`` when ``has_next``)."""
+
+
+class SmoothedCovariance(NamedTuple):
+    """The smoothed covariance entries kept per epoch, indexed by absolute IMU epoch.
+
+    Attributes
+    ----------
+    var : ndarray, shape (n_epochs, n)
+        Variances of the error states.
+    nav : ndarray, shape (n_epochs, 6, 6)
+        The attitude-velocity block.
+    bias_cross : ndarray, shape (n_epochs, 6)
+        Covariance of each axis' turn-on bias and instability, gyro then accelerometer.
+    """
+
+    var: FloatArray
+    nav: FloatArray
+    bias_cross: FloatArray
+
+
+def new_smoothed_covariance(n_epochs: int, n_err: int) -> SmoothedCovariance:
+    """Zeroed `SmoothedCovariance` for ``n_epochs`` epochs of ``n_err`` error states."""
+    return SmoothedCovariance(
+        var=np.zeros((n_epochs, n_err)),
+        nav=np.zeros((n_epochs, 6, 6)),
+        bias_cross=np.zeros((n_epochs, 6)),
+    )
 
 
 def _propagate_info(Lam: FloatArray, Phi: FloatArray, U: FloatArray) -> None:  # pragma: no cover
     """``Λ ← Φ^T Λ Φ`` in place for a block-structured ``Φ`` (see `kinsync.ins._ekf`)."""
-    for i in range(N_ERR):
-        for j in range(N_ERR):
+    n = Lam.shape[0]
+    for i in range(n):
+        for j in range(n):
             acc = 0.0
             for m in range(N_NAV):
                 acc += Lam[i, m] * Phi[m, j]
             if j >= N_NAV:
                 acc += Lam[i, j] * Phi[j, j]
             U[i, j] = acc
-    for i in range(N_ERR):
-        for j in range(i, N_ERR):
+    for i in range(n):
+        for j in range(i, n):
             acc = 0.0
             for m in range(N_NAV):
                 acc += Phi[m, i] * U[m, j]
@@ -103,61 +154,75 @@ def _smooth_segment(  # noqa: PLR0912 - one flat loop is what numba compiles bes
     P_start: FloatArray,
     Phi_buf: FloatArray,
     q_buf: FloatArray,
+    q_nav_buf: FloatArray,
     L: int,
     has_next: bool,
     lam: FloatArray,
     Lam: FloatArray,
     out_dx: FloatArray,
-    out_var: FloatArray,
+    out: SmoothedCovariance,
     P_buf: FloatArray,
 ) -> None:  # pragma: no cover - compiled by numba; tested against batch least squares
     """Backward recursion through one segment of ``L`` epochs without updates.
 
     On entry ``lam``/``Lam`` hold ``λ^-``/``Λ^-`` at the next checkpoint's epoch (or
     zero after the last epoch when ``has_next`` is False); on exit ``λ^+``/``Λ^+`` at the
-    first epoch of the segment. ``out_dx[i]`` and ``out_var[i]`` receive the smoothed
-    error and its variance at epoch ``i`` of the segment.
+    first epoch of the segment. ``out_dx[i]`` and the rows ``i`` of ``out`` receive the
+    smoothed error and its covariance entries at epoch ``i`` of the segment.
     """
-    T = np.empty((N_NAV, N_ERR))
-    U = np.empty((N_ERR, N_ERR))
-    M = np.empty((N_ERR, N_ERR))
-    tmp = np.empty(N_ERR)
+    n = P_start.shape[0]
+    T = np.empty((N_NAV, n))
+    U = np.empty((n, n))
+    M = np.empty((n, n))
+    tmp = np.empty(n)
     if L == 0:
         return
     P_buf[0] = P_start
     for i in range(1, L):
         P_buf[i] = P_buf[i - 1]
-        propagate_cov(P_buf[i], Phi_buf[i], q_buf[i], T)
+        propagate_cov(P_buf[i], Phi_buf[i], q_buf[i], q_nav_buf[i], T)
     for i in range(L - 1, -1, -1):
         if has_next or i < L - 1:
             Phi = Phi_buf[i + 1]
-            for a in range(N_ERR):
+            for a in range(n):
                 acc = 0.0
-                for b in range(N_ERR):
+                for b in range(n):
                     acc += Phi[b, a] * lam[b]
                 tmp[a] = acc
             lam[:] = tmp
             propagate_info(Lam, Phi, U)
         P = P_buf[i]
-        for a in range(N_ERR):
+        for a in range(n):
             acc = 0.0
-            for b in range(N_ERR):
+            for b in range(n):
                 acc += P[a, b] * lam[b]
             out_dx[i, a] = -acc
-        # diag(P Λ P) via M = Λ P
-        for a in range(N_ERR):
-            for b in range(N_ERR):
+        # P^s = P - P Λ P, through M = Λ P, for the entries kept.
+        for a in range(n):
+            for b in range(n):
                 acc = 0.0
-                for c in range(N_ERR):
+                for c in range(n):
                     acc += Lam[a, c] * P[c, b]
                 M[a, b] = acc
-        for a in range(N_ERR):
-            acc = 0.0
-            for b in range(N_ERR):
-                acc += P[a, b] * M[b, a]
-            out_var[i, a] = P[a, a] - acc
+        for a in range(n):
+            out.var[i, a] = P[a, a] - _row_dot(P, M, a, a)
+        for a in range(6):
+            for b in range(6):
+                out.nav[i, a, b] = P[a, b] - _row_dot(P, M, a, b)
+        for a in range(3):
+            out.bias_cross[i, a] = P[X_BG + a, X_MG + a] - _row_dot(P, M, X_BG + a, X_MG + a)
+            out.bias_cross[i, 3 + a] = P[X_BA + a, X_MA + a] - _row_dot(P, M, X_BA + a, X_MA + a)
 
 
+def _row_dot_plain(P: FloatArray, M: FloatArray, a: int, b: int) -> float:  # pragma: no cover
+    """``(P M)[a, b]``."""
+    acc = 0.0
+    for c in range(P.shape[0]):
+        acc += P[a, c] * M[c, b]
+    return acc
+
+
+_row_dot = _jit(_row_dot_plain)
 smooth_segment = cast(Callable[..., None], _jit(_smooth_segment))
 
 
@@ -180,7 +245,7 @@ def _mbf_update(
     Sinv = np.linalg.inv(S)
     Sinv = 0.5 * (Sinv + Sinv.T)
     K = Pm @ Hp.T @ Sinv
-    Cm = np.eye(N_ERR) - K @ Hp
+    Cm = np.eye(Pm.shape[0]) - K @ Hp
     HtSi = Hp.T @ Sinv
     new_lam = -(HtSi @ z[:nrows]) + Cm.T @ lam
     new_Lam = HtSi @ Hp + Cm.T @ Lam @ Cm
@@ -196,22 +261,27 @@ def _ins_matrices(
     L: int,
     has_next: bool,
     t: FloatArray,
+    gyro: FloatArray,
     acc: FloatArray,
     states: FloatArray,
     params: FloatArray,
     Phi_buf: FloatArray,
     q_buf: FloatArray,
+    q_nav_buf: FloatArray,
 ) -> None:  # pragma: no cover - compiled by numba
-    """``Φ`` and ``diag Q`` of the INS intervals ending at epochs ``e+1 .. e+L(-1)``."""
+    """``Φ`` and ``Q`` of the INS intervals ending at epochs ``e+1 .. e+L(-1)``."""
+    n = Phi_buf.shape[1]
     C = np.empty((3, 3))
-    F = np.zeros((N_ERR, N_ERR))
+    F = np.zeros((n, n))
+    w_b = np.empty(3)
     f_b = np.empty(3)
     top = L if has_next else L - 1
     for i in range(1, top + 1):
         k = e + i
         step_matrices(
-            states[k - 1], acc[k], t[k] - t[k - 1], params, f_b, C, F, Phi_buf[i], q_buf[i]
-        )
+            states[k - 1], gyro[k], acc[k], t[k] - t[k - 1], params, w_b, f_b, C, F,
+            Phi_buf[i], q_buf[i], q_nav_buf[i],
+        )  # fmt: skip
 
 
 ins_matrices = cast(Callable[..., None], _jit(_ins_matrices))
@@ -221,8 +291,9 @@ def _apply_corrections(states: FloatArray, dx: FloatArray, k0: int) -> None:  # 
     """``states[k] ← states[k] ⊖ dx[k]`` for ``k >= k0`` (closed-loop feedback form)."""
     qa = np.empty(4)
     qb = np.empty(4)
+    C = np.empty((3, 3))
     for k in range(k0, states.shape[0]):
-        feedback(states[k], dx[k], qa, qb)
+        feedback(states[k], dx[k], qa, qb, C)
 
 
 apply_corrections = cast(Callable[..., None], _jit(_apply_corrections))
@@ -233,7 +304,7 @@ def smooth_checkpoints(
     k_last: int,
     matrices: SegmentMatrices,
     out_dx: FloatArray,
-    out_var: FloatArray,
+    out: SmoothedCovariance,
     progress: Callable[[float], None] | None = None,
 ) -> None:
     """Backward pass over all checkpoints (generic in how ``Φ``, ``Q`` are produced).
@@ -245,21 +316,25 @@ def smooth_checkpoints(
     k_last : int
         Last epoch (inclusive).
     matrices : SegmentMatrices
-        Fills ``Φ`` and ``diag Q`` of the intervals inside a segment.
-    out_dx, out_var : ndarray, shape (k_last + 1, 15)
-        Receive the smoothed error state (``true ≈ nominal ⊖ dx``) and its variance at
-        epochs ``ck.epoch[0] .. k_last``.
+        Fills ``Φ`` and ``Q`` of the intervals inside a segment.
+    out_dx : ndarray, shape (k_last + 1, n)
+        Receives the smoothed error state (``true ≈ nominal ⊖ dx``) at epochs
+        ``ck.epoch[0] .. k_last``.
+    out : SmoothedCovariance
+        Receives its covariance entries (`new_smoothed_covariance`).
     progress : callable, optional
         Fraction done, reported about every 10 000 epochs.
     """
+    n = ck.P_plus.shape[1]
     seg = CHECKPOINT_EVERY + 2
     if ck.epoch.size:
         seg = max(seg, int(np.max(np.diff(np.append(ck.epoch, k_last + 1)))) + 2)
-    Phi_buf = np.zeros((seg, N_ERR, N_ERR))
-    q_buf = np.zeros((seg, N_ERR))
-    P_buf = np.zeros((seg, N_ERR, N_ERR))
-    lam = np.zeros(N_ERR)
-    Lam = np.zeros((N_ERR, N_ERR))
+    Phi_buf = np.zeros((seg, n, n))
+    q_buf = np.zeros((seg, n))
+    q_nav_buf = np.zeros((seg, 6, 6))
+    P_buf = np.zeros((seg, n, n))
+    lam = np.zeros(n)
+    Lam = np.zeros((n, n))
     n_c = ck.epoch.size
     first = int(ck.epoch[0]) if n_c else 0
     total = max(1, k_last + 1 - first)
@@ -269,10 +344,13 @@ def smooth_checkpoints(
         has_next = c < n_c - 1
         L = int(ck.epoch[c + 1]) - e if has_next else k_last + 1 - e
         if L > 0:
-            matrices(e, L, has_next, Phi_buf, q_buf)
+            matrices(e, L, has_next, Phi_buf, q_buf, q_nav_buf)
+        segment = SmoothedCovariance(
+            out.var[e : e + L], out.nav[e : e + L], out.bias_cross[e : e + L]
+        )
         smooth_segment(
-            ck.P_plus[c], Phi_buf, q_buf, L, has_next, lam, Lam,
-            out_dx[e : e + L], out_var[e : e + L], P_buf,
+            ck.P_plus[c], Phi_buf, q_buf, q_nav_buf, L, has_next, lam, Lam,
+            out_dx[e : e + L], segment, P_buf,
         )  # fmt: skip
         mbf_update(ck.P_minus[c], ck.H[c], ck.r[c], ck.z[c], int(ck.nrows[c]), lam, Lam)
         if progress is not None and reported - e >= 10_000:
@@ -282,10 +360,42 @@ def smooth_checkpoints(
         progress(1.0)
 
 
+def _smoothed_std_rows(
+    cov: SmoothedCovariance, states: FloatArray, k0: int, out: FloatArray
+) -> None:  # pragma: no cover - compiled by numba
+    """`kinsync.ins._ekf.solution_std` of every epoch from ``k0`` on, from ``cov``."""
+    n = cov.var.shape[1]
+    P = np.zeros((n, n))
+    for k in range(k0, states.shape[0]):
+        for a in range(n):
+            P[a, a] = cov.var[k, a]
+        for a in range(6):
+            for b in range(6):
+                P[a, b] = cov.nav[k, a, b]
+        for a in range(3):
+            P[X_BG + a, X_MG + a] = cov.bias_cross[k, a]
+            P[X_BA + a, X_MA + a] = cov.bias_cross[k, 3 + a]
+        solution_std(P, states[k], out[k])
+
+
+smoothed_std_rows = cast(Callable[..., None], _jit(_smoothed_std_rows))
+
+
+def smoothed_solution_std(cov: SmoothedCovariance, states: FloatArray, k0: int) -> FloatArray:
+    """The solution's standard deviations (n_epochs, 21) from the smoothed covariance.
+
+    ``states`` are the smoothed nominal states (the velocity error depends on the
+    velocity); rows before ``k0`` are zero.
+    """
+    out = np.zeros((states.shape[0], N_OUT))
+    smoothed_std_rows(cov, states, k0, out)
+    return out
+
+
 def smooth_forward_run(
     imu: ImuData, run: ForwardRun, progress: Callable[[float], None] | None = None
 ) -> tuple[FloatArray, FloatArray]:
-    """Smoothed nominal states (n, 16) and error-state 1σ (n, 15) of a forward run.
+    """Smoothed nominal states (n, 28) and the solution's 1σ (n, 21) of a forward run.
 
     Rows before ``run.k0`` are zero.
     """
@@ -293,18 +403,21 @@ def smooth_forward_run(
         msg = "smooth_forward_run: the forward pass was run without storing checkpoints"
         raise ValueError(msg)
     n = run.states.shape[0]
-    dx = np.zeros((n, N_ERR))
-    var = np.zeros((n, N_ERR))
+    n_err = run.checkpoints.P_plus.shape[1]
+    dx = np.zeros((n, n_err))
+    cov = new_smoothed_covariance(n, n_err)
     t = imu.t_s
+    gyro = imu.gyro_body_rad_s
     acc = imu.acc_body_m_s2
     states = run.states
     params = run.params
 
-    def fill(e: int, L: int, has_next: bool, Phi_buf: FloatArray, q_buf: FloatArray) -> None:
-        ins_matrices(e, L, has_next, t, acc, states, params, Phi_buf, q_buf)
+    def fill(
+        e: int, L: int, has_next: bool, Phi_buf: FloatArray, q_buf: FloatArray, q_nav: FloatArray
+    ) -> None:
+        ins_matrices(e, L, has_next, t, gyro, acc, states, params, Phi_buf, q_buf, q_nav)
 
-    smooth_checkpoints(run.checkpoints, n - 1, fill, dx, var, progress)
+    smooth_checkpoints(run.checkpoints, n - 1, fill, dx, cov, progress)
     out = np.array(run.states, dtype=np.float64)
     apply_corrections(out, dx, run.k0)
-    std = np.sqrt(np.maximum(var, 0.0))
-    return out, std
+    return out, smoothed_solution_std(cov, out, run.k0)

@@ -32,10 +32,11 @@ class InitialState:
     rpy_rad : (float, float, float)
         Roll, pitch, yaw (DIN 9300, rad), body -> NED.
     gyro_bias_rad_s, acc_bias_m_s2 : (float, float, float)
-        Initial estimates of the gyro drift and accelerometer bias (body frame), e.g. a
-        laboratory turn-on calibration, subtracted from the IMU samples; the filter
+        Initial estimates of the gyro and accelerometer turn-on biases (body frame),
+        e.g. a laboratory calibration, subtracted from the IMU samples; the filter
         estimates the remainder (its initial σ: ``InsConfig.gyro_bias_sigma_rad_s``,
-        ``acc_bias_sigma_m_s2``). Zero by default.
+        ``acc_bias_sigma_m_s2``). Zero by default. A configuration may give them
+        instead, with their σ (``InsConfig.init_gyro_bias_rad_s``, ...).
     """
 
     t_s: float
@@ -65,13 +66,18 @@ class NavSolution:
     std_pos_ned_m, std_vel_ned_m_s, std_att_rad : ndarray, shape (n, 3)
         1σ of position (N, E, D m), velocity, and misorientation (about N, E, D axes, rad).
     gyro_bias_rad_s, acc_bias_m_s2 : ndarray, shape (n, 3)
-        Estimated gyro drift and accelerometer bias, body frame.
+        Estimated gyro and accelerometer bias (turn-on plus in-run instability), body
+        frame.
     std_gyro_bias_rad_s, std_acc_bias_m_s2 : ndarray, shape (n, 3)
         Their 1σ.
     smoothed : bool
         True for the RTS-smoothed solution, False for the forward filter.
     n_gnss_used, n_gnss_rejected : int
         GNSS epochs used and rejected by the χ² gate.
+    gyro_scale_ppm, acc_scale_ppm : ndarray, shape (n, 3), or None
+        Estimated scale factor errors (ppm) when the filter models them.
+    std_gyro_scale_ppm, std_acc_scale_ppm : ndarray, shape (n, 3), or None
+        Their 1σ (ppm).
     """
 
     t_s: FloatArray
@@ -90,6 +96,10 @@ class NavSolution:
     smoothed: bool = False
     n_gnss_used: int = 0
     n_gnss_rejected: int = 0
+    gyro_scale_ppm: FloatArray | None = None
+    acc_scale_ppm: FloatArray | None = None
+    std_gyro_scale_ppm: FloatArray | None = None
+    std_acc_scale_ppm: FloatArray | None = None
 
     def __len__(self) -> int:
         return int(self.t_s.size)

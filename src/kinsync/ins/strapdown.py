@@ -2,14 +2,15 @@
 
 The navigation state is geodetic latitude, longitude (rad) and ellipsoidal height (m)
 on WGS84, the velocity over the Earth in NED (m/s) and the attitude body -> NED as a
-scalar-first unit quaternion, plus the gyro drift and accelerometer bias estimates that
-are subtracted from the IMU samples (the filter feeds them back; the free-inertial run
-keeps them at zero).
+scalar-first unit quaternion, plus the sensor error estimates that correct the IMU
+samples: turn-on biases, bias instabilities and scale factors of the gyros and
+accelerometers (the filter feeds them back; the free-inertial run keeps them at zero).
+A corrected sample is ``ω = (ω_measured - b_g - m_g) / (1 + s_g)``, likewise ``f``.
 
 One step from IMU epoch ``k-1`` to ``k`` (sample ``k`` holds the mean rate and specific
 force over ``(t[k-1], t[k]]``, `ImuData`):
 
-1. Increments ``dθ = (ω - b_g)Δt`` and ``dv = (f - b_a)Δt``.
+1. Increments ``dθ = ωΔt`` and ``dv = fΔt`` of the corrected sample.
 2. Coning and sculling with the previous sample's increments (two-sample
    algorithms): ``φ = dθ + dθ_prev × dθ / 12`` and
    ``dv_b = dv + dθ × dv / 2 + (dθ_prev × dv + dv_prev × dθ) / 12`` (the second term is
@@ -59,9 +60,13 @@ _jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True)
 I_LAT, I_LON, I_H = 0, 1, 2
 I_VEL = 3  # 3..5  vN, vE, vD
 I_Q = 6  # 6..9   q_body_to_ned (w, x, y, z)
-I_BG = 10  # 10..12 gyro drift estimate (rad/s, body)
-I_BA = 13  # 13..15 accelerometer bias estimate (m/s^2, body)
-N_STATE = 16
+I_BG = 10  # 10..12 gyro turn-on bias estimate (rad/s, body)
+I_BA = 13  # 13..15 accelerometer turn-on bias estimate (m/s^2, body)
+I_MG = 16  # 16..18 gyro bias instability estimate (rad/s, body)
+I_MA = 19  # 19..21 accelerometer bias instability estimate (m/s^2, body)
+I_SG = 22  # 22..24 gyro scale factor estimate (dimensionless)
+I_SA = 25  # 25..27 accelerometer scale factor estimate (dimensionless)
+N_STATE = 28
 N_PREV = 6  # previous sample's dθ (0..2) and dv (3..5), body frame
 
 
@@ -118,16 +123,16 @@ def _mech_step(  # noqa: PLR0915 - one flat function is what numba compiles best
 ) -> None:  # pragma: no cover - compiled by numba; tested through free_inertial
     """Advance the state ``s`` in place by one IMU interval (see the module docstring).
 
-    ``gyro``/``acc`` are the raw sample (rad/s, m/s^2, body); the bias estimates in ``s``
-    are subtracted. ``prev`` holds the previous bias-corrected increments and is
+    ``gyro``/``acc`` are the raw sample (rad/s, m/s^2, body), corrected with the sensor
+    error estimates in ``s``. ``prev`` holds the previous corrected increments and is
     updated. ``qa``, ``qb`` (4,) and ``C`` (3, 3) are scratch arrays.
     """
-    tx = (gyro[0] - s[I_BG]) * dt
-    ty = (gyro[1] - s[I_BG + 1]) * dt
-    tz = (gyro[2] - s[I_BG + 2]) * dt
-    ux = (acc[0] - s[I_BA]) * dt
-    uy = (acc[1] - s[I_BA + 1]) * dt
-    uz = (acc[2] - s[I_BA + 2]) * dt
+    tx = (gyro[0] - s[I_BG] - s[I_MG]) / (1.0 + s[I_SG]) * dt
+    ty = (gyro[1] - s[I_BG + 1] - s[I_MG + 1]) / (1.0 + s[I_SG + 1]) * dt
+    tz = (gyro[2] - s[I_BG + 2] - s[I_MG + 2]) / (1.0 + s[I_SG + 2]) * dt
+    ux = (acc[0] - s[I_BA] - s[I_MA]) / (1.0 + s[I_SA]) * dt
+    uy = (acc[1] - s[I_BA + 1] - s[I_MA + 1]) / (1.0 + s[I_SA + 1]) * dt
+    uz = (acc[2] - s[I_BA + 2] - s[I_MA + 2]) / (1.0 + s[I_SA + 2]) * dt
     if first or not coning:
         px, py, pz, pvx, pvy, pvz = tx, ty, tz, ux, uy, uz
     else:
@@ -320,12 +325,18 @@ def nav_solution_from_states(
     n_gnss_used: int = 0,
     n_gnss_rejected: int = 0,
 ) -> NavSolution:
-    """Build a `NavSolution` from compiled-loop states (n, 16) and 1σ (n, 15) or None."""
+    """Build a `NavSolution` from compiled-loop states (n, 28) and 1σ (n, 21) or None.
+
+    ``std`` has the layout of `kinsync.ins._ekf.solution_std`: attitude, velocity,
+    position, total gyro and accelerometer bias, scale factors (NaN if not modelled).
+    The biases reported are the totals, turn-on plus instability estimates.
+    """
     n = t_s.size
     q = states[:, I_Q : I_Q + 4]
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     if std is None:
-        std = np.full((n, 15), np.nan)
+        std = np.full((n, 21), np.nan)
+    scales = not np.all(np.isnan(std[:, 15:21]))
     lon = np.degrees(states[:, I_LON])
     lon = (lon + 180.0) % 360.0 - 180.0
     return NavSolution(
@@ -338,10 +349,14 @@ def nav_solution_from_states(
         std_pos_ned_m=std[:, 6:9].copy(),
         std_vel_ned_m_s=std[:, 3:6].copy(),
         std_att_rad=std[:, 0:3].copy(),
-        gyro_bias_rad_s=states[:, I_BG : I_BG + 3].copy(),
-        acc_bias_m_s2=states[:, I_BA : I_BA + 3].copy(),
+        gyro_bias_rad_s=states[:, I_BG : I_BG + 3] + states[:, I_MG : I_MG + 3],
+        acc_bias_m_s2=states[:, I_BA : I_BA + 3] + states[:, I_MA : I_MA + 3],
         std_gyro_bias_rad_s=std[:, 9:12].copy(),
         std_acc_bias_m_s2=std[:, 12:15].copy(),
+        gyro_scale_ppm=states[:, I_SG : I_SG + 3] * 1e6 if scales else None,
+        acc_scale_ppm=states[:, I_SA : I_SA + 3] * 1e6 if scales else None,
+        std_gyro_scale_ppm=std[:, 15:18] * 1e6 if scales else None,
+        std_acc_scale_ppm=std[:, 18:21] * 1e6 if scales else None,
         smoothed=smoothed,
         n_gnss_used=n_gnss_used,
         n_gnss_rejected=n_gnss_rejected,
