@@ -93,6 +93,46 @@ def test_run_json_then_compare(run_cli: RunCli, navego: dict[str, Path], tmp_pat
         assert shares[key] > 0.9, (key, shares)
 
 
+def test_run_with_calibrated_biases_and_scale_factors(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    """``[init]`` turn-on biases and ``[imu]`` scale factor σ reach the filter: 27 states,
+    the scale factor columns in the solution, the table's bias and scale rows."""
+    text = CONFIG.read_text()
+    text = text.replace(
+        "[init]\n",
+        "[init]\ngyro_bias_deg_s = [0.2, 0.2, 0.2]\ngyro_bias_std_deg_h = [36.0, 36.0, 36.0]\n"
+        "acc_bias_mg = [16.0, 16.0, 16.0]\nacc_bias_std_mg = [1.0, 1.0, 1.0]\n",
+    )
+    text = text.replace(
+        "[gnss]\n",
+        "gyro_scale_factor_sigma_ppm = 1000.0\nacc_scale_factor_sigma_ppm = 1000.0\n\n[gnss]\n",
+    )
+    config = tmp_path / "calibrated.toml"
+    config.write_text(text)
+    out = tmp_path / "nav.csv"
+    args = _run_args(navego, out, "--json")
+    args[args.index("--config") + 1] = str(config)
+    code, stdout, stderr = run_cli(args)
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["error_states"] == 27
+    assert doc["turn_on_biases"] == "calibrated"
+    assert len(doc["final_gyro_scale_ppm"]) == 3
+    # started from 0.2 deg/s = 720 deg/h and known to 36 deg/h: it stays near there
+    assert all(abs(b - 720.0) < 150.0 for b in doc["final_gyro_bias_deg_h"])
+    sol = read_nav_csv(out)
+    assert sol.gyro_scale_ppm is not None
+    assert sol.std_acc_scale_ppm is not None
+    assert (sol.std_acc_scale_ppm[-1] < 1000.0).all()  # the data told it something
+    args = _run_args(navego, tmp_path / "table.csv")
+    args[args.index("--config") + 1] = str(config)
+    code, stdout, stderr = run_cli(args)
+    assert code == 0, stderr
+    assert "error states (turn-on biases calibrated)" in stdout
+    assert "final gyro scale factor" in stdout
+
+
 def test_run_smoothed_sbet_with_table(
     run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
 ) -> None:

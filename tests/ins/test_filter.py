@@ -590,8 +590,8 @@ def test_compiled_loop_matches_the_numpy_reference(sim_drive: SimDrive, scale_pp
     cfg = dataclasses.replace(
         CONFIG,
         antenna_lever_arm_body_m=arm,
-        gyro_scale_sigma_ppm=scale_ppm,
-        acc_scale_sigma_ppm=scale_ppm,
+        gyro_scale_factor_sigma_ppm=scale_ppm,
+        acc_scale_factor_sigma_ppm=scale_ppm,
         gyro_bias_corr_time_s=60.0,  # the instability's decay must show in 15 s
     )
     n = 1500
@@ -627,3 +627,46 @@ def test_compiled_loop_matches_the_numpy_reference(sim_drive: SimDrive, scale_pp
         assert np.isnan(std[:, 15:]).all()
     sd_fwd = np.column_stack(columns)
     np.testing.assert_allclose(std[:, : sd_fwd.shape[1]], sd_fwd[:n], rtol=1e-9)
+
+
+# ---------------------------------------------------------------------- calibrated biases
+def test_calibrated_turn_on_biases_from_the_configuration(drive: Any, errors_of: Errors) -> None:
+    """``[init]`` biases with their σ equal the same biases in the initial state with the
+    turn-on σ set to that σ; knowing them helps early on; giving them twice is refused."""
+    _, imu, gnss, truth, init = drive
+    sig_g, sig_a = math.radians(0.002), 0.002
+    via_config = dataclasses.replace(
+        CONFIG,
+        init_gyro_bias_rad_s=BG,
+        init_gyro_bias_std_rad_s=(sig_g,) * 3,
+        init_acc_bias_m_s2=BA,
+        init_acc_bias_std_m_s2=(sig_a,) * 3,
+    )
+    a = run_ins(imu, gnss, via_config, init).forward
+    b = run_ins(
+        imu,
+        gnss,
+        dataclasses.replace(CONFIG, gyro_bias_sigma_rad_s=sig_g, acc_bias_sigma_m_s2=sig_a),
+        dataclasses.replace(init, gyro_bias_rad_s=BG, acc_bias_m_s2=BA),
+    ).forward
+    for name in (
+        "lat_deg",
+        "h_m",
+        "rpy_rad",
+        "gyro_bias_rad_s",
+        "std_att_rad",
+        "std_gyro_bias_rad_s",
+    ):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    # the total bias: the calibration's σ and the instability's
+    total_g = math.hypot(sig_g, CONFIG.gyro_bias_instability_rad_s)
+    total_a = math.hypot(sig_a, CONFIG.acc_bias_instability_m_s2)
+    np.testing.assert_allclose(a.std_gyro_bias_rad_s[0], total_g, rtol=1e-6)
+    np.testing.assert_allclose(a.std_acc_bias_m_s2[0], total_a, rtol=1e-6)
+    estimated = run_ins(imu, gnss, CONFIG, init).forward
+    early = slice(0, 6000)  # the first minute: the static start and the drive-off
+    att_known = np.sqrt(np.mean(errors_of(a, truth)[2][early] ** 2))
+    att_estimated = np.sqrt(np.mean(errors_of(estimated, truth)[2][early] ** 2))
+    assert att_known < 0.5 * att_estimated
+    with pytest.raises(InputError, match="gyro turn-on bias is given twice"):
+        run_ins(imu, gnss, via_config, dataclasses.replace(init, gyro_bias_rad_s=BG))

@@ -9,25 +9,16 @@ from accelerometer bias. RTK GNSS at 5 Hz (2/2/4 cm, 1/1/2 cm/s) with a 1.5 m an
 lever arm; initial state from the truth, configuration from ``model.to_ins_config()``;
 forward filter and RTS smoother; six seeds.
 
-**Scale factors are not estimated.** The 15-state filter has bias states only, so the
-scale factors act as unmodelled errors:
-
-- On the vertical accelerometer, whose specific force is about ``-g`` all the time, a
-  scale factor ``s_z`` cannot be told from a bias ``-s_z g``: 5 ppm (1σ) is 0.005 mg,
-  more than the filter's final σ of that bias (0.003 mg). The filter recovers the
-  *apparent* bias ``b + (S + M) f̄`` (``f̄``: mean specific force of the run; ``S``,
-  ``M``: scale and misalignment), and that is what is checked. Over 20 seeds the
-  estimate minus the injected vertical bias was 1.9σ RMS (forward, end of run; up to
-  3.7σ, as in seeds 1 and 5 here) and 2.2σ RMS (smoothed, mid-run; up to 3.9σ); minus
-  the apparent bias, 1.0σ RMS (up to 2.5σ). On the five other axes ``(S + M) f̄`` is
-  below 5 % of σ (checked), so there the check is one of the injected bias.
-- The gyro scale factor turns each curve into a heading error of ``s_z`` times the
-  heading change (20 ppm × 90° = 6 arcsec, beside a smoothed heading σ of about
-  4 arcsec). Over 20 seeds the heading errors at fixed epochs were 1.44σ RMS
-  (forward) and 1.39σ (smoothed), against 1.05σ and 1.00σ with the scale factors
-  switched off: the reported heading σ is about 40 % optimistic on this drive. On
-  tight loops it is worse: on a figure-eight of 240° turns a 32 ppm draw left only
-  60 % of the smoothed heading errors inside 3σ.
+**Scale factors are filter states** (``model.to_ins_config()`` passes their σ: 27
+states), but on the vertical accelerometer, whose specific force is about ``-g`` all
+the time, a scale factor ``s_z`` cannot be told from a bias ``-s_z g``: 5 ppm (1σ) is
+0.005 mg, more than the filter's final σ of that bias. The filter recovers the
+*apparent* bias ``b + (S + M) f̄`` (``f̄``: mean specific force of the run; ``S``, ``M``:
+scale and misalignment), and that is what is checked. On the five other axes
+``(S + M) f̄`` is below 5 % of σ (checked), so there the check is one of the injected
+bias. Misalignments (this preset draws none) have no filter state. The consistency
+of the reported σ with scale factors on is checked over 60 runs per preset in
+``test_scale_factor_consistency.py``.
 
 **Gyro biases of 0.01 °/h are not observable in minutes.** The tilt they cause grows
 by 0.01 °/h × 240 s ≈ 7e-4° while the accelerometer bias instability allows

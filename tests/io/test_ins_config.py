@@ -213,3 +213,78 @@ def test_negative_imu_term_is_rejected() -> None:
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="not found"):
         read_ins_config(tmp_path / "none.toml")
+
+
+# ---------------------------------------------------------------- scale factors, known biases
+def test_scale_factor_keys_add_the_scale_states() -> None:
+    cfg = ins_config_from_toml_text(
+        MINIMAL + "gyro_scale_factor_sigma_ppm = 300.0\nacc_scale_factor_sigma_ppm = 1000\n"
+    )
+    assert (cfg.gyro_scale_factor_sigma_ppm, cfg.acc_scale_factor_sigma_ppm) == (300.0, 1000.0)
+    assert cfg.models_scale_factors
+    assert not ins_config_from_toml_text(MINIMAL).models_scale_factors
+    assert ins_config_from_toml_text(ins_config_to_toml_text(cfg)) == cfg
+
+
+@pytest.mark.parametrize(
+    ("lines", "gyro_rad_s", "gyro_std_rad_s"),
+    [
+        (
+            "gyro_bias_deg_h = [36.0, -72.0, 3.6]\ngyro_bias_std_deg_h = [1.0, 2.0, 3.0]",
+            (math.radians(0.01), math.radians(-0.02), math.radians(0.001)),
+            tuple(math.radians(v / 3600.0) for v in (1.0, 2.0, 3.0)),
+        ),
+        (
+            "gyro_bias_deg_s = [0.2, 0.2, -0.2]\ngyro_bias_std_rad_s = [1e-5, 1e-5, 1e-5]",
+            (math.radians(0.2), math.radians(0.2), math.radians(-0.2)),
+            (1e-5, 1e-5, 1e-5),
+        ),
+    ],
+)
+def test_calibrated_turn_on_biases_in_datasheet_units(
+    lines: str, gyro_rad_s: tuple[float, ...], gyro_std_rad_s: tuple[float, ...]
+) -> None:
+    text = (
+        MINIMAL + "[init]\n" + lines + "\nacc_bias_mg = [16, -8, 1]\nacc_bias_std_mg = [1, 1, 2]\n"
+    )
+    cfg = ins_config_from_toml_text(text)
+    np.testing.assert_allclose(cfg.init_gyro_bias_rad_s, gyro_rad_s, rtol=1e-15)
+    np.testing.assert_allclose(cfg.init_gyro_bias_std_rad_s, gyro_std_rad_s, rtol=1e-15)
+    np.testing.assert_allclose(cfg.init_acc_bias_m_s2, np.array([16, -8, 1]) * 9.80665e-3)
+    np.testing.assert_allclose(cfg.init_acc_bias_std_m_s2, np.array([1, 1, 2]) * 9.80665e-3)
+    assert ins_config_from_toml_text(ins_config_to_toml_text(cfg)) == cfg
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragments"),
+    [
+        ("[init]\ngyro_bias_deg_h = [1, 2, 3]\n", ["init_gyro_bias_rad_s", "σ"]),
+        ("[init]\nacc_bias_std_mg = [1, 1, 1]\n", ["init_acc_bias_m_s2", "go together"]),
+        (
+            "[init]\ngyro_bias_deg_h = [1, 2, 3]\ngyro_bias_deg_s = [1, 2, 3]\n",
+            ["two units"],
+        ),
+        (
+            "[init]\ngyro_bias_rad_s = [1, 2, 300]\ngyro_bias_std_rad_s = [1, 1, 1]\n",
+            ["gyro_bias_rad_s[2]", "gyro bias"],
+        ),
+        (
+            "[init]\nacc_bias_mg = [1, 2, 3]\nacc_bias_std_mg = [1, 0, 1]\n",
+            ["init_acc_bias_std_m_s2[1]", "positive"],
+        ),
+        ("[imu]\ngyro_scale_factor_sigma_ppm = 0\n", ["gyro_scale_factor_sigma_ppm"]),
+        ("[imu]\nacc_scale_factor_sigma_ppm = -5\n", ["acc_scale_factor_sigma_ppm"]),
+    ],
+)
+def test_bad_scale_factor_and_bias_keys(extra: str, fragments: list[str]) -> None:
+    text = (
+        MINIMAL.replace("[imu]\n", "[imu]\n" + extra.split("\n", 1)[1])
+        if extra.startswith("[imu]")
+        else MINIMAL + extra
+    )
+    with pytest.raises(InputError) as exc:
+        ins_config_from_toml_text(text, source="cfg.toml")
+    message = str(exc.value)
+    assert message.startswith("cfg.toml: ")
+    for frag in fragments:
+        assert frag in message, message

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ from kinsync.ins.solution import NavSolution
 from kinsync.io.nav_csv import (
     NAV_BIAS_COLUMNS,
     NAV_COLUMNS,
+    NAV_SCALE_COLUMNS,
     NAV_STD_COLUMNS,
     read_nav_csv,
     read_navigation,
@@ -76,6 +78,36 @@ def test_round_trip(tmp_path: Path) -> None:
     np.testing.assert_allclose(back.rpy_rad, sol.rpy_rad, rtol=1e-15, atol=1e-17)
     np.testing.assert_allclose(back.std_att_rad, sol.std_att_rad, rtol=1e-15)
     assert not back.smoothed
+
+
+def test_scale_factor_columns_round_trip_when_modelled(tmp_path: Path) -> None:
+    rng = np.random.default_rng(5)
+    sol = nav_solution()
+    n = len(sol)
+    scaled = dataclasses.replace(
+        sol,
+        gyro_scale_ppm=rng.normal(0, 300, (n, 3)),
+        acc_scale_ppm=rng.normal(0, 300, (n, 3)),
+        std_gyro_scale_ppm=rng.uniform(10, 100, (n, 3)),
+        std_acc_scale_ppm=rng.uniform(10, 100, (n, 3)),
+    )
+    write_nav_csv(scaled, tmp_path / "nav.csv")
+    header = (tmp_path / "nav.csv").read_text().splitlines()[0].split(",")
+    assert header == [*NAV_COLUMNS, *NAV_STD_COLUMNS, *NAV_BIAS_COLUMNS, *NAV_SCALE_COLUMNS]
+    back = read_nav_csv(tmp_path / "nav.csv")
+    for name in ("gyro_scale_ppm", "acc_scale_ppm", "std_gyro_scale_ppm", "std_acc_scale_ppm"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(scaled, name))
+    assert read_nav_csv(_without_scale(tmp_path)).gyro_scale_ppm is None
+    text = (tmp_path / "nav.csv").read_text().splitlines()
+    cut = [",".join(line.split(",")[:-1]) for line in text]  # one scale column missing
+    (tmp_path / "cut.csv").write_text("\n".join(cut) + "\n")
+    with pytest.raises(InputError, match="all twelve scale factor columns or none"):
+        read_nav_csv(tmp_path / "cut.csv")
+
+
+def _without_scale(tmp_path: Path) -> Path:
+    write_nav_csv(nav_solution(), tmp_path / "plain.csv")
+    return tmp_path / "plain.csv"
 
 
 def test_solution_csv_reads_as_trajectory_too(tmp_path: Path) -> None:

@@ -11,7 +11,7 @@ import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -24,6 +24,7 @@ from kinsync.frames import quaternion_to_euler_rpy
 
 # The INS (numba, scipy.stats) and its readers load inside the commands, only when they run.
 if TYPE_CHECKING:
+    from kinsync.ins.config import InsConfig
     from kinsync.ins.measurements import ImuData
     from kinsync.ins.solution import InitialState, NavSolution
 
@@ -164,7 +165,7 @@ def run(
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
 ) -> None:
-    """Filter IMU + GNSS into a navigation solution (15-state error-state EKF)."""
+    """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 or 27 states)."""
     from kinsync.ins.alignment import align_static_gnss_heading  # noqa: PLC0415
     from kinsync.ins.checks import check_inputs, gnss_within_imu_span  # noqa: PLC0415
     from kinsync.ins.filter import run_ins  # noqa: PLC0415
@@ -227,8 +228,21 @@ def run(
         msg = "the smoother returned no solution; run without --smooth"
         raise ConvergenceError(msg)
     _write_solution(solution, out)
+    summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
+    summary["warnings"] = warnings
+    if as_json:
+        print_json(summary)
+        return
+    _print_run_table(summary, solution, title=f"INS/GNSS {imu_path} + {gnss_path} -> {out}")
+
+
+def _run_document(
+    solution: NavSolution, config: InsConfig, *, seconds: float, smooth: bool, out: Path
+) -> dict[str, Any]:
+    """The ``--json`` document of ``ins run`` (without its warnings)."""
     n = len(solution)
-    summary = {
+    calibrated = config.init_gyro_bias_rad_s is not None or config.init_acc_bias_m_s2 is not None
+    return {
         "epochs": n,
         "gnss_used": int(solution.n_gnss_used),
         "gnss_rejected": int(solution.n_gnss_rejected),
@@ -236,24 +250,48 @@ def run(
         "epochs_per_s": n / seconds if seconds > 0 else None,
         "smoothed": smooth,
         "out": str(out),
-        "warnings": warnings,
+        "error_states": 27 if config.models_scale_factors else 21,
+        "turn_on_biases": "calibrated" if calibrated else "estimated from zero",
+        "final_gyro_bias_deg_h": [
+            math.degrees(float(v)) * 3600.0 for v in solution.gyro_bias_rad_s[-1]
+        ],
+        "final_acc_bias_mg": [float(v) / 9.80665e-3 for v in solution.acc_bias_m_s2[-1]],
+        "final_gyro_scale_ppm": (
+            None if solution.gyro_scale_ppm is None else solution.gyro_scale_ppm[-1].tolist()
+        ),
+        "final_acc_scale_ppm": (
+            None if solution.acc_scale_ppm is None else solution.acc_scale_ppm[-1].tolist()
+        ),
     }
-    if as_json:
-        print_json(summary)
-        return
-    table = Table(title=f"INS/GNSS {imu_path} + {gnss_path} -> {out}")
+
+
+def _print_run_table(doc: dict[str, Any], solution: NavSolution, *, title: str) -> None:
+    table = Table(title=title)
     table.add_column("quantity")
     table.add_column("value", justify="right")
-    table.add_row("epochs written", str(n))
-    table.add_row("solution", "smoothed (RTS)" if smooth else "forward filter")
-    table.add_row("GNSS epochs used", str(summary["gnss_used"]))
-    table.add_row("GNSS epochs rejected (χ² gate)", str(summary["gnss_rejected"]))
+    seconds = float(doc["seconds"])
+    table.add_row("epochs written", str(doc["epochs"]))
+    table.add_row("solution", "smoothed (RTS)" if doc["smoothed"] else "forward filter")
+    table.add_row("GNSS epochs used", str(doc["gnss_used"]))
+    table.add_row("GNSS epochs rejected (χ² gate)", str(doc["gnss_rejected"]))
     table.add_row("seconds", fmt(seconds))
-    table.add_row("epochs per second", fmt(n / seconds if seconds > 0 else None))
+    table.add_row("epochs per second", fmt(doc["epochs_per_s"]))
     table.add_row(
         "final σ N, E, D (m)",
         ", ".join(fmt(float(v)) for v in solution.std_pos_ned_m[-1]),
     )
+    table.add_row(
+        f"error states (turn-on biases {doc['turn_on_biases']})", str(doc["error_states"])
+    )
+    rows = (
+        ("final gyro bias x, y, z (deg/h)", doc["final_gyro_bias_deg_h"]),
+        ("final accelerometer bias x, y, z (mg)", doc["final_acc_bias_mg"]),
+        ("final gyro scale factor x, y, z (ppm)", doc["final_gyro_scale_ppm"]),
+        ("final accelerometer scale factor (ppm)", doc["final_acc_scale_ppm"]),
+    )
+    for label, values in rows:
+        if values is not None:
+            table.add_row(label, ", ".join(_triple(values)))
     console.print(table)
 
 

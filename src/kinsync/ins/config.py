@@ -52,7 +52,7 @@ class InsConfig:
         Steady-state σ of the Gauss–Markov in-run bias variation.
     gyro_bias_corr_time_s, acc_bias_corr_time_s : float
         Gauss–Markov correlation times (s).
-    gyro_scale_sigma_ppm, acc_scale_sigma_ppm : float
+    gyro_scale_factor_sigma_ppm, acc_scale_factor_sigma_ppm : float
         Scale factor error σ (ppm); 0 (default) leaves scale factors out of the filter.
         Either one above 0 adds six scale factor states (27 in all).
     gnss_std_pos_ned_m : (float, float, float)
@@ -84,8 +84,8 @@ class InsConfig:
     acc_bias_instability_m_s2: float
     gyro_bias_corr_time_s: float = 3600.0
     acc_bias_corr_time_s: float = 3600.0
-    gyro_scale_sigma_ppm: float = 0.0
-    acc_scale_sigma_ppm: float = 0.0
+    gyro_scale_factor_sigma_ppm: float = 0.0
+    acc_scale_factor_sigma_ppm: float = 0.0
     gnss_std_pos_ned_m: Vector3 = (1.0, 1.0, 2.0)
     gnss_std_vel_ned_m_s: Vector3 = (0.1, 0.1, 0.1)
     antenna_lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
@@ -102,7 +102,7 @@ class InsConfig:
     @property
     def models_scale_factors(self) -> bool:
         """True when scale factor states are in the filter (either σ above 0)."""
-        return self.gyro_scale_sigma_ppm > 0.0 or self.acc_scale_sigma_ppm > 0.0
+        return self.gyro_scale_factor_sigma_ppm > 0.0 or self.acc_scale_factor_sigma_ppm > 0.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -131,7 +131,7 @@ class InsConfig:
             object.__setattr__(
                 self, name, tuple(positive_number(v, f"{name}[{i}]") for i, v in enumerate(vals))
             )
-        for name in ("gyro_scale_sigma_ppm", "acc_scale_sigma_ppm"):
+        for name in ("gyro_scale_factor_sigma_ppm", "acc_scale_factor_sigma_ppm"):
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value >= 0.0):
                 msg = f"{name}: must be a number >= 0 (0: not modelled), got {value!r}"

@@ -36,7 +36,7 @@ GNSS update (the prior and posterior covariance, the accepted rows of ``H``, the
 variances and ``z``) and one every `CHECKPOINT_EVERY` epochs
 (`kinsync.ins.forward_run`); `kinsync.ins.smoother` recomputes ``Φ`` and the
 covariances between checkpoints from the stored nominal states, so the memory is
-O(n · 31 + m · 600) floats instead of three 15×15 matrices per epoch.
+O(n · 49 + m · 950) floats instead of three 21×21 matrices per epoch.
 
 References
 ----------
@@ -514,8 +514,8 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     sig[X_MG : X_MG + 3] = config.gyro_bias_instability_rad_s
     sig[X_MA : X_MA + 3] = config.acc_bias_instability_m_s2
     if n > X_SG:
-        sig[X_SG : X_SG + 3] = config.gyro_scale_sigma_ppm * 1e-6
-        sig[X_SA : X_SA + 3] = config.acc_scale_sigma_ppm * 1e-6
+        sig[X_SG : X_SG + 3] = config.gyro_scale_factor_sigma_ppm * 1e-6
+        sig[X_SA : X_SA + 3] = config.acc_scale_factor_sigma_ppm * 1e-6
     P = np.diag(sig**2)
     v = np.asarray(init.vel_ned_m_s, dtype=np.float64)
     V = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])

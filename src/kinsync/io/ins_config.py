@@ -13,6 +13,8 @@ accepted too and converted on reading (give one key per quantity, not two)::
     acc_bias_instability_m_s2 = 9.8e-4     # Gauss-Markov σ; or acc_bias_instability_mg
     gyro_bias_corr_time_s = 3600.0         # optional (default 3600)
     acc_bias_corr_time_s = 3600.0          # optional (default 3600)
+    gyro_scale_factor_sigma_ppm = 500.0    # optional: scale factor states (27 in all)
+    acc_scale_factor_sigma_ppm = 500.0     # optional
 
     [gnss]                                 # optional table, every key optional
     std_pos_ned_m = [1.0, 1.0, 2.0]        # σ N, E, D where the GNSS file has none
@@ -23,10 +25,18 @@ accepted too and converted on reading (give one key per quantity, not two)::
     std_att_rad = [0.01, 0.01, 0.02]       # roll, pitch, yaw σ; or std_att_deg
     std_vel_ned_m_s = [0.1, 0.1, 0.1]
     std_pos_ned_m = [1.0, 1.0, 2.0]
+    gyro_bias_deg_h = [12.0, -8.5, 3.0]    # optional: lab-calibrated turn-on biases, with
+    gyro_bias_std_deg_h = [1.0, 1.0, 1.0]  # their σ (or _rad_s, _deg_s keys)
+    acc_bias_mg = [1.2, -0.4, 2.0]         # optional, with acc_bias_std_mg (or _m_s2)
+    acc_bias_std_mg = [0.1, 0.1, 0.1]
 
     [filter]                               # optional table, every key optional
     max_imu_gap_s = 0.1                    # longer gaps between IMU samples: input error
     gate_probability = 0.9999              # χ² innovation gate
+
+The turn-on σ of ``[imu]`` describes an IMU whose turn-on biases are unknown: the
+filter estimates them from zero. ``[init]`` biases come from a laboratory calibration:
+the filter starts from them with their σ instead. Each needs its σ key.
 
 Conversions: 1 deg/sqrt(h) = (pi/180)/60 rad/s/sqrt(Hz); 1 m/s/sqrt(h) = 1/60
 m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2. Unknown tables
@@ -34,7 +44,8 @@ and keys are rejected (a typo must not silently fall back to a default), as are 
 given in two units. Values must be plausible (in SI units): noise terms and σ within
 1e-12 to 1e6 (the filter squares them and divides by them), correlation times within
 1e-9 to 1e10 s, ``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components within
-+-1000 m. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats, so a
++-1000 m, scale factor σ within 1e-6 to 1e6 ppm, calibrated biases within +-10 rad/s
+and +-1000 m/s^2. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats, so a
 write/read round trip is exact.
 """
 
@@ -74,6 +85,9 @@ _CORR_TIME = Span(1e-9, 1e10, "s", "a bias correlation time")
 _GAP = Span(1e-9, 1e6, "s", "an IMU gap")
 _LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehicle)")
 _PROBABILITY = Span(0.0, 1.0, "", "a probability")
+_PPM = Span(1e-6, 1e6, "ppm", "a scale factor σ")
+_GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
+_ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
 
 
 @dataclass(frozen=True)
@@ -135,6 +149,10 @@ _FIELDS = (
     ),
     _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),), span=_CORR_TIME),
     _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),), span=_CORR_TIME),
+    _Field(
+        "gyro_scale_factor_sigma_ppm", "imu", (("gyro_scale_factor_sigma_ppm", 1.0),), span=_PPM
+    ),
+    _Field("acc_scale_factor_sigma_ppm", "imu", (("acc_scale_factor_sigma_ppm", 1.0),), span=_PPM),
     _Field("gnss_std_pos_ned_m", "gnss", (("std_pos_ned_m", 1.0),), vector=True),
     _Field("gnss_std_vel_ned_m_s", "gnss", (("std_vel_ned_m_s", 1.0),), vector=True),
     _Field(
@@ -147,6 +165,40 @@ _FIELDS = (
     _Field("init_std_att_rad", "init", (("std_att_rad", 1.0), ("std_att_deg", _DEG)), vector=True),
     _Field("init_std_vel_ned_m_s", "init", (("std_vel_ned_m_s", 1.0),), vector=True),
     _Field("init_std_pos_ned_m", "init", (("std_pos_ned_m", 1.0),), vector=True),
+    _Field(
+        "init_gyro_bias_rad_s",
+        "init",
+        (
+            ("gyro_bias_rad_s", 1.0),
+            ("gyro_bias_deg_s", _DEG),
+            ("gyro_bias_deg_h", _DEG / 3600.0),
+        ),
+        vector=True,
+        span=_GYRO_BIAS,
+    ),
+    _Field(
+        "init_gyro_bias_std_rad_s",
+        "init",
+        (
+            ("gyro_bias_std_rad_s", 1.0),
+            ("gyro_bias_std_deg_s", _DEG),
+            ("gyro_bias_std_deg_h", _DEG / 3600.0),
+        ),
+        vector=True,
+    ),
+    _Field(
+        "init_acc_bias_m_s2",
+        "init",
+        (("acc_bias_m_s2", 1.0), ("acc_bias_mg", G0_M_S2 * 1e-3)),
+        vector=True,
+        span=_ACC_BIAS,
+    ),
+    _Field(
+        "init_acc_bias_std_m_s2",
+        "init",
+        (("acc_bias_std_m_s2", 1.0), ("acc_bias_std_mg", G0_M_S2 * 1e-3)),
+        vector=True,
+    ),
     _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),), span=_GAP),
     _Field("gate_probability", "filter", (("gate_probability", 1.0),), span=_PROBABILITY),
 )
@@ -279,6 +331,8 @@ def ins_config_to_toml_text(config: InsConfig) -> str:
                 continue
             key = field.keys[0][0]
             value = getattr(config, field.attr)
+            if value is None or (field.span is _PPM and value == 0.0):
+                continue  # not given: not modelled or not calibrated
             if field.vector:
                 text = "[" + ", ".join(repr(float(v)) for v in value) + "]"
             else:

@@ -9,6 +9,10 @@
     acc_bias_x_m_s2,acc_bias_y_m_s2,acc_bias_z_m_s2,
     std_gyro_bias_x_rad_s,std_gyro_bias_y_rad_s,std_gyro_bias_z_rad_s,
     std_acc_bias_x_m_s2,std_acc_bias_y_m_s2,std_acc_bias_z_m_s2
+    [gyro_scale_x_ppm,...,acc_scale_z_ppm,std_gyro_scale_x_ppm,...,std_acc_scale_z_ppm]
+
+The twelve scale factor columns are written when the filter modelled scale factors
+and read when present (all twelve or none).
 
 Position: WGS84 geodetic of the IMU reference point; velocity over the Earth in NED;
 attitude DIN 9300 roll, pitch, yaw (deg) body -> NED; biases in the body frame.
@@ -58,6 +62,7 @@ from kinsync.trajectory import Trajectory
 __all__ = [
     "NAV_BIAS_COLUMNS",
     "NAV_COLUMNS",
+    "NAV_SCALE_COLUMNS",
     "NAV_STD_COLUMNS",
     "read_nav_csv",
     "read_navigation",
@@ -99,7 +104,15 @@ NAV_BIAS_COLUMNS = tuple(
     for kind, unit in (("gyro", "rad_s"), ("acc", "m_s2"))
     for axis in "xyz"
 )
-"""Bias estimates and their 1σ, body frame."""
+"""Bias estimates (turn-on plus instability) and their 1σ, body frame."""
+
+NAV_SCALE_COLUMNS = tuple(
+    f"{prefix}{kind}_scale_{axis}_ppm"
+    for prefix in ("", "std_")
+    for kind in ("gyro", "acc")
+    for axis in "xyz"
+)
+"""Scale factor estimates and their 1σ (ppm), optional."""
 
 _SBET_SUFFIXES = (".sbet", ".out")
 
@@ -136,6 +149,16 @@ def write_nav_csv(solution: NavSolution, path: Path) -> None:
         (NAV_BIAS_COLUMNS[6:9], solution.std_gyro_bias_rad_s),
         (NAV_BIAS_COLUMNS[9:12], solution.std_acc_bias_m_s2),
     ]
+    scales = (
+        solution.gyro_scale_ppm,
+        solution.acc_scale_ppm,
+        solution.std_gyro_scale_ppm,
+        solution.std_acc_scale_ppm,
+    )
+    if all(a is not None for a in scales):
+        blocks += [
+            (NAV_SCALE_COLUMNS[3 * i : 3 * i + 3], a) for i, a in enumerate(scales) if a is not None
+        ]
     n = len(solution)
     for names, arr in blocks:
         a = np.asarray(arr, dtype=np.float64)
@@ -161,6 +184,11 @@ _SPANS: dict[str, Span] = {
     **{
         n: ACCELERATION_M_S2.positive(0.0, "an accelerometer bias standard deviation")
         for n in NAV_BIAS_COLUMNS[9:12]
+    },
+    **dict.fromkeys(NAV_SCALE_COLUMNS[0:6], Span(-1e6, 1e6, "ppm", "a scale factor")),
+    **{
+        n: Span(0.0, 1e6, "ppm", "a scale factor standard deviation")
+        for n in NAV_SCALE_COLUMNS[6:12]
     },
 }
 """Plausible values of each column of a solution (`kinsync.io.sanity`)."""
@@ -208,6 +236,14 @@ def read_nav_csv(path: Path) -> NavSolution:
         raise InputError(msg)
     _check_solution_table(table)
     c = table.columns
+    present = [name in c for name in NAV_SCALE_COLUMNS]
+    if any(present) and not all(present):
+        missing = [name for name, here in zip(NAV_SCALE_COLUMNS, present, strict=True) if not here]
+        msg = f"{path}: give all twelve scale factor columns or none; missing {missing}"
+        raise InputError(msg)
+    scales = [
+        _triple(c, NAV_SCALE_COLUMNS[3 * i : 3 * i + 3]) if all(present) else None for i in range(4)
+    ]
     return NavSolution(
         t_s=c["t_s"],
         lat_deg=c["lat_deg"],
@@ -222,6 +258,10 @@ def read_nav_csv(path: Path) -> NavSolution:
         acc_bias_m_s2=_triple(c, NAV_BIAS_COLUMNS[3:6]),
         std_gyro_bias_rad_s=_triple(c, NAV_BIAS_COLUMNS[6:9]),
         std_acc_bias_m_s2=_triple(c, NAV_BIAS_COLUMNS[9:12]),
+        gyro_scale_ppm=scales[0],
+        acc_scale_ppm=scales[1],
+        std_gyro_scale_ppm=scales[2],
+        std_acc_scale_ppm=scales[3],
     )
 
 

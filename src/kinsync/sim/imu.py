@@ -195,7 +195,9 @@ class ImuErrorModel:
 
         Noise densities, Gauss–Markov sigma and correlation times as in the model; the
         turn-on bias sigma is the model's sigma, or the largest component of a fixed
-        bias vector. Zero terms become a tiny positive floor (the filter needs > 0).
+        bias vector; the scale factor sigma likewise (the filter then estimates scale
+        factors; none when the model has none). Zero terms become a tiny positive floor
+        (the filter needs > 0). Misalignments have no filter state.
 
         Parameters
         ----------
@@ -223,6 +225,8 @@ class ImuErrorModel:
             acc_bias_instability_m_s2=max(self.acc_bias_instability_m_s2, _ACC_SIGMA_FLOOR_M_S2),
             gyro_bias_corr_time_s=self.gyro_bias_corr_time_s,
             acc_bias_corr_time_s=self.acc_bias_corr_time_s,
+            gyro_scale_factor_sigma_ppm=turn_on(self.gyro_scale_sigma_ppm, self.gyro_scale_ppm),
+            acc_scale_factor_sigma_ppm=turn_on(self.acc_scale_sigma_ppm, self.acc_scale_ppm),
         )
         try:
             return replace(base, **overrides)
