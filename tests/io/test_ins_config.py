@@ -248,8 +248,12 @@ def test_calibrated_turn_on_biases_in_datasheet_units(
         MINIMAL + "[init]\n" + lines + "\nacc_bias_mg = [16, -8, 1]\nacc_bias_std_mg = [1, 1, 2]\n"
     )
     cfg = ins_config_from_toml_text(text)
-    np.testing.assert_allclose(cfg.init_gyro_bias_rad_s, gyro_rad_s, rtol=1e-15)
-    np.testing.assert_allclose(cfg.init_gyro_bias_std_rad_s, gyro_std_rad_s, rtol=1e-15)
+    assert cfg.init_gyro_bias_rad_s is not None
+    assert cfg.init_gyro_bias_std_rad_s is not None
+    assert cfg.init_acc_bias_m_s2 is not None
+    assert cfg.init_acc_bias_std_m_s2 is not None
+    np.testing.assert_allclose(cfg.init_gyro_bias_rad_s, np.array(gyro_rad_s), rtol=1e-15)
+    np.testing.assert_allclose(cfg.init_gyro_bias_std_rad_s, np.array(gyro_std_rad_s), rtol=1e-15)
     np.testing.assert_allclose(cfg.init_acc_bias_m_s2, np.array([16, -8, 1]) * 9.80665e-3)
     np.testing.assert_allclose(cfg.init_acc_bias_std_m_s2, np.array([1, 1, 2]) * 9.80665e-3)
     assert ins_config_from_toml_text(ins_config_to_toml_text(cfg)) == cfg
