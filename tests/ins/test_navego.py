@@ -38,6 +38,7 @@ from kinsync.ins.earth import OMEGA_IE_RAD_S, radii_m
 from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.io.ins_config import read_ins_config
 from kinsync.io.tables import read_numeric_csv
 
 DATA_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "navego-synthetic"
@@ -270,3 +271,79 @@ def test_reported_sigma_is_consistent(navego: NaveGo, runs: Any, key: tuple[bool
         E = Rs @ np.transpose(err["Rt"], (0, 2, 1))
         phi = -_vee(0.5 * (E - np.transpose(E, (0, 2, 1))))
         assert np.mean(np.abs(phi[:, 1]) <= 3.0 * sol.std_att_rad[:, 1]) >= 0.95
+
+
+# ---------------------------------------------------------------- issue 17's conditions
+SHIPPED = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.toml"
+PYINS_A = ((1.198, 1.169, 1.553), (0.250, 0.500, 3.313))
+"""pyins 1.0.1, position updates, turn-on biases estimated (the better peer in A)."""
+PYINS_B = ((0.333, 0.407, 0.527), (0.105, 0.087, 0.506))
+"""pyins 1.0.1, position and velocity updates, biases estimated (the better peer in B)."""
+KF_GINS_C = ((1.112, 1.229, 1.594), (0.182, 0.262, 1.253))
+"""KF-GINS, position updates, turn-on biases known."""
+
+
+@pytest.fixture(scope="module")
+def shipped_runs(navego: NaveGo) -> dict[str, tuple[NavSolution, NavSolution]]:
+    """Conditions A, B, C with the one shipped configuration: (forward, smoothed)."""
+    config = read_ins_config(SHIPPED)
+    f = RESIDUAL_SIGMA_FACTOR
+    known = dataclasses.replace(
+        config,
+        init_gyro_bias_rad_s=tuple(navego.spec["gb_sta"]),
+        init_gyro_bias_std_rad_s=(f * navego.spec["gb_dyn"][0],) * 3,
+        init_acc_bias_m_s2=tuple(navego.spec["ab_sta"]),
+        init_acc_bias_std_m_s2=(f * navego.spec["ab_dyn"][0],) * 3,
+    )
+    init = navego.initial_state(known_turn_on=False)
+    out = {}
+    for name, cfg, vel in (("A", config, False), ("B", config, True), ("C", known, False)):
+        res = run_ins(navego.imu, navego.gnss, cfg, init, use_velocity=vel, smooth=True)
+        assert res.smoothed is not None
+        out[name] = (res.forward, res.smoothed)
+    return out
+
+
+def _rms3(navego: NaveGo, sol: NavSolution) -> tuple[np.ndarray, np.ndarray]:
+    """Position (m) and roll/pitch/yaw (deg) RMS, rounded to the peers' three decimals."""
+    err = navego.errors(sol)
+    return np.round(_rms(err["pos"]), 3), np.round(np.degrees(_rms(err["rpy"])), 3)
+
+
+def test_b_and_c_meet_the_best_peer_on_every_axis(
+    navego: NaveGo, shipped_runs: dict[str, tuple[NavSolution, NavSolution]]
+) -> None:
+    for name, (pos_peer, att_peer) in (("B", PYINS_B), ("C", KF_GINS_C)):
+        pos, att = _rms3(navego, shipped_runs[name][0])
+        assert (pos <= pos_peer).all(), (name, pos, pos_peer)
+        assert (att <= att_peer).all(), (name, att, att_peer)
+
+
+def test_a_meets_pyins_but_for_height_and_yaw(
+    navego: NaveGo, shipped_runs: dict[str, tuple[NavSolution, NavSolution]]
+) -> None:
+    """A, position updates with the turn-on biases estimated from zero: north, east,
+    roll and pitch at or below pyins; height 7 % and yaw 0.1 % above it.
+
+    pyins models each bias as one random walk (a turn-on σ that never shrinks by itself);
+    kinsync as a turn-on constant plus the Gauss-Markov instability the data were made
+    with. On 16 simulated NaveGo-like drives (MEMS preset, 5 Hz GNSS of 5/5/10 m,
+    position-only) the random-walk model gave a height RMS 0.032 m lower (standard
+    error 0.010 m) and the same horizontal and attitude figures; on this one drive
+    0.105 m lower. Guarded here so the gap cannot grow unnoticed.
+    """
+    pos, att = _rms3(navego, shipped_runs["A"][0])
+    (pos_peer, att_peer) = PYINS_A
+    assert (pos[:2] <= pos_peer[:2]).all(), (pos, pos_peer)
+    assert (att[:2] <= att_peer[:2]).all(), (att, att_peer)
+    assert pos[2] <= 1.08 * pos_peer[2], (pos, pos_peer)
+    assert att[2] <= 1.005 * att_peer[2], (att, att_peer)
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C"])
+def test_shipped_smoother_better_than_forward_everywhere(
+    navego: NaveGo, shipped_runs: dict[str, tuple[NavSolution, NavSolution]], name: str
+) -> None:
+    fwd, smo = (navego.errors(sol) for sol in shipped_runs[name])
+    for what in ("pos", "vel", "rpy"):
+        assert (_rms(smo[what]) < _rms(fwd[what])).all(), (name, what)
