@@ -32,7 +32,7 @@ Drives (25 Hz records, 50-100 deg field of view, to keep runs short):
 Columns: RMS error / RMS sigma and their ratio for t0 (profile 0), T, the clock at
 the middle and at the last profile. ``--ins N`` adds N runs of the end-to-end demo's
 chain (`kinsync.demo.end_to_end_chain`: navigation IMU and white RTK GNSS noise
-through the 15-state filter and smoother, errors of 1-2 mm correlated over about 6 s;
+through the INS filter and smoother, errors of 1-2 mm correlated over about 6 s;
 Method B on that trajectory with the smoother's horizontal sigma), about 2 s a run.
 There the trajectory part is no larger than the scan part, so these rows also carry
 what the position model leaves out: the sphere fits' own sigma (t0 and T are 1.4
