@@ -90,6 +90,16 @@ _GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
 _ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
 
 
+def _rate_keys(stem: str) -> tuple[tuple[str, float], ...]:
+    """The keys of an angular rate ``stem``: rad/s (SI), deg/h and deg/s."""
+    return ((f"{stem}_rad_s", 1.0), (f"{stem}_deg_h", _DEG / 3600.0), (f"{stem}_deg_s", _DEG))
+
+
+def _acceleration_keys(stem: str) -> tuple[tuple[str, float], ...]:
+    """The keys of an acceleration ``stem``: m/s^2 (SI) and mg."""
+    return ((f"{stem}_m_s2", 1.0), (f"{stem}_mg", G0_M_S2 * 1e-3))
+
+
 @dataclass(frozen=True)
 class _Field:
     """One `InsConfig` field: its table, keys with factors to SI, vector or not, span."""
@@ -115,36 +125,15 @@ _FIELDS = (
         (("acc_vrw_m_s2_rthz", 1.0), ("acc_vrw_m_s_rthr", 1.0 / 60.0)),
         required=True,
     ),
+    _Field("gyro_bias_sigma_rad_s", "imu", _rate_keys("gyro_bias_sigma"), required=True),
+    _Field("acc_bias_sigma_m_s2", "imu", _acceleration_keys("acc_bias_sigma"), required=True),
     _Field(
-        "gyro_bias_sigma_rad_s",
-        "imu",
-        (
-            ("gyro_bias_sigma_rad_s", 1.0),
-            ("gyro_bias_sigma_deg_h", _DEG / 3600.0),
-            ("gyro_bias_sigma_deg_s", _DEG),
-        ),
-        required=True,
-    ),
-    _Field(
-        "acc_bias_sigma_m_s2",
-        "imu",
-        (("acc_bias_sigma_m_s2", 1.0), ("acc_bias_sigma_mg", G0_M_S2 * 1e-3)),
-        required=True,
-    ),
-    _Field(
-        "gyro_bias_instability_rad_s",
-        "imu",
-        (
-            ("gyro_bias_instability_rad_s", 1.0),
-            ("gyro_bias_instability_deg_h", _DEG / 3600.0),
-            ("gyro_bias_instability_deg_s", _DEG),
-        ),
-        required=True,
+        "gyro_bias_instability_rad_s", "imu", _rate_keys("gyro_bias_instability"), required=True
     ),
     _Field(
         "acc_bias_instability_m_s2",
         "imu",
-        (("acc_bias_instability_m_s2", 1.0), ("acc_bias_instability_mg", G0_M_S2 * 1e-3)),
+        _acceleration_keys("acc_bias_instability"),
         required=True,
     ),
     _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),), span=_CORR_TIME),
@@ -165,40 +154,12 @@ _FIELDS = (
     _Field("init_std_att_rad", "init", (("std_att_rad", 1.0), ("std_att_deg", _DEG)), vector=True),
     _Field("init_std_vel_ned_m_s", "init", (("std_vel_ned_m_s", 1.0),), vector=True),
     _Field("init_std_pos_ned_m", "init", (("std_pos_ned_m", 1.0),), vector=True),
+    _Field("init_gyro_bias_rad_s", "init", _rate_keys("gyro_bias"), vector=True, span=_GYRO_BIAS),
+    _Field("init_gyro_bias_std_rad_s", "init", _rate_keys("gyro_bias_std"), vector=True),
     _Field(
-        "init_gyro_bias_rad_s",
-        "init",
-        (
-            ("gyro_bias_rad_s", 1.0),
-            ("gyro_bias_deg_s", _DEG),
-            ("gyro_bias_deg_h", _DEG / 3600.0),
-        ),
-        vector=True,
-        span=_GYRO_BIAS,
+        "init_acc_bias_m_s2", "init", _acceleration_keys("acc_bias"), vector=True, span=_ACC_BIAS
     ),
-    _Field(
-        "init_gyro_bias_std_rad_s",
-        "init",
-        (
-            ("gyro_bias_std_rad_s", 1.0),
-            ("gyro_bias_std_deg_s", _DEG),
-            ("gyro_bias_std_deg_h", _DEG / 3600.0),
-        ),
-        vector=True,
-    ),
-    _Field(
-        "init_acc_bias_m_s2",
-        "init",
-        (("acc_bias_m_s2", 1.0), ("acc_bias_mg", G0_M_S2 * 1e-3)),
-        vector=True,
-        span=_ACC_BIAS,
-    ),
-    _Field(
-        "init_acc_bias_std_m_s2",
-        "init",
-        (("acc_bias_std_m_s2", 1.0), ("acc_bias_std_mg", G0_M_S2 * 1e-3)),
-        vector=True,
-    ),
+    _Field("init_acc_bias_std_m_s2", "init", _acceleration_keys("acc_bias_std"), vector=True),
     _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),), span=_GAP),
     _Field("gate_probability", "filter", (("gate_probability", 1.0),), span=_PROBABILITY),
 )
