@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from contextlib import ExitStack, suppress
+from contextlib import ExitStack
 from pathlib import Path
 from types import TracebackType
 from typing import Any, BinaryIO
@@ -28,16 +28,11 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.las_coordinates import store_scaled
+from kinsync.io.las_crs import set_las_crs
 from kinsync.io.las_header import las_suffix
 
 __all__ = ["LasChunkWriter", "las_output_notes"]
 
-_CRS_VLR_NAMES = (
-    "WktCoordinateSystemVlr",
-    "GeoKeyDirectoryVlr",
-    "GeoAsciiParamsVlr",
-    "GeoDoubleParamsVlr",
-)
 
 _LAZ_BACKEND = next(
     (b for b in (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs) if b.is_available()),
@@ -202,11 +197,7 @@ class LasChunkWriter:
         header.offsets = offsets
         header.scales = scales
         if crs is not None:
-            if header.evlrs is not None:
-                for name in _CRS_VLR_NAMES:
-                    with suppress(IndexError):
-                        header.evlrs.extract(name)
-            header.add_crs(crs)
+            set_las_crs(header, crs, self.path)
         self.header = header
         self.points_written = 0
         self._stack: ExitStack | None = None

@@ -1,0 +1,140 @@
+"""The CRS of a LAS/LAZ file: OGC WKT or GeoTIFF keys, compound CRSs included (laspy).
+
+LAS 1.4 point formats 6-10 declare their CRS in OGC WKT; formats 0-5 in GeoTIFF keys
+(ASPRS LAS 1.4 R15, section 2.5), which name EPSG codes. laspy writes the keys of a
+projected or geographic CRS only, and fails on a compound one (UTM + NAVD88 heights,
+``EPSG:32618+5703``): `set_las_crs` writes the horizontal key, and for a compound CRS
+the vertical one (``VerticalCSTypeGeoKey`` 4096, with ``VerticalUnitsGeoKey`` 4099),
+as PDAL and LAStools read them; a geocentric CRS gets model type 3 (OGC GeoTIFF 1.1,
+19-008r4). A CRS with no EPSG code goes in WKT where the LAS version allows it (1.4),
+and is refused otherwise, naming what to do.
+"""
+
+from __future__ import annotations
+
+from contextlib import suppress
+from pathlib import Path
+from typing import Any
+
+import laspy
+import pyproj
+from laspy.vlrs.known import GeoAsciiParamsVlr, GeoKeyDirectoryVlr, GeoKeyEntryStruct
+
+from kinsync.errors import InputError
+
+__all__ = ["CRS_VLR_NAMES", "las_crs_keys", "set_las_crs"]
+
+CRS_VLR_NAMES = (
+    "WktCoordinateSystemVlr",
+    "GeoKeyDirectoryVlr",
+    "GeoAsciiParamsVlr",
+    "GeoDoubleParamsVlr",
+)
+_MODEL_TYPE = 1024  # GTModelTypeGeoKey: 1 projected, 2 geographic, 3 geocentric
+_CITATION = 1026  # GTCitationGeoKey (ASCII)
+_GEODETIC_CRS = 2048  # GeodeticCRSGeoKey (GeographicTypeGeoKey in GeoTIFF 1.0)
+_PROJECTED_CRS = 3072  # ProjectedCRSGeoKey
+_VERTICAL_CRS = 4096  # VerticalCSTypeGeoKey
+_VERTICAL_UNITS = 4099  # VerticalUnitsGeoKey
+_METRE = 9001  # EPSG unit of measure
+_ASCII_TAG = 34737  # GeoAsciiParamsTag: where ASCII key values are stored
+
+
+def _epsg(crs: pyproj.CRS) -> int | None:
+    code = crs.to_epsg(min_confidence=90)
+    return None if code is None or not 1024 <= code <= 32766 else int(code)
+
+
+def las_crs_keys(crs: pyproj.CRS) -> dict[int, int] | None:
+    """GeoTIFF key id -> EPSG value for ``crs``, or None when a code is missing.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS
+        Projected, geographic, geocentric, or compound (one of these + vertical).
+    """
+    horizontal, vertical = crs, None
+    if crs.is_compound:
+        parts = crs.sub_crs_list
+        if len(parts) != 2 or not parts[1].is_vertical:
+            return None
+        horizontal, vertical = parts
+    code = _epsg(horizontal)
+    if code is None:
+        return None
+    if horizontal.is_projected:
+        keys = {_MODEL_TYPE: 1, _PROJECTED_CRS: code}
+    elif horizontal.is_geocentric:
+        keys = {_MODEL_TYPE: 3, _GEODETIC_CRS: code}
+    elif horizontal.is_geographic:
+        keys = {_MODEL_TYPE: 2, _GEODETIC_CRS: code}
+    else:
+        return None
+    if vertical is not None:
+        vertical_code = _epsg(vertical)
+        if vertical_code is None:
+            return None
+        keys |= {_VERTICAL_CRS: vertical_code, _VERTICAL_UNITS: _METRE}
+    return keys
+
+
+def _geotiff_vlrs(keys: dict[int, int], citation: str) -> tuple[Any, Any]:
+    text = citation.encode("ascii", "replace").decode("ascii") + "|"
+    entries = []
+    for key_id, value in sorted({**keys, _CITATION: -1}.items()):
+        entry = GeoKeyEntryStruct()
+        entry.id = key_id
+        if key_id == _CITATION:
+            entry.tiff_tag_location, entry.count, entry.value_offset = _ASCII_TAG, len(text), 0
+        else:
+            entry.tiff_tag_location, entry.count, entry.value_offset = 0, 1, value
+        entries.append(entry)
+    directory = GeoKeyDirectoryVlr()
+    directory.geo_keys_header.number_of_keys = len(entries)
+    directory.geo_keys = entries
+    ascii_vlr = GeoAsciiParamsVlr()
+    ascii_vlr.strings = [text]
+    return directory, ascii_vlr
+
+
+def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
+    """Declare ``crs`` in ``header``, replacing any CRS records it had.
+
+    Parameters
+    ----------
+    header : laspy.LasHeader
+        Header of the file being written (its point format and version decide the
+        encoding: WKT for formats 6-10, GeoTIFF keys for 0-5).
+    crs : pyproj.CRS
+        The coordinates' CRS.
+    path : Path
+        The file, for messages.
+
+    Raises
+    ------
+    InputError
+        A CRS without EPSG codes for a point format 0-5 file older than LAS 1.4.
+    """
+    for name in CRS_VLR_NAMES:
+        with suppress(IndexError):
+            header.vlrs.extract(name)
+        if header.evlrs is not None:
+            with suppress(IndexError):
+                header.evlrs.extract(name)
+    if header.point_format.id >= 6:
+        header.add_crs(crs)
+        return
+    keys = las_crs_keys(crs)
+    if keys is not None:
+        header.global_encoding.wkt = False
+        header.vlrs.extend(_geotiff_vlrs(keys, crs.name))
+        return
+    if header.version.minor >= 4:
+        header.add_crs(crs, keep_compatibility=False)
+        return
+    msg = (
+        f"{path}: LAS {header.version} point format {header.point_format.id} declares its "
+        f"CRS with EPSG codes, and {crs.name!r} has none; give --crs as EPSG codes "
+        "(e.g. EPSG:32619 or EPSG:32618+5703) or convert the input to LAS 1.4"
+    )
+    raise InputError(msg)

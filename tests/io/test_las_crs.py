@@ -1,0 +1,87 @@
+"""The CRS a LAS/LAZ file declares (issue 16 item 1): WKT, GeoTIFF keys, compound CRSs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pyproj
+import pytest
+
+from kinsync.errors import InputError
+from kinsync.io.las_crs import las_crs_keys, set_las_crs
+
+
+def _written(tmp_path: Path, point_format: int, version: str, crs: pyproj.CRS) -> laspy.LasData:
+    header = laspy.LasHeader(point_format=point_format, version=version)
+    path = tmp_path / "out.las"
+    set_las_crs(header, crs, path)
+    las = laspy.LasData(header)
+    las.x = np.array([1.0])
+    las.y = np.array([2.0])
+    las.z = np.array([3.0])
+    las.write(path)
+    return laspy.read(path)
+
+
+def _keys(las: laspy.LasData) -> dict[int, int]:
+    return {
+        k.id: k.value_offset for v in las.header.vlrs if hasattr(v, "geo_keys") for k in v.geo_keys
+    }
+
+
+@pytest.mark.parametrize(("point_format", "version"), [(1, "1.2"), (3, "1.4"), (0, "1.3")])
+def test_a_compound_crs_in_geotiff_keys_has_its_vertical_key(
+    tmp_path: Path, point_format: int, version: str
+) -> None:
+    las = _written(tmp_path, point_format, version, pyproj.CRS("EPSG:32618+5703"))
+    keys = _keys(las)
+    assert keys[1024] == 1  # projected
+    assert keys[3072] == 32618
+    assert keys[4096] == 5703
+    assert keys[4099] == 9001
+    assert las.header.parse_crs() == pyproj.CRS.from_epsg(32618)  # laspy reads the horizontal
+    assert not las.header.global_encoding.wkt
+    ascii_vlr = next(v for v in las.header.vlrs if type(v).__name__ == "GeoAsciiParamsVlr")
+    assert "NAVD88" in ascii_vlr.strings[0]
+
+
+def test_a_compound_crs_in_wkt_reads_back_whole(tmp_path: Path) -> None:
+    crs = pyproj.CRS("EPSG:32619+5703")
+    las = _written(tmp_path, 6, "1.4", crs)
+    assert las.header.parse_crs() == crs
+    assert las.header.global_encoding.wkt
+
+
+@pytest.mark.parametrize(
+    ("crs", "model", "key"),
+    [("EPSG:4978", 3, 2048), ("EPSG:4326", 2, 2048), ("EPSG:32619", 1, 3072)],
+)
+def test_geotiff_model_types(tmp_path: Path, crs: str, model: int, key: int) -> None:
+    keys = _keys(_written(tmp_path, 1, "1.2", pyproj.CRS(crs)))
+    assert keys[1024] == model
+    assert keys[key] == pyproj.CRS(crs).to_epsg()
+
+
+def test_a_crs_without_epsg_code_goes_in_wkt_in_las_1_4(tmp_path: Path) -> None:
+    crs = pyproj.CRS("+proj=tmerc +lon_0=-71 +k=0.9999 +x_0=300000 +ellps=GRS80 +units=m")
+    assert las_crs_keys(crs) is None
+    las = _written(tmp_path, 1, "1.4", crs)
+    assert las.header.parse_crs().equals(crs)
+
+
+def test_a_crs_without_epsg_code_in_an_old_las_is_refused(tmp_path: Path) -> None:
+    crs = pyproj.CRS("+proj=tmerc +lon_0=-71 +k=0.9999 +x_0=300000 +ellps=GRS80 +units=m")
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    with pytest.raises(InputError, match=r"out\.las: LAS 1\.2 point format 1 .*EPSG codes"):
+        set_las_crs(header, crs, tmp_path / "out.las")
+
+
+def test_a_new_crs_replaces_the_old_one(tmp_path: Path) -> None:
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    set_las_crs(header, pyproj.CRS("EPSG:32618"), tmp_path / "x.las")
+    set_las_crs(header, pyproj.CRS("EPSG:32619+5703"), tmp_path / "x.las")
+    names = [type(v).__name__ for v in header.vlrs]
+    assert names.count("GeoKeyDirectoryVlr") == 1
+    assert names.count("GeoAsciiParamsVlr") == 1
