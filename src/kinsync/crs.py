@@ -1,58 +1,704 @@
 """Coordinate reference systems: transformations between ECEF and a user's CRS (pyproj).
 
-Both directions take any pyproj user input (``EPSG:32619``, WKT, PROJ strings) and
-return a function over ``(n, 3)`` arrays (axis order easting/longitude first), or
-None when the CRS is ECEF itself (EPSG:4978), so that callers skip the identity.
+Georeferencing ends in Earth-centred coordinates of the trajectory's frame (WGS 84,
+EPSG:4978, unless the trajectory is known to be in another one, e.g. ITRF2014,
+EPSG:7789). `plan_ecef_to_crs` chooses, once, the PROJ operation from there to the
+user's CRS for the data's area, checks what a surveyor must not get silently wrong, and
+says what it chose (`CrsTransformInfo`: the PROJ pipeline, its accuracy, the coordinate
+epoch, the kind of heights):
+
+- a compound CRS (``EPSG:32618+5703``: UTM + NAVD88 heights) needs a geoid model; when
+  PROJ has none installed it would quietly leave ellipsoidal heights under the
+  orthometric label (PROJ's "ballpark vertical transformation"), tens of metres off.
+  That is refused, naming the grid PROJ wants and how to get it, unless the user gives
+  a geoid grid (``geoid``): then heights are ``H = h - N`` with ``N`` read from it;
+- a time-dependent transformation (between ITRF and NAD83(CSRS) realisations, say) is
+  evaluated at a coordinate epoch: the one given, or the observation epoch of the
+  data; neither known is an error;
+- a datum change PROJ can only do as a "ballpark" (no parameters) or to worse than
+  `COARSE_ACCURACY_M`, and data outside the CRS's area of use (a UTM zone far from
+  the data), are warnings.
+
+The plan (`CrsPlan`) holds PROJ pipeline strings, so that every worker process of a
+georeferencing run rebuilds exactly the operation that was reported.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from functools import lru_cache
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyproj
+import pyproj.database
+import pyproj.enums
+from pyproj.aoi import AreaOfInterest
+from pyproj.datadir import get_user_data_dir  # type: ignore[attr-defined]
+from pyproj.transformer import Transformer, TransformerGroup
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 
-__all__ = ["crs_to_ecef_transformer", "ecef_to_crs_transformer"]
+__all__ = [
+    "COARSE_ACCURACY_M",
+    "ECEF_WGS84",
+    "CrsPlan",
+    "CrsTransformInfo",
+    "DataArea",
+    "crs_plan_transformer",
+    "crs_to_ecef_transformer",
+    "data_area",
+    "ecef_to_crs_transformer",
+    "plan_ecef_to_crs",
+    "sample_rows",
+    "utm_zone_of",
+]
+
+ECEF_WGS84 = "EPSG:4978"
+COARSE_ACCURACY_M = 0.5  # a datum change PROJ rates worse than this gets a warning
+_EPOCH_RANGE_YEAR = (1980.0, 2100.0)
+# Two epochs 30 years apart move a time-dependent transformation's output by centimetres
+# to metres; these bounds (about 1 µm) separate that from rounding.
+_TIME_TEST_EPOCHS = (2000.0, 2030.0)
+_TIME_TOL_DEG = 1e-11
+_TIME_TOL_M = 1e-6
+_EQUATOR_ECEF_M = np.array([[6378137.0, 0.0, 0.0]])  # probe when no data are given
+_GRID_HINT = (
+    "install it with `projsync --file {name}` (or download {url} into {user_dir}), "
+    "or set PROJ_NETWORK=ON, or give a geoid grid with --geoid PATH"
+)
 
 
-@lru_cache(maxsize=8)
-def ecef_to_crs_transformer(crs: str) -> Callable[[FloatArray], FloatArray] | None:
-    """ECEF -> ``crs`` (axis order easting/longitude first), or None for ECEF itself."""
+@dataclass(frozen=True)
+class CrsPlan:
+    """What a process needs to rebuild a chosen transformation (hashable, picklable).
+
+    Attributes
+    ----------
+    crs : str
+        The target CRS as the user gave it.
+    pipeline : str or None
+        PROJ pipeline from ECEF to the target (easting/longitude first); None when the
+        target is the ECEF frame itself.
+    height_pipeline : str or None
+        With a geoid grid: PROJ pipeline from ECEF to ``(lon, lat, H)``, ``H`` the
+        orthometric height; the target's horizontal coordinates still come from
+        ``pipeline``.
+    epoch_year : float or None
+        Coordinate epoch (decimal year) at which a time-dependent pipeline is evaluated;
+        None when the pipeline does not depend on time.
+    """
+
+    crs: str
+    pipeline: str | None
+    height_pipeline: str | None = None
+    epoch_year: float | None = None
+
+    def __str__(self) -> str:
+        return self.crs
+
+
+@dataclass(frozen=True)
+class CrsTransformInfo:
+    """What transformation was used, for the user to read and to keep with the results.
+
+    Attributes
+    ----------
+    source, target : str
+        Names (and codes) of the trajectory's ECEF frame and of the output CRS.
+    operation : str
+        PROJ's description of the operation.
+    proj_pipeline : str
+        The PROJ pipeline (with the geoid step, when a geoid grid gives the heights).
+    accuracy_m : float or None
+        PROJ's accuracy of the operation (m); None when PROJ does not know it.
+    time_dependent : bool
+        Whether the operation depends on the coordinate epoch.
+    epoch_year : float or None
+        The coordinate epoch used (decimal year), when time-dependent or given.
+    heights : str
+        What the output heights are (ellipsoidal, orthometric from which model, none).
+    geoid : str or None
+        The geoid grid file given by the user.
+    ballpark : bool
+        Whether PROJ applies a "ballpark" step (a datum change without parameters).
+    warnings : tuple of str
+        What the user should know (ballpark datum change, coarse accuracy, data outside
+        the CRS's area of use, an epoch that changes nothing).
+    """
+
+    source: str
+    target: str
+    operation: str
+    proj_pipeline: str
+    accuracy_m: float | None
+    time_dependent: bool
+    epoch_year: float | None
+    heights: str
+    geoid: str | None = None
+    ballpark: bool = False
+    warnings: tuple[str, ...] = field(default=())
+
+    def as_document(self) -> dict[str, Any]:
+        """The information as a JSON-ready mapping."""
+        return {
+            "source": self.source,
+            "target": self.target,
+            "operation": self.operation,
+            "proj_pipeline": self.proj_pipeline,
+            "accuracy_m": self.accuracy_m,
+            "time_dependent": self.time_dependent,
+            "epoch_year": self.epoch_year,
+            "heights": self.heights,
+            "geoid": self.geoid,
+            "ballpark": self.ballpark,
+            "warnings": list(self.warnings),
+        }
+
+
+def _parse_crs(text: str, option: str) -> pyproj.CRS:
     try:
-        target = pyproj.CRS.from_user_input(crs)
+        return pyproj.CRS.from_user_input(text)
     except pyproj.exceptions.CRSError as err:
-        msg = f"--crs {crs!r}: unknown coordinate reference system ({err}); e.g. EPSG:4978"
+        msg = f"{option} {text!r}: unknown coordinate reference system ({err}); e.g. EPSG:32619"
         raise InputError(msg) from err
-    if target == pyproj.CRS.from_epsg(4978):
+
+
+def _name(crs: pyproj.CRS) -> str:
+    authority = crs.to_authority(min_confidence=90)
+    return f"{crs.name} ({':'.join(authority)})" if authority else crs.name
+
+
+def _is_ecef_wgs84(crs: pyproj.CRS) -> bool:
+    return bool(crs.equals(pyproj.CRS.from_epsg(4978), ignore_axis_order=True))
+
+
+def _lonlat_of(sample_ecef_m: FloatArray) -> FloatArray:
+    """WGS 84 longitude, latitude (deg) of ECEF points (a few metres of datum do not matter)."""
+    to_geo = Transformer.from_crs(4978, 4979, always_xy=True)
+    lon, lat, _ = to_geo.transform(sample_ecef_m[:, 0], sample_ecef_m[:, 1], sample_ecef_m[:, 2])
+    return np.column_stack([lon, lat]).astype(np.float64)
+
+
+def _area(lonlat_deg: FloatArray | None) -> Any:  # pyproj's stubs name two AreaOfInterest
+    if lonlat_deg is None or not len(lonlat_deg):
         return None
-    transformer = pyproj.Transformer.from_crs(pyproj.CRS.from_epsg(4978), target, always_xy=True)
+    lon, lat = lonlat_deg[:, 0], lonlat_deg[:, 1]
+    return AreaOfInterest(
+        west_lon_degree=float(lon.min()),
+        south_lat_degree=float(lat.min()),
+        east_lon_degree=float(lon.max()),
+        north_lat_degree=float(lat.max()),
+    )
+
+
+def _best(
+    source: pyproj.CRS, target: pyproj.CRS, area: Any
+) -> tuple[Transformer, TransformerGroup]:
+    """PROJ's best instantiable operation for the area (grids it lacks left out)."""
+    try:
+        with warnings.catch_warnings():  # a missing grid: said by the caller, named
+            warnings.simplefilter("ignore", UserWarning)
+            group = TransformerGroup(source, target, always_xy=True, area_of_interest=area)
+    except pyproj.exceptions.ProjError as err:
+        msg = f"no transformation from {_name(source)} to {_name(target)} ({err})"
+        raise InputError(msg) from err
+    if not group.transformers:
+        msg = f"no transformation from {_name(source)} to {_name(target)} known to PROJ"
+        raise InputError(msg)
+    return group.transformers[0], group
+
+
+def _ballpark_vertical(transformer: Transformer) -> bool:
+    return any(
+        "ballpark vertical" in op.name.lower() for op in transformer.operations or () if op.name
+    )
+
+
+def _ballpark(transformer: Transformer) -> bool:
+    return any(op.has_ballpark_transformation for op in transformer.operations or ())
+
+
+def _missing_grid_message(target_text: str, group: TransformerGroup) -> str:
+    grids: list[tuple[str, str]] = []
+    for op in group.unavailable_operations:
+        for grid in op.grids:
+            if not grid.available and grid.short_name not in [g[0] for g in grids]:
+                grids.append((grid.short_name, grid.url))
+    user_dir = get_user_data_dir()
+    if not grids:
+        return (
+            f"--crs {target_text!r}: PROJ knows no geoid model from the ellipsoid to these "
+            "heights for this area; give one with --geoid PATH (a grid of geoid heights N "
+            "above the ellipsoid, GTX or GeoTIFF)"
+        )
+    name, url = grids[0]
+    others = ", ".join(g[0] for g in grids[1:4])
+    also = f" (other grids that would do: {others})" if others else ""
+    hint = _GRID_HINT.format(name=name, url=url or "the grid", user_dir=user_dir)
+    return (
+        f"--crs {target_text!r}: orthometric heights need the grid {name}, which PROJ "
+        f"does not have{also}; {hint}. Without it PROJ would leave ellipsoidal heights "
+        "under the orthometric label"
+    )
+
+
+def _pipeline_text(transformer: Transformer) -> str:
+    text = str(transformer.definition)
+    return text if text.startswith("proj=pipeline") else f"proj=pipeline step {text}"
+
+
+def _geoid_pipeline(to_geographic: Transformer, geoid: str) -> str:
+    """ECEF -> (lon, lat, h) of the horizontal datum, then ``H = h - N`` from the grid."""
+    return (
+        f"{_pipeline_text(to_geographic)} step proj=unitconvert xy_in=deg xy_out=rad "
+        f"step proj=vgridshift grids={geoid} multiplier=-1 "
+        "step proj=unitconvert xy_in=rad xy_out=deg"
+    )
+
+
+def _check_geoid_file(geoid: str) -> str:
+    path = Path(geoid).expanduser()
+    if not path.is_file():
+        msg = f"--geoid {geoid}: file not found (a geoid grid: GTX or GeoTIFF of N, in metres)"
+        raise InputError(msg)
+    if " " in str(path.resolve()):
+        msg = f"--geoid {geoid}: PROJ cannot read a grid whose path has spaces; move or link it"
+        raise InputError(msg)
+    return str(path.resolve())
+
+
+def _time_dependent(pipeline: str, sample_ecef_m: FloatArray, geographic: bool) -> bool:
+    transformer = Transformer.from_pipeline(pipeline)
+    x, y, z = sample_ecef_m[:1, 0], sample_ecef_m[:1, 1], sample_ecef_m[:1, 2]
+    outs = [np.array(transformer.transform(x, y, z, np.full(1, t))) for t in _TIME_TEST_EPOCHS]
+    delta = np.abs(outs[0][:3] - outs[1][:3])[:, 0]
+    tol = np.array([_TIME_TOL_DEG, _TIME_TOL_DEG, _TIME_TOL_M]) if geographic else _TIME_TOL_M
+    return bool(np.any(delta > tol))
+
+
+def _area_warnings(target: pyproj.CRS, lonlat_deg: FloatArray | None) -> list[str]:
+    """Data outside the CRS's area of use: a UTM zone far from the data, say."""
+    horizontal = target.sub_crs_list[0] if target.is_compound else target
+    area = horizontal.area_of_use
+    if lonlat_deg is None or not len(lonlat_deg) or area is None or not horizontal.is_projected:
+        return []
+    lon, lat = lonlat_deg[:, 0], lonlat_deg[:, 1]
+    west, south, east, north = area.bounds
+    lon_in = (lon >= west) & (lon <= east) if west <= east else (lon >= west) | (lon <= east)
+    inside = lon_in & (lat >= south) & (lat <= north)
+    if np.all(inside):
+        return []
+    worst = int(np.argmax(np.where(inside, -1.0, np.abs(lon - 0.5 * (west + east)))))
+    factors = pyproj.Proj(horizontal).get_factors(
+        float(lon[worst]), float(lat[worst]), errcheck=False
+    )
+    scale = float(factors.meridional_scale)
+    text = (
+        f"the data (longitude {lon.min():.2f} to {lon.max():.2f} deg, latitude "
+        f"{lat.min():.2f} to {lat.max():.2f} deg) lie outside the area of use of "
+        f"{_name(horizontal)} (longitude {west:g} to {east:g}, latitude {south:g} to "
+        f"{north:g})"
+    )
+    if math.isfinite(scale):
+        text += f"; its scale factor there is {scale:.6f} ({(scale - 1.0) * 1e6:+.0f} ppm)"
+    suggestion = _suggest_projected(horizontal, lonlat_deg)
+    if suggestion:
+        text += f"; the data's zone is {suggestion}"
+    return [text]
+
+
+def _suggest_projected(horizontal: pyproj.CRS, lonlat_deg: FloatArray) -> str | None:
+    """The UTM CRS of the same geodetic CRS for the data's centre, when ``horizontal`` is UTM."""
+    if " / UTM zone " not in horizontal.name:
+        return None
+    lon_c = float(np.mean(lonlat_deg[:, 0]))
+    lat_c = float(np.mean(lonlat_deg[:, 1]))
+    zone, hemisphere = utm_zone_of(lon_c, lat_c)
+    wanted = f"{horizontal.name.split(' / ')[0]} / UTM zone {zone}{hemisphere}"
+    infos = pyproj.database.query_crs_info(
+        auth_name="EPSG",
+        pj_types=pyproj.enums.PJType.PROJECTED_CRS,
+        area_of_interest=AreaOfInterest(lon_c, lat_c, lon_c, lat_c),
+    )
+    for info in infos:
+        if info.name == wanted and not info.deprecated:
+            return f"{zone}{hemisphere}: {info.name} ({info.auth_name}:{info.code})"
+    return f"{zone}{hemisphere}"
+
+
+@dataclass(frozen=True)
+class DataArea:
+    """Where data lie and which UTM zone suits them.
+
+    Attributes
+    ----------
+    lat_deg, lon_deg, h_m : tuple of float
+        (min, max) latitude and longitude (deg, WGS 84; longitude -180..180, min > max
+        across the antimeridian) and ellipsoidal height (m).
+    utm_zone : int
+        UTM zone of the data's centre; ``utm_hemisphere`` "N" or "S".
+    utm_epsg : str
+        The WGS 84 UTM CRS of that zone (``EPSG:326zz`` north, ``EPSG:327zz`` south).
+    zones_spanned : tuple of int
+        Every UTM zone the data reach (more than one: choose one for the whole job).
+    """
+
+    lat_deg: tuple[float, float]
+    lon_deg: tuple[float, float]
+    h_m: tuple[float, float]
+    utm_zone: int
+    utm_hemisphere: str
+    utm_epsg: str
+    zones_spanned: tuple[int, ...]
+
+    def as_document(self) -> dict[str, Any]:
+        """JSON-ready mapping."""
+        return {
+            "lat_deg": list(self.lat_deg),
+            "lon_deg": list(self.lon_deg),
+            "h_m": list(self.h_m),
+            "utm_zone": f"{self.utm_zone}{self.utm_hemisphere}",
+            "utm_epsg": self.utm_epsg,
+            "zones_spanned": list(self.zones_spanned),
+        }
+
+
+def data_area(lat_deg: FloatArray, lon_deg: FloatArray, h_m: FloatArray) -> DataArea:
+    """Extent and suggested UTM zone of geodetic positions.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg, h_m : (n,) ndarray
+        WGS 84 latitude, longitude (deg) and ellipsoidal height (m), n >= 1.
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64)
+    lon = (np.asarray(lon_deg, dtype=np.float64) + 180.0) % 360.0 - 180.0
+    h = np.asarray(h_m, dtype=np.float64)
+    # Across the antimeridian: measure longitudes from the data's first point.
+    rel = (lon - lon[0] + 180.0) % 360.0 - 180.0
+    lo, hi = lon[0] + rel.min(), lon[0] + rel.max()
+    if lo >= -180.0 and hi <= 180.0:  # not across the antimeridian: the values as given
+        wrap = float(lon.min()), float(lon.max())
+    else:
+        wrap = (lo + 180.0) % 360.0 - 180.0, (hi + 180.0) % 360.0 - 180.0
+    lon_c = float(lon[0] + 0.5 * (rel.min() + rel.max()))
+    lat_c = float(0.5 * (lat.min() + lat.max()))
+    zone, hemisphere = utm_zone_of(lon_c, lat_c)
+    zones = sorted({utm_zone_of(float(a), float(b))[0] for a, b in zip(lon, lat, strict=True)})
+    return DataArea(
+        lat_deg=(float(lat.min()), float(lat.max())),
+        lon_deg=(float(wrap[0]), float(wrap[1])),
+        h_m=(float(h.min()), float(h.max())),
+        utm_zone=zone,
+        utm_hemisphere=hemisphere,
+        utm_epsg=f"EPSG:{(32600 if hemisphere == 'N' else 32700) + zone}",
+        zones_spanned=tuple(zones),
+    )
+
+
+def utm_zone_of(lon_deg: float, lat_deg: float) -> tuple[int, str]:
+    """UTM zone number and hemisphere ("N"/"S") of a point, Norway and Svalbard included.
+
+    Parameters
+    ----------
+    lon_deg, lat_deg : float
+        Longitude and latitude (deg).
+    """
+    lon = (lon_deg + 180.0) % 360.0 - 180.0
+    zone = min(int((lon + 180.0) // 6.0) + 1, 60)
+    if 56.0 <= lat_deg < 64.0 and 3.0 <= lon < 12.0:
+        zone = 32
+    if 72.0 <= lat_deg < 84.0 and 0.0 <= lon < 42.0:
+        zone = 31 if lon < 9.0 else 33 if lon < 21.0 else 35 if lon < 33.0 else 37
+    return zone, "N" if lat_deg >= 0.0 else "S"
+
+
+def _resolve_epoch(
+    time_dependent: bool,
+    epoch_year: float | None,
+    observation_epoch_year: float | None,
+    crs_text: str,
+) -> tuple[float | None, list[str]]:
+    if epoch_year is not None and not (_EPOCH_RANGE_YEAR[0] <= epoch_year <= _EPOCH_RANGE_YEAR[1]):
+        msg = (
+            f"--epoch {epoch_year:g}: a coordinate epoch is a decimal year between "
+            f"{_EPOCH_RANGE_YEAR[0]:g} and {_EPOCH_RANGE_YEAR[1]:g}, e.g. 2024.35"
+        )
+        raise InputError(msg)
+    if not time_dependent:
+        notes = (
+            [
+                (
+                    f"--epoch {epoch_year:g} changes nothing: the transformation to "
+                    f"{crs_text} does not depend on time"
+                )
+            ]
+            if epoch_year is not None
+            else []
+        )
+        return epoch_year, notes
+    if epoch_year is not None:
+        return epoch_year, []
+    if observation_epoch_year is not None:
+        return observation_epoch_year, []
+    msg = (
+        f"--crs {crs_text!r}: the transformation depends on time (plate motion between "
+        "reference frames) and the data's date is unknown (times are not absolute GPS "
+        "time); give the coordinate epoch with --epoch YEAR, e.g. 2024.35"
+    )
+    raise InputError(msg)
+
+
+def plan_ecef_to_crs(
+    crs: str,
+    *,
+    geoid: str | None = None,
+    epoch_year: float | None = None,
+    source_crs: str = ECEF_WGS84,
+    sample_ecef_m: FloatArray | None = None,
+    observation_epoch_year: float | None = None,
+) -> tuple[CrsPlan, CrsTransformInfo]:
+    """Choose and check the transformation from the trajectory's ECEF frame to ``crs``.
+
+    Parameters
+    ----------
+    crs : str
+        Output CRS, any pyproj user input (``EPSG:32619``, ``EPSG:32618+5703``, WKT).
+    geoid : str, optional
+        Path of a geoid grid (GTX, GeoTIFF): heights ``N`` of the geoid above the
+        ellipsoid of ``crs``'s horizontal datum. Needs a compound ``crs`` (horizontal +
+        vertical), whose heights become ``H = h - N``.
+    epoch_year : float, optional
+        Coordinate epoch (decimal year) for a time-dependent transformation.
+    source_crs : str
+        The geocentric CRS of the trajectory's positions (default WGS 84, EPSG:4978).
+    sample_ecef_m : (n, 3) ndarray, optional
+        Points of the data (m, ECEF): they pick the operation for the area, and test the
+        geoid grid's coverage and the CRS's area of use.
+    observation_epoch_year : float, optional
+        The data's date (decimal year), the default epoch of a time-dependent
+        transformation.
+
+    Returns
+    -------
+    plan : CrsPlan
+        For `crs_plan_transformer`.
+    info : CrsTransformInfo
+        What was chosen, with warnings.
+
+    Raises
+    ------
+    InputError
+        Unknown CRS; a compound CRS whose geoid grid PROJ lacks; a geoid grid that is
+        missing, unreadable or does not cover the data; a time-dependent transformation
+        with no epoch; a source CRS that is not geocentric.
+    """
+    target = _parse_crs(crs, "--crs")
+    source = _parse_source(source_crs)
+    sample = _parse_sample(sample_ecef_m)
+    lonlat = None if sample is None else _lonlat_of(sample)
+    area = _area(lonlat)
+    if geoid is not None and not (target.is_compound and len(target.sub_crs_list) == 2):
+        msg = (
+            f"--geoid gives orthometric heights: name their vertical datum with a compound "
+            f"--crs (horizontal+vertical, e.g. EPSG:32618+5703), not {crs!r}"
+        )
+        raise InputError(msg)
+    if geoid is None and source.equals(target, ignore_axis_order=True):
+        info = CrsTransformInfo(
+            source=_name(source),
+            target=_name(target),
+            operation="none (coordinates stay in the trajectory's ECEF frame)",
+            proj_pipeline="",
+            accuracy_m=0.0,
+            time_dependent=False,
+            epoch_year=epoch_year,
+            heights="none (ECEF X, Y, Z)",
+        )
+        return CrsPlan(crs, None, None, None), info
+    if geoid is None:
+        transformer, group = _best(source, target, area)
+        if _ballpark_vertical(transformer):
+            raise InputError(_missing_grid_message(crs, group))
+        pipeline = _pipeline_text(transformer)
+        height_pipeline = None
+        heights = _heights_text(target, None)
+    else:
+        geoid = _check_geoid_file(geoid)
+        horizontal = target.sub_crs_list[0]
+        geographic_crs = horizontal.geodetic_crs
+        if geographic_crs is None:
+            msg = f"--crs {crs!r}: its horizontal part {horizontal.name} has no datum"
+            raise InputError(msg)
+        transformer, _ = _best(source, horizontal.to_3d(), area)
+        to_geographic, _ = _best(source, geographic_crs.to_3d(), area)
+        pipeline = _pipeline_text(transformer)
+        height_pipeline = _geoid_pipeline(to_geographic, geoid)
+        heights = _heights_text(target, geoid)
+    geographic = target.is_geographic and not target.is_compound
+    time_dependent = _time_dependent(
+        pipeline, sample if sample is not None else _EQUATOR_ECEF_M, geographic
+    )
+    epoch, notes = _resolve_epoch(time_dependent, epoch_year, observation_epoch_year, crs)
+    plan = CrsPlan(crs, pipeline, height_pipeline, epoch if time_dependent else None)
+    if sample is not None:
+        _check_output(plan, sample, geoid)
+    ballpark = _ballpark(transformer)
+    accuracy = float(transformer.accuracy) if transformer.accuracy >= 0 else None
+    notes = [*notes, *_datum_warnings(source, target, ballpark, accuracy)]
+    notes += _area_warnings(target, lonlat)
+    info = CrsTransformInfo(
+        source=_name(source),
+        target=_name(target),
+        operation=str(transformer.description),
+        proj_pipeline=pipeline
+        if height_pipeline is None
+        else (f"{pipeline} ; heights: {height_pipeline}"),
+        accuracy_m=accuracy,
+        time_dependent=time_dependent,
+        epoch_year=epoch,
+        heights=heights,
+        geoid=geoid,
+        ballpark=ballpark,
+        warnings=tuple(notes),
+    )
+    return plan, info
+
+
+def _parse_source(source_crs: str) -> pyproj.CRS:
+    source = _parse_crs(source_crs, "--trajectory-crs")
+    if not source.is_geocentric:
+        msg = (
+            f"--trajectory-crs {source_crs!r} is {source.type_name}; give the geocentric "
+            "CRS of the trajectory's frame, e.g. EPSG:4978 (WGS 84), EPSG:7789 (ITRF2014), "
+            "EPSG:9988 (ITRF2020)"
+        )
+        raise InputError(msg)
+    return source
+
+
+def _parse_sample(sample_ecef_m: FloatArray | None) -> FloatArray | None:
+    if sample_ecef_m is None:
+        return None
+    sample = np.asarray(sample_ecef_m, dtype=np.float64)
+    if not (sample.ndim == 2 and sample.shape[1] == 3 and len(sample)):
+        msg = f"sample_ecef_m must be (n, 3) with n >= 1, got shape {sample.shape}"
+        raise InputError(msg)
+    return sample
+
+
+def _datum_warnings(
+    source: pyproj.CRS, target: pyproj.CRS, ballpark: bool, accuracy: float | None
+) -> list[str]:
+    if ballpark:
+        return [
+            (
+                f"PROJ has no parameters for the datum change from {_name(source)} to "
+                f"{_name(target)} and applies none (a 'ballpark' step): coordinates may be a "
+                "metre or more off; give the trajectory's frame with --trajectory-crs "
+                "(e.g. EPSG:7789 for ITRF2014)"
+            )
+        ]
+    if accuracy is not None and accuracy > COARSE_ACCURACY_M:
+        return [
+            (
+                f"PROJ's transformation from {_name(source)} to {_name(target)} is accurate to "
+                f"{accuracy:g} m only; if the trajectory is in a precise frame, say which with "
+                "--trajectory-crs (e.g. EPSG:7789 for ITRF2014)"
+            )
+        ]
+    return []
+
+
+def _heights_text(target: pyproj.CRS, geoid: str | None) -> str:
+    if target.is_compound:
+        vertical = target.sub_crs_list[-1]
+        model = f"geoid grid {geoid}" if geoid else "PROJ's geoid model"
+        return f"orthometric: {vertical.name} ({model})"
+    if target.is_geocentric:
+        return "none (ECEF X, Y, Z)"
+    geodetic = target.geodetic_crs
+    datum = geodetic.datum.name if geodetic is not None and geodetic.datum else target.name
+    return f"ellipsoidal ({datum})"
+
+
+def _check_output(plan: CrsPlan, sample_ecef_m: FloatArray, geoid: str | None) -> None:
+    """Transform the sample: a grid that does not cover the data fails here, named."""
+    try:
+        apply = crs_plan_transformer(plan)
+        if apply is None:
+            return
+        out = apply(sample_ecef_m)
+    except pyproj.exceptions.ProjError as err:
+        what = f"--geoid {geoid}" if geoid else f"--crs {plan.crs!r}"
+        msg = f"{what}: PROJ cannot transform the data ({err}); is the grid readable?"
+        raise InputError(msg) from err
+    bad = ~np.all(np.isfinite(out), axis=1)
+    if np.any(bad):
+        lon, lat = _lonlat_of(sample_ecef_m[bad][:1])[0]
+        where = f"longitude {lon:.4f}, latitude {lat:.4f} deg"
+        if geoid:
+            msg = f"--geoid {geoid}: the grid does not cover the data (at {where})"
+        else:
+            msg = f"--crs {plan.crs!r}: the data (at {where}) do not transform to this CRS"
+        raise InputError(msg)
+
+
+@lru_cache(maxsize=16)
+def crs_plan_transformer(plan: CrsPlan) -> Callable[[FloatArray], FloatArray] | None:
+    """The function that applies ``plan`` to ``(n, 3)`` ECEF points; None for ECEF itself.
+
+    The result has axis order easting/longitude first; with a geoid, the third column is
+    the orthometric height. Cached: a worker builds each plan's transformers once.
+    """
+    if plan.pipeline is None:
+        return None
+    transformer = Transformer.from_pipeline(plan.pipeline)
+    heights = (
+        None if plan.height_pipeline is None else Transformer.from_pipeline(plan.height_pipeline)
+    )
+    epoch = plan.epoch_year
 
     def apply(pos_ecef_m: FloatArray) -> FloatArray:
-        x, y, z = transformer.transform(pos_ecef_m[:, 0], pos_ecef_m[:, 1], pos_ecef_m[:, 2])
-        return np.column_stack([x, y, z]).astype(np.float64)
+        x, y, z = pos_ecef_m[:, 0], pos_ecef_m[:, 1], pos_ecef_m[:, 2]
+        tt = None if epoch is None else np.full(len(x), epoch)
+        e, n, u = transformer.transform(x, y, z, tt)[:3]
+        if heights is not None:
+            u = heights.transform(x, y, z, tt)[2]
+        return np.column_stack([e, n, u]).astype(np.float64)
 
     return apply
 
 
 @lru_cache(maxsize=8)
+def ecef_to_crs_transformer(crs: str) -> Callable[[FloatArray], FloatArray] | None:
+    """WGS 84 ECEF -> ``crs`` (axis order easting/longitude first), or None for ECEF itself.
+
+    The plain form of `plan_ecef_to_crs`: no geoid grid, no data sample (PROJ's
+    operation for the CRS as a whole), no epoch (a time-dependent operation is refused).
+    """
+    plan, _ = plan_ecef_to_crs(crs)
+    return crs_plan_transformer(plan)
+
+
+@lru_cache(maxsize=8)
 def crs_to_ecef_transformer(crs_text: str) -> Callable[[FloatArray], FloatArray] | None:
-    """Cloud CRS -> ECEF (axis order easting/longitude first), None for ECEF itself."""
-    try:
-        crs = pyproj.CRS.from_user_input(crs_text)
-    except pyproj.exceptions.CRSError as err:
-        msg = f"--crs {crs_text!r}: unknown coordinate reference system ({err}); e.g. EPSG:4978"
-        raise InputError(msg) from err
-    if crs.equals(pyproj.CRS.from_epsg(4978), ignore_axis_order=True):
+    """Cloud CRS -> ECEF (axis order easting/longitude first), None for ECEF itself.
+
+    A compound CRS whose geoid grid PROJ lacks is refused (see `plan_ecef_to_crs`).
+    """
+    crs = _parse_crs(crs_text, "--crs")
+    if _is_ecef_wgs84(crs):
         return None
-    try:
-        transformer = pyproj.Transformer.from_crs(crs, pyproj.CRS.from_epsg(4978), always_xy=True)
-    except pyproj.exceptions.ProjError as err:
-        msg = f"--crs {crs_text!r}: no transformation to ECEF (EPSG:4978) ({err})"
-        raise InputError(msg) from err
+    transformer, group = _best(crs, pyproj.CRS.from_epsg(4978), None)
+    if _ballpark_vertical(transformer):
+        raise InputError(_missing_grid_message(crs_text, group))
 
     def apply(xyz: FloatArray) -> FloatArray:
         x, y, z = transformer.transform(xyz[:, 0], xyz[:, 1], xyz[:, 2])
@@ -67,3 +713,10 @@ def crs_to_ecef_transformer(crs_text: str) -> Callable[[FloatArray], FloatArray]
         return out
 
     return apply
+
+
+def sample_rows(n: int, count: int = 64) -> Sequence[int]:
+    """Up to ``count`` row indices spread over ``n`` rows, first and last included."""
+    if n <= count:
+        return range(n)
+    return sorted({round(i) for i in np.linspace(0, n - 1, count)})

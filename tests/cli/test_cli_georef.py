@@ -114,9 +114,12 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "points_rejected",
         "seconds",
         "points_per_s",
+        "crs",
         "warnings",
     }
     assert doc["warnings"] == []
+    assert doc["crs"]["target"] == "WGS 84 (EPSG:4978)"
+    assert doc["crs"]["heights"].startswith("none")
     table = pq.read_table(out) if suffix == ".parquet" else None
     if table is None:
         table = pa_csv.read_csv(out)
@@ -536,3 +539,157 @@ def test_extra_csv_columns_come_out_as_the_same_text(
     for j, name in enumerate(names):
         want = [e[j].strip('"') for e in extra]
         assert table.column(name).to_pylist() == want, name
+
+
+# ------------------------------------------------------- CRS: heights, datums, zones (#16)
+def _gtx(path: Path) -> Path:
+    """A geoid grid around the trajectory: N = -30 + 0.5 (lat - 46.5) + 0.2 (lon + 71)."""
+    import struct  # noqa: PLC0415
+
+    lat0, lon0, step, n = 46.5, -71.5, 0.05, 13
+    lat = lat0 + step * np.arange(n)[:, None]
+    lon = lon0 + step * np.arange(n)[None, :]
+    values = -30.0 + 0.5 * (lat - 46.5) + 0.2 * (lon + 71.0)
+    path.write_bytes(struct.pack(">4d2i", lat0, lon0, step, step, n, n))
+    with path.open("ab") as f:
+        f.write(values.astype(">f4").tobytes())
+    return path
+
+
+def _las_points(path: Path, point_format: int, version: str) -> Path:
+    cols = _points(np.random.default_rng(3))
+    header = laspy.LasHeader(point_format=point_format, version=version)
+    header.scales = np.array([1e-4, 1e-4, 1e-4])
+    header.offsets = np.zeros(3)
+    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
+    las.gps_time = cols["t_s"] - 1e9
+    las.write(path)
+    return path
+
+
+def test_a_compound_crs_without_its_geoid_grid_is_one_line_naming_it(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    if pyproj.network.is_network_enabled():  # type: ignore[attr-defined]
+        pytest.skip("PROJ_NETWORK is on")
+    out = setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(setup, out, "--crs", "EPSG:32619+5703"))
+    assert_one_line_error(code, stdout, err, "need the grid", "projsync --file", "--geoid PATH")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(("point_format", "version"), [(1, "1.2"), (6, "1.4")])
+def test_georef_with_a_geoid_writes_orthometric_heights_and_a_compound_crs(
+    run_cli: RunCli, setup: dict[str, Path], point_format: int, version: str
+) -> None:
+    src = _las_points(setup["dir"] / "scan.las", point_format, version)
+    grid = _gtx(setup["dir"] / "geoid.gtx")
+    base = ["--trajectory", str(setup["traj"]), "--mount", str(setup["mount"]), "--json"]
+    ellipsoidal, orthometric = setup["dir"] / "h.las", setup["dir"] / "H.las"
+    code, _, err = run_cli(
+        ["georef", "--points", str(src), *base, "--out", str(ellipsoidal), "--crs", "EPSG:32619"]
+    )
+    assert code == 0, err
+    code, stdout, err = run_cli(
+        [
+            "georef",
+            "--points",
+            str(src),
+            *base,
+            "--out",
+            str(orthometric),
+            "--crs",
+            "EPSG:32619+5703",
+            "--geoid",
+            str(grid),
+        ]
+    )
+    assert code == 0, err
+    doc = json.loads(stdout)["crs"]
+    assert doc["heights"].startswith("orthometric: NAVD88 height (geoid grid")
+    assert "vgridshift" in doc["proj_pipeline"]
+    assert doc["accuracy_m"] == 0.0
+    assert doc["epoch_year"] is None
+    h, big_h = laspy.read(ellipsoidal), laspy.read(orthometric)
+    lon, lat = pyproj.Transformer.from_crs(32619, 4326, always_xy=True).transform(h.x, h.y)
+    geoid_n = -30.0 + 0.5 * (lat - 46.5) + 0.2 * (lon + 71.0)
+    np.testing.assert_allclose(np.asarray(h.x), np.asarray(big_h.x), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        np.asarray(big_h.z), np.asarray(h.z) - geoid_n, rtol=0, atol=1e-4 + 2e-5
+    )
+    if point_format < 6:
+        keys = {
+            k.id: k.value_offset
+            for v in big_h.header.vlrs
+            if hasattr(v, "geo_keys")
+            for k in v.geo_keys
+        }
+        assert (keys[3072], keys[4096]) == (32619, 5703)
+    else:
+        assert big_h.header.parse_crs() == pyproj.CRS("EPSG:32619+5703")
+
+
+def test_georef_json_and_table_carry_the_crs_pipeline_accuracy_and_epoch(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    """ITRF2014 -> NAD83(CSRS)v7 is time-dependent: the epoch is the data's date (2021)."""
+    out = setup["dir"] / "geo.csv"
+    argv = _args(setup, out, "--crs", "EPSG:22719", "--trajectory-crs", "EPSG:7789", "--json")
+    code, stdout, err = run_cli(argv)
+    assert code == 0, err
+    doc = json.loads(stdout)["crs"]
+    assert doc["time_dependent"]
+    assert doc["epoch_year"] == pytest.approx(2021.2, abs=0.05)  # GPS 1.3e9 s: 2021-03
+    assert "helmert" in doc["proj_pipeline"]
+    out2 = setup["dir"] / "geo2.csv"
+    code, stdout, err = run_cli(
+        [
+            *_args(setup, out2, "--crs", "EPSG:22719", "--trajectory-crs", "EPSG:7789"),
+            "--epoch",
+            "2010.0",
+        ]
+    )
+    assert code == 0, err
+    assert "coordinate epoch (year)" in stdout
+    assert "PROJ pipeline: proj=pipeline" in stdout
+    a, b = pa_csv.read_csv(out), pa_csv.read_csv(out2)
+    shift = np.hypot(
+        np.asarray(a["X"]) - np.asarray(b["X"]), np.asarray(a["Y"]) - np.asarray(b["Y"])
+    )
+    assert shift.min() > 0.05  # 11 years of the transformation's rates
+
+
+def test_georef_warns_of_a_utm_zone_far_from_the_data(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    out = setup["dir"] / "geo.csv"
+    code, _, err = run_cli(_args(setup, out, "--crs", "EPSG:32618"))
+    assert code == 0, err
+    (line,) = [x for x in err.splitlines() if x.startswith("kinsync: warning:")]
+    assert "outside the area of use of WGS 84 / UTM zone 18N" in line
+    assert "EPSG:32619" in line
+
+
+def test_trajectory_info_gives_extent_zone_and_time_scale(
+    run_cli: RunCli, setup: dict[str, Path], tmp_path: Path
+) -> None:
+    code, stdout, err = run_cli(["trajectory", "info", str(setup["traj"]), "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["time"]["scale"] == "GPS time"
+    assert doc["time"]["start_utc"].startswith("2021-03-")
+    area = doc["area"]
+    assert area["utm_zone"] == "19N"
+    assert area["utm_epsg"] == "EPSG:32619"
+    assert area["lat_deg"][0] == pytest.approx(46.8)
+    assert area["lon_deg"][0] == pytest.approx(-71.2)
+    code, stdout, _ = run_cli(["trajectory", "info", str(setup["traj"])])
+    assert code == 0
+    assert "suggested UTM zone" in stdout
+    # an SBET without --gps-week: seconds of week, no date
+    write_sbet(_trajectory(), tmp_path / "t.out")
+    code, stdout, err = run_cli(["trajectory", "info", str(tmp_path / "t.out"), "--json"])
+    assert code == 0, err
+    assert json.loads(stdout)["time"]["scale"] == "GPS seconds of week"

@@ -68,6 +68,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--search-radius-m": Bounds(0.0, 100.0, "m"),
     "--max-range-m": Bounds(0.1, 10_000.0, "m"),
     "--profiler-azimuth-deg": Bounds(-360.0, 360.0, "deg"),
+    "--epoch": Bounds(1980.0, 2100.0, "year", "a coordinate epoch, e.g. 2024.35"),
     "--angular-step-deg": Bounds(0.001, 10.0, "deg"),
     "--roll-amplitude-deg": Bounds(0.0, 45.0, "deg"),
     "--roll-period-s": Bounds(0.5, 600.0, "s"),

@@ -49,7 +49,38 @@ def georef(
         ),
     ],
     crs: Annotated[
-        str, typer.Option("--crs", help="Output CRS (axis order easting/longitude first).")
+        str,
+        typer.Option(
+            "--crs",
+            help="Output CRS (axis order easting/longitude first), e.g. EPSG:32619 (UTM, "
+            "ellipsoidal heights) or EPSG:32618+5703 (UTM + NAVD88 orthometric heights: "
+            "needs PROJ's geoid grid or --geoid).",
+        ),
+    ] = "EPSG:4978",
+    geoid: Annotated[
+        Path | None,
+        typer.Option(
+            "--geoid",
+            help="Geoid grid (GTX or GeoTIFF of N above the ellipsoid of --crs's datum) "
+            "for a compound --crs: heights become H = h - N.",
+        ),
+    ] = None,
+    epoch: Annotated[
+        float | None,
+        typer.Option(
+            "--epoch",
+            help="Coordinate epoch (decimal year, e.g. 2024.35) of a time-dependent "
+            "transformation (between ITRF and NAD83(CSRS) realisations); default the "
+            "trajectory's date when its times are absolute GPS time.",
+        ),
+    ] = None,
+    trajectory_crs: Annotated[
+        str,
+        typer.Option(
+            "--trajectory-crs",
+            help="Geocentric CRS of the trajectory's positions: EPSG:4978 (WGS 84), "
+            "EPSG:7789 (ITRF2014), EPSG:9988 (ITRF2020), ...",
+        ),
     ] = "EPSG:4978",
     latency_ms: Annotated[
         float | None,
@@ -151,6 +182,9 @@ def georef(
             the_mount,
             out,
             crs=crs,
+            geoid=None if geoid is None else str(geoid),
+            epoch_year=epoch,
+            trajectory_crs=trajectory_crs,
             chunk_points=chunk_points,
             outside=_OUTSIDE[outside],
             gps_week=gps_week,
@@ -179,8 +213,19 @@ def georef(
     table.add_row("points out", str(summary.points_out))
     table.add_row("points rejected (outside the trajectory span)", str(summary.points_rejected))
     table.add_row("latency (ms)", fmt(the_mount.latency_s, 1e3, 6))
+    if summary.crs is not None:
+        info = summary.crs
+        table.add_row("CRS operation", info.operation)
+        table.add_row(
+            "CRS accuracy (m)", "unknown" if info.accuracy_m is None else f"{info.accuracy_m:g}"
+        )
+        table.add_row("heights", info.heights)
+        if info.epoch_year is not None:
+            table.add_row("coordinate epoch (year)", f"{info.epoch_year:.4f}")
     table.add_row("seconds", fmt(summary.seconds))
     table.add_row("points per second", fmt(summary.points_per_s))
     console.print(table)
+    if summary.crs is not None and summary.crs.proj_pipeline:
+        console.print(f"PROJ pipeline: {summary.crs.proj_pipeline}", soft_wrap=True)
     if summary.rejected_path is not None:
         console.print(f"rejected points: {summary.rejected_path}")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import calendar
 import math
+import time
 from datetime import date
 from typing import TYPE_CHECKING
 
@@ -242,3 +243,28 @@ def zda_to_gps_s(record: ZdaRecord) -> float:
     date fields are UTC whatever they say.
     """
     return utc_fields_to_gps_s(record.year, record.month, record.day, record.utc_time_of_day_s)
+
+
+PLAUSIBLE_DATE_GPS_S = 315_187_206.0
+"""GPS time of 1990-01-01T00:00:00 UTC. Absolute GPS times of kinematic surveys come later;
+earlier "GPS" times are taken as relative times (a simulation starting at 0), not dates."""
+
+
+def gps_to_decimal_year(t_gps_s: float) -> float:
+    """GPS time to a decimal year of UTC (2024-07-02T00:00 -> 2024.5), e.g. a coordinate epoch.
+
+    Parameters
+    ----------
+    t_gps_s : float
+        GPS time (s since 1980-01-06T00:00:00 UTC, leap seconds not counted).
+    """
+    utc = gps_to_utc_posix_s(t_gps_s)
+    year = time.gmtime(utc).tm_year
+    start = calendar.timegm((year, 1, 1, 0, 0, 0))
+    end = calendar.timegm((year + 1, 1, 1, 0, 0, 0))
+    return year + (utc - start) / (end - start)
+
+
+def gps_to_utc_iso(t_gps_s: float) -> str:
+    """GPS time as an ISO 8601 UTC date and time (``2024-07-02T00:00:00.000``)."""
+    return _utc_iso(gps_to_utc_posix_s(t_gps_s))

@@ -27,7 +27,15 @@ import laspy
 import numpy as np
 import pyproj
 
-from kinsync.crs import ecef_to_crs_transformer
+from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_decimal_year
+from kinsync.crs import (
+    ECEF_WGS84,
+    CrsPlan,
+    CrsTransformInfo,
+    crs_plan_transformer,
+    plan_ecef_to_crs,
+    sample_rows,
+)
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
@@ -95,7 +103,10 @@ class GeorefSummary:
         The rejected-points file, when one was written.
     warnings : tuple of str
         What of the input the output does not carry, one sentence each naming the
-        input (LAS waveform data packets, a COPC index); empty when everything is.
+        input (LAS waveform data packets, a COPC index), and what the user should know
+        of the CRS transformation; empty when nothing is to be said.
+    crs : CrsTransformInfo or None
+        The transformation to the output CRS: PROJ pipeline, accuracy, epoch, heights.
     """
 
     points_in: int
@@ -104,13 +115,14 @@ class GeorefSummary:
     seconds: float
     rejected_path: Path | None = None
     warnings: tuple[str, ...] = ()
+    crs: CrsTransformInfo | None = None
 
     @property
     def points_per_s(self) -> float:
         """Throughput, points read per second."""
         return self.points_in / self.seconds if self.seconds > 0.0 else math.inf
 
-    def as_document(self) -> dict[str, int | float | list[str]]:
+    def as_document(self) -> dict[str, Any]:
         """The ``--json`` summary of ``kinsync georef``."""
         return {
             "points_in": self.points_in,
@@ -118,6 +130,7 @@ class GeorefSummary:
             "points_rejected": self.points_rejected,
             "seconds": self.seconds,
             "points_per_s": self.points_per_s,
+            "crs": None if self.crs is None else self.crs.as_document(),
             "warnings": list(self.warnings),
         }
 
@@ -162,6 +175,9 @@ def georeference_file(
     out_path: Path,
     *,
     crs: str = _ECEF_CRS,
+    geoid: str | None = None,
+    epoch_year: float | None = None,
+    trajectory_crs: str = ECEF_WGS84,
     chunk_points: int = 1_000_000,
     outside: OutsidePolicy = "error",
     gps_week: int | None = None,
@@ -192,7 +208,15 @@ def georeference_file(
         input column kept and the coordinates in ``crs`` as ``X,Y,Z`` (replacing
         ``x_m,y_m,z_m`` in place, or appended after the columns of a profile file).
     crs : str
-        Output CRS (pyproj user input), default ECEF ``EPSG:4978``.
+        Output CRS (pyproj user input), default ECEF ``EPSG:4978``; a compound CRS
+        (``EPSG:32618+5703``) gives orthometric heights (see `plan_ecef_to_crs`).
+    geoid : str, optional
+        Geoid grid (GTX, GeoTIFF) for a compound ``crs``: heights ``H = h - N``.
+    epoch_year : float, optional
+        Coordinate epoch (decimal year) of a time-dependent transformation; default the
+        trajectory's date when its times are absolute GPS time.
+    trajectory_crs : str
+        Geocentric CRS of the trajectory's positions (default WGS 84, EPSG:4978).
     chunk_points : int
         Points per chunk (bounds memory): exact for LAS/LAZ and CSV (the last chunk
         fewer), at most this many for Parquet (chunks follow its row groups).
@@ -273,7 +297,7 @@ def georeference_file(
     traj = GeorefTrajectory.from_trajectory(trajectory, latency_s=mount.latency_s)
     use_hermite(traj, position)
     check_latency(traj, mount)
-    ecef_to_crs_transformer(crs)  # a bad --crs fails here, before any output
+    crs_plan, crs_info = _plan_crs(traj, traj_scale, crs, geoid, epoch_year, trajectory_crs)
     template: Any = None
     las_frame: LasOutputFrame | None = None
     if in_suffix in _LAS_SUFFIXES:
@@ -285,12 +309,14 @@ def georeference_file(
             )
             raise InputError(msg)
         template, source, tasks, total = _plan_las(points_path, chunk_points, traj_scale, gps_week)
-        las_frame = _las_output_frame(source, total, traj, crs)
+        las_frame = _las_output_frame(source, total, traj, crs_plan)
     else:
         source, tasks, total, mount = _plan_table(
             points_path, chunk_points, mount, point_columns, profiler_azimuth_deg
         )
-    ctx = ChunkContext(source, traj, mount, position, crs, outside, out_suffix == ".csv", las_frame)
+    ctx = ChunkContext(
+        source, traj, mount, position, crs_plan, outside, out_suffix == ".csv", las_frame
+    )
     tally = _OutsideTally()
     with ExitStack() as stack:
         runner = make_runner(ctx, scheduler, workers)
@@ -306,7 +332,31 @@ def georeference_file(
         points_rejected=points_rejected,
         seconds=time.perf_counter() - start,
         rejected_path=rejected_path_for(out_path) if points_rejected else None,
-        warnings=_las_warnings(points_path, template),
+        warnings=_las_warnings(points_path, template) + crs_info.warnings,
+        crs=crs_info,
+    )
+
+
+def _plan_crs(
+    traj: GeorefTrajectory,
+    traj_scale: TimeScale,
+    crs: str,
+    geoid: str | None,
+    epoch_year: float | None,
+    trajectory_crs: str,
+) -> tuple[CrsPlan, CrsTransformInfo]:
+    """The output CRS transformation for the trajectory's area and date (before output)."""
+    rows = list(sample_rows(len(traj.t_s)))
+    t_mid_s = 0.5 * (traj.t_start_s + traj.t_end_s)
+    dated = traj_scale == "gps" and t_mid_s >= PLAUSIBLE_DATE_GPS_S
+    observed = gps_to_decimal_year(t_mid_s) if dated else None
+    return plan_ecef_to_crs(
+        crs,
+        geoid=geoid,
+        epoch_year=epoch_year,
+        source_crs=trajectory_crs,
+        sample_ecef_m=traj.pos_ecef_m[rows],
+        observation_epoch_year=observed,
     )
 
 
@@ -329,7 +379,7 @@ def _plan_las(
 
 
 def _las_output_frame(
-    source: ChunkSource, n_points: int, traj: GeorefTrajectory, crs: str
+    source: ChunkSource, n_points: int, traj: GeorefTrajectory, crs: CrsPlan
 ) -> LasOutputFrame:
     """Offsets and scales for a LAS output: the trajectory at the middle of the file's span.
 
@@ -339,7 +389,7 @@ def _las_output_frame(
     so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm)
     either way from its middle.
     """
-    geographic = pyproj.CRS.from_user_input(crs).is_geographic
+    geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic
     scales = (_LAS_SCALE_DEG, _LAS_SCALE_DEG, _LAS_SCALE_M) if geographic else (_LAS_SCALE_M,) * 3
     ends = las_end_times(source.path) if n_points else None
     times = [
@@ -349,7 +399,7 @@ def _las_output_frame(
     ]
     t_mid = 0.5 * (min(times) + max(times)) if times else 0.5 * (traj.t_start_s + traj.t_end_s)
     pos = np.array([[np.interp(t_mid, traj.t_s, traj.pos_ecef_m[:, j]) for j in range(3)]])
-    to_crs = ecef_to_crs_transformer(crs)
+    to_crs = crs_plan_transformer(crs)
     centre = (pos if to_crs is None else to_crs(pos))[0]
     if geographic:
         rounded = [round(centre[0]), round(centre[1]), round(centre[2] / _LAS_OFFSET_ROUND)]
@@ -517,7 +567,7 @@ def _write_las(
 
     behind = WriteBehind()
     with ExitStack() as stack:
-        target_crs = pyproj.CRS.from_user_input(ctx.crs)
+        target_crs = pyproj.CRS.from_user_input(ctx.crs.crs)
         writer = stack.enter_context(
             LasChunkWriter(out_path, template, target_crs, frame.offsets, frame.scales)
         )

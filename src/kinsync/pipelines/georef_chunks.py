@@ -22,7 +22,7 @@ import pyarrow as pa
 from numba import njit
 
 from kinsync._typing import BoolArray, FloatArray
-from kinsync.crs import ecef_to_crs_transformer
+from kinsync.crs import CrsPlan, crs_plan_transformer
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
 from kinsync.georef.profile import profile_points_to_scanner
@@ -103,7 +103,7 @@ class ChunkContext:
     traj: GeorefTrajectory
     mount: Mount
     position: PositionMethod
-    crs: str
+    crs: CrsPlan  # the transformation chosen once (`kinsync.crs.plan_ecef_to_crs`)
     outside: OutsidePolicy
     csv_text: bool = False  # table output to CSV: workers format the floats as text
     las_frame: LasOutputFrame | None = None  # LAS output: where workers store X, Y, Z
@@ -261,7 +261,7 @@ def process_chunk(
         return base
     if not all_inside:
         pos = pos[inside]
-    to_crs = ecef_to_crs_transformer(ctx.crs)
+    to_crs = crs_plan_transformer(ctx.crs)
     coords = pos if to_crs is None else to_crs(pos)
     not_finite = ~np.isfinite(coords).all(axis=1)
     if not_finite.any():  # finite inputs, absurd combination (a trajectory, a CRS)
@@ -299,7 +299,7 @@ def _process_las_task(
     base = tallied(n, *outside_tally(gps_time, src.las_time_offset_s, traj.t_start_s, traj.t_end_s))
     if tally_only:
         return base
-    to_crs = ecef_to_crs_transformer(ctx.crs)
+    to_crs = crs_plan_transformer(ctx.crs)
     inside = np.empty(n, dtype=np.bool_)
     for start in range(0, n, _LAS_BLOCK_POINTS):
         block = array[start : start + _LAS_BLOCK_POINTS]
