@@ -10,6 +10,8 @@ import typer
 from rich.table import Table
 
 from kinsync.cli._output import console, print_json
+from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
+from kinsync.crs import data_area
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
@@ -113,6 +115,55 @@ def _velocity_rows(doc: dict[str, Any]) -> dict[str, str]:
     }
 
 
+def _time_document(t_start_s: float, t_end_s: float, scale: str) -> dict[str, Any]:
+    """The time scale and, for absolute GPS time, the UTC dates of the span."""
+    if scale == "week":
+        return {
+            "scale": "GPS seconds of week",
+            "start_utc": None,
+            "end_utc": None,
+            "note": "give --gps-week for GPS time and dates",
+        }
+    if t_start_s < PLAUSIBLE_DATE_GPS_S:
+        return {
+            "scale": "GPS time",
+            "start_utc": None,
+            "end_utc": None,
+            "note": "times before 1990: relative times (no date)",
+        }
+    return {
+        "scale": "GPS time",
+        "start_utc": gps_to_utc_iso(t_start_s),
+        "end_utc": gps_to_utc_iso(t_end_s),
+        "note": "",
+    }
+
+
+def _time_rows(doc: dict[str, Any]) -> dict[str, str]:
+    rows = {"time scale": doc["scale"] + (f" ({doc['note']})" if doc["note"] else "")}
+    if doc["start_utc"] is not None:
+        rows["span (UTC)"] = f"{doc['start_utc']} to {doc['end_utc']}"
+    return rows
+
+
+def _area_document(lat_lon_h: np.ndarray[Any, Any]) -> dict[str, Any]:
+    area = data_area(lat_lon_h[:, 0], lat_lon_h[:, 1], lat_lon_h[:, 2])
+    return area.as_document()
+
+
+def _area_rows(doc: dict[str, Any] | None) -> dict[str, str]:
+    if doc is None:
+        return {"extent": "local NED positions (no geodetic extent)"}
+    zones = doc["zones_spanned"]
+    spanned = f" (data span zones {zones[0]}-{zones[-1]})" if len(zones) > 1 else ""
+    return {
+        "latitude (deg)": f"{doc['lat_deg'][0]:.6f} to {doc['lat_deg'][1]:.6f}",
+        "longitude (deg)": f"{doc['lon_deg'][0]:.6f} to {doc['lon_deg'][1]:.6f}",
+        "ellipsoidal height (m)": f"{doc['h_m'][0]:.3f} to {doc['h_m'][1]:.3f}",
+        "suggested UTM zone": f"{doc['utm_zone']}: {doc['utm_epsg']} (WGS 84){spanned}",
+    }
+
+
 @trajectory_app.command("info")
 def trajectory_info(
     path: Annotated[
@@ -139,7 +190,9 @@ def trajectory_info(
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Validate a trajectory and print its span, rate and motion (and an SBET's accuracy).
+    """Validate a trajectory: time scale, span, extent, UTM zone, rate, motion, velocities.
+
+    An SBET's accuracy file (smrmsg) is summarised too.
 
     Velocities are checked against the positions; when they disagree a warning says so
     (on stderr, and under ``warnings`` with --json): georeferencing then interpolates
@@ -148,7 +201,7 @@ def trajectory_info(
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
     from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
 
-    traj, _ = read_trajectory_file(path, gps_week=gps_week)
+    traj, scale = read_trajectory_file(path, gps_week=gps_week)
     is_sbet = path.suffix.lower() != ".csv"
     if smrmsg is not None and not is_sbet:
         msg = f"--smrmsg: {path} is a trajectory CSV; an smrmsg file goes with an SBET"
@@ -168,6 +221,8 @@ def trajectory_info(
         "max_gap_s": float(dt.max()),
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,
+        "time": _time_document(traj.t_start_s, traj.t_end_s, scale),
+        "area": None if traj.lat_lon_h is None else _area_document(traj.lat_lon_h),
         "velocity_check": None if check is None else check.as_document(),
         "warnings": warnings,
     }
@@ -182,12 +237,13 @@ def trajectory_info(
     if as_json:
         print_json(doc)
         return
-    nested = ("smrmsg", "velocity_check", "warnings")
+    nested = ("smrmsg", "velocity_check", "warnings", "time", "area")
     rows = {
         k: f"{v:.10g}" if isinstance(v, float) else str(v)
         for k, v in doc.items()
         if k not in nested
     }
+    rows |= _time_rows(doc["time"]) | _area_rows(doc["area"])
     if check is not None:
         rows |= _velocity_rows(check.as_document())
     if is_sbet:
