@@ -21,6 +21,9 @@ from kinsync.cli import (
     validate,
 )
 from kinsync.cli._guard import guard_commands
+from kinsync.cli._help import install_flag_display
+
+install_flag_display()
 
 app = typer.Typer(
     name="kinsync",

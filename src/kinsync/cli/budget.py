@@ -62,7 +62,9 @@ def latency(
     rate_deg_s: Annotated[float, typer.Option(help="Roll rate (deg/s).")] = 10.0,
     latency_ms: Annotated[
         list[float] | None,
-        typer.Option(help="Latency to evaluate (ms); repeat for several rows."),
+        typer.Option(
+            help="Latency to evaluate (ms; > 0: navigation lags the scanner); repeat for rows."
+        ),
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -78,12 +80,12 @@ def latency(
         )
     )
     for col in (
-        "latency (ms)",
-        "attitude error (deg)",
-        "vertical (mm)",
-        "horizontal (mm)",
-        "vertical, small-angle (mm)",
-        "horizontal, small-angle (mm)",
+        "latency\n(ms)",
+        "attitude\nerror (deg)",
+        "vertical\n(mm)",
+        "horizontal\n(mm)",
+        "vertical,\nsmall-angle\n(mm)",
+        "horizontal,\nsmall-angle\n(mm)",
     ):
         table.add_column(col, justify="right")
     for r in doc["rows"]:

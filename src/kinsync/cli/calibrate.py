@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._output import console, err_console, print_json
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
@@ -79,7 +80,8 @@ def _print_result(result: CalibrationResult) -> None:
     console.print(f"sigma: {result.sigma_method}")
     _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
-        f"{len(result.features)} features, {len(result.lines)} lines; residual RMS "
+        f"{counted(len(result.features), 'feature')}, {counted(len(result.lines), 'line')}; "
+        "residual RMS "
         f"{result.residual_rms_before_m * 100:.2f} cm -> {result.residual_rms_after_m * 100:.2f} cm"
     )
 
@@ -219,7 +221,7 @@ def plan(
     if as_json:
         print_json(result.as_document())
         return
-    table = Table(title=f"Calibration plan: {scenario}, {result.n_lines} lines")
+    table = Table(title=f"Calibration plan: {scenario}, {counted(result.n_lines, 'line')}")
     for col in ("parameter", "status", "sigma", "sigma (range noise only)"):
         table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
     for p in result.parameters:

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.clock import (
     CLOCK_FORMULA,
@@ -174,7 +175,9 @@ def apply(
     if as_json:
         print_json(doc)
         return
-    console.print(f"{out}: {len(table.rows)} rows, column {out_column} added (GPS seconds)")
+    console.print(
+        f"{out}: {counted(len(table.rows), 'row')}, column {out_column} added (GPS seconds)"
+    )
     if n_outside:
         lo, hi = clock.span_local_s
         what = "extrapolated with the linear model" if used == "extrapolate" else "set to nan"

@@ -84,7 +84,14 @@ def georef(
     ] = "EPSG:4978",
     latency_ms: Annotated[
         float | None,
-        typer.Option("--latency-ms", help="Latency (ms), replacing the mount's latency_s."),
+        typer.Option(
+            "--latency-ms",
+            help=(
+                "Latency (ms), replacing the mount's latency_s. Sign: > 0 when the navigation"
+                " data lag the scanner (a point at t takes the record tagged t + latency);"
+                " a wrong sign doubles the error instead of removing it."
+            ),
+        ),
     ] = None,
     chunk_points: Annotated[
         int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).", min=1)

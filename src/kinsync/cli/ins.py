@@ -18,6 +18,7 @@ import typer
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy
@@ -339,7 +340,7 @@ def compare(
     if as_json:
         print_json(result.as_document())
         return
-    table = Table(title=f"{solution_path} vs {truth_path} ({result.n_epochs} epochs)")
+    table = Table(title=f"{solution_path} vs {truth_path} ({counted(result.n_epochs, 'epoch')})")
     table.add_column("error")
     for axis in ("N / roll", "E / pitch", "D / yaw"):
         table.add_column(axis, justify="right")

@@ -52,7 +52,11 @@ def mount_check(
         key: ", ".join(f"{v:g}" for v in doc[key])
         for key in ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m")
     }
-    _print_quantities(f"Mount {path}", {**rows, "latency_s": f"{mount.latency_s:g}"})
+    rows["latency_s"] = f"{mount.latency_s:g}"
+    for i, row in enumerate(mount.R_scanner_to_body):
+        label = "R_scanner_to_body (boresight)" if i == 0 else ""
+        rows[label or " " * (i + 1)] = "  ".join(f"{v:+.6f}" for v in row)
+    _print_quantities(f"Mount {path}", rows)
 
 
 def _smrmsg_document(

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, print_json
 from kinsync.io.atomic import atomic_write_bytes
@@ -52,7 +53,7 @@ def sphere(
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
     passes = read_raw_passes(folder) if raw else read_passes(folder)
-    with err_console.status(f"fitting {len(passes)} passes"):
+    with err_console.status(f"fitting {counted(len(passes), 'pass')}"):
         result = estimate_latency_sphere(
             passes, radius_m=radius_m, scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0)
         )
@@ -140,7 +141,9 @@ def plan(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Method A plan: {passes} passes each way, range noise {range_noise_m:g} m")
+    table = Table(
+        title=f"Method A plan: {counted(passes, 'pass')} each way, range noise {range_noise_m:g} m"
+    )
     for col in ("rate (deg/s)", "points/pass", "centre σ (mm)", "latency σ (ms)"):
         table.add_column(col, justify="right")
     for r in result.per_rate:
@@ -151,7 +154,9 @@ def plan(
             f"{r.latency_std_s * 1e3:.4f}",
         )
     console.print(table)
+    n_target = int(doc["passes_for_target"])
+    verb = "reaches" if n_target == 1 else "reach"
     console.print(
         f"all rates: latency σ {result.latency_std_s * 1e3:.4f} ms; "
-        f"{doc['passes_for_target']} passes per rate and direction reach {target_ms:g} ms"
+        f"{counted(n_target, 'pass')} per rate and direction {verb} {target_ms:g} ms"
     )

@@ -51,7 +51,12 @@ def summary(sim: RotatingTableSimulation, out: Path, file_format: str, raw: bool
 @app.command("rotating-table")
 def rotating_table(
     out: Annotated[Path, typer.Option(help="Output folder (pass folder + truth.json).")],
-    latency_ms: Annotated[float, typer.Option(help="IMU latency (ms), without the FIFO.")] = 4.21,
+    latency_ms: Annotated[
+        float,
+        typer.Option(
+            help="IMU latency (ms), without the FIFO; > 0: the IMU records lag the scanner."
+        ),
+    ] = 4.21,
     rates_deg_s: Annotated[
         str, typer.Option(help="Comma-separated table rate magnitudes (deg/s); both signs.")
     ] = "2,4,6,10,14,18",

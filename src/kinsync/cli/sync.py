@@ -10,6 +10,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
@@ -124,7 +125,9 @@ def object_space(
     if as_json:
         print_json(result.as_document())
         return
-    table = Table(title=f"Profile clock of {scan} from {len(result.sightings)} sightings")
+    table = Table(
+        title=f"Profile clock of {scan} from {counted(len(result.sightings), 'sighting')}"
+    )
     table.add_column("quantity")
     table.add_column("value", justify="right")
     table.add_row("t0 (s)", f"{result.t0_s:.6f}")

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
+from kinsync._text import counted
 from kinsync.cli._output import console, fmt, print_json
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -172,7 +173,8 @@ def control_points(
     tests.add_row(*_test_row("heading error (deg)", report.heading_error, 1.0))
     console.print(tests)
     console.print(
-        f"{len(report.differences)} visits in {report.n_passes} passes; noise per visit "
+        f"{counted(len(report.differences), 'visit')} in {counted(report.n_passes, 'pass')}; "
+        "noise per visit "
         f"{fmt(report.residual_std_m, 1e3, 3)} mm, per pass {fmt(report.pass_std_m, 1e3, 3)} mm, "
         f"survey {fmt(report.survey_std_m, 1e3, 3)} mm; along-track offset "
         f"{fmt(report.intercept_m, 1e3, 3)} mm. Time error = latency applied - true latency: "

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from kinsync._text import counted
 from kinsync.demo.files import write_section_files
 from kinsync.fit import SphereFit, segment_sphere
 from kinsync.io.cidco import read_cidco_pass
@@ -66,7 +67,7 @@ def _summary_row(run: _MethodARun) -> tuple[str, str, str]:
     err_ms = (result.latency_s - DEMO_LATENCY_S) * 1e3
     return (
         "Method A latency",
-        f"simulated table, tau = {DEMO_LATENCY_S * 1e3:g} ms, {len(run.passes)} passes",
+        f"simulated table, tau = {DEMO_LATENCY_S * 1e3:g} ms, {counted(len(run.passes), 'pass')}",
         (
             f"{result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
             f"(error {err_ms:+.4f} ms; plan predicted {run.plan.latency_std_s * 1e3:.4f})"

@@ -26,6 +26,7 @@ import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
+from kinsync._text import counted
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
@@ -243,7 +244,8 @@ def fit_pool(
         raise InputError(msg)
     points = np.concatenate([p.points_ned_m for p in passes])
     origin = None if scanner_origin_ned_m is None else np.asarray(scanner_origin_ned_m, float)
-    label = f"rate {passes[0].rate_deg_s:+g} deg/s ({len(passes)} passes, {len(points)} points)"
+    n_text = f"{counted(len(passes), 'pass')}, {counted(len(points), 'point')}"
+    label = f"rate {passes[0].rate_deg_s:+g} deg/s ({n_text})"
     try:
         seg = segment_sphere(points, radius_m=radius_m, origin_m=origin, seed=seed)
     except InputError as err:

@@ -10,6 +10,7 @@ mpl.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from kinsync._text import counted
 from kinsync.latency.planning import LatencyPlan
 from kinsync.latency.sphere import SphereLatencyResult
 from kinsync.report.figures import png_bytes
@@ -77,7 +78,7 @@ def plan_figure(plan: LatencyPlan, target_latency_std_s: float = 1e-4) -> bytes:
     ax.axhline(target_latency_std_s * 1e3, color="k", ls=":", label="target")
     ax.set_xlabel("table rate (deg/s)")
     ax.set_ylabel("predicted latency σ (ms)")
-    ax.set_title(f"Cramér-Rao bound, {plan.design.passes} passes each way")
+    ax.set_title(f"Cramér-Rao bound, {counted(plan.design.passes, 'pass')} each way")
     ax.grid(visible=True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     passes = np.arange(1, max(4 * plan.design.passes, 20) + 1)

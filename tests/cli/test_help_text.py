@@ -1,0 +1,148 @@
+"""Help that says it all: flags without a value type, the latency sign, the boresight
+matrix, counted nouns and tables that fit 80 columns when piped."""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tests.cli._commands import commands
+
+from kinsync._text import counted
+from kinsync.io.mount_file import read_mount
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+
+MOUNT = """[mount]
+lever_arm_body_m = [0.1, -0.2, 0.3]
+boresight_rpy_deg = [1.5, -30.0, 30.0]
+antenna_lever_arm_body_m = [0.0, 0.0, -1.0]
+latency_s = 0.004
+"""
+
+
+@pytest.mark.parametrize("path", [p for p, _ in commands()], ids=" ".join)
+def test_no_flag_is_shown_with_a_value_type(path: tuple[str, ...], run_cli: RunCli) -> None:
+    """`--json <bool>` reads as if `--json true` worked; it does not, so no type is shown."""
+    code, out, _ = run_cli([*path, "--help"])
+    assert code == 0
+    assert "<bool>" not in out
+    flags = re.findall(r"(--[a-z][a-z0-9-]*)\s+(<\w+>)?", out)
+    assert flags, out
+    assert ("--json", "") in flags or "--json" not in out
+
+
+def test_a_flag_given_a_value_is_refused(run_cli: RunCli) -> None:
+    code, _, err = run_cli(["budget", "latency", "--json", "true"])
+    assert code == 2
+    assert "true" in err
+
+
+def test_latency_help_gives_the_sign(run_cli: RunCli) -> None:
+    _, out, _ = run_cli(["georef", "--help"])
+    text = " ".join(out.replace("│", " ").split())
+    assert "> 0 when the navigation data lag the scanner" in text
+    assert "t + latency" in text
+    assert "doubles the error" in text
+
+
+def test_mount_check_prints_the_boresight_matrix(tmp_path: Path, run_cli: RunCli) -> None:
+    path = tmp_path / "mount.toml"
+    path.write_text(MOUNT)
+    code, out, _ = run_cli(["mount", "check", str(path)])
+    assert code == 0
+    printed = [
+        [float(v) for v in re.findall(r"[+-]\d\.\d{6}", line)]
+        for line in out.splitlines()
+        if len(re.findall(r"[+-]\d\.\d{6}", line)) == 3
+    ]
+    R = read_mount(path).R_scanner_to_body
+    np.testing.assert_allclose(np.array(printed), R, atol=5e-7)
+    assert "R_scanner_to_body" in out
+    code, out, _ = run_cli(["mount", "check", str(path), "--json"])
+    np.testing.assert_allclose(json.loads(out)["R_scanner_to_body"], R, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("n", "noun", "text"),
+    [
+        (1, "pass", "1 pass"),
+        (2, "pass", "2 passes"),
+        (0, "point", "0 points"),
+        (1, "line", "1 line"),
+        (3, "axis", "3 axes"),
+        (2, "datum", "2 data"),
+    ],
+)
+def test_counted_nouns(n: int, noun: str, text: str) -> None:
+    plural = "data" if noun == "datum" else None
+    assert counted(n, noun, plural) == text
+
+
+def test_one_pass_is_not_one_passes(run_cli: RunCli) -> None:
+    code, out, _ = run_cli(
+        [
+            "latency",
+            "plan",
+            "--range-m",
+            "1.5",
+            "--radius-m",
+            "0.1",
+            "--range-noise-m",
+            "0.002",
+            "--rates-deg-s",
+            "6",
+            "--passes",
+            "1",
+        ]
+    )
+    assert code == 0, out
+    assert "1 pass each way" in out
+    assert "1 passes" not in out
+
+
+def _piped_commands(tmp_path: Path) -> list[list[str]]:
+    mount = tmp_path / "mount.toml"
+    mount.write_text(MOUNT)
+    return [
+        ["budget", "latency", "--latency-ms", "0.1", "--latency-ms", "1", "--latency-ms", "10"],
+        ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"],
+        ["budget", "period", "--profiles", "10000", "--period-error-s", "1e-6", "--speed-m-s", "2"],
+        ["mount", "check", str(mount)],
+        [
+            "latency",
+            "plan",
+            "--range-m",
+            "1.5",
+            "--radius-m",
+            "0.1",
+            "--range-noise-m",
+            "0.002",
+            "--rates-deg-s",
+            "2,6,18",
+            "--passes",
+            "15",
+            "--target-ms",
+            "0.1",
+        ],
+    ]
+
+
+def test_tables_fit_80_columns_when_piped(
+    tmp_path: Path, run_cli: RunCli, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Piped output (no terminal, no COLUMNS) is read in 80 columns: no table is wider and no
+    header is cut to an ellipsis."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    for argv in _piped_commands(tmp_path):
+        code, out, err = run_cli(argv)
+        assert code == 0, (argv, err)
+        table_lines = [line for line in out.splitlines() if line[:1] in "┏┃┡│└"]
+        assert table_lines, (argv, out)
+        too_wide = [line for line in table_lines if len(line) > 80]
+        assert not too_wide, (argv, too_wide)
+        assert "…" not in out, (argv, out)
