@@ -7,7 +7,8 @@ A flag takes no value, so its help shows none (as click's own help does).
 
 from __future__ import annotations
 
-import click
+from typing import Any
+
 from typer.core import TyperOption
 
 __all__ = ["install_flag_display"]
@@ -15,7 +16,7 @@ __all__ = ["install_flag_display"]
 _original = TyperOption.display_type_rich
 
 
-def _display_type_rich(self: TyperOption, ctx: click.Context) -> str | None:
+def _display_type_rich(self: TyperOption, ctx: Any) -> str | None:
     if self.is_flag and self.metavar is None:
         return None
     return _original(self, ctx)
@@ -23,4 +24,4 @@ def _display_type_rich(self: TyperOption, ctx: click.Context) -> str | None:
 
 def install_flag_display() -> None:
     """Show on/off flags without a value type in ``--help`` (idempotent)."""
-    TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign]
+    TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign,assignment]
