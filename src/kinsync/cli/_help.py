@@ -24,4 +24,4 @@ def _display_type_rich(self: TyperOption, ctx: Any) -> str | None:
 
 def install_flag_display() -> None:
     """Show on/off flags without a value type in ``--help`` (idempotent)."""
-    TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign,assignment]
+    TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign]
