@@ -33,7 +33,6 @@ from kinsync.io.atomic import (
     check_output_location,
     protected_inputs,
 )
-from kinsync.sim.folder import check_simulation_folder
 
 __all__ = [
     "OUTPUT_PARAMETERS",
@@ -148,6 +147,8 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
                     folder = output_is_folder(command, name)
                     check_output_location(p, spelled[name], folder=folder)
                     if folder and command.startswith("simulate "):
+                        from kinsync.sim.folder import check_simulation_folder  # noqa: PLC0415
+
                         check_simulation_folder(p, command.removeprefix("simulate "))
         with protected_inputs(inputs):
             return callback(*args, **kwargs)

@@ -17,6 +17,7 @@ from kinsync.cli import (
     inspect,
     latency,
     simulate,
+    simulate_validation,
     sync,
     validate,
 )
@@ -37,6 +38,7 @@ app.add_typer(latency.app, name="latency")
 app.add_typer(inspect.mount_app, name="mount")
 app.add_typer(inspect.trajectory_app, name="trajectory")
 app.command(name="demo")(demo.demo)
+simulate.app.command(name="validation")(simulate_validation.validation)
 app.add_typer(simulate.app, name="simulate")
 app.add_typer(clock.app, name="clock")
 app.command(name="georef")(georef.georef)

@@ -20,6 +20,7 @@ SIMULATION_SIGNATURES: dict[str, str] = {
     "drive": "imu.csv",
     "drive-scan": "scan.csv",
     "patch-test": "trajectory.out",
+    "validation": "control.csv",
 }
 """For each simulator (``kinsync simulate NAME``), a file that only it writes."""
 
