@@ -24,11 +24,12 @@ row groups are merged up to ``chunk_points`` rows, and a row group larger than t
 read in pieces of ``chunk_points`` rows. Slices never hold more than ``chunk_points``
 rows.
 
-Writing (`TableChunkWriter`) goes through a temporary file renamed on success.
-Float columns are written to CSV in the shortest form that reads back to the same value
-(pyarrow's float formatting, with ``.0`` added to integral values so that ``1.0`` reads
-back as a float: every value comes back exactly). `csv_text_columns` does that
-formatting ahead, so that worker processes can take it off the writing process.
+Writing (`TableChunkWriter`) goes through a temporary file renamed on success. CSV is
+written by `kinsync.io.csv_text`: numbers bare, floats in the shortest form that reads
+back to the same value (with ``.0`` added to integral values so that ``1.0`` reads back
+as a float: every value comes back exactly), text quoted only when it holds a comma, a
+quote or a line break. `csv_text_columns` does the float formatting ahead, so that
+worker processes can take it off the writing process.
 """
 
 from __future__ import annotations
@@ -45,12 +46,12 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.csv_text import csv_header_bytes, csv_rows_bytes, float_text
 from kinsync.io.sanity import check_text_file, not_utf8_cell
 
 __all__ = [
@@ -745,7 +746,7 @@ def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, A
         The same columns, in order, floats as text.
     """
     return {
-        name: _float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
+        name: float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
         for name, values in columns.items()
     }
 
@@ -754,19 +755,6 @@ def _column_length(values: Any) -> int:
     if isinstance(values, pa.Array | pa.ChunkedArray):
         return len(values)
     return int(np.shape(values)[0]) if np.ndim(values) else -1
-
-
-def _float_text(col: Any) -> Any:
-    """Float column as text: shortest round-trip digits, always with ``.``, ``e`` or a name.
-
-    pyarrow's float -> string cast gives the shortest text that reads back to the same
-    value (``0.1``, ``1e-7``, ``1.23456789012e+11``), but integral values without a
-    point (``1``); those get ``.0`` so that the column reads back as floats. Nulls are
-    written ``nan``.
-    """
-    text = pc.cast(pc.fill_null(col, float("nan")), pa.string())
-    integral = pc.utf8_is_digit(pc.utf8_ltrim(text, "-"))  # no ".", "e", "nan", "inf"
-    return pc.if_else(integral, pc.binary_join_element_wise(text, ".0", ""), text)
 
 
 class TableChunkWriter:
@@ -843,31 +831,14 @@ class TableChunkWriter:
         if self._suffix == ".parquet":
             self._writer = pq.ParquetWriter(self._tmp, schema)
         else:
-            self._writer = pa_csv.CSVWriter(
-                self._tmp,
-                self._csv_schema(schema),
-                write_options=pa_csv.WriteOptions(quoting_style="needed"),
-            )
-
-    @staticmethod
-    def _csv_schema(schema: Any) -> Any:
-        fields = [
-            pa.field(f.name, pa.string()) if pa.types.is_floating(f.type) else f for f in schema
-        ]
-        return pa.schema(fields)
+            self._writer = self._tmp.open("wb")
+            self._writer.write(csv_header_bytes(schema.names))
 
     def _write_table(self, table: Any) -> None:
         if self._suffix == ".parquet":
             self._writer.write_table(table)
-            return
-        cols = {}
-        for name in table.column_names:
-            col = table.column(name)
-            if pa.types.is_floating(col.type):
-                cols[name] = _float_text(col)
-            else:
-                cols[name] = col
-        self._writer.write_table(pa.table(cols, schema=self._csv_schema(table.schema)))
+        else:
+            self._writer.write(csv_rows_bytes(table))
 
     def __exit__(
         self,
