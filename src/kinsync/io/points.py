@@ -46,11 +46,13 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_text import csv_header_bytes, csv_rows_bytes, float_text
 from kinsync.io.sanity import check_text_file, not_utf8_cell
 
@@ -61,6 +63,7 @@ __all__ = [
     "count_table_rows",
     "csv_text_columns",
     "iter_table_chunks",
+    "numeric_columns",
     "plan_table_slices",
     "read_table_slice",
     "table_columns",
@@ -117,18 +120,48 @@ def table_columns(path: Path) -> list[str]:
         raise InputError(msg) from err
 
 
-def _check_required(path: Path, names: Sequence[str], required: Sequence[str]) -> None:
+def _check_required(
+    path: Path, names: Sequence[str], required: Sequence[str], columns: ColumnMap | None = None
+) -> None:
     missing = [c for c in required if c not in names]
     if missing:
-        msg = (
-            f"{path}: missing column(s) {missing}; the file has columns {list(names)}; "
+        what = (
             f"rename the columns or give a table with {list(required)}"
+            if columns is None
+            else columns.hint([columns.kinsync_name(c) for c in missing])
         )
+        msg = f"{path}: missing column(s) {missing}; the file has columns {list(names)}; {what}"
         raise InputError(msg)
     dupes = sorted({c for c in names if list(names).count(c) > 1})
     if dupes:
         msg = f"{path}: duplicated column name(s) {dupes}; give each column a unique name"
         raise InputError(msg)
+
+
+def _mapped_required(
+    path: Path, names: Sequence[str], required: Sequence[str], columns: ColumnMap | None
+) -> tuple[list[str], tuple[tuple[str, str], ...]]:
+    """The file's names of the required columns, and the renames to apply after reading.
+
+    Checks the map against the file and the required columns' presence (`_check_required`).
+    """
+    if columns is None:
+        _check_required(path, names, required)
+        return list(required), ()
+    columns.check_file(path, names)
+    file_required = [columns.file_name(c) for c in required]
+    _check_required(path, names, file_required, columns)
+    return file_required, columns.renames()
+
+
+def _renamed(
+    chunk: dict[str, np.ndarray[Any, Any]], renames: Sequence[tuple[str, str]]
+) -> dict[str, np.ndarray[Any, Any]]:
+    """A chunk with the file's mapped columns under their kinsync names (order kept)."""
+    if not renames:
+        return chunk
+    to = dict(renames)
+    return {to.get(name, name): values for name, values in chunk.items()}
 
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
@@ -268,7 +301,12 @@ def _csv_batches(
 
 
 def iter_table_chunks(
-    path: Path, chunk_points: int, required: Sequence[str], *, extra_as_text: bool = False
+    path: Path,
+    chunk_points: int,
+    required: Sequence[str],
+    *,
+    extra_as_text: bool = False,
+    columns: ColumnMap | None = None,
 ) -> Iterator[dict[str, np.ndarray[Any, Any]]]:
     """Stream a CSV or Parquet point table in chunks of at most ``chunk_points`` rows.
 
@@ -283,12 +321,15 @@ def iter_table_chunks(
     extra_as_text : bool
         Read the other columns of a CSV as text (to write them back exactly as they
         were: ``007`` stays ``007``) instead of inferring their types.
+    columns : ColumnMap, optional
+        Which of the file's columns hold the required ones (`kinsync.io.column_map`);
+        they are handed on under the required (kinsync) names.
 
     Yields
     ------
     dict of str to ndarray, each of shape (M,)
         Every column of the file, in file order, with its type (see the module
-        docstring); M <= ``chunk_points``.
+        docstring), mapped columns renamed; M <= ``chunk_points``.
 
     Raises
     ------
@@ -303,7 +344,7 @@ def iter_table_chunks(
         raise InputError(msg)
     suffix = _suffix(path)
     names = table_columns(path)
-    _check_required(path, names, required)
+    required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
         block = int(min(max(chunk_points * 16 * max(len(names), 1), 1 << 20), 1 << 30))
         text = [n for n in names if n not in required] if extra_as_text else []
@@ -317,7 +358,7 @@ def iter_table_chunks(
         batches = pf.iter_batches(batch_size=chunk_points)
     first_row = 0
     for table in _rebatch(batches, chunk_points):
-        yield _chunk_to_numpy(path, table, required, first_row)
+        yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
         first_row += table.num_rows
 
 
@@ -400,6 +441,13 @@ class TableLayout:
         file's first MiB (required columns float64), fixed for every slice.
     total_rows : int
         Data rows in the file.
+    renames : tuple of (str, str)
+        ``(the file's column, kinsync name)`` applied to the slices read
+        (`kinsync.io.column_map.ColumnMap.renames`); empty when nothing is mapped.
+    inferred : pyarrow.Schema or None
+        The types of the columns as numbers would be read: for CSV, pyarrow's
+        inference from the first MiB (the slices give the columns that are not required
+        as text, `numeric_columns` converts them); for Parquet the stored types.
     """
 
     path: Path
@@ -407,6 +455,16 @@ class TableLayout:
     required: tuple[str, ...]
     schema: Any
     total_rows: int
+    renames: tuple[tuple[str, str], ...] = ()
+    inferred: Any = None
+
+    def kinsync_name(self, column: str) -> str:
+        """The name under which the file's column ``column`` is handed on."""
+        return next((ours for theirs, ours in self.renames if theirs == column), column)
+
+    def file_name(self, name: str) -> str:
+        """The file's own name of the column handed on as ``name``."""
+        return next((theirs for theirs, ours in self.renames if ours == name), name)
 
 
 def _csv_convert_options(column_types: Mapping[str, Any]) -> Any:
@@ -553,7 +611,7 @@ def _open_parquet(path: Path) -> Any:
 
 
 def plan_table_slices(
-    path: Path, chunk_points: int, required: Sequence[str]
+    path: Path, chunk_points: int, required: Sequence[str], columns: ColumnMap | None = None
 ) -> tuple[TableLayout, list[TableSlice]]:
     """Cut a CSV or Parquet table into independently readable slices.
 
@@ -569,6 +627,9 @@ def plan_table_slices(
         of a CSV are read as text, so that they are written back exactly as they were
         (``007`` stays ``007``, a 2**70 integer stays whole); those of a Parquet file
         keep their types.
+    columns : ColumnMap, optional
+        Which of the file's columns hold the required ones; `read_table_slice` hands
+        them on under the required (kinsync) names.
 
     Returns
     -------
@@ -589,14 +650,17 @@ def plan_table_slices(
         raise InputError(msg)
     suffix = _suffix(path)
     names = table_columns(path)
-    _check_required(path, names, required)
+    required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
-        inferred = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
+        guessed = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
         schema = pa.schema(  # the header's names (stripped), required columns float64
             [
                 pa.field(name, pa.float64() if name in required else pa.string())
-                for name, _ in zip(names, inferred, strict=True)
+                for name, _ in zip(names, guessed, strict=True)
             ]
+        )
+        inferred = pa.schema(
+            [pa.field(name, f.type) for name, f in zip(names, guessed, strict=True)]
         )
         try:
             slices, total = _plan_csv(path, chunk_points)
@@ -605,7 +669,7 @@ def plan_table_slices(
             raise InputError(msg) from err
     else:
         pf = _open_parquet(path)
-        schema = pf.schema_arrow
+        schema = inferred = pf.schema_arrow
         slices, total = _plan_parquet(pf, chunk_points)
     layout = TableLayout(
         path=path,
@@ -613,6 +677,8 @@ def plan_table_slices(
         required=tuple(required),
         schema=schema,
         total_rows=total,
+        renames=renames,
+        inferred=inferred,
     )
     return layout, slices
 
@@ -686,7 +752,8 @@ def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarra
     -------
     dict of str to ndarray, each of shape (``sl.n_rows``,)
         Every column in file order, with the types of ``layout.schema`` (required
-        columns float64), as `iter_table_chunks` gives them.
+        columns float64), mapped columns under their kinsync names (``layout.renames``),
+        as `iter_table_chunks` gives them.
 
     Raises
     ------
@@ -711,7 +778,69 @@ def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarra
             "value holds a line break (not supported: remove line breaks from values)"
         )
         raise InputError(msg)
-    return _chunk_to_numpy(path, table, layout.required, sl.first_row)
+    return _renamed(_chunk_to_numpy(path, table, layout.required, sl.first_row), layout.renames)
+
+
+def _cast_error(
+    layout: TableLayout, name: str, values: np.ndarray[Any, Any], target: Any, first_row: int
+) -> InputError:
+    """The first value of a text column that does not convert to ``target``."""
+    column = layout.file_name(name)
+    for i, value in enumerate(values.tolist()):
+        try:
+            pa.scalar(value, pa.string()).cast(target)
+        except (pa.ArrowException, ValueError):
+            what = "empty cell" if value == "" else f"{value[:80]!r} is not a {target} value"
+            msg = (
+                f"{layout.path}: data row {first_row + i}, column {column!r}: {what} (the "
+                f"column reads as {target} from the first rows); fix the value"
+            )
+            return InputError(msg)
+    return InputError(f"{layout.path}: column {column!r}: cannot convert to {target}")
+
+
+def numeric_columns(
+    layout: TableLayout, columns: Mapping[str, np.ndarray[Any, Any]], first_row: int
+) -> dict[str, np.ndarray[Any, Any]]:
+    """The numeric (and boolean) columns of a slice, as numbers.
+
+    The columns a CSV slice gives as text are converted to the type pyarrow infers for
+    them (``layout.inferred``); an empty cell of a float column becomes NaN. Columns
+    inferred as text are left out.
+
+    Parameters
+    ----------
+    layout : TableLayout
+    columns : mapping of str to ndarray, shape (M,)
+        A slice as `read_table_slice` gives it.
+    first_row : int
+        Data row of the slice's first row (for messages).
+
+    Raises
+    ------
+    InputError
+        A cell that does not convert (naming its data row and column).
+    """
+    out: dict[str, np.ndarray[Any, Any]] = {}
+    for name, values in columns.items():
+        if values.dtype.kind in "biuf":
+            out[name] = values
+            continue
+        target = layout.inferred.field(layout.file_name(name)).type if layout.inferred else None
+        if target is None or not (
+            pa.types.is_integer(target)
+            or pa.types.is_floating(target)
+            or pa.types.is_boolean(target)
+        ):
+            continue
+        text = pa.array(values, pa.string())
+        if pa.types.is_floating(target):
+            text = pc.if_else(pc.equal(text, ""), "nan", text)
+        try:
+            out[name] = pc.cast(text, target).to_numpy(zero_copy_only=False)
+        except (pa.ArrowException, ValueError) as err:
+            raise _cast_error(layout, name, np.asarray(values), target, first_row) from err
+    return out
 
 
 def _arrow_column(name: str, values: Any) -> Any:
