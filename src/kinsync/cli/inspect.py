@@ -173,7 +173,8 @@ def trajectory_info(
     path: Annotated[
         Path,
         typer.Argument(
-            help="Trajectory: CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...) or SBET (.out, .sbet)."
+            help="Trajectory: CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...), SBET (.out, .sbet), "
+            "or a POSPac / Inertial Explorer ASCII export (.txt)."
         ),
     ],
     gps_week: Annotated[
@@ -203,12 +204,17 @@ def trajectory_info(
     positions linearly.
     """
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
-    from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
+    from kinsync.io.trajectory import (  # noqa: PLC0415
+        read_trajectory_file,
+        trajectory_file_format,
+    )
 
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
-    is_sbet = path.suffix.lower() != ".csv"
+    file_format = trajectory_file_format(path)
+    is_sbet = file_format == "sbet"
     if smrmsg is not None and not is_sbet:
-        msg = f"--smrmsg: {path} is a trajectory CSV; an smrmsg file goes with an SBET"
+        what = "a trajectory CSV" if file_format == "csv" else f"a {file_format} export"
+        msg = f"--smrmsg: {path} is {what}; an smrmsg file goes with an SBET"
         raise InputError(msg)
     accuracy = smrmsg if smrmsg is not None else (find_smrmsg_companion(path) if is_sbet else None)
     dt = np.diff(traj.t_s)
@@ -216,7 +222,7 @@ def trajectory_info(
     check = traj.velocity_check
     warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
     doc: dict[str, Any] = {
-        "format": "sbet" if is_sbet else "csv",
+        "format": file_format,
         "records": len(traj),
         "t_start_s": traj.t_start_s,
         "t_end_s": traj.t_end_s,

@@ -110,6 +110,7 @@ _SPANS: dict[str, Span] = {
     "vd_m_s": SPEED_M_S,
 }
 _UNIT_TOKEN = re.compile(r"\([^)]*\)|\S+")
+_FIELD_SEPARATOR = re.compile(r"[,\s]+")
 _LAYOUT_HINT = (
     "kinsync reads POSPac exports (a 'POS Export Utility' header, a line of comma-separated "
     "column names such as TIME, LATITUDE, LONGITUDE, ELLIPSOID HEIGHT, ROLL, PITCH, HEADING) "
@@ -161,6 +162,11 @@ def _is_number(text: str) -> bool:
     return True
 
 
+def _is_data(fields: list[str]) -> bool:
+    """A row of numbers (at least half its fields; a date such as 04/12/2020 is not)."""
+    return bool(fields) and 2 * sum(_is_number(f) for f in fields) >= len(fields)
+
+
 def _split_names(line: str) -> list[str]:
     if "," in line:
         return [part.strip() for part in line.split(",")]
@@ -196,24 +202,21 @@ def _producer(path: Path, lines: list[str], header_index: int) -> Producer:
 def _widths(
     path: Path, names: list[str], unit_line: str | None, columns: dict[str, int]
 ) -> list[int]:
-    """Fields per column: 3 for latitude/longitude in D M S, else 1."""
+    """Fields per column: 3 for latitude and longitude in D M S, else 1.
+
+    A column may have no unit (Inertial Explorer leaves ``Q`` blank), so units are not
+    matched to columns one by one: a units line with ``D M S`` units gives both latitude
+    and longitude in three fields; one with ``rad`` is refused (degrees are expected).
+    """
     widths = [1] * len(names)
     if unit_line is None:
         return widths
-    units = _UNIT_TOKEN.findall(unit_line)
-    if len(units) != len(names):
-        return widths
-    for quantity in ("lat_deg", "lon_deg"):
-        unit = units[columns[quantity]].upper().replace(" ", "")
-        if "DMS" in unit:
-            widths[columns[quantity]] = 3
-        elif "RAD" in unit:
-            msg = f"{path}: {names[columns[quantity]]} is in radians; export it in degrees"
-            raise InputError(msg)
-    for quantity in ("roll_deg", "pitch_deg", "heading_deg"):
-        if "RAD" in units[columns[quantity]].upper():
-            msg = f"{path}: {names[columns[quantity]]} is in radians; export angles in degrees"
-            raise InputError(msg)
+    units = [u.upper().replace(" ", "") for u in _UNIT_TOKEN.findall(unit_line)]
+    if any(u.strip("()") in ("RAD", "RADIANS") or "INRADIANS" in u for u in units):
+        msg = f"{path}: its units line gives angles in radians; export them in degrees"
+        raise InputError(msg)
+    if sum("DMS" in u for u in units) >= 2:
+        widths[columns["lat_deg"]] = widths[columns["lon_deg"]] = 3
     return widths
 
 
@@ -248,7 +251,7 @@ def _find_layout(path: Path, lines: list[str]) -> tuple[PosTextLayout, int]:
         unit_line: str | None = None
         while data_index < len(lines):
             text = lines[data_index].strip()
-            if text and _is_number(text.replace(",", " ").split()[0]):
+            if text and _is_data(_FIELD_SEPARATOR.split(text)):
                 break
             if text and unit_line is None:
                 unit_line = text
@@ -291,13 +294,12 @@ def _parse_rows(
     values: dict[str, list[float]] = {q: [] for q in wanted}
     line_of_row: list[int] = []
     ended_at: int | None = None
-    split = re.compile(r"[,\s]+")
     for index in range(first, len(lines)):
         text = lines[index].strip()
         if not text:
             continue
-        fields = split.split(text)
-        if not _is_number(fields[0]):
+        fields = _FIELD_SEPARATOR.split(text)
+        if not _is_data(fields):
             ended_at = ended_at if ended_at is not None else index + 1
             continue
         if ended_at is not None:
@@ -377,7 +379,9 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     if len(line_of_row) < 2:
         msg = f"{path}: a trajectory needs at least 2 records, found {len(line_of_row)}"
         raise InputError(msg)
-    check_columns(c, _SPANS, lambda row: f"{path}: line {line_of_row[row]}")
+    named = {layout.names[layout.columns[q]]: v for q, v in c.items()}
+    spans = {layout.names[layout.columns[q]]: span for q, span in _SPANS.items() if q in c}
+    check_columns(named, spans, lambda row: f"{path}: line {line_of_row[row]}")
     t = c["t_s"]
     gps_time = "week" in c or gps_week is not None
     if "week" in c:
