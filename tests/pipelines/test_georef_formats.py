@@ -254,3 +254,29 @@ def test_a_map_onto_a_name_the_file_already_has_is_refused(tmp_path: Path, traj_
     mapping = parse_column_map("t_s=time", KEYS)
     with pytest.raises(InputError, match="has a column 't_s' of its own"):
         georeference_file(src, traj_path, MOUNT, tmp_path / "g.csv", columns=mapping)
+
+
+@pytest.mark.parametrize(
+    ("src_name", "out_name"),
+    [("scan.las", "geo.csv"), ("p.csv", "geo.las"), ("p.csv", "geo.ply"), ("scan.las", "geo.ply")],
+)
+def test_an_input_without_points_gives_an_empty_output(
+    tmp_path: Path, traj_path: Path, src_name: str, out_name: str
+) -> None:
+    cols = {k: v[:0] for k, v in _columns(10).items()}
+    src = tmp_path / src_name
+    if src.suffix == ".las":
+        _write_las(src, cols)
+    else:
+        with TableChunkWriter(src) as w:
+            w.write(cols)
+    out = tmp_path / out_name
+    summary = georeference_file(src, traj_path, MOUNT, out, crs=CRS)
+    assert summary.points_in == summary.points_out == 0
+    if out.suffix == ".csv":
+        assert pa_csv.read_csv(out).num_rows == 0
+        assert "X" in pa_csv.read_csv(out).column_names
+    elif out.suffix == ".las":
+        assert len(laspy.read(out).points) == 0
+    else:
+        assert len(read_ply_vertices(out)["x"]) == 0

@@ -281,7 +281,13 @@ def plan_table_las(
 
 
 def _numpy_type(kind: Any) -> np.dtype[Any] | None:
-    """The numpy type of a column type (numpy or pyarrow); None for text and the like."""
+    """The numpy type of a column type (numpy or pyarrow); None for text and the like.
+
+    A column of no known type (pyarrow's ``null``: a CSV with a header and no rows)
+    is taken as float64: it has no values to lose.
+    """
+    if str(kind) == "null":
+        return np.dtype(np.float64)
     try:
         to_pandas = getattr(kind, "to_pandas_dtype", None)
         dt = np.dtype(to_pandas() if to_pandas is not None else kind)

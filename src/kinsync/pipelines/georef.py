@@ -528,12 +528,18 @@ def _carried_columns(ctx: ChunkContext, *, keep_time: bool = False) -> dict[str,
 
 
 def _numeric(kind: Any) -> bool:
+    """Numbers, booleans, or no type at all (a CSV without rows: nothing to lose)."""
     return bool(
-        pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_boolean(kind)
+        pa.types.is_integer(kind)
+        or pa.types.is_floating(kind)
+        or pa.types.is_boolean(kind)
+        or pa.types.is_null(kind)
     )
 
 
 def _numpy_dtype(kind: Any) -> np.dtype[Any]:
+    if pa.types.is_null(kind):
+        return np.dtype(np.float64)
     return np.dtype(np.uint8) if pa.types.is_boolean(kind) else np.dtype(kind.to_pandas_dtype())
 
 
