@@ -46,7 +46,7 @@ def test_table_in_utm_matches_pyproj(
 ) -> None:
     out = tmp_path / f"t{suffix}"
     code, stdout, err = run_cli(
-        ["trajectory", "export", str(traj_csv), str(out), "--crs", "EPSG:32619", "--json"]
+        ["trajectory", "export", str(traj_csv), "--out", str(out), "--crs", "EPSG:32619", "--json"]
     )
     assert code == 0, err
     doc = json.loads(stdout)
@@ -72,7 +72,7 @@ def test_default_table_is_wgs84_longitude_latitude_height(
     run_cli: RunCli, traj_csv: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "t.csv"
-    code, _, err = run_cli(["trajectory", "export", str(traj_csv), str(out)])
+    code, _, err = run_cli(["trajectory", "export", str(traj_csv), "--out", str(out)])
     assert code == 0, err
     table = pa_csv.read_csv(out)
     traj = _trajectory()
@@ -86,7 +86,16 @@ def test_geojson_line_is_decimated_and_keeps_the_ends(
 ) -> None:
     out = tmp_path / "t.geojson"
     code, stdout, err = run_cli(
-        ["trajectory", "export", str(traj_csv), str(out), "--max-vertices", "100", "--json"]
+        [
+            "trajectory",
+            "export",
+            str(traj_csv),
+            "--out",
+            str(out),
+            "--max-vertices",
+            "100",
+            "--json",
+        ]
     )
     assert code == 0, err
     assert json.loads(stdout)["written"] == 100
@@ -108,7 +117,9 @@ def test_kml_line_from_an_sbet(run_cli: RunCli, tmp_path: Path) -> None:
     traj = _trajectory()
     write_sbet(traj, sbet)
     out = tmp_path / "t.kml"
-    code, _, err = run_cli(["trajectory", "export", str(sbet), str(out), "--max-vertices", "10"])
+    code, _, err = run_cli(
+        ["trajectory", "export", str(sbet), "--out", str(out), "--max-vertices", "10"]
+    )
     assert code == 0, err
     ns = {"k": "http://www.opengis.net/kml/2.2"}
     root = ET.parse(out).getroot()
@@ -140,6 +151,8 @@ def test_bad_input_is_one_line_error(
     fragments: list[str],
 ) -> None:
     out = tmp_path / args[0].replace("OUT", "t")
-    code, stdout, err = run_cli(["trajectory", "export", str(traj_csv), str(out), *args[1:]])
+    code, stdout, err = run_cli(
+        ["trajectory", "export", str(traj_csv), "--out", str(out), *args[1:]]
+    )
     assert_one_line_error(code, stdout, err, *fragments)
     assert not out.exists()

@@ -272,9 +272,10 @@ def trajectory_export(
     ],
     out: Annotated[
         Path,
-        typer.Argument(
+        typer.Option(
+            "--out",
             help="Output: .csv/.parquet (t_s, X,Y,Z in --crs, roll/pitch/yaw, velocities) or "
-            ".geojson/.kml (a WGS 84 line for a quick look)."
+            ".geojson/.kml (a WGS 84 line for a quick look).",
         ),
     ],
     crs: Annotated[
