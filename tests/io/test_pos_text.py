@@ -87,12 +87,18 @@ def _dms(value: float) -> str:
 
 
 def _write_ie(
-    path: Path, c: dict[str, np.ndarray], *, dms: bool, week: bool, footer: str = ""
+    path: Path,
+    c: dict[str, np.ndarray],
+    *,
+    dms: bool,
+    week: bool,
+    footer: str = "",
+    date: bool = True,
 ) -> None:
-    names = ["Date", "GPSTime"] + (["Week"] if week else [])
+    names = (["Date"] if date else []) + ["GPSTime"] + (["Week"] if week else [])
     names += ["Latitude", "Longitude", "H-Ell", "Heading", "HdngSD", "Pitch", "Roll"]
     names += ["VNorth", "VEast", "VUp", "Q"]
-    units = ["(MDY)", "(sec)"] + (["(week)"] if week else [])
+    units = (["(MDY)"] if date else []) + ["(sec)"] + (["(week)"] if week else [])
     angle = "(+/-D M S)" if dms else "(deg)"
     units += [angle, angle, "(m)", "(deg)", "(deg)", "(deg)", "(deg)", "(m/s)", "(m/s)"]
     units += ["(m/s)", ""]
@@ -100,7 +106,8 @@ def _write_ie(
     for i in range(len(c["sow"])):
         lat = _dms(c["lat"][i]) if dms else f"{c['lat'][i]:.10f}"
         lon = _dms(c["lon"][i]) if dms else f"{c['lon'][i]:.10f}"
-        row = [f"04/12/2020 {c['sow'][i]:.3f}"] + ([str(WEEK)] if week else [])
+        row = (["04/12/2020"] if date else []) + [f"{c['sow'][i]:.3f}"]
+        row += [str(WEEK)] if week else []
         row += [lat, lon, f"{c['h'][i]:.4f}", f"{c['heading'][i]:.8f}", "0.0123"]
         row += [f"{c['pitch'][i]:.8f}", f"{c['roll'][i]:.8f}", f"{c['vn'][i]:.4f}"]
         row += [f"{c['ve'][i]:.4f}", f"{c['vu'][i]:.4f}", "1"]
@@ -132,13 +139,20 @@ def test_pospac_export_reads_as_the_sbet_angles(tmp_path: Path) -> None:
     assert trajectory_file_format(path) == "pospac"
 
 
-@pytest.mark.parametrize(("dms", "week"), [(True, True), (False, False)])
+@pytest.mark.parametrize(
+    ("dms", "week", "footer", "lat0"),
+    [(True, True, "\nEnd of file\n", 46.8), (True, False, "", -0.2), (False, False, "", 46.8)],
+)
 def test_inertial_explorer_export_uses_novatel_angles(
-    tmp_path: Path, dms: bool, week: bool
+    tmp_path: Path, dms: bool, week: bool, footer: str, lat0: float
 ) -> None:
+    # Without a footer or a date every line after the header is numbers (numpy reads
+    # them at once); those send the file through the line-by-line reader: both checked.
     c = _states()
+    c["lat"] = c["lat"] - 46.8 + lat0  # -0.2: a negative latitude with 0 degrees
     path = tmp_path / "ie.txt"
-    _write_ie(path, c, dms=dms, week=week, footer="\nEnd of file\n")
+    _write_ie(path, c, dms=dms, week=week, footer=footer, date=bool(footer))
+    assert fast_path_reads(path) == (not footer)
     assert sniff_pos_text(path).producer == "inertial-explorer"
     traj, scale = read_trajectory_file(path)
     assert scale == ("gps" if week else "week")
@@ -172,6 +186,15 @@ def test_novatel_angles_have_the_documented_signs(tmp_path: Path) -> None:
     R = quaternion_to_matrix(read_pos_text(path)[0].q_body_to_ned)[0]
     right = R @ [0.0, 1.0, 0.0]  # facing east, the right side points south and down
     np.testing.assert_allclose(right, [-np.cos(np.radians(10)), 0.0, np.sin(np.radians(10))])
+
+
+def fast_path_reads(path: Path) -> bool:
+    """Whether numpy's one-call parse reads the file (no text among the rows)."""
+    from kinsync.io.pos_text import _find_layout, _parse_rows_fast  # noqa: PLC0415
+
+    lines = path.read_text().splitlines()
+    layout, first = _find_layout(path, lines)
+    return _parse_rows_fast(lines, first, layout) is not None
 
 
 def _ie_text(rows: str, names: str = "GPSTime Latitude Longitude H-Ell Roll Pitch Heading") -> str:
