@@ -280,3 +280,31 @@ def test_an_input_without_points_gives_an_empty_output(
         assert len(laspy.read(out).points) == 0
     else:
         assert len(read_ply_vertices(out)["x"]) == 0
+
+
+def test_worker_processes_write_the_serial_las_and_ply_from_a_table(
+    tmp_path: Path, traj_path: Path
+) -> None:
+    cols = _columns(11, t_lo=-1.0)
+    src = tmp_path / "points.csv"
+    with TableChunkWriter(src) as w:
+        w.write(cols)
+    for suffix in (".laz", ".ply"):
+        serial, parallel = tmp_path / f"s{suffix}", tmp_path / f"p{suffix}"
+        for out, scheduler in ((serial, "local"), (parallel, "processes")):
+            georeference_file(
+                src,
+                traj_path,
+                MOUNT,
+                out,
+                crs=CRS,
+                outside="reject",
+                chunk_points=300,
+                scheduler=scheduler,
+                workers=2,
+            )
+        if suffix == ".laz":
+            a, b = laspy.read(serial), laspy.read(parallel)
+            np.testing.assert_array_equal(a.points.array, b.points.array)
+        else:
+            assert serial.read_bytes() == parallel.read_bytes()
