@@ -302,7 +302,8 @@ def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
         ("missing_column", ["z_m"]),
         ("nan", ["not finite"]),
         ("absurd", ["index 17", "beyond the 100000 m any laser scanner reaches"]),
-        ("las_to_table", ["not supported"]),
+        ("columns_key", ["--columns", "'t' is not a column kinsync reads", "t_s, x_m"]),
+        ("columns_missing", ["--columns maps t_s to column 'time'", "its columns are"]),
     ],
 )
 def test_bad_input_is_one_line_error(
@@ -324,11 +325,8 @@ def test_bad_input_is_one_line_error(
         cols["y_m"][17] = np.nan if change == "nan" else 1e307
         with TableChunkWriter(setup["points"]) as w:
             w.write(cols)
-    else:
-        src = setup["dir"] / "scan.las"
-        _write_las(src, cols, adjusted=True)
-        setup["points"] = src
-    code, stdout, err = run_cli(_args(setup, out))
+    extra = {"columns_key": ["--columns", "t=time"], "columns_missing": ["--columns", "t_s=time"]}
+    code, stdout, err = run_cli(_args(setup, out, *extra.get(change, [])))
     assert_one_line_error(code, stdout, err, *fragments)
     assert not out.exists()
 

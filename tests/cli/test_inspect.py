@@ -107,7 +107,7 @@ def test_csv_info_has_no_smrmsg(tmp_path: Path, run_cli: RunCli) -> None:
         ("smrmsg_as_trajectory", ["looks like an smrmsg accuracy file"]),
         ("truncated_smrmsg", ["smrmsg_run7.out", "1 whole records and 3 bytes left over"]),
         ("smrmsg_with_csv", ["--smrmsg", "trajectory CSV"]),
-        ("unknown_suffix", ["unknown trajectory type"]),
+        ("unknown_suffix", ["traj.txt", "not a recognised trajectory export", "SBET"]),
     ],
 )
 def test_bad_input_is_one_line_error(
@@ -129,6 +129,7 @@ def test_bad_input_is_one_line_error(
         write_trajectory_csv(_trajectory(), csv)
         args = ["trajectory", "info", str(csv), "--smrmsg", str(acc)]
     else:
+        sbet.with_name("traj.txt").write_text("a text file\nthat is no trajectory\n")
         args = ["trajectory", "info", str(sbet.with_name("traj.txt"))]
     code, out, err = run_cli(args)
     assert_one_line_error(code, out, err, *fragments)

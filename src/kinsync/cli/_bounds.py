@@ -103,6 +103,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--bad-lines": Bounds(0, 1_000_000, "lines"),
     "--chunk-points": Bounds(1, 20_000_000, "points", "a chunk is held in memory"),
     "--workers": Bounds(1, 1_024, "workers"),
+    "--max-vertices": Bounds(2, 1_000_000, "vertices", "a quick-look line a viewer can draw"),
     "--min-points": Bounds(4, 1_000_000_000, "points"),
     # tests and thresholds
     "--level": Bounds(0.5, 0.9999),

@@ -110,7 +110,8 @@ def mount(
         list[Path] | None,
         typer.Option(
             "--trajectory",
-            help="Trajectory (.csv or SBET): one for all files, or one per --points file "
+            help="Trajectory (.csv, SBET, or POSPac / IE text export): one for all files, "
+            "or one per --points file "
             "(none with CIDCO pass files).",
         ),
     ] = None,

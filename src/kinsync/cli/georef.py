@@ -12,6 +12,7 @@ from rich.table import Table
 
 from kinsync.cli._output import console, err_console, fmt, print_json
 from kinsync.errors import InputError
+from kinsync.io.column_map import parse_column_map
 from kinsync.io.mount_file import read_mount
 
 if TYPE_CHECKING:
@@ -19,6 +20,8 @@ if TYPE_CHECKING:
 
 _OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
 _POINT_COLUMNS: dict[str, PointColumns] = {"auto": "auto", "xyz": "xyz", "profile": "profile"}
+_COLUMN_KEYS = ("t_s", "x_m", "y_m", "z_m", "range_m", "angle_rad")
+"""The point-table columns kinsync reads, which ``--columns`` may map."""
 
 
 def georef(
@@ -28,13 +31,15 @@ def georef(
             "--points",
             help="Scanner-frame points: .las/.laz (time in gps_time) or .csv/.parquet with "
             "t_s,x_m,y_m,z_m, or t_s,range_m,angle_rad for a 2D profile scanner (+ any other "
-            "columns, kept).",
+            "columns, kept; other names: --columns).",
         ),
     ],
     trajectory: Annotated[
         Path,
         typer.Option(
-            "--trajectory", help="Trajectory: .csv (t_s,lat_deg,lon_deg,...) or SBET .out/.sbet."
+            "--trajectory",
+            help="Trajectory: .csv (t_s,lat_deg,lon_deg,...), SBET .out/.sbet, or a POSPac / "
+            "Inertial Explorer ASCII export (.txt).",
         ),
     ],
     mount: Annotated[
@@ -44,8 +49,10 @@ def georef(
         Path,
         typer.Option(
             "--out",
-            help="Output; format from the suffix (.las/.laz for LAS input, .csv/.parquet for "
-            "tables). Written under a temporary name and renamed when complete.",
+            help="Output; format from the suffix, from any input: .las/.laz, .csv/.parquet "
+            "(every input column or LAS dimension, X,Y,Z in --crs) or .ply (binary, x,y,z "
+            "double + numeric attributes). Written under a temporary name and renamed when "
+            "complete.",
         ),
     ],
     crs: Annotated[
@@ -138,6 +145,15 @@ def georef(
             "(range_m,angle_rad) or 'auto' (the set the file has).",
         ),
     ] = "auto",
+    columns: Annotated[
+        str | None,
+        typer.Option(
+            "--columns",
+            help="Your table's names of the columns kinsync reads, as KINSYNC=YOURS pairs: "
+            "e.g. t_s=time,x_m=X,y_m=Y,z_m=Z (keys: " + ", ".join(_COLUMN_KEYS) + "). "
+            "Carried columns keep your names.",
+        ),
+    ] = None,
     profiler_azimuth_deg: Annotated[
         float | None,
         typer.Option(
@@ -161,6 +177,7 @@ def georef(
     if point_columns not in _POINT_COLUMNS:
         msg = f"--point-columns must be 'auto', 'xyz' or 'profile', got {point_columns!r}"
         raise InputError(msg)
+    column_map = parse_column_map(columns, _COLUMN_KEYS)
     the_mount = read_mount(mount)
     if latency_ms is not None:
         the_mount = the_mount.with_latency(latency_ms * 1e-3)
@@ -200,6 +217,7 @@ def georef(
             workers=workers,
             point_columns=_POINT_COLUMNS[point_columns],
             profiler_azimuth_deg=profiler_azimuth_deg,
+            columns=column_map,
         )
     notes = []  # trajectory velocities that disagree with the positions: said, never silent
     for w in caught:

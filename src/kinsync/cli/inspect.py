@@ -1,4 +1,4 @@
-"""``kinsync mount check`` and ``kinsync trajectory info``: validate and summarise inputs."""
+"""``kinsync mount check``, ``kinsync trajectory info|export``: check, summarise, convert."""
 
 from __future__ import annotations
 
@@ -173,7 +173,8 @@ def trajectory_info(
     path: Annotated[
         Path,
         typer.Argument(
-            help="Trajectory: CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...) or SBET (.out, .sbet)."
+            help="Trajectory: CSV (t_s,lat_deg,lon_deg,h_m,roll_deg,...), SBET (.out, .sbet), "
+            "or a POSPac / Inertial Explorer ASCII export (.txt)."
         ),
     ],
     gps_week: Annotated[
@@ -203,12 +204,17 @@ def trajectory_info(
     positions linearly.
     """
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
-    from kinsync.io.trajectory import read_trajectory_file  # noqa: PLC0415
+    from kinsync.io.trajectory import (  # noqa: PLC0415
+        read_trajectory_file,
+        trajectory_file_format,
+    )
 
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
-    is_sbet = path.suffix.lower() != ".csv"
+    file_format = trajectory_file_format(path)
+    is_sbet = file_format == "sbet"
     if smrmsg is not None and not is_sbet:
-        msg = f"--smrmsg: {path} is a trajectory CSV; an smrmsg file goes with an SBET"
+        what = "a trajectory CSV" if file_format == "csv" else f"a {file_format} export"
+        msg = f"--smrmsg: {path} is {what}; an smrmsg file goes with an SBET"
         raise InputError(msg)
     accuracy = smrmsg if smrmsg is not None else (find_smrmsg_companion(path) if is_sbet else None)
     dt = np.diff(traj.t_s)
@@ -216,7 +222,7 @@ def trajectory_info(
     check = traj.velocity_check
     warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
     doc: dict[str, Any] = {
-        "format": "sbet" if is_sbet else "csv",
+        "format": file_format,
         "records": len(traj),
         "t_start_s": traj.t_start_s,
         "t_end_s": traj.t_end_s,
@@ -253,3 +259,84 @@ def trajectory_info(
     if is_sbet:
         rows |= {"smrmsg": "none found"} if doc["smrmsg"] is None else _smrmsg_rows(doc["smrmsg"])
     _print_quantities(f"Trajectory {path}", rows)
+
+
+@trajectory_app.command("export")
+def trajectory_export(
+    path: Annotated[
+        Path,
+        typer.Argument(
+            help="Trajectory: CSV, SBET (.out, .sbet), or a POSPac / Inertial Explorer "
+            "ASCII export (.txt)."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Output: .csv/.parquet (t_s, X,Y,Z in --crs, roll/pitch/yaw, velocities) or "
+            ".geojson/.kml (a WGS 84 line for a quick look).",
+        ),
+    ],
+    crs: Annotated[
+        str | None,
+        typer.Option(
+            "--crs",
+            help="CRS of a .csv/.parquet output (axis order easting/longitude first), e.g. "
+            "EPSG:32619 or EPSG:32618+5703; default EPSG:4979 (WGS 84 lon, lat, h).",
+        ),
+    ] = None,
+    geoid: Annotated[
+        Path | None,
+        typer.Option("--geoid", help="Geoid grid for a compound --crs (as in georef)."),
+    ] = None,
+    epoch: Annotated[
+        float | None,
+        typer.Option("--epoch", help="Coordinate epoch (decimal year) of a time-dependent --crs."),
+    ] = None,
+    trajectory_crs: Annotated[
+        str,
+        typer.Option("--trajectory-crs", help="Geocentric CRS of the trajectory's positions."),
+    ] = "EPSG:4978",
+    gps_week: Annotated[
+        int | None,
+        typer.Option(
+            "--gps-week", help="GPS week of seconds-of-week times (SBET, text exports).", min=0
+        ),
+    ] = None,
+    max_vertices: Annotated[
+        int,
+        typer.Option("--max-vertices", help="Most vertices of a .geojson/.kml line.", min=2),
+    ] = 2000,
+    as_json: JsonOpt = False,
+) -> None:
+    """Export a trajectory: a table in any CRS, or a KML/GeoJSON line for a quick look."""
+    from kinsync.pipelines.trajectory_export import export_trajectory  # noqa: PLC0415
+
+    result = export_trajectory(
+        path,
+        out,
+        crs=crs,
+        geoid=None if geoid is None else str(geoid),
+        epoch_year=epoch,
+        trajectory_crs=trajectory_crs,
+        gps_week=gps_week,
+        max_vertices=max_vertices,
+    )
+    info = result.crs
+    for warning in () if info is None else info.warnings:
+        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+    if as_json:
+        print_json(result.as_document())
+        return
+    rows = {
+        "records": str(result.records),
+        "written (rows or vertices)": str(result.written),
+        "time scale": result.time_scale,
+        "time span (s)": f"{result.t_start_s:.3f} to {result.t_end_s:.3f}",
+    }
+    if info is not None:
+        rows |= {"CRS": info.target, "CRS operation": info.operation, "heights": info.heights}
+        if info.epoch_year is not None:
+            rows["coordinate epoch (year)"] = f"{info.epoch_year:.4f}"
+    _print_quantities(f"Trajectory {path} -> {out}", rows)

@@ -33,7 +33,9 @@ def object_space(
     trajectory: Annotated[
         Path,
         typer.Option(
-            "--trajectory", help="Trajectory: .csv (t_s,lat_deg,lon_deg,...) or SBET .out/.sbet."
+            "--trajectory",
+            help="Trajectory: .csv (t_s,lat_deg,lon_deg,...), SBET .out/.sbet, or a POSPac / "
+            "Inertial Explorer ASCII export (.txt).",
         ),
     ],
     mount: Annotated[

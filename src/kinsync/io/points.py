@@ -24,23 +24,17 @@ row groups are merged up to ``chunk_points`` rows, and a row group larger than t
 read in pieces of ``chunk_points`` rows. Slices never hold more than ``chunk_points``
 rows.
 
-Writing (`TableChunkWriter`) goes through a temporary file renamed on success.
-Float columns are written to CSV in the shortest form that reads back to the same value
-(pyarrow's float formatting, with ``.0`` added to integral values so that ``1.0`` reads
-back as a float: every value comes back exactly). `csv_text_columns` does that
-formatting ahead, so that worker processes can take it off the writing process.
+Writing (`TableChunkWriter`, `csv_text_columns`) lives in `kinsync.io.table_writer`
+and is re-exported here.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import sys
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import numpy as np
@@ -50,8 +44,9 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path
+from kinsync.io.column_map import ColumnMap
 from kinsync.io.sanity import check_text_file, not_utf8_cell
+from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
 
 __all__ = [
     "TableChunkWriter",
@@ -60,20 +55,15 @@ __all__ = [
     "count_table_rows",
     "csv_text_columns",
     "iter_table_chunks",
+    "numeric_columns",
     "plan_table_slices",
     "read_table_slice",
     "table_columns",
 ]
 
-_SUFFIXES = (".csv", ".parquet")
-
 
 def _suffix(path: Path) -> str:
-    suffix = path.suffix.lower()
-    if suffix not in _SUFFIXES:
-        msg = f"{path}: unknown table type {path.suffix!r}; use .csv or .parquet"
-        raise InputError(msg)
-    return suffix
+    return table_suffix(path)
 
 
 def _check_exists(path: Path) -> None:
@@ -116,18 +106,48 @@ def table_columns(path: Path) -> list[str]:
         raise InputError(msg) from err
 
 
-def _check_required(path: Path, names: Sequence[str], required: Sequence[str]) -> None:
+def _check_required(
+    path: Path, names: Sequence[str], required: Sequence[str], columns: ColumnMap | None = None
+) -> None:
     missing = [c for c in required if c not in names]
     if missing:
-        msg = (
-            f"{path}: missing column(s) {missing}; the file has columns {list(names)}; "
+        what = (
             f"rename the columns or give a table with {list(required)}"
+            if columns is None
+            else columns.hint([columns.kinsync_name(c) for c in missing])
         )
+        msg = f"{path}: missing column(s) {missing}; the file has columns {list(names)}; {what}"
         raise InputError(msg)
     dupes = sorted({c for c in names if list(names).count(c) > 1})
     if dupes:
         msg = f"{path}: duplicated column name(s) {dupes}; give each column a unique name"
         raise InputError(msg)
+
+
+def _mapped_required(
+    path: Path, names: Sequence[str], required: Sequence[str], columns: ColumnMap | None
+) -> tuple[list[str], tuple[tuple[str, str], ...]]:
+    """The file's names of the required columns, and the renames to apply after reading.
+
+    Checks the map against the file and the required columns' presence (`_check_required`).
+    """
+    if columns is None:
+        _check_required(path, names, required)
+        return list(required), ()
+    columns.check_file(path, names)
+    file_required = [columns.file_name(c) for c in required]
+    _check_required(path, names, file_required, columns)
+    return file_required, columns.renames()
+
+
+def _renamed(
+    chunk: dict[str, np.ndarray[Any, Any]], renames: Sequence[tuple[str, str]]
+) -> dict[str, np.ndarray[Any, Any]]:
+    """A chunk with the file's mapped columns under their kinsync names (order kept)."""
+    if not renames:
+        return chunk
+    to = dict(renames)
+    return {to.get(name, name): values for name, values in chunk.items()}
 
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
@@ -267,7 +287,12 @@ def _csv_batches(
 
 
 def iter_table_chunks(
-    path: Path, chunk_points: int, required: Sequence[str], *, extra_as_text: bool = False
+    path: Path,
+    chunk_points: int,
+    required: Sequence[str],
+    *,
+    extra_as_text: bool = False,
+    columns: ColumnMap | None = None,
 ) -> Iterator[dict[str, np.ndarray[Any, Any]]]:
     """Stream a CSV or Parquet point table in chunks of at most ``chunk_points`` rows.
 
@@ -282,12 +307,15 @@ def iter_table_chunks(
     extra_as_text : bool
         Read the other columns of a CSV as text (to write them back exactly as they
         were: ``007`` stays ``007``) instead of inferring their types.
+    columns : ColumnMap, optional
+        Which of the file's columns hold the required ones (`kinsync.io.column_map`);
+        they are handed on under the required (kinsync) names.
 
     Yields
     ------
     dict of str to ndarray, each of shape (M,)
         Every column of the file, in file order, with its type (see the module
-        docstring); M <= ``chunk_points``.
+        docstring), mapped columns renamed; M <= ``chunk_points``.
 
     Raises
     ------
@@ -302,7 +330,7 @@ def iter_table_chunks(
         raise InputError(msg)
     suffix = _suffix(path)
     names = table_columns(path)
-    _check_required(path, names, required)
+    required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
         block = int(min(max(chunk_points * 16 * max(len(names), 1), 1 << 20), 1 << 30))
         text = [n for n in names if n not in required] if extra_as_text else []
@@ -316,7 +344,7 @@ def iter_table_chunks(
         batches = pf.iter_batches(batch_size=chunk_points)
     first_row = 0
     for table in _rebatch(batches, chunk_points):
-        yield _chunk_to_numpy(path, table, required, first_row)
+        yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
         first_row += table.num_rows
 
 
@@ -399,6 +427,13 @@ class TableLayout:
         file's first MiB (required columns float64), fixed for every slice.
     total_rows : int
         Data rows in the file.
+    renames : tuple of (str, str)
+        ``(the file's column, kinsync name)`` applied to the slices read
+        (`kinsync.io.column_map.ColumnMap.renames`); empty when nothing is mapped.
+    inferred : pyarrow.Schema or None
+        The types of the columns as numbers would be read: for CSV, pyarrow's
+        inference from the first MiB (the slices give the columns that are not required
+        as text, `numeric_columns` converts them); for Parquet the stored types.
     """
 
     path: Path
@@ -406,6 +441,16 @@ class TableLayout:
     required: tuple[str, ...]
     schema: Any
     total_rows: int
+    renames: tuple[tuple[str, str], ...] = ()
+    inferred: Any = None
+
+    def kinsync_name(self, column: str) -> str:
+        """The name under which the file's column ``column`` is handed on."""
+        return next((ours for theirs, ours in self.renames if theirs == column), column)
+
+    def file_name(self, name: str) -> str:
+        """The file's own name of the column handed on as ``name``."""
+        return next((theirs for theirs, ours in self.renames if ours == name), name)
 
 
 def _csv_convert_options(column_types: Mapping[str, Any]) -> Any:
@@ -552,7 +597,7 @@ def _open_parquet(path: Path) -> Any:
 
 
 def plan_table_slices(
-    path: Path, chunk_points: int, required: Sequence[str]
+    path: Path, chunk_points: int, required: Sequence[str], columns: ColumnMap | None = None
 ) -> tuple[TableLayout, list[TableSlice]]:
     """Cut a CSV or Parquet table into independently readable slices.
 
@@ -568,6 +613,9 @@ def plan_table_slices(
         of a CSV are read as text, so that they are written back exactly as they were
         (``007`` stays ``007``, a 2**70 integer stays whole); those of a Parquet file
         keep their types.
+    columns : ColumnMap, optional
+        Which of the file's columns hold the required ones; `read_table_slice` hands
+        them on under the required (kinsync) names.
 
     Returns
     -------
@@ -588,14 +636,17 @@ def plan_table_slices(
         raise InputError(msg)
     suffix = _suffix(path)
     names = table_columns(path)
-    _check_required(path, names, required)
+    required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
-        inferred = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
+        guessed = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
         schema = pa.schema(  # the header's names (stripped), required columns float64
             [
                 pa.field(name, pa.float64() if name in required else pa.string())
-                for name, _ in zip(names, inferred, strict=True)
+                for name, _ in zip(names, guessed, strict=True)
             ]
+        )
+        inferred = pa.schema(
+            [pa.field(name, f.type) for name, f in zip(names, guessed, strict=True)]
         )
         try:
             slices, total = _plan_csv(path, chunk_points)
@@ -604,7 +655,7 @@ def plan_table_slices(
             raise InputError(msg) from err
     else:
         pf = _open_parquet(path)
-        schema = pf.schema_arrow
+        schema = inferred = pf.schema_arrow
         slices, total = _plan_parquet(pf, chunk_points)
     layout = TableLayout(
         path=path,
@@ -612,6 +663,8 @@ def plan_table_slices(
         required=tuple(required),
         schema=schema,
         total_rows=total,
+        renames=renames,
+        inferred=inferred,
     )
     return layout, slices
 
@@ -685,7 +738,8 @@ def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarra
     -------
     dict of str to ndarray, each of shape (``sl.n_rows``,)
         Every column in file order, with the types of ``layout.schema`` (required
-        columns float64), as `iter_table_chunks` gives them.
+        columns float64), mapped columns under their kinsync names (``layout.renames``),
+        as `iter_table_chunks` gives them.
 
     Raises
     ------
@@ -710,181 +764,66 @@ def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarra
             "value holds a line break (not supported: remove line breaks from values)"
         )
         raise InputError(msg)
-    return _chunk_to_numpy(path, table, layout.required, sl.first_row)
+    return _renamed(_chunk_to_numpy(path, table, layout.required, sl.first_row), layout.renames)
 
 
-def _arrow_column(name: str, values: Any) -> Any:
-    if isinstance(values, pa.Array | pa.ChunkedArray):
-        return values
-    arr = np.asarray(values)
-    if arr.ndim != 1:
-        msg = f"column {name!r}: expected a 1-D array, got shape {arr.shape}"
-        raise InputError(msg)
-    try:
-        return pa.array(arr)
-    except (pa.ArrowException, TypeError, ValueError) as err:
-        msg = f"column {name!r}: cannot store dtype {arr.dtype} in a table ({err})"
-        raise InputError(msg) from err
-
-
-def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, Any]:
-    """Float columns turned into the text a ``.csv`` `TableChunkWriter` writes for them.
-
-    Lets another process do that formatting, the costly part of writing a CSV: the
-    writer takes the text columns (pyarrow string arrays) as they are, and the file is
-    byte for byte the one it writes from the floats. Other columns are unchanged.
-
-    Parameters
-    ----------
-    columns : mapping of str to ndarray, each of shape (M,)
-        A chunk as `TableChunkWriter.write` takes it.
-
-    Returns
-    -------
-    dict of str to ndarray or pyarrow.Array
-        The same columns, in order, floats as text.
-    """
-    return {
-        name: _float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
-        for name, values in columns.items()
-    }
-
-
-def _column_length(values: Any) -> int:
-    if isinstance(values, pa.Array | pa.ChunkedArray):
-        return len(values)
-    return int(np.shape(values)[0]) if np.ndim(values) else -1
-
-
-def _float_text(col: Any) -> Any:
-    """Float column as text: shortest round-trip digits, always with ``.``, ``e`` or a name.
-
-    pyarrow's float -> string cast gives the shortest text that reads back to the same
-    value (``0.1``, ``1e-7``, ``1.23456789012e+11``), but integral values without a
-    point (``1``); those get ``.0`` so that the column reads back as floats. Nulls are
-    written ``nan``.
-    """
-    text = pc.cast(pc.fill_null(col, float("nan")), pa.string())
-    integral = pc.utf8_is_digit(pc.utf8_ltrim(text, "-"))  # no ".", "e", "nan", "inf"
-    return pc.if_else(integral, pc.binary_join_element_wise(text, ".0", ""), text)
-
-
-class TableChunkWriter:
-    """Write a CSV or Parquet table chunk by chunk, atomically.
-
-    Use as a context manager. The file is written under a temporary name beside
-    ``path`` and renamed onto ``path`` only when the ``with`` block ends without an
-    exception; otherwise nothing is left behind.
-
-    Parameters
-    ----------
-    path : Path
-        Output file; ``.csv`` or ``.parquet`` by suffix.
-
-    Notes
-    -----
-    The first chunk fixes the schema (column names, order and types); later chunks
-    must have the same columns and are cast to those types. A table with no chunk
-    written is an empty file (CSV) or an empty Parquet table.
-    """
-
-    def __init__(self, path: Path) -> None:
-        self.path = Path(path)
-        self._suffix = _suffix(self.path)
-        self._stack: ExitStack | None = None
-        self._tmp: Path | None = None
-        self._writer: Any = None
-        self._schema: Any = None
-        self.rows_written = 0
-
-    def __enter__(self) -> TableChunkWriter:
-        stack = ExitStack()
-        self._tmp = stack.enter_context(atomic_path(self.path))
-        self._stack = stack
-        return self
-
-    def write(self, columns: Mapping[str, Any]) -> None:
-        """Append one chunk: a mapping of column name to 1-D array, all one length.
-
-        Arrays are numpy arrays, or pyarrow arrays taken as they are (e.g. the text
-        columns of `csv_text_columns`).
-        """
-        if self._stack is None or self._tmp is None:
-            msg = f"{self.path}: TableChunkWriter.write called outside its 'with' block"
-            raise InputError(msg)
-        lengths = {name: _column_length(v) for name, v in columns.items()}
-        if len(set(lengths.values())) > 1:
-            msg = f"{self.path}: columns of one chunk differ in length: {lengths}"
-            raise InputError(msg)
-        if self._schema is None:
-            table = pa.table({n: _arrow_column(n, v) for n, v in columns.items()})
-            self._schema = table.schema
-            self._open(table.schema)
-        else:
-            names = list(self._schema.names)
-            if list(columns) != names:
-                msg = (
-                    f"{self.path}: chunk columns {list(columns)} differ from the first "
-                    f"chunk's {names}; every chunk needs the same columns in the same order"
-                )
-                raise InputError(msg)
-            try:
-                table = pa.table({n: _arrow_column(n, v) for n, v in columns.items()}).cast(
-                    self._schema
-                )
-            except (pa.ArrowException, TypeError, ValueError) as err:
-                msg = f"{self.path}: chunk does not fit the first chunk's column types ({err})"
-                raise InputError(msg) from err
-        self._write_table(table)
-        self.rows_written += int(table.num_rows)
-
-    def _open(self, schema: Any) -> None:
-        assert self._tmp is not None
-        if self._suffix == ".parquet":
-            self._writer = pq.ParquetWriter(self._tmp, schema)
-        else:
-            self._writer = pa_csv.CSVWriter(
-                self._tmp,
-                self._csv_schema(schema),
-                write_options=pa_csv.WriteOptions(quoting_style="needed"),
-            )
-
-    @staticmethod
-    def _csv_schema(schema: Any) -> Any:
-        fields = [
-            pa.field(f.name, pa.string()) if pa.types.is_floating(f.type) else f for f in schema
-        ]
-        return pa.schema(fields)
-
-    def _write_table(self, table: Any) -> None:
-        if self._suffix == ".parquet":
-            self._writer.write_table(table)
-            return
-        cols = {}
-        for name in table.column_names:
-            col = table.column(name)
-            if pa.types.is_floating(col.type):
-                cols[name] = _float_text(col)
-            else:
-                cols[name] = col
-        self._writer.write_table(pa.table(cols, schema=self._csv_schema(table.schema)))
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        stack, self._stack = self._stack, None
-        if stack is None:
-            return
+def _cast_error(
+    layout: TableLayout, name: str, values: np.ndarray[Any, Any], target: Any, first_row: int
+) -> InputError:
+    """The first value of a text column that does not convert to ``target``."""
+    column = layout.file_name(name)
+    for i, value in enumerate(values.tolist()):
         try:
-            if self._writer is not None:
-                self._writer.close()
-            elif exc_type is None and self._suffix == ".parquet":
-                assert self._tmp is not None
-                pq.write_table(pa.table({}), self._tmp)
-        except BaseException:
-            stack.__exit__(*sys.exc_info())
-            raise
-        stack.__exit__(exc_type, exc, tb)
+            pa.scalar(value, pa.string()).cast(target)
+        except (pa.ArrowException, ValueError):
+            what = "empty cell" if value == "" else f"{value[:80]!r} is not a {target} value"
+            msg = (
+                f"{layout.path}: data row {first_row + i}, column {column!r}: {what} (the "
+                f"column reads as {target} from the first rows); fix the value"
+            )
+            return InputError(msg)
+    return InputError(f"{layout.path}: column {column!r}: cannot convert to {target}")
+
+
+def numeric_columns(
+    layout: TableLayout, columns: Mapping[str, np.ndarray[Any, Any]], first_row: int
+) -> dict[str, np.ndarray[Any, Any]]:
+    """The numeric (and boolean) columns of a slice, as numbers.
+
+    The columns a CSV slice gives as text are converted to the type pyarrow infers for
+    them (``layout.inferred``); an empty cell of a float column becomes NaN. Columns
+    inferred as text are left out.
+
+    Parameters
+    ----------
+    layout : TableLayout
+    columns : mapping of str to ndarray, shape (M,)
+        A slice as `read_table_slice` gives it.
+    first_row : int
+        Data row of the slice's first row (for messages).
+
+    Raises
+    ------
+    InputError
+        A cell that does not convert (naming its data row and column).
+    """
+    out: dict[str, np.ndarray[Any, Any]] = {}
+    for name, values in columns.items():
+        if values.dtype.kind in "biuf":
+            out[name] = values
+            continue
+        target = layout.inferred.field(layout.file_name(name)).type if layout.inferred else None
+        if target is None or not (
+            pa.types.is_integer(target)
+            or pa.types.is_floating(target)
+            or pa.types.is_boolean(target)
+        ):
+            continue
+        text = pa.array(values, pa.string())
+        if pa.types.is_floating(target):
+            text = pc.if_else(pc.equal(text, ""), "nan", text)
+        try:
+            out[name] = pc.cast(text, target).to_numpy(zero_copy_only=False)
+        except (pa.ArrowException, ValueError) as err:
+            raise _cast_error(layout, name, np.asarray(values), target, first_row) from err
+    return out

@@ -1,4 +1,9 @@
-"""Trajectory files of any supported type (CSV, SBET), with their time scale."""
+"""Trajectory files of any supported type, with their time scale.
+
+CSV (`kinsync.io.trajectory_csv`), SBET (`kinsync.io.sbet`), and the ASCII exports of
+POSPac and Inertial Explorer (`kinsync.io.pos_text`), told apart by suffix: ``.csv``,
+``.out``/``.sbet``, anything else is read as a text export (its header decides).
+"""
 
 from __future__ import annotations
 
@@ -6,11 +11,12 @@ from pathlib import Path
 from typing import Literal
 
 from kinsync.errors import InputError
+from kinsync.io.pos_text import read_pos_text, sniff_pos_text
 from kinsync.io.sbet import read_sbet
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.trajectory import Trajectory
 
-__all__ = ["TimeScale", "read_trajectory_file"]
+__all__ = ["TimeScale", "read_trajectory_file", "trajectory_file_format"]
 
 TimeScale = Literal["gps", "week"]
 """Time scale of a trajectory or point file: GPS time, or GPS seconds of week."""
@@ -19,20 +25,24 @@ TimeScale = Literal["gps", "week"]
 def read_trajectory_file(
     path: Path, *, gps_week: int | None = None
 ) -> tuple[Trajectory, TimeScale]:
-    """Read a trajectory (CSV, or SBET ``.out``/``.sbet``) and say its time scale.
+    """Read a trajectory (CSV, SBET, POSPac/IE text export) and say its time scale.
 
     Parameters
     ----------
     path : Path
-        ``.csv`` (`kinsync.io.trajectory_csv`), or an SBET file (``.out``, ``.sbet``).
+        ``.csv`` (`kinsync.io.trajectory_csv`), an SBET file (``.out``, ``.sbet``), or
+        a POSPac / Inertial Explorer ASCII export (any other suffix, e.g. ``.txt``;
+        `kinsync.io.pos_text`).
     gps_week : int, optional
-        GPS week of an SBET's first record: its seconds of week become GPS time.
+        GPS week of an SBET's (or a text export's) first record: its seconds of week
+        become GPS time.
 
     Returns
     -------
     trajectory : Trajectory
     time_scale : {"gps", "week"}
-        "week" for an SBET read without ``gps_week`` (GPS seconds of week), else "gps".
+        "week" for an SBET or a text export without a week read without ``gps_week``
+        (GPS seconds of week), else "gps".
 
     Raises
     ------
@@ -45,5 +55,32 @@ def read_trajectory_file(
         return read_trajectory_csv(path), "gps"
     if suffix in (".out", ".sbet"):
         return read_sbet(path, gps_week=gps_week), ("week" if gps_week is None else "gps")
-    msg = f"{path}: unknown trajectory type {path.suffix!r}; use .csv or an SBET (.out, .sbet)"
-    raise InputError(msg)
+    try:
+        traj, gps_time = read_pos_text(path, gps_week=gps_week)
+    except InputError as err:
+        if "not a recognised trajectory export" not in str(err) and "not a text file" not in str(
+            err
+        ):
+            raise
+        msg = (
+            f"{err}. Trajectory files: .csv (t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,"
+            "yaw_deg), an SBET (.out, .sbet), or a POSPac / Inertial Explorer text export"
+        )
+        raise InputError(msg) from err
+    return traj, "gps" if gps_time else "week"
+
+
+def trajectory_file_format(path: Path) -> Literal["csv", "sbet", "pospac", "inertial-explorer"]:
+    """The kind of trajectory file `read_trajectory_file` reads ``path`` as.
+
+    Raises
+    ------
+    InputError
+        A text file whose layout is not recognised (see `kinsync.io.pos_text`).
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        return "csv"
+    if suffix in (".out", ".sbet"):
+        return "sbet"
+    return sniff_pos_text(Path(path)).producer

@@ -21,10 +21,10 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
-import laspy
 import numpy as np
+import pyarrow as pa
 import pyproj
 
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_decimal_year
@@ -40,31 +40,43 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.io.column_map import ColumnMap
 from kinsync.io.las import (
     las_end_times,
     las_header,
     las_info,
     las_time_offset_s,
 )
-from kinsync.io.las_writer import LasChunkWriter, las_output_notes
+from kinsync.io.las_table import las_column_types, plan_table_las
+from kinsync.io.las_writer import las_output_notes
 from kinsync.io.points import (
-    TableChunkWriter,
     plan_table_slices,
+    read_table_slice,
     table_columns,
 )
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.pipelines.georef_chunks import (
     OUT_COLUMNS,
+    PLY_XYZ,
     XYZ_COLUMNS,
     ChunkContext,
     ChunkOutput,
     ChunkSource,
     ChunkTask,
     LasOutputFrame,
+    OutputKind,
     OutsidePolicy,
     PointColumns,
     empty_table_output,
+)
+from kinsync.pipelines.georef_outputs import (
+    LasRejectedSink,
+    LasSink,
+    PlySink,
+    Sink,
+    TableRejectedSink,
+    TableSink,
 )
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
@@ -135,10 +147,23 @@ class GeorefSummary:
         }
 
 
-def rejected_path_for(out_path: Path) -> Path:
-    """``OUT.rejected.<ext>``: where points outside the trajectory span go."""
+def rejected_path_for(out_path: Path, points_path: Path | None = None) -> Path:
+    """``OUT.rejected.<ext>``: where points outside the trajectory span go.
+
+    They are written unchanged, in the input's own format: ``<ext>`` is the output's
+    suffix when input and output are of one kind (LAS/LAZ, or CSV/Parquet tables),
+    else the input's (a LAZ georeferenced to CSV rejects to ``OUT.rejected.laz``).
+    """
     out_path = Path(out_path)
-    return out_path.with_name(f"{out_path.stem}.rejected{out_path.suffix}")
+    suffix = out_path.suffix
+    if points_path is not None and _kind(Path(points_path)) != _kind(out_path):
+        suffix = Path(points_path).suffix
+    return out_path.with_name(f"{out_path.stem}.rejected{suffix}")
+
+
+def _kind(path: Path) -> str:
+    suffix = path.suffix.lower()
+    return "las" if suffix in _LAS_SUFFIXES else "ply" if suffix == ".ply" else "table"
 
 
 class _OutsideTally:
@@ -162,7 +187,7 @@ class _OutsideTally:
             f"{traj.t_end_s!r}] s (latency {traj.latency_s!r} s applied); kinsync does not "
             "extrapolate: give a trajectory that covers them, check the time scales "
             f"(--gps-week), or pass --outside reject to write them to "
-            f"{rejected_path_for(out_path)}"
+            f"{rejected_path_for(out_path, points_path)}"
         )
         return InputError(msg)
 
@@ -187,6 +212,7 @@ def georeference_file(
     workers: int | None = None,
     point_columns: PointColumns = "auto",
     profiler_azimuth_deg: float | None = None,
+    columns: ColumnMap | None = None,
 ) -> GeorefSummary:
     """Georeference a point file chunk by chunk into ``out_path`` (streaming, atomic).
 
@@ -203,10 +229,27 @@ def georeference_file(
         Lever arm, boresight and latency (the latency is applied, SPEC section 1), and
         for profile files the ``[profiler] azimuth_deg``.
     out_path : Path
-        Output; format from the suffix. LAS/LAZ input goes to ``.las``/``.laz`` with
-        every attribute and VLR kept; table input to ``.csv``/``.parquet`` with every
-        input column kept and the coordinates in ``crs`` as ``X,Y,Z`` (replacing
-        ``x_m,y_m,z_m`` in place, or appended after the columns of a profile file).
+        Output; format from the suffix, any input to any output:
+
+        * ``.las``/``.laz`` from LAS/LAZ: every attribute and VLR kept, X, Y, Z replaced;
+        * ``.csv``/``.parquet`` from a table: every input column kept, the coordinates
+          in ``crs`` as ``X,Y,Z`` (replacing ``x_m,y_m,z_m`` in place, or appended after
+          the columns of a profile file);
+        * ``.csv``/``.parquet`` from LAS/LAZ: one column per LAS dimension
+          (``gps_time`` as stored, ``intensity``, ``return_number``,
+          ``classification``, ..., extra bytes), ``X,Y,Z`` georeferenced floats
+          (`kinsync.io.las_table`); CSV floats are written in full (shortest
+          round-trip text: they read back exactly);
+        * ``.las``/``.laz`` from a table: LAS 1.4 point format 6 (7 with
+          ``red,green,blue``, 8 with ``nir``), ``gps_time`` from ``t_s`` (adjusted
+          standard GPS time, or seconds of week with an SBET read without
+          ``gps_week``), columns named as LAS dimensions (``intensity``, ...) in them,
+          other numeric columns as extra dimensions, text columns not carried (a
+          warning names them); X, Y, Z at 0.1 mm (1e-7 deg for longitude and latitude)
+          with offsets from the trajectory at the middle of the file's time span;
+        * ``.ply``: binary little-endian, ``x y z`` as double, every numeric attribute
+          (LAS dimensions, or a table's numeric columns) as a property
+          (`kinsync.io.ply`), text columns not carried.
     crs : str
         Output CRS (pyproj user input), default ECEF ``EPSG:4978``; a compound CRS
         (``EPSG:32618+5703``) gives orthometric heights (see `plan_ecef_to_crs`).
@@ -222,7 +265,8 @@ def georeference_file(
         fewer), at most this many for Parquet (chunks follow its row groups).
     outside : {"error", "reject"}
         Points outside the trajectory span: an error naming how many and their time
-        range (nothing written), or written unchanged to ``OUT.rejected.<ext>``.
+        range (nothing written), or written unchanged, in the input's format, to
+        ``OUT.rejected.<ext>`` (`rejected_path_for`).
     gps_week : int, optional
         GPS week for SBET and LAS seconds-of-week times (see `read_trajectory_file`).
     position : {"auto", "linear", "hermite"}
@@ -248,6 +292,9 @@ def georeference_file(
     profiler_azimuth_deg : float, optional
         Azimuth (deg) of the profile plane in the scanner frame, replacing the
         mount's ``[profiler] azimuth_deg`` (profile files only).
+    columns : ColumnMap, optional
+        Which columns of a table hold ``t_s``, ``x_m``, ... (`kinsync.io.column_map`);
+        carried columns keep the file's names. Tables only.
 
     Returns
     -------
@@ -256,51 +303,25 @@ def georeference_file(
     Raises
     ------
     InputError
-        Unknown suffixes or unsupported input/output pair, missing or ambiguous
-        columns, a profile file without an azimuth, NaN points, mixed time scales,
-        points outside the span (with ``outside="error"``).
+        Unknown suffixes, missing or ambiguous columns, a column map that does not fit
+        the file, a profile file without an azimuth, NaN points, mixed time scales,
+        values that do not fit a LAS dimension, points outside the span (with
+        ``outside="error"``).
     """
     start = time.perf_counter()
     points_path, out_path = Path(points_path), Path(out_path)
-    if outside not in ("error", "reject"):
-        msg = f"--outside must be error or reject, got {outside!r}"
-        raise InputError(msg)
-    if chunk_points < 1:
-        msg = f"--chunk-points must be >= 1, got {chunk_points}"
-        raise InputError(msg)
-    if point_columns not in ("auto", "xyz", "profile"):
-        msg = f"--point-columns must be auto, xyz or profile, got {point_columns!r}"
-        raise InputError(msg)
-    in_suffix, out_suffix = points_path.suffix.lower(), out_path.suffix.lower()
-    if in_suffix not in _LAS_SUFFIXES + _TABLE_SUFFIXES:
-        msg = (
-            f"{points_path}: unknown point file type {points_path.suffix!r}; "
-            "use .las, .laz, .csv or .parquet"
-        )
-        raise InputError(msg)
-    if out_suffix not in _LAS_SUFFIXES + _TABLE_SUFFIXES:
-        msg = (
-            f"{out_path}: unknown output type {out_path.suffix!r}; use .las, .laz, .csv or .parquet"
-        )
-        raise InputError(msg)
-    if (in_suffix in _LAS_SUFFIXES) != (out_suffix in _LAS_SUFFIXES):
-        msg = (
-            f"{out_path}: {in_suffix} input can be written to "
-            f"{'.las/.laz' if in_suffix in _LAS_SUFFIXES else '.csv/.parquet'} only "
-            "(conversion between LAS and tables is not supported yet)"
-        )
-        raise InputError(msg)
-    if not points_path.is_file():
-        msg = f"{points_path}: file not found"
-        raise InputError(msg)
+    _check_arguments(points_path, out_path, outside, chunk_points, point_columns, columns)
     trajectory, traj_scale = read_trajectory_file(trajectory_path, gps_week=gps_week)
     traj = GeorefTrajectory.from_trajectory(trajectory, latency_s=mount.latency_s)
     use_hermite(traj, position)
     check_latency(traj, mount)
     crs_plan, crs_info = _plan_crs(traj, traj_scale, crs, geoid, epoch_year, trajectory_crs)
+    las_input = _kind(points_path) == "las"
+    out_kind = _kind(out_path)
+    output: OutputKind = "same" if out_kind == _kind(points_path) else cast(OutputKind, out_kind)
     template: Any = None
-    las_frame: LasOutputFrame | None = None
-    if in_suffix in _LAS_SUFFIXES:
+    notes: list[str] = []
+    if las_input:
         if point_columns == "profile" or profiler_azimuth_deg is not None:
             msg = (
                 f"{points_path}: LAS/LAZ points are x, y, z in the scanner frame; "
@@ -309,30 +330,40 @@ def georeference_file(
             )
             raise InputError(msg)
         template, source, tasks, total = _plan_las(points_path, chunk_points, traj_scale, gps_week)
-        las_frame = _las_output_frame(source, total, traj, crs_plan)
+        notes += _las_notes(points_path, template, output)
     else:
         source, tasks, total, mount = _plan_table(
-            points_path, chunk_points, mount, point_columns, profiler_azimuth_deg
+            points_path, chunk_points, mount, point_columns, profiler_azimuth_deg, columns, output
         )
     ctx = ChunkContext(
-        source, traj, mount, position, crs_plan, outside, out_suffix == ".csv", las_frame
+        source,
+        traj,
+        mount,
+        position,
+        crs_plan,
+        outside,
+        out_path.suffix.lower() == ".csv",
+        output=output,
     )
+    if out_kind == "las":
+        ctx = replace(ctx, las_frame=_las_output_frame(ctx, tasks, total))
+    sink, more_notes, ctx = _sink(ctx, template, traj_scale, total, out_path)
+    notes += [f"{points_path}: {note}" for note in more_notes]
     tally = _OutsideTally()
     with ExitStack() as stack:
         runner = make_runner(ctx, scheduler, workers)
         stack.callback(runner.close)
-        if template is not None:
-            counts = _write_las(ctx, template, tasks, total, out_path, progress, tally, runner)
-        else:
-            counts = _write_table(ctx, tasks, total, out_path, progress, tally, runner)
+        counts = _write(
+            ctx, tasks, total, out_path, progress, tally, runner, sink, template, points_path
+        )
     points_in, points_out, points_rejected = counts
     return GeorefSummary(
         points_in=points_in,
         points_out=points_out,
         points_rejected=points_rejected,
         seconds=time.perf_counter() - start,
-        rejected_path=rejected_path_for(out_path) if points_rejected else None,
-        warnings=_las_warnings(points_path, template) + crs_info.warnings,
+        rejected_path=rejected_path_for(out_path, points_path) if points_rejected else None,
+        warnings=tuple(notes) + crs_info.warnings,
         crs=crs_info,
     )
 
@@ -360,11 +391,167 @@ def _plan_crs(
     )
 
 
-def _las_warnings(points_path: Path, template: Any) -> tuple[str, ...]:
-    """What of a LAS/LAZ input the output does not carry (none for tables)."""
-    if template is None:
-        return ()
-    return tuple(f"{points_path}: {note}" for note in las_output_notes(template))
+def _check_arguments(
+    points_path: Path,
+    out_path: Path,
+    outside: str,
+    chunk_points: int,
+    point_columns: str,
+    columns: ColumnMap | None,
+) -> None:
+    """Refuse bad options and file types before any file is read."""
+    if outside not in ("error", "reject"):
+        msg = f"--outside must be error or reject, got {outside!r}"
+        raise InputError(msg)
+    if chunk_points < 1:
+        msg = f"--chunk-points must be >= 1, got {chunk_points}"
+        raise InputError(msg)
+    if point_columns not in ("auto", "xyz", "profile"):
+        msg = f"--point-columns must be auto, xyz or profile, got {point_columns!r}"
+        raise InputError(msg)
+    in_suffix, out_suffix = points_path.suffix.lower(), out_path.suffix.lower()
+    if in_suffix not in _LAS_SUFFIXES + _TABLE_SUFFIXES:
+        msg = (
+            f"{points_path}: unknown point file type {points_path.suffix!r}; "
+            "use .las, .laz, .csv or .parquet"
+        )
+        raise InputError(msg)
+    if out_suffix not in _LAS_SUFFIXES + _TABLE_SUFFIXES + (".ply",):
+        msg = (
+            f"{out_path}: unknown output type {out_path.suffix!r}; use .las, .laz, .csv, "
+            ".parquet or .ply"
+        )
+        raise InputError(msg)
+    if not points_path.is_file():
+        msg = f"{points_path}: file not found"
+        raise InputError(msg)
+    las_input = in_suffix in _LAS_SUFFIXES
+    if las_input and columns is not None and columns.pairs:
+        msg = (
+            f"{columns.flag}: {points_path} is LAS/LAZ, whose points are always x, y, z and "
+            f"gps_time; {columns.flag} maps the columns of CSV/Parquet tables"
+        )
+        raise InputError(msg)
+
+
+def _las_notes(points_path: Path, template: Any, output: OutputKind) -> list[str]:
+    """What of a LAS/LAZ input the output does not carry, one sentence each."""
+    notes = las_output_notes(template)
+    if output == "same":
+        return [f"{points_path}: {note}" for note in notes]
+    if any(note.startswith("waveform") for note in notes):
+        return [
+            (
+                f"{points_path}: its waveform data packets are not carried: the output has "
+                "the points' wave packet fields, not the waveforms"
+            )
+        ]
+    return []
+
+
+def _sink(
+    ctx: ChunkContext, template: Any, traj_scale: TimeScale, total: int, out_path: Path
+) -> tuple[Sink, list[str], ChunkContext]:
+    """The output's sink, what it does not carry, and the context its chunks need."""
+    kind = _kind(out_path)
+    crs_text = ctx.crs.crs
+    layout = ctx.source.table
+    if kind == "las":
+        frame = ctx.las_frame
+        assert frame is not None
+        target_crs = pyproj.CRS.from_user_input(crs_text)
+        if layout is None:
+            return LasSink(out_path, template, target_crs, frame.offsets, frame.scales), [], ctx
+        carried = _carried_columns(ctx)
+        time_scale: Literal["gps", "week"] = "week" if traj_scale == "week" else "gps"
+        try:
+            plan = plan_table_las(carried, time_scale)
+        except InputError as err:
+            msg = f"{layout.path}: {err}"
+            raise InputError(msg) from err
+        notes = _dropped_note(plan.dropped, "LAS")
+        header = plan.header()
+        sink = LasSink(out_path, header, target_crs, frame.offsets, frame.scales)
+        return sink, notes, replace(ctx, table_las=plan)
+    if kind == "ply":
+        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}"]
+        if layout is None:
+            types = las_column_types(template.point_format)
+            props = [
+                (PLY_XYZ[OUT_COLUMNS.index(k)] if k in OUT_COLUMNS else k, t)
+                for k, t in types.items()
+            ]
+            return PlySink(out_path, props, total, comments), [], ctx
+        carried = _carried_columns(ctx, keep_time=True)
+        numeric = {n: t for n, t in carried.items() if _numeric(t)}
+        clash = [n for n in numeric if n in PLY_XYZ]
+        if clash:
+            msg = (
+                f"{layout.path}: column(s) {clash} would clash with the PLY coordinates "
+                "x, y, z; rename them"
+            )
+            raise InputError(msg)
+        props = [(axis, np.dtype(np.float64)) for axis in PLY_XYZ]
+        props += [(n, _numpy_dtype(t)) for n, t in numeric.items()]
+        notes = _dropped_note(tuple(n for n in carried if n not in numeric), "PLY")
+        ply = PlySink(out_path, props, total, comments)
+        return ply, notes, replace(ctx, ply_columns=tuple(numeric))
+    if layout is None:
+        types = las_column_types(template.point_format)
+
+        def empty_from_las() -> dict[str, Any]:
+            return {
+                n: pa.array(
+                    [],
+                    type=pa.string() if ctx.csv_text and t.kind == "f" else pa.from_numpy_dtype(t),
+                )
+                for n, t in types.items()
+            }
+
+        return TableSink(out_path, empty_from_las), [], ctx
+    return TableSink(out_path, lambda: empty_table_output(ctx)), [], ctx
+
+
+def _carried_columns(ctx: ChunkContext, *, keep_time: bool = False) -> dict[str, Any]:
+    """A table's columns that a LAS/PLY output carries (file names), with their types.
+
+    The scanner coordinates ``x_m,y_m,z_m`` are not carried (they become the points'
+    coordinates), nor is ``t_s`` unless ``keep_time`` (LAS stores it as ``gps_time``);
+    the columns of a profile file are.
+    """
+    layout = ctx.source.table
+    assert layout is not None
+    used = set(XYZ_COLUMNS) if ctx.source.points == "xyz" else set()
+    if not keep_time:
+        used.add("t_s")
+    return {f.name: f.type for f in layout.inferred if layout.kinsync_name(f.name) not in used}
+
+
+def _numeric(kind: Any) -> bool:
+    """Numbers, booleans, or no type at all (a CSV without rows: nothing to lose)."""
+    return bool(
+        pa.types.is_integer(kind)
+        or pa.types.is_floating(kind)
+        or pa.types.is_boolean(kind)
+        or pa.types.is_null(kind)
+    )
+
+
+def _numpy_dtype(kind: Any) -> np.dtype[Any]:
+    if pa.types.is_null(kind):
+        return np.dtype(np.float64)
+    return np.dtype(np.uint8) if pa.types.is_boolean(kind) else np.dtype(kind.to_pandas_dtype())
+
+
+def _dropped_note(dropped: Sequence[str], what: str) -> list[str]:
+    if not dropped:
+        return []
+    return [
+        (
+            f"column(s) {list(dropped)} hold text, which {what} cannot store: not carried "
+            "(a CSV/Parquet output keeps every column)"
+        )
+    ]
 
 
 def _plan_las(
@@ -378,23 +565,41 @@ def _plan_las(
     return template, ChunkSource(path, "xyz", None, offset), tasks, n
 
 
-def _las_output_frame(
-    source: ChunkSource, n_points: int, traj: GeorefTrajectory, crs: CrsPlan
-) -> LasOutputFrame:
+def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> list[float]:
+    """Times of the input's first and last point, on the trajectory's scale.
+
+    LAS/LAZ: two points are read; a table: the first and the last chunk.
+    """
+    source = ctx.source
+    if total == 0 or not tasks:
+        return []
+    if source.table is None:
+        ends = las_end_times(source.path)
+        return [t + source.las_time_offset_s for t in (ends or ())]
+    layout = source.table
+    first, last = tasks[0].table_slice, tasks[-1].table_slice
+    assert first is not None
+    assert last is not None
+    t_first = read_table_slice(layout, first)["t_s"]
+    t_last = t_first if last is first else read_table_slice(layout, last)["t_s"]
+    return [float(t_first[0]), float(t_last[-1])] if len(t_first) and len(t_last) else []
+
+
+def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> LasOutputFrame:
     """Offsets and scales for a LAS output: the trajectory at the middle of the file's span.
 
     The span runs from the first point's time to the last one's (clipped to the
     trajectory; its middle when neither is usable); the offsets are the trajectory's
     position there in ``crs``, rounded (1 km, or 1 degree for longitude and latitude),
     so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm)
-    either way from its middle.
+    either way from its middle. Scales: 0.1 mm (1e-7 deg for longitude and latitude).
     """
+    crs, traj = ctx.crs, ctx.traj
     geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic
     scales = (_LAS_SCALE_DEG, _LAS_SCALE_DEG, _LAS_SCALE_M) if geographic else (_LAS_SCALE_M,) * 3
-    ends = las_end_times(source.path) if n_points else None
     times = [
-        min(max(t + source.las_time_offset_s, traj.t_start_s), traj.t_end_s)
-        for t in (ends or ())
+        min(max(t, traj.t_start_s), traj.t_end_s)
+        for t in _file_end_times(ctx, tasks, total)
         if math.isfinite(t)
     ]
     t_mid = 0.5 * (min(times) + max(times)) if times else 0.5 * (traj.t_start_s + traj.t_end_s)
@@ -439,10 +644,17 @@ def _plan_table(
     mount: Mount,
     point_columns: PointColumns,
     profiler_azimuth_deg: float | None,
+    columns: ColumnMap | None,
+    output: OutputKind,
 ) -> tuple[ChunkSource, list[ChunkTask], int, Mount]:
-    names = table_columns(path)
+    file_names = table_columns(path)
+    if columns is not None:
+        columns.check_file(path, file_names)
+    names = file_names if columns is None else columns.kinsync_names(file_names)
     points = _table_point_set(path, names, point_columns)
-    clash = [c for c in OUT_COLUMNS if c in names]
+    replaced = set(XYZ_COLUMNS) if points == "xyz" else set()
+    carried = [f for f, k in zip(file_names, names, strict=True) if k not in replaced]
+    clash = [c for c in OUT_COLUMNS if c in carried] if output == "same" else []
     if clash:
         msg = (
             f"{path}: column(s) {clash} would clash with the output coordinates "
@@ -471,7 +683,7 @@ def _plan_table(
         )
         raise InputError(msg)
     required = ("t_s", *(XYZ_COLUMNS if points == "xyz" else PROFILE_COLUMNS))
-    layout, slices = plan_table_slices(path, chunk_points, required)
+    layout, slices = plan_table_slices(path, chunk_points, required, columns)
     tasks = [ChunkTask(s.first_row, s.n_rows, s) for s in slices]
     return ChunkSource(path, points, layout), tasks, layout.total_rows, mount
 
@@ -514,7 +726,7 @@ def _outputs_in_order(
         raise tally.error(ctx.source.path, ctx.traj, out_path)
 
 
-def _write_table(
+def _write(
     ctx: ChunkContext,
     tasks: Sequence[ChunkTask],
     total: int,
@@ -522,78 +734,33 @@ def _write_table(
     progress: Callable[[int, int | None], None] | None,
     tally: _OutsideTally,
     runner: SerialRunner,
+    sink: Sink,
+    template: Any,
+    points_path: Path,
 ) -> tuple[int, int, int]:
+    """Write every chunk's points to ``sink`` and its rejects to the rejected file."""
     n_in = n_out = 0
     behind = WriteBehind()
     with ExitStack() as stack:
-        writer = stack.enter_context(TableChunkWriter(out_path))
-        stack.callback(behind.close)  # before the writer closes
-        rejected: TableChunkWriter | None = None
+        stack.enter_context(sink)
+        stack.callback(behind.close)  # before the sink closes
+        rejected: Sink | None = None
         for out in _outputs_in_order(ctx, tasks, runner, tally, out_path, progress, total):
-            if out.rejected_columns is not None:
+            if out.rejected_records is not None or out.rejected_columns is not None:
                 if rejected is None:
                     behind.wait()
-                    rejected = stack.enter_context(TableChunkWriter(rejected_path_for(out_path)))
+                    path = rejected_path_for(out_path, points_path)
+                    rejected = stack.enter_context(
+                        TableRejectedSink(path)
+                        if template is None
+                        else LasRejectedSink(path, template)
+                    )
                     stack.callback(behind.close)
-                behind.submit(rejected.write, out.rejected_columns)
-            assert out.columns is not None
-            behind.submit(writer.write, out.columns)
+                behind.submit(rejected.write, out)
+            behind.submit(sink.write, out)
             n_in += out.count
             n_out += out.count - out.outside_count
         behind.wait()
-        if not tasks:  # a table without points: the output still gets its columns
-            writer.write(empty_table_output(ctx))
-    return n_in, n_out, tally.count
-
-
-def _write_las(
-    ctx: ChunkContext,
-    template: Any,
-    tasks: Sequence[ChunkTask],
-    total: int,
-    out_path: Path,
-    progress: Callable[[int, int | None], None] | None,
-    tally: _OutsideTally,
-    runner: SerialRunner,
-) -> tuple[int, int, int]:
-    frame = ctx.las_frame
-    assert frame is not None
-    n_in = n_out = 0
-
-    def records(array: np.ndarray[Any, Any]) -> laspy.ScaleAwarePointRecord:
-        return laspy.ScaleAwarePointRecord(
-            array, template.point_format, template.scales, template.offsets
-        )
-
-    behind = WriteBehind()
-    with ExitStack() as stack:
-        target_crs = pyproj.CRS.from_user_input(ctx.crs.crs)
-        writer = stack.enter_context(
-            LasChunkWriter(out_path, template, target_crs, frame.offsets, frame.scales)
-        )
-        stack.callback(behind.close)  # before the writer closes
-        rejected: LasChunkWriter | None = None
-        for out in _outputs_in_order(ctx, tasks, runner, tally, out_path, progress, total):
-            if out.rejected_records is not None:
-                if rejected is None:
-                    behind.wait()
-                    offsets = tuple(float(v) for v in template.offsets)
-                    scales = tuple(float(v) for v in template.scales)
-                    rejected = stack.enter_context(
-                        LasChunkWriter(
-                            rejected_path_for(out_path),
-                            template,
-                            None,
-                            offsets,  # type: ignore[arg-type]
-                            scales,  # type: ignore[arg-type]
-                        )
-                    )
-                    stack.callback(behind.close)
-                behind.submit(rejected.write_stored, records(out.rejected_records))
-            assert out.records is not None
-            if len(out.records):
-                behind.submit(writer.write_stored, records(out.records))
-            n_in += out.count
-            n_out += len(out.records)
-        behind.wait()
+        if not tasks:  # no points: the output still gets its header or columns
+            sink.finish_empty()
     return n_in, n_out, tally.count

@@ -33,22 +33,26 @@ from kinsync.io.las import (
     scaled_coordinates,
     store_coordinates,
 )
+from kinsync.io.las_table import TableLasPlan, las_columns
 from kinsync.io.points import (
     TableLayout,
     TableSlice,
     csv_text_columns,
+    numeric_columns,
     read_table_slice,
 )
 from kinsync.mount import Mount
 
 __all__ = [
     "OUT_COLUMNS",
+    "PLY_XYZ",
     "XYZ_COLUMNS",
     "ChunkContext",
     "ChunkOutput",
     "ChunkSource",
     "ChunkTask",
     "LasOutputFrame",
+    "OutputKind",
     "OutsidePolicy",
     "PointColumns",
     "empty_table_output",
@@ -56,11 +60,15 @@ __all__ = [
     "process_chunk",
 ]
 
+OutputKind = Literal["same", "table", "las", "ply"]
+"""What a chunk becomes: the input's own kind (LAS -> LAS, table -> table), a table
+(from LAS), LAS points (from a table) or PLY vertices (from either)."""
 OutsidePolicy = Literal["error", "reject"]
 """Points outside the trajectory span: an error (nothing written), or a rejected file."""
 PointColumns = Literal["auto", "xyz", "profile"]
 """Which table columns give the points: x_m,y_m,z_m, range_m,angle_rad, or either."""
 
+PLY_XYZ = ("x", "y", "z")
 XYZ_COLUMNS = ("x_m", "y_m", "z_m")
 """Scanner-frame coordinates (m) in a point table."""
 OUT_COLUMNS = ("X", "Y", "Z")
@@ -107,6 +115,9 @@ class ChunkContext:
     outside: OutsidePolicy
     csv_text: bool = False  # table output to CSV: workers format the floats as text
     las_frame: LasOutputFrame | None = None  # LAS output: where workers store X, Y, Z
+    output: OutputKind = "same"
+    table_las: TableLasPlan | None = None  # table -> LAS: how columns become points
+    ply_columns: tuple[str, ...] = ()  # table -> PLY: the carried (numeric) columns
 
 
 @dataclass(frozen=True)
@@ -127,7 +138,7 @@ class ChunkOutput:
     outside_t_min_s: float = math.inf
     outside_t_max_s: float = -math.inf
     error: str | None = None
-    columns: dict[str, Any] | None = None  # tables: the output rows (CSV: floats as text)
+    columns: dict[str, Any] | None = None  # table, PLY: the output rows (CSV: floats as text)
     rejected_columns: dict[str, Any] | None = None
     records: np.ndarray[Any, Any] | None = None  # LAS: inside points, X/Y/Z georeferenced
     rejected_records: np.ndarray[Any, Any] | None = None
@@ -195,14 +206,20 @@ def _output_columns(
     all_inside: bool,
     coords: FloatArray,
 ) -> dict[str, np.ndarray[Any, Any]]:
-    """Every input column (inside rows); x_m,y_m,z_m replaced by X,Y,Z, or X,Y,Z added."""
+    """Every input column (inside rows); x_m,y_m,z_m replaced by X,Y,Z, or X,Y,Z added.
+
+    Carried columns keep the file's own names (a ``--columns`` map renamed them for
+    reading only).
+    """
+    layout = ctx.source.table
+    assert layout is not None
     out: dict[str, np.ndarray[Any, Any]] = {}
     for name, values in columns.items():
         if ctx.source.points == "xyz" and name in XYZ_COLUMNS:
             j = XYZ_COLUMNS.index(name)
             out[OUT_COLUMNS[j]] = coords[:, j]
         else:
-            out[name] = values if all_inside else values[inside]
+            out[layout.file_name(name)] = values if all_inside else values[inside]
     if ctx.source.points == "profile":
         for j, name in enumerate(OUT_COLUMNS):
             out[name] = coords[:, j]
@@ -221,8 +238,9 @@ def empty_table_output(ctx: ChunkContext) -> dict[str, Any]:
     float_type = pa.string() if ctx.csv_text else pa.float64()
     types: dict[str, Any] = {}
     for field in layout.schema:
-        if ctx.source.points == "xyz" and field.name in XYZ_COLUMNS:
-            types[OUT_COLUMNS[XYZ_COLUMNS.index(field.name)]] = float_type
+        name = layout.kinsync_name(field.name)
+        if ctx.source.points == "xyz" and name in XYZ_COLUMNS:
+            types[OUT_COLUMNS[XYZ_COLUMNS.index(name)]] = float_type
         elif ctx.csv_text and pa.types.is_floating(field.type):
             types[field.name] = pa.string()
         else:
@@ -243,8 +261,15 @@ def process_chunk(
     """
     if ctx.source.table is None:
         return _process_las_task(ctx, task, tally_only, las_reader)
+    return _process_table_task(ctx, task, tally_only)
+
+
+def _process_table_task(ctx: ChunkContext, task: ChunkTask, tally_only: bool) -> ChunkOutput:
+    """`process_chunk` for a table slice."""
+    layout = ctx.source.table
+    assert layout is not None
     assert task.table_slice is not None
-    columns = read_table_slice(ctx.source.table, task.table_slice)
+    columns = read_table_slice(layout, task.table_slice)
     t = columns["t_s"]
     traj, src = ctx.traj, ctx.source
     base = tallied(int(t.size), *outside_tally(t, 0.0, traj.t_start_s, traj.t_end_s))
@@ -271,12 +296,74 @@ def process_chunk(
             f"in {ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
         )
         return replace(base, error=error)
+    return _table_output(ctx, task, base, t, columns, inside, coords)
+
+
+def _table_output(
+    ctx: ChunkContext,
+    task: ChunkTask,
+    base: ChunkOutput,
+    t: FloatArray,
+    columns: dict[str, np.ndarray[Any, Any]],
+    inside: BoolArray,
+    coords: FloatArray,
+) -> ChunkOutput:
+    """The georeferenced rows of a table slice as the output wants them, and its rejects."""
+    layout = ctx.source.table
+    assert layout is not None
+    all_inside = bool(inside.all())
+    rejected = None if all_inside else {layout.file_name(k): v[~inside] for k, v in columns.items()}
+    if ctx.output == "las":
+        return _table_las_output(ctx, task, base, t, columns, inside, all_inside, coords, rejected)
+    if ctx.output == "ply":
+        kept = numeric_columns(layout, columns, task.first)
+        ply = {axis: coords[:, j] for j, axis in enumerate(PLY_XYZ)}
+        ply |= {
+            n: _inside(kept[layout.kinsync_name(n)], inside, all_inside) for n in ctx.ply_columns
+        }
+        return replace(base, columns=ply, rejected_columns=rejected)
     out_columns = _output_columns(ctx, columns, inside, all_inside, coords)
-    rejected = None if all_inside else {k: v[~inside] for k, v in columns.items()}
     if ctx.csv_text:
         out_columns = csv_text_columns(out_columns)
         rejected = None if rejected is None else csv_text_columns(rejected)
     return replace(base, columns=out_columns, rejected_columns=rejected)
+
+
+def _inside(
+    values: np.ndarray[Any, Any], inside: BoolArray, all_inside: bool
+) -> np.ndarray[Any, Any]:
+    return values if all_inside else values[inside]
+
+
+def _table_las_output(
+    ctx: ChunkContext,
+    task: ChunkTask,
+    base: ChunkOutput,
+    t: FloatArray,
+    columns: dict[str, np.ndarray[Any, Any]],
+    inside: BoolArray,
+    all_inside: bool,
+    coords: FloatArray,
+    rejected: dict[str, Any] | None,
+) -> ChunkOutput:
+    """Table rows -> LAS points of the plan's format, X, Y, Z stored for the output frame."""
+    plan, frame, layout = ctx.table_las, ctx.las_frame, ctx.source.table
+    assert plan is not None
+    assert frame is not None
+    assert layout is not None
+    kept = numeric_columns(layout, columns, task.first)
+    wanted = {n: _inside(kept[n], inside, all_inside) for n in plan.standard}
+    wanted |= {n: _inside(kept[n], inside, all_inside) for n, _ in plan.extra}
+    rows = np.flatnonzero(inside)
+    records, error = plan.records(_inside(t, inside, all_inside), wanted)
+    if error is not None:
+        at = task.first + int(rows[error[0]])
+        return replace(base, error=f"{ctx.source.path}: data row {at}, {error[1]}")
+    bad = store_coordinates(records, coords, frame.offsets, frame.scales)
+    if bad >= 0:
+        at = task.first + int(rows[bad])
+        return replace(base, error=_las_storage_error(ctx, at, coords[bad]))
+    return replace(base, records=records, rejected_columns=rejected)
 
 
 def _process_las_task(
@@ -292,13 +379,15 @@ def _process_las_task(
     """
     record = _read_las_task(ctx, task, las_reader)
     traj, src, frame = ctx.traj, ctx.source, ctx.las_frame
-    assert frame is not None
     array = record.array
     gps_time = array["gps_time"]
     n = len(array)
     base = tallied(n, *outside_tally(gps_time, src.las_time_offset_s, traj.t_start_s, traj.t_end_s))
     if tally_only:
         return base
+    if ctx.output in ("table", "ply"):
+        return _las_table_output(ctx, task, base, record)
+    assert frame is not None
     to_crs = crs_plan_transformer(ctx.crs)
     inside = np.empty(n, dtype=np.bool_)
     for start in range(0, n, _LAS_BLOCK_POINTS):
@@ -324,6 +413,53 @@ def _process_las_task(
         records=array if all_inside else array[inside],
         rejected_records=None if all_inside else array[~inside],
     )
+
+
+def _las_table_output(
+    ctx: ChunkContext, task: ChunkTask, base: ChunkOutput, record: Any
+) -> ChunkOutput:
+    """LAS points -> table (or PLY) rows: every dimension, X, Y, Z georeferenced floats.
+
+    Points outside the span keep their records, unchanged, for the rejected LAS file.
+    """
+    traj, src = ctx.traj, ctx.source
+    array = record.array
+    n = len(array)
+    to_crs = crs_plan_transformer(ctx.crs)
+    inside = np.empty(n, dtype=np.bool_)
+    coords = np.empty((n, 3))
+    for start in range(0, n, _LAS_BLOCK_POINTS):
+        block = array[start : start + _LAS_BLOCK_POINTS]
+        t = record.gps_time[start : start + _LAS_BLOCK_POINTS] + src.las_time_offset_s
+        xyz = scaled_coordinates(block, record.scales, record.offsets)
+        try:
+            pos, block_inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
+        except InputError as err:
+            return replace(base, error=_las_chunk_error(ctx, task, record, err))
+        block_coords = pos if to_crs is None else to_crs(pos)
+        inside[start : start + len(block)] = block_inside
+        coords[start : start + len(block)] = block_coords
+    all_inside = bool(inside.all())
+    if not all_inside and ctx.outside == "error":
+        return base
+    kept = array if all_inside else array[inside]
+    kept_coords = coords if all_inside else coords[inside]
+    not_finite = ~np.isfinite(kept_coords).all(axis=1)
+    if not_finite.any():
+        at = task.first + int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
+        error = (
+            f"{src.path}: point {at}: georeferences to {kept_coords[not_finite][0]} in "
+            f"{ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
+        )
+        return replace(base, error=error)
+    columns = las_columns(kept, record.point_format, kept_coords)
+    if ctx.output == "ply":
+        columns = {
+            PLY_XYZ[OUT_COLUMNS.index(k)] if k in OUT_COLUMNS else k: v for k, v in columns.items()
+        }
+    elif ctx.csv_text:
+        columns = csv_text_columns(columns)
+    return replace(base, columns=columns, rejected_records=None if all_inside else array[~inside])
 
 
 def _las_chunk_error(ctx: ChunkContext, task: ChunkTask, record: Any, err: InputError) -> str:

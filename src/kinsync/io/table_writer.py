@@ -1,0 +1,192 @@
+"""Point tables in CSV or Parquet, written in chunks, atomically.
+
+Writing (`TableChunkWriter`) goes through a temporary file renamed on success. CSV is
+written by `kinsync.io.csv_text`: numbers bare, floats in the shortest form that reads
+back to the same value (with ``.0`` added to integral values so that ``1.0`` reads back
+as a float: every value comes back exactly), text quoted only when it holds a comma, a
+quote or a line break. `csv_text_columns` does the float formatting ahead, so that
+worker processes can take it off the writing process. Reading is `kinsync.io.points`.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping
+from contextlib import ExitStack
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path
+from kinsync.io.csv_text import csv_header_bytes, csv_rows_bytes, float_text
+
+__all__ = ["TableChunkWriter", "csv_text_columns", "table_suffix"]
+
+_SUFFIXES = (".csv", ".parquet")
+
+
+def table_suffix(path: Path) -> str:
+    """``.csv`` or ``.parquet`` (lower case) of a table's path.
+
+    Raises
+    ------
+    InputError
+        Any other suffix.
+    """
+    suffix = path.suffix.lower()
+    if suffix not in _SUFFIXES:
+        msg = f"{path}: unknown table type {path.suffix!r}; use .csv or .parquet"
+        raise InputError(msg)
+    return suffix
+
+
+def _arrow_column(name: str, values: Any) -> Any:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return values
+    arr = np.asarray(values)
+    if arr.ndim != 1:
+        msg = f"column {name!r}: expected a 1-D array, got shape {arr.shape}"
+        raise InputError(msg)
+    try:
+        return pa.array(arr)
+    except (pa.ArrowException, TypeError, ValueError) as err:
+        msg = f"column {name!r}: cannot store dtype {arr.dtype} in a table ({err})"
+        raise InputError(msg) from err
+
+
+def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, Any]:
+    """Float columns turned into the text a ``.csv`` `TableChunkWriter` writes for them.
+
+    Lets another process do that formatting, the costly part of writing a CSV: the
+    writer takes the text columns (pyarrow string arrays) as they are, and the file is
+    byte for byte the one it writes from the floats. Other columns are unchanged.
+
+    Parameters
+    ----------
+    columns : mapping of str to ndarray, each of shape (M,)
+        A chunk as `TableChunkWriter.write` takes it.
+
+    Returns
+    -------
+    dict of str to ndarray or pyarrow.Array
+        The same columns, in order, floats as text.
+    """
+    return {
+        name: float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
+        for name, values in columns.items()
+    }
+
+
+def _column_length(values: Any) -> int:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return len(values)
+    return int(np.shape(values)[0]) if np.ndim(values) else -1
+
+
+class TableChunkWriter:
+    """Write a CSV or Parquet table chunk by chunk, atomically.
+
+    Use as a context manager. The file is written under a temporary name beside
+    ``path`` and renamed onto ``path`` only when the ``with`` block ends without an
+    exception; otherwise nothing is left behind.
+
+    Parameters
+    ----------
+    path : Path
+        Output file; ``.csv`` or ``.parquet`` by suffix.
+
+    Notes
+    -----
+    The first chunk fixes the schema (column names, order and types); later chunks
+    must have the same columns and are cast to those types. A table with no chunk
+    written is an empty file (CSV) or an empty Parquet table.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self._suffix = table_suffix(self.path)
+        self._stack: ExitStack | None = None
+        self._tmp: Path | None = None
+        self._writer: Any = None
+        self._schema: Any = None
+        self.rows_written = 0
+
+    def __enter__(self) -> TableChunkWriter:
+        stack = ExitStack()
+        self._tmp = stack.enter_context(atomic_path(self.path))
+        self._stack = stack
+        return self
+
+    def write(self, columns: Mapping[str, Any]) -> None:
+        """Append one chunk: a mapping of column name to 1-D array, all one length.
+
+        Arrays are numpy arrays, or pyarrow arrays taken as they are (e.g. the text
+        columns of `csv_text_columns`).
+        """
+        if self._stack is None or self._tmp is None:
+            msg = f"{self.path}: TableChunkWriter.write called outside its 'with' block"
+            raise InputError(msg)
+        lengths = {name: _column_length(v) for name, v in columns.items()}
+        if len(set(lengths.values())) > 1:
+            msg = f"{self.path}: columns of one chunk differ in length: {lengths}"
+            raise InputError(msg)
+        if self._schema is None:
+            table = pa.table({n: _arrow_column(n, v) for n, v in columns.items()})
+            self._schema = table.schema
+            self._open(table.schema)
+        else:
+            names = list(self._schema.names)
+            if list(columns) != names:
+                msg = (
+                    f"{self.path}: chunk columns {list(columns)} differ from the first "
+                    f"chunk's {names}; every chunk needs the same columns in the same order"
+                )
+                raise InputError(msg)
+            try:
+                table = pa.table({n: _arrow_column(n, v) for n, v in columns.items()}).cast(
+                    self._schema
+                )
+            except (pa.ArrowException, TypeError, ValueError) as err:
+                msg = f"{self.path}: chunk does not fit the first chunk's column types ({err})"
+                raise InputError(msg) from err
+        self._write_table(table)
+        self.rows_written += int(table.num_rows)
+
+    def _open(self, schema: Any) -> None:
+        assert self._tmp is not None
+        if self._suffix == ".parquet":
+            self._writer = pq.ParquetWriter(self._tmp, schema)
+        else:
+            self._writer = self._tmp.open("wb")
+            self._writer.write(csv_header_bytes(schema.names))
+
+    def _write_table(self, table: Any) -> None:
+        if self._suffix == ".parquet":
+            self._writer.write_table(table)
+        else:
+            self._writer.write(csv_rows_bytes(table))
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        stack, self._stack = self._stack, None
+        if stack is None:
+            return
+        try:
+            if self._writer is not None:
+                self._writer.close()
+            elif exc_type is None and self._suffix == ".parquet":
+                assert self._tmp is not None
+                pq.write_table(pa.table({}), self._tmp)
+        except BaseException:
+            stack.__exit__(*sys.exc_info())
+            raise
+        stack.__exit__(exc_type, exc, tb)

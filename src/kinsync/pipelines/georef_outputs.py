@@ -1,0 +1,147 @@
+"""Where georeferenced chunks go: a table, a LAS/LAZ file or a PLY file, and the rejects.
+
+Each sink takes the `ChunkOutput` s of `kinsync.pipelines.georef_chunks` in input order
+and writes what is meant for it: the ``columns`` (table, PLY) or the ``records`` (LAS)
+of the points inside the trajectory span; a rejected sink writes the points outside
+it, unchanged, in the input's own format (``rejected_records`` of a LAS/LAZ input,
+``rejected_columns`` of a table). All write atomically (their file appears when the
+``with`` block ends without an error).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import laspy
+import numpy as np
+import pyproj
+
+from kinsync.io.las_writer import LasChunkWriter
+from kinsync.io.ply import PlyChunkWriter
+from kinsync.io.points import TableChunkWriter
+from kinsync.pipelines.georef_chunks import ChunkOutput
+
+__all__ = ["LasRejectedSink", "LasSink", "PlySink", "Sink", "TableRejectedSink", "TableSink"]
+
+
+class Sink:
+    """A writer of chunk outputs, used as a context manager around its file writer."""
+
+    def __init__(self, writer: AbstractContextManager[Any]) -> None:
+        self._writer = writer
+
+    def __enter__(self) -> Sink:
+        self._writer.__enter__()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self._writer.__exit__(exc_type, exc, tb)
+
+    def write(self, out: ChunkOutput) -> None:
+        """Write the part of ``out`` meant for this sink."""
+        raise NotImplementedError
+
+    def finish_empty(self) -> None:
+        """Called when the input had no points at all (nothing was written)."""
+
+
+class TableSink(Sink):
+    """The ``columns`` of each chunk into a CSV/Parquet table.
+
+    ``empty`` gives the columns (with their types, no rows) written when the input has
+    no points, so that the table still has its header or schema.
+    """
+
+    def __init__(self, path: Path, empty: Callable[[], dict[str, Any]]) -> None:
+        self._table = TableChunkWriter(path)
+        self._empty = empty
+        super().__init__(self._table)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.columns is not None
+        self._table.write(out.columns)
+
+    def finish_empty(self) -> None:  # noqa: D102
+        self._table.write(self._empty())
+
+
+class PlySink(Sink):
+    """The ``columns`` of each chunk (x, y, z and attributes) into a PLY file."""
+
+    def __init__(
+        self,
+        path: Path,
+        properties: Sequence[tuple[str, Any]],
+        max_points: int,
+        comments: Sequence[str],
+    ) -> None:
+        self._ply = PlyChunkWriter(path, properties, max_points, comments)
+        super().__init__(self._ply)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.columns is not None
+        self._ply.write(out.columns)
+
+
+class LasSink(Sink):
+    """The ``records`` of each chunk (X, Y, Z already stored) into a LAS/LAZ file."""
+
+    def __init__(
+        self,
+        path: Path,
+        header: laspy.LasHeader,
+        crs: pyproj.CRS,
+        offsets: tuple[float, float, float],
+        scales: tuple[float, float, float],
+    ) -> None:
+        self._las = LasChunkWriter(path, header, crs, offsets, scales)
+        super().__init__(self._las)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.records is not None
+        if len(out.records):
+            h = self._las.header
+            self._las.write_stored(
+                laspy.ScaleAwarePointRecord(out.records, h.point_format, h.scales, h.offsets)
+            )
+
+
+class LasRejectedSink(Sink):
+    """The ``rejected_records`` of a LAS/LAZ input, unchanged, with the input's header."""
+
+    def __init__(self, path: Path, template: laspy.LasHeader) -> None:
+        offsets = tuple(float(v) for v in template.offsets)
+        scales = tuple(float(v) for v in template.scales)
+        self._template = template
+        self._las = LasChunkWriter(path, template, None, offsets, scales)  # type: ignore[arg-type]
+        super().__init__(self._las)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.rejected_records is not None
+        t = self._template
+        self._las.write_stored(
+            laspy.ScaleAwarePointRecord(
+                np.asarray(out.rejected_records), t.point_format, t.scales, t.offsets
+            )
+        )
+
+
+class TableRejectedSink(Sink):
+    """The ``rejected_columns`` of a table input, its columns as they were."""
+
+    def __init__(self, path: Path) -> None:
+        self._table = TableChunkWriter(path)
+        super().__init__(self._table)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.rejected_columns is not None
+        self._table.write(out.rejected_columns)
