@@ -67,7 +67,8 @@ def test_demo_writes_a_self_contained_report(
     assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
     assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
     assert not list(out_dir.glob("*.part"))
-    for title in ("INS/GNSS", "Method B", "Validation", "End to end", "Mount self-calibration"):
+    titles = ("INS/GNSS", "Method B", "Validation", "End to end", "Mount self-calibration")
+    for title in (*titles, "Coordinate systems"):
         assert any(h.startswith(title) for h in parser.headings), title
     calibration = json.loads((out_dir / "calibration.json").read_text())
     for scenario in ("vehicle", "vessel"):

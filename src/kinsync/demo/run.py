@@ -22,6 +22,7 @@ from pathlib import Path
 from kinsync.demo.budget import budget_section
 from kinsync.demo.calibration import calibration_section
 from kinsync.demo.clock import clock_section
+from kinsync.demo.crs import crs_section
 from kinsync.demo.end_to_end import end_to_end_section
 from kinsync.demo.georef import georef_section
 from kinsync.demo.ins import ins_section
@@ -88,6 +89,9 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     if progress:
         progress("georeferencing a simulated scan")
     sections.append(georef_section(out_dir, summary))
+    if progress:
+        progress("coordinate systems, datums, epochs and geoid heights")
+    sections.append(crs_section(out_dir, summary))
     sections.append(ins_section(out_dir, summary, progress=progress)[0])
     navego = find_navego_folder()
     if navego is not None:
