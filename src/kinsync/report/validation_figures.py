@@ -13,6 +13,7 @@ from scipy import stats
 
 from kinsync.errors import InputError
 from kinsync.report.figures import png_bytes
+from kinsync.report.numbers import plus_minus
 from kinsync.validation import ControlPointReport, FlatnessResult, SignatureTest
 
 __all__ = ["control_point_figure", "plus_minus", "wall_residual_figure"]
@@ -20,14 +21,6 @@ __all__ = ["control_point_figure", "plus_minus", "wall_residual_figure"]
 _POINTS_PER_CELL = 8
 """Points averaged per cell of the residual map (on average)."""
 _MAX_CELLS = 20_000
-
-
-def plus_minus(value: float, std: float) -> str:
-    """``value ± std`` with the value rounded to the second significant digit of std."""
-    if not (math.isfinite(value) and math.isfinite(std)) or std <= 0.0:
-        return f"{value:.4g} ± {std:.2g}"
-    decimals = max(0, 1 - math.floor(math.log10(std)))
-    return f"{value:.{decimals}f} ± {std:.{decimals}f}"
 
 
 def _verdict(test: SignatureTest, scale: float, unit: str) -> str:
