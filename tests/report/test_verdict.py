@@ -16,7 +16,7 @@ NO_ALARM = Tolerance("no alarm", 0.01, "", "at_least", "a reason", p_value=True)
 
 
 def _check(value: float, sigma: float | None = None, tol: Tolerance = MS) -> Check:
-    return Check("topic", "error", value, tol, sigma)
+    return Check("error", value, tol, sigma)
 
 
 def test_the_boundary_itself_passes() -> None:
@@ -36,32 +36,32 @@ def test_sigma_must_fit_inside_the_tolerance_too() -> None:
 
 
 def test_at_least_and_at_most() -> None:
-    assert Check("t", "share", 95.0, SHARE).passed
-    assert not Check("t", "share", 94.99, SHARE).passed
-    assert Check("t", "share", 97.0, SHARE, sigma=1.0).passed
-    assert not Check("t", "share", 97.0, SHARE, sigma=1.01).passed
-    assert Check("t", "faults", 0, COUNT).passed
-    assert not Check("t", "faults", 1, COUNT).passed
+    assert Check("share", 95.0, SHARE).passed
+    assert not Check("share", 94.99, SHARE).passed
+    assert Check("share", 97.0, SHARE, sigma=1.0).passed
+    assert not Check("share", 97.0, SHARE, sigma=1.01).passed
+    assert Check("faults", 0, COUNT).passed
+    assert not Check("faults", 1, COUNT).passed
 
 
 def test_p_value_checks() -> None:
-    assert Check("t", "detected", 0.01, DETECT).passed
-    assert not Check("t", "detected", 0.0101, DETECT).passed
-    assert Check("t", "no false alarm", 0.01, NO_ALARM).passed
-    assert not Check("t", "no false alarm", 0.0099, NO_ALARM).passed
-    assert Check("t", "detected", 1e-9, DETECT).measured() == "p < 0.001"
+    assert Check("detected", 0.01, DETECT).passed
+    assert not Check("detected", 0.0101, DETECT).passed
+    assert Check("no false alarm", 0.01, NO_ALARM).passed
+    assert not Check("no false alarm", 0.0099, NO_ALARM).passed
+    assert Check("detected", 1e-9, DETECT).measured() == "p < 0.001"
     with pytest.raises(ValueError, match="without a σ"):
-        Check("t", "detected", 0.001, DETECT, sigma=0.001)
+        Check("detected", 0.001, DETECT, sigma=0.001)
 
 
 def test_not_a_number_fails() -> None:
     assert not _check(math.nan).passed
     assert not _check(0.1, math.nan).passed
-    assert not Check("t", "detected", math.nan, DETECT).passed
+    assert not Check("detected", math.nan, DETECT).passed
 
 
 def test_sentence_shows_value_sigma_tolerance_and_verdict() -> None:
-    c = Check("Method A", "latency error", 0.00171, MS, 0.01623, detail="truth 4.21 ms")
+    c = Check("latency error", 0.00171, MS, 0.01623, detail="truth 4.21 ms")
     assert c.measured() == "0.002 ± 0.016 ms"
     assert c.sentence() == (
         "latency error: 0.002 ± 0.016 ms (truth 4.21 ms); tolerance ±1 ms: PASS."

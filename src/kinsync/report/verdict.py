@@ -105,8 +105,6 @@ class Check:
 
     Attributes
     ----------
-    topic : str
-        The report topic (section) the check belongs to.
     quantity : str
         What was measured, in words ("latency error against the simulated truth").
     value : float
@@ -119,7 +117,6 @@ class Check:
         Optional context shown beside the value ("estimate 4.2117 ms, truth 4.21 ms").
     """
 
-    topic: str
     quantity: str
     value: float
     tolerance: Tolerance
