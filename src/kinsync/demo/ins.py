@@ -1,4 +1,4 @@
-"""Demo section for the loosely coupled INS/GNSS filter and smoother (SPEC section 6).
+"""Demo section for the loosely coupled INS/GNSS filter and smoother.
 
 `ins_section`: a MEMS-grade (ADIS16488-like) IMU on a car that stands still, then
 drives an oval; RTK GNSS with an outage in the middle. The real workflow: static
@@ -22,6 +22,7 @@ import numpy as np
 from kinsync._typing import BoolArray, FloatArray
 from kinsync._validate import finite_number, positive_number
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import OUTAGE_TRAJECTORY, SIGMA_COVERAGE
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, geodetic_to_ecef
 from kinsync.ins.alignment import align_static_gnss_heading
@@ -31,6 +32,7 @@ from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure, route_map_figure
+from kinsync.report.verdict import Check
 from kinsync.sim.drive import DriveSimConfig, DriveSimulation, simulate_drive
 
 __all__ = [
@@ -339,6 +341,7 @@ class _MemsOutcome:
     whole: dict[str, Any]
     outage: dict[str, Any]
     drift_m: dict[str, float]
+    drift_std_m: dict[str, float]
     align_err_deg: FloatArray
     bias_rows: list[list[str]]
     bias_doc: dict[str, Any]
@@ -350,6 +353,7 @@ def _mems_outcome(s: InsDemoSetup, run: _MemsRun) -> _MemsOutcome:
     a, b = s.outage_s
     in_outage = (run.forward.t_s >= a) & (run.forward.t_s <= b)
     last = int(np.flatnonzero(in_outage)[-1])
+    t_last = run.forward.t_s[last]
     k_init = int(np.searchsorted(run.sim.truth.t_s, run.init.t_s))
     truth_rpy = np.degrees(run.sim.truth.euler_rpy_rad()[k_init])
     align_err = np.degrees(run.init.rpy_rad) - truth_rpy
@@ -366,6 +370,10 @@ def _mems_outcome(s: InsDemoSetup, run: _MemsRun) -> _MemsOutcome:
         drift_m={
             name: float(np.hypot(*cmp.err_pos_ned_m[last, :2]))
             for name, cmp in (("forward", run.forward), ("smoothed", run.smoothed))
+        },
+        drift_std_m={
+            name: float(np.hypot(*sol.std_pos_ned_m[int(np.searchsorted(sol.t_s, t_last)), :2]))
+            for name, sol in (("forward", run.result.forward), ("smoothed", smoothed_sol))
         },
         align_err_deg=(align_err + 180.0) % 360.0 - 180.0,
         bias_rows=bias_rows,

@@ -6,6 +6,12 @@ fail. One rule judges every check: the value must lie inside the tolerance with 
 for `COVERAGE_FACTOR` standard deviations (``|value| + 2σ ≤ limit``), so that a lucky
 value with a large σ does not pass; a value without a σ (a count, a largest error, a
 p-value) is judged as it is. A value that is not a number fails.
+
+References
+----------
+ISO 14253-1:2017, Geometrical product specifications (GPS) -- Inspection by
+measurement of workpieces and measuring equipment -- Part 1: Decision rules for
+verifying conformity or nonconformity with specifications.
 """
 
 from __future__ import annotations
@@ -35,8 +41,9 @@ COVERAGE_FACTOR = 2.0
 JUDGING_RULE = (
     "A check passes when the measured value lies inside its tolerance with room for two "
     "standard deviations (for a limit on the size of an error: |value| + 2σ ≤ tolerance), "
-    "so that a value that is small only by chance, with a large σ, does not pass. Values "
-    "without a σ (counts, the largest error over a run, p-values) are judged as they are."
+    "so that a value that is small only by chance, with a large σ, does not pass: the "
+    "decision rule of ISO 14253-1, with the expanded uncertainty 2σ. Values without a σ "
+    "(counts, the largest error over a run, p-values) are judged as they are."
 )
 """The rule in words, as a report states it."""
 
