@@ -20,8 +20,8 @@ from kinsync.budget import (
     rolling_table_scenario,
     serial_transmission_time_s,
 )
-from kinsync.report.figures import beach_budget_figure, rolling_table_figure
 from kinsync.demo.tolerances import ONE_ERROR_SOURCE
+from kinsync.report.figures import beach_budget_figure, rolling_table_figure
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.verdict import Check
 
@@ -225,7 +225,7 @@ def _figures() -> tuple[Figure, ...]:
 
 
 def _checks(budgets: _Budgets) -> tuple[Check, ...]:
-    """The budget's verdict: is a 1 ms latency within one error source on the beach?"""
+    """The budget's verdict: a 1 ms latency on the beach against one error source."""
     one_ms = budgets.beach_one_ms
     return (
         Check(

@@ -19,11 +19,11 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.clock import ClockFit, fit_clock_to_log
+from kinsync.demo.tolerances import EXACT, TIME_TAGGING
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.clock_model import read_pps_csv, write_clock_model
 from kinsync.io.nmea import read_nmea_log
 from kinsync.report.clock_figures import clock_residual_figure
-from kinsync.demo.tolerances import EXACT, TIME_TAGGING
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.verdict import Check
 from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
@@ -170,7 +170,12 @@ def _checks(run: _ClockRun) -> tuple[Check, ...]:
     """The clock's verdict: offset and mapped times against the truth, faults found."""
     fit, truth = run.fit, run.truth
     found = (fit.n_missing, fit.n_spurious, fit.n_wrong_zda, fit.n_bad_lines)
-    simulated = (truth["n_missing"], truth["n_spurious"], truth["n_wrong_zda"], truth["n_bad_lines"])
+    simulated = (
+        truth["n_missing"],
+        truth["n_spurious"],
+        truth["n_wrong_zda"],
+        truth["n_bad_lines"],
+    )
     wrong = sum(abs(int(a) - int(b)) for a, b in zip(found, simulated, strict=True))
     return (
         Check(

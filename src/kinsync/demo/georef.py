@@ -22,12 +22,13 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync.demo.tolerances import GEOREF_KERNEL, ONE_ERROR_SOURCE
 from kinsync.georef import GeorefTrajectory, georeference
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.mount import Mount
 from kinsync.report.figures import png_bytes
-from kinsync.demo.tolerances import GEOREF_KERNEL, ONE_ERROR_SOURCE
 from kinsync.report.html import Figure, Section, Table
+from kinsync.report.style import report_figure
 from kinsync.report.verdict import Check
 from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import VelocityConsistencyWarning
@@ -107,6 +108,22 @@ def velocity_check_part(vehicle: TurningVehicle) -> tuple[Table, str, str, Check
     return table, paragraph, summary, check
 
 
+@report_figure
+def _error_figure(t_rel: FloatArray, err_late_mm: FloatArray, err_mm: FloatArray) -> bytes:
+    """Point errors against time, with a 2 ms latency error and with the correct one."""
+    fig, ax = plt.subplots(figsize=(10, 3.8))
+    step = max(1, N_POINTS // 20000)
+    ax.plot(t_rel[::step], err_late_mm[::step], ".", ms=1.5, label="2 ms latency error")
+    ax.plot(t_rel[::step], err_mm[::step], "+", ms=2.0, color="C3", label="correct latency")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("point error (mm)")
+    ax.set_title("Georeferenced points against analytic truth")
+    ax.grid(visible=True, which="both", alpha=0.3)
+    ax.legend(markerscale=6)
+    return png_bytes(fig)
+
+
 def georef_section(out_dir: Path, summary: Summary) -> Section:
     """Georeference a simulated scan against analytic truth, with and without a latency error."""
     vehicle = TurningVehicle()
@@ -137,17 +154,7 @@ def georef_section(out_dir: Path, summary: Summary) -> Section:
             ),
         )
     )
-    fig, ax = plt.subplots(figsize=(10, 3.8))
-    step = max(1, N_POINTS // 20000)
-    ax.plot(t_rel[::step], err_late_mm[::step], ".", ms=1.5, label="2 ms latency error")
-    ax.plot(t_rel[::step], err_mm[::step], ".", ms=1.5, label="correct latency")
-    ax.set_yscale("log")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("point error (mm)")
-    ax.set_title("Georeferenced points against analytic truth")
-    ax.grid(visible=True, which="both", alpha=0.3)
-    ax.legend(markerscale=6)
-    png = png_bytes(fig)
+    png = _error_figure(t_rel, err_late_mm, err_mm)
     atomic_write_bytes(out_dir / "georef_1.png", png)
     velocity_table, velocity_paragraph, velocity_summary, velocity_check = velocity_check_part(
         vehicle

@@ -16,6 +16,7 @@ import numpy as np
 
 from kinsync._text import counted
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import LATENCY_TABLE, ONE_ERROR_SOURCE, SIGMA_CONSISTENT
 from kinsync.fit import SphereFit, segment_sphere
 from kinsync.io.cidco import read_cidco_pass
 from kinsync.io.passes import read_passes
@@ -23,7 +24,6 @@ from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import LatencyPlan, TableDesign, plan_latency_experiment
 from kinsync.latency.sphere import SphereLatencyResult, estimate_latency_sphere
 from kinsync.report.fit_figures import sphere_residual_figure
-from kinsync.demo.tolerances import LATENCY_TABLE, ONE_ERROR_SOURCE, SIGMA_CONSISTENT
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
 from kinsync.report.numbers import format_p_value
@@ -179,7 +179,7 @@ def _checks(run: _MethodARun) -> tuple[Check, ...]:
 
 
 def _sphere_checks(worst: tuple[str, float], others_mm: float) -> tuple[Check, ...]:
-    """The real passes' verdict: does every pass fit a 0.2 m sphere to 10 mm RMS?"""
+    """The real passes' verdict: every pass fits a 0.2 m sphere to 10 mm RMS."""
     name, rms_mm = worst
     return (
         Check(

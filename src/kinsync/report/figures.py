@@ -17,18 +17,24 @@ from kinsync.budget import (
     latency_beam_error,
     rolling_table_scenario,
 )
+from kinsync.report.style import REPORT_DPI, make_readable, report_figure
 
 __all__ = ["beach_budget_figure", "png_bytes", "rolling_table_figure"]
 
 
 def png_bytes(fig: Figure) -> bytes:
-    """Render a figure to PNG bytes and close it."""
+    """Render a figure to PNG bytes and close it, its text readable and its legends clear.
+
+    See `kinsync.report.style.make_readable`.
+    """
+    make_readable(fig, REPORT_DPI)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=REPORT_DPI, bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
 
 
+@report_figure
 def beach_budget_figure(
     range_m: float, slope_deg: float, rates_deg_s: Sequence[float], latencies_ms: Sequence[float]
 ) -> bytes:
@@ -63,6 +69,7 @@ def beach_budget_figure(
     return png_bytes(fig)
 
 
+@report_figure
 def rolling_table_figure(latencies_ms: Sequence[float], sector_deg: float = 20.0) -> bytes:
     """Point error across a scanned sector for a table rolling +-6 deg at 1 Hz, turning 1 deg/s."""
     elevations = np.linspace(-sector_deg / 2, sector_deg / 2, 41)
