@@ -102,3 +102,20 @@ def test_report_figures_come_out_readable(monkeypatch: pytest.MonkeyPatch) -> No
     for fig in made:
         assert small_texts(fig) == []
         assert legends_over_data(fig) == []
+
+
+def test_a_legend_with_a_neighbour_on_its_right_goes_below() -> None:
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4))
+    x = np.linspace(0.0, 1.0, 400)
+    for k in range(6):
+        left.plot(x, x + 0.15 * k, label=f"series {k}")
+        right.plot(x, x)
+    left.legend(loc="center")
+    assert legends_over_data(fig)
+    make_readable(fig)
+    assert legends_over_data(fig) == []
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    box = left.get_legend().get_window_extent(renderer)
+    assert box.y1 < left.get_window_extent(renderer).y0  # under the axes
+    assert not box.overlaps(right.get_window_extent(renderer))
+    plt.close(fig)

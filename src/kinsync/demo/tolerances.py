@@ -13,7 +13,6 @@ from __future__ import annotations
 from kinsync.report.verdict import Tolerance
 
 __all__ = [
-    "BORESIGHT",
     "DETECTION",
     "EXACT",
     "GEOREF_KERNEL",
@@ -25,20 +24,8 @@ __all__ = [
     "PEER_PARITY",
     "SIGMA_CONSISTENT",
     "SIGMA_COVERAGE",
-    "SURVEY_ACCURACY",
     "TIME_TAGGING",
 ]
-
-SURVEY_ACCURACY = Tolerance(
-    name="survey accuracy",
-    limit=30.0,
-    unit="mm",
-    bound="abs_at_most",
-    why=(
-        "The accuracy a mobile-mapping or vessel survey is commonly specified to: "
-        "3 cm for everything together."
-    ),
-)
 
 ONE_ERROR_SOURCE = Tolerance(
     name="one error source",
@@ -83,14 +70,6 @@ LATENCY_CALIBRATION = Tolerance(
         "1 ms moves a point 8.7 mm vertically on the reference beach (10 deg slope at "
         "50 m under a 10 deg/s roll): one error source's 10 mm."
     ),
-)
-
-BORESIGHT = Tolerance(
-    name="boresight angle",
-    limit=0.02,
-    unit="deg",
-    bound="abs_at_most",
-    why="0.02 deg moves a point 10 mm at 30 m range: one error source.",
 )
 
 TIME_TAGGING = Tolerance(

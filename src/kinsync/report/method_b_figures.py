@@ -93,7 +93,12 @@ def clock_error_figure(
     for label, err, std in cases:
         (line,) = ax.plot(profile, err * 1e3, lw=1.5, label=f"{label}: estimate - truth")
         ax.fill_between(
-            profile, -3e3 * std, 3e3 * std, color=line.get_color(), alpha=0.15, label="3 sigma"
+            profile,
+            -3e3 * std,
+            3e3 * std,
+            color=line.get_color(),
+            alpha=0.15,
+            label=f"{label}: ±3σ",
         )
     ax.set_xlabel("profile number")
     ax.set_ylabel("clock error (ms)")

@@ -214,12 +214,34 @@ def _relayout(fig: Figure) -> None:
             fig.tight_layout()
 
 
+def _place_outside(fig: Figure, ax: Axes, legend: Legend, renderer: RendererBase) -> bool:
+    """Put ``legend`` right of ``ax`` or under its x axis, where no other axes are.
+
+    Returns False (the legend stays at "best") when axes sit on both sides.
+    """
+    pos = ax.get_position()
+    others = [o.get_position() for o in fig.axes if o is not ax and o.get_visible()]
+    if not any(o.x0 >= pos.x1 - 1e-3 and o.y0 < pos.y1 and o.y1 > pos.y0 for o in others):
+        legend.set_loc("upper left")
+        legend.set_bbox_to_anchor((1.02, 1.0), transform=ax.transAxes)
+        return True
+    if not any(o.y1 <= pos.y0 + 1e-3 and o.x0 < pos.x1 and o.x1 > pos.x0 for o in others):
+        box = ax.get_window_extent(renderer)
+        axis_box = ax.xaxis.get_tightbbox(renderer)
+        bottom = axis_box.y0 if axis_box is not None else box.y0
+        y = (bottom - box.y0) / max(box.height, 1.0) - 0.02
+        legend.set_loc("upper center")
+        legend.set_bbox_to_anchor((0.5, y), transform=ax.transAxes)
+        return True
+    return False
+
+
 def make_readable(fig: Figure, dpi: float = REPORT_DPI) -> None:
     """Enlarge text below `MIN_TEXT_PX` and move legends off the data, in place.
 
     A legend with data under it goes where matplotlib finds the fewest points ("best");
-    if data remain under it, it goes outside the axes, to the right (and the text is
-    checked again, the figure being wider).
+    if data remain under it, it goes outside the axes, to the right or else below, where
+    no other axes are (and the text is checked again, the figure being larger).
     """
     renderer = _renderer(fig)
     if _enlarge_small_text(fig, _px_per_point(fig, renderer, dpi)):
@@ -231,8 +253,6 @@ def make_readable(fig: Figure, dpi: float = REPORT_DPI) -> None:
             continue
         legend.set_loc("best")
         if _covered(ax, legend, renderer):
-            legend.set_loc("upper left")
-            legend.set_bbox_to_anchor((1.02, 1.0), transform=ax.transAxes)
-            moved_out = True
+            moved_out = _place_outside(fig, ax, legend, renderer) or moved_out
     if moved_out and _enlarge_small_text(fig, _px_per_point(fig, renderer, dpi)):
         _relayout(fig)
