@@ -153,8 +153,12 @@ def control_point_figure(report: ControlPointReport) -> bytes:
     c_mm = report.intercept_m * 1e3 if math.isfinite(report.intercept_m) else 0.0
     fig, (ax_s, ax_x) = plt.subplots(1, 2, figsize=(13, 4.6))
     partial_s = dy + psi * x * 1e3
-    for side, mask, colour in (("left", x < 0, "C0"), ("right", x >= 0, "C1")):
-        ax_s.plot(s[mask], partial_s[mask], "o", ms=4, color=colour, label=f"{side} targets")
+    # hollow markers of two shapes: targets at the same speed stay visible under each other
+    for side, mask, colour, marker in (("left", x < 0, "C0", "o"), ("right", x >= 0, "C1", "^")):
+        ax_s.plot(
+            s[mask], partial_s[mask], marker, ms=6, mfc="none", mew=1.2, color=colour,
+            label=f"{side} targets",
+        )  # fmt: skip
     if te.testable:
         grid = np.linspace(float(s.min()), float(s.max()), 50)
         ax_s.plot(grid, c_mm + tau * grid * 1e3, color="k", lw=1.5, label="fit c + tau s")
