@@ -10,6 +10,7 @@ import pytest
 
 from kinsync.cli import main
 from kinsync.report.render_check import check_renders, find_chromium
+from kinsync.report.structure import report_problems
 
 
 class _Collector(HTMLParser):
@@ -81,9 +82,16 @@ def test_demo_writes_a_self_contained_report(
     assert "mount self-calibration" in out
     for key in ("INS/GNSS", "Method B", "end-to-end: validation"):
         assert key in out
+    # a judged report: summary of verdicts first, a verdict opening every topic, a
+    # conclusion last, no internal citations, p-values written "p < 0.001"
+    assert report_problems(html_text) == []
+    assert "capability that has landed" not in html_text
+    assert html_text.index('class="summary"') < html_text.index('class="topic"')
+    assert "Conclusion" in html_text[html_text.index('class="conclusion"') :]
     if find_chromium() is not None:
         check = check_renders(out_dir / "report.html")
         assert check.ok, check
+        assert check.every_topic_judged, check
         assert check.n_images == len(parser.imgs)
         assert check.n_sections == len(parser.headings)
 

@@ -7,7 +7,7 @@ from kinsync.sim.turning_scan import TurningVehicle
 
 
 def test_velocity_check_part_shows_the_damage_and_the_fallback() -> None:
-    table, paragraph, summary = velocity_check_part(TurningVehicle())
+    table, paragraph, summary, check = velocity_check_part(TurningVehicle())
     rms = {row[0]: float(row[1]) for row in table.rows}
     peak = {row[0]: float(row[2]) for row in table.rows}
     exact, blind, checked = (
@@ -24,3 +24,6 @@ def test_velocity_check_part_shows_the_damage_and_the_fallback() -> None:
     assert "the velocities are zero" in paragraph
     assert "interpolated linearly" in paragraph
     assert "detected" in summary
+    assert abs(check.value - peak[checked]) <= 0.005
+    assert check.passed
+    assert check.tolerance.limit == 10.0

@@ -22,6 +22,7 @@ from kinsync.calibration.parameters import REPORT_SCALE, mount_values
 from kinsync.calibration.planning import PlanResult, plan_calibration
 from kinsync.calibration.result import CalibrationResult
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import SIGMA_CONSISTENT
 from kinsync.fit import segment_sphere
 from kinsync.frames import ecef_to_geodetic, rotation_ned_to_ecef
 from kinsync.io.cidco import ACQUISITION_MOUNT, read_cidco_lines, read_cidco_pass
@@ -29,6 +30,7 @@ from kinsync.io.mount_file import read_mount
 from kinsync.pipelines.calibration import calibrate_files
 from kinsync.report.calibration import overlap_figure
 from kinsync.report.html import Figure, Section, Table
+from kinsync.report.verdict import Check
 from kinsync.sim.patch_config import PatchTestConfig, Scenario
 from kinsync.sim.patch_test import simulate_patch_test, write_patch_test
 
@@ -167,6 +169,23 @@ def _figure(result: CalibrationResult) -> bytes:
     )
 
 
+def _check(run: _ScenarioRun) -> Check:
+    """Is the stated σ honest? The largest error of a determined parameter in σ units."""
+    scores = [
+        (abs(p.value - run.truth[i]) / p.std, p.name)
+        for i, p in enumerate(run.result.parameters)
+        if p.status in ("estimated", "weak") and p.std is not None and p.std > 0.0
+    ]
+    score, name = max(scores) if scores else (math.nan, "none determined")
+    return Check(
+        f"simulated {run.scenario} patch test: largest error of a determined parameter, "
+        "in units of its stated σ",
+        score,
+        SIGMA_CONSISTENT,
+        detail=f"{name}; {len(scores)} parameters determined",
+    )
+
+
 def _summary_text(run: _ScenarioRun) -> str:
     lat = run.result.parameter("latency_ms")
     held = [p.name for p in run.result.parameters if p.status == "unobservable"]
@@ -263,6 +282,7 @@ def calibration_section(
     write_section_files(out_dir, "calibration", figures, doc)
     section = Section(
         title="Mount self-calibration from survey lines",
+        checks=tuple(_check(r) for r in runs),
         paragraphs=tuple(paragraphs),
         tables=tuple(tables),
         figures=tuple(figures),

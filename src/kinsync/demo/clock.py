@@ -1,6 +1,6 @@
-"""Demo section and figure for PPS + ZDA time tagging (SPEC section 6).
+"""Demo section and figure for PPS + ZDA time tagging: the local clock mapped to GPS time.
 
-Simulate the issue's scenario (10 minutes, 25 ppm drift, 1 us edge jitter, 3 missing
+Simulate a demanding logging scenario (10 minutes, 25 ppm drift, 1 us edge jitter, 3 missing
 and 2 spurious pulses, one ZDA naming the wrong second, two corrupted NMEA lines),
 write it as ``pps.csv`` / ``nmea.csv``, read it back, fit, and compare with the truth.
 """
@@ -19,11 +19,13 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.clock import ClockFit, fit_clock_to_log
+from kinsync.demo.tolerances import EXACT, TIME_TAGGING
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.clock_model import read_pps_csv, write_clock_model
 from kinsync.io.nmea import read_nmea_log
 from kinsync.report.clock_figures import clock_residual_figure
 from kinsync.report.html import Figure, Section, Table
+from kinsync.report.verdict import Check
 from kinsync.sim.clock import ClockSimConfig, simulate_clock, write_clock_simulation
 
 __all__ = ["clock_section"]
@@ -164,17 +166,51 @@ def _paragraphs(fit: ClockFit) -> tuple[str, ...]:
     )
 
 
+def _checks(run: _ClockRun) -> tuple[Check, ...]:
+    """The clock's verdict: offset and mapped times against the truth, faults found."""
+    fit, truth = run.fit, run.truth
+    found = (fit.n_missing, fit.n_spurious, fit.n_wrong_zda, fit.n_bad_lines)
+    simulated = (
+        truth["n_missing"],
+        truth["n_spurious"],
+        truth["n_wrong_zda"],
+        truth["n_bad_lines"],
+    )
+    wrong = sum(abs(int(a) - int(b)) for a, b in zip(found, simulated, strict=True))
+    return (
+        Check(
+            "clock offset error at the reference epoch",
+            run.offset_error_s * 1e6,
+            TIME_TAGGING,
+            fit.offset_std_s * 1e6,
+        ),
+        Check(
+            "largest error of the mapped GPS time over every true pulse edge",
+            run.max_error_us,
+            TIME_TAGGING,
+            detail=f"{len(run.edge_error_s)} edges",
+        ),
+        Check(
+            "faults missed or invented (missing and spurious pulses, wrong ZDAs, bad lines)",
+            wrong,
+            EXACT,
+            detail=f"found {'/'.join(map(str, found))}, simulated {'/'.join(map(str, simulated))}",
+        ),
+    )
+
+
 def clock_section(out_dir: Path, summary: Summary) -> Section:
-    """Simulate, write, read back and fit the issue's PPS + ZDA scenario."""
+    """Simulate, write, read back and fit the PPS + ZDA scenario."""
     run = _simulate_and_fit(out_dir / "clock")
     atomic_write_text(out_dir / "clock.json", json.dumps(_document(run), indent=2) + "\n")
     png = clock_residual_figure(run.fit, (run.edges_t_local_s, run.edge_error_s))
     atomic_write_bytes(out_dir / "clock_1.png", png)
     summary.append(_summary_row(run))
     return Section(
-        title="PPS + ZDA time tagging: local clock to GPS time (SPEC section 6)",
+        title="PPS + ZDA time tagging: local clock to GPS time",
         paragraphs=_paragraphs(run.fit),
         tables=_tables(run),
+        checks=_checks(run),
         figures=(
             Figure(
                 caption="Left: residuals of the good pulses, missing pulses (dotted), spurious "

@@ -26,9 +26,11 @@ from kinsync.crs import (
     data_area,
     plan_ecef_to_crs,
 )
+from kinsync.demo.tolerances import EXACT, GEOREF_KERNEL
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, atomic_write_text
 from kinsync.report.html import Section, Table
+from kinsync.report.verdict import Check
 
 __all__ = ["crs_section"]
 
@@ -49,6 +51,7 @@ class _CrsRun:
     wrong: CrsTransformInfo
     csrs_now: CrsTransformInfo
     epoch_shift_m: float
+    epoch_vs_proj_m: float
     geoid: CrsTransformInfo
     geoid_error_m: float
     missing_grid: str
@@ -95,6 +98,11 @@ def _run(out_dir: Path) -> _CrsRun:
     }
     now, then = (_apply(csrs[e], pos) for e in (OBSERVATION_EPOCH, OTHER_EPOCH))
     epoch_shift_m = float(np.max(np.hypot(*(now - then)[:, :2].T)))
+    # PROJ's own 4-D transformation of the same points at the data's epoch.
+    direct = pyproj.Transformer.from_crs("EPSG:7789", "EPSG:22819", always_xy=True)
+    epochs = np.full(len(pos), OBSERVATION_EPOCH)
+    e, n, u, _ = direct.transform(pos[:, 0], pos[:, 1], pos[:, 2], epochs)
+    epoch_vs_proj_m = float(np.max(np.abs(now - np.column_stack([e, n, u]))))
     grid = out_dir / "crs_demo_geoid.gtx"
     _write_geoid_grid(grid)
     geoid_plan = plan_ecef_to_crs("EPSG:32619+5703", geoid=str(grid), sample_ecef_m=pos)
@@ -111,6 +119,7 @@ def _run(out_dir: Path) -> _CrsRun:
         wrong=wrong,
         csrs_now=csrs[OBSERVATION_EPOCH][1],
         epoch_shift_m=epoch_shift_m,
+        epoch_vs_proj_m=epoch_vs_proj_m,
         geoid=geoid_plan[1],
         geoid_error_m=geoid_error_m,
         missing_grid=missing,
@@ -142,6 +151,29 @@ def _table(run: _CrsRun) -> Table:
     )
 
 
+def _checks(run: _CrsRun) -> tuple[Check, ...]:
+    warned = any("ppm" in w for w in run.wrong.warnings)
+    return (
+        Check(
+            "ITRF2014 -> NAD83(CSRS)v8 at the data's epoch, against PROJ's 4-D transformation",
+            run.epoch_vs_proj_m * 1e3,
+            GEOREF_KERNEL,
+            detail=f"the epoch moves the points {run.epoch_shift_m * 100:.1f} cm since 2010",
+        ),
+        Check(
+            "orthometric heights from the --geoid grid, against h - N",
+            run.geoid_error_m * 1e3,
+            GEOREF_KERNEL,
+        ),
+        Check(
+            "UTM zone of the wrong side used without a warning",
+            0.0 if warned else 1.0,
+            EXACT,
+            detail="warned, with the scale error" if warned else "no warning",
+        ),
+    )
+
+
 def _document(run: _CrsRun) -> dict[str, Any]:
     return {
         "area": run.area.as_document(),
@@ -149,6 +181,7 @@ def _document(run: _CrsRun) -> dict[str, Any]:
         "wrong_zone": run.wrong.as_document(),
         "itrf2014_to_csrs_v8": run.csrs_now.as_document(),
         "epoch_shift_m": run.epoch_shift_m,
+        "epoch_vs_proj_m": run.epoch_vs_proj_m,
         "geoid": run.geoid.as_document(),
         "geoid_height_error_m": run.geoid_error_m,
         "missing_grid": run.missing_grid,
@@ -197,4 +230,5 @@ def crs_section(out_dir: Path, summary: Summary) -> Section:
             ),
         ),
         tables=(_table(run),),
+        checks=_checks(run),
     )

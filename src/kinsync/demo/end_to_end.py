@@ -1,6 +1,6 @@
 """Demo section: the whole chain on one simulated survey, right and wrong calibration.
 
-One drive, one scene, one truth (SPEC sections 4-7 in a row):
+One drive, one scene, one truth (synchronisation, georeferencing and validation in a row):
 
 1. **Survey.** An oval driven almost three times (`kinsync.sim.drive`: straights,
    180 deg right turns of 10 m radius, 5 m/s cruise, smooth speed ramps from the static
@@ -41,7 +41,7 @@ synchronisation, or equally a t0 off by 5 ms.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -52,6 +52,12 @@ from kinsync._typing import FloatArray
 from kinsync.demo.end_to_end_chain import CalibrationCase, ChainResult, run_chain
 from kinsync.demo.end_to_end_survey import EndToEndConfig, simulate_survey, time_at_path
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import (
+    DETECTION,
+    LATENCY_CALIBRATION,
+    NO_FALSE_ALARM,
+    ONE_ERROR_SOURCE,
+)
 from kinsync.report.end_to_end_figures import (
     clock_cases_figure,
     control_point_cases_figure,
@@ -60,9 +66,11 @@ from kinsync.report.end_to_end_figures import (
 )
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.method_b_figures import clock_regression_figure
-from kinsync.report.validation_figures import plus_minus
+from kinsync.report.numbers import format_p_value, plus_minus
+from kinsync.report.verdict import Check
 from kinsync.validation import (
     ControlPointReport,
+    FlatnessResult,
     SignatureTest,
     pass_labels,
 )
@@ -93,7 +101,7 @@ def _signature_cell(test: SignatureTest, scale: float, unit: str = "") -> str:
         return "not testable"
     verdict = "significant" if test.significant else "not significant"
     value = plus_minus(test.estimate * scale, test.std * scale)
-    return f"{value}{unit} (p {test.p_value:.2g}, {verdict})"
+    return f"{value}{unit} ({format_p_value(test.p_value)}, {verdict})"
 
 
 def _first_straight_spans(result: ChainResult) -> list[tuple[float, float]]:
@@ -425,7 +433,7 @@ def _wall_table(result: ChainResult) -> Table:
             f"{w.rms_m * 1e3:.2f}",
             f"{w.bow_m * 1e3:.2f}",
             f"{w.f_statistic:.3g}",
-            f"{w.p_value:.2g}",
+            format_p_value(w.p_value, prefix=False),
             "yes" if w.curvature_significant else "no",
         ]
         for c in result.cases
@@ -441,7 +449,7 @@ def _wall_table(result: ChainResult) -> Table:
             "bow (mm)",
             "F",
             "p-value",
-            f"curved (p < 1 %, bow >= {result.survey.config.wall_tolerance_m * 1e3:g} mm)",
+            f"curved (p < 0.01, bow >= {result.survey.config.wall_tolerance_m * 1e3:g} mm)",
         ),
         rows=rows,
     )
@@ -520,6 +528,10 @@ def _cases_paragraph(result: ChainResult) -> str:
     )
 
 
+def _bows(walls: Sequence[FlatnessResult]) -> str:
+    return ", ".join(f"{w.bow_m * 1e3:.1f} mm ({format_p_value(w.p_value)})" for w in walls)
+
+
 def _validation_paragraph(result: ChainResult) -> str:
     """How control points and the wall are tested."""
     correct = result.cases[0]
@@ -534,11 +546,11 @@ def _validation_paragraph(result: ChainResult) -> str:
         "error bends it; the RMS barely moves. With about "
         f"{correct.walls[0].n_points} points per pass the F-test alone sees "
         "sub-millimetre bends (correct calibration: bows "
-        + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in correct.walls)
+        + _bows(correct.walls)
         + "; with the exact trajectory and clock "
-        + ", ".join(f"{w.bow_m * 1e3:.1f} mm (p {w.p_value:.2g})" for w in result.walls_exact)
+        + _bows(result.walls_exact)
         + ": the INS/GNSS trajectory's millimetre errors in the turn leave a small real "
-        "bend), so a bend is flagged when p < 1 % and "
+        "bend), so a bend is flagged when p < 0.01 and "
         f"the bow reaches {result.survey.config.wall_tolerance_m * 1e3:g} mm. Views of the "
         "targets from the far straight give too few points and are listed as missing in the "
         "JSON document."
@@ -571,6 +583,42 @@ def _paragraphs(result: ChainResult) -> tuple[str, ...]:
             "so do the offsets from pass to pass and the bend of the later pass."
         ),
     )
+
+
+def _checks(result: ChainResult) -> tuple[Check, ...]:
+    """The chain's verdict: trajectory, clock, and validation of each calibration."""
+    sim, sync = result.survey.scan, result.sync
+    rms_mm = np.asarray(result.smoothed.rms_pos_ned_m) * 1e3
+    correct, late, period = result.cases
+    checks = [
+        Check(
+            "smoothed INS/GNSS position error (RMS, worst of N/E/D) against the truth",
+            float(rms_mm.max()),
+            ONE_ERROR_SOURCE,
+            detail="N/E/D " + "/".join(f"{v:.1f}" for v in rms_mm) + " mm",
+        ),
+        Check(
+            "Method B clock offset error on the INS/GNSS trajectory",
+            (sync.t0_s - sim.t0_s) * 1e3,
+            LATENCY_CALIBRATION,
+            sync.t0_std_s * 1e3,
+        ),
+        Check(
+            "correct calibration: time signature of the control points flagged by chance",
+            correct.control.time_error.p_value,
+            NO_FALSE_ALARM,
+        ),
+    ]
+    checks.extend(
+        Check(
+            f"{case.label}: flagged by the control points' time signature",
+            case.control.time_error.p_value,
+            DETECTION,
+            detail=f"time error {_ms(case.control.time_error.estimate)} ms",
+        )
+        for case in (late, period)
+    )
+    return tuple(checks)
 
 
 def end_to_end_section(
@@ -610,6 +658,7 @@ def end_to_end_section(
     summary.extend(_summary_rows(result))
     section = Section(
         title="End to end: one survey from INS/GNSS to validation, right and wrong calibration",
+        checks=_checks(result),
         paragraphs=_paragraphs(result),
         tables=_tables(result),
         figures=tuple(figures),

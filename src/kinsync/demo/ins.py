@@ -1,4 +1,4 @@
-"""Demo section for the loosely coupled INS/GNSS filter and smoother (SPEC section 6).
+"""Demo section for the loosely coupled INS/GNSS filter and smoother.
 
 `ins_section`: a MEMS-grade (ADIS16488-like) IMU on a car that stands still, then
 drives an oval; RTK GNSS with an outage in the middle. The real workflow: static
@@ -22,6 +22,7 @@ import numpy as np
 from kinsync._typing import BoolArray, FloatArray
 from kinsync._validate import finite_number, positive_number
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import OUTAGE_TRAJECTORY, SIGMA_COVERAGE
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, geodetic_to_ecef
 from kinsync.ins.alignment import align_static_gnss_heading
@@ -31,6 +32,7 @@ from kinsync.ins.filter import InsResult, run_ins
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure, route_map_figure
+from kinsync.report.verdict import Check
 from kinsync.sim.drive import DriveSimConfig, DriveSimulation, simulate_drive
 
 __all__ = [
@@ -339,6 +341,7 @@ class _MemsOutcome:
     whole: dict[str, Any]
     outage: dict[str, Any]
     drift_m: dict[str, float]
+    drift_std_m: dict[str, float]
     align_err_deg: FloatArray
     bias_rows: list[list[str]]
     bias_doc: dict[str, Any]
@@ -350,6 +353,7 @@ def _mems_outcome(s: InsDemoSetup, run: _MemsRun) -> _MemsOutcome:
     a, b = s.outage_s
     in_outage = (run.forward.t_s >= a) & (run.forward.t_s <= b)
     last = int(np.flatnonzero(in_outage)[-1])
+    t_last = run.forward.t_s[last]
     k_init = int(np.searchsorted(run.sim.truth.t_s, run.init.t_s))
     truth_rpy = np.degrees(run.sim.truth.euler_rpy_rad()[k_init])
     align_err = np.degrees(run.init.rpy_rad) - truth_rpy
@@ -366,6 +370,10 @@ def _mems_outcome(s: InsDemoSetup, run: _MemsRun) -> _MemsOutcome:
         drift_m={
             name: float(np.hypot(*cmp.err_pos_ned_m[last, :2]))
             for name, cmp in (("forward", run.forward), ("smoothed", run.smoothed))
+        },
+        drift_std_m={
+            name: float(np.hypot(*sol.std_pos_ned_m[int(np.searchsorted(sol.t_s, t_last)), :2]))
+            for name, sol in (("forward", run.result.forward), ("smoothed", smoothed_sol))
         },
         align_err_deg=(align_err + 180.0) % 360.0 - 180.0,
         bias_rows=bias_rows,
@@ -515,6 +523,29 @@ def _mems_summary_row(s: InsDemoSetup, o: _MemsOutcome) -> tuple[str, str, str]:
     )
 
 
+def _mems_checks(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[Check, ...]:
+    """The MEMS drive's verdict: the smoothed trajectory through the outage, honest σ."""
+    assert run.smoothed.within_3sigma is not None
+    a, b = s.outage_s
+    shares = run.smoothed.within_3sigma
+    worst = min(shares, key=lambda k: shares[k])
+    return (
+        Check(
+            f"smoothed horizontal position error at the end of the {b - a:g} s GNSS outage",
+            o.drift_m["smoothed"] * 1e3,
+            OUTAGE_TRAJECTORY,
+            o.drift_std_m["smoothed"] * 1e3,
+            detail=f"forward filter alone {o.drift_m['forward']:.2f} m",
+        ),
+        Check(
+            "share of epochs whose smoothed error lies inside ±3σ, worst axis",
+            100.0 * shares[worst],
+            SIGMA_COVERAGE,
+            detail=worst.replace("_", " "),
+        ),
+    )
+
+
 def ins_section(
     out_dir: Path,
     summary: Summary,
@@ -555,7 +586,8 @@ def ins_section(
     write_section_files(out_dir, "ins", figures, doc)
     summary.append(_mems_summary_row(s, outcome))
     section = Section(
-        title="INS/GNSS: MEMS drive, static alignment, GNSS outage (SPEC section 6)",
+        title="INS/GNSS: MEMS drive, static alignment, GNSS outage",
+        checks=_mems_checks(s, run, outcome),
         paragraphs=_mems_paragraphs(s, run, outcome),
         tables=_mems_tables(s, run, outcome),
         figures=figures,

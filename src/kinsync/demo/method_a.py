@@ -6,6 +6,7 @@ the CIDCO set when ``../shared`` is beside the checkout.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,7 @@ import numpy as np
 
 from kinsync._text import counted
 from kinsync.demo.files import write_section_files
+from kinsync.demo.tolerances import LATENCY_TABLE, ONE_ERROR_SOURCE, SIGMA_CONSISTENT
 from kinsync.fit import SphereFit, segment_sphere
 from kinsync.io.cidco import read_cidco_pass
 from kinsync.io.passes import read_passes
@@ -24,6 +26,8 @@ from kinsync.latency.sphere import SphereLatencyResult, estimate_latency_sphere
 from kinsync.report.fit_figures import sphere_residual_figure
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.latency_figures import latency_per_rate_figure, plan_figure
+from kinsync.report.numbers import format_p_value
+from kinsync.report.verdict import Check
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 
@@ -145,10 +149,44 @@ def _paragraphs(run: _MethodARun) -> tuple[str, ...]:
         (
             f"Result: {result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
             f"against {DEMO_LATENCY_S * 1e3:g} ms; rates agree (chi2 "
-            f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, p = "
-            f"{result.p_value_between_rates:.2f}). Planner bound for this design: "
+            f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, "
+            f"{format_p_value(result.p_value_between_rates)}). Planner bound for this design: "
             f"{plan.latency_std_s * 1e3:.4f} ms; "
             f"{plan.passes_for_target(1e-4)} pass(es) per rate and direction reach 0.1 ms."
+        ),
+    )
+
+
+def _checks(run: _MethodARun) -> tuple[Check, ...]:
+    """Method A's verdict: the latency against the truth, and whether its σ is honest."""
+    result = run.result
+    err_ms = (result.latency_s - DEMO_LATENCY_S) * 1e3
+    std_ms = result.latency_std_s * 1e3
+    return (
+        Check(
+            "latency error against the simulated truth",
+            err_ms,
+            LATENCY_TABLE,
+            std_ms,
+            detail=f"estimate {result.latency_s * 1e3:.4f} ms, truth {DEMO_LATENCY_S * 1e3:g} ms",
+        ),
+        Check(
+            "latency error in units of its stated σ",
+            abs(err_ms) / std_ms,
+            SIGMA_CONSISTENT,
+        ),
+    )
+
+
+def _sphere_checks(worst: tuple[str, float], others_mm: float) -> tuple[Check, ...]:
+    """The real passes' verdict: every pass fits a 0.2 m sphere to 10 mm RMS."""
+    name, rms_mm = worst
+    return (
+        Check(
+            "worst pass's residual RMS with the nominal 0.2 m radius",
+            rms_mm,
+            ONE_ERROR_SOURCE,
+            detail=f"{name}; every other pass {others_mm:.1f} mm or less",
         ),
     )
 
@@ -163,10 +201,11 @@ def method_a_section(
     doc = {"estimate": run.result.as_document(), "plan": run.plan.as_document(), "truth": run.truth}
     write_section_files(out_dir, "method_a", figures, doc)
     return Section(
-        title="Method A: latency from a sphere on a rotating table (SPEC section 2)",
+        title="Method A: latency from a sphere on a rotating table",
         paragraphs=_paragraphs(run),
         tables=(_rate_table(run),),
         figures=figures,
+        checks=_checks(run),
     )
 
 
@@ -185,12 +224,14 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
     residual_fits: list[tuple[str, SphereFit]] = []
     residual_points = []
     free_radii = []
+    fixed_rms_mm: list[tuple[str, float]] = []
     for path in sorted(folder.glob("sphere*/passage_*.txt")):
         cp = read_cidco_pass(path)
         free = segment_sphere(cp.points_ecef_m, radius_bounds_m=(0.1, 0.4))
         fixed = segment_sphere(cp.points_ecef_m, radius_m=0.2)
         free_radii.append(free.radius_m)
         label = f"{path.parent.name}/{path.stem}"
+        fixed_rms_mm.append((label, fixed.residual_rms_m * 1e3))
         rows.append(
             [
                 label,
@@ -212,8 +253,11 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
             f"free radius {min(free_radii):.3f}-{max(free_radii):.3f} m",
         )
     )
+    ranked = sorted(fixed_rms_mm, key=lambda item: item[1])
+    checks = _sphere_checks(ranked[-1], ranked[-2][1] if len(ranked) > 1 else math.nan)
     return Section(
         title="Sphere fitting on real returns (CIDCO, Port de Québec)",
+        checks=checks,
         paragraphs=(
             (
                 "Twelve vessel passes over two spherical targets (a 2D profiler, 100-490 "

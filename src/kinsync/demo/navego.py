@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from kinsync.demo.ins import Summary, Vector3, _series, _triple
+from kinsync.demo.tolerances import PEER_PARITY
 from kinsync.errors import InputError
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.config import InsConfig
@@ -30,6 +31,7 @@ from kinsync.io.imu_csv import read_imu_csv
 from kinsync.io.nav_csv import read_truth_csv
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.ins_figures import ErrorSeries, error_envelope_figure
+from kinsync.report.verdict import Check
 from kinsync.sim.drive import initial_state
 from kinsync.trajectory import Trajectory
 
@@ -266,6 +268,27 @@ _NAVEGO_HEADERS = (
 )
 
 
+def _checks(runs: list[dict[str, Any]]) -> tuple[Check, ...]:
+    """NaveGo's verdict: per condition, kinsync's worst RMS ratio to the best peer."""
+    checks = []
+    for run in runs:
+        name, pos, att = NAVEGO_PEERS[run["condition"]]
+        fwd = run["forward"]
+        ours = [round(float(v), 3) for v in (*fwd["rms_pos_ned_m"], *fwd["rms_att_deg"])]
+        ratios = [v / p for v, p in zip(ours, (*pos, *att), strict=True)]
+        worst = max(range(len(ratios)), key=lambda i: ratios[i])
+        checks.append(
+            Check(
+                f"condition {run['condition']} ({run['turn_on_biases']}, {run['updates']} "
+                f"updates): forward RMS error / {name}'s, worst axis",
+                ratios[worst],
+                PEER_PARITY,
+                detail=f"{_AXES[worst]}: {ours[worst]:g} against {(*pos, *att)[worst]:g}",
+            )
+        )
+    return tuple(checks)
+
+
 def navego_section(
     folder: Path,
     out_dir: Path,
@@ -342,6 +365,7 @@ def navego_section(
     )
     section = Section(
         title="INS/GNSS on the NaveGo synthetic set (external check)",
+        checks=_checks(runs),
         paragraphs=_navego_paragraphs(data, runs),
         tables=(
             Table(

@@ -22,6 +22,7 @@ from kinsync.calibration.overlaps import LineOverlap
 from kinsync.calibration.result import CalibrationResult, ParameterEstimate
 from kinsync.report.figures import png_bytes
 from kinsync.report.html import Figure, Section, Table, render_report
+from kinsync.report.style import report_figure
 
 __all__ = [
     "calibration_certificate",
@@ -153,6 +154,7 @@ def _plane_panels(
     axes[0].set_ylabel("one line's offset along the normal (cm)")
 
 
+@report_figure
 def overlap_figure(
     before: Sequence[LineOverlap],
     after: Sequence[LineOverlap],

@@ -11,10 +11,12 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.clock import ClockFit
 from kinsync.report.figures import png_bytes
+from kinsync.report.style import report_figure
 
 __all__ = ["clock_residual_figure"]
 
 
+@report_figure
 def clock_residual_figure(
     fit: ClockFit, truth_error_s: tuple[FloatArray, FloatArray] | None = None
 ) -> bytes:
@@ -37,7 +39,7 @@ def clock_residual_figure(
     t0 = fit.model.reference_local_s
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.2), gridspec_kw={"width_ratios": [3, 2]})
     x = fit.t_local_s - t0
-    ax.plot(x, fit.residuals_s * 1e6, ".", ms=3, color="tab:blue", label="good pulses")
+    ax.plot(x, fit.residuals_s * 1e6, ".", ms=3, color="C0", label="good pulses")
     for i, g in enumerate(fit.missing_gps_s):
         t_missing = fit.model.reference_local_s + (g - fit.model.reference_gps_s) / (
             1.0 + fit.model.drift_ppm * 1e-6
@@ -55,13 +57,11 @@ def clock_residual_figure(
             fit.spurious_t_local_s - t0,
             np.full(fit.n_spurious, 1.1 * top),
             "v",
-            color="tab:red",
+            color="C3",
             label="spurious pulse (off the grid)",
         )
     for i, tz in enumerate(fit.wrong_zda_t_local_s):
-        ax.axvline(
-            tz - t0, color="tab:orange", ls="--", lw=1, label="wrong ZDA" if i == 0 else None
-        )
+        ax.axvline(tz - t0, color="C1", ls="--", lw=1, label="wrong ZDA" if i == 0 else None)
     ax.set_xlabel(f"local time since first good pulse {t0:.3f} (s)")
     ax.set_ylabel("residual (us)")
     ax.set_title(
@@ -72,14 +72,14 @@ def clock_residual_figure(
     ax.legend(fontsize=8, loc="lower right")
     if truth_error_s is not None:
         tt, err = truth_error_s
-        ax2.plot(np.asarray(tt) - t0, np.asarray(err) * 1e6, ".", ms=3, color="tab:green")
+        ax2.plot(np.asarray(tt) - t0, np.asarray(err) * 1e6, ".", ms=3, color="C2")
         band = 3.0 * fit.mapped_std_s(np.asarray(tt)) * 1e6
-        ax2.fill_between(np.asarray(tt) - t0, -band, band, color="tab:green", alpha=0.15)
+        ax2.fill_between(np.asarray(tt) - t0, -band, band, color="C2", alpha=0.15)
         ax2.set_xlabel("local time since first good pulse (s)")
         ax2.set_ylabel("mapped time - truth (us)")
         ax2.set_title("model error at every true edge (band: 3 sigma)")
     else:
-        ax2.hist(fit.residuals_s * 1e6, bins=40, color="tab:blue")
+        ax2.hist(fit.residuals_s * 1e6, bins=40, color="C0")
         ax2.set_xlabel("residual (us)")
         ax2.set_ylabel("pulses")
         ax2.set_title("residual distribution")

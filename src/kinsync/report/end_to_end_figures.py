@@ -24,6 +24,8 @@ from kinsync.ins.compare import Comparison
 from kinsync.ins.measurements import GnssData
 from kinsync.ins.solution import NavSolution
 from kinsync.report.figures import png_bytes
+from kinsync.report.numbers import format_p_value
+from kinsync.report.style import report_figure
 from kinsync.sim.scene import Scene, TargetKind
 from kinsync.trajectory import Trajectory
 from kinsync.validation import ControlPointReport, FlatnessResult
@@ -35,7 +37,7 @@ __all__ = [
     "wall_cases_figure",
 ]
 
-_CASE_COLOURS = ("tab:green", "tab:red", "tab:purple", "tab:orange", "tab:brown")
+_CASE_COLOURS = ("C2", "C3", "tab:purple", "C1", "tab:brown")
 _CASE_MARKERS = ("o", "s", "^", "D", "v")
 _CELLS_PER_MAP = 400
 
@@ -46,6 +48,7 @@ def _local_ne(lat_lon_h: FloatArray, origin: tuple[float, float, float]) -> Floa
     return out
 
 
+@report_figure
 def survey_figure(
     scene: Scene,
     truth: Trajectory,
@@ -113,8 +116,8 @@ def survey_figure(
             label="wall" if k == 0 else None,
         )
     kinds: tuple[tuple[TargetKind, str, str], ...] = (
-        ("sync", "*", "tab:red"),
-        ("control", "o", "tab:blue"),
+        ("sync", "*", "C3"),
+        ("control", "o", "C0"),
     )
     for kind, marker, colour in kinds:
         targets = scene.targets_of_kind(kind)
@@ -137,9 +140,7 @@ def survey_figure(
     std = np.array(
         [np.interp(comparison.t_s, solution.t_s, solution.std_pos_ned_m[:, i]) for i in range(3)]
     ).T
-    for i, (axis, colour) in enumerate(
-        zip("NED", ("tab:blue", "tab:orange", "tab:green"), strict=True)
-    ):
+    for i, (axis, colour) in enumerate(zip("NED", ("C0", "C1", "C2"), strict=True)):
         ax_err.plot(t_rel, comparison.err_pos_ned_m[:, i] * 1e3, color=colour, lw=0.8,
                     label=f"{axis} error")  # fmt: skip
         ax_err.fill_between(t_rel, -3e3 * std[:, i], 3e3 * std[:, i], color=colour, alpha=0.12)
@@ -156,6 +157,7 @@ def survey_figure(
     return png_bytes(fig)
 
 
+@report_figure
 def clock_cases_figure(
     t_rel_s: FloatArray,
     cases: Sequence[tuple[str, FloatArray]],
@@ -184,7 +186,7 @@ def clock_cases_figure(
     """
     t = np.asarray(t_rel_s, dtype=np.float64)
     fig, ax = plt.subplots(figsize=(11, 4.2))
-    shades = {"control": "tab:blue", "wall": "0.4"}
+    shades = {"control": "C0", "wall": "0.4"}
     seen: set[str] = set()
     for label, lo, hi in spans:
         kind = "wall" if "wall" in label else "control"
@@ -213,6 +215,7 @@ def _visit_key(report: ControlPointReport) -> list[tuple[str, int]]:
     return [(d.observation.name, d.observation.visit) for d in report.differences]
 
 
+@report_figure
 def control_point_cases_figure(
     cases: Sequence[tuple[str, ControlPointReport]], pass_of_visit: Sequence[int] = ()
 ) -> bytes:
@@ -294,6 +297,7 @@ def _residual_grid(
     return np.ma.masked_invalid(grid.statistic.T)
 
 
+@report_figure
 def wall_cases_figure(
     cases: Sequence[tuple[str, Sequence[FlatnessResult]]], pass_names: Sequence[str] = ()
 ) -> bytes:
@@ -367,7 +371,7 @@ def wall_cases_figure(
             else:
                 word = "flat"
             ax.set_title(
-                f"{label}, {names[j]}: {word}\nF {r.f_statistic:.3g}, p {r.p_value:.2g}, "
+                f"{label}, {names[j]}: {word}\nF {r.f_statistic:.3g}, {format_p_value(r.p_value)}, "
                 f"bow {r.bow_m * 1e3:.1f} mm, RMS {r.rms_m * 1e3:.1f} mm",
                 fontsize=8,
             )

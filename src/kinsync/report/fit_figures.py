@@ -14,6 +14,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.fit import SphereFit
 from kinsync.report.figures import png_bytes
+from kinsync.report.style import report_figure
 
 __all__ = ["angle_from_cap_axis_deg", "sphere_residual_figure"]
 
@@ -53,6 +54,7 @@ def angle_from_cap_axis_deg(fit: SphereFit, points_m: FloatArray) -> FloatArray:
     return angles
 
 
+@report_figure
 def sphere_residual_figure(
     fits: Sequence[tuple[str, SphereFit]], points: Sequence[FloatArray]
 ) -> bytes:

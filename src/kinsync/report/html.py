@@ -1,17 +1,46 @@
 """A self-contained HTML report: inline CSS, figures embedded as base64 PNG.
 
 The page needs no network and no other file, so it opens offline in any browser and
-can be mailed as it is.
+can be mailed as it is. When its sections carry checks (`kinsync.report.verdict`), the
+page leads with a summary table of every check, opens each topic with its verdict
+(what was measured, the value with its σ, the tolerance, pass or fail) before the
+evidence, and ends with a conclusion and the table of the tolerances with their reasons.
 """
 
 from __future__ import annotations
 
 import base64
 import html
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-__all__ = ["Figure", "Section", "Table", "render_report"]
+from kinsync.report.verdict import JUDGING_RULE, Check, Tolerance, count_passed
+
+__all__ = [
+    "INTERNAL_REFERENCE",
+    "Figure",
+    "Section",
+    "Table",
+    "internal_references",
+    "render_report",
+]
+
+INTERNAL_REFERENCE = re.compile(
+    r"\bSPEC(?:\.md)?(?:\s+sections?\s*\d[\d\s,.-]*)?(?=\W|$)|\bDESIGN\.md\b"
+    r"|\b(?i:(?:kinsync\s+)?issue\s+\d+)\b"
+)
+"""Text that points at the project's own documents, which a report's reader does not have."""
+
+
+def internal_references(text: str) -> list[str]:
+    """Every place ``text`` cites an internal document (``SPEC section 3``, ``issue 17``).
+
+    A report is read by people who have none of the project's own documents: it must
+    explain in place or cite a published reference instead.
+    """
+    return [m.group(0).strip() for m in INTERNAL_REFERENCE.finditer(text)]
+
 
 _CSS = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222;
@@ -24,8 +53,18 @@ th { background: #e8eef5; }
 td:first-child, th:first-child { text-align: left; }
 figure { margin: 1em 0; }
 figure img { max-width: 100%; border: 1px solid #ddd; }
-figcaption { font-size: .9em; color: #555; }
+figcaption { font-size: .95em; color: #444; }
 .note { color: #555; font-size: .92em; }
+.verdict { border-left: 6px solid; padding: .4em 1em; margin: 1em 0; background: #f6f6f6; }
+.verdict.pass { border-color: #1b7837; }
+.verdict.fail { border-color: #b2182b; background: #fbeff0; }
+.verdict ul { margin: .3em 0; padding-left: 1.3em; }
+.badge { font-weight: bold; padding: 0 .35em; border-radius: 3px; color: #fff; }
+.badge.pass { background: #1b7837; }
+.badge.fail { background: #b2182b; }
+table.verdicts td { text-align: left; }
+table.verdicts td.result { text-align: right; white-space: nowrap; }
+table.tolerances td { text-align: left; }
 """
 
 
@@ -48,13 +87,17 @@ class Figure:
 
 @dataclass(frozen=True)
 class Section:
-    """One section of the report: heading, paragraphs, tables and figures, in order."""
+    """One section of the report: heading, verdict, paragraphs, tables and figures, in order.
+
+    ``checks`` are the topic's verdict: rendered first, before the evidence.
+    """
 
     title: str
     paragraphs: Sequence[str] = ()
     tables: Sequence[Table] = ()
     figures: Sequence[Figure] = ()
     anchor: str = field(default="")
+    checks: Sequence[Check] = ()
 
 
 def _table_html(t: Table) -> str:
@@ -77,7 +120,93 @@ def _figure_html(f: Figure) -> str:
     )
 
 
-def render_report(title: str, intro: str, sections: Sequence[Section]) -> str:
+def _badge(passed: bool) -> str:
+    word = "PASS" if passed else "FAIL"
+    return f'<span class="badge {word.lower()}">{word}</span>'
+
+
+def _verdict_html(checks: Sequence[Check]) -> str:
+    passed, total = count_passed(checks)
+    ok = passed == total
+    items = "".join(f"<li>{_badge(c.passed)} {html.escape(c.sentence())}</li>" for c in checks)
+    return (
+        f'<div class="verdict {"pass" if ok else "fail"}"><p><strong>Verdict:</strong> '
+        f"{_badge(ok)} {passed} of {total} checks pass.</p><ul>{items}</ul></div>"
+    )
+
+
+def _summary_html(sections: Sequence[Section]) -> str:
+    rows = []
+    for i, s in enumerate(sections):
+        for c in s.checks:
+            detail = f" ({c.detail})" if c.detail else ""
+            rows.append(
+                f'<tr><td><a href="#s{i}">{html.escape(s.title)}</a></td>'
+                f"<td>{html.escape(c.quantity + detail)}</td>"
+                f'<td class="result">{html.escape(c.measured())}</td>'
+                f'<td class="result">{html.escape(c.tolerance.describe())}</td>'
+                f"<td>{_badge(c.passed)}</td></tr>"
+            )
+    all_checks = [c for s in sections for c in s.checks]
+    passed, total = count_passed(all_checks)
+    head = "".join(
+        f"<th>{h}</th>" for h in ("topic", "what was measured", "result", "tolerance", "verdict")
+    )
+    return (
+        f'<h2 id="summary">Summary: {passed} of {total} checks pass</h2>'
+        f"<p>{html.escape(JUDGING_RULE)} Each tolerance and the reason for it are listed "
+        'in the <a href="#conclusion">conclusion</a>.</p>'
+        f'<table class="verdicts"><thead><tr>{head}</tr></thead>'
+        f"<tbody>{''.join(rows)}</tbody></table>"
+    )
+
+
+def _tolerances(sections: Sequence[Section]) -> list[Tolerance]:
+    seen: dict[str, Tolerance] = {}
+    for s in sections:
+        for c in s.checks:
+            seen.setdefault(c.tolerance.name, c.tolerance)
+    return list(seen.values())
+
+
+def _conclusion_html(sections: Sequence[Section], conclusion: Sequence[str]) -> str:
+    failed = [(s.title, c) for s in sections for c in s.checks if not c.passed]
+    passed, total = count_passed([c for s in sections for c in s.checks])
+    topics = [s for s in sections if s.checks]
+    topics_ok = sum(all(c.passed for c in s.checks) for s in topics)
+    overall = (
+        f"{passed} of {total} checks pass; {topics_ok} of {len(topics)} topics pass every check."
+    )
+    parts = [
+        '<h2 id="conclusion">Conclusion</h2>',
+        f"<p><strong>{html.escape(overall)}</strong></p>",
+    ]
+    if failed:
+        items = "".join(
+            f"<li>{html.escape(t)}: {html.escape(c.sentence())} "
+            f'<span class="note">Tolerance: {html.escape(c.tolerance.why)}</span></li>'
+            for t, c in failed
+        )
+        parts.append(f"<p>Failed checks:</p><ul>{items}</ul>")
+    else:
+        parts.append("<p>No check failed.</p>")
+    parts.extend(f"<p>{html.escape(p)}</p>" for p in conclusion)
+    rows = "".join(
+        f"<tr><td>{html.escape(t.name)}</td><td>{html.escape(t.describe())}</td>"
+        f"<td>{html.escape(t.why)}</td></tr>"
+        for t in _tolerances(sections)
+    )
+    parts.append(
+        '<table class="tolerances"><caption>Tolerances, fixed before the run, and why</caption>'
+        f"<thead><tr><th>tolerance</th><th>limit</th><th>why this limit</th></tr></thead>"
+        f"<tbody>{rows}</tbody></table>"
+    )
+    return "\n".join(parts)
+
+
+def render_report(
+    title: str, intro: str, sections: Sequence[Section], conclusion: Sequence[str] = ()
+) -> str:
     """Render a complete HTML document.
 
     Parameters
@@ -87,21 +216,38 @@ def render_report(title: str, intro: str, sections: Sequence[Section]) -> str:
     intro : str
         A paragraph under the heading.
     sections : sequence of Section
-        Rendered in order, with a table of contents.
+        Rendered in order, with a table of contents. When any carries checks, the page
+        opens with a summary table of every check and ends with a conclusion (failed
+        checks first) and the table of tolerances.
+    conclusion : sequence of str
+        Paragraphs added to the conclusion (with checks only).
     """
+    judged = any(s.checks for s in sections)
     toc = "".join(
         f'<li><a href="#s{i}">{html.escape(s.title)}</a></li>' for i, s in enumerate(sections)
     )
+    if judged:
+        toc += '<li><a href="#conclusion">Conclusion</a></li>'
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
-        f"<h1>{html.escape(title)}</h1><p>{html.escape(intro)}</p><ol>{toc}</ol>",
+        f"<h1>{html.escape(title)}</h1><p>{html.escape(intro)}</p>",
     ]
+    if judged:
+        parts.append(f'<section class="summary">{_summary_html(sections)}</section>')
+    parts.append(f"<nav><ol>{toc}</ol></nav>")
     for i, s in enumerate(sections):
-        parts.append(f'<h2 id="s{i}">{html.escape(s.title)}</h2>')
+        parts.append(f'<section class="topic"><h2 id="s{i}">{html.escape(s.title)}</h2>')
+        if s.checks:
+            parts.append(_verdict_html(s.checks))
         parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
         parts.extend(_table_html(t) for t in s.tables)
         parts.extend(_figure_html(f) for f in s.figures)
+        parts.append("</section>")
+    if judged:
+        parts.append(
+            f'<section class="conclusion">{_conclusion_html(sections, conclusion)}</section>'
+        )
     parts.append("</body></html>")
     return "\n".join(parts)

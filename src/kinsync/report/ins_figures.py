@@ -1,4 +1,4 @@
-"""Figures of the INS/GNSS filter and smoother (SPEC section 6).
+"""Figures of the INS/GNSS filter and smoother.
 
 Error time series with their ±3σ envelopes (forward filter beside the smoothed
 solution, GNSS outages shaded) and a map of the route with the solutions through an
@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.report.figures import png_bytes
+from kinsync.report.style import report_figure
 
 __all__ = ["ErrorSeries", "error_envelope_figure", "route_map_figure"]
 
@@ -77,6 +78,7 @@ def _shade(ax: Axes, spans: Sequence[tuple[float, float]], label: bool) -> None:
         )  # fmt: skip
 
 
+@report_figure
 def error_envelope_figure(
     series: Sequence[ErrorSeries],
     axis_names: tuple[str, str, str],
@@ -126,8 +128,8 @@ def error_envelope_figure(
             ax = axes[row, col]
             _shade(ax, outages_s, label=row == 0)
             band = 3.0 * s.std[sl, row]
-            ax.fill_between(t, -band, band, color="tab:blue", alpha=0.18, lw=0, label="±3σ")
-            ax.plot(t, s.err[sl, row], color="tab:red", lw=0.9, label="error")
+            ax.fill_between(t, -band, band, color="C0", alpha=0.18, lw=0, label="±3σ")
+            ax.plot(t, s.err[sl, row], color="C3", lw=0.9, label="error")
             inside = float(np.mean(np.abs(s.err[:, row]) <= 3.0 * s.std[:, row]))
             ax.text(
                 0.01, 0.97, f"{inside:.1%} of epochs within 3σ", transform=ax.transAxes,
@@ -144,6 +146,7 @@ def error_envelope_figure(
     return png_bytes(fig)
 
 
+@report_figure
 def route_map_figure(
     truth_ne_m: FloatArray,
     gnss_ne_m: FloatArray,
@@ -194,9 +197,9 @@ def route_map_figure(
     fig, (ax_map, ax_zoom) = plt.subplots(1, 2, figsize=(13, 5.4))
     sl = _thin(truth.shape[0])
     ax_map.plot(truth[sl, 1], truth[sl, 0], color="k", lw=1.0, label="truth")
-    ax_map.plot(gnss[:, 1], gnss[:, 0], ".", ms=1.5, color="tab:green", label="GNSS fixes")
+    ax_map.plot(gnss[:, 1], gnss[:, 0], ".", ms=1.5, color="C2", label="GNSS fixes")
     ax_map.plot(
-        truth[lo:hi, 1], truth[lo:hi, 0], color="tab:orange", lw=3, alpha=0.6,
+        truth[lo:hi, 1], truth[lo:hi, 0], color="C1", lw=3, alpha=0.6,
         label="GNSS outage",
     )  # fmt: skip
     ax_map.plot(truth[0, 1], truth[0, 0], "o", color="k", label="start (static alignment)")

@@ -14,10 +14,12 @@ from kinsync._text import counted
 from kinsync.latency.planning import LatencyPlan
 from kinsync.latency.sphere import SphereLatencyResult
 from kinsync.report.figures import png_bytes
+from kinsync.report.style import report_figure
 
 __all__ = ["latency_per_rate_figure", "plan_figure"]
 
 
+@report_figure
 def latency_per_rate_figure(
     result: SphereLatencyResult, truth_latency_s: float | None = None
 ) -> bytes:
@@ -35,12 +37,10 @@ def latency_per_rate_figure(
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.3))
     lo = result.latency_s * 1e3 - result.latency_std_s * 1e3
     hi = result.latency_s * 1e3 + result.latency_std_s * 1e3
-    ax.axhspan(lo, hi, color="tab:blue", alpha=0.15, label="combined ±1σ")
-    ax.axhline(result.latency_s * 1e3, color="tab:blue", lw=1)
-    ax.errorbar(
-        rates, tau, yerr=std, fmt="o", color="tab:blue", capsize=3, label="per rate (exact)"
-    )
-    ax.plot(rates, first, "x", color="tab:orange", label="first-order formula")
+    ax.axhspan(lo, hi, color="C0", alpha=0.15, label="combined ±1σ")
+    ax.axhline(result.latency_s * 1e3, color="C0", lw=1)
+    ax.errorbar(rates, tau, yerr=std, fmt="o", color="C0", capsize=3, label="per rate (exact)")
+    ax.plot(rates, first, "x", color="C1", label="first-order formula")
     if truth_latency_s is not None:
         ax.axhline(truth_latency_s * 1e3, color="k", ls="--", lw=1, label="truth")
     ax.set_xlabel("table rate (deg/s)")
@@ -55,7 +55,7 @@ def latency_per_rate_figure(
         for pool, marker in ((r.plus, "^"), (r.minus, "v")):
             shift = (pool.fit.center_m - r.center_ned_m) @ across * 1e6
             sig = math.sqrt(float(across @ pool.fit.cov_center_m2 @ across)) * 1e6
-            ax2.errorbar(r.rate_deg_s, shift, yerr=sig, fmt=marker, color="tab:green", capsize=2)
+            ax2.errorbar(r.rate_deg_s, shift, yerr=sig, fmt=marker, color="C2", capsize=2)
     d = float(np.linalg.norm(horizontal))
     grid = np.linspace(0.0, rates.max() * 1.05, 50)
     model = np.radians(grid) * result.latency_s * d * 1e6
@@ -69,12 +69,13 @@ def latency_per_rate_figure(
     return png_bytes(fig)
 
 
+@report_figure
 def plan_figure(plan: LatencyPlan, target_latency_std_s: float = 1e-4) -> bytes:
     """Predicted latency sigma per rate and combined, against passes per direction."""
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     rates = [r.rate_deg_s for r in plan.per_rate]
     ax.semilogy(rates, [r.latency_std_s * 1e3 for r in plan.per_rate], "o-", label="per rate")
-    ax.axhline(plan.latency_std_s * 1e3, color="tab:blue", ls="--", label="all rates")
+    ax.axhline(plan.latency_std_s * 1e3, color="C0", ls="--", label="all rates")
     ax.axhline(target_latency_std_s * 1e3, color="k", ls=":", label="target")
     ax.set_xlabel("table rate (deg/s)")
     ax.set_ylabel("predicted latency σ (ms)")

@@ -13,6 +13,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.report.figures import png_bytes
+from kinsync.report.style import report_figure
 from kinsync.sync.object_space import ObjectSpaceResult
 
 __all__ = ["clock_error_figure", "clock_regression_figure"]
@@ -20,6 +21,7 @@ __all__ = ["clock_error_figure", "clock_regression_figure"]
 _MARKERS = ("o", "s", "^", "D", "v", "P")
 
 
+@report_figure
 def clock_regression_figure(result: ObjectSpaceResult, title: str = "") -> bytes:
     """Sightings and the fitted clock line, with the residuals and their sigmas.
 
@@ -64,6 +66,7 @@ def clock_regression_figure(result: ObjectSpaceResult, title: str = "") -> bytes
     return png_bytes(fig)
 
 
+@report_figure
 def clock_error_figure(
     profile: FloatArray,
     cases: Sequence[tuple[str, FloatArray, FloatArray]],
@@ -90,7 +93,12 @@ def clock_error_figure(
     for label, err, std in cases:
         (line,) = ax.plot(profile, err * 1e3, lw=1.5, label=f"{label}: estimate - truth")
         ax.fill_between(
-            profile, -3e3 * std, 3e3 * std, color=line.get_color(), alpha=0.15, label="3 sigma"
+            profile,
+            -3e3 * std,
+            3e3 * std,
+            color=line.get_color(),
+            alpha=0.15,
+            label=f"{label}: ±3σ",
         )
     ax.set_xlabel("profile number")
     ax.set_ylabel("clock error (ms)")
@@ -105,5 +113,5 @@ def clock_error_figure(
 
     right = ax.secondary_yaxis("right", functions=(ms_to_mm, mm_to_ms))
     right.set_ylabel(f"along-track error at {speed_m_s:g} m/s (mm)")
-    ax.set_title("Clock error along the drive (period error grows as N dT, SPEC section 3)")
+    ax.set_title("Clock error along the drive (a period error dT grows as N dT)")
     return png_bytes(fig)

@@ -2,8 +2,10 @@
 
 The demo report must open offline in a browser. This loads the page from disk in
 headless Chromium with the network disabled, lets a tiny probe script count the
-embedded figures that decoded (``naturalWidth > 0``), reads the probe's verdict from
-the rendered DOM, and optionally takes a screenshot.
+embedded figures that decoded (``naturalWidth > 0``) and the topics that open with a
+verdict, reads the probe's answer from the rendered DOM, looks through the rendered
+text for citations of internal documents (``SPEC section 3``, which no reader has),
+and optionally takes a screenshot.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from kinsync.errors import InputError, KinsyncError
+from kinsync.report.html import internal_references
 
 __all__ = ["RenderCheck", "check_renders", "find_chromium"]
 
@@ -27,11 +30,16 @@ window.addEventListener('load', function () {
   var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
   var h = document.querySelectorAll('h2').length;
   var t = document.querySelectorAll('table').length;
-  document.body.setAttribute('data-render-probe', imgs.length + ',' + ok + ',' + h + ',' + t);
+  var topics = Array.prototype.slice.call(document.querySelectorAll('section.topic'));
+  var judged = topics.filter(function (s) { return s.querySelector('.verdict'); }).length;
+  var failed = document.querySelectorAll('.verdict li .badge.fail').length;
+  document.body.setAttribute('data-render-probe', [imgs.length, ok, h, t, topics.length,
+                                                   judged, failed].join(','));
 });
 </script>
 """
-_VERDICT = re.compile(r'data-render-probe="(\d+),(\d+),(\d+),(\d+)"')
+_VERDICT = re.compile(r'data-render-probe="(\d+),(\d+),(\d+),(\d+),(\d+),(\d+),(\d+)"')
+_TAG = re.compile(r"<(script|style)\b.*?</\1>|<[^>]*>", flags=re.DOTALL | re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -46,6 +54,12 @@ class RenderCheck:
         Embedded figures in the page, and how many the browser decoded.
     n_sections, n_tables : int
         ``<h2>`` sections and tables in the rendered DOM.
+    n_topics, n_topics_judged : int
+        Topic sections, and those that open with a verdict.
+    n_failed_checks : int
+        Checks shown as failed in the topics' verdicts.
+    internal_references : tuple of str
+        Citations of internal documents in the rendered text (should be none).
     title : str
         The page title as rendered.
     screenshot : Path or None
@@ -57,13 +71,26 @@ class RenderCheck:
     n_images_decoded: int
     n_sections: int
     n_tables: int
+    n_topics: int
+    n_topics_judged: int
+    n_failed_checks: int
+    internal_references: tuple[str, ...]
     title: str
     screenshot: Path | None
 
     @property
     def ok(self) -> bool:
-        """True when every figure decoded and the page has at least one section."""
-        return self.n_images == self.n_images_decoded and self.n_sections > 0
+        """Every figure decoded, the page has a section, and it cites no internal document."""
+        return (
+            self.n_images == self.n_images_decoded
+            and self.n_sections > 0
+            and not self.internal_references
+        )
+
+    @property
+    def every_topic_judged(self) -> bool:
+        """The page has topics and each opens with a verdict."""
+        return self.n_topics > 0 and self.n_topics_judged == self.n_topics
 
 
 def find_chromium() -> str | None:
@@ -159,13 +186,18 @@ def check_renders(
                 timeout_s,
             )
             shot = screenshot if screenshot.is_file() else None
-    n_img, n_ok, n_h2, n_tab = (int(g) for g in match.groups())
+    n_img, n_ok, n_h2, n_tab, n_topics, n_judged, n_failed = (int(g) for g in match.groups())
+    text = _TAG.sub(" ", proc.stdout)
     return RenderCheck(
         browser=exe,
         n_images=n_img,
         n_images_decoded=n_ok,
         n_sections=n_h2,
         n_tables=n_tab,
+        n_topics=n_topics,
+        n_topics_judged=n_judged,
+        n_failed_checks=n_failed,
+        internal_references=tuple(internal_references(text)),
         title=(title_m.group(1).strip() if title_m else ""),
         screenshot=shot,
     )

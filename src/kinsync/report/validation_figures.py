@@ -1,4 +1,4 @@
-"""Figures of the validation checks (SPEC section 7): wall residual map, control points."""
+"""Figures of the validation checks: wall residual map, control points."""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ from scipy import stats
 
 from kinsync.errors import InputError
 from kinsync.report.figures import png_bytes
+from kinsync.report.numbers import format_p_value, plus_minus
+from kinsync.report.style import report_figure
 from kinsync.validation import ControlPointReport, FlatnessResult, SignatureTest
 
 __all__ = ["control_point_figure", "plus_minus", "wall_residual_figure"]
@@ -22,24 +24,17 @@ _POINTS_PER_CELL = 8
 _MAX_CELLS = 20_000
 
 
-def plus_minus(value: float, std: float) -> str:
-    """``value ± std`` with the value rounded to the second significant digit of std."""
-    if not (math.isfinite(value) and math.isfinite(std)) or std <= 0.0:
-        return f"{value:.4g} ± {std:.2g}"
-    decimals = max(0, 1 - math.floor(math.log10(std)))
-    return f"{value:.{decimals}f} ± {std:.{decimals}f}"
-
-
 def _verdict(test: SignatureTest, scale: float, unit: str) -> str:
     if not test.testable:
         return f"not testable: {test.reason}"
     word = "SIGNIFICANT" if test.significant else "not significant"
     return (
         f"{plus_minus(test.estimate * scale, test.std * scale)} {unit}, "
-        f"p = {test.p_value:.2g} ({word} at {test.level:.0%})"
+        f"{format_p_value(test.p_value)} ({word} at {test.level:.0%})"
     )
 
 
+@report_figure
 def wall_residual_figure(result: FlatnessResult, title: str = "Wall flatness") -> bytes:
     """Residual colour map of a wall and its bend along the wall.
 
@@ -98,19 +93,19 @@ def wall_residual_figure(result: FlatnessResult, title: str = "Wall flatness") -
             med.append(float(np.median(wk)))
             q25.append(float(np.percentile(wk, 25)))
             q75.append(float(np.percentile(wk, 75)))
-    ax_bend.fill_between(centres, q25, q75, color="tab:blue", alpha=0.2, label="25-75 % of points")
-    ax_bend.plot(centres, med, "o", ms=3, color="tab:blue", label="median residual per bin")
+    ax_bend.fill_between(centres, q25, q75, color="C0", alpha=0.2, label="25-75 % of points")
+    ax_bend.plot(centres, med, "o", ms=3, color="C0", label="median residual per bin")
     line_u = np.linspace(float(u.min()), float(u.max()), 200)
     line_v = np.full_like(line_u, float(np.mean(v)))
     ax_bend.plot(
-        line_u, result.bend_m(line_u, line_v) * 1e3, color="tab:red", lw=2,
+        line_u, result.bend_m(line_u, line_v) * 1e3, color="C3", lw=2,
         label="quadratic surface - plane (mid-height)",
     )  # fmt: skip
     ax_bend.axhline(0.0, color="k", lw=0.8)
     word = "SIGNIFICANT" if result.curvature_significant else "not significant"
     ax_bend.set_title(
         f"curvature {word} at {result.level:.0%}: F = {result.f_statistic:.3g}, "
-        f"p = {result.p_value:.2g}, bow {result.bow_m * 1e3:.2f} mm",
+        f"{format_p_value(result.p_value)}, bow {result.bow_m * 1e3:.2f} mm",
         fontsize=10,
     )
     ax_bend.set_xlabel("u along the wall (m)")
@@ -120,6 +115,7 @@ def wall_residual_figure(result: FlatnessResult, title: str = "Wall flatness") -
     return png_bytes(fig)
 
 
+@report_figure
 def control_point_figure(report: ControlPointReport) -> bytes:
     """Along-track differences against speed and against the lateral position.
 
@@ -157,8 +153,12 @@ def control_point_figure(report: ControlPointReport) -> bytes:
     c_mm = report.intercept_m * 1e3 if math.isfinite(report.intercept_m) else 0.0
     fig, (ax_s, ax_x) = plt.subplots(1, 2, figsize=(13, 4.6))
     partial_s = dy + psi * x * 1e3
-    for side, mask, colour in (("left", x < 0, "tab:blue"), ("right", x >= 0, "tab:orange")):
-        ax_s.plot(s[mask], partial_s[mask], "o", ms=4, color=colour, label=f"{side} targets")
+    # hollow markers of two shapes: targets at the same speed stay visible under each other
+    for side, mask, colour, marker in (("left", x < 0, "C0", "o"), ("right", x >= 0, "C1", "^")):
+        ax_s.plot(
+            s[mask], partial_s[mask], marker, ms=6, mfc="none", mew=1.2, color=colour,
+            label=f"{side} targets",
+        )  # fmt: skip
     if te.testable:
         grid = np.linspace(float(s.min()), float(s.max()), 50)
         ax_s.plot(grid, c_mm + tau * grid * 1e3, color="k", lw=1.5, label="fit c + tau s")
