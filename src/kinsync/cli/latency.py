@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from kinsync._text import counted
+from kinsync._text import counted, format_p_value
 from kinsync.cli._options import parse_rates
 from kinsync.cli._output import console, err_console, print_json
 from kinsync.io.atomic import atomic_write_bytes
@@ -92,7 +92,7 @@ def sphere(
         f"latency {result.latency_s * 1e3:.4f} ± {result.latency_std_s * 1e3:.4f} ms "
         f"(tau > 0: navigation lags the scanner); rates agree: chi2 "
         f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, "
-        f"p = {result.p_value_between_rates:.3g}"
+        f"{format_p_value(result.p_value_between_rates)}"
     )
     if result.unpaired_rates_deg_s:
         console.print(f"left out (one sign only): {list(result.unpaired_rates_deg_s)} deg/s")

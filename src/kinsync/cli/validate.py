@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
-from kinsync._text import counted
+from kinsync._text import counted, format_p_value
 from kinsync.cli._output import console, fmt, print_json
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -61,7 +61,7 @@ def _test_row(label: str, test: SignatureTest, scale: float) -> list[str]:
     return [
         label,
         _pm(test.estimate, test.std, scale),
-        f"{test.p_value:.3g}",
+        format_p_value(test.p_value, prefix=False),
         f"{test.dof:.1f}",
         "SIGNIFICANT" if test.significant else "not significant",
     ]
@@ -249,7 +249,7 @@ def flatness(
         table.add_row(f"|residual| {key} (mm)", fmt(value, 1e3))
     table.add_row("bow: quadratic - plane, peak to valley (mm)", fmt(result.bow_m, 1e3))
     table.add_row("curvature F (3, n-6)", fmt(result.f_statistic))
-    table.add_row("curvature p-value", f"{result.p_value:.3g}")
+    table.add_row("curvature p-value", format_p_value(result.p_value, prefix=False))
     table.add_row(
         f"curvature significant at {result.level:.2%}",
         "YES" if result.curvature_significant else "no",

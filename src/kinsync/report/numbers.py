@@ -8,52 +8,9 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["format_p_value", "format_value", "plus_minus"]
+from kinsync._text import P_CEILING, P_FLOOR, format_p_value
 
-P_FLOOR = 0.001
-"""Below this a p-value is written ``p < 0.001``: more digits say nothing more."""
-
-P_CEILING = 0.99
-"""Above this a p-value is written ``p > 0.99``."""
-
-
-def format_p_value(p: float, *, prefix: bool = True) -> str:
-    """A p-value as a reader expects it: ``p < 0.001``, ``p = 0.004``, ``p = 0.79``.
-
-    Below 0.001 the value is written as a bound (``p < 0.001``), from 0.001 to 0.01 with
-    three decimals, from 0.01 with two, and above 0.99 as ``p > 0.99``.
-
-    Parameters
-    ----------
-    p : float
-        The p-value, in [0, 1]; NaN where the test could not be made.
-    prefix : bool
-        Write ``p = 0.04`` (True) or ``0.04`` (False, for a table column headed
-        "p-value"; the bounds keep their sign: ``< 0.001``).
-
-    Returns
-    -------
-    str
-        ``p not available`` (or ``n/a``) for NaN.
-
-    Raises
-    ------
-    ValueError
-        ``p`` is outside [0, 1].
-    """
-    if math.isnan(p):
-        return "p not available" if prefix else "n/a"
-    if not 0.0 <= p <= 1.0:
-        msg = f"a p-value lies in [0, 1], got {p!r}"
-        raise ValueError(msg)
-    if p < P_FLOOR:
-        body = f"< {P_FLOOR:g}"
-    elif p > P_CEILING:
-        body = f"> {P_CEILING:g}"
-    else:
-        text = f"{p:.3f}" if p < 0.01 else f"{p:.2f}"
-        body = f"= {text}" if prefix else text
-    return f"p {body}" if prefix else body
+__all__ = ["P_CEILING", "P_FLOOR", "format_p_value", "format_value", "plus_minus"]
 
 
 def _decimals_for(sigma: float) -> int:
