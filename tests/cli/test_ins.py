@@ -74,6 +74,9 @@ def test_run_json_then_compare(run_cli: RunCli, navego: dict[str, Path], tmp_pat
     assert doc["out"] == str(out)
     assert doc["smoothed"] is False
     assert doc["warnings"] == []
+    # stderr is not a terminal here: one line per stage, the filter then the writing
+    stages = [line.split(": ")[2].rsplit(" (", 1)[0] for line in stderr.splitlines()]
+    assert [s for s in stages if not s.startswith("compiling")] == ["filter", "writing"]
     sol = read_nav_csv(out)
     assert len(sol) == IMU_ROWS
 
@@ -141,6 +144,8 @@ def test_run_smoothed_sbet_with_table(
     assert code == 0, stderr
     for text in ("epochs written", "12000", "smoothed (RTS)", "GNSS epochs used", "final σ"):
         assert text in stdout, stdout
+    assert "kinsync: ins run: smoother (" in stderr  # the stage lines, not on stdout
+    assert "kinsync:" not in stdout
     nav = read_navigation(out)
     assert not isinstance(nav, NavSolution)
     assert len(nav) == IMU_ROWS
