@@ -39,13 +39,14 @@ def test_one_line_per_stage_when_not_a_terminal(capsys: pytest.CaptureFixture[st
     assert all(line.endswith(" s)") for line in captured.err.splitlines())
 
 
-def test_a_failure_before_the_work_advances_leaves_no_stage_line(
+def test_a_failure_as_the_work_starts_leaves_no_stage_line(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     with pytest.raises(InputError), progress_display("job") as progress:  # noqa: PT012
         stages = Stages(progress, {"read": 1.0, "work": 1.0})
         stages.start("read")
         stages.say("reading 1 file")
+        stages.start("work")  # the bar moved on, no work done yet
         raise InputError("one file given: need two")  # found while reading: one error line
     assert capsys.readouterr().err == ""
 
@@ -54,7 +55,7 @@ def test_lines_held_only_while_the_work_is_young(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     with progress_display("job") as progress:
-        progress(0.0, "read")  # nothing done yet: held
+        progress(0.5, "read")  # young work: held, however far it got
         assert capsys.readouterr().err == ""
         monkeypatch.setattr(_progress, "HOLD_S", 0.0)  # as if HOLD_S seconds had passed
         progress(0.0, "still reading")

@@ -3,11 +3,11 @@
 On a terminal: a bar with the stage, the percentage, the time left and the time spent,
 removed when the command ends. Otherwise (a log file, a pipe, a test): one plain line
 per stage, ``kinsync: TITLE: STAGE (12.3 s)`` with the time since the command started,
-and no escape codes. These lines are held back until the work has advanced (a share
-above 0 reported) or run `HOLD_S` seconds, and dropped if the command fails before:
-bad input found while the work starts stays the one error line that every command
-promises. When numba compiles kernels (a cache miss: the first run after an install or
-an upgrade), the display says so once, so that a user knows why the first run is slower.
+and no escape codes. These lines are held back until the work has run `HOLD_S`
+seconds (or has ended well), and dropped if the command fails before: bad input found
+as the work starts stays the one error line that every command promises. When numba
+compiles kernels (a cache miss: the first run after an install or an upgrade), the
+display says so once, so that a user knows why the first run is slower.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from kinsync.progress import Progress as ProgressCallback
 __all__ = ["COMPILING", "HOLD_S", "progress_display"]
 
 COMPILING = "compiling numba kernels (first run only, cached for the next)"
-HOLD_S = 3.0
-"""Stage lines wait this long (s) for the work to advance before they are written."""
+HOLD_S = 5.0
+"""Stage lines are written once the work has run this long (s), or when it ends well."""
 
 
 class _Display:
@@ -61,7 +61,10 @@ class _Display:
         elif stage != self.stage:
             self._line(stage)
         self.stage = stage
-        if self.held is not None and (self.fraction > 0.0 or self._seconds() >= HOLD_S):
+        self._release_when_due()
+
+    def _release_when_due(self) -> None:
+        if self.held is not None and self._seconds() >= HOLD_S:
             self.release()
 
     def _seconds(self) -> float:
@@ -86,6 +89,7 @@ class _Display:
             self.bar.update(self.task, description=f"{self.title}: {self.stage}, {COMPILING}")
         elif not self.said_compiling:
             self._line(COMPILING)
+            self._release_when_due()
         self.said_compiling = True
 
     def _listen_for_compilation(self) -> None:
