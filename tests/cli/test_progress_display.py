@@ -19,10 +19,17 @@ from kinsync.progress import Stages
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
 
+@pytest.fixture
+def no_hold(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Stage lines from the first report, as for work that has run `HOLD_S` seconds."""
+    monkeypatch.setattr(_progress, "HOLD_S", 0.0)
+
+
 def _lines(err: str) -> list[str]:
     return [line.rsplit(" (", 1)[0] for line in err.splitlines()]
 
 
+@pytest.mark.usefixtures("no_hold")
 def test_one_line_per_stage_when_not_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
     with progress_display("job") as progress:
         stages = Stages(progress, {"read": 1.0, "work": 3.0})
@@ -67,11 +74,12 @@ def test_lines_held_only_while_the_work_is_young(
     assert _lines(capsys.readouterr().err) == ["kinsync: job: done"]
 
 
-def test_a_quick_success_still_writes_its_stages(capsys: pytest.CaptureFixture[str]) -> None:
+def test_quick_work_writes_no_stage_line(capsys: pytest.CaptureFixture[str]) -> None:
     with progress_display("job") as progress:
         stages = Stages(progress, {"only": 1.0})
         stages.start("only", "checking")
-    assert _lines(capsys.readouterr().err) == ["kinsync: job: checking"]
+        stages.finish()
+    assert capsys.readouterr().err == ""
 
 
 def test_a_bar_with_percentage_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -87,6 +95,7 @@ def test_a_bar_with_percentage_on_a_terminal(monkeypatch: pytest.MonkeyPatch) ->
     assert "kinsync: job" not in shown  # no stage lines on a terminal
 
 
+@pytest.mark.usefixtures("no_hold")
 def test_a_compilation_is_said_once(capsys: pytest.CaptureFixture[str]) -> None:
     with progress_display("job") as progress:
         progress(0.0, "work")
@@ -101,6 +110,7 @@ def test_a_compilation_is_said_once(capsys: pytest.CaptureFixture[str]) -> None:
     assert _lines(capsys.readouterr().err) == ["kinsync: job: work", f"kinsync: job: {COMPILING}"]
 
 
+@pytest.mark.usefixtures("no_hold")
 def test_json_stdout_has_no_progress_and_stderr_has_the_stages(
     run_cli: RunCli, tmp_path: Path
 ) -> None:

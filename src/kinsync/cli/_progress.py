@@ -4,7 +4,7 @@ On a terminal: a bar with the stage, the percentage, the time left and the time 
 removed when the command ends. Otherwise (a log file, a pipe, a test): one plain line
 per stage, ``kinsync: TITLE: STAGE (12.3 s)`` with the time since the command started,
 and no escape codes. These lines are held back until the work has run `HOLD_S`
-seconds (or has ended well), and dropped if the command fails before: bad input found
+seconds and dropped if it ends before: a quick command stays quiet, and bad input found
 as the work starts stays the one error line that every command promises. When numba
 compiles kernels (a cache miss: the first run after an install or an upgrade), the
 display says so once, so that a user knows why the first run is slower.
@@ -34,7 +34,7 @@ __all__ = ["COMPILING", "HOLD_S", "progress_display"]
 
 COMPILING = "compiling numba kernels (first run only, cached for the next)"
 HOLD_S = 5.0
-"""Stage lines are written once the work has run this long (s), or when it ends well."""
+"""Stage lines are written once the work has run this long (s); none for quicker work."""
 
 
 class _Display:
@@ -112,10 +112,8 @@ class _Display:
         self.listener = Listener()
         event.register("numba:compile", self.listener)  # type: ignore[no-untyped-call]
 
-    def close(self, *, ok: bool) -> None:
-        """Stop listening to numba; write the lines held if the work succeeded."""
-        if ok and self.held is not None:
-            self.release()
+    def close(self) -> None:
+        """Stop listening to numba (the lines still held are dropped: the work was quick)."""
         if self.listener is not None:
             from numba.core import event  # noqa: PLC0415
 
@@ -150,15 +148,11 @@ def progress_display(title: str) -> Iterator[ProgressCallback]:
             display = _Display(title, bar)
             try:
                 yield display
-            except BaseException:
-                display.close(ok=False)
-                raise
-            display.close(ok=True)
+            finally:
+                display.close()
     else:
         display = _Display(title, None)
         try:
             yield display
-        except BaseException:
-            display.close(ok=False)
-            raise
-        display.close(ok=True)
+        finally:
+            display.close()
