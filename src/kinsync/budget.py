@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import finite_number
@@ -204,6 +203,8 @@ def _errors_for_rotation(
     d = np.asarray(scenario.beam_ned)
     n = np.asarray(scenario.normal_ned)
     p0 = scenario.range_m * d
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415 - CLI start-up
+
     d_true = Rotation.from_rotvec(rotvec_ned).apply(d)
     denom = float(n @ d_true)
     r_true = float(n @ p0) / denom if denom != 0.0 else math.inf

@@ -19,13 +19,17 @@ attitude representations).
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pyproj import Transformer
-from scipy.spatial.transform import Rotation
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
+
+# pyproj and scipy load when a function needs them: every command imports this module,
+# and most never touch either (start-up time and memory of the command line).
+if TYPE_CHECKING:
+    from pyproj import Transformer
 
 WGS84_A_M = 6378137.0
 """WGS84 semi-major axis (m)."""
@@ -266,6 +270,8 @@ def matrix_to_quaternion(R_body_to_ned: ArrayLike) -> FloatArray:
         msg = f"R_body_to_ned: expected shape (..., 3, 3), got {R.shape}"
         raise InputError(msg)
     lead = R.shape[:-2]
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415 - see the imports
+
     xyzw = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat()
     q = xyzw[:, [3, 0, 1, 2]]
     q = np.where(q[:, :1] < 0.0, -q, q)
@@ -371,6 +377,8 @@ def quaternion_ned_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike) -> FloatArray
 
 @lru_cache(maxsize=1)
 def _geodetic_ecef_transformer() -> Transformer:
+    from pyproj import Transformer  # noqa: PLC0415 - see the imports
+
     # EPSG:4979 = WGS84 geographic 3-D, EPSG:4978 = WGS84 geocentric.
     return Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
 

@@ -33,7 +33,6 @@ from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
@@ -652,6 +651,8 @@ class Trajectory:
         (exact for a constant rate); a record's rate is the time-weighted mean of the
         two adjacent intervals (the single adjacent interval at the ends).
         """
+        from scipy.spatial.transform import Rotation  # noqa: PLC0415 - start-up of the CLI
+
         rot = Rotation.from_quat(self.q_body_to_ned[:, [1, 2, 3, 0]])
         dt = np.diff(self.t_s)
         interval_rate = (rot[:-1].inv() * rot[1:]).as_rotvec() / dt[:, None]
@@ -817,6 +818,8 @@ class Trajectory:
     @cached_property
     def _interval_rotvec_body(self) -> FloatArray:
         """Rotation vector of each record-to-record increment, body frame, shape (N-1, 3)."""
+        from scipy.spatial.transform import Rotation  # noqa: PLC0415 - start-up of the CLI
+
         q = self.q_body_to_ned[:, [1, 2, 3, 0]]
         r0 = Rotation.from_quat(q[:-1])
         r1 = Rotation.from_quat(q[1:])

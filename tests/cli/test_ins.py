@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kinsync.cli import _progress
 from kinsync.ins.solution import NavSolution
 from kinsync.io.nav_csv import read_nav_csv, read_navigation
 from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simulation
@@ -60,7 +61,10 @@ def _run_args(navego: dict[str, Path], out: Path, *extra: str) -> list[str]:
     ]
 
 
-def test_run_json_then_compare(run_cli: RunCli, navego: dict[str, Path], tmp_path: Path) -> None:
+def test_run_json_then_compare(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(_progress, "HOLD_S", 0.0)  # stage lines however quick the run
     out = tmp_path / "nav.csv"
     code, stdout, stderr = run_cli(_run_args(navego, out, "--json"))
     assert code == 0, stderr
@@ -74,6 +78,9 @@ def test_run_json_then_compare(run_cli: RunCli, navego: dict[str, Path], tmp_pat
     assert doc["out"] == str(out)
     assert doc["smoothed"] is False
     assert doc["warnings"] == []
+    # stderr is not a terminal here: one line per stage, the filter then the writing
+    stages = [line.split(": ")[2].rsplit(" (", 1)[0] for line in stderr.splitlines()]
+    assert [s for s in stages if not s.startswith("compiling")] == ["filter", "writing"]
     sol = read_nav_csv(out)
     assert len(sol) == IMU_ROWS
 
@@ -134,13 +141,16 @@ def test_run_with_calibrated_biases_and_scale_factors(
 
 
 def test_run_smoothed_sbet_with_table(
-    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setattr(_progress, "HOLD_S", 0.0)  # stage lines however quick the run
     out = tmp_path / "nav.sbet"
     code, stdout, stderr = run_cli(_run_args(navego, out, "--smooth"))
     assert code == 0, stderr
     for text in ("epochs written", "12000", "smoothed (RTS)", "GNSS epochs used", "final σ"):
         assert text in stdout, stdout
+    assert "kinsync: ins run: smoother (" in stderr  # the stage lines, not on stdout
+    assert "kinsync:" not in stdout
     nav = read_navigation(out)
     assert not isinstance(nav, NavSolution)
     assert len(nav) == IMU_ROWS

@@ -41,8 +41,15 @@ def test_demo_writes_a_self_contained_report(
     with pytest.raises(SystemExit) as exc:
         main(["demo", "--out", str(out_dir)])
     assert exc.value.code == 0
-    out = capsys.readouterr().out
+    captured = capsys.readouterr()
+    out = captured.out
     assert "kinsync demo summary" in out
+    # stderr is not a terminal here: one line per part of the demo, in order, to the report
+    stages = [line.split(": ", 2)[2] for line in captured.err.splitlines()]
+    assert stages[0].startswith("error budgets (")
+    assert stages[-1].startswith("report (")
+    assert any(s.startswith("INS/GNSS") for s in stages)
+    assert "kinsync:" not in out
     assert "latency budget" in out
     html_text = (out_dir / "report.html").read_text()
     parser = _Collector()

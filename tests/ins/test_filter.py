@@ -479,22 +479,28 @@ def test_gnss_outside_the_span_is_ignored_and_progress_reported(drive: Any) -> N
         vel_ned_m_s=tuple(truth_free.vel_ned_m_s[k0]),
         rpy_rad=tuple(truth_free.rpy_rad[k0]),
     )
-    fractions: list[float] = []
-    res = run_ins(imu, gnss, CONFIG, init, progress=fractions.append)
+    reports: list[tuple[float, str]] = []
+    res = run_ins(imu, gnss, CONFIG, init, progress=lambda f, stage: reports.append((f, stage)))
     before = gnss.t_s < imu.t_s[k0] - 0.005
     assert (res.gnss_status[before] == GnssStatus.OUTSIDE).all()
     assert res.forward.n_gnss_used == int(np.count_nonzero(~before))
     assert res.innovations_pos_ned_m.shape == (int(np.count_nonzero(~before)), 3)
     assert len(res.forward) == len(imu) - k0
     assert res.forward.t_s[0] == imu.t_s[k0]
+    fractions = [f for f, _ in reports]
     assert fractions == sorted(fractions)
+    assert fractions[0] == 0.0
     assert fractions[-1] == 1.0
-    assert len(fractions) == math.ceil((len(imu) - k0) / 10_000)
-    smooth_fr: list[float] = []
-    run_ins(imu, gnss, CONFIG, init, smooth=True, progress=smooth_fr.append)
+    assert len(fractions) == 1 + math.ceil((len(imu) - k0) / 10_000)  # the start, each chunk
+    assert {stage for _, stage in reports} == {"filter"}
+    smooth: list[tuple[float, str]] = []
+    run_ins(imu, gnss, CONFIG, init, smooth=True, progress=lambda f, s: smooth.append((f, s)))
+    smooth_fr = [f for f, _ in smooth]
     assert smooth_fr == sorted(smooth_fr)
     assert smooth_fr[-1] == 1.0
-    assert max(f for f in smooth_fr if f <= 0.5) == 0.5
+    assert max(f for f, stage in smooth if stage == "filter") == 0.5  # the first half
+    assert min(f for f, stage in smooth if stage == "smoother") == 0.5
+    assert [s for _, s in smooth] == sorted(s for _, s in smooth)  # filter, then smoother
 
 
 def test_bad_inputs(drive: Any) -> None:

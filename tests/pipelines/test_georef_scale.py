@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -107,7 +108,7 @@ def _run(inputs: dict[str, Path], name: str, out: str, **kw: object) -> Path:
 
 def test_csv_output_is_byte_identical(inputs: dict[str, Path], scheduler: str) -> None:
     serial = _run(inputs, "points.csv", "serial.csv", crs="EPSG:4979")
-    done: list[int] = []
+    done: list[float] = []
     scaled = _run(
         inputs,
         "points.csv",
@@ -115,13 +116,15 @@ def test_csv_output_is_byte_identical(inputs: dict[str, Path], scheduler: str) -
         crs="EPSG:4979",
         scheduler=scheduler,
         workers=2,
-        progress=lambda n, _total: done.append(n),
+        progress=lambda fraction, _stage: done.append(fraction),
     )
     assert scaled.read_bytes() == serial.read_bytes()
     rej_serial = inputs["dir"] / "serial.rejected.csv"
     assert (inputs["dir"] / "scaled.rejected.csv").read_bytes() == rej_serial.read_bytes()
     assert done == sorted(done)
-    assert done[-1] == N
+    assert done[0] == 0.0
+    assert done[-1] == 1.0
+    assert len(done) == 1 + math.ceil(N / CHUNK)  # the start, then each chunk
 
 
 def test_laz_output_is_point_by_point_identical(

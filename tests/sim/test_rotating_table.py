@@ -184,9 +184,13 @@ def test_fifo_adds_bytes_times_ten_over_baud() -> None:
 
 
 def test_progress_is_reported() -> None:
-    seen: list[tuple[int, int]] = []
-    simulate_rotating_table(_small(), progress=lambda d, n: seen.append((d, n)))
-    assert seen == [(1, 2), (2, 2)]
+    seen: list[tuple[float, str]] = []
+    simulate_rotating_table(_small(), progress=lambda f, stage: seen.append((f, stage)))
+    assert seen == [
+        (0.0, "simulating passes"),
+        (0.5, "simulating passes"),
+        (1.0, "simulating passes"),
+    ]
 
 
 @pytest.mark.parametrize(

@@ -10,10 +10,12 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._output import console, err_console, print_json
+from kinsync.cli._output import console, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import read_mount
+from kinsync.progress import Stages
 
 if TYPE_CHECKING:
     from kinsync.calibration.estimator import CalibrationOptions
@@ -137,9 +139,9 @@ def mount(
     opts = _options(features, estimate, sphere_radius_m)
     trajectory = trajectory or []
     prior = read_mount(mount_file)
-    # A transient spinner: shown on a terminal only, so a redirected stderr keeps to
-    # the one error line.
-    with err_console.status("calibrating") as status:
+    with progress_display("calibrate mount") as progress:
+        stages = Stages(progress, {"calibrating": 1.0})
+        stages.start("calibrating")
         run = calibrate_files(
             points,
             trajectory,
@@ -149,8 +151,9 @@ def mount(
             mount_out=out,
             report_out=report,
             write_report=_write_certificate,
-            progress=lambda text: status.update(f"calibrating: {text}"),
+            progress=stages.say,
         )
+        stages.finish()
     if as_json:
         doc: dict[str, Any] = run.result.as_document()
         doc["n_points"] = run.n_points

@@ -8,7 +8,8 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from kinsync.cli._output import console, err_console
+from kinsync.cli._output import console
+from kinsync.cli._progress import progress_display
 
 
 def demo(
@@ -17,8 +18,8 @@ def demo(
     """Run the demo on built-in simulated data; writes OUT/report.html and prints a summary."""
     from kinsync.demo.run import run_demo  # noqa: PLC0415 - every other command starts faster
 
-    with err_console.status("demo") as status:
-        result = run_demo(out, progress=lambda label: status.update(f"demo: {label}"))
+    with progress_display("demo") as progress:
+        result = run_demo(out, progress=progress)
     table = Table(title="kinsync demo summary")
     for col in ("capability", "scenario", "result"):
         table.add_column(col)

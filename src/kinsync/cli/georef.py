@@ -7,10 +7,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.column_map import parse_column_map
 from kinsync.io.mount_file import read_mount
@@ -183,23 +183,9 @@ def georef(
         the_mount = the_mount.with_latency(latency_ms * 1e-3)
     with (
         warnings.catch_warnings(record=True) as caught,
-        Progress(
-            TextColumn("georef"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("points"),
-            TimeElapsedColumn(),
-            console=err_console,
-            transient=True,
-            disable=not err_console.is_terminal,  # keep a redirected stderr to the one error line
-        ) as bar,
+        progress_display("georef") as progress,
     ):
         warnings.simplefilter("always", VelocityConsistencyWarning)
-        task = bar.add_task("points", total=None)
-
-        def progress(done: int, total: int | None) -> None:
-            bar.update(task, completed=done, total=total)
-
         summary = georeference_file(
             points,
             trajectory,

@@ -15,13 +15,14 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy
+from kinsync.progress import part, report
 
 # The INS (numba, scipy.stats) and its readers load inside the commands, only when they run.
 if TYPE_CHECKING:
@@ -199,20 +200,7 @@ def run(
         if init_from is None
         else _initial_state_from_file(init_from, imu)
     )
-    with Progress(
-        TextColumn("ins run" + (" + smoother" if smooth else "")),
-        BarColumn(),
-        TaskProgressColumn(),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-        disable=not err_console.is_terminal,
-    ) as bar:
-        task = bar.add_task("ins", total=1.0)
-
-        def progress(fraction: float) -> None:
-            bar.update(task, completed=fraction)
-
+    with progress_display("ins run") as progress:  # after the input checks: errors stay one line
         start = time.perf_counter()
         result = run_ins(
             imu,
@@ -221,14 +209,16 @@ def run(
             init,
             use_velocity=not no_velocity,
             smooth=smooth,
-            progress=progress,
+            progress=part(progress, 0.0, 0.9),
         )
         seconds = time.perf_counter() - start
-    solution = result.smoothed if smooth else result.forward
-    if solution is None:
-        msg = "the smoother returned no solution; run without --smooth"
-        raise ConvergenceError(msg)
-    _write_solution(solution, out)
+        solution = result.smoothed if smooth else result.forward
+        if solution is None:
+            msg = "the smoother returned no solution; run without --smooth"
+            raise ConvergenceError(msg)
+        report(progress, 0.9, "writing")
+        _write_solution(solution, out)
+        report(progress, 1.0, "writing")
     summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
     summary["warnings"] = warnings
     if as_json:

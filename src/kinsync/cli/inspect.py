@@ -11,7 +11,6 @@ from rich.table import Table
 
 from kinsync.cli._output import console, print_json
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
-from kinsync.crs import data_area
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
@@ -151,6 +150,8 @@ def _time_rows(doc: dict[str, Any]) -> dict[str, str]:
 
 
 def _area_document(lat_lon_h: np.ndarray[Any, Any]) -> dict[str, Any]:
+    from kinsync.crs import data_area  # noqa: PLC0415 - pyproj loads only when needed
+
     area = data_area(lat_lon_h[:, 0], lat_lon_h[:, 1], lat_lon_h[:, 2])
     return area.as_document()
 

@@ -10,8 +10,10 @@ from rich.table import Table
 
 from kinsync._text import counted, format_p_value
 from kinsync.cli._options import parse_rates
-from kinsync.cli._output import console, err_console, print_json
+from kinsync.cli._output import console, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.io.atomic import atomic_write_bytes
+from kinsync.progress import Stages
 
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
 
@@ -53,10 +55,13 @@ def sphere(
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
     passes = read_raw_passes(folder) if raw else read_passes(folder)
-    with err_console.status(f"fitting {counted(len(passes), 'pass')}"):
+    with progress_display("latency sphere") as progress:
+        stages = Stages(progress, {"fitting": 1.0})
+        stages.start("fitting", f"fitting {counted(len(passes), 'pass')}")
         result = estimate_latency_sphere(
             passes, radius_m=radius_m, scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0)
         )
+        stages.finish()
     fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")
     if fig_path is not None:
         from kinsync.report.latency_figures import latency_per_rate_figure  # noqa: PLC0415

@@ -7,14 +7,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from kinsync.cli._options import parse_rates
-from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
 from kinsync.io.atomic import output_folder
+from kinsync.progress import Stages
 
 # The simulators (scipy, numba, laspy, pyarrow) load inside the commands, only when they run.
 if TYPE_CHECKING:
@@ -102,21 +103,12 @@ def rotating_table(
         fifo_bytes=fifo_bytes,
         baud=baud,
     )
-    with Progress(
-        TextColumn("simulate"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("passes"),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("passes", total=len(config.signed_rates_deg_s))
-        sim = simulate_rotating_table(
-            config, progress=lambda done, _total: bar.update(task, completed=done)
-        )
-    with err_console.status("writing files"):
+    with progress_display("simulate rotating-table") as progress:
+        stages = Stages(progress, {"simulating passes": 3.0, "writing files": 1.0})
+        sim = simulate_rotating_table(config, progress=stages.start("simulating passes"))
+        stages.start("writing files")
         write_simulation(sim, out, file_format=_FORMATS[fmt_key], raw=raw)
+        stages.finish()
     doc = summary(sim, out, fmt_key, raw)
     if as_json:
         print_json(doc)
@@ -361,10 +353,13 @@ def drive(
         roll_period_s=roll_period_s,
         seed=seed,
     )
-    with err_console.status("simulating the drive"):
+    with progress_display("simulate drive") as progress:
+        stages = Stages(progress, {"simulating the drive": 3.0, "writing files": 1.0})
+        stages.start("simulating the drive")
         sim = simulate_drive(config)
-    with err_console.status("writing files"):
+        stages.start("writing files")
         write_drive_simulation(sim, out)
+        stages.finish()
     doc = drive_summary(sim, out)
     if as_json:
         print_json(doc)
@@ -437,10 +432,13 @@ def drive_scan(
         extra_first_pulse=extra_first_pulse,
         near_targets_only=near_targets_only,
     )
-    with err_console.status("simulating the drive and the scan"):
+    with progress_display("simulate drive-scan") as progress:
+        stages = Stages(progress, {"simulating the drive and the scan": 3.0, "writing files": 1.0})
+        stages.start("simulating the drive and the scan")
         sim = simulate_drive_scan(config)
-    with err_console.status("writing files"):
+        stages.start("writing files")
         write_drive_scan(sim, out)
+        stages.finish()
     truth = sim.truth
     doc = {
         "out": str(out),
@@ -603,10 +601,13 @@ def patch_test(
         spheres=spheres,
         range_noise_m=range_noise_m,
     )
-    with err_console.status("simulating the drive and the scans"):
+    with progress_display("simulate patch-test") as progress:
+        stages = Stages(progress, {"simulating the drive and the scans": 3.0, "writing files": 1.0})
+        stages.start("simulating the drive and the scans")
         sim = simulate_patch_test(config)
-    with err_console.status("writing files"):
+        stages.start("writing files")
         write_patch_test(sim, out, file_format="las" if fmt_key == "las" else "laz")
+        stages.finish()
     doc = patch_test_summary(sim, out, fmt_key)
     if as_json:
         print_json(doc)

@@ -8,8 +8,10 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from kinsync.cli._output import console, err_console, print_json
+from kinsync.cli._output import console, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.io.atomic import output_folder
+from kinsync.progress import Stages
 
 __all__ = ["validation"]
 
@@ -45,11 +47,15 @@ def validation(
     )
 
     output_folder(out, "give a folder for the simulation", option="--out")
-    with err_console.status("simulating the control-target passes and the wall"):
+    with progress_display("simulate validation") as progress:
+        stages = Stages(progress, {"control targets": 2.0, "wall": 2.0, "writing files": 1.0})
+        stages.start("control targets", "simulating the control-target passes")
         targets = control_target_scene(seed=seed)
+        stages.start("wall", "simulating the wall")
         wall = curved_wall_scene(seed=seed)
-    with err_console.status("writing files"):
+        stages.start("writing files")
         write_validation_scenes(targets, wall, out, seed)
+        stages.finish()
     truth = validation_truth(targets, wall, seed)
     doc: dict[str, Any] = {
         "out": str(out),

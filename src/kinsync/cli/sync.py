@@ -7,13 +7,14 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
+from kinsync.progress import Stages
 
 app = typer.Typer(
     help="Synchronise a profile scanner to the trajectory in object space (Method B)."
@@ -110,15 +111,18 @@ def object_space(
     )
     the_mount = read_mount(mount)
     require_profiler_azimuth(the_mount, str(mount))
-    with err_console.status("reading inputs"):
+    with progress_display("sync object-space") as progress:
+        stages = Stages(progress, {"reading inputs": 1.0, "matching": 3.0})
+        stages.start("reading inputs")
         the_scan = read_profile_scan(scan)
         traj, _scale = read_trajectory_file(trajectory, gps_week=gps_week)
         points = read_sync_points(sync_points)
         pulse_t = None if pulses is None else read_pulses(pulses)
-    with err_console.status("matching sightings to sync-point crossings"):
+        stages.start("matching", "matching sightings to sync-point crossings")
         result = synchronise_object_space(
             the_scan, traj, the_mount, points, config, pulses_t_s=pulse_t
         )
+        stages.finish()
     if result.ambiguous:
         err_console.print(
             f"warning: ambiguous: {len(result.alternatives)} other assignment(s) of sightings "
@@ -204,16 +208,9 @@ def apply(
         raise InputError(msg)
     the_mount = read_mount(mount)
     require_profiler_azimuth(the_mount, str(mount))
-    with Progress(
-        TextColumn("sync apply"),
-        BarColumn(),
-        TextColumn("{task.completed} returns"),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-        disable=not err_console.is_terminal,
-    ) as bar:
-        task = bar.add_task("returns", total=None)
+    with progress_display("sync apply") as progress:
+        stages = Stages(progress, {"time-tagging returns": 1.0})
+        stages.start("time-tagging returns")
         n = apply_profile_clock(
             scan,
             out,
@@ -221,8 +218,9 @@ def apply(
             period,
             the_mount,
             chunk_points=chunk_points,
-            progress=lambda done: bar.update(task, completed=done),
+            progress=lambda done: stages.say(f"time-tagging returns: {done:,} done"),
         )
+        stages.finish()
     doc = {"out": str(out), "points": n, "t0_s": t0, "period_s": period}
     if as_json:
         print_json(doc)

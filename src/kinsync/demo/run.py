@@ -17,7 +17,6 @@ calibrated on and spheres fitted to real vessel passes.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +32,7 @@ from kinsync.demo.method_b import method_b_section
 from kinsync.demo.navego import find_navego_folder, navego_section
 from kinsync.demo.validation import validation_section
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text, output_folder
+from kinsync.progress import Progress, Stages
 from kinsync.report.html import Section, render_report
 
 __all__ = ["DemoResult", "run_demo"]
@@ -93,7 +93,25 @@ def _conclusion(sections: list[Section]) -> tuple[str, ...]:
     )
 
 
-def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> DemoResult:
+_STAGE_WEIGHTS = {
+    "error budgets": 2.0,
+    "Method A": 22.0,
+    "clock": 1.0,
+    "georeferencing": 4.0,
+    "coordinate systems": 1.0,
+    "INS/GNSS": 4.0,
+    "NaveGo": 7.0,
+    "Method B": 1.0,
+    "end-to-end": 4.0,
+    "validation": 3.0,
+    "mount self-calibration": 50.0,
+    "CIDCO spheres": 1.0,
+    "report": 1.0,
+}
+"""Each part's share of the demo's time (measured on 2 cores with ../shared), for the bar."""
+
+
+def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
     """Run every capability on built-in data and write the report folder.
 
     Parameters
@@ -101,8 +119,8 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     out_dir : Path
         Folder to write (created if missing): ``report.html``, ``budget.json`` and the
         figures as PNG files.
-    progress : callable, optional
-        Called with a short label as each stage starts.
+    progress : Progress, optional
+        Told the share of the demo done and what runs now, as each part starts.
 
     Returns
     -------
@@ -111,49 +129,52 @@ def run_demo(out_dir: Path, progress: Callable[[str], None] | None = None) -> De
     out_dir = output_folder(out_dir, "choose another --out")
     summary: list[tuple[str, str, str]] = []
     sections: list[Section] = []
+    stages = Stages(progress, _STAGE_WEIGHTS)
+    say = stages.say
 
-    if progress:
-        progress("error budgets")
+    stages.start("error budgets")
     budget, budget_doc = budget_section(summary)
     sections.append(budget)
     atomic_write_text(out_dir / "budget.json", json.dumps(budget_doc, indent=2) + "\n")
     for i, fig in enumerate(budget.figures):
         atomic_write_bytes(out_dir / f"budget_{i + 1}.png", fig.png)
 
-    sections.append(method_a_section(out_dir, summary, progress))
-    if progress:
-        progress("clock model from simulated PPS + ZDA logs")
+    stages.start("Method A")
+    sections.append(method_a_section(out_dir, summary, say))
+    stages.start("clock", "clock model from simulated PPS + ZDA logs")
     sections.append(clock_section(out_dir, summary))
-    if progress:
-        progress("georeferencing a simulated scan")
+    stages.start("georeferencing", "georeferencing a simulated scan")
     sections.append(georef_section(out_dir, summary))
-    if progress:
-        progress("coordinate systems, datums, epochs and geoid heights")
+    stages.start("coordinate systems", "coordinate systems, datums, epochs and geoid heights")
     sections.append(crs_section(out_dir, summary))
-    sections.append(ins_section(out_dir, summary, progress=progress)[0])
+    stages.start("INS/GNSS")
+    sections.append(ins_section(out_dir, summary, progress=say)[0])
     navego = find_navego_folder()
     if navego is not None:
-        sections.append(navego_section(navego, out_dir, summary, progress)[0])
-    if progress:
-        progress("Method B: profile scanner synchronised in object space")
+        stages.start("NaveGo")
+        sections.append(navego_section(navego, out_dir, summary, say)[0])
+    stages.start("Method B", "Method B: profile scanner synchronised in object space")
     method_b, _ = method_b_section(out_dir, summary)
     sections.append(method_b)
-    sections.append(end_to_end_section(out_dir, summary, progress)[0])
-    if progress:
-        progress("validation: control points and wall flatness, right and wrong calibration")
+    stages.start("end-to-end")
+    sections.append(end_to_end_section(out_dir, summary, say)[0])
+    stages.start(
+        "validation", "validation: control points and wall flatness, right and wrong calibration"
+    )
     sections.append(validation_section(out_dir, summary))
     cidco = find_cidco_folder()
-    if progress:
-        progress("mount self-calibration from survey lines (simulated patch tests, CIDCO)")
+    stages.start(
+        "mount self-calibration",
+        "mount self-calibration from survey lines (simulated patch tests, CIDCO)",
+    )
     sections.append(calibration_section(out_dir, summary, cidco)[0])
     if cidco is not None:
-        if progress:
-            progress("sphere fits on the CIDCO real passes")
+        stages.start("CIDCO spheres", "sphere fits on the CIDCO real passes")
         sections.append(cidco_section(cidco, summary))
 
-    if progress:
-        progress("report")
+    stages.start("report")
     report_path = out_dir / "report.html"
     html_text = render_report("kinsync demo report", INTRO, sections, _conclusion(sections))
     atomic_write_text(report_path, html_text)
+    stages.finish()
     return DemoResult(out_dir=out_dir, report_path=report_path, summary=tuple(summary))

@@ -111,6 +111,7 @@ from kinsync.ins.strapdown import (
     nav_solution_from_states,
     start_epoch,
 )
+from kinsync.progress import Progress, part, report
 
 __all__ = [
     "CHUNK_EPOCHS",
@@ -330,13 +331,35 @@ def _add_plain_checkpoint(
     """Store a checkpoint without update (``P^- = P^+ = P``) at IMU epoch ``k``."""
     c = checkpoints.n_filled[0]
     checkpoints.epoch[c] = k
-    checkpoints.P_minus[c] = P
-    checkpoints.P_plus[c] = P
+    n = P.shape[0]
+    for i in range(n):  # element loops: see `copy_matrix`
+        for j in range(n):
+            checkpoints.P_minus[c, i, j] = P[i, j]
+            checkpoints.P_plus[c, i, j] = P[i, j]
     checkpoints.nrows[c] = 0
     checkpoints.n_filled[0] = c + 1
     checkpoints.last_epoch[0] = k
 
 
+def _copy_vector(dst: FloatArray, src: FloatArray) -> None:  # pragma: no cover - numba
+    """``dst[:] = src`` as a loop.
+
+    numba's slice assignment compiles its broadcasting shape-error path (string
+    formatting) with it: seconds of a user's first run for nothing.
+    """
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+def _copy_matrix(dst: FloatArray, src: FloatArray) -> None:  # pragma: no cover - numba
+    """``dst[:, :] = src`` as a loop (see `copy_vector`)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+copy_vector = _jit(_copy_vector)
+copy_matrix = _jit(_copy_matrix)
 add_plain_checkpoint = _jit(_add_plain_checkpoint)
 
 
@@ -432,11 +455,11 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
             )  # fmt: skip
             for i in range(MAX_ROWS):
                 r[i] = gnss.obs_var[j, i]
-            d2p = gate_stat(P, H, 0, r, z, sd_p)
-            ok = d2p <= gate
-            if with_vel:
-                d2v = gate_stat(P, H, 3, r, z, sd_v)
-                ok = ok and d2v <= gate
+            ok = True
+            for block in range(2 if with_vel else 1):  # position, then velocity rows
+                # a row offset known only at run time: one compiled gate_stat, not two
+                d2 = gate_stat(P, H, 3 * block, r, z, sd_v if block else sd_p)
+                ok = ok and d2 <= gate
             if not ok:
                 log.status[j] = GnssStatus.REJECTED
                 continue
@@ -450,7 +473,7 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
             if checkpoints.enabled:
                 c = checkpoints.n_filled[0]
                 checkpoints.epoch[c] = k
-                checkpoints.P_minus[c] = P
+                copy_matrix(checkpoints.P_minus[c], P)
             for i in range(n_err):
                 x[i] = 0.0
             for i in range(nrows):
@@ -460,16 +483,16 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
             feedback(nominal, x, qa, qb, C)
             if checkpoints.enabled:
                 c = checkpoints.n_filled[0]
-                checkpoints.P_plus[c] = P
-                checkpoints.H[c] = H
-                checkpoints.r[c] = r
-                checkpoints.z[c] = z
+                copy_matrix(checkpoints.P_plus[c], P)
+                copy_matrix(checkpoints.H[c], H)
+                copy_vector(checkpoints.r[c], r)
+                copy_vector(checkpoints.z[c], z)
                 checkpoints.nrows[c] = nrows
                 checkpoints.n_filled[0] = c + 1
                 checkpoints.last_epoch[0] = k
         if checkpoints.enabled and k - checkpoints.last_epoch[0] >= checkpoints.every_epochs:
             add_plain_checkpoint(checkpoints, k, P)
-        out.states[k] = nominal
+        copy_vector(out.states[k], nominal)
         solution_std(P, nominal, out.std[k])
     return -1
 
@@ -595,7 +618,7 @@ def forward_pass(
     *,
     use_velocity: bool,
     store: bool,
-    progress: Callable[[float], None] | None,
+    progress: Progress | None,
     gnss_imu_epoch: IntArray,
     log: GnssLog,
 ) -> ForwardRun:
@@ -607,8 +630,9 @@ def forward_pass(
         As for `run_ins`.
     store : bool
         Store the smoother's checkpoints (`kinsync.ins.forward_run`).
-    progress : callable, optional
-        Called with the fraction of the epochs done after each chunk.
+    progress : Progress, optional
+        Told the fraction of the epochs done (stage "filter") before the first chunk
+        and after each.
     gnss_imu_epoch : ndarray of int, shape (m,)
         IMU epoch of each GNSS epoch, -1 outside the span (`gnss_epochs`).
     log : GnssLog
@@ -640,6 +664,7 @@ def forward_pass(
         n_in + (n - k0) // CHECKPOINT_EVERY + 2, CHECKPOINT_EVERY, filt.P.shape[0], enabled=store
     )
     bad = -1
+    report(progress, 0.0, "filter")
     for k_begin in range(k0, n, CHUNK_EPOCHS):
         k_end = min(n, k_begin + CHUNK_EPOCHS)
         bad = _forward_kernel(
@@ -647,8 +672,7 @@ def forward_pass(
         )
         if bad >= 0:
             break
-        if progress is not None:
-            progress((k_end - k0) / (n - k0))
+        report(progress, (k_end - k0) / (n - k0), "filter")
     if bad >= 0:
         msg = (
             f"INS solution diverged (non-finite state, latitude past a pole or height beyond "
@@ -673,7 +697,7 @@ def run_ins(
     *,
     use_velocity: bool = True,
     smooth: bool = False,
-    progress: Callable[[float], None] | None = None,
+    progress: Progress | None = None,
 ) -> InsResult:
     """Loosely coupled INS/GNSS forward filter, optionally RTS-smoothed.
 
@@ -693,9 +717,10 @@ def run_ins(
         Use GNSS velocities when ``gnss`` has them.
     smooth : bool
         Also run the Rauch–Tung–Striebel smoother (`kinsync.ins.smoother`).
-    progress : callable, optional
-        Called with the fraction of work done (0..1) between chunks of
-        `CHUNK_EPOCHS` epochs; the forward pass is the first half when smoothing.
+    progress : Progress, optional
+        Told the fraction of the work done (0..1) between chunks of `CHUNK_EPOCHS`
+        epochs, stages "filter" and "smoother"; the forward pass is the first half
+        when smoothing.
 
     Returns
     -------
@@ -713,16 +738,9 @@ def run_ins(
     check_imu_gaps(imu, k0, config.max_imu_gap_s)
     g_epoch = gnss_epochs(imu.t_s, k0, gnss.t_s)
     log = new_gnss_log(len(gnss))
-    fwd_progress = progress
-    if smooth and progress is not None:
-        outer = progress
-
-        def fwd_progress(f: float) -> None:
-            outer(0.5 * f)
-
     run = forward_pass(
         imu, gnss, config, init, use_velocity=use_velocity, store=smooth,
-        progress=fwd_progress, gnss_imu_epoch=g_epoch, log=log,
+        progress=part(progress, 0.0, 0.5 if smooth else 1.0), gnss_imu_epoch=g_epoch, log=log,
     )  # fmt: skip
     n_used = int(np.count_nonzero(log.status == GnssStatus.USED))
     n_rej = int(np.count_nonzero(log.status == GnssStatus.REJECTED))
@@ -732,9 +750,7 @@ def run_ins(
     )
     smoothed: NavSolution | None = None
     if smooth:
-        states_s, std_s = smooth_forward_run(
-            imu, run, None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
-        )
+        states_s, std_s = smooth_forward_run(imu, run, part(progress, 0.5, 1.0))
         smoothed = nav_solution_from_states(
             t_out, states_s[k0:], std_s[k0:], smoothed=True, n_gnss_used=n_used,
             n_gnss_rejected=n_rej,

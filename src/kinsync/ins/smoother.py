@@ -81,6 +81,7 @@ from kinsync.ins._ekf import (
 )
 from kinsync.ins.forward_run import CHECKPOINT_EVERY, Checkpoints, ForwardRun
 from kinsync.ins.measurements import ImuData
+from kinsync.progress import Progress, report
 
 __all__ = [
     "SegmentMatrices",
@@ -177,9 +178,15 @@ def _smooth_segment(  # noqa: PLR0912 - one flat loop is what numba compiles bes
     tmp = np.empty(n)
     if L == 0:
         return
-    P_buf[0] = P_start
+    # Element loops, not slice assignment: numba's broadcasting assignment compiles
+    # its shape-error path (string formatting), seconds on a first run.
+    for a in range(n):
+        for b in range(n):
+            P_buf[0, a, b] = P_start[a, b]
     for i in range(1, L):
-        P_buf[i] = P_buf[i - 1]
+        for a in range(n):
+            for b in range(n):
+                P_buf[i, a, b] = P_buf[i - 1, a, b]
         propagate_cov(P_buf[i], Phi_buf[i], q_buf[i], q_nav_buf[i], T)
     for i in range(L - 1, -1, -1):
         if has_next or i < L - 1:
@@ -189,7 +196,8 @@ def _smooth_segment(  # noqa: PLR0912 - one flat loop is what numba compiles bes
                 for b in range(n):
                     acc += Phi[b, a] * lam[b]
                 tmp[a] = acc
-            lam[:] = tmp
+            for a in range(n):
+                lam[a] = tmp[a]
             propagate_info(Lam, Phi, U)
         P = P_buf[i]
         for a in range(n):
@@ -234,8 +242,13 @@ def _mbf_update(
     nrows: int,
     lam: FloatArray,
     Lam: FloatArray,
-) -> None:  # pragma: no cover - compiled by numba
-    """Take ``λ^+``, ``Λ^+`` back through an update to ``λ^-``, ``Λ^-`` (in place)."""
+) -> None:
+    """Take ``λ^+``, ``Λ^+`` back through an update to ``λ^-``, ``Λ^-`` (in place).
+
+    Plain numpy, not compiled: it runs once per checkpoint (a few small matrix
+    products), where compiling it cost seconds on a user's first run (numba's matrix
+    product and inverse) and saved milliseconds.
+    """
     if nrows == 0:
         return
     Hp = H[:nrows]
@@ -253,7 +266,7 @@ def _mbf_update(
     Lam[:, :] = 0.5 * (new_Lam + new_Lam.T)
 
 
-mbf_update = cast(Callable[..., None], _jit(_mbf_update))
+mbf_update = _mbf_update
 
 
 def _ins_matrices(
@@ -305,7 +318,7 @@ def smooth_checkpoints(
     matrices: SegmentMatrices,
     out_dx: FloatArray,
     out: SmoothedCovariance,
-    progress: Callable[[float], None] | None = None,
+    progress: Progress | None = None,
 ) -> None:
     """Backward pass over all checkpoints (generic in how ``Φ``, ``Q`` are produced).
 
@@ -322,8 +335,8 @@ def smooth_checkpoints(
         ``ck.epoch[0] .. k_last``.
     out : SmoothedCovariance
         Receives its covariance entries (`new_smoothed_covariance`).
-    progress : callable, optional
-        Fraction done, reported about every 10 000 epochs.
+    progress : Progress, optional
+        Fraction done (stage "smoother"), reported about every 10 000 epochs.
     """
     n = ck.P_plus.shape[1]
     seg = CHECKPOINT_EVERY + 2
@@ -339,6 +352,7 @@ def smooth_checkpoints(
     first = int(ck.epoch[0]) if n_c else 0
     total = max(1, k_last + 1 - first)
     reported = k_last + 1
+    report(progress, 0.0, "smoother")
     for c in range(n_c - 1, -1, -1):
         e = int(ck.epoch[c])
         has_next = c < n_c - 1
@@ -353,11 +367,10 @@ def smooth_checkpoints(
             out_dx[e : e + L], segment, P_buf,
         )  # fmt: skip
         mbf_update(ck.P_minus[c], ck.H[c], ck.r[c], ck.z[c], int(ck.nrows[c]), lam, Lam)
-        if progress is not None and reported - e >= 10_000:
+        if reported - e >= 10_000:
             reported = e
-            progress((k_last + 1 - e) / total)
-    if progress is not None:
-        progress(1.0)
+            report(progress, (k_last + 1 - e) / total, "smoother")
+    report(progress, 1.0, "smoother")
 
 
 def _smoothed_std_rows(
@@ -393,7 +406,7 @@ def smoothed_solution_std(cov: SmoothedCovariance, states: FloatArray, k0: int) 
 
 
 def smooth_forward_run(
-    imu: ImuData, run: ForwardRun, progress: Callable[[float], None] | None = None
+    imu: ImuData, run: ForwardRun, progress: Progress | None = None
 ) -> tuple[FloatArray, FloatArray]:
     """Smoothed nominal states (n, 28) and the solution's 1σ (n, 21) of a forward run.
 

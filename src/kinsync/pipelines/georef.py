@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -80,6 +80,7 @@ from kinsync.pipelines.georef_outputs import (
 )
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
+from kinsync.progress import Progress, report
 
 __all__ = [
     "GeorefSummary",
@@ -207,7 +208,7 @@ def georeference_file(
     outside: OutsidePolicy = "error",
     gps_week: int | None = None,
     position: PositionMethod = "auto",
-    progress: Callable[[int, int | None], None] | None = None,
+    progress: Progress | None = None,
     scheduler: str = "local",
     workers: int | None = None,
     point_columns: PointColumns = "auto",
@@ -271,8 +272,9 @@ def georeference_file(
         GPS week for SBET and LAS seconds-of-week times (see `read_trajectory_file`).
     position : {"auto", "linear", "hermite"}
         Position interpolation (see `georeference`).
-    progress : callable, optional
-        Called after each chunk with (points done, total points or None).
+    progress : Progress, optional
+        Told the share of the points done (stage "georeferencing") once the inputs
+        are checked and after each chunk written.
     scheduler : str
         Where chunks are read and georeferenced: ``"local"`` (in this process,
         serial), ``"processes"`` (a local process pool) or ``"tcp://HOST:PORT"`` (an
@@ -694,7 +696,7 @@ def _outputs_in_order(
     runner: SerialRunner,
     tally: _OutsideTally,
     out_path: Path,
-    progress: Callable[[int, int | None], None] | None,
+    progress: Progress | None,
     total: int,
 ) -> Iterator[ChunkOutput]:
     """The chunks to write, in input order; errors raised, outside points accounted.
@@ -708,6 +710,7 @@ def _outputs_in_order(
     def tally_only() -> bool:
         return failing
 
+    report(progress, 0.0, "georeferencing")
     for result in in_order(tasks, runner, tally_only):
         out = result()
         n_in += out.count
@@ -720,8 +723,7 @@ def _outputs_in_order(
             failing = True
             continue
         yield out
-        if progress is not None:
-            progress(n_in, total)
+        report(progress, n_in / total if total else 1.0, "georeferencing")
     if failing:
         raise tally.error(ctx.source.path, ctx.traj, out_path)
 
@@ -731,7 +733,7 @@ def _write(
     tasks: Sequence[ChunkTask],
     total: int,
     out_path: Path,
-    progress: Callable[[int, int | None], None] | None,
+    progress: Progress | None,
     tally: _OutsideTally,
     runner: SerialRunner,
     sink: Sink,

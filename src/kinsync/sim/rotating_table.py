@@ -55,7 +55,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,6 +70,7 @@ from kinsync.io.passes import PassFileFormat, pass_file_name, write_passes
 from kinsync.io.tables import write_numeric_csv
 from kinsync.latency.passes import SpherePass
 from kinsync.mount import Mount
+from kinsync.progress import Progress, report
 from kinsync.sim.table_config import LABEL_NAMES, RotatingTableConfig
 from kinsync.sim.table_scan import _Simulator
 from kinsync.trajectory import Trajectory
@@ -80,10 +80,6 @@ __all__ = [
     "simulate_rotating_table",
     "write_simulation",
 ]
-
-
-ProgressCallback = Callable[[int, int], None]
-"""Called as ``progress(passes_done, passes_total)`` after each pass."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +121,7 @@ class RotatingTableSimulation:
 
 # ---------------------------------------------------------------------- public API
 def simulate_rotating_table(
-    config: RotatingTableConfig | None = None, *, progress: ProgressCallback | None = None
+    config: RotatingTableConfig | None = None, *, progress: Progress | None = None
 ) -> RotatingTableSimulation:
     """Simulate a rotating-table latency test.
 
@@ -134,8 +130,9 @@ def simulate_rotating_table(
     config : RotatingTableConfig, optional
         Set-up; the defaults reproduce the published test (0.20 m sphere at 1.5 m,
         rates 2-18 deg/s, 15 passes each way, 4.21 ms IMU latency).
-    progress : callable, optional
-        ``progress(done, total)`` after each pass (for a progress bar).
+    progress : Progress, optional
+        Told the share of the passes simulated (stage "simulating passes") at the
+        start and after each pass.
 
     Returns
     -------
@@ -160,6 +157,7 @@ def simulate_rotating_table(
     att_q: list[FloatArray] = []
     pass_truth: list[dict[str, Any]] = []
     t_begin = cfg.t_start_s
+    report(progress, 0.0, "simulating passes")
     for i, rate in enumerate(rates):
         timing = sim.timing(rate, t_begin)
         tags, q = sim.attitude_records(timing)
@@ -191,8 +189,7 @@ def simulate_rotating_table(
             }
         )
         t_begin += timing.duration_s + cfg.pass_gap_s
-        if progress is not None:
-            progress(i + 1, len(rates))
+        report(progress, (i + 1) / len(rates), "simulating passes")
     attitude_all = Trajectory(
         t_s=np.concatenate(att_t),
         q_body_to_ned=np.concatenate(att_q),

@@ -1,0 +1,131 @@
+"""How commands show progress: a bar on a terminal, stage lines otherwise, none on stdout."""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numba
+import pytest
+from rich.console import Console
+
+from kinsync.cli import _progress
+from kinsync.cli._progress import COMPILING, progress_display
+from kinsync.errors import InputError
+from kinsync.progress import Stages
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+
+
+@pytest.fixture
+def no_hold(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Stage lines from the first report, as for work that has run `HOLD_S` seconds."""
+    monkeypatch.setattr(_progress, "HOLD_S", 0.0)
+
+
+def _lines(err: str) -> list[str]:
+    return [line.rsplit(" (", 1)[0] for line in err.splitlines()]
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_one_line_per_stage_when_not_a_terminal(capsys: pytest.CaptureFixture[str]) -> None:
+    with progress_display("job") as progress:
+        stages = Stages(progress, {"read": 1.0, "work": 3.0})
+        stages.start("read")
+        work = stages.start("work")
+        assert work is not None
+        for i in range(10):
+            work(i / 10, "work")
+        stages.finish()
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert _lines(captured.err) == ["kinsync: job: read", "kinsync: job: work"]
+    assert "\x1b" not in captured.err
+    assert all(line.endswith(" s)") for line in captured.err.splitlines())
+
+
+def test_a_failure_as_the_work_starts_leaves_no_stage_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(InputError), progress_display("job") as progress:  # noqa: PT012
+        stages = Stages(progress, {"read": 1.0, "work": 1.0})
+        stages.start("read")
+        stages.say("reading 1 file")
+        stages.start("work")  # the bar moved on, no work done yet
+        raise InputError("one file given: need two")  # found while reading: one error line
+    assert capsys.readouterr().err == ""
+
+
+def test_lines_held_only_while_the_work_is_young(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with progress_display("job") as progress:
+        progress(0.5, "read")  # young work: held, however far it got
+        assert capsys.readouterr().err == ""
+        monkeypatch.setattr(_progress, "HOLD_S", 0.0)  # as if HOLD_S seconds had passed
+        progress(0.0, "still reading")
+        assert _lines(capsys.readouterr().err) == [
+            "kinsync: job: read",
+            "kinsync: job: still reading",
+        ]
+        progress(1.0, "done")
+    assert _lines(capsys.readouterr().err) == ["kinsync: job: done"]
+
+
+def test_quick_work_writes_no_stage_line(capsys: pytest.CaptureFixture[str]) -> None:
+    with progress_display("job") as progress:
+        stages = Stages(progress, {"only": 1.0})
+        stages.start("only", "checking")
+        stages.finish()
+    assert capsys.readouterr().err == ""
+
+
+def test_a_bar_with_percentage_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    screen = io.StringIO()
+    console = Console(file=screen, force_terminal=True, width=120)
+    monkeypatch.setattr(_progress, "err_console", console)
+    with progress_display("job") as progress:
+        progress(0.5, "halfway")
+        progress(1.0, "done")
+    shown = screen.getvalue()
+    assert "job: done" in shown
+    assert "100%" in shown
+    assert "kinsync: job" not in shown  # no stage lines on a terminal
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_a_compilation_is_said_once(capsys: pytest.CaptureFixture[str]) -> None:
+    with progress_display("job") as progress:
+        progress(0.0, "work")
+
+        @numba.njit(cache=False)
+        def add_one(x: float) -> float:  # a new function: compiled here
+            return x + 1
+
+        add_one(1)
+        add_one(2.5)  # a second specialisation: not said again
+        progress(1.0, "work")
+    assert _lines(capsys.readouterr().err) == ["kinsync: job: work", f"kinsync: job: {COMPILING}"]
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_json_stdout_has_no_progress_and_stderr_has_the_stages(
+    run_cli: RunCli, tmp_path: Path
+) -> None:
+    code, stdout, stderr = run_cli(
+        [
+            "simulate", "rotating-table", "--rates-deg-s", "6", "--passes", "1",
+            "--out", str(tmp_path / "o"), "--json",
+        ]
+    )  # fmt: skip
+    assert code == 0, stderr
+    assert stdout.count("\n") == 1
+    json.loads(stdout)
+    assert "kinsync:" not in stdout
+    stages = [line for line in _lines(stderr) if COMPILING not in line]
+    assert stages == [
+        "kinsync: simulate rotating-table: simulating passes",
+        "kinsync: simulate rotating-table: writing files",
+    ]
