@@ -7,10 +7,15 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from kinsync.cli import main
+from kinsync.io.control_points import read_control_points
 from kinsync.sim.validation_files import VALIDATION_FILES
+from kinsync.validation.targets import nearest_control
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
@@ -75,3 +80,33 @@ def test_flatness_sees_the_wall_bend_with_a_time_error(
         assert code == 0, err
         verdicts.append(json.loads(out)["curvature_significant"])
     assert verdicts == [False, True]
+
+
+def test_targets_bright_throughout_their_radius_are_found_in_a_file(
+    folder: Path, tmp_path: Path, run_cli: RunCli
+) -> None:
+    """The file is cropped to the targets' neighbourhoods as it streams: the survey's
+    typical intensity must come from every chunk, not from the cropped points."""
+    cloud = tmp_path / "cloud.parquet"
+    code, _, err = run_cli(
+        ["georef", "--points", str(folder / "targets_scan.csv"), "--trajectory",
+         str(folder / "targets_trajectory.csv"), "--mount", str(folder / "mount.toml"),
+         "--out", str(cloud), "--point-columns", "xyz"]
+    )  # fmt: skip
+    assert code == 0, err
+    table = pq.read_table(cloud)
+    xyz = np.column_stack([table[c].to_numpy() for c in ("X", "Y", "Z")])
+    near = nearest_control(xyz, read_control_points(folder / "control.csv"), 0.5) >= 0
+    bright = table.set_column(
+        table.schema.get_field_index("intensity"), "intensity",
+        pa.array(np.where(near, 500.0, 100.0)),
+    )  # fmt: skip
+    pq.write_table(bright, cloud)
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(cloud), "--control",
+         str(folder / "control.csv"), "--trajectory", str(folder / "targets_trajectory.csv"),
+         "--centre", "sphere", "--target-radius-m", "0.2", "--json"]
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert not [m for m in doc["missing"] if "no intensity contrast" in m["reason"]]

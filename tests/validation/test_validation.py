@@ -45,6 +45,7 @@ from kinsync.validation import (
     validate_control_points,
 )
 from kinsync.validation.control_points import ControlPoints
+from kinsync.validation.targets import AUTO_CONTRAST, nearest_control
 
 LATENCY_ERROR_S = 0.002
 YAW_ERROR_DEG = 0.1
@@ -288,6 +289,30 @@ def test_missing_targets_are_reported_per_point(scene: ControlTargetScene) -> No
     flat = CloudPoints(cloud.pos_ecef_m, cloud.t_s, np.full(len(cloud), 100.0))
     _, missing = extract_targets(flat, scene.control)
     assert all("no intensity contrast" in m.reason for m in missing)
+
+
+def test_targets_bright_throughout_their_radius_are_judged_against_the_cloud(
+    scene: ControlTargetScene,
+) -> None:
+    """A target on a post with nothing else within the radius: no contrast inside the
+    radius, but five times the cloud's median intensity: found (it was missed before)."""
+    scan = scene.scan
+    cloud = _cloud(scan, scan.mount)
+    rng = np.random.default_rng(5)
+    owner = nearest_control(cloud.pos_ecef_m, scene.control, 0.5)
+    inten = np.where(owner >= 0, 500.0, 100.0) + rng.uniform(0.0, 20.0, len(cloud))
+    bright = CloudPoints(cloud.pos_ecef_m, cloud.t_s, inten)
+    for j in range(len(scene.control)):
+        near = inten[owner == j]
+        assert otsu_threshold(near)[1] < AUTO_CONTRAST  # no contrast within the radius
+    obs, missing = extract_targets(bright, scene.control)
+    assert not [m for m in missing if "no intensity contrast" in m.reason]
+    assert {o.name for o in obs} == set(scene.control.names)
+    # Bright throughout but not against the cloud (1.5x its median): still refused.
+    dim = CloudPoints(cloud.pos_ecef_m, cloud.t_s, np.where(owner >= 0, 150.0, 100.0))
+    _, missing = extract_targets(dim, scene.control)
+    assert len(missing) == len(scene.control)
+    assert all("nor against the cloud's median intensity 100" in m.reason for m in missing)
 
 
 def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetScene) -> None:

@@ -99,6 +99,7 @@ def control_points_file(
     pos_parts: list[FloatArray] = []
     t_parts: list[FloatArray] = []
     i_parts: list[FloatArray] = []
+    chunk_medians: list[float] = []  # the survey's typical intensity, chunk by chunk
     extent = CloudExtent()
     done = 0
     for xyz, t, inten in iter_cloud(
@@ -109,6 +110,8 @@ def control_points_file(
         check_finite_chunk(cloud_path, xyz, done, time=t, intensity=inten)
         done += xyz.shape[0]
         extent.add(xyz)
+        if inten.size:
+            chunk_medians.append(float(np.median(inten)))
         ecef = xyz if to_ecef is None else to_ecef(xyz)
         keep = nearest_control(ecef, control, search_radius_m) >= 0
         pos_parts.append(ecef[keep])
@@ -134,6 +137,7 @@ def control_points_file(
             target_radius_m=target_radius_m,
             min_points=min_points,
             level=level,
+            background_intensity=float(np.median(chunk_medians)),
         )
     except KinsyncError as err:
         msg = f"{cloud_path}: {err}"

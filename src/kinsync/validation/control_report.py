@@ -132,6 +132,7 @@ def validate_control_points(
     visit_gap_s: float = 1.0,
     level: float = 0.99,
     pass_gap_s: float = PASS_GAP_S,
+    background_intensity: float | None = None,
 ) -> ControlPointReport:
     """Extract targets, express the differences in the vehicle frame, test the signatures.
 
@@ -157,6 +158,7 @@ def validate_control_points(
         target_radius_m=target_radius_m,
         min_points=min_points,
         visit_gap_s=visit_gap_s,
+        background_intensity=background_intensity,
     )
     differences, outside = control_point_differences(observations, control, trajectory)
     missing = missing + outside

@@ -7,8 +7,11 @@ from the cloud where it is brightest:
    nearest control point).
 2. Intensity threshold: ``min_intensity`` when given, else Otsu's threshold of the
    intensities in that neighbourhood, accepted only when the bright class is at least
-   ``AUTO_CONTRAST`` (2) times brighter on average than the dull one (a target needs
-   a dull background in the radius: board, pole, wall or ground).
+   ``AUTO_CONTRAST`` (2) times brighter on average than the dull one. A neighbourhood
+   that is bright throughout (a target on a post, nothing else within the radius) is
+   judged against the whole cloud instead: when its median intensity is at least
+   ``AUTO_CONTRAST`` times the cloud's, the threshold is the geometric mean of the two
+   medians.
 3. Visits: the bright points are split in time wherever consecutive points are more
    than ``visit_gap_s`` apart, so each pass of the vehicle gives one observation.
 4. Centre of each visit with at least ``min_points`` points: ``"tukey"`` (default;
@@ -144,6 +147,39 @@ class MissingTarget:
     name: str
     reason: str
     t_s: float | None = None
+
+
+def _threshold_against_cloud(
+    near: FloatArray, background: float, contrast: float
+) -> tuple[float, float]:
+    """Threshold of a neighbourhood bright throughout, judged against the cloud's median.
+
+    Returns ``(threshold, contrast)``: the geometric mean of the two medians and their
+    ratio when the neighbourhood is at least ``AUTO_CONTRAST`` times brighter than the
+    cloud; otherwise NaN and the neighbourhood's own contrast, unchanged.
+    """
+    level = float(np.median(near))
+    if not (math.isfinite(background) and level > 0.0):
+        return math.nan, contrast
+    if background <= 0.0:
+        return 0.5 * level, math.inf
+    ratio = level / background
+    if ratio < AUTO_CONTRAST:
+        return math.nan, contrast
+    return math.sqrt(level * background), ratio
+
+
+def _auto_threshold(near: FloatArray, background: float) -> float | str:
+    """The automatic threshold of a neighbourhood, or why there is none (step 2)."""
+    threshold, contrast = otsu_threshold(near)
+    if math.isnan(contrast) or contrast < AUTO_CONTRAST:
+        threshold, contrast = _threshold_against_cloud(near, background, contrast)
+    if math.isnan(contrast) or contrast < AUTO_CONTRAST:
+        return (
+            f"bright/dull mean ratio {contrast:.3g} < {AUTO_CONTRAST:g}, nor against the "
+            f"cloud's median intensity {background:.6g}"
+        )
+    return threshold
 
 
 def otsu_threshold(values: ArrayLike) -> tuple[float, float]:
@@ -284,6 +320,7 @@ def extract_targets(
     target_radius_m: float | None = None,
     min_points: int = 10,
     visit_gap_s: float = 1.0,
+    background_intensity: float | None = None,
 ) -> tuple[tuple[TargetObservation, ...], tuple[MissingTarget, ...]]:
     """Find each control target in the cloud: bright points near it, one centre per visit.
 
@@ -304,6 +341,10 @@ def extract_targets(
         Sphere radius (m), required with ``centre="sphere"``.
     min_points : int
         Fewest bright points of a visit for a centre (>= 4).
+    background_intensity : float, optional
+        The survey's typical (median) intensity, against which a neighbourhood bright
+        throughout is judged; default: the median of ``cloud.intensity`` (give it when
+        ``cloud`` holds only the points near the targets).
     visit_gap_s : float
         Time gap (s) that separates two visits of a target.
 
@@ -329,6 +370,9 @@ def extract_targets(
     observations: list[TargetObservation] = []
     missing: list[MissingTarget] = []
     llh = control.lat_lon_h()
+    background = (
+        float(np.median(cloud.intensity)) if background_intensity is None else background_intensity
+    )
     for j, name in enumerate(control.names):
         near = np.flatnonzero(owner == j)
         if near.size == 0:
@@ -338,14 +382,13 @@ def extract_targets(
             continue
         inten = cloud.intensity[near]
         if min_intensity is None:
-            threshold, contrast = otsu_threshold(inten)
-            if math.isnan(contrast) or contrast < AUTO_CONTRAST:
+            threshold = _auto_threshold(inten, background)
+            if isinstance(threshold, str):
                 missing.append(
                     MissingTarget(
                         name,
                         f"no intensity contrast among the {near.size} points within "
-                        f"{search_radius_m:g} m (bright/dull mean ratio {contrast:.3g} < "
-                        f"{AUTO_CONTRAST:g}); give --min-intensity",
+                        f"{search_radius_m:g} m ({threshold}); give --min-intensity",
                     )
                 )
                 continue
