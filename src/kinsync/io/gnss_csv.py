@@ -15,7 +15,6 @@ Errors name the file and the line (header = line 1).
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +32,7 @@ from kinsync.io.sanity import (
     Span,
     check_columns,
 )
-from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
+from kinsync.io.tables import NumericTable, read_numeric_csv, rows_to_lines, write_numeric_csv
 
 __all__ = [
     "GNSS_POSITION_COLUMNS",
@@ -48,15 +47,6 @@ GNSS_POSITION_COLUMNS = ("t_s", "lat_deg", "lon_deg", "h_m")
 GNSS_STD_POSITION_COLUMNS = ("std_n_m", "std_e_m", "std_d_m")
 GNSS_VELOCITY_COLUMNS = ("vn_m_s", "ve_m_s", "vd_m_s")
 GNSS_STD_VELOCITY_COLUMNS = ("std_vn_m_s", "std_ve_m_s", "std_vd_m_s")
-
-
-def _rows_to_lines(text: str, table: NumericTable) -> str:
-    """Add the file line to every ``row N`` (0-based data row) in a message."""
-    return re.sub(
-        r"\brow (\d+)\b",
-        lambda m: f"row {m.group(1)} (line {table.line_of_row(int(m.group(1)))})",
-        text,
-    )
 
 
 def _group(table: NumericTable, names: tuple[str, ...]) -> FloatArray | None:
@@ -167,7 +157,7 @@ def read_gnss_csv(path: Path) -> GnssData:
             std_vel_ned_m_s=std_vel,
         )
     except InputError as err:
-        msg = f"{path}: {_rows_to_lines(str(err), table)}"
+        msg = f"{path}: {rows_to_lines(str(err), table.line_of_row)}"
         raise InputError(msg) from err
 
 

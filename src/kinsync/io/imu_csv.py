@@ -20,7 +20,6 @@ Errors name the file and the line (header = line 1).
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 from typing import Literal
 
@@ -36,7 +35,7 @@ from kinsync.io.sanity import (
     Span,
     check_columns,
 )
-from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
+from kinsync.io.tables import NumericTable, read_numeric_csv, rows_to_lines, write_numeric_csv
 
 __all__ = ["IMU_INCREMENT_COLUMNS", "IMU_RATE_COLUMNS", "read_imu_csv", "write_imu_csv"]
 
@@ -68,15 +67,6 @@ _ANY = Span(-math.inf, math.inf, "", "a number")
 _RATE_SPANS = (ANGULAR_RATE_RAD_S,) * 3 + (ACCELERATION_M_S2,) * 3
 """Plausible rates and specific forces (`kinsync.io.sanity`), increments once divided by
 their interval."""
-
-
-def _rows_to_lines(text: str, table: NumericTable) -> str:
-    """Add the file line to every ``row N`` (0-based data row) in a message."""
-    return re.sub(
-        r"\brow (\d+)\b",
-        lambda m: f"row {m.group(1)} (line {table.line_of_row(int(m.group(1)))})",
-        text,
-    )
 
 
 def _first_intervals_s(t_s: FloatArray) -> FloatArray:
@@ -176,7 +166,7 @@ def read_imu_csv(path: Path) -> ImuData:
     try:
         return ImuData(t_s=t, gyro_body_rad_s=first, acc_body_m_s2=second)
     except InputError as err:
-        msg = f"{path}: {_rows_to_lines(str(err), table)}"
+        msg = f"{path}: {rows_to_lines(str(err), table.line_of_row)}"
         raise InputError(msg) from err
 
 

@@ -60,6 +60,7 @@ from kinsync.io.sanity import (
     check_columns,
     check_text_file,
 )
+from kinsync.io.tables import rows_to_lines
 from kinsync.trajectory import Trajectory
 
 __all__ = ["COLUMN_NAMES", "PosTextLayout", "Producer", "read_pos_text", "sniff_pos_text"]
@@ -431,12 +432,7 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
             vel_ned_m_s=vel,
         )
     except InputError as err:
-        text = re.sub(
-            r"\brow (\d+)\b",
-            lambda m: f"row {m.group(1)} (line {line_of_row[int(m.group(1))]})",
-            str(err),
-        )
-        msg = f"{path}: {text}"
+        msg = f"{path}: {rows_to_lines(str(err), line_of_row.__getitem__)}"
         raise InputError(msg) from err
     return traj, gps_time
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
+import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,6 +35,7 @@ __all__ = [
     "read_csv_rows",
     "read_numeric_csv",
     "read_time_column",
+    "rows_to_lines",
     "write_numeric_csv",
     "write_with_column",
 ]
@@ -62,6 +64,19 @@ class NumericTable:
     def line_of_row(self, row: int) -> int:
         """File line number (1-based, header = line 1) of a 0-based data row."""
         return row + 2
+
+
+def rows_to_lines(text: str, line_of_row: Callable[[int], int]) -> str:
+    """Add the file line to every ``row N`` (0-based data row) of a message.
+
+    Containers (`kinsync.trajectory.Trajectory`, ...) name the rows of their arrays; a
+    reader re-raises their errors with the line of the file a user opens.
+    """
+    return re.sub(
+        r"\brow (\d+)\b",
+        lambda m: f"row {m.group(1)} (line {line_of_row(int(m.group(1)))})",
+        text,
+    )
 
 
 def _locate_bad_cell(path: Path, header: list[str]) -> InputError:

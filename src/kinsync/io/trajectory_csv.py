@@ -10,7 +10,6 @@ and, when present, enable cubic Hermite position interpolation.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,7 @@ from kinsync.io.sanity import (
     Span,
     check_columns,
 )
-from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+from kinsync.io.tables import read_numeric_csv, rows_to_lines, write_numeric_csv
 from kinsync.trajectory import Trajectory
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv"]
@@ -79,12 +78,7 @@ def read_trajectory_csv(path: Path) -> Trajectory:
         )
     except InputError as err:
         # Trajectory names 0-based data rows; give the file line as well.
-        text = re.sub(
-            r"\brow (\d+)\b",
-            lambda m: f"row {m.group(1)} (line {table.line_of_row(int(m.group(1)))})",
-            str(err),
-        )
-        msg = f"{path}: {text}"
+        msg = f"{path}: {rows_to_lines(str(err), table.line_of_row)}"
         raise InputError(msg) from err
 
 
