@@ -23,6 +23,7 @@ boresight_rpy_deg = [1.5, -30.0, 30.0]
 antenna_lever_arm_body_m = [0.0, 0.0, -1.0]
 latency_s = 0.004
 """
+PLAN = ["latency", "plan", "--range-m", "1.5", "--radius-m", "0.1", "--range-noise-m", "0.002"]
 
 
 @pytest.mark.parametrize("path", [p for p, _ in commands()], ids=" ".join)
@@ -84,22 +85,7 @@ def test_counted_nouns(n: int, noun: str, text: str) -> None:
 
 
 def test_one_pass_is_not_one_passes(run_cli: RunCli) -> None:
-    code, out, _ = run_cli(
-        [
-            "latency",
-            "plan",
-            "--range-m",
-            "1.5",
-            "--radius-m",
-            "0.1",
-            "--range-noise-m",
-            "0.002",
-            "--rates-deg-s",
-            "6",
-            "--passes",
-            "1",
-        ]
-    )
+    code, out, _ = run_cli([*PLAN, "--rates-deg-s", "6", "--passes", "1"])
     assert code == 0, out
     assert "1 pass each way" in out
     assert "1 passes" not in out
@@ -113,22 +99,7 @@ def _piped_commands(tmp_path: Path) -> list[list[str]]:
         ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"],
         ["budget", "period", "--profiles", "10000", "--period-error-s", "1e-6", "--speed-m-s", "2"],
         ["mount", "check", str(mount)],
-        [
-            "latency",
-            "plan",
-            "--range-m",
-            "1.5",
-            "--radius-m",
-            "0.1",
-            "--range-noise-m",
-            "0.002",
-            "--rates-deg-s",
-            "2,6,18",
-            "--passes",
-            "15",
-            "--target-ms",
-            "0.1",
-        ],
+        [*PLAN, "--rates-deg-s", "2,6,18", "--passes", "15", "--target-ms", "0.1"],
     ]
 
 

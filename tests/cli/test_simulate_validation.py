@@ -20,6 +20,15 @@ from kinsync.validation.targets import nearest_control
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 
 
+def _georef(folder: Path, scene: str, out: Path) -> list[str]:
+    """`kinsync georef` of one scene's scan ("targets" or "wall") into ``out``."""
+    return [
+        "georef", "--points", str(folder / f"{scene}_scan.csv"), "--trajectory",
+        str(folder / f"{scene}_trajectory.csv"), "--mount", str(folder / "mount.toml"),
+        "--out", str(out), "--point-columns", "xyz",
+    ]  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("val") / "val"
@@ -42,11 +51,8 @@ def test_validate_finds_the_injected_time_error(
 ) -> None:
     cloud = tmp_path / "cloud.csv"
     code, _, err = run_cli(
-        ["georef", "--points", str(folder / "targets_scan.csv"), "--trajectory",
-         str(folder / "targets_trajectory.csv"), "--mount", str(folder / "mount.toml"),
-         "--out", str(cloud), "--point-columns", "xyz", "--latency-ms", str(latency_ms),
-         "--json"]
-    )  # fmt: skip
+        [*_georef(folder, "targets", cloud), "--latency-ms", str(latency_ms), "--json"]
+    )
     assert code == 0, err
     code, out, err = run_cli(
         ["validate", "control-points", "--cloud", str(cloud), "--control",
@@ -68,11 +74,7 @@ def test_flatness_sees_the_wall_bend_with_a_time_error(
     verdicts = []
     for latency_ms in ("0", "5"):
         cloud = tmp_path / f"wall_{latency_ms}.csv"
-        code, _, err = run_cli(
-            ["georef", "--points", str(folder / "wall_scan.csv"), "--trajectory",
-             str(folder / "wall_trajectory.csv"), "--mount", str(folder / "mount.toml"),
-             "--out", str(cloud), "--point-columns", "xyz", "--latency-ms", latency_ms]
-        )  # fmt: skip
+        code, _, err = run_cli([*_georef(folder, "wall", cloud), "--latency-ms", latency_ms])
         assert code == 0, err
         code, out, err = run_cli(
             ["validate", "flatness", "--cloud", str(cloud), "--box", box, "--json"]
@@ -88,11 +90,7 @@ def test_targets_bright_throughout_their_radius_are_found_in_a_file(
     """The file is cropped to the targets' neighbourhoods as it streams: the survey's
     typical intensity must come from every chunk, not from the cropped points."""
     cloud = tmp_path / "cloud.parquet"
-    code, _, err = run_cli(
-        ["georef", "--points", str(folder / "targets_scan.csv"), "--trajectory",
-         str(folder / "targets_trajectory.csv"), "--mount", str(folder / "mount.toml"),
-         "--out", str(cloud), "--point-columns", "xyz"]
-    )  # fmt: skip
+    code, _, err = run_cli(_georef(folder, "targets", cloud))
     assert code == 0, err
     table = pq.read_table(cloud)
     xyz = np.column_stack([table[c].to_numpy() for c in ("X", "Y", "Z")])

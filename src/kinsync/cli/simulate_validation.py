@@ -37,10 +37,7 @@ def validation(
     `kinsync georef`; the mount's latency is the true one (0), so georeferencing with
     --latency-ms X injects a time error X that `kinsync validate` should find.
     """
-    from kinsync.sim.validation_files import (  # noqa: PLC0415
-        validation_truth,
-        write_validation_scenes,
-    )
+    from kinsync.sim.validation_files import write_validation_scenes  # noqa: PLC0415
     from kinsync.sim.validation_scene import (  # noqa: PLC0415
         control_target_scene,
         curved_wall_scene,
@@ -54,9 +51,8 @@ def validation(
         stages.start("wall", "simulating the wall")
         wall = curved_wall_scene(seed=seed)
         stages.start("writing files")
-        write_validation_scenes(targets, wall, out, seed)
+        truth = write_validation_scenes(targets, wall, out, seed)
         stages.finish()
-    truth = validation_truth(targets, wall, seed)
     doc: dict[str, Any] = {
         "out": str(out),
         "targets_points": len(targets.scan),

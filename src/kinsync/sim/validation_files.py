@@ -83,7 +83,7 @@ def validation_truth(targets: ControlTargetScene, wall: WallScene, seed: int) ->
 
 def write_validation_scenes(
     targets: ControlTargetScene, wall: WallScene, out_dir: Path, seed: int
-) -> None:
+) -> dict[str, Any]:
     """Write both scenes into ``out_dir`` (`VALIDATION_FILES`), each file atomically.
 
     Parameters
@@ -96,6 +96,11 @@ def write_validation_scenes(
         An existing folder.
     seed : int
         The scenes' seed, recorded in ``truth.json``.
+
+    Returns
+    -------
+    dict
+        The truth written to ``truth.json`` (`validation_truth`).
 
     Raises
     ------
@@ -115,3 +120,4 @@ def write_validation_scenes(
     atomic_write_text(out / "wall_box.txt", truth["wall_box_ecef_m"] + "\n")
     write_mount(targets.scan.mount, out / "mount.toml")
     atomic_write_text(out / "truth.json", json.dumps(truth, indent=2) + "\n")
+    return truth
