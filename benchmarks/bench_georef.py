@@ -37,6 +37,7 @@ from pathlib import Path
 import laspy
 import numpy as np
 
+from _timing import best_of
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_matrix, matrix_to_quaternion
 from kinsync.georef import GeorefTrajectory, PositionMethod, georeference, georeference_numpy
 from kinsync.io.mount_file import read_mount, write_mount
@@ -50,15 +51,6 @@ DURATION_S = 600.0
 N_POINTS = 5_000_000
 ORIGIN = (46.8, -71.2, 10.0)
 MOUNT = Mount(lever_arm_body_m=(0.8, -0.3, -1.2), boresight_rpy_deg=(0.4, -0.7, 91.0))
-
-
-def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def best_cpu_of(fn: Callable[[], object], repeat: int = 5) -> float:

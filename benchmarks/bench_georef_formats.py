@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import laspy
 import numpy as np
 
+from _timing import best_of
 from kinsync.io.mount_file import write_mount
 from kinsync.io.table_writer import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -66,15 +65,6 @@ def write_inputs(folder: Path, n_points: int) -> None:
     for name in ("scan.csv", "scan.parquet"):
         with TableChunkWriter(folder / name) as writer:
             writer.write(cols)
-
-
-def best_of(fn: Callable[[], object], repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

@@ -20,13 +20,13 @@ from __future__ import annotations
 import os
 import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import laspy
 import numpy as np
 import pyarrow.csv as pa_csv
 
+from _timing import best_of
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic, ned_to_ecef
 from kinsync.georef import GeorefTrajectory
@@ -41,15 +41,6 @@ DURATION_S = 3600.0
 CSV_DURATION_S = 600.0
 LAZ_POINTS = 5_000_000
 T0 = 1.4e9
-
-
-def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def drive(duration_s: float) -> Trajectory:

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _timing import best_of
 from kinsync.ins._reference import forward_numpy
 from kinsync.ins.checks import check_inputs
 from kinsync.ins.config import InsConfig
@@ -66,15 +67,6 @@ PEERS = {
 }
 """Best peer per condition, forward solutions (issue 17: measured side by side)."""
 TARGET_FORWARD_S, TARGET_SMOOTH_S = 5.0, 8.0
-
-
-def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def load(data: Path) -> tuple[ImuData, GnssData, dict[str, np.ndarray], InsConfig, InitialState]:

@@ -8,13 +8,11 @@ Run: ``make bench`` (or ``.venv/bin/python benchmarks/bench_trajectory.py``).
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation, Slerp
 
+from _timing import best_of
 from kinsync.frames import euler_rpy_to_matrix, ned_to_ecef
 from kinsync.trajectory import Trajectory
 
@@ -22,15 +20,6 @@ RATE_HZ = 200.0
 DURATION_S = 600.0
 N_QUERY = 1_000_000
 ORIGIN = (46.8, -71.2, 10.0)
-
-
-def best_of(fn: Callable[[], object], repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def turning_vehicle(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
