@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from kinsync.crs import (
     utm_zone_of,
 )
 from kinsync.errors import InputError
+from kinsync.io.gtx import write_gtx
 
 _LLH_TO_ECEF = pyproj.Transformer.from_crs(4979, 4978, always_xy=True)
 QUEBEC_LON, QUEBEC_LAT = -71.2, 46.8
@@ -41,14 +41,12 @@ def _geoid(lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
     return -30.0 + 0.5 * (lat - 46.5) + 0.2 * (lon + 71.0)
 
 
-def write_gtx(path: Path, lat0: float = 46.0, lon0: float = -72.0, n: int = 41) -> Path:
+def write_grid(path: Path, lat0: float = 46.0, lon0: float = -72.0, n: int = 41) -> Path:
     """A GTX grid (NOAA VDatum layout: big-endian header, rows south to north)."""
     step = 0.05
     lat = lat0 + step * np.arange(n)[:, None]
     lon = lon0 + step * np.arange(n)[None, :]
-    with path.open("wb") as f:
-        f.write(struct.pack(">4d2i", lat0, lon0, step, step, n, n))
-        f.write(_geoid(lon, lat).astype(">f4").tobytes())
+    write_gtx(path, lat0, lon0, step, _geoid(lon, lat))
     return path
 
 
@@ -56,7 +54,7 @@ def write_gtx(path: Path, lat0: float = 46.0, lon0: float = -72.0, n: int = 41) 
 def test_a_geoid_grid_gives_orthometric_heights_and_the_same_horizontal(tmp_path: Path) -> None:
     lon, lat, h = _quebec()
     pos = _ecef(lon, lat, h)
-    grid = write_gtx(tmp_path / "geoid.gtx")
+    grid = write_grid(tmp_path / "geoid.gtx")
     plan, info = plan_ecef_to_crs("EPSG:32619+5703", geoid=str(grid), sample_ecef_m=pos)
     out = crs_plan_transformer(plan)
     assert out is not None
@@ -75,7 +73,7 @@ def test_a_geoid_grid_gives_orthometric_heights_and_the_same_horizontal(tmp_path
 
 
 def test_a_geoid_needs_a_compound_crs(tmp_path: Path) -> None:
-    grid = write_gtx(tmp_path / "geoid.gtx")
+    grid = write_grid(tmp_path / "geoid.gtx")
     with pytest.raises(InputError, match=r"compound --crs .*EPSG:32618\+5703"):
         plan_ecef_to_crs("EPSG:32619", geoid=str(grid))
 
@@ -94,7 +92,7 @@ def test_a_corrupt_geoid_file_is_named(tmp_path: Path) -> None:
 
 
 def test_a_geoid_that_does_not_cover_the_data_is_named(tmp_path: Path) -> None:
-    grid = write_gtx(tmp_path / "geoid.gtx")
+    grid = write_grid(tmp_path / "geoid.gtx")
     far = _ecef(np.array([-60.0]), np.array([46.8]), np.array([0.0]))
     with pytest.raises(InputError, match=r"does not cover the data .*longitude -60\.0000"):
         plan_ecef_to_crs("EPSG:32620+5703", geoid=str(grid), sample_ecef_m=far)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import re
-import struct
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,7 +27,8 @@ from kinsync.crs import (
 )
 from kinsync.demo.tolerances import EXACT, GEOREF_KERNEL
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path, atomic_write_text
+from kinsync.io.atomic import atomic_write_text
+from kinsync.io.gtx import write_gtx
 from kinsync.report.html import Section, Table
 from kinsync.report.verdict import Check
 
@@ -65,15 +65,6 @@ def _survey_points() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     return lat, lon, h, np.column_stack([x, y, z])
 
 
-def _write_geoid_grid(path: Path) -> None:
-    """A GTX geoid grid (NOAA VDatum layout) holding ``GEOID_N_M`` over Québec City."""
-    n, step, lat0, lon0 = 21, 0.05, 46.3, -71.7
-    grid = np.full((n, n), GEOID_N_M, dtype=">f4")
-    with atomic_path(path) as tmp, tmp.open("wb") as f:
-        f.write(struct.pack(">4d2i", lat0, lon0, step, step, n, n))
-        f.write(grid.tobytes())
-
-
 def _apply(plan_info: tuple[Any, CrsTransformInfo], pos_ecef_m: FloatArray) -> FloatArray:
     transform = crs_plan_transformer(plan_info[0])
     assert transform is not None
@@ -104,7 +95,7 @@ def _run(out_dir: Path) -> _CrsRun:
     e, n, u, _ = direct.transform(pos[:, 0], pos[:, 1], pos[:, 2], epochs)
     epoch_vs_proj_m = float(np.max(np.abs(now - np.column_stack([e, n, u]))))
     grid = out_dir / "crs_demo_geoid.gtx"
-    _write_geoid_grid(grid)
+    write_gtx(grid, 46.3, -71.7, 0.05, np.full((21, 21), GEOID_N_M))
     geoid_plan = plan_ecef_to_crs("EPSG:32619+5703", geoid=str(grid), sample_ecef_m=pos)
     heights = _apply(geoid_plan, pos)[:, 2]
     geoid_error_m = float(np.max(np.abs(heights - (h - GEOID_N_M))))
