@@ -66,13 +66,22 @@ def _temporaries(folder: Path) -> list[Path]:
     return sorted(folder.glob(".*.part"))
 
 
+def _size(path: Path) -> int:
+    """Size of a temporary, 0 once it is gone (the output-folder probe's empty file
+    lives for microseconds: listed, then removed before it can be measured)."""
+    try:
+        return path.stat().st_size
+    except FileNotFoundError:
+        return 0
+
+
 def _start_and_wait_for_part(
     cmd: list[str], folder: Path
 ) -> tuple[subprocess.Popen[str], list[psutil.Process]]:
     """Start ``cmd``; return once its temporary output has data (it is mid-write)."""
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120.0
-    while not any(p.stat().st_size for p in _temporaries(folder)):
+    while not any(_size(p) for p in _temporaries(folder)):
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline, "no temporary output appeared"
         time.sleep(0.01)
