@@ -353,6 +353,10 @@ def forward_numpy(
             Phi = np.eye(n) + Fd + 0.5 * Fd @ Fd
             P = Phi @ P @ Phi.T + G @ qc @ G.T * dt
             _strapdown_step(nav, w_b, f_b, dt, first=k == k0 + 1)
+            # the expected second-order tilt error: v -= dt E[-1/2 [phi x]^2 g]
+            g_vec = np.array([0.0, 0.0, normal_gravity_m_s2(nav.lat_rad, nav.h_m)])
+            P_att = P[:3, :3]
+            nav.vel_ned_m_s = nav.vel_ned_m_s + 0.5 * dt * (P_att - np.trace(P_att) * _I3) @ g_vec
             nav.gyro_instability_rad_s *= math.exp(-dt / config.gyro_bias_corr_time_s)
             nav.acc_instability_m_s2 *= math.exp(-dt / config.acc_bias_corr_time_s)
         for j in np.flatnonzero(g_epoch == k):

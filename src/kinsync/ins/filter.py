@@ -9,7 +9,9 @@ instability (first-order Gauss–Markov) and, when configured, a scale factor er
 Forward pass, one compiled loop over the IMU epochs (run in chunks of
 `CHUNK_EPOCHS` so that Python can report progress): for each epoch, ``Φ`` and ``Q``
 from the state at the start of the interval, ``P ← Φ P Φ^T + Q``, one strapdown step
-(`kinsync.ins.strapdown`), then every GNSS epoch assigned to this IMU epoch:
+(`kinsync.ins.strapdown`), the expected second-order tilt error removed from the
+velocity (`kinsync.ins._ekf.tilt_gravity_mean`), then every GNSS epoch assigned to this
+IMU epoch:
 
 - **Timing.** A GNSS epoch is processed at the nearest IMU epoch ``t_k``; its
   position is moved to ``t_k`` with the INS velocity (``p + v (t_k - t_gnss)``, at most
@@ -73,6 +75,7 @@ from kinsync.ins._ekf import (
     P_QC_VEL,
     P_TAU_A,
     P_TAU_G,
+    P_TILT_MEAN,
     P_USE_VEL,
     X_BA,
     X_BG,
@@ -85,6 +88,7 @@ from kinsync.ins._ekf import (
     scalar_update,
     solution_std,
     step_matrices,
+    tilt_gravity_mean,
 )
 from kinsync.ins.config import InsConfig
 from kinsync.ins.forward_run import (
@@ -410,6 +414,7 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
     nan3 = np.full(3, np.nan)
     coning = True
     use_vel = params[P_USE_VEL] > 0.5
+    tilt_mean = params[P_TILT_MEAN] > 0.5
     gate = params[P_GATE]
     for k in range(k_begin, k_end):
         if k > k0:
@@ -422,6 +427,8 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
                 nominal, filt.increments_prev, gyro_k, acc_k, dt, k == k0 + 1,
                 coning, qa, qb, C,
             )  # fmt: skip
+            if tilt_mean:
+                tilt_gravity_mean(P, nominal, dt)
             if dt != dt_decay:  # the instability estimates decay as their model says
                 dt_decay = dt
                 decay_g = math.exp(-dt / params[P_TAU_G])
@@ -513,6 +520,7 @@ def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     p[P_ARM : P_ARM + 3] = config.antenna_lever_arm_body_m
     p[P_GATE] = float(chi2.ppf(config.gate_probability, 3))
     p[P_USE_VEL] = 1.0 if use_velocity else 0.0
+    p[P_TILT_MEAN] = 1.0
     return p
 
 
