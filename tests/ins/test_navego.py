@@ -319,30 +319,29 @@ def test_b_and_c_meet_the_best_peer_on_every_axis(
         assert (att <= att_peer).all(), (name, att, att_peer)
 
 
-def test_a_meets_pyins_but_for_height_and_yaw(
+def test_a_meets_pyins_but_for_height(
     navego: NaveGo, shipped_runs: dict[str, tuple[NavSolution, NavSolution]]
 ) -> None:
     """A, position updates with the turn-on biases estimated from zero: north, east,
-    roll and pitch at or below pyins; height 7 % and yaw 0.1 % above it.
+    roll, pitch and yaw at or below pyins (1.169/1.156, 0.249/0.498/3.292 against
+    1.198/1.169, 0.250/0.500/3.313); height 1.7 % above it (1.579 against 1.553 m).
 
-    pyins models each bias as one random walk (a turn-on σ that never shrinks by itself);
-    kinsync as a turn-on constant plus the Gauss-Markov instability the data were made
-    with. On 16 simulated NaveGo-like drives (MEMS preset, 5 Hz GNSS of 5/5/10 m,
-    position-only) the random-walk model gave a height RMS 0.032 m lower (standard
-    error 0.010 m) and the same horizontal and attitude figures; on this one drive
-    0.105 m lower, most of it in the last 137 s (2.12 against 1.73 m RMS; the two agree
-    before): a 2 % systematic part and this drive's noise. With the turn-on biases
-    known (12 drives) the two-state model was better on every axis (height 0.026 m,
-    heading 0.013 deg RMS): the random walk's advantage comes with unknown biases,
-    whose large early errors its larger variance absorbs. Guarded here so the gap
-    cannot grow unnoticed.
+    The height was 1.658 m before the filter removed the second-order tilt mean from its
+    velocity (`kinsync.ins._ekf.tilt_gravity_mean`). On 32 NaveGo-like drives
+    (``benchmarks/bench_ins_monte_carlo.py``: MEMS, position-only, biases from zero)
+    kinsync's height RMS is 1.352 m against 1.403 m for pyins's model (random-walk
+    biases, first order), 3.4 standard errors lower, and every other axis is as good or
+    better. On this one drive the ranking is within what its noise decides: a change
+    that is neutral over the 32 drives (the covariance transformation at the
+    error-state reset, within 1.8 standard errors on every axis) moves this drive's
+    height between 1.59 and 1.85 m and its yaw between 2.80 and 3.52 deg. Guarded here
+    so the gap cannot grow unnoticed.
     """
     pos, att = _rms3(navego, shipped_runs["A"][0])
     (pos_peer, att_peer) = PYINS_A
     assert (pos[:2] <= pos_peer[:2]).all(), (pos, pos_peer)
-    assert (att[:2] <= att_peer[:2]).all(), (att, att_peer)
-    assert pos[2] <= 1.08 * pos_peer[2], (pos, pos_peer)
-    assert att[2] <= 1.005 * att_peer[2], (att, att_peer)
+    assert (att <= att_peer).all(), (att, att_peer)
+    assert pos[2] <= 1.03 * pos_peer[2], (pos, pos_peer)
 
 
 @pytest.mark.parametrize("name", ["A", "B", "C"])
