@@ -9,8 +9,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from rich.console import Console
+from rich.table import Table
 
-__all__ = ["console", "err_console", "fmt", "print_json"]
+__all__ = ["console", "err_console", "fmt", "print_json", "quantity_table"]
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True)
@@ -30,6 +31,14 @@ def _clean(value: Any) -> Any:
 def print_json(obj: Mapping[str, Any]) -> None:
     """Write one JSON object on stdout, nothing else."""
     sys.stdout.write(json.dumps(_clean(obj), allow_nan=False) + "\n")
+
+
+def quantity_table(title: str) -> Table:
+    """An empty two-column table of a command's results: quantity, value (right-aligned)."""
+    table = Table(title=title)
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    return table
 
 
 def fmt(value: float | None, unit_scale: float = 1.0, digits: int = 4) -> str:

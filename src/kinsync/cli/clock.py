@@ -6,10 +6,9 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.clock import (
     CLOCK_FORMULA,
     CONVENTIONS,
@@ -95,9 +94,7 @@ def fit(
         print_json(doc)
         return
     m = result.model
-    table = Table(title=f"Clock model from {pps} and {nmea}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Clock model from {pps} and {nmea}")
     table.add_row("offset at reference (s)", f"{m.offset_s:.9f} ± {result.offset_std_s:.2e}")
     table.add_row("drift (ppm)", f"{m.drift_ppm:.6f} ± {result.drift_std_ppm:.6f}")
     table.add_row("reference_local_s (first good pulse)", repr(m.reference_local_s))

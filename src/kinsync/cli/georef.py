@@ -7,9 +7,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.table import Table
 
-from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.column_map import parse_column_map
@@ -217,9 +216,7 @@ def georef(
     if as_json:
         print_json({**summary.as_document(), "warnings": notes})
         return
-    table = Table(title=f"Georeferenced {points} -> {out} ({crs})")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Georeferenced {points} -> {out} ({crs})")
     table.add_row("points in", str(summary.points_in))
     table.add_row("points out", str(summary.points_out))
     table.add_row("points rejected (outside the trajectory span)", str(summary.points_rejected))

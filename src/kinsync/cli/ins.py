@@ -18,7 +18,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy
@@ -257,9 +257,7 @@ def _run_document(
 
 
 def _print_run_table(doc: dict[str, Any], solution: NavSolution, *, title: str) -> None:
-    table = Table(title=title)
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(title)
     seconds = float(doc["seconds"])
     table.add_row("epochs written", str(doc["epochs"]))
     table.add_row("solution", "smoothed (RTS)" if doc["smoothed"] else "forward filter")

@@ -7,9 +7,8 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.table import Table
 
-from kinsync.cli._output import console, print_json
+from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
@@ -20,9 +19,7 @@ trajectory_app = typer.Typer(help="Trajectory files.")
 
 
 def _print_quantities(title: str, rows: dict[str, str]) -> None:
-    table = Table(title=title)
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(title)
     for key, value in rows.items():
         table.add_row(key, value)
     console.print(table)

@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.table import Table
 
 from kinsync.cli._options import parse_rates
-from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
@@ -113,9 +112,7 @@ def rotating_table(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Rotating-table simulation written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Rotating-table simulation written to {out}")
     table.add_row("passes written", str(doc["n_passes"]))
     table.add_row("points (sphere and clutter)", str(doc["n_points"]))
     table.add_row("truth latency (ms)", fmt(doc["latency_s"], 1e3, 6))
@@ -199,9 +196,7 @@ def clock(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"PPS + NMEA clock simulation written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"PPS + NMEA clock simulation written to {out}")
     table.add_row("PPS lines (pps.csv)", str(doc["n_pps_lines"]))
     table.add_row("NMEA lines (nmea.csv)", str(doc["n_nmea_lines"]))
     table.add_row("truth offset at first edge (s)", fmt(truth["offset_s"], 1.0, 9))
@@ -364,9 +359,7 @@ def drive(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Drive simulation written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Drive simulation written to {out}")
     table.add_row("route", f"{doc['route']} ({doc['route_length_m']:.1f} m)")
     table.add_row("duration (s)", fmt(doc["duration_s"], 1.0, 6))
     table.add_row("IMU", f"{doc['imu_model']} at {doc['imu_rate_hz']:g} Hz")
@@ -457,9 +450,7 @@ def drive_scan(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Profile-scanner drive simulation written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Profile-scanner drive simulation written to {out}")
     table.add_row("profiles / returns", f"{doc['n_profiles']} / {doc['n_points']}")
     table.add_row("truth t0 (s)", f"{truth['t0_s']:.6f}")
     table.add_row("truth period (s)", f"{truth['period_s']:.9f}")
@@ -618,9 +609,7 @@ def patch_test(
 def _print_patch_test(doc: dict[str, Any]) -> None:
     """The human table of ``simulate patch-test``."""
     out = Path(doc["out"])
-    table = Table(title=f"Patch-test simulation ({doc['scenario']}) written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Patch-test simulation ({doc['scenario']}) written to {out}")
     table.add_row("lines / points", f"{doc['n_lines']} / {doc['n_points']}")
     table.add_row("GPS week (--gps-week)", str(doc["gps_week"]))
     err = doc["errors"]

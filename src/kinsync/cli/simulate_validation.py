@@ -6,9 +6,8 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
-from kinsync.cli._output import console, print_json
+from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.io.atomic import output_folder
 from kinsync.progress import Stages
@@ -64,9 +63,7 @@ def validation(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Validation scenes written to {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Validation scenes written to {out}")
     table.add_row("target scan points (targets_scan.csv)", str(doc["targets_points"]))
     table.add_row("control points (control.csv)", str(doc["control_points"]))
     speeds = ", ".join(f"{v:g}" for v in sorted(set(truth["pass_speeds_m_s"])))

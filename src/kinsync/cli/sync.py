@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._output import console, err_console, fmt, print_json
+from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
@@ -131,11 +131,9 @@ def object_space(
     if as_json:
         print_json(result.as_document())
         return
-    table = Table(
-        title=f"Profile clock of {scan} from {counted(len(result.sightings), 'sighting')}"
+    table = quantity_table(
+        f"Profile clock of {scan} from {counted(len(result.sightings), 'sighting')}"
     )
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
     table.add_row("t0 (s)", f"{result.t0_s:.6f}")
     table.add_row("t0 sigma (ms)", fmt(result.t0_std_s, 1e3))
     table.add_row("period (s)", f"{result.period_s:.9f}")
@@ -225,9 +223,7 @@ def apply(
     if as_json:
         print_json(doc)
         return
-    table = Table(title=f"Time-tagged {scan} -> {out}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Time-tagged {scan} -> {out}")
     table.add_row("returns written", str(n))
     table.add_row("t0 (s)", f"{t0:.6f}")
     table.add_row("period (s)", f"{period:.9f}")

@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted, format_p_value
-from kinsync.cli._output import console, fmt, print_json
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
 
@@ -235,9 +235,7 @@ def flatness(
         doc["png"] = None if png is None else str(png)
         print_json(doc)
         return
-    table = Table(title=f"Flatness of {cloud} in box {box}")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = quantity_table(f"Flatness of {cloud} in box {box}")
     table.add_row("points used / selected", f"{result.n_points} / {result.n_selected}")
     table.add_row("rejected (gross outliers)", str(result.n_rejected))
     table.add_row(
