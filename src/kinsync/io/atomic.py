@@ -21,11 +21,12 @@ import contextlib
 import os
 import re
 import tempfile
-from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import ExitStack, contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
+from types import TracebackType
 
 from kinsync.errors import InputError
 
@@ -36,6 +37,7 @@ __all__ = [
     "atomic_write_text",
     "check_not_an_input",
     "check_output_location",
+    "finish_then_publish",
     "output_folder",
     "protected_inputs",
 ]
@@ -239,6 +241,28 @@ def atomic_path(path: Path) -> Iterator[Path]:
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def finish_then_publish(
+    stack: ExitStack,
+    finish: Callable[[], None],
+    exc_type: type[BaseException] | None,
+    exc: BaseException | None,
+    tb: TracebackType | None,
+) -> None:
+    """End a streaming writer whose `atomic_path` is held in ``stack``.
+
+    ``finish`` writes the last bytes and closes the file (header counts, trailing
+    records). The stack is then closed with the block's own exception, so the file is
+    renamed into place only after a clean block. If ``finish`` itself fails, the stack
+    is closed with that error (the temporary file is removed) and it propagates.
+    """
+    try:
+        finish()
+    except BaseException as err:
+        stack.__exit__(type(err), err, err.__traceback__)
+        raise
+    stack.__exit__(exc_type, exc, tb)
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

@@ -26,7 +26,7 @@ from laspy.vlrs.vlrlist import VLRList
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path
+from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.las_coordinates import store_scaled
 from kinsync.io.las_crs import set_las_crs
 from kinsync.io.las_header import las_suffix
@@ -330,13 +330,12 @@ class LasChunkWriter:
         writer, self._writer = self._writer, None
         if stack is None:
             return
-        try:
+
+        def finish() -> None:
             if exc_type is None:
                 evlrs = self.header.evlrs
                 if evlrs is not None and len(evlrs) > 0 and self.header.version.minor >= 4:
                     writer.write_evlrs(VLRList(evlrs))
             writer.close()
-        except BaseException as err:
-            stack.__exit__(type(err), err, err.__traceback__)
-            raise
-        stack.__exit__(exc_type, exc, tb)
+
+        finish_then_publish(stack, finish, exc_type, exc, tb)

@@ -16,7 +16,6 @@ temporary name and appears only when complete.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
@@ -26,7 +25,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path
+from kinsync.io.atomic import atomic_path, finish_then_publish
 
 __all__ = ["PlyChunkWriter", "ply_property_type", "read_ply_vertices"]
 
@@ -215,14 +214,13 @@ class PlyChunkWriter:
         fh, self._fh = self._fh, None
         if stack is None or fh is None:
             return
-        try:
+
+        def finish() -> None:
             if exc_type is None:
                 fh.seek(0)
                 fh.write(self._header(self.points_written))
-        except BaseException:
-            stack.__exit__(*sys.exc_info())
-            raise
-        stack.__exit__(exc_type, exc, tb)
+
+        finish_then_publish(stack, finish, exc_type, exc, tb)
 
 
 def read_ply_vertices(path: Path) -> dict[str, np.ndarray[Any, Any]]:

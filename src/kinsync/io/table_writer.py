@@ -10,7 +10,6 @@ worker processes can take it off the writing process. Reading is `kinsync.io.poi
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Mapping
 from contextlib import ExitStack
 from pathlib import Path
@@ -22,7 +21,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path
+from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.csv_text import csv_header_bytes, csv_rows_bytes, float_text
 
 __all__ = ["TableChunkWriter", "csv_text_columns", "table_suffix"]
@@ -180,13 +179,12 @@ class TableChunkWriter:
         stack, self._stack = self._stack, None
         if stack is None:
             return
-        try:
+
+        def finish() -> None:
             if self._writer is not None:
                 self._writer.close()
             elif exc_type is None and self._suffix == ".parquet":
                 assert self._tmp is not None
                 pq.write_table(pa.table({}), self._tmp)
-        except BaseException:
-            stack.__exit__(*sys.exc_info())
-            raise
-        stack.__exit__(exc_type, exc, tb)
+
+        finish_then_publish(stack, finish, exc_type, exc, tb)
