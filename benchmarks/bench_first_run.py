@@ -151,6 +151,15 @@ SYNC_OBJECT_SPACE = Command(
 )  # fmt: skip
 
 _INS = ["ins", "run", "--imu", "drive/imu.csv", "--gnss", "drive/gnss.csv"]
+
+
+def _simulate(kind: str, folder: str) -> Command:
+    """``kinsync simulate KIND`` into the scratch folder ``folder``."""
+    return Command(
+        f"simulate {kind}", lambda _d, o: ["simulate", kind, "--out", str(o / folder), "--json"]
+    )
+
+
 COMMANDS: tuple[Command, ...] = (
     Command(
         "ins run",
@@ -236,21 +245,14 @@ COMMANDS: tuple[Command, ...] = (
             "--json",
         ],
     ),
-    Command(
-        "simulate drive",
-        lambda _d, o: ["simulate", "drive", "--out", str(o / "sim-drive"), "--json"],
-    ),
-    Command(
-        "simulate rotating-table",
-        lambda _d, o: ["simulate", "rotating-table", "--out", str(o / "sim-table"), "--json"],
-    ),
-    Command(
-        "simulate drive-scan",
-        lambda _d, o: ["simulate", "drive-scan", "--out", str(o / "sim-scan"), "--json"],
-    ),
-    Command(
-        "simulate patch-test",
-        lambda _d, o: ["simulate", "patch-test", "--out", str(o / "sim-patch"), "--json"],
+    *(
+        _simulate(kind, folder)
+        for kind, folder in (
+            ("drive", "sim-drive"),
+            ("rotating-table", "sim-table"),
+            ("drive-scan", "sim-scan"),
+            ("patch-test", "sim-patch"),
+        )
     ),
 )
 DEMO = Command("demo", lambda _d, o: ["demo", "--out", str(o / "demo-output")])

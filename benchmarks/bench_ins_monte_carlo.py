@@ -69,8 +69,7 @@ RATE_HZ = 200.0
 STD_POS = (5.0, 5.0, 10.0)
 DEG = np.pi / 180.0
 FILTERS = ("kinsync", "kinsync, first order", "pyins's model")
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "navego-synthetic"
-SHIPPED = Path(__file__).resolve().parents[1] / "configs" / "navego-adis16488.toml"
+
 AXES = ("N m", "E m", "D m", "roll deg", "pitch deg", "yaw deg")
 
 
@@ -138,7 +137,7 @@ def one_drive(seed: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 _NAVEGO: tuple[ImuData, GnssData, dict[str, np.ndarray], InitialState, InsConfig] | None = None
-_DATA = DEFAULT_DATA
+_DATA = bench_ins.DEFAULT_DATA
 
 
 def _navego() -> tuple[ImuData, GnssData, dict[str, np.ndarray], InitialState, InsConfig]:
@@ -147,7 +146,7 @@ def _navego() -> tuple[ImuData, GnssData, dict[str, np.ndarray], InitialState, I
     if _NAVEGO is None:
         imu, gnss, tr, _, init = bench_ins.load(_DATA)
         init = replace(init, gyro_bias_rad_s=(0.0,) * 3, acc_bias_m_s2=(0.0,) * 3)
-        _NAVEGO = (imu, gnss, tr, init, read_ins_config(SHIPPED))
+        _NAVEGO = (imu, gnss, tr, init, read_ins_config(bench_ins.SHIPPED))
     return _NAVEGO
 
 
@@ -208,13 +207,17 @@ def main() -> None:
     ap.add_argument("--drives", type=int, default=32)
     ap.add_argument("--gnss-draws", type=int, default=32)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    ap.add_argument("--data", type=Path, default=bench_ins.DEFAULT_DATA)
     args = ap.parse_args()
-    run: Callable[[int], dict[str, tuple[np.ndarray, np.ndarray]]] = one_drive
     with ProcessPoolExecutor(args.jobs, initializer=_init_worker, initargs=(args.data,)) as pool:
-        t0 = time.perf_counter()
-        drives = list(pool.map(run, range(args.drives)))
-        wall = time.perf_counter() - t0
+
+        def timed_map(
+            fn: Callable[[int], dict[str, tuple[np.ndarray, np.ndarray]]], n: int
+        ) -> tuple[list[dict[str, tuple[np.ndarray, np.ndarray]]], float]:
+            t0 = time.perf_counter()
+            return list(pool.map(fn, range(n))), time.perf_counter() - t0
+
+        drives, wall = timed_map(one_drive, args.drives)
         _print_ranking(
             f"Condition A on {args.drives} NaveGo-like drives (MEMS, position updates, "
             f"biases from zero; {wall:.0f} s with {args.jobs} processes)",
@@ -224,9 +227,7 @@ def main() -> None:
         if not (args.data / "imu.csv").is_file():
             print(f"\nNaveGo set not found in {args.data}: its GNSS re-draws are skipped")
             return
-        t0 = time.perf_counter()
-        draws = list(pool.map(one_gnss_draw, range(args.gnss_draws)))
-        wall = time.perf_counter() - t0
+        draws, wall = timed_map(one_gnss_draw, args.gnss_draws)
         _print_ranking(
             f"\nCondition A on NaveGo's IMU record with {args.gnss_draws} GNSS noise draws "
             f"(shipped configuration; {wall:.0f} s)",
