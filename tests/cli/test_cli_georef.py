@@ -14,6 +14,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 import pyproj
 import pytest
+from tests._las import las_points
 
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_matrix
 from kinsync.georef import GeorefTrajectory, georeference
@@ -556,14 +557,7 @@ def _gtx(path: Path) -> Path:
 
 def _las_points(path: Path, point_format: int, version: str) -> Path:
     cols = _points(np.random.default_rng(3))
-    header = laspy.LasHeader(point_format=point_format, version=version)
-    header.scales = np.array([1e-4, 1e-4, 1e-4])
-    header.offsets = np.zeros(3)
-    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
-    las.gps_time = cols["t_s"] - 1e9
-    las.write(path)
+    las_points(cols, point_format, version).write(path)
     return path
 
 

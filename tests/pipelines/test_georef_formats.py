@@ -9,6 +9,7 @@ import numpy as np
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 import pytest
+from tests._las import las_points
 
 from kinsync.crs import ecef_to_crs_transformer
 from kinsync.errors import InputError
@@ -62,13 +63,7 @@ def _expected(cols: dict[str, np.ndarray], crs: str = CRS) -> tuple[np.ndarray, 
 
 
 def _write_las(path: Path, cols: dict[str, np.ndarray]) -> None:
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales = np.array([1e-4, 1e-4, 1e-4])
-    header.offsets = np.zeros(3)
-    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
-    las.gps_time = cols["t_s"] - 1e9
+    las = las_points(cols)
     las.intensity = cols["intensity"].astype(np.uint16)
     las.classification = (cols["intensity"] % 7).astype(np.uint8)
     las.write(path)

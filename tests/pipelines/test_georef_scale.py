@@ -11,6 +11,7 @@ import laspy
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from tests._las import las_points
 
 from kinsync.errors import InputError
 from kinsync.io.las import las_end_times
@@ -62,13 +63,7 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     }
     with TableChunkWriter(folder / "points.csv") as w:
         w.write(cols)
-    header = laspy.LasHeader(point_format=6, version="1.4")
-    header.scales = np.array([1e-4, 1e-4, 1e-4])
-    header.offsets = np.zeros(3)
-    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
-    las.gps_time = cols["t_s"] - 1e9
+    las = las_points(cols)
     las.intensity = cols["intensity"].astype(np.uint16)
     las.write(folder / "points.laz")
     rng_p = np.random.default_rng(12)
