@@ -36,6 +36,7 @@ least-squares", Commun. Stat. Theory Methods 6(9), 1977, 813-827.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -222,14 +223,13 @@ def _georeference_points(
     models: Sequence[LineModel],
     by_line: dict[int, IntArray],
     values: FloatArray,
-    k: int,
     frame: LocalFrame,
 ) -> dict[int, tuple[FloatArray, FloatArray, FloatArray]]:
-    """As `georeference_observed` without the Jacobians (zeros), for cost evaluations."""
+    """As `georeference_observed` without the Jacobians (shape (n, 3, 0)), for costs."""
     out = {}
     for li, idx in by_line.items():
         x, beam = models[li].points_and_beams(idx, values, frame)
-        out[li] = (x, np.zeros((x.shape[0], 3, k)), beam)
+        out[li] = (x, np.zeros((x.shape[0], 3, 0)), beam)
     return out
 
 
@@ -303,26 +303,55 @@ class ObservationLayout:
 
 def incidence_factor(feature: Feature, ret: FeatureReturns) -> FloatArray:
     """``max(|cos(incidence)|, MIN_INCIDENCE_FACTOR)`` of each return on the feature."""
+    return _at_state(feature, ret).inc
+
+
+@dataclass(frozen=True)
+class _AtState:
+    """One feature's returns evaluated at one state of the adjustment.
+
+    ``ok`` (n,): the position is finite (inside its trajectory); ``xs`` (n, 3): the
+    positions, the feature's anchor where not ok (local frame, m); ``e`` (n,): the
+    residuals, 0 where not ok (m); ``inc`` (n,): `incidence_factor`.
+    """
+
+    ok: BoolArray
+    xs: FloatArray
+    e: FloatArray
+    inc: FloatArray
+
+
+def _at_state(feature: Feature, ret: FeatureReturns) -> _AtState:
+    """Residuals and incidence factors of a feature's returns, computed once per state."""
     ok = np.all(np.isfinite(ret.x), axis=1)
     xs = np.where(ok[:, None], ret.x, feature.anchor_m)
+    e = np.where(ok, feature.residuals(xs), 0.0)
     cos = np.abs(np.einsum("ni,ni->n", feature.gradient_x(xs), np.nan_to_num(ret.beam)))
-    out: FloatArray = np.maximum(cos, MIN_INCIDENCE_FACTOR)
-    return out
+    return _AtState(ok, xs, e, np.maximum(cos, MIN_INCIDENCE_FACTOR))
 
 
 def _line_centred(e: FloatArray, group: IntArray, ok: BoolArray) -> FloatArray:
-    """Residuals minus the median of their own line (observation) on the feature."""
+    """Residuals minus the median of their own line (observation) on the feature.
+
+    ``group`` holds each line's returns in one run (as `ObservationLayout.gather` makes
+    it); any other order is handled too, by masks.
+    """
     out = e.copy()
-    for g in np.unique(group):
-        on = group == g
-        good = on & ok
-        if np.any(good):
-            out[on] -= float(np.median(e[good]))
+    runs: list[slice] | list[BoolArray]
+    if group.size and np.all(group[1:] >= group[:-1]):
+        cuts = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), group.size]
+        runs = [slice(a, b) for a, b in itertools.pairwise(cuts)]
+    else:
+        runs = [group == g for g in np.unique(group)]
+    for on in runs:
+        good = e[on][ok[on]]
+        if good.size:
+            out[on] -= float(np.median(good))
     return out
 
 
 def _robust_factors(
-    feature: Feature, ret: FeatureReturns, sigma: float, robust: bool
+    feature: Feature, ret: FeatureReturns, sigma: float, robust: bool, at: _AtState | None = None
 ) -> FloatArray:
     """Tukey weights (0..1) of a feature's returns at their current residuals.
 
@@ -331,41 +360,79 @@ def _robust_factors(
     surface (vegetation, a car, a stray echo), never because its whole line sits a few
     centimetres off (a navigation error, which the jackknife accounts for). On a
     sphere a line's offset is no constant residual: the residuals and the feature's
-    noise scale ``sigma`` are used as they are.
+    noise scale ``sigma`` are used as they are. ``at``: the returns already evaluated
+    at this state (computed here when None).
     """
-    ok = np.all(np.isfinite(ret.x), axis=1)
+    at = at if at is not None else _at_state(feature, ret)
+    ok = at.ok
     if not robust:
         flags: FloatArray = ok.astype(np.float64)
         return flags
-    xs = np.where(ok[:, None], ret.x, feature.anchor_m)
-    inc = incidence_factor(feature, ret)
-    e = feature.residuals(xs)
     if feature.kind == "plane":
-        u = _line_centred(e, ret.group, ok) / inc
+        u = _line_centred(at.e, ret.group, ok) / at.inc
         scale = max(robust_sigma(u[ok]) if np.any(ok) else sigma, _MIN_WITHIN_SCALE_M)
     else:
-        u, scale = e / inc, sigma
+        u, scale = at.e / at.inc, sigma
     out: FloatArray = np.where(ok, _tukey(u / scale), 0.0)
     return out
 
 
+def _weights(at: _AtState, sigma: float, factor: FloatArray) -> FloatArray:
+    """Least-squares weights ``factor / (sigma inc)^2`` (0 outside the trajectory)."""
+    scale = sigma * at.inc
+    out: FloatArray = np.where(at.ok, factor / scale**2, 0.0)
+    return out
+
+
+def _feature_cost(at: _AtState, sigma: float, robust: bool, frozen: FloatArray | None) -> float:
+    """One feature's share of the cost the Levenberg-Marquardt steps compare.
+
+    With robust weights not held, the bounded loss (Tukey's rho, its ceiling for a
+    return outside the trajectory); else the weighted squares with ``frozen`` (or,
+    not robust, unit factors).
+    """
+    if robust and frozen is None:
+        scale = sigma * at.inc
+        rho = np.where(at.ok, _tukey_rho(at.e / scale), _TUKEY_C**2 / 6.0)
+        return float(np.sum(rho))
+    w = _weights(at, sigma, frozen if frozen is not None else at.ok.astype(np.float64))
+    return float(np.sum(w * at.e * at.e))
+
+
 def _feature_terms(
-    feature: Feature, ret: FeatureReturns, sigma: float, robust: bool, frozen: FloatArray | None
+    feature: Feature,
+    ret: FeatureReturns,
+    sigma: float,
+    robust: bool,
+    frozen: FloatArray | None,
+    at: _AtState | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Residuals, weights, mount Jacobian (n, k) and feature Jacobian (n, q) of one feature.
 
-    ``frozen``: robust weights held from an earlier state (None: computed here).
+    ``frozen``: robust weights held from an earlier state (None: computed here);
+    ``at``: the returns already evaluated at this state (computed here when None).
     """
-    ok = np.all(np.isfinite(ret.x), axis=1)
-    xs = np.where(ok[:, None], ret.x, feature.anchor_m)
-    e = np.where(ok, feature.residuals(xs), 0.0)
-    grad = feature.gradient_x(xs)
-    jt = np.einsum("ni,nik->nk", grad, np.where(ok[:, None, None], ret.jac, 0.0))
-    jf = feature.jacobian(xs)
-    scale = sigma * incidence_factor(feature, ret)
-    factor = _robust_factors(feature, ret, sigma, robust) if frozen is None else frozen
-    w = np.where(ok, factor / scale**2, 0.0)
-    return e, w, jt, jf
+    at = at if at is not None else _at_state(feature, ret)
+    grad = feature.gradient_x(at.xs)
+    jt = np.einsum("ni,nik->nk", grad, np.where(at.ok[:, None, None], ret.jac, 0.0))
+    jf = feature.jacobian(at.xs)
+    factor = _robust_factors(feature, ret, sigma, robust, at) if frozen is None else frozen
+    return at.e, _weights(at, sigma, factor), jt, jf
+
+
+def _cost(
+    features: Sequence[Feature],
+    gathered: list[FeatureReturns],
+    sigmas: Sequence[float],
+    robust: bool,
+    frozen: Sequence[FloatArray] | None,
+) -> float:
+    """The cost `_assemble` would give at this state, without the normal equations."""
+    cost = 0.0
+    for i, (feature, ret, sigma) in enumerate(zip(features, gathered, sigmas, strict=True)):
+        held = None if frozen is None else frozen[i]
+        cost += _feature_cost(_at_state(feature, ret), sigma, robust, held)
+    return cost
 
 
 def _assemble(
@@ -394,12 +461,12 @@ def _assemble(
     n_used = 0
     dof_features = 0
     for i, (feature, ret, sigma) in enumerate(zip(features, gathered, sigmas, strict=True)):
-        e, w, jt, jf = _feature_terms(feature, ret, sigma, robust, None if use is None else use[i])
+        at = _at_state(feature, ret)
+        held = None if use is None else use[i]
+        e, w, jt, jf = _feature_terms(feature, ret, sigma, robust, held, at)
         motion += np.einsum("n,ndk->k", w, np.nan_to_num(ret.jac) ** 2)
         if robust and frozen is None:
-            scale = sigma * incidence_factor(feature, ret)
-            ok = np.all(np.isfinite(ret.x), axis=1)
-            cost += float(np.sum(np.where(ok, _tukey_rho(e / scale), _TUKEY_C**2 / 6.0)))
+            cost += _feature_cost(at, sigma, robust, None)
         else:
             cost += float(np.sum(w * e * e))
         wjt = jt * w[:, None]
@@ -603,11 +670,9 @@ def _damped_step(
             except np.linalg.LinAlgError:
                 df = -np.linalg.lstsq(C_k, g_k + B_k.T @ step, rcond=None)[0]
             new_feats.append(feature.updated(np.asarray(df, dtype=np.float64)))
-        geo = _georeference_points(problem.models, problem.by_line, new_vals, len(estimated), frame)
-        new_asm = _assemble(
-            new_feats, problem.gather(geo), sigmas, opt.robust, len(estimated), frozen
-        )
-        if new_asm.cost <= asm.cost * (1.0 + 1e-12) or not math.isfinite(asm.cost):
+        geo = _georeference_points(problem.models, problem.by_line, new_vals, frame)
+        new_cost = _cost(new_feats, problem.gather(geo), sigmas, opt.robust, frozen)
+        if new_cost <= asm.cost * (1.0 + 1e-12) or not math.isfinite(asm.cost):
             return step, new_vals, new_feats, damping / 10.0 if damping > 1e-6 else 0.0
         damping = max(damping * 10.0, 1e-4)
     return np.zeros(len(estimated)), vals, feats, damping
