@@ -64,6 +64,7 @@ __all__ = [
 
 _TUKEY_C = 4.685
 _FREEZE_STEP = 0.1  # steps below this many formal sigmas: the robust weights are held
+_DAMPING_TRIES = 8  # Levenberg-Marquardt: dampings tried per step (0 or the last, then x10)
 _MIN_WITHIN_SCALE_M = 2e-4  # floor of the within-line noise scale (m)
 MIN_INCIDENCE_FACTOR = 0.05
 """Floor of ``|cos(incidence)|`` in the noise model: grazing returns are not trusted more."""
@@ -620,7 +621,10 @@ def adjust(
                 _robust_factors(f, r, s, opt.robust)
                 for f, r, s in zip(feats, gathered, sigmas, strict=True)
             ]
-            frozen = weights if freeze else None
+            if freeze:
+                # Held weights make a new cost: its steps start undamped (a damping
+                # left from reweighting would shrink them and fake convergence).
+                frozen, damping = weights, 0.0
         assert sigmas is not None
         # Reweighting: the weights of this state, and a step is taken when it lowers the
         # bounded loss (moving returns out of the band must not look like progress);
@@ -658,24 +662,46 @@ def _damped_step(
     damping: float,
     frozen: Sequence[FloatArray] | None,
 ) -> tuple[FloatArray, FloatArray, list[Feature], float]:
-    """One Levenberg-Marquardt step: damping grows until the weighted cost drops."""
-    for _ in range(8):
-        step = _solve(asm.S, asm.rhs, damping)
-        new_vals = vals.copy()
-        new_vals[list(estimated)] += step
-        new_feats = []
-        for feature, (B_k, C_k, g_k) in zip(feats, asm.blocks, strict=True):
-            try:
-                df = -np.linalg.solve(C_k, g_k + B_k.T @ step)
-            except np.linalg.LinAlgError:
-                df = -np.linalg.lstsq(C_k, g_k + B_k.T @ step, rcond=None)[0]
-            new_feats.append(feature.updated(np.asarray(df, dtype=np.float64)))
-        geo = _georeference_points(problem.models, problem.by_line, new_vals, frame)
-        new_cost = _cost(new_feats, problem.gather(geo), sigmas, opt.robust, frozen)
-        if new_cost <= asm.cost * (1.0 + 1e-12) or not math.isfinite(asm.cost):
-            return step, new_vals, new_feats, damping / 10.0 if damping > 1e-6 else 0.0
-        damping = max(damping * 10.0, 1e-4)
-    return np.zeros(len(estimated)), vals, feats, damping
+    """One Levenberg-Marquardt step: the damping grows tenfold until the cost drops.
+
+    After a rejected first try, the most damped step of the schedule (a short step
+    along the scaled gradient) is tried next: when even it raises the cost, the
+    direction is none of descent (a reweighted step at the solution of its weights,
+    or the cost's noise floor) and no damping in between helps, so a zero step is
+    returned at once instead of after every damping in turn.
+    """
+    schedule = [damping]
+    for _ in range(_DAMPING_TRIES - 1):
+        schedule.append(max(schedule[-1] * 10.0, 1e-4))
+    tried: dict[int, tuple[bool, FloatArray, FloatArray, list[Feature]]] = {}
+
+    def attempt(i: int) -> tuple[bool, FloatArray, FloatArray, list[Feature]]:
+        if i not in tried:
+            step = _solve(asm.S, asm.rhs, schedule[i])
+            new_vals = vals.copy()
+            new_vals[list(estimated)] += step
+            new_feats = []
+            for feature, (B_k, C_k, g_k) in zip(feats, asm.blocks, strict=True):
+                try:
+                    df = -np.linalg.solve(C_k, g_k + B_k.T @ step)
+                except np.linalg.LinAlgError:
+                    df = -np.linalg.lstsq(C_k, g_k + B_k.T @ step, rcond=None)[0]
+                new_feats.append(feature.updated(np.asarray(df, dtype=np.float64)))
+            geo = _georeference_points(problem.models, problem.by_line, new_vals, frame)
+            new_cost = _cost(new_feats, problem.gather(geo), sigmas, opt.robust, frozen)
+            lower = new_cost <= asm.cost * (1.0 + 1e-12) or not math.isfinite(asm.cost)
+            tried[i] = (lower, step, new_vals, new_feats)
+        return tried[i]
+
+    last = len(schedule) - 1
+    for i in range(len(schedule)):
+        if i == 1 and not attempt(last)[0]:
+            break
+        lower, step, new_vals, new_feats = attempt(i)
+        if lower:
+            d = schedule[i]
+            return step, new_vals, new_feats, d / 10.0 if d > 1e-6 else 0.0
+    return np.zeros(len(estimated)), vals, feats, max(schedule[-1] * 10.0, 1e-4)
 
 
 def _finish(
