@@ -58,7 +58,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import (
@@ -113,7 +113,7 @@ class Jackknife:
     @property
     def t95(self) -> float:
         """Half-width of a two-sided 95 % interval in sigmas (Student t, `dof`)."""
-        return float(student_t.ppf(0.975, max(self.dof, 1)))
+        return float(stdtrit(max(self.dof, 1), 0.975))
 
     @property
     def std(self) -> FloatArray:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from scipy.stats import chi2
+from scipy.special import chdtri
 
 from kinsync._typing import FloatArray
 from kinsync.frames import euler_rpy_to_matrix
@@ -338,7 +338,7 @@ def forward_numpy(
     n = P.shape[0]
     qc = np.diag(_noise_psd(config))
     arm = np.array(config.antenna_lever_arm_body_m)
-    gate = float(chi2.ppf(config.gate_probability, 3))
+    gate = float(chdtri(3, 1.0 - config.gate_probability))  # chi-square(3) quantile
     g_epoch = gnss_epochs(imu.t_s, k0, gnss.t_s)
     std_p, std_v = _gnss_std(gnss, config)
     with_vel = use_velocity and gnss.vel_ned_m_s is not None

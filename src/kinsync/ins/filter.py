@@ -58,7 +58,7 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2
+from scipy.special import chdtri
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import InputError
@@ -518,7 +518,7 @@ def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     p[P_QC_BG] = 2.0 * config.gyro_bias_instability_rad_s**2 / config.gyro_bias_corr_time_s
     p[P_QC_BA] = 2.0 * config.acc_bias_instability_m_s2**2 / config.acc_bias_corr_time_s
     p[P_ARM : P_ARM + 3] = config.antenna_lever_arm_body_m
-    p[P_GATE] = float(chi2.ppf(config.gate_probability, 3))
+    p[P_GATE] = float(chdtri(3, 1.0 - config.gate_probability))  # chi-square(3) quantile
     p[P_USE_VEL] = 1.0 if use_velocity else 0.0
     p[P_TILT_MEAN] = 1.0
     return p
