@@ -36,6 +36,12 @@ def test_jackknife_covariance_is_the_spread_of_the_deleted_line_solutions(
     assert np.allclose(jk.covariance, (m - 1) / m * dev.T @ dev)
     assert jk.dof == m - 1
     assert jk.t95 == pytest.approx(float(student_t.ppf(0.975, m - 1)))
+    # The deleted-line solutions run in threads: one at a time gives the same numbers.
+    serial = jackknife(models, obs, sol, frame, groups, workers=1)
+    assert np.array_equal(serial.estimates, jk.estimates)
+    assert np.array_equal(
+        jackknife(models, obs, sol, frame, groups, workers=3).estimates, jk.estimates
+    )
 
 
 def test_too_few_lines_gives_no_jackknife(synthetic: Callable[..., Synthetic]) -> None:

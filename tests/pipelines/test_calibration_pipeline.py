@@ -129,7 +129,10 @@ def test_calibrate_files_writes_the_mount_and_the_report(
     assert read_mount(tmp_path / "new.toml") == run.result.mount
     assert written == [tmp_path / "cert.html"]
     assert stages[0].startswith("reading 4 point files")
-    assert any(s.startswith("jackknife: without line_04.laz (4 of 4)") for s in stages)
+    assert "jackknife: 4 solutions, each leaving one out, " in "".join(stages)
+    assert [s for s in stages if " done (without " in s] == [
+        f"jackknife: {j} of 4 done (without line_0{j}.laz)" for j in range(1, 5)
+    ]
 
 
 @pytest.mark.skipif(not CIDCO.is_dir(), reason="CIDCO data not in ../shared")

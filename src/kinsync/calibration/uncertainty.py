@@ -54,7 +54,9 @@ for inference with clustered errors", Rev. Econ. Stat. 90(3), 2008, 414-427 (clu
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -140,6 +142,7 @@ def jackknife(
     groups: Sequence[tuple[str, set[int]]],
     options: AdjustmentOptions | None = None,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
 ) -> Jackknife:
     """Re-solve without each group of lines and form the jackknife covariance.
 
@@ -153,7 +156,12 @@ def jackknife(
         The independent units: one line each, or the lines of one pass.
     options : AdjustmentOptions, optional
     progress : callable, optional
-        Called with a short message before each deleted-group solution.
+        Called with a short message before the solutions and as each one ends (in
+        order).
+    workers : int, optional
+        Deleted-group solutions run at once, in threads (the georeferencing kernel
+        and numpy's array work run outside the interpreter lock); default one per CPU,
+        at most one per group. The result does not depend on it.
 
     Returns
     -------
@@ -161,21 +169,16 @@ def jackknife(
     """
     k = len(solution.estimated)
     features = [f.feature for f in solution.features]
-    estimates = np.full((len(groups), k), np.nan)
-    failed = []
-    for j, (name, members) in enumerate(groups):
-        if progress is not None:
-            progress(f"jackknife: without {name} ({j + 1} of {len(groups)})")
+
+    def without(members: set[int]) -> FloatArray | None:
         obs, seen = _without(observations, members)
-        feats = [features[i] for i in seen]
         if not obs:
-            failed.append(name)
-            continue
+            return None
         try:
             sol = adjust(
                 models,
                 obs,
-                feats,
+                [features[i] for i in seen],
                 solution.values,
                 solution.estimated,
                 frame,
@@ -183,10 +186,25 @@ def jackknife(
                 [solution.features[i].sigma_m for i in seen],
             )
         except KinsyncError:
-            failed.append(name)
-            continue
-        estimates[j] = sol.values[list(solution.estimated)]
+            return None
+        out: FloatArray = sol.values[list(solution.estimated)]
+        return out
+
+    estimates = np.full((len(groups), k), np.nan)
+    failed = []
     m = len(groups)
+    n_threads = max(1, min(m, workers or os.cpu_count() or 1))
+    if progress is not None:
+        progress(f"jackknife: {m} solutions, each leaving one out, {n_threads} at once")
+    with ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="kinsync-jk") as pool:
+        solved = pool.map(without, [members for _, members in groups])
+        for j, ((name, _), values) in enumerate(zip(groups, solved, strict=True)):
+            if progress is not None:
+                progress(f"jackknife: {j + 1} of {m} done (without {name})")
+            if values is None:
+                failed.append(name)
+            else:
+                estimates[j] = values
     cov = np.full((k, k), np.nan)
     if not failed and m >= 2:
         dev = estimates - estimates.mean(axis=0)
