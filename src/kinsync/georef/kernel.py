@@ -187,6 +187,13 @@ _georef_kernel = cast(
 )
 
 
+def _read_only(a: FloatArray) -> FloatArray:
+    """A read-only view of ``a`` (no copy)."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 def _shaped_points(
     t_s: ArrayLike, xyz_scanner_m: ArrayLike, what: str = "georeference"
 ) -> tuple[FloatArray, FloatArray]:
@@ -320,8 +327,8 @@ def georeference(
     out = np.empty((t.size, 3))
     inside = np.empty(t.size, dtype=np.bool_)
     first_bad = _georef_kernel(
-        t,
-        xyz,
+        _read_only(t),  # numba compiles read-only and writable inputs apart: one kind only
+        _read_only(xyz),
         traj.t_s,
         traj._inv_interval_s,
         traj._poly_hermite if hermite else traj._poly_linear,
