@@ -158,25 +158,35 @@ def _group_stats(
     """Statistics per (voxel, line); also each return's voxel key and group index."""
     ijk = np.floor(x / voxel_m).astype(np.int64)
     vkey = _voxel_key(ijk)
-    n_lines = int(line.max()) + 1
-    voxels, vid = np.unique(vkey, return_inverse=True)  # dense ids: no int64 overflow
-    uniq, inverse = np.unique(vid * n_lines + line, return_inverse=True)
+    # Groups in (voxel, line) order from one stable sort: the returns come line by
+    # line, so a stable sort by voxel keeps each voxel's lines in order.
+    if np.all(line[1:] >= line[:-1]):
+        order = np.argsort(vkey, kind="stable")
+    else:
+        order = np.lexsort((line, vkey))
+    k_sorted, l_sorted = vkey[order], line[order]
+    new_group = np.empty(order.size, dtype=np.bool_)
+    new_group[:1] = True
+    new_group[1:] = (k_sorted[1:] != k_sorted[:-1]) | (l_sorted[1:] != l_sorted[:-1])
+    first = np.flatnonzero(new_group)
+    inverse = np.empty(order.size, dtype=np.int64)
+    inverse[order] = np.cumsum(new_group) - 1
     count = np.bincount(inverse)
     corner = ijk * voxel_m
     rel = x - corner  # small numbers: sums of squares stay exact enough
     sums = np.column_stack([np.bincount(inverse, rel[:, j]) for j in range(3)])
     mean = sums / count[:, None]
-    sq = np.empty((uniq.size, 3, 3))
+    sq = np.empty((first.size, 3, 3))
     for a in range(3):
         for b in range(a, 3):
             sq[:, a, b] = sq[:, b, a] = np.bincount(inverse, rel[:, a] * rel[:, b]) / count
     cov = sq - mean[:, :, None] * mean[:, None, :]
     w, v = np.linalg.eigh(cov)
-    group_voxel = voxels[uniq // n_lines]
+    group_voxel = k_sorted[first]
     vox_corner = _unkey(group_voxel) * voxel_m
     stats = _Voxels(
         keys=group_voxel,
-        line=(uniq % n_lines).astype(np.int64),
+        line=l_sorted[first].astype(np.int64),
         count=count,
         centroid=mean + vox_corner,
         normal=v[:, :, 0],
