@@ -6,7 +6,8 @@ steps: about 10 million returns in 8 lines) is calibrated with
 lever arm, latency): finding the planar patches in all returns, the observability
 analysis, the solution and the delete-one-line jackknife (8 more solutions). The
 issue's target: under 60 s on one core after the JIT warm-up (numba compiled on a
-small run first; one numba thread, one BLAS thread).
+small run first; one numba thread, one BLAS thread, the process pinned to one CPU so
+that the jackknife's threads share it).
 
 Beside it, the same least-squares problem (the same patches and thinned returns, the
 same georeferencing model, the planes as free parameters, no robust weights) solved
@@ -25,6 +26,8 @@ import os
 
 for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
+if hasattr(os, "sched_setaffinity"):  # one core for real: the jackknife's threads share it
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 import argparse  # noqa: E402
 import resource  # noqa: E402

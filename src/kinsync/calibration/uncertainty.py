@@ -134,6 +134,13 @@ def _without(
     return [replace(o, feature=renumber[o.feature]) for o in kept], seen
 
 
+def _usable_cpus() -> int:
+    """CPUs this process may run on (its affinity where the system has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
 def jackknife(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
@@ -160,8 +167,8 @@ def jackknife(
         order).
     workers : int, optional
         Deleted-group solutions run at once, in threads (the georeferencing kernel
-        and numpy's array work run outside the interpreter lock); default one per CPU,
-        at most one per group. The result does not depend on it.
+        and numpy's array work run outside the interpreter lock); default one per CPU
+        the process may use, at most one per group. The result does not depend on it.
 
     Returns
     -------
@@ -193,7 +200,7 @@ def jackknife(
     estimates = np.full((len(groups), k), np.nan)
     failed = []
     m = len(groups)
-    n_threads = max(1, min(m, workers or os.cpu_count() or 1))
+    n_threads = max(1, min(m, workers or _usable_cpus()))
     if progress is not None:
         progress(f"jackknife: {m} solutions, each leaving one out, {n_threads} at once")
     with ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="kinsync-jk") as pool:
