@@ -33,9 +33,9 @@ the errors within a line independent, which is exactly what they are not here, a
 was measured worse than the plain jackknife: spread / sigma 0.52-0.96 against
 0.83-1.04 on 100 synthetic runs (roll and pitch overstated 1.7-1.9x), 0.80-1.24 against
 0.86-1.23 on 140 runs of each simulated patch test. The plain delete-one jackknife is
-reported: Monte Carlo (`benchmarks/bench_calibration_sigma.py --runs 100 --seed0 5000`,
-navigation errors correlated over 20 s) 0.87-1.16 on the vehicle, 0.88-1.22 on the
-vessel, where the formal sigma is 2.9-27x too small.
+reported: Monte Carlo (`benchmarks/bench_calibration_sigma.py --runs 100`, navigation
+errors correlated over 20 s) 0.84-1.00 on the vehicle, 0.82-1.17 on the vessel (the 95 %
+intervals held 92-98 % of the errors), where the formal sigma is 3.2-28x too small.
 
 **Its own uncertainty.** From m lines the jackknife variance has at most m - 1
 degrees of freedom, fewer when the parameters take up the lines' contrasts (3-6 for
