@@ -64,7 +64,7 @@ __all__ = [
 
 _TUKEY_C = 4.685
 _FREEZE_STEP = 0.1  # steps below this many formal sigmas: the robust weights are held
-_DAMPING_TRIES = 8  # Levenberg-Marquardt: dampings tried per step (0 or the last, then x10)
+_DAMPING_TRIES = 8  # Levenberg-Marquardt: dampings per step, the current one then x10 each
 _MIN_WITHIN_SCALE_M = 2e-4  # floor of the within-line noise scale (m)
 MIN_INCIDENCE_FACTOR = 0.05
 """Floor of ``|cos(incidence)|`` in the noise model: grazing returns are not trusted more."""
