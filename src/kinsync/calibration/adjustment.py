@@ -334,17 +334,12 @@ def _at_state(feature: Feature, ret: FeatureReturns) -> _AtState:
 def _line_centred(e: FloatArray, group: IntArray, ok: BoolArray) -> FloatArray:
     """Residuals minus the median of their own line (observation) on the feature.
 
-    ``group`` holds each line's returns in one run (as `ObservationLayout.gather` makes
-    it); any other order is handled too, by masks.
+    ``group`` holds each line's returns in one run, as `ObservationLayout.gather` makes
+    it.
     """
     out = e.copy()
-    runs: list[slice] | list[BoolArray]
-    if group.size and np.all(group[1:] >= group[:-1]):
-        cuts = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), group.size]
-        runs = [slice(a, b) for a, b in itertools.pairwise(cuts)]
-    else:
-        runs = [group == g for g in np.unique(group)]
-    for on in runs:
+    cuts = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), group.size]
+    for on in itertools.starmap(slice, itertools.pairwise(cuts)):
         good = e[on][ok[on]]
         if good.size:
             out[on] -= float(np.median(good))
@@ -444,12 +439,13 @@ def _assemble(
     k: int,
     frozen: Sequence[FloatArray] | None = None,
     weights: Sequence[FloatArray] | None = None,
+    states: Sequence[_AtState] | None = None,
 ) -> _Assembled:
     """The normal equations, features eliminated, and the cost.
 
     ``frozen``: robust weights held (the cost is the weighted squares), else the cost
     is the bounded loss; ``weights``: the robust weights to use (default ``frozen``, or
-    computed at this state).
+    computed at this state); ``states``: the returns already evaluated at this state.
     """
     use = weights if weights is not None else frozen
     A = np.zeros((k, k))
@@ -462,7 +458,7 @@ def _assemble(
     n_used = 0
     dof_features = 0
     for i, (feature, ret, sigma) in enumerate(zip(features, gathered, sigmas, strict=True)):
-        at = _at_state(feature, ret)
+        at = _at_state(feature, ret) if states is None else states[i]
         held = None if use is None else use[i]
         e, w, jt, jf = _feature_terms(feature, ret, sigma, robust, held, at)
         motion += np.einsum("n,ndk->k", w, np.nan_to_num(ret.jac) ** 2)
@@ -494,19 +490,12 @@ def _assemble(
 
 
 def _scales(
-    features: Sequence[Feature],
-    gathered: list[FeatureReturns],
-    floor: float,
-    previous: Sequence[float] | None,
+    states: Sequence[_AtState], floor: float, previous: Sequence[float] | None
 ) -> list[float]:
     """Each feature's range-noise scale: robust sigma of ``e / |cos(incidence)|``."""
     out = []
-    for i, (feature, ret) in enumerate(zip(features, gathered, strict=True)):
-        ok = np.all(np.isfinite(ret.x), axis=1)
-        if np.any(ok):
-            e = feature.residuals(ret.x[ok]) / incidence_factor(feature, ret)[ok]
-        else:
-            e = np.zeros(1)
+    for i, at in enumerate(states):
+        e = at.e[at.ok] / at.inc[at.ok] if np.any(at.ok) else np.zeros(1)
         s = robust_sigma(e)
         if previous is not None and math.isfinite(previous[i]):
             # The scale shrinks as the mount converges but never jumps up by more than
@@ -551,8 +540,9 @@ def reduced_normal_matrix(
     problem = ObservationLayout(models, observations, len(features))
     geo = georeference_observed(models, problem.by_line, values, estimated, frame)
     gathered = problem.gather(geo)
-    scales = list(sigmas) if sigmas is not None else _scales(features, gathered, floor, None)
-    asm = _assemble(features, gathered, scales, robust, len(estimated))
+    states = [_at_state(f, r) for f, r in zip(features, gathered, strict=True)]
+    scales = list(sigmas) if sigmas is not None else _scales(states, floor, None)
+    asm = _assemble(features, gathered, scales, robust, len(estimated), states=states)
     return asm.S, asm.A_diag, scales
 
 
@@ -611,15 +601,16 @@ def adjust(
     for iteration in range(1, opt.max_iterations + 1):
         geo = georeference_observed(models, problem.by_line, vals, estimated, frame)
         gathered = problem.gather(geo)
+        states = [_at_state(f, r) for f, r in zip(feats, gathered, strict=True)]
         weights = frozen
         if weights is None:
             if noise_scales_m is None:
-                sigmas = _scales(feats, gathered, opt.noise_floor_m, sigmas)
+                sigmas = _scales(states, opt.noise_floor_m, sigmas)
             assert sigmas is not None
             # Iteratively reweighted: this state's weights, held through the step.
             weights = [
-                _robust_factors(f, r, s, opt.robust)
-                for f, r, s in zip(feats, gathered, sigmas, strict=True)
+                _robust_factors(f, r, s, opt.robust, at)
+                for f, r, s, at in zip(feats, gathered, sigmas, states, strict=True)
             ]
             if freeze:
                 # Held weights make a new cost: its steps start undamped (a damping
@@ -629,7 +620,7 @@ def adjust(
         # Reweighting: the weights of this state, and a step is taken when it lowers the
         # bounded loss (moving returns out of the band must not look like progress);
         # then the weights are held and the last iterations minimise one fixed cost.
-        asm = _assemble(feats, gathered, sigmas, opt.robust, k, frozen, weights)
+        asm = _assemble(feats, gathered, sigmas, opt.robust, k, frozen, weights, states)
         step, new_vals, new_feats, damping = _damped_step(
             problem, asm, feats, vals, estimated, frame, sigmas, opt, damping, frozen
         )
@@ -717,15 +708,15 @@ def _finish(
 ) -> Adjustment:
     geo = georeference_observed(problem.models, problem.by_line, vals, estimated, frame)
     gathered = problem.gather(geo)
-    asm = _assemble(feats, gathered, sigmas, opt.robust, len(estimated), frozen)
+    states = [_at_state(f, r) for f, r in zip(feats, gathered, strict=True)]
+    asm = _assemble(feats, gathered, sigmas, opt.robust, len(estimated), frozen, states=states)
     dof = max(asm.n_used - len(estimated) - asm.dof_features, 1)
     sigma0 = math.sqrt(asm.cost / dof)
     cov = np.asarray(sigma0**2 * np.linalg.pinv(asm.S), dtype=np.float64)
     fits = []
-    for i, (feature, ret) in enumerate(zip(feats, gathered, strict=True)):
-        e, w, _, _ = _feature_terms(feature, ret, sigmas[i], opt.robust, frozen[i])
-        used = w > 0.0
-        rms = float(np.sqrt(np.mean(e[used] ** 2))) if np.any(used) else math.nan
+    for i, (feature, at) in enumerate(zip(feats, states, strict=True)):
+        used = _weights(at, sigmas[i], frozen[i]) > 0.0
+        rms = float(np.sqrt(np.mean(at.e[used] ** 2))) if np.any(used) else math.nan
         fits.append(
             FeatureFit(
                 feature=feature,

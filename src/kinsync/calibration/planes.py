@@ -155,15 +155,15 @@ def _unkey(key: IntArray) -> IntArray:
 def _group_stats(
     x: FloatArray, line: IntArray, voxel_m: float
 ) -> tuple[_Voxels, IntArray, IntArray]:
-    """Statistics per (voxel, line); also each return's voxel key and group index."""
+    """Statistics per (voxel, line); also each return's voxel key and group index.
+
+    ``line`` (n,): each return's line, never decreasing (the returns line by line).
+    """
     ijk = np.floor(x / voxel_m).astype(np.int64)
     vkey = _voxel_key(ijk)
     # Groups in (voxel, line) order from one stable sort: the returns come line by
-    # line, so a stable sort by voxel keeps each voxel's lines in order.
-    if np.all(line[1:] >= line[:-1]):
-        order = np.argsort(vkey, kind="stable")
-    else:
-        order = np.lexsort((line, vkey))
+    # line (``line`` never decreases), so a stable sort by voxel keeps its lines in order.
+    order = np.argsort(vkey, kind="stable")
     k_sorted, l_sorted = vkey[order], line[order]
     new_group = np.empty(order.size, dtype=np.bool_)
     new_group[:1] = True
