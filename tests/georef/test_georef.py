@@ -200,6 +200,33 @@ def test_outside_span_is_masked_nan_not_extrapolated(traj: Trajectory) -> None:
     assert np.abs(fast[1:4] - ref[1:4]).max() < ECEF_ULPS
 
 
+def test_read_only_and_writable_points_reach_one_compiled_kernel(
+    traj: Trajectory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # numba compiles read-only and writable arrays apart: a second copy of the kernel
+    # (about 1 s of a first run) when a caller passes frozen arrays, as calibrate mount does.
+    from numba import typeof  # noqa: PLC0415
+
+    from kinsync.georef import kernel  # noqa: PLC0415
+
+    seen: list[tuple[str, ...]] = []
+    compiled = kernel._georef_kernel
+
+    def spy(*args: object) -> int:
+        seen.append(tuple(str(typeof(a)) for a in args))  # type: ignore[no-untyped-call]
+        return compiled(*args)
+
+    monkeypatch.setattr(kernel, "_georef_kernel", spy)
+    t_rel, xyz = _scan(100, np.random.default_rng(3))
+    gt = GeorefTrajectory.from_trajectory(traj)
+    writable, _ = georeference(t_rel + 1.0e9, xyz, gt, MOUNT)
+    t_frozen, xyz_frozen = t_rel + 1.0e9, xyz.copy()
+    t_frozen.flags.writeable = xyz_frozen.flags.writeable = False
+    frozen, _ = georeference(t_frozen, xyz_frozen, gt, MOUNT)
+    np.testing.assert_array_equal(frozen, writable)
+    assert seen[0] == seen[1]
+
+
 def test_unsorted_times_give_the_same_points(traj: Trajectory) -> None:
     rng = np.random.default_rng(8)
     t_rel, xyz = _scan(3_000, rng)
