@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 from dataclasses import replace
 
 import numpy as np
@@ -223,8 +224,15 @@ def test_read_only_and_writable_points_reach_one_compiled_kernel(
     t_frozen, xyz_frozen = t_rel + 1.0e9, xyz.copy()
     t_frozen.flags.writeable = xyz_frozen.flags.writeable = False
     frozen, _ = georeference(t_frozen, xyz_frozen, gt, MOUNT)
+    # A process-pool worker gets the trajectory and mount unpickled: writable arrays
+    # where this process's are frozen (a second compile, ~4 s of each worker's first chunk).
+    gt_worker, mount_worker = pickle.loads(pickle.dumps((gt, MOUNT)))
+    assert gt_worker.t_s.flags.writeable
+    assert not gt.t_s.flags.writeable
+    in_worker, _ = georeference(t_rel + 1.0e9, xyz, gt_worker, mount_worker)
     np.testing.assert_array_equal(frozen, writable)
-    assert seen[0] == seen[1]
+    np.testing.assert_array_equal(in_worker, writable)
+    assert seen[0] == seen[1] == seen[2]
 
 
 def test_unsorted_times_give_the_same_points(traj: Trajectory) -> None:

@@ -326,16 +326,20 @@ def georeference(
     hermite = use_hermite(traj, position)
     out = np.empty((t.size, 3))
     inside = np.empty(t.size, dtype=np.bool_)
+    # numba compiles read-only and writable inputs apart: every input is passed
+    # read-only, whether the caller's arrays are (the points of a whole LAS line, a
+    # frozen trajectory) or not (the same trajectory unpickled in a pool worker), so
+    # that one compiled kernel serves them all.
     first_bad = _georef_kernel(
-        _read_only(t),  # numba compiles read-only and writable inputs apart: one kind only
+        _read_only(t),
         _read_only(xyz),
-        traj.t_s,
-        traj._inv_interval_s,
-        traj._poly_hermite if hermite else traj._poly_linear,
-        traj._R_body_to_ecef_left,
-        traj.rotvec_interval_body,
-        np.ascontiguousarray(mount.lever_arm_body_m_array),
-        np.ascontiguousarray(mount.R_scanner_to_body),
+        _read_only(traj.t_s),
+        _read_only(traj._inv_interval_s),
+        _read_only(traj._poly_hermite if hermite else traj._poly_linear),
+        _read_only(traj._R_body_to_ecef_left),
+        _read_only(traj.rotvec_interval_body),
+        _read_only(np.ascontiguousarray(mount.lever_arm_body_m_array)),
+        _read_only(np.ascontiguousarray(mount.R_scanner_to_body)),
         out,
         inside,
     )
