@@ -75,6 +75,14 @@ def _size(path: Path) -> int:
         return 0
 
 
+def _private_temp_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A temporary folder of the commands' own (TMPDIR), to see what they leave there."""
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(temp))
+    return temp
+
+
 def _start_and_wait_for_part(
     cmd: list[str], folder: Path
 ) -> tuple[subprocess.Popen[str], list[psutil.Process]]:
@@ -98,8 +106,13 @@ def _assert_all_gone(procs: list[psutil.Process], timeout_s: float = 10.0) -> No
 @pytest.mark.parametrize("scheduler", ["local", "processes"])
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signal_leaves_nothing(
-    survey: Path, tmp_path: Path, scheduler: str, signum: signal.Signals
+    survey: Path,
+    tmp_path: Path,
+    scheduler: str,
+    signum: signal.Signals,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    temp = _private_temp_folder(tmp_path, monkeypatch)
     out = tmp_path / "out.csv"
     proc, children = _start_and_wait_for_part(
         _georef(survey, out, "--scheduler", scheduler, "--workers", "2"), tmp_path
@@ -115,9 +128,13 @@ def test_stop_signal_leaves_nothing(
     assert not out.exists()
     assert _temporaries(tmp_path) == []
     _assert_all_gone(children)
+    assert list(temp.iterdir()) == []  # the pool's context file too
 
 
-def test_sigkill_leaves_no_process_and_the_next_run_cleans_up(survey: Path, tmp_path: Path) -> None:
+def test_sigkill_leaves_no_process_and_the_next_run_cleans_up(
+    survey: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    temp = _private_temp_folder(tmp_path, monkeypatch)
     out = tmp_path / "out.csv"
     cmd = _georef(survey, out, "--scheduler", "processes", "--workers", "2")
     proc, children = _start_and_wait_for_part(cmd, tmp_path)
@@ -127,6 +144,9 @@ def test_sigkill_leaves_no_process_and_the_next_run_cleans_up(survey: Path, tmp_
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == -signal.SIGKILL
     _assert_all_gone(children)  # forkserver, resource tracker and workers
+    # The workers removed the pool's context file (Python's own forkserver folder,
+    # pymp-*, with its socket, is left: only the forkserver could remove it).
+    assert list(temp.glob("kinsync-*")) == []
     assert "Traceback" not in err
     assert _temporaries(tmp_path) == stale  # SIGKILL cannot be caught: the debris stays...
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)

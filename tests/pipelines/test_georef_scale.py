@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
+import pickle
+import tempfile
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import laspy
 import numpy as np
@@ -204,3 +207,54 @@ def test_bad_scheduler_options(inputs: dict[str, Path], scheduler_arg: str, matc
     workers = 0 if scheduler_arg == "processes" else None
     with pytest.raises(InputError, match=match):
         _run(inputs, "points.csv", "x.csv", scheduler=scheduler_arg, workers=workers)
+
+
+def test_pool_workers_read_the_context_from_a_file_not_from_their_arguments(
+    inputs: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The main process writes a new worker's arguments into a pipe and waits until the
+    # worker, after its imports, has read them: the context (megabytes with the prepared
+    # trajectory) as an argument held the main process about a second per worker
+    # started, one after another, so that 16 workers ran slower than 2.
+    from kinsync.pipelines import schedulers  # noqa: PLC0415
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    runners: list[schedulers.ProcessRunner] = []
+    seen: list[bool] = []
+    start = schedulers.ProcessRunner.__init__
+    submit = schedulers.ProcessRunner.submit
+
+    def spy_init(self: schedulers.ProcessRunner, *args: Any) -> None:
+        start(self, *args)
+        runners.append(self)
+
+    def spy_submit(self: schedulers.ProcessRunner, *args: Any) -> schedulers.ChunkResult:
+        seen.append(self.context_path.is_file())
+        return submit(self, *args)
+
+    monkeypatch.setattr(schedulers.ProcessRunner, "__init__", spy_init)
+    monkeypatch.setattr(schedulers.ProcessRunner, "submit", spy_submit)
+    out = tmp_path / "out.csv"
+    serial = tmp_path / "serial.csv"
+    kwargs: dict[str, Any] = {"chunk_points": CHUNK, "outside": "reject"}
+    georeference_file(inputs["dir"] / "points.csv", inputs["traj"], MOUNT, serial, **kwargs)
+    georeference_file(
+        inputs["dir"] / "points.csv",
+        inputs["traj"],
+        MOUNT,
+        out,
+        scheduler="processes",
+        workers=2,
+        **kwargs,
+    )
+    assert out.read_bytes() == serial.read_bytes()
+    (runner,) = runners
+    context_bytes = len(pickle.dumps(runner.ctx))
+    arguments_bytes = len(pickle.dumps(runner.pool._initargs))
+    assert context_bytes > 100_000
+    assert arguments_bytes < 1_000
+    assert runner.context_path.parent == tmp_path
+    assert runner.context_path.name.startswith("kinsync-context-")
+    assert seen
+    assert all(seen)  # there while the workers start...
+    assert not runner.context_path.exists()  # ...and removed with the pool

@@ -4,7 +4,8 @@ A runner takes `ChunkTask` s and returns, for each, a callable that gives its
 `ChunkOutput`; `in_order` keeps at most ``runner.window`` chunks in flight and yields
 them in input order, so that every scheduler writes the same output as the serial
 run and reports the same first error. Workers read their own chunks (the context,
-with the prepared trajectory, is shipped once per worker).
+with the prepared trajectory, is shipped once per worker: a pool worker reads it from a
+temporary file, a Dask worker gets it broadcast).
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from __future__ import annotations
 import importlib
 import multiprocessing
 import os
+import pickle
 import signal
+import tempfile
 import threading
 import time
 from collections import deque
@@ -63,27 +66,39 @@ def _process_gone(pid: int) -> bool:
     return stat[stat.rindex(")") + 2 :][:1] in {"Z", "X"}
 
 
-def _die_with(main_pid: int) -> None:
+def _die_with(main_pid: int, context_path: Path) -> None:
     """End this worker as soon as the main process ``main_pid`` has ended.
 
     A killed main process (SIGKILL cannot be caught) must not leave workers computing
     for minutes, nor the forkserver and resource tracker that live as long as a worker
-    holds their pipes: a daemon thread checks every 0.25 s. Workers ignore SIGINT: a
-    Ctrl-C reaches the whole process group, and the main process stops the pool.
+    holds their pipes, nor the pool's context file: a daemon thread checks every 0.25 s
+    and removes the file before it ends the worker. Workers ignore SIGINT: a Ctrl-C
+    reaches the whole process group, and the main process stops the pool.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch() -> None:
         while not _process_gone(main_pid):
             time.sleep(_PARENT_POLL_S)
+        context_path.unlink(missing_ok=True)
         os._exit(1)
 
     threading.Thread(target=watch, name="kinsync-main-watch", daemon=True).start()
 
 
-def init_process_worker(ctx: ChunkContext, main_pid: int) -> None:
-    """Process-pool initializer: die with the main process; keep the context for every chunk."""
-    _die_with(main_pid)
+def init_process_worker(context_path: str, main_pid: int) -> None:
+    """Process-pool initializer: die with the main process; keep the context for every chunk.
+
+    The context (with the prepared trajectory, megabytes) is read from the file the
+    main process wrote once (`ProcessRunner`), not passed as an argument: the main
+    process writes a new worker's arguments into a pipe and waits until the worker has
+    read them all, after its imports, so megabytes of arguments made the main process
+    wait about a second for each worker it started, one after another.
+    """
+    path = Path(context_path)
+    _die_with(main_pid, path)
+    with path.open("rb") as fh:
+        ctx = pickle.load(fh)  # noqa: S301 - written by this run's main process
     _WORKER_CONTEXT[:] = [ctx]
     _WORKER_LAS_READER.clear()
 
@@ -144,7 +159,12 @@ class SerialRunner:
 
 
 class ProcessRunner(SerialRunner):
-    """A local process pool; the context is shipped once per worker (initializer)."""
+    """A local process pool; each worker loads the context once (initializer).
+
+    The context is pickled once into a temporary file (``kinsync-context-PID-*`` in
+    the system's temporary folder), which `close` removes; after a SIGKILL of this
+    process the workers remove it as they end.
+    """
 
     def __init__(self, ctx: ChunkContext, workers: int) -> None:
         super().__init__(ctx)
@@ -153,12 +173,17 @@ class ProcessRunner(SerialRunner):
             "forkserver" if "forkserver" in methods else "spawn"
         )
         self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * workers
-        self.pool = ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=mp_context,
-            initializer=init_process_worker,
-            initargs=(ctx, os.getpid()),
-        )
+        self.context_path = _write_context(ctx)
+        try:
+            self.pool = ProcessPoolExecutor(
+                max_workers=workers,
+                mp_context=mp_context,
+                initializer=init_process_worker,
+                initargs=(str(self.context_path), os.getpid()),
+            )
+        except BaseException:
+            self.context_path.unlink(missing_ok=True)
+            raise
 
     def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
         """Send ``task`` to the pool; the callable waits for its result.
@@ -174,8 +199,31 @@ class ProcessRunner(SerialRunner):
         return future.result
 
     def close(self) -> None:
-        """Stop the pool (chunks not yet started are cancelled)."""
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        """Stop the pool (chunks not yet started are cancelled); remove the context file."""
+        try:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+        finally:
+            self.context_path.unlink(missing_ok=True)
+
+
+def _write_context(ctx: ChunkContext) -> Path:
+    """Pickle ``ctx`` into a new temporary file (readable by this user only)."""
+    fd, name = tempfile.mkstemp(prefix=f"kinsync-context-{os.getpid()}-", suffix=".pickle")
+    path = Path(name)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            pickle.dump(ctx, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    except OSError as err:
+        path.unlink(missing_ok=True)
+        msg = (
+            f"cannot write the process pool's context to {path} ({err.strerror or err}); "
+            "free space in the temporary folder (or set TMPDIR), or use --scheduler local"
+        )
+        raise InputError(msg) from err
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
+    return path
 
 
 class DaskRunner(SerialRunner):
