@@ -78,6 +78,22 @@ def test_parquet_keeps_narrow_dtypes(tmp_path: Path) -> None:
     assert chunk["refl"].dtype == np.float32
 
 
+def test_parquet_dictionary_encodes_only_the_columns_whose_values_repeat(tmp_path: Path) -> None:
+    # A dictionary of distinct floats is filled and thrown away: the writer ran at half speed.
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    cols = _columns(2500)
+    path = tmp_path / "pts.parquet"
+    _write(path, cols, 700)
+    group = pq.ParquetFile(path).metadata.row_group(0)
+    dictionary = {
+        group.column(i).path_in_schema
+        for i in range(group.num_columns)
+        if any("DICTIONARY" in e for e in group.column(i).encodings)
+    }
+    assert dictionary == {"intensity", "return_number", "label"}  # Parquet has none for bool
+
+
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_missing_columns(tmp_path: Path, suffix: str) -> None:
     cols = {k: v for k, v in _columns(5).items() if k != "y_m"}

@@ -159,7 +159,13 @@ class TableChunkWriter:
     def _open(self, schema: Any) -> None:
         assert self._tmp is not None
         if self._suffix == ".parquet":
-            self._writer = pq.ParquetWriter(self._tmp, schema)
+            # Dictionary encoding only where values repeat (integers, text): on
+            # coordinates and times, each value distinct, it only filled a dictionary
+            # page to throw it away, halving the writer's speed (the main process's
+            # ceiling when pool or Dask workers georeference), and the file was 8 %
+            # larger (4 M georeferenced points: 113.5 MB against 104.9 MB).
+            repeat = [f.name for f in schema if not pa.types.is_floating(f.type)]
+            self._writer = pq.ParquetWriter(self._tmp, schema, use_dictionary=repeat)
         else:
             self._writer = self._tmp.open("wb")
             self._writer.write(csv_header_bytes(schema.names))
