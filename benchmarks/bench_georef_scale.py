@@ -14,7 +14,7 @@ Each configuration runs ``--repeat`` times and the best time is kept; on a share
 machine the figures are still noisy.
 
 Usage: ``python benchmarks/bench_georef_scale.py [--points N] [--chunk-points N]
-[--input laz|csv|parquet] [--repeat N]``
+[--input laz|csv|parquet] [--repeat N] [--workers 1,2,4,...] [--schedulers processes,dask]``
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import argparse
 import importlib
 import math
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -87,9 +88,21 @@ def main() -> None:
     parser.add_argument("--chunk-points", type=int, default=500_000)
     parser.add_argument("--input", choices=("laz", "csv", "parquet"), default="laz")
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument(
+        "--workers", help="worker counts, comma-separated (default 1, 2, 4, ... up to the cores)"
+    )
+    parser.add_argument(
+        "--schedulers", default="processes,dask", help="which of processes,dask to run"
+    )
     args = parser.parse_args()
-    cores = os.cpu_count() or 1
-    counts = [w for w in (1, 2, 4, 8, 16) if w <= max(cores, 2)]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    counts = (
+        [int(w) for w in args.workers.split(",")]
+        if args.workers
+        else [w for w in (1, 2, 4, 8, 16, 32, 64) if w <= max(cores, 2)]
+    )
+    kinds = args.schedulers.split(",")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         scan = write_inputs(folder, args.points, args.input)
@@ -113,33 +126,36 @@ def main() -> None:
                 best = min(best, time.perf_counter() - start)
             if path == scan:
                 rows.append((label, args.points / best))
+                print(f"  {label}: {args.points / best / 1e6:.2f} Mpts/s", file=sys.stderr)
             return best
 
         run("local (serial)", "local", None)  # also warms the JIT cache
         rows.clear()
         run("local (serial)", "local", None)
-        for w in counts:
+        for w in counts if "processes" in kinds else ():
             run(f"processes, {w} worker(s)", "processes", w)
-        for w in counts:  # a running dask.distributed cluster: its start-up is not counted
+        for w in counts if "dask" in kinds else ():  # a running cluster: start-up not counted
             with distributed.LocalCluster(
                 n_workers=w, threads_per_worker=1, processes=True, dashboard_address=None
             ) as cluster:
                 run(f"dask, {w} worker(s)", str(cluster.scheduler_address), w)
         tiny = write_inputs(folder / "tiny", 1000, args.input)
         startup = {w: run("", "processes", w, tiny) - run("", "local", None, tiny) for w in (1, 2)}
-    base = {
-        kind: next(rate for label, rate in rows if label.startswith(f"{kind}, 1 "))
-        for kind in ("processes", "dask")
+        # (a 1000-point file is one chunk: one worker starts whatever the count)
+    base = {"local (serial)": rows[0][1]} | {
+        kind: next(rate for label, rate in rows if label.startswith(f"{kind}, {counts[0]} "))
+        for kind in kinds
     }
     kind = args.input.upper()
     print(
         f"georef {kind} -> {kind} (EPSG:4979), {args.points:,} points, "
         f"{args.chunk_points:,}-point chunks, {cores} core(s), best of {args.repeat}"
     )
-    print(f"{'scheduler':<28}{'Mpts/s':>10}{'vs 1 worker':>14}")
+    print(f"{'scheduler':<28}{'Mpts/s':>10}{f'vs {counts[0]} worker(s)':>18}{'vs serial':>11}")
     for label, rate in rows:
-        one = base.get(label.split(",")[0], base["processes"])
-        print(f"{label:<28}{rate / 1e6:>10.2f}{rate / one:>13.2f}x")
+        one = base[label.split(",")[0]]
+        serial = base["local (serial)"]
+        print(f"{label:<28}{rate / 1e6:>10.2f}{rate / one:>17.2f}x{rate / serial:>10.2f}x")
     print(
         "process-pool start-up (a 1000-point file, pool minus serial): "
         + ", ".join(f"{w} worker(s) {t:.1f} s" for w, t in startup.items())
