@@ -5,10 +5,13 @@ temporary. The commands run in a subprocess, as a user runs them."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -75,12 +78,17 @@ def _size(path: Path) -> int:
         return 0
 
 
-def _private_temp_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A temporary folder of the commands' own (TMPDIR), to see what they leave there."""
-    temp = tmp_path / "temp"
-    temp.mkdir()
-    monkeypatch.setenv("TMPDIR", str(temp))
-    return temp
+@pytest.fixture
+def temp(monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """A temporary folder of the commands' own (TMPDIR), to see what they leave there.
+
+    Short (in the system's temporary folder, not pytest's deep one), so that the pool
+    starts its workers from a fork server, as it does for most users.
+    """
+    folder = Path(tempfile.mkdtemp(prefix="ks-"))
+    monkeypatch.setenv("TMPDIR", str(folder))
+    yield folder
+    shutil.rmtree(folder)
 
 
 def _start_and_wait_for_part(
@@ -110,9 +118,8 @@ def test_stop_signal_leaves_nothing(
     tmp_path: Path,
     scheduler: str,
     signum: signal.Signals,
-    monkeypatch: pytest.MonkeyPatch,
+    temp: Path,
 ) -> None:
-    temp = _private_temp_folder(tmp_path, monkeypatch)
     out = tmp_path / "out.csv"
     proc, children = _start_and_wait_for_part(
         _georef(survey, out, "--scheduler", scheduler, "--workers", "2"), tmp_path
@@ -132,9 +139,8 @@ def test_stop_signal_leaves_nothing(
 
 
 def test_sigkill_leaves_no_process_and_the_next_run_cleans_up(
-    survey: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    survey: Path, tmp_path: Path, temp: Path
 ) -> None:
-    temp = _private_temp_folder(tmp_path, monkeypatch)
     out = tmp_path / "out.csv"
     cmd = _georef(survey, out, "--scheduler", "processes", "--workers", "2")
     proc, children = _start_and_wait_for_part(cmd, tmp_path)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import pickle
+import subprocess
+import sys
 import tempfile
 from collections.abc import Iterator
 from dataclasses import replace
@@ -258,3 +260,29 @@ def test_pool_workers_read_the_context_from_a_file_not_from_their_arguments(
     assert seen
     assert all(seen)  # there while the workers start...
     assert not runner.context_path.exists()  # ...and removed with the pool
+
+
+def test_pool_starts_under_a_temporary_folder_too_deep_for_a_fork_server(
+    inputs: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The fork server's Unix socket path (~107 bytes at most) does not fit under a deep
+    # TMPDIR: the pool failed with "internal error: OSError: AF_UNIX path too long".
+    # Run in a subprocess: a fork server already running in this one would be used.
+    deep = tmp_path / ("d" * 60) / ("e" * 60)
+    deep.mkdir(parents=True)
+    monkeypatch.setenv("TMPDIR", str(deep))
+    serial = _run(inputs, "points.csv", "deep_serial.csv")
+    out = inputs["dir"] / "deep_pool.csv"
+    code = (
+        "import sys; from pathlib import Path; from kinsync.mount import Mount; "
+        "from kinsync.pipelines.georef import georeference_file; "
+        "m = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0)); "
+        "georeference_file(Path(sys.argv[1]), Path(sys.argv[2]), m, Path(sys.argv[3]), "
+        f"chunk_points={CHUNK}, outside='reject', scheduler='processes', workers=2)"
+    )
+    args = [str(inputs["dir"] / "points.csv"), str(inputs["traj"]), str(out)]
+    cmd = [sys.executable, "-c", code, *args]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes() == serial.read_bytes()
+    assert list(deep.glob("kinsync-*")) == []

@@ -168,10 +168,7 @@ class ProcessRunner(SerialRunner):
 
     def __init__(self, ctx: ChunkContext, workers: int) -> None:
         super().__init__(ctx)
-        methods = multiprocessing.get_all_start_methods()
-        mp_context = multiprocessing.get_context(
-            "forkserver" if "forkserver" in methods else "spawn"
-        )
+        mp_context = multiprocessing.get_context(_start_method())
         self.window = _CHUNKS_IN_FLIGHT_PER_WORKER * workers
         self.context_path = _write_context(ctx)
         try:
@@ -204,6 +201,25 @@ class ProcessRunner(SerialRunner):
             self.pool.shutdown(wait=True, cancel_futures=True)
         finally:
             self.context_path.unlink(missing_ok=True)
+
+
+def _start_method() -> str:
+    """How pool workers start: from a fork server where it can run, else spawned.
+
+    The fork server listens on a Unix socket in the temporary folder, and a socket path
+    is limited to about 107 bytes: under a deep TMPDIR it cannot start ("AF_UNIX path
+    too long"), so it is started here and, if it fails, workers are spawned instead
+    (each imports its modules itself: slower to start, the same results).
+    """
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return "spawn"
+    from multiprocessing import forkserver  # noqa: PLC0415 - not on Windows
+
+    try:
+        forkserver.ensure_running()
+    except OSError:
+        return "spawn"
+    return "forkserver"
 
 
 def _write_context(ctx: ChunkContext) -> Path:
