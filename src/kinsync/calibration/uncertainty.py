@@ -54,7 +54,6 @@ for inference with clustered errors", Rev. Econ. Stat. 90(3), 2008, 414-427 (clu
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -62,6 +61,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import stdtrit
 
+from kinsync._cpus import usable_cpus
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import (
     Adjustment,
@@ -134,13 +134,6 @@ def _without(
     return [replace(o, feature=renumber[o.feature]) for o in kept], seen
 
 
-def _usable_cpus() -> int:
-    """CPUs this process may run on (its affinity where the system has one)."""
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return os.cpu_count() or 1
-
-
 def jackknife(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
@@ -200,7 +193,7 @@ def jackknife(
     estimates = np.full((len(groups), k), np.nan)
     failed = []
     m = len(groups)
-    n_threads = max(1, min(m, workers or _usable_cpus()))
+    n_threads = max(1, min(m, workers or usable_cpus()))
     if progress is not None:
         progress(f"jackknife: {m} solutions, each leaving one out, {n_threads} at once")
     with ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="kinsync-jk") as pool:
