@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import Any, Literal, TypeVar, cast
 
 import laspy
 import numpy as np
@@ -73,7 +74,22 @@ XYZ_COLUMNS = ("x_m", "y_m", "z_m")
 """Scanner-frame coordinates (m) in a point table."""
 OUT_COLUMNS = ("X", "Y", "Z")
 """Georeferenced coordinates (output CRS) in an output table."""
-_LAS_BLOCK_POINTS = 65_536  # LAS chunks are georeferenced this many points at a time
+_LAS_BLOCK_POINTS = 65_536  # chunks are georeferenced this many points at a time
+_R = TypeVar("_R")
+
+
+def _in_blocks(n: int, blocks: Executor | None, work: Callable[[int, int], _R]) -> list[_R]:
+    """``work(start, stop)`` over ``[0, n)`` in `_LAS_BLOCK_POINTS` blocks; results in order.
+
+    With an executor the blocks run concurrently: the kernel, PROJ and the integer
+    storing release the interpreter lock, and each block writes its own rows. Every
+    block runs even when one fails; callers report the first failure in block order,
+    as a sequential run would.
+    """
+    bounds = [(a, min(a + _LAS_BLOCK_POINTS, n)) for a in range(0, n, _LAS_BLOCK_POINTS)]
+    if blocks is None or len(bounds) < 2:  # one block: nothing to share
+        return [work(a, b) for a, b in bounds]
+    return list(blocks.map(lambda ab: work(*ab), bounds))
 
 
 @dataclass(frozen=True, eq=False)
@@ -251,20 +267,65 @@ def empty_table_output(ctx: ChunkContext) -> dict[str, Any]:
 
 
 def process_chunk(
-    ctx: ChunkContext, task: ChunkTask, tally_only: bool, las_reader: LasPointReader | None = None
+    ctx: ChunkContext,
+    task: ChunkTask,
+    tally_only: bool,
+    las_reader: LasPointReader | None = None,
+    blocks: Executor | None = None,
 ) -> ChunkOutput:
     """Read and georeference one chunk (in a worker or in the main process).
 
     Read errors raise; errors of the points themselves (non-finite values) come back
     in ``error`` with the chunk's accounting, so that the main process can still count
-    points outside the span after an earlier chunk failed.
+    points outside the span after an earlier chunk failed. ``blocks``, a thread pool,
+    georeferences and transforms the chunk's blocks concurrently (the serial run on a
+    machine of several cores); the output is the same without.
     """
     if ctx.source.table is None:
-        return _process_las_task(ctx, task, tally_only, las_reader)
-    return _process_table_task(ctx, task, tally_only)
+        return _process_las_task(ctx, task, tally_only, las_reader, blocks)
+    return _process_table_task(ctx, task, tally_only, blocks)
 
 
-def _process_table_task(ctx: ChunkContext, task: ChunkTask, tally_only: bool) -> ChunkOutput:
+def _georeference_blocks(
+    ctx: ChunkContext, t: FloatArray, xyz: FloatArray, blocks: Executor | None
+) -> tuple[FloatArray, BoolArray]:
+    """`georeference` of a chunk's points, block by block (the same values and errors)."""
+    n = t.size
+    pos = np.empty((n, 3))
+    inside = np.empty(n, dtype=np.bool_)
+
+    def work(a: int, b: int) -> bool:
+        try:
+            pos[a:b], inside[a:b] = georeference(
+                t[a:b], xyz[a:b], ctx.traj, ctx.mount, position=ctx.position
+            )
+        except InputError:
+            return False
+        return True
+
+    if not all(_in_blocks(n, blocks, work)):  # the whole chunk's error: its first bad point
+        return georeference(t, xyz, ctx.traj, ctx.mount, position=ctx.position)
+    return pos, inside
+
+
+def _to_crs_blocks(ctx: ChunkContext, pos: FloatArray, blocks: Executor | None) -> FloatArray:
+    """ECEF -> the output CRS, block by block (PROJ transforms point by point)."""
+    to_crs = crs_plan_transformer(ctx.crs)
+    if to_crs is None:
+        return pos
+    transform = to_crs
+    coords = np.empty_like(pos)
+
+    def work(a: int, b: int) -> None:
+        coords[a:b] = transform(pos[a:b])
+
+    _in_blocks(len(pos), blocks, work)
+    return coords
+
+
+def _process_table_task(
+    ctx: ChunkContext, task: ChunkTask, tally_only: bool, blocks: Executor | None
+) -> ChunkOutput:
     """`process_chunk` for a table slice."""
     layout = ctx.source.table
     assert layout is not None
@@ -277,7 +338,7 @@ def _process_table_task(ctx: ChunkContext, task: ChunkTask, tally_only: bool) ->
         return base
     try:
         xyz = _scanner_xyz(ctx, columns)
-        pos, inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
+        pos, inside = _georeference_blocks(ctx, t, xyz, blocks)
     except InputError as err:
         error = f"{src.path}: rows {task.first}..{task.first + base.count - 1}: {err}"
         return replace(base, error=error)
@@ -286,8 +347,7 @@ def _process_table_task(ctx: ChunkContext, task: ChunkTask, tally_only: bool) ->
         return base
     if not all_inside:
         pos = pos[inside]
-    to_crs = crs_plan_transformer(ctx.crs)
-    coords = pos if to_crs is None else to_crs(pos)
+    coords = _to_crs_blocks(ctx, pos, blocks)
     not_finite = ~np.isfinite(coords).all(axis=1)
     if not_finite.any():  # finite inputs, absurd combination (a trajectory, a CRS)
         row = int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
@@ -367,7 +427,11 @@ def _table_las_output(
 
 
 def _process_las_task(
-    ctx: ChunkContext, task: ChunkTask, tally_only: bool, las_reader: LasPointReader | None
+    ctx: ChunkContext,
+    task: ChunkTask,
+    tally_only: bool,
+    las_reader: LasPointReader | None,
+    blocks: Executor | None,
 ) -> ChunkOutput:
     """`process_chunk` for LAS/LAZ: georeference in blocks, X, Y, Z stored in place.
 
@@ -386,25 +450,30 @@ def _process_las_task(
     if tally_only:
         return base
     if ctx.output in ("table", "ply"):
-        return _las_table_output(ctx, task, base, record)
+        return _las_table_output(ctx, task, base, record, blocks)
     assert frame is not None
     to_crs = crs_plan_transformer(ctx.crs)
     inside = np.empty(n, dtype=np.bool_)
-    for start in range(0, n, _LAS_BLOCK_POINTS):
-        block = array[start : start + _LAS_BLOCK_POINTS]
-        t = gps_time[start : start + _LAS_BLOCK_POINTS] + src.las_time_offset_s
+
+    def work(start: int, stop: int) -> str | None:
+        """Georeference one block into its records; the error message, if any."""
+        block = array[start:stop]
+        t = gps_time[start:stop] + src.las_time_offset_s
         xyz = scaled_coordinates(block, record.scales, record.offsets)
         try:
             pos, block_inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
         except InputError as err:
-            return replace(base, error=_las_chunk_error(ctx, task, record, err))
+            return _las_chunk_error(ctx, task, record, err)
         coords = pos if to_crs is None else to_crs(pos)
         bad = store_coordinates(block, coords, frame.offsets, frame.scales, block_inside)
         if bad >= 0:
-            return replace(
-                base, error=_las_storage_error(ctx, task.first + start + bad, coords[bad])
-            )
-        inside[start : start + len(block)] = block_inside
+            return _las_storage_error(ctx, task.first + start + bad, coords[bad])
+        inside[start:stop] = block_inside
+        return None
+
+    error = next((e for e in _in_blocks(n, blocks, work) if e is not None), None)
+    if error is not None:
+        return replace(base, error=error)
     all_inside = bool(inside.all())
     if not all_inside and ctx.outside == "error":
         return base
@@ -416,7 +485,7 @@ def _process_las_task(
 
 
 def _las_table_output(
-    ctx: ChunkContext, task: ChunkTask, base: ChunkOutput, record: Any
+    ctx: ChunkContext, task: ChunkTask, base: ChunkOutput, record: Any, blocks: Executor | None
 ) -> ChunkOutput:
     """LAS points -> table (or PLY) rows: every dimension, X, Y, Z georeferenced floats.
 
@@ -428,17 +497,24 @@ def _las_table_output(
     to_crs = crs_plan_transformer(ctx.crs)
     inside = np.empty(n, dtype=np.bool_)
     coords = np.empty((n, 3))
-    for start in range(0, n, _LAS_BLOCK_POINTS):
-        block = array[start : start + _LAS_BLOCK_POINTS]
-        t = record.gps_time[start : start + _LAS_BLOCK_POINTS] + src.las_time_offset_s
+    gps_time = record.gps_time
+
+    def work(start: int, stop: int) -> str | None:
+        """Georeference one block into ``coords``; the error message, if any."""
+        block = array[start:stop]
+        t = gps_time[start:stop] + src.las_time_offset_s
         xyz = scaled_coordinates(block, record.scales, record.offsets)
         try:
             pos, block_inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
         except InputError as err:
-            return replace(base, error=_las_chunk_error(ctx, task, record, err))
-        block_coords = pos if to_crs is None else to_crs(pos)
-        inside[start : start + len(block)] = block_inside
-        coords[start : start + len(block)] = block_coords
+            return _las_chunk_error(ctx, task, record, err)
+        inside[start:stop] = block_inside
+        coords[start:stop] = pos if to_crs is None else to_crs(pos)
+        return None
+
+    error = next((e for e in _in_blocks(n, blocks, work) if e is not None), None)
+    if error is not None:
+        return replace(base, error=error)
     all_inside = bool(inside.all())
     if not all_inside and ctx.outside == "error":
         return base

@@ -20,11 +20,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from kinsync._cpus import usable_cpus
 from kinsync.errors import InputError
 from kinsync.io.las import LasPointReader
 from kinsync.pipelines.georef_chunks import ChunkContext, ChunkOutput, ChunkTask, process_chunk
@@ -130,32 +131,45 @@ def _stop_signals_held() -> Iterator[None]:
 
 
 class SerialRunner:
-    """Serial, in-process: each chunk is read and computed when its result is asked for.
+    """In this process: each chunk is read and computed when its result is asked for.
 
     A LAS/LAZ input stays open between chunks (read in order, without seeking) and is
-    decompressed with lazrs's thread pool.
+    decompressed with lazrs's thread pool; each chunk's blocks are georeferenced and
+    transformed by a thread pool of one thread per usable CPU (the kernel and PROJ
+    release the interpreter lock), so the run uses every core without starting worker
+    processes.
     """
 
     window = 1
 
-    def __init__(self, ctx: ChunkContext) -> None:
+    def __init__(self, ctx: ChunkContext, threads: int | None = None) -> None:
         self.ctx = ctx
         self._las_reader: LasPointReader | None = None
+        self._threads = threads or usable_cpus()
+        self._block_pool: ThreadPoolExecutor | None = None
 
     def _reader(self) -> LasPointReader | None:
         if self.ctx.source.table is None and self._las_reader is None:
             self._las_reader = LasPointReader(self.ctx.source.path)
         return self._las_reader
 
+    def _blocks(self) -> ThreadPoolExecutor | None:
+        if self._block_pool is None and self._threads > 1:
+            self._block_pool = ThreadPoolExecutor(self._threads, thread_name_prefix="kinsync-block")
+        return self._block_pool
+
     def submit(self, task: ChunkTask, tally_only: bool) -> ChunkResult:
         """Start ``task`` (only counting points outside the span if ``tally_only``)."""
-        return lambda: process_chunk(self.ctx, task, tally_only, self._reader())
+        return lambda: process_chunk(self.ctx, task, tally_only, self._reader(), self._blocks())
 
     def close(self) -> None:
-        """Close the input file, if open."""
+        """Close the input file, if open, and stop the block threads."""
         if self._las_reader is not None:
             self._las_reader.close()
             self._las_reader = None
+        if self._block_pool is not None:
+            self._block_pool.shutdown(wait=True, cancel_futures=True)
+            self._block_pool = None
 
 
 class ProcessRunner(SerialRunner):
@@ -293,7 +307,7 @@ def make_runner(ctx: ChunkContext, scheduler: str, workers: int | None) -> Seria
     if scheduler == "local":
         return SerialRunner(ctx)
     if scheduler == "processes":
-        return ProcessRunner(ctx, workers or multiprocessing.cpu_count())
+        return ProcessRunner(ctx, workers or usable_cpus())
     if scheduler.startswith(("tcp://", "tls://")):
         return DaskRunner(ctx, scheduler, workers)
     msg = f"--scheduler must be local, processes or tcp://HOST:PORT, got {scheduler!r}"
