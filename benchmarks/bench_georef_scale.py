@@ -2,7 +2,8 @@
 
 Writes a multi-million-point scan (LAZ, or a CSV/Parquet table with ``--input``) and
 georeferences it to geographic coordinates (EPSG:4979, so the workers do the kernel and
-the CRS transform) with the serial path, with ``scheduler="processes"`` and with a
+the CRS transform) with the serial path (its blocks in one thread per CPU, and in one
+thread as a baseline), with ``scheduler="processes"`` and with a
 dask.distributed ``LocalCluster`` (one thread per worker process, the cluster started
 before timing, as a running cluster is used) for each worker count the machine has;
 prints points/s and the ratio to 1 worker of the same kind. The workers
@@ -26,6 +27,8 @@ import os
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +38,7 @@ import numpy as np
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.pipelines import schedulers
 from kinsync.pipelines.georef import georeference_file
 from kinsync.trajectory import Trajectory
 
@@ -80,6 +84,18 @@ def write_inputs(folder: Path, n_points: int, kind: str) -> Path:
                 }
             )
     return path
+
+
+@contextmanager
+def one_block_thread() -> Iterator[None]:
+    """The serial run as it was before its block threads: one thread georeferences."""
+    name = "usable_cpus"  # the serial runner's thread count (not exported)
+    before = getattr(schedulers, name)
+    setattr(schedulers, name, lambda: 1)
+    try:
+        yield
+    finally:
+        setattr(schedulers, name, before)
 
 
 def main() -> None:
@@ -132,6 +148,8 @@ def main() -> None:
         run("local (serial)", "local", None)  # also warms the JIT cache
         rows.clear()
         run("local (serial)", "local", None)
+        with one_block_thread():
+            run("local, 1 block thread", "local", None)
         for w in counts if "processes" in kinds else ():
             run(f"processes, {w} worker(s)", "processes", w)
         for w in counts if "dask" in kinds else ():  # a running cluster: start-up not counted
@@ -142,7 +160,7 @@ def main() -> None:
         tiny = write_inputs(folder / "tiny", 1000, args.input)
         startup = {w: run("", "processes", w, tiny) - run("", "local", None, tiny) for w in (1, 2)}
         # (a 1000-point file is one chunk: one worker starts whatever the count)
-    base = {"local (serial)": rows[0][1]} | {
+    base = {"local (serial)": rows[0][1], "local": rows[0][1]} | {
         kind: next(rate for label, rate in rows if label.startswith(f"{kind}, {counts[0]} "))
         for kind in kinds
     }
