@@ -8,17 +8,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from tests._las import las_points
+from tests._georef_scan import scan_columns, write_laz, write_trajectory
 
 from kinsync.errors import InputError
 from kinsync.io.points import TableChunkWriter
-from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines import georef_chunks, schedulers
 from kinsync.pipelines.georef import georeference_file, rejected_path_for
-from kinsync.trajectory import Trajectory
 
-T0 = 1.3e9
 MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
 N = 300_000  # a chunk of 4.6 blocks of 65,536 points
 BAD_ROW = 200_000  # in the 4th block
@@ -27,26 +24,11 @@ BAD_ROW = 200_000  # in the 4th block
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("blocks")
-    t = T0 + np.arange(0.0, 20.0, 0.01)
-    s = t - T0
-    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
-    traj = Trajectory.from_euler(
-        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh
-    )
-    write_trajectory_csv(traj, folder / "traj.csv")
-    rng = np.random.default_rng(5)
-    cols = {
-        "t_s": T0 + np.sort(rng.uniform(-0.5, 19.9, N)),  # some outside the span
-        "x_m": rng.uniform(-1, 1, N),
-        "y_m": rng.uniform(-20, 20, N),
-        "z_m": rng.uniform(-5, 5, N),
-        "intensity": rng.integers(0, 1000, N),
-    }
+    write_trajectory(folder / "traj.csv", 20.0)
+    cols = scan_columns(N, 20.0, seed=5)
     with TableChunkWriter(folder / "points.parquet") as w:
         w.write(cols)
-    las = las_points(cols)
-    las.intensity = cols["intensity"].astype(np.uint16)
-    las.write(folder / "points.laz")
+    write_laz(cols, folder / "points.laz")
     cols["y_m"][BAD_ROW] = np.inf
     with TableChunkWriter(folder / "bad.parquet") as w:
         w.write(cols)

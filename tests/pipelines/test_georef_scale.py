@@ -16,17 +16,14 @@ import laspy
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from tests._las import las_points
+from tests._georef_scan import scan_columns, write_laz, write_trajectory
 
 from kinsync.errors import InputError
 from kinsync.io.las import las_end_times
 from kinsync.io.points import TableChunkWriter
-from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
-from kinsync.trajectory import Trajectory
 
-T0 = 1.3e9
 MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
 N = 6_000
 CHUNK = 700
@@ -51,26 +48,11 @@ def scheduler(request: pytest.FixtureRequest) -> str:
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("scale")
-    t = T0 + np.arange(0.0, 10.0, 0.01)
-    s = t - T0
-    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
-    traj = Trajectory.from_euler(
-        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh
-    )
-    write_trajectory_csv(traj, folder / "traj.csv")
-    rng = np.random.default_rng(11)
-    cols = {
-        "t_s": T0 + np.sort(rng.uniform(-0.5, 9.9, N)),  # some before the span
-        "x_m": rng.uniform(-1, 1, N),
-        "y_m": rng.uniform(-20, 20, N),
-        "z_m": rng.uniform(-5, 5, N),
-        "intensity": rng.integers(0, 1000, N),
-    }
+    write_trajectory(folder / "traj.csv", 10.0)
+    cols = scan_columns(N, 10.0, seed=11)
     with TableChunkWriter(folder / "points.csv") as w:
         w.write(cols)
-    las = las_points(cols)
-    las.intensity = cols["intensity"].astype(np.uint16)
-    las.write(folder / "points.laz")
+    write_laz(cols, folder / "points.laz")
     rng_p = np.random.default_rng(12)
     profile = {
         "t_s": cols["t_s"],
