@@ -273,13 +273,12 @@ def test_pool_starts_under_a_temporary_folder_too_deep_for_a_fork_server(
 def test_a_full_temporary_folder_is_an_error_naming_it_and_leaves_nothing(
     inputs: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from kinsync.pipelines import schedulers  # noqa: PLC0415
 
     def full(*_args: object, **_kwargs: object) -> None:
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(schedulers.pickle, "dump", full)
+    monkeypatch.setattr(pickle, "dump", full)  # the pool pickles its context with it
     out = tmp_path / "out.csv"
     with pytest.raises(InputError, match=r"No space left on device.*TMPDIR.*--scheduler local"):
         _run(inputs, "points.csv", str(out), scheduler="processes", workers=2)
