@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from kinsync.errors import InputError
-from kinsync.ins.checks import check_inputs, gnss_within_imu_span
+from kinsync.ins.checks import check_gnss_rejections, check_inputs, gnss_within_imu_span
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
 from kinsync.ins.measurements import GnssData, ImuData
@@ -192,3 +192,17 @@ def test_static_start_with_large_rates_is_an_error() -> None:
     gyro[imu.t_s < T0 + 2.5, 0] += 1.5
     with pytest.raises(InputError, match=r"static start.*mean angular rate 1\.4999"):
         check_inputs(_with(imu, gyro_body_rad_s=gyro), _gnss(), CONFIG)
+
+
+def test_gate_rejections_warn_then_refuse() -> None:
+    """A matched filter rejects ~0.01 %: a few rejections pass, 5 % warns, 30 % refuses."""
+    config = dataclasses.replace(CONFIG, gate_probability=0.9999)
+    assert check_gnss_rejections(np.array([10.0, 20.0]), 998, config) == []
+    assert check_gnss_rejections(np.array([]), 0, config) == []
+    five = np.arange(50) + 100.0
+    (warning,) = check_gnss_rejections(five, 950, config, gnss_source="g.csv")
+    assert warning.startswith("g.csv: the chi-square gate rejected 50 of 1000 GNSS epochs (5.0%")
+    assert "t_s 100.000, 101.000, 102.000, 103.000, 104.000 and 45 more" in warning
+    assert "deg/s" in warning
+    with pytest.raises(InputError, match=r"rejected 300 of 1000 .*no solution written"):
+        check_gnss_rejections(np.arange(300.0), 700, config)
