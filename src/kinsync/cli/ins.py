@@ -27,7 +27,7 @@ from kinsync.progress import part, report
 # The INS (numba, scipy.stats) and its readers load inside the commands, only when they run.
 if TYPE_CHECKING:
     from kinsync.ins.config import InsConfig
-    from kinsync.ins.measurements import ImuData
+    from kinsync.ins.measurements import GnssData, ImuData
     from kinsync.ins.solution import InitialState, NavSolution
 
 __all__ = ["app", "compare", "run"]
@@ -169,7 +169,11 @@ def run(
 ) -> None:
     """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 or 27 states)."""
     from kinsync.ins.alignment import align_static_gnss_heading  # noqa: PLC0415
-    from kinsync.ins.checks import check_inputs, gnss_within_imu_span  # noqa: PLC0415
+    from kinsync.ins.checks import (  # noqa: PLC0415
+        check_gnss_rejections,
+        check_inputs,
+        gnss_within_imu_span,
+    )
     from kinsync.ins.filter import run_ins  # noqa: PLC0415
     from kinsync.io.gnss_csv import read_gnss_csv  # noqa: PLC0415
     from kinsync.io.imu_csv import read_imu_csv  # noqa: PLC0415
@@ -196,10 +200,16 @@ def run(
             gnss,
             static_s=static_s,
             antenna_lever_arm_body_m=config.antenna_lever_arm_body_m,
+            gyro_bias_rad_s=config.init_gyro_bias_rad_s,
+            acc_bias_m_s2=config.init_acc_bias_m_s2,
         )
         if init_from is None
         else _initial_state_from_file(init_from, imu)
     )
+    skipped = _before_start(imu, gnss, init.t_s, init_from)
+    if skipped:
+        typer.echo(f"kinsync: warning: {skipped}", err=True)
+        warnings.append(skipped)
     with progress_display("ins run") as progress:  # after the input checks: errors stay one line
         start = time.perf_counter()
         result = run_ins(
@@ -212,6 +222,12 @@ def run(
             progress=part(progress, 0.0, 0.9),
         )
         seconds = time.perf_counter() - start
+        late = check_gnss_rejections(
+            result.gnss_rejected_t_s,
+            result.forward.n_gnss_used,
+            config,
+            gnss_source=str(gnss_path),
+        )
         solution = result.smoothed if smooth else result.forward
         if solution is None:
             msg = "the smoother returned no solution; run without --smooth"
@@ -219,12 +235,27 @@ def run(
         report(progress, 0.9, "writing")
         _write_solution(solution, out)
         report(progress, 1.0, "writing")
+    for warning in late:
+        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
-    summary["warnings"] = warnings
+    summary["warnings"] = warnings + late
     if as_json:
         print_json(summary)
         return
     _print_run_table(summary, solution, title=f"INS/GNSS {imu_path} + {gnss_path} -> {out}")
+
+
+def _before_start(imu: ImuData, gnss: GnssData, t0_s: float, init_from: Path | None) -> str:
+    """Warning for the IMU and GNSS epochs before the initial state (not filtered)."""
+    n_imu = int(np.count_nonzero(imu.t_s < t0_s - 1e-3))
+    if n_imu == 0:
+        return ""
+    n_gnss = int(np.count_nonzero(gnss.t_s < t0_s - 1e-3))
+    return (
+        f"{n_imu} IMU epochs (t_s {imu.t_s[0]:.3f} .. {imu.t_s[n_imu - 1]:.3f}) and {n_gnss} "
+        f"GNSS epochs before the initial state at t_s {t0_s:.3f} are not filtered: the "
+        f"reference given with --init-from {init_from} starts there"
+    )
 
 
 def _run_document(

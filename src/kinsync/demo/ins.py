@@ -59,7 +59,7 @@ class InsDemoSetup:
         Standstill at the start (s).
     align_s : float
         Part of the standstill used for levelling (s), ``< static_s``; the filter starts
-        at its end.
+        at the first IMU epoch (the vehicle stands still throughout).
     speed_m_s : float
         Cruise speed on the oval (m/s).
     outage_s : (float, float)
@@ -479,8 +479,9 @@ def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[s
             "with position and velocity updates (lever arm applied) and the RTS smoother, "
             f"from t = {run.init.t_s:g} s. Alignment error roll/pitch/yaw: "
             f"{_triple(o.align_err_deg.tolist())} deg; the accelerometer biases enter the "
-            "levelling as tilt (10 mg is 0.57 deg) until the turns let the filter "
-            f"separate them. {fwd_sol.n_gnss_used} GNSS epochs used, "
+            "levelling as tilt (10 mg is 0.57 deg), and the filter starts knowing that "
+            "tilt and accelerometer bias err together, until the turns let it separate "
+            f"them. {fwd_sol.n_gnss_used} GNSS epochs used, "
             f"{fwd_sol.n_gnss_rejected} rejected by the chi-square gate."
         ),
         (

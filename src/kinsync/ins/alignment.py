@@ -27,9 +27,11 @@ from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 
 __all__ = [
+    "GYRO_MEAN_STD_FLOOR_RAD_S",
     "HEADING_MIN_DISTANCE_M",
     "HEADING_MIN_SPEED_M_S",
     "HEADING_WINDOW_S",
+    "LEVELLING_STD_FLOOR_RAD",
     "STATIC_ACC_STD_M_S2",
     "STATIC_GNSS_SPEED_M_S",
     "STATIC_GRAVITY_TOL_M_S2",
@@ -51,6 +53,11 @@ HEADING_MIN_DISTANCE_M = 10.0
 """Without GNSS velocities: displacement from the static position that gives the heading."""
 HEADING_WINDOW_S = 5.0
 """Course-over-ground epochs used for the heading: this long after the first one (s)."""
+LEVELLING_STD_FLOOR_RAD = 1e-5
+"""Smallest levelling noise σ reported (rad, 2 arcsec): keeps the tilt covariance
+positive definite when the static samples are quantised to one value."""
+GYRO_MEAN_STD_FLOOR_RAD_S = 1e-8
+"""Smallest σ reported for the static mean gyro rate (rad/s, 0.002 deg/h), likewise."""
 
 
 def _static_window(imu: ImuData, static_s: float) -> int:
@@ -183,6 +190,8 @@ def align_static_gnss_heading(
     *,
     static_s: float = 5.0,
     antenna_lever_arm_body_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    gyro_bias_rad_s: tuple[float, float, float] | None = None,
+    acc_bias_m_s2: tuple[float, float, float] | None = None,
 ) -> InitialState:
     """Initial state by static levelling and GNSS course-over-ground heading.
 
@@ -190,11 +199,14 @@ def align_static_gnss_heading(
        gyro standard deviations, specific-force magnitude against normal gravity, and
        GNSS speed when available, within the module's ``STATIC_*`` limits).
     2. Levelling: ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, sqrt(f_y² + f_z²))``
-       from the mean specific force (accelerometer biases enter as tilt:
-       1 mg ≈ 0.06°).
+       from the mean specific force, less the known accelerometer bias when one is
+       given (the remaining bias enters as tilt: 1 mg ≈ 0.06°; the returned state says
+       so with ``levelling_std_rad``, and the filter correlates tilt and accelerometer
+       errors accordingly).
     3. The mean gyro output is the initial gyro drift estimate (the Earth rate,
-       projected with the final attitude, is removed). MEMS gyros are far too noisy for
-       gyrocompassing, so the heading comes from GNSS:
+       projected with the final attitude, is removed), unless a known (laboratory)
+       gyro bias is given. MEMS gyros are far too noisy for gyrocompassing, so the
+       heading comes from GNSS:
     4. Heading: the course over ground (antenna velocity minus the lever-arm term
        ``C (ω × l)``) of the GNSS epochs with a horizontal speed of at least
        `HEADING_MIN_SPEED_M_S` during `HEADING_WINDOW_S` after the first one, each
@@ -206,6 +218,9 @@ def align_static_gnss_heading(
     5. Position: mean GNSS fix of the static period, moved from the antenna to the
        IMU with the lever arm; velocity zero.
 
+    The vehicle stands still throughout the static period, so the state holds from its
+    first IMU epoch: the filter starts there and its solution covers every IMU epoch.
+
     Parameters
     ----------
     imu : ImuData
@@ -216,11 +231,15 @@ def align_static_gnss_heading(
         Length of the static period at the start of ``imu`` (s).
     antenna_lever_arm_body_m : (float, float, float)
         IMU -> antenna lever arm, body frame (m).
+    gyro_bias_rad_s, acc_bias_m_s2 : (float, float, float), optional
+        Known turn-on biases (body frame, e.g. a laboratory calibration), removed
+        before levelling and heading; returned in the state as its bias estimates.
 
     Returns
     -------
     InitialState
-        At the last IMU epoch of the static period, with the gyro drift estimate.
+        At the first IMU epoch, with the gyro drift estimate (or the known biases) and
+        ``levelling_std_rad`` set.
 
     Raises
     ------
@@ -243,26 +262,41 @@ def align_static_gnss_heading(
     lon0 = math.radians(float(gnss.lon_deg[in_static].mean()))
     h0 = float(gnss.h_m[in_static].mean())
     _check_static(imu, gnss, k_end, static_s, lat0, h0)
-    f = imu.acc_body_m_s2[: k_end + 1].mean(axis=0)
+    acc = imu.acc_body_m_s2[: k_end + 1]
+    acc_bias = np.zeros(3) if acc_bias_m_s2 is None else np.asarray(acc_bias_m_s2, dtype=float)
+    f = acc.mean(axis=0) - acc_bias
     roll = math.atan2(-f[1], -f[2])
     pitch = math.atan2(f[0], math.hypot(f[1], f[2]))
-    gyro_mean = imu.gyro_body_rad_s[: k_end + 1].mean(axis=0)
+    g = float(normal_gravity_m_s2(lat0, h0))
+    noise = float(acc[:, :2].std(axis=0).max()) / math.sqrt(acc.shape[0]) / g
+    gyro = imu.gyro_body_rad_s[: k_end + 1]
+    gyro_mean = gyro.mean(axis=0)
+    gyro_noise = np.maximum(gyro.std(axis=0) / math.sqrt(gyro.shape[0]), GYRO_MEAN_STD_FLOOR_RAD_S)
+    known_gyro = None if gyro_bias_rad_s is None else np.asarray(gyro_bias_rad_s, dtype=float)
     arm = np.asarray(antenna_lever_arm_body_m, dtype=np.float64)
-    yaw = _heading(imu, gnss, k_end, lat0, lon0, roll, pitch, gyro_mean, arm)
+    drift = gyro_mean if known_gyro is None else known_gyro
+    yaw = _heading(imu, gnss, k_end, lat0, lon0, roll, pitch, drift, arm)
     yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
     R = euler_rpy_to_matrix(roll, pitch, yaw)
     w_ie = np.array([OMEGA_IE_RAD_S * math.cos(lat0), 0.0, -OMEGA_IE_RAD_S * math.sin(lat0)])
-    gyro_bias = gyro_mean - R.T @ w_ie
+    gyro_bias = gyro_mean - R.T @ w_ie if known_gyro is None else known_gyro
     arm_ned = R @ arm
     r_m, r_n = radii_m(lat0)
     lat = lat0 - arm_ned[0] / (r_m + h0)
     lon = lon0 - arm_ned[1] / ((r_n + h0) * math.cos(lat0))
     return InitialState(
-        t_s=t_end,
+        t_s=t0,
         lat_deg=math.degrees(lat),
         lon_deg=math.degrees(lon),
         h_m=float(h0 + arm_ned[2]),
         vel_ned_m_s=(0.0, 0.0, 0.0),
         rpy_rad=(roll, pitch, yaw),
         gyro_bias_rad_s=(float(gyro_bias[0]), float(gyro_bias[1]), float(gyro_bias[2])),
+        acc_bias_m_s2=(float(acc_bias[0]), float(acc_bias[1]), float(acc_bias[2])),
+        levelling_std_rad=max(noise, LEVELLING_STD_FLOOR_RAD),
+        gyro_bias_std_rad_s=(
+            None
+            if known_gyro is not None
+            else (float(gyro_noise[0]), float(gyro_noise[1]), float(gyro_noise[2]))
+        ),
     )

@@ -37,6 +37,19 @@ class InitialState:
         estimates the remainder (its initial σ: ``InsConfig.gyro_bias_sigma_rad_s``,
         ``acc_bias_sigma_m_s2``). Zero by default. A configuration may give them
         instead, with their σ (``InsConfig.init_gyro_bias_rad_s``, ...).
+    levelling_std_rad : float or None
+        Set when roll and pitch were levelled from the mean specific force of a static
+        period (`kinsync.ins.alignment.align_static_gnss_heading`): the σ of that
+        mean's noise over g (rad). The tilt error is then the horizontal accelerometer
+        error over g plus this noise, and the filter's initial roll and pitch σ say so
+        (`kinsync.ins.filter.initial_covariance`) instead of taking the configured σ.
+        None (default): the attitude comes from elsewhere (a reference), with the
+        configured σ.
+    gyro_bias_std_rad_s : (float, float, float) or None
+        Set when ``gyro_bias_rad_s`` was measured as the mean rate of a static period:
+        the σ of that mean's noise (rad/s, body frame); the filter's initial gyro bias
+        σ then follows from it (`kinsync.ins.filter.initial_covariance`) instead of the
+        turn-on σ. None (default): the turn-on σ, or the calibration's.
     """
 
     t_s: float
@@ -47,6 +60,8 @@ class InitialState:
     rpy_rad: tuple[float, float, float]
     gyro_bias_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
     acc_bias_m_s2: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    levelling_std_rad: float | None = None
+    gyro_bias_std_rad_s: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
