@@ -77,3 +77,48 @@ def test_boresight_calibration_on_the_twelve_passes(
     calibrated = read_mount(new)
     assert calibrated.boresight_rpy_deg[0] == pytest.approx(params["boresight_roll_deg"]["value"])
     assert calibrated.lever_arm_body_m == ACQUISITION_MOUNT.lever_arm_body_m
+
+
+@pytest.mark.parametrize("passes", [(1, 2, 3, 4), (2, 3, 4, 5)])
+def test_four_passes_with_the_latency_do_not_run_away(
+    passes: tuple[int, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Each CIDCO pass carries its trajectory only 20 ms beyond its returns. On four
+    # passes of one sphere the pitch and the latency are nearly one direction, and one
+    # undamped step once took the latency to -945 ms (-699 ms on passes 2-5): every
+    # return left its trajectory, the held weights' cost of those returns was zero, so
+    # the step was taken, the "solution" used no return (n_points 0, residual NaN), and
+    # every jackknife re-solve stayed there: sigma 0, status estimated, exit 0, a
+    # mount with latency -0.945 s written. The latency must stay within what the
+    # trajectories cover, come back not determined, and the boresight must agree with
+    # the twelve passes' (pitch -7.68 +- 0.23 deg).
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    new = tmp_path / "c4.toml"
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in passes]
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--out", str(new), "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    params = doc["parameters"]
+    latency = params["latency_ms"]
+    assert latency["status"] == "unobservable"
+    assert latency["value"] == 0.0
+    assert latency["std"] is None
+    assert any("latency_ms" in u and "trajector" in u for u in doc["unobservable"])
+    for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):
+        std = params[name]["std"]
+        assert std is not None
+        assert std > 0.0, name
+    pitch = params["boresight_pitch_deg"]
+    assert abs(pitch["value"] - -7.68) < 3.0 * max(pitch["std"], 0.23)
+    assert abs(params["boresight_roll_deg"]["value"] - 180.0) < 1.0
+    (sphere,) = doc["features"]
+    assert sphere["n_points"] > 100 * len(files)
+    assert sphere["rms_after_m"] is not None
+    assert sphere["rms_after_m"] < 0.1
+    assert doc["residual_rms_after_m"] < 0.2 * doc["residual_rms_before_m"]
+    assert read_mount(new).latency_s == 0.0

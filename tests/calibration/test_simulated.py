@@ -154,7 +154,7 @@ def test_every_solution_is_the_minimum_of_its_final_cost(
     calibrate_mount(vehicle.lines, vehicle.mount_nominal, CalibrationOptions(estimate=ALL))
     assert len(finished) == 9  # the solution and 8 jackknife solutions
     short = []
-    for problem, feats, vals, estimated, frame, sigmas, opt, _, frozen in finished:
+    for problem, feats, vals, estimated, frame, sigmas, opt, _, frozen, *_ in finished:
         geo = adj.georeference_observed(problem.models, problem.by_line, vals, estimated, frame)
         asm = adj._assemble(feats, problem.gather(geo), sigmas, opt.robust, len(estimated), frozen)
         step = adj._solve(asm.S, asm.rhs, 0.0)

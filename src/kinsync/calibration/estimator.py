@@ -37,6 +37,7 @@ from kinsync.calibration.features import Feature
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
+    HeldAfterSolution,
     Observability,
     analyse,
     correlation,
@@ -46,6 +47,7 @@ from kinsync.calibration.observability import (
 from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatter_m
 from kinsync.calibration.parameters import (
     DEFAULT_ESTIMATE,
+    LATENCY,
     PARAMETER_NAMES,
     REPORT_SCALE,
     estimated_indices,
@@ -56,7 +58,7 @@ from kinsync.calibration.planes import PatchOptions, find_plane_patches
 from kinsync.calibration.result import CalibrationResult, FeatureSummary, ParameterEstimate
 from kinsync.calibration.spheres import SphereOptions, find_sphere_targets
 from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS, Jackknife, jackknife
-from kinsync.errors import InputError
+from kinsync.errors import ConvergenceError, InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
 
@@ -291,6 +293,11 @@ def calibrate_mount(
         solution = adjust(
             models, observations, features, prior, obs.estimated, frame, opt.adjustment
         )
+        if solution.at_bound:
+            obs = obs.without(_latency_at_bound(solution))
+            if not obs.estimated:
+                return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+            continue
         jk = _jackknife(models, observations, solution, frame, lines, groups, opt, say)
         std, method = _std(solution, jk)
         moved = [abs(float(solution.values[i] - prior[i])) > 3.0 * std[j]
@@ -327,6 +334,19 @@ def calibrate_mount(
     )
 
 
+def _latency_at_bound(solution: Adjustment) -> HeldAfterSolution:
+    """The latency held: the solution took it to the end of the lines' trajectories."""
+    assert solution.latency_bounds_s is not None
+    lo, hi = (b * 1e3 for b in solution.latency_bounds_s)
+    value = float(solution.values[LATENCY]) * 1e3
+    reason = (
+        f"the adjustment ran it to {value:+.1f} ms, the end of what the lines' trajectories "
+        f"cover ({lo:+.1f} .. {hi:+.1f} ms; the trajectory is never extrapolated): these "
+        "data do not determine it"
+    )
+    return HeldAfterSolution(LATENCY, LATENCY, math.nan, reason=reason)
+
+
 def _jackknife(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
@@ -359,10 +379,21 @@ def _std(solution: Adjustment, jk: Jackknife | None) -> tuple[FloatArray, str]:
             f"errors, range biases); with {jk.dof} degrees of freedom a 95 % interval is "
             f"+-{jk.t95:.2f} sigma (Student t)"
         )
+    if not np.all(np.isfinite(formal) & (formal > 0.0)):
+        msg = (
+            "the calibration's solution has no standard deviation (a formal sigma of zero "
+            "or none): it fits nothing; estimate fewer parameters or give more lines"
+        )
+        raise ConvergenceError(msg)
     if jk is None:
         why = f"fewer than {MIN_JACKKNIFE_GROUPS} lines for a jackknife, or it was not asked for"
-    else:
+    elif jk.failed:
         why = f"without {', '.join(jk.failed)} the parameters are not determined"
+    else:
+        why = (
+            "the jackknife's spread is zero or undefined: the deleted-line solutions did not "
+            "move from the full one"
+        )
     return formal, (
         f"formal ({why}): assumes independent errors from return to return and is "
         "optimistic on real data"

@@ -104,8 +104,18 @@ class Jackknife:
 
     @property
     def valid(self) -> bool:
-        """True when every deleted-group solution succeeded and there are enough groups."""
-        return not self.failed and len(self.groups) >= MIN_JACKKNIFE_GROUPS
+        """True when the jackknife gives a sigma for every parameter.
+
+        Every deleted-group solution succeeded, there are enough groups, and every
+        parameter's spread is finite and above zero. A spread of exactly zero is no
+        sigma: every deleted-group solution returned the full one's value, i.e. none of
+        them moved (a solution stuck where it started).
+        """
+        return (
+            not self.failed
+            and len(self.groups) >= MIN_JACKKNIFE_GROUPS
+            and bool(np.all(np.isfinite(self.std)) and np.all(self.std > 0.0))
+        )
 
     @property
     def dof(self) -> int:
@@ -186,6 +196,8 @@ def jackknife(
                 [solution.features[i].sigma_m for i in seen],
             )
         except KinsyncError:
+            return None
+        if sol.at_bound:  # no minimum: the latency ran to the end of the trajectories
             return None
         out: FloatArray = sol.values[list(solution.estimated)]
         return out
