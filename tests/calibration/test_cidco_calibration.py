@@ -113,6 +113,8 @@ def test_four_passes_with_the_latency_do_not_run_away(
         std = params[name]["std"]
         assert std is not None
         assert std > 0.0, name
+        # A jackknife over 4 passes has 3 degrees of freedom: no honest sigma.
+        assert params[name]["status"] == "weak", name
     pitch = params["boresight_pitch_deg"]
     assert abs(pitch["value"] - -7.68) < 3.0 * max(pitch["std"], 0.23)
     assert abs(params["boresight_roll_deg"]["value"] - 180.0) < 1.0
@@ -122,3 +124,28 @@ def test_four_passes_with_the_latency_do_not_run_away(
     assert sphere["rms_after_m"] < 0.1
     assert doc["residual_rms_after_m"] < 0.2 * doc["residual_rms_before_m"]
     assert read_mount(new).latency_s == 0.0
+
+
+def test_three_passes_give_no_estimate_better_than_weak(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Three passes: no jackknife, the formal sigma. It once granted 'estimated' to a
+    # pitch of -8.409 +- 0.015 deg, where the twelve passes give -7.68 +- 0.23 (50
+    # formal sigmas away): an estimate resting on the formal sigma is at most weak,
+    # and the advice says how many passes would give an honest sigma.
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in (1, 2, 3)]
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["sigma_method"].startswith("formal")
+    statuses = {name: p["status"] for name, p in doc["parameters"].items()}
+    assert "estimated" not in statuses.values()
+    for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):
+        assert statuses[name] == "weak", name
+    assert any("at least 5" in a and "3 given" in a for a in doc["advice"])

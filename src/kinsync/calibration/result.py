@@ -15,9 +15,11 @@ from kinsync.mount import Mount
 __all__ = ["CalibrationResult", "FeatureSummary", "ParameterEstimate", "Status"]
 
 Status = Literal["estimated", "weak", "unobservable", "fixed"]
-"""``estimated``: determined; ``weak``: determined, sigma above the threshold;
-``unobservable``: the data cannot determine it (held at its prior value); ``fixed``: not
-asked for (held)."""
+"""``estimated``: determined, with an honest sigma below the threshold; ``weak``:
+determined, but its sigma is above the threshold or not known to be below it (the
+formal sigma, or a jackknife over too few lines: `kinsync.calibration.estimator`);
+``unobservable``: the data cannot determine it (held at its prior value); ``fixed``:
+not asked for (held)."""
 
 
 def _num(value: float) -> float | None:

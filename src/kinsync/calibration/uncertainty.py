@@ -72,10 +72,16 @@ from kinsync.calibration.adjustment import (
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import KinsyncError
 
-__all__ = ["MIN_JACKKNIFE_GROUPS", "Jackknife", "jackknife"]
+__all__ = ["MIN_HONEST_DOF", "MIN_JACKKNIFE_GROUPS", "Jackknife", "jackknife"]
 
 MIN_JACKKNIFE_GROUPS = 4
 """Fewest lines (or passes) for a jackknife standard deviation."""
+MIN_HONEST_DOF = 4
+"""Fewest degrees of freedom of a jackknife whose sigma an estimate may rest on: with 3
+(4 lines) the sigma is itself uncertain by a factor of about 2 either way (the 95 %
+interval is +-3.18 sigma), and the parameters take up some of the lines' contrasts, so
+fewer lines leave an estimate ``weak`` whatever its sigma
+(`kinsync.calibration.estimator`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,6 +127,11 @@ class Jackknife:
     def dof(self) -> int:
         """Degrees of freedom of the variance: groups minus one (at most)."""
         return len(self.groups) - 1
+
+    @property
+    def honest(self) -> bool:
+        """True when `valid` with at least `MIN_HONEST_DOF` degrees of freedom."""
+        return self.valid and self.dof >= MIN_HONEST_DOF
 
     @property
     def t95(self) -> float:
