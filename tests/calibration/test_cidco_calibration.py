@@ -149,3 +149,35 @@ def test_three_passes_give_no_estimate_better_than_weak(
     for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):
         assert statuses[name] == "weak", name
     assert any("at least 5" in a and "3 given" in a for a in doc["advice"])
+
+
+def test_a_pass_without_the_sphere_is_rejected_and_left_out_of_the_jackknife(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A pass with 3 returns and no sphere used to be counted as a sixth line by the
+    # jackknife (5 degrees of freedom, +-2.57 sigma) while the sphere was seen by 5.
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    folder = tmp_path / "e"
+    folder.mkdir()
+    empty = folder / "nosphere.txt"
+    source = DATA_DIR / "sphere1" / "passage_3.txt"
+    empty.write_text("".join(source.read_text().splitlines(keepends=True)[:3]))
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in (1, 2, 4, 5, 6)]
+    files.insert(2, str(empty))
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    (rejected,) = doc["rejected_lines"]
+    assert rejected["line"] == "e/nosphere"
+    assert "sphere" in rejected["reason"]
+    assert "jackknife" in rejected["reason"]
+    assert "e/nosphere" not in doc["lines"]
+    assert len(doc["lines"]) == 5
+    assert doc["features"][0]["n_passes"] == 5
+    assert doc["sigma_method"].startswith("jackknife over 5 lines")
+    assert "4 degrees of freedom" in doc["sigma_method"]

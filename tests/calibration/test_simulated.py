@@ -86,6 +86,24 @@ def test_four_lines_give_no_estimate_better_than_weak(vehicle: PatchTestSimulati
     assert any("at least 5" in a and "4 given" in a for a in res.advice)
 
 
+def test_a_line_on_no_feature_is_rejected_and_left_out_of_the_jackknife(
+    vehicle: PatchTestSimulation,
+) -> None:
+    # A line whose returns lie on no patch another line sees (here: 3 returns) is
+    # neither a line of the adjustment nor a unit of the jackknife: it is reported as
+    # rejected, with the reason, and the degrees of freedom do not count it.
+    short = vehicle.lines[2]
+    stub = ScanLine("stub", short.t_s[:3], short.xyz_scanner_m[:3], short.trajectory)
+    lines = [*vehicle.lines[:2], stub, *vehicle.lines[3:5]]
+    res = calibrate_mount(lines, vehicle.mount_nominal, CalibrationOptions(estimate=ALL))
+    assert [name for name, _ in res.rejected_lines] == ["stub"]
+    assert "planar patch" in res.rejected_lines[0][1]
+    assert "stub" not in res.lines
+    assert len(res.lines) == 4
+    assert res.sigma_method.startswith("jackknife over 4 lines")
+    assert res.as_document()["rejected_lines"][0]["line"] == "stub"
+
+
 def test_vessel_patch_test() -> None:
     sim = simulate_patch_test(PatchTestConfig(scenario="vessel", density=0.1, seed=12))
     res = calibrate_mount(sim.lines, sim.mount_nominal, CalibrationOptions(estimate=ALL))

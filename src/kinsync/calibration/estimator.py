@@ -292,15 +292,18 @@ def calibrate_mount(
     S, motion, _ = reduced_normal_matrix(
         models, observations, features, prior, requested, frame, robust=False
     )
-    units = len(groups) if groups is not None else len(lines)
-    honest = opt.jackknife and units >= MIN_JACKKNIFE_GROUPS
+    rejected = _rejected_lines(lines, observations, opt.features)
+    used = sorted({o.line for o in observations})
+    kept = [lines[i] for i in used]
+    units = _units(lines, used, groups)
+    honest = opt.jackknife and len(units) >= MIN_JACKKNIFE_GROUPS
     obs = analyse(S, motion, requested, honest_sigma=honest)
     before = _rms_before(models, observations, features, prior, frame)
     counts = [
         sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
     ]
     if not obs.estimated:
-        return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+        return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
     while True:
         say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
         solution = adjust(
@@ -309,9 +312,11 @@ def calibrate_mount(
         if solution.at_bound:
             obs = obs.without(_latency_at_bound(solution))
             if not obs.estimated:
-                return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+                return _unsolved(
+                    kept, mount, prior, requested, obs, features, before, counts, rejected
+                )
             continue
-        jk = _jackknife(models, observations, solution, frame, lines, groups, opt, say)
+        jk = _jackknife(models, observations, solution, frame, units, opt, say)
         std, method = _std(solution, jk)
         moved = [abs(float(solution.values[i] - prior[i])) > 3.0 * std[j]
                  for j, i in enumerate(obs.estimated)]  # fmt: skip
@@ -320,10 +325,10 @@ def calibrate_mount(
             break
         obs = obs.without(held)
         if not obs.estimated:
-            return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+            return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
     honest = jk is not None and jk.honest
     params = _parameters(prior, requested, obs, solution, std, honest)
-    advice = obs.advice() if honest else (*obs.advice(), _lines_advice(units, jk))
+    advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
     fitted = [f.feature for f in solution.features]
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
@@ -342,10 +347,11 @@ def calibrate_mount(
         ),
         unobservable_reasons=obs.explanation(),
         advice=advice,
-        lines=tuple(line.name for line in lines),
+        lines=tuple(line.name for line in kept),
         iterations=solution.iterations,
         overlaps_before=overlaps_before,
         overlaps_after=overlaps_after,
+        rejected_lines=rejected,
     )
 
 
@@ -374,19 +380,45 @@ def _latency_at_bound(solution: Adjustment) -> HeldAfterSolution:
     return HeldAfterSolution(LATENCY, LATENCY, math.nan, reason=reason)
 
 
+def _rejected_lines(
+    lines: Sequence[ScanLine], observations: Sequence[Observation], kind: FeatureKind
+) -> tuple[tuple[str, str], ...]:
+    """The lines none of whose returns lie on a feature, with the reason."""
+    seen = {o.line for o in observations}
+    what = "sphere" if kind == "spheres" else "planar patch"
+    return tuple(
+        (
+            line.name,
+            (
+                f"none of its {len(line)} returns lie on a {what} another line also sees: "
+                "left out of the adjustment and of the jackknife"
+            ),
+        )
+        for i, line in enumerate(lines)
+        if i not in seen
+    )
+
+
+def _units(
+    lines: Sequence[ScanLine], used: Sequence[int], groups: Sequence[tuple[str, set[int]]] | None
+) -> list[tuple[str, set[int]]]:
+    """The jackknife's units: one per line used, or the groups with a line used."""
+    if groups is None:
+        return [(lines[i].name, {i}) for i in used]
+    return [(name, members) for name, members in groups if members & set(used)]
+
+
 def _jackknife(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
     solution: Adjustment,
     frame: LocalFrame,
-    lines: Sequence[ScanLine],
-    groups: Sequence[tuple[str, set[int]]] | None,
+    units: Sequence[tuple[str, set[int]]],
     opt: CalibrationOptions,
     progress: Callable[[str], None],
 ) -> Jackknife | None:
     if not opt.jackknife:
         return None
-    units = list(groups) if groups is not None else [(ln.name, {i}) for i, ln in enumerate(lines)]
     if len(units) < MIN_JACKKNIFE_GROUPS:
         return None
     return jackknife(models, observations, solution, frame, units, opt.adjustment, progress)
@@ -436,6 +468,7 @@ def _unsolved(
     features: Sequence[Feature],
     before: list[float],
     counts: list[int],
+    rejected: tuple[tuple[str, str], ...] = (),
 ) -> CalibrationResult:
     """Nothing the data can determine: the prior mount, every parameter's status, advice."""
     summaries = tuple(
@@ -457,4 +490,5 @@ def _unsolved(
         advice=obs.advice(),
         lines=tuple(line.name for line in lines),
         iterations=0,
+        rejected_lines=rejected,
     )
