@@ -179,3 +179,22 @@ def test_estimate_groups() -> None:
         estimated_indices("bore")
     with pytest.raises(InputError, match="at least one"):
         estimated_indices(" , ")
+
+
+def test_a_return_pushed_out_of_its_trajectory_costs_more_than_any_it_fits() -> None:
+    # With the robust weights held, a return whose navigation tag left its trajectory
+    # has no residual; it used to cost nothing, so a step that pushed every return out
+    # (the latency to -945 ms on four CIDCO passes) lowered the cost to zero and was
+    # taken as the solution. It costs what a return at the edge of the band costs.
+    from kinsync.calibration import adjustment as adj  # noqa: PLC0415
+
+    sigma = 0.01
+    held = np.ones(2)
+    anchor = np.zeros((2, 3))
+    inside = adj._AtState(np.array([True, True]), anchor, np.array([0.0, 4.0 * sigma]), held)
+    left = adj._AtState(np.array([True, False]), anchor, np.array([0.0, 0.0]), held)
+    for robust in (True, False):
+        frozen = held if robust else None
+        assert adj._feature_cost(left, sigma, robust, frozen) > adj._feature_cost(
+            inside, sigma, robust, frozen
+        )

@@ -77,3 +77,107 @@ def test_boresight_calibration_on_the_twelve_passes(
     calibrated = read_mount(new)
     assert calibrated.boresight_rpy_deg[0] == pytest.approx(params["boresight_roll_deg"]["value"])
     assert calibrated.lever_arm_body_m == ACQUISITION_MOUNT.lever_arm_body_m
+
+
+@pytest.mark.parametrize("passes", [(1, 2, 3, 4), (2, 3, 4, 5)])
+def test_four_passes_with_the_latency_do_not_run_away(
+    passes: tuple[int, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Each CIDCO pass carries its trajectory only 20 ms beyond its returns. On four
+    # passes of one sphere the pitch and the latency are nearly one direction, and one
+    # undamped step once took the latency to -945 ms (-699 ms on passes 2-5): every
+    # return left its trajectory, the held weights' cost of those returns was zero, so
+    # the step was taken, the "solution" used no return (n_points 0, residual NaN), and
+    # every jackknife re-solve stayed there: sigma 0, status estimated, exit 0, a
+    # mount with latency -0.945 s written. The latency must stay within what the
+    # trajectories cover, come back not determined, and the boresight must agree with
+    # the twelve passes' (pitch -7.68 +- 0.23 deg).
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    new = tmp_path / "c4.toml"
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in passes]
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--out", str(new), "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    params = doc["parameters"]
+    latency = params["latency_ms"]
+    assert latency["status"] == "unobservable"
+    assert latency["value"] == 0.0
+    assert latency["std"] is None
+    assert any("latency_ms" in u and "trajector" in u for u in doc["unobservable"])
+    for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):
+        std = params[name]["std"]
+        assert std is not None
+        assert std > 0.0, name
+        # A jackknife over 4 passes has 3 degrees of freedom: no honest sigma.
+        assert params[name]["status"] == "weak", name
+    pitch = params["boresight_pitch_deg"]
+    assert abs(pitch["value"] - -7.68) < 3.0 * max(pitch["std"], 0.23)
+    assert abs(params["boresight_roll_deg"]["value"] - 180.0) < 1.0
+    (sphere,) = doc["features"]
+    assert sphere["n_points"] > 100 * len(files)
+    assert sphere["rms_after_m"] is not None
+    assert sphere["rms_after_m"] < 0.1
+    assert doc["residual_rms_after_m"] < 0.2 * doc["residual_rms_before_m"]
+    assert read_mount(new).latency_s == 0.0
+
+
+def test_three_passes_give_no_estimate_better_than_weak(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Three passes: no jackknife, the formal sigma. It once granted 'estimated' to a
+    # pitch of -8.409 +- 0.015 deg, where the twelve passes give -7.68 +- 0.23 (50
+    # formal sigmas away): an estimate resting on the formal sigma is at most weak,
+    # and the advice says how many passes would give an honest sigma.
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in (1, 2, 3)]
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["sigma_method"].startswith("formal")
+    statuses = {name: p["status"] for name, p in doc["parameters"].items()}
+    assert "estimated" not in statuses.values()
+    for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):
+        assert statuses[name] == "weak", name
+    assert any("at least 5" in a and "3 given" in a for a in doc["advice"])
+
+
+def test_a_pass_without_the_sphere_is_rejected_and_left_out_of_the_jackknife(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A pass with 3 returns and no sphere used to be counted as a sixth line by the
+    # jackknife (5 degrees of freedom, +-2.57 sigma) while the sphere was seen by 5.
+    prior = tmp_path / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    folder = tmp_path / "e"
+    folder.mkdir()
+    empty = folder / "nosphere.txt"
+    source = DATA_DIR / "sphere1" / "passage_3.txt"
+    empty.write_text("".join(source.read_text().splitlines(keepends=True)[:3]))
+    files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in (1, 2, 4, 5, 6)]
+    files.insert(2, str(empty))
+    code, out, err = _run(
+        ["calibrate", "mount", "--points", *files, "--mount", str(prior),
+         "--features", "spheres", "--sphere-radius-m", "0.2", "--json"],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads(out)
+    (rejected,) = doc["rejected_lines"]
+    assert rejected["line"] == "e/nosphere"
+    assert "sphere" in rejected["reason"]
+    assert "jackknife" in rejected["reason"]
+    assert "e/nosphere" not in doc["lines"]
+    assert len(doc["lines"]) == 5
+    assert doc["features"][0]["n_passes"] == 5
+    assert doc["sigma_method"].startswith("jackknife over 5 lines")
+    assert "4 degrees of freedom" in doc["sigma_method"]

@@ -11,7 +11,7 @@ from scipy.stats import t as student_t
 
 from kinsync.calibration.adjustment import adjust
 from kinsync.calibration.parameters import mount_values
-from kinsync.calibration.uncertainty import jackknife
+from kinsync.calibration.uncertainty import Jackknife, jackknife
 
 from .conftest import NOMINAL, TRUE, Synthetic
 from .test_adjustment import _problem
@@ -81,3 +81,22 @@ def test_monte_carlo_spread_over_sigma_is_near_one(synthetic: Callable[..., Synt
     # the latency, whose information comes from line-to-line differences.
     assert np.max(formal) > 3.0, formal.round(2)
     assert np.count_nonzero(formal > 1.4) >= 3, formal.round(2)
+
+
+def test_a_jackknife_that_did_not_move_gives_no_sigma() -> None:
+    # Deleted-line solutions that all return the full solution's value (a solution
+    # stuck where it started: on four CIDCO passes every return had left its
+    # trajectory) have a spread of exactly zero: that is no sigma, and the jackknife is
+    # not valid (the formal sigma and the reason are reported instead).
+    values = np.tile([3.14, -0.5, 0.02, -0.9], (4, 1))
+    dev = values - values.mean(axis=0)
+    jk = Jackknife(
+        groups=("a", "b", "c", "d"),
+        estimates=values,
+        covariance=3.0 / 4.0 * (dev.T @ dev),
+        failed=(),
+    )
+    assert not jk.valid
+    moved = values + np.array([[1e-4], [-1e-4], [2e-4], [0.0]])
+    dev = moved - moved.mean(axis=0)
+    assert Jackknife(("a", "b", "c", "d"), moved, 3.0 / 4.0 * (dev.T @ dev), ()).valid

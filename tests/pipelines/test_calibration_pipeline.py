@@ -24,7 +24,9 @@ CIDCO = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "cidco-
 @pytest.fixture(scope="module")
 def survey(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, PatchTestSimulation]:
     sim = simulate_patch_test(
-        PatchTestConfig(scenario="vehicle", density=0.01, passes_per_direction=1, seed=4)
+        # density 0.02: at 0.01 lines 3 and 4 shared no patch with another line (the
+        # jackknife over "4 lines" then had two that contributed nothing)
+        PatchTestConfig(scenario="vehicle", density=0.02, passes_per_direction=1, seed=4)
     )
     folder = tmp_path_factory.mktemp("survey")
     write_patch_test(sim, folder)
@@ -129,6 +131,7 @@ def test_calibrate_files_writes_the_mount_and_the_report(
     assert read_mount(tmp_path / "new.toml") == run.result.mount
     assert written == [tmp_path / "cert.html"]
     assert stages[0].startswith("reading 4 point files")
+    assert run.result.rejected_lines == ()
     assert "jackknife: 4 solutions, each leaving one out, " in "".join(stages)
     assert [s for s in stages if " done (without " in s] == [
         f"jackknife: {j} of 4 done (without line_0{j}.laz)" for j in range(1, 5)

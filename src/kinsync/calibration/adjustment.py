@@ -22,6 +22,16 @@ so the estimate is a smooth function of every line's data and the jackknife over
 residuals sets such lines aside, and the jackknife then overstated the boresight sigma
 up to 1.7 times on the simulated patch tests.)
 
+A damped step damps the features' response too (``C_k + lambda diag(C_k)``): a
+feature started far from its returns (a sphere at the mean of scattered sightings)
+otherwise makes every damped step's cost worse, and the adjustment stopped where it
+started. The latency stays within what the lines' trajectories cover
+(`latency_bounds`; the trajectory is never extrapolated): a step beyond is cut at the
+bound and the other parameters solved given it, and a solution on the bound is flagged
+(``Adjustment.at_bound``), for it is no minimum. A return pushed out of its trajectory
+costs as much as one at the edge of Tukey's band, and a solution that uses no return of
+a feature is an error, never a fit of nothing.
+
 ``S`` is also the information the data hold about ``theta`` once the features are
 free: `kinsync.calibration.observability` reads it before the final solution, and the
 formal covariance is ``sigma0^2 S^-1``.
@@ -46,10 +56,12 @@ import numpy as np
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.calibration.features import Feature
 from kinsync.calibration.model import LineModel, LocalFrame
+from kinsync.calibration.parameters import LATENCY
 from kinsync.errors import ConvergenceError, ObservabilityError
 from kinsync.robust import robust_sigma
 
 __all__ = [
+    "LATENCY_BOUND_TOLERANCE_S",
     "Adjustment",
     "AdjustmentOptions",
     "FeatureFit",
@@ -59,6 +71,7 @@ __all__ = [
     "adjust",
     "georeference_observed",
     "incidence_factor",
+    "latency_bounds",
     "reduced_normal_matrix",
 ]
 
@@ -66,6 +79,8 @@ _TUKEY_C = 4.685
 _FREEZE_STEP = 0.1  # steps below this many formal sigmas: the robust weights are held
 _DAMPING_TRIES = 8  # Levenberg-Marquardt: dampings per step, the current one then x10 each
 _MIN_WITHIN_SCALE_M = 2e-4  # floor of the within-line noise scale (m)
+LATENCY_BOUND_TOLERANCE_S = 1e-6
+"""A latency this close to `latency_bounds` (s) is on the bound."""
 MIN_INCIDENCE_FACTOR = 0.05
 """Floor of ``|cos(incidence)|`` in the noise model: grazing returns are not trusted more."""
 
@@ -170,6 +185,12 @@ class Adjustment:
         Gauss-Newton iterations done.
     n_points : int
         Returns with a non-zero weight.
+    latency_bounds_s : tuple of 2 float or None
+        The latencies (s) for which every observed return stays inside its trajectory
+        (`latency_bounds`); None when the latency is not estimated.
+    at_bound : bool
+        The latency ended on one of those bounds: the data pushed it out of the span
+        their trajectories cover, so it is no minimum of the cost and not determined.
     """
 
     values: FloatArray
@@ -181,6 +202,8 @@ class Adjustment:
     covariance: FloatArray
     iterations: int
     n_points: int
+    latency_bounds_s: tuple[float, float] | None = None
+    at_bound: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -385,14 +408,21 @@ def _feature_cost(at: _AtState, sigma: float, robust: bool, frozen: FloatArray |
 
     With robust weights not held, the bounded loss (Tukey's rho, its ceiling for a
     return outside the trajectory); else the weighted squares with ``frozen`` (or,
-    not robust, unit factors).
+    not robust, unit factors), and for a return outside the trajectory its factor
+    times ``c^2`` (the square of a residual at the edge of Tukey's band). A return
+    pushed out of its trajectory must cost, never save: with its weight held and no
+    residual, it used to cost nothing, and on four CIDCO passes one undamped step took
+    the latency to -945 ms, moved every return out of its pass's trajectory, and the
+    cost of zero was taken for a converged solution with no return used.
     """
     if robust and frozen is None:
         scale = sigma * at.inc
         rho = np.where(at.ok, _tukey_rho(at.e / scale), _TUKEY_C**2 / 6.0)
         return float(np.sum(rho))
-    w = _weights(at, sigma, frozen if frozen is not None else at.ok.astype(np.float64))
-    return float(np.sum(w * at.e * at.e))
+    factor = frozen if frozen is not None else np.ones(at.ok.size)
+    w = _weights(at, sigma, factor)
+    lost = float(np.sum(np.where(at.ok, 0.0, factor))) * _TUKEY_C**2
+    return float(np.sum(w * at.e * at.e)) + lost
 
 
 def _feature_terms(
@@ -462,10 +492,7 @@ def _assemble(
         held = None if use is None else use[i]
         e, w, jt, jf = _feature_terms(feature, ret, sigma, robust, held, at)
         motion += np.einsum("n,ndk->k", w, np.nan_to_num(ret.jac) ** 2)
-        if robust and frozen is None:
-            cost += _feature_cost(at, sigma, robust, None)
-        else:
-            cost += float(np.sum(w * e * e))
+        cost += _feature_cost(at, sigma, robust, None if frozen is None else frozen[i])
         wjt = jt * w[:, None]
         A_k = jt.T @ wjt
         B_k = wjt.T @ jf
@@ -522,6 +549,69 @@ def _solve(S: FloatArray, rhs: FloatArray, damping: float) -> FloatArray:
     except np.linalg.LinAlgError as err:
         msg = "the calibration's normal matrix is singular: a parameter is not determined"
         raise ObservabilityError(msg) from err
+
+
+def latency_bounds(
+    models: Sequence[LineModel], by_line: dict[int, IntArray]
+) -> tuple[float, float]:
+    """The latencies (s) for which every observed return stays inside its trajectory.
+
+    The trajectory is never extrapolated: a latency beyond these bounds loses returns,
+    and a pass file that carries its trajectory only a few tens of milliseconds beyond
+    its returns (the CIDCO passes: 20 ms) bounds the latency the data can express.
+
+    Parameters
+    ----------
+    models : sequence of LineModel
+    by_line : dict of int to ndarray of int
+        Per line, the returns observed.
+
+    Returns
+    -------
+    (lo, hi) : tuple of 2 float
+        Smallest and largest latency (s); ``lo <= hi`` when the lines overlap in time
+        with their trajectories.
+    """
+    lo, hi = -math.inf, math.inf
+    for li, idx in by_line.items():
+        if idx.size == 0:
+            continue
+        t = models[li].line.t_s[idx]
+        traj = models[li].trajectory
+        lo = max(lo, float(traj.t_start_s - t.min()))
+        hi = min(hi, float(traj.t_end_s - t.max()))
+    return lo, hi
+
+
+def _solve_bounded(
+    S: FloatArray,
+    rhs: FloatArray,
+    damping: float,
+    vals: FloatArray,
+    estimated: tuple[int, ...],
+    bounds: tuple[float, float] | None,
+) -> FloatArray:
+    """`_solve`, with the latency kept within ``bounds`` (an active set of one).
+
+    When the free step takes the latency beyond a bound, its step is set to reach the
+    bound and the others are solved given it.
+    """
+    step = _solve(S, rhs, damping)
+    if bounds is None or LATENCY not in estimated:
+        return step
+    j = estimated.index(LATENCY)
+    target = float(vals[LATENCY] + step[j])
+    clipped = min(max(target, bounds[0]), bounds[1])
+    if clipped == target:
+        return step
+    dl = clipped - float(vals[LATENCY])
+    rest = [m for m in range(len(estimated)) if m != j]
+    out = np.zeros(len(estimated))
+    out[j] = dl
+    if rest:
+        sub = np.ix_(rest, rest)
+        out[rest] = _solve(S[sub], rhs[rest] + S[rest, j] * dl, damping)
+    return out
 
 
 def reduced_normal_matrix(
@@ -591,6 +681,7 @@ def adjust(
     opt = options or AdjustmentOptions()
     k = len(estimated)
     problem = ObservationLayout(models, observations, len(features))
+    bounds = latency_bounds(models, problem.by_line) if LATENCY in estimated else None
     vals = np.array(values, dtype=np.float64)
     feats = list(features)
     sigmas: list[float] | None = None if noise_scales_m is None else list(noise_scales_m)
@@ -622,7 +713,7 @@ def adjust(
         # then the weights are held and the last iterations minimise one fixed cost.
         asm = _assemble(feats, gathered, sigmas, opt.robust, k, frozen, weights, states)
         step, new_vals, new_feats, damping = _damped_step(
-            problem, asm, feats, vals, estimated, frame, sigmas, opt, damping, frozen
+            problem, asm, feats, vals, estimated, frame, sigmas, opt, damping, frozen, bounds
         )
         vals, feats = new_vals, new_feats
         std = np.sqrt(np.maximum(np.diag(np.linalg.pinv(asm.S)), 1e-300))
@@ -630,7 +721,9 @@ def adjust(
         stalled = relative < _FREEZE_STEP and asm.cost >= last_cost * (1.0 - 1e-12)
         last_cost = asm.cost if frozen is not None else math.inf
         if frozen is not None and (relative <= opt.step_tolerance or stalled):
-            return _finish(problem, feats, vals, estimated, frame, sigmas, opt, iteration, frozen)
+            return _finish(
+                problem, feats, vals, estimated, frame, sigmas, opt, iteration, frozen, bounds
+            )
         # Reweighting settles the returns' weights; then they are held, so that the
         # last iterations minimise one fixed cost and converge.
         freeze = freeze or relative < _FREEZE_STEP or iteration >= opt.reweight_iterations
@@ -652,6 +745,7 @@ def _damped_step(
     opt: AdjustmentOptions,
     damping: float,
     frozen: Sequence[FloatArray] | None,
+    bounds: tuple[float, float] | None = None,
 ) -> tuple[FloatArray, FloatArray, list[Feature], float]:
     """One Levenberg-Marquardt step: the damping grows tenfold until the cost drops.
 
@@ -659,7 +753,8 @@ def _damped_step(
     along the scaled gradient) is tried next: when even it raises the cost, the
     direction is none of descent (a reweighted step at the solution of its weights,
     or the cost's noise floor) and no damping in between helps, so a zero step is
-    returned at once instead of after every damping in turn.
+    returned at once instead of after every damping in turn. The latency stays within
+    ``bounds`` (`latency_bounds`).
     """
     schedule = [damping]
     for _ in range(_DAMPING_TRIES - 1):
@@ -668,15 +763,16 @@ def _damped_step(
 
     def attempt(i: int) -> tuple[bool, FloatArray, FloatArray, list[Feature]]:
         if i not in tried:
-            step = _solve(asm.S, asm.rhs, schedule[i])
+            step = _solve_bounded(asm.S, asm.rhs, schedule[i], vals, estimated, bounds)
             new_vals = vals.copy()
             new_vals[list(estimated)] += step
             new_feats = []
             for feature, (B_k, C_k, g_k) in zip(feats, asm.blocks, strict=True):
+                C_d = C_k + schedule[i] * np.diag(np.diag(C_k))
                 try:
-                    df = -np.linalg.solve(C_k, g_k + B_k.T @ step)
+                    df = -np.linalg.solve(C_d, g_k + B_k.T @ step)
                 except np.linalg.LinAlgError:
-                    df = -np.linalg.lstsq(C_k, g_k + B_k.T @ step, rcond=None)[0]
+                    df = -np.linalg.lstsq(C_d, g_k + B_k.T @ step, rcond=None)[0]
                 new_feats.append(feature.updated(np.asarray(df, dtype=np.float64)))
             geo = _georeference_points(problem.models, problem.by_line, new_vals, frame)
             new_cost = _cost(new_feats, problem.gather(geo), sigmas, opt.robust, frozen)
@@ -705,12 +801,24 @@ def _finish(
     opt: AdjustmentOptions,
     iterations: int,
     frozen: Sequence[FloatArray],
+    bounds: tuple[float, float] | None = None,
 ) -> Adjustment:
     geo = georeference_observed(problem.models, problem.by_line, vals, estimated, frame)
     gathered = problem.gather(geo)
     states = [_at_state(f, r) for f, r in zip(feats, gathered, strict=True)]
     asm = _assemble(feats, gathered, sigmas, opt.robust, len(estimated), frozen, states=states)
-    dof = max(asm.n_used - len(estimated) - asm.dof_features, 1)
+    empty = [i for i, at in enumerate(states) if not np.any(_weights(at, sigmas[i], frozen[i]))]
+    if empty or asm.n_used <= len(estimated) + asm.dof_features:
+        # Never a solution: a fit of nothing has no residual and no sigma.
+        what = f"feature(s) {', '.join(map(str, empty))}" if empty else "the features"
+        msg = (
+            f"the calibration lost every return of {what} ({asm.n_used} returns left in use "
+            f"for {len(estimated)} mount and {asm.dof_features} feature parameters): no "
+            "solution; check the starting mount, --sphere-radius-m, or estimate fewer "
+            "parameters"
+        )
+        raise ConvergenceError(msg)
+    dof = asm.n_used - len(estimated) - asm.dof_features
     sigma0 = math.sqrt(asm.cost / dof)
     cov = np.asarray(sigma0**2 * np.linalg.pinv(asm.S), dtype=np.float64)
     fits = []
@@ -736,4 +844,8 @@ def _finish(
         covariance=cov,
         iterations=iterations,
         n_points=asm.n_used,
+        latency_bounds_s=bounds,
+        at_bound=bounds is not None
+        and min(abs(vals[LATENCY] - bounds[0]), abs(vals[LATENCY] - bounds[1]))
+        <= LATENCY_BOUND_TOLERANCE_S,
     )

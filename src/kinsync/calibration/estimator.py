@@ -13,7 +13,13 @@ estimate, and returns a `CalibrationResult`:
    as nuisance parameters, robust weights, the real georeferencing model.
 4. Honest sigma (`kinsync.calibration.uncertainty`): the jackknife over lines, which
    holds the errors every return of a line shares; the formal sigma beside it.
-5. Status: ``weak`` when the sigma exceeds the stated threshold.
+5. Status: ``weak`` when the sigma exceeds the stated threshold, or when it is no
+   honest sigma: the formal one (fewer than `MIN_JACKKNIFE_GROUPS` lines, or a
+   jackknife that failed) or a jackknife with fewer than `MIN_HONEST_DOF` degrees of
+   freedom (4 lines). The formal sigma is 3-30x too small on real data (on 3 CIDCO
+   passes the pitch came out -8.41 +- 0.015 deg where 12 passes give -7.68 +- 0.23),
+   so such an estimate is never ``estimated``; the advice says how many lines would
+   give an honest sigma.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from kinsync.calibration.features import Feature
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
+    HeldAfterSolution,
     Observability,
     analyse,
     correlation,
@@ -46,6 +53,7 @@ from kinsync.calibration.observability import (
 from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatter_m
 from kinsync.calibration.parameters import (
     DEFAULT_ESTIMATE,
+    LATENCY,
     PARAMETER_NAMES,
     REPORT_SCALE,
     estimated_indices,
@@ -55,8 +63,13 @@ from kinsync.calibration.parameters import (
 from kinsync.calibration.planes import PatchOptions, find_plane_patches
 from kinsync.calibration.result import CalibrationResult, FeatureSummary, ParameterEstimate
 from kinsync.calibration.spheres import SphereOptions, find_sphere_targets
-from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS, Jackknife, jackknife
-from kinsync.errors import InputError
+from kinsync.calibration.uncertainty import (
+    MIN_HONEST_DOF,
+    MIN_JACKKNIFE_GROUPS,
+    Jackknife,
+    jackknife,
+)
+from kinsync.errors import ConvergenceError, InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
 
@@ -202,7 +215,9 @@ def _parameters(
     obs: Observability,
     solution: Adjustment | None,
     std: FloatArray | None,
+    honest: bool = True,
 ) -> tuple[ParameterEstimate, ...]:
+    """Every parameter's estimate; ``honest``: ``std`` is an honest sigma (else ``weak``)."""
     out = []
     for i, name in enumerate(PARAMETER_NAMES):
         scale = REPORT_SCALE[i]
@@ -211,7 +226,7 @@ def _parameters(
             j = obs.estimated.index(i)
             s = float(std[j]) * scale
             formal = math.sqrt(max(float(solution.covariance[j, j]), 0.0)) * scale
-            status = status_of(i, s)
+            status = status_of(i, s) if honest else "weak"
         else:
             s = formal = math.nan
             status = "unobservable" if i in requested else "fixed"
@@ -277,21 +292,31 @@ def calibrate_mount(
     S, motion, _ = reduced_normal_matrix(
         models, observations, features, prior, requested, frame, robust=False
     )
-    units = len(groups) if groups is not None else len(lines)
-    honest = opt.jackknife and units >= MIN_JACKKNIFE_GROUPS
+    rejected = _rejected_lines(lines, observations, opt.features)
+    used = sorted({o.line for o in observations})
+    kept = [lines[i] for i in used]
+    units = _units(lines, used, groups)
+    honest = opt.jackknife and len(units) >= MIN_JACKKNIFE_GROUPS
     obs = analyse(S, motion, requested, honest_sigma=honest)
     before = _rms_before(models, observations, features, prior, frame)
     counts = [
         sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
     ]
     if not obs.estimated:
-        return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
+        return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
     while True:
         say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
         solution = adjust(
             models, observations, features, prior, obs.estimated, frame, opt.adjustment
         )
-        jk = _jackknife(models, observations, solution, frame, lines, groups, opt, say)
+        if solution.at_bound:
+            obs = obs.without(_latency_at_bound(solution))
+            if not obs.estimated:
+                return _unsolved(
+                    kept, mount, prior, requested, obs, features, before, counts, rejected
+                )
+            continue
+        jk = _jackknife(models, observations, solution, frame, units, opt, say)
         std, method = _std(solution, jk)
         moved = [abs(float(solution.values[i] - prior[i])) > 3.0 * std[j]
                  for j, i in enumerate(obs.estimated)]  # fmt: skip
@@ -300,8 +325,10 @@ def calibrate_mount(
             break
         obs = obs.without(held)
         if not obs.estimated:
-            return _unsolved(lines, mount, prior, requested, obs, features, before, counts)
-    params = _parameters(prior, requested, obs, solution, std)
+            return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
+    honest = jk is not None and jk.honest
+    params = _parameters(prior, requested, obs, solution, std, honest)
+    advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
     fitted = [f.feature for f in solution.features]
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
@@ -319,12 +346,66 @@ def calibrate_mount(
             [s.rms_after_m for s in summaries], [s.n_points for s in summaries]
         ),
         unobservable_reasons=obs.explanation(),
-        advice=obs.advice(),
-        lines=tuple(line.name for line in lines),
+        advice=advice,
+        lines=tuple(line.name for line in kept),
         iterations=solution.iterations,
         overlaps_before=overlaps_before,
         overlaps_after=overlaps_after,
+        rejected_lines=rejected,
     )
+
+
+def _lines_advice(n_lines: int, jk: Jackknife | None) -> str:
+    """Why every estimate is ``weak`` when the sigma is not honest, and what would help."""
+    if jk is None or not jk.valid:
+        what = "the sigma is the formal one, 3-30x too small on real data"
+    else:
+        what = f"a jackknife with {jk.dof} degrees of freedom"
+    return (
+        f"an honest sigma: at least {MIN_HONEST_DOF + 1} independent lines or passes over "
+        f"the features ({n_lines} given: {what}, so no estimate is better than weak)"
+    )
+
+
+def _latency_at_bound(solution: Adjustment) -> HeldAfterSolution:
+    """The latency held: the solution took it to the end of the lines' trajectories."""
+    assert solution.latency_bounds_s is not None
+    lo, hi = (b * 1e3 for b in solution.latency_bounds_s)
+    value = float(solution.values[LATENCY]) * 1e3
+    reason = (
+        f"the adjustment ran it to {value:+.1f} ms, the end of what the lines' trajectories "
+        f"cover ({lo:+.1f} .. {hi:+.1f} ms; the trajectory is never extrapolated): these "
+        "data do not determine it"
+    )
+    return HeldAfterSolution(LATENCY, LATENCY, math.nan, reason=reason)
+
+
+def _rejected_lines(
+    lines: Sequence[ScanLine], observations: Sequence[Observation], kind: FeatureKind
+) -> tuple[tuple[str, str], ...]:
+    """The lines none of whose returns lie on a feature, with the reason."""
+    seen = {o.line for o in observations}
+    what = "sphere" if kind == "spheres" else "planar patch"
+    return tuple(
+        (
+            line.name,
+            (
+                f"none of its {len(line)} returns lie on a {what} another line also sees: "
+                "left out of the adjustment and of the jackknife"
+            ),
+        )
+        for i, line in enumerate(lines)
+        if i not in seen
+    )
+
+
+def _units(
+    lines: Sequence[ScanLine], used: Sequence[int], groups: Sequence[tuple[str, set[int]]] | None
+) -> list[tuple[str, set[int]]]:
+    """The jackknife's units: one per line used, or the groups with a line used."""
+    if groups is None:
+        return [(lines[i].name, {i}) for i in used]
+    return [(name, members) for name, members in groups if members & set(used)]
 
 
 def _jackknife(
@@ -332,14 +413,12 @@ def _jackknife(
     observations: Sequence[Observation],
     solution: Adjustment,
     frame: LocalFrame,
-    lines: Sequence[ScanLine],
-    groups: Sequence[tuple[str, set[int]]] | None,
+    units: Sequence[tuple[str, set[int]]],
     opt: CalibrationOptions,
     progress: Callable[[str], None],
 ) -> Jackknife | None:
     if not opt.jackknife:
         return None
-    units = list(groups) if groups is not None else [(ln.name, {i}) for i, ln in enumerate(lines)]
     if len(units) < MIN_JACKKNIFE_GROUPS:
         return None
     return jackknife(models, observations, solution, frame, units, opt.adjustment, progress)
@@ -359,10 +438,21 @@ def _std(solution: Adjustment, jk: Jackknife | None) -> tuple[FloatArray, str]:
             f"errors, range biases); with {jk.dof} degrees of freedom a 95 % interval is "
             f"+-{jk.t95:.2f} sigma (Student t)"
         )
+    if not np.all(np.isfinite(formal) & (formal > 0.0)):
+        msg = (
+            "the calibration's solution has no standard deviation (a formal sigma of zero "
+            "or none): it fits nothing; estimate fewer parameters or give more lines"
+        )
+        raise ConvergenceError(msg)
     if jk is None:
         why = f"fewer than {MIN_JACKKNIFE_GROUPS} lines for a jackknife, or it was not asked for"
-    else:
+    elif jk.failed:
         why = f"without {', '.join(jk.failed)} the parameters are not determined"
+    else:
+        why = (
+            "the jackknife's spread is zero or undefined: the deleted-line solutions did not "
+            "move from the full one"
+        )
     return formal, (
         f"formal ({why}): assumes independent errors from return to return and is "
         "optimistic on real data"
@@ -378,6 +468,7 @@ def _unsolved(
     features: Sequence[Feature],
     before: list[float],
     counts: list[int],
+    rejected: tuple[tuple[str, str], ...] = (),
 ) -> CalibrationResult:
     """Nothing the data can determine: the prior mount, every parameter's status, advice."""
     summaries = tuple(
@@ -399,4 +490,5 @@ def _unsolved(
         advice=obs.advice(),
         lines=tuple(line.name for line in lines),
         iterations=0,
+        rejected_lines=rejected,
     )

@@ -123,16 +123,22 @@ class HeldAfterSolution:
         The honest sigma of ``cause`` (report units).
     partners : tuple of int
         Estimates correlated with ``index`` beyond 0.9: they stay, given its prior.
+    reason : str
+        Why, when it is not a sigma above `UNOBSERVABLE_THRESHOLDS` (e.g. the latency
+        ran to the end of the lines' trajectories); empty otherwise.
     """
 
     index: int
     cause: int
     std_report: float
     partners: tuple[int, ...] = ()
+    reason: str = ""
 
     def explanation(self) -> str:
         """In words: what was too uncertain, what was held, what leans on the prior."""
         name, cause = PARAMETER_NAMES[self.index], PARAMETER_NAMES[self.cause]
+        if self.reason:
+            return f"{name}: {self.reason}; held at its prior value"
         limit = UNOBSERVABLE_THRESHOLDS[self.cause]
         text = (
             f"{cause} is determined only to +-{self.std_report:.3g} by these data (more than "

@@ -15,9 +15,11 @@ from kinsync.mount import Mount
 __all__ = ["CalibrationResult", "FeatureSummary", "ParameterEstimate", "Status"]
 
 Status = Literal["estimated", "weak", "unobservable", "fixed"]
-"""``estimated``: determined; ``weak``: determined, sigma above the threshold;
-``unobservable``: the data cannot determine it (held at its prior value); ``fixed``: not
-asked for (held)."""
+"""``estimated``: determined, with an honest sigma below the threshold; ``weak``:
+determined, but its sigma is above the threshold or not known to be below it (the
+formal sigma, or a jackknife over too few lines: `kinsync.calibration.estimator`);
+``unobservable``: the data cannot determine it (held at its prior value); ``fixed``:
+not asked for (held)."""
 
 
 def _num(value: float) -> float | None:
@@ -141,11 +143,14 @@ class CalibrationResult:
     advice : tuple of str
         Which data would determine what could not be.
     lines : tuple of str
-        The lines used.
+        The lines used (those with returns on a feature).
     iterations : int
         Gauss-Newton iterations of the full solution.
     overlaps_before, overlaps_after : tuple of LineOverlap
         Every (feature, line)'s offset from the feature, prior and calibrated mount.
+    rejected_lines : tuple of (str, str)
+        Lines given but not used, with the reason (none of their returns lie on a
+        feature another line sees): left out of the adjustment and of the jackknife.
     """
 
     mount: Mount
@@ -163,6 +168,7 @@ class CalibrationResult:
     iterations: int
     overlaps_before: tuple[LineOverlap, ...] = ()
     overlaps_after: tuple[LineOverlap, ...] = ()
+    rejected_lines: tuple[tuple[str, str], ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``)."""
@@ -187,6 +193,9 @@ class CalibrationResult:
             "unobservable": list(self.unobservable_reasons),
             "advice": list(self.advice),
             "lines": list(self.lines),
+            "rejected_lines": [
+                {"line": name, "reason": reason} for name, reason in self.rejected_lines
+            ],
             "mount": {
                 "lever_arm_body_m": list(self.mount.lever_arm_body_m),
                 "boresight_rpy_deg": list(self.mount.boresight_rpy_deg),

@@ -72,10 +72,16 @@ from kinsync.calibration.adjustment import (
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import KinsyncError
 
-__all__ = ["MIN_JACKKNIFE_GROUPS", "Jackknife", "jackknife"]
+__all__ = ["MIN_HONEST_DOF", "MIN_JACKKNIFE_GROUPS", "Jackknife", "jackknife"]
 
 MIN_JACKKNIFE_GROUPS = 4
 """Fewest lines (or passes) for a jackknife standard deviation."""
+MIN_HONEST_DOF = 4
+"""Fewest degrees of freedom of a jackknife whose sigma an estimate may rest on: with 3
+(4 lines) the sigma is itself uncertain by a factor of about 2 either way (the 95 %
+interval is +-3.18 sigma), and the parameters take up some of the lines' contrasts, so
+fewer lines leave an estimate ``weak`` whatever its sigma
+(`kinsync.calibration.estimator`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,13 +110,28 @@ class Jackknife:
 
     @property
     def valid(self) -> bool:
-        """True when every deleted-group solution succeeded and there are enough groups."""
-        return not self.failed and len(self.groups) >= MIN_JACKKNIFE_GROUPS
+        """True when the jackknife gives a sigma for every parameter.
+
+        Every deleted-group solution succeeded, there are enough groups, and every
+        parameter's spread is finite and above zero. A spread of exactly zero is no
+        sigma: every deleted-group solution returned the full one's value, i.e. none of
+        them moved (a solution stuck where it started).
+        """
+        return (
+            not self.failed
+            and len(self.groups) >= MIN_JACKKNIFE_GROUPS
+            and bool(np.all(np.isfinite(self.std)) and np.all(self.std > 0.0))
+        )
 
     @property
     def dof(self) -> int:
         """Degrees of freedom of the variance: groups minus one (at most)."""
         return len(self.groups) - 1
+
+    @property
+    def honest(self) -> bool:
+        """True when `valid` with at least `MIN_HONEST_DOF` degrees of freedom."""
+        return self.valid and self.dof >= MIN_HONEST_DOF
 
     @property
     def t95(self) -> float:
@@ -186,6 +207,8 @@ def jackknife(
                 [solution.features[i].sigma_m for i in seen],
             )
         except KinsyncError:
+            return None
+        if sol.at_bound:  # no minimum: the latency ran to the end of the trajectories
             return None
         out: FloatArray = sol.values[list(solution.estimated)]
         return out

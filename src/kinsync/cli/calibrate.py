@@ -80,6 +80,8 @@ def _print_result(result: CalibrationResult) -> None:
         table.add_row(p.name, _fmt(p.prior, 6), _fmt(p.value, 6), _fmt(p.std, 2), p.status)
     console.print(table)
     console.print(f"sigma: {result.sigma_method}")
+    for name, reason in result.rejected_lines:
+        console.print(f"rejected line {name}: {reason}")
     _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
         f"{counted(len(result.features), 'feature')}, {counted(len(result.lines), 'line')}; "

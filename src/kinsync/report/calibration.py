@@ -230,7 +230,13 @@ def calibration_sections(result: CalibrationResult) -> list[Section]:
                 ),
             ),
         ),
-        Section(title="Lines", paragraphs=(", ".join(result.lines),)),
+        Section(
+            title="Lines",
+            paragraphs=(
+                ", ".join(result.lines),
+                *(f"Rejected {name}: {reason}." for name, reason in result.rejected_lines),
+            ),
+        ),
     ]
 
 
