@@ -270,3 +270,42 @@ def test_apply_bad_input(
     )
     assert_one_line_error(code, o, e, "is the input --in")
     assert not out.exists()
+
+
+def _stepped_logs(folder: Path, step_s: float, at: int) -> tuple[Path, Path]:
+    """The reviewer's logs: 600 pulses of a 25 ppm clock stepped by ``step_s`` at ``at``."""
+    import datetime as dt  # noqa: PLC0415
+
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder.mkdir()
+    t0 = dt.datetime(2024, 6, 1, 12, tzinfo=dt.UTC)
+    pps, nmea = [], []
+    for k in range(600):
+        t_local = 1000.0 + k / (1 + 25e-6) + (step_s if k >= at else 0.0)
+        u = t0 + dt.timedelta(seconds=k)
+        zda = format_sentence(f"GPZDA,{u:%H%M%S}.00,{u:%d,%m,%Y},00,00")
+        pps.append(f"{t_local!r}\n")
+        nmea.append(f'{t_local + 0.015 + (len(zda) + 2) * 10 / 115200!r},"{zda}"\n')
+    (folder / "pps.csv").write_text("t_local_s\n" + "".join(pps))
+    (folder / "nmea.csv").write_text("t_local_s,sentence\n" + "".join(nmea))
+    return folder / "pps.csv", folder / "nmea.csv"
+
+
+@pytest.mark.parametrize(("step_s", "at"), [(1.0, 250), (0.3, 250), (0.5, 400)])
+def test_fit_refuses_a_step_of_the_local_clock(
+    run_cli: RunCli,
+    tmp_path: Path,
+    assert_one_line_error: OneLineError,
+    step_s: float,
+    at: int,
+) -> None:
+    """Before: +1 s gave a model 1 s off with exit 0, +0.5 s cut the span short with exit
+    0, +0.3 s said the pulses share no grid."""
+    pps, _ = _stepped_logs(tmp_path / "logs", step_s, at)
+    t = pps.read_text().splitlines()[1:]
+    assert_one_line_error(
+        *run_cli(fit_args(tmp_path / "logs", "--json")),
+        f"stepped between pulse {at - 1} (t_local_s={t[at - 1]})",
+        f"split the PPS and NMEA logs at t_local_s={t[at]}",
+    )
