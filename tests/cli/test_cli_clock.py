@@ -309,3 +309,26 @@ def test_fit_refuses_a_step_of_the_local_clock(
         f"stepped between pulse {at - 1} (t_local_s={t[at - 1]})",
         f"split the PPS and NMEA logs at t_local_s={t[at]}",
     )
+
+
+def test_fit_lists_a_zda_without_gps_time_and_goes_on(
+    run_cli: RunCli, logs: Path, tmp_path: Path
+) -> None:
+    """A ZDA at 23:59:60 on a day without a leap second stopped the fit (exit 2)."""
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder = tmp_path / "leap"
+    shutil.copytree(logs, folder)
+    lines = (folder / "nmea.csv").read_text().splitlines()
+    lines[401] = (
+        lines[401].split(",")[0] + ',"' + format_sentence("GPZDA,235960.00,22,11,2026,00,00") + '"'
+    )
+    (folder / "nmea.csv").write_text("\n".join(lines) + "\n")
+    code, out, err = run_cli(fit_args(folder, "--json"))
+    assert code == 0, err
+    doc = json.loads(out)
+    assert {"line": 402, "reason": doc["rejected_lines"][0]["reason"]} in doc["rejected_lines"]
+    assert "no leap second" in doc["rejected_lines"][0]["reason"]
+    code, out, _ = run_cli(fit_args(folder))
+    assert code == 0
+    assert "rejected line 402: ZDA time has no GPS time" in out

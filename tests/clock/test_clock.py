@@ -581,3 +581,38 @@ def test_no_step_alarm_on_simulated_logs_with_many_faults(seed: int, tmp_path: P
         baud=config.baud,
     )
     assert (fit.n_missing, fit.n_spurious, fit.n_wrong_zda) == (20, 150, 25)
+
+
+# --------------------------------------------------------------------------- ZDAs without GPS time
+
+
+@pytest.mark.parametrize(
+    ("fields", "reason"),
+    [
+        ("235960.00,22,11,2026,00,00", "no leap second was inserted at the end of that day"),
+        ("120000.00,22,11,1979,00,00", "before the GPS epoch"),
+    ],
+)
+def test_a_zda_without_gps_time_is_rejected_not_fatal(
+    tmp_path: Path, fields: str, reason: str
+) -> None:
+    """One such ZDA aborted the whole fit, while a ZDA dated 31 November was only
+    rejected; now it is rejected too: counted, listed with its line and reason."""
+    sim = simulate_clock(ClockSimConfig())
+    write_clock_simulation(sim, tmp_path / "clean")
+    write_clock_simulation(sim, tmp_path / "edited")
+    path = tmp_path / "edited" / "nmea.csv"
+    lines = path.read_text().splitlines()
+    t_local = lines[401].split(",")[0]
+    assert "ZDA" in lines[401]
+    lines[401] = f'{t_local},"{format_sentence("GPZDA," + fields)}"'
+    path.write_text("\n".join(lines) + "\n")
+    pps = read_pps_csv(tmp_path / "clean" / "pps.csv")
+    clean = fit_clock_to_log(pps, read_nmea_log(tmp_path / "clean" / "nmea.csv"))
+    fit = fit_clock_to_log(pps, read_nmea_log(path))
+    assert [(r.line, r.t_local_s) for r in fit.rejected_zdas] == [(402, float(t_local))]
+    assert reason in fit.rejected_zdas[0].reason
+    assert fit.n_bad_lines == clean.n_bad_lines + 1
+    assert fit.n_zda == clean.n_zda - 1
+    assert fit.as_document()["rejected_zdas"][0]["line"] == 402
+    assert abs(fit.model.drift_ppm - clean.model.drift_ppm) < clean.drift_std_ppm

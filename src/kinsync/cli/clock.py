@@ -87,7 +87,8 @@ def fit(
 
         atomic_write_bytes(figure, clock_residual_figure(result))
     doc: dict[str, Any] = result.as_document()
-    doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in log.rejected]
+    rejected = sorted([*log.rejected, *result.rejected_zdas], key=lambda r: r.line)
+    doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in rejected]
     doc["model_out"] = None if model_out is None else str(model_out)
     doc["figure"] = None if figure is None else str(figure)
     if as_json:
@@ -112,10 +113,10 @@ def fit(
     table.add_row("model", "piecewise-linear between pulses" if m.piecewise else "linear")
     console.print(table)
     console.print(CLOCK_FORMULA)
-    for r in log.rejected[:5]:
+    for r in rejected[:5]:
         console.print(f"rejected line {r.line}: {r.reason}")
-    if len(log.rejected) > 5:
-        console.print(f"... and {len(log.rejected) - 5} more rejected line(s) (see --json)")
+    if len(rejected) > 5:
+        console.print(f"... and {len(rejected) - 5} more rejected line(s) (see --json)")
     if model_out is not None:
         console.print(f"model: {model_out}")
     if figure is not None:

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -66,7 +66,7 @@ from kinsync.budget import Parity, serial_transmission_time_s
 from kinsync.clock.leap_seconds import zda_to_gps_s
 from kinsync.clock.model import CLOCK_FORMULA, ClockModel, _finite_times
 from kinsync.errors import InputError, ObservabilityError
-from kinsync.messages import NmeaLog, ZdaRecord
+from kinsync.messages import NmeaLog, RejectedLine, ZdaRecord
 from kinsync.robust import robust_sigma
 
 __all__ = [
@@ -186,13 +186,17 @@ class ClockFit:
         Arrival times of ZDAs whose named second has no good pulse.
     n_bad_lines : int
         Corrupt lines of the NMEA log (bad checksum, truncated, bad field, bad time,
-        ...). Well-formed sentences of types kinsync does not read (GSV, ...) are not
-        messages lost, so they are not counted.
+        ...), the ZDAs of `rejected_zdas` included. Well-formed sentences of types
+        kinsync does not read (GSV, ...) are not messages lost, so they are not counted.
     zda_delay_s : float
         Median time from the named edge to the start of a paired ZDA's transmission
         (s): about the receiver's output delay for ``"preceding"``, negative (the delay
         minus 1 s) for ``"following"``. A value out of line with the receiver's manual
         hints at the wrong convention.
+    rejected_zdas : tuple of RejectedLine
+        ZDAs the reader accepted whose UTC has no GPS time (a 23:59:60 on a day
+        without a leap second, a date before 1980-01-06), each with its line and
+        reason (`fit_clock_to_log`; empty from `fit_clock`).
     """
 
     model: ClockModel
@@ -213,6 +217,7 @@ class ClockFit:
     unpaired_zda_t_local_s: FloatArray
     n_bad_lines: int
     zda_delay_s: float
+    rejected_zdas: tuple[RejectedLine, ...] = ()
 
     @property
     def n_pulses(self) -> int:
@@ -299,6 +304,10 @@ class ClockFit:
             "spurious_t_local_s": self.spurious_t_local_s.tolist(),
             "wrong_zda_t_local_s": self.wrong_zda_t_local_s.tolist(),
             "unpaired_zda_t_local_s": self.unpaired_zda_t_local_s.tolist(),
+            "rejected_zdas": [
+                {"line": r.line, "t_local_s": r.t_local_s, "reason": r.reason}
+                for r in self.rejected_zdas
+            ],
         }
 
 
@@ -855,11 +864,15 @@ def fit_clock_to_log(
     baud, convention, piecewise, data_bits, parity, stop_bits
         As in `fit_clock`.
 
+    A ZDA whose UTC has no GPS time (23:59:60 on a day without a leap second, a date
+    before 1980-01-06) is rejected like a corrupt line: listed in
+    ``ClockFit.rejected_zdas`` with its line and reason, counted in ``n_bad_lines``.
+
     Raises
     ------
     InputError
-        No ZDA in the log (naming the file), a ZDA whose date has no GPS time (before
-        1980-01-06; naming its line), or any error of `fit_clock`.
+        No ZDA in the log (naming the file), no ZDA with a GPS time (naming the line
+        and reason of the first), or any error of `fit_clock`.
     """
     zda_t, zda_records, zda_sentences, zda_lines = _log_zdas(log)
     if len(zda_records) == 0:
@@ -869,31 +882,48 @@ def fit_clock_to_log(
             "ZDA to name the pulses' GPS second"
         )
         raise InputError(msg)
-    gps = np.empty(len(zda_records))
+    gps = np.full(len(zda_records), np.nan)
+    rejected: list[RejectedLine] = []
     for i, record in enumerate(zda_records):
         try:
             gps[i] = zda_to_gps_s(record)
         except InputError as err:
-            where = f"line {zda_lines[i]}" if zda_lines else f"ZDA number {i + 1}"
-            msg = f"{log.source}: {where}: {err}"
-            raise InputError(msg) from err
+            reason = f"{_NO_GPS_TIME}{err}"
+            rejected.append(
+                RejectedLine(
+                    zda_lines[i] if zda_lines else 0, float(zda_t[i]), zda_sentences[i], reason
+                )
+            )
+    if rejected and len(rejected) == len(zda_records):
+        first = rejected[0]
+        where = f"line {first.line}" if zda_lines else "ZDA number 1"
+        more = f", and {len(rejected) - 1} more ZDA(s)" if len(rejected) > 1 else ""
+        msg = (
+            f"{log.source}: {where}: {first.reason.removeprefix(_NO_GPS_TIME)}{more}; no ZDA "
+            "of the log names a UTC time that has a GPS time"
+        )
+        raise InputError(msg)
+    ok = np.isfinite(gps)
     n_bytes = np.array([len(s.encode("ascii", errors="replace")) + 2 for s in zda_sentences])
-    return fit_clock(
+    n_corrupt = sum(1 for r in log.rejected if not r.reason.startswith(_UNSUPPORTED_REASON))
+    fit = fit_clock(
         pps_t_local_s,
-        zda_t,
-        gps,
-        n_bytes,
+        zda_t[ok],
+        gps[ok],
+        n_bytes[ok],
         baud=baud,
         convention=convention,
         piecewise=piecewise,
-        n_bad_lines=sum(1 for r in log.rejected if not r.reason.startswith(_UNSUPPORTED_REASON)),
+        n_bad_lines=n_corrupt + len(rejected),
         data_bits=data_bits,
         parity=parity,
         stop_bits=stop_bits,
     )
+    return replace(fit, rejected_zdas=tuple(rejected))
 
 
 _UNSUPPORTED_REASON = "unsupported sentence type"
+_NO_GPS_TIME = "ZDA time has no GPS time: "
 
 
 def _log_zdas(log: NmeaLog) -> tuple[FloatArray, list[ZdaRecord], list[str], list[int]]:
