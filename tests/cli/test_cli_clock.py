@@ -332,3 +332,34 @@ def test_fit_lists_a_zda_without_gps_time_and_goes_on(
     code, out, _ = run_cli(fit_args(folder))
     assert code == 0
     assert "rejected line 402: ZDA time has no GPS time" in out
+
+
+def test_fit_table_lists_corrupt_lines_first_and_counts_ignored_types(
+    run_cli: RunCli, logs: Path, tmp_path: Path
+) -> None:
+    """With GSV and VTG after every ZDA the table listed five 'unsupported sentence type'
+    lines and hid the two corrupt ones behind '... and 1199 more rejected line(s)'."""
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder = tmp_path / "gsv"
+    shutil.copytree(logs, folder)
+    gsv = format_sentence("GPGSV,3,1,11,03,03,111,00,04,15,270,00,06,01,010,00,13,06,292,00")
+    vtg = format_sentence("GPVTG,054.7,T,034.4,M,005.5,N,010.2,K")
+    lines = (folder / "nmea.csv").read_text().splitlines()
+    out_lines = [lines[0]]
+    for line in lines[1:]:
+        out_lines.append(line)
+        if "GPZDA" in line:
+            t = float(line.split(",")[0])
+            out_lines += [f'{t + 0.001!r},"{gsv}"', f'{t + 0.002!r},"{vtg}"']
+    (folder / "nmea.csv").write_text("\n".join(out_lines) + "\n")
+    n_zda = sum("GPZDA" in x for x in lines)
+    code, stdout, _ = run_cli(fit_args(folder))
+    assert code == 0
+    corrupt = [x for x in stdout.splitlines() if x.startswith("rejected line")]
+    assert len(corrupt) == 2
+    assert not any("unsupported" in x for x in corrupt)
+    assert "more rejected line" not in stdout
+    assert f"not errors): {n_zda} GSV, {n_zda} VTG" in stdout
+    code, stdout, _ = run_cli(fit_args(folder, "--json"))
+    assert len(json.loads(stdout)["rejected_lines"]) == 2 + 2 * n_zda  # --json keeps them all

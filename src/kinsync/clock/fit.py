@@ -905,7 +905,7 @@ def fit_clock_to_log(
         raise InputError(msg)
     ok = np.isfinite(gps)
     n_bytes = np.array([len(s.encode("ascii", errors="replace")) + 2 for s in zda_sentences])
-    n_corrupt = sum(1 for r in log.rejected if not r.reason.startswith(_UNSUPPORTED_REASON))
+    n_corrupt = sum(1 for r in log.rejected if r.unsupported_type is None)
     fit = fit_clock(
         pps_t_local_s,
         zda_t[ok],
@@ -922,7 +922,6 @@ def fit_clock_to_log(
     return replace(fit, rejected_zdas=tuple(rejected))
 
 
-_UNSUPPORTED_REASON = "unsupported sentence type"
 _NO_GPS_TIME = "ZDA time has no GPS time: "
 
 
