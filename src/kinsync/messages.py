@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
+import re
 from dataclasses import dataclass
 from typing import TypeAlias
 
@@ -50,6 +51,7 @@ from kinsync.errors import InputError
 
 __all__ = [
     "TSS1_STATUS",
+    "UNSUPPORTED_REASON",
     "Em3000Record",
     "GgaRecord",
     "HdtRecord",
@@ -431,6 +433,11 @@ class Em3000Record:
         return self.sensor_status == 0x00 or 0x90 <= self.sensor_status <= 0x99
 
 
+UNSUPPORTED_REASON = "unsupported sentence type"
+"""Start of the reason of a `RejectedLine` for a sentence type kinsync does not read."""
+_UNSUPPORTED = re.compile(UNSUPPORTED_REASON + r" '([^']*)'")
+
+
 @dataclass(frozen=True)
 class RejectedLine:
     """A line of an NMEA log that was not used.
@@ -451,6 +458,16 @@ class RejectedLine:
     t_local_s: float | None
     sentence: str
     reason: str
+
+    @property
+    def unsupported_type(self) -> str | None:
+        """Type of a well-formed sentence kinsync does not read, else None.
+
+        ``'GSV'``, ``'PASHR,XYZ'``, ...; None for a line rejected as corrupt or invalid.
+        Such lines are not errors: the receiver sends more than kinsync reads.
+        """
+        m = _UNSUPPORTED.match(self.reason)
+        return None if m is None else m[1]
 
 
 @dataclass(frozen=True, eq=False)

@@ -270,3 +270,96 @@ def test_apply_bad_input(
     )
     assert_one_line_error(code, o, e, "is the input --in")
     assert not out.exists()
+
+
+def _stepped_logs(folder: Path, step_s: float, at: int) -> tuple[Path, Path]:
+    """The reviewer's logs: 600 pulses of a 25 ppm clock stepped by ``step_s`` at ``at``."""
+    import datetime as dt  # noqa: PLC0415
+
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder.mkdir()
+    t0 = dt.datetime(2024, 6, 1, 12, tzinfo=dt.UTC)
+    pps, nmea = [], []
+    for k in range(600):
+        t_local = 1000.0 + k / (1 + 25e-6) + (step_s if k >= at else 0.0)
+        u = t0 + dt.timedelta(seconds=k)
+        zda = format_sentence(f"GPZDA,{u:%H%M%S}.00,{u:%d,%m,%Y},00,00")
+        pps.append(f"{t_local!r}\n")
+        nmea.append(f'{t_local + 0.015 + (len(zda) + 2) * 10 / 115200!r},"{zda}"\n')
+    (folder / "pps.csv").write_text("t_local_s\n" + "".join(pps))
+    (folder / "nmea.csv").write_text("t_local_s,sentence\n" + "".join(nmea))
+    return folder / "pps.csv", folder / "nmea.csv"
+
+
+@pytest.mark.parametrize(("step_s", "at"), [(1.0, 250), (0.3, 250), (0.5, 400)])
+def test_fit_refuses_a_step_of_the_local_clock(
+    run_cli: RunCli,
+    tmp_path: Path,
+    assert_one_line_error: OneLineError,
+    step_s: float,
+    at: int,
+) -> None:
+    """Before: +1 s gave a model 1 s off with exit 0, +0.5 s cut the span short with exit
+    0, +0.3 s said the pulses share no grid."""
+    pps, _ = _stepped_logs(tmp_path / "logs", step_s, at)
+    t = pps.read_text().splitlines()[1:]
+    assert_one_line_error(
+        *run_cli(fit_args(tmp_path / "logs", "--json")),
+        f"stepped between pulse {at - 1} (t_local_s={t[at - 1]})",
+        f"split the PPS and NMEA logs at t_local_s={t[at]}",
+    )
+
+
+def test_fit_lists_a_zda_without_gps_time_and_goes_on(
+    run_cli: RunCli, logs: Path, tmp_path: Path
+) -> None:
+    """A ZDA at 23:59:60 on a day without a leap second stopped the fit (exit 2)."""
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder = tmp_path / "leap"
+    shutil.copytree(logs, folder)
+    lines = (folder / "nmea.csv").read_text().splitlines()
+    lines[401] = (
+        lines[401].split(",")[0] + ',"' + format_sentence("GPZDA,235960.00,22,11,2026,00,00") + '"'
+    )
+    (folder / "nmea.csv").write_text("\n".join(lines) + "\n")
+    code, out, err = run_cli(fit_args(folder, "--json"))
+    assert code == 0, err
+    doc = json.loads(out)
+    assert {"line": 402, "reason": doc["rejected_lines"][0]["reason"]} in doc["rejected_lines"]
+    assert "no leap second" in doc["rejected_lines"][0]["reason"]
+    code, out, _ = run_cli(fit_args(folder))
+    assert code == 0
+    assert "rejected line 402: ZDA time has no GPS time" in out
+
+
+def test_fit_table_lists_corrupt_lines_first_and_counts_ignored_types(
+    run_cli: RunCli, logs: Path, tmp_path: Path
+) -> None:
+    """With GSV and VTG after every ZDA the table listed five 'unsupported sentence type'
+    lines and hid the two corrupt ones behind '... and 1199 more rejected line(s)'."""
+    from kinsync.io.nmea import format_sentence  # noqa: PLC0415
+
+    folder = tmp_path / "gsv"
+    shutil.copytree(logs, folder)
+    gsv = format_sentence("GPGSV,3,1,11,03,03,111,00,04,15,270,00,06,01,010,00,13,06,292,00")
+    vtg = format_sentence("GPVTG,054.7,T,034.4,M,005.5,N,010.2,K")
+    lines = (folder / "nmea.csv").read_text().splitlines()
+    out_lines = [lines[0]]
+    for line in lines[1:]:
+        out_lines.append(line)
+        if "GPZDA" in line:
+            t = float(line.split(",")[0])
+            out_lines += [f'{t + 0.001!r},"{gsv}"', f'{t + 0.002!r},"{vtg}"']
+    (folder / "nmea.csv").write_text("\n".join(out_lines) + "\n")
+    n_zda = sum("GPZDA" in x for x in lines)
+    code, stdout, _ = run_cli(fit_args(folder))
+    assert code == 0
+    corrupt = [x for x in stdout.splitlines() if x.startswith("rejected line")]
+    assert len(corrupt) == 2
+    assert not any("unsupported" in x for x in corrupt)
+    assert "more rejected line" not in stdout
+    assert f"not errors): {n_zda} GSV, {n_zda} VTG" in stdout
+    code, stdout, _ = run_cli(fit_args(folder, "--json"))
+    assert len(json.loads(stdout)["rejected_lines"]) == 2 + 2 * n_zda  # --json keeps them all

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -117,3 +118,41 @@ def test_tables_fit_80_columns_when_piped(
         too_wide = [line for line in table_lines if len(line) > 80]
         assert not too_wide, (argv, too_wide)
         assert "…" not in out, (argv, out)
+
+
+def _click_commands(
+    command: Any = None, path: tuple[str, ...] = ()
+) -> Iterator[tuple[tuple[str, ...], Any]]:
+    """Every group and command of the program as click sees it, with its argv path."""
+    import typer  # noqa: PLC0415
+
+    from kinsync.cli.app import app  # noqa: PLC0415
+
+    command = typer.main.get_command(app) if command is None else command
+    yield path, command
+    for name, sub in getattr(command, "commands", {}).items():  # a group (typer's own click)
+        yield from _click_commands(sub, (*path, name))
+
+
+def _flat(text: str) -> str:
+    """Rendered help without the panels' borders, whitespace collapsed (lines wrap)."""
+    return " ".join(re.sub(r"[│╭╮╰╯─┌┐└┘]", " ", text).split())
+
+
+@pytest.mark.parametrize(
+    ("path", "command"),
+    list(_click_commands()),
+    ids=lambda x: " ".join(x) if isinstance(x, tuple) else "",
+)
+def test_bracketed_help_text_is_shown_not_eaten_as_markup(
+    path: tuple[str, ...], command: Any, run_cli: RunCli
+) -> None:
+    """Rich markup ate "[xyz]" and "[profiler]": ``ins run --help`` showed
+    "gyro__rad_s", ``sync apply --help`` "Mount TOML with a  azimuth_deg"."""
+    code, out, _ = run_cli([*path, "--help"])
+    assert code == 0
+    sources = [command.help or ""] + [getattr(p, "help", None) or "" for p in command.params]
+    shown = _flat(out)
+    for source in sources:
+        for bracketed in re.findall(r"\[[^\[\]]*\]", source):
+            assert _flat(bracketed) in shown, (bracketed, out)

@@ -13,6 +13,7 @@ import pytest
 
 from kinsync.budget import serial_transmission_time_s
 from kinsync.clock import (
+    CONVENTIONS,
     ClockFit,
     ClockModel,
     Convention,
@@ -495,3 +496,123 @@ def test_fit_in_which_no_zda_pairs_with_a_pulse_refuses() -> None:
         fit_clock(pps[:50], zda_t[late], gps[late], n_bytes[late])
     fit = fit_clock(pps[:61], zda_t[late], gps[late], n_bytes[late])  # one pair is enough
     assert fit.n_zda_paired == 1
+
+
+# --------------------------------------------------------------------------- clock steps
+
+
+def stepped(step_s: float, at: int, n: int = 600, seed: int = 0) -> tuple[np.ndarray, ...]:
+    """`arrays` with the local clock stepped by ``step_s`` from pulse ``at`` on: the pulses
+    and the ZDAs after it are tagged ``step_s`` later; the GPS seconds are unchanged."""
+    pps, zda_t, gps, n_bytes, _ = arrays(n=n, seed=seed)
+    later = np.arange(n) >= at
+    return pps + step_s * later, zda_t + step_s * later, gps, n_bytes
+
+
+@pytest.mark.parametrize(
+    ("step_s", "at"),
+    [
+        (1.0, 250),  # the reviewer's case: the model came out 1 s wrong, exit 0
+        (1.0, 30),
+        (1.0, 570),
+        (2.0, 300),  # no strict majority before: named no step
+        (0.3, 250),  # "do not share a 1 s grid" before
+        (0.3, 400),
+        (0.5, 400),  # the 200 later pulses were called spurious, the span cut short
+        (0.5, 10),
+        (-0.3, 300),
+        (0.95, 200),
+        (0.05, 300),  # inside the coarse tolerance: the fit tilted through both sides
+        (-0.01, 150),
+        (2e-4, 450),
+        (3e-5, 300),
+    ],
+)
+def test_a_step_of_the_local_clock_is_refused_and_located(step_s: float, at: int) -> None:
+    pps, zda_t, gps, n_bytes = stepped(step_s, at)
+    where = rf"between pulse {at - 1} \(t_local_s={float(pps[at - 1])!r}\) and pulse {at} \("
+    with pytest.raises(InputError, match=where + r".*split the PPS and NMEA logs at t_local_s="):
+        fit_clock(pps, zda_t, gps, n_bytes)
+
+
+def test_a_step_is_found_among_missing_and_spurious_pulses_and_wrong_zdas() -> None:
+    pps, zda_t, gps, n_bytes = stepped(1.0, 333)
+    rng = np.random.default_rng(5)
+    keep = np.ones(len(pps), dtype=bool)
+    keep[[100, 200, 400, 401, 500]] = False
+    spurious = pps[rng.choice(len(pps) - 1, 20, replace=False)] + rng.uniform(0.05, 0.95, 20)
+    gps_named = gps.copy()
+    gps_named[[50, 150, 450]] += 1.0
+    pulses = np.sort(np.r_[pps[keep], spurious])
+    at = int(np.searchsorted(pulses, pps[333]))
+    where = rf"between pulse {at - 1} \(t_local_s={float(pulses[at - 1])!r}\) and pulse {at} "
+    with pytest.raises(InputError, match=where + r".*jumped by \+1 s"):
+        fit_clock(pulses, zda_t, gps_named, n_bytes)
+
+
+def test_a_step_in_the_last_pulses_leaves_them_spurious_not_a_step() -> None:
+    """Two pulses after a 0.5 s step do not make a run: reported spurious, model right."""
+    pps, zda_t, gps, n_bytes = stepped(0.5, 598)
+    fit = fit_clock(pps, zda_t, gps, n_bytes)
+    assert fit.n_spurious == 2
+    assert abs(fit.model.drift_ppm - 25.0) < 4.0 * fit.drift_std_ppm + 1e-3
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_no_step_alarm_on_simulated_logs_with_many_faults(seed: int, tmp_path: Path) -> None:
+    """Missing and spurious pulses and wrong ZDAs are not a step of the local clock."""
+    rng = np.random.default_rng(seed)
+    config = ClockSimConfig(
+        seed=seed,
+        convention=CONVENTIONS[seed % 2],
+        duration_s=float(rng.choice([300.0, 1800.0])),
+        drift_ppm=float(rng.uniform(-200.0, 200.0)),
+        jitter_us=float(rng.choice([0.0, 1.0, 20.0])),
+        missing=20,
+        spurious=150,
+        bad_zda=25,
+        baud=float(rng.choice([4800.0, 115200.0])),
+    )
+    write_clock_simulation(simulate_clock(config), tmp_path)
+    fit = fit_clock_to_log(
+        read_pps_csv(tmp_path / "pps.csv"),
+        read_nmea_log(tmp_path / "nmea.csv"),
+        convention=config.convention,
+        baud=config.baud,
+    )
+    assert (fit.n_missing, fit.n_spurious, fit.n_wrong_zda) == (20, 150, 25)
+
+
+# --------------------------------------------------------------------------- ZDAs without GPS time
+
+
+@pytest.mark.parametrize(
+    ("fields", "reason"),
+    [
+        ("235960.00,22,11,2026,00,00", "no leap second was inserted at the end of that day"),
+        ("120000.00,22,11,1979,00,00", "before the GPS epoch"),
+    ],
+)
+def test_a_zda_without_gps_time_is_rejected_not_fatal(
+    tmp_path: Path, fields: str, reason: str
+) -> None:
+    """One such ZDA aborted the whole fit, while a ZDA dated 31 November was only
+    rejected; now it is rejected too: counted, listed with its line and reason."""
+    sim = simulate_clock(ClockSimConfig())
+    write_clock_simulation(sim, tmp_path / "clean")
+    write_clock_simulation(sim, tmp_path / "edited")
+    path = tmp_path / "edited" / "nmea.csv"
+    lines = path.read_text().splitlines()
+    t_local = lines[401].split(",")[0]
+    assert "ZDA" in lines[401]
+    lines[401] = f'{t_local},"{format_sentence("GPZDA," + fields)}"'
+    path.write_text("\n".join(lines) + "\n")
+    pps = read_pps_csv(tmp_path / "clean" / "pps.csv")
+    clean = fit_clock_to_log(pps, read_nmea_log(tmp_path / "clean" / "nmea.csv"))
+    fit = fit_clock_to_log(pps, read_nmea_log(path))
+    assert [(r.line, r.t_local_s) for r in fit.rejected_zdas] == [(402, float(t_local))]
+    assert reason in fit.rejected_zdas[0].reason
+    assert fit.n_bad_lines == clean.n_bad_lines + 1
+    assert fit.n_zda == clean.n_zda - 1
+    assert fit.as_document()["rejected_zdas"][0]["line"] == 402
+    assert abs(fit.model.drift_ppm - clean.model.drift_ppm) < clean.drift_std_ppm

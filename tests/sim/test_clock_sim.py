@@ -120,3 +120,16 @@ def test_refuses_a_file_as_folder(tmp_path: Path) -> None:
     target.write_text("x")
     with pytest.raises(InputError, match="not a folder"):
         write_clock_simulation(simulate_clock(ClockSimConfig(duration_s=10.0)), target)
+
+
+def test_many_spurious_pulses_make_a_log_its_reader_accepts(tmp_path: Path) -> None:
+    """100000 spurious pulses in 10 s of local time about 1.5e9 s: draws that round to
+    one float made a PPS log with a repeated time, which read_pps_csv refuses."""
+    config = ClockSimConfig(duration_s=9.0, missing=0, bad_zda=0, spurious=100_000, seed=2)
+    sim = simulate_clock(config)
+    write_clock_simulation(sim, tmp_path / "out")
+    pps = read_pps_csv(tmp_path / "out" / "pps.csv")
+    assert len(pps) == config.n_edges + 100_000
+    assert np.all(np.diff(pps) > 0.0)
+    spurious = np.asarray(sim.truth["spurious_t_local_s"])
+    assert len(np.unique(spurious)) == 100_000

@@ -1,5 +1,10 @@
 """Help display fixes applied to every kinsync command.
 
+Help is rendered by rich with markup on (typer's default), so text in square brackets
+that looks like a style tag (``gyro_[xyz]_rad_s``, ``[profiler]``, ``kinsync[scale]``)
+vanished from ``--help``. `literal` escapes it; tests/cli/test_help_text.py checks that
+every bracketed text of every command's help is shown.
+
 typer 0.29 labels an on/off flag with its Python type (``--json <bool>``), which reads as if
 the flag took a value, and ``--json true`` then fails with "Got unexpected extra argument".
 A flag takes no value, so its help shows none (as click's own help does).
@@ -9,9 +14,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from rich.markup import escape
 from typer.core import TyperOption
 
-__all__ = ["install_flag_display"]
+__all__ = ["install_flag_display", "literal"]
+
+
+def literal(text: str) -> str:
+    """Help text shown as written: square brackets are not rich markup tags."""
+    return escape(text)
+
 
 _original = TyperOption.display_type_rich
 

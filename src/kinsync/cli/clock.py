@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,6 +20,7 @@ from kinsync.clock import (
 )
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
+from kinsync.messages import RejectedLine
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
 
@@ -87,7 +89,8 @@ def fit(
 
         atomic_write_bytes(figure, clock_residual_figure(result))
     doc: dict[str, Any] = result.as_document()
-    doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in log.rejected]
+    rejected = sorted([*log.rejected, *result.rejected_zdas], key=lambda r: r.line)
+    doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in rejected]
     doc["model_out"] = None if model_out is None else str(model_out)
     doc["figure"] = None if figure is None else str(figure)
     if as_json:
@@ -112,14 +115,28 @@ def fit(
     table.add_row("model", "piecewise-linear between pulses" if m.piecewise else "linear")
     console.print(table)
     console.print(CLOCK_FORMULA)
-    for r in log.rejected[:5]:
-        console.print(f"rejected line {r.line}: {r.reason}")
-    if len(log.rejected) > 5:
-        console.print(f"... and {len(log.rejected) - 5} more rejected line(s) (see --json)")
+    _print_rejected(rejected)
     if model_out is not None:
         console.print(f"model: {model_out}")
     if figure is not None:
         console.print(f"figure: {figure}")
+
+
+def _print_rejected(rejected: list[RejectedLine], shown: int = 5) -> None:
+    """The first corrupt lines, then the sentence types not read, by type with a count.
+
+    Well-formed sentences kinsync does not read (GSV, VTG, ...) are not errors; listed
+    line by line they hid the corrupt lines behind "... and N more".
+    """
+    corrupt = [r for r in rejected if r.unsupported_type is None]
+    for r in corrupt[:shown]:
+        console.print(f"rejected line {r.line}: {r.reason}")
+    if len(corrupt) > shown:
+        console.print(f"... and {len(corrupt) - shown} more rejected line(s) (see --json)")
+    ignored = Counter(r.unsupported_type for r in rejected if r.unsupported_type is not None)
+    if ignored:
+        kinds = ", ".join(f"{n} {kind}" for kind, n in sorted(ignored.items()))
+        console.print(f"ignored (sentence types kinsync does not read, not errors): {kinds}")
 
 
 @app.command("apply")

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from kinsync.cli._help import literal
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -122,9 +123,11 @@ def georef(
         str,
         typer.Option(
             "--scheduler",
-            help="Where chunks are georeferenced: 'local' (this process), 'processes' (a "
-            "local process pool) or tcp://HOST:PORT (a running Dask scheduler; needs "
-            "kinsync[scale]). The output is identical whichever is used.",
+            help=literal(
+                "Where chunks are georeferenced: 'local' (this process), 'processes' (a "
+                "local process pool) or tcp://HOST:PORT (a running Dask scheduler; needs "
+                "kinsync[scale]). The output is identical whichever is used."
+            ),
         ),
     ] = "local",
     workers: Annotated[
@@ -157,8 +160,10 @@ def georef(
         float | None,
         typer.Option(
             "--profiler-azimuth-deg",
-            help="Azimuth (deg) of a profile scanner's plane about the scanner Z axis, "
-            "replacing the mount's [profiler] azimuth_deg (profile files only).",
+            help=literal(
+                "Azimuth (deg) of a profile scanner's plane about the scanner Z axis, "
+                "replacing the mount's [profiler] azimuth_deg (profile files only)."
+            ),
         ),
     ] = None,
     as_json: Annotated[

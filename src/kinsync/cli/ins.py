@@ -18,6 +18,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._help import literal
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
@@ -116,16 +117,20 @@ def run(
         Path,
         typer.Option(
             "--imu",
-            help="IMU CSV: t_s + gyro_[xyz]_rad_s + acc_[xyz]_m_s2, or t_s + dtheta_[xyz]_rad "
-            "+ dv_[xyz]_m_s (body X forward, Y right, Z down).",
+            help=literal(
+                "IMU CSV: t_s + gyro_[xyz]_rad_s + acc_[xyz]_m_s2, or t_s + dtheta_[xyz]_rad "
+                "+ dv_[xyz]_m_s (body X forward, Y right, Z down)."
+            ),
         ),
     ],
     gnss_path: Annotated[
         Path,
         typer.Option(
             "--gnss",
-            help="GNSS CSV: t_s,lat_deg,lon_deg,h_m [+ std_n_m,std_e_m,std_d_m] "
-            "[+ vn_m_s,ve_m_s,vd_m_s [+ std_vn_m_s,std_ve_m_s,std_vd_m_s]].",
+            help=literal(
+                "GNSS CSV: t_s,lat_deg,lon_deg,h_m [+ std_n_m,std_e_m,std_d_m] "
+                "[+ vn_m_s,ve_m_s,vd_m_s [+ std_vn_m_s,std_ve_m_s,std_vd_m_s]]."
+            ),
         ),
     ],
     config_path: Annotated[
@@ -333,8 +338,10 @@ def compare(
     truth_path: Annotated[
         Path,
         typer.Argument(
-            help="Reference trajectory: .csv (t_s,lat_deg,lon_deg,h_m,[vn_m_s,...,]roll_deg,"
-            "pitch_deg,yaw_deg) or .sbet/.out.",
+            help=literal(
+                "Reference trajectory: .csv (t_s,lat_deg,lon_deg,h_m,[vn_m_s,...,]roll_deg,"
+                "pitch_deg,yaw_deg) or .sbet/.out."
+            ),
             metavar="TRUTH",
         ),
     ],

@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._help import literal
 from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -41,7 +42,7 @@ def object_space(
     ],
     mount: Annotated[
         Path,
-        typer.Option("--mount", help="Mount TOML with a [profiler] azimuth_deg."),
+        typer.Option("--mount", help=literal("Mount TOML with a [profiler] azimuth_deg.")),
     ],
     sync_points: Annotated[
         Path, typer.Option("--sync-points", help="Sync points CSV: name,lat_deg,lon_deg,h_m.")
@@ -166,7 +167,7 @@ def apply(
         Path, typer.Option("--scan", help="Scan table (.csv/.parquet) with profile,angle_rad.")
     ],
     mount: Annotated[
-        Path, typer.Option("--mount", help="Mount TOML with a [profiler] azimuth_deg.")
+        Path, typer.Option("--mount", help=literal("Mount TOML with a [profiler] azimuth_deg."))
     ],
     out: Annotated[
         Path,

@@ -15,8 +15,9 @@ Pairing a ZDA with its pulse
 
 Robust fit (`fit_clock`)
     1. The pulses alone fix a 1 s grid: the local period is the median of the
-       intervals that are whole seconds within 1 %, the grid phase the circular mean
-       of the pulse phases refined by a median; every pulse gets the nearest count.
+       intervals that are whole seconds within 1 %, the grid phase the middle of what
+       the densest 0.2 s window of the pulse phases holds, refined by a median (so the
+       larger part of a log with a step sets it); every pulse gets the nearest count.
     2. Pulses off the grid are rejected iteratively: least squares of count on local
        time over the kept pulses, residuals of all pulses, robust scale 1.4826 * MAD,
        keep ``|residual| <= max(6 * scale, 1 us)`` (one pulse per count, the closest),
@@ -33,6 +34,16 @@ Robust fit (`fit_clock`)
        the covariance of offset and drift uses the residual variance ``RSS / (n - 2)``.
        GPS seconds inside the span of good pulses that have no good pulse are
        *missing*.
+    5. A step of the local clock (its time jumps and stays jumped) would make one
+       offset-and-drift line wrong for the whole log, so it is refused, naming the
+       pulses it lies between. Three signs, each persistent (isolated spurious pulses
+       and wrong ZDAs show none): at least 3 off-grid pulses at distinct seconds that
+       share a phase of their own where the grid has no good pulse
+       (`_check_phase_gaps`); at least 5 consecutive ZDAs naming one second, then at
+       least 5 naming another (`_find_zda_step`: a jump by whole seconds, which the
+       pulses alone cannot show); a jump of the good pulses' phase that stays (a
+       step below the rejection threshold, `_find_phase_jump`). They are checked in
+       the order phase gaps, phase jumps, ZDAs.
 
 Optionally (``piecewise=True``) the model also interpolates linearly between
 consecutive good pulses. A ZDA's UTC date and time become GPS time through the
@@ -41,8 +52,9 @@ leap-second table (`kinsync.clock.leap_seconds`).
 
 from __future__ import annotations
 
+import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -54,7 +66,7 @@ from kinsync.budget import Parity, serial_transmission_time_s
 from kinsync.clock.leap_seconds import zda_to_gps_s
 from kinsync.clock.model import CLOCK_FORMULA, ClockModel, _finite_times
 from kinsync.errors import InputError, ObservabilityError
-from kinsync.messages import NmeaLog, ZdaRecord
+from kinsync.messages import NmeaLog, RejectedLine, ZdaRecord
 from kinsync.robust import robust_sigma
 
 __all__ = [
@@ -87,6 +99,21 @@ _MAX_ITERATIONS = 50
 _THRESHOLD_SHRINK = 10.0
 _WHOLE_SECOND_TOLERANCE_S = 1e-3
 """A ZDA must name a whole second to this tolerance."""
+_STEP_MIN_RUN = 3
+"""Off-grid pulses that must share a phase of their own for a step of the local clock
+(fewer are reported as spurious)."""
+_STEP_MIN_ZDAS = 5
+"""Consecutive ZDAs that must agree on a second, before and after, for a whole-second
+step of the local clock (shorter runs are reported as wrong ZDAs: with 5 % of the ZDAs
+wrong at random, five in a row with the same error turn up once in 10^6 logs)."""
+_STEP_PHASE_TOLERANCE_S = 1e-3
+"""Off-grid pulses within this of one phase (grid counts, about s) share a phase."""
+_STEP_WINDOW = 20
+"""Good pulses each side of a candidate jump of the good pulses' phase."""
+_STEP_SIGMAS = 8.0
+"""A jump of the good pulses' phase must exceed this many times their scatter ..."""
+_MIN_STEP_S = 5e-6
+"""... and this (s): smaller steps stay below the timing noise of a PPS capture."""
 
 
 def message_transmission_time_s(
@@ -159,13 +186,17 @@ class ClockFit:
         Arrival times of ZDAs whose named second has no good pulse.
     n_bad_lines : int
         Corrupt lines of the NMEA log (bad checksum, truncated, bad field, bad time,
-        ...). Well-formed sentences of types kinsync does not read (GSV, ...) are not
-        messages lost, so they are not counted.
+        ...), the ZDAs of `rejected_zdas` included. Well-formed sentences of types
+        kinsync does not read (GSV, ...) are not messages lost, so they are not counted.
     zda_delay_s : float
         Median time from the named edge to the start of a paired ZDA's transmission
         (s): about the receiver's output delay for ``"preceding"``, negative (the delay
         minus 1 s) for ``"following"``. A value out of line with the receiver's manual
         hints at the wrong convention.
+    rejected_zdas : tuple of RejectedLine
+        ZDAs the reader accepted whose UTC has no GPS time (a 23:59:60 on a day
+        without a leap second, a date before 1980-01-06), each with its line and
+        reason (`fit_clock_to_log`; empty from `fit_clock`).
     """
 
     model: ClockModel
@@ -186,6 +217,7 @@ class ClockFit:
     unpaired_zda_t_local_s: FloatArray
     n_bad_lines: int
     zda_delay_s: float
+    rejected_zdas: tuple[RejectedLine, ...] = ()
 
     @property
     def n_pulses(self) -> int:
@@ -272,6 +304,10 @@ class ClockFit:
             "spurious_t_local_s": self.spurious_t_local_s.tolist(),
             "wrong_zda_t_local_s": self.wrong_zda_t_local_s.tolist(),
             "unpaired_zda_t_local_s": self.unpaired_zda_t_local_s.tolist(),
+            "rejected_zdas": [
+                {"line": r.line, "t_local_s": r.t_local_s, "reason": r.reason}
+                for r in self.rejected_zdas
+            ],
         }
 
 
@@ -328,6 +364,20 @@ def _keep_closest_per_label(labels: IntArray, resid: FloatArray, keep: BoolArray
     return out
 
 
+def _phase_mode(phase: FloatArray) -> float:
+    """Middle of the densest window of width ``2 * _COARSE_TOLERANCE_S`` of the phases.
+
+    Phases are in grid counts, in [-0.5, 0.5]; windows wrap around. Unlike a circular
+    mean, the mode of a log with a step of the local clock is the phase of its larger
+    part, not a phase between the two that no pulse has.
+    """
+    p = np.sort(phase)
+    ext = np.concatenate([p, p + 1.0])
+    ends = np.searchsorted(ext, p + 2.0 * _COARSE_TOLERANCE_S, side="left")
+    i = int(np.argmax(ends - np.arange(len(p))))
+    return float(np.median(ext[i : int(ends[i])]))
+
+
 def _grid_labels(t: FloatArray) -> tuple[IntArray, BoolArray, float, float]:
     """Label each pulse with a count of seconds and flag the pulses on the 1 s grid.
 
@@ -339,7 +389,7 @@ def _grid_labels(t: FloatArray) -> tuple[IntArray, BoolArray, float, float]:
     beta = 1.0 / period
     tau = x * beta
     phase = _wrap(tau)
-    phi0 = float(np.angle(np.mean(np.exp(2j * np.pi * phase))) / (2.0 * np.pi))
+    phi0 = _phase_mode(phase)
     near = np.abs(_wrap(phase - phi0)) < _COARSE_TOLERANCE_S
     if np.count_nonzero(near) < 3:
         msg = (
@@ -396,6 +446,198 @@ def _check_log_span(t: FloatArray, labels: IntArray, good: BoolArray) -> None:
         "mistyped pulse, or fit each session's log on its own"
     )
     raise InputError(msg)
+
+
+def _pulse_at(t: FloatArray, i: int) -> str:
+    return f"pulse {i} (t_local_s={float(t[i])!r})"
+
+
+def _step_error(t: FloatArray, before: int, after: int, what: str) -> InputError:
+    msg = (
+        f"the local clock stepped between {_pulse_at(t, before)} and {_pulse_at(t, after)}, "
+        f"pulses counted from 0: {what}; one offset and drift cannot map both sides, so "
+        f"split the PPS and NMEA logs at t_local_s={float(t[after])!r} and fit each part "
+        "on its own"
+    )
+    return InputError(msg)
+
+
+def _grid_phase(t: FloatArray, alpha: float, beta: float) -> tuple[FloatArray, FloatArray]:
+    """Grid position ``u`` of every pulse and its phase ``u - rint(u)`` (grid counts)."""
+    u = alpha + beta * (t - t[0])
+    return u, np.asarray(u - np.rint(u), dtype=np.float64)
+
+
+def _check_phase_gaps(t: FloatArray, good: BoolArray, alpha: float, beta: float) -> None:
+    """Refuse a step of the local clock larger than the rejection threshold.
+
+    Where the grid has no good pulse (before the first, after the last, or in a gap),
+    at least `_STEP_MIN_RUN` off-grid pulses at distinct seconds that share one phase
+    of their own (within `_STEP_PHASE_TOLERANCE_S`) are the clock running on after a
+    jump, not spurious pulses (which fall at random phases).
+
+    Raises
+    ------
+    InputError
+        Naming the two pulses the step lies between and its size modulo whole seconds.
+    """
+    u, phase = _grid_phase(t, alpha, beta)
+    g = np.flatnonzero(good)
+    off = np.flatnonzero(~good)
+    gap_of = np.searchsorted(g, off)  # 0: before the first good pulse, len(g): after the last
+    for gap in np.unique(gap_of):
+        members = off[gap_of == gap]
+        if len(members) < _STEP_MIN_RUN:
+            continue
+        ph = np.sort(phase[members])
+        ext = np.concatenate([ph, ph + 1.0])
+        ends = np.searchsorted(ext, ph + 2.0 * _STEP_PHASE_TOLERANCE_S, side="right")
+        i = int(np.argmax(ends - np.arange(len(ph))))
+        lo_ph, hi_ph = float(ext[i]), float(ext[int(ends[i]) - 1])
+        w = _wrap(phase[members] - lo_ph)
+        shared = members[(w >= -1e-12) & (w <= hi_ph - lo_ph + 1e-12)]
+        if len(np.unique(np.rint(u[shared]))) < _STEP_MIN_RUN:
+            continue
+        jump = float(_wrap(np.asarray([np.median(_wrap(phase[shared] - lo_ph)) + lo_ph]))[0])
+        if gap == 0:  # the other phase comes first: the step is where it ends
+            before, after, jump = int(shared[-1]), int(g[0]), -jump
+        else:
+            before, after = int(g[gap - 1]), int(shared[0])
+        period = 1.0 / beta
+        raise _step_error(
+            t,
+            before,
+            after,
+            f"{len(shared)} pulses, where the 1 s grid of the other {len(g)} has none, "
+            f"share a phase {jump * period:+.6f} s (modulo whole seconds) off it",
+        )
+
+
+def _find_phase_jump(
+    t: FloatArray, labels: IntArray, good: BoolArray, alpha: float, beta: float
+) -> tuple[int, int, str] | None:
+    """Find a step of the local clock smaller than the rejection threshold.
+
+    Such a step leaves both sides among the good pulses, on a tilted line. Between two
+    good pulses whose phase difference is out of line with the others, the medians of
+    the phase over up to `_STEP_WINDOW` good pulses each side are compared: a jump
+    larger than `_STEP_SIGMAS` times their scatter and than `_MIN_STEP_S` persists, so
+    it is a step (one late pulse moves neither median).
+
+    Returns
+    -------
+    tuple or None
+        The pulses the first such step lies between and what shows it, or None.
+    """
+    _, phase = _grid_phase(t, alpha, beta)
+    g = np.flatnonzero(good)
+    if len(g) < 2 * _STEP_MIN_RUN:
+        return None
+    gl = labels[g].astype(np.float64)
+    # Unwrapped: on a line tilted by a step, the phase may cross half a second.
+    gp = np.unwrap(phase[g], period=1.0)
+    dl = np.diff(gl)
+    dp = np.diff(gp)
+    dev = dp - float(np.median(dp / dl)) * dl
+    sigma = robust_sigma(dev - np.median(dev)) / math.sqrt(2.0)
+    cand = np.flatnonzero(np.abs(dev) > max(_STEP_SIGMAS * sigma, _MIN_STEP_S)) + 1
+    for c in cand:
+        left = gp[max(0, c - _STEP_WINDOW) : c]
+        right = gp[c : c + _STEP_WINDOW]
+        if len(left) < _STEP_MIN_RUN or len(right) < _STEP_MIN_RUN:
+            continue
+        m_left, m_right = float(np.median(left)), float(np.median(right))
+        scatter = float(np.sqrt(np.mean(np.r_[left - m_left, right - m_right] ** 2)))
+        jump = m_right - m_left
+        if abs(jump) > max(_STEP_SIGMAS * scatter, _MIN_STEP_S):
+            return (
+                int(g[c - 1]),
+                int(g[c]),
+                (
+                    f"the phase of the pulses jumps by {jump / beta:+.6f} s (modulo whole "
+                    "seconds) there and stays "
+                    f"(scatter {scatter / beta:.1e} s on either side)"
+                ),
+            )
+    return None
+
+
+def _find_zda_step(
+    t: FloatArray,
+    labels: IntArray,
+    good: BoolArray,
+    z_t: FloatArray,
+    label_offset: FloatArray,
+    named: IntArray,
+) -> tuple[int, int, str] | None:
+    """Find a whole-second step of the local clock, which only the ZDAs show.
+
+    ``label_offset`` is each ZDA's GPS second minus the grid count it names: one value
+    for a log without a step. At least `_STEP_MIN_ZDAS` consecutive ZDAs (in time order)
+    that agree on one value, followed by at least as many agreeing on another, mean the
+    pulses' counts slipped by whole seconds between them (a wrong ZDA now and then
+    breaks no run).
+
+    Returns
+    -------
+    tuple or None
+        The pulses named by the last ZDA of the first run and the first ZDA of the
+        next, and the size of the step; None without such runs.
+    """
+    order = np.argsort(z_t, kind="stable")
+    k = np.rint(label_offset[order])
+    k[np.abs(label_offset[order] - k) > _WHOLE_SECOND_TOLERANCE_S] = np.nan
+    starts = np.r_[0, np.flatnonzero(~(k[1:] == k[:-1])) + 1]
+    lengths = np.diff(np.r_[starts, len(k)])
+    runs = [(int(a), int(n)) for a, n in zip(starts, lengths, strict=True) if n >= _STEP_MIN_ZDAS]
+    runs = [(a, n) for a, n in runs if not np.isnan(k[a])]
+    for (a0, n0), (a1, n1) in itertools.pairwise(runs):
+        if k[a0] == k[a1]:
+            continue
+        last, first = order[a0 + n0 - 1], order[a1]
+        by = float(k[a0] - k[a1])  # the count advanced by this much more than GPS time
+        pulse_of = {int(labels[i]): int(i) for i in np.flatnonzero(good)}
+        before = pulse_of.get(int(named[last]), int(np.searchsorted(t, z_t[last]) - 1))
+        after = pulse_of.get(int(named[first]), int(np.searchsorted(t, z_t[first]) - 1))
+        before, after = max(before, 0), max(after, 0)
+        if after <= before:
+            after = min(before + 1, len(t) - 1)
+        return (
+            before,
+            after,
+            (
+                f"the {n0} ZDAs up to t_local_s={float(z_t[last])!r} and the {n1} from "
+                f"t_local_s={float(z_t[first])!r} on name GPS seconds that say the local "
+                f"clock jumped by {by:+.0f} s there (or the receiver's ZDAs are wrong from "
+                "there)"
+            ),
+        )
+    return None
+
+
+def _check_steps(
+    t: FloatArray,
+    phase_jump: tuple[int, int, str] | None,
+    zda_step: tuple[int, int, str] | None,
+) -> None:
+    """Refuse a step found in the pulses' phase or in the ZDAs, naming it.
+
+    A phase jump places a step best (a step inside the coarse tolerance tilts the grid,
+    and the ZDAs' counts slip where the tilted grid crosses half a second, not at the
+    step); where the ZDAs show a whole-second step at the same pulses, their account
+    (the step in whole seconds) is given instead.
+
+    Raises
+    ------
+    InputError
+        `_step_error` for the step found.
+    """
+    found = phase_jump or zda_step
+    if found is None:
+        return
+    if phase_jump is not None and zda_step is not None and zda_step[1] == phase_jump[1]:
+        found = zda_step
+    raise _step_error(t, *found)
 
 
 def _zda_arrays(
@@ -513,7 +755,8 @@ def fit_clock(
     InputError
         Too few pulses, no ZDA, mismatched shapes, non-finite or unordered times,
         pulses not one second apart, ZDAs that do not agree on the second (no strict
-        majority), an unknown convention.
+        majority), an unknown convention, a step of the local clock (naming the pulses
+        it lies between; split the logs there and fit each part).
     ObservabilityError
         Fewer than 3 pulses on a common 1 s grid, or no ZDA names the second of a good
         pulse (the GPS second of the pulses would rest on nothing).
@@ -536,9 +779,15 @@ def fit_clock(
 
     labels, good, alpha, beta = _grid_labels(t)
     _check_log_span(t, labels, good)
+    _check_phase_gaps(t, good, alpha, beta)
     # Grid count each ZDA names: last count before the transmission start, or the next.
     start_count = alpha + beta * (z_t - tx_s - t[0])
     named = np.floor(start_count).astype(np.int64) + (1 if convention == "following" else 0)
+    _check_steps(
+        t,
+        _find_phase_jump(t, labels, good, alpha, beta),
+        _find_zda_step(t, labels, good, z_t, z_gps - named, named),
+    )
     k, wrong = _majority_label(z_gps - named)
 
     gps_all = (labels + k).astype(np.float64)
@@ -615,11 +864,15 @@ def fit_clock_to_log(
     baud, convention, piecewise, data_bits, parity, stop_bits
         As in `fit_clock`.
 
+    A ZDA whose UTC has no GPS time (23:59:60 on a day without a leap second, a date
+    before 1980-01-06) is rejected like a corrupt line: listed in
+    ``ClockFit.rejected_zdas`` with its line and reason, counted in ``n_bad_lines``.
+
     Raises
     ------
     InputError
-        No ZDA in the log (naming the file), a ZDA whose date has no GPS time (before
-        1980-01-06; naming its line), or any error of `fit_clock`.
+        No ZDA in the log (naming the file), no ZDA with a GPS time (naming the line
+        and reason of the first), or any error of `fit_clock`.
     """
     zda_t, zda_records, zda_sentences, zda_lines = _log_zdas(log)
     if len(zda_records) == 0:
@@ -629,31 +882,47 @@ def fit_clock_to_log(
             "ZDA to name the pulses' GPS second"
         )
         raise InputError(msg)
-    gps = np.empty(len(zda_records))
+    gps = np.full(len(zda_records), np.nan)
+    rejected: list[RejectedLine] = []
     for i, record in enumerate(zda_records):
         try:
             gps[i] = zda_to_gps_s(record)
         except InputError as err:
-            where = f"line {zda_lines[i]}" if zda_lines else f"ZDA number {i + 1}"
-            msg = f"{log.source}: {where}: {err}"
-            raise InputError(msg) from err
+            reason = f"{_NO_GPS_TIME}{err}"
+            rejected.append(
+                RejectedLine(
+                    zda_lines[i] if zda_lines else 0, float(zda_t[i]), zda_sentences[i], reason
+                )
+            )
+    if rejected and len(rejected) == len(zda_records):
+        first = rejected[0]
+        where = f"line {first.line}" if zda_lines else "ZDA number 1"
+        more = f", and {len(rejected) - 1} more ZDA(s)" if len(rejected) > 1 else ""
+        msg = (
+            f"{log.source}: {where}: {first.reason.removeprefix(_NO_GPS_TIME)}{more}; no ZDA "
+            "of the log names a UTC time that has a GPS time"
+        )
+        raise InputError(msg)
+    ok = np.isfinite(gps)
     n_bytes = np.array([len(s.encode("ascii", errors="replace")) + 2 for s in zda_sentences])
-    return fit_clock(
+    n_corrupt = sum(1 for r in log.rejected if r.unsupported_type is None)
+    fit = fit_clock(
         pps_t_local_s,
-        zda_t,
-        gps,
-        n_bytes,
+        zda_t[ok],
+        gps[ok],
+        n_bytes[ok],
         baud=baud,
         convention=convention,
         piecewise=piecewise,
-        n_bad_lines=sum(1 for r in log.rejected if not r.reason.startswith(_UNSUPPORTED_REASON)),
+        n_bad_lines=n_corrupt + len(rejected),
         data_bits=data_bits,
         parity=parity,
         stop_bits=stop_bits,
     )
+    return replace(fit, rejected_zdas=tuple(rejected))
 
 
-_UNSUPPORTED_REASON = "unsupported sentence type"
+_NO_GPS_TIME = "ZDA time has no GPS time: "
 
 
 def _log_zdas(log: NmeaLog) -> tuple[FloatArray, list[ZdaRecord], list[str], list[int]]:

@@ -328,7 +328,7 @@ def write_truth_csv(trajectory: Trajectory, path: Path) -> None:
 def _csv_header(path: Path) -> list[str]:
     check_text_file(path, "navigation CSV file")
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:
             row = next(csv.reader(fh), None)
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         msg = f"{path}: cannot read ({err})"

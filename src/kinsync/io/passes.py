@@ -108,7 +108,7 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     if index_path.exists():
         check_text_file(index_path, f"pass index ({PASSES_CSV})", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
-        with index_path.open(newline="", encoding="utf-8") as fh:
+        with index_path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.reader(fh)
             header_row = next(reader, None)
             if not header_row or all(not h.strip() for h in header_row):

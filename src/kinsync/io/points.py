@@ -75,7 +75,7 @@ def _check_exists(path: Path) -> None:
 def _csv_header(path: Path) -> list[str]:
     check_text_file(path, "point table (CSV)")
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:
             row = next(csv.reader(fh), None)
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         msg = f"{path}: cannot read the header ({err})"
@@ -152,7 +152,7 @@ def _renamed(
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
     """Scan a CSV for the first empty or non-numeric cell of a required column."""
-    with path.open(newline="", encoding="utf-8", errors="surrogateescape") as fh:
+    with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
             header = [c.strip() for c in next(reader)]

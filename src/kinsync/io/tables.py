@@ -80,7 +80,7 @@ def rows_to_lines(text: str, line_of_row: Callable[[int], int]) -> str:
 
 
 def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
-    with path.open(newline="", encoding="utf-8", errors="surrogateescape") as fh:
+    with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
             next(reader)
@@ -160,7 +160,7 @@ def read_numeric_csv(
     path = Path(path)
     check_text_file(path, "CSV file", max_bytes=MAX_TABLE_BYTES)
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # a BOM is not a name
             header_row = next(csv.reader(fh), None)
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         msg = f"{path}: cannot read the header ({err})"

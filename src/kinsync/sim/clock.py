@@ -37,6 +37,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -60,6 +61,29 @@ _MAX_BURST_END_S = 0.95
 _MIN_EDGES = 10
 _LAT_DDMM = "4648.8130"
 _LON_DDDMM = "07112.4925"
+
+
+def _spurious_pulses(
+    rng: np.random.Generator,
+    edges_gps: FloatArray,
+    local: Callable[[FloatArray], FloatArray],
+    count: int,
+    real_local: FloatArray,
+) -> FloatArray:
+    """Local times of ``count`` spurious edges, distinct from each other and the real ones.
+
+    Each falls at a random time 50-950 ms after a random true edge. Many of them in a
+    short log can round to the same float of local time (about 0.24 us apart at 1.5e9 s),
+    and a PPS log with a repeated time is refused by `read_pps_csv`: such draws are drawn
+    again, so the simulator never writes a log its own reader refuses.
+    """
+    spur = np.empty(0)
+    while len(spur) < count:
+        k = rng.integers(0, len(edges_gps) - 1, size=count - len(spur))
+        new = local(edges_gps[k] + rng.uniform(*_SPURIOUS_PHASE_S, size=len(k)))
+        spur = np.unique(np.concatenate([spur, new]))  # sorted, repeats dropped
+        spur = spur[~np.isin(spur, real_local)]
+    return np.asarray(spur, dtype=np.float64)
 
 
 def _check(condition: bool, message: str) -> None:
@@ -344,9 +368,7 @@ def simulate_clock(config: ClockSimConfig | None = None) -> ClockSimulation:
     bad_zda_k = np.sort(chosen[c.missing :])
     keep = np.ones(n, dtype=np.bool_)
     keep[missing_k] = False
-    spur_k = rng.integers(0, n - 1, size=c.spurious)
-    spur_gps = edges_gps[spur_k] + rng.uniform(*_SPURIOUS_PHASE_S, size=c.spurious)
-    spur_local = np.sort(local(spur_gps))
+    spur_local = _spurious_pulses(rng, edges_gps, local, c.spurious, detected[keep])
     pps = np.sort(np.concatenate([detected[keep], spur_local]))
 
     wrong_by = {int(k): int(rng.choice([-1, 1])) for k in bad_zda_k}
