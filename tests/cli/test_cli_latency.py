@@ -135,6 +135,18 @@ def test_sphere_non_numeric_point(
     assert_one_line_error(code, out, err, pass_file.name, "line 6")
 
 
+def test_sphere_truncated_laz_pass(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    folder = tmp_path / "laz"
+    cfg = RotatingTableConfig(latency_s=TAU_S, rates_deg_s=(18.0,), passes=1, seed=4)
+    write_simulation(simulate_rotating_table(cfg), folder, file_format="laz")
+    path = folder / "pass_001.laz"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "passes.csv: line 3", "pass_001.laz", "copy it again")
+
+
 def test_sphere_axis_pointing_at_the_sphere(
     run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:

@@ -239,6 +239,22 @@ def test_empty_las_pass(tmp_path: Path) -> None:
         read_passes(tmp_path)
 
 
+@pytest.mark.parametrize("kept", [0.5, 0.9, 0.99])
+def test_truncated_laz_pass_names_the_file_and_its_line(tmp_path: Path, kept: float) -> None:
+    # A LAZ pass cut short (an interrupted copy) is refused before lazrs reads past the
+    # end ("LazrsError: failed to fill whole buffer" was an internal error), with the
+    # chunk-table check that calibrate and georef use.
+    write_passes(tmp_path, _passes(), file_format="laz")
+    path = tmp_path / "pass_001.laz"
+    data = path.read_bytes()
+    path.write_bytes(data[: int(len(data) * kept)])
+    with pytest.raises(InputError) as exc:
+        read_passes(tmp_path)
+    message = str(exc.value)
+    for fragment in ("passes.csv: line 3", "pass_001.laz", "chunk table", "copy it again"):
+        assert fragment in message, message
+
+
 def test_read_pass_file_missing(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="not found"):
         read_pass_file(tmp_path / "x.laz")

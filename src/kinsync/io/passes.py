@@ -40,7 +40,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
-from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, scaled_coordinates
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasPointReader, scaled_coordinates
 from kinsync.io.sanity import (
     LENGTH_M,
     MAX_TEXT_ROWS_BYTES,
@@ -189,22 +189,21 @@ def _read_csv_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
 
 
 def _read_las_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
-    try:
-        if path.suffix.lower() == ".laz":
-            las = laspy.read(path, laz_backend=laspy.LazBackend.Lazrs)
-        else:
-            las = laspy.read(path)
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
-    except (laspy.errors.LaspyException, OSError, ValueError) as err:
-        msg = f"{path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
-        raise InputError(msg) from err
-    pts = scaled_coordinates(las.points.array, las.header.scales, las.header.offsets)
+    """Points and times of a LAS/LAZ pass file.
+
+    Read through `kinsync.io.las.LasPointReader`, which checks the header's point count
+    against the file (LAS: its size; LAZ: its chunk table) before any point is read, so
+    a truncated or corrupt file is an `InputError` naming what is missing, as in
+    ``calibrate`` and ``georef``.
+    """
+    with LasPointReader(path) as reader:
+        record = reader.read(0, reader.point_count)
+        adjusted = reader.gps_time_type == "adjusted_standard"
+    pts = scaled_coordinates(record.array, record.scales, record.offsets)
     t: FloatArray | None = None
-    if "gps_time" in las.point_format.dimension_names:
-        t = np.asarray(las.gps_time, dtype=np.float64)
-        if las.header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD:
+    if "gps_time" in record.point_format.dimension_names:
+        t = np.asarray(record.array["gps_time"], dtype=np.float64)
+        if adjusted:
             t = t + ADJUSTED_GPS_OFFSET_S
     return pts, t
 
