@@ -147,6 +147,32 @@ def test_sphere_truncated_laz_pass(
     assert_one_line_error(code, out, err, "passes.csv: line 3", "pass_001.laz", "copy it again")
 
 
+def test_sphere_pass_listed_twice(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    index = folder / "passes.csv"
+    lines = index.read_text().splitlines()
+    index.write_text("\n".join([*lines, lines[1]]) + "\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(
+        code, out, err, "passes.csv", f"listed twice (lines 2 and {len(lines) + 1})"
+    )
+
+
+def test_sphere_warns_of_unlisted_pass_files(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    left_out = Path(next(r["file"] for r in csv.DictReader((folder / "passes.csv").open())))
+    rewrite_index(folder, lambda r: r["file"] != str(left_out))
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure", "--json"])
+    assert code == 0, err
+    json.loads(out)
+    assert f"kinsync: warning: {folder}: 1 file not listed in passes.csv" in err, err
+    assert left_out.name in err
+
+
 def test_sphere_axis_pointing_at_the_sphere(
     run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
