@@ -138,8 +138,9 @@ def test_hand_written_folder_defaults_and_extra_columns(tmp_path: Path) -> None:
 
 def test_empty_axis_cells_take_the_default(tmp_path: Path) -> None:
     (tmp_path / "a.csv").write_text("x_m,y_m,z_m\n1,2,3\n")
+    (tmp_path / "b.csv").write_text("x_m,y_m,z_m\n1,2,3\n")  # one file twice is refused
     (tmp_path / "passes.csv").write_text(
-        "file,rate_deg_s,axis_n,axis_e,axis_d\na.csv,3,,,\na.csv,3,0,1,0\n"
+        "file,rate_deg_s,axis_n,axis_e,axis_d\na.csv,3,,,\nb.csv,3,0,1,0\n"
     )
     a, b = read_passes(tmp_path)
     assert a.axis_ned == (0.0, 0.0, 1.0)
