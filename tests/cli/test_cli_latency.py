@@ -183,6 +183,34 @@ def test_sphere_warns_of_unlisted_pass_files(
     assert left_out.name in err
 
 
+def test_sphere_reports_a_pass_without_the_sphere(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
+    rows = list(csv.DictReader((folder / "passes.csv").open()))
+    name = next(r["file"] for r in rows if float(r["rate_deg_s"]) == -18.0)
+    lines = (folder / name).read_text().splitlines()
+    xyz = np.array([[float(v) for v in line.split(",")[:3]] for line in lines[1:]])
+    far = np.linalg.norm(xyz - centre, axis=1) > 0.2
+    (folder / name).write_text("\n".join([lines[0], *np.array(lines[1:])[far]]) + "\n")
+    args = ["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"]
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_passes"] == len(rows)
+    assert doc["n_passes_used"] == len(rows) - 1
+    [rejected] = doc["rejected_passes"]
+    assert rejected["file"] == str(folder / name)
+    assert rejected["rate_deg_s"] == -18.0
+    assert "no usable sphere" in rejected["reason"]
+    code, out, err = run_cli(args)
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert f"rejected: {folder / name} (-18 deg/s): no usable sphere" in text, out
+    assert f"passes used: {len(rows) - 1} of {len(rows)}" in text, out
+
+
 def test_sphere_axis_pointing_at_the_sphere(
     run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
