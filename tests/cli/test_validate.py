@@ -433,6 +433,10 @@ def test_no_control_point_found(
         (["--centre", "sphere"], "needs the target radius"),
         (["--centre", "sphere", "--target-radius-m", "0.8"], "smaller than the search radius"),
         (["--level", "2"], "--level"),
+        # Help and check agree (help said x>=0, the check said "search_radius_m must be
+        # positive"): the option is named with its span.
+        (["--search-radius-m", "0"], "--search-radius-m 0: outside the span"),
+        (["--centre", "sphere", "--target-radius-m", "0"], "--target-radius-m 0: outside the span"),
     ],
 )
 def test_bad_options(
