@@ -211,6 +211,41 @@ def test_sphere_reports_a_pass_without_the_sphere(
     assert f"passes used: {len(rows) - 1} of {len(rows)}" in text, out
 
 
+def _strip_sphere(path: Path, centre: np.ndarray) -> None:
+    """Remove every return within 0.2 m of the sphere centre from a CSV pass file."""
+    lines = path.read_text().splitlines()
+    xyz = np.array([[float(v) for v in line.split(",")[:3]] for line in lines[1:]])
+    far = np.linalg.norm(xyz - centre, axis=1) > 0.2
+    path.write_text("\n".join([lines[0], *np.array(lines[1:])[far]]) + "\n")
+
+
+@pytest.mark.parametrize("case", ["no-sphere-at-minus", "radius-5"])
+def test_sphere_failure_speaks_of_options_not_parameters(
+    run_cli: RunCli,
+    sim_folder: Path,
+    tmp_path: Path,
+    assert_one_line_error: OneLineError,
+    case: str,
+) -> None:
+    # Were: "... did not converge in 50 iterations; raise max_iterations ..." and
+    # "segment_sphere: origin_m lies inside the fitted sphere" (no such options).
+    folder = copy_of(sim_folder, tmp_path)
+    radius = "0.1"
+    if case == "radius-5":
+        radius = "5"
+    else:
+        centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
+        for row in csv.DictReader((folder / "passes.csv").open()):
+            if float(row["rate_deg_s"]) < 0:
+                _strip_sphere(folder / row["file"], centre)
+    code, out, err = run_cli(
+        ["latency", "sphere", str(folder), "--no-figure", "--radius-m", radius]
+    )
+    assert_one_line_error(code, out, err, "no sphere", f"--radius-m, {radius} m", "in view")
+    for internal in ("max_iterations", "origin_m", "segment_sphere", "fit_sphere"):
+        assert internal not in err, err
+
+
 def test_sphere_axis_pointing_at_the_sphere(
     run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:

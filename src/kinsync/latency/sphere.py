@@ -453,6 +453,42 @@ def latency_from_pool_pair(plus: PoolFit, minus: PoolFit) -> RateLatency:
     )
 
 
+_FIT_PHRASES = (
+    # The sphere fitter's messages speak to a Python caller (its function and parameter
+    # names); a pool that fails is reported in the terms of the latency command.
+    ("segment_sphere: ", ""),
+    ("fit_sphere: ", ""),
+    ("; raise max_iterations or check the points", ""),
+    ("; raise max_iterations or fit without origin_m", ""),
+    (
+        (
+            "origin_m lies inside the fitted sphere; the ray model needs the scanner outside "
+            "the target (check origin_m and its frame)"
+        ),
+        (
+            "the fitted sphere encloses the scanner at the table centre (the origin of the "
+            "table-centred frame)"
+        ),
+    ),
+)
+
+
+def _pool_failure(err: InputError | ConvergenceError, radius_m: float | None) -> str:
+    """Why no sphere was found in a pool, in the latency command's terms, with what to do."""
+    text = str(err)
+    for phrase, plain in _FIT_PHRASES:
+        text = text.replace(phrase, plain)
+    radius = (
+        f"that the sphere radius (--radius-m, {radius_m:g} m) is right"
+        if radius_m is not None
+        else "the sphere radius (give it with --radius-m)"
+    )
+    return (
+        f"{text}; check that the sphere is in view in these passes, that the points are "
+        f"in the table-centred frame, and {radius}"
+    )
+
+
 def _fit_pool_rejecting(
     passes: Sequence[SpherePass],
     radius_m: float | None,
@@ -491,11 +527,12 @@ def _fit_pool_rejecting(
                 seed=seed,
             )
         except (InputError, ConvergenceError) as err:
-            reason = f"no sphere found at this rate: {err}"
+            failure = _pool_failure(err, radius_m)
+            reason = f"no sphere found at this rate: {failure}"
             rejected += [
                 RejectedPass(p.source, p.rate_deg_s, p.n_points, 0, reason) for p in usable
             ]
-            return None, rejected, str(err)
+            return None, rejected, failure
         short = [k for k, n in enumerate(pool.n_points_per_pass) if n < minimum]
         if not short:
             return pool, rejected, None
