@@ -108,6 +108,19 @@ def test_beam_that_misses_the_surface_is_an_error() -> None:
         latency_beam_error(beach_scenario(50.0, 1.0, 10.0), 0.2)
 
 
+def test_attitude_error_equal_to_the_grazing_angle_is_an_error() -> None:
+    # 1000 ms at 10 deg/s is 10 deg against a 10 deg slope: the true beam runs along the
+    # surface. Rounding left cos ~1e-17 and a vertical error of -6.8e16 m.
+    sc = beach_scenario(50.0, 10.0, 10.0)
+    with pytest.raises(InputError, match="reaches or exceeds the grazing angle"):
+        latency_beam_error(sc, 1.0)
+    with pytest.raises(InputError, match="grazing"):
+        latency_beam_error(sc, 1.0 + 1e-10)
+    near = latency_beam_error(sc, 0.999)  # 0.01 deg short of grazing: a finite answer
+    assert near.vertical_error_m is not None
+    assert 1e2 < abs(near.vertical_error_m) < 1e6
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [

@@ -5,6 +5,8 @@ other; this test does the same in a temporary folder laid out like a checkout (`
 beside it, ``../shared`` above it when the reference data are there). A block is left out
 only behind a ``<!-- readme-test: skip (reason) -->`` line, for the two that run the
 whole demo or the test suite itself. Usage synopses (``[--option]``) are ``text`` blocks.
+A result a shell block shows in a comment as ``value ± sigma`` (``# latency 4.2689 ±
+0.0407 ms``) must be printed, as written, by that block.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ SKIP = re.compile(r"<!-- readme-test: skip \((?P<reason>[^)]+)\) -->")
 FENCE = re.compile(r"^```(?P<info>[\w-]*)\s*$")
 RUNNABLE = ("sh", "python")
 TIMEOUT_S = 600
+SHOWN = re.compile(r"-?\d+(?:\.\d+)? ± \d+(?:\.\d+)?")
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,22 @@ def readme_blocks(text: str) -> list[Block]:
         )  # fmt: skip
         i = end + 1
     return blocks
+
+
+def shown_results(code: str) -> list[str]:
+    """The ``value ± sigma`` pairs a shell block's comments show as its output."""
+    return [
+        m for line in code.splitlines() if "#" in line for m in SHOWN.findall(line.split("#", 1)[1])
+    ]
+
+
+def test_shown_results_are_taken_from_comments_only() -> None:
+    code = (
+        "kinsync latency sphere table   # latency 4.2689 ± 0.0407 ms\n"
+        "# drift 24.999815 ± 0.000225 ppm; time error (ms)  -2.009 ± 0.043\n"
+        "echo '1.0 ± 2.0'\n"
+    )
+    assert shown_results(code) == ["4.2689 ± 0.0407", "24.999815 ± 0.000225", "-2.009 ± 0.043"]
 
 
 def test_the_parser_finds_blocks_and_markers() -> None:
@@ -130,5 +149,11 @@ def test_every_readme_block_runs_in_order(tmp_path: Path) -> None:
             f"\n--- stdout ---\n{result.stdout[-2000:]}"
         )
         assert "Traceback" not in result.stderr, (block.line, result.stderr[-3000:])
+        if block.info == "sh":
+            for shown in shown_results(block.code):
+                assert shown in result.stdout, (
+                    f"README line {block.line}: the block shows {shown!r} in a comment, the "
+                    f"command printed:\n{result.stdout[-3000:]}"
+                )
         ran += 1
     assert ran >= 15

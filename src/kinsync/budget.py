@@ -42,6 +42,8 @@ __all__ = [
 Parity = Literal["none", "even", "odd", "mark", "space"]
 
 _LINEARISATION_SCALE = 1e-6
+_GRAZING_COS = 1e-9
+"""A true beam closer than this (cosine to the surface plane, ~2e-7 deg) grazes it."""
 
 
 def _unit3(vec: ArrayLike, name: str) -> FloatArray:
@@ -207,12 +209,17 @@ def _errors_for_rotation(
 
     d_true = Rotation.from_rotvec(rotvec_ned).apply(d)
     denom = float(n @ d_true)
-    r_true = float(n @ p0) / denom if denom != 0.0 else math.inf
+    # An error equal to the grazing angle leaves cos ~1e-17 after the rotation, not 0,
+    # and a "range" of 1e17 m: a true beam within _GRAZING_COS of the surface misses it.
+    toward = math.copysign(1.0, float(n @ d))
+    grazing = denom * toward <= _GRAZING_COS
+    r_true = math.inf if grazing else float(n @ p0) / denom
     if not (math.isfinite(r_true) and r_true > 0.0):
         eps_deg = math.degrees(float(np.linalg.norm(rotvec_ned)))
         msg = (
-            f"attitude error {eps_deg:.4g} deg exceeds the grazing angle: the true beam "
-            "misses the surface; reduce the latency or rate, or steepen the beam"
+            f"attitude error {eps_deg:.4g} deg reaches or exceeds the grazing angle: the "
+            "true beam runs along or misses the surface; reduce the latency or rate, or "
+            "steepen the beam"
         )
         raise InputError(msg)
     hit_true = r_true * d_true

@@ -67,6 +67,8 @@ def test_period_json(run_cli: RunCli) -> None:
         (["budget", "latency", "--range-m", "-50"], "--range-m -50: outside the span"),
         (["budget", "latency", "--slope-deg", "0"], "slope_deg"),
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
+        # Exactly at grazing (10 deg/s x 1 s = the 10 deg slope): was exit 0 with 1e17 m.
+        (["budget", "latency", "--latency-ms", "1000", "--json"], "reaches or exceeds the grazing"),
         (
             [
                 "budget",

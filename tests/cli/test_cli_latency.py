@@ -35,7 +35,13 @@ def copy_of(folder: Path, tmp_path: Path) -> Path:
     return target
 
 
-def rewrite_index(folder: Path, keep: Callable[[dict[str, str]], bool]) -> None:
+def rewrite_index(
+    folder: Path, keep: Callable[[dict[str, str]], bool], *, delete_dropped: bool = True
+) -> None:
+    """Keep the lines of passes.csv that ``keep`` accepts; delete the other pass files.
+
+    ``delete_dropped=False`` leaves them in the folder (a warning names them).
+    """
     index = folder / "passes.csv"
     with index.open(newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -44,6 +50,10 @@ def rewrite_index(folder: Path, keep: Callable[[dict[str, str]], bool]) -> None:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
         writer.writerows(r for r in rows if keep(r))
+    if delete_dropped:
+        for r in rows:
+            if not keep(r):
+                (folder / r["file"]).unlink()
 
 
 def test_sphere_json_document_and_figure(run_cli: RunCli, sim_folder: Path, tmp_path: Path) -> None:
@@ -133,6 +143,107 @@ def test_sphere_non_numeric_point(
     pass_file.write_text("\n".join(lines) + "\n")
     code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
     assert_one_line_error(code, out, err, pass_file.name, "line 6")
+
+
+def test_sphere_truncated_laz_pass(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    folder = tmp_path / "laz"
+    cfg = RotatingTableConfig(latency_s=TAU_S, rates_deg_s=(18.0,), passes=1, seed=4)
+    write_simulation(simulate_rotating_table(cfg), folder, file_format="laz")
+    path = folder / "pass_001.laz"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "passes.csv: line 3", "pass_001.laz", "copy it again")
+
+
+def test_sphere_pass_listed_twice(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    index = folder / "passes.csv"
+    lines = index.read_text().splitlines()
+    index.write_text("\n".join([*lines, lines[1]]) + "\n")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(
+        code, out, err, "passes.csv", f"listed twice (lines 2 and {len(lines) + 1})"
+    )
+
+
+def test_sphere_warns_of_unlisted_pass_files(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    left_out = Path(next(r["file"] for r in csv.DictReader((folder / "passes.csv").open())))
+    rewrite_index(folder, lambda r: r["file"] != str(left_out), delete_dropped=False)
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure", "--json"])
+    assert code == 0, err
+    json.loads(out)
+    assert f"kinsync: warning: {folder}: 1 file not listed in passes.csv" in err, err
+    assert left_out.name in err
+
+
+def test_sphere_reports_a_pass_without_the_sphere(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
+    rows = list(csv.DictReader((folder / "passes.csv").open()))
+    name = next(r["file"] for r in rows if float(r["rate_deg_s"]) == -18.0)
+    lines = (folder / name).read_text().splitlines()
+    xyz = np.array([[float(v) for v in line.split(",")[:3]] for line in lines[1:]])
+    far = np.linalg.norm(xyz - centre, axis=1) > 0.2
+    (folder / name).write_text("\n".join([lines[0], *np.array(lines[1:])[far]]) + "\n")
+    args = ["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"]
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_passes"] == len(rows)
+    assert doc["n_passes_used"] == len(rows) - 1
+    [rejected] = doc["rejected_passes"]
+    assert rejected["file"] == str(folder / name)
+    assert rejected["rate_deg_s"] == -18.0
+    assert "no usable sphere" in rejected["reason"]
+    code, out, err = run_cli(args)
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert f"rejected: {folder / name} (-18 deg/s): no usable sphere" in text, out
+    assert f"passes used: {len(rows) - 1} of {len(rows)}" in text, out
+
+
+def _strip_sphere(path: Path, centre: np.ndarray) -> None:
+    """Remove every return within 0.2 m of the sphere centre from a CSV pass file."""
+    lines = path.read_text().splitlines()
+    xyz = np.array([[float(v) for v in line.split(",")[:3]] for line in lines[1:]])
+    far = np.linalg.norm(xyz - centre, axis=1) > 0.2
+    path.write_text("\n".join([lines[0], *np.array(lines[1:])[far]]) + "\n")
+
+
+@pytest.mark.parametrize("case", ["no-sphere-at-minus", "radius-5"])
+def test_sphere_failure_speaks_of_options_not_parameters(
+    run_cli: RunCli,
+    sim_folder: Path,
+    tmp_path: Path,
+    assert_one_line_error: OneLineError,
+    case: str,
+) -> None:
+    # Were: "... did not converge in 50 iterations; raise max_iterations ..." and
+    # "segment_sphere: origin_m lies inside the fitted sphere" (no such options).
+    folder = copy_of(sim_folder, tmp_path)
+    radius = "0.1"
+    if case == "radius-5":
+        radius = "5"
+    else:
+        centre = np.array(json.loads((folder / "truth.json").read_text())["sphere_center_ned_m"])
+        for row in csv.DictReader((folder / "passes.csv").open()):
+            if float(row["rate_deg_s"]) < 0:
+                _strip_sphere(folder / row["file"], centre)
+    code, out, err = run_cli(
+        ["latency", "sphere", str(folder), "--no-figure", "--radius-m", radius]
+    )
+    assert_one_line_error(code, out, err, "no sphere", f"--radius-m, {radius} m", "in view")
+    for internal in ("max_iterations", "origin_m", "segment_sphere", "fit_sphere"):
+        assert internal not in err, err
 
 
 def test_sphere_axis_pointing_at_the_sphere(

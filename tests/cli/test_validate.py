@@ -218,7 +218,27 @@ def test_non_finite_cells_name_the_point(
         ["validate", "control-points", "--cloud", str(path), "--control", str(files["control"]),
          "--trajectory", str(files["trajectory"])]
     )  # fmt: skip
-    assert_one_line_error(code, out, err, str(path), "point 17 has a non-finite time")
+    # Data row 17 (0-based) is file line 19, below the header: was "point 17 has a
+    # non-finite time", neither the line nor the column.
+    assert_one_line_error(code, out, err, str(path), "line 19, column 't_s': nan is not a finite")
+
+
+def test_non_finite_coordinate_names_the_file_line_and_column(
+    run_cli: RunCli, assert_one_line_error: OneLineError, files: dict[str, Path], tmp_path: Path
+) -> None:
+    lines = files["cloud_csv"].read_text().splitlines()
+    header = lines[0].split(",")
+    cells = lines[99].split(",")
+    cells[header.index("Y")] = "nan"
+    lines[99] = ",".join(cells)
+    lines.insert(50, "")  # a blank line: the NaN is now on file line 101
+    path = tmp_path / "nan.csv"
+    path.write_text("\n".join(lines) + "\n")
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(path), "--control", str(files["control"]),
+         "--trajectory", str(files["trajectory"])]
+    )  # fmt: skip
+    assert_one_line_error(code, out, err, f"{path}: line 101, column 'Y': nan is not a finite")
 
 
 # ------------------------------------------------------------------ flatness
@@ -433,6 +453,10 @@ def test_no_control_point_found(
         (["--centre", "sphere"], "needs the target radius"),
         (["--centre", "sphere", "--target-radius-m", "0.8"], "smaller than the search radius"),
         (["--level", "2"], "--level"),
+        # Help and check agree (help said x>=0, the check said "search_radius_m must be
+        # positive"): the option is named with its span.
+        (["--search-radius-m", "0"], "--search-radius-m 0: outside the span"),
+        (["--centre", "sphere", "--target-radius-m", "0"], "--target-radius-m 0: outside the span"),
     ],
 )
 def test_bad_options(

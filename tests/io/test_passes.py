@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tempfile
+import warnings
 from pathlib import Path
 
 import laspy
@@ -13,7 +14,7 @@ from hypothesis import strategies as st
 
 import kinsync.io.passes as passes_io
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.passes import pass_file_name, read_pass_file, read_passes, write_passes
 from kinsync.io.tables import write_numeric_csv
@@ -137,8 +138,9 @@ def test_hand_written_folder_defaults_and_extra_columns(tmp_path: Path) -> None:
 
 def test_empty_axis_cells_take_the_default(tmp_path: Path) -> None:
     (tmp_path / "a.csv").write_text("x_m,y_m,z_m\n1,2,3\n")
+    (tmp_path / "b.csv").write_text("x_m,y_m,z_m\n1,2,3\n")  # one file twice is refused
     (tmp_path / "passes.csv").write_text(
-        "file,rate_deg_s,axis_n,axis_e,axis_d\na.csv,3,,,\na.csv,3,0,1,0\n"
+        "file,rate_deg_s,axis_n,axis_e,axis_d\na.csv,3,,,\nb.csv,3,0,1,0\n"
     )
     a, b = read_passes(tmp_path)
     assert a.axis_ned == (0.0, 0.0, 1.0)
@@ -201,6 +203,13 @@ def _folder(tmp_path: Path, index: str, files: dict[str, str] | None = None) -> 
         ("file,rate_deg_s\na.txt,2\n", {"a.txt": "x_m,y_m,z_m\n1,2,3\n"}, ["line 2", ".txt"]),
         ("file,rate_deg_s\na.las,2\n", {"a.las": "not a las file"}, ["line 2", "LAS/LAZ"]),
         ("file,rate_deg_s\na.laz,2\n", {"a.laz": "LASF garbage"}, ["line 2", "LAS/LAZ"]),
+        # A pass listed twice would be counted twice (its sigma shrinks): refused.
+        ("file,rate_deg_s\na.csv,2\na.csv,2\n", None, ["line 3", "listed twice (lines 2 and 3)"]),
+        (
+            "file,rate_deg_s\na.csv,2\nb.csv,-2\n./a.csv,-2\n",
+            {"a.csv": "x_m,y_m,z_m\n1,2,3\n", "b.csv": "x_m,y_m,z_m\n1,2,3\n"},
+            ["line 4", "'./a.csv' listed twice (lines 2 and 4)"],
+        ),
     ],
 )
 def test_bad_folder(
@@ -236,6 +245,45 @@ def test_empty_las_pass(tmp_path: Path) -> None:
     laspy.LasData(header).write(tmp_path / "a.las")
     (tmp_path / "passes.csv").write_text("file,rate_deg_s\na.las,2\n")
     with pytest.raises(InputError, match=r"line 2: .*no points"):
+        read_passes(tmp_path)
+
+
+@pytest.mark.parametrize("kept", [0.5, 0.9, 0.99])
+def test_truncated_laz_pass_names_the_file_and_its_line(tmp_path: Path, kept: float) -> None:
+    # A LAZ pass cut short (an interrupted copy) is refused before lazrs reads past the
+    # end ("LazrsError: failed to fill whole buffer" was an internal error), with the
+    # chunk-table check that calibrate and georef use.
+    write_passes(tmp_path, _passes(), file_format="laz")
+    path = tmp_path / "pass_001.laz"
+    data = path.read_bytes()
+    path.write_bytes(data[: int(len(data) * kept)])
+    with pytest.raises(InputError) as exc:
+        read_passes(tmp_path)
+    message = str(exc.value)
+    for fragment in ("passes.csv: line 3", "pass_001.laz", "chunk table", "copy it again"):
+        assert fragment in message, message
+
+
+def test_unlisted_pass_files_are_named_in_a_warning(tmp_path: Path) -> None:
+    write_passes(tmp_path, _passes())
+    (tmp_path / "passes.csv").write_text(
+        "\n".join((tmp_path / "passes.csv").read_text().splitlines()[:2]) + "\n"
+    )
+    (tmp_path / "notes.txt").write_text("not a pass")
+    with pytest.warns(KinsyncWarning) as caught:
+        back = read_passes(tmp_path)
+    assert len(back) == 1
+    assert len(caught) == 1
+    message = str(caught[0].message)
+    assert "2 files not listed in passes.csv" in message, message
+    assert "pass_001.csv, pass_002.csv" in message, message
+    assert "notes.txt" not in message
+
+
+def test_a_fully_listed_folder_gives_no_warning(tmp_path: Path) -> None:
+    write_passes(tmp_path, _passes(), file_format="laz")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         read_passes(tmp_path)
 
 

@@ -186,6 +186,50 @@ def test_rate_with_one_sign_is_left_out_and_reported() -> None:
     assert [r.rate_deg_s for r in result.per_rate] == [18.0]
 
 
+def _without_sphere(p: SpherePass, centre: np.ndarray, keep_first: int | None = None) -> SpherePass:
+    """``p`` with every return within 0.2 m of the sphere centre removed (or all but 5)."""
+    pts = np.asarray(p.points_ned_m)
+    near = np.linalg.norm(pts - centre, axis=1) <= 0.2
+    keep = ~near if keep_first is None else np.isin(np.arange(len(pts)), np.flatnonzero(near)[:5])
+    return SpherePass(f"{p.source}-cut", p.rate_deg_s, pts[keep], axis_ned=p.axis_ned)
+
+
+@pytest.mark.parametrize("keep_first", [None, 5], ids=["no-sphere", "five-points"])
+def test_a_pass_without_a_usable_sphere_is_rejected_and_reported(keep_first: int | None) -> None:
+    passes = list(small_simulation(TAU_S, seed=3, rates=(10.0, 18.0)))
+    full = estimate_latency_sphere(passes, radius_m=0.1)
+    k = next(i for i, p in enumerate(passes) if p.rate_deg_s == -18.0)
+    cut = _without_sphere(passes[k], full.sphere_center_ned_m, keep_first)
+    result = estimate_latency_sphere([*passes[:k], cut, *passes[k + 1 :]], radius_m=0.1)
+    assert [(r.source, r.rate_deg_s, r.n_sphere_points) for r in result.rejected_passes] == [
+        (cut.source, -18.0, 0)
+    ]
+    reason = result.rejected_passes[0].reason
+    assert ("only 5 points" if keep_first else "no usable sphere: 0 of its") in reason, reason
+    assert result.n_passes == len(passes)
+    assert result.n_passes_used == len(passes) - 1
+    doc = result.as_document()
+    assert doc["n_passes_used"] == len(passes) - 1
+    assert doc["rejected_passes"][0]["file"] == cut.source
+    assert doc["per_rate"][1]["n_passes"] == 5
+    # Left out of the estimate: the same as without the pass at all.
+    without = estimate_latency_sphere([*passes[:k], *passes[k + 1 :]], radius_m=0.1)
+    assert result.latency_s == pytest.approx(without.latency_s, rel=1e-9)
+    assert result.latency_std_s == pytest.approx(without.latency_std_s, rel=1e-9)
+
+
+def test_a_rate_whose_passes_of_one_sign_hold_no_sphere_is_left_out() -> None:
+    passes = list(small_simulation(TAU_S, seed=3, rates=(10.0, 18.0)))
+    centre = estimate_latency_sphere(passes, radius_m=0.1).sphere_center_ned_m
+    passes = [_without_sphere(p, centre) if p.rate_deg_s == -10.0 else p for p in passes]
+    result = estimate_latency_sphere(passes, radius_m=0.1)
+    assert [r.rate_deg_s for r in result.per_rate] == [18.0]
+    assert result.unpaired_rates_deg_s == (10.0,)
+    assert len(result.rejected_passes) == 3
+    assert {r.rate_deg_s for r in result.rejected_passes} == {-10.0}
+    assert result.n_passes_used == 6
+
+
 def test_no_sphere_among_the_points() -> None:
     rng = np.random.default_rng(0)
     floor = np.column_stack(

@@ -99,8 +99,17 @@ def sphere(
         f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, "
         f"{format_p_value(result.p_value_between_rates)}"
     )
+    for rejected in result.rejected_passes:
+        console.print(
+            f"rejected: {rejected.source} ({rejected.rate_deg_s:+g} deg/s): {rejected.reason}",
+            markup=False,
+            highlight=False,
+        )
     if result.unpaired_rates_deg_s:
-        console.print(f"left out (one sign only): {list(result.unpaired_rates_deg_s)} deg/s")
+        console.print(
+            f"left out (passes of one sign only): {list(result.unpaired_rates_deg_s)} deg/s"
+        )
+    console.print(f"passes used: {result.n_passes_used} of {result.n_passes}", highlight=False)
     if fig_path is not None:
         console.print(f"figure: {fig_path}")
 

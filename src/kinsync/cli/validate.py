@@ -88,7 +88,9 @@ def control_points(
     crs: CrsOpt = None,
     search_radius_m: Annotated[
         float,
-        typer.Option("--search-radius-m", help="Radius around each control point (m).", min=0.0),
+        typer.Option(
+            "--search-radius-m", help="Radius around each control point (m, 0.001 to 100)."
+        ),
     ] = 0.5,
     min_intensity: Annotated[
         float | None,
@@ -107,7 +109,7 @@ def control_points(
     ] = "tukey",
     target_radius_m: Annotated[
         float | None,
-        typer.Option("--target-radius-m", help="Radius of spherical targets (m).", min=0.0),
+        typer.Option("--target-radius-m", help="Radius of spherical targets (m, 0.001 to 10)."),
     ] = None,
     min_points: Annotated[
         int, typer.Option("--min-points", help="Fewest bright points per visit.", min=4)

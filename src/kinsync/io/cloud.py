@@ -118,14 +118,62 @@ def iter_cloud(
             yield xyz, None, None
 
 
+def _csv_line_of_row(path: Path, row: int) -> int | None:
+    """File line (1-based) of data row ``row`` (0-based) of a CSV; blank lines are skipped."""
+    try:
+        with path.open(encoding="utf-8", errors="replace") as fh:
+            next(fh, None)  # the header, line 1
+            seen = -1
+            for line_no, line in enumerate(fh, start=2):
+                if line.strip():
+                    seen += 1
+                    if seen == row:
+                        return line_no
+    except OSError:
+        return None
+    return None
+
+
 def check_finite_chunk(
     path: Path, xyz: FloatArray, done: int, **columns: FloatArray | None
 ) -> None:
-    """Raise naming the file, the point (row) and the column of the first non-finite value."""
-    checks = {"coordinates": ~np.all(np.isfinite(xyz), axis=1)}
+    """Raise naming the file, the line (CSV) or point, and the column of a non-finite value.
+
+    Parameters
+    ----------
+    path : Path
+        The cloud (its suffix says how a row is named: CSV file line, Parquet row, LAS
+        point).
+    xyz : ndarray, shape (N, 3)
+        The chunk's coordinates (columns ``X, Y, Z`` of a table, ``x, y, z`` of LAS).
+    done : int
+        Points of the file before this chunk.
+    **columns : ndarray, shape (N,), or None
+        Other columns to check, by the name a table gives them (``t_s``, ``intensity``;
+        ``t_s`` is named ``gps_time`` for a LAS file).
+    """
+    suffix = path.suffix.lower()
+    xyz_names = _XYZ if suffix in _TABLE_SUFFIXES else ("x", "y", "z")
+    checks = {name: ~np.isfinite(xyz[:, k]) for k, name in enumerate(xyz_names)}
     checks.update({name: ~np.isfinite(v) for name, v in columns.items() if v is not None})
-    for name, bad in checks.items():
-        if np.any(bad):
-            row = done + int(np.flatnonzero(bad)[0])
-            msg = f"{path}: point {row} has a non-finite {name}; drop or fix it"
-            raise InputError(msg)
+    first = {name: int(np.flatnonzero(bad)[0]) for name, bad in checks.items() if np.any(bad)}
+    if not first:
+        return
+    name = min(first, key=lambda n: first[n])  # the earliest row; its first bad column
+    k = first[name]
+    other = columns.get(name)
+    value = float(other[k]) if other is not None else float(xyz[k, xyz_names.index(name)])
+    if name == "t_s" and suffix not in _TABLE_SUFFIXES:
+        name = "gps_time"  # a LAS file's times
+    row = done + k
+    if suffix == ".csv":
+        line = _csv_line_of_row(path, row)
+        where = f"line {line}" if line is not None else f"data row {row + 1}"
+    elif suffix == ".parquet":
+        where = f"row {row + 1}"
+    else:
+        where = f"point {row} (0-based)"
+    msg = (
+        f"{path}: {where}, column {name!r}: {value!r} is not a finite number; drop or fix the point"
+    )
+    raise InputError(msg)

@@ -245,6 +245,15 @@ class LasPointReader:
         Decompress LAZ with lazrs's thread pool (default); False decompresses one chunk
         at a time, for processes that are themselves run in parallel.
 
+    Attributes
+    ----------
+    point_count : int
+        Number of points (checked against the file).
+    point_format : laspy.PointFormat
+        The point data record format.
+    gps_time_type : {"week", "adjusted_standard"}
+        How ``gps_time`` is stored (see `LasInfo`).
+
     Raises
     ------
     InputError
@@ -262,6 +271,10 @@ class LasPointReader:
             header = read_las_header(self.path, self._fh, file_size)
             self.point_count = int(header.point_count)
             self.point_format: laspy.PointFormat = header.point_format
+            adjusted = header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD
+            self.gps_time_type: Literal["week", "adjusted_standard"] = (
+                "adjusted_standard" if adjusted else "week"
+            )
             self._scales = np.array(header.scales, dtype=np.float64)
             self._offsets = np.array(header.offsets, dtype=np.float64)
             self._dtype = header.point_format.dtype()

@@ -29,6 +29,8 @@ A pass file holds the georeferenced points of one pass in the table-centred NED 
 from __future__ import annotations
 
 import csv
+import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,10 +39,11 @@ from typing import Literal
 import laspy
 import numpy as np
 
+from kinsync._text import counted
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.atomic import atomic_path
-from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, scaled_coordinates
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasPointReader, scaled_coordinates
 from kinsync.io.sanity import (
     LENGTH_M,
     MAX_TEXT_ROWS_BYTES,
@@ -73,6 +76,7 @@ _XYZ = ("x_m", "y_m", "z_m")
 _AXIS = ("axis_n", "axis_e", "axis_d")
 _DEFAULT_AXIS = (0.0, 0.0, 1.0)
 _FORMATS: tuple[PassFileFormat, ...] = ("csv", "las", "laz")
+_SUFFIXES = (".csv", ".las", ".laz")
 
 _INDEX_SPANS: dict[str, Span] = {
     "rate_deg_s": Span(-1000.0, 1000.0, "deg/s", "a table rate"),
@@ -104,7 +108,11 @@ def _number(cell: str, column: str, where: str) -> float:
 
 
 def read_pass_index(index_path: Path) -> list[PassIndexRow]:
-    """Parse passes.csv into rows; errors name the file and the line."""
+    """Parse passes.csv into rows; errors name the file and the line.
+
+    A pass file listed twice (the same path after normalisation) is an `InputError`
+    naming both lines: it would be counted twice.
+    """
     if index_path.exists():
         check_text_file(index_path, f"pass index ({PASSES_CSV})", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
@@ -147,7 +155,39 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     if not out:
         msg = f"{index_path}: no passes listed; add one line per pass: file,rate_deg_s"
         raise InputError(msg)
+    first_line: dict[str, int] = {}
+    for r in out:
+        key = os.path.normpath(r.file)
+        if key in first_line:
+            msg = (
+                f"{index_path}: line {r.line}: pass file {r.file[:80]!r} listed twice (lines "
+                f"{first_line[key]} and {r.line}); a pass counted twice shrinks the latency's "
+                "sigma: remove one of the lines"
+            )
+            raise InputError(msg)
+        first_line[key] = r.line
     return out
+
+
+def _warn_unlisted(folder: Path, rows: Sequence[PassIndexRow]) -> None:
+    """Warn about pass-like files (.csv, .las, .laz) in ``folder`` that passes.csv omits."""
+    listed = {os.path.normpath(r.file) for r in rows}
+    try:
+        names = sorted(
+            p.name
+            for p in folder.iterdir()
+            if p.suffix.lower() in _SUFFIXES and p.name != PASSES_CSV and p.name not in listed
+        )
+    except OSError:
+        return  # the listed files were read; an unreadable listing hides nothing we used
+    if names:
+        shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+        warnings.warn(
+            f"{folder}: {counted(len(names), 'file')} not listed in {PASSES_CSV}, left out: "
+            f"{shown}; add a line per pass to {PASSES_CSV} to use them",
+            KinsyncWarning,
+            stacklevel=3,
+        )
 
 
 def _parse_index_row(
@@ -189,22 +229,21 @@ def _read_csv_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
 
 
 def _read_las_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
-    try:
-        if path.suffix.lower() == ".laz":
-            las = laspy.read(path, laz_backend=laspy.LazBackend.Lazrs)
-        else:
-            las = laspy.read(path)
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found"
-        raise InputError(msg) from err
-    except (laspy.errors.LaspyException, OSError, ValueError) as err:
-        msg = f"{path}: cannot read as LAS/LAZ ({err}); check that the file is complete"
-        raise InputError(msg) from err
-    pts = scaled_coordinates(las.points.array, las.header.scales, las.header.offsets)
+    """Points and times of a LAS/LAZ pass file.
+
+    Read through `kinsync.io.las.LasPointReader`, which checks the header's point count
+    against the file (LAS: its size; LAZ: its chunk table) before any point is read, so
+    a truncated or corrupt file is an `InputError` naming what is missing, as in
+    ``calibrate`` and ``georef``.
+    """
+    with LasPointReader(path) as reader:
+        record = reader.read(0, reader.point_count)
+        adjusted = reader.gps_time_type == "adjusted_standard"
+    pts = scaled_coordinates(record.array, record.scales, record.offsets)
     t: FloatArray | None = None
-    if "gps_time" in las.point_format.dimension_names:
-        t = np.asarray(las.gps_time, dtype=np.float64)
-        if las.header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD:
+    if "gps_time" in record.point_format.dimension_names:
+        t = np.asarray(record.array["gps_time"], dtype=np.float64)
+        if adjusted:
             t = t + ADJUSTED_GPS_OFFSET_S
     return pts, t
 
@@ -270,8 +309,15 @@ def read_passes(folder: Path) -> list[SpherePass]:
     ------
     InputError
         Naming ``passes.csv`` and the line at fault: a missing folder or index, missing
-        columns, a non-numeric or zero rate, a partial or zero axis, a missing pass
-        file, a pass file without ``x_m,y_m,z_m``, a non-numeric cell, an empty pass.
+        columns, a non-numeric or zero rate, a partial or zero axis, a pass file listed
+        twice, a missing pass file, a pass file without ``x_m,y_m,z_m``, a non-numeric
+        cell, an empty pass.
+
+    Warns
+    -----
+    KinsyncWarning
+        Naming the ``.csv``/``.las``/``.laz`` files in the folder that ``passes.csv``
+        does not list (they are left out).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -279,8 +325,9 @@ def read_passes(folder: Path) -> list[SpherePass]:
         msg = f"{folder}: pass folder {what}; give the folder that holds {PASSES_CSV}"
         raise InputError(msg)
     index_path = folder / PASSES_CSV
+    rows = read_pass_index(index_path)
     passes: list[SpherePass] = []
-    for row in read_pass_index(index_path):
+    for row in rows:
         where = f"{index_path}: line {row.line}"
         path = folder / row.file
         try:
@@ -305,6 +352,7 @@ def read_passes(folder: Path) -> list[SpherePass]:
         except InputError as err:
             msg = f"{where}: {err}"
             raise InputError(msg) from err
+    _warn_unlisted(folder, rows)
     return passes
 
 

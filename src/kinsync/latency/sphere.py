@@ -2,6 +2,9 @@
 
 Passes are pooled per signed table rate; one sphere centre is fitted per pool (robust
 segmentation from clutter, then a range-noise-weighted fit along the scanner rays).
+A pass with no usable sphere (fewer than `MIN_SPHERE_POINTS_PER_PASS` of its points on
+the sphere fitted at its rate) is rejected, reported with the reason, and the pool
+refitted without it.
 With latency tau the georeferenced sphere is rotated about the table axis by
 ``-omega tau`` (SPEC section 2): ``c_k = Rot(-w_k tau) c`` for each pool k with rate
 vector ``w_k``. Per rate, the two pools give (c, tau) by weighted Gauss-Newton on that
@@ -17,6 +20,7 @@ tactical grade IMU systems", ISPRS J. Photogramm. Remote Sens. 74 (2012) 85-89.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -28,7 +32,7 @@ from scipy.spatial.transform import Rotation
 
 from kinsync._text import counted
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync.errors import InputError, ObservabilityError
+from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
@@ -37,8 +41,10 @@ from kinsync.robust import robust_sigma
 
 __all__ = [
     "DEFAULT_MAX_INCIDENCE_DEG",
+    "MIN_SPHERE_POINTS_PER_PASS",
     "PoolFit",
     "RateLatency",
+    "RejectedPass",
     "SphereLatencyResult",
     "estimate_latency_sphere",
     "fit_pool",
@@ -49,6 +55,8 @@ _TAIL_CUT_SIGMA = 4.0
 _RATE_KEY_DECIMALS = 6
 _AXIS_KEY_DECIMALS = 3
 _MIN_AXIS_SINE = 1e-3
+MIN_SPHERE_POINTS_PER_PASS = 10
+"""A pass with fewer points on the sphere fitted at its rate is left out (no usable sphere)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +79,9 @@ class PoolFit:
         The final fit (centre, radius, covariance, residuals).
     sources : tuple of str
         Where the pooled passes came from.
+    n_points_per_pass : tuple of int
+        Points of each pass (in the order of ``sources``) used in the final centre fit;
+        empty when not known.
     """
 
     rate_deg_s: float
@@ -80,6 +91,7 @@ class PoolFit:
     n_points: int
     fit: SphereFit
     sources: tuple[str, ...]
+    n_points_per_pass: tuple[int, ...] = ()
 
     @property
     def center_std_m(self) -> float:
@@ -124,6 +136,41 @@ class RateLatency:
     minus: PoolFit
 
 
+@dataclass(frozen=True)
+class RejectedPass:
+    """A pass left out of the estimate because it holds no usable sphere.
+
+    Attributes
+    ----------
+    source : str
+        Where the pass came from (its file).
+    rate_deg_s : float
+        Its signed table rate (deg/s).
+    n_points : int
+        Points in the pass (sphere and clutter).
+    n_sphere_points : int
+        Points of the pass on the sphere fitted at its rate (0 when none was found).
+    reason : str
+        Why it was left out, in words.
+    """
+
+    source: str
+    rate_deg_s: float
+    n_points: int
+    n_sphere_points: int
+    reason: str
+
+    def as_document(self) -> dict[str, Any]:
+        """JSON-ready form (an entry of ``rejected_passes``)."""
+        return {
+            "file": self.source,
+            "rate_deg_s": self.rate_deg_s,
+            "n_points": self.n_points,
+            "n_sphere_points": self.n_sphere_points,
+            "reason": self.reason,
+        }
+
+
 @dataclass(frozen=True, eq=False)
 class SphereLatencyResult:
     """Combined Method A result.
@@ -147,9 +194,14 @@ class SphereLatencyResult:
         Probability of a chi-square at least this large if the rates agree (nan for one
         rate); a small value flags a systematic effect not in the model.
     unpaired_rates_deg_s : tuple of float
-        Rates with passes of only one sign, left out.
+        Rates left out because only passes of one sign were given, or only passes of
+        one sign hold a usable sphere (see ``rejected_passes``).
     n_passes : int
         Passes read.
+    rejected_passes : tuple of RejectedPass
+        Passes left out of the estimate, each with the reason: fewer than
+        `MIN_SPHERE_POINTS_PER_PASS` of its points on the sphere fitted at its rate, or no
+        sphere found at its rate at all.
     """
 
     latency_s: float
@@ -163,6 +215,12 @@ class SphereLatencyResult:
     p_value_between_rates: float
     unpaired_rates_deg_s: tuple[float, ...]
     n_passes: int
+    rejected_passes: tuple[RejectedPass, ...] = ()
+
+    @property
+    def n_passes_used(self) -> int:
+        """Passes in the estimate: those read, less the rejected and the unpaired ones."""
+        return sum(r.plus.n_passes + r.minus.n_passes for r in self.per_rate)
 
     def as_document(self) -> dict[str, Any]:
         """JSON-ready summary (what ``kinsync latency sphere --json`` prints)."""
@@ -195,6 +253,8 @@ class SphereLatencyResult:
             },
             "unpaired_rates_deg_s": list(self.unpaired_rates_deg_s),
             "n_passes": self.n_passes,
+            "n_passes_used": self.n_passes_used,
+            "rejected_passes": [r.as_document() for r in self.rejected_passes],
         }
 
 
@@ -292,6 +352,9 @@ def fit_pool(
         iterations=final.iterations,
     )
     rate_vectors = np.array([p.rate_vector_ned_rad_s for p in passes])
+    bounds = np.cumsum([0, *(p.n_points for p in passes)])
+    used_in = np.concatenate([[0], np.cumsum(inliers)])
+    per_pass = tuple(int(used_in[b] - used_in[a]) for a, b in itertools.pairwise(bounds))
     return PoolFit(
         rate_deg_s=passes[0].rate_deg_s,
         rate_vector_ned_rad_s=rate_vectors.mean(axis=0),
@@ -300,6 +363,7 @@ def fit_pool(
         n_points=final.n_points,
         fit=fit,
         sources=tuple(p.source for p in passes),
+        n_points_per_pass=per_pass,
     )
 
 
@@ -389,6 +453,105 @@ def latency_from_pool_pair(plus: PoolFit, minus: PoolFit) -> RateLatency:
     )
 
 
+_FIT_PHRASES = (
+    # The sphere fitter's messages speak to a Python caller (its function and parameter
+    # names); a pool that fails is reported in the terms of the latency command.
+    ("segment_sphere: ", ""),
+    ("fit_sphere: ", ""),
+    ("; raise max_iterations or check the points", ""),
+    ("; raise max_iterations or fit without origin_m", ""),
+    (
+        (
+            "origin_m lies inside the fitted sphere; the ray model needs the scanner outside "
+            "the target (check origin_m and its frame)"
+        ),
+        (
+            "the fitted sphere encloses the scanner at the table centre (the origin of the "
+            "table-centred frame)"
+        ),
+    ),
+)
+
+
+def _pool_failure(err: InputError | ConvergenceError, radius_m: float | None) -> str:
+    """Why no sphere was found in a pool, in the latency command's terms, with what to do."""
+    text = str(err)
+    for phrase, plain in _FIT_PHRASES:
+        text = text.replace(phrase, plain)
+    radius = (
+        f"that the sphere radius (--radius-m, {radius_m:g} m) is right"
+        if radius_m is not None
+        else "the sphere radius (give it with --radius-m)"
+    )
+    return (
+        f"{text}; check that the sphere is in view in these passes, that the points are "
+        f"in the table-centred frame, and {radius}"
+    )
+
+
+def _fit_pool_rejecting(
+    passes: Sequence[SpherePass],
+    radius_m: float | None,
+    scanner_origin_ned_m: ArrayLike | None,
+    max_incidence_deg: float,
+    seed: int,
+) -> tuple[PoolFit | None, list[RejectedPass], str | None]:
+    """Fit one pool, leaving out the passes that hold no usable sphere.
+
+    A pass with fewer than `MIN_SPHERE_POINTS_PER_PASS` points (or fewer of its points
+    on the pool's sphere) is rejected and the pool refitted without it. When no sphere
+    is found among the remaining passes, all of them are rejected: the pool is None and
+    the third item says why.
+    """
+    minimum = MIN_SPHERE_POINTS_PER_PASS
+    rejected = [
+        RejectedPass(
+            p.source,
+            p.rate_deg_s,
+            p.n_points,
+            0,
+            f"only {counted(p.n_points, 'point')} in the pass; at least {minimum} on the "
+            "sphere are needed",
+        )
+        for p in passes
+        if p.n_points < minimum
+    ]
+    usable = [p for p in passes if p.n_points >= minimum]
+    while usable:
+        try:
+            pool = fit_pool(
+                usable,
+                radius_m=radius_m,
+                scanner_origin_ned_m=scanner_origin_ned_m,
+                max_incidence_deg=max_incidence_deg,
+                seed=seed,
+            )
+        except (InputError, ConvergenceError) as err:
+            failure = _pool_failure(err, radius_m)
+            reason = f"no sphere found at this rate: {failure}"
+            rejected += [
+                RejectedPass(p.source, p.rate_deg_s, p.n_points, 0, reason) for p in usable
+            ]
+            return None, rejected, failure
+        short = [k for k, n in enumerate(pool.n_points_per_pass) if n < minimum]
+        if not short:
+            return pool, rejected, None
+        rejected += [
+            RejectedPass(
+                usable[k].source,
+                usable[k].rate_deg_s,
+                usable[k].n_points,
+                pool.n_points_per_pass[k],
+                f"no usable sphere: {pool.n_points_per_pass[k]} of its "
+                f"{counted(usable[k].n_points, 'point')} lie on the sphere fitted at this "
+                f"rate (at least {minimum} needed); check that the sphere was in view",
+            )
+            for k in short
+        ]
+        usable = [p for k, p in enumerate(usable) if k not in short]
+    return None, rejected, f"rate {passes[0].rate_deg_s:+g} deg/s: no pass holds a usable sphere"
+
+
 def _group_passes(
     passes: Sequence[SpherePass],
 ) -> dict[tuple[float, tuple[float, float, float]], list[SpherePass]]:
@@ -404,6 +567,34 @@ def _group_passes(
         key = (round(rate, _RATE_KEY_DECIMALS), (key_axis[0], key_axis[1], key_axis[2]))
         groups.setdefault(key, []).append(p)
     return groups
+
+
+def _pair_groups(
+    passes: Sequence[SpherePass],
+) -> tuple[list[tuple[list[SpherePass], list[SpherePass]]], list[float]]:
+    """Pools at +omega and -omega paired by rate and axis, and the rates with one sign only."""
+    groups = _group_passes(passes)
+    pairs: list[tuple[list[SpherePass], list[SpherePass]]] = []
+    unpaired: list[float] = []
+    for (rate, axis), group in sorted(groups.items()):
+        if rate <= 0:
+            continue
+        opposite = groups.get((round(-rate, _RATE_KEY_DECIMALS), axis))
+        if opposite is None:
+            unpaired.append(rate)
+        else:
+            pairs.append((group, opposite))
+    unpaired += [
+        -r for (r, a) in groups if r < 0 and (round(-r, _RATE_KEY_DECIMALS), a) not in groups
+    ]
+    if not pairs:
+        rates = sorted({p.rate_deg_s for p in passes})
+        msg = (
+            f"no table rate has passes of both signs (rates found: {rates} deg/s); "
+            "Method A needs clockwise and counter-clockwise passes at the same rate"
+        )
+        raise InputError(msg)
+    return pairs, unpaired
 
 
 def estimate_latency_sphere(
@@ -433,12 +624,16 @@ def estimate_latency_sphere(
     Returns
     -------
     SphereLatencyResult
-        tau > 0: the navigation data lag the scanner (SPEC section 1).
+        tau > 0: the navigation data lag the scanner (SPEC section 1). A pass with no
+        usable sphere (fewer than `MIN_SPHERE_POINTS_PER_PASS` of its points on the
+        sphere fitted at its rate) is left out and listed in ``rejected_passes``; a rate
+        left with passes of one sign only is listed in ``unpaired_rates_deg_s``.
 
     Raises
     ------
     InputError
-        No passes, no rate with both signs, no sphere found in a pool.
+        No passes, no rate with both signs, no rate whose passes of both signs hold a
+        usable sphere.
     ObservabilityError
         The rotation axis points at the sphere.
     """
@@ -448,38 +643,32 @@ def estimate_latency_sphere(
     if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
         msg = f"radius_m must be positive, got {radius_m!r}"
         raise InputError(msg)
-    groups = _group_passes(passes)
-    pairs: list[tuple[list[SpherePass], list[SpherePass]]] = []
-    unpaired: list[float] = []
-    for (rate, axis), group in sorted(groups.items()):
-        if rate <= 0:
+    pairs, unpaired = _pair_groups(passes)
+    per_rate: list[RateLatency] = []
+    rejected: list[RejectedPass] = []
+    failures: list[str] = []
+    for plus_passes, minus_passes in pairs:
+        fits = []
+        for side in (plus_passes, minus_passes):
+            pool, lost, failure = _fit_pool_rejecting(
+                side, radius_m, scanner_origin_ned_m, max_incidence_deg, seed
+            )
+            fits.append(pool)
+            rejected += lost
+            if failure is not None:
+                failures.append(failure)
+        plus, minus = fits
+        if plus is None or minus is None:
+            unpaired.append(abs(plus_passes[0].rate_deg_s))
             continue
-        opposite = groups.get((round(-rate, _RATE_KEY_DECIMALS), axis))
-        if opposite is None:
-            unpaired.append(rate)
-        else:
-            pairs.append((group, opposite))
-    unpaired += [
-        -r for (r, a) in groups if r < 0 and (round(-r, _RATE_KEY_DECIMALS), a) not in groups
-    ]
-    if not pairs:
-        rates = sorted({p.rate_deg_s for p in passes})
+        per_rate.append(latency_from_pool_pair(plus, minus))
+    if not per_rate:
         msg = (
-            f"no table rate has passes of both signs (rates found: {rates} deg/s); "
-            "Method A needs clockwise and counter-clockwise passes at the same rate"
+            "no table rate has a usable sphere in passes of both signs ("
+            + "; ".join(failures)
+            + ")"
         )
         raise InputError(msg)
-    per_rate: list[RateLatency] = []
-    for plus_passes, minus_passes in pairs:
-        kwargs = {
-            "radius_m": radius_m,
-            "scanner_origin_ned_m": scanner_origin_ned_m,
-            "max_incidence_deg": max_incidence_deg,
-            "seed": seed,
-        }
-        plus = fit_pool(plus_passes, **kwargs)  # type: ignore[arg-type]
-        minus = fit_pool(minus_passes, **kwargs)  # type: ignore[arg-type]
-        per_rate.append(latency_from_pool_pair(plus, minus))
     per_rate.sort(key=lambda r: r.rate_deg_s)
     tau_r = np.array([r.latency_s for r in per_rate])
     var_r = np.array([r.latency_std_s**2 for r in per_rate])
@@ -510,4 +699,5 @@ def estimate_latency_sphere(
         p_value_between_rates=p_value,
         unpaired_rates_deg_s=tuple(sorted(unpaired)),
         n_passes=len(passes),
+        rejected_passes=tuple(rejected),
     )

@@ -107,7 +107,7 @@ def control_points_file(
     ):
         assert t is not None
         assert inten is not None
-        check_finite_chunk(cloud_path, xyz, done, time=t, intensity=inten)
+        check_finite_chunk(cloud_path, xyz, done, t_s=t, intensity=inten)
         done += xyz.shape[0]
         extent.add(xyz)
         if inten.size:
