@@ -199,10 +199,10 @@ def test_gate_rejections_warn_then_refuse() -> None:
     config = dataclasses.replace(CONFIG, gate_probability=0.9999)
     assert check_gnss_rejections(np.array([10.0, 20.0]), 998, config) == []
     assert check_gnss_rejections(np.array([]), 0, config) == []
-    five = np.arange(50) + 100.0
+    five = np.arange(100.0, 150.0, dtype=np.float64)
     (warning,) = check_gnss_rejections(five, 950, config, gnss_source="g.csv")
     assert warning.startswith("g.csv: the chi-square gate rejected 50 of 1000 GNSS epochs (5.0%")
     assert "t_s 100.000, 101.000, 102.000, 103.000, 104.000 and 45 more" in warning
     assert "deg/s" in warning
     with pytest.raises(InputError, match=r"rejected 300 of 1000 .*no solution written"):
-        check_gnss_rejections(np.arange(300.0), 700, config)
+        check_gnss_rejections(np.arange(300.0, dtype=np.float64), 700, config)
