@@ -84,7 +84,12 @@ def _exit_interrupted(signum: int) -> None:
 
 @contextmanager
 def _warnings_on_one_line() -> Iterator[None]:
-    """A `KinsyncWarning` is printed once, ``kinsync: warning: ...``, on stderr."""
+    """A `KinsyncWarning` is printed once, ``kinsync: warning: ...``, on stderr.
+
+    The warnings are held until the command ends and printed only when it succeeds: a
+    command that fails prints its one error line and nothing else.
+    """
+    held: list[str] = []
     with warnings.catch_warnings():
         warnings.simplefilter("default", KinsyncWarning)  # once per message and place
         show = warnings.showwarning
@@ -98,12 +103,14 @@ def _warnings_on_one_line() -> Iterator[None]:
             line: str | None = None,
         ) -> Any:
             if issubclass(category, KinsyncWarning):
-                print(f"kinsync: warning: {_one_line(str(message))}", file=sys.stderr)
+                held.append(f"kinsync: warning: {_one_line(str(message))}")
                 return None
             return show(message, category, filename, lineno, file, line)
 
         warnings.showwarning = one_line
         yield
+    for text in held:
+        print(text, file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -196,8 +196,6 @@ def run(
         gnss_source=str(gnss_path),
         static_s=static_s,
     )
-    for warning in warnings:
-        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     gnss = gnss_within_imu_span(gnss, imu)
     init = (
         align_static_gnss_heading(
@@ -213,7 +211,6 @@ def run(
     )
     skipped = _before_start(imu, gnss, init.t_s, init_from)
     if skipped:
-        typer.echo(f"kinsync: warning: {skipped}", err=True)
         warnings.append(skipped)
     with progress_display("ins run") as progress:  # after the input checks: errors stay one line
         start = time.perf_counter()
@@ -240,7 +237,7 @@ def run(
         report(progress, 0.9, "writing")
         _write_solution(solution, out)
         report(progress, 1.0, "writing")
-    for warning in late:
+    for warning in warnings + late:  # after the run: a failed run prints one error line
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
     summary["warnings"] = warnings + late
