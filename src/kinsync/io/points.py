@@ -266,6 +266,7 @@ def _csv_batches(
         strings_can_be_null=False,
     )
     read = pa_csv.ReadOptions(block_size=block_bytes)
+    reader = None
     try:
         reader = pa_csv.open_csv(path, read_options=read, convert_options=convert)
         yield from reader
@@ -284,6 +285,12 @@ def _csv_batches(
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
+    finally:
+        # The streaming reader reads ahead on pyarrow's threads: left open when the
+        # consumer stops (an error in a chunk, a generator dropped), the process can
+        # abort at exit ("terminate called without an active exception").
+        if reader is not None:
+            reader.close()
 
 
 def iter_table_chunks(
@@ -343,9 +350,14 @@ def iter_table_chunks(
             raise InputError(msg) from err
         batches = pf.iter_batches(batch_size=chunk_points)
     first_row = 0
-    for table in _rebatch(batches, chunk_points):
-        yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
-        first_row += table.num_rows
+    try:
+        for table in _rebatch(batches, chunk_points):
+            yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
+            first_row += table.num_rows
+    finally:  # close the CSV reader (its read-ahead threads) whatever stopped the loop
+        close = getattr(batches, "close", None)
+        if close is not None:
+            close()
 
 
 def count_table_rows(path: Path) -> int:
@@ -367,7 +379,10 @@ def count_table_rows(path: Path) -> int:
         first = _csv_header(path)[0]
         convert = pa_csv.ConvertOptions(include_columns=[first], column_types={first: pa.string()})
         reader = pa_csv.open_csv(path, convert_options=convert)
-        return sum(int(b.num_rows) for b in reader)
+        try:
+            return sum(int(b.num_rows) for b in reader)
+        finally:
+            reader.close()
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
@@ -464,11 +479,21 @@ def _csv_block_bytes(chunk_points: int, n_columns: int) -> int:
 
 
 def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
-    """Column types from the first block, as the streaming reader infers them."""
+    """Column types from the first block, as the streaming reader infers them.
+
+    The block (``block_bytes``, cut after its last complete line) is read into memory
+    and parsed there: a streaming reader would read ahead on pyarrow's threads, which a
+    process that stops soon after (a bad cell in the first chunk) can exit under.
+    """
+    with path.open("rb") as fh:
+        data = fh.read(block_bytes)
+        if len(data) == block_bytes and fh.read(1):
+            end = max(data.rfind(b"\n"), data.rfind(b"\r"))
+            data = data[: end + 1] if end >= 0 else data
     try:
-        reader = pa_csv.open_csv(
-            path,
-            read_options=pa_csv.ReadOptions(block_size=block_bytes),
+        table = pa_csv.read_csv(
+            io.BytesIO(data),
+            read_options=pa_csv.ReadOptions(use_threads=False),
             convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
         )
     except pa.ArrowInvalid as err:
@@ -481,9 +506,7 @@ def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
-    schema = reader.schema
-    reader.close()
-    return schema
+    return table.schema
 
 
 def _csv_header_bytes(path: Path) -> int:
