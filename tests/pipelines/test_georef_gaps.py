@@ -145,3 +145,24 @@ def test_rejected_gap_points_go_to_the_rejected_file_and_the_counts_add_up(
         src, gap_traj, MOUNT, tmp_path / "all.laz", crs="EPSG:32619", max_gap_s=2.5
     )
     assert summary.points_out == N
+
+
+def test_a_run_that_rejects_nothing_removes_an_earlier_rejected_file(
+    tmp_path: Path, gap_traj: Path
+) -> None:
+    """Otherwise the earlier run's rejects sit beside the new output: counts that do
+    not add up."""
+    cols = _columns()
+    src, out = tmp_path / "scan.laz", tmp_path / "out.laz"
+    _write_las(src, cols)
+    first = georeference_file(src, gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject")
+    assert first.rejected_path == tmp_path / "out.rejected.laz"
+    assert first.rejected_path.exists()
+    keep = ~_in_gap(cols["t_s"])
+    _write_las(src, {k: v[keep] for k, v in cols.items()})
+    second = georeference_file(src, gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject")
+    assert second.points_rejected == 0
+    assert second.rejected_path is None
+    assert not (tmp_path / "out.rejected.laz").exists()
+    assert any("out.rejected.laz: removed" in w for w in second.warnings)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gap.csv", "out.laz", "scan.laz"]

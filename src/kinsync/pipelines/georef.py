@@ -40,6 +40,7 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.las import (
     las_end_times,
@@ -230,6 +231,34 @@ class _OutsideTally:
         return InputError(msg)
 
 
+def _remove_stale_rejected(out_path: Path, points_path: Path, trajectory_path: Path) -> list[str]:
+    """Remove the ``OUT.rejected.<ext>`` an earlier run left, after a run that rejected none.
+
+    Left beside the new output, its points would be counted with it and the counts
+    would no longer add up. A file that is one of the inputs is never removed.
+    """
+    stale = rejected_path_for(out_path, points_path)
+    if not stale.is_file():
+        return []
+    inputs = (
+        ProtectedInput(points_path, "--points"),
+        ProtectedInput(trajectory_path, "--trajectory"),
+    )
+    try:
+        check_not_an_input(stale, inputs)
+    except InputError:
+        return []
+    try:
+        stale.unlink()
+    except OSError as err:
+        msg = (
+            f"{stale}: left by an earlier run, could not be removed ({err}); this run "
+            "rejected no points: delete it"
+        )
+        return [msg]
+    return [f"{stale}: removed, left by an earlier run; this run rejected no points"]
+
+
 # ---------------------------------------------------------------------- file pipeline
 def georeference_file(
     points_path: Path,
@@ -305,7 +334,9 @@ def georeference_file(
     outside : {"error", "reject"}
         Points outside the trajectory span: an error naming how many and their time
         range (nothing written), or written unchanged, in the input's format, to
-        ``OUT.rejected.<ext>`` (`rejected_path_for`).
+        ``OUT.rejected.<ext>`` (`rejected_path_for`). A run that rejects no point
+        removes the ``OUT.rejected.<ext>`` an earlier run left there (a warning says so),
+        so that the files beside the output always hold exactly this run's points.
     gps_week : int, optional
         GPS week for SBET and LAS seconds-of-week times (see `read_trajectory_file`).
     position : {"auto", "linear", "hermite"}
@@ -404,6 +435,8 @@ def georeference_file(
             ctx, tasks, total, out_path, progress, tally, runner, sink, template, points_path
         )
     points_in, points_out, points_rejected = counts
+    if not points_rejected:
+        notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
     if tally.gap_count:
         rejected = rejected_path_for(out_path, points_path)
         notes.append(f"{points_path}: {tally.gap_text(traj)}: they went to {rejected}")
