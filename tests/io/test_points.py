@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -362,3 +363,26 @@ def test_planning_a_csv_opens_no_streaming_reader(
     assert layout.inferred.field("label").type == pa.string()
     with pytest.raises(InputError, match="data row 13, column 'y_m': empty cell"):
         points.read_table_slice(layout, slices[0])
+
+
+@pytest.mark.parametrize("bad_row", [21, 90_000])
+def test_a_row_with_another_field_count_is_named_by_line(tmp_path: Path, bad_row: int) -> None:
+    """In the first block (read when planning) or in a later slice, and when streaming."""
+    from kinsync.io import points  # noqa: PLC0415
+
+    rows = [f"{i}.5,1.0,2.0,3.0,x{i}" for i in range(100_000)]
+    rows[bad_row] += ",7"
+    path = tmp_path / "extra.csv"
+    path.write_text("t_s,x_m,y_m,z_m,label\n" + "\n".join(rows) + "\n")
+    required = ("t_s", "x_m", "y_m", "z_m")
+    where = f"line {bad_row + 2} (data row {bad_row}): 6 field(s) where the header has 5"
+
+    def read_planned() -> None:
+        layout, slices = points.plan_table_slices(path, 10_000, required)
+        for sl in slices:
+            points.read_table_slice(layout, sl)
+
+    with pytest.raises(InputError, match=re.escape(where)):
+        read_planned()
+    with pytest.raises(InputError, match=re.escape(where)):
+        list(points.iter_table_chunks(path, 10_000, required))

@@ -151,7 +151,7 @@ def _renamed(
 
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
-    """Scan a CSV for the first empty or non-numeric cell of a required column."""
+    """Scan a CSV for the first bad row (`_first_bad_cell`)."""
     with path.open(newline="", encoding="utf-8", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
@@ -170,11 +170,13 @@ def _first_bad_cell(
     first_line: int,
     first_row: int,
 ) -> InputError | None:
-    """First empty or non-numeric required cell read by ``reader`` (a ``csv.reader``).
+    """First bad row read by ``reader`` (a ``csv.reader``), or None.
 
-    The reader's line 1 is file line ``first_line + 1``; its first non-empty line is
-    data row ``first_row``. A byte that is not UTF-8 in any cell (text decoded with
-    ``errors="surrogateescape"``) and a line the ``csv`` module cannot read are bad too.
+    Bad: a required cell empty or not a number, or a row with another number of fields
+    than the header. The reader's line 1 is file line ``first_line + 1``; its first
+    non-empty line is data row ``first_row``. A byte that is not UTF-8 in any cell (text
+    decoded with ``errors="surrogateescape"``) and a line the ``csv`` module cannot read
+    are bad too.
     """
     cols = [(name, list(header).index(name)) for name in required]
     row = first_row - 1
@@ -192,6 +194,13 @@ def _first_bad_cell(
         for cell in cells:
             if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
                 return bad
+        if len(cells) != len(header):
+            msg = (
+                f"{path}: line {first_line + reader.line_num} (data row {row}): {len(cells)} "
+                f"field(s) where the header has {len(header)}; fix the row (a comma too many "
+                "or too few, or a value holding a comma that needs quotes)"
+            )
+            return InputError(msg)
         for name, i in cols:
             cell = cells[i].strip() if i < len(cells) else ""
             try:
@@ -203,6 +212,9 @@ def _first_bad_cell(
                     f"{name!r}: {what}; fix or remove the row"
                 )
                 return InputError(msg)
+
+
+_PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
 
 
 def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
@@ -271,6 +283,10 @@ def _csv_batches(
         reader = pa_csv.open_csv(path, read_options=read, convert_options=convert)
         yield from reader
     except pa.ArrowInvalid as err:
+        if _PARSE_ERROR in str(err):
+            bad = _locate_bad_csv_cell(path, required)
+            if bad is not None:
+                raise bad from err
         if "conversion error" in str(err):
             bad = _locate_bad_csv_cell(path, required)
             if bad is not None:
@@ -497,7 +513,7 @@ def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
             convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
         )
     except pa.ArrowInvalid as err:
-        if "conversion error" in str(err):
+        if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             bad = _locate_bad_csv_cell(path, required)
             if bad is not None:
                 raise bad from err
@@ -705,7 +721,7 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
             convert_options=_csv_convert_options(types),
         )
     except pa.ArrowInvalid as err:
-        if "conversion error" in str(err):
+        if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             text = data.decode("utf-8", errors="surrogateescape")
             reader = csv.reader(io.StringIO(text, newline=""))
             bad = _first_bad_cell(
@@ -718,6 +734,7 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
             )
             if bad is not None:
                 raise bad from err
+        if "conversion error" in str(err):
             msg = (
                 f"{path}: lines {sl.first_line}.. (data rows {sl.first_row}.."
                 f"{sl.first_row + sl.n_rows - 1}): {err}; a column's values change type "
