@@ -43,6 +43,7 @@ from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.las import (
+    check_week_seconds,
     las_end_times,
     las_header,
     las_info,
@@ -642,6 +643,8 @@ def _plan_las(
 ) -> tuple[Any, ChunkSource, list[ChunkTask], int]:
     info = las_info(path)
     template = las_header(path)
+    if info.gps_time_type != "adjusted_standard" and info.point_count:
+        check_week_seconds(info, las_end_times(path))
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
