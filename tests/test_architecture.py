@@ -48,6 +48,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.mount",
             "kinsync.robust",
             "kinsync.trajectory",
+            "kinsync.trajectory_gaps",
         ),
     ),
     (

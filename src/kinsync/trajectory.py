@@ -46,6 +46,7 @@ from kinsync.frames import (
     quaternion_to_euler_rpy,
     quaternion_to_matrix,
 )
+from kinsync.trajectory_gaps import GAP_FACTOR
 
 __all__ = [
     "VELOCITY_CHECK_ATOL_M",
@@ -155,8 +156,9 @@ VELOCITY_CHECK_ATOL_M = 0.05
 """RMS mismatch per window (m) that passes whatever the motion: position noise and text
 rounding of honest files, and the standstill of a vehicle with zero velocities."""
 
-_VELOCITY_CHECK_GAP_FACTOR = 10.0
+_VELOCITY_CHECK_GAP_FACTOR = GAP_FACTOR
 """Record intervals longer than this many median intervals (data gaps) are left out."""
+
 
 _ZERO_SCALE = 0.05
 """A velocity scale below this (in magnitude) is reported as zero velocities."""

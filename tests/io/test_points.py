@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import re
+from collections.abc import Generator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -285,3 +288,105 @@ def test_csv_text_columns_give_the_same_file(tmp_path: Path) -> None:
     text = direct.read_text()
     assert ",nan," in text
     assert '"' not in text  # numbers are never quoted
+
+
+class _ClosingSpy:
+    """A pyarrow streaming CSV reader that records whether it was closed."""
+
+    instances: list[_ClosingSpy] = []  # noqa: RUF012 - the test's record
+
+    def __init__(self, reader: Any) -> None:
+        self.reader = reader
+        self.closed = False
+        _ClosingSpy.instances.append(self)
+
+    def __iter__(self) -> Any:
+        return iter(self.reader)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.reader, name)
+
+    def close(self) -> None:
+        self.closed = True
+        self.reader.close()
+
+
+def test_the_csv_reader_is_closed_when_a_chunk_is_bad(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bad cell ends the stream with the reader closed: left open, its read-ahead
+    threads could abort the process at exit (exit 134 instead of 2)."""
+    import pyarrow.csv as pa_csv  # noqa: PLC0415
+
+    from kinsync.io import points  # noqa: PLC0415
+
+    real = pa_csv.open_csv
+    _ClosingSpy.instances.clear()
+    monkeypatch.setattr(pa_csv, "open_csv", lambda *a, **k: _ClosingSpy(real(*a, **k)))
+    rows = [f"{i}.5,1.0,2.0,3.0" for i in range(5000)]
+    rows[3500] = "3500.5,1.0,,3.0"
+    path = tmp_path / "bad.csv"
+    path.write_text("t_s,x_m,y_m,z_m\n" + "\n".join(rows) + "\n")
+    chunks = points.iter_table_chunks(path, 1000, ("t_s", "x_m", "y_m", "z_m"))
+    with pytest.raises(InputError, match="data row 3500, column 'y_m': empty cell"):
+        for _ in chunks:
+            pass
+    assert _ClosingSpy.instances
+    assert all(spy.closed for spy in _ClosingSpy.instances)
+    # and when the consumer stops early, closing the generator closes the reader
+    _ClosingSpy.instances.clear()
+    chunks = points.iter_table_chunks(path, 1000, ("t_s", "x_m", "y_m", "z_m"))
+    next(chunks)
+    assert isinstance(chunks, Generator)
+    chunks.close()
+    assert [spy.closed for spy in _ClosingSpy.instances] == [True]
+    # counting rows closes its reader too
+    _ClosingSpy.instances.clear()
+    assert points.count_table_rows(path) == 5000
+    assert [spy.closed for spy in _ClosingSpy.instances] == [True]
+
+
+def test_planning_a_csv_opens_no_streaming_reader(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Georeferencing plans a CSV from its first block read into memory: no reader with
+    read-ahead threads is left behind when the first chunk then fails (exit 134)."""
+    import pyarrow.csv as pa_csv  # noqa: PLC0415
+
+    from kinsync.io import points  # noqa: PLC0415
+
+    opened: list[object] = []
+    monkeypatch.setattr(pa_csv, "open_csv", lambda *a, **k: opened.append((a, k)))
+    rows = [f"{i}.5,1.0,2.0,3.0,x{i}" for i in range(100_000)]
+    rows[13] = "13.5,1.0,,3.0,y"
+    path = tmp_path / "bad.csv"
+    path.write_text("t_s,x_m,y_m,z_m,label\n" + "\n".join(rows) + "\n")
+    layout, slices = points.plan_table_slices(path, 1000, ("t_s", "x_m", "y_m", "z_m"))
+    assert opened == []
+    assert layout.total_rows == 100_000
+    assert layout.inferred.field("label").type == pa.string()
+    with pytest.raises(InputError, match="data row 13, column 'y_m': empty cell"):
+        points.read_table_slice(layout, slices[0])
+
+
+@pytest.mark.parametrize("bad_row", [21, 90_000])
+def test_a_row_with_another_field_count_is_named_by_line(tmp_path: Path, bad_row: int) -> None:
+    """In the first block (read when planning) or in a later slice, and when streaming."""
+    from kinsync.io import points  # noqa: PLC0415
+
+    rows = [f"{i}.5,1.0,2.0,3.0,x{i}" for i in range(100_000)]
+    rows[bad_row] += ",7"
+    path = tmp_path / "extra.csv"
+    path.write_text("t_s,x_m,y_m,z_m,label\n" + "\n".join(rows) + "\n")
+    required = ("t_s", "x_m", "y_m", "z_m")
+    where = f"line {bad_row + 2} (data row {bad_row}): 6 field(s) where the header has 5"
+
+    def read_planned() -> None:
+        layout, slices = points.plan_table_slices(path, 10_000, required)
+        for sl in slices:
+            points.read_table_slice(layout, sl)
+
+    with pytest.raises(InputError, match=re.escape(where)):
+        read_planned()
+    with pytest.raises(InputError, match=re.escape(where)):
+        list(points.iter_table_chunks(path, 10_000, required))

@@ -132,11 +132,12 @@ class LineModel:
         return cls(line, gtraj)
 
     def inside(self, index: FloatArray | BoolArray | None, latency_s: float) -> BoolArray:
-        """Which returns (of ``index``) have navigation tags ``t + tau`` in the span."""
+        """Which returns (of ``index``) have navigation tags ``t + tau`` in the span.
+
+        Tags inside a data gap of the trajectory are not (`GeorefTrajectory.contains`).
+        """
         t = self.line.t_s if index is None else self.line.t_s[index]
-        tt = t + latency_s
-        out: BoolArray = (tt >= self.trajectory.t_start_s) & (tt <= self.trajectory.t_end_s)
-        return out
+        return self.trajectory.contains(t + latency_s)
 
     def points(self, index: IntArray | None, values: FloatArray, frame: LocalFrame) -> FloatArray:
         """Returns ``index`` georeferenced with the seven ``values``, local frame (m), (n, 3).

@@ -107,10 +107,19 @@ def georef(
         str,
         typer.Option(
             "--outside",
-            help="Points outside the trajectory span: 'error' (default, nothing written) or "
-            "'reject' (written to OUT.rejected.<ext>).",
+            help="Points outside the trajectory span or in one of its gaps (see --max-gap-s): "
+            "'error' (default, nothing written) or 'reject' (written to OUT.rejected.<ext>).",
         ),
     ] = "error",
+    max_gap_s: Annotated[
+        float | None,
+        typer.Option(
+            "--max-gap-s",
+            help="Longest trajectory record interval (s) to interpolate across; points "
+            "inside a longer one (a data gap) are treated as outside the span (--outside). "
+            "Default: 10 times the median record interval.",
+        ),
+    ] = None,
     gps_week: Annotated[
         int | None,
         typer.Option(
@@ -208,6 +217,7 @@ def georef(
             point_columns=_POINT_COLUMNS[point_columns],
             profiler_azimuth_deg=profiler_azimuth_deg,
             columns=column_map,
+            max_gap_s=max_gap_s,
         )
     notes = []  # trajectory velocities that disagree with the positions: said, never silent
     for w in caught:
@@ -224,7 +234,9 @@ def georef(
     table = quantity_table(f"Georeferenced {points} -> {out} ({crs})")
     table.add_row("points in", str(summary.points_in))
     table.add_row("points out", str(summary.points_out))
-    table.add_row("points rejected (outside the trajectory span)", str(summary.points_rejected))
+    table.add_row(
+        "points rejected (outside the trajectory span or in a gap)", str(summary.points_rejected)
+    )
     table.add_row("latency (ms)", fmt(the_mount.latency_s, 1e3, 6))
     if summary.crs is not None:
         info = summary.crs

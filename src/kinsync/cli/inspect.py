@@ -206,6 +206,11 @@ def trajectory_info(
         read_trajectory_file,
         trajectory_file_format,
     )
+    from kinsync.trajectory_gaps import (  # noqa: PLC0415
+        GAP_FACTOR,
+        max_gap_for,
+        trajectory_gaps,
+    )
 
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
     file_format = trajectory_file_format(path)
@@ -219,6 +224,16 @@ def trajectory_info(
     rate = np.degrees(np.linalg.norm(traj.angular_rate_body_rad_s(), axis=1))
     check = traj.velocity_check
     warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
+    max_gap = max_gap_for(traj.t_s)
+    gaps = trajectory_gaps(traj.t_s, max_gap)
+    if gaps:
+        named = "; ".join(g.describe() for g in gaps[:5])
+        more = f"; and {len(gaps) - 5} more" if len(gaps) > 5 else ""
+        warnings.append(
+            f"{path}: {len(gaps)} gap(s) longer than {max_gap:.6g} s ({GAP_FACTOR:g} times the "
+            f"median record interval): {named}{more}; georef does not interpolate across "
+            "them (points there are treated as outside the span; see --max-gap-s)"
+        )
     doc: dict[str, Any] = {
         "format": file_format,
         "records": len(traj),
@@ -227,6 +242,7 @@ def trajectory_info(
         "duration_s": traj.duration_s,
         "median_rate_hz": float(1.0 / np.median(dt)),
         "max_gap_s": float(dt.max()),
+        "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,
         "time": _time_document(traj.t_start_s, traj.t_end_s, scale),
@@ -245,7 +261,7 @@ def trajectory_info(
     if as_json:
         print_json(doc)
         return
-    nested = ("smrmsg", "velocity_check", "warnings", "time", "area")
+    nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps")
     rows = {
         k: f"{v:.10g}" if isinstance(v, float) else str(v)
         for k, v in doc.items()

@@ -10,7 +10,9 @@ once as a `kinsync.georef.trajectory.GeorefTrajectory`. The kernel interpolates,
 point, the ECEF position (linear, or cubic Hermite with the ECEF velocities) and the
 body -> ECEF attitude by slerp, in one compiled loop (numba, single thread).
 
-Points outside the trajectory's span are never extrapolated: they come back NaN with
+Points outside the trajectory's span are never extrapolated, and points strictly inside
+a data gap of the trajectory (a record interval longer than
+`GeorefTrajectory.max_gap_s`) are not interpolated across it: both come back NaN with
 ``inside == False`` and the caller decides (error or reject).
 
 References
@@ -64,6 +66,7 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
     poly_ecef_m: FloatArray,
     R_left_body_to_ecef: FloatArray,
     rotvec_interval_body: FloatArray,
+    max_interval_s: float,
     lever_arm_body_m: FloatArray,
     R_scanner_to_body: FloatArray,
     out_ecef_m: FloatArray,
@@ -74,7 +77,9 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
     Per interval k: ``1 / (t[k+1] - t[k])``, position polynomial
     ``c0 + s c1 + s² c2 + s³ c3`` in the interval fraction s (linear or cubic Hermite,
     ECEF), the left record's body -> ECEF matrix and the slerp increment (rotation
-    vector, body frame). Returns the index of the first point with a non-finite time or
+    vector, body frame). A point strictly inside an interval longer than
+    ``max_interval_s`` (a gap) is outside, as is one outside the records. Returns the
+    index of the first point with a non-finite time or
     a coordinate not within ±`MAX_SCANNER_RANGE_M` (the loop stops there), or -1.
     """
     n = t_s.shape[0]
@@ -104,7 +109,6 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
             out_ecef_m[i, 2] = np.nan
             inside[i] = False
             continue
-        inside[i] = True
         # Bracket: t_rec[k] <= ti < t_rec[k+1] (k = m-2 at the last record). Monotone
         # cursor for sorted times (same or next interval), binary search otherwise.
         if not (t_rec_s[k] <= ti and (ti < t_rec_s[k + 1] or k == m - 2)):
@@ -120,6 +124,13 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
                     else:
                         hi = mid - 1
                 k = lo
+        if t_rec_s[k + 1] - t_rec_s[k] > max_interval_s and ti > t_rec_s[k]:  # in a gap
+            out_ecef_m[i, 0] = np.nan
+            out_ecef_m[i, 1] = np.nan
+            out_ecef_m[i, 2] = np.nan
+            inside[i] = False
+            continue
+        inside[i] = True
         s = (ti - t_rec_s[k]) * inv_interval_s[k]
         # Body vector b = a_s + R_s^b · x_s.
         bx = ax + r00 * sx + r01 * sy + r02 * sz
@@ -311,9 +322,11 @@ def georeference(
     Returns
     -------
     pos_ecef_m : ndarray, shape (N, 3)
-        Georeferenced points, ECEF (m); NaN where outside the trajectory's span.
+        Georeferenced points, ECEF (m); NaN where outside the trajectory's span or
+        inside one of its gaps.
     inside : ndarray of bool, shape (N,)
-        True where the point time lies within ``[traj.t_start_s, traj.t_end_s]``.
+        True where the point time lies within ``[traj.t_start_s, traj.t_end_s]`` and
+        not strictly inside a gap (`GeorefTrajectory.contains`).
 
     Raises
     ------
@@ -338,6 +351,7 @@ def georeference(
         _read_only(traj._poly_hermite if hermite else traj._poly_linear),
         _read_only(traj._R_body_to_ecef_left),
         _read_only(traj.rotvec_interval_body),
+        float(traj.max_gap_s),
         _read_only(np.ascontiguousarray(mount.lever_arm_body_m_array)),
         _read_only(np.ascontiguousarray(mount.R_scanner_to_body)),
         out,
@@ -370,7 +384,7 @@ def georeference_numpy(
     sample = traj.trajectory.interpolate(
         t, position="hermite" if hermite else "linear", mask_outside=True
     )
-    inside = sample.inside
+    inside = sample.inside & traj.contains(t)
     out = np.full((t.size, 3), np.nan)
     if not np.any(inside):
         return out, inside

@@ -16,6 +16,12 @@ with a `kinsync.trajectory.VelocityConsistencyWarning`: the kernel then interpol
 positions linearly, as for a trajectory without velocities, and
 `GeorefTrajectory.velocity_warning` keeps the reason.
 
+Data gaps (`kinsync.trajectory_gaps.trajectory_gaps`: record intervals longer than
+``max_gap_s``, by default `kinsync.trajectory_gaps.GAP_FACTOR` times the median record
+interval) are not interpolated across: the kernel treats a point strictly inside a gap
+like a point outside the span (NaN, ``inside == False``), and `GeorefTrajectory.contains`
+says which times it will georeference.
+
 References
 ----------
 Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp).
@@ -31,7 +37,7 @@ from functools import cached_property
 import numpy as np
 
 from kinsync._arrays import readonly_array
-from kinsync._typing import FloatArray
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import (
     geodetic_to_ecef,
@@ -42,6 +48,7 @@ from kinsync.frames import (
 )
 from kinsync.mount import MAX_LATENCY_S
 from kinsync.trajectory import Trajectory, VelocityConsistencyWarning
+from kinsync.trajectory_gaps import TrajectoryGap, max_gap_for, trajectory_gaps
 
 __all__ = [
     "GeorefTrajectory",
@@ -116,6 +123,10 @@ class GeorefTrajectory:
     velocity_warning : str or None
         Why the source trajectory's velocities were dropped (they disagree with its
         positions; positions are then interpolated linearly), or None.
+    max_gap_s : float
+        Longest record interval (s) interpolated across; longer ones are gaps.
+    gaps : tuple of TrajectoryGap
+        The record intervals longer than ``max_gap_s`` (scanner time scale), in order.
     """
 
     trajectory: Trajectory
@@ -126,9 +137,13 @@ class GeorefTrajectory:
     q_body_to_ecef: FloatArray
     rotvec_interval_body: FloatArray
     velocity_warning: str | None = None
+    max_gap_s: float = math.inf
+    gaps: tuple[TrajectoryGap, ...] = ()
 
     @classmethod
-    def from_trajectory(cls, trajectory: Trajectory, latency_s: float = 0.0) -> GeorefTrajectory:
+    def from_trajectory(
+        cls, trajectory: Trajectory, latency_s: float = 0.0, max_gap_s: float | None = None
+    ) -> GeorefTrajectory:
         """Precompute ECEF positions, velocities and body -> ECEF attitudes.
 
         Parameters
@@ -138,6 +153,11 @@ class GeorefTrajectory:
         latency_s : float
             Latency tau (s), SPEC section 1: a point at ``t`` uses the record tagged
             ``t + tau``.
+        max_gap_s : float, optional
+            Longest record interval (s) to interpolate across; default
+            `kinsync.trajectory_gaps.GAP_FACTOR` times the median record interval
+            (`kinsync.trajectory_gaps.max_gap_for`). Points inside a longer interval (a data
+            gap) are treated as outside the span.
 
         Returns
         -------
@@ -150,7 +170,8 @@ class GeorefTrajectory:
         ------
         InputError
             A non-finite latency, or one beyond `kinsync.mount.MAX_LATENCY_S` (a
-            time-scale or unit mistake, not a latency).
+            time-scale or unit mistake, not a latency); a ``max_gap_s`` that is not
+            a positive number.
         """
         if not math.isfinite(latency_s):
             msg = f"georeference latency_s must be finite, got {latency_s!r}"
@@ -187,6 +208,7 @@ class GeorefTrajectory:
         q /= np.linalg.norm(q, axis=1, keepdims=True)
         q[q[:, 0] < 0.0] *= -1.0
         rotvec = _interval_rotvec(q)
+        gap_limit_s = max_gap_for(corrected.t_s, max_gap_s)
         return cls(
             trajectory=corrected,
             latency_s=float(latency_s),
@@ -196,6 +218,8 @@ class GeorefTrajectory:
             q_body_to_ecef=readonly_array(q, copy=False),
             rotvec_interval_body=readonly_array(rotvec, copy=False),
             velocity_warning=velocity_warning,
+            max_gap_s=gap_limit_s,
+            gaps=trajectory_gaps(corrected.t_s, gap_limit_s),
         )
 
     def __len__(self) -> int:
@@ -229,6 +253,26 @@ class GeorefTrajectory:
     def _R_body_to_ecef_left(self) -> FloatArray:
         """Rotation matrix of each interval's left record, body -> ECEF, shape (N-1, 3, 3)."""
         return readonly_array(quaternion_to_matrix(self.q_body_to_ecef[:-1]), copy=False)
+
+    @cached_property
+    def gap_bounds_s(self) -> FloatArray:
+        """Start and end times (s) of the gaps, shape (2, G), read-only."""
+        bounds = np.array(
+            [[g.t_start_s for g in self.gaps], [g.t_end_s for g in self.gaps]], dtype=np.float64
+        ).reshape(2, len(self.gaps))
+        return readonly_array(bounds, copy=False)
+
+    def contains(self, t_s: ArrayLike) -> BoolArray:
+        """True where a time (s, scanner time scale) can be georeferenced.
+
+        Within ``[t_start_s, t_end_s]`` and not strictly inside a gap; same shape as
+        ``t_s``.
+        """
+        t = np.asarray(t_s, dtype=np.float64)
+        out: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)
+        for gap in self.gaps:
+            out &= ~((t > gap.t_start_s) & (t < gap.t_end_s))
+        return out
 
     @property
     def t_start_s(self) -> float:

@@ -44,6 +44,7 @@ __all__ = [
     "ADJUSTED_GPS_OFFSET_S",
     "LasInfo",
     "LasPointReader",
+    "check_week_seconds",
     "iter_las_chunks",
     "las_end_times",
     "las_header",
@@ -141,6 +142,50 @@ def las_time_offset_s(
             raise InputError(msg)
         return gps_week * SECONDS_PER_WEEK
     return 0.0
+
+
+WEEK_SECONDS_SLACK_S = 86_400.0
+"""Seconds of week a file may run past the week's end (604800 s): some loggers keep
+counting across the week rollover. Beyond this, the times are not seconds of week."""
+
+
+def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -> None:
+    """Refuse ``gps_time`` values that cannot be the GPS seconds of week the header says.
+
+    Parameters
+    ----------
+    info : LasInfo
+        The file's header facts; nothing is checked when it says adjusted standard time.
+    end_times_s : tuple of float or None
+        ``gps_time`` of the first and last point as stored (`las_end_times`).
+
+    Raises
+    ------
+    InputError
+        A time beyond a week (plus `WEEK_SECONDS_SLACK_S`) under a header that says
+        seconds of week: most likely adjusted standard GPS time written with the
+        global-encoding bit unset; the message says how to set it.
+    """
+    if info.gps_time_type == "adjusted_standard" or end_times_s is None:
+        return
+    t = max(end_times_s)
+    if t <= SECONDS_PER_WEEK + WEEK_SECONDS_SLACK_S:
+        return
+    likely = (
+        f"adjusted standard GPS time (GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s) written with "
+        "the bit unset"
+        if t < ADJUSTED_GPS_OFFSET_S
+        else "GPS time written with the bit unset"
+    )
+    msg = (
+        f"{info.path}: gps_time {t!r} s cannot be GPS seconds of week (a week has "
+        f"{SECONDS_PER_WEEK:.0f} s), which is what the header says (global encoding bit 0 "
+        f"unset); it is most likely {likely}. Set the bit (with laspy: "
+        "las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD, "
+        "then write the file again) or ask the software that wrote it for adjusted "
+        "standard GPS time"
+    )
+    raise InputError(msg)
 
 
 def las_info(path: Path) -> LasInfo:

@@ -151,7 +151,7 @@ def _renamed(
 
 
 def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
-    """Scan a CSV for the first empty or non-numeric cell of a required column."""
+    """Scan a CSV for the first bad row (`_first_bad_cell`)."""
     with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
@@ -170,11 +170,13 @@ def _first_bad_cell(
     first_line: int,
     first_row: int,
 ) -> InputError | None:
-    """First empty or non-numeric required cell read by ``reader`` (a ``csv.reader``).
+    """First bad row read by ``reader`` (a ``csv.reader``), or None.
 
-    The reader's line 1 is file line ``first_line + 1``; its first non-empty line is
-    data row ``first_row``. A byte that is not UTF-8 in any cell (text decoded with
-    ``errors="surrogateescape"``) and a line the ``csv`` module cannot read are bad too.
+    Bad: a required cell empty or not a number, or a row with another number of fields
+    than the header. The reader's line 1 is file line ``first_line + 1``; its first
+    non-empty line is data row ``first_row``. A byte that is not UTF-8 in any cell (text
+    decoded with ``errors="surrogateescape"``) and a line the ``csv`` module cannot read
+    are bad too.
     """
     cols = [(name, list(header).index(name)) for name in required]
     row = first_row - 1
@@ -192,6 +194,13 @@ def _first_bad_cell(
         for cell in cells:
             if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
                 return bad
+        if len(cells) != len(header):
+            msg = (
+                f"{path}: line {first_line + reader.line_num} (data row {row}): {len(cells)} "
+                f"field(s) where the header has {len(header)}; fix the row (a comma too many "
+                "or too few, or a value holding a comma that needs quotes)"
+            )
+            return InputError(msg)
         for name, i in cols:
             cell = cells[i].strip() if i < len(cells) else ""
             try:
@@ -203,6 +212,9 @@ def _first_bad_cell(
                     f"{name!r}: {what}; fix or remove the row"
                 )
                 return InputError(msg)
+
+
+_PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
 
 
 def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
@@ -266,10 +278,15 @@ def _csv_batches(
         strings_can_be_null=False,
     )
     read = pa_csv.ReadOptions(block_size=block_bytes)
+    reader = None
     try:
         reader = pa_csv.open_csv(path, read_options=read, convert_options=convert)
         yield from reader
     except pa.ArrowInvalid as err:
+        if _PARSE_ERROR in str(err):
+            bad = _locate_bad_csv_cell(path, required)
+            if bad is not None:
+                raise bad from err
         if "conversion error" in str(err):
             bad = _locate_bad_csv_cell(path, required)
             if bad is not None:
@@ -284,6 +301,12 @@ def _csv_batches(
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
+    finally:
+        # The streaming reader reads ahead on pyarrow's threads: left open when the
+        # consumer stops (an error in a chunk, a generator dropped), the process can
+        # abort at exit ("terminate called without an active exception").
+        if reader is not None:
+            reader.close()
 
 
 def iter_table_chunks(
@@ -343,9 +366,14 @@ def iter_table_chunks(
             raise InputError(msg) from err
         batches = pf.iter_batches(batch_size=chunk_points)
     first_row = 0
-    for table in _rebatch(batches, chunk_points):
-        yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
-        first_row += table.num_rows
+    try:
+        for table in _rebatch(batches, chunk_points):
+            yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
+            first_row += table.num_rows
+    finally:  # close the CSV reader (its read-ahead threads) whatever stopped the loop
+        close = getattr(batches, "close", None)
+        if close is not None:
+            close()
 
 
 def count_table_rows(path: Path) -> int:
@@ -367,7 +395,10 @@ def count_table_rows(path: Path) -> int:
         first = _csv_header(path)[0]
         convert = pa_csv.ConvertOptions(include_columns=[first], column_types={first: pa.string()})
         reader = pa_csv.open_csv(path, convert_options=convert)
-        return sum(int(b.num_rows) for b in reader)
+        try:
+            return sum(int(b.num_rows) for b in reader)
+        finally:
+            reader.close()
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
@@ -464,15 +495,25 @@ def _csv_block_bytes(chunk_points: int, n_columns: int) -> int:
 
 
 def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
-    """Column types from the first block, as the streaming reader infers them."""
+    """Column types from the first block, as the streaming reader infers them.
+
+    The block (``block_bytes``, cut after its last complete line) is read into memory
+    and parsed there: a streaming reader would read ahead on pyarrow's threads, which a
+    process that stops soon after (a bad cell in the first chunk) can exit under.
+    """
+    with path.open("rb") as fh:
+        data = fh.read(block_bytes)
+        if len(data) == block_bytes and fh.read(1):
+            end = max(data.rfind(b"\n"), data.rfind(b"\r"))
+            data = data[: end + 1] if end >= 0 else data
     try:
-        reader = pa_csv.open_csv(
-            path,
-            read_options=pa_csv.ReadOptions(block_size=block_bytes),
+        table = pa_csv.read_csv(
+            io.BytesIO(data),
+            read_options=pa_csv.ReadOptions(use_threads=False),
             convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
         )
     except pa.ArrowInvalid as err:
-        if "conversion error" in str(err):
+        if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             bad = _locate_bad_csv_cell(path, required)
             if bad is not None:
                 raise bad from err
@@ -481,9 +522,7 @@ def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
     except (pa.ArrowException, OSError) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
-    schema = reader.schema
-    reader.close()
-    return schema
+    return table.schema
 
 
 def _csv_header_bytes(path: Path) -> int:
@@ -678,11 +717,14 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
     try:
         return pa_csv.read_csv(
             io.BytesIO(data),
-            read_options=pa_csv.ReadOptions(column_names=list(layout.columns)),
+            # one thread: with pyarrow's thread pool a run that stopped on a bad cell
+            # right after aborted at exit now and then (exit 134, 2 of 20 runs; 0 of 30
+            # without); the slices of --scheduler processes still parse in parallel
+            read_options=pa_csv.ReadOptions(column_names=list(layout.columns), use_threads=False),
             convert_options=_csv_convert_options(types),
         )
     except pa.ArrowInvalid as err:
-        if "conversion error" in str(err):
+        if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             text = data.decode("utf-8", errors="surrogateescape")
             reader = csv.reader(io.StringIO(text, newline=""))
             bad = _first_bad_cell(
@@ -695,6 +737,7 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
             )
             if bad is not None:
                 raise bad from err
+        if "conversion error" in str(err):
             msg = (
                 f"{path}: lines {sl.first_line}.. (data rows {sl.first_row}.."
                 f"{sl.first_row + sl.n_rows - 1}): {err}; a column's values change type "

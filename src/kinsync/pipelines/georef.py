@@ -40,8 +40,10 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.las import (
+    check_week_seconds,
     las_end_times,
     las_header,
     las_info,
@@ -167,30 +169,95 @@ def _kind(path: Path) -> str:
     return "las" if suffix in _LAS_SUFFIXES else "ply" if suffix == ".ply" else "table"
 
 
+_GAPS_NAMED = 5  # gaps listed in a message
+
+
 class _OutsideTally:
-    """Counts and time range of points outside the span."""
+    """Counts and time ranges of points outside the span, and of those in its gaps."""
 
     def __init__(self) -> None:
         self.count = 0
         self.t_min_s = math.inf
         self.t_max_s = -math.inf
+        self.gap_count = 0
+        self.gap_t_min_s = math.inf
+        self.gap_t_max_s = -math.inf
 
-    def add(self, count: int, t_min_s: float, t_max_s: float) -> None:
-        if count:
-            self.count += count
-            self.t_min_s = min(self.t_min_s, t_min_s)
-            self.t_max_s = max(self.t_max_s, t_max_s)
+    def add(self, out: ChunkOutput) -> None:
+        """Add one chunk's accounting."""
+        if out.outside_count:
+            self.count += out.outside_count
+            self.t_min_s = min(self.t_min_s, out.outside_t_min_s)
+            self.t_max_s = max(self.t_max_s, out.outside_t_max_s)
+        if out.gap_count:
+            self.gap_count += out.gap_count
+            self.gap_t_min_s = min(self.gap_t_min_s, out.gap_t_min_s)
+            self.gap_t_max_s = max(self.gap_t_max_s, out.gap_t_max_s)
+
+    def gap_text(self, traj: GeorefTrajectory) -> str:
+        """How many points fell in which gaps of the trajectory, for messages."""
+        hit = [
+            g for g in traj.gaps if g.t_end_s > self.gap_t_min_s and g.t_start_s < self.gap_t_max_s
+        ]
+        named = "; ".join(g.describe() for g in hit[:_GAPS_NAMED])
+        more = f"; and {len(hit) - _GAPS_NAMED} more" if len(hit) > _GAPS_NAMED else ""
+        return (
+            f"{self.gap_count} point(s) with times {self.gap_t_min_s!r} .. "
+            f"{self.gap_t_max_s!r} s fall in {len(hit)} gap(s) of the trajectory, record "
+            f"intervals longer than {traj.max_gap_s:.6g} s (--max-gap-s): {named}{more}"
+        )
 
     def error(self, points_path: Path, traj: GeorefTrajectory, out_path: Path) -> InputError:
+        """The error of a run with points outside the span (``outside="error"``)."""
+        rejected = rejected_path_for(out_path, points_path)
+        outside = self.count - self.gap_count
+        if self.gap_count == 0:
+            what = f"{self.count} point(s) with times {self.t_min_s!r} .. {self.t_max_s!r} s lie"
+        elif outside == 0:
+            what = self.gap_text(traj)
+        else:
+            what = (
+                f"{self.count} point(s) with times {self.t_min_s!r} .. {self.t_max_s!r} s cannot "
+                f"be georeferenced: {self.gap_text(traj)}; {outside} other(s) lie"
+            )
+        if outside:
+            what += f" outside the trajectory span [{traj.t_start_s!r}, {traj.t_end_s!r}] s"
+        no = "interpolate across a gap or extrapolate" if self.gap_count else "extrapolate"
         msg = (
-            f"{points_path}: {self.count} point(s) with times {self.t_min_s!r} .. "
-            f"{self.t_max_s!r} s lie outside the trajectory span [{traj.t_start_s!r}, "
-            f"{traj.t_end_s!r}] s (latency {traj.latency_s!r} s applied); kinsync does not "
-            "extrapolate: give a trajectory that covers them, check the time scales "
-            f"(--gps-week), or pass --outside reject to write them to "
-            f"{rejected_path_for(out_path, points_path)}"
+            f"{points_path}: {what} (latency {traj.latency_s!r} s applied); kinsync does not "
+            f"{no}: give a trajectory that covers them, check the time scales (--gps-week), "
+            + ("set --max-gap-s above the gap to interpolate across it, " if self.gap_count else "")
+            + f"or pass --outside reject to write them to {rejected}"
         )
         return InputError(msg)
+
+
+def _remove_stale_rejected(out_path: Path, points_path: Path, trajectory_path: Path) -> list[str]:
+    """Remove the ``OUT.rejected.<ext>`` an earlier run left, after a run that rejected none.
+
+    Left beside the new output, its points would be counted with it and the counts
+    would no longer add up. A file that is one of the inputs is never removed.
+    """
+    stale = rejected_path_for(out_path, points_path)
+    if not stale.is_file():
+        return []
+    inputs = (
+        ProtectedInput(points_path, "--points"),
+        ProtectedInput(trajectory_path, "--trajectory"),
+    )
+    try:
+        check_not_an_input(stale, inputs)
+    except InputError:
+        return []
+    try:
+        stale.unlink()
+    except OSError as err:
+        msg = (
+            f"{stale}: left by an earlier run, could not be removed ({err}); this run "
+            "rejected no points: delete it"
+        )
+        return [msg]
+    return [f"{stale}: removed, left by an earlier run; this run rejected no points"]
 
 
 # ---------------------------------------------------------------------- file pipeline
@@ -214,6 +281,7 @@ def georeference_file(
     point_columns: PointColumns = "auto",
     profiler_azimuth_deg: float | None = None,
     columns: ColumnMap | None = None,
+    max_gap_s: float | None = None,
 ) -> GeorefSummary:
     """Georeference a point file chunk by chunk into ``out_path`` (streaming, atomic).
 
@@ -267,7 +335,9 @@ def georeference_file(
     outside : {"error", "reject"}
         Points outside the trajectory span: an error naming how many and their time
         range (nothing written), or written unchanged, in the input's format, to
-        ``OUT.rejected.<ext>`` (`rejected_path_for`).
+        ``OUT.rejected.<ext>`` (`rejected_path_for`). A run that rejects no point
+        removes the ``OUT.rejected.<ext>`` an earlier run left there (a warning says so),
+        so that the files beside the output always hold exactly this run's points.
     gps_week : int, optional
         GPS week for SBET and LAS seconds-of-week times (see `read_trajectory_file`).
     position : {"auto", "linear", "hermite"}
@@ -297,6 +367,11 @@ def georeference_file(
     columns : ColumnMap, optional
         Which columns of a table hold ``t_s``, ``x_m``, ... (`kinsync.io.column_map`);
         carried columns keep the file's names. Tables only.
+    max_gap_s : float, optional
+        Longest record interval (s) of the trajectory to interpolate across; default
+        `kinsync.trajectory_gaps.GAP_FACTOR` (10) times its median record interval. Points
+        strictly inside a longer interval (a data gap) are treated as outside the span
+        (an error, or rejected with ``outside="reject"``, with a warning naming the gaps).
 
     Returns
     -------
@@ -314,7 +389,9 @@ def georeference_file(
     points_path, out_path = Path(points_path), Path(out_path)
     _check_arguments(points_path, out_path, outside, chunk_points, point_columns, columns)
     trajectory, traj_scale = read_trajectory_file(trajectory_path, gps_week=gps_week)
-    traj = GeorefTrajectory.from_trajectory(trajectory, latency_s=mount.latency_s)
+    traj = GeorefTrajectory.from_trajectory(
+        trajectory, latency_s=mount.latency_s, max_gap_s=max_gap_s
+    )
     use_hermite(traj, position)
     check_latency(traj, mount)
     crs_plan, crs_info = _plan_crs(traj, traj_scale, crs, geoid, epoch_year, trajectory_crs)
@@ -359,6 +436,11 @@ def georeference_file(
             ctx, tasks, total, out_path, progress, tally, runner, sink, template, points_path
         )
     points_in, points_out, points_rejected = counts
+    if not points_rejected:
+        notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
+    if tally.gap_count:
+        rejected = rejected_path_for(out_path, points_path)
+        notes.append(f"{points_path}: {tally.gap_text(traj)}: they went to {rejected}")
     return GeorefSummary(
         points_in=points_in,
         points_out=points_out,
@@ -561,6 +643,8 @@ def _plan_las(
 ) -> tuple[Any, ChunkSource, list[ChunkTask], int]:
     info = las_info(path)
     template = las_header(path)
+    if info.gps_time_type != "adjusted_standard" and info.point_count:
+        check_week_seconds(info, las_end_times(path))
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
@@ -716,7 +800,7 @@ def _outputs_in_order(
         n_in += out.count
         if not failing and out.error is not None:
             raise InputError(out.error)
-        tally.add(out.outside_count, out.outside_t_min_s, out.outside_t_max_s)
+        tally.add(out)
         if failing:
             continue
         if out.outside_count and ctx.outside == "error":

@@ -153,6 +153,9 @@ class ChunkOutput:
     outside_count: int = 0
     outside_t_min_s: float = math.inf
     outside_t_max_s: float = -math.inf
+    gap_count: int = 0  # of the outside points, those inside a gap of the trajectory
+    gap_t_min_s: float = math.nan
+    gap_t_max_s: float = math.nan
     error: str | None = None
     columns: dict[str, Any] | None = None  # table, PLY: the output rows (CSV: floats as text)
     rejected_columns: dict[str, Any] | None = None
@@ -180,38 +183,72 @@ def _scanner_xyz(ctx: ChunkContext, columns: dict[str, np.ndarray[Any, Any]]) ->
 
 
 def _outside_tally_loop(
-    t_s: FloatArray, offset_s: float, t_start_s: float, t_end_s: float
-) -> tuple[int, float, float]:
-    """Points with ``t_s + offset_s`` outside ``[t_start_s, t_end_s]`` (or NaN).
+    t_s: FloatArray, offset_s: float, t_start_s: float, t_end_s: float, gaps_s: FloatArray
+) -> tuple[int, float, float, int, float, float]:  # pragma: no cover - compiled by numba
+    """Points with ``t_s + offset_s`` outside ``[t_start_s, t_end_s]`` (or NaN) or in a gap.
 
-    Their count and the time range of the finite ones, without temporary arrays
-    (``t_s`` may be strided).
+    ``gaps_s`` (2, G): start and end times of the trajectory's gaps, in order; a time
+    strictly between them is outside, as the kernel decides. Returns the count and the
+    time range of the finite ones, then the same for those in a gap, without temporary
+    arrays (``t_s`` may be strided).
     """
     count = 0
     t_min = np.inf
     t_max = -np.inf
+    n_gap = 0
+    gap_min = np.inf
+    gap_max = -np.inf
+    g = gaps_s.shape[1]
     for i in range(t_s.shape[0]):
         t = t_s[i] + offset_s
-        if not (t >= t_start_s and t <= t_end_s):
+        in_gap = False
+        if g > 0 and t > gaps_s[0, 0]:
+            lo = 0  # the last gap starting before t
+            hi = g - 1
+            while lo < hi:
+                mid = (lo + hi + 1) // 2
+                if gaps_s[0, mid] < t:
+                    lo = mid
+                else:
+                    hi = mid - 1
+            in_gap = t < gaps_s[1, lo]
+        if in_gap or not (t >= t_start_s and t <= t_end_s):
             count += 1
             if np.isfinite(t):
                 t_min = min(t_min, t)
                 t_max = max(t_max, t)
-    return count, t_min, t_max
+            if in_gap:
+                n_gap += 1
+                gap_min = min(gap_min, t)
+                gap_max = max(gap_max, t)
+    return count, t_min, t_max, n_gap, gap_min, gap_max
 
 
 outside_tally = cast(
-    Callable[..., tuple[int, float, float]], njit(cache=True, nogil=True)(_outside_tally_loop)
+    Callable[..., tuple[int, float, float, int, float, float]],
+    njit(cache=True, nogil=True)(_outside_tally_loop),
 )
 
 
-def tallied(n: int, count: int, t_min_s: float, t_max_s: float) -> ChunkOutput:
+def tallied(
+    n: int,
+    count: int,
+    t_min_s: float,
+    t_max_s: float,
+    gap_count: int = 0,
+    gap_t_min_s: float = math.nan,
+    gap_t_max_s: float = math.nan,
+) -> ChunkOutput:
+    """A chunk's accounting from `outside_tally` (NaN time ranges where none)."""
     finite = math.isfinite(t_min_s)
     return ChunkOutput(
         count=n,
         outside_count=count,
         outside_t_min_s=t_min_s if finite else math.nan,
         outside_t_max_s=t_max_s if finite else math.nan,
+        gap_count=gap_count,
+        gap_t_min_s=gap_t_min_s if gap_count else math.nan,
+        gap_t_max_s=gap_t_max_s if gap_count else math.nan,
     )
 
 
@@ -333,7 +370,9 @@ def _process_table_task(
     columns = read_table_slice(layout, task.table_slice)
     t = columns["t_s"]
     traj, src = ctx.traj, ctx.source
-    base = tallied(int(t.size), *outside_tally(t, 0.0, traj.t_start_s, traj.t_end_s))
+    base = tallied(
+        int(t.size), *outside_tally(t, 0.0, traj.t_start_s, traj.t_end_s, traj.gap_bounds_s)
+    )
     if tally_only:
         return base
     try:
@@ -446,7 +485,12 @@ def _process_las_task(
     array = record.array
     gps_time = array["gps_time"]
     n = len(array)
-    base = tallied(n, *outside_tally(gps_time, src.las_time_offset_s, traj.t_start_s, traj.t_end_s))
+    base = tallied(
+        n,
+        *outside_tally(
+            gps_time, src.las_time_offset_s, traj.t_start_s, traj.t_end_s, traj.gap_bounds_s
+        ),
+    )
     if tally_only:
         return base
     if ctx.output in ("table", "ply"):
