@@ -285,6 +285,9 @@ def test_bad_inputs_are_one_line_errors(
     del argv[i : i + 2]
     assert_one_line_error(*run_cli(argv), "static")
     assert_one_line_error(*run_cli([*argv, "--static-s", "-1"]), "--static-s -1: outside the span")
+    assert_one_line_error(
+        *run_cli([*argv, "--static-s", "0"]), "--static-s 0: the levelling needs a standstill"
+    )
     # Missing input file.
     argv = _run_args(navego, out)
     argv[argv.index(str(navego["imu"]))] = str(tmp_path / "none.csv")

@@ -185,6 +185,12 @@ def run(
     from kinsync.io.ins_config import read_ins_config  # noqa: PLC0415
 
     _check_output(out)
+    if init_from is None and not static_s > 0.0:
+        msg = (
+            f"--static-s {static_s:g}: the levelling needs a standstill above 0 s at the start "
+            "of the IMU record; give its length, or a reference state with --init-from"
+        )
+        raise InputError(msg)
     config = read_ins_config(config_path)
     imu = read_imu_csv(imu_path)
     gnss = read_gnss_csv(gnss_path)
