@@ -82,6 +82,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--speed-m-s": Bounds(0.0, 1_000.0, "m/s"),
     ("simulate drive", "--speed-m-s"): Bounds(0.1, 100.0, "m/s"),
     "--static-s": Bounds(0.0, 3_600.0, "s"),
+    "--max-gap-s": Bounds(1e-4, _DAY_S, "s", "a record interval of the trajectory"),
     "--duration-s": Bounds(1.0, _DAY_S, "s"),
     ("simulate drive", "--duration-s"): Bounds(1.0, 21_600.0, "s", "6 h of IMU data in memory"),
     ("simulate drive-scan", "--duration-s"): Bounds(1.0, 7_200.0, "s"),
