@@ -563,16 +563,15 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     """
     n = N_ERR_SCALE if config.models_scale_factors else N_ERR
     sig = np.zeros(n)
+    gyro = config.init_gyro_bias_std_rad_s or (config.gyro_bias_sigma_rad_s,) * 3
+    acc = config.init_acc_bias_std_m_s2 or (config.acc_bias_sigma_m_s2,) * 3
     sig[0:3] = config.init_std_att_rad
     if init.levelling_std_rad is not None:
-        acc_max = max(config.init_acc_bias_std_m_s2 or (config.acc_bias_sigma_m_s2,))
         g = float(normal_gravity_m_s2(math.radians(init.lat_deg), init.h_m))
-        total = math.hypot(acc_max, config.acc_bias_instability_m_s2) / g
+        total = math.hypot(max(acc), config.acc_bias_instability_m_s2) / g
         sig[0:2] = math.hypot(init.levelling_std_rad, total)
     sig[3:6] = config.init_std_vel_ned_m_s
     sig[6:9] = config.init_std_pos_ned_m
-    gyro = config.init_gyro_bias_std_rad_s or (config.gyro_bias_sigma_rad_s,) * 3
-    acc = config.init_acc_bias_std_m_s2 or (config.acc_bias_sigma_m_s2,) * 3
     sig[X_BG : X_BG + 3] = gyro
     sig[X_BA : X_BA + 3] = acc
     sig[X_MG : X_MG + 3] = config.gyro_bias_instability_rad_s
