@@ -37,11 +37,17 @@ def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str,
     return (code if isinstance(code, int) else 0), out.out, out.err
 
 
+def _prior_mount(folder: Path) -> Path:
+    """The acquisition mount written to ``folder`` (the calibration's starting point)."""
+    prior = folder / "acquisition.toml"
+    write_mount(ACQUISITION_MOUNT, prior)
+    return prior
+
+
 def test_boresight_calibration_on_the_twelve_passes(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    prior = tmp_path / "acquisition.toml"
-    write_mount(ACQUISITION_MOUNT, prior)
+    prior = _prior_mount(tmp_path)
     new = tmp_path / "calibrated.toml"
     code, out, err = _run(
         ["calibrate", "mount", "--points", *map(str, PASS_FILES), "--mount", str(prior),
@@ -92,8 +98,7 @@ def test_four_passes_with_the_latency_do_not_run_away(
     # mount with latency -0.945 s written. The latency must stay within what the
     # trajectories cover, come back not determined, and the boresight must agree with
     # the twelve passes' (pitch -7.68 +- 0.23 deg).
-    prior = tmp_path / "acquisition.toml"
-    write_mount(ACQUISITION_MOUNT, prior)
+    prior = _prior_mount(tmp_path)
     new = tmp_path / "c4.toml"
     files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in passes]
     code, out, err = _run(
@@ -133,8 +138,7 @@ def test_three_passes_give_no_estimate_better_than_weak(
     # pitch of -8.409 +- 0.015 deg, where the twelve passes give -7.68 +- 0.23 (50
     # formal sigmas away): an estimate resting on the formal sigma is at most weak,
     # and the advice says how many passes would give an honest sigma.
-    prior = tmp_path / "acquisition.toml"
-    write_mount(ACQUISITION_MOUNT, prior)
+    prior = _prior_mount(tmp_path)
     files = [str(DATA_DIR / "sphere1" / f"passage_{i}.txt") for i in (1, 2, 3)]
     code, out, err = _run(
         ["calibrate", "mount", "--points", *files, "--mount", str(prior),
@@ -156,8 +160,7 @@ def test_a_pass_without_the_sphere_is_rejected_and_left_out_of_the_jackknife(
 ) -> None:
     # A pass with 3 returns and no sphere used to be counted as a sixth line by the
     # jackknife (5 degrees of freedom, +-2.57 sigma) while the sphere was seen by 5.
-    prior = tmp_path / "acquisition.toml"
-    write_mount(ACQUISITION_MOUNT, prior)
+    prior = _prior_mount(tmp_path)
     folder = tmp_path / "e"
     folder.mkdir()
     empty = folder / "nosphere.txt"
