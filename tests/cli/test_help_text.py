@@ -156,3 +156,27 @@ def test_bracketed_help_text_is_shown_not_eaten_as_markup(
     for source in sources:
         for bracketed in re.findall(r"\[[^\[\]]*\]", source):
             assert _flat(bracketed) in shown, (bracketed, out)
+
+
+def test_help_fix_is_skipped_on_a_typer_without_display_type_rich(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """typer 0.21-0.28 (within the declared typer>=0.21) has no ``display_type_rich``:
+    importing the CLI must not fail there (it did: AttributeError at start-up)."""
+    import importlib  # noqa: PLC0415
+
+    from typer.core import TyperOption  # noqa: PLC0415
+
+    from kinsync.cli import _help  # noqa: PLC0415
+
+    for cls in TyperOption.__mro__:  # typer 0.29 defines it on a base class
+        if "display_type_rich" in vars(cls):
+            monkeypatch.delattr(cls, "display_type_rich")
+    try:
+        reloaded = importlib.reload(_help)
+        reloaded.install_flag_display()
+        assert not hasattr(TyperOption, "display_type_rich")
+    finally:
+        monkeypatch.undo()
+        importlib.reload(_help)
+        _help.install_flag_display()

@@ -7,7 +7,9 @@ every bracketed text of every command's help is shown.
 
 typer 0.29 labels an on/off flag with its Python type (``--json <bool>``), which reads as if
 the flag took a value, and ``--json true`` then fails with "Got unexpected extra argument".
-A flag takes no value, so its help shows none (as click's own help does).
+A flag takes no value, so its help shows none (as click's own help does). Earlier typer
+releases (the declared minimum is 0.12) have no ``display_type_rich`` and show no type for a
+flag, so there is nothing to change there.
 """
 
 from __future__ import annotations
@@ -25,15 +27,17 @@ def literal(text: str) -> str:
     return escape(text)
 
 
-_original = TyperOption.display_type_rich
+_original: Any = getattr(TyperOption, "display_type_rich", None)
 
 
 def _display_type_rich(self: TyperOption, ctx: Any) -> str | None:
     if self.is_flag and self.metavar is None:
         return None
-    return _original(self, ctx)
+    result: str | None = _original(self, ctx)
+    return result
 
 
 def install_flag_display() -> None:
-    """Show on/off flags without a value type in ``--help`` (idempotent)."""
-    TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign]
+    """Show on/off flags without a value type in ``--help`` (idempotent; typer >= 0.29)."""
+    if _original is not None:
+        TyperOption.display_type_rich = _display_type_rich  # type: ignore[method-assign]
