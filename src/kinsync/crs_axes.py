@@ -11,7 +11,8 @@ height (ftUS)) gives all three in US survey feet.
 `output_units` names the unit of each output coordinate; `declared_crs` is the CRS a
 file should declare so that a reader finds the same units (the 3D form when the height's
 unit differs from the horizontal one); `mixed_units_note` is the sentence for the user
-when the units differ; `vertical_axis` gives the unit and direction a geoid-derived
+when the units differ; `coordinate_metadata` says both in a table's metadata (Parquet);
+`vertical_axis` gives the unit and direction a geoid-derived
 height must be converted to.
 """
 
@@ -23,6 +24,7 @@ import pyproj
 
 __all__ = [
     "VerticalAxis",
+    "coordinate_metadata",
     "declared_crs",
     "mixed_units_note",
     "output_units",
@@ -138,3 +140,19 @@ def mixed_units_note(crs: pyproj.CRS, crs_text: str) -> str | None:
             f"{x_unit}, e.g. EPSG:{code}+{suggestion[0]} ({suggestion[1]}) in the United States"
         )
     return text
+
+
+def coordinate_metadata(
+    crs: pyproj.CRS, names: tuple[str, str, str] = ("X", "Y", "Z")
+) -> tuple[dict[str, dict[str, str]], dict[str, str]]:
+    """Table metadata for coordinates in ``crs``: each column's unit, and the CRS.
+
+    Returns
+    -------
+    fields : dict
+        ``{name: {"unit": unit}}`` for the three coordinate columns.
+    table : dict
+        ``{"crs": PROJJSON}`` of `declared_crs` (whose axes carry the same units).
+    """
+    fields = {name: {"unit": unit} for name, unit in zip(names, output_units(crs), strict=True)}
+    return fields, {"crs": declared_crs(crs).to_json()}

@@ -36,6 +36,7 @@ from kinsync.crs import (
     plan_ecef_to_crs,
     sample_rows,
 )
+from kinsync.crs_axes import output_units
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
@@ -540,10 +541,10 @@ def _sink(
     kind = _kind(out_path)
     crs_text = ctx.crs.crs
     layout = ctx.source.table
+    target_crs = pyproj.CRS.from_user_input(crs_text)
     if kind == "las":
         frame = ctx.las_frame
         assert frame is not None
-        target_crs = pyproj.CRS.from_user_input(crs_text)
         if layout is None:
             return LasSink(out_path, template, target_crs, frame.offsets, frame.scales), [], ctx
         carried = _carried_columns(ctx)
@@ -558,7 +559,8 @@ def _sink(
         sink = LasSink(out_path, header, target_crs, frame.offsets, frame.scales)
         return sink, notes, replace(ctx, table_las=plan)
     if kind == "ply":
-        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}"]
+        units = ", ".join(output_units(target_crs))
+        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}, x y z in {units}"]
         if layout is None:
             types = las_column_types(template.point_format)
             props = [
@@ -592,8 +594,8 @@ def _sink(
                 for n, t in types.items()
             }
 
-        return TableSink(out_path, empty_from_las), [], ctx
-    return TableSink(out_path, lambda: empty_table_output(ctx)), [], ctx
+        return TableSink(out_path, empty_from_las, target_crs), [], ctx
+    return TableSink(out_path, lambda: empty_table_output(ctx), target_crs), [], ctx
 
 
 def _carried_columns(ctx: ChunkContext, *, keep_time: bool = False) -> dict[str, Any]:
