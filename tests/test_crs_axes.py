@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pyproj
 import pytest
+from tests.test_crs import _ecef, _geoid, _quebec, write_grid
 
 from kinsync.crs import crs_plan_transformer, plan_ecef_to_crs
 from kinsync.crs_axes import declared_crs, mixed_units_note, output_units
-from tests.test_crs import _ecef, _geoid, _quebec, write_grid
 
 US_FT_M = 1200.0 / 3937.0  # the US survey foot (m)
 FT_M = 0.3048  # the international foot (m)

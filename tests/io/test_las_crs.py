@@ -9,8 +9,8 @@ import numpy as np
 import pyproj
 import pytest
 
-from kinsync.errors import InputError
 from kinsync.crs_axes import output_units
+from kinsync.errors import InputError
 from kinsync.io.las_crs import las_crs, las_crs_keys, set_las_crs
 
 

@@ -191,10 +191,10 @@ def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
     records = list(header.vlrs) + list(header.evlrs or [])
     for record in records:
         if isinstance(record, WktCoordinateSystemVlr):
-            crs = record.parse_crs()
-            if crs is not None:
-                return crs
-    crs = header.parse_crs()
+            from_wkt: pyproj.CRS | None = record.parse_crs()
+            if from_wkt is not None:
+                return from_wkt
+    crs: pyproj.CRS | None = header.parse_crs()
     if crs is None or crs.is_compound:
         return crs
     code = _geo_keys(header).get(_VERTICAL_CRS)

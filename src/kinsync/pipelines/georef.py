@@ -679,8 +679,9 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
     The span runs from the first point's time to the last one's (clipped to the
     trajectory; its middle when neither is usable); the offsets are the trajectory's
     position there in ``crs``, rounded (1 km, or 1 degree for longitude and latitude),
-    so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm)
-    either way from its middle. Scales: 0.1 mm (1e-7 deg for longitude and latitude).
+    so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm,
+    65 km at 1e-4 ft) either way from its middle. Scales: 1e-4 of each axis' unit (0.1 mm;
+    1e-7 deg for longitude and latitude).
     """
     crs, traj = ctx.crs, ctx.traj
     geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic

@@ -6,8 +6,9 @@ writes, by the output's suffix:
 * ``.csv``/``.parquet``: one row per record, ``t_s`` (the input's time scale), ``X, Y,
   Z`` in the output CRS (axis order easting/longitude first, as ``kinsync georef``
   writes points; a Parquet file's metadata gives their units and the CRS,
-  `kinsync.crs_axes.coordinate_metadata`), ``roll_deg, pitch_deg, yaw_deg`` (DIN 9300, yaw the true heading, not
-  turned to grid north) and, when the input has them, ``vn_m_s, ve_m_s, vd_m_s``. The
+  `kinsync.crs_axes.coordinate_metadata`), ``roll_deg, pitch_deg, yaw_deg`` (DIN 9300,
+  yaw the true heading, not turned to grid north) and, when the input has them,
+  ``vn_m_s, ve_m_s, vd_m_s``. The
   transformation is chosen as for georeferencing (`kinsync.crs.plan_ecef_to_crs`: a
   compound CRS with PROJ's geoid grid or ``geoid``, the coordinate epoch of a
   time-dependent one, the trajectory's own geocentric frame) and reported;
