@@ -3,7 +3,7 @@
 The layers (docs/architecture.md), lowest first; a module imports only from its own
 layer or a lower one:
 
-core        kinsync, errors, frames, trajectory, mount, messages, crs, robust, _*
+core        kinsync, errors, frames, trajectory, mount, messages, crs, crs_axes, robust, _*
 algorithms  budget, fit, clock, latency, sync, ins, georef, validation, calibration
 io          file formats
 pipelines   files streamed through the algorithms
@@ -42,6 +42,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync._typing",
             "kinsync._validate",
             "kinsync.crs",
+            "kinsync.crs_axes",
             "kinsync.errors",
             "kinsync.frames",
             "kinsync.messages",

@@ -42,6 +42,7 @@ from pyproj.datadir import get_user_data_dir  # type: ignore[attr-defined]
 from pyproj.transformer import Transformer, TransformerGroup
 
 from kinsync._typing import FloatArray
+from kinsync.crs_axes import VerticalAxis, mixed_units_note, output_units, vertical_axis
 from kinsync.errors import InputError
 
 __all__ = [
@@ -127,6 +128,10 @@ class CrsTransformInfo:
         The geoid grid file given by the user.
     ballpark : bool
         Whether PROJ applies a "ballpark" step (a datum change without parameters).
+    units : tuple of 3 str
+        Units of the output X, Y, Z (``metre``, ``degree``, ``US survey foot``, ...):
+        a 2D projected CRS in feet gives X, Y in feet and Z, its ellipsoidal height, in
+        metres (`kinsync.crs_axes.output_units`).
     warnings : tuple of str
         What the user should know (ballpark datum change, coarse accuracy, data outside
         the CRS's area of use, an epoch that changes nothing).
@@ -142,6 +147,7 @@ class CrsTransformInfo:
     heights: str
     geoid: str | None = None
     ballpark: bool = False
+    units: tuple[str, str, str] = ("metre", "metre", "metre")
     warnings: tuple[str, ...] = field(default=())
 
     def as_document(self) -> dict[str, Any]:
@@ -157,6 +163,7 @@ class CrsTransformInfo:
             "heights": self.heights,
             "geoid": self.geoid,
             "ballpark": self.ballpark,
+            "units": dict(zip(("X", "Y", "Z"), self.units, strict=True)),
             "warnings": list(self.warnings),
         }
 
@@ -253,13 +260,23 @@ def _pipeline_text(transformer: Transformer) -> str:
     return text if text.startswith("proj=pipeline") else f"proj=pipeline step {text}"
 
 
-def _geoid_pipeline(to_geographic: Transformer, geoid: str) -> str:
-    """ECEF -> (lon, lat, h) of the horizontal datum, then ``H = h - N`` from the grid."""
-    return (
+def _geoid_pipeline(to_geographic: Transformer, geoid: str, vertical: VerticalAxis | None) -> str:
+    """ECEF -> (lon, lat, h) of the horizontal datum, then ``H = h - N`` from the grid.
+
+    ``H`` comes out in metres, up; it is then converted to the vertical CRS's unit
+    (``EPSG:6360``, NAVD88 height (ftUS): US survey feet) and direction (a depth CRS:
+    positive down), as PROJ's own geoid operation would give it.
+    """
+    text = (
         f"{_pipeline_text(to_geographic)} step proj=unitconvert xy_in=deg xy_out=rad "
         f"step proj=vgridshift grids={geoid} multiplier=-1 "
         "step proj=unitconvert xy_in=rad xy_out=deg"
     )
+    if vertical is not None and vertical.metres_per_unit != 1.0:
+        text += f" step proj=unitconvert z_in=m z_out={vertical.metres_per_unit!r}"
+    if vertical is not None and not vertical.up:
+        text += " step proj=axisswap order=1,2,-3"
+    return text
 
 
 def _check_geoid_file(geoid: str) -> str:
@@ -539,7 +556,7 @@ def plan_ecef_to_crs(
         transformer, _ = _best(source, horizontal.to_3d(), area)
         to_geographic, _ = _best(source, geographic_crs.to_3d(), area)
         pipeline = _pipeline_text(transformer)
-        height_pipeline = _geoid_pipeline(to_geographic, geoid)
+        height_pipeline = _geoid_pipeline(to_geographic, geoid, vertical_axis(target))
         heights = _heights_text(target, geoid)
     geographic = target.is_geographic and not target.is_compound
     time_dependent = _time_dependent(
@@ -553,6 +570,9 @@ def plan_ecef_to_crs(
     accuracy = float(transformer.accuracy) if transformer.accuracy >= 0 else None
     notes = [*notes, *_datum_warnings(source, target, ballpark, accuracy)]
     notes += _area_warnings(target, lonlat)
+    units_note = mixed_units_note(target, crs)
+    if units_note is not None:
+        notes.append(units_note)
     info = CrsTransformInfo(
         source=_name(source),
         target=_name(target),
@@ -566,6 +586,7 @@ def plan_ecef_to_crs(
         heights=heights,
         geoid=geoid,
         ballpark=ballpark,
+        units=output_units(target),
         warnings=tuple(notes),
     )
     return plan, info

@@ -9,8 +9,9 @@ import numpy as np
 import pyproj
 import pytest
 
+from kinsync.crs_axes import output_units
 from kinsync.errors import InputError
-from kinsync.io.las_crs import las_crs_keys, set_las_crs
+from kinsync.io.las_crs import las_crs, las_crs_keys, set_las_crs
 
 
 def _written(tmp_path: Path, point_format: int, version: str, crs: pyproj.CRS) -> laspy.LasData:
@@ -85,3 +86,51 @@ def test_a_new_crs_replaces_the_old_one(tmp_path: Path) -> None:
     names = [type(v).__name__ for v in header.vlrs]
     assert names.count("GeoKeyDirectoryVlr") == 1
     assert names.count("GeoAsciiParamsVlr") == 1
+
+
+# ------------------------------------------- Z's unit: CRSs in feet (US survey, international)
+@pytest.mark.parametrize(("crs", "unit"), [("EPSG:2249+6360", 9003), ("EPSG:2222+8228", 9002)])
+@pytest.mark.parametrize(("point_format", "version"), [(1, "1.2"), (3, "1.4")])
+def test_geotiff_vertical_units_are_the_vertical_crs_unit(
+    tmp_path: Path, crs: str, unit: int, point_format: int, version: str
+) -> None:
+    las = _written(tmp_path, point_format, version, pyproj.CRS(crs))
+    keys = _keys(las)
+    assert keys[4096] == pyproj.CRS(crs).sub_crs_list[1].to_epsg()
+    assert keys[4099] == unit
+    # read back whole: Z in the vertical CRS's unit, not metres
+    read = las_crs(las.header)
+    assert read is not None
+    assert read.equals(pyproj.CRS(crs))
+    assert output_units(read)[2] == output_units(pyproj.CRS(crs))[2]
+
+
+@pytest.mark.parametrize(("code", "unit"), [(2249, "US survey foot"), (2222, "foot")])
+def test_a_2d_crs_in_feet_declares_z_in_metres(tmp_path: Path, code: int, unit: str) -> None:
+    crs = pyproj.CRS.from_epsg(code)
+    keys = _keys(_written(tmp_path, 1, "1.2", crs))
+    assert (keys[3072], keys[4099]) == (code, 9001)  # projected CRS, vertical units metre
+    assert 4096 not in keys
+    wkt = _written(tmp_path, 6, "1.4", crs)
+    read = las_crs(wkt.header)
+    assert read is not None
+    assert output_units(read) == (unit, unit, "metre")
+    assert read.axis_info[2].name == "Ellipsoidal height"
+    assert read.to_authority(min_confidence=20) == ("EPSG", str(code))
+
+
+def test_a_crs_in_metres_is_declared_as_given(tmp_path: Path) -> None:
+    crs = pyproj.CRS.from_epsg(32619)
+    assert 4099 not in _keys(_written(tmp_path, 1, "1.2", crs))
+    read = las_crs(_written(tmp_path, 6, "1.4", crs).header)
+    assert read is not None
+    assert read.to_epsg() == 32619
+
+
+def test_a_vertical_key_that_is_no_vertical_crs_leaves_the_horizontal(tmp_path: Path) -> None:
+    las = _written(tmp_path, 1, "1.2", pyproj.CRS("EPSG:32618+5703"))
+    directory = next(v for v in las.header.vlrs if hasattr(v, "geo_keys"))
+    for key in directory.geo_keys:
+        if key.id == 4096:
+            key.value_offset = 5103  # LAStools' NAVD88: the datum's code, not a CRS
+    assert las_crs(las.header) == pyproj.CRS.from_epsg(32618)

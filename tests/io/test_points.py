@@ -98,6 +98,29 @@ def test_parquet_dictionary_encodes_only_the_columns_whose_values_repeat(tmp_pat
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_column_and_table_metadata_are_kept_in_parquet(tmp_path: Path, suffix: str) -> None:
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    cols = _columns(2500)
+    path = tmp_path / f"pts{suffix}"
+    fields = {"x_m": {"unit": "US survey foot"}, "z_m": {"unit": "metre"}, "absent": {"a": "b"}}
+    with TableChunkWriter(path, fields, {"crs": "{}"}) as w:
+        for i in range(0, 2500, 700):  # later chunks are cast to the first one's schema
+            w.write({k: v[i : i + 700] for k, v in cols.items()})
+    chunks = list(iter_table_chunks(path, 1000, REQUIRED))
+    np.testing.assert_array_equal(np.concatenate([c["z_m"] for c in chunks]), cols["z_m"])
+    if suffix == ".csv":  # a CSV has nowhere to keep it: the header is the plain names
+        assert path.read_text().splitlines()[0] == ",".join(cols)
+        return
+    schema = pq.read_schema(path)
+    assert schema.field("x_m").metadata == {b"unit": b"US survey foot"}
+    assert schema.field("z_m").metadata == {b"unit": b"metre"}
+    assert schema.field("y_m").metadata is None
+    assert schema.metadata is not None
+    assert schema.metadata[b"crs"] == b"{}"
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_missing_columns(tmp_path: Path, suffix: str) -> None:
     cols = {k: v for k, v in _columns(5).items() if k != "y_m"}
     path = tmp_path / f"m{suffix}"

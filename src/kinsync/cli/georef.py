@@ -245,6 +245,7 @@ def georef(
             "CRS accuracy (m)", "unknown" if info.accuracy_m is None else f"{info.accuracy_m:g}"
         )
         table.add_row("heights", info.heights)
+        table.add_row("units (X, Y, Z)", ", ".join(info.units))
         if info.epoch_year is not None:
             table.add_row("coordinate epoch (year)", f"{info.epoch_year:.4f}")
     table.add_row("seconds", fmt(summary.seconds))

@@ -351,6 +351,7 @@ def trajectory_export(
     }
     if info is not None:
         rows |= {"CRS": info.target, "CRS operation": info.operation, "heights": info.heights}
+        rows["units (X, Y, Z)"] = ", ".join(info.units)
         if info.epoch_year is not None:
             rows["coordinate epoch (year)"] = f"{info.epoch_year:.4f}"
     _print_quantities(f"Trajectory {path} -> {out}", rows)

@@ -15,6 +15,7 @@ import pyproj
 
 from kinsync._typing import FloatArray
 from kinsync.crs import crs_to_ecef_transformer
+from kinsync.crs_axes import declared_crs
 from kinsync.errors import InputError
 from kinsync.io.las import (
     iter_las_chunks,
@@ -46,8 +47,10 @@ def cloud_crs(path: Path, crs: str | None) -> str:
     if crs is None:
         return wkt or _ECEF_CRS
     crs_to_ecef_transformer(crs)  # an unknown --crs fails first
-    if wkt is not None and not pyproj.CRS.from_user_input(crs).equals(
-        pyproj.CRS.from_wkt(wkt), ignore_axis_order=True
+    given = pyproj.CRS.from_user_input(crs)
+    if wkt is not None and not any(  # EPSG:2249 is declared in 3D (Z in metres)
+        c.equals(pyproj.CRS.from_wkt(wkt), ignore_axis_order=True)
+        for c in (given, declared_crs(given))
     ):
         name = pyproj.CRS.from_wkt(wkt).name
         msg = (

@@ -35,6 +35,7 @@ import numpy as np
 
 from kinsync.errors import InputError
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
+from kinsync.io.las_crs import las_crs
 from kinsync.io.las_header import las_header, open_las_file, read_las_header
 from kinsync.io.laz_chunks import LazChunks, laz_chunks
 from kinsync.io.sbet import SECONDS_PER_WEEK
@@ -199,7 +200,7 @@ def las_info(path: Path) -> LasInfo:
     path = Path(path)
     header = las_header(path)
     try:
-        crs = header.parse_crs()
+        crs = las_crs(header)
     except Exception:  # a damaged CRS record: reported as no CRS
         crs = None
     adjusted = header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD

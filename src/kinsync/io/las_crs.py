@@ -4,10 +4,17 @@ LAS 1.4 point formats 6-10 declare their CRS in OGC WKT; formats 0-5 in GeoTIFF 
 (ASPRS LAS 1.4 R15, section 2.5), which name EPSG codes. laspy writes the keys of a
 projected or geographic CRS only, and fails on a compound one (UTM + NAVD88 heights,
 ``EPSG:32618+5703``): `set_las_crs` writes the horizontal key, and for a compound CRS
-the vertical one (``VerticalCSTypeGeoKey`` 4096, with ``VerticalUnitsGeoKey`` 4099),
-as PDAL and LAStools read them; a geocentric CRS gets model type 3 (OGC GeoTIFF 1.1,
-19-008r4). A CRS with no EPSG code goes in WKT where the LAS version allows it (1.4),
-and is refused otherwise, naming what to do.
+the vertical one (``VerticalCSTypeGeoKey`` 4096, with ``VerticalUnitsGeoKey`` 4099,
+the vertical CRS's unit: US survey feet for NAVD88 height (ftUS)), as PDAL and LAStools
+read them; a geocentric CRS gets model type 3 (OGC GeoTIFF 1.1, 19-008r4). A CRS with no
+EPSG code goes in WKT where the LAS version allows it (1.4), and is refused otherwise,
+naming what to do.
+
+Z's unit is declared with X and Y (`kinsync.crs_axes`): a 2D projected CRS in feet
+(``EPSG:2249``), whose Z is the ellipsoidal height in metres, is declared by its 3D form
+in WKT (an "ellipsoidal height (h)" axis in metres) and with ``VerticalUnitsGeoKey``
+metre in GeoTIFF keys. `las_crs` reads a file's CRS back, a compound one from GeoTIFF
+keys included (laspy reads only their horizontal part).
 """
 
 from __future__ import annotations
@@ -18,11 +25,17 @@ from typing import Any
 
 import laspy
 import pyproj
-from laspy.vlrs.known import GeoAsciiParamsVlr, GeoKeyDirectoryVlr, GeoKeyEntryStruct
+from laspy.vlrs.known import (
+    GeoAsciiParamsVlr,
+    GeoKeyDirectoryVlr,
+    GeoKeyEntryStruct,
+    WktCoordinateSystemVlr,
+)
 
+from kinsync.crs_axes import declared_crs, output_units
 from kinsync.errors import InputError
 
-__all__ = ["CRS_VLR_NAMES", "las_crs_keys", "set_las_crs"]
+__all__ = ["CRS_VLR_NAMES", "las_crs", "las_crs_keys", "set_las_crs"]
 
 CRS_VLR_NAMES = (
     "WktCoordinateSystemVlr",
@@ -37,12 +50,26 @@ _PROJECTED_CRS = 3072  # ProjectedCRSGeoKey
 _VERTICAL_CRS = 4096  # VerticalCSTypeGeoKey
 _VERTICAL_UNITS = 4099  # VerticalUnitsGeoKey
 _METRE = 9001  # EPSG unit of measure
+_EPSG_RANGE = range(1024, 32767)  # GeoTIFF key values that are EPSG codes
 _ASCII_TAG = 34737  # GeoAsciiParamsTag: where ASCII key values are stored
 
 
 def _epsg(crs: pyproj.CRS) -> int | None:
     code = crs.to_epsg(min_confidence=90)
-    return None if code is None or not 1024 <= code <= 32766 else int(code)
+    return None if code is None or code not in _EPSG_RANGE else int(code)
+
+
+def _unit_code(crs: pyproj.CRS) -> int | None:
+    """EPSG code of the unit of ``crs``'s first axis (9001 metre, 9003 US survey foot)."""
+    if not crs.axis_info:
+        return None
+    axis = crs.axis_info[0]
+    if axis.unit_auth_code == "EPSG" and axis.unit_code:
+        return int(axis.unit_code)
+    unit = pyproj.get_units_map(auth_name="EPSG", category="linear").get(axis.unit_name)
+    if unit is None or abs(float(unit.conv_factor) - axis.unit_conversion_factor) > 1e-12:
+        return None
+    return int(unit.code)
 
 
 def las_crs_keys(crs: pyproj.CRS) -> dict[int, int] | None:
@@ -71,10 +98,12 @@ def las_crs_keys(crs: pyproj.CRS) -> dict[int, int] | None:
     else:
         return None
     if vertical is not None:
-        vertical_code = _epsg(vertical)
-        if vertical_code is None:
+        vertical_code, unit_code = _epsg(vertical), _unit_code(vertical)
+        if vertical_code is None or unit_code is None:
             return None
-        keys |= {_VERTICAL_CRS: vertical_code, _VERTICAL_UNITS: _METRE}
+        keys |= {_VERTICAL_CRS: vertical_code, _VERTICAL_UNITS: unit_code}
+    elif horizontal.is_projected and output_units(crs)[0] != output_units(crs)[2]:
+        keys |= {_VERTICAL_UNITS: _METRE}  # X, Y in feet, Z the ellipsoidal height (m)
     return keys
 
 
@@ -122,7 +151,7 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
             with suppress(IndexError):
                 header.evlrs.extract(name)
     if header.point_format.id >= 6:
-        header.add_crs(crs)
+        header.add_crs(declared_crs(crs))
         return
     keys = las_crs_keys(crs)
     if keys is not None:
@@ -130,7 +159,7 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
         header.vlrs.extend(_geotiff_vlrs(keys, crs.name))
         return
     if header.version.minor >= 4:
-        header.add_crs(crs, keep_compatibility=False)
+        header.add_crs(declared_crs(crs), keep_compatibility=False)
         return
     msg = (
         f"{path}: LAS {header.version} point format {header.point_format.id} declares its "
@@ -138,3 +167,43 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
         "(e.g. EPSG:32619 or EPSG:32618+5703) or convert the input to LAS 1.4"
     )
     raise InputError(msg)
+
+
+def _geo_keys(header: laspy.LasHeader) -> dict[int, int]:
+    records = list(header.vlrs) + list(header.evlrs or [])
+    return {
+        int(k.id): int(k.value_offset)
+        for v in records
+        if isinstance(v, GeoKeyDirectoryVlr)
+        for k in v.geo_keys
+        if k.tiff_tag_location == 0
+    }
+
+
+def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
+    """The CRS a LAS/LAZ header declares, or None.
+
+    WKT first (as laspy reads it); else the GeoTIFF keys, with their vertical CRS
+    (``VerticalCSTypeGeoKey``, an EPSG vertical CRS) making a compound CRS, so that Z is
+    read in the unit and datum it was written in. A vertical key that is not an EPSG
+    vertical CRS is left out (the horizontal CRS is returned).
+    """
+    records = list(header.vlrs) + list(header.evlrs or [])
+    for record in records:
+        if isinstance(record, WktCoordinateSystemVlr):
+            from_wkt: pyproj.CRS | None = record.parse_crs()
+            if from_wkt is not None:
+                return from_wkt
+    crs: pyproj.CRS | None = header.parse_crs()
+    if crs is None or crs.is_compound:
+        return crs
+    code = _geo_keys(header).get(_VERTICAL_CRS)
+    if code is None or code not in _EPSG_RANGE:
+        return crs
+    try:
+        vertical = pyproj.CRS.from_epsg(code)
+    except pyproj.exceptions.CRSError:
+        return crs
+    if not vertical.is_vertical:
+        return crs
+    return pyproj.crs.CompoundCRS(f"{crs.name} + {vertical.name}", [crs, vertical])

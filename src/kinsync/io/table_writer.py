@@ -98,6 +98,11 @@ class TableChunkWriter:
     ----------
     path : Path
         Output file; ``.csv`` or ``.parquet`` by suffix.
+    field_metadata : mapping of str to mapping of str to str, optional
+        Parquet only: key-value metadata of columns by name (e.g. ``{"Z": {"unit":
+        "metre"}}``); columns not written are ignored. A CSV has nowhere to keep it.
+    metadata : mapping of str to str, optional
+        Parquet only: key-value metadata of the table (the schema).
 
     Notes
     -----
@@ -106,9 +111,16 @@ class TableChunkWriter:
     written is an empty file (CSV) or an empty Parquet table.
     """
 
-    def __init__(self, path: Path) -> None:
+    def __init__(
+        self,
+        path: Path,
+        field_metadata: Mapping[str, Mapping[str, str]] | None = None,
+        metadata: Mapping[str, str] | None = None,
+    ) -> None:
         self.path = Path(path)
         self._suffix = table_suffix(self.path)
+        self._field_metadata = dict(field_metadata or {})
+        self._metadata = dict(metadata or {})
         self._stack: ExitStack | None = None
         self._tmp: Path | None = None
         self._writer: Any = None
@@ -136,8 +148,10 @@ class TableChunkWriter:
             raise InputError(msg)
         if self._schema is None:
             table = pa.table({n: _arrow_column(n, v) for n, v in columns.items()})
-            self._schema = table.schema
-            self._open(table.schema)
+            self._schema = self._with_metadata(table.schema)
+            if self._schema is not table.schema:  # the same columns, with their metadata
+                table = pa.Table.from_arrays(table.columns, schema=self._schema)
+            self._open(self._schema)
         else:
             names = list(self._schema.names)
             if list(columns) != names:
@@ -155,6 +169,17 @@ class TableChunkWriter:
                 raise InputError(msg) from err
         self._write_table(table)
         self.rows_written += int(table.num_rows)
+
+    def _with_metadata(self, schema: Any) -> Any:
+        if self._suffix != ".parquet" or not (self._field_metadata or self._metadata):
+            return schema
+        fields = [
+            f.with_metadata(dict(self._field_metadata[f.name]))
+            if f.name in self._field_metadata
+            else f
+            for f in schema
+        ]
+        return pa.schema(fields, metadata=self._metadata or None)
 
     def _open(self, schema: Any) -> None:
         assert self._tmp is not None

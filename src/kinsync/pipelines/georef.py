@@ -36,6 +36,7 @@ from kinsync.crs import (
     plan_ecef_to_crs,
     sample_rows,
 )
+from kinsync.crs_axes import output_units
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
@@ -540,10 +541,10 @@ def _sink(
     kind = _kind(out_path)
     crs_text = ctx.crs.crs
     layout = ctx.source.table
+    target_crs = pyproj.CRS.from_user_input(crs_text)
     if kind == "las":
         frame = ctx.las_frame
         assert frame is not None
-        target_crs = pyproj.CRS.from_user_input(crs_text)
         if layout is None:
             return LasSink(out_path, template, target_crs, frame.offsets, frame.scales), [], ctx
         carried = _carried_columns(ctx)
@@ -558,7 +559,8 @@ def _sink(
         sink = LasSink(out_path, header, target_crs, frame.offsets, frame.scales)
         return sink, notes, replace(ctx, table_las=plan)
     if kind == "ply":
-        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}"]
+        units = ", ".join(output_units(target_crs))
+        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}, x y z in {units}"]
         if layout is None:
             types = las_column_types(template.point_format)
             props = [
@@ -592,8 +594,8 @@ def _sink(
                 for n, t in types.items()
             }
 
-        return TableSink(out_path, empty_from_las), [], ctx
-    return TableSink(out_path, lambda: empty_table_output(ctx)), [], ctx
+        return TableSink(out_path, empty_from_las, target_crs), [], ctx
+    return TableSink(out_path, lambda: empty_table_output(ctx), target_crs), [], ctx
 
 
 def _carried_columns(ctx: ChunkContext, *, keep_time: bool = False) -> dict[str, Any]:
@@ -677,8 +679,9 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
     The span runs from the first point's time to the last one's (clipped to the
     trajectory; its middle when neither is usable); the offsets are the trajectory's
     position there in ``crs``, rounded (1 km, or 1 degree for longitude and latitude),
-    so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm)
-    either way from its middle. Scales: 0.1 mm (1e-7 deg for longitude and latitude).
+    so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm,
+    65 km at 1e-4 ft) either way from its middle. Scales: 1e-4 of each axis' unit (0.1 mm;
+    1e-7 deg for longitude and latitude).
     """
     crs, traj = ctx.crs, ctx.traj
     geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic

@@ -109,10 +109,12 @@ class LasOutputFrame:
     Attributes
     ----------
     offsets : tuple of 3 float
-        x, y, z header offsets (output CRS units).
+        x, y, z header offsets, each in its axis' unit (`kinsync.crs_axes.output_units`).
     scales : tuple of 3 float
-        x, y, z resolution (output CRS units): 1e-4 m for ECEF and projected CRSs;
-        1e-7 deg for longitude/latitude and 1e-4 m for the height of geographic ones.
+        x, y, z resolution, each in its axis' unit: 1e-4 (m, or ft for a CRS in feet,
+        whose Z is in metres unless a vertical CRS in feet is given) for ECEF and
+        projected CRSs; 1e-7 deg for longitude/latitude and 1e-4 m for the height of
+        geographic ones.
     """
 
     offsets: tuple[float, float, float]

@@ -20,6 +20,7 @@ import laspy
 import numpy as np
 import pyproj
 
+from kinsync.crs_axes import coordinate_metadata
 from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.ply import PlyChunkWriter
 from kinsync.io.points import TableChunkWriter
@@ -58,11 +59,19 @@ class TableSink(Sink):
     """The ``columns`` of each chunk into a CSV/Parquet table.
 
     ``empty`` gives the columns (with their types, no rows) written when the input has
-    no points, so that the table still has its header or schema.
+    no points, so that the table still has its header or schema. With ``crs``, a
+    Parquet table says the unit of each of X, Y, Z and the CRS in its metadata
+    (`kinsync.crs_axes.coordinate_metadata`).
     """
 
-    def __init__(self, path: Path, empty: Callable[[], dict[str, Any]]) -> None:
-        self._table = TableChunkWriter(path)
+    def __init__(
+        self,
+        path: Path,
+        empty: Callable[[], dict[str, Any]],
+        crs: pyproj.CRS | None = None,
+    ) -> None:
+        fields, metadata = ({}, {}) if crs is None else coordinate_metadata(crs)
+        self._table = TableChunkWriter(path, fields, metadata)
         self._empty = empty
         super().__init__(self._table)
 

@@ -5,8 +5,10 @@ writes, by the output's suffix:
 
 * ``.csv``/``.parquet``: one row per record, ``t_s`` (the input's time scale), ``X, Y,
   Z`` in the output CRS (axis order easting/longitude first, as ``kinsync georef``
-  writes points), ``roll_deg, pitch_deg, yaw_deg`` (DIN 9300, yaw the true heading, not
-  turned to grid north) and, when the input has them, ``vn_m_s, ve_m_s, vd_m_s``. The
+  writes points; a Parquet file's metadata gives their units and the CRS,
+  `kinsync.crs_axes.coordinate_metadata`), ``roll_deg, pitch_deg, yaw_deg`` (DIN 9300,
+  yaw the true heading, not turned to grid north) and, when the input has them,
+  ``vn_m_s, ve_m_s, vd_m_s``. The
   transformation is chosen as for georeferencing (`kinsync.crs.plan_ecef_to_crs`: a
   compound CRS with PROJ's geoid grid or ``geoid``, the coordinate epoch of a
   time-dependent one, the trajectory's own geocentric frame) and reported;
@@ -22,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyproj
 
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_decimal_year
 from kinsync.crs import (
@@ -31,6 +34,7 @@ from kinsync.crs import (
     plan_ecef_to_crs,
     sample_rows,
 )
+from kinsync.crs_axes import coordinate_metadata
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.quicklook import decimate, write_geojson_line, write_kml_line
@@ -175,6 +179,7 @@ def export_trajectory(
     if traj.vel_ned_m_s is not None:
         for j, name in enumerate(("vn_m_s", "ve_m_s", "vd_m_s")):
             columns[name] = traj.vel_ned_m_s[:, j]
-    with TableChunkWriter(out_path) as writer:
+    fields, metadata = coordinate_metadata(pyproj.CRS.from_user_input(crs or DEFAULT_CRS))
+    with TableChunkWriter(out_path, fields, metadata) as writer:
         writer.write({k: np.ascontiguousarray(v) for k, v in columns.items()})
     return TrajectoryExport(len(traj), len(traj), scale, traj.t_start_s, traj.t_end_s, info)
