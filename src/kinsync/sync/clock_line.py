@@ -169,6 +169,59 @@ def pair_covariance(
     return cov
 
 
+@dataclass(frozen=True)
+class _Compatible:
+    """Every compatible (sighting, crossing) pair, flat, sightings in order.
+
+    ``sighting``, ``crossing``: indices; ``x``: the sighting's clock abscissa
+    (profiles); ``t_s``: the crossing's time (s); ``std_s``: the pair's timing sigma (s).
+    Within one sighting the crossings keep the order of its ``compat`` entry.
+    """
+
+    sighting: IntArray
+    crossing: IntArray
+    x: FloatArray
+    t_s: FloatArray
+    std_s: FloatArray
+
+    @classmethod
+    def build(
+        cls, x: FloatArray, t_c: FloatArray, compat: Sequence[IntArray], std: FloatArray
+    ) -> _Compatible:
+        sighting = np.repeat(np.arange(len(compat), dtype=np.int64), [js.size for js in compat])
+        crossing = (
+            np.concatenate([np.asarray(js, dtype=np.int64) for js in compat])
+            if compat
+            else np.zeros(0, dtype=np.int64)
+        )
+        return cls(sighting, crossing, x[sighting], t_c[crossing], std[sighting, crossing])
+
+
+def _first_of_groups(keys: IntArray) -> IntArray:
+    """Positions where a sorted key array starts a new group."""
+    start = np.ones(keys.size, dtype=bool)
+    start[1:] = keys[1:] != keys[:-1]
+    return np.flatnonzero(start)
+
+
+def _assign(pairs: _Compatible, t0: float, T: float, cfg: ObjectSpaceConfig) -> IntArray:
+    """Indices into ``pairs`` of one assignment to the line ``t = t0 + T x``.
+
+    Each sighting takes its compatible crossing nearest the line (the first of equals),
+    kept within ``max(gate_sigma sigma, min_gate_profiles T)``; a crossing claimed by
+    several sightings goes to the smallest ``|error| / sigma`` (the first of equals).
+    """
+    err = np.abs(pairs.t_s - (t0 + T * pairs.x))
+    by_sighting = np.lexsort((err, pairs.sighting))  # stable: ties keep compat order
+    nearest = by_sighting[_first_of_groups(pairs.sighting[by_sighting])]
+    gate = np.maximum(cfg.gate_sigma * pairs.std_s[nearest], cfg.min_gate_profiles * T)
+    kept = nearest[err[nearest] <= gate]
+    z = err[kept] / pairs.std_s[kept]
+    by_crossing = np.lexsort((pairs.sighting[kept], z, pairs.crossing[kept]))
+    won: IntArray = kept[by_crossing[_first_of_groups(pairs.crossing[kept][by_crossing])]]
+    return won
+
+
 def refine_assignment(
     seed_t0: float,
     seed_T: float,
@@ -177,38 +230,52 @@ def refine_assignment(
     compat: list[IntArray],
     std: FloatArray,
     cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float] | None = None,
 ) -> Assignment | None:
-    """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3)."""
+    """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3).
+
+    ``period_bounds_s`` (s) replaces the prior's window ``period_prior_s (1 +- tol)``.
+    """
+    pairs = _Compatible.build(x, t_c, compat, std)
+    return _refine(seed_t0, seed_T, pairs, cfg, period_bounds_s or _prior_window(cfg))
+
+
+def _prior_window(cfg: ObjectSpaceConfig) -> tuple[float, float]:
+    """Periods (s) within the prior's relative tolerance."""
+    return (
+        cfg.period_prior_s * (1.0 - cfg.period_tolerance),
+        cfg.period_prior_s * (1.0 + cfg.period_tolerance),
+    )
+
+
+def _refine(
+    seed_t0: float,
+    seed_T: float,
+    compatible: _Compatible,
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float],
+) -> Assignment | None:
     t0, T = seed_t0, seed_T
+    lo, hi = period_bounds_s
     previous: tuple[tuple[int, int], ...] | None = None
-    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
-    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
     for _ in range(10):
-        claimed: dict[int, tuple[float, int]] = {}
-        for i, js in enumerate(compat):
-            if js.size == 0:
-                continue
-            err = t_c[js] - (t0 + T * x[i])
-            k = int(np.argmin(np.abs(err)))
-            j = int(js[k])
-            gate = max(cfg.gate_sigma * std[i, j], cfg.min_gate_profiles * T)
-            if abs(err[k]) > gate:
-                continue
-            z = abs(err[k]) / std[i, j]
-            if j not in claimed or z < claimed[j][0]:
-                claimed[j] = (z, i)
-        pairs = tuple(sorted((i, j) for j, (_, i) in claimed.items()))
-        if len(pairs) < 2:
+        won = _assign(compatible, t0, T, cfg)
+        if won.size < 2:
             return None
-        xs = np.array([x[i] for i, _ in pairs])
+        xs = compatible.x[won]
         if np.ptp(xs) <= 0.0:
             return None
+        pairs = tuple(
+            sorted(
+                zip(compatible.sighting[won].tolist(), compatible.crossing[won].tolist(), strict=True)
+            )
+        )
         if pairs == previous:
             break
         previous = pairs
-        fit = weighted_line(
-            xs, np.array([t_c[j] for _, j in pairs]), np.array([std[i, j] for i, j in pairs])
-        )
+        order = np.lexsort((compatible.crossing[won], compatible.sighting[won]))
+        chosen = won[order]
+        fit = weighted_line(compatible.x[chosen], compatible.t_s[chosen], compatible.std_s[chosen])
         t0, T = fit.t0_s, fit.period_s
         if not lo <= T <= hi:
             return None
@@ -218,9 +285,17 @@ def refine_assignment(
 
 
 def candidate_assignments(
-    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float] | None = None,
 ) -> list[Assignment]:
-    """Every distinct assignment reached from a two-pair hypothesis, best first."""
+    """Every distinct assignment reached from a two-pair hypothesis, best first.
+
+    Hypotheses and assignments need a period within ``period_bounds_s`` (s), by default
+    the prior's window ``period_prior_s (1 +- period_tolerance)``; best is the most
+    pairs, then the smallest score.
+    """
     x = np.array([s.x for s in sightings])
     t_c = np.array([c.t_s for c in crossings])
     std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
@@ -231,8 +306,9 @@ def candidate_assignments(
         d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
         ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
         compat.append(np.flatnonzero(ok).astype(np.int64))
-    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
-    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
+    bounds = period_bounds_s or _prior_window(cfg)
+    lo, hi = bounds
+    compatible = _Compatible.build(x, t_c, compat, std)
     found: dict[tuple[tuple[int, int], ...], Assignment] = {}
     # A hypothesis seeded by two pairs of one assignment already found leads back to
     # it: skip those (keeps the search near-linear in the number of assignments).
@@ -249,7 +325,7 @@ def candidate_assignments(
                         continue
                     if member.get((i, int(j)), set()) & member.get((i2, int(j2)), set()):
                         continue
-                    a = refine_assignment(t_c[j] - T * x[i], T, x, t_c, compat, std, cfg)
+                    a = _refine(t_c[j] - T * x[i], T, compatible, cfg, bounds)
                     if a is None or a.pairs in found:
                         continue
                     found[a.pairs] = a
