@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -196,6 +197,75 @@ def test_ambiguity_is_reported() -> None:
     shifts = sorted(abs(a.t0_s - r.t0_s) for a in r.alternatives)
     assert shifts[0] > 30.0  # whole laps apart
     assert all(abs(a.period_s - r.period_s) < 1e-6 for a in r.alternatives)
+
+
+def _refused(sim: DriveScanSimulation, prior_s: float) -> str:
+    """The InputError message of a run with ``--period-prior-s prior_s``."""
+    cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s)
+    with pytest.raises(InputError, match=r"^--period-prior-s ") as info:
+        synchronise_object_space(
+            sim.scanner.scan, sim.trajectory, sim.config.mount, sim.sync_points, cfg
+        )
+    return str(info.value)
+
+
+def _suggested_period_s(msg: str) -> float:
+    found = re.search(r"these data suggest --period-prior-s ([0-9.e+-]+)\)", msg)
+    assert found is not None, msg
+    return float(found.group(1))
+
+
+@pytest.mark.parametrize("prior_s", [0.0333, 0.028, 0.031, 0.0606, 0.015])
+def test_a_wrong_period_prior_is_refused(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult, prior_s: float
+) -> None:
+    """A prior that excludes the true period gave a clock from 2 of 18 sightings, silently.
+
+    Two pairs always fit a line, so some pair of sightings matched by chance; now the
+    search over periods within a factor 2.5 of the prior finds the clock that fits all
+    six sync-point sightings and the prior is refused, naming what each period fits.
+    """
+    msg = _refused(oval, prior_s)
+    total = len(oval_result.sightings) + len(oval_result.unmatched)
+    assert f"--period-prior-s {prior_s:g} s: " in msg
+    assert re.search(rf": [0-2] of {total} sightings fit a clock with a period within 1 % ", msg)
+    assert f", {len(oval_result.sightings)} fit one with a period of " in msg
+    assert "datasheet or log" in msg
+    suggested = _suggested_period_s(msg)
+    assert suggested == pytest.approx(oval.truth["period_s"], rel=1e-4)  # a prior, not the fit
+    off = suggested / prior_s - 1.0
+    assert ("widen --period-tolerance" in msg) == (abs(off) < 0.49)
+    # The suggestion gives the clock of a right prior.
+    r = synchronise_object_space(
+        oval.scanner.scan,
+        oval.trajectory,
+        oval.config.mount,
+        oval.sync_points,
+        ObjectSpaceConfig(position_std_m=0.0, period_prior_s=suggested),
+    )
+    assert len(r.sightings) == len(oval_result.sightings)
+    assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
+
+
+def test_a_wrong_period_prior_is_refused_on_a_looped_drive(
+    loop: DriveScanSimulation,
+) -> None:
+    msg = _refused(loop, 0.0333)
+    assert "-8.3 %" in msg
+    assert _suggested_period_s(msg) == pytest.approx(loop.truth["period_s"], rel=1e-4)
+
+
+@pytest.mark.parametrize(("prior_s", "tolerance"), [(0.0303, 0.01), (0.0308, 0.01), (0.03, 0.05)])
+def test_a_right_period_prior_raises_no_alarm(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult, prior_s: float, tolerance: float
+) -> None:
+    """Priors whose window holds the true period (0.030545 s) give the same clock."""
+    cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s, period_tolerance=tolerance)
+    r = synchronise_object_space(
+        oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, cfg
+    )
+    assert [s.t_s for s in r.sightings] == [s.t_s for s in oval_result.sightings]
+    assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
 
 
 def _straight_trajectory() -> tuple[Trajectory, tuple[float, float, float]]:

@@ -26,6 +26,7 @@ from kinsync.sync.sightings import Sighting
 __all__ = [
     "Assignment",
     "LineFit",
+    "best_assignment",
     "candidate_assignments",
     "gls_line",
     "pair_covariance",
@@ -265,11 +266,8 @@ def _refine(
         xs = compatible.x[won]
         if np.ptp(xs) <= 0.0:
             return None
-        pairs = tuple(
-            sorted(
-                zip(compatible.sighting[won].tolist(), compatible.crossing[won].tolist(), strict=True)
-            )
-        )
+        chosen_s, chosen_c = compatible.sighting[won].tolist(), compatible.crossing[won].tolist()
+        pairs = tuple(sorted(zip(chosen_s, chosen_c, strict=True)))
         if pairs == previous:
             break
         previous = pairs
@@ -284,6 +282,27 @@ def _refine(
     return Assignment(pairs=previous, fit=fit, score=fit.chi2 + prior)
 
 
+def _compatible_pairs(
+    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
+) -> tuple[FloatArray, FloatArray, list[IntArray], _Compatible]:
+    """Abscissae x, crossing times, each sighting's compatible crossings, and the flat pairs.
+
+    A sighting and a crossing are compatible when the sighting's angle and range are
+    within ``angle_gate_rad`` and ``range_gate_m`` of the crossing's.
+    """
+    x = np.array([s.x for s in sightings])
+    t_c = np.array([c.t_s for c in crossings])
+    std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
+    ang_c = np.array([c.angle_rad for c in crossings])
+    rng_c = np.array([c.range_m for c in crossings])
+    compat: list[IntArray] = []
+    for s in sightings:
+        d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
+        ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
+        compat.append(np.flatnonzero(ok).astype(np.int64))
+    return x, t_c, compat, _Compatible.build(x, t_c, compat, std)
+
+
 def candidate_assignments(
     sightings: Sequence[Sighting],
     crossings: Sequence[Crossing],
@@ -296,19 +315,9 @@ def candidate_assignments(
     the prior's window ``period_prior_s (1 +- period_tolerance)``; best is the most
     pairs, then the smallest score.
     """
-    x = np.array([s.x for s in sightings])
-    t_c = np.array([c.t_s for c in crossings])
-    std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
-    ang_c = np.array([c.angle_rad for c in crossings])
-    rng_c = np.array([c.range_m for c in crossings])
-    compat: list[IntArray] = []
-    for s in sightings:
-        d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
-        ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
-        compat.append(np.flatnonzero(ok).astype(np.int64))
+    x, t_c, compat, compatible = _compatible_pairs(sightings, crossings, cfg)
     bounds = period_bounds_s or _prior_window(cfg)
     lo, hi = bounds
-    compatible = _Compatible.build(x, t_c, compat, std)
     found: dict[tuple[tuple[int, int], ...], Assignment] = {}
     # A hypothesis seeded by two pairs of one assignment already found leads back to
     # it: skip those (keeps the search near-linear in the number of assignments).
@@ -332,3 +341,95 @@ def candidate_assignments(
                     for pair in a.pairs:
                         member.setdefault(pair, set()).add(len(found))
     return sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))
+
+
+def _held(
+    pairs: _Compatible, starts: IntArray, t0: FloatArray, slope: FloatArray, cfg: ObjectSpaceConfig
+) -> IntArray:
+    """Sightings with a compatible crossing within the gate of each line ``t0 + slope x``.
+
+    ``starts``: where each sighting's pairs begin in ``pairs``. Lines are taken in
+    blocks so that a block's (lines x pairs) arrays stay near a million elements.
+    """
+    out = np.empty(t0.size, dtype=np.int64)
+    block = max(1, 1_000_000 // max(pairs.x.size, 1))
+    for lo in range(0, t0.size, block):
+        t0_b, slope_b = t0[lo : lo + block, None], slope[lo : lo + block, None]
+        err = np.abs(pairs.t_s[None, :] - (t0_b + slope_b * pairs.x[None, :]))
+        gate = np.maximum(cfg.gate_sigma * pairs.std_s[None, :], cfg.min_gate_profiles * slope_b)
+        out[lo : lo + block] = np.logical_or.reduceat(err <= gate, starts, axis=1).sum(axis=1)
+    return out
+
+
+def best_assignment(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float],
+    more_than: int,
+) -> Assignment | None:
+    """The assignment with the most pairs, if more than ``more_than``, over a period range.
+
+    Searches the hypotheses of `candidate_assignments` over ``period_bounds_s`` (s),
+    typically far wider than the prior's window, but refines only those whose line
+    already holds more than ``more_than`` sightings (a compatible crossing within the
+    gate of `refine_assignment`): all two-pair lines are checked at once, as arrays,
+    and the few strong ones refined, strongest first. A line of m true pairs is seeded
+    by m (m - 1) / 2 of its own pairs, the farthest apart within a fraction of a sigma
+    of the final line, so it is not missed.
+
+    Parameters
+    ----------
+    sightings, crossings : sequence of Sighting, Crossing
+    cfg : ObjectSpaceConfig
+        Gates and sigmas, as for `candidate_assignments`.
+    period_bounds_s : (float, float)
+        Smallest and largest period (s) of a hypothesis.
+    more_than : int
+        Assignments of this many pairs or fewer are not wanted.
+
+    Returns
+    -------
+    Assignment or None
+        The one with the most pairs (then the smallest score), None when none has more
+        than ``more_than``.
+    """
+    _, _, _, pairs = _compatible_pairs(sightings, crossings, cfg)
+    lo, hi = period_bounds_s
+    if pairs.x.size < 2:
+        return None
+    starts = _first_of_groups(pairs.sighting)
+    strong: list[tuple[int, int, int, float, float]] = []  # (held, p, q, t0, T)
+    for p in range(pairs.x.size - 1):
+        q = np.arange(p + 1, pairs.x.size)
+        dx = pairs.x[q] - pairs.x[p]
+        ok = (pairs.sighting[q] != pairs.sighting[p]) & (pairs.crossing[q] != pairs.crossing[p])
+        ok &= dx > 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = (pairs.t_s[q] - pairs.t_s[p]) / dx
+        ok &= (lo <= slope) & (slope <= hi)
+        q_ok, slope = q[ok], slope[ok]
+        if q_ok.size == 0:
+            continue
+        t0 = pairs.t_s[p] - slope * pairs.x[p]
+        held = _held(pairs, starts, t0, slope, cfg)
+        strong.extend(
+            (int(held[k]), p, int(q_ok[k]), float(t0[k]), float(slope[k]))
+            for k in np.flatnonzero(held > more_than)
+        )
+    strong.sort(key=lambda seed: -seed[0])
+    found: dict[tuple[tuple[int, int], ...], Assignment] = {}
+    member: dict[tuple[int, int], set[int]] = {}
+    for _, first, second, t0_s, period_s in strong:
+        key_p = (int(pairs.sighting[first]), int(pairs.crossing[first]))
+        key_q = (int(pairs.sighting[second]), int(pairs.crossing[second]))
+        if member.get(key_p, set()) & member.get(key_q, set()):
+            continue
+        a = _refine(t0_s, period_s, pairs, cfg, period_bounds_s)
+        if a is None or a.pairs in found:
+            continue
+        found[a.pairs] = a
+        for pair in a.pairs:
+            member.setdefault(pair, set()).add(len(found))
+    ranked = sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))
+    return ranked[0] if ranked and len(ranked[0].pairs) > more_than else None

@@ -133,10 +133,11 @@ from scipy.stats import chi2 as chi2_dist
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import ObservabilityError
+from kinsync.errors import InputError, ObservabilityError
 from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     Assignment,
+    best_assignment,
     candidate_assignments,
     gls_line,
     pair_covariance,
@@ -149,11 +150,18 @@ from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
 from kinsync.trajectory import Trajectory
 
 __all__ = [
+    "PERIOD_SEARCH_FACTOR",
     "Alternative",
     "MatchedSighting",
     "ObjectSpaceResult",
     "synchronise_object_space",
 ]
+
+PERIOD_SEARCH_FACTOR = 2.5
+"""Periods from ``prior / factor`` to ``prior * factor`` are searched for a clock that fits
+more sightings than the prior's window allows (module step 3, a wrong prior): a prior
+off by a factor of two (profiles per mirror revolution, a datasheet's line rate for its
+revolution rate) is still caught."""
 
 
 @dataclass(frozen=True)
@@ -357,7 +365,8 @@ def synchronise_object_space(
     Raises
     ------
     InputError
-        A mount without ``[profiler]``; sync points far from the trajectory.
+        A mount without ``[profiler]``; sync points far from the trajectory; a period
+        prior that excludes the clock the data show (module step 3, a wrong prior).
     ObservabilityError
         Fewer than two distinct sightings; no sync point crossed by the scan plane; no
         assignment of sightings to crossings with a period within the prior tolerance.
@@ -386,6 +395,7 @@ def synchronise_object_space(
         )
         raise ObservabilityError(msg)
     ranked = candidate_assignments(sightings, crossings, cfg)
+    _check_period_prior(ranked, sightings, crossings, cfg)
     if not ranked:
         never = [n for n, c in n_cross.items() if c == 0]
         msg = (
@@ -412,6 +422,42 @@ def synchronise_object_space(
     return _result(
         best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses_t_s, scan.n_profiles
     )
+
+
+def _check_period_prior(
+    ranked: Sequence[Assignment],
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+) -> None:
+    """Raise `InputError` when a period outside the prior's window fits more sightings.
+
+    See the module's step 3, a wrong prior: the search runs over periods within a
+    factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
+    sightings than the best within the window and at least three.
+    """
+    prior, tol = cfg.period_prior_s, cfg.period_tolerance
+    n_in = len(ranked[0].pairs) if ranked else 0
+    bounds = (prior / PERIOD_SEARCH_FACTOR, prior * PERIOD_SEARCH_FACTOR)
+    wider = best_assignment(sightings, crossings, cfg, bounds, more_than=max(n_in, 2))
+    if wider is None:
+        return
+    period = wider.fit.period_s
+    off = period / prior - 1.0
+    if abs(off) <= tol:
+        return  # the window's own clock, reached from another seed: nothing excluded
+    widen = (
+        f", or widen --period-tolerance to {math.ceil(abs(off) * 100.0) / 100.0:g}"
+        if abs(off) < 0.49  # the tolerance must stay below 0.5
+        else ""
+    )
+    msg = (
+        f"--period-prior-s {prior:g} s: {n_in} of {len(sightings)} sightings fit a clock "
+        f"with a period within {tol * 100.0:g} % of it, {len(wider.pairs)} fit one with a "
+        f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
+        f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
+    )
+    raise InputError(msg)
 
 
 def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
