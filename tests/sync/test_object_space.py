@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 
 import numpy as np
 import pytest
 
 from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import InputError, ObservabilityError
+from kinsync.errors import InputError, ObservabilityError, PeriodPriorError
 from kinsync.frames import (
     ecef_to_geodetic,
     euler_rpy_to_quaternion,
@@ -199,20 +198,15 @@ def test_ambiguity_is_reported() -> None:
     assert all(abs(a.period_s - r.period_s) < 1e-6 for a in r.alternatives)
 
 
-def _refused(sim: DriveScanSimulation, prior_s: float) -> str:
-    """The InputError message of a run with ``--period-prior-s prior_s``."""
+def _refused(sim: DriveScanSimulation, prior_s: float) -> PeriodPriorError:
+    """The error of a run with ``--period-prior-s prior_s``."""
     cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s)
-    with pytest.raises(InputError, match=r"^--period-prior-s ") as info:
+    with pytest.raises(PeriodPriorError, match=r"^--period-prior-s ") as info:
         synchronise_object_space(
             sim.scanner.scan, sim.trajectory, sim.config.mount, sim.sync_points, cfg
         )
-    return str(info.value)
-
-
-def _suggested_period_s(msg: str) -> float:
-    found = re.search(r"these data suggest --period-prior-s ([0-9.e+-]+)\)", msg)
-    assert found is not None, msg
-    return float(found.group(1))
+    assert isinstance(info.value, InputError)  # the CLI's one line and exit 2
+    return info.value
 
 
 @pytest.mark.parametrize("prior_s", [0.0333, 0.028, 0.031, 0.0606, 0.015])
@@ -225,15 +219,21 @@ def test_a_wrong_period_prior_is_refused(
     search over periods within a factor 2.5 of the prior finds the clock that fits all
     six sync-point sightings and the prior is refused, naming what each period fits.
     """
-    msg = _refused(oval, prior_s)
+    err = _refused(oval, prior_s)
+    msg = str(err)
     total = len(oval_result.sightings) + len(oval_result.unmatched)
+    assert (err.period_prior_s, err.n_sightings) == (prior_s, total)
+    assert err.n_within <= 2
+    assert err.n_suggested == len(oval_result.sightings)
+    assert err.suggested_period_s == pytest.approx(oval.truth["period_s"], rel=1e-4)  # a prior
     assert f"--period-prior-s {prior_s:g} s: " in msg
-    assert re.search(rf": [0-2] of {total} sightings fit a clock with a period within 1 % ", msg)
-    assert f", {len(oval_result.sightings)} fit one with a period of " in msg
+    assert (
+        f": {err.n_within} of {total} sightings fit a clock with a period within 1 % of it, "
+        f"{err.n_suggested} fit one with a period of {err.suggested_period_s:.6g} s ("
+    ) in msg
+    assert f"(these data suggest --period-prior-s {err.suggested_period_s:.6g})" in msg
     assert "datasheet or log" in msg
-    suggested = _suggested_period_s(msg)
-    assert suggested == pytest.approx(oval.truth["period_s"], rel=1e-4)  # a prior, not the fit
-    off = suggested / prior_s - 1.0
+    off = err.suggested_period_s / prior_s - 1.0
     assert ("widen --period-tolerance" in msg) == (abs(off) < 0.49)
     # The suggestion gives the clock of a right prior.
     r = synchronise_object_space(
@@ -241,7 +241,7 @@ def test_a_wrong_period_prior_is_refused(
         oval.trajectory,
         oval.config.mount,
         oval.sync_points,
-        ObjectSpaceConfig(position_std_m=0.0, period_prior_s=suggested),
+        ObjectSpaceConfig(position_std_m=0.0, period_prior_s=err.suggested_period_s),
     )
     assert len(r.sightings) == len(oval_result.sightings)
     assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
@@ -250,9 +250,10 @@ def test_a_wrong_period_prior_is_refused(
 def test_a_wrong_period_prior_is_refused_on_a_looped_drive(
     loop: DriveScanSimulation,
 ) -> None:
-    msg = _refused(loop, 0.0333)
-    assert "-8.3 %" in msg
-    assert _suggested_period_s(msg) == pytest.approx(loop.truth["period_s"], rel=1e-4)
+    err = _refused(loop, 0.0333)
+    assert "-8.3 %" in str(err)
+    assert err.n_suggested >= 5
+    assert err.suggested_period_s == pytest.approx(loop.truth["period_s"], rel=1e-4)
 
 
 @pytest.mark.parametrize(("prior_s", "tolerance"), [(0.0303, 0.01), (0.0308, 0.01), (0.03, 0.05)])

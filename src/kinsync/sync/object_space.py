@@ -133,7 +133,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import InputError, ObservabilityError
+from kinsync.errors import ObservabilityError, PeriodPriorError
 from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     Assignment,
@@ -365,8 +365,9 @@ def synchronise_object_space(
     Raises
     ------
     InputError
-        A mount without ``[profiler]``; sync points far from the trajectory; a period
-        prior that excludes the clock the data show (module step 3, a wrong prior).
+        A mount without ``[profiler]``; sync points far from the trajectory;
+        `PeriodPriorError`: a period prior that excludes the clock the data show (module
+        step 3, a wrong prior).
     ObservabilityError
         Fewer than two distinct sightings; no sync point crossed by the scan plane; no
         assignment of sightings to crossings with a period within the prior tolerance.
@@ -430,7 +431,7 @@ def _check_period_prior(
     crossings: Sequence[Crossing],
     cfg: ObjectSpaceConfig,
 ) -> None:
-    """Raise `InputError` when a period outside the prior's window fits more sightings.
+    """Raise `PeriodPriorError` when a period outside the prior's window fits more sightings.
 
     See the module's step 3, a wrong prior: the search runs over periods within a
     factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
@@ -457,7 +458,14 @@ def _check_period_prior(
         f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
         f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
     )
-    raise InputError(msg)
+    raise PeriodPriorError(
+        msg,
+        period_prior_s=prior,
+        n_within=n_in,
+        n_sightings=len(sightings),
+        suggested_period_s=period,
+        n_suggested=len(wider.pairs),
+    )
 
 
 def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
