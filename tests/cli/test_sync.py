@@ -100,6 +100,22 @@ def test_object_space_refuses_a_wrong_period_prior(
     assert len(json.loads(out)["sightings"]) == 6
 
 
+def test_object_space_warns_of_a_clock_from_two_sightings(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
+) -> None:
+    """S2 alone, passed twice: two pairs fit any line, nothing checks them."""
+    _, folder = dataset
+    lines = (folder / "sync_points.csv").read_text().splitlines()
+    only_s2 = tmp_path / "s2.csv"
+    only_s2.write_text("\n".join([lines[0], *(x for x in lines if x.startswith("S2,"))]) + "\n")
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(only_s2)
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    assert len(json.loads(out)["sightings"]) == 2
+    assert "kinsync: warning: the clock rests on 2 of 18 sightings: " in err
+
+
 def test_apply_then_georeference(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
 ) -> None:

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import InputError, ObservabilityError, PeriodPriorError
+from kinsync.errors import InputError, KinsyncWarning, ObservabilityError, PeriodPriorError
 from kinsync.frames import (
     ecef_to_geodetic,
     euler_rpy_to_quaternion,
@@ -190,7 +191,8 @@ def test_ambiguity_is_reported() -> None:
     s = sim.scanner.scan
     scan = ProfileScan(s.profile[keep], s.angle_rad[keep], s.range_m[keep], s.intensity[keep])
     only_s1 = SyncPoints(("S1",), sim.sync_points.lat_lon_h[:1])
-    r = synchronise_object_space(scan, sim.trajectory, sim.config.mount, only_s1, EXACT)
+    with pytest.warns(KinsyncWarning, match="rests on 2 of 2 sightings"):
+        r = synchronise_object_space(scan, sim.trajectory, sim.config.mount, only_s1, EXACT)
     assert r.ambiguous
     assert len(r.alternatives) >= 2
     shifts = sorted(abs(a.t0_s - r.t0_s) for a in r.alternatives)
@@ -262,9 +264,11 @@ def test_a_right_period_prior_raises_no_alarm(
 ) -> None:
     """Priors whose window holds the true period (0.030545 s) give the same clock."""
     cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s, period_tolerance=tolerance)
-    r = synchronise_object_space(
-        oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, cfg
-    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KinsyncWarning)  # six pairs: nothing to warn of
+        r = synchronise_object_space(
+            oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, cfg
+        )
     assert [s.t_s for s in r.sightings] == [s.t_s for s in oval_result.sightings]
     assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
 
@@ -387,7 +391,8 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
         scan.profile[keep], scan.angle_rad[keep], scan.range_m[keep], scan.intensity[keep]
     )
     only_s1 = SyncPoints(("S1",), pts.lat_lon_h[:1])
-    assert len(synchronise_object_space(two, traj, mount, only_s1, EXACT).sightings) == 2
+    with pytest.warns(KinsyncWarning, match=r"rests on 2 of 2 sightings: .* nothing checks"):
+        assert len(synchronise_object_space(two, traj, mount, only_s1, EXACT).sightings) == 2
     wrong = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=0.04)
     with pytest.raises(ObservabilityError, match=r"no assignment .* within 0\.01"):
         synchronise_object_space(two, traj, mount, only_s1, wrong)
