@@ -47,6 +47,41 @@ class OutsideSpanError(InputError):
     """A time lies outside the span of a time series and would need extrapolation."""
 
 
+class PeriodPriorError(InputError):
+    """A profiler's period prior excludes the clock the data show (Method B).
+
+    Attributes
+    ----------
+    period_prior_s : float
+        The prior (s).
+    n_within : int
+        Sightings matched by the best clock with a period within the prior's tolerance.
+    n_sightings : int
+        Sightings found in the scan.
+    suggested_period_s : float
+        Period (s) of the clock that matches more sightings, ``n_suggested``.
+    n_suggested : int
+        Sightings that clock matches.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        period_prior_s: float,
+        n_within: int,
+        n_sightings: int,
+        suggested_period_s: float,
+        n_suggested: int,
+    ) -> None:
+        super().__init__(message)
+        self.period_prior_s = period_prior_s
+        self.n_within = n_within
+        self.n_sightings = n_sightings
+        self.suggested_period_s = suggested_period_s
+        self.n_suggested = n_suggested
+
+
 class ConvergenceError(KinsyncError):
     """An iterative estimator did not converge."""
 

@@ -77,6 +77,45 @@ def test_object_space_table(run_cli: RunCli, dataset: tuple[DriveScanSimulation,
     assert "S2" in out
 
 
+def test_object_space_refuses_a_wrong_period_prior(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+) -> None:
+    """A prior 9 % off gave exit 0 and a clock from 2 of 18 sightings matched by chance."""
+    sim, folder = dataset
+    code, out, err = run_cli([*_object_space(folder), "--period-prior-s", "0.0333"])
+    assert_one_line_error(
+        code,
+        out,
+        err,
+        "--period-prior-s 0.0333 s: ",
+        " of 18 sightings fit a clock with a period within 1 % of it, 6 fit one",
+        f"period of {sim.truth['period_s']:.4g}",
+        "datasheet or log",
+        "widen --period-tolerance to 0.09",
+    )
+    code, out, err = run_cli([*_object_space(folder), "--period-prior-s", "0.0308", "--json"])
+    assert code == 0, err
+    assert len(json.loads(out)["sightings"]) == 6
+
+
+def test_object_space_warns_of_a_clock_from_two_sightings(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
+) -> None:
+    """S2 alone, passed twice: two pairs fit any line, nothing checks them."""
+    _, folder = dataset
+    lines = (folder / "sync_points.csv").read_text().splitlines()
+    only_s2 = tmp_path / "s2.csv"
+    only_s2.write_text("\n".join([lines[0], *(x for x in lines if x.startswith("S2,"))]) + "\n")
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(only_s2)
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    assert len(json.loads(out)["sightings"]) == 2
+    assert "kinsync: warning: the clock rests on 2 of 18 sightings: " in err
+
+
 def test_apply_then_georeference(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
 ) -> None:

@@ -29,6 +29,14 @@ def test_method_b_section(tmp_path: Path) -> None:
         assert est["pulse_offset"] == 1
     assert abs(saved["errors"]["exact"]["t0_s"]) < 2e-3
     assert abs(saved["errors"]["exact"]["period_s"]) < 5e-7
+    wrong = saved["wrong_prior"]
+    assert wrong["refused"] is True
+    assert wrong["message"].startswith("--period-prior-s 0.0333 s: ")
+    assert wrong["n_suggested"] == len(saved["exact"]["sightings"])
+    assert abs(wrong["suggested_period_s"] / saved["truth"]["period_s"] - 1.0) < 1e-4
+    (check,) = [c for c in section.checks if "wrong period prior" in c.quantity]
+    assert check.passed, check
+    assert "refused: " in check.detail
     (row,) = summary
     assert row[0].startswith("Method B")
     assert "pulse offset 1" in row[2]

@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from kinsync.errors import InputError
-from kinsync.sync.clock_line import gls_line, pair_covariance, pair_timing_std, weighted_line
+from kinsync.sync.clock_line import (
+    best_assignment,
+    candidate_assignments,
+    gls_line,
+    pair_covariance,
+    pair_timing_std,
+    weighted_line,
+)
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import Crossing
 from kinsync.sync.sightings import Sighting
@@ -103,3 +110,27 @@ def test_position_corr_time_must_be_non_negative() -> None:
     for bad in (-1.0, math.nan, math.inf):
         with pytest.raises(InputError, match="position_corr_time_s"):
             ObjectSpaceConfig(position_corr_time_s=bad)
+
+
+def test_best_assignment_searches_periods_outside_the_prior() -> None:
+    """Five sightings on t = 1000 + 0.0305 x, two strays; a prior 9 % off sees none of it."""
+    x_true = [100.0, 900.0, 2000.0, 3500.0, 5000.0]
+    sightings = [_sighting(v) for v in sorted([*x_true, 1500.0, 4200.0])]
+    t_true = [1000.0 + 0.0305 * v for v in x_true]
+    crossings = [_crossing(t, NORTH, -2.0) for t in sorted([*t_true, 1020.0, 1090.0, 1133.0])]
+    cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=0.0333)
+    within = candidate_assignments(sightings, crossings, cfg)
+    assert within  # some pair of sightings always fits some line
+    assert len(within[0].pairs) < 5
+    wide = (0.0333 / 2.5, 0.0333 * 2.5)
+    best = best_assignment(sightings, crossings, cfg, wide, more_than=len(within[0].pairs))
+    assert best is not None
+    assert len(best.pairs) == 5
+    assert best.fit.period_s == pytest.approx(0.0305, rel=1e-9)
+    assert [crossings[j].t_s for _, j in best.pairs] == pytest.approx(t_true)
+    assert best_assignment(sightings, crossings, cfg, wide, more_than=5) is None
+    # Periods that exclude the line: at most a chance alignment of three pairs (round
+    # numbers and a one-profile gate), never the five.
+    assert best_assignment(sightings, crossings, cfg, (0.031, 0.08), more_than=3) is None
+    # The same line from the default search over the same periods.
+    assert candidate_assignments(sightings, crossings, cfg, wide)[0].pairs == best.pairs

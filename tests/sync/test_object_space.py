@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import InputError, ObservabilityError
+from kinsync.errors import InputError, KinsyncWarning, ObservabilityError, PeriodPriorError
 from kinsync.frames import (
     ecef_to_geodetic,
     euler_rpy_to_quaternion,
@@ -190,12 +191,86 @@ def test_ambiguity_is_reported() -> None:
     s = sim.scanner.scan
     scan = ProfileScan(s.profile[keep], s.angle_rad[keep], s.range_m[keep], s.intensity[keep])
     only_s1 = SyncPoints(("S1",), sim.sync_points.lat_lon_h[:1])
-    r = synchronise_object_space(scan, sim.trajectory, sim.config.mount, only_s1, EXACT)
+    with pytest.warns(KinsyncWarning, match="rests on 2 of 2 sightings"):
+        r = synchronise_object_space(scan, sim.trajectory, sim.config.mount, only_s1, EXACT)
     assert r.ambiguous
     assert len(r.alternatives) >= 2
     shifts = sorted(abs(a.t0_s - r.t0_s) for a in r.alternatives)
     assert shifts[0] > 30.0  # whole laps apart
     assert all(abs(a.period_s - r.period_s) < 1e-6 for a in r.alternatives)
+
+
+def _refused(sim: DriveScanSimulation, prior_s: float) -> PeriodPriorError:
+    """The error of a run with ``--period-prior-s prior_s``."""
+    cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s)
+    with pytest.raises(PeriodPriorError, match=r"^--period-prior-s ") as info:
+        synchronise_object_space(
+            sim.scanner.scan, sim.trajectory, sim.config.mount, sim.sync_points, cfg
+        )
+    assert isinstance(info.value, InputError)  # the CLI's one line and exit 2
+    return info.value
+
+
+@pytest.mark.parametrize("prior_s", [0.0333, 0.028, 0.031, 0.0606, 0.015])
+def test_a_wrong_period_prior_is_refused(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult, prior_s: float
+) -> None:
+    """A prior that excludes the true period gave a clock from 2 of 18 sightings, silently.
+
+    Two pairs always fit a line, so some pair of sightings matched by chance; now the
+    search over periods within a factor 2.5 of the prior finds the clock that fits all
+    six sync-point sightings and the prior is refused, naming what each period fits.
+    """
+    err = _refused(oval, prior_s)
+    msg = str(err)
+    total = len(oval_result.sightings) + len(oval_result.unmatched)
+    assert (err.period_prior_s, err.n_sightings) == (prior_s, total)
+    assert err.n_within <= 2
+    assert err.n_suggested == len(oval_result.sightings)
+    assert err.suggested_period_s == pytest.approx(oval.truth["period_s"], rel=1e-4)  # a prior
+    assert f"--period-prior-s {prior_s:g} s: " in msg
+    assert (
+        f": {err.n_within} of {total} sightings fit a clock with a period within 1 % of it, "
+        f"{err.n_suggested} fit one with a period of {err.suggested_period_s:.6g} s ("
+    ) in msg
+    assert f"(these data suggest --period-prior-s {err.suggested_period_s:.6g})" in msg
+    assert "datasheet or log" in msg
+    off = err.suggested_period_s / prior_s - 1.0
+    assert ("widen --period-tolerance" in msg) == (abs(off) < 0.49)
+    # The suggestion gives the clock of a right prior.
+    r = synchronise_object_space(
+        oval.scanner.scan,
+        oval.trajectory,
+        oval.config.mount,
+        oval.sync_points,
+        ObjectSpaceConfig(position_std_m=0.0, period_prior_s=err.suggested_period_s),
+    )
+    assert len(r.sightings) == len(oval_result.sightings)
+    assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
+
+
+def test_a_wrong_period_prior_is_refused_on_a_looped_drive(
+    loop: DriveScanSimulation,
+) -> None:
+    err = _refused(loop, 0.0333)
+    assert "-8.3 %" in str(err)
+    assert err.n_suggested >= 5
+    assert err.suggested_period_s == pytest.approx(loop.truth["period_s"], rel=1e-4)
+
+
+@pytest.mark.parametrize(("prior_s", "tolerance"), [(0.0303, 0.01), (0.0308, 0.01), (0.03, 0.05)])
+def test_a_right_period_prior_raises_no_alarm(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult, prior_s: float, tolerance: float
+) -> None:
+    """Priors whose window holds the true period (0.030545 s) give the same clock."""
+    cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s, period_tolerance=tolerance)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KinsyncWarning)  # six pairs: nothing to warn of
+        r = synchronise_object_space(
+            oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, cfg
+        )
+    assert [s.t_s for s in r.sightings] == [s.t_s for s in oval_result.sightings]
+    assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)
 
 
 def _straight_trajectory() -> tuple[Trajectory, tuple[float, float, float]]:
@@ -316,7 +391,8 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
         scan.profile[keep], scan.angle_rad[keep], scan.range_m[keep], scan.intensity[keep]
     )
     only_s1 = SyncPoints(("S1",), pts.lat_lon_h[:1])
-    assert len(synchronise_object_space(two, traj, mount, only_s1, EXACT).sightings) == 2
+    with pytest.warns(KinsyncWarning, match=r"rests on 2 of 2 sightings: .* nothing checks"):
+        assert len(synchronise_object_space(two, traj, mount, only_s1, EXACT).sightings) == 2
     wrong = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=0.04)
     with pytest.raises(ObservabilityError, match=r"no assignment .* within 0\.01"):
         synchronise_object_space(two, traj, mount, only_s1, wrong)

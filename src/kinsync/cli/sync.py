@@ -52,7 +52,15 @@ def object_space(
         typer.Option("--pulses", help="Hardware profile pulses CSV (t_s, GPS time), optional."),
     ] = None,
     period_prior_s: Annotated[
-        float, typer.Option("--period-prior-s", help="Prior mirror period (s).")
+        float,
+        typer.Option(
+            "--period-prior-s",
+            help=(
+                "Prior mirror period (s), from the scanner's datasheet or log; refused, with "
+                "the period the data suggest, when a period outside its tolerance fits more "
+                "sightings."
+            ),
+        ),
     ] = 0.0303,
     period_tolerance: Annotated[
         float,

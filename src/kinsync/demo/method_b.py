@@ -4,7 +4,9 @@ A 5-minute oval drive at 2 m/s past two retro-reflective sync spheres (each pass
 twice), four control spheres and a wall is simulated, written as a data set
 (``method-b/``: scan, trajectory, mount, sync points, pulses, truth), read back and
 synchronised: once with the exact trajectory, once with 2 cm of smooth trajectory noise.
-The clock and the pulse offset are compared with the truth.
+The clock and the pulse offset are compared with the truth. A third run with a period
+prior 9 % off (0.0333 s, a 30 Hz datasheet figure) must be refused, naming the period
+the data suggest.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from kinsync.demo.tolerances import EXACT, ONE_ERROR_SOURCE, SIGMA_CONSISTENT
+from kinsync.errors import PeriodPriorError
 from kinsync.io.atomic import atomic_write_bytes, atomic_write_text
 from kinsync.io.mount_file import read_mount
 from kinsync.io.profile_scan import read_profile_scan, read_pulses, read_sync_points
@@ -41,6 +44,9 @@ Summary = list[tuple[str, str, str]]
 
 NOISE_M = 0.02
 
+WRONG_PRIOR_S = 0.0333
+"""A period prior 9 % off the simulated 0.030545 s: must be refused (module docstring)."""
+
 
 @dataclass(frozen=True, eq=False)
 class _MethodBRun:
@@ -51,6 +57,7 @@ class _MethodBRun:
     period_s: float
     exact: ObjectSpaceResult
     noisy: ObjectSpaceResult
+    wrong_prior: PeriodPriorError | None  # None: the wrong prior was accepted
 
 
 def _row(label: str, r: ObjectSpaceResult, t0: float, period: float) -> list[str]:
@@ -92,12 +99,19 @@ def _simulate_and_synchronise(folder: Path) -> _MethodBRun:
         ObjectSpaceConfig(position_std_m=NOISE_M),
         pulses_t_s=pulses,
     )
+    wrong = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=WRONG_PRIOR_S)
+    refused: PeriodPriorError | None = None
+    try:
+        synchronise_object_space(scan, traj, mount, points, wrong)
+    except PeriodPriorError as err:
+        refused = err
     return _MethodBRun(
         sim=sim,
         t0_s=float(sim.truth["t0_s"]),
         period_s=float(sim.truth["period_s"]),
         exact=exact,
         noisy=noisy,
+        wrong_prior=refused,
     )
 
 
@@ -124,6 +138,7 @@ def _figures(run: _MethodBRun) -> tuple[bytes, bytes]:
 def _document(run: _MethodBRun) -> dict[str, object]:
     """What ``method_b.json`` holds: truth, both estimates and their errors."""
     t0, period, exact, noisy = run.t0_s, run.period_s, run.exact, run.noisy
+    err = run.wrong_prior
     return {
         "truth": {"t0_s": t0, "period_s": period, "pulse_offset": run.sim.truth["pulse_offset"]},
         "exact": exact.as_document(),
@@ -131,6 +146,15 @@ def _document(run: _MethodBRun) -> dict[str, object]:
         "errors": {
             "exact": {"t0_s": exact.t0_s - t0, "period_s": exact.period_s - period},
             "noisy": {"t0_s": noisy.t0_s - t0, "period_s": noisy.period_s - period},
+        },
+        "wrong_prior": {
+            "period_prior_s": WRONG_PRIOR_S,
+            "refused": err is not None,
+            "message": None if err is None else str(err),
+            "n_within": None if err is None else err.n_within,
+            "n_sightings": None if err is None else err.n_sightings,
+            "suggested_period_s": None if err is None else err.suggested_period_s,
+            "n_suggested": None if err is None else err.n_suggested,
         },
     }
 
@@ -180,7 +204,10 @@ def _paragraphs(period_s: float) -> tuple[str, ...]:
             "found on the trajectory (Brent), the spheres in the intensity image (sphere fit "
             "in profile-number space), matched by position and relative timing within the "
             "period prior (0.0303 s +- 1 %), and the pairs (n + phi/2pi, t) give t0 and T. "
-            "The hardware pulses carry one pulse too many; the offset is found."
+            "The hardware pulses carry one pulse too many; the offset is found. "
+            f"A prior of {WRONG_PRIOR_S} s (9 % off) is refused: two sightings always fit "
+            "some line, so periods within a factor 2.5 of the prior are searched as well, "
+            "and one outside its tolerance that fits more sightings is named instead."
         ),
         (
             "The uncertainty combines the sphere fit's sub-profile sigma and the position "
@@ -201,6 +228,16 @@ def _checks(run: _MethodBRun) -> tuple[Check, ...]:
     noisy_std_ms = run.noisy.t0_std_s * 1e3
     true_offset = int(run.sim.truth["pulse_offset"])
     found = run.exact.pulses.offset if run.exact.pulses is not None else None
+    err = run.wrong_prior
+    refused = (
+        "accepted"
+        if err is None
+        else (
+            f"refused: {err.n_within} of {err.n_sightings} sightings fit within the prior's "
+            f"1 %, {err.n_suggested} fit {err.suggested_period_s:.6g} s "
+            f"(truth {run.period_s:.6g} s)"
+        )
+    )
     return (
         Check(
             f"clock offset error (exact trajectory) as a displacement along the drive at "
@@ -222,6 +259,12 @@ def _checks(run: _MethodBRun) -> tuple[Check, ...]:
             math.inf if found is None else abs(found - true_offset),
             EXACT,
             detail=f"offset found {'none' if found is None else found}, true {true_offset}",
+        ),
+        Check(
+            f"wrong period prior ({WRONG_PRIOR_S} s, 9 % off) accepted",
+            0.0 if err is not None else 1.0,
+            EXACT,
+            detail=refused,
         ),
     )
 

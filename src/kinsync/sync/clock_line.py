@@ -26,6 +26,7 @@ from kinsync.sync.sightings import Sighting
 __all__ = [
     "Assignment",
     "LineFit",
+    "best_assignment",
     "candidate_assignments",
     "gls_line",
     "pair_covariance",
@@ -169,6 +170,59 @@ def pair_covariance(
     return cov
 
 
+@dataclass(frozen=True)
+class _Compatible:
+    """Every compatible (sighting, crossing) pair, flat, sightings in order.
+
+    ``sighting``, ``crossing``: indices; ``x``: the sighting's clock abscissa
+    (profiles); ``t_s``: the crossing's time (s); ``std_s``: the pair's timing sigma (s).
+    Within one sighting the crossings keep the order of its ``compat`` entry.
+    """
+
+    sighting: IntArray
+    crossing: IntArray
+    x: FloatArray
+    t_s: FloatArray
+    std_s: FloatArray
+
+    @classmethod
+    def build(
+        cls, x: FloatArray, t_c: FloatArray, compat: Sequence[IntArray], std: FloatArray
+    ) -> _Compatible:
+        sighting = np.repeat(np.arange(len(compat), dtype=np.int64), [js.size for js in compat])
+        crossing = (
+            np.concatenate([np.asarray(js, dtype=np.int64) for js in compat])
+            if compat
+            else np.zeros(0, dtype=np.int64)
+        )
+        return cls(sighting, crossing, x[sighting], t_c[crossing], std[sighting, crossing])
+
+
+def _first_of_groups(keys: IntArray) -> IntArray:
+    """Positions where a sorted key array starts a new group."""
+    start = np.ones(keys.size, dtype=bool)
+    start[1:] = keys[1:] != keys[:-1]
+    return np.flatnonzero(start)
+
+
+def _assign(pairs: _Compatible, t0: float, T: float, cfg: ObjectSpaceConfig) -> IntArray:
+    """Indices into ``pairs`` of one assignment to the line ``t = t0 + T x``.
+
+    Each sighting takes its compatible crossing nearest the line (the first of equals),
+    kept within ``max(gate_sigma sigma, min_gate_profiles T)``; a crossing claimed by
+    several sightings goes to the smallest ``|error| / sigma`` (the first of equals).
+    """
+    err = np.abs(pairs.t_s - (t0 + T * pairs.x))
+    by_sighting = np.lexsort((err, pairs.sighting))  # stable: ties keep compat order
+    nearest = by_sighting[_first_of_groups(pairs.sighting[by_sighting])]
+    gate = np.maximum(cfg.gate_sigma * pairs.std_s[nearest], cfg.min_gate_profiles * T)
+    kept = nearest[err[nearest] <= gate]
+    z = err[kept] / pairs.std_s[kept]
+    by_crossing = np.lexsort((pairs.sighting[kept], z, pairs.crossing[kept]))
+    won: IntArray = kept[by_crossing[_first_of_groups(pairs.crossing[kept][by_crossing])]]
+    return won
+
+
 def refine_assignment(
     seed_t0: float,
     seed_T: float,
@@ -177,38 +231,49 @@ def refine_assignment(
     compat: list[IntArray],
     std: FloatArray,
     cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float] | None = None,
 ) -> Assignment | None:
-    """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3)."""
+    """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3).
+
+    ``period_bounds_s`` (s) replaces the prior's window ``period_prior_s (1 +- tol)``.
+    """
+    pairs = _Compatible.build(x, t_c, compat, std)
+    return _refine(seed_t0, seed_T, pairs, cfg, period_bounds_s or _prior_window(cfg))
+
+
+def _prior_window(cfg: ObjectSpaceConfig) -> tuple[float, float]:
+    """Periods (s) within the prior's relative tolerance."""
+    return (
+        cfg.period_prior_s * (1.0 - cfg.period_tolerance),
+        cfg.period_prior_s * (1.0 + cfg.period_tolerance),
+    )
+
+
+def _refine(
+    seed_t0: float,
+    seed_T: float,
+    compatible: _Compatible,
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float],
+) -> Assignment | None:
     t0, T = seed_t0, seed_T
+    lo, hi = period_bounds_s
     previous: tuple[tuple[int, int], ...] | None = None
-    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
-    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
     for _ in range(10):
-        claimed: dict[int, tuple[float, int]] = {}
-        for i, js in enumerate(compat):
-            if js.size == 0:
-                continue
-            err = t_c[js] - (t0 + T * x[i])
-            k = int(np.argmin(np.abs(err)))
-            j = int(js[k])
-            gate = max(cfg.gate_sigma * std[i, j], cfg.min_gate_profiles * T)
-            if abs(err[k]) > gate:
-                continue
-            z = abs(err[k]) / std[i, j]
-            if j not in claimed or z < claimed[j][0]:
-                claimed[j] = (z, i)
-        pairs = tuple(sorted((i, j) for j, (_, i) in claimed.items()))
-        if len(pairs) < 2:
+        won = _assign(compatible, t0, T, cfg)
+        if won.size < 2:
             return None
-        xs = np.array([x[i] for i, _ in pairs])
+        xs = compatible.x[won]
         if np.ptp(xs) <= 0.0:
             return None
+        chosen_s, chosen_c = compatible.sighting[won].tolist(), compatible.crossing[won].tolist()
+        pairs = tuple(sorted(zip(chosen_s, chosen_c, strict=True)))
         if pairs == previous:
             break
         previous = pairs
-        fit = weighted_line(
-            xs, np.array([t_c[j] for _, j in pairs]), np.array([std[i, j] for i, j in pairs])
-        )
+        order = np.lexsort((compatible.crossing[won], compatible.sighting[won]))
+        chosen = won[order]
+        fit = weighted_line(compatible.x[chosen], compatible.t_s[chosen], compatible.std_s[chosen])
         t0, T = fit.t0_s, fit.period_s
         if not lo <= T <= hi:
             return None
@@ -217,10 +282,14 @@ def refine_assignment(
     return Assignment(pairs=previous, fit=fit, score=fit.chi2 + prior)
 
 
-def candidate_assignments(
+def _compatible_pairs(
     sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
-) -> list[Assignment]:
-    """Every distinct assignment reached from a two-pair hypothesis, best first."""
+) -> tuple[FloatArray, FloatArray, list[IntArray], _Compatible]:
+    """Abscissae x, crossing times, each sighting's compatible crossings, and the flat pairs.
+
+    A sighting and a crossing are compatible when the sighting's angle and range are
+    within ``angle_gate_rad`` and ``range_gate_m`` of the crossing's.
+    """
     x = np.array([s.x for s in sightings])
     t_c = np.array([c.t_s for c in crossings])
     std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
@@ -231,8 +300,24 @@ def candidate_assignments(
         d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
         ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
         compat.append(np.flatnonzero(ok).astype(np.int64))
-    lo = cfg.period_prior_s * (1.0 - cfg.period_tolerance)
-    hi = cfg.period_prior_s * (1.0 + cfg.period_tolerance)
+    return x, t_c, compat, _Compatible.build(x, t_c, compat, std)
+
+
+def candidate_assignments(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float] | None = None,
+) -> list[Assignment]:
+    """Every distinct assignment reached from a two-pair hypothesis, best first.
+
+    Hypotheses and assignments need a period within ``period_bounds_s`` (s), by default
+    the prior's window ``period_prior_s (1 +- period_tolerance)``; best is the most
+    pairs, then the smallest score.
+    """
+    x, t_c, compat, compatible = _compatible_pairs(sightings, crossings, cfg)
+    bounds = period_bounds_s or _prior_window(cfg)
+    lo, hi = bounds
     found: dict[tuple[tuple[int, int], ...], Assignment] = {}
     # A hypothesis seeded by two pairs of one assignment already found leads back to
     # it: skip those (keeps the search near-linear in the number of assignments).
@@ -249,10 +334,102 @@ def candidate_assignments(
                         continue
                     if member.get((i, int(j)), set()) & member.get((i2, int(j2)), set()):
                         continue
-                    a = refine_assignment(t_c[j] - T * x[i], T, x, t_c, compat, std, cfg)
+                    a = _refine(t_c[j] - T * x[i], T, compatible, cfg, bounds)
                     if a is None or a.pairs in found:
                         continue
                     found[a.pairs] = a
                     for pair in a.pairs:
                         member.setdefault(pair, set()).add(len(found))
     return sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))
+
+
+def _held(
+    pairs: _Compatible, starts: IntArray, t0: FloatArray, slope: FloatArray, cfg: ObjectSpaceConfig
+) -> IntArray:
+    """Sightings with a compatible crossing within the gate of each line ``t0 + slope x``.
+
+    ``starts``: where each sighting's pairs begin in ``pairs``. Lines are taken in
+    blocks so that a block's (lines x pairs) arrays stay near a million elements.
+    """
+    out = np.empty(t0.size, dtype=np.int64)
+    block = max(1, 1_000_000 // max(pairs.x.size, 1))
+    for lo in range(0, t0.size, block):
+        t0_b, slope_b = t0[lo : lo + block, None], slope[lo : lo + block, None]
+        err = np.abs(pairs.t_s[None, :] - (t0_b + slope_b * pairs.x[None, :]))
+        gate = np.maximum(cfg.gate_sigma * pairs.std_s[None, :], cfg.min_gate_profiles * slope_b)
+        out[lo : lo + block] = np.logical_or.reduceat(err <= gate, starts, axis=1).sum(axis=1)
+    return out
+
+
+def best_assignment(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    period_bounds_s: tuple[float, float],
+    more_than: int,
+) -> Assignment | None:
+    """The assignment with the most pairs, if more than ``more_than``, over a period range.
+
+    Searches the hypotheses of `candidate_assignments` over ``period_bounds_s`` (s),
+    typically far wider than the prior's window, but refines only those whose line
+    already holds more than ``more_than`` sightings (a compatible crossing within the
+    gate of `refine_assignment`): all two-pair lines are checked at once, as arrays,
+    and the few strong ones refined, strongest first. A line of m true pairs is seeded
+    by m (m - 1) / 2 of its own pairs, the farthest apart within a fraction of a sigma
+    of the final line, so it is not missed.
+
+    Parameters
+    ----------
+    sightings, crossings : sequence of Sighting, Crossing
+    cfg : ObjectSpaceConfig
+        Gates and sigmas, as for `candidate_assignments`.
+    period_bounds_s : (float, float)
+        Smallest and largest period (s) of a hypothesis.
+    more_than : int
+        Assignments of this many pairs or fewer are not wanted.
+
+    Returns
+    -------
+    Assignment or None
+        The one with the most pairs (then the smallest score), None when none has more
+        than ``more_than``.
+    """
+    _, _, _, pairs = _compatible_pairs(sightings, crossings, cfg)
+    lo, hi = period_bounds_s
+    if pairs.x.size < 2:
+        return None
+    starts = _first_of_groups(pairs.sighting)
+    strong: list[tuple[int, int, int, float, float]] = []  # (held, p, q, t0, T)
+    for p in range(pairs.x.size - 1):
+        q = np.arange(p + 1, pairs.x.size)
+        dx = pairs.x[q] - pairs.x[p]
+        ok = (pairs.sighting[q] != pairs.sighting[p]) & (pairs.crossing[q] != pairs.crossing[p])
+        ok &= dx > 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = (pairs.t_s[q] - pairs.t_s[p]) / dx
+        ok &= (lo <= slope) & (slope <= hi)
+        q_ok, slope = q[ok], slope[ok]
+        if q_ok.size == 0:
+            continue
+        t0 = pairs.t_s[p] - slope * pairs.x[p]
+        held = _held(pairs, starts, t0, slope, cfg)
+        strong.extend(
+            (int(held[k]), p, int(q_ok[k]), float(t0[k]), float(slope[k]))
+            for k in np.flatnonzero(held > more_than)
+        )
+    strong.sort(key=lambda seed: -seed[0])
+    found: dict[tuple[tuple[int, int], ...], Assignment] = {}
+    member: dict[tuple[int, int], set[int]] = {}
+    for _, first, second, t0_s, period_s in strong:
+        key_p = (int(pairs.sighting[first]), int(pairs.crossing[first]))
+        key_q = (int(pairs.sighting[second]), int(pairs.crossing[second]))
+        if member.get(key_p, set()) & member.get(key_q, set()):
+            continue
+        a = _refine(t0_s, period_s, pairs, cfg, period_bounds_s)
+        if a is None or a.pairs in found:
+            continue
+        found[a.pairs] = a
+        for pair in a.pairs:
+            member.setdefault(pair, set()).add(len(found))
+    ranked = sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))
+    return ranked[0] if ranked and len(ranked[0].pairs) > more_than else None

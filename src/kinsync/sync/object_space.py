@@ -51,6 +51,24 @@ and T. The algorithm:
    different assignment with as many matches within ``ambiguity_chi2`` of it makes
    the result *ambiguous* (reported, with the alternatives). Sightings left unmatched
    (control targets, glints) are reported, never used.
+
+   **A wrong prior.** Two pairs always fit a line exactly, so a prior far from the
+   true period still gave an "assignment": two sightings matched by chance, chi2 0,
+   the rest unmatched (2 of 18 sightings, exit 0, with a prior 9 % off; three by
+   chance on a 5 min looped drive). The search is therefore also made over periods
+   within a factor `PERIOD_SEARCH_FACTOR` of the prior
+   (`kinsync.sync.clock_line.best_assignment`, which refines only the lines that
+   already hold more sightings than the best within the prior's window: milliseconds
+   on the oval, under 0.1 s on a 5 min looped drive with 60 sightings). When a period
+   outside the window fits more sightings, and at least three, the prior excluded
+   what the data show: `kinsync.errors.PeriodPriorError` (an `InputError`) naming
+   ``--period-prior-s``, how many sightings each period fits and the period the data
+   suggest (also as attributes, for a caller that retries). Control targets, glints
+   and far passes stay unmatched on a correct clock (6 of 18 sightings matched in the
+   default simulation, 23 of 60 on the looped drive), so the matched fraction itself
+   says nothing and is not tested. A clock from two pairs only, which nothing can
+   check (no residual, and a wrong prior cannot be told from a right one when no third
+   sighting fits any period), comes with a `KinsyncWarning`.
 4. **Regression.** The pairs ``(x_P = n_P + phi_P / 2 pi, t_P)`` give t0 and T by
    generalised least squares with the covariance of step 5. Regressing on x_P
    applies the helix correction ``t_P - (phi_P / 2 pi) T = t0 + n_P T`` with the
@@ -124,6 +142,7 @@ space). Brent, R. P., "Algorithms for Minimization without Derivatives", 1973
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -133,10 +152,11 @@ from scipy.stats import chi2 as chi2_dist
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import ObservabilityError
+from kinsync.errors import KinsyncWarning, ObservabilityError, PeriodPriorError
 from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     Assignment,
+    best_assignment,
     candidate_assignments,
     gls_line,
     pair_covariance,
@@ -149,11 +169,18 @@ from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
 from kinsync.trajectory import Trajectory
 
 __all__ = [
+    "PERIOD_SEARCH_FACTOR",
     "Alternative",
     "MatchedSighting",
     "ObjectSpaceResult",
     "synchronise_object_space",
 ]
+
+PERIOD_SEARCH_FACTOR = 2.5
+"""Periods from ``prior / factor`` to ``prior * factor`` are searched for a clock that fits
+more sightings than the prior's window allows (module step 3, a wrong prior): a prior
+off by a factor of two (profiles per mirror revolution, a datasheet's line rate for its
+revolution rate) is still caught."""
 
 
 @dataclass(frozen=True)
@@ -357,10 +384,17 @@ def synchronise_object_space(
     Raises
     ------
     InputError
-        A mount without ``[profiler]``; sync points far from the trajectory.
+        A mount without ``[profiler]``; sync points far from the trajectory;
+        `PeriodPriorError`: a period prior that excludes the clock the data show (module
+        step 3, a wrong prior).
     ObservabilityError
         Fewer than two distinct sightings; no sync point crossed by the scan plane; no
         assignment of sightings to crossings with a period within the prior tolerance.
+
+    Warns
+    -----
+    KinsyncWarning
+        The clock rests on two sightings: nothing checks it (module step 3).
     """
     cfg = config or ObjectSpaceConfig()
     require_profiler_azimuth(mount)
@@ -386,6 +420,7 @@ def synchronise_object_space(
         )
         raise ObservabilityError(msg)
     ranked = candidate_assignments(sightings, crossings, cfg)
+    _check_period_prior(ranked, sightings, crossings, cfg)
     if not ranked:
         never = [n for n, c in n_cross.items() if c == 0]
         msg = (
@@ -397,6 +432,14 @@ def synchronise_object_space(
         )
         raise ObservabilityError(msg)
     best = ranked[0]
+    if len(best.pairs) == 2:
+        warnings.warn(
+            f"the clock rests on 2 of {len(sightings)} sightings: two points always fit a "
+            "line, so nothing checks the match or --period-prior-s; pass each sync point "
+            "more than once (at the start and the end of the drive) for a check",
+            KinsyncWarning,
+            stacklevel=2,
+        )
     rivals = [
         a
         for a in ranked[1:]
@@ -411,6 +454,49 @@ def synchronise_object_space(
             sightings[i] = refine_sighting(scan, detected[i][1], cfg, motion)
     return _result(
         best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses_t_s, scan.n_profiles
+    )
+
+
+def _check_period_prior(
+    ranked: Sequence[Assignment],
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+) -> None:
+    """Raise `PeriodPriorError` when a period outside the prior's window fits more sightings.
+
+    See the module's step 3, a wrong prior: the search runs over periods within a
+    factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
+    sightings than the best within the window and at least three.
+    """
+    prior, tol = cfg.period_prior_s, cfg.period_tolerance
+    n_in = len(ranked[0].pairs) if ranked else 0
+    bounds = (prior / PERIOD_SEARCH_FACTOR, prior * PERIOD_SEARCH_FACTOR)
+    wider = best_assignment(sightings, crossings, cfg, bounds, more_than=max(n_in, 2))
+    if wider is None:
+        return
+    period = wider.fit.period_s
+    off = period / prior - 1.0
+    if abs(off) <= tol:
+        return  # the window's own clock, reached from another seed: nothing excluded
+    widen = (
+        f", or widen --period-tolerance to {math.ceil(abs(off) * 100.0) / 100.0:g}"
+        if abs(off) < 0.49  # the tolerance must stay below 0.5
+        else ""
+    )
+    msg = (
+        f"--period-prior-s {prior:g} s: {n_in} of {len(sightings)} sightings fit a clock "
+        f"with a period within {tol * 100.0:g} % of it, {len(wider.pairs)} fit one with a "
+        f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
+        f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
+    )
+    raise PeriodPriorError(
+        msg,
+        period_prior_s=prior,
+        n_within=n_in,
+        n_sightings=len(sightings),
+        suggested_period_s=period,
+        n_suggested=len(wider.pairs),
     )
 
 
