@@ -32,11 +32,15 @@ __all__ = [
     "HEADING_MIN_SPEED_M_S",
     "HEADING_WINDOW_S",
     "LEVELLING_STD_FLOOR_RAD",
+    "STANDSTILL_ACC_CHANGE_M_S2",
+    "STANDSTILL_GYRO_CHANGE_RAD_S",
+    "STANDSTILL_WINDOW_S",
     "STATIC_ACC_STD_M_S2",
     "STATIC_GNSS_SPEED_M_S",
     "STATIC_GRAVITY_TOL_M_S2",
     "STATIC_GYRO_STD_RAD_S",
     "align_static_gnss_heading",
+    "standstill_end_s",
 ]
 
 STATIC_ACC_STD_M_S2 = 0.3
@@ -58,6 +62,63 @@ LEVELLING_STD_FLOOR_RAD = 1e-5
 positive definite when the static samples are quantised to one value."""
 GYRO_MEAN_STD_FLOOR_RAD_S = 1e-8
 """Smallest σ reported for the static mean gyro rate (rad/s, 0.002 deg/h), likewise."""
+STANDSTILL_WINDOW_S = 1.0
+"""Windows in which the standstill after the static period is followed (s)."""
+STANDSTILL_ACC_CHANGE_M_S2 = 0.1
+"""The standstill ends with a window whose mean specific force differs from the static
+mean by more than this (m/s^2): 0.1 m/s^2 for a second is 0.1 m/s of speed."""
+STANDSTILL_GYRO_CHANGE_RAD_S = math.radians(0.5)
+"""... or whose mean angular rate differs from the static mean by more than this."""
+
+
+def standstill_end_s(imu: ImuData, gnss: GnssData, k_end: int) -> float:
+    """When the vehicle, at rest up to IMU epoch ``k_end``, first moves (s).
+
+    The start of the first `STANDSTILL_WINDOW_S` window after ``k_end`` whose mean
+    specific force or angular rate departs from the static mean (by
+    `STANDSTILL_ACC_CHANGE_M_S2`, `STANDSTILL_GYRO_CHANGE_RAD_S`), or the first GNSS
+    epoch after ``k_end`` faster than `STATIC_GNSS_SPEED_M_S`, whichever comes first;
+    the end of the record if neither does.
+
+    Parameters
+    ----------
+    imu : ImuData
+        IMU samples, static up to ``k_end``.
+    gnss : GnssData
+        GNSS fixes (their velocities are used when present).
+    k_end : int
+        Last IMU epoch of the static period.
+
+    Returns
+    -------
+    float
+        Time (s), at least ``imu.t_s[k_end]``.
+    """
+    t = imu.t_s
+    f0 = imu.acc_body_m_s2[: k_end + 1].mean(axis=0)
+    w0 = imu.gyro_body_rad_s[: k_end + 1].mean(axis=0)
+    end = float(t[-1])
+    edges = np.searchsorted(t, np.arange(float(t[k_end]), end, STANDSTILL_WINDOW_S))
+    edges = np.unique(np.append(edges[edges > k_end], len(t)))
+    starts = np.concatenate([[k_end + 1], edges[:-1]])
+    keep = edges > starts
+    starts, stops = starts[keep], edges[keep]
+    if starts.size:
+        acc = np.add.reduceat(imu.acc_body_m_s2, starts, axis=0)[: starts.size]
+        gyro = np.add.reduceat(imu.gyro_body_rad_s, starts, axis=0)[: starts.size]
+        count = (stops - starts)[:, None]
+        moved = (np.linalg.norm(acc / count - f0, axis=1) > STANDSTILL_ACC_CHANGE_M_S2) | (
+            np.linalg.norm(gyro / count - w0, axis=1) > STANDSTILL_GYRO_CHANGE_RAD_S
+        )
+        if moved.any():
+            end = float(t[starts[int(np.argmax(moved))]])
+    if gnss.vel_ned_m_s is not None:
+        after = gnss.t_s > t[k_end]
+        fast = np.hypot(gnss.vel_ned_m_s[:, 0], gnss.vel_ned_m_s[:, 1]) > STATIC_GNSS_SPEED_M_S
+        hits = np.flatnonzero(after & fast)
+        if hits.size:
+            end = min(end, float(gnss.t_s[hits[0]]))
+    return max(end, float(t[k_end]))
 
 
 def _static_window(imu: ImuData, static_s: float) -> int:
@@ -239,8 +300,8 @@ def align_static_gnss_heading(
     Returns
     -------
     InitialState
-        At the first IMU epoch, with the gyro drift estimate (or the known biases) and
-        ``levelling_std_rad`` set.
+        At the first IMU epoch, with the gyro drift estimate (or the known biases),
+        ``levelling_std_rad`` and ``static_until_s`` (`standstill_end_s`) set.
 
     Raises
     ------
@@ -295,6 +356,7 @@ def align_static_gnss_heading(
         gyro_bias_rad_s=(float(gyro_bias[0]), float(gyro_bias[1]), float(gyro_bias[2])),
         acc_bias_m_s2=(float(acc_bias[0]), float(acc_bias[1]), float(acc_bias[2])),
         levelling_std_rad=max(noise, LEVELLING_STD_FLOOR_RAD),
+        static_until_s=standstill_end_s(imu, gnss, k_end),
         gyro_bias_std_rad_s=(
             None
             if known_gyro is not None

@@ -50,6 +50,14 @@ class InitialState:
         the σ of that mean's noise (rad/s, body frame); the filter's initial gyro bias
         σ then follows from it (`kinsync.ins.filter.initial_covariance`) instead of the
         turn-on σ. None (default): the turn-on σ, or the calibration's.
+    static_until_s : float or None
+        Set by a static alignment: the end of the standstill the record starts with
+        (s), when the vehicle first moves. Until then the filter keeps the levelled
+        attitude in the Jacobian of the accelerometer errors (a first-estimates
+        Jacobian, `kinsync.ins._ekf`): the levelled tilt and the horizontal
+        accelerometer error cannot be told apart at rest, and re-linearising about an
+        attitude that the GNSS updates move gains information on them that is not in
+        the data. None (default): no such standstill.
     """
 
     t_s: float
@@ -62,6 +70,7 @@ class InitialState:
     acc_bias_m_s2: tuple[float, float, float] = (0.0, 0.0, 0.0)
     levelling_std_rad: float | None = None
     gyro_bias_std_rad_s: tuple[float, float, float] | None = None
+    static_until_s: float | None = None
 
 
 @dataclass(frozen=True)
