@@ -89,14 +89,19 @@ def test_initial_errors_are_standard_normal_after_a_static_start(
     assert float(np.mean(np.abs(z) < 2.0)) >= WITHIN_2_SIGMA, group
 
 
-@pytest.mark.slow
-def test_no_static_start_loses_its_gnss() -> None:
-    """12 MEMS drives from a static start (60 s at rest, then an oval at 2 m/s, RTK):
-    the χ² gate rejects at most 1 % of each run's GNSS epochs. Before, the filter grew
-    overconfident while standing still (roll/pitch error / σ of RMS 4.0 over 5-60 s and
-    10 after the drive-off) and 4 of these 12 runs then rejected 20-21 % of their epochs
-    from the first turn on."""
-    for seed in range(12):
+DRIVE_SEEDS = range(12)
+STANDSTILL_S = (5.0, 60.0)  # the drives stand for 60 s, then drive an oval
+DRIVE_S = (60.0, 110.0)
+
+
+@pytest.fixture(scope="module")
+def static_start_drives() -> list[tuple[float, FloatArray, FloatArray]]:
+    """12 MEMS drives from a static start (60 s at rest, then an oval at 2 m/s, RTK),
+    as ``kinsync ins run`` filters them without a reference: per drive, the fraction
+    of GNSS epochs rejected, the time since the start and the roll/pitch
+    misorientation (N, E) over its σ, every 10th epoch."""
+    out = []
+    for seed in DRIVE_SEEDS:
         sim = simulate_drive(
             DriveSimConfig(imu="mems", imu_rate_hz=100.0, duration_s=110.0, seed=seed)
         )
@@ -106,5 +111,46 @@ def test_no_static_start_loses_its_gnss() -> None:
             antenna_lever_arm_body_m=config.antenna_lever_arm_body_m,
         )  # fmt: skip
         result = run_ins(sim.imu, sim.gnss, config, init)
-        n = result.forward.n_gnss_used + result.forward.n_gnss_rejected
-        assert result.forward.n_gnss_rejected <= 0.01 * n, (seed, result.gnss_rejected_t_s)
+        nav = result.forward
+        n = nav.n_gnss_used + nav.n_gnss_rejected
+        k = np.arange(0, len(nav.t_s), 10)
+        truth = np.searchsorted(sim.truth.t_s, nav.t_s[k])
+        assert np.allclose(sim.truth.t_s[truth], nav.t_s[k])
+        rpy_true = sim.truth.euler_rpy_rad()[truth]
+        M = np.eye(3) - np.einsum(
+            "nij,nkj->nik",
+            euler_rpy_to_matrix(*nav.rpy_rad[k].T),
+            euler_rpy_to_matrix(*rpy_true.T),
+        )
+        phi = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0]], axis=1)
+        z = phi / nav.std_att_rad[k, :2]
+        out.append((nav.n_gnss_rejected / n, nav.t_s[k] - nav.t_s[0], z))
+    return out
+
+
+@pytest.mark.slow
+def test_no_static_start_loses_its_gnss(
+    static_start_drives: list[tuple[float, FloatArray, FloatArray]],
+) -> None:
+    """The χ² gate rejects at most 1 % of each drive's GNSS epochs. Before stop 24 the
+    filter grew overconfident while standing still (roll/pitch error / σ of RMS 4.0
+    over 5-60 s and 10 after the drive-off) and 4 of these 12 runs then rejected
+    20-21 % of their epochs from the first turn on."""
+    for seed, (rejected, _, _) in zip(DRIVE_SEEDS, static_start_drives, strict=True):
+        assert rejected <= 0.01, (seed, rejected)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("window", [STANDSTILL_S, DRIVE_S], ids=["standing", "driving"])
+def test_tilt_error_is_standard_normal_from_a_static_start(
+    static_start_drives: list[tuple[float, FloatArray, FloatArray]],
+    window: tuple[float, float],
+) -> None:
+    """Roll/pitch error over the filter's σ, RMS within the consistency tolerance, at
+    rest and after driving off. Before, the levelled tilt was independent of the
+    accelerometer error and the Jacobian followed the estimated attitude: the data
+    measure only their difference at rest, and the filter halved the tilt variance
+    (RMS 1.45 standing, 1.61 over 60-85 s, 1.19 over 85-110 s)."""
+    z = np.concatenate([zz[(t >= window[0]) & (t < window[1])] for _, t, zz in static_start_drives])
+    rms = float(np.sqrt(np.mean(z**2)))
+    assert RMS_RANGE[0] < rms < RMS_RANGE[1], rms

@@ -69,6 +69,8 @@ from kinsync.ins._ekf import (
     N_OUT,
     N_PARAMS,
     P_ARM,
+    P_FEJ_C,
+    P_FEJ_END,
     P_GATE,
     P_QC_ATT,
     P_QC_BA,
@@ -423,13 +425,16 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
             dt = imu.t_s[k] - imu.t_s[k - 1]
             acc_k = imu.acc_body_m_s2[k]
             gyro_k = imu.gyro_body_rad_s[k]
-            step_matrices(nominal, gyro_k, acc_k, dt, params, w_b, f_b, C, F, Phi, q, q_nav)
+            step_matrices(
+                nominal, gyro_k, acc_k, dt, imu.t_s[k - 1], params, w_b, f_b, C, F, Phi, q,
+                q_nav,
+            )  # fmt: skip
             propagate_cov(P, Phi, q, q_nav, T)
             mech_step(
                 nominal, filt.increments_prev, gyro_k, acc_k, dt, k == k0 + 1,
                 coning, qa, qb, C,
             )  # fmt: skip
-            if tilt_mean:
+            if tilt_mean and imu.t_s[k - 1] >= params[P_FEJ_END]:
                 tilt_gravity_mean(P, nominal, dt)
             if dt != dt_decay:  # the instability estimates decay as their model says
                 dt_decay = dt
@@ -523,6 +528,28 @@ def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     p[P_GATE] = float(chdtri(3, 1.0 - config.gate_probability))  # chi-square(3) quantile
     p[P_USE_VEL] = 1.0 if use_velocity else 0.0
     p[P_TILT_MEAN] = 1.0
+    p[P_FEJ_END] = -math.inf
+    return p
+
+
+def standstill_params(params: FloatArray, init: InitialState) -> FloatArray:
+    """``params`` with the initial standstill of a static alignment (`step_matrices`).
+
+    Until ``init.static_until_s`` the accelerometer columns of ``F`` keep the levelled
+    attitude (first-estimates Jacobian, `kinsync.ins._ekf`), and the second-order tilt
+    mean (`tilt_gravity_mean`) is left out: levelling made the resolved specific force
+    exactly vertical, so at rest the tilt error takes no vertical support away; that
+    mean holds for a tilt error independent of the accelerometer error, as it becomes
+    once the vehicle moves. Applied during the standstill it biased the vertical
+    accelerometer bias (-1.6σ on average over 5-60 s) and, with the tilt correlated to
+    the accelerometer error as it is, one of 12 simulated MEMS starts lost its GNSS
+    (`initial_covariance`). Unchanged without a levelled standstill.
+    """
+    if init.static_until_s is None or init.levelling_std_rad is None:
+        return params
+    p = params.copy()
+    p[P_FEJ_END] = init.static_until_s
+    p[P_FEJ_C : P_FEJ_C + 9] = euler_rpy_to_matrix(*init.rpy_rad).ravel()
     return p
 
 
@@ -537,17 +564,17 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
 
     When roll and pitch were levelled from a static period
     (``init.levelling_std_rad`` set), the levelled tilt is wrong by the horizontal
-    accelerometer error over g (Groves 2013, sec. 5.6.2): roll and pitch take that σ,
-    ``sqrt(σ_turn-on² + σ_instability²) / g`` with the largest accelerometer σ, plus
-    the levelling noise, instead of the configured σ. The tilt error is in fact
-    ``φ_N = (C δf)_E / g``, ``φ_E = -(C δf)_N / g``, fully correlated with the
-    accelerometer states; that correlation is left out on purpose. With it, the
-    second-order tilt mean (`kinsync.ins._ekf.tilt_gravity_mean`) biases the vertical
-    accelerometer bias of a level vehicle during its standstill (smoothed, 3-9σ on the
-    demo's drive) and 1 of 12 simulated MEMS static starts diverged; without it, none
-    of the 12 did, the normalised roll/pitch errors were 1.43 / 1.45 / 1.16 (RMS over
-    5-60 s, 60-85 s, 85-110 s) against 1.51 / 2.69 / 2.06 with it, and the vertical
-    bias stayed within 1.2σ at the start.
+    accelerometer error over g (Groves 2013, sec. 5.6.2): ``φ_N = (C δf)_E / g``,
+    ``φ_E = -(C δf)_N / g`` with ``δf = δb_a + δm_a``, plus the levelling noise
+    (σ ``levelling_std_rad``), instead of the configured σ. The tilt is correlated
+    with the accelerometer states accordingly (through ``C`` of the levelled attitude),
+    and the measured gyro bias below with that whole tilt. Left independent, the tilt
+    and the horizontal accelerometer error each kept their σ while at rest the data
+    measure only their difference, so the filter halved the tilt variance: normalised
+    roll/pitch errors of RMS 1.45 over 5-60 s at rest (12 simulated MEMS static starts),
+    about √2. With the correlation, the first-estimates Jacobian and no second-order
+    tilt mean during the standstill (`standstill_params`): 0.95, and 1.32 / 1.22 over
+    60-85 s and 85-110 s after driving off (1.61 / 1.19 before).
 
     When the gyro bias was measured as the mean rate of a static period
     (``init.gyro_bias_std_rad_s`` set, and no calibration in ``config``), that mean
@@ -567,9 +594,7 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     acc = config.init_acc_bias_std_m_s2 or (config.acc_bias_sigma_m_s2,) * 3
     sig[0:3] = config.init_std_att_rad
     if init.levelling_std_rad is not None:
-        g = float(normal_gravity_m_s2(math.radians(init.lat_deg), init.h_m))
-        total = math.hypot(max(acc), config.acc_bias_instability_m_s2) / g
-        sig[0:2] = math.hypot(init.levelling_std_rad, total)
+        sig[0:2] = init.levelling_std_rad  # the rest of the tilt: the acc states, via S
     sig[3:6] = config.init_std_vel_ned_m_s
     sig[6:9] = config.init_std_pos_ned_m
     sig[X_BG : X_BG + 3] = gyro
@@ -596,17 +621,23 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
 def _static_start_transform(init: InitialState, n: int, *, measured_gyro: bool) -> FloatArray:
     """``T`` (n, n): error state = ``T`` × independent errors after a static start.
 
-    Identity, plus ``-δm_g - C^T [ω_ie×] φ`` in the turn-on gyro bias rows of a gyro
-    bias measured as a static mean rate (`initial_covariance`).
+    Identity, plus the accelerometer error over g in the roll and pitch rows of a
+    levelled attitude, and ``-δm_g - C^T [ω_ie×] φ`` in the turn-on gyro bias rows of
+    a gyro bias measured as a static mean rate (`initial_covariance`).
     """
     T = np.eye(n)
+    C = euler_rpy_to_matrix(*init.rpy_rad)
+    if init.levelling_std_rad is not None:
+        g = float(normal_gravity_m_s2(math.radians(init.lat_deg), init.h_m))
+        for x in (X_BA, X_MA):  # φ_N = (C δf)_E / g, φ_E = -(C δf)_N / g
+            T[0, x : x + 3] = C[1] / g
+            T[1, x : x + 3] = -C[0] / g
     if measured_gyro:
-        C = euler_rpy_to_matrix(*init.rpy_rad)
         lat = math.radians(init.lat_deg)
         w = OMEGA_IE_RAD_S * np.array([math.cos(lat), 0.0, -math.sin(lat)])
         W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-        T[X_BG : X_BG + 3, X_MG : X_MG + 3] = -np.eye(3)
-        T[X_BG : X_BG + 3, 0:3] = -C.T @ W
+        T[X_BG : X_BG + 3] -= T[X_MG : X_MG + 3]  # - δm_g
+        T[X_BG : X_BG + 3] -= C.T @ W @ T[0:3]  # - C^T [ω_ie×] φ, the whole tilt
     return T
 
 
@@ -712,7 +743,7 @@ def forward_pass(
     """
     k0 = start_epoch(imu, init)
     n = len(imu)
-    params = filter_params(config, use_velocity=use_velocity)
+    params = standstill_params(filter_params(config, use_velocity=use_velocity), init)
     imu_arrays = ImuArrays(imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2)
     gnss_arrays = _gnss_arrays(gnss, gnss_imu_epoch, config, use_velocity=use_velocity)
     init = starting_estimates(config, init)

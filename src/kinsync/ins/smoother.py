@@ -292,8 +292,8 @@ def _ins_matrices(
     for i in range(1, top + 1):
         k = e + i
         step_matrices(
-            states[k - 1], gyro[k], acc[k], t[k] - t[k - 1], params, w_b, f_b, C, F,
-            Phi_buf[i], q_buf[i], q_nav_buf[i],
+            states[k - 1], gyro[k], acc[k], t[k] - t[k - 1], t[k - 1], params, w_b, f_b, C,
+            F, Phi_buf[i], q_buf[i], q_nav_buf[i],
         )  # fmt: skip
 
 
