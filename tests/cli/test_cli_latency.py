@@ -355,11 +355,8 @@ def test_sphere_raw_refuses_points_in_a_hole_of_the_attitude_log(
     lines = log.read_text(encoding="utf-8").splitlines()
     t = np.array([float(ln.split(",")[0]) for ln in lines[1:]])
     mid = float(np.median(t[: t.size // 4]))  # inside the first pass
-    log.write_text(
-        "\n".join([lines[0]] + [ln for ln, tk in zip(lines[1:], t) if abs(tk - mid) > 0.25])
-        + "\n",
-        encoding="utf-8",
-    )
+    kept = [ln for ln, tk in zip(lines[1:], t, strict=True) if abs(tk - mid) > 0.25]
+    log.write_text("\n".join([lines[0], *kept]) + "\n", encoding="utf-8")
     code, out, err = run_cli(["latency", "sphere", str(folder), "--raw", "--no-figure"])
     assert_one_line_error(code, out, err, "pass_000.csv", "data gap of the attitude log", str(log))
 
