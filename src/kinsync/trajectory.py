@@ -713,21 +713,19 @@ class Trajectory:
         if not mask_outside and not np.all(inside):
             row = _first_bad_row(~inside)
             n_out = int(np.count_nonzero(~inside))
-            where = f"time t={float(t[row])!r} (index {row}, {n_out} time(s) in all) lies"
             gaps = self.gaps(max_gap_s)
             k = int(gap_index(t[row], gaps))
-            if k >= 0:
-                msg = (
-                    f"{where} in a data gap of the trajectory, {gaps[k].describe()} without a "
-                    f"record (longer than {max_gap_for(self.t_s, max_gap_s):.6g} s); kinsync "
-                    "does not interpolate across gaps: trim the data or ask for masked output"
-                )
-            else:
-                msg = (
-                    f"{where} outside the trajectory span [{self.t_start_s!r}, "
-                    f"{self.t_end_s!r}]; kinsync does not extrapolate: trim the data or ask "
-                    "for masked output"
-                )
+            why = (
+                f"in a data gap of the trajectory, {gaps[k].describe()} without a record; "
+                "kinsync does not interpolate across gaps"
+                if k >= 0
+                else f"outside the trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; "
+                "kinsync does not extrapolate"
+            )
+            msg = (
+                f"time t={float(t[row])!r} (index {row}, {n_out} time(s) in all) lies {why}: "
+                "trim the data or ask for masked output"
+            )
             raise OutsideSpanError(msg)
         return inside
 
