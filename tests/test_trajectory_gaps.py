@@ -83,11 +83,11 @@ def test_masked_times_in_a_gap_come_back_nan_and_never_a_guess() -> None:
     t = T0 + np.array([10.0, 30.0, 33.0, 36.0, 40.0, 50.0])
     sample = traj.interpolate(t, mask_outside=True)
     assert sample.inside.tolist() == [True, True, False, False, True, True]
+    assert sample.pos_ned_m is not None
     assert np.isnan(sample.pos_ned_m[~sample.inside]).all()
     assert np.isnan(sample.q_body_to_ned[~sample.inside]).all()
     truth = full.interpolate(t)
     assert truth.pos_ned_m is not None
-    assert sample.pos_ned_m is not None
     np.testing.assert_allclose(sample.pos_ned_m[sample.inside], truth.pos_ned_m[sample.inside])
     # What interpolating across the hole would have given: metres off the circle.
     across = traj.interpolate(t, max_gap_s=math.inf)
