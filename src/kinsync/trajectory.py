@@ -5,7 +5,9 @@ about a geodetic origin), body -> NED attitude as unit quaternions and, optional
 NED velocities. It interpolates at arbitrary times, vectorised: position linearly, or
 by cubic Hermite splines where velocities exist; attitude by spherical linear
 interpolation (slerp). Times outside the span raise `OutsideSpanError` or, on request,
-come back masked (NaN and ``inside == False``); nothing is extrapolated.
+come back masked (NaN and ``inside == False``); nothing is extrapolated, nor
+interpolated across a data gap (`kinsync.trajectory_gaps`): a time inside one is
+treated like a time outside the span.
 
 Velocities are checked against the positions before Hermite uses them
 (`Trajectory.velocity_check`, `check_velocities`): converted or synthesised files
@@ -46,7 +48,13 @@ from kinsync.frames import (
     quaternion_to_euler_rpy,
     quaternion_to_matrix,
 )
-from kinsync.trajectory_gaps import GAP_FACTOR
+from kinsync.trajectory_gaps import (
+    GAP_FACTOR,
+    TrajectoryGap,
+    gap_index,
+    max_gap_for,
+    trajectory_gaps,
+)
 
 __all__ = [
     "VELOCITY_CHECK_ATOL_M",
@@ -591,10 +599,29 @@ class Trajectory:
         """Attitude as DIN 9300 ``(roll, pitch, yaw)`` (rad), shape (N, 3)."""
         return quaternion_to_euler_rpy(self.q_body_to_ned)
 
-    def contains(self, t_s: ArrayLike) -> BoolArray:
-        """True where a time lies within ``[t_start_s, t_end_s]``, same shape as ``t_s``."""
+    @cached_property
+    def _default_gaps(self) -> tuple[TrajectoryGap, ...]:
+        return trajectory_gaps(self.t_s, max_gap_for(self.t_s))
+
+    def gaps(self, max_gap_s: float | None = None) -> tuple[TrajectoryGap, ...]:
+        """The data gaps: record intervals longer than ``max_gap_s`` (s), in time order.
+
+        ``max_gap_s`` defaults to `kinsync.trajectory_gaps.GAP_FACTOR` median record
+        intervals (`kinsync.trajectory_gaps.max_gap_for`); ``math.inf`` finds none.
+        """
+        if max_gap_s is None:
+            return self._default_gaps
+        return trajectory_gaps(self.t_s, max_gap_for(self.t_s, max_gap_s))
+
+    def contains(self, t_s: ArrayLike, *, max_gap_s: float | None = None) -> BoolArray:
+        """True where a time can be interpolated, same shape as ``t_s``.
+
+        Within ``[t_start_s, t_end_s]`` and not strictly inside a data gap
+        (`gaps` with ``max_gap_s``; ``math.inf``: the span alone).
+        """
         t = np.asarray(t_s, dtype=np.float64)
-        return (t >= self.t_start_s) & (t <= self.t_end_s)
+        in_span: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)
+        return in_span & (gap_index(t, self.gaps(max_gap_s)) < 0)
 
     # ------------------------------------------------------------------ transforms
     def shifted(self, dt_s: float) -> Trajectory:
@@ -675,19 +702,29 @@ class Trajectory:
         frac = (t - t0) / (self.t_s[idx + 1] - t0)
         return idx, frac
 
-    def _check_inside(self, t: FloatArray, *, mask_outside: bool) -> BoolArray:
+    def _check_inside(
+        self, t: FloatArray, *, mask_outside: bool, max_gap_s: float | None
+    ) -> BoolArray:
         if not np.all(np.isfinite(t)):
             row = _first_bad_row(~np.isfinite(t))
             msg = f"interpolation time at index {row} is not finite ({float(t[row])!r})"
             raise InputError(msg)
-        inside = self.contains(t)
+        inside = self.contains(t, max_gap_s=max_gap_s)
         if not mask_outside and not np.all(inside):
             row = _first_bad_row(~inside)
             n_out = int(np.count_nonzero(~inside))
+            gaps = self.gaps(max_gap_s)
+            k = int(gap_index(t[row], gaps))
+            why = (
+                f"in a data gap of the trajectory, {gaps[k].describe()} without a record; "
+                "kinsync does not interpolate across gaps"
+                if k >= 0
+                else f"outside the trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; "
+                "kinsync does not extrapolate"
+            )
             msg = (
-                f"time t={float(t[row])!r} (index {row}, {n_out} time(s) in all) lies outside the "
-                f"trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; kinsync does not "
-                "extrapolate: trim the data or ask for masked output"
+                f"time t={float(t[row])!r} (index {row}, {n_out} time(s) in all) lies {why}: "
+                "trim the data or ask for masked output"
             )
             raise OutsideSpanError(msg)
         return inside
@@ -698,6 +735,7 @@ class Trajectory:
         *,
         position: PositionMethod = "auto",
         mask_outside: bool = False,
+        max_gap_s: float | None = None,
     ) -> TrajectorySample:
         """Interpolate position and attitude at arbitrary times.
 
@@ -711,8 +749,12 @@ class Trajectory:
             (`velocity_check`), else linear, with a `VelocityConsistencyWarning` when
             the velocities disagree. "hermite" with disagreeing velocities is refused.
         mask_outside : bool
-            False (default): a time outside the span raises `OutsideSpanError`.
-            True: such times come back as NaN with ``inside == False``.
+            False (default): a time outside the span or inside a data gap raises
+            `OutsideSpanError`. True: such times come back as NaN with
+            ``inside == False``.
+        max_gap_s : float, optional
+            Longest record interval (s) interpolated across (`gaps`); default
+            `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
 
         Returns
         -------
@@ -725,13 +767,13 @@ class Trajectory:
             Non-finite times, an unknown method, "hermite" without velocities or
             with velocities that disagree with the positions.
         OutsideSpanError
-            A time outside the span, unless ``mask_outside``.
+            A time outside the span or inside a data gap, unless ``mask_outside``.
         """
         t = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
         if t.ndim != 1:
             msg = f"interpolation times: expected a 1-D array, got shape {t.shape}"
             raise InputError(msg)
-        inside = self._check_inside(t, mask_outside=mask_outside)
+        inside = self._check_inside(t, mask_outside=mask_outside, max_gap_s=max_gap_s)
         use_hermite = self._use_hermite(position)
 
         m = t.size

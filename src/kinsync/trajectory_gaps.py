@@ -2,9 +2,12 @@
 
 A record interval longer than `GAP_FACTOR` times the median record interval (or than an
 explicit ``max_gap_s``) is a gap: positions and attitudes interpolated across it are a
-guess, not a measurement. Georeferencing (`kinsync.georef.trajectory.GeorefTrajectory`)
-treats points in a gap like points outside the trajectory's span, and
-``kinsync trajectory info`` warns about gaps.
+guess, not a measurement. A time strictly inside a gap is treated like a time outside
+the trajectory's span: by `kinsync.trajectory.Trajectory` (``contains`` is False there,
+``interpolate`` raises or masks), by georeferencing
+(`kinsync.georef.trajectory.GeorefTrajectory`) and so by every command that reads a
+trajectory at given times; ``kinsync trajectory info`` warns about gaps. A time on
+the record at either end of a gap is not in it.
 """
 
 from __future__ import annotations
@@ -14,12 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinsync._typing import ArrayLike
+from kinsync._typing import ArrayLike, IntArray
 from kinsync.errors import InputError
 
 __all__ = [
     "GAP_FACTOR",
     "TrajectoryGap",
+    "gap_index",
     "max_gap_for",
     "trajectory_gaps",
 ]
@@ -62,9 +66,9 @@ def max_gap_for(t_s: ArrayLike, max_gap_s: float | None = None) -> float:
     t_s : array_like, shape (N,)
         Record times (s), strictly increasing.
     max_gap_s : float, optional
-        An explicit threshold (s, positive); default `GAP_FACTOR` times the median
-        record interval (infinite with fewer than two intervals: one interval is no
-        evidence of a gap).
+        An explicit threshold (s, positive; ``math.inf``: no record interval is a gap);
+        default `GAP_FACTOR` times the median record interval (infinite with fewer
+        than two intervals: one interval is no evidence of a gap).
 
     Returns
     -------
@@ -77,7 +81,7 @@ def max_gap_for(t_s: ArrayLike, max_gap_s: float | None = None) -> float:
         ``max_gap_s`` not a positive number.
     """
     if max_gap_s is not None:
-        if not (math.isfinite(max_gap_s) and max_gap_s > 0.0):
+        if not max_gap_s > 0.0:  # NaN too
             msg = (
                 "the longest trajectory gap to interpolate across (--max-gap-s) must be a "
                 f"positive number of seconds, got {max_gap_s!r}"
@@ -95,3 +99,29 @@ def trajectory_gaps(t_s: ArrayLike, max_gap_s: float) -> tuple[TrajectoryGap, ..
     t = np.asarray(t_s, dtype=np.float64)
     k = np.flatnonzero(np.diff(t) > max_gap_s)
     return tuple(TrajectoryGap(float(t[i]), float(t[i + 1])) for i in k)
+
+
+def gap_index(t_s: ArrayLike, gaps: tuple[TrajectoryGap, ...]) -> IntArray:
+    """Which gap each time lies strictly inside: its index in ``gaps``, -1 for none.
+
+    Parameters
+    ----------
+    t_s : array_like, any shape
+        Times (s), on the time scale of the gaps.
+    gaps : tuple of TrajectoryGap
+        In time order, not overlapping (`trajectory_gaps`).
+
+    Returns
+    -------
+    ndarray of int64, same shape as ``t_s``
+        A time on a gap's start or end record is not inside it.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    if not gaps:
+        return np.full(t.shape, -1, dtype=np.int64)
+    starts = np.array([g.t_start_s for g in gaps])
+    ends = np.array([g.t_end_s for g in gaps])
+    k = np.searchsorted(starts, t, side="left") - 1  # the last gap starting before t
+    inside = (k >= 0) & (t < ends[np.maximum(k, 0)])
+    out: IntArray = np.where(inside, k, -1).astype(np.int64)
+    return out

@@ -341,6 +341,26 @@ def test_sphere_raw_applies_the_mount_latency(
     assert_one_line_error(code, out, err, "raw folder not found")
 
 
+def test_sphere_raw_refuses_points_in_a_hole_of_the_attitude_log(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """Half a second of attitude missing in a pass: exit 2 naming the gap, no estimate."""
+    folder = tmp_path / "raw_set"
+    write_simulation(
+        simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3)),
+        folder,
+        raw=True,
+    )
+    log = folder / "raw" / "attitude.csv"
+    lines = log.read_text(encoding="utf-8").splitlines()
+    t = np.array([float(ln.split(",")[0]) for ln in lines[1:]])
+    mid = float(np.median(t[: t.size // 4]))  # inside the first pass
+    kept = [ln for ln, tk in zip(lines[1:], t, strict=True) if abs(tk - mid) > 0.25]
+    log.write_text("\n".join([lines[0], *kept]) + "\n", encoding="utf-8")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--raw", "--no-figure"])
+    assert_one_line_error(code, out, err, "pass_000.csv", "data gap of the attitude log", str(log))
+
+
 @pytest.mark.parametrize(
     ("options", "fragments"),
     [

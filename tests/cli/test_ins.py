@@ -7,6 +7,7 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from kinsync.cli import _progress
@@ -278,6 +279,13 @@ def test_bad_inputs_are_one_line_errors(
     )
     argv[argv.index(str(plain))] = str(late)
     assert_one_line_error(*run_cli(argv), "--init-from", "does not reach the IMU span")
+    # The IMU starts inside a data gap of the reference: its state there is not a guess.
+    t0 = float(navego["imu"].read_text().splitlines()[1].split(",")[0])
+    holed = tmp_path / "holed.csv"
+    rows = [f"{t0 + dt!r},1,2,3,0,0,0,0,0,0" for dt in (-1.0, -0.99, -0.98, -0.97, 1.0, 1.01)]
+    holed.write_text(late.read_text().splitlines()[0] + "\n" + "\n".join(rows) + "\n")
+    argv[argv.index(str(late))] = str(holed)
+    assert_one_line_error(*run_cli(argv), "--init-from", "inside a data gap", f"{t0 - 0.97!r} ..")
     assert not out.exists()
     # No --init-from on data without a static start, and a bad static period.
     argv = _run_args(navego, out)
@@ -292,6 +300,40 @@ def test_bad_inputs_are_one_line_errors(
     argv = _run_args(navego, out)
     argv[argv.index(str(navego["imu"]))] = str(tmp_path / "none.csv")
     assert_one_line_error(*run_cli(argv), "none.csv", "not found")
+
+
+def test_compare_leaves_out_epochs_in_a_gap_of_the_reference(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    """The truth against itself with 10 s cut out of the reference: no error is made up.
+
+    Interpolated across the hole, the reference made the identical solution look
+    decimetres and degrees wrong; now those epochs are left out, counted and named.
+    """
+    lines = navego["truth"].read_text().splitlines()
+    t = np.array([float(ln.split(",")[0]) for ln in lines[1:]])
+    hole = (t[0] + 20.0, t[0] + 30.0)
+    kept = [ln for ln, tk in zip(lines[1:], t, strict=True) if not hole[0] < tk < hole[1]]
+    holed = tmp_path / "truth_hole.csv"
+    holed.write_text("\n".join([lines[0], *kept]) + "\n")
+    n_hole = int(np.count_nonzero((t > hole[0]) & (t < hole[1])))
+    argv = ["ins", "compare", str(navego["truth"]), str(holed)]
+    code, stdout, stderr = run_cli([*argv, "--json"])
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["n_epochs_in_truth_gaps"] == n_hole > 1900
+    assert doc["n_epochs"] == t.size - n_hole
+    assert doc["n_epochs_outside_truth"] == 0
+    assert [[g["t_start_s"], g["t_end_s"]] for g in doc["truth_gaps"]] == [list(hole)]
+    assert max(doc["max_pos_ned_m"]) < 1e-6
+    assert max(doc["max_att_deg"]) < 1e-6
+    assert stderr.count("\n") == 1
+    assert f"{n_hole} solution epochs left out, in 1 data gap of the reference" in stderr
+    code, stdout, stderr = run_cli(argv)
+    assert code == 0, stderr
+    assert f"left out: 0 epoch(s) outside the reference's span, {n_hole} in its data gaps" in (
+        " ".join(stdout.split())
+    )
 
 
 def test_compare_bad_inputs(

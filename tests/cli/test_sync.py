@@ -116,6 +116,38 @@ def test_object_space_warns_of_a_clock_from_two_sightings(
     assert "kinsync: warning: the clock rests on 2 of 18 sightings: " in err
 
 
+def test_object_space_leaves_out_a_crossing_in_a_trajectory_gap(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
+) -> None:
+    """10 s cut out of the trajectory around a sighting: exit 0, the crossing named in
+    one warning line and in the document, the sighting unmatched (it was an internal
+    error: the root search met the gap-aware georeferencing's NaN)."""
+    sim, folder = dataset
+    code, out, err = run_cli([*_object_space(folder), "--json"])
+    assert code == 0, err
+    full = json.loads(out)
+    first = full["sightings"][0]
+    lines = (folder / "trajectory.csv").read_text().splitlines()
+    kept = [ln for ln in lines[1:] if abs(float(ln.split(",")[0]) - first["t_s"]) > 5.0]
+    holed = tmp_path / "trajectory_hole.csv"
+    holed.write_text("\n".join([lines[0], *kept]) + "\n")
+    args = _object_space(folder)
+    args[args.index(str(folder / "trajectory.csv"))] = str(holed)
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    (gap,) = doc["crossings_in_gaps"]
+    assert gap["name"] == first["name"]
+    assert gap["t_start_s"] < first["t_s"] < gap["t_end_s"]
+    assert len(doc["sightings"]) == len(full["sightings"]) - 1
+    assert len(doc["unmatched_sightings"]) == len(full["unmatched_sightings"]) + 1
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) < 4 * doc["t0_std_s"]
+    warnings = [ln for ln in err.splitlines() if "warning" in ln]
+    assert len(warnings) == 1
+    assert f"{holed}: 1 possible sync-point crossing(s) left out" in warnings[0]
+    assert f"{first['name']} in " in warnings[0]
+
+
 def test_apply_then_georeference(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
 ) -> None:

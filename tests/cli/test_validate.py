@@ -171,6 +171,34 @@ def test_control_point_without_target_is_reported_not_fatal(
     assert doc["time_error"]["significant"] is True
 
 
+def test_a_visit_in_a_trajectory_gap_is_reported_missing(
+    run_cli: RunCli, files: dict[str, Path]
+) -> None:
+    """One second cut out of the trajectory around a visit: that visit is missing, with
+    the gap as the reason, and the rest is validated as before."""
+    argv = [
+        "validate", "control-points", "--cloud", str(files["cloud_csv"]),
+        "--control", str(files["control"]), "--centre", "sphere", "--target-radius-m", "0.2",
+        "--json", "--trajectory",
+    ]  # fmt: skip
+    code, out, err = run_cli([*argv, str(files["trajectory"])])
+    assert code == 0, err
+    t_visit = sorted(o["t_s"] for o in json.loads(out)["observations"])
+    t_hole = t_visit[len(t_visit) // 2]
+    lines = files["trajectory"].read_text(encoding="utf-8").splitlines()
+    kept = [ln for ln in lines[1:] if abs(float(ln.split(",")[0]) - t_hole) > 0.5]
+    holed = files["dir"] / "trajectory_hole.csv"
+    holed.write_text("\n".join([lines[0], *kept]) + "\n", encoding="utf-8")
+    n_hole = sum(abs(t - t_hole) < 0.49 for t in t_visit)
+    code, out, err = run_cli([*argv, str(holed)])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_missing"] == n_hole >= 1
+    assert doc["n_observations"] == len(t_visit) - n_hole
+    assert all("data gap of the trajectory" in m["reason"] for m in doc["missing"])
+    assert t_hole in [m["t_s"] for m in doc["missing"]]
+
+
 def _control_las(files: dict[str, Path], path: Path, *, adjusted: bool) -> None:
     cols = _columns(files["cloud_csv"])
     header = laspy.LasHeader(point_format=6, version="1.4")

@@ -143,6 +143,53 @@ def test_truth_is_interpolated_and_only_the_overlap_compared() -> None:
     assert max(cmp.max_vel_ned_m_s) < 1e-3
 
 
+def test_epochs_in_a_gap_of_the_truth_are_left_out_and_counted() -> None:
+    """10 s missing from the truth: the solution there is not compared with a guess.
+
+    On the 200 m circle the truth interpolated across the hole is centimetres and
+    degrees off the true path (Hermite positions with exact velocities; slerp through
+    a roll that swings 0.05 rad every 21 s), which would be charged to the solution as
+    its error.
+    """
+    t_truth = np.arange(0.0, 100.0, 0.1)
+    holed = _truth(t_truth[~((t_truth > 40.0) & (t_truth < 50.0))])
+    t = np.arange(-5.0, 105.0, 0.05)
+    cmp = compare_to_truth(_solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), holed)
+    in_hole = (t > 40.0) & (t < 50.0)
+    outside = (t < 0.0) | (t > 99.9 + 1e-9)
+    assert cmp.n_in_truth_gaps == np.count_nonzero(in_hole)
+    assert cmp.n_outside_truth == np.count_nonzero(outside)
+    assert cmp.n_epochs == t.size - cmp.n_in_truth_gaps - cmp.n_outside_truth
+    np.testing.assert_array_equal(cmp.t_s, t[~in_hole & ~outside])
+    ((start, end),) = [(g.t_start_s, g.t_end_s) for g in cmp.truth_gaps]
+    assert (start, end) == pytest.approx((40.0, 50.0))
+    assert max(cmp.max_pos_ned_m) < 1e-3
+    assert max(cmp.max_att_deg) < 1e-3
+    doc = cmp.as_document()
+    assert doc["n_epochs_in_truth_gaps"] == cmp.n_in_truth_gaps
+    assert doc["n_epochs_outside_truth"] == cmp.n_outside_truth
+    assert doc["truth_gaps"] == [{"t_start_s": start, "t_end_s": end}]
+    # what the old comparison charged to the solution: the guess across the hole
+    guess = holed.interpolate(t[in_hole], max_gap_s=math.inf)
+    exact = _truth(t[in_hole]).interpolate(t[in_hole])
+    assert np.max(np.linalg.norm(guess.pos_ecef_m() - exact.pos_ecef_m(), axis=1)) > 0.02
+    roll_deg = np.degrees(
+        quaternion_to_euler_rpy(guess.q_body_to_ned)[:, 0]
+        - quaternion_to_euler_rpy(exact.q_body_to_ned)[:, 0]
+    )
+    assert np.max(np.abs(roll_deg)) > 1.0
+
+
+def test_a_solution_only_inside_a_truth_gap_is_an_error_naming_it() -> None:
+    t_truth = np.arange(0.0, 100.0, 0.1)
+    holed = _truth(t_truth[~((t_truth > 40.0) & (t_truth < 50.0))])
+    t = np.arange(41.0, 49.0, 0.05)
+    with pytest.raises(InputError, match="no common times") as err:
+        compare_to_truth(_solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), holed)
+    assert f"the {t.size} solution epoch(s) inside it lie in its data gaps" in str(err.value)
+    assert holed.gaps()[0].describe() in str(err.value)
+
+
 def test_three_sigma_shares() -> None:
     rng = np.random.default_rng(7)
     t = np.arange(0.0, 99.0, 0.05)
@@ -192,6 +239,9 @@ def test_local_ned_truth_and_document() -> None:
         "max_att_deg",
         "within_3sigma",
         "n_epochs",
+        "n_epochs_outside_truth",
+        "n_epochs_in_truth_gaps",
+        "truth_gaps",
     }
     assert doc["rms_vel_ned_m_s"] is None
     assert doc["n_epochs"] == t.size

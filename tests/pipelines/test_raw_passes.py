@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -149,11 +150,54 @@ def test_read_raw_attitude(sim: RotatingTableSimulation, sim_folder: Path) -> No
 
 
 def test_outside_the_attitude_span_names_pass_and_time(copy: Path) -> None:
-    # +0.5 s: the last pass needs records 0.5 s after its end; the log stops 0.2 s after.
-    with pytest.raises(InputError, match=r"pass_003\.csv: line \d+: point time t_s=") as exc:
-        read_raw_passes(copy, latency_s=0.5)
+    # -0.5 s: the first pass needs records 0.5 s before its start; the log starts 0.2 s before.
+    with pytest.raises(InputError, match=r"pass_000\.csv: line \d+: point time t_s=") as exc:
+        read_raw_passes(copy, latency_s=-0.5)
     assert "outside the attitude log" in str(exc.value)
-    assert "passes.csv: line 5" in str(exc.value)
+    assert "passes.csv: line 2" in str(exc.value)
+
+
+def _log_holes(raw: Path) -> list[tuple[float, float]]:
+    """The attitude log's record intervals over 10 median intervals (between passes)."""
+    t = read_raw_attitude(raw / "attitude.csv").t_s
+    dt = np.diff(t)
+    return [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(dt > 10 * np.median(dt))]
+
+
+def test_a_latency_reading_the_hole_between_passes_is_an_error_naming_it(copy: Path) -> None:
+    """+0.5 s: the end of the first pass reads the log's hole before the second pass.
+
+    The table turns the other way in the next pass: interpolated across the hole, the
+    attitude was a blend of two passes' rotations.
+    """
+    with pytest.raises(InputError, match=r"pass_000\.csv: line \d+: point time t_s=") as exc:
+        read_raw_passes(copy, latency_s=0.5)
+    msg = str(exc.value)
+    assert "passes.csv: line 2" in msg
+    assert "lies in a data gap of the attitude log" in msg
+    hole = _log_holes(copy / "raw")[0]
+    assert f"no record between the tags {hole[0]!r} .. {hole[1]!r} s" in msg
+    assert "tau = 0.5 s" in msg
+    assert "does not interpolate across gaps" in msg
+
+
+def test_a_hole_in_the_attitude_log_during_a_pass_is_an_error(copy: Path) -> None:
+    raw = copy / "raw"
+    lines = (raw / "attitude.csv").read_text(encoding="utf-8").splitlines()
+    t_pass = np.loadtxt(raw / raw_pass_name("pass_001.csv"), delimiter=",", skiprows=1)[:, 0]
+    mid = float(np.median(t_pass))
+    kept = [lines[0]] + [ln for ln in lines[1:] if abs(float(ln.split(",")[0]) - mid) > 0.25]
+    assert len(lines) - len(kept) > 40
+    (raw / "attitude.csv").write_text("\n".join(kept) + "\n", encoding="utf-8")
+    n_in_hole = int(np.count_nonzero(np.abs(t_pass - mid) < 0.24))
+    with pytest.raises(InputError, match=r"pass_001\.csv: line \d+: point time t_s=") as exc:
+        read_raw_passes(copy)
+    msg = str(exc.value)
+    assert "passes.csv: line 3" in msg
+    assert "data gap" in msg
+    m = re.search(r"\((\d+) point\(s\) in all\)", msg)
+    assert m is not None
+    assert int(m.group(1)) >= n_in_hole > 0
 
 
 def _rewrite(path: Path, old: str, new: str, count: int = 1) -> None:

@@ -30,7 +30,7 @@ from kinsync.sim.profiler import (
 )
 from kinsync.sim.scene import SceneLayout
 from kinsync.sync.config import ObjectSpaceConfig
-from kinsync.sync.crossings import find_crossings
+from kinsync.sync.crossings import find_crossings, search_crossings
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
 from kinsync.sync.pulses import pulse_offset
 from kinsync.sync.scan import ProfileScan, SyncPoints
@@ -301,6 +301,72 @@ def test_crossing_of_a_straight_drive_is_analytic() -> None:
     # Heading north, azimuth 0: the plane's normal is north (ECEF at the origin).
     north = rotation_ned_to_ecef(origin[0], origin[1])[:, 0]
     assert c.normal_ecef == pytest.approx(tuple(north), abs=1e-6)
+
+
+def _holed(traj: Trajectory, t0_s: float, t1_s: float) -> Trajectory:
+    """``traj`` without its records strictly between ``t0_s`` and ``t1_s`` (a data gap)."""
+    keep = ~((traj.t_s > t0_s) & (traj.t_s < t1_s))
+
+    def cut(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else a[keep]
+
+    return Trajectory(
+        t_s=traj.t_s[keep],
+        q_body_to_ned=traj.q_body_to_ned[keep],
+        lat_lon_h=cut(traj.lat_lon_h),
+        pos_ned_m=cut(traj.pos_ned_m),
+        origin_lat_lon_h=traj.origin_lat_lon_h,
+        vel_ned_m_s=cut(traj.vel_ned_m_s),
+    )
+
+
+def test_a_crossing_in_a_trajectory_gap_is_left_out_and_reported() -> None:
+    """The plane sweeps P at 1004.74 s, inside a 2 s hole: no time is made up for it.
+
+    (Before, the root search ran on the gap-aware georeferencing, got NaN inside the
+    hole and stopped with an internal error.)
+    """
+    traj, origin = _straight_trajectory()
+    holed = _holed(traj, 1004.0, 1006.0)
+    mount = Mount(lever_arm_body_m=(0.5, 0.0, -1.0), profiler_azimuth_deg=0.0, latency_s=0.01)
+    # P swept at 1004.74 s (in the hole), Q at 1009.74 s
+    ned = np.array([[10.0, 3.0, 1.0], [20.0, 3.0, 1.0]])
+    sync = SyncPoints(("P", "Q"), ecef_to_geodetic(ned_to_ecef(ned, *origin)))
+    found = search_crossings(holed, mount, sync)
+    ((name, gap),) = [(c.name, c.gap) for c in found.in_gaps]
+    assert name == "P"
+    assert (gap.t_start_s, gap.t_end_s) == pytest.approx((1004.0 - 0.01, 1006.0 - 0.01))
+    (c,) = found.crossings
+    assert c.name == "Q"
+    assert c.t_s == pytest.approx(1000.0 + 19.5 / 2.0 - 0.01, abs=1e-9)
+    assert find_crossings(holed, mount, sync) == found.crossings
+
+
+def test_a_sighting_whose_crossing_is_in_a_gap_stays_unmatched(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult
+) -> None:
+    """10 s cut out of the trajectory around one matched sighting: the clock comes
+    from the others (within its sigma of the truth) and the left-out crossing is
+    reported, never timed on a trajectory interpolated across the hole."""
+    first = oval_result.sightings[0]
+    hole = (first.t_s - 5.0, first.t_s + 5.0)
+    r = synchronise_object_space(
+        oval.scanner.scan,
+        _holed(oval.trajectory, *hole),
+        oval.config.mount,
+        oval.sync_points,
+        EXACT,
+    )
+    assert [c.name for c in r.crossings_in_gaps] == [first.name]
+    assert r.crossings_in_gaps[0].gap.t_start_s < first.t_s < r.crossings_in_gaps[0].gap.t_end_s
+    assert len(r.sightings) == len(oval_result.sightings) - 1
+    assert all(not hole[0] < s.t_s < hole[1] for s in r.sightings)
+    assert len(r.unmatched) == len(oval_result.unmatched) + 1
+    dt0, dT = _errors(r, oval)
+    assert abs(dt0) < 4 * r.t0_std_s
+    assert abs(dT) < 4 * r.period_std_s
+    doc = r.as_document()
+    assert [c["name"] for c in doc["crossings_in_gaps"]] == [first.name]
 
 
 def test_detection_rejects_glints_and_refines_by_sphere() -> None:

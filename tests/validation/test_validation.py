@@ -329,6 +329,83 @@ def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetSce
     assert all(m.t_s is not None and m.t_s > first_pass_end for m in outside)
 
 
+def _holed(traj: Trajectory, t0_s: float, t1_s: float) -> Trajectory:
+    """``traj`` without its records strictly between ``t0_s`` and ``t1_s`` (a data gap)."""
+    keep = ~((traj.t_s > t0_s) & (traj.t_s < t1_s))
+
+    def cut(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else a[keep]
+
+    return Trajectory(
+        t_s=traj.t_s[keep],
+        q_body_to_ned=traj.q_body_to_ned[keep],
+        lat_lon_h=cut(traj.lat_lon_h),
+        pos_ned_m=cut(traj.pos_ned_m),
+        origin_lat_lon_h=traj.origin_lat_lon_h,
+        vel_ned_m_s=cut(traj.vel_ned_m_s),
+    )
+
+
+def test_visits_in_a_trajectory_gap_are_reported_never_guessed(
+    scene: ControlTargetScene, reports: dict[str, ControlPointReport]
+) -> None:
+    """A visit inside a hole of the trajectory is missing with the gap as its reason.
+
+    Its vehicle frame, speed and turn rate would come from the records on either side
+    of the hole; the other visits are what they were, even right at the hole's edges
+    (the velocity and rate differences stay on the hole's side they are on).
+    """
+    scan = scene.scan
+    full = reports["late"]
+    t_visits = np.array([d.observation.t_s for d in full.differences])
+    hole = (t_visits[0] - 0.3, t_visits[0] + 0.3)
+    in_hole = (t_visits > hole[0]) & (t_visits < hole[1])
+    holed = _holed(scan.trajectory, *hole)
+    (gap,) = [g for g in holed.gaps() if g.t_start_s < t_visits[0] < g.t_end_s]
+    rep = validate_control_points(
+        _cloud(scan, scan.mount.with_latency(LATENCY_ERROR_S)),
+        scene.control,
+        holed,
+        centre="sphere",
+        target_radius_m=scene.target_radius_m,
+    )
+    in_gap = [m for m in rep.missing if "data gap" in m.reason]
+    assert len(in_gap) == int(in_hole.sum()) >= 1
+    assert len(rep.missing) == len(in_gap)
+    assert all(gap.describe() in m.reason for m in in_gap)
+    assert len(rep.differences) == len(full.differences) - len(in_gap)
+    kept = {d.observation.t_s: d for d in rep.differences}
+    for d in full.differences:
+        if d.observation.t_s in kept:
+            k = kept[d.observation.t_s]
+            assert k.diff_vehicle_m == pytest.approx(d.diff_vehicle_m, abs=1e-9)
+            assert k.speed_m_s == pytest.approx(d.speed_m_s, abs=1e-6)
+
+
+def test_a_visit_just_after_a_gap_is_read_from_its_own_side(
+    scene: ControlTargetScene, reports: dict[str, ControlPointReport]
+) -> None:
+    """The +-0.05 s velocity difference of a visit 0.02 s after a hole stays out of it."""
+    scan = scene.scan
+    full = reports["correct"]
+    d0 = full.differences[0]
+    t = d0.observation.t_s
+    holed = _holed(scan.trajectory, t - 0.5, t - 0.02)
+    assert any(g.t_end_s <= t < g.t_end_s + 0.05 for g in holed.gaps())
+    rep = validate_control_points(
+        _cloud(scan, scan.mount),
+        scene.control,
+        holed,
+        centre="sphere",
+        target_radius_m=scene.target_radius_m,
+    )
+    assert rep.missing == ()
+    (d,) = [d for d in rep.differences if d.observation.t_s == t]
+    # a one-sided difference over the records after the hole: the same motion within 1 %
+    assert d.speed_m_s == pytest.approx(d0.speed_m_s, rel=0.01)
+    assert d.yaw_rate_deg_s == pytest.approx(d0.yaw_rate_deg_s, abs=0.05)
+
+
 def test_extraction_options_are_checked(scene: ControlTargetScene) -> None:
     cloud = _cloud(scene.scan, scene.scan.mount)
     with pytest.raises(InputError, match="needs the target radius"):

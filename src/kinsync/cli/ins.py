@@ -73,6 +73,14 @@ def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
         )
         raise InputError(msg)
     t0 = float(imu.t_s[0])
+    gap = [g for g in traj.gaps() if g.t_start_s < t0 < g.t_end_s]
+    if gap:
+        msg = (
+            f"--init-from {path}: the IMU starts at t = {t0!r} s, inside a data gap of the "
+            f"file ({gap[0].describe()} without a record), where its state is not "
+            "interpolated: give a reference with a record near the IMU start"
+        )
+        raise InputError(msg)
     if traj.contains(t0):
         sample = traj.interpolate([t0])
         assert sample.lat_lon_h is not None
@@ -356,7 +364,11 @@ def compare(
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
 ) -> None:
-    """Compare a solution with a reference: RMS/max errors N/E/D, velocity, attitude."""
+    """Compare a solution with a reference: RMS/max errors N/E/D, velocity, attitude.
+
+    Epochs outside the reference's span or in one of its data gaps (a record interval
+    over 10 median intervals, never interpolated across) are left out and counted.
+    """
     from kinsync.ins.compare import compare_to_truth  # noqa: PLC0415
     from kinsync.ins.solution import NavSolution  # noqa: PLC0415
     from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
@@ -366,6 +378,15 @@ def compare(
     if isinstance(truth, NavSolution):
         truth = truth.to_trajectory()
     result = compare_to_truth(solution, truth)
+    if result.n_in_truth_gaps:
+        named = "; ".join(g.describe() for g in result.truth_gaps[:3])
+        more = f"; and {len(result.truth_gaps) - 3} more" if len(result.truth_gaps) > 3 else ""
+        typer.echo(
+            f"kinsync: warning: {truth_path}: {counted(result.n_in_truth_gaps, 'solution epoch')} "
+            f"left out, in {counted(len(result.truth_gaps), 'data gap')} of the reference "
+            f"({named}{more}), where it is not interpolated",
+            err=True,
+        )
     if as_json:
         print_json(result.as_document())
         return
@@ -385,3 +406,9 @@ def compare(
             shares = tuple(w.get(f"{kind}_{a}", float("nan")) for a in "ned")
             table.add_row(f"{label} within 3σ (share)", *_triple(shares, digits=3))
     console.print(table)
+    if result.n_outside_truth or result.n_in_truth_gaps:
+        console.print(
+            f"left out: {result.n_outside_truth} epoch(s) outside the reference's span, "
+            f"{result.n_in_truth_gaps} in its data gaps",
+            highlight=False,
+        )

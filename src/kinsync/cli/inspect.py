@@ -231,8 +231,9 @@ def trajectory_info(
         more = f"; and {len(gaps) - 5} more" if len(gaps) > 5 else ""
         warnings.append(
             f"{path}: {len(gaps)} gap(s) longer than {max_gap:.6g} s ({GAP_FACTOR:g} times the "
-            f"median record interval): {named}{more}; georef does not interpolate across "
-            "them (points there are treated as outside the span; see --max-gap-s)"
+            f"median record interval): {named}{more}; kinsync does not interpolate across "
+            "them (times there are treated as outside the span; georef --max-gap-s sets "
+            "the limit)"
         )
     doc: dict[str, Any] = {
         "format": file_format,

@@ -132,6 +132,16 @@ def object_space(
             the_scan, traj, the_mount, points, config, pulses_t_s=pulse_t
         )
         stages.finish()
+    if result.crossings_in_gaps:
+        gaps = result.crossings_in_gaps
+        named = "; ".join(f"{c.name} in {c.gap.describe()}" for c in gaps[:3])
+        more = f"; and {len(gaps) - 3} more" if len(gaps) > 3 else ""
+        typer.echo(
+            f"kinsync: warning: {trajectory}: {len(gaps)} possible sync-point crossing(s) left "
+            f"out, in data gaps of the trajectory ({named}{more}), where it is not "
+            "interpolated; a sighting there stays unmatched",
+            err=True,
+        )
     if result.ambiguous:
         err_console.print(
             f"warning: ambiguous: {len(result.alternatives)} other assignment(s) of sightings "
@@ -149,6 +159,7 @@ def object_space(
     table.add_row("period sigma (us)", fmt(result.period_std_s, 1e6))
     table.add_row("sigma scale (residuals)", fmt(result.sigma_scale))
     table.add_row("unmatched sightings", str(len(result.unmatched)))
+    table.add_row("crossings in trajectory gaps (left out)", str(len(result.crossings_in_gaps)))
     table.add_row("ambiguous", "yes" if result.ambiguous else "no")
     if result.pulses is not None:
         sure = "" if result.pulses.sure else " (not sure)"

@@ -382,9 +382,9 @@ def georeference_numpy(
     check_latency(traj, mount)
     hermite = use_hermite(traj, position)
     sample = traj.trajectory.interpolate(
-        t, position="hermite" if hermite else "linear", mask_outside=True
+        t, position="hermite" if hermite else "linear", mask_outside=True, max_gap_s=traj.max_gap_s
     )
-    inside = sample.inside & traj.contains(t)
+    inside = sample.inside
     out = np.full((t.size, 3), np.nan)
     if not np.any(inside):
         return out, inside

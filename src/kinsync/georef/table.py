@@ -4,7 +4,8 @@ On a rotating table the IMU and the scanner turn about the table centre, which i
 origin: a point ``x_s`` measured at ``t`` goes to the table-centred NED frame as
 ``x_n = R_body_to_ned(t) @ (lever_arm_body_m + R_scanner_to_body @ x_s)`` (SPEC
 section 5 without the position term), with the attitude corrected for the latency tau
-(SPEC section 1: the record tagged ``t + tau`` is read). Nothing is extrapolated.
+(SPEC section 1: the record tagged ``t + tau`` is read). Nothing is extrapolated, nor
+interpolated across a data gap of the attitude (`kinsync.trajectory.Trajectory.interpolate`).
 """
 
 from __future__ import annotations
@@ -64,7 +65,8 @@ def georeference_table_points(
     InputError
         Mismatched shapes or non-finite input.
     OutsideSpanError
-        A point time outside the corrected attitude span (never extrapolated).
+        A point time outside the corrected attitude span (never extrapolated) or inside
+        one of its data gaps (never interpolated across; `kinsync.trajectory_gaps`).
     """
     t, xs = validated_scanner_points(t_s, points_scanner_m, "georeference_table_points")
     corrected = attitude.corrected_for_latency(mount.latency_s)

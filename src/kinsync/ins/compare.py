@@ -2,7 +2,10 @@
 
 The truth is interpolated at the solution's epochs inside its span (position by cubic
 Hermite when the truth has velocities, else linearly; attitude by slerp; velocity
-linearly); epochs outside the truth span are left out. Errors are solution minus truth:
+linearly); epochs outside the truth span, and epochs inside a data gap of the truth
+(`kinsync.trajectory_gaps`: a record interval over 10 median intervals, where the
+truth is a guess interpolated across the hole, off by decimetres and degrees in a
+turn), are left out and counted. Errors are solution minus truth:
 
 - position in the local NED frame at each solution epoch (m), from the ECEF difference;
 - velocity in NED (m/s), when both carry velocities;
@@ -18,6 +21,7 @@ errors.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -25,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from kinsync._typing import FloatArray
+from kinsync._typing import BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import (
     ecef_to_geodetic,
@@ -36,6 +40,7 @@ from kinsync.frames import (
 )
 from kinsync.ins.solution import NavSolution
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import TrajectoryGap, gap_index
 
 __all__ = ["Comparison", "compare_to_truth"]
 
@@ -61,7 +66,7 @@ class Comparison:
     Attributes
     ----------
     n_epochs : int
-        Solution epochs inside the truth span (those compared).
+        Solution epochs compared: inside the truth span and not in one of its gaps.
     t_s : ndarray, shape (n,)
         Their times (s).
     err_pos_ned_m : ndarray, shape (n, 3)
@@ -81,6 +86,12 @@ class Comparison:
     within_3sigma : mapping of str to float, or None
         Share of epochs with ``|error| <= 3σ`` per state (keys in the module
         docstring); None when the solution carries no σ.
+    n_outside_truth : int
+        Solution epochs left out because they lie outside the truth span.
+    n_in_truth_gaps : int
+        Solution epochs left out because they lie inside a data gap of the truth.
+    truth_gaps : tuple of TrajectoryGap
+        The data gaps of the truth that held left-out epochs, in time order.
     """
 
     n_epochs: int
@@ -96,6 +107,9 @@ class Comparison:
     rms_att_deg: Vector3
     max_att_deg: Vector3
     within_3sigma: Mapping[str, float] | None
+    n_outside_truth: int = 0
+    n_in_truth_gaps: int = 0
+    truth_gaps: tuple[TrajectoryGap, ...] = ()
 
     def as_document(self) -> dict[str, Any]:
         """The summary as a JSON-ready dict (the ``kinsync ins compare --json`` object)."""
@@ -108,6 +122,11 @@ class Comparison:
             "max_att_deg": list(self.max_att_deg),
             "within_3sigma": None if self.within_3sigma is None else dict(self.within_3sigma),
             "n_epochs": self.n_epochs,
+            "n_epochs_outside_truth": self.n_outside_truth,
+            "n_epochs_in_truth_gaps": self.n_in_truth_gaps,
+            "truth_gaps": [
+                {"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in self.truth_gaps
+            ],
         }
 
 
@@ -128,6 +147,37 @@ def _wrap_deg(angle_deg: FloatArray) -> FloatArray:
     return out
 
 
+def _epochs_to_compare(
+    traj: Trajectory, truth: Trajectory
+) -> tuple[BoolArray, int, tuple[TrajectoryGap, ...]]:
+    """The solution epochs to compare: those the truth can be read at.
+
+    Returns them (mask), the count outside the truth span and the truth's gaps that
+    hold the others; `InputError` when none is left.
+    """
+    keep = truth.contains(traj.t_s)
+    in_span = truth.contains(traj.t_s, max_gap_s=math.inf)
+    in_gaps = in_span & ~keep
+    gaps = truth.gaps()
+    hit = tuple(gaps[int(k)] for k in np.unique(gap_index(traj.t_s[in_gaps], gaps)))
+    if np.any(keep):
+        return keep, int(np.count_nonzero(~in_span)), hit
+    spans = (
+        f"the solution spans [{traj.t_start_s!r}, {traj.t_end_s!r}] s, the truth "
+        f"[{truth.t_start_s!r}, {truth.t_end_s!r}] s"
+    )
+    if np.any(in_gaps):
+        named = "; ".join(g.describe() for g in hit[:3])
+        msg = (
+            f"no common times: {spans}, and the {int(np.count_nonzero(in_gaps))} solution "
+            f"epoch(s) inside it lie in its data gaps ({named}), where the truth is not "
+            "interpolated"
+        )
+    else:
+        msg = f"no common times: {spans}; are both on the same time scale?"
+    raise InputError(msg)
+
+
 def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> Comparison:
     """Compare a solution with a truth trajectory at the solution's epochs.
 
@@ -145,7 +195,8 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
     Raises
     ------
     InputError
-        No solution epoch lies inside the truth span (naming both spans).
+        No solution epoch lies inside the truth span (naming both spans) outside its
+        data gaps.
     """
     sigma: tuple[FloatArray, FloatArray, FloatArray] | None = None
     if isinstance(solution, NavSolution):
@@ -153,15 +204,8 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
         traj = solution.to_trajectory()
     else:
         traj = solution
-    keep = truth.contains(traj.t_s)
+    keep, n_outside, truth_gaps = _epochs_to_compare(traj, truth)
     n = int(np.count_nonzero(keep))
-    if n == 0:
-        msg = (
-            f"no common times: the solution spans [{traj.t_start_s!r}, {traj.t_end_s!r}] s, "
-            f"the truth [{truth.t_start_s!r}, {truth.t_end_s!r}] s; are both on the same "
-            "time scale?"
-        )
-        raise InputError(msg)
     t = traj.t_s[keep]
     q_sol = traj.q_body_to_ned[keep]
     ref = truth.interpolate(t)
@@ -219,4 +263,7 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
         rms_att_deg=_rms(err_att),
         max_att_deg=_max(err_att),
         within_3sigma=within,
+        n_outside_truth=n_outside,
+        n_in_truth_gaps=traj.t_s.size - n - n_outside,
+        truth_gaps=truth_gaps,
     )

@@ -26,10 +26,34 @@ from kinsync.io.raw_passes import (
     read_raw_pass,
 )
 from kinsync.latency.passes import SpherePass
+from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import GAP_FACTOR, TrajectoryGap, gap_index, max_gap_for
 
 __all__ = [
     "read_raw_passes",
 ]
+
+
+def _unreadable(
+    t_s: float, attitude: Trajectory, corrected: Trajectory, attitude_path: Path, tau: float
+) -> str:
+    """Why the corrected attitude log cannot be read at ``t_s``: its span, or a gap."""
+    read = f"read at the tag t + tau with latency tau = {tau!r} s"
+    k = int(gap_index(t_s, corrected.gaps()))
+    if k < 0:
+        return (
+            f"lies outside the attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
+            f"{attitude.t_end_s!r}] s, {read}); "
+            "kinsync does not extrapolate: extend the log or trim the pass"
+        )
+    gap = corrected.gaps()[k]
+    tags = TrajectoryGap(gap.t_start_s + tau, gap.t_end_s + tau)
+    return (
+        f"lies in a data gap of the attitude log {attitude_path}: no record between the tags "
+        f"{tags.describe()}, longer than {max_gap_for(corrected.t_s):.6g} s ({GAP_FACTOR:g} "
+        f"median record intervals; {read}); kinsync does not interpolate across gaps: "
+        "log the attitude without holes or trim the pass"
+    )
 
 
 def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[SpherePass]:
@@ -57,7 +81,9 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
         Naming the file and line at fault: a missing folder, ``raw/`` folder,
         ``passes.csv``, ``attitude.csv``, ``mount.toml`` or raw pass file; missing
         columns; non-numeric or non-finite cells; attitude tags not increasing; an
-        empty pass; a point time outside the latency-corrected attitude span.
+        empty pass; a point time outside the latency-corrected attitude span or inside
+        one of its data gaps (`kinsync.trajectory_gaps`: by default a record interval
+        over 10 median intervals; never interpolated across).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -90,15 +116,11 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
             outside = ~corrected.contains(t)
             if np.any(outside):
                 k = int(np.flatnonzero(outside)[0])
-                msg = (
+                raise InputError(
                     f"{path}: line {table.line_of_row(k)}: point time t_s={float(t[k])!r} "
-                    f"({int(np.count_nonzero(outside))} point(s) in all) lies outside the "
-                    f"attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
-                    f"{attitude.t_end_s!r}] s, read at the tag t + tau with latency "
-                    f"tau = {tau!r} s); "
-                    "kinsync does not extrapolate: extend the log or trim the pass"
+                    f"({int(np.count_nonzero(outside))} point(s) in all) "
+                    + _unreadable(float(t[k]), attitude, corrected, attitude_path, tau)
                 )
-                raise InputError(msg)
             passes.append(
                 SpherePass(
                     source=str(path),

@@ -10,7 +10,14 @@ The whole method is described in `kinsync.sync.object_space`; its steps live in
 from __future__ import annotations
 
 from kinsync.sync.config import ObjectSpaceConfig
-from kinsync.sync.crossings import Crossing, find_crossings, require_profiler_azimuth
+from kinsync.sync.crossings import (
+    Crossing,
+    CrossingSearch,
+    GapCrossing,
+    find_crossings,
+    require_profiler_azimuth,
+    search_crossings,
+)
 from kinsync.sync.object_space import (
     Alternative,
     MatchedSighting,
@@ -24,6 +31,8 @@ from kinsync.sync.sightings import Sighting, detect_sightings
 __all__ = [
     "Alternative",
     "Crossing",
+    "CrossingSearch",
+    "GapCrossing",
     "MatchedSighting",
     "ObjectSpaceConfig",
     "ObjectSpaceResult",
@@ -35,5 +44,6 @@ __all__ = [
     "find_crossings",
     "pulse_offset",
     "require_profiler_azimuth",
+    "search_crossings",
     "synchronise_object_space",
 ]

@@ -4,7 +4,10 @@ With the trajectory and the mount the scan plane is known at every time; the sig
 distance of a sync point to it changes sign where the mirror sweeps over the point.
 The roots are bracketed between trajectory records and found with Brent's method on
 the trajectory interpolated exactly as georeferencing does it (see
-`kinsync.sync.object_space` for the whole method).
+`kinsync.sync.object_space` for the whole method). A sign change across a data gap of
+the trajectory (`kinsync.trajectory_gaps`) is not a crossing that can be timed: where
+the scanner was in the hole is unknown, so it is left out and reported
+(`GapCrossing`).
 
 References
 ----------
@@ -19,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from kinsync._typing import FloatArray
+from kinsync._typing import BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import quaternion_to_matrix
 from kinsync.georef import GeorefTrajectory, georeference
@@ -27,11 +30,15 @@ from kinsync.mount import Mount
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.scan import SyncPoints
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import TrajectoryGap
 
 __all__ = [
     "Crossing",
+    "CrossingSearch",
+    "GapCrossing",
     "find_crossings",
     "require_profiler_azimuth",
+    "search_crossings",
 ]
 
 
@@ -71,6 +78,42 @@ class Crossing:
     drift_m_s: tuple[float, float] = (0.0, 0.0)
 
 
+@dataclass(frozen=True)
+class GapCrossing:
+    """A sync point's distance to the scan plane changing sign across a data gap.
+
+    The scan plane may have swept the point while the trajectory has no record: the
+    time of such a crossing is unknown (interpolated across the hole it is a guess),
+    so it is left out; a sighting of the point then is left unmatched.
+
+    Attributes
+    ----------
+    name : str
+        Sync point.
+    gap : TrajectoryGap
+        The gap (trajectory time scale, after the mount's latency).
+    """
+
+    name: str
+    gap: TrajectoryGap
+
+
+@dataclass(frozen=True)
+class CrossingSearch:
+    """What `search_crossings` found.
+
+    Attributes
+    ----------
+    crossings : tuple of Crossing
+        Timed crossings, in time order.
+    in_gaps : tuple of GapCrossing
+        Sign changes across data gaps of the trajectory (left out), in time order.
+    """
+
+    crossings: tuple[Crossing, ...]
+    in_gaps: tuple[GapCrossing, ...] = ()
+
+
 def require_profiler_azimuth(mount: Mount, source: str = "mount") -> float:
     """The mount's ``[profiler] azimuth_deg`` in radians, or an `InputError` saying so."""
     if mount.profiler_azimuth_deg is None:
@@ -105,12 +148,38 @@ def _check_sync_distance(
             raise InputError(msg)
 
 
+def _sign_changes(
+    rel: FloatArray, normal: FloatArray, max_range_m: float, is_gap: BoolArray
+) -> tuple[list[int], list[int]]:
+    """Record intervals where a point's distance to the scan plane changes sign.
+
+    ``rel`` is the point minus the scanner origin and ``normal`` the plane normal at
+    each record (ECEF, shape (N, 3)); intervals with neither end within
+    ``max_range_m`` are skipped. Returns those to time and those across a data gap.
+    """
+    d = np.einsum("ij,ij->i", normal, rel)
+    near = np.linalg.norm(rel, axis=1) <= max_range_m
+    sign_change = (np.sign(d[:-1]) != np.sign(d[1:])) | (d[:-1] == 0.0)
+    k = np.flatnonzero(sign_change & (near[:-1] | near[1:]))
+    return k[~is_gap[k]].tolist(), k[is_gap[k]].tolist()
+
+
 def find_crossings(
     trajectory: Trajectory,
     mount: Mount,
     sync_points: SyncPoints,
     config: ObjectSpaceConfig | None = None,
 ) -> tuple[Crossing, ...]:
+    """The timed crossings of `search_crossings` (those in data gaps left out)."""
+    return search_crossings(trajectory, mount, sync_points, config).crossings
+
+
+def search_crossings(
+    trajectory: Trajectory,
+    mount: Mount,
+    sync_points: SyncPoints,
+    config: ObjectSpaceConfig | None = None,
+) -> CrossingSearch:
     """Times at which the scan plane sweeps over each sync point (step 1 of the module).
 
     Parameters
@@ -126,8 +195,9 @@ def find_crossings(
 
     Returns
     -------
-    tuple of Crossing
-        In time order.
+    CrossingSearch
+        The crossings in time order, and the sign changes across data gaps of the
+        trajectory (record intervals over `GeorefTrajectory.max_gap_s`), left out.
 
     Raises
     ------
@@ -163,13 +233,15 @@ def find_crossings(
         return y_plane, float(v[2]), float(np.linalg.norm(v))
 
     out: list[Crossing] = []
+    in_gaps: list[GapCrossing] = []
     t_rec = gtraj.t_s
+    is_gap = np.diff(t_rec) > gtraj.max_gap_s
     for name, p in zip(sync_points.names, pos_p, strict=True):
-        rel = p - origin
-        d = np.einsum("ij,ij->i", normal, rel)
-        near = np.linalg.norm(rel, axis=1) <= cfg.max_range_m
-        sign_change = (np.sign(d[:-1]) != np.sign(d[1:])) | (d[:-1] == 0.0)
-        for k in np.flatnonzero(sign_change & (near[:-1] | near[1:])):
+        timed, gapped = _sign_changes(p - origin, normal, cfg.max_range_m, is_gap)
+        in_gaps += [
+            GapCrossing(name, TrajectoryGap(float(t_rec[k]), float(t_rec[k + 1]))) for k in gapped
+        ]
+        for k in timed:
             a, b = float(t_rec[k]), float(t_rec[k + 1])
             fa, fb = distance(a, p), distance(b, p)
             if fa == 0.0:
@@ -199,4 +271,5 @@ def find_crossings(
                 )
             )
     out.sort(key=lambda c: c.t_s)
-    return tuple(out)
+    in_gaps.sort(key=lambda c: c.gap.t_start_s)
+    return CrossingSearch(tuple(out), tuple(in_gaps))

@@ -15,7 +15,11 @@ and T. The algorithm:
    positions with velocities, slerp attitude). At a root the mirror angle phi_P at
    which P lies in the plane, the range and the rate ``d'(t)`` (m/s) are recorded.
    A looped drive gives several crossings per point, and the infinite plane also
-   sweeps P from far away: crossings farther than ``max_range_m`` are dropped.
+   sweeps P from far away: crossings farther than ``max_range_m`` are dropped. A
+   sign change across a data gap of the trajectory (`kinsync.trajectory_gaps`) cannot
+   be timed (the trajectory there would be a guess interpolated across the hole): it
+   is left out and reported (`ObjectSpaceResult.crossings_in_gaps`), and a sighting
+   of that pass stays unmatched.
 2. **Scanner time** (`detect_sightings`). Returns at least ``intensity_threshold``
    bright are clustered in (profile, angle, range) space (neighbours within
    ``cluster_gap_profiles`` profiles, ``cluster_gap_rad`` and ``cluster_gap_m``);
@@ -144,7 +148,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -162,7 +166,12 @@ from kinsync.sync.clock_line import (
     pair_covariance,
 )
 from kinsync.sync.config import ObjectSpaceConfig
-from kinsync.sync.crossings import Crossing, find_crossings, require_profiler_azimuth
+from kinsync.sync.crossings import (
+    Crossing,
+    GapCrossing,
+    require_profiler_azimuth,
+    search_crossings,
+)
 from kinsync.sync.pulses import PulseOffset, pulse_offset
 from kinsync.sync.scan import ProfileScan, SyncPoints
 from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
@@ -274,6 +283,8 @@ class ObjectSpaceResult:
         The runner-up assignments with as many matches, best first (at most 5).
     pulses : PulseOffset or None
         Offset between hardware pulses and profile numbers, when pulses were given.
+    crossings_in_gaps : tuple of GapCrossing
+        Possible crossings left out because they fall in a data gap of the trajectory.
     """
 
     t0_s: float
@@ -289,6 +300,7 @@ class ObjectSpaceResult:
     ambiguous: bool = False
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
+    crossings_in_gaps: tuple[GapCrossing, ...] = ()
 
     @property
     def clock(self) -> ProfileClock:
@@ -329,6 +341,10 @@ class ObjectSpaceResult:
                 for s in self.unmatched
             ],
             "n_crossings": dict(self.n_crossings),
+            "crossings_in_gaps": [
+                {"name": c.name, "t_start_s": c.gap.t_start_s, "t_end_s": c.gap.t_end_s}
+                for c in self.crossings_in_gaps
+            ],
             "ambiguous": self.ambiguous,
             "alternatives": [
                 {"t0_s": a.t0_s, "period_s": a.period_s, "n_matched": a.n_matched, "chi2": a.chi2}
@@ -409,14 +425,21 @@ def synchronise_object_space(
             "threshold and that the retro-reflective targets were scanned"
         )
         raise ObservabilityError(msg)
-    crossings = find_crossings(trajectory, mount, sync_points, cfg)
+    search = search_crossings(trajectory, mount, sync_points, cfg)
+    crossings = search.crossings
     n_cross = {name: sum(c.name == name for c in crossings) for name in sync_points.names}
     if not crossings:
+        in_gaps = (
+            f" ({len(search.in_gaps)} possible crossing(s) fall in data gaps of the "
+            "trajectory, where it is not interpolated)"
+            if search.in_gaps
+            else ""
+        )
         msg = (
             f"{sync_points.source}: the scan plane never crosses a sync point within "
             f"{cfg.max_range_m:g} m along the trajectory ({trajectory.t_start_s!r} .. "
-            f"{trajectory.t_end_s!r} s): check the sync point coordinates, the mount "
-            "(lever arm, boresight, [profiler] azimuth_deg) and the trajectory"
+            f"{trajectory.t_end_s!r} s){in_gaps}: check the sync point coordinates, the "
+            "mount (lever arm, boresight, [profiler] azimuth_deg) and the trajectory"
         )
         raise ObservabilityError(msg)
     ranked = candidate_assignments(sightings, crossings, cfg)
@@ -428,6 +451,12 @@ def synchronise_object_space(
             f"crossing(s) gives a period within {cfg.period_tolerance:g} (relative) of "
             f"{cfg.period_prior_s!r} s"
             + (f"; sync point(s) {never} are never crossed" if never else "")
+            + (
+                f"; {len(search.in_gaps)} possible crossing(s) in data gaps of the trajectory "
+                "left out"
+                if search.in_gaps
+                else ""
+            )
             + ": check --period-prior-s/--period-tolerance, the mount and the sync points"
         )
         raise ObservabilityError(msg)
@@ -452,9 +481,10 @@ def synchronise_object_space(
             c = crossings[j]
             motion = (c.rate_m_s * period, c.drift_m_s[0] * period, c.drift_m_s[1] * period)
             sightings[i] = refine_sighting(scan, detected[i][1], cfg, motion)
-    return _result(
+    result = _result(
         best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses_t_s, scan.n_profiles
     )
+    return replace(result, crossings_in_gaps=search.in_gaps)
 
 
 def _check_period_prior(

@@ -4,6 +4,9 @@ The difference cloud - control is expressed in the vehicle frame (X right, Y for
 Z up) of the attitude at the visit's time (median GPS time of its points), read from
 the trajectory at that time. Alongside: the vehicle's forward speed, its yaw rate and
 the target's position relative to the vehicle (``lateral_m`` = X, left < 0 < right).
+A visit whose time lies outside the trajectory's span or inside one of its data gaps
+(`kinsync.trajectory_gaps`: the trajectory holds no state there, only a guess
+interpolated across the hole) is not used: it is reported missing with the reason.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from kinsync.frames import (
     rotation_ned_to_ecef,
 )
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import GAP_FACTOR, gap_index, max_gap_for
 from kinsync.validation.control_points import ControlPoints
 from kinsync.validation.targets import MissingTarget, TargetObservation
 
@@ -75,25 +79,62 @@ class ControlPointDifference:
         return "left" if self.lateral_m < 0.0 else "right"
 
 
+def _unreadable(trajectory: Trajectory, t_s: float) -> str | None:
+    """Why the trajectory has no state at ``t_s`` (outside its span, in a gap), or None."""
+    gaps = trajectory.gaps()
+    k = int(gap_index(t_s, gaps))
+    if k >= 0:
+        return (
+            f"visit time {t_s!r} s in a data gap of the trajectory, {gaps[k].describe()} "
+            f"without a record (longer than {max_gap_for(trajectory.t_s):.6g} s, "
+            f"{GAP_FACTOR:g} median record intervals): not interpolated across"
+        )
+    if not bool(trajectory.contains(t_s)):
+        return (
+            f"visit time {t_s!r} s outside the trajectory span "
+            f"[{trajectory.t_start_s!r}, {trajectory.t_end_s!r}] s"
+        )
+    lo, hi = _stretch(trajectory, t_s)
+    if hi <= lo:
+        return (
+            f"visit time {t_s!r} s on a lone trajectory record between two data gaps: the "
+            "vehicle's velocity and turn rate are unknown there"
+        )
+    return None
+
+
+def _stretch(trajectory: Trajectory, t_s: float) -> tuple[float, float]:
+    """The stretch of records around ``t_s`` with no data gap: (start, end) times (s)."""
+    lo, hi = trajectory.t_start_s, trajectory.t_end_s
+    for gap in trajectory.gaps():
+        if gap.t_end_s <= t_s:
+            lo = gap.t_end_s
+        elif gap.t_start_s >= t_s:
+            hi = gap.t_start_s
+            break
+    return lo, hi
+
+
 def _states_at(
     trajectory: Trajectory, t_s: float
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None:
-    """Position ECEF, R_body_to_ned, velocity NED and body rate at ``t_s`` (or None).
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Position ECEF, R_body_to_ned, velocity NED and body rate at ``t_s``.
 
-    Velocity and rate are central differences over +-0.05 s (moved inside the span
-    near its ends).
+    ``t_s`` is one the trajectory can be read at (`_unreadable` is None). Velocity and
+    rate are central differences over +-0.05 s, moved inside the stretch of records
+    without a data gap near its ends.
     """
-    if not bool(trajectory.contains(t_s)):
-        return None
-    h = min(_RATE_STEP_S, trajectory.duration_s / 2.0)
-    mid = min(max(t_s, trajectory.t_start_s + h), trajectory.t_end_s - h)
-    sample = trajectory.interpolate(np.array([t_s, mid - h, mid + h]))
+    lo, hi = _stretch(trajectory, t_s)
+    h = min(_RATE_STEP_S, (hi - lo) / 2.0)
+    a = max(lo, min(t_s - h, hi - 2.0 * h))  # never into a gap, even by rounding
+    b = min(hi, a + 2.0 * h)
+    sample = trajectory.interpolate(np.array([t_s, a, b]))
     pos = sample.pos_ecef_m()
     llh = ecef_to_geodetic(pos[0])
     R_ne = rotation_ned_to_ecef(llh[0], llh[1])
-    vel_ned = R_ne.T @ ((pos[2] - pos[1]) / (2.0 * h))
+    vel_ned = R_ne.T @ ((pos[2] - pos[1]) / (b - a))
     q = sample.q_body_to_ned[1:, [1, 2, 3, 0]]
-    rate_body = (Rotation.from_quat(q[0]).inv() * Rotation.from_quat(q[1])).as_rotvec() / (2.0 * h)
+    rate_body = (Rotation.from_quat(q[0]).inv() * Rotation.from_quat(q[1])).as_rotvec() / (b - a)
     return pos[0], sample.R_body_to_ned[0], vel_ned, rate_body
 
 
@@ -120,24 +161,18 @@ def control_point_differences(
     -------
     differences : tuple of ControlPointDifference
     missing : tuple of MissingTarget
-        Observations whose time lies outside the trajectory's span.
+        Observations whose time lies outside the trajectory's span or inside one of its
+        data gaps (`kinsync.trajectory.Trajectory.gaps`), with the reason.
     """
     index = {n: i for i, n in enumerate(control.names)}
     out: list[ControlPointDifference] = []
     missing: list[MissingTarget] = []
     for obs in observations:
-        states = _states_at(trajectory, obs.t_s)
-        if states is None:
-            missing.append(
-                MissingTarget(
-                    obs.name,
-                    f"visit time {obs.t_s!r} s outside the trajectory span "
-                    f"[{trajectory.t_start_s!r}, {trajectory.t_end_s!r}] s",
-                    obs.t_s,
-                )
-            )
+        reason = _unreadable(trajectory, obs.t_s)
+        if reason is not None:
+            missing.append(MissingTarget(obs.name, reason, obs.t_s))
             continue
-        pos_ecef, R_bn, vel_ned, rate_body = states
+        pos_ecef, R_bn, vel_ned, rate_body = _states_at(trajectory, obs.t_s)
         llh = ecef_to_geodetic(pos_ecef)
         R_ne = rotation_ned_to_ecef(llh[0], llh[1])
         target = control.pos_ecef_m[index[obs.name]]
