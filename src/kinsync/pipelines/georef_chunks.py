@@ -39,9 +39,9 @@ from kinsync.io.points import (
     TableLayout,
     TableSlice,
     csv_text_columns,
-    numeric_columns,
     read_table_slice,
 )
+from kinsync.io.table_numbers import numeric_columns
 from kinsync.mount import Mount
 
 __all__ = [
