@@ -22,7 +22,7 @@ def test_rows_come_back_byte_for_byte_with_their_own_line_ends(tmp_path: Path) -
         b"1300000000.123456789,1.50,+2,-3e0,007\r\n",
         b"\r\n",  # empty lines are not data rows
         b"\n",
-        b"1300000001,0.1, 2.0,3,\"a,b\"\n",
+        b'1300000001,0.1, 2.0,3,"a,b"\n',
         b"1300000002.000,1,2,3,x\r\n",
         b"1300000003,1,2,3,last",  # no line end
     ]
@@ -105,9 +105,14 @@ def test_line_writer_is_atomic(tmp_path: Path) -> None:
         w.write(b"1,2\r\n")
         w.write(b"3,4\n")
     assert path.read_bytes() == b"a,b\r\n1,2\r\n3,4\n"
-    with pytest.raises(RuntimeError), CsvLineWriter(tmp_path / "x.csv", b"a\n") as w:
-        w.write(b"1\n")
-        raise RuntimeError
+
+    def fail_midway() -> None:
+        with CsvLineWriter(tmp_path / "x.csv", b"a\n") as w:
+            w.write(b"1\n")
+            raise RuntimeError
+
+    with pytest.raises(RuntimeError):
+        fail_midway()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv"]
     with pytest.raises(InputError, match="outside its 'with' block"):
         CsvLineWriter(tmp_path / "y.csv", b"a\n").write(b"1\n")
