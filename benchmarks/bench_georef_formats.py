@@ -2,9 +2,13 @@
 
 Prints, for one scanner-frame LAZ file (``--points``, 2 M by default) and a
 trajectory, the wall time of ``georeference_file`` into LAZ (the baseline), LAS, CSV,
-Parquet and PLY, and from a CSV/Parquet copy of the same points (scanner frame) into
-LAZ, each the best of ``--repeat`` runs measured in the same process, with the ratio
-of its points per second to the baseline's (> 1: faster than LAZ -> LAZ).
+Parquet and PLY, from a CSV/Parquet copy of the same points (scanner frame) into
+LAZ, and from tables to tables: the CSV to CSV, and a Parquet copy with carried columns
+of several types, nulls among them (``carried``: int32, int64, uint8, float32, bool,
+text), to Parquet and to CSV; each the best of ``--repeat`` runs measured in the same
+process, with the ratio of its points per second to the baseline's (> 1: faster than
+LAZ -> LAZ). ``--cases WORD,...`` measures only the cases whose label holds one of the
+words (and the baseline).
 
 Run: ``.venv/bin/python benchmarks/bench_georef_formats.py [--points N] [--repeat R]``.
 """
@@ -17,6 +21,8 @@ from pathlib import Path
 
 import laspy
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from _timing import best_of
 from kinsync.io.mount_file import write_mount
@@ -65,12 +71,31 @@ def write_inputs(folder: Path, n_points: int) -> None:
     for name in ("scan.csv", "scan.parquet"):
         with TableChunkWriter(folder / name) as writer:
             writer.write(cols)
+    k = np.arange(n_points)
+    every = k % 17 == 0  # nulls
+    carried = pa.table(
+        {
+            **{n: cols[n] for n in ("t_s", "x_m", "y_m", "z_m")},
+            "intensity": pa.array(cols["intensity"].astype(np.int32), mask=every),
+            "return_id": pa.array(k.astype(np.int64) + 2**40),
+            "class": pa.array((k % 19).astype(np.uint8)),
+            "refl": pa.array(rng.random(n_points).astype(np.float32), mask=k % 13 == 0),
+            "valid": pa.array(k % 3 == 0, mask=every),
+            "label": pa.array(np.char.add("p", (k % 1000).astype(str)), mask=k % 29 == 0),
+        }
+    )
+    pq.write_table(carried, folder / "scan_carried.parquet")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--points", type=int, default=2_000_000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument(
+        "--cases",
+        default="",
+        help="only the cases whose label holds one of these words (comma-separated)",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -79,10 +104,16 @@ def main() -> None:
             ("scan.laz", f"out{s}") for s in (".las", ".csv", ".parquet", ".ply")
         ]
         cases += [("scan.csv", "from_csv.laz"), ("scan.parquet", "from_parquet.laz")]
+        cases += [("scan.csv", "from_csv.csv")]
+        cases += [("scan_carried.parquet", f"carried{s}") for s in (".parquet", ".csv")]
         base = 0.0
         print(f"{args.points} points, best of {args.repeat}, CRS {CRS}")
         print(f"{'input -> output':28s} {'s':>8s} {'Mpts/s':>8s} {'vs LAZ->LAZ':>12s}")
         for src, out in cases:
+            label = f"{Path(src).suffix[1:]} -> {Path(out).suffix[1:]}"
+            label += " (carried)" if "carried" in src else ""
+            if base and not any(word in label for word in args.cases.split(",")):
+                continue
 
             def run(src: str = src, out: str = out) -> None:
                 s = georeference_file(d / src, d / "traj.csv", MOUNT, d / out, crs=CRS)
@@ -90,7 +121,6 @@ def main() -> None:
 
             seconds = best_of(run, args.repeat)
             base = base or seconds
-            label = f"{Path(src).suffix[1:]} -> {Path(out).suffix[1:]}"
             rate = args.points / seconds / 1e6
             print(f"{label:28s} {seconds:8.2f} {rate:8.2f} {base / seconds:12.2f}")
 

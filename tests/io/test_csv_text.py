@@ -55,6 +55,20 @@ def test_a_one_column_table_never_writes_an_empty_line() -> None:
     assert csv_rows_bytes(table).to_pybytes() == b'""\n1\n'
 
 
+def test_a_null_float_is_an_empty_field_and_nan_is_nan() -> None:
+    """A null read back is a null (an empty cell), a NaN a NaN: they used to both be ``nan``."""
+    table = pa.table(
+        {
+            "f": pa.array([1.0, None, float("nan")]),
+            "f32": pa.array([None, 0.5, None], type=pa.float32()),
+            "n": pa.array([None, 2, 3], type=pa.int16()),
+        }
+    )
+    assert csv_rows_bytes(table).to_pybytes() == b"1.0,,\n,0.5,2\nnan,,3\n"
+    lone = pa.table({"f": pa.array([None, 2.0])})
+    assert csv_rows_bytes(lone).to_pybytes() == b'""\n2.0\n'
+
+
 def test_a_sliced_table_writes_only_its_rows() -> None:
     table = pa.table({"a": [1, 2, 3], "s": ["x", "y", "z"]}).slice(1, 2)
     assert csv_rows_bytes(table).to_pybytes() == b"2,y\n3,z\n"

@@ -313,6 +313,51 @@ def test_csv_text_columns_give_the_same_file(tmp_path: Path) -> None:
     assert '"' not in text  # numbers are never quoted
 
 
+def test_csv_text_columns_take_pyarrow_columns_with_nulls(tmp_path: Path) -> None:
+    cols = {
+        "f": pa.array([0.1, None, 3.0]),
+        "chunked": pa.chunked_array([[1.5], [None, 2.0]], type=pa.float32()),
+        "n": pa.array([None, 1, 2], type=pa.int32()),
+        "s": pa.array(["a", None, "c,d"]),
+    }
+    direct, prepared = tmp_path / "direct.csv", tmp_path / "prepared.csv"
+    with TableChunkWriter(direct) as w:
+        w.write(cols)
+    with TableChunkWriter(prepared) as w:
+        w.write(csv_text_columns(cols))
+    assert prepared.read_bytes() == direct.read_bytes()
+    assert direct.read_text() == 'f,chunked,n,s\n0.1,1.5,,a\n,,1,\n3.0,2.0,2,"c,d"\n'
+
+
+def test_parquet_slices_as_arrow_keep_types_and_nulls(tmp_path: Path) -> None:
+    """As numpy an integer column with nulls turns into floats, NaN for null."""
+    n = 10
+    table = pa.table(
+        {
+            "t_s": np.arange(n, dtype=np.float64),
+            "x_m": np.zeros(n),
+            "y_m": np.zeros(n),
+            "z_m": np.zeros(n),
+            "i32": pa.array([None if i % 3 == 0 else i for i in range(n)], type=pa.int32()),
+            "big": pa.array([2**62 + i for i in range(n)], type=pa.int64()),
+            "ok": pa.array([None, True] * (n // 2)),
+            "f32": pa.array([None, 1.5] * (n // 2), type=pa.float32()),
+        }
+    )
+    path = tmp_path / "nulls.parquet"
+    with TableChunkWriter(path) as w:
+        for i in range(0, n, 4):
+            w.write({c: table.column(c).slice(i, 4) for c in table.column_names})
+    layout, slices = plan_table_slices(path, 6, REQUIRED)
+    parts = [read_table_slice(layout, s, arrow=True) for s in slices]
+    for name in ("i32", "big", "ok", "f32"):
+        got = pa.chunked_array([c for p in parts for c in p[name].chunks])
+        assert got.type == table.schema.field(name).type, name
+        assert got.to_pylist() == table.column(name).to_pylist(), name
+    assert all(isinstance(p["t_s"], np.ndarray) for p in parts)  # required: float64 numpy
+    assert read_table_slice(layout, slices[0])["i32"].dtype == np.float64  # numpy as before
+
+
 class _ClosingSpy:
     """A pyarrow streaming CSV reader that records whether it was closed."""
 

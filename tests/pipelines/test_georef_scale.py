@@ -14,9 +14,16 @@ from typing import Any
 
 import laspy
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from tests._georef_scan import scan_columns, write_laz, write_trajectory
+from tests._georef_scan import (
+    csv_points,
+    nullable_points,
+    scan_columns,
+    write_laz,
+    write_trajectory,
+)
 
 from kinsync.errors import InputError
 from kinsync.io.las import las_end_times
@@ -161,6 +168,49 @@ def test_profile_parquet_output_is_identical_and_read_by_the_workers(
     rejected = pq.read_table(folder / "profile_scaled.rejected.parquet")
     assert rejected.equals(pq.read_table(folder / "profile_serial.rejected.parquet"))
     assert rejected.num_rows == summary.points_rejected
+
+
+def test_carried_types_nulls_and_csv_rejected_lines_are_the_serial_ones(
+    inputs: dict[str, Path], scheduler: str, tmp_path: Path
+) -> None:
+    """Workers send back a Parquet input's columns with their types and nulls, and a
+    CSV's rejected rows as its own lines."""
+    folder = inputs["dir"]
+    table = nullable_points(1_500, 10.0, seed=13)
+    pq.write_table(table, folder / "nulls.parquet", row_group_size=300)
+    for suffix in (".parquet", ".csv"):
+        _run(inputs, "nulls.parquet", f"nulls_serial{suffix}", crs="EPSG:4979")
+        scaled = _run(
+            inputs,
+            "nulls.parquet",
+            f"nulls_scaled{suffix}",
+            crs="EPSG:4979",
+            scheduler=scheduler,
+            workers=2,
+        )
+        for name in (scaled.name, scaled.name.replace(".", ".rejected.")):
+            got, want = folder / name, folder / name.replace("scaled", "serial")
+            if suffix == ".csv":
+                assert got.read_bytes() == want.read_bytes(), name
+                continue
+            got_table = pq.read_table(got)
+            assert got_table.equals(pq.read_table(want)), name
+            rows = pa.array(got_table.column("id").to_numpy())
+            kept = [n for n in table.column_names if n in got_table.column_names]
+            assert len(kept) >= len(table.column_names) - 3  # x_m,y_m,z_m became X,Y,Z
+            assert got_table.select(kept).equals(table.take(rows).select(kept)), name
+    src, header, lines = csv_points(tmp_path)
+    georeference_file(
+        src,
+        inputs["traj"],
+        MOUNT,
+        tmp_path / "geo.csv",
+        chunk_points=7,
+        outside="reject",
+        scheduler=scheduler,
+        workers=2,
+    )
+    assert (tmp_path / "geo.rejected.csv").read_bytes() == header + b"".join(lines)
 
 
 @pytest.mark.parametrize(

@@ -7,7 +7,8 @@ with pyarrow compute:
 
 * floats in the shortest text that reads back to the same float64 (pyarrow's float
   formatting), with ``.0`` added to integral values so that ``1.0`` reads back as a
-  float: every value comes back exactly; nulls are written ``nan``;
+  float: every value comes back exactly (NaN is written ``nan``); nulls as an empty
+  field;
 * integers and booleans (``true``/``false``) as pyarrow writes them, never quoted;
 * text (and any other type, through its pyarrow text form) bare, or between double
   quotes with inner quotes doubled when it holds a comma, a double quote, a carriage
@@ -43,10 +44,10 @@ def float_text(col: Any) -> Any:
 
     pyarrow's float -> string cast gives the shortest text that reads back to the same
     value (``0.1``, ``1e-7``, ``1.23456789012e+11``), but integral values without a
-    point (``1``); those get ``.0`` so that the column reads back as floats. Nulls are
-    written ``nan``.
+    point (``1``); those get ``.0`` so that the column reads back as floats. Nulls stay
+    null (written as an empty field, which reads back as null: NaN is ``nan``).
     """
-    text = pc.cast(pc.fill_null(col, float("nan")), pa.string())
+    text = pc.cast(col, pa.string())
     integral = pc.utf8_is_digit(pc.utf8_ltrim(text, "-"))  # no ".", "e", "nan", "inf"
     return pc.if_else(integral, pc.binary_join_element_wise(text, ".0", ""), text)
 
@@ -67,11 +68,9 @@ def _quoted(text: Any, *, empty_too: bool) -> Any:
 def _column_text(name: str, col: Any, *, single: bool) -> Any:
     """One column as large_string CSV fields."""
     kind = col.type
-    if pa.types.is_floating(kind):
-        return pc.cast(float_text(col), pa.large_string())
-    if pa.types.is_integer(kind) or pa.types.is_boolean(kind):
-        text = pc.cast(col, pa.large_string())
-        return pc.fill_null(text, _large('""' if single else ""))
+    if pa.types.is_floating(kind) or pa.types.is_integer(kind) or pa.types.is_boolean(kind):
+        text = float_text(col) if pa.types.is_floating(kind) else col
+        return pc.fill_null(pc.cast(text, pa.large_string()), _large('""' if single else ""))
     if not (pa.types.is_string(kind) or pa.types.is_large_string(kind)):
         try:
             col = pc.cast(col, pa.large_string())

@@ -39,7 +39,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
@@ -55,7 +54,6 @@ __all__ = [
     "count_table_rows",
     "csv_text_columns",
     "iter_table_chunks",
-    "numeric_columns",
     "plan_table_slices",
     "read_table_slice",
     "table_columns",
@@ -237,9 +235,14 @@ def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
 
 
 def _chunk_to_numpy(
-    path: Path, table: Any, required: Sequence[str], first_row: int
-) -> dict[str, np.ndarray[Any, Any]]:
-    out: dict[str, np.ndarray[Any, Any]] = {}
+    path: Path, table: Any, required: Sequence[str], first_row: int, *, arrow: bool = False
+) -> dict[str, Any]:
+    """The columns of a table chunk, required ones checked and float64.
+
+    The others are numpy arrays, or with ``arrow`` the pyarrow arrays they are (their
+    types and nulls kept: numpy would turn an integer column with nulls into floats).
+    """
+    out: dict[str, Any] = {}
     for name in table.column_names:
         col = table.column(name)
         if name in required:
@@ -265,7 +268,7 @@ def _chunk_to_numpy(
                 continue
             out[name] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=np.float64)
         else:
-            out[name] = col.to_numpy(zero_copy_only=False)
+            out[name] = col if arrow else col.to_numpy(zero_copy_only=False)
     return out
 
 
@@ -464,7 +467,8 @@ class TableLayout:
     inferred : pyarrow.Schema or None
         The types of the columns as numbers would be read: for CSV, pyarrow's
         inference from the first MiB (the slices give the columns that are not required
-        as text, `numeric_columns` converts them); for Parquet the stored types.
+        as text, `kinsync.io.table_numbers.numeric_columns` converts them); for Parquet
+        the stored types.
     """
 
     path: Path
@@ -774,15 +778,24 @@ def _read_parquet_slice(layout: TableLayout, sl: TableSlice) -> Any:
         raise InputError(msg) from err
 
 
-def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarray[Any, Any]]:
+def read_table_slice(layout: TableLayout, sl: TableSlice, *, arrow: bool = False) -> dict[str, Any]:
     """Read one slice planned by `plan_table_slices`.
+
+    Parameters
+    ----------
+    layout : TableLayout
+    sl : TableSlice
+    arrow : bool
+        Give the columns that are not required as pyarrow arrays, with their types and
+        nulls (as numpy arrays, an integer column with nulls would become floats, NaN
+        for null).
 
     Returns
     -------
-    dict of str to ndarray, each of shape (``sl.n_rows``,)
+    dict of str to ndarray (or pyarrow array), each of shape (``sl.n_rows``,)
         Every column in file order, with the types of ``layout.schema`` (required
-        columns float64), mapped columns under their kinsync names (``layout.renames``),
-        as `iter_table_chunks` gives them.
+        columns float64), mapped columns under their kinsync names
+        (``layout.renames``), as `iter_table_chunks` gives them.
 
     Raises
     ------
@@ -807,66 +820,5 @@ def read_table_slice(layout: TableLayout, sl: TableSlice) -> dict[str, np.ndarra
             "value holds a line break (not supported: remove line breaks from values)"
         )
         raise InputError(msg)
-    return _renamed(_chunk_to_numpy(path, table, layout.required, sl.first_row), layout.renames)
-
-
-def _cast_error(
-    layout: TableLayout, name: str, values: np.ndarray[Any, Any], target: Any, first_row: int
-) -> InputError:
-    """The first value of a text column that does not convert to ``target``."""
-    column = layout.file_name(name)
-    for i, value in enumerate(values.tolist()):
-        try:
-            pa.scalar(value, pa.string()).cast(target)
-        except (pa.ArrowException, ValueError):
-            what = "empty cell" if value == "" else f"{value[:80]!r} is not a {target} value"
-            msg = (
-                f"{layout.path}: data row {first_row + i}, column {column!r}: {what} (the "
-                f"column reads as {target} from the first rows); fix the value"
-            )
-            return InputError(msg)
-    return InputError(f"{layout.path}: column {column!r}: cannot convert to {target}")
-
-
-def numeric_columns(
-    layout: TableLayout, columns: Mapping[str, np.ndarray[Any, Any]], first_row: int
-) -> dict[str, np.ndarray[Any, Any]]:
-    """The numeric (and boolean) columns of a slice, as numbers.
-
-    The columns a CSV slice gives as text are converted to the type pyarrow infers for
-    them (``layout.inferred``); an empty cell of a float column becomes NaN. Columns
-    inferred as text are left out.
-
-    Parameters
-    ----------
-    layout : TableLayout
-    columns : mapping of str to ndarray, shape (M,)
-        A slice as `read_table_slice` gives it.
-    first_row : int
-        Data row of the slice's first row (for messages).
-
-    Raises
-    ------
-    InputError
-        A cell that does not convert (naming its data row and column).
-    """
-    out: dict[str, np.ndarray[Any, Any]] = {}
-    for name, values in columns.items():
-        if values.dtype.kind in "biuf":
-            out[name] = values
-            continue
-        target = layout.inferred.field(layout.file_name(name)).type if layout.inferred else None
-        if target is None or not (
-            pa.types.is_integer(target)
-            or pa.types.is_floating(target)
-            or pa.types.is_boolean(target)
-        ):
-            continue
-        text = pa.array(values, pa.string())
-        if pa.types.is_floating(target):
-            text = pc.if_else(pc.equal(text, ""), "nan", text)
-        try:
-            out[name] = pc.cast(text, target).to_numpy(zero_copy_only=False)
-        except (pa.ArrowException, ValueError) as err:
-            raise _cast_error(layout, name, np.asarray(values), target, first_row) from err
-    return out
+    columns = _chunk_to_numpy(path, table, layout.required, sl.first_row, arrow=arrow)
+    return _renamed(columns, layout.renames)

@@ -58,7 +58,13 @@ def _arrow_column(name: str, values: Any) -> Any:
         raise InputError(msg) from err
 
 
-def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, Any]:
+def _is_float(values: Any) -> bool:
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return bool(pa.types.is_floating(values.type))
+    return bool(np.asarray(values).dtype.kind == "f")
+
+
+def csv_text_columns(columns: Mapping[str, Any]) -> dict[str, Any]:
     """Float columns turned into the text a ``.csv`` `TableChunkWriter` writes for them.
 
     Lets another process do that formatting, the costly part of writing a CSV: the
@@ -67,7 +73,7 @@ def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, A
 
     Parameters
     ----------
-    columns : mapping of str to ndarray, each of shape (M,)
+    columns : mapping of str to ndarray or pyarrow array, each of shape (M,)
         A chunk as `TableChunkWriter.write` takes it.
 
     Returns
@@ -76,7 +82,11 @@ def csv_text_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> dict[str, A
         The same columns, in order, floats as text.
     """
     return {
-        name: float_text(pa.array(values)) if np.asarray(values).dtype.kind == "f" else values
+        name: float_text(
+            values if isinstance(values, pa.Array | pa.ChunkedArray) else pa.array(values)
+        )
+        if _is_float(values)
+        else values
         for name, values in columns.items()
     }
 

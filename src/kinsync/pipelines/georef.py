@@ -43,6 +43,7 @@ from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
+from kinsync.io.csv_lines import csv_header_line
 from kinsync.io.las import (
     check_week_seconds,
     las_end_times,
@@ -74,6 +75,7 @@ from kinsync.pipelines.georef_chunks import (
     empty_table_output,
 )
 from kinsync.pipelines.georef_outputs import (
+    CsvLinesRejectedSink,
     LasRejectedSink,
     LasSink,
     PlySink,
@@ -302,9 +304,11 @@ def georeference_file(
         Output; format from the suffix, any input to any output:
 
         * ``.las``/``.laz`` from LAS/LAZ: every attribute and VLR kept, X, Y, Z replaced;
-        * ``.csv``/``.parquet`` from a table: every input column kept, the coordinates
-          in ``crs`` as ``X,Y,Z`` (replacing ``x_m,y_m,z_m`` in place, or appended after
-          the columns of a profile file);
+        * ``.csv``/``.parquet`` from a table: every input column kept (a Parquet
+          column with its type and nulls, written to CSV as its values' text with an
+          empty cell for null; a CSV column as its text), the coordinates in ``crs``
+          as ``X,Y,Z`` (replacing ``x_m,y_m,z_m`` in place, or appended after the
+          columns of a profile file);
         * ``.csv``/``.parquet`` from LAS/LAZ: one column per LAS dimension
           (``gps_time`` as stored, ``intensity``, ``return_number``,
           ``classification``, ..., extra bytes), ``X,Y,Z`` georeferenced floats
@@ -336,7 +340,9 @@ def georeference_file(
     outside : {"error", "reject"}
         Points outside the trajectory span: an error naming how many and their time
         range (nothing written), or written unchanged, in the input's format, to
-        ``OUT.rejected.<ext>`` (`rejected_path_for`). A run that rejects no point
+        ``OUT.rejected.<ext>`` (`rejected_path_for`; a CSV input's rows to a CSV
+        rejected file as the input's own lines, byte for byte, under its header line;
+        to a Parquet one as the table's columns). A run that rejects no point
         removes the ``OUT.rejected.<ext>`` an earlier run left there (a warning says so),
         so that the files beside the output always hold exactly this run's points.
     gps_week : int, optional
@@ -415,6 +421,7 @@ def georeference_file(
         source, tasks, total, mount = _plan_table(
             points_path, chunk_points, mount, point_columns, profiler_azimuth_deg, columns, output
         )
+    csv_input = not las_input and points_path.suffix.lower() == ".csv"
     ctx = ChunkContext(
         source,
         traj,
@@ -424,6 +431,8 @@ def georeference_file(
         outside,
         out_path.suffix.lower() == ".csv",
         output=output,
+        rejected_lines=csv_input
+        and rejected_path_for(out_path, points_path).suffix.lower() == ".csv",
     )
     if out_kind == "las":
         ctx = replace(ctx, las_frame=_las_output_frame(ctx, tasks, total))
@@ -433,9 +442,7 @@ def georeference_file(
     with ExitStack() as stack:
         runner = make_runner(ctx, scheduler, workers)
         stack.callback(runner.close)
-        counts = _write(
-            ctx, tasks, total, out_path, progress, tally, runner, sink, template, points_path
-        )
+        counts = _write(ctx, tasks, total, out_path, progress, tally, runner, sink, template)
     points_in, points_out, points_rejected = counts
     if not points_rejected:
         notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
@@ -815,6 +822,16 @@ def _outputs_in_order(
         raise tally.error(ctx.source.path, ctx.traj, out_path)
 
 
+def _rejected_sink(ctx: ChunkContext, template: Any, out_path: Path) -> Sink:
+    """The sink of the points outside the span: unchanged, in the input's own format."""
+    path = rejected_path_for(out_path, ctx.source.path)
+    if template is not None:
+        return LasRejectedSink(path, template)
+    if ctx.rejected_lines:
+        return CsvLinesRejectedSink(path, csv_header_line(ctx.source.path))
+    return TableRejectedSink(path)
+
+
 def _write(
     ctx: ChunkContext,
     tasks: Sequence[ChunkTask],
@@ -825,7 +842,6 @@ def _write(
     runner: SerialRunner,
     sink: Sink,
     template: Any,
-    points_path: Path,
 ) -> tuple[int, int, int]:
     """Write every chunk's points to ``sink`` and its rejects to the rejected file."""
     n_in = n_out = 0
@@ -835,15 +851,14 @@ def _write(
         stack.callback(behind.close)  # before the sink closes
         rejected: Sink | None = None
         for out in _outputs_in_order(ctx, tasks, runner, tally, out_path, progress, total):
-            if out.rejected_records is not None or out.rejected_columns is not None:
+            if (
+                out.rejected_records is not None
+                or out.rejected_columns is not None
+                or out.rejected_lines is not None
+            ):
                 if rejected is None:
                     behind.wait()
-                    path = rejected_path_for(out_path, points_path)
-                    rejected = stack.enter_context(
-                        TableRejectedSink(path)
-                        if template is None
-                        else LasRejectedSink(path, template)
-                    )
+                    rejected = stack.enter_context(_rejected_sink(ctx, template, out_path))
                     stack.callback(behind.close)
                 behind.submit(rejected.write, out)
             behind.submit(sink.write, out)

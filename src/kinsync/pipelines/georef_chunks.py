@@ -28,6 +28,7 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
 from kinsync.georef.profile import profile_points_to_scanner
 from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.io.csv_lines import csv_slice_lines
 from kinsync.io.las import (
     LasPointReader,
     read_las_points,
@@ -39,9 +40,9 @@ from kinsync.io.points import (
     TableLayout,
     TableSlice,
     csv_text_columns,
-    numeric_columns,
     read_table_slice,
 )
+from kinsync.io.table_numbers import numeric_columns
 from kinsync.mount import Mount
 
 __all__ = [
@@ -136,6 +137,7 @@ class ChunkContext:
     output: OutputKind = "same"
     table_las: TableLasPlan | None = None  # table -> LAS: how columns become points
     ply_columns: tuple[str, ...] = ()  # table -> PLY: the carried (numeric) columns
+    rejected_lines: bool = False  # CSV input, CSV rejected file: rejects as their input lines
 
 
 @dataclass(frozen=True)
@@ -160,7 +162,8 @@ class ChunkOutput:
     gap_t_max_s: float = math.nan
     error: str | None = None
     columns: dict[str, Any] | None = None  # table, PLY: the output rows (CSV: floats as text)
-    rejected_columns: dict[str, Any] | None = None
+    rejected_columns: dict[str, Any] | None = None  # rejects of a table (CSV: floats as text)
+    rejected_lines: bytes | None = None  # rejects of a CSV as their lines (`rejected_lines`)
     records: np.ndarray[Any, Any] | None = None  # LAS: inside points, X/Y/Z georeferenced
     rejected_records: np.ndarray[Any, Any] | None = None
 
@@ -254,27 +257,35 @@ def tallied(
     )
 
 
+def _rows(values: Any, keep: BoolArray, keep_arrow: Any) -> Any:
+    """The ``keep`` rows of a numpy or pyarrow column (``keep_arrow``: ``keep`` for pyarrow)."""
+    if isinstance(values, pa.Array | pa.ChunkedArray):
+        return values.filter(keep_arrow)
+    return values[keep]
+
+
 def _output_columns(
     ctx: ChunkContext,
-    columns: dict[str, np.ndarray[Any, Any]],
+    columns: dict[str, Any],
     inside: BoolArray,
     all_inside: bool,
     coords: FloatArray,
-) -> dict[str, np.ndarray[Any, Any]]:
+) -> dict[str, Any]:
     """Every input column (inside rows); x_m,y_m,z_m replaced by X,Y,Z, or X,Y,Z added.
 
     Carried columns keep the file's own names (a ``--columns`` map renamed them for
-    reading only).
+    reading only), and their types and nulls (pyarrow columns stay pyarrow columns).
     """
     layout = ctx.source.table
     assert layout is not None
-    out: dict[str, np.ndarray[Any, Any]] = {}
+    out: dict[str, Any] = {}
+    keep = None if all_inside else pa.array(inside)
     for name, values in columns.items():
         if ctx.source.points == "xyz" and name in XYZ_COLUMNS:
             j = XYZ_COLUMNS.index(name)
             out[OUT_COLUMNS[j]] = coords[:, j]
         else:
-            out[layout.file_name(name)] = values if all_inside else values[inside]
+            out[layout.file_name(name)] = values if all_inside else _rows(values, inside, keep)
     if ctx.source.points == "profile":
         for j, name in enumerate(OUT_COLUMNS):
             out[name] = coords[:, j]
@@ -369,7 +380,7 @@ def _process_table_task(
     layout = ctx.source.table
     assert layout is not None
     assert task.table_slice is not None
-    columns = read_table_slice(layout, task.table_slice)
+    columns = read_table_slice(layout, task.table_slice, arrow=True)
     t = columns["t_s"]
     traj, src = ctx.traj, ctx.source
     base = tallied(
@@ -405,19 +416,27 @@ def _table_output(
     task: ChunkTask,
     base: ChunkOutput,
     t: FloatArray,
-    columns: dict[str, np.ndarray[Any, Any]],
+    columns: dict[str, Any],
     inside: BoolArray,
     coords: FloatArray,
 ) -> ChunkOutput:
     """The georeferenced rows of a table slice as the output wants them, and its rejects."""
     layout = ctx.source.table
     assert layout is not None
+    assert task.table_slice is not None
     all_inside = bool(inside.all())
-    rejected = None if all_inside else {layout.file_name(k): v[~inside] for k, v in columns.items()}
+    rejected = None
+    if not all_inside and ctx.rejected_lines:  # the input's own lines
+        base = replace(base, rejected_lines=csv_slice_lines(layout, task.table_slice, ~inside))
+    elif not all_inside:
+        outside, outside_arrow = ~inside, pa.array(~inside)
+        rejected = {
+            layout.file_name(k): _rows(v, outside, outside_arrow) for k, v in columns.items()
+        }
     if ctx.output == "las":
         return _table_las_output(ctx, task, base, t, columns, inside, all_inside, coords, rejected)
     if ctx.output == "ply":
-        kept = numeric_columns(layout, columns, task.first)
+        kept = numeric_columns(layout, columns, task.first, inside)
         ply = {axis: coords[:, j] for j, axis in enumerate(PLY_XYZ)}
         ply |= {
             n: _inside(kept[layout.kinsync_name(n)], inside, all_inside) for n in ctx.ply_columns
@@ -452,7 +471,7 @@ def _table_las_output(
     assert plan is not None
     assert frame is not None
     assert layout is not None
-    kept = numeric_columns(layout, columns, task.first)
+    kept = numeric_columns(layout, columns, task.first, inside)
     wanted = {n: _inside(kept[n], inside, all_inside) for n in plan.standard}
     wanted |= {n: _inside(kept[n], inside, all_inside) for n, _ in plan.extra}
     rows = np.flatnonzero(inside)

@@ -4,8 +4,9 @@ Each sink takes the `ChunkOutput` s of `kinsync.pipelines.georef_chunks` in inpu
 and writes what is meant for it: the ``columns`` (table, PLY) or the ``records`` (LAS)
 of the points inside the trajectory span; a rejected sink writes the points outside
 it, unchanged, in the input's own format (``rejected_records`` of a LAS/LAZ input,
-``rejected_columns`` of a table). All write atomically (their file appears when the
-``with`` block ends without an error).
+``rejected_lines`` of a CSV to a CSV rejected file, ``rejected_columns`` of a table).
+All write atomically (their file appears when the ``with`` block ends without an
+error).
 """
 
 from __future__ import annotations
@@ -21,12 +22,21 @@ import numpy as np
 import pyproj
 
 from kinsync.crs_axes import coordinate_metadata
+from kinsync.io.csv_lines import CsvLineWriter
 from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.ply import PlyChunkWriter
 from kinsync.io.points import TableChunkWriter
 from kinsync.pipelines.georef_chunks import ChunkOutput
 
-__all__ = ["LasRejectedSink", "LasSink", "PlySink", "Sink", "TableRejectedSink", "TableSink"]
+__all__ = [
+    "CsvLinesRejectedSink",
+    "LasRejectedSink",
+    "LasSink",
+    "PlySink",
+    "Sink",
+    "TableRejectedSink",
+    "TableSink",
+]
 
 
 class Sink:
@@ -142,6 +152,18 @@ class LasRejectedSink(Sink):
                 np.asarray(out.rejected_records), t.point_format, t.scales, t.offsets
             )
         )
+
+
+class CsvLinesRejectedSink(Sink):
+    """The ``rejected_lines`` of a CSV input: its header and the rows' lines, byte for byte."""
+
+    def __init__(self, path: Path, header: bytes) -> None:
+        self._lines = CsvLineWriter(path, header)
+        super().__init__(self._lines)
+
+    def write(self, out: ChunkOutput) -> None:  # noqa: D102
+        assert out.rejected_lines is not None
+        self._lines.write(out.rejected_lines)
 
 
 class TableRejectedSink(Sink):
