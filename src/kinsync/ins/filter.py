@@ -573,8 +573,13 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     measure only their difference, so the filter halved the tilt variance: normalised
     roll/pitch errors of RMS 1.45 over 5-60 s at rest (12 simulated MEMS static starts),
     about √2. With the correlation, the first-estimates Jacobian and no second-order
-    tilt mean during the standstill (`standstill_params`): 0.95, and 1.32 / 1.22 over
-    60-85 s and 85-110 s after driving off (1.61 / 1.19 before).
+    tilt mean during the standstill (`standstill_params`): 0.95, and 1.23 / 1.19 over
+    60-85 s and 85-110 s after driving off (1.61 / 1.19 before); smoothed, 1.09 / 1.03
+    / 1.00 (unchanged). Not solved: at rest the vertical accelerometer bias cannot be
+    told from the second-order vertical support of the unknown tilt (``½ g θ²``,
+    0.25 mg for the MEMS preset), which a linear filter does not carry; the smoothed
+    vertical bias at rest is off by 0.28 mg RMS against a σ of 0.022 mg (0.22 mg
+    before this correlation).
 
     When the gyro bias was measured as the mean rate of a static period
     (``init.gyro_bias_std_rad_s`` set, and no calibration in ``config``), that mean
