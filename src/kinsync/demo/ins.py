@@ -462,6 +462,7 @@ def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[s
     a, b = s.outage_s
     fwd_sol = run.result.forward
     assert run.smoothed.within_3sigma is not None
+    assert run.init.static_until_s is not None  # a static alignment sets it
     return (
         (
             f"An ADIS16488-like MEMS IMU (200 Hz; turn-on bias 0.2 deg/s and 16 mg per "
@@ -481,7 +482,10 @@ def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[s
             f"{_triple(o.align_err_deg.tolist())} deg; the accelerometer biases enter the "
             "levelling as tilt (10 mg is 0.57 deg), and the filter starts knowing that "
             "tilt and accelerometer bias err together, until the turns let it separate "
-            f"them. {fwd_sol.n_gnss_used} GNSS epochs used, "
+            "them; while the car stands it keeps the levelled attitude in the Jacobian of "
+            "the accelerometer errors, so that it claims no more about the tilt than a "
+            f"standstill shows (until t = {run.init.static_until_s:g} s). "
+            f"{fwd_sol.n_gnss_used} GNSS epochs used, "
             f"{fwd_sol.n_gnss_rejected} rejected by the chi-square gate."
         ),
         (
