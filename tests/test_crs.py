@@ -223,7 +223,6 @@ def test_the_plain_transformer_matches_pyproj() -> None:
     np.testing.assert_allclose(out(_ecef(lon, lat, h)), np.column_stack([e, n, u]), atol=1e-6)
 
 
-
 @pytest.mark.parametrize("crs", ["EPSG:4979", "EPSG:32619"])
 @pytest.mark.parametrize("moving", ["static", "due north", "due east"])
 def test_data_on_a_point_or_a_meridian_have_a_transformation(crs: str, moving: str) -> None:
