@@ -292,7 +292,8 @@ def arrow_numpy_dtype(kind: pa.DataType) -> np.dtype[Any]:
     NotImplementedError, pyarrow.ArrowException
         A type pyarrow cannot convert to numpy.
     """
-    return np.dtype(pa.array([], type=kind).to_numpy(zero_copy_only=False).dtype)
+    empty: np.ndarray[Any, np.dtype[Any]] = pa.array([], type=kind).to_numpy(zero_copy_only=False)
+    return empty.dtype
 
 
 def _numpy_type(kind: Any) -> np.dtype[Any] | None:
