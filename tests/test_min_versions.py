@@ -15,7 +15,7 @@ from packaging.requirements import Requirement
 from packaging.version import Version
 
 ROOT = Path(__file__).resolve().parents[1]
-CHECKED_EXTRAS = ("scale", "test")  # dev's linters: newest only (scipy-stubs needs scipy 1.14)
+CHECKED_EXTRAS = ("scale", "test")  # not dev: linters judge typing, with the newest numpy
 _PIN = re.compile(r"^(?P<name>[A-Za-z0-9._-]+)==(?P<version>\S+)\s*(?:#\s*(?P<why>.+))?$")
 
 
