@@ -223,6 +223,21 @@ def test_the_plain_transformer_matches_pyproj() -> None:
     np.testing.assert_allclose(out(_ecef(lon, lat, h)), np.column_stack([e, n, u]), atol=1e-6)
 
 
+@pytest.mark.parametrize("crs", ["EPSG:4979", "EPSG:32619"])
+@pytest.mark.parametrize("moving", ["static", "due north", "due east"])
+def test_data_on_a_point_or_a_meridian_have_a_transformation(crs: str, moving: str) -> None:
+    """PROJ 9.2 finds no operation for an area of interest of zero width or height."""
+    s = np.linspace(0.0, 0.01, 5)
+    lon = QUEBEC_LON + (s if moving == "due east" else 0.0 * s)
+    lat = QUEBEC_LAT + (s if moving == "due north" else 0.0 * s)
+    pos = _ecef(lon, lat, 20.0 + 0.0 * s)
+    plan, _ = plan_ecef_to_crs(crs, sample_ecef_m=pos)
+    out = crs_plan_transformer(plan)
+    assert out is not None
+    expected = pyproj.Transformer.from_crs(4978, crs, always_xy=True).transform(*pos.T)
+    np.testing.assert_allclose(out(pos), np.column_stack(expected), rtol=0, atol=1e-6)
+
+
 # --------------------------------------------------------------------------- UTM zones
 def test_a_utm_zone_far_from_the_data_is_a_warning_naming_the_right_one() -> None:
     lon, lat, h = _quebec(3)

@@ -192,15 +192,25 @@ def _lonlat_of(sample_ecef_m: FloatArray) -> FloatArray:
     return np.column_stack([lon, lat]).astype(np.float64)
 
 
+_MIN_AREA_SIDE_DEG = 1e-6  # about 0.1 m: the smallest area of interest handed to PROJ
+
+
 def _area(lonlat_deg: FloatArray | None) -> Any:  # pyproj's stubs name two AreaOfInterest
+    """The data's longitude/latitude box, at least `_MIN_AREA_SIDE_DEG` on each side.
+
+    PROJ 9.2 (pyproj 3.6.0's wheels) finds no operation at all for a box of zero width
+    or height (a static trajectory, or a line driven due north).
+    """
     if lonlat_deg is None or not len(lonlat_deg):
         return None
     lon, lat = lonlat_deg[:, 0], lonlat_deg[:, 1]
+    pad_lon = max(0.0, _MIN_AREA_SIDE_DEG - float(lon.max() - lon.min())) / 2.0
+    pad_lat = max(0.0, _MIN_AREA_SIDE_DEG - float(lat.max() - lat.min())) / 2.0
     return AreaOfInterest(
-        west_lon_degree=float(lon.min()),
-        south_lat_degree=float(lat.min()),
-        east_lon_degree=float(lon.max()),
-        north_lat_degree=float(lat.max()),
+        west_lon_degree=max(-180.0, float(lon.min()) - pad_lon),
+        south_lat_degree=max(-90.0, float(lat.min()) - pad_lat),
+        east_lon_degree=min(180.0, float(lon.max()) + pad_lon),
+        north_lat_degree=min(90.0, float(lat.max()) + pad_lat),
     )
 
 

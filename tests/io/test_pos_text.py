@@ -130,7 +130,8 @@ def test_pospac_export_reads_as_the_sbet_angles(tmp_path: Path) -> None:
     rpy = np.degrees(traj.euler_rpy_rad())
     np.testing.assert_allclose(rpy[:, 0], c["roll"], rtol=0, atol=1e-7)
     np.testing.assert_allclose(rpy[:, 1], c["pitch"], rtol=0, atol=1e-7)
-    np.testing.assert_allclose(np.mod(rpy[:, 2], 360.0), c["heading"], rtol=0, atol=1e-7)
+    heading_error = np.mod(rpy[:, 2] - c["heading"] + 180.0, 360.0) - 180.0  # 0 and 360 agree
+    np.testing.assert_allclose(heading_error, 0.0, rtol=0, atol=1e-7)
     assert traj.vel_ned_m_s is not None
     np.testing.assert_allclose(traj.vel_ned_m_s, np.column_stack([c["vn"], c["ve"], -c["vu"]]))
     traj2, scale = read_trajectory_file(path, gps_week=WEEK)

@@ -34,6 +34,7 @@ from laspy.vlrs.known import (
 
 from kinsync.crs_axes import declared_crs, output_units
 from kinsync.errors import InputError
+from kinsync.io.las_header import set_global_encoding_bit
 
 __all__ = ["CRS_VLR_NAMES", "las_crs", "las_crs_keys", "set_las_crs"]
 
@@ -155,7 +156,7 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
         return
     keys = las_crs_keys(crs)
     if keys is not None:
-        header.global_encoding.wkt = False
+        set_global_encoding_bit(header, laspy.header.GlobalEncoding.WKT_MASK, on=False)
         header.vlrs.extend(_geotiff_vlrs(keys, crs.name))
         return
     if header.version.minor >= 4:

@@ -22,12 +22,38 @@ from laspy.vlrs.vlrlist import VLRList
 from kinsync.errors import InputError
 from kinsync.io.laz_chunks import laz_chunks
 
-__all__ = ["las_header", "las_suffix", "open_las_file", "read_las_header"]
+__all__ = [
+    "las_header",
+    "las_suffix",
+    "open_las_file",
+    "read_las_header",
+    "set_global_encoding_bit",
+]
 
 _LAS_MAX_MINOR = 4  # LAS 1.0 to 1.4
 _LAS_HEADER_MIN_BYTES = 227  # LAS 1.0-1.2 header; 1.3 and 1.4 are longer
 _VLR_HEADER_BYTES = 54
 _EVLR_HEADER_BYTES = 60
+
+
+def set_global_encoding_bit(header: laspy.LasHeader, mask: int, *, on: bool) -> None:
+    """Set (``on``) or clear one bit of the header's global encoding.
+
+    laspy before 2.7 clears a bit with an exclusive or, which sets a bit that was clear:
+    its ``global_encoding.wkt = False`` declared WKT in a fresh header, and
+    ``gps_time_type = WEEK_TIME`` labelled week times as adjusted standard GPS time.
+
+    Parameters
+    ----------
+    header : laspy.LasHeader
+        The header to change.
+    mask : int
+        The bit, e.g. ``laspy.header.GlobalEncoding.WKT_MASK``.
+    on : bool
+        Set the bit (True) or clear it (False).
+    """
+    encoding = header.global_encoding
+    encoding.value = (encoding.value | mask) if on else (encoding.value & ~mask)
 
 
 def las_suffix(path: Path) -> str:

@@ -28,12 +28,15 @@ from typing import Any, Literal
 
 import laspy
 import numpy as np
+import pyarrow as pa
 
 from kinsync.errors import InputError
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.las_header import set_global_encoding_bit
 
 __all__ = [
     "TableLasPlan",
+    "arrow_numpy_dtype",
     "las_column_types",
     "las_columns",
     "plan_table_las",
@@ -146,10 +149,8 @@ class TableLasPlan:
         header = laspy.LasHeader(point_format=self.point_format_id, version="1.4")
         if self.extra:
             header.add_extra_dims([laspy.ExtraBytesParams(n, t) for n, t in self.extra])
-        header.global_encoding.gps_time_type = (
-            laspy.header.GpsTimeType.STANDARD
-            if self.time_scale == "gps"
-            else laspy.header.GpsTimeType.WEEK_TIME
+        set_global_encoding_bit(
+            header, laspy.header.GlobalEncoding.GPS_TIME_TYPE_MASK, on=self.time_scale == "gps"
         )
         header.generating_software = "kinsync georef"
         return header
@@ -280,6 +281,21 @@ def plan_table_las(
     return TableLasPlan(pf_id, tuple(standard), tuple(extra), tuple(dropped), time_scale)
 
 
+def arrow_numpy_dtype(kind: pa.DataType) -> np.dtype[Any]:
+    """The numpy type of a pyarrow column type (``object`` for text and the like).
+
+    Read from an empty array of the type: pyarrow 14's ``DataType.to_pandas_dtype``
+    imports pandas, which kinsync does not depend on.
+
+    Raises
+    ------
+    NotImplementedError, pyarrow.ArrowException
+        A type pyarrow cannot convert to numpy.
+    """
+    empty: np.ndarray[Any, np.dtype[Any]] = pa.array([], type=kind).to_numpy(zero_copy_only=False)
+    return empty.dtype
+
+
 def _numpy_type(kind: Any) -> np.dtype[Any] | None:
     """The numpy type of a column type (numpy or pyarrow); None for text and the like.
 
@@ -289,8 +305,7 @@ def _numpy_type(kind: Any) -> np.dtype[Any] | None:
     if str(kind) == "null":
         return np.dtype(np.float64)
     try:
-        to_pandas = getattr(kind, "to_pandas_dtype", None)
-        dt = np.dtype(to_pandas() if to_pandas is not None else kind)
-    except (TypeError, NotImplementedError):
+        dt = arrow_numpy_dtype(kind) if isinstance(kind, pa.DataType) else np.dtype(kind)
+    except (TypeError, NotImplementedError, pa.ArrowException):
         return None
     return dt if dt.kind in "biuf" else None

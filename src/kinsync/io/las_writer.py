@@ -29,7 +29,7 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.las_coordinates import store_scaled
 from kinsync.io.las_crs import set_las_crs
-from kinsync.io.las_header import las_suffix
+from kinsync.io.las_header import las_suffix, set_global_encoding_bit
 
 __all__ = ["LasChunkWriter", "las_output_notes"]
 
@@ -116,8 +116,8 @@ def _drop_uncarried(header: laspy.LasHeader) -> tuple[bool, tuple[str, ...]]:
             "header has no waveform flags, pointer or descriptors and its points' wave "
             "packet fields are 0"
         )
-        encoding.waveform_data_packets_internal = False
-        encoding.waveform_data_packets_external = False
+        waveform_bits = encoding.WAVEFORM_INTERNAL_MASK | encoding.WAVEFORM_EXTERNAL_MASK
+        set_global_encoding_bit(header, waveform_bits, on=False)
         header.start_of_waveform_data_packet_record = 0
     if _remove_records(header.vlrs, lambda v: v.user_id == "copc") + _remove_records(
         header.evlrs, lambda v: v.user_id == "copc"

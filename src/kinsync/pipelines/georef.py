@@ -51,7 +51,7 @@ from kinsync.io.las import (
     las_info,
     las_time_offset_s,
 )
-from kinsync.io.las_table import las_column_types, plan_table_las
+from kinsync.io.las_table import arrow_numpy_dtype, las_column_types, plan_table_las
 from kinsync.io.las_writer import las_output_notes
 from kinsync.io.points import (
     plan_table_slices,
@@ -633,7 +633,7 @@ def _numeric(kind: Any) -> bool:
 def _numpy_dtype(kind: Any) -> np.dtype[Any]:
     if pa.types.is_null(kind):
         return np.dtype(np.float64)
-    return np.dtype(np.uint8) if pa.types.is_boolean(kind) else np.dtype(kind.to_pandas_dtype())
+    return np.dtype(np.uint8) if pa.types.is_boolean(kind) else arrow_numpy_dtype(kind)
 
 
 def _dropped_note(dropped: Sequence[str], what: str) -> list[str]:
