@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from tests._trajectory_holes import with_gap
 
 from kinsync.budget import period_error_budget
 from kinsync.clock.profile import ProfileClock
@@ -303,23 +304,6 @@ def test_crossing_of_a_straight_drive_is_analytic() -> None:
     assert c.normal_ecef == pytest.approx(tuple(north), abs=1e-6)
 
 
-def _holed(traj: Trajectory, t0_s: float, t1_s: float) -> Trajectory:
-    """``traj`` without its records strictly between ``t0_s`` and ``t1_s`` (a data gap)."""
-    keep = ~((traj.t_s > t0_s) & (traj.t_s < t1_s))
-
-    def cut(a: np.ndarray | None) -> np.ndarray | None:
-        return None if a is None else a[keep]
-
-    return Trajectory(
-        t_s=traj.t_s[keep],
-        q_body_to_ned=traj.q_body_to_ned[keep],
-        lat_lon_h=cut(traj.lat_lon_h),
-        pos_ned_m=cut(traj.pos_ned_m),
-        origin_lat_lon_h=traj.origin_lat_lon_h,
-        vel_ned_m_s=cut(traj.vel_ned_m_s),
-    )
-
-
 def test_a_crossing_in_a_trajectory_gap_is_left_out_and_reported() -> None:
     """The plane sweeps P at 1004.74 s, inside a 2 s hole: no time is made up for it.
 
@@ -327,7 +311,7 @@ def test_a_crossing_in_a_trajectory_gap_is_left_out_and_reported() -> None:
     hole and stopped with an internal error.)
     """
     traj, origin = _straight_trajectory()
-    holed = _holed(traj, 1004.0, 1006.0)
+    holed = with_gap(traj, 1004.0, 1006.0)
     mount = Mount(lever_arm_body_m=(0.5, 0.0, -1.0), profiler_azimuth_deg=0.0, latency_s=0.01)
     # P swept at 1004.74 s (in the hole), Q at 1009.74 s
     ned = np.array([[10.0, 3.0, 1.0], [20.0, 3.0, 1.0]])
@@ -352,7 +336,7 @@ def test_a_sighting_whose_crossing_is_in_a_gap_stays_unmatched(
     hole = (first.t_s - 5.0, first.t_s + 5.0)
     r = synchronise_object_space(
         oval.scanner.scan,
-        _holed(oval.trajectory, *hole),
+        with_gap(oval.trajectory, *hole),
         oval.config.mount,
         oval.sync_points,
         EXACT,

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from tests._trajectory_holes import with_gap
 
 from kinsync.cli._box import parse_box
 from kinsync.errors import InputError
@@ -329,23 +330,6 @@ def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetSce
     assert all(m.t_s is not None and m.t_s > first_pass_end for m in outside)
 
 
-def _holed(traj: Trajectory, t0_s: float, t1_s: float) -> Trajectory:
-    """``traj`` without its records strictly between ``t0_s`` and ``t1_s`` (a data gap)."""
-    keep = ~((traj.t_s > t0_s) & (traj.t_s < t1_s))
-
-    def cut(a: np.ndarray | None) -> np.ndarray | None:
-        return None if a is None else a[keep]
-
-    return Trajectory(
-        t_s=traj.t_s[keep],
-        q_body_to_ned=traj.q_body_to_ned[keep],
-        lat_lon_h=cut(traj.lat_lon_h),
-        pos_ned_m=cut(traj.pos_ned_m),
-        origin_lat_lon_h=traj.origin_lat_lon_h,
-        vel_ned_m_s=cut(traj.vel_ned_m_s),
-    )
-
-
 def test_visits_in_a_trajectory_gap_are_reported_never_guessed(
     scene: ControlTargetScene, reports: dict[str, ControlPointReport]
 ) -> None:
@@ -360,7 +344,7 @@ def test_visits_in_a_trajectory_gap_are_reported_never_guessed(
     t_visits = np.array([d.observation.t_s for d in full.differences])
     hole = (t_visits[0] - 0.3, t_visits[0] + 0.3)
     in_hole = (t_visits > hole[0]) & (t_visits < hole[1])
-    holed = _holed(scan.trajectory, *hole)
+    holed = with_gap(scan.trajectory, *hole)
     (gap,) = [g for g in holed.gaps() if g.t_start_s < t_visits[0] < g.t_end_s]
     rep = validate_control_points(
         _cloud(scan, scan.mount.with_latency(LATENCY_ERROR_S)),
@@ -390,7 +374,7 @@ def test_a_visit_just_after_a_gap_is_read_from_its_own_side(
     full = reports["correct"]
     d0 = full.differences[0]
     t = d0.observation.t_s
-    holed = _holed(scan.trajectory, t - 0.5, t - 0.02)
+    holed = with_gap(scan.trajectory, t - 0.5, t - 0.02)
     assert any(g.t_end_s <= t < g.t_end_s + 0.05 for g in holed.gaps())
     rep = validate_control_points(
         _cloud(scan, scan.mount),
