@@ -24,7 +24,7 @@ from kinsync.ins._ekf import (
     transition_from_system,
 )
 from kinsync.ins._reference import forward_numpy
-from kinsync.ins.alignment import align_static_gnss_heading
+from kinsync.ins.alignment import align_static_gnss_heading, standstill_end_s
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, radii_m
 from kinsync.ins.filter import (
@@ -681,3 +681,29 @@ def test_calibrated_turn_on_biases_from_the_configuration(drive: Any, errors_of:
     other = tuple(2.0 * b for b in BG)
     with pytest.raises(InputError, match=r"gyro turn-on bias differs .*give it in one place"):
         run_ins(imu, gnss, via_config, dataclasses.replace(init, gyro_bias_rad_s=other))
+
+
+def test_the_standstill_ends_when_the_vehicle_moves(sim_drive: SimDrive) -> None:
+    """The filter keeps the levelled attitude in its Jacobian until the vehicle moves
+    (`InitialState.static_until_s`): here it stands for 20 s, then drives off."""
+    _, imu, gnss, _, _ = sim_drive(
+        duration_s=60.0, static_s=20.0, seed=5, gyro_bias_rad_s=BG, acc_bias_m_s2=BA,
+        gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW, lever_arm_body_m=(0.5, 0.2, -1.0),
+    )  # fmt: skip
+    init = align_static_gnss_heading(
+        imu, gnss, static_s=15.0, antenna_lever_arm_body_m=(0.5, 0.2, -1.0)
+    )
+    assert init.static_until_s is not None
+    assert 20.0 <= init.static_until_s - imu.t_s[0] <= 21.0
+    # from the IMU alone (no GNSS velocities) too
+    no_vel = dataclasses.replace(gnss, vel_ned_m_s=None, std_vel_ned_m_s=None)
+    k_end = int(np.searchsorted(imu.t_s, imu.t_s[0] + 15.0))
+    assert 20.0 <= standstill_end_s(imu, no_vel, k_end) - imu.t_s[0] <= 21.0
+    # a record that never moves stands still to its end
+    still = dataclasses.replace(
+        imu,
+        t_s=imu.t_s[: k_end + 300],
+        gyro_body_rad_s=imu.gyro_body_rad_s[: k_end + 300],
+        acc_body_m_s2=imu.acc_body_m_s2[: k_end + 300],
+    )
+    assert standstill_end_s(still, gnss, k_end) == still.t_s[-1]
