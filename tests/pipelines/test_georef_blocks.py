@@ -36,13 +36,25 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _threads(monkeypatch: pytest.MonkeyPatch, n: int) -> list[int]:
-    """Run the serial runner with ``n`` block threads; the threads that georeference."""
+    """Run the serial runner with ``n`` block threads; the threads that georeference.
+
+    With several threads the first two blocks wait for each other (a barrier), so they
+    must run at once on two threads: on a loaded machine one pool thread could
+    otherwise take every block in turn, and a shared pool could not be told from that.
+    A runner that ran its blocks one after the other would break the barrier (timeout).
+    """
     monkeypatch.setattr(schedulers, "usable_cpus", lambda: n)
     seen: list[int] = []
     original = getattr(georef_chunks, "georeference")  # noqa: B009 - not exported
+    meet = threading.Barrier(2, timeout=60.0)
+    lock = threading.Lock()
 
     def spy(*args: Any, **kwargs: Any) -> Any:
-        seen.append(threading.get_ident())
+        with lock:
+            seen.append(threading.get_ident())
+            first_two = len(seen) <= 2
+        if n > 1 and first_two:
+            meet.wait()
         return original(*args, **kwargs)
 
     monkeypatch.setattr(georef_chunks, "georeference", spy)
