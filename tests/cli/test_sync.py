@@ -7,7 +7,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.csv as pa_csv
+import pyarrow.parquet as pq
 import pytest
 
 from kinsync.frames import geodetic_to_ecef
@@ -301,3 +303,39 @@ def test_bad_input(
     assert_one_line_error(*run_cli([*sim, "--route", "square"]), "--route")
     assert_one_line_error(*run_cli([*sim, "--duration-s", "10"]), "at least 40 s")
     assert_one_line_error(*run_cli(["simulate", "drive-scan", "--out", str(timed)]), "not a folder")
+
+
+def test_apply_carries_parquet_types_and_refuses_a_null_range(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    mount = tmp_path / "mount.toml"
+    write_mount(Mount(profiler_azimuth_deg=0.0), mount)
+    scan = pa.table(
+        {
+            "profile": pa.array([0, 0, 1, 1, 2], pa.int32()),
+            "angle_rad": [0.1, 0.2, 0.1, 0.2, 0.1],
+            "range_m": [2.0, 2.0, 3.0, 3.0, 4.0],
+            "intensity": pa.array([1, 2, None, 4, 5], pa.int32()),
+            "flag": [True, False, None, True, False],
+        }
+    )
+    src = tmp_path / "scan.parquet"
+    pq.write_table(scan, src, row_group_size=2)
+    clock = ["--t0-s", "0", "--period-s", "0.1", "--chunk-points", "3"]
+    base = ["sync", "apply", "--scan", str(src), "--mount", str(mount), *clock, "--out"]
+    code, _, err = run_cli([*base, str(tmp_path / "o.parquet")])
+    assert code == 0, err
+    got = pq.read_table(tmp_path / "o.parquet")
+    assert got.select(scan.column_names).equals(scan)
+    code, _, err = run_cli([*base, str(tmp_path / "o.csv")])
+    assert code == 0, err
+    rows = [line.split(",")[:5] for line in (tmp_path / "o.csv").read_text().splitlines()]
+    assert [r[0] for r in rows[1:]] == ["0", "0", "1", "1", "2"]
+    assert [r[3] for r in rows[1:]] == ["1", "2", "", "4", "5"]
+    assert [r[4] for r in rows[1:]] == ["true", "false", "", "true", "false"]
+    holed = tmp_path / "holed.parquet"
+    pq.write_table(scan.set_column(2, "range_m", pa.array([2.0, 2.0, 3.0, None, 4.0])), holed)
+    args = [*base, str(tmp_path / "h.csv")]
+    args[args.index("--scan") + 1] = str(holed)
+    assert_one_line_error(*run_cli(args), "holed.parquet", "data row 3", "'range_m'", "empty")
+    assert not (tmp_path / "h.csv").exists()

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import csv
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from kinsync.errors import InputError
@@ -83,3 +87,113 @@ def test_apply_carries_extra_csv_columns_as_their_text(tmp_path: Path) -> None:
     text = (tmp_path / "o.csv").read_text()
     assert ",007,1180591620717411303424," in text  # as written, and unquoted
     assert '"' not in text
+
+
+def _typed_scan(n: int, profile_type: pa.DataType | None = None) -> pa.Table:
+    """A scan with carried columns of every kind, a null in each, and narrow number types."""
+    rows = np.arange(n)
+    null = rows % 7 == 3
+    return pa.table(
+        {
+            "profile": pa.array(rows // 4).cast(profile_type or pa.int32()),
+            "angle_rad": pa.array(np.linspace(-2.0, 2.0, n), pa.float32()),
+            "range_m": np.linspace(1.0, 30.0, n),
+            "intensity": pa.array(rows.astype(np.int32), pa.int32(), mask=null),
+            "valid": pa.array(rows % 2 == 0, mask=rows % 5 == 1),
+            "label": pa.array([f"r{i}" if i % 6 else None for i in range(n)]),
+            "stamp": pa.array(rows * 1000, pa.timestamp("us"), mask=rows % 9 == 2),
+            "power": pa.array(rows * 0.5, mask=rows % 8 == 5),
+        }
+    )
+
+
+@pytest.mark.parametrize("profile_type", [pa.int32(), pa.uint16(), pa.float64()])
+def test_apply_keeps_parquet_types_and_nulls(tmp_path: Path, profile_type: pa.DataType) -> None:
+    scan = _typed_scan(23, profile_type)
+    src = tmp_path / "scan.parquet"
+    pq.write_table(scan, src, row_group_size=7)  # chunks of 5 cut across row groups
+    out = tmp_path / "o.parquet"
+    seen: list[int] = []
+    n = apply_profile_clock(src, out, 10.0, 0.1, MOUNT, chunk_points=5, progress=seen.append)
+    assert n == 23
+    assert seen == [5, 10, 15, 20, 23]
+    got = pq.read_table(out)
+    assert got.column_names == [*scan.column_names, "t_s", "x_m", "y_m", "z_m"]
+    assert got.select(scan.column_names).schema == scan.schema
+    assert got.select(scan.column_names).to_pylist() == scan.to_pylist()
+    angle = scan.column("angle_rad").to_numpy().astype(np.float64)
+    expected_t = 10.0 + (scan.column("profile").to_numpy() + angle / (2 * np.pi)) * 0.1
+    np.testing.assert_allclose(got.column("t_s").to_numpy(), expected_t, rtol=0, atol=1e-12)
+
+
+def test_apply_parquet_to_csv_writes_integers_and_empty_cells(tmp_path: Path) -> None:
+    scan = _typed_scan(23)
+    src = tmp_path / "scan.parquet"
+    pq.write_table(scan, src, row_group_size=7)
+    out = tmp_path / "o.csv"
+    apply_profile_clock(src, out, 10.0, 0.1, MOUNT, chunk_points=5)
+    with out.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 23
+
+    def text(name: str) -> list[str]:
+        return [row[name] for row in rows]
+
+    def expected(name: str, form: Callable[[object], str]) -> list[str]:
+        return ["" if v is None else form(v) for v in scan.column(name).to_pylist()]
+
+    assert text("intensity") == expected("intensity", str)  # 3, not 3.0; null: empty
+    assert text("profile") == expected("profile", str)
+    assert text("valid") == expected("valid", lambda v: str(v).lower())
+    assert text("label") == expected("label", str)
+    assert text("power") == expected("power", repr)  # a null float is empty, not nan
+    assert "nan" not in out.read_text()
+    assert text("stamp")[3] == "1970-01-01 00:00:00.003000"
+    assert text("stamp")[2] == ""
+
+
+def test_apply_csv_to_csv_keeps_the_text_of_carried_columns(tmp_path: Path) -> None:
+    carried = ['007,true,"a,b",1e3', ",,,", '12,false,"say ""hi""",-0', "99,, x ,inf"]
+    lines = [f"{i // 2},0.{i + 1}1,{i + 2},{carried[i % 4]}" for i in range(11)]
+    src = tmp_path / "scan.csv"
+    src.write_text("profile,angle_rad,range_m,code,ok,note,raw\n" + "\n".join(lines) + "\n")
+    out = tmp_path / "o.csv"
+    assert apply_profile_clock(src, out, 0.0, 0.1, MOUNT, chunk_points=4) == 11
+    got = out.read_text().splitlines()
+    assert got[0] == "profile,angle_rad,range_m,code,ok,note,raw,t_s,x_m,y_m,z_m"
+    for i, line in enumerate(got[1:]):
+        required, rest = line.split(",", 3)[:3], line.split(",", 3)[3]
+        assert required == [str(i // 2), f"0.{i + 1}1", f"{i + 2}.0"]  # profile whole
+        assert rest.rsplit(",", 4)[0] == carried[i % 4]  # byte for byte
+
+
+def test_apply_csv_to_parquet_carries_text_and_whole_profiles(tmp_path: Path) -> None:
+    src = tmp_path / "scan.csv"
+    src.write_text("profile,angle_rad,range_m,code,ok\n0,0.1,2,007,true\n1,0.2,3,,\n3,0.3,4,8,\n")
+    out = tmp_path / "o.parquet"
+    apply_profile_clock(src, out, 0.0, 0.1, MOUNT, chunk_points=2)
+    got = pq.read_table(out)
+    assert got.schema.field("profile").type == pa.int64()
+    assert got.column("profile").to_pylist() == [0, 1, 3]
+    assert got.schema.field("code").type == pa.string()  # as georef carries a CSV's columns
+    assert got.column("code").to_pylist() == ["007", "", "8"]
+    assert got.column("ok").to_pylist() == ["true", "", ""]
+
+
+@pytest.mark.parametrize("column", ["profile", "angle_rad", "range_m"])
+def test_apply_refuses_a_null_in_a_required_column(tmp_path: Path, column: str) -> None:
+    scan = _typed_scan(23)
+    values = scan.column(column).to_pylist()
+    values[17] = None  # in the fourth chunk
+    scan = scan.set_column(scan.column_names.index(column), column, pa.array(values))
+    src = tmp_path / "scan.parquet"
+    pq.write_table(scan, src, row_group_size=7)
+    with pytest.raises(InputError, match=rf"scan\.parquet: data row 17, column '{column}': empty"):
+        apply_profile_clock(src, tmp_path / "o.parquet", 0.0, 0.1, MOUNT, chunk_points=5)
+    lines = [f"{i // 2},0.1,2" for i in range(9)]
+    lines[6] = {"profile": ",0.1,2", "angle_rad": "3,,2", "range_m": "3,0.1,"}[column]
+    csv_src = tmp_path / "scan.csv"
+    csv_src.write_text("profile,angle_rad,range_m\n" + "\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=rf"scan\.csv: data row 6, column '{column}': empty"):
+        apply_profile_clock(csv_src, tmp_path / "o.csv", 0.0, 0.1, MOUNT, chunk_points=4)
+    assert not list(tmp_path.glob("o.*"))

@@ -6,7 +6,8 @@ carries every other column through unchanged.
 
 Reading (`iter_table_chunks`) streams the file with pyarrow: Parquet by row batches
 (``ParquetFile.iter_batches``), CSV with pyarrow's streaming reader. Chunks are dicts of
-numpy arrays, one per column in file order, each of at most ``chunk_points`` rows.
+numpy arrays (with ``arrow``, pyarrow arrays for the columns that are not required), one
+per column in file order, each of at most ``chunk_points`` rows.
 Required columns come back as float64 (an empty or non-numeric cell is an error naming
 the file, the row and the column); other columns keep their type: Parquet's stored
 type, or for CSV the type pyarrow infers from the first block (int64, float64, bool,
@@ -318,8 +319,9 @@ def iter_table_chunks(
     required: Sequence[str],
     *,
     extra_as_text: bool = False,
+    arrow: bool = False,
     columns: ColumnMap | None = None,
-) -> Iterator[dict[str, np.ndarray[Any, Any]]]:
+) -> Iterator[dict[str, Any]]:
     """Stream a CSV or Parquet point table in chunks of at most ``chunk_points`` rows.
 
     Parameters
@@ -333,13 +335,17 @@ def iter_table_chunks(
     extra_as_text : bool
         Read the other columns of a CSV as text (to write them back exactly as they
         were: ``007`` stays ``007``) instead of inferring their types.
+    arrow : bool
+        Give the columns that are not required as pyarrow arrays, with their types and
+        nulls (as numpy arrays, an integer column with nulls would become floats, NaN
+        for null), as `read_table_slice` does.
     columns : ColumnMap, optional
         Which of the file's columns hold the required ones (`kinsync.io.column_map`);
         they are handed on under the required (kinsync) names.
 
     Yields
     ------
-    dict of str to ndarray, each of shape (M,)
+    dict of str to ndarray (or pyarrow array), each of shape (M,)
         Every column of the file, in file order, with its type (see the module
         docstring), mapped columns renamed; M <= ``chunk_points``.
 
@@ -371,7 +377,8 @@ def iter_table_chunks(
     first_row = 0
     try:
         for table in _rebatch(batches, chunk_points):
-            yield _renamed(_chunk_to_numpy(path, table, required, first_row), renames)
+            chunk = _chunk_to_numpy(path, table, required, first_row, arrow=arrow)
+            yield _renamed(chunk, renames)
             first_row += table.num_rows
     finally:  # close the CSV reader (its read-ahead threads) whatever stopped the loop
         close = getattr(batches, "close", None)

@@ -5,15 +5,25 @@ the profile clock (`kinsync.clock.profile.ProfileClock`) and its scanner-frame
 coordinates from the mount's profiler azimuth (`kinsync.mount.Mount.profile_to_scanner`),
 and writes every input column plus ``t_s,x_m,y_m,z_m`` atomically, ready for
 ``kinsync georef --points``.
+
+The columns it does not use are carried as georef carries them: a Parquet scan's with
+their Arrow types and nulls (an integer column with nulls stays integers, a null is an
+empty cell in a CSV output), a CSV scan's as their text, byte for byte. The columns it
+uses keep a Parquet scan's number types (``profile`` int32 stays int32); a CSV scan's
+``profile`` is written as integers (profile numbers are whole), its angles and ranges as
+floats.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
@@ -26,6 +36,24 @@ __all__ = ["APPLY_COLUMNS", "apply_profile_clock"]
 
 APPLY_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
 """Columns `apply_profile_clock` adds: time (s) and scanner-frame coordinates (m)."""
+
+
+def _stored_number_types(path: Path, required: Sequence[str]) -> dict[str, Any]:
+    """A Parquet scan's integer, float32 or float64 type of each required column.
+
+    The reader hands required columns on as float64; cast back to the type they were
+    stored in they are exactly the stored values. Empty for a CSV (no stored types);
+    columns stored as anything else (text holding numbers, decimals) are left out.
+    """
+    if path.suffix.lower() != ".parquet":
+        return {}
+    schema = pq.read_schema(path)  # read already by the first chunk: the file is Parquet
+    kinds = {name: schema.field(name).type for name in required}
+    return {
+        name: kind
+        for name, kind in kinds.items()
+        if pa.types.is_integer(kind) or kind in (pa.float32(), pa.float64())
+    }
 
 
 def apply_profile_clock(
@@ -42,8 +70,9 @@ def apply_profile_clock(
 
     Each return gets ``t_s = t0_s + (profile + angle_rad / 2 pi) period_s`` and
     ``(x_m, y_m, z_m) = Rz(azimuth) (0, r sin phi, r cos phi)`` (the mount's
-    ``[profiler] azimuth_deg``), appended after every input column (all kept), ready
-    for ``kinsync georef --points``.
+    ``[profiler] azimuth_deg``), appended after every input column (all kept, with
+    their types and nulls: see the module docstring), ready for ``kinsync georef
+    --points``.
 
     Parameters
     ----------
@@ -69,7 +98,9 @@ def apply_profile_clock(
     ------
     InputError
         A mount without ``[profiler]``, a bad clock, an input that already has one of
-        the output columns, bad profile numbers (naming the row), unreadable files.
+        the output columns, bad profile numbers (naming the row), an empty cell or null
+        in ``profile``, ``angle_rad`` or ``range_m`` (naming the data row and column),
+        unreadable files.
     """
     if mount.profiler_azimuth_deg is None:
         msg = (
@@ -86,8 +117,12 @@ def apply_profile_clock(
     done = 0
     last_profile = 0.0
     line_offset = 2 if scan_path.suffix.lower() == ".csv" else None
+    stored: dict[str, Any] = {}
+    chunks = iter_table_chunks(scan_path, chunk_points, required, extra_as_text=True, arrow=True)
     with TableChunkWriter(Path(out_path)) as writer:
-        for chunk in iter_table_chunks(scan_path, chunk_points, required, extra_as_text=True):
+        for chunk in chunks:
+            if done == 0:
+                stored = _stored_number_types(scan_path, required)
             clash = [c for c in APPLY_COLUMNS if c in chunk]
             if clash:
                 msg = (
@@ -95,15 +130,13 @@ def apply_profile_clock(
                     f"adds {list(APPLY_COLUMNS)}"
                 )
                 raise InputError(msg)
-            if done == 0:
-                ProfileScan.checked_profile_numbers(chunk["profile"], str(scan_path), line_offset)
-            else:
-                ProfileScan.checked_profile_numbers(
-                    np.concatenate([[last_profile], chunk["profile"]]),
-                    str(scan_path),
-                    line_offset,
-                    row_offset=done - 1,
-                )
+            before = [] if done == 0 else [last_profile]  # the order checked across chunks
+            profile = ProfileScan.checked_profile_numbers(
+                np.concatenate([before, chunk["profile"]]),
+                str(scan_path),
+                line_offset,
+                row_offset=done - len(before),
+            )[len(before) :]
             last_profile = float(chunk["profile"][-1])
             phi = chunk["angle_rad"]
             rng_m = chunk["range_m"]
@@ -117,7 +150,8 @@ def apply_profile_clock(
                 )
                 raise InputError(msg)
             xyz = mount.profile_to_scanner(phi, rng_m)
-            out = dict(chunk)
+            out = dict(chunk) | {"profile": profile}  # whole numbers (checked)
+            out |= {n: pa.array(chunk[n]).cast(t) for n, t in stored.items()}
             out["t_s"] = clock.time_s(chunk["profile"], phi)
             out["x_m"], out["y_m"], out["z_m"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
             writer.write(out)
