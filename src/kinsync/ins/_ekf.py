@@ -245,7 +245,7 @@ def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
             F[0, col], F[1, col], F[2, col] = 0.0, 0.0, 0.0
             F[3, col], F[4, col], F[5, col] = C[0, i], C[1, i], C[2, i]
             F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             col = X_SG + i
             F[0, col], F[1, col], F[2, col] = (
                 -C[0, i] * w_b[i],
@@ -380,7 +380,7 @@ def _feedback(
         s[I_BA + i] += x[X_BA + i]
         s[I_MG + i] += x[X_MG + i]
         s[I_MA + i] += x[X_MA + i]
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             s[I_SG + i] += x[X_SG + i]
             s[I_SA + i] += x[X_SA + i]
     s[I_LAT] = lat - x[6] / (r_m + h)
@@ -496,7 +496,7 @@ def _solution_std(P: FloatArray, s: FloatArray, out: FloatArray) -> None:  # pra
         ba = P[X_BA + i, X_BA + i] + P[X_MA + i, X_MA + i] + 2.0 * P[X_BA + i, X_MA + i]
         out[9 + i] = math.sqrt(max(bg, 0.0))
         out[12 + i] = math.sqrt(max(ba, 0.0))
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             out[15 + i] = math.sqrt(max(P[X_SG + i, X_SG + i], 0.0))
             out[18 + i] = math.sqrt(max(P[X_SA + i, X_SA + i], 0.0))
         else:
