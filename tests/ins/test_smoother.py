@@ -1,5 +1,6 @@
 """RTS smoother: equals batch least squares on a linear model, never less certain than the
-forward filter, better than it on a simulated drive, a no-op without measurements."""
+forward filter, better than it on a simulated drive, a no-op without measurements, and
+rebuilds the forward covariance exactly after a levelled standstill."""
 
 from __future__ import annotations
 
@@ -11,13 +12,30 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kinsync.ins._ekf import N_ERR, X_BA, X_BG, X_MA, X_MG, propagate_cov, scalar_update
+from kinsync.ins._ekf import (
+    N_ERR,
+    N_ERR_SCALE,
+    X_BA,
+    X_BG,
+    X_MA,
+    X_MG,
+    propagate_cov,
+    scalar_update,
+)
+from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.config import InsConfig
-from kinsync.ins.filter import run_ins, transition_matrix
+from kinsync.ins.filter import (
+    forward_pass,
+    gnss_epochs,
+    new_gnss_log,
+    run_ins,
+    transition_matrix,
+)
 from kinsync.ins.forward_run import Checkpoints
 from kinsync.ins.measurements import GnssData, ImuData
-from kinsync.ins.smoother import new_smoothed_covariance, smooth_checkpoints
+from kinsync.ins.smoother import ins_matrices, new_smoothed_covariance, smooth_checkpoints
 from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.sim.drive import DriveSimConfig, simulate_drive
 
 SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
 Errors = Callable[..., Any]  # fixture errors_of in conftest.py
@@ -284,3 +302,56 @@ def test_without_measurements_the_smoother_changes_nothing(sim_drive: SimDrive) 
     np.testing.assert_array_equal(res.smoothed.lat_deg, res.forward.lat_deg)
     np.testing.assert_array_equal(res.smoothed.std_pos_ned_m, res.forward.std_pos_ned_m)
     assert res.innovations_pos_ned_m.shape == (0, 3)
+
+
+@pytest.mark.parametrize("scale_factors", [False, True], ids=["22 states", "28 states"])
+def test_smoother_rebuilds_the_forward_covariance_after_a_levelled_standstill(
+    scale_factors: bool,
+) -> None:
+    """After a static alignment the filter carries one more state, the second-order
+    vertical support of the levelled tilt, whose transition follows the forward pass's
+    tilt covariance (`kinsync.ins._ekf.propagate_support`). The smoother rebuilds it from
+    the stored nominal states: propagating each checkpoint's posterior covariance with
+    the smoother's ``Φ`` and ``Q`` gives the next checkpoint's prior, bit for bit. The
+    extra state is not taken for scale factors (nor are they lost beside it)."""
+    sim = simulate_drive(
+        DriveSimConfig(imu="mems", imu_rate_hz=100.0, static_s=10.0, duration_s=30.0, seed=5)
+    )
+    config = sim.ins_config
+    if scale_factors:
+        config = dataclasses.replace(
+            config, gyro_scale_factor_sigma_ppm=500.0, acc_scale_factor_sigma_ppm=500.0
+        )
+    init = align_static_gnss_heading(
+        sim.imu, sim.gnss, static_s=5.0, antenna_lever_arm_body_m=config.antenna_lever_arm_body_m
+    )
+    g_epoch = gnss_epochs(sim.imu.t_s, 0, sim.gnss.t_s)
+    run = forward_pass(
+        sim.imu, sim.gnss, config, init, use_velocity=True, store=True, progress=None,
+        gnss_imu_epoch=g_epoch, log=new_gnss_log(len(sim.gnss)),
+    )  # fmt: skip
+    ck = run.checkpoints
+    assert ck is not None
+    n = ck.P_plus.shape[1]
+    assert n == (N_ERR_SCALE if scale_factors else N_ERR) + 1
+    assert np.isnan(run.std[:, 15:21]).all() != scale_factors
+    imu = sim.imu
+    compared = 0
+    has_next = True  # each segment ends at the next checkpoint
+    for c in range(ck.epoch.size - 1):
+        e, length = int(ck.epoch[c]), int(ck.epoch[c + 1] - ck.epoch[c])
+        if length == 0:
+            continue
+        Phi = np.zeros((length + 1, n, n))
+        q = np.zeros((length + 1, n))
+        q_nav = np.zeros((length + 1, 6, 6))
+        ins_matrices(
+            e, length, has_next, imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2, run.states,
+            run.params, Phi, q, q_nav,
+        )  # fmt: skip
+        P = ck.P_plus[c].copy()
+        for i in range(1, length + 1):
+            propagate_cov(P, Phi[i], q[i], q_nav[i], np.empty((9, n)))
+        np.testing.assert_array_equal(P, ck.P_minus[c + 1])
+        compared += 1
+    assert compared > 100

@@ -16,7 +16,7 @@ One drive, one scene, one truth (synchronisation, georeferencing and validation 
    bends it; the layout's own wall stands mid-turn, where uniform circular motion
    would only rotate it rigidly). Only the profiles that can see a target or the wall
    are simulated.
-2. **INS/GNSS.** Static levelling with GNSS course-over-ground heading, the 21-state
+2. **INS/GNSS.** Static levelling with GNSS course-over-ground heading, the 28-state
    filter and the RTS smoother (`kinsync.ins.filter.run_ins`); the smoothed solution,
    compared with the truth, is the trajectory every later step uses.
 3. **Method B.** The scan is synchronised on that INS trajectory
@@ -496,7 +496,7 @@ def _sync_paragraph(result: ChainResult) -> str:
     sync = result.sync
     exact = result.sync_exact
     return (
-        "The INS/GNSS solution (static levelling, GNSS course-over-ground heading, 21-state "
+        "The INS/GNSS solution (static levelling, GNSS course-over-ground heading, 28-state "
         "filter, RTS smoother) is compared with the truth; it, not the truth, is the "
         "trajectory of every later step. Method B synchronises the scan on it: t0 "
         f"{(sync.t0_s - sim.t0_s) * 1e3:+.2f} ms (sigma {sync.t0_std_s * 1e3:.2f}) and T "

@@ -476,8 +476,10 @@ def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[s
         (
             f"The workflow: levelling over the first {s.align_s:g} s (roll and pitch from "
             "the mean specific force, gyro biases from the mean rate), heading from the "
-            "GNSS course over ground once the car moves, then the 21-state forward filter "
-            "with position and velocity updates (lever arm applied) and the RTS smoother, "
+            "GNSS course over ground once the car moves, then the forward filter (21 "
+            "states, and one more for the vertical support the unknown tilt adds, ½gθ², "
+            "until the turns show the tilt) with position and velocity updates (lever "
+            "arm applied) and the RTS smoother, "
             f"from t = {run.init.t_s:g} s. Alignment error roll/pitch/yaw: "
             f"{_triple(o.align_err_deg.tolist())} deg; the accelerometer biases enter the "
             "levelling as tilt (10 mg is 0.57 deg), and the filter starts knowing that "

@@ -1,9 +1,10 @@
 """Compiled pieces of the error-state filter shared by the filter and the smoother.
 
 Error state (local NED frame of the nominal state, SI units), 21 states, or 27 with
-scale factors::
+scale factors, plus one after a levelled standstill (22 or 28)::
 
-    x = [φ (3), δv' (3), δp (3), δb_g (3), δb_a (3), δm_g (3), δm_a (3), [δs_g (3), δs_a (3)]]
+    x = [φ (3), δv' (3), δp (3), δb_g (3), δb_a (3), δm_g (3), δm_a (3), [δs_g (3), δs_a (3)],
+         [δc]]
 
 - ``φ``: misorientation (rad) with ``C_b^n(nominal) = (I - [φ×]) C_b^n(true)``;
 - ``δv'``: the velocity error of the *modified φ-angle* model (Scherzinger & Reid
@@ -26,7 +27,9 @@ scale factors::
   ``δω = δb_g + δm_g + diag(ω) δs_g`` (``δf`` likewise). Turn-on bias and instability
   are separate states because one Gauss–Markov state for both decays its variance
   from the turn-on σ to the instability σ within ``τ/2``: the filter then treats an
-  unobserved 0.2 deg/s turn-on bias as known to the instability (6.5 deg/h).
+  unobserved 0.2 deg/s turn-on bias as known to the instability (6.5 deg/h);
+- ``δc``: the second-order vertical support of the tilt (m/s², below), only when the
+  run starts with a levelled standstill (`support_index`).
 
 Continuous model ``ẋ = F x + G w`` (Scherzinger & Reid 1994, as in Groves 2013,
 ch. 14, for metric position errors; ``R`` is the curvature matrix with
@@ -69,10 +72,43 @@ moves (the observability-preserving choice of Huang, Mourikis and Roumeliotis 20
 keeps it at 0.91°. Once the vehicle moves the tilt is observable and the state's
 attitude is used again.
 
+Second-order vertical support of the tilt (``c``, `kinsync.ins.standstill`): the
+vertical part of ``-½ [φ×]² g``, ``c = ½ g |φ_h|²`` for the tilt error ``φ_h`` (North,
+East), as an error state. The tilt mean above removes its expectation and leaves the
+rest, which is harmless while the tilt is independent of the other errors. After a
+static alignment it is not: levelling makes the resolved specific force exactly
+vertical, the tilt is the horizontal accelerometer error ``δf_h`` over g, and at rest
+the down velocity sees ``δv̇'_D = (C δf)_D + c`` with ``c = |δf_h|²/(2g)`` (0.25 mg on
+average for the MEMS preset, and as much again from run to run) against the model
+linearised about the levelled attitude. At rest ``c`` drives the height as a vertical
+accelerometer bias does; left out, the accelerometer states took it with their own σ
+(the smoothed vertical bias at rest off by 0.28 mg RMS against a σ of 0.022 mg, 12
+simulated MEMS static starts). So, after a levelled standstill only, ``c`` is the last
+error state: its column of ``F`` is ``e_D`` in the velocity rows (`step_matrices`),
+``δc = c - ĉ`` like a sensor error, and the estimate ``ĉ`` is part of the nominal state
+(``I_CV``), removed from the down velocity at every epoch in place of the tilt mean's
+vertical term (`remove_support`).
+
+Its dynamics come from the filter's own tilt covariance ``P_h`` (`propagate_support`).
+For ``φ_h ~ N(0, P_h)``, ``c`` has the mean ``m = ½ g tr(P_h)`` and the variance
+``v = ½ g² tr(P_h²)`` (`tilt_moments`). The tilt error left after more data is
+independent of the correction those data made, so ``cov(c(t1), c(t2)) = v(t2)`` for
+``t1 < t2`` while the tilt is being observed, and ``c`` gains ``v2 - v1`` while the
+tilt covariance grows: between two epochs ``c - m`` has the transition
+``Φ_cc = min(1, v2/v1)`` and the noise ``Q_cc = v2 - Φ_cc² v1`` (`support_transition`),
+and ``ĉ ← m2 + Φ_cc (ĉ - m1)``. The moments are those of the covariance before each
+epoch's updates, stored in the nominal state (``I_CM``, ``I_CVAR``) so that the smoother
+rebuilds the same ``Φ`` and ``Q``. While the vehicle stands, ``P_h`` stays as levelling
+left it and ``c`` is a random constant; once the turns make the tilt observable it
+fades with ``v``, as the true term does. (Made inert at the drive-off instead, the
+term the filter had not yet observed away went to the bias instability: smoothed
+vertical bias error over its σ of RMS 2.3 at rest and 4-6 over 60-85 s. Scaled with
+``tr(P_h)`` and never decorrelated, 0.9 at rest and 1.8-4.4 over 60-85 s.)
+
 Closed-loop feedback (``_feedback``) applies ``true ≈ nominal ⊖ x``: attitude
 ``q ← q(φ) ⊗ q``, velocity ``v ← Rot(φ) (v - δv')``, position back to latitude,
-longitude and height, sensor estimates ``+= δb, δm, δs``; the error state is then zero
-again. Between updates the instability estimate decays as its model says
+longitude and height, sensor estimates ``+= δb, δm, δs`` (and ``ĉ += δc``); the error
+state is then zero again. Between updates the instability estimate decays as its model says
 (``m ← m e^{-Δt/τ}``, `kinsync.ins.strapdown`).
 
 References
@@ -105,6 +141,9 @@ from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S, normal_gravity_m_s2
 from kinsync.ins.strapdown import (
     I_BA,
     I_BG,
+    I_CM,
+    I_CV,
+    I_CVAR,
     I_H,
     I_LAT,
     I_LON,
@@ -129,6 +168,8 @@ N_ERR = 21
 """Error states without scale factors."""
 N_ERR_SCALE = 27
 """Error states with gyro and accelerometer scale factors."""
+N_SUPPORT = 1
+"""Error states added after a levelled standstill: ``δc``, the last one."""
 N_OUT = 21
 """Standard deviations per epoch in the solution (`solution_std`): attitude (rad),
 velocity (m/s), position (m) errors, total gyro (rad/s) and accelerometer (m/s^2) bias,
@@ -145,6 +186,20 @@ P_TILT_MEAN = 11  # 1.0: remove the second-order tilt mean (`tilt_gravity_mean`)
 P_FEJ_END = 12  # end of the initial standstill (s); -inf: none (`step_matrices`)
 P_FEJ_C = 13  # 13..21 the levelled C_b^n, row by row, used until P_FEJ_END
 N_PARAMS = 22
+
+
+def _support_index(n: int) -> int:  # pragma: no cover - compiled by numba
+    """Index of ``δc`` in an error state of ``n`` entries, -1 without it.
+
+    ``n`` is 21 or 27 (with scale factors), plus `N_SUPPORT` after a levelled
+    standstill; scale factors are modelled when ``n >= N_ERR_SCALE``.
+    """
+    if n == N_ERR + N_SUPPORT or n == N_ERR_SCALE + N_SUPPORT:
+        return n - 1
+    return -1
+
+
+support_index = cast(Callable[[int], int], _jit(_support_index))
 
 
 def _corrected_imu(
@@ -171,8 +226,9 @@ def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
     """Fill ``F`` (n, n) for the nominal state ``s`` and the corrected sample ``w_b, f_b``.
 
     ``C`` (3, 3) receives ``C_b^n`` of the state. Only the navigation rows and the
-    Gauss–Markov diagonal are written; callers keep the other entries zero. ``n`` (21
-    or 27, with scale factors) is ``F``'s size.
+    Gauss–Markov diagonal are written; callers keep the other entries zero (``δc``'s
+    column is `step_matrices`'). ``n`` (21 or 27, with scale factors, plus
+    `N_SUPPORT`) is ``F``'s size.
     """
     n = F.shape[0]
     lat = s[I_LAT]
@@ -245,7 +301,7 @@ def _build_F(  # noqa: PLR0915 - one flat function is what numba compiles best
             F[0, col], F[1, col], F[2, col] = 0.0, 0.0, 0.0
             F[3, col], F[4, col], F[5, col] = C[0, i], C[1, i], C[2, i]
             F[6, col], F[7, col], F[8, col] = 0.0, 0.0, 0.0
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             col = X_SG + i
             F[0, col], F[1, col], F[2, col] = (
                 -C[0, i] * w_b[i],
@@ -380,9 +436,12 @@ def _feedback(
         s[I_BA + i] += x[X_BA + i]
         s[I_MG + i] += x[X_MG + i]
         s[I_MA + i] += x[X_MA + i]
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             s[I_SG + i] += x[X_SG + i]
             s[I_SA + i] += x[X_SA + i]
+    ic = support_index(n)
+    if ic >= 0:
+        s[I_CV] += x[ic]
     s[I_LAT] = lat - x[6] / (r_m + h)
     s[I_LON] -= x[7] / ((r_n + h) * math.cos(lat))
     s[I_H] = h + x[8]
@@ -399,6 +458,67 @@ def _tilt_gravity_mean(P: FloatArray, s: FloatArray, dt: float) -> None:  # prag
     s[I_VEL] += hg * P[0, 2]
     s[I_VEL + 1] += hg * P[1, 2]
     s[I_VEL + 2] -= hg * (P[0, 0] + P[1, 1])
+
+
+def _tilt_moments(P: FloatArray, g: float) -> tuple[float, float]:  # pragma: no cover
+    """Mean ``½ g tr(P_h)`` and variance ``½ g² tr(P_h²)`` of ``c = ½ g |φ_h|²``.
+
+    ``φ_h ~ N(0, P_h)``, ``P_h = P[:2, :2]`` the tilt covariance (North, East).
+    """
+    a = P[0, 0]
+    b = P[0, 1]
+    d = P[1, 1]
+    return 0.5 * g * (a + d), 0.5 * g * g * (a * a + 2.0 * b * b + d * d)
+
+
+def _support_transition(v1: float, v2: float) -> tuple[float, float]:  # pragma: no cover
+    """``Φ_cc = min(1, v2/v1)`` and ``Q_cc = v2 - Φ_cc² v1`` of ``c`` between two epochs.
+
+    ``v1``, ``v2`` are the variances (`tilt_moments`) of ``c`` at the two epochs, from
+    the tilt covariance before each epoch's updates (module docstring).
+    """
+    phi = min(1.0, v2 / v1) if v1 > 0.0 else 1.0
+    return phi, v2 - phi * phi * v1
+
+
+def _propagate_support(P: FloatArray, s: FloatArray, ic: int, g: float) -> None:  # pragma: no cover
+    """The vertical support ``c`` over an interval, after `propagate_cov` (module docstring).
+
+    ``P`` is the predicted covariance, propagated with ``Φ_cc = 1`` and no noise on
+    ``c``; ``s[I_CM]``, ``s[I_CVAR]`` hold the moments of ``c`` at the interval's start.
+    With the moments ``m2``, ``v2`` of ``P`` (`tilt_moments`), ``c``'s row and column
+    are scaled by ``Φ_cc`` and ``Q_cc`` is added (`support_transition`), in the order
+    `propagate_cov` computes them with that ``Φ_cc`` and ``Q_cc`` (the smoother
+    does, from the stored moments); the estimate becomes ``ĉ ← m2 + Φ_cc (ĉ - m1)``
+    and ``m2``, ``v2`` are stored.
+    """
+    m2, v2 = tilt_moments(P, g)
+    phi, qc = support_transition(s[I_CVAR], v2)
+    n = P.shape[0]
+    for j in range(n):
+        if j != ic:
+            v = P[ic, j] * phi
+            P[ic, j] = v
+            P[j, ic] = v
+    P[ic, ic] = phi * P[ic, ic] * phi + qc
+    s[I_CV] = m2 + phi * (s[I_CV] - s[I_CM])
+    s[I_CM] = m2
+    s[I_CVAR] = v2
+
+
+def _remove_support(
+    P: FloatArray, s: FloatArray, dt: float, horizontal: bool
+) -> None:  # pragma: no cover
+    """Remove the second-order tilt term of one interval from the velocity, with ``c``.
+
+    ``v_D -= ĉ Δt`` and, when ``horizontal`` (the vehicle moves), the horizontal terms
+    of `tilt_gravity_mean` (``c`` is its vertical term).
+    """
+    if horizontal:
+        hg = 0.5 * normal_gravity_m_s2(s[I_LAT], s[I_H]) * dt
+        s[I_VEL] += hg * P[0, 2]
+        s[I_VEL + 1] += hg * P[1, 2]
+    s[I_VEL + 2] -= s[I_CV] * dt
 
 
 def _process_noise(
@@ -454,7 +574,9 @@ def _step_matrices(
     ``t_s`` is the interval's start (s). Before ``params[P_FEJ_END]`` (the initial
     standstill) the accelerometer-error columns take the levelled attitude of
     ``params[P_FEJ_C:]`` instead of the state's (first-estimates Jacobian, module
-    docstring).
+    docstring). The vertical support ``δc``, when the state has it, drives the down
+    velocity; its own transition and noise are left at 1 and 0 here
+    (`propagate_support`).
     """
     corrected_imu(s, gyro, acc, w_b, f_b)
     system_matrix(s, w_b, f_b, params[P_TAU_G], params[P_TAU_A], C, F)
@@ -463,6 +585,9 @@ def _step_matrices(
             for col in (X_BA + i, X_MA + i):
                 for r in range(3):
                     F[3 + r, col] = params[P_FEJ_C + 3 * r + i]
+    ic = support_index(F.shape[0])
+    if ic >= 0:
+        F[5, ic] = 1.0
     transition_from_system(F, dt, Phi)
     process_noise(params, s, dt, q, q_nav)
 
@@ -496,7 +621,7 @@ def _solution_std(P: FloatArray, s: FloatArray, out: FloatArray) -> None:  # pra
         ba = P[X_BA + i, X_BA + i] + P[X_MA + i, X_MA + i] + 2.0 * P[X_BA + i, X_MA + i]
         out[9 + i] = math.sqrt(max(bg, 0.0))
         out[12 + i] = math.sqrt(max(ba, 0.0))
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             out[15 + i] = math.sqrt(max(P[X_SG + i, X_SG + i], 0.0))
             out[18 + i] = math.sqrt(max(P[X_SA + i, X_SA + i], 0.0))
         else:
@@ -515,3 +640,7 @@ step_matrices = _jit(_step_matrices)
 velocity_variance = _jit(_velocity_variance)
 solution_std = _jit(_solution_std)
 tilt_gravity_mean = _jit(_tilt_gravity_mean)
+tilt_moments = _jit(_tilt_moments)
+support_transition = _jit(_support_transition)
+propagate_support = _jit(_propagate_support)
+remove_support = _jit(_remove_support)

@@ -326,7 +326,7 @@ def forward_numpy(
     states : ndarray, shape (n_epochs, 28)
         lat, lon (rad), h, v_NED, q_body_to_ned (w, x, y, z), turn-on biases,
         instabilities and scale factors (gyro, accelerometer), after each epoch's
-        update (the compiled loop's layout).
+        update (the first 28 columns of the compiled loop's layout).
     std : ndarray, shape (n_epochs, 21)
         1σ of the solution (`kinsync.ins._ekf.solution_std`).
     """

@@ -4,14 +4,17 @@ The error state, its dynamics ``F``, the transition matrix ``Φ = I + FΔt + F²
 and the closed-loop feedback are described in `kinsync.ins._ekf`: misorientation
 (rad, NED), velocity error of the modified φ-angle model (m/s, NED), position error in
 metres North/East/Down, and per sensor axis a turn-on bias (random constant), a bias
-instability (first-order Gauss–Markov) and, when configured, a scale factor error.
+instability (first-order Gauss–Markov) and, when configured, a scale factor error;
+after a levelled standstill, the second-order vertical support of the tilt
+(`kinsync.ins.standstill`).
 
 Forward pass, one compiled loop over the IMU epochs (run in chunks of
 `CHUNK_EPOCHS` so that Python can report progress): for each epoch, ``Φ`` and ``Q``
 from the state at the start of the interval, ``P ← Φ P Φ^T + Q``, one strapdown step
 (`kinsync.ins.strapdown`), the expected second-order tilt error removed from the
-velocity (`kinsync.ins._ekf.tilt_gravity_mean`), then every GNSS epoch assigned to this
-IMU epoch:
+velocity (`kinsync.ins._ekf.tilt_gravity_mean`; after a levelled standstill its
+vertical part is the estimate of one more state, `kinsync.ins.standstill`), then every
+GNSS epoch assigned to this IMU epoch:
 
 - **Timing.** A GNSS epoch is processed at the nearest IMU epoch ``t_k``; its
   position is moved to ``t_k`` with the INS velocity (``p + v (t_k - t_gnss)``, at most
@@ -69,7 +72,6 @@ from kinsync.ins._ekf import (
     N_OUT,
     N_PARAMS,
     P_ARM,
-    P_FEJ_C,
     P_FEJ_END,
     P_GATE,
     P_QC_ATT,
@@ -88,9 +90,12 @@ from kinsync.ins._ekf import (
     X_SG,
     feedback,
     propagate_cov,
+    propagate_support,
+    remove_support,
     scalar_update,
     solution_std,
     step_matrices,
+    support_index,
     tilt_gravity_mean,
 )
 from kinsync.ins.config import InsConfig
@@ -106,6 +111,7 @@ from kinsync.ins.gnss_observation import MAX_ROWS, gate_stat, observation
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.smoother import smooth_forward_run
 from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.ins.standstill import standstill_params, with_vertical_support
 from kinsync.ins.strapdown import (
     I_H,
     I_LAT,
@@ -269,16 +275,17 @@ class FilterState(NamedTuple):
 
     Attributes
     ----------
-    nominal : ndarray, shape (28,)
+    nominal : ndarray, shape (31,)
         Nominal navigation state in the layout of `kinsync.ins.strapdown`: latitude,
         longitude (rad), height (m), velocity NED (m/s), ``q_body_to_ned`` (w, x, y, z),
-        and the sensor error estimates (turn-on biases, instabilities, scale factors).
+        the sensor error estimates (turn-on biases, instabilities, scale factors) and
+        the second-order vertical support ``ĉ`` of a levelled standstill.
     increments_prev : ndarray, shape (6,)
         Previous interval's bias-corrected ``Δθ`` (rad) and ``Δv`` (m/s), body frame
         (coning and sculling corrections).
     P : ndarray, shape (n, n)
         Error-state covariance (order of `kinsync.ins._ekf`; n = 21, or 27 with scale
-        factors).
+        factors, plus one after a levelled standstill).
     """
 
     nominal: FloatArray
@@ -291,7 +298,7 @@ class ForwardOutput(NamedTuple):
 
     Attributes
     ----------
-    states : ndarray, shape (n, 28)
+    states : ndarray, shape (n, 31)
         Nominal state after the epoch's updates (layout of `FilterState.nominal`).
     std : ndarray, shape (n, 21)
         1σ of the solution (`kinsync.ins._ekf.solution_std`).
@@ -419,6 +426,7 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
     coning = True
     use_vel = params[P_USE_VEL] > 0.5
     tilt_mean = params[P_TILT_MEAN] > 0.5
+    i_support = support_index(n_err)
     gate = params[P_GATE]
     for k in range(k_begin, k_end):
         if k > k0:
@@ -430,11 +438,17 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
                 q_nav,
             )  # fmt: skip
             propagate_cov(P, Phi, q, q_nav, T)
+            if i_support >= 0:
+                g_c = normal_gravity_m_s2(nominal[I_LAT], nominal[I_H])
+                propagate_support(P, nominal, i_support, g_c)
             mech_step(
                 nominal, filt.increments_prev, gyro_k, acc_k, dt, k == k0 + 1,
                 coning, qa, qb, C,
             )  # fmt: skip
-            if tilt_mean and imu.t_s[k - 1] >= params[P_FEJ_END]:
+            moving = imu.t_s[k - 1] >= params[P_FEJ_END]
+            if i_support >= 0:
+                remove_support(P, nominal, dt, tilt_mean and moving)
+            elif tilt_mean and moving:
                 tilt_gravity_mean(P, nominal, dt)
             if dt != dt_decay:  # the instability estimates decay as their model says
                 dt_decay = dt
@@ -532,31 +546,11 @@ def filter_params(config: InsConfig, *, use_velocity: bool) -> FloatArray:
     return p
 
 
-def standstill_params(params: FloatArray, init: InitialState) -> FloatArray:
-    """``params`` with the initial standstill of a static alignment (`step_matrices`).
-
-    Until ``init.static_until_s`` the accelerometer columns of ``F`` keep the levelled
-    attitude (first-estimates Jacobian, `kinsync.ins._ekf`), and the second-order tilt
-    mean (`tilt_gravity_mean`) is left out: levelling made the resolved specific force
-    exactly vertical, so at rest the tilt error takes no vertical support away; that
-    mean holds for a tilt error independent of the accelerometer error, as it becomes
-    once the vehicle moves. Applied during the standstill it biased the vertical
-    accelerometer bias (-1.6σ on average over 5-60 s) and, with the tilt correlated to
-    the accelerometer error as it is, one of 12 simulated MEMS starts lost its GNSS
-    (`initial_covariance`). Unchanged without a levelled standstill.
-    """
-    if init.static_until_s is None or init.levelling_std_rad is None:
-        return params
-    p = params.copy()
-    p[P_FEJ_END] = init.static_until_s
-    p[P_FEJ_C : P_FEJ_C + 9] = euler_rpy_to_matrix(*init.rpy_rad).ravel()
-    return p
-
-
 def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     """Initial error covariance (n, n) from the configured σ.
 
-    n is 21, or 27 with scale factors (`InsConfig.models_scale_factors`). Attitude,
+    n is 21, or 27 with scale factors (`InsConfig.models_scale_factors`); the state
+    a levelled standstill adds is not in it (`kinsync.ins.standstill`). Attitude,
     NED velocity, position and sensor errors are independent; the velocity state of
     the modified φ-angle model, ``δv' = δv - [v×] φ``, is correlated with the attitude
     through the initial velocity ``v``. The turn-on bias σ is the calibration's when
@@ -575,11 +569,12 @@ def initial_covariance(config: InsConfig, init: InitialState) -> FloatArray:
     about √2. With the correlation, the first-estimates Jacobian and no second-order
     tilt mean during the standstill (`standstill_params`): 0.95, and 1.23 / 1.19 over
     60-85 s and 85-110 s after driving off (1.61 / 1.19 before); smoothed, 1.09 / 1.03
-    / 1.00 (unchanged). Not solved: at rest the vertical accelerometer bias cannot be
-    told from the second-order vertical support of the unknown tilt (``½ g θ²``,
-    0.25 mg for the MEMS preset), which a linear filter does not carry; the smoothed
-    vertical bias at rest is off by 0.28 mg RMS against a σ of 0.022 mg (0.22 mg
-    before this correlation).
+    / 1.00 (unchanged). At rest the vertical accelerometer bias cannot be told from
+    the second-order vertical support of the unknown tilt (``½ g θ²``, 0.25 mg for the
+    MEMS preset), which the filter then carries as one more state
+    (`kinsync.ins.standstill.with_vertical_support`, added to this covariance by the
+    forward pass): without it the smoothed vertical bias at rest was off by 0.28 mg
+    RMS against a σ of 0.022 mg.
 
     When the gyro bias was measured as the mean rate of a static period
     (``init.gyro_bias_std_rad_s`` set, and no calibration in ``config``), that mean
@@ -748,15 +743,15 @@ def forward_pass(
     """
     k0 = start_epoch(imu, init)
     n = len(imu)
-    params = standstill_params(filter_params(config, use_velocity=use_velocity), init)
+    params = filter_params(config, use_velocity=use_velocity)
     imu_arrays = ImuArrays(imu.t_s, imu.gyro_body_rad_s, imu.acc_body_m_s2)
     gnss_arrays = _gnss_arrays(gnss, gnss_imu_epoch, config, use_velocity=use_velocity)
     init = starting_estimates(config, init)
-    filt = FilterState(
-        nominal=initial_state_vector(init),
-        increments_prev=np.zeros(N_PREV),
-        P=initial_covariance(config, init),
+    nominal, P = with_vertical_support(
+        initial_state_vector(init), initial_covariance(config, init), init
     )
+    params = standstill_params(params, init)
+    filt = FilterState(nominal=nominal, increments_prev=np.zeros(N_PREV), P=P)
     out = ForwardOutput(states=np.zeros((n, N_STATE)), std=np.zeros((n, N_OUT)))
     n_in = int(np.count_nonzero(gnss_imu_epoch >= 0))
     checkpoints = new_checkpoint_store(

@@ -144,7 +144,7 @@ class ForwardRun:
     ----------
     k0 : int
         Initial IMU epoch; arrays below are indexed by absolute IMU epoch.
-    states : ndarray, shape (n, 28)
+    states : ndarray, shape (n, 31)
         Nominal states after feedback (rows before ``k0`` unused).
     std : ndarray, shape (n, 21)
         1σ of the error state.

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from kinsync._typing import FloatArray
-from kinsync.ins._ekf import P_ARM, X_BG, X_MG, X_SG
+from kinsync.ins._ekf import N_ERR_SCALE, P_ARM, X_BG, X_MG, X_SG
 from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S
 from kinsync.ins.strapdown import I_BG, I_H, I_LAT, I_LON, I_MG, I_Q, I_SG, I_VEL, quat_to_dcm
 
@@ -147,7 +147,7 @@ def _observation(  # noqa: PLR0915 - one flat function is what numba compiles be
             H[3 + i, base] = cl0
             H[3 + i, base + 1] = cl1
             H[3 + i, base + 2] = cl2
-        if n > X_SG:
+        if n >= N_ERR_SCALE:
             H[3 + i, X_SG] = cl0 * w[0]
             H[3 + i, X_SG + 1] = cl1 * w[1]
             H[3 + i, X_SG + 2] = cl2 * w[2]

@@ -78,9 +78,12 @@ from kinsync.ins._ekf import (
     propagate_cov,
     solution_std,
     step_matrices,
+    support_index,
+    support_transition,
 )
 from kinsync.ins.forward_run import CHECKPOINT_EVERY, Checkpoints, ForwardRun
 from kinsync.ins.measurements import ImuData
+from kinsync.ins.strapdown import I_CVAR
 from kinsync.progress import Progress, report
 
 __all__ = [
@@ -289,12 +292,17 @@ def _ins_matrices(
     w_b = np.empty(3)
     f_b = np.empty(3)
     top = L if has_next else L - 1
+    ic = support_index(n)
     for i in range(1, top + 1):
         k = e + i
         step_matrices(
             states[k - 1], gyro[k], acc[k], t[k] - t[k - 1], t[k - 1], params, w_b, f_b, C,
             F, Phi_buf[i], q_buf[i], q_nav_buf[i],
         )  # fmt: skip
+        if ic >= 0:  # the vertical support's transition, as the forward pass found it
+            phi, qc = support_transition(states[k - 1, I_CVAR], states[k, I_CVAR])
+            Phi_buf[i][ic, ic] = phi
+            q_buf[i][ic] = qc
 
 
 ins_matrices = cast(Callable[..., None], _jit(_ins_matrices))
@@ -408,7 +416,7 @@ def smoothed_solution_std(cov: SmoothedCovariance, states: FloatArray, k0: int) 
 def smooth_forward_run(
     imu: ImuData, run: ForwardRun, progress: Progress | None = None
 ) -> tuple[FloatArray, FloatArray]:
-    """Smoothed nominal states (n, 28) and the solution's 1σ (n, 21) of a forward run.
+    """Smoothed nominal states (n, 31) and the solution's 1σ (n, 21) of a forward run.
 
     Rows before ``run.k0`` are zero.
     """

@@ -57,7 +57,9 @@ class InitialState:
         Jacobian, `kinsync.ins._ekf`): the levelled tilt and the horizontal
         accelerometer error cannot be told apart at rest, and re-linearising about an
         attitude that the GNSS updates move gains information on them that is not in
-        the data. None (default): no such standstill.
+        the data. With ``levelling_std_rad`` it also makes the filter carry the
+        second-order vertical support of the levelled tilt as one more state
+        (`kinsync.ins.standstill`). None (default): no such standstill.
     """
 
     t_s: float

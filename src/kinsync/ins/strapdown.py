@@ -4,7 +4,9 @@ The navigation state is geodetic latitude, longitude (rad) and ellipsoidal heigh
 on WGS84, the velocity over the Earth in NED (m/s) and the attitude body -> NED as a
 scalar-first unit quaternion, plus the sensor error estimates that correct the IMU
 samples: turn-on biases, bias instabilities and scale factors of the gyros and
-accelerometers (the filter feeds them back; the free-inertial run keeps them at zero).
+accelerometers (the filter feeds them back; the free-inertial run keeps them at zero),
+and the filter's estimate of the second-order vertical support of a levelled tilt
+during an initial standstill (`kinsync.ins._ekf`; not used by the mechanisation here).
 A corrected sample is ``ω = (ω_measured - b_g - m_g) / (1 + s_g)``, likewise ``f``.
 
 One step from IMU epoch ``k-1`` to ``k`` (sample ``k`` holds the mean rate and specific
@@ -66,7 +68,10 @@ I_MG = 16  # 16..18 gyro bias instability estimate (rad/s, body)
 I_MA = 19  # 19..21 accelerometer bias instability estimate (m/s^2, body)
 I_SG = 22  # 22..24 gyro scale factor estimate (dimensionless)
 I_SA = 25  # 25..27 accelerometer scale factor estimate (dimensionless)
-N_STATE = 28
+I_CV = 28  # second-order vertical support of the tilt (m/s^2), `kinsync.ins._ekf`
+I_CM = 29  # its prior mean at this epoch, before the epoch's updates (m/s^2)
+I_CVAR = 30  # and its prior variance (m^2/s^4)
+N_STATE = 31
 N_PREV = 6  # previous sample's dθ (0..2) and dv (3..5), body frame
 
 
@@ -287,7 +292,7 @@ def check_imu_gaps(imu: ImuData, k0: int, max_gap_s: float) -> None:
 
 
 def initial_state_vector(init: InitialState) -> FloatArray:
-    """The compiled loops' state vector (16,) of an `InitialState`."""
+    """The compiled loops' state vector (31,), `N_STATE`, of an `InitialState`."""
     vals = [
         init.lat_deg, init.lon_deg, init.h_m, *init.vel_ned_m_s, *init.rpy_rad,
         *init.gyro_bias_rad_s, *init.acc_bias_m_s2,
@@ -325,7 +330,7 @@ def nav_solution_from_states(
     n_gnss_used: int = 0,
     n_gnss_rejected: int = 0,
 ) -> NavSolution:
-    """Build a `NavSolution` from compiled-loop states (n, 28) and 1σ (n, 21) or None.
+    """Build a `NavSolution` from compiled-loop states (n, 31) and 1σ (n, 21) or None.
 
     ``std`` has the layout of `kinsync.ins._ekf.solution_std`: attitude, velocity,
     position, total gyro and accelerometer bias, scale factors (NaN if not modelled).
@@ -364,7 +369,7 @@ def nav_solution_from_states(
 
 
 def mechanise_states(imu: ImuData, init: InitialState, *, coning: bool = True) -> FloatArray:
-    """Raw compiled-loop states (n - k0, 16) of the free-inertial run from ``init``."""
+    """Raw compiled-loop states (n - k0, 31) of the free-inertial run from ``init``."""
     k0 = start_epoch(imu, init)
     state = initial_state_vector(init)
     out = np.empty((len(imu), N_STATE))
