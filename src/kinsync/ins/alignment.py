@@ -262,9 +262,11 @@ def align_static_gnss_heading(
     2. Levelling: ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, sqrt(f_y² + f_z²))``
        from the mean specific force, less the known accelerometer bias when one is
        given (the remaining bias enters as tilt: 1 mg ≈ 0.06°; the returned state says
-       so with ``levelling_std_rad``, and the filter starts roll and pitch with the
-       accelerometer σ over g, without correlating them with the accelerometer states:
-       `kinsync.ins.filter.initial_covariance` says why).
+       so with ``levelling_std_rad``; the filter starts roll and pitch as the
+       horizontal accelerometer error over g, correlated with the accelerometer states,
+       plus the levelling noise: `kinsync.ins.filter.initial_covariance`, and carries
+       the second-order vertical support of that tilt as a state:
+       `kinsync.ins.standstill`).
     3. The mean gyro output is the initial gyro drift estimate (the Earth rate,
        projected with the final attitude, is removed), unless a known (laboratory)
        gyro bias is given. MEMS gyros are far too noisy for gyrocompassing, so the
