@@ -129,6 +129,7 @@ def _run(block: Block, work: Path, env: dict[str, str]) -> subprocess.CompletedP
     )
 
 
+@pytest.mark.slow
 def test_every_readme_block_runs_in_order(tmp_path: Path) -> None:
     blocks = [b for b in readme_blocks(README.read_text(encoding="utf-8")) if b.info in RUNNABLE]
     assert len(blocks) >= 15

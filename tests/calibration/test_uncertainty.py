@@ -64,6 +64,7 @@ def _one_run(synthetic: Callable[..., Synthetic], seed: int) -> tuple[np.ndarray
     return err, jk.std, np.sqrt(np.diag(sol.covariance))
 
 
+@pytest.mark.slow
 def test_monte_carlo_spread_over_sigma_is_near_one(synthetic: Callable[..., Synthetic]) -> None:
     """8 lines with 2-3 cm / 0.005-0.015 deg navigation errors correlated over 10 s.
 

@@ -34,6 +34,7 @@ class _Collector(HTMLParser):
             self._in_h2 = False
 
 
+@pytest.mark.slow
 def test_demo_writes_a_self_contained_report(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

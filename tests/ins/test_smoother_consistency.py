@@ -150,6 +150,7 @@ def normalised(truth: DriveTrajectory) -> dict[str, Normalised]:
     return {k: Normalised(np.stack(z), np.stack(s)) for k, (z, s) in out.items()}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", ["fwd", "smo"])
 @pytest.mark.parametrize(("group", "cols"), [("pos", (0, 3)), ("vel", (3, 6)), ("att", (6, 9))])
 def test_normalised_errors_are_standard_normal(

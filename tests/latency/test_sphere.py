@@ -31,6 +31,7 @@ def default_simulation() -> tuple[SpherePass, ...]:
     return simulate_rotating_table(RotatingTableConfig(latency_s=TAU_S, seed=1)).passes
 
 
+@pytest.mark.slow
 def test_default_setup_recovers_the_latency_within_3_sigma_and_0p1_ms() -> None:
     result = estimate_latency_sphere(default_simulation(), radius_m=0.1)
     err = result.latency_s - TAU_S
