@@ -52,6 +52,7 @@ from kinsync.trajectory_gaps import (
     GAP_FACTOR,
     TrajectoryGap,
     gap_index,
+    gap_threshold_text,
     max_gap_for,
     trajectory_gaps,
 )
@@ -716,8 +717,9 @@ class Trajectory:
             gaps = self.gaps(max_gap_s)
             k = int(gap_index(t[row], gaps))
             why = (
-                f"in a data gap of the trajectory, {gaps[k].describe()} without a record; "
-                "kinsync does not interpolate across gaps"
+                f"in a data gap of the trajectory, {gaps[k].describe()} without a record, "
+                f"one of its {gap_threshold_text(max_gap_for(self.t_s, max_gap_s))}; kinsync "
+                "does not interpolate across gaps"
                 if k >= 0
                 else f"outside the trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; "
                 "kinsync does not extrapolate"

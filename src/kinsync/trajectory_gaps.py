@@ -7,7 +7,10 @@ the trajectory's span: by `kinsync.trajectory.Trajectory` (``contains`` is False
 ``interpolate`` raises or masks), by georeferencing
 (`kinsync.georef.trajectory.GeorefTrajectory`) and so by every command that reads a
 trajectory at given times; ``kinsync trajectory info`` warns about gaps. A time on
-the record at either end of a gap is not in it.
+the record at either end of a gap is not in it. Every command that reads a trajectory
+takes ``--max-gap-s`` for a trajectory whose long intervals are legitimate (an export
+at a variable rate, a track with 1-5 s steps, a pause), and every message about a gap
+names the threshold used (`gap_threshold_text`) and the option (`GAP_ADVICE`).
 """
 
 from __future__ import annotations
@@ -21,9 +24,11 @@ from kinsync._typing import ArrayLike, IntArray
 from kinsync.errors import InputError
 
 __all__ = [
+    "GAP_ADVICE",
     "GAP_FACTOR",
     "TrajectoryGap",
     "gap_index",
+    "gap_threshold_text",
     "max_gap_for",
     "trajectory_gaps",
 ]
@@ -33,6 +38,26 @@ GAP_FACTOR = 10.0
 trajectory interpolated across it is a guess (a 10 s hole in a drive bends positions by
 decimetres), not a measurement. Georeferencing treats points in a gap like points
 outside the span."""
+
+
+GAP_ADVICE = "set --max-gap-s above the gap's length to interpolate across it"
+"""What a message about a gap tells the user to do when the interval is legitimate (a
+variable-rate export, a track with irregular steps, a pause): every command that reads
+a trajectory takes ``--max-gap-s``."""
+
+
+def gap_threshold_text(max_gap_s: float) -> str:
+    """``record intervals longer than X s (...)``: the gap threshold a message names.
+
+    Parameters
+    ----------
+    max_gap_s : float
+        The threshold used (s), as `max_gap_for` gives it.
+    """
+    return (
+        f"record intervals longer than {max_gap_s:.6g} s (the gap threshold: --max-gap-s, "
+        f"default {GAP_FACTOR:g} median record intervals)"
+    )
 
 
 @dataclass(frozen=True)

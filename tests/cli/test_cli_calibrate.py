@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests._trajectory_holes import with_gap
 
 from kinsync.cli._options import expand_multi_value_options
 from kinsync.io.mount_file import read_mount
@@ -107,6 +108,34 @@ def test_calibrate_mount_table(
     assert "latency_ms" in out
     assert "sigma: jackknife" in out
     assert f"wrote {tmp_path / 'm.toml'}" in " ".join(out.split())
+
+
+def test_returns_in_a_trajectory_gap_are_refused_unless_max_gap_s_spans_it(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    patch: tuple[Path, PatchTestSimulation],
+    tmp_path: Path,
+) -> None:
+    """0.6 s cut out of the navigation in the middle of the first line: its returns there
+    were dropped without a word; now they are refused like returns outside the trajectory,
+    naming the gap, the threshold and --max-gap-s, and a threshold above the gap reads
+    across it."""
+    folder, sim = patch
+    t_mid = float(np.median(sim.lines[0].t_s))
+    holed = tmp_path / "holed.csv"
+    write_trajectory_csv(with_gap(sim.navigation, t_mid - 0.3, t_mid + 0.3), holed)
+    limit = 10.0 * float(np.median(np.diff(sim.navigation.t_s)))
+    argv = [
+        "calibrate", "mount", "--points", *_lines(folder), "--trajectory", str(holed),
+        "--mount", str(folder / "mount.toml"), "--estimate", "boresight", "--json",
+    ]  # fmt: skip
+    assert_one_line_error(
+        *run_cli(argv), "line_01.laz", "data gap(s) of its trajectory",
+        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+    )  # fmt: skip
+    code, out, err = run_cli([*argv, "--max-gap-s", "1"])
+    assert code == 0, err
+    assert json.loads(out)["n_points"] == sum(len(ln) for ln in sim.lines)
 
 
 def test_many_values_after_one_flag_become_one_flag_each() -> None:

@@ -116,9 +116,13 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "seconds",
         "points_per_s",
         "crs",
+        "gap_threshold_s",
         "warnings",
     }
     assert doc["warnings"] == []
+    # the gap threshold used: 10 median record intervals of the trajectory
+    t_rec = read_trajectory_csv(setup["traj"]).t_s
+    assert doc["gap_threshold_s"] == pytest.approx(10.0 * float(np.median(np.diff(t_rec))))
     assert doc["crs"]["target"] == "WGS 84 (EPSG:4978)"
     assert doc["crs"]["heights"].startswith("none")
     table = pq.read_table(out) if suffix == ".parquet" else None

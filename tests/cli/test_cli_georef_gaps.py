@@ -5,8 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from tests.cli.conftest import OneLineError, RunCli
-from tests.pipelines.test_georef_gaps import GAP, _columns, _write_las, gap_traj
+from tests.pipelines.test_georef_gaps import GAP, _columns, _trajectory, _write_las, gap_traj
+
+from kinsync.trajectory_gaps import max_gap_for
 
 __all__ = ["gap_traj"]  # the fixture
 
@@ -24,11 +27,37 @@ def test_cli_refuses_points_in_a_gap_and_trajectory_info_warns(
     argv = ["georef", "--points", str(src), "--trajectory", str(gap_traj), "--mount", str(mount)]
     code, out, err = run_cli([*argv, "--out", str(tmp_path / "o.laz")])
     assert_one_line_error(code, out, err, "gap", f"{GAP[0]!r}", "--max-gap-s")
-    code, out, err = run_cli([*argv, "--out", str(tmp_path / "o.laz"), "--max-gap-s", "2.5"])
+    limit = max_gap_for(_trajectory().t_s)  # 10 median intervals: 0.1 s, to rounding
+    threshold = f"record intervals longer than {limit:.6g} s (the gap threshold: --max-gap-s"
+    assert threshold in err
+    code, out, err = run_cli(
+        [*argv, "--out", str(tmp_path / "o.laz"), "--max-gap-s", "2.5", "--json"]
+    )
     assert code == 0, err
+    assert json.loads(out)["gap_threshold_s"] == 2.5
     code, out, err = run_cli(["trajectory", "info", str(gap_traj), "--json"])
     assert code == 0, err
     doc = json.loads(out)
     assert doc["gaps"] == [{"t_start_s": GAP[0], "t_end_s": GAP[1]}]
-    assert any("1 gap(s)" in w for w in doc["warnings"])
+    assert doc["gap_threshold_s"] == limit == pytest.approx(0.1)
+    (warning,) = [w for w in doc["warnings"] if "1 gap(s)" in w]
+    assert threshold in warning
     assert "gap" in err
+
+
+def test_trajectory_info_lists_the_gaps_at_the_threshold_given(
+    gap_traj: Path, run_cli: RunCli
+) -> None:
+    """The 2 s hole is no gap at --max-gap-s 2.5; every interval over 0.005 s is one."""
+    code, out, err = run_cli(["trajectory", "info", str(gap_traj), "--max-gap-s", "2.5", "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["gap_threshold_s"] == 2.5
+    assert doc["gaps"] == []
+    assert doc["warnings"] == []
+    assert err == ""
+    code, out, err = run_cli(["trajectory", "info", str(gap_traj), "--max-gap-s", "0.005"])
+    assert code == 0, err
+    assert "gap_threshold_s" in out
+    assert "kinsync: warning:" in err
+    assert f"{len(_trajectory().t_s) - 1} gap(s)" in err

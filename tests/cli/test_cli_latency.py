@@ -357,8 +357,22 @@ def test_sphere_raw_refuses_points_in_a_hole_of_the_attitude_log(
     mid = float(np.median(t[: t.size // 4]))  # inside the first pass
     kept = [ln for ln, tk in zip(lines[1:], t, strict=True) if abs(tk - mid) > 0.25]
     log.write_text("\n".join([lines[0], *kept]) + "\n", encoding="utf-8")
-    code, out, err = run_cli(["latency", "sphere", str(folder), "--raw", "--no-figure"])
-    assert_one_line_error(code, out, err, "pass_000.csv", "data gap of the attitude log", str(log))
+    argv = ["latency", "sphere", str(folder), "--raw", "--no-figure"]
+    code, out, err = run_cli(argv)
+    # the threshold used (10 median intervals of the log) and the option that sets it
+    limit = 10.0 * float(np.median(np.diff(t[np.abs(t - mid) > 0.25])))
+    assert_one_line_error(
+        code, out, err, "pass_000.csv", "data gap of the attitude log", str(log),
+        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+    )  # fmt: skip
+    # the half-second hole is legitimate here: a threshold above it reads across it
+    code, out, err = run_cli([*argv, "--max-gap-s", "0.6", "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_passes_used"] == doc["n_passes"] >= 2
+    # a threshold for the attitude log needs the attitude log
+    code, out, err = run_cli([*argv[:3], "--no-figure", "--max-gap-s", "0.6"])
+    assert_one_line_error(code, out, err, "--max-gap-s", "--raw")
 
 
 @pytest.mark.parametrize(

@@ -9,10 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests._trajectory_holes import with_gap
 
 from kinsync.cli import _progress
 from kinsync.ins.solution import NavSolution
 from kinsync.io.nav_csv import read_nav_csv, read_navigation
+from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simulation
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
@@ -302,6 +304,45 @@ def test_bad_inputs_are_one_line_errors(
     assert_one_line_error(*run_cli(argv), "none.csv", "not found")
 
 
+def test_init_from_a_reference_with_a_gap_at_the_imu_start(
+    run_cli: RunCli,
+    navego: dict[str, Path],
+    tmp_path: Path,
+    assert_one_line_error: OneLineError,
+) -> None:
+    """The IMU starts 1 s into the drive, inside a 1 s hole of the reference: refused by
+    default, naming the threshold and --max-gap-s; with --max-gap-s above the hole the
+    state is interpolated across it and the filter runs."""
+    imu_lines = navego["imu"].read_text().splitlines()
+    gnss_lines = navego["gnss"].read_text().splitlines()
+    imu = tmp_path / "imu.csv"
+    imu.write_text("\n".join([imu_lines[0], *imu_lines[201:1001]]) + "\n")  # 1 s .. 5 s
+    gnss = tmp_path / "gnss.csv"
+    gnss.write_text("\n".join([gnss_lines[0], *gnss_lines[5:26]]) + "\n")
+    t0 = float(imu_lines[201].split(",")[0])
+    truth = read_trajectory_csv(navego["truth"])
+    holed = tmp_path / "holed.csv"
+    write_trajectory_csv(with_gap(truth, t0 - 0.5, t0 + 0.5), holed)
+    out = tmp_path / "nav.csv"
+    argv = _run_args(navego, out, "--json")
+    for name, path in (("imu", imu), ("gnss", gnss), ("truth", holed)):
+        argv[argv.index(str(navego[name]))] = str(path)
+    limit = 10.0 * float(np.median(np.diff(truth.t_s)))
+    assert_one_line_error(
+        *run_cli(argv), "--init-from", "inside a data gap",
+        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+    )  # fmt: skip
+    assert not out.exists()
+    code, stdout, stderr = run_cli([*argv, "--max-gap-s", "1.5"])
+    assert code == 0, stderr
+    assert json.loads(stdout)["epochs"] == 800
+    # without --init-from there is no reference for the threshold to apply to
+    i = argv.index("--init-from")
+    assert_one_line_error(
+        *run_cli([*argv[:i], *argv[i + 2 :], "--max-gap-s", "1.5"]), "--max-gap-s", "--init-from"
+    )
+
+
 def test_compare_leaves_out_epochs_in_a_gap_of_the_reference(
     run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -329,11 +370,23 @@ def test_compare_leaves_out_epochs_in_a_gap_of_the_reference(
     assert max(doc["max_att_deg"]) < 1e-6
     assert stderr.count("\n") == 1
     assert f"{n_hole} solution epochs left out, in 1 data gap of the reference" in stderr
+    limit = 10.0 * float(np.median(np.diff(t)))  # the default threshold, named with its option
+    assert doc["gap_threshold_s"] == pytest.approx(limit)
+    assert f"record intervals longer than {limit:.6g} s (the gap threshold: --max-gap-s" in stderr
     code, stdout, stderr = run_cli(argv)
     assert code == 0, stderr
     assert f"left out: 0 epoch(s) outside the reference's span, {n_hole} in its data gaps" in (
         " ".join(stdout.split())
     )
+    # A reference legitimately this sparse: a threshold above the hole compares every epoch.
+    code, stdout, stderr = run_cli([*argv, "--max-gap-s", "12", "--json"])
+    assert code == 0, stderr
+    assert stderr == ""
+    doc = json.loads(stdout)
+    assert doc["gap_threshold_s"] == 12.0
+    assert doc["n_epochs_in_truth_gaps"] == 0
+    assert doc["truth_gaps"] == []
+    assert doc["n_epochs"] == t.size
 
 
 def test_compare_bad_inputs(

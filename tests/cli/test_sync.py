@@ -148,6 +148,23 @@ def test_object_space_leaves_out_a_crossing_in_a_trajectory_gap(
     assert len(warnings) == 1
     assert f"{holed}: 1 possible sync-point crossing(s) left out" in warnings[0]
     assert f"{first['name']} in " in warnings[0]
+    # the threshold used (10 median record intervals) and the option that sets it
+    t_rec = np.array([float(ln.split(",")[0]) for ln in kept])
+    limit = 10.0 * float(np.median(np.diff(t_rec)))
+    assert doc["gap_threshold_s"] == pytest.approx(limit)
+    assert (
+        f"record intervals longer than {limit:.6g} s (the gap threshold: --max-gap-s"
+        in (warnings[0])
+    )
+    # a threshold above the hole: the crossing is searched across it, nothing left out
+    length = gap["t_end_s"] - gap["t_start_s"]
+    code, out, err = run_cli([*args, "--max-gap-s", f"{length + 0.5:.3f}", "--json"])
+    assert code == 0, err
+    assert "warning" not in err
+    doc = json.loads(out)
+    assert doc["gap_threshold_s"] == pytest.approx(length + 0.5, abs=1e-3)
+    assert doc["crossings_in_gaps"] == []
+    assert doc["n_crossings"] == full["n_crossings"]
 
 
 def test_apply_then_georeference(

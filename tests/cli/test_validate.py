@@ -197,6 +197,21 @@ def test_a_visit_in_a_trajectory_gap_is_reported_missing(
     assert doc["n_observations"] == len(t_visit) - n_hole
     assert all("data gap of the trajectory" in m["reason"] for m in doc["missing"])
     assert t_hole in [m["t_s"] for m in doc["missing"]]
+    # the threshold used (10 median record intervals) is in the document and the reason,
+    # with the option that sets it
+    t_rec = np.array([float(ln.split(",")[0]) for ln in kept])
+    limit = 10.0 * float(np.median(np.diff(t_rec)))
+    assert doc["gap_threshold_s"] == pytest.approx(limit)
+    for m in doc["missing"]:
+        assert f"record intervals longer than {limit:.6g} s" in m["reason"]
+        assert "--max-gap-s" in m["reason"]
+    # a threshold above the hole: every visit is read across it
+    code, out, err = run_cli([*argv[:-1], "--max-gap-s", "1.5", "--trajectory", str(holed)])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["gap_threshold_s"] == 1.5
+    assert doc["n_missing"] == 0
+    assert sorted(o["t_s"] for o in doc["observations"]) == t_visit
 
 
 def _control_las(files: dict[str, Path], path: Path, *, adjusted: bool) -> None:

@@ -169,6 +169,14 @@ def test_epochs_in_a_gap_of_the_truth_are_left_out_and_counted() -> None:
     assert doc["n_epochs_in_truth_gaps"] == cmp.n_in_truth_gaps
     assert doc["n_epochs_outside_truth"] == cmp.n_outside_truth
     assert doc["truth_gaps"] == [{"t_start_s": start, "t_end_s": end}]
+    assert doc["gap_threshold_s"] == cmp.truth_gap_threshold_s == pytest.approx(1.0)
+    # A truth legitimately this sparse: a threshold above the hole compares those epochs.
+    wide = compare_to_truth(
+        _solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), holed, max_gap_s=10.5
+    )
+    assert (wide.n_in_truth_gaps, wide.truth_gaps) == (0, ())
+    assert wide.n_epochs == t.size - cmp.n_outside_truth
+    assert wide.truth_gap_threshold_s == 10.5
     # what the old comparison charged to the solution: the guess across the hole
     guess = holed.interpolate(t[in_hole], max_gap_s=math.inf)
     exact = _truth(t[in_hole]).interpolate(t[in_hole])
@@ -188,6 +196,12 @@ def test_a_solution_only_inside_a_truth_gap_is_an_error_naming_it() -> None:
         compare_to_truth(_solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), holed)
     assert f"the {t.size} solution epoch(s) inside it lie in its data gaps" in str(err.value)
     assert holed.gaps()[0].describe() in str(err.value)
+    assert "record intervals longer than 1 s (the gap threshold: --max-gap-s" in str(err.value)
+    for bad in (0.0, -1.0, math.nan):
+        with pytest.raises(InputError, match="max-gap-s"):
+            compare_to_truth(
+                _solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), holed, max_gap_s=bad
+            )
 
 
 def test_three_sigma_shares() -> None:
@@ -242,6 +256,7 @@ def test_local_ned_truth_and_document() -> None:
         "n_epochs_outside_truth",
         "n_epochs_in_truth_gaps",
         "truth_gaps",
+        "gap_threshold_s",
     }
     assert doc["rms_vel_ned_m_s"] is None
     assert doc["n_epochs"] == t.size

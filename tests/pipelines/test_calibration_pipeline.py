@@ -3,6 +3,7 @@ outputs."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -139,6 +140,12 @@ def test_calibrate_files_writes_the_mount_and_the_report(
 
 
 @pytest.mark.skipif(not CIDCO.is_dir(), reason="CIDCO data not in ../shared")
+@pytest.mark.parametrize("bad", [0.0, -1.0, math.nan])
+def test_a_gap_threshold_that_is_no_positive_number_is_refused(bad: float) -> None:
+    with pytest.raises(InputError, match="max-gap-s"):
+        CalibrationOptions(max_gap_s=bad)
+
+
 def test_cidco_pass_files_carry_their_trajectory() -> None:
     paths = sorted(CIDCO.glob("sphere*/passage_*.txt"))[:3]
     lines = read_scan_lines(paths, [])

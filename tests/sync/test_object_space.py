@@ -324,6 +324,14 @@ def test_a_crossing_in_a_trajectory_gap_is_left_out_and_reported() -> None:
     assert c.name == "Q"
     assert c.t_s == pytest.approx(1000.0 + 19.5 / 2.0 - 0.01, abs=1e-9)
     assert find_crossings(holed, mount, sync) == found.crossings
+    assert found.max_gap_s == pytest.approx(10.0 * float(np.median(np.diff(holed.t_s))))
+    # A threshold above the hole (a legitimately sparse trajectory): P is timed across it,
+    # exactly on this straight, steady drive.
+    across = search_crossings(holed, mount, sync, ObjectSpaceConfig(max_gap_s=2.5))
+    assert across.in_gaps == ()
+    assert across.max_gap_s == 2.5
+    assert [x.name for x in across.crossings] == ["P", "Q"]
+    assert across.crossings[0].t_s == pytest.approx(1000.0 + 9.5 / 2.0 - 0.01, abs=1e-6)
 
 
 def test_a_sighting_whose_crossing_is_in_a_gap_stays_unmatched(
@@ -454,6 +462,8 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
         ({"position_std_m": -0.1}, "position_std_m"),
         ({"min_returns": 0}, "min_returns"),
         ({"refinement": "median"}, "refinement"),
+        ({"max_gap_s": 0.0}, "max-gap-s"),
+        ({"max_gap_s": math.nan}, "max-gap-s"),
     ]:
         with pytest.raises(InputError, match=frag):
             ObjectSpaceConfig(**kwargs)  # type: ignore[arg-type]

@@ -72,6 +72,7 @@ from kinsync.calibration.uncertainty import (
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
+from kinsync.trajectory_gaps import GAP_ADVICE, gap_index, gap_threshold_text, max_gap_for
 
 __all__ = ["CalibrationOptions", "calibrate_mount", "find_features"]
 
@@ -96,6 +97,11 @@ class CalibrationOptions:
         Iteration settings.
     jackknife : bool
         Compute the jackknife sigma (else the formal sigma is reported).
+    max_gap_s : float or None
+        Longest trajectory record interval (s) interpolated across; returns inside a
+        longer one (a data gap) are refused like returns outside the trajectory. None
+        (default): `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals
+        (`kinsync.trajectory_gaps.max_gap_for`); ``math.inf``: no gap.
     """
 
     features: FeatureKind = "planes"
@@ -104,15 +110,41 @@ class CalibrationOptions:
     spheres: SphereOptions = field(default_factory=SphereOptions)
     adjustment: AdjustmentOptions = field(default_factory=AdjustmentOptions)
     jackknife: bool = True
+    max_gap_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.features not in ("planes", "spheres"):
             msg = f"--features must be planes or spheres, got {self.features!r}"
             raise InputError(msg)
         estimated_indices(self.estimate)  # an unknown group fails here
+        if self.max_gap_s is not None:
+            max_gap_for((), self.max_gap_s)  # a positive number of seconds, or inf
 
 
-def _check_lines(lines: Sequence[ScanLine], latency_s: float) -> None:
+def _check_gaps(line: ScanLine, tt: FloatArray, latency_s: float, max_gap_s: float | None) -> None:
+    """Refuse returns of ``line`` whose navigation tags ``tt`` lie in a trajectory gap."""
+    traj = line.trajectory
+    gaps = traj.gaps(max_gap_s)
+    k = gap_index(tt, gaps)
+    in_gap = k >= 0
+    if not np.any(in_gap):
+        return
+    hit = [gaps[int(i)] for i in np.unique(k[in_gap])]
+    named = "; ".join(g.describe() for g in hit[:3])
+    more = f"; and {len(hit) - 3} more" if len(hit) > 3 else ""
+    msg = (
+        f"line {line.name!r}: {int(np.count_nonzero(in_gap))} of {len(line)} returns (times "
+        f"{float(tt[in_gap].min())!r} .. {float(tt[in_gap].max())!r} s, latency "
+        f"{latency_s * 1e3:g} ms applied) lie in {len(hit)} data gap(s) of its trajectory "
+        f"({named}{more}), {gap_threshold_text(max_gap_for(traj.t_s, max_gap_s))}; kinsync "
+        f"does not interpolate across gaps: {GAP_ADVICE}, or trim the lines"
+    )
+    raise InputError(msg)
+
+
+def _check_lines(
+    lines: Sequence[ScanLine], latency_s: float, max_gap_s: float | None = None
+) -> None:
     if len(lines) < 2:
         msg = (
             f"{len(lines)} line given: a calibration needs at least 2 overlapping lines (or "
@@ -125,6 +157,7 @@ def _check_lines(lines: Sequence[ScanLine], latency_s: float) -> None:
         tt = line.t_s + latency_s
         outside = (tt < traj.t_start_s) | (tt > traj.t_end_s)
         if not np.any(outside):
+            _check_gaps(line, tt, latency_s, max_gap_s)
             continue
         n_out = int(np.count_nonzero(outside))
         hint = ""
@@ -273,19 +306,19 @@ def calibrate_mount(
     Raises
     ------
     InputError
-        Fewer than two lines, returns outside their trajectory, no feature found or
-        none seen by two lines.
+        Fewer than two lines, returns outside their trajectory or in one of its data gaps
+        (``options.max_gap_s``), no feature found or none seen by two lines.
     ConvergenceError
         The adjustment did not converge.
     """
     opt = options or CalibrationOptions()
     requested = estimated_indices(opt.estimate)
     lines = list(lines)
-    _check_lines(lines, mount.latency_s)
+    _check_lines(lines, mount.latency_s, opt.max_gap_s)
     say = progress or (lambda _: None)
     say(f"finding {opt.features} in {len(lines)} lines")
     cache: dict[int, GeorefTrajectory] = {}
-    models = [LineModel.prepare(line, cache) for line in lines]
+    models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
     frame = local_frame_for(lines)
     prior = mount_values(mount)
     features, observations = find_features(models, prior, frame, opt)

@@ -121,12 +121,22 @@ class LineModel:
     trajectory: GeorefTrajectory
 
     @classmethod
-    def prepare(cls, line: ScanLine, cache: dict[int, GeorefTrajectory] | None = None) -> LineModel:
-        """Prepare ``line``; lines sharing one `Trajectory` object share its preparation."""
+    def prepare(
+        cls,
+        line: ScanLine,
+        cache: dict[int, GeorefTrajectory] | None = None,
+        *,
+        max_gap_s: float | None = None,
+    ) -> LineModel:
+        """Prepare ``line``; lines sharing one `Trajectory` object share its preparation.
+
+        ``max_gap_s``: the trajectory's gap threshold (s, `GeorefTrajectory`); one cache
+        holds one threshold.
+        """
         key = id(line.trajectory)
         if cache is not None and key in cache:
             return cls(line, cache[key])
-        gtraj = GeorefTrajectory.from_trajectory(line.trajectory)
+        gtraj = GeorefTrajectory.from_trajectory(line.trajectory, max_gap_s=max_gap_s)
         if cache is not None:
             cache[key] = gtraj
         return cls(line, gtraj)

@@ -4,10 +4,30 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Annotated
+
+import typer
 
 from kinsync.errors import InputError
 
-__all__ = ["MULTI_VALUE_OPTIONS", "expand_multi_value_options", "parse_rates"]
+__all__ = [
+    "MAX_GAP_HELP",
+    "MULTI_VALUE_OPTIONS",
+    "MaxGapOpt",
+    "expand_multi_value_options",
+    "parse_rates",
+]
+
+MAX_GAP_HELP = (
+    "Longest trajectory record interval (s) to interpolate across; times inside a longer "
+    "one (a data gap) are treated as outside the trajectory's span. Default: 10 times the "
+    "median record interval; the most, 86400 (a day), interpolates across any interval up "
+    "to a day."
+)
+"""The help of ``--max-gap-s``, one wording for every command that reads a trajectory."""
+
+MaxGapOpt = Annotated[float | None, typer.Option("--max-gap-s", help=MAX_GAP_HELP)]
+"""``--max-gap-s``: the gap threshold (s) of `kinsync.trajectory_gaps.max_gap_for`."""
 
 MULTI_VALUE_OPTIONS: dict[tuple[str, ...], tuple[str, ...]] = {
     ("calibrate", "mount"): ("--points", "--trajectory"),

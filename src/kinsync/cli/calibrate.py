@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -48,7 +49,9 @@ RadiusOpt = Annotated[
 ]
 
 
-def _options(features: str, estimate: str, sphere_radius_m: float | None) -> CalibrationOptions:
+def _options(
+    features: str, estimate: str, sphere_radius_m: float | None, max_gap_s: float | None = None
+) -> CalibrationOptions:
     from kinsync.calibration.estimator import CalibrationOptions  # noqa: PLC0415
     from kinsync.calibration.parameters import estimated_indices  # noqa: PLC0415
     from kinsync.calibration.spheres import SphereOptions  # noqa: PLC0415
@@ -65,6 +68,7 @@ def _options(features: str, estimate: str, sphere_radius_m: float | None) -> Cal
         features=features,  # type: ignore[arg-type]
         estimate=groups,
         spheres=SphereOptions(radius_m=sphere_radius_m),
+        max_gap_s=max_gap_s,
     )
 
 
@@ -133,12 +137,17 @@ def mount(
         Path | None,
         typer.Option("--report", help="Write the calibration certificate (HTML) here."),
     ] = None,
+    max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Calibrate boresight, lever arm and latency from overlapping lines."""
+    """Calibrate boresight, lever arm and latency from overlapping lines.
+
+    Returns in a data gap of their trajectory (see --max-gap-s) are refused, as returns
+    outside it are.
+    """
     from kinsync.pipelines.calibration import calibrate_files  # noqa: PLC0415
 
-    opts = _options(features, estimate, sphere_radius_m)
+    opts = _options(features, estimate, sphere_radius_m, max_gap_s)
     trajectory = trajectory or []
     prior = read_mount(mount_file)
     with progress_display("calibrate mount") as progress:

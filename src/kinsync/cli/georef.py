@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from kinsync.cli._help import literal
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -111,15 +112,7 @@ def georef(
             "'error' (default, nothing written) or 'reject' (written to OUT.rejected.<ext>).",
         ),
     ] = "error",
-    max_gap_s: Annotated[
-        float | None,
-        typer.Option(
-            "--max-gap-s",
-            help="Longest trajectory record interval (s) to interpolate across; points "
-            "inside a longer one (a data gap) are treated as outside the span (--outside). "
-            "Default: 10 times the median record interval.",
-        ),
-    ] = None,
+    max_gap_s: MaxGapOpt = None,
     gps_week: Annotated[
         int | None,
         typer.Option(

@@ -19,6 +19,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
@@ -56,14 +57,20 @@ def _check_output(out: Path) -> None:
         raise InputError(msg)
 
 
-def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
+def _initial_state_from_file(path: Path, imu: ImuData, max_gap_s: float | None) -> InitialState:
     """The reference state at the IMU start (interpolated when the file covers it).
 
     When the file starts after the first IMU sample, its first record is used (the
-    filter then starts at that record's IMU epoch).
+    filter then starts at that record's IMU epoch). ``max_gap_s``: the file's gap
+    threshold (`kinsync.trajectory_gaps.max_gap_for`).
     """
     from kinsync.ins.solution import InitialState  # noqa: PLC0415
     from kinsync.io.trajectory_csv import read_trajectory_csv  # noqa: PLC0415
+    from kinsync.trajectory_gaps import (  # noqa: PLC0415
+        GAP_ADVICE,
+        gap_threshold_text,
+        max_gap_for,
+    )
 
     traj = read_trajectory_csv(path)
     if traj.vel_ned_m_s is None or traj.lat_lon_h is None:
@@ -72,17 +79,19 @@ def _initial_state_from_file(path: Path, imu: ImuData) -> InitialState:
             "vn_m_s,ve_m_s,vd_m_s (the truth layout)"
         )
         raise InputError(msg)
+    limit_s = max_gap_for(traj.t_s, max_gap_s)
     t0 = float(imu.t_s[0])
-    gap = [g for g in traj.gaps() if g.t_start_s < t0 < g.t_end_s]
+    gap = [g for g in traj.gaps(limit_s) if g.t_start_s < t0 < g.t_end_s]
     if gap:
         msg = (
             f"--init-from {path}: the IMU starts at t = {t0!r} s, inside a data gap of the "
-            f"file ({gap[0].describe()} without a record), where its state is not "
-            "interpolated: give a reference with a record near the IMU start"
+            f"file ({gap[0].describe()} without a record; {gap_threshold_text(limit_s)}), "
+            f"where its state is not interpolated: {GAP_ADVICE}, or give a reference with "
+            "a record near the IMU start"
         )
         raise InputError(msg)
-    if traj.contains(t0):
-        sample = traj.interpolate([t0])
+    if traj.contains(t0, max_gap_s=limit_s):
+        sample = traj.interpolate([t0], max_gap_s=limit_s)
         assert sample.lat_lon_h is not None
         lat, lon, h = (float(v) for v in sample.lat_lon_h[0])
         q = sample.q_body_to_ned[0]
@@ -176,11 +185,15 @@ def run(
         bool,
         typer.Option("--smooth", help="Write the Rauch-Tung-Striebel smoothed solution."),
     ] = False,
+    max_gap_s: MaxGapOpt = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
 ) -> None:
-    """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 or 27 states)."""
+    """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 or 27 states).
+
+    --max-gap-s is the gap threshold of the --init-from reference.
+    """
     from kinsync.ins.alignment import align_static_gnss_heading  # noqa: PLC0415
     from kinsync.ins.checks import (  # noqa: PLC0415
         check_gnss_rejections,
@@ -197,6 +210,12 @@ def run(
         msg = (
             f"--static-s {static_s:g}: the levelling needs a standstill above 0 s at the start "
             "of the IMU record; give its length, or a reference state with --init-from"
+        )
+        raise InputError(msg)
+    if max_gap_s is not None and init_from is None:
+        msg = (
+            "--max-gap-s is the gap threshold of the reference read with --init-from: give "
+            "--init-from, or leave --max-gap-s out"
         )
         raise InputError(msg)
     config = read_ins_config(config_path)
@@ -221,7 +240,7 @@ def run(
             acc_bias_m_s2=config.init_acc_bias_m_s2,
         )
         if init_from is None
-        else _initial_state_from_file(init_from, imu)
+        else _initial_state_from_file(init_from, imu, max_gap_s)
     )
     skipped = _before_start(imu, gnss, init.t_s, init_from)
     if skipped:
@@ -360,6 +379,7 @@ def compare(
         int | None,
         typer.Option("--gps-week", help="GPS week of SBET seconds-of-week times.", min=0),
     ] = None,
+    max_gap_s: MaxGapOpt = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
@@ -367,24 +387,27 @@ def compare(
     """Compare a solution with a reference: RMS/max errors N/E/D, velocity, attitude.
 
     Epochs outside the reference's span or in one of its data gaps (a record interval
-    over 10 median intervals, never interpolated across) are left out and counted.
+    over --max-gap-s, by default 10 median intervals, never interpolated across) are
+    left out and counted.
     """
     from kinsync.ins.compare import compare_to_truth  # noqa: PLC0415
     from kinsync.ins.solution import NavSolution  # noqa: PLC0415
     from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
+    from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
     solution = read_navigation(solution_path, gps_week=gps_week)
     truth = read_navigation(truth_path, gps_week=gps_week)
     if isinstance(truth, NavSolution):
         truth = truth.to_trajectory()
-    result = compare_to_truth(solution, truth)
+    result = compare_to_truth(solution, truth, max_gap_s=max_gap_s)
     if result.n_in_truth_gaps:
         named = "; ".join(g.describe() for g in result.truth_gaps[:3])
         more = f"; and {len(result.truth_gaps) - 3} more" if len(result.truth_gaps) > 3 else ""
         typer.echo(
             f"kinsync: warning: {truth_path}: {counted(result.n_in_truth_gaps, 'solution epoch')} "
             f"left out, in {counted(len(result.truth_gaps), 'data gap')} of the reference "
-            f"({named}{more}), where it is not interpolated",
+            f"({named}{more}), {gap_threshold_text(result.truth_gap_threshold_s)}, where it "
+            f"is not interpolated: {GAP_ADVICE}",
             err=True,
         )
     if as_json:
@@ -409,6 +432,7 @@ def compare(
     if result.n_outside_truth or result.n_in_truth_gaps:
         console.print(
             f"left out: {result.n_outside_truth} epoch(s) outside the reference's span, "
-            f"{result.n_in_truth_gaps} in its data gaps",
+            f"{result.n_in_truth_gaps} in its data gaps (record intervals longer than "
+            f"{result.truth_gap_threshold_s:.6g} s, --max-gap-s)",
             highlight=False,
         )

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError
@@ -191,9 +192,13 @@ def trajectory_info(
             "the folder's only smrmsg*.out).",
         ),
     ] = None,
+    max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Validate a trajectory: time scale, span, extent, UTM zone, rate, motion, velocities.
+
+    Data gaps (record intervals longer than --max-gap-s) are listed with a warning:
+    the other commands do not interpolate across them unless given the same --max-gap-s.
 
     An SBET's accuracy file (smrmsg) is summarised too.
 
@@ -207,12 +212,14 @@ def trajectory_info(
         trajectory_file_format,
     )
     from kinsync.trajectory_gaps import (  # noqa: PLC0415
-        GAP_FACTOR,
+        GAP_ADVICE,
+        gap_threshold_text,
         max_gap_for,
         trajectory_gaps,
     )
 
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    max_gap = max_gap_for(traj.t_s, max_gap_s)
     file_format = trajectory_file_format(path)
     is_sbet = file_format == "sbet"
     if smrmsg is not None and not is_sbet:
@@ -224,16 +231,15 @@ def trajectory_info(
     rate = np.degrees(np.linalg.norm(traj.angular_rate_body_rad_s(), axis=1))
     check = traj.velocity_check
     warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
-    max_gap = max_gap_for(traj.t_s)
     gaps = trajectory_gaps(traj.t_s, max_gap)
     if gaps:
         named = "; ".join(g.describe() for g in gaps[:5])
         more = f"; and {len(gaps) - 5} more" if len(gaps) > 5 else ""
         warnings.append(
-            f"{path}: {len(gaps)} gap(s) longer than {max_gap:.6g} s ({GAP_FACTOR:g} times the "
-            f"median record interval): {named}{more}; kinsync does not interpolate across "
-            "them (times there are treated as outside the span; georef --max-gap-s sets "
-            "the limit)"
+            f"{path}: {len(gaps)} gap(s), {gap_threshold_text(max_gap)}: {named}{more}; "
+            "kinsync does not interpolate across them (times there are treated as outside "
+            f"the span): where such an interval is legitimate, {GAP_ADVICE} (every command "
+            "that reads a trajectory takes it)"
         )
     doc: dict[str, Any] = {
         "format": file_format,
@@ -243,6 +249,7 @@ def trajectory_info(
         "duration_s": traj.duration_s,
         "median_rate_hz": float(1.0 / np.median(dt)),
         "max_gap_s": float(dt.max()),
+        "gap_threshold_s": max_gap,
         "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,

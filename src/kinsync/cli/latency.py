@@ -9,9 +9,10 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted, format_p_value
-from kinsync.cli._options import parse_rates
+from kinsync.cli._options import MaxGapOpt, parse_rates
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
+from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.progress import Stages
 
@@ -45,16 +46,26 @@ def sphere(
             "from raw/mount.toml.",
         ),
     ] = False,
+    max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Estimate the total latency from sphere passes at opposite table rates."""
+    """Estimate the total latency from sphere passes at opposite table rates.
+
+    With --raw, --max-gap-s is the gap threshold of the attitude log.
+    """
     # The estimator (scipy.optimize, scipy.stats) and the readers load only when this
     # command runs.
     from kinsync.io.passes import read_passes  # noqa: PLC0415
     from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
-    passes = read_raw_passes(folder) if raw else read_passes(folder)
+    if max_gap_s is not None and not raw:
+        msg = (
+            "--max-gap-s is the gap threshold of the attitude log read with --raw; the pass "
+            "files are georeferenced already: give --raw, or leave --max-gap-s out"
+        )
+        raise InputError(msg)
+    passes = read_raw_passes(folder, max_gap_s=max_gap_s) if raw else read_passes(folder)
     with progress_display("latency sphere") as progress:
         stages = Stages(progress, {"fitting": 1.0})
         stages.start("fitting", f"fitting {counted(len(passes), 'pass')}")

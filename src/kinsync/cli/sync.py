@@ -11,6 +11,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -94,6 +95,7 @@ def object_space(
         int | None,
         typer.Option("--gps-week", help="GPS week of an SBET's seconds-of-week times.", min=0),
     ] = None,
+    max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Find the profile clock t0, T from sync points seen in the scan."""
@@ -109,6 +111,7 @@ def object_space(
         require_profiler_azimuth,
         synchronise_object_space,
     )
+    from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
     config = ObjectSpaceConfig(
         period_prior_s=period_prior_s,
@@ -117,6 +120,7 @@ def object_space(
         position_std_m=position_std_m,
         position_corr_time_s=position_corr_time_s,
         max_range_m=max_range_m,
+        max_gap_s=max_gap_s,
     )
     the_mount = read_mount(mount)
     require_profiler_azimuth(the_mount, str(mount))
@@ -138,8 +142,9 @@ def object_space(
         more = f"; and {len(gaps) - 3} more" if len(gaps) > 3 else ""
         typer.echo(
             f"kinsync: warning: {trajectory}: {len(gaps)} possible sync-point crossing(s) left "
-            f"out, in data gaps of the trajectory ({named}{more}), where it is not "
-            "interpolated; a sighting there stays unmatched",
+            f"out, in data gaps of the trajectory ({named}{more}), "
+            f"{gap_threshold_text(result.gap_threshold_s)}, where it is not interpolated; a "
+            f"sighting there stays unmatched: {GAP_ADVICE}",
             err=True,
         )
     if result.ambiguous:

@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted, format_p_value
+from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -123,6 +124,7 @@ def control_points(
         Path | None,
         typer.Option("--png", help="Write the differences figure (dY vs speed, vs X) here."),
     ] = None,
+    max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Cloud - control differences in the vehicle frame; time-error and heading tests."""
@@ -144,6 +146,7 @@ def control_points(
         min_points=min_points,
         level=level,
         gps_week=gps_week,
+        max_gap_s=max_gap_s,
     )
     if png is not None:
         from kinsync.report.validation_figures import control_point_figure  # noqa: PLC0415

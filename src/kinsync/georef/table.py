@@ -24,17 +24,27 @@ __all__ = [
 
 
 def georeference_attitude_only(
-    t: FloatArray, xs: FloatArray, corrected: Trajectory, mount: Mount
+    t: FloatArray,
+    xs: FloatArray,
+    corrected: Trajectory,
+    mount: Mount,
+    *,
+    max_gap_s: float | None = None,
 ) -> FloatArray:
     """`georeference_table_points` on validated input, attitude already corrected for tau."""
-    R_body_to_ned = corrected.interpolate(t).R_body_to_ned
+    R_body_to_ned = corrected.interpolate(t, max_gap_s=max_gap_s).R_body_to_ned
     x_body = mount.lever_arm_body_m_array + xs @ mount.R_scanner_to_body.T
     out: FloatArray = np.einsum("nij,nj->ni", R_body_to_ned, x_body)
     return out
 
 
 def georeference_table_points(
-    t_s: ArrayLike, points_scanner_m: ArrayLike, attitude: Trajectory, mount: Mount
+    t_s: ArrayLike,
+    points_scanner_m: ArrayLike,
+    attitude: Trajectory,
+    mount: Mount,
+    *,
+    max_gap_s: float | None = None,
 ) -> FloatArray:
     """Georeference scanner points into the table-centred NED frame (attitude only).
 
@@ -54,6 +64,9 @@ def georeference_table_points(
         corrected for latency.
     mount : Mount
         Lever arm (m, body), boresight scanner -> body and latency tau (s).
+    max_gap_s : float, optional
+        Longest attitude record interval (s) interpolated across; default
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
 
     Returns
     -------
@@ -70,4 +83,4 @@ def georeference_table_points(
     """
     t, xs = validated_scanner_points(t_s, points_scanner_m, "georeference_table_points")
     corrected = attitude.corrected_for_latency(mount.latency_s)
-    return georeference_attitude_only(t, xs, corrected, mount)
+    return georeference_attitude_only(t, xs, corrected, mount, max_gap_s=max_gap_s)

@@ -3,9 +3,9 @@
 The truth is interpolated at the solution's epochs inside its span (position by cubic
 Hermite when the truth has velocities, else linearly; attitude by slerp; velocity
 linearly); epochs outside the truth span, and epochs inside a data gap of the truth
-(`kinsync.trajectory_gaps`: a record interval over 10 median intervals, where the
-truth is a guess interpolated across the hole, off by decimetres and degrees in a
-turn), are left out and counted. Errors are solution minus truth:
+(`kinsync.trajectory_gaps`: a record interval over 10 median intervals, or over an
+explicit ``max_gap_s``, where the truth is a guess interpolated across the hole, off by
+decimetres and degrees in a turn), are left out and counted. Errors are solution minus truth:
 
 - position in the local NED frame at each solution epoch (m), from the ECEF difference;
 - velocity in NED (m/s), when both carry velocities;
@@ -40,7 +40,13 @@ from kinsync.frames import (
 )
 from kinsync.ins.solution import NavSolution
 from kinsync.trajectory import Trajectory
-from kinsync.trajectory_gaps import TrajectoryGap, gap_index
+from kinsync.trajectory_gaps import (
+    GAP_ADVICE,
+    TrajectoryGap,
+    gap_index,
+    gap_threshold_text,
+    max_gap_for,
+)
 
 __all__ = ["Comparison", "compare_to_truth"]
 
@@ -92,6 +98,9 @@ class Comparison:
         Solution epochs left out because they lie inside a data gap of the truth.
     truth_gaps : tuple of TrajectoryGap
         The data gaps of the truth that held left-out epochs, in time order.
+    truth_gap_threshold_s : float
+        Truth record intervals longer than this (s) were data gaps
+        (`kinsync.trajectory_gaps.max_gap_for`).
     """
 
     n_epochs: int
@@ -110,6 +119,7 @@ class Comparison:
     n_outside_truth: int = 0
     n_in_truth_gaps: int = 0
     truth_gaps: tuple[TrajectoryGap, ...] = ()
+    truth_gap_threshold_s: float = math.inf
 
     def as_document(self) -> dict[str, Any]:
         """The summary as a JSON-ready dict (the ``kinsync ins compare --json`` object)."""
@@ -124,6 +134,7 @@ class Comparison:
             "n_epochs": self.n_epochs,
             "n_epochs_outside_truth": self.n_outside_truth,
             "n_epochs_in_truth_gaps": self.n_in_truth_gaps,
+            "gap_threshold_s": self.truth_gap_threshold_s,
             "truth_gaps": [
                 {"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in self.truth_gaps
             ],
@@ -148,17 +159,18 @@ def _wrap_deg(angle_deg: FloatArray) -> FloatArray:
 
 
 def _epochs_to_compare(
-    traj: Trajectory, truth: Trajectory
+    traj: Trajectory, truth: Trajectory, max_gap_s: float
 ) -> tuple[BoolArray, int, tuple[TrajectoryGap, ...]]:
     """The solution epochs to compare: those the truth can be read at.
 
-    Returns them (mask), the count outside the truth span and the truth's gaps that
-    hold the others; `InputError` when none is left.
+    Returns them (mask), the count outside the truth span and the truth's gaps (record
+    intervals longer than ``max_gap_s``) that hold the others; `InputError` when none
+    is left.
     """
-    keep = truth.contains(traj.t_s)
+    keep = truth.contains(traj.t_s, max_gap_s=max_gap_s)
     in_span = truth.contains(traj.t_s, max_gap_s=math.inf)
     in_gaps = in_span & ~keep
-    gaps = truth.gaps()
+    gaps = truth.gaps(max_gap_s)
     hit = tuple(gaps[int(k)] for k in np.unique(gap_index(traj.t_s[in_gaps], gaps)))
     if np.any(keep):
         return keep, int(np.count_nonzero(~in_span)), hit
@@ -170,15 +182,18 @@ def _epochs_to_compare(
         named = "; ".join(g.describe() for g in hit[:3])
         msg = (
             f"no common times: {spans}, and the {int(np.count_nonzero(in_gaps))} solution "
-            f"epoch(s) inside it lie in its data gaps ({named}), where the truth is not "
-            "interpolated"
+            f"epoch(s) inside it lie in its data gaps ({named}), "
+            f"{gap_threshold_text(max_gap_s)}, where the truth is not interpolated: "
+            f"{GAP_ADVICE}"
         )
     else:
         msg = f"no common times: {spans}; are both on the same time scale?"
     raise InputError(msg)
 
 
-def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> Comparison:
+def compare_to_truth(
+    solution: NavSolution | Trajectory, truth: Trajectory, *, max_gap_s: float | None = None
+) -> Comparison:
     """Compare a solution with a truth trajectory at the solution's epochs.
 
     Parameters
@@ -187,6 +202,10 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
         The estimate (geodetic or local NED trajectory, or a filter solution with σ).
     truth : Trajectory
         Reference trajectory (geodetic or local NED; velocities optional).
+    max_gap_s : float, optional
+        Longest truth record interval (s) interpolated across; epochs inside a longer
+        one (a data gap) are left out. Default `kinsync.trajectory_gaps.GAP_FACTOR`
+        median record intervals.
 
     Returns
     -------
@@ -196,19 +215,20 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
     ------
     InputError
         No solution epoch lies inside the truth span (naming both spans) outside its
-        data gaps.
+        data gaps; a ``max_gap_s`` that is not a positive number.
     """
+    limit_s = max_gap_for(truth.t_s, max_gap_s)
     sigma: tuple[FloatArray, FloatArray, FloatArray] | None = None
     if isinstance(solution, NavSolution):
         sigma = (solution.std_pos_ned_m, solution.std_vel_ned_m_s, solution.std_att_rad)
         traj = solution.to_trajectory()
     else:
         traj = solution
-    keep, n_outside, truth_gaps = _epochs_to_compare(traj, truth)
+    keep, n_outside, truth_gaps = _epochs_to_compare(traj, truth, limit_s)
     n = int(np.count_nonzero(keep))
     t = traj.t_s[keep]
     q_sol = traj.q_body_to_ned[keep]
-    ref = truth.interpolate(t)
+    ref = truth.interpolate(t, max_gap_s=limit_s)
     if traj.lat_lon_h is not None:
         lat, lon, h = traj.lat_lon_h[keep].T
         pos_sol_ecef = geodetic_to_ecef(lat, lon, h)
@@ -266,4 +286,5 @@ def compare_to_truth(solution: NavSolution | Trajectory, truth: Trajectory) -> C
         n_outside_truth=n_outside,
         n_in_truth_gaps=traj.t_s.size - n - n_outside,
         truth_gaps=truth_gaps,
+        truth_gap_threshold_s=limit_s,
     )

@@ -16,8 +16,8 @@ into `kinsync.calibration.lines.ScanLine` s, putting every file on one time scal
 `calibrate_files` runs `kinsync.calibration.estimator.calibrate_mount` on them and
 writes the calibrated mount (TOML) and the calibration certificate (HTML) atomically.
 Every returned point of every file is used or accounted for: files must hold at
-least one return; returns outside their trajectory are an error, never dropped
-silently.
+least one return; returns outside their trajectory, or in one of its data gaps
+(``CalibrationOptions.max_gap_s``), are an error, never dropped silently.
 """
 
 from __future__ import annotations

@@ -86,6 +86,7 @@ from kinsync.pipelines.georef_outputs import (
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
 from kinsync.progress import Progress, report
+from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
 __all__ = [
     "GeorefSummary",
@@ -125,6 +126,8 @@ class GeorefSummary:
         of the CRS transformation; empty when nothing is to be said.
     crs : CrsTransformInfo or None
         The transformation to the output CRS: PROJ pipeline, accuracy, epoch, heights.
+    gap_threshold_s : float
+        Trajectory record intervals longer than this (s) were data gaps (``max_gap_s``).
     """
 
     points_in: int
@@ -134,6 +137,7 @@ class GeorefSummary:
     rejected_path: Path | None = None
     warnings: tuple[str, ...] = ()
     crs: CrsTransformInfo | None = None
+    gap_threshold_s: float = math.inf
 
     @property
     def points_per_s(self) -> float:
@@ -149,6 +153,7 @@ class GeorefSummary:
             "seconds": self.seconds,
             "points_per_s": self.points_per_s,
             "crs": None if self.crs is None else self.crs.as_document(),
+            "gap_threshold_s": self.gap_threshold_s,
             "warnings": list(self.warnings),
         }
 
@@ -206,8 +211,8 @@ class _OutsideTally:
         more = f"; and {len(hit) - _GAPS_NAMED} more" if len(hit) > _GAPS_NAMED else ""
         return (
             f"{self.gap_count} point(s) with times {self.gap_t_min_s!r} .. "
-            f"{self.gap_t_max_s!r} s fall in {len(hit)} gap(s) of the trajectory, record "
-            f"intervals longer than {traj.max_gap_s:.6g} s (--max-gap-s): {named}{more}"
+            f"{self.gap_t_max_s!r} s fall in {len(hit)} gap(s) of the trajectory, "
+            f"{gap_threshold_text(traj.max_gap_s)}: {named}{more}"
         )
 
     def error(self, points_path: Path, traj: GeorefTrajectory, out_path: Path) -> InputError:
@@ -229,7 +234,7 @@ class _OutsideTally:
         msg = (
             f"{points_path}: {what} (latency {traj.latency_s!r} s applied); kinsync does not "
             f"{no}: give a trajectory that covers them, check the time scales (--gps-week), "
-            + ("set --max-gap-s above the gap to interpolate across it, " if self.gap_count else "")
+            + (f"{GAP_ADVICE}, " if self.gap_count else "")
             + f"or pass --outside reject to write them to {rejected}"
         )
         return InputError(msg)
@@ -457,6 +462,7 @@ def georeference_file(
         rejected_path=rejected_path_for(out_path, points_path) if points_rejected else None,
         warnings=tuple(notes) + crs_info.warnings,
         crs=crs_info,
+        gap_threshold_s=traj.max_gap_s,
     )
 
 

@@ -27,7 +27,13 @@ from kinsync.io.raw_passes import (
 )
 from kinsync.latency.passes import SpherePass
 from kinsync.trajectory import Trajectory
-from kinsync.trajectory_gaps import GAP_FACTOR, TrajectoryGap, gap_index, max_gap_for
+from kinsync.trajectory_gaps import (
+    GAP_ADVICE,
+    TrajectoryGap,
+    gap_index,
+    gap_threshold_text,
+    max_gap_for,
+)
 
 __all__ = [
     "read_raw_passes",
@@ -35,28 +41,37 @@ __all__ = [
 
 
 def _unreadable(
-    t_s: float, attitude: Trajectory, corrected: Trajectory, attitude_path: Path, tau: float
+    t_s: float,
+    attitude: Trajectory,
+    corrected: Trajectory,
+    attitude_path: Path,
+    tau: float,
+    max_gap_s: float | None,
 ) -> str:
     """Why the corrected attitude log cannot be read at ``t_s``: its span, or a gap."""
     read = f"read at the tag t + tau with latency tau = {tau!r} s"
-    k = int(gap_index(t_s, corrected.gaps()))
+    gaps = corrected.gaps(max_gap_s)
+    k = int(gap_index(t_s, gaps))
     if k < 0:
         return (
             f"lies outside the attitude log {attitude_path} (tags [{attitude.t_start_s!r}, "
             f"{attitude.t_end_s!r}] s, {read}); "
             "kinsync does not extrapolate: extend the log or trim the pass"
         )
-    gap = corrected.gaps()[k]
+    gap = gaps[k]
     tags = TrajectoryGap(gap.t_start_s + tau, gap.t_end_s + tau)
     return (
         f"lies in a data gap of the attitude log {attitude_path}: no record between the tags "
-        f"{tags.describe()}, longer than {max_gap_for(corrected.t_s):.6g} s ({GAP_FACTOR:g} "
-        f"median record intervals; {read}); kinsync does not interpolate across gaps: "
-        "log the attitude without holes or trim the pass"
+        f"{tags.describe()}, one of its "
+        f"{gap_threshold_text(max_gap_for(corrected.t_s, max_gap_s))} ({read}); kinsync "
+        f"does not interpolate across gaps: {GAP_ADVICE}, log the attitude without holes "
+        "or trim the pass"
     )
 
 
-def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[SpherePass]:
+def read_raw_passes(
+    folder: Path, *, latency_s: float | None = None, max_gap_s: float | None = None
+) -> list[SpherePass]:
     """Read and georeference the raw passes of a pass folder (Method A, raw input).
 
     Parameters
@@ -68,6 +83,9 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
     latency_s : float, optional
         Latency tau (s) to correct the attitude for (SPEC section 1: tau > 0 reads the
         record tagged ``t + tau``); default the mount's ``latency_s``.
+    max_gap_s : float, optional
+        Longest attitude record interval (s) interpolated across; default
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
 
     Returns
     -------
@@ -82,8 +100,8 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
         ``passes.csv``, ``attitude.csv``, ``mount.toml`` or raw pass file; missing
         columns; non-numeric or non-finite cells; attitude tags not increasing; an
         empty pass; a point time outside the latency-corrected attitude span or inside
-        one of its data gaps (`kinsync.trajectory_gaps`: by default a record interval
-        over 10 median intervals; never interpolated across).
+        one of its data gaps (`kinsync.trajectory_gaps`: a record interval longer than
+        ``max_gap_s``; never interpolated across); a ``max_gap_s`` that is not positive.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -107,25 +125,28 @@ def read_raw_passes(folder: Path, *, latency_s: float | None = None) -> list[Sph
         msg = f"latency_s must be finite, got {latency_s!r}"
         raise InputError(msg)
     corrected = attitude.corrected_for_latency(tau)
+    max_gap_for(corrected.t_s, max_gap_s)  # a bad threshold fails before any pass is read
     passes: list[SpherePass] = []
     for row in rows:
         where = f"{index_path}: line {row.line}"
         path = raw_dir / raw_pass_name(row.file)
         try:
             t, xs, table = read_raw_pass(path)
-            outside = ~corrected.contains(t)
+            outside = ~corrected.contains(t, max_gap_s=max_gap_s)
             if np.any(outside):
                 k = int(np.flatnonzero(outside)[0])
                 raise InputError(
                     f"{path}: line {table.line_of_row(k)}: point time t_s={float(t[k])!r} "
                     f"({int(np.count_nonzero(outside))} point(s) in all) "
-                    + _unreadable(float(t[k]), attitude, corrected, attitude_path, tau)
+                    + _unreadable(float(t[k]), attitude, corrected, attitude_path, tau, max_gap_s)
                 )
             passes.append(
                 SpherePass(
                     source=str(path),
                     rate_deg_s=row.rate_deg_s,
-                    points_ned_m=georeference_attitude_only(t, xs, corrected, mount),
+                    points_ned_m=georeference_attitude_only(
+                        t, xs, corrected, mount, max_gap_s=max_gap_s
+                    ),
                     axis_ned=row.axis_ned,
                     t_s=t,
                 )

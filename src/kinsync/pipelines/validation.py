@@ -19,6 +19,7 @@ from kinsync.errors import InputError, KinsyncError
 from kinsync.io.cloud import CloudExtent, check_finite_chunk, cloud_crs, iter_cloud
 from kinsync.io.control_points import read_control_points
 from kinsync.io.trajectory import read_trajectory_file
+from kinsync.trajectory_gaps import max_gap_for
 from kinsync.validation.control_report import ControlPointReport, validate_control_points
 from kinsync.validation.flatness import Box, FlatnessResult, fit_wall, select_box
 from kinsync.validation.targets import (
@@ -48,6 +49,7 @@ def control_points_file(
     level: float = 0.99,
     gps_week: int | None = None,
     chunk_points: int = 1_000_000,
+    max_gap_s: float | None = None,
 ) -> ControlPointReport:
     """Validate a georeferenced cloud file against a control-point file.
 
@@ -69,6 +71,10 @@ def control_points_file(
         GPS week, for LAS seconds-of-week times or an SBET.
     chunk_points : int
         Points read per chunk (bounds memory).
+    max_gap_s : float, optional
+        Longest trajectory record interval (s) interpolated across; visits inside a
+        longer one (a data gap) are missing. Default
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
     search_radius_m, min_intensity, centre, target_radius_m, min_points, level
         As in `validate_control_points`.
 
@@ -91,6 +97,7 @@ def control_points_file(
         raise InputError(msg)
     control = read_control_points(Path(control_path))
     trajectory, traj_scale = read_trajectory_file(Path(trajectory_path), gps_week=gps_week)
+    max_gap_for(trajectory.t_s, max_gap_s)  # a bad threshold fails before the cloud is read
     if not cloud_path.is_file():
         msg = f"{cloud_path}: file not found"
         raise InputError(msg)
@@ -138,6 +145,7 @@ def control_points_file(
             min_points=min_points,
             level=level,
             background_intensity=float(np.median(chunk_medians)),
+            max_gap_s=max_gap_s,
         )
     except KinsyncError as err:
         msg = f"{cloud_path}: {err}"

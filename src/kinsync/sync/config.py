@@ -8,6 +8,7 @@ from typing import Literal
 
 from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError
+from kinsync.trajectory_gaps import max_gap_for
 
 __all__ = [
     "ObjectSpaceConfig",
@@ -71,6 +72,11 @@ class ObjectSpaceConfig:
     max_sync_distance_m : float
         A sync point farther than this from every trajectory position is an input error
         (wrong datum, swapped latitude and longitude, another site).
+    max_gap_s : float or None
+        Longest trajectory record interval (s) interpolated across: a crossing in a
+        longer one (a data gap) is left out. None (default):
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals
+        (`kinsync.trajectory_gaps.max_gap_for`); ``math.inf``: no gap.
     """
 
     period_prior_s: float = 0.0303
@@ -93,6 +99,7 @@ class ObjectSpaceConfig:
     min_gate_profiles: float = 1.0
     ambiguity_chi2: float = 9.0
     max_sync_distance_m: float = 5000.0
+    max_gap_s: float | None = None
 
     def __post_init__(self) -> None:
         positive_number(self.period_prior_s, "--period-prior-s")
@@ -123,6 +130,8 @@ class ObjectSpaceConfig:
             "max_sync_distance_m",
         ):
             positive_number(getattr(self, name), name)
+        if self.max_gap_s is not None:
+            max_gap_for((), self.max_gap_s)  # a positive number of seconds, or inf
         for name in ("position_std_m", "position_corr_time_s", "profile_model_std"):
             if finite_number(getattr(self, name), name) < 0.0:
                 msg = f"{name} must be >= 0, got {getattr(self, name)!r}"

@@ -108,10 +108,13 @@ class CrossingSearch:
         Timed crossings, in time order.
     in_gaps : tuple of GapCrossing
         Sign changes across data gaps of the trajectory (left out), in time order.
+    max_gap_s : float
+        The gap threshold used (s): record intervals longer than this are data gaps.
     """
 
     crossings: tuple[Crossing, ...]
     in_gaps: tuple[GapCrossing, ...] = ()
+    max_gap_s: float = math.inf
 
 
 def require_profiler_azimuth(mount: Mount, source: str = "mount") -> float:
@@ -191,7 +194,7 @@ def search_crossings(
     sync_points : SyncPoints
         Target centres (WGS84).
     config : ObjectSpaceConfig, optional
-        ``max_range_m`` and ``max_sync_distance_m`` are used.
+        ``max_range_m``, ``max_sync_distance_m`` and ``max_gap_s`` are used.
 
     Returns
     -------
@@ -207,7 +210,7 @@ def search_crossings(
     """
     cfg = config or ObjectSpaceConfig()
     az = require_profiler_azimuth(mount)
-    gtraj = GeorefTrajectory.from_trajectory(trajectory, mount.latency_s)
+    gtraj = GeorefTrajectory.from_trajectory(trajectory, mount.latency_s, max_gap_s=cfg.max_gap_s)
     pos_p = sync_points.pos_ecef_m()
     _check_sync_distance(gtraj, sync_points, pos_p, cfg.max_sync_distance_m)
     n_s = _plane_normal_scanner(az)
@@ -272,4 +275,4 @@ def search_crossings(
             )
     out.sort(key=lambda c: c.t_s)
     in_gaps.sort(key=lambda c: c.gap.t_start_s)
-    return CrossingSearch(tuple(out), tuple(in_gaps))
+    return CrossingSearch(tuple(out), tuple(in_gaps), gtraj.max_gap_s)

@@ -176,6 +176,7 @@ from kinsync.sync.pulses import PulseOffset, pulse_offset
 from kinsync.sync.scan import ProfileScan, SyncPoints
 from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
 __all__ = [
     "PERIOD_SEARCH_FACTOR",
@@ -285,6 +286,9 @@ class ObjectSpaceResult:
         Offset between hardware pulses and profile numbers, when pulses were given.
     crossings_in_gaps : tuple of GapCrossing
         Possible crossings left out because they fall in a data gap of the trajectory.
+    gap_threshold_s : float
+        Trajectory record intervals longer than this (s) were data gaps
+        (`ObjectSpaceConfig.max_gap_s`, `kinsync.trajectory_gaps.max_gap_for`).
     """
 
     t0_s: float
@@ -301,6 +305,7 @@ class ObjectSpaceResult:
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
     crossings_in_gaps: tuple[GapCrossing, ...] = ()
+    gap_threshold_s: float = math.inf
 
     @property
     def clock(self) -> ProfileClock:
@@ -345,6 +350,7 @@ class ObjectSpaceResult:
                 {"name": c.name, "t_start_s": c.gap.t_start_s, "t_end_s": c.gap.t_end_s}
                 for c in self.crossings_in_gaps
             ],
+            "gap_threshold_s": self.gap_threshold_s,
             "ambiguous": self.ambiguous,
             "alternatives": [
                 {"t0_s": a.t0_s, "period_s": a.period_s, "n_matched": a.n_matched, "chi2": a.chi2}
@@ -431,7 +437,8 @@ def synchronise_object_space(
     if not crossings:
         in_gaps = (
             f" ({len(search.in_gaps)} possible crossing(s) fall in data gaps of the "
-            "trajectory, where it is not interpolated)"
+            f"trajectory, {gap_threshold_text(search.max_gap_s)}, where it is not "
+            f"interpolated: {GAP_ADVICE})"
             if search.in_gaps
             else ""
         )
@@ -453,7 +460,7 @@ def synchronise_object_space(
             + (f"; sync point(s) {never} are never crossed" if never else "")
             + (
                 f"; {len(search.in_gaps)} possible crossing(s) in data gaps of the trajectory "
-                "left out"
+                f"({gap_threshold_text(search.max_gap_s)}) left out: {GAP_ADVICE}"
                 if search.in_gaps
                 else ""
             )
@@ -484,7 +491,7 @@ def synchronise_object_space(
     result = _result(
         best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses_t_s, scan.n_profiles
     )
-    return replace(result, crossings_in_gaps=search.in_gaps)
+    return replace(result, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
 
 
 def _check_period_prior(

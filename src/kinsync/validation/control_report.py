@@ -9,6 +9,7 @@ heading signatures in one mixed model (`kinsync.validation.signatures`); the
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import max_gap_for
 from kinsync.validation.control_points import ControlPoints
 from kinsync.validation.differences import ControlPointDifference, control_point_differences
 from kinsync.validation.signatures import PASS_GAP_S, SignatureTest, signature_tests
@@ -58,6 +60,9 @@ class ControlPointReport:
         Confidence level of the tests.
     n_control_points : int
         Control points given.
+    gap_threshold_s : float
+        Trajectory record intervals longer than this (s) were data gaps: visits inside
+        one are missing (`kinsync.trajectory_gaps.max_gap_for`).
     """
 
     differences: tuple[ControlPointDifference, ...]
@@ -71,6 +76,7 @@ class ControlPointReport:
     n_passes: int
     level: float
     n_control_points: int
+    gap_threshold_s: float = math.inf
 
     def diff_vehicle_m(self) -> FloatArray:
         """All differences (dX, dY, dZ) in the vehicle frame (m), shape (K, 3)."""
@@ -85,6 +91,7 @@ class ControlPointReport:
             "n_control_points": self.n_control_points,
             "n_observations": len(self.differences),
             "n_missing": len(self.missing),
+            "gap_threshold_s": self.gap_threshold_s,
             "level": self.level,
             "time_error": self.time_error.as_document(),
             "heading_error": self.heading_error.as_document(),
@@ -133,11 +140,12 @@ def validate_control_points(
     level: float = 0.99,
     pass_gap_s: float = PASS_GAP_S,
     background_intensity: float | None = None,
+    max_gap_s: float | None = None,
 ) -> ControlPointReport:
     """Extract targets, express the differences in the vehicle frame, test the signatures.
 
-    Parameters are those of `extract_targets`, `control_point_differences` and
-    `signature_tests`.
+    Parameters are those of `extract_targets`, `control_point_differences` (``max_gap_s``,
+    the trajectory's gap threshold) and `signature_tests`.
 
     Returns
     -------
@@ -149,6 +157,7 @@ def validate_control_points(
         Bad options, or no control point found at all (each missing one is listed with
         its reason in the message).
     """
+    gap_threshold_s = max_gap_for(trajectory.t_s, max_gap_s)
     observations, missing = extract_targets(
         cloud,
         control,
@@ -160,7 +169,9 @@ def validate_control_points(
         visit_gap_s=visit_gap_s,
         background_intensity=background_intensity,
     )
-    differences, outside = control_point_differences(observations, control, trajectory)
+    differences, outside = control_point_differences(
+        observations, control, trajectory, max_gap_s=gap_threshold_s
+    )
     missing = missing + outside
     if not differences:
         listed = "; ".join(f"{m.name}: {m.reason}" for m in missing[:5])
@@ -180,4 +191,5 @@ def validate_control_points(
         n_passes=tests.n_passes,
         level=level,
         n_control_points=len(control),
+        gap_threshold_s=gap_threshold_s,
     )

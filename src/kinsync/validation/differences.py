@@ -24,7 +24,13 @@ from kinsync.frames import (
     rotation_ned_to_ecef,
 )
 from kinsync.trajectory import Trajectory
-from kinsync.trajectory_gaps import GAP_FACTOR, gap_index, max_gap_for
+from kinsync.trajectory_gaps import (
+    GAP_ADVICE,
+    TrajectoryGap,
+    gap_index,
+    gap_threshold_text,
+    max_gap_for,
+)
 from kinsync.validation.control_points import ControlPoints
 from kinsync.validation.targets import MissingTarget, TargetObservation
 
@@ -79,34 +85,41 @@ class ControlPointDifference:
         return "left" if self.lateral_m < 0.0 else "right"
 
 
-def _unreadable(trajectory: Trajectory, t_s: float) -> str | None:
-    """Why the trajectory has no state at ``t_s`` (outside its span, in a gap), or None."""
-    gaps = trajectory.gaps()
+def _unreadable(
+    trajectory: Trajectory, t_s: float, gaps: tuple[TrajectoryGap, ...], max_gap_s: float
+) -> str | None:
+    """Why the trajectory has no state at ``t_s`` (outside its span, in a gap), or None.
+
+    ``gaps`` are the trajectory's gaps at the threshold ``max_gap_s`` (s).
+    """
     k = int(gap_index(t_s, gaps))
     if k >= 0:
         return (
             f"visit time {t_s!r} s in a data gap of the trajectory, {gaps[k].describe()} "
-            f"without a record (longer than {max_gap_for(trajectory.t_s):.6g} s, "
-            f"{GAP_FACTOR:g} median record intervals): not interpolated across"
+            f"without a record, one of its {gap_threshold_text(max_gap_s)}: not "
+            f"interpolated across ({GAP_ADVICE})"
         )
-    if not bool(trajectory.contains(t_s)):
+    if not trajectory.t_start_s <= t_s <= trajectory.t_end_s:
         return (
             f"visit time {t_s!r} s outside the trajectory span "
             f"[{trajectory.t_start_s!r}, {trajectory.t_end_s!r}] s"
         )
-    lo, hi = _stretch(trajectory, t_s)
+    lo, hi = _stretch(trajectory, t_s, gaps)
     if hi <= lo:
         return (
-            f"visit time {t_s!r} s on a lone trajectory record between two data gaps: the "
-            "vehicle's velocity and turn rate are unknown there"
+            f"visit time {t_s!r} s on a lone trajectory record between two data gaps "
+            f"({gap_threshold_text(max_gap_s)}): the vehicle's velocity and turn rate are "
+            f"unknown there ({GAP_ADVICE})"
         )
     return None
 
 
-def _stretch(trajectory: Trajectory, t_s: float) -> tuple[float, float]:
-    """The stretch of records around ``t_s`` with no data gap: (start, end) times (s)."""
+def _stretch(
+    trajectory: Trajectory, t_s: float, gaps: tuple[TrajectoryGap, ...]
+) -> tuple[float, float]:
+    """The stretch of records around ``t_s`` without one of ``gaps``: (start, end) (s)."""
     lo, hi = trajectory.t_start_s, trajectory.t_end_s
-    for gap in trajectory.gaps():
+    for gap in gaps:
         if gap.t_end_s <= t_s:
             lo = gap.t_end_s
         elif gap.t_start_s >= t_s:
@@ -116,7 +129,7 @@ def _stretch(trajectory: Trajectory, t_s: float) -> tuple[float, float]:
 
 
 def _states_at(
-    trajectory: Trajectory, t_s: float
+    trajectory: Trajectory, t_s: float, gaps: tuple[TrajectoryGap, ...]
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Position ECEF, R_body_to_ned, velocity NED and body rate at ``t_s``.
 
@@ -124,11 +137,12 @@ def _states_at(
     rate are central differences over +-0.05 s, moved inside the stretch of records
     without a data gap near its ends.
     """
-    lo, hi = _stretch(trajectory, t_s)
+    lo, hi = _stretch(trajectory, t_s, gaps)
     h = min(_RATE_STEP_S, (hi - lo) / 2.0)
     a = max(lo, min(t_s - h, hi - 2.0 * h))  # never into a gap, even by rounding
     b = min(hi, a + 2.0 * h)
-    sample = trajectory.interpolate(np.array([t_s, a, b]))
+    # within one stretch without a gap of ``gaps``: the span check alone is left to do
+    sample = trajectory.interpolate(np.array([t_s, a, b]), max_gap_s=math.inf)
     pos = sample.pos_ecef_m()
     llh = ecef_to_geodetic(pos[0])
     R_ne = rotation_ned_to_ecef(llh[0], llh[1])
@@ -142,6 +156,8 @@ def control_point_differences(
     observations: tuple[TargetObservation, ...],
     control: ControlPoints,
     trajectory: Trajectory,
+    *,
+    max_gap_s: float | None = None,
 ) -> tuple[tuple[ControlPointDifference, ...], tuple[MissingTarget, ...]]:
     """Express each observation's cloud - control difference in the vehicle frame.
 
@@ -156,6 +172,10 @@ def control_point_differences(
         observation's time (a latency of milliseconds changes the vehicle frame by far
         less than the differences' precision). Velocity and body rate come from central
         differences over +-0.05 s.
+    max_gap_s : float, optional
+        Longest trajectory record interval (s) interpolated across; default
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals
+        (`kinsync.trajectory_gaps.max_gap_for`).
 
     Returns
     -------
@@ -163,16 +183,23 @@ def control_point_differences(
     missing : tuple of MissingTarget
         Observations whose time lies outside the trajectory's span or inside one of its
         data gaps (`kinsync.trajectory.Trajectory.gaps`), with the reason.
+
+    Raises
+    ------
+    InputError
+        A ``max_gap_s`` that is not a positive number.
     """
+    limit_s = max_gap_for(trajectory.t_s, max_gap_s)
+    gaps = trajectory.gaps(max_gap_s)
     index = {n: i for i, n in enumerate(control.names)}
     out: list[ControlPointDifference] = []
     missing: list[MissingTarget] = []
     for obs in observations:
-        reason = _unreadable(trajectory, obs.t_s)
+        reason = _unreadable(trajectory, obs.t_s, gaps, limit_s)
         if reason is not None:
             missing.append(MissingTarget(obs.name, reason, obs.t_s))
             continue
-        pos_ecef, R_bn, vel_ned, rate_body = _states_at(trajectory, obs.t_s)
+        pos_ecef, R_bn, vel_ned, rate_body = _states_at(trajectory, obs.t_s, gaps)
         llh = ecef_to_geodetic(pos_ecef)
         R_ne = rotation_ned_to_ecef(llh[0], llh[1])
         target = control.pos_ecef_m[index[obs.name]]
