@@ -24,11 +24,12 @@ height axis in that unit, so that PROJ converts feet to metres); metre is what k
 writes for a 2D CRS in feet, read back as the 2D CRS as before. `read_las_crs` also gives
 the sentence that says the datum was assumed: the consumer that needs the height
 (`kinsync.io.cloud.cloud_crs`: ``kinsync validate``) prints it as a warning naming the
-file and says to give ``--crs`` when Z is another height; a wrong datum (a geoid
-undulation of tens of metres) then fails loudly, as no cloud point lands near a control
-point. Commands that read a LAS file's points in the scanner frame (georef, calibrate)
-do not use its CRS. A ``VerticalUnitsGeoKey`` that is no EPSG length unit is refused
-(`InputError`): Z's unit is unknown.
+file and says to give ``--crs`` when Z is another height (a wrong datum, a geoid
+undulation of tens of metres, leaves no cloud point near a control point: the check then
+fails naming --crs; a wall's flatness does not depend on it). Commands that read a LAS
+file's points in the scanner frame (georef, calibrate) do not use its CRS. A
+``VerticalUnitsGeoKey`` that is no EPSG length unit is refused (`InputError`): Z's unit
+is unknown.
 """
 
 from __future__ import annotations
@@ -316,4 +317,3 @@ def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
         A ``VerticalUnitsGeoKey`` that is no EPSG length unit.
     """
     return read_las_crs(header).crs
-
