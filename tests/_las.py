@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import laspy
 import numpy as np
+from laspy.vlrs.known import GeoKeyDirectoryVlr, GeoKeyEntryStruct
 
 
 def las_points(
@@ -21,3 +24,28 @@ def las_points(
     las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
     las.gps_time = cols["t_s"] - 1e9
     return las
+
+
+def add_geo_keys(header: laspy.LasHeader, keys: dict[int, int]) -> None:
+    """Declare GeoTIFF keys ``{key id: value}`` (short values) as other software does."""
+    entries = []
+    for key_id, value in sorted(keys.items()):
+        entry = GeoKeyEntryStruct()
+        entry.id, entry.tiff_tag_location, entry.count, entry.value_offset = key_id, 0, 1, value
+        entries.append(entry)
+    directory = GeoKeyDirectoryVlr()
+    directory.geo_keys_header.number_of_keys = len(entries)
+    directory.geo_keys = entries
+    header.vlrs.append(directory)
+
+
+def geotiff_las(path: Path, keys: dict[int, int], xyz: tuple[float, float, float]) -> Path:
+    """A LAS 1.2 file declaring ``keys`` only, as other software writes them."""
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    add_geo_keys(header, keys)
+    header.scales = np.full(3, 1e-4)
+    header.offsets = np.round(np.array(xyz))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = (np.array([v]) for v in xyz)
+    las.write(path)
+    return path

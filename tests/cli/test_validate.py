@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow.csv as pa_csv
 import pyproj
 import pytest
+from tests._las import add_geo_keys
 
 from kinsync.io.control_points import read_control_points, write_control_points
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
@@ -246,6 +247,59 @@ def test_las_clouds_on_both_gps_time_scales(
         assert abs(te["time_error_s"] - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
     code, out, err = run_cli(["validate", "control-points", "--cloud", str(week), *args])
     assert_one_line_error(code, out, err, "GPS seconds of week", "--gps-week")
+
+
+def _state_plane_las(files: dict[str, Path], path: Path, z_unit_code: int) -> None:
+    """The control cloud in EPSG:2249 (X, Y in US survey feet), GeoTIFF keys as LAStools
+    writes them: VerticalUnitsGeoKey ``z_unit_code`` (9001 metre, 9003 US survey foot)
+    and no vertical CRS; Z the ellipsoidal height in that unit."""
+    cols = _columns(files["cloud_csv"])
+    to_sp = pyproj.Transformer.from_crs(4978, pyproj.CRS.from_epsg(2249).to_3d(), always_xy=True)
+    e, n, h_m = to_sp.transform(cols["X"], cols["Y"], cols["Z"])
+    z = h_m if z_unit_code == 9001 else h_m / (1200 / 3937)
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    add_geo_keys(header, {1024: 1, 3072: 2249, 4099: z_unit_code})
+    header.scales = np.full(3, 1e-4)
+    header.offsets = np.round(np.array([e[0], n[0], z[0]]))
+    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = e, n, z
+    las.gps_time = cols["t_s"] - ADJUSTED_GPS_OFFSET_S
+    las.intensity = cols["intensity"].astype(np.uint16)
+    las.write(path)
+
+
+def test_a_cloud_with_z_in_feet_gives_the_metre_cloud_differences(
+    run_cli: RunCli, files: dict[str, Path]
+) -> None:
+    """VerticalUnitsGeoKey US survey foot without a vertical CRS: Z was read as metres,
+    3.28 times too high, and no point was found near a control point."""
+    metres, feet = files["dir"] / "sp_m.las", files["dir"] / "sp_ftus.las"
+    _state_plane_las(files, metres, 9001)
+    _state_plane_las(files, feet, 9003)
+    args = ["--control", str(files["control"]), "--trajectory", str(files["trajectory"])]
+    sphere = ["--centre", "sphere", "--target-radius-m", "0.2", "--json"]
+    docs, errs = [], []
+    for cloud in (metres, feet):
+        code, out, err = run_cli(
+            ["validate", "control-points", "--cloud", str(cloud), *args, *sphere]
+        )
+        assert code == 0, err
+        docs.append(json.loads(out))
+        errs.append(err)
+    assert errs[0] == ""  # kinsync's own form of EPSG:2249: Z in metres, nothing assumed
+    assert errs[1].count("\n") == 1
+    assert errs[1].startswith(f"kinsync: warning: {feet}: ")
+    assert "VerticalUnitsGeoKey (4099) 9003" in errs[1]
+    assert "ellipsoidal height" in errs[1]
+    by_name = [{o["name"]: o for o in doc["observations"]} for doc in docs]
+    assert by_name[0].keys() == by_name[1].keys()
+    for name, obs in by_name[0].items():
+        for key in ("dx_m", "dy_m", "dz_m"):
+            assert by_name[1][name][key] == pytest.approx(obs[key], abs=1e-4)
+    te = [doc["time_error"]["time_error_s"] for doc in docs]
+    assert te[1] == pytest.approx(te[0], abs=1e-5)
+    assert abs(te[0] - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
 
 
 def test_non_finite_cells_name_the_point(

@@ -1,4 +1,5 @@
-"""The CRS a LAS/LAZ file declares (issue 16 item 1): WKT, GeoTIFF keys, compound CRSs."""
+"""The CRS a LAS/LAZ file declares (issue 16 item 1): WKT, GeoTIFF keys, compound CRSs;
+Z's unit from VerticalUnitsGeoKey without a vertical CRS."""
 
 from __future__ import annotations
 
@@ -8,10 +9,11 @@ import laspy
 import numpy as np
 import pyproj
 import pytest
+from tests._las import geotiff_las
 
 from kinsync.crs_axes import output_units
 from kinsync.errors import InputError
-from kinsync.io.las_crs import las_crs, las_crs_keys, set_las_crs
+from kinsync.io.las_crs import las_crs, las_crs_keys, read_las_crs, set_las_crs
 
 
 def _written(tmp_path: Path, point_format: int, version: str, crs: pyproj.CRS) -> laspy.LasData:
@@ -134,3 +136,73 @@ def test_a_vertical_key_that_is_no_vertical_crs_leaves_the_horizontal(tmp_path: 
         if key.id == 4096:
             key.value_offset = 5103  # LAStools' NAVD88: the datum's code, not a CRS
     assert las_crs(las.header) == pyproj.CRS.from_epsg(32618)
+
+
+# ---------------------- Z's unit from VerticalUnitsGeoKey without a vertical CRS (LAStools)
+_POINT_2249_FTUS = (775_000.0, 2_950_000.0)  # Boston, in EPSG:2249 (US survey feet)
+_POINT_32619_M = (330_000.0, 4_690_000.0)  # Boston, in EPSG:32619 (metres)
+
+
+@pytest.mark.parametrize(
+    ("keys", "xy", "unit", "metres_per_unit"),
+    [
+        ({1024: 1, 3072: 2249, 4099: 9003}, _POINT_2249_FTUS, "US survey foot", 1200 / 3937),
+        (
+            {1024: 1, 3072: 2249, 4096: 32767, 4099: 9003},
+            _POINT_2249_FTUS,
+            "US survey foot",
+            1200 / 3937,
+        ),
+        ({1024: 1, 3072: 32619, 4099: 9002}, _POINT_32619_M, "foot", 0.3048),
+        (
+            {1024: 1, 3072: 32619, 4096: 5103, 4099: 9003},
+            _POINT_32619_M,
+            "US survey foot",
+            1200 / 3937,
+        ),
+    ],
+)
+def test_vertical_units_without_a_vertical_crs_give_z_its_unit(
+    tmp_path: Path,
+    keys: dict[int, int],
+    xy: tuple[float, float],
+    unit: str,
+    metres_per_unit: float,
+) -> None:
+    height_m = 30.0
+    path = geotiff_las(tmp_path / "feet.las", keys, (*xy, height_m / metres_per_unit))
+    read = read_las_crs(laspy.read(path).header)
+    assert read.crs is not None
+    assert output_units(read.crs)[2] == unit
+    assert read.crs.to_2d().to_epsg() == keys[3072]
+    assert read.note is not None
+    assert "VerticalUnitsGeoKey (4099)" in read.note
+    assert "ellipsoidal height" in read.note
+    # PROJ converts Z: the same ECEF point as the 2D CRS with the height in metres
+    h_unit = height_m / metres_per_unit
+    feet = pyproj.Transformer.from_crs(read.crs, 4978, always_xy=True).transform(*xy, h_unit)
+    metres = pyproj.Transformer.from_crs(keys[3072], 4978, always_xy=True).transform(*xy, height_m)
+    assert np.allclose(feet, metres, atol=1e-6)
+
+
+def test_kinsync_own_2d_feet_output_still_reads_z_in_metres(tmp_path: Path) -> None:
+    """EPSG:2249 as kinsync writes it (VerticalUnitsGeoKey metre): the 2D CRS, no note;
+    the same keys with US survey feet give Z in feet."""
+    own = _written(tmp_path, 1, "1.2", pyproj.CRS.from_epsg(2249))
+    read = read_las_crs(own.header)
+    assert read.crs == pyproj.CRS.from_epsg(2249)
+    assert output_units(read.crs) == ("US survey foot", "US survey foot", "metre")
+    assert read.note is None
+    feet = geotiff_las(tmp_path / "ft.las", {1024: 1, 3072: 2249, 4099: 9003}, (1, 2, 3))
+    feet_crs = las_crs(laspy.read(feet).header)
+    assert feet_crs is not None
+    assert output_units(feet_crs)[2] == "US survey foot"
+
+
+@pytest.mark.parametrize("code", [9102, 12345, 32767])
+def test_a_vertical_unit_that_is_no_length_is_refused(tmp_path: Path, code: int) -> None:
+    path = geotiff_las(tmp_path / "x.las", {1024: 1, 3072: 2249, 4099: code}, (1, 2, 3))
+    with pytest.raises(
+        InputError, match=rf"VerticalUnitsGeoKey \(4099\) is {code}, no EPSG length"
+    ):
+        las_crs(laspy.read(path).header)

@@ -6,6 +6,7 @@ A cloud is what ``kinsync georef`` writes: LAS/LAZ (coordinates in the file's CR
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,14 +16,16 @@ import pyproj
 
 from kinsync._typing import FloatArray
 from kinsync.crs import crs_to_ecef_transformer
-from kinsync.crs_axes import declared_crs
-from kinsync.errors import InputError
+from kinsync.crs_axes import declared_crs, output_units
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.las import (
     iter_las_chunks,
+    las_header,
     las_info,
     las_time_offset_s,
     scaled_coordinates,
 )
+from kinsync.io.las_crs import LasCrs, read_las_crs
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.trajectory import TimeScale
 
@@ -39,26 +42,68 @@ _TABLE_SUFFIXES = (".csv", ".parquet")
 _XYZ = ("X", "Y", "Z")
 
 
+def _file_crs(path: Path) -> LasCrs:
+    """The CRS a LAS/LAZ cloud declares (a damaged CRS record: none, as `las_info`)."""
+    header = las_header(path)
+    try:
+        return read_las_crs(header)
+    except InputError as err:
+        msg = f"{path}: {err}; give the cloud's CRS with --crs"
+        raise InputError(msg) from err
+    except Exception:  # a damaged CRS record: reported as no CRS
+        return LasCrs(None)
+
+
+def _same_horizontal_and_z_unit(file_crs: pyproj.CRS, given: pyproj.CRS) -> bool:
+    """``given`` says what ``file_crs`` does not (the height datum) and agrees with the rest."""
+    return file_crs.to_2d().equals(given.to_2d(), ignore_axis_order=True) and (
+        output_units(file_crs)[2] == output_units(given)[2]
+    )
+
+
 def cloud_crs(path: Path, crs: str | None) -> str:
-    """The cloud's CRS: given, else a LAS file's own, else ECEF."""
+    """The cloud's CRS: given, else a LAS file's own, else ECEF.
+
+    A LAS file whose Z has a unit but no height datum (`kinsync.io.las_crs`): without
+    ``crs``, Z is taken as the ellipsoidal height in that unit, with a warning; a given
+    ``crs`` supplies the datum (its horizontal part and Z unit must be the file's). A Z
+    unit that is no length unit is refused without ``crs``.
+    """
     if path.suffix.lower() not in _LAS_SUFFIXES:
         return crs or _ECEF_CRS
-    wkt = las_info(path).crs_wkt
+    try:
+        declared = _file_crs(path)
+    except InputError:
+        if crs is None:
+            raise
+        crs_to_ecef_transformer(crs)  # Z's unit unreadable: the given CRS says it
+        return crs
+    file_crs = declared.crs
     if crs is None:
-        return wkt or _ECEF_CRS
+        if declared.note is not None:
+            warnings.warn(
+                f"{path}: {declared.note}; if Z is another height (e.g. NAVD88), give the "
+                "cloud's CRS with --crs, a compound CRS such as EPSG:2249+6360",
+                KinsyncWarning,
+                stacklevel=2,
+            )
+        return _ECEF_CRS if file_crs is None else file_crs.to_wkt()
     crs_to_ecef_transformer(crs)  # an unknown --crs fails first
     given = pyproj.CRS.from_user_input(crs)
-    if wkt is not None and not any(  # EPSG:2249 is declared in 3D (Z in metres)
-        c.equals(pyproj.CRS.from_wkt(wkt), ignore_axis_order=True)
-        for c in (given, declared_crs(given))
+    if file_crs is None:
+        return crs
+    if any(  # EPSG:2249 is declared in 3D (Z in metres)
+        c.equals(file_crs, ignore_axis_order=True) for c in (given, declared_crs(given))
     ):
-        name = pyproj.CRS.from_wkt(wkt).name
-        msg = (
-            f"{path}: the file says its CRS is {name!r}, --crs says {crs!r}; omit --crs to "
-            "use the file's"
-        )
-        raise InputError(msg)
-    return crs
+        return crs
+    if declared.note is not None and _same_horizontal_and_z_unit(file_crs, given):
+        return crs
+    msg = (
+        f"{path}: the file says its CRS is {file_crs.name!r} (Z in "
+        f"{output_units(file_crs)[2]}), --crs says {crs!r} (Z in {output_units(given)[2]}); "
+        "omit --crs to use the file's"
+    )
+    raise InputError(msg)
 
 
 @dataclass

@@ -76,7 +76,8 @@ class LasInfo:
     offsets : tuple of float
         x, y, z offsets (m).
     crs_wkt : str or None
-        The CRS as WKT, or None when the file has none (or one pyproj cannot parse).
+        The CRS as WKT, or None when the file has none (or one pyproj cannot parse, or a
+        VerticalUnitsGeoKey that is no length unit: `kinsync.io.cloud.cloud_crs` refuses it).
     gps_time_type : {"week", "adjusted_standard"}
         GPS seconds of week, or adjusted standard GPS time (GPS time - 1e9 s).
     vlrs_count : int

@@ -15,11 +15,27 @@ Z's unit is declared with X and Y (`kinsync.crs_axes`): a 2D projected CRS in fe
 in WKT (an "ellipsoidal height (h)" axis in metres) and with ``VerticalUnitsGeoKey``
 metre in GeoTIFF keys. `las_crs` reads a file's CRS back, a compound one from GeoTIFF
 keys included (laspy reads only their horizontal part).
+
+Files from other software (LAStools, TerraScan) often give ``VerticalUnitsGeoKey`` with
+no vertical CRS (``VerticalCSTypeGeoKey`` absent, user-defined 32767 or no EPSG
+vertical CRS): Z is then in that unit, but its height datum is unknown. `las_crs` reads
+such a Z as the ellipsoidal height in the declared unit (the 3D form of the CRS, its
+height axis in that unit, so that PROJ converts feet to metres); metre is what kinsync
+writes for a 2D CRS in feet, read back as the 2D CRS as before. `read_las_crs` also gives
+the sentence that says the datum was assumed: the consumer that needs the height
+(`kinsync.io.cloud.cloud_crs`: ``kinsync validate``) prints it as a warning naming the
+file and says to give ``--crs`` when Z is another height (a wrong datum, a geoid
+undulation of tens of metres, leaves no cloud point near a control point: the check then
+fails naming --crs; a wall's flatness does not depend on it). Commands that read a LAS
+file's points in the scanner frame (georef, calibrate) do not use its CRS. A
+``VerticalUnitsGeoKey`` that is no EPSG length unit is refused (`InputError`): Z's unit
+is unknown.
 """
 
 from __future__ import annotations
 
 from contextlib import suppress
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +52,14 @@ from kinsync.crs_axes import declared_crs, output_units
 from kinsync.errors import InputError
 from kinsync.io.las_header import set_global_encoding_bit
 
-__all__ = ["CRS_VLR_NAMES", "las_crs", "las_crs_keys", "set_las_crs"]
+__all__ = [
+    "CRS_VLR_NAMES",
+    "LasCrs",
+    "las_crs",
+    "las_crs_keys",
+    "read_las_crs",
+    "set_las_crs",
+]
 
 CRS_VLR_NAMES = (
     "WktCoordinateSystemVlr",
@@ -51,6 +74,7 @@ _PROJECTED_CRS = 3072  # ProjectedCRSGeoKey
 _VERTICAL_CRS = 4096  # VerticalCSTypeGeoKey
 _VERTICAL_UNITS = 4099  # VerticalUnitsGeoKey
 _METRE = 9001  # EPSG unit of measure
+_USER_DEFINED = 32767  # GeoTIFF key value: user-defined (no EPSG code)
 _EPSG_RANGE = range(1024, 32767)  # GeoTIFF key values that are EPSG codes
 _ASCII_TAG = 34737  # GeoAsciiParamsTag: where ASCII key values are stored
 
@@ -181,30 +205,115 @@ def _geo_keys(header: laspy.LasHeader) -> dict[int, int]:
     }
 
 
-def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
-    """The CRS a LAS/LAZ header declares, or None.
+@dataclass(frozen=True)
+class LasCrs:
+    """The CRS a LAS/LAZ header declares, and what was assumed reading it.
+
+    Attributes
+    ----------
+    crs : pyproj.CRS or None
+        The CRS of X, Y, Z (None: the file declares none).
+    note : str or None
+        When Z's height datum is unknown (``VerticalUnitsGeoKey`` with no usable vertical
+        CRS): the sentence saying so and that Z is taken as the ellipsoidal height.
+    """
+
+    crs: pyproj.CRS | None
+    note: str | None = None
+
+
+def _length_unit(code: int) -> Any:
+    """The EPSG length unit ``code`` (pyproj ``Unit``), or None."""
+    units = pyproj.get_units_map(auth_name="EPSG", category="linear").values()
+    return next((u for u in units if u.code == str(code) and not u.deprecated), None)
+
+
+def _with_height_unit(crs: pyproj.CRS, unit: Any) -> pyproj.CRS:
+    """The 3D form of a 2D ``crs`` whose ellipsoidal height axis is in ``unit``."""
+    doc = crs.to_3d().to_json_dict()
+    doc["coordinate_system"]["axis"][2]["unit"] = {
+        "type": "LinearUnit",
+        "name": unit.name,
+        "conversion_factor": float(unit.conv_factor),
+        "id": {"authority": "EPSG", "code": int(unit.code)},
+    }
+    return pyproj.CRS.from_json_dict(doc)
+
+
+def _vertical_key_text(code: int | None) -> str:
+    if code is None:
+        return "no VerticalCSTypeGeoKey (4096)"
+    if code == _USER_DEFINED:
+        return "VerticalCSTypeGeoKey (4096) 32767, user-defined"
+    return f"VerticalCSTypeGeoKey (4096) {code}, no EPSG vertical CRS"
+
+
+def _vertical(code: int | None) -> pyproj.CRS | None:
+    """The EPSG vertical CRS ``code`` names, or None."""
+    if code is None or code not in _EPSG_RANGE:
+        return None
+    try:
+        vertical = pyproj.CRS.from_epsg(code)
+    except pyproj.exceptions.CRSError:
+        return None
+    return vertical if vertical.is_vertical else None
+
+
+def read_las_crs(header: laspy.LasHeader) -> LasCrs:
+    """The CRS a LAS/LAZ header declares, with the note on an assumed height datum.
 
     WKT first (as laspy reads it); else the GeoTIFF keys, with their vertical CRS
     (``VerticalCSTypeGeoKey``, an EPSG vertical CRS) making a compound CRS, so that Z is
-    read in the unit and datum it was written in. A vertical key that is not an EPSG
-    vertical CRS is left out (the horizontal CRS is returned).
+    read in the unit and datum it was written in. Without a usable vertical CRS, a
+    ``VerticalUnitsGeoKey`` other than metre makes Z the ellipsoidal height in that unit
+    (the CRS's 3D form), with a note (module docstring).
+
+    Raises
+    ------
+    InputError
+        A ``VerticalUnitsGeoKey`` that is no EPSG length unit (the message has no path:
+        the caller adds it).
     """
     records = list(header.vlrs) + list(header.evlrs or [])
     for record in records:
         if isinstance(record, WktCoordinateSystemVlr):
             from_wkt: pyproj.CRS | None = record.parse_crs()
             if from_wkt is not None:
-                return from_wkt
+                return LasCrs(from_wkt)
     crs: pyproj.CRS | None = header.parse_crs()
-    if crs is None or crs.is_compound:
-        return crs
-    code = _geo_keys(header).get(_VERTICAL_CRS)
-    if code is None or code not in _EPSG_RANGE:
-        return crs
-    try:
-        vertical = pyproj.CRS.from_epsg(code)
-    except pyproj.exceptions.CRSError:
-        return crs
-    if not vertical.is_vertical:
-        return crs
-    return pyproj.crs.CompoundCRS(f"{crs.name} + {vertical.name}", [crs, vertical])
+    if crs is None or crs.is_compound or crs.is_geocentric:
+        return LasCrs(crs)
+    keys = _geo_keys(header)
+    vertical_code = keys.get(_VERTICAL_CRS)
+    vertical = _vertical(vertical_code)
+    if vertical is not None:
+        return LasCrs(pyproj.crs.CompoundCRS(f"{crs.name} + {vertical.name}", [crs, vertical]))
+    unit_code = keys.get(_VERTICAL_UNITS)
+    if unit_code is None:
+        return LasCrs(crs)
+    unit = _length_unit(unit_code)
+    if unit is None:
+        msg = (
+            f"the GeoTIFF key VerticalUnitsGeoKey (4099) is {unit_code}, no EPSG length "
+            "unit: Z's unit is unknown"
+        )
+        raise InputError(msg)
+    if unit_code == _METRE and vertical_code is None:
+        return LasCrs(crs)  # what kinsync writes for a 2D CRS in feet: Z ellipsoidal (m)
+    note = (
+        f"Z's unit is {unit.name} (VerticalUnitsGeoKey (4099) {unit_code}), with "
+        f"{_vertical_key_text(vertical_code)}: its height datum is unknown, Z is taken as "
+        f"the ellipsoidal height ({unit.name})"
+    )
+    return LasCrs(crs if unit_code == _METRE else _with_height_unit(crs, unit), note)
+
+
+def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
+    """The CRS a LAS/LAZ header declares, or None (`read_las_crs`).
+
+    Raises
+    ------
+    InputError
+        A ``VerticalUnitsGeoKey`` that is no EPSG length unit.
+    """
+    return read_las_crs(header).crs
