@@ -40,6 +40,9 @@ def test_cli_refuses_points_in_a_gap_and_trajectory_info_warns(
     doc = json.loads(out)
     assert doc["gaps"] == [{"t_start_s": GAP[0], "t_end_s": GAP[1]}]
     assert doc["gap_threshold_s"] == limit == pytest.approx(0.1)
+    # the hole itself, not a threshold: no key to mistake for --max-gap-s
+    assert doc["longest_interval_s"] == pytest.approx(GAP[1] - GAP[0])
+    assert "max_gap_s" not in doc
     (warning,) = [w for w in doc["warnings"] if "1 gap(s)" in w]
     assert threshold in warning
     assert "gap" in err

@@ -248,7 +248,7 @@ def trajectory_info(
         "t_end_s": traj.t_end_s,
         "duration_s": traj.duration_s,
         "median_rate_hz": float(1.0 / np.median(dt)),
-        "max_gap_s": float(dt.max()),
+        "longest_interval_s": float(dt.max()),  # the longest record interval, gap or not
         "gap_threshold_s": max_gap,
         "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
