@@ -99,6 +99,40 @@ def test_sphere_table_default_figure_and_no_figure(
     assert not (folder / "latency_sphere.png").exists()
 
 
+def test_sphere_warns_when_the_rates_disagree(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    index = folder / "passes.csv"
+    with index.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for row in rows:  # the 6 deg/s passes entered with the wrong sign
+        if abs(float(row["rate_deg_s"])) == 6.0:
+            row["rate_deg_s"] = str(-float(row["rate_deg_s"]))
+    with index.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
+    assert code == 0, err
+    assert "rates DISAGREE: chi2 " in out
+    assert "rates agree" not in out
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1, err
+    assert str(folder) in warning[0]
+    assert "passes.csv" in warning[0]
+    code, out, err = run_cli(
+        ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--json"]
+    )
+    doc = json.loads(out)
+    assert doc["consistency"]["rates_disagree"] is True
+    assert doc["sigma_scale"] > 1.0
+    assert doc["latency_std_ms"] == pytest.approx(
+        doc["sigma_scale"] * doc["latency_formal_std_ms"], rel=1e-12
+    )
+    assert "the table rates disagree" in err
+
+
 def test_sphere_missing_folder(
     run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:

@@ -165,6 +165,57 @@ def test_pipeline_sigma_is_honest_over_repeats() -> None:
     assert 0.6 < float(np.sqrt(np.mean(z**2))) < 1.4, z
 
 
+def _sign_of_rate_flipped(passes: tuple[SpherePass, ...], rate_deg_s: float) -> list[SpherePass]:
+    """The passes with the signed rate of one table speed entered the wrong way round."""
+    return [
+        SpherePass(p.source, -p.rate_deg_s, p.points_ned_m, axis_ned=p.axis_ned)
+        if abs(p.rate_deg_s) == rate_deg_s
+        else p
+        for p in passes
+    ]
+
+
+def test_rates_that_agree_keep_the_formal_sigma() -> None:
+    result = estimate_latency_sphere(
+        small_simulation(TAU_S, seed=7, rates=(6.0, 18.0)), radius_m=0.1
+    )
+    assert not result.rates_disagree
+    assert result.sigma_scale == 1.0
+    assert result.latency_std_s == result.latency_formal_std_s
+    assert result.agreement_text().startswith("rates agree: chi2 ")
+    doc = result.as_document()
+    assert doc["consistency"]["rates_disagree"] is False
+    assert doc["latency_std_ms"] == doc["latency_formal_std_ms"]
+
+
+def test_rates_that_disagree_widen_the_sigma_by_the_birge_ratio_and_say_so() -> None:
+    # One speed's clockwise and counter-clockwise labels swapped in passes.csv: that rate
+    # sees -tau, the other +tau, far beyond their sigmas.
+    passes = _sign_of_rate_flipped(small_simulation(TAU_S, seed=7, rates=(6.0, 18.0)), 6.0)
+    result = estimate_latency_sphere(passes, radius_m=0.1)
+    assert result.rates_disagree
+    assert result.p_value_between_rates < 1e-3
+    birge = math.sqrt(result.chi2_between_rates / result.dof_between_rates)
+    assert result.sigma_scale == pytest.approx(birge, rel=1e-12)
+    assert result.latency_std_s == pytest.approx(birge * result.latency_formal_std_s, rel=1e-12)
+    # The formal sigma would claim an error of many sigma; the widened one covers it.
+    err = abs(result.latency_s - TAU_S)
+    assert err > 3 * result.latency_formal_std_s
+    assert err < 3 * result.latency_std_s
+    text = result.agreement_text()
+    assert text.startswith("rates DISAGREE: chi2 "), text
+    assert f"x{birge:.2f}" in text
+    assert result.as_document()["consistency"]["rates_disagree"] is True
+
+
+def test_one_rate_says_agreement_is_not_tested() -> None:
+    result = estimate_latency_sphere(small_simulation(TAU_S, seed=7), radius_m=0.1)
+    assert result.dof_between_rates == 0
+    assert not result.rates_disagree
+    assert result.sigma_scale == 1.0
+    assert result.agreement_text() == "one rate: its agreement with other rates is not tested"
+
+
 def test_axis_pointing_at_the_sphere_is_unobservable() -> None:
     w = math.radians(6.0) * np.array([0.0, 0.0, 1.0])
     c = np.array([0.0, 0.0, 1.5])

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from kinsync._text import counted, format_p_value
+from kinsync._text import counted
 from kinsync.cli._options import MaxGapOpt, parse_rates
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
@@ -81,6 +81,13 @@ def sphere(
     doc = result.as_document()
     if fig_path is not None:
         doc["figure"] = str(fig_path)
+    if result.rates_disagree:
+        typer.echo(
+            f"kinsync: warning: {folder}: the table rates disagree ({result.agreement_text()}); "
+            "check each pass's signed rate (deg/s) and axis in passes.csv: a wrong sign, "
+            "unit or axis biases the latency, which the wider sigma does not remove",
+            err=True,
+        )
     if as_json:
         print_json(doc)
         return
@@ -106,9 +113,8 @@ def sphere(
     console.print(table)
     console.print(
         f"latency {result.latency_s * 1e3:.4f} ± {result.latency_std_s * 1e3:.4f} ms "
-        f"(tau > 0: navigation lags the scanner); rates agree: chi2 "
-        f"{result.chi2_between_rates:.2f} on {result.dof_between_rates} dof, "
-        f"{format_p_value(result.p_value_between_rates)}"
+        f"(tau > 0: navigation lags the scanner); {result.agreement_text()}",
+        markup=False,
     )
     for rejected in result.rejected_passes:
         console.print(

@@ -9,8 +9,10 @@ With latency tau the georeferenced sphere is rotated about the table axis by
 ``-omega tau`` (SPEC section 2): ``c_k = Rot(-w_k tau) c`` for each pool k with rate
 vector ``w_k``. Per rate, the two pools give (c, tau) by weighted Gauss-Newton on that
 exact rotation model with the full 3-D rate vectors; the rates are combined by
-inverse variance into one ``tau +- sigma``, with a chi-square test of their agreement.
-The published first-order formula is reported beside each rate for comparison.
+inverse variance into one ``tau +- sigma``, with a chi-square test of their agreement;
+when the test rejects agreement (p < `RATES_DISAGREE_P`) the sigma is scaled by the Birge
+ratio ``sqrt(chi2 / dof)`` and the result says so. The published first-order formula
+is reported beside each rate for comparison.
 
 References
 ----------
@@ -30,7 +32,7 @@ import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from kinsync._text import counted
+from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
@@ -42,6 +44,7 @@ from kinsync.robust import robust_sigma
 __all__ = [
     "DEFAULT_MAX_INCIDENCE_DEG",
     "MIN_SPHERE_POINTS_PER_PASS",
+    "RATES_DISAGREE_P",
     "PoolFit",
     "RateLatency",
     "RejectedPass",
@@ -57,6 +60,9 @@ _AXIS_KEY_DECIMALS = 3
 _MIN_AXIS_SINE = 1e-3
 MIN_SPHERE_POINTS_PER_PASS = 10
 """A pass with fewer points on the sphere fitted at its rate is left out (no usable sphere)."""
+RATES_DISAGREE_P = 0.01
+"""Below this p-value of the chi-square test between rates the rates disagree: the
+latency sigma is scaled by the Birge ratio and the result is flagged."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,8 +183,19 @@ class SphereLatencyResult:
 
     Attributes
     ----------
-    latency_s, latency_std_s : float
+    latency_s : float
         Inverse-variance combination over rates (s).
+    latency_std_s : float
+        Its sigma (s): `latency_formal_std_s` times `sigma_scale`.
+    latency_formal_std_s : float
+        The inverse-variance sigma from the per-rate sigmas alone (s).
+    sigma_scale : float
+        1 when the rates agree; the Birge ratio ``sqrt(chi2 / dof)`` when the chi-square
+        test rejects their agreement (p < `RATES_DISAGREE_P`): the rates then scatter
+        more than their sigmas allow, and the sigma is widened to that scatter. A
+        disagreement usually means a systematic effect the model lacks (a rate's sign or
+        unit wrong in ``passes.csv``, a tilted axis given as vertical), which widening
+        does not remove: see `rates_disagree`.
     per_rate : tuple of RateLatency
         By increasing rate.
     sphere_center_ned_m : ndarray, shape (3,)
@@ -206,6 +223,8 @@ class SphereLatencyResult:
 
     latency_s: float
     latency_std_s: float
+    latency_formal_std_s: float
+    sigma_scale: float
     per_rate: tuple[RateLatency, ...]
     sphere_center_ned_m: FloatArray
     sphere_radius_m: float
@@ -218,6 +237,30 @@ class SphereLatencyResult:
     rejected_passes: tuple[RejectedPass, ...] = ()
 
     @property
+    def rates_disagree(self) -> bool:
+        """True when the chi-square test rejects the rates' agreement (p < 0.01)."""
+        return self.dof_between_rates > 0 and self.p_value_between_rates < RATES_DISAGREE_P
+
+    def agreement_text(self) -> str:
+        """The chi-square test between rates in words.
+
+        E.g. ``rates agree: chi2 1.20 on 2 dof, p = 0.55``; with one rate, that no test
+        was possible; when the test rejects agreement, the widened sigma's factor.
+        """
+        if self.dof_between_rates == 0:
+            return "one rate: its agreement with other rates is not tested"
+        test = (
+            f"chi2 {self.chi2_between_rates:.2f} on {self.dof_between_rates} dof, "
+            f"{format_p_value(self.p_value_between_rates)}"
+        )
+        if not self.rates_disagree:
+            return f"rates agree: {test}"
+        return (
+            f"rates DISAGREE: {test}; sigma widened x{self.sigma_scale:.2f} to their scatter "
+            f"(formal {self.latency_formal_std_s * 1e3:.4f} ms)"
+        )
+
+    @property
     def n_passes_used(self) -> int:
         """Passes in the estimate: those read, less the rejected and the unpaired ones."""
         return sum(r.plus.n_passes + r.minus.n_passes for r in self.per_rate)
@@ -227,6 +270,8 @@ class SphereLatencyResult:
         return {
             "latency_ms": self.latency_s * 1e3,
             "latency_std_ms": self.latency_std_s * 1e3,
+            "latency_formal_std_ms": self.latency_formal_std_s * 1e3,
+            "sigma_scale": self.sigma_scale,
             "per_rate": [
                 {
                     "rate_deg_s": r.rate_deg_s,
@@ -250,6 +295,7 @@ class SphereLatencyResult:
                 "chi2_between_rates": self.chi2_between_rates,
                 "dof": self.dof_between_rates,
                 "p_value": self.p_value_between_rates,
+                "rates_disagree": self.rates_disagree,
             },
             "unpaired_rates_deg_s": list(self.unpaired_rates_deg_s),
             "n_passes": self.n_passes,
@@ -674,10 +720,11 @@ def estimate_latency_sphere(
     var_r = np.array([r.latency_std_s**2 for r in per_rate])
     weights = 1.0 / var_r
     tau = float(np.sum(weights * tau_r) / np.sum(weights))
-    std = float(np.sqrt(1.0 / np.sum(weights)))
+    formal_std = float(np.sqrt(1.0 / np.sum(weights)))
     chi2 = float(np.sum((tau_r - tau) ** 2 * weights))
     dof = len(per_rate) - 1
     p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+    scale = math.sqrt(chi2 / dof) if dof > 0 and p_value < RATES_DISAGREE_P else 1.0
     centres = np.array([r.center_ned_m for r in per_rate])
     center = np.average(
         centres, axis=0, weights=1.0 / np.array([r.center_std_m**2 for r in per_rate])
@@ -689,7 +736,9 @@ def estimate_latency_sphere(
     )
     return SphereLatencyResult(
         latency_s=tau,
-        latency_std_s=std,
+        latency_std_s=formal_std * scale,
+        latency_formal_std_s=formal_std,
+        sigma_scale=scale,
         per_rate=tuple(per_rate),
         sphere_center_ned_m=center,
         sphere_radius_m=radius,
