@@ -72,6 +72,47 @@ def test_a_geoid_grid_gives_orthometric_heights_and_the_same_horizontal(tmp_path
     assert info.as_document()["geoid"] == str(grid.resolve())
 
 
+@pytest.mark.parametrize("folder", ["my grids", "a+b=c é", "plain"])
+def test_a_geoid_grid_in_any_folder_gives_the_same_heights(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, folder: str
+) -> None:
+    # Spaces were refused (and the demo failed in an output folder with a space); a
+    # relative path is taken from the working folder, whatever its name.
+    lon, lat, h = _quebec()
+    pos = _ecef(lon, lat, h)
+    work = tmp_path / folder
+    work.mkdir()
+    write_grid(work / "geoid model.gtx")
+    monkeypatch.chdir(work)
+    plan, info = plan_ecef_to_crs("EPSG:32619+5703", geoid="geoid model.gtx", sample_ecef_m=pos)
+    out = crs_plan_transformer(plan)
+    assert out is not None
+    np.testing.assert_allclose(out(pos)[:, 2], h - _geoid(lon, lat), rtol=0, atol=2e-5)
+    assert info.geoid == str(work / "geoid model.gtx")
+
+
+def test_a_link_to_a_geoid_grid_is_read_through_the_link(tmp_path: Path) -> None:
+    lon, lat, h = _quebec()
+    pos = _ecef(lon, lat, h)
+    (tmp_path / "odd, folder").mkdir()
+    grid = write_grid(tmp_path / "odd, folder" / "geoid.gtx")
+    link = tmp_path / "geoid.gtx"
+    link.symlink_to(grid)
+    plan, info = plan_ecef_to_crs("EPSG:32619+5703", geoid=str(link), sample_ecef_m=pos)
+    out = crs_plan_transformer(plan)
+    assert out is not None
+    np.testing.assert_allclose(out(pos)[:, 2], h - _geoid(lon, lat), rtol=0, atol=2e-5)
+    assert info.geoid == str(link)
+
+
+@pytest.mark.parametrize("name", ["a,b", 'a"b'])
+def test_a_geoid_path_proj_cannot_quote_is_refused(tmp_path: Path, name: str) -> None:
+    (tmp_path / name).mkdir()
+    grid = write_grid(tmp_path / name / "geoid.gtx")
+    with pytest.raises(InputError, match=r"comma or a double quote; copy or link it"):
+        plan_ecef_to_crs("EPSG:32619+5703", geoid=str(grid))
+
+
 def test_a_geoid_needs_a_compound_crs(tmp_path: Path) -> None:
     grid = write_grid(tmp_path / "geoid.gtx")
     with pytest.raises(InputError, match=r"compound --crs .*EPSG:32618\+5703"):

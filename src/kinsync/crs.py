@@ -279,7 +279,7 @@ def _geoid_pipeline(to_geographic: Transformer, geoid: str, vertical: VerticalAx
     """
     text = (
         f"{_pipeline_text(to_geographic)} step proj=unitconvert xy_in=deg xy_out=rad "
-        f"step proj=vgridshift grids={geoid} multiplier=-1 "
+        f'step proj=vgridshift grids="{geoid}" multiplier=-1 '
         "step proj=unitconvert xy_in=rad xy_out=deg"
     )
     if vertical is not None and vertical.metres_per_unit != 1.0:
@@ -290,14 +290,23 @@ def _geoid_pipeline(to_geographic: Transformer, geoid: str, vertical: VerticalAx
 
 
 def _check_geoid_file(geoid: str) -> str:
+    """The grid's absolute path, as the pipeline quotes it (links kept, not resolved).
+
+    A PROJ pipeline takes a quoted path with spaces, but reads a comma as the separator
+    of a grid list and has no escape for a double quote.
+    """
     path = Path(geoid).expanduser()
     if not path.is_file():
         msg = f"--geoid {geoid}: file not found (a geoid grid: GTX or GeoTIFF of N, in metres)"
         raise InputError(msg)
-    if " " in str(path.resolve()):
-        msg = f"--geoid {geoid}: PROJ cannot read a grid whose path has spaces; move or link it"
+    text = str(path.absolute())
+    if "," in text or '"' in text:
+        msg = (
+            f"--geoid {geoid}: PROJ cannot read a grid whose path has a comma or a double "
+            "quote; copy or link it to a path without them"
+        )
         raise InputError(msg)
-    return str(path.resolve())
+    return text
 
 
 def _time_dependent(pipeline: str, sample_ecef_m: FloatArray, geographic: bool) -> bool:
