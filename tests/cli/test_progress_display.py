@@ -129,3 +129,28 @@ def test_json_stdout_has_no_progress_and_stderr_has_the_stages(
         "kinsync: simulate rotating-table: simulating passes",
         "kinsync: simulate rotating-table: writing files",
     ]
+
+
+@pytest.mark.usefixtures("no_hold")
+@pytest.mark.parametrize("raw", [False, True], ids=["passes", "raw"])
+def test_latency_sphere_shows_reading_and_fitting(
+    run_cli: RunCli, tmp_path: Path, raw: bool
+) -> None:
+    # It showed nothing: reading ran outside the display and fitting reported only once.
+    folder = tmp_path / "table"
+    code, _, stderr = run_cli(
+        [
+            "simulate", "rotating-table", "--rates-deg-s", "6", "--passes", "1",
+            "--out", str(folder), "--raw",
+        ]
+    )  # fmt: skip
+    assert code == 0, stderr
+    args = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--json"]
+    code, stdout, stderr = run_cli([*args, "--raw"] if raw else args)
+    assert code == 0, stderr
+    json.loads(stdout)
+    stages = [line for line in _lines(stderr) if COMPILING not in line]
+    assert stages == [
+        "kinsync: latency sphere: reading",
+        "kinsync: latency sphere: fitting",
+    ]

@@ -55,6 +55,7 @@ from kinsync.io.sanity import (
 )
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
+from kinsync.progress import Progress, report
 
 __all__ = [
     "PASSES_CSV",
@@ -292,13 +293,15 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
     return pts, t
 
 
-def read_passes(folder: Path) -> list[SpherePass]:
+def read_passes(folder: Path, *, progress: Progress | None = None) -> list[SpherePass]:
     """Read a pass folder (``passes.csv`` and the pass files it lists).
 
     Parameters
     ----------
     folder : Path
         Folder holding ``passes.csv``; pass files are relative to it.
+    progress : Progress, optional
+        Told after each pass file (`kinsync.progress`).
 
     Returns
     -------
@@ -327,7 +330,8 @@ def read_passes(folder: Path) -> list[SpherePass]:
     index_path = folder / PASSES_CSV
     rows = read_pass_index(index_path)
     passes: list[SpherePass] = []
-    for row in rows:
+    for k, row in enumerate(rows):
+        report(progress, k / len(rows), f"reading pass {k + 1} of {len(rows)}")
         where = f"{index_path}: line {row.line}"
         path = folder / row.file
         try:
@@ -352,6 +356,7 @@ def read_passes(folder: Path) -> list[SpherePass]:
         except InputError as err:
             msg = f"{where}: {err}"
             raise InputError(msg) from err
+    report(progress, 1.0, f"read {counted(len(rows), 'pass')}")
     _warn_unlisted(folder, rows)
     return passes
 

@@ -39,6 +39,7 @@ from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
+from kinsync.progress import Progress, report
 from kinsync.robust import robust_sigma
 
 __all__ = [
@@ -650,6 +651,7 @@ def estimate_latency_sphere(
     scanner_origin_ned_m: ArrayLike | None = (0.0, 0.0, 0.0),
     max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
     seed: int = 0,
+    progress: Progress | None = None,
 ) -> SphereLatencyResult:
     """Total latency from sphere passes at opposite table rates (Method A).
 
@@ -666,6 +668,8 @@ def estimate_latency_sphere(
         Grazing returns beyond this incidence are excluded from the centre fits.
     seed : int
         RANSAC seed.
+    progress : Progress, optional
+        Told after each signed rate's sphere is fitted (`kinsync.progress`).
 
     Returns
     -------
@@ -693,9 +697,16 @@ def estimate_latency_sphere(
     per_rate: list[RateLatency] = []
     rejected: list[RejectedPass] = []
     failures: list[str] = []
-    for plus_passes, minus_passes in pairs:
+    n_pools = 2 * len(pairs)
+    for i, (plus_passes, minus_passes) in enumerate(pairs):
         fits = []
-        for side in (plus_passes, minus_passes):
+        for j, side in enumerate((plus_passes, minus_passes)):
+            report(
+                progress,
+                (2 * i + j) / n_pools,
+                f"fitting the sphere at {side[0].rate_deg_s:+g} deg/s "
+                f"({2 * i + j + 1} of {n_pools})",
+            )
             pool, lost, failure = _fit_pool_rejecting(
                 side, radius_m, scanner_origin_ned_m, max_incidence_deg, seed
             )
@@ -715,6 +726,7 @@ def estimate_latency_sphere(
             + ")"
         )
         raise InputError(msg)
+    report(progress, 1.0, f"fitted {counted(n_pools, 'sphere')}")
     per_rate.sort(key=lambda r: r.rate_deg_s)
     tau_r = np.array([r.latency_s for r in per_rate])
     var_r = np.array([r.latency_std_s**2 for r in per_rate])

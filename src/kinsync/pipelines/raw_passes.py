@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from kinsync._text import counted
 from kinsync.errors import InputError
 from kinsync.georef.table import georeference_attitude_only
 from kinsync.io.mount_file import read_mount
@@ -26,6 +27,7 @@ from kinsync.io.raw_passes import (
     read_raw_pass,
 )
 from kinsync.latency.passes import SpherePass
+from kinsync.progress import Progress, report
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import (
     GAP_ADVICE,
@@ -70,7 +72,11 @@ def _unreadable(
 
 
 def read_raw_passes(
-    folder: Path, *, latency_s: float | None = None, max_gap_s: float | None = None
+    folder: Path,
+    *,
+    latency_s: float | None = None,
+    max_gap_s: float | None = None,
+    progress: Progress | None = None,
 ) -> list[SpherePass]:
     """Read and georeference the raw passes of a pass folder (Method A, raw input).
 
@@ -86,6 +92,8 @@ def read_raw_passes(
     max_gap_s : float, optional
         Longest attitude record interval (s) interpolated across; default
         `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
+    progress : Progress, optional
+        Told after each pass is georeferenced (`kinsync.progress`).
 
     Returns
     -------
@@ -127,7 +135,8 @@ def read_raw_passes(
     corrected = attitude.corrected_for_latency(tau)
     max_gap_for(corrected.t_s, max_gap_s)  # a bad threshold fails before any pass is read
     passes: list[SpherePass] = []
-    for row in rows:
+    for n_done, row in enumerate(rows):
+        report(progress, n_done / len(rows), f"georeferencing raw pass {n_done + 1}")
         where = f"{index_path}: line {row.line}"
         path = raw_dir / raw_pass_name(row.file)
         try:
@@ -154,4 +163,5 @@ def read_raw_passes(
         except InputError as err:
             msg = f"{where}: {err}"
             raise InputError(msg) from err
+    report(progress, 1.0, f"georeferenced {counted(len(rows), 'raw pass', 'raw passes')}")
     return passes
