@@ -76,6 +76,9 @@ def _bits(m: Mount) -> list[str]:
 
 
 # ---------------------------------------------------------------- round trips
+# This module draws values up to the refusal bounds; the warnings for those beyond the
+# warning bounds are tested in tests/io/test_mount_file.py.
+pytestmark = pytest.mark.filterwarnings("ignore:.*is beyond:kinsync.errors.KinsyncWarning")
 
 
 @settings(max_examples=200, deadline=None)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import euler_rpy_to_matrix
 
 __all__ = [
@@ -64,6 +65,14 @@ MAX_LEVER_ARM_M = 1000.0
 
 MAX_ANGLE_DEG = 360.0
 """Largest boresight or profiler angle (deg, either sign): one turn."""
+
+WARN_LATENCY_S = 1.0
+"""A mount latency beyond this (s, either sign) is read with a warning: sensor, serial
+and buffering delays are milliseconds, and 5 written for 5 ms gives 5 s."""
+
+WARN_LEVER_ARM_M = 100.0
+"""A lever arm component beyond this (m, either sign) is read with a warning: larger
+than most survey vehicles and vessels, and what 150 cm written as 150 gives."""
 
 _BOM = "\ufeff"
 _TOML_END = " (at end of document)"
@@ -306,7 +315,11 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
 
 
 def _check_plausible(mount: Mount, source: str) -> None:
-    """Refuse values no mount has (`MAX_LATENCY_S`, `MAX_LEVER_ARM_M`, `MAX_ANGLE_DEG`)."""
+    """Refuse values no mount has (`MAX_LATENCY_S`, `MAX_LEVER_ARM_M`, `MAX_ANGLE_DEG`).
+
+    Values that few mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`) are read with a
+    `KinsyncWarning` naming the likely unit mistake.
+    """
     if abs(mount.latency_s) > MAX_LATENCY_S:
         msg = (
             f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
@@ -329,6 +342,24 @@ def _check_plausible(mount: Mount, source: str) -> None:
                     f"+-{limit:g} {unit} ({hint})"
                 )
                 raise InputError(msg)
+    if abs(mount.latency_s) > WARN_LATENCY_S:
+        warnings.warn(
+            f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
+            f"+-{WARN_LATENCY_S:g} s, longer than any sensor or serial delay: latency_s "
+            f"is in seconds ({mount.latency_s!r} ms would be {mount.latency_s / 1e3!r})",
+            KinsyncWarning,
+            stacklevel=3,
+        )
+    for name in ("lever_arm_body_m", "antenna_lever_arm_body_m"):
+        big = [i for i, value in enumerate(getattr(mount, name)) if abs(value) > WARN_LEVER_ARM_M]
+        if big:
+            warnings.warn(
+                f"{source}: [mount] {name}[{big[0]}] = {getattr(mount, name)[big[0]]!r} m is "
+                f"beyond +-{WARN_LEVER_ARM_M:g} m, larger than most vehicles and vessels: "
+                "lever arms are in metres (centimetres give 100 times too much)",
+                KinsyncWarning,
+                stacklevel=3,
+            )
     az = mount.profiler_azimuth_deg
     if az is not None and abs(az) > MAX_ANGLE_DEG:
         msg = (

@@ -68,6 +68,19 @@ def test_mount_check(tmp_path: Path, run_cli: RunCli) -> None:
     assert "lever_arm_body_m" in out
 
 
+def test_mount_check_warns_of_a_latency_in_milliseconds(tmp_path: Path, run_cli: RunCli) -> None:
+    path = tmp_path / "mount.toml"
+    path.write_text("[mount]\nlever_arm_body_m = [0.1, 0.2, 0.3]\nlatency_s = 5\n")
+    code, out, err = run_cli(["mount", "check", str(path), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["latency_s"] == 5.0
+    expected = (
+        f"kinsync: warning: {path}: [mount] latency_s = 5.0 s is beyond +-1 s, longer than "
+        "any sensor or serial delay: latency_s is in seconds (5.0 ms would be 0.005)"
+    )
+    assert err.splitlines() == [expected]
+
+
 def test_mount_check_malformed_toml(
     tmp_path: Path, run_cli: RunCli, assert_one_line_error: OneLineError
 ) -> None:

@@ -9,11 +9,12 @@ and a mount must give its latency explicitly and within bounds.
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.ins_config import ins_config_from_toml_text, read_ins_config
 from kinsync.io.mount_file import MAX_TOML_BYTES, read_mount, read_toml_text, write_mount
 from kinsync.mount import (
@@ -262,8 +263,41 @@ def test_values_at_the_bounds_are_accepted() -> None:
         f"boresight_rpy_deg = [{-MAX_ANGLE_DEG}, {MAX_ANGLE_DEG}, 0.0]\n"
         f"latency_s = {MAX_LATENCY_S}\n"
     )
-    mount = mount_from_toml_text(text)
+    with pytest.warns(KinsyncWarning):
+        mount = mount_from_toml_text(text)
     assert mount.latency_s == MAX_LATENCY_S
+
+
+@pytest.mark.parametrize(
+    ("line", "fragments"),
+    [
+        ("latency_s = 5", ["latency_s = 5.0 s", "in seconds", "5.0 ms would be 0.005"]),
+        ("latency_s = -1.5", ["latency_s = -1.5 s", "+-1 s"]),
+        ("lever_arm_body_m = [0.0, 150.0, 0.0]", ["lever_arm_body_m[1] = 150.0 m", "metres"]),
+        ("antenna_lever_arm_body_m = [-120.0, 0.0, 0.0]", ["antenna_lever_arm_body_m[0]"]),
+    ],
+)
+def test_unit_slips_are_read_with_a_warning(line: str, fragments: list[str]) -> None:
+    # 5 (meant as ms) was georeferenced as 5 s without a word, as was 150 cm written 150.
+    key = line.split(" =", maxsplit=1)[0]
+    text = "[mount]\n" + line + "\n" + ("" if key == "latency_s" else "latency_s = 0.0\n")
+    with pytest.warns(KinsyncWarning) as caught:
+        mount_from_toml_text(text, source="cal/mount.toml")
+    assert len(caught) == 1
+    message = str(caught[0].message)
+    assert message.startswith("cal/mount.toml: [mount] ")
+    for fragment in fragments:
+        assert fragment in message, message
+
+
+def test_usual_values_give_no_warning() -> None:
+    text = (
+        "[mount]\nlever_arm_body_m = [99.0, -99.0, 3.0]\n"
+        "antenna_lever_arm_body_m = [0.0, 0.0, -100.0]\nlatency_s = -0.999\n"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mount_from_toml_text(text)
 
 
 def test_ins_configuration_huge_integer_is_an_input_error() -> None:
