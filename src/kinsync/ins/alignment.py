@@ -121,6 +121,10 @@ def standstill_end_s(imu: ImuData, gnss: GnssData, k_end: int) -> float:
     return max(end, float(t[k_end]))
 
 
+_GIVE_INITIAL_STATE = "give the initial state (--init-from; an InitialState in Python)"
+"""The way round a failed static alignment, as the command line and the API name it."""
+
+
 def _static_window(imu: ImuData, static_s: float) -> int:
     if not (isinstance(static_s, int | float) and math.isfinite(static_s) and static_s > 0):
         msg = f"align_static_gnss_heading: static_s must be a positive number, got {static_s!r}"
@@ -129,14 +133,14 @@ def _static_window(imu: ImuData, static_s: float) -> int:
     if imu.t_s[-1] < t0 + static_s:
         msg = (
             f"no static start: the IMU record ({imu.t_s[-1] - t0:.3f} s) is shorter than the "
-            f"static period static_s = {static_s} s"
+            f"static period of {static_s} s (--static-s)"
         )
         raise ObservabilityError(msg)
     k_end = int(np.searchsorted(imu.t_s, t0 + static_s, side="right")) - 1
     if k_end < 10:
         msg = (
             f"no static start: only {k_end + 1} IMU samples in the first {static_s} s; "
-            "a longer static_s is needed for levelling"
+            "a longer static period (--static-s) is needed for levelling"
         )
         raise ObservabilityError(msg)
     return k_end
@@ -169,7 +173,7 @@ def _check_static(
             f"std {gyro_std:.4f} rad/s (limit {STATIC_GYRO_STD_RAD_S}), |mean specific force| - "
             f"gravity {g_err:.3f} m/s^2 (limit {STATIC_GRAVITY_TOL_M_S2}), the GNSS speed up to "
             f"{speed:.2f} m/s (limit {STATIC_GNSS_SPEED_M_S}); start the record with the vehicle "
-            "at rest, shorten static_s, or give an InitialState"
+            f"at rest, shorten the static period (--static-s), or {_GIVE_INITIAL_STATE}"
         )
         raise ObservabilityError(msg)
 
@@ -211,7 +215,7 @@ def _heading(
             msg = (
                 f"no motion to get heading from: the GNSS horizontal speed never reaches "
                 f"{HEADING_MIN_SPEED_M_S} m/s after the static period (t > {t_end:.3f} s); "
-                "drive off after the static start, or give an InitialState"
+                f"drive off after the static start, or {_GIVE_INITIAL_STATE}"
             )
             raise ObservabilityError(msg)
         t_first = gnss.t_s[after[moving[0]]]
@@ -237,7 +241,7 @@ def _heading(
         msg = (
             "no motion to get heading from: no GNSS fix after the static period lies "
             f"{HEADING_MIN_DISTANCE_M} m (or 10 sigma) from the static position, and the file "
-            "has no velocities; drive off after the static start, or give an InitialState"
+            "has no velocities; drive off after the static start, or " + _GIVE_INITIAL_STATE
         )
         raise ObservabilityError(msg)
     i = int(far[0])
@@ -319,7 +323,7 @@ def align_static_gnss_heading(
     if not in_static.any():
         msg = (
             f"no GNSS fix during the static period {t0:.3f} .. {t_end:.3f} s: the initial "
-            "position is unknown; lengthen static_s or give an InitialState"
+            "position is unknown; lengthen the static period (--static-s) or " + _GIVE_INITIAL_STATE
         )
         raise ObservabilityError(msg)
     lat0 = math.radians(float(gnss.lat_deg[in_static].mean()))
