@@ -12,6 +12,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 import pytest
 
+from kinsync.cli import _output
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.mount_file import write_mount
 from kinsync.mount import Mount
@@ -69,14 +70,28 @@ def test_object_space_json(run_cli: RunCli, dataset: tuple[DriveScanSimulation, 
     assert doc["ambiguous"] is False
 
 
-def test_object_space_table(run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path]) -> None:
+@pytest.mark.parametrize("width", [80, 60])
+def test_object_space_table(
+    run_cli: RunCli,
+    dataset: tuple[DriveScanSimulation, Path],
+    monkeypatch: pytest.MonkeyPatch,
+    width: int,
+) -> None:
     _, folder = dataset
+    monkeypatch.setattr(_output.console, "width", width)
     code, out, err = run_cli(_object_space(folder))
     assert code == 0, err
     assert "t0 (s)" in out
     assert "period sigma (us)" in out
     assert "S1" in out
     assert "S2" in out
+    # Every sighting time in full on a narrow terminal (they were cut to "1400000014…").
+    assert "…" not in out
+    code, doc_text, err = run_cli([*_object_space(folder), "--json"])
+    times = [f"{s['t_s']:.4f}" for s in json.loads(doc_text)["sightings"]]
+    assert len(times) >= 4
+    for t in times:
+        assert f" {t} " in out, (t, out)
 
 
 def test_object_space_refuses_a_wrong_period_prior(

@@ -170,11 +170,8 @@ def object_space(
         sure = "" if result.pulses.sure else " (not sure)"
         table.add_row("pulse offset", f"{result.pulses.offset}{sure}")
     console.print(table)
-    rows = Table(title="Sightings (regression pairs)")
-    for col in ("sync point", "profile", "angle (deg)", "t (s)", "helix (ms)", "residual (ms)"):
-        rows.add_column(col, justify="right")
-    for s in result.sightings:
-        rows.add_row(
+    cells = [
+        (
             s.name,
             f"{s.profile:.3f}",
             f"{math.degrees(s.angle_rad):.2f}",
@@ -182,6 +179,17 @@ def object_space(
             f"{s.helix_correction_s * 1e3:.3f}",
             f"{s.residual_s * 1e3:.3f}",
         )
+        for s in result.sightings
+    ]
+    rows = Table(title="Sightings (regression pairs)")
+    headers = ("sync point", "profile", "angle (deg)", "t (s)", "helix (ms)", "residual (ms)")
+    for i, col in enumerate(headers):
+        # A number is never cut short on a narrow terminal or in a pipe (the times
+        # showed as "1400000014…"); the headers wrap instead.
+        width = max((len(row[i]) for row in cells), default=0)
+        rows.add_column(col, justify="right", min_width=width, overflow="fold")
+    for row in cells:
+        rows.add_row(*row)
     console.print(rows)
 
 
