@@ -11,8 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from kinsync.clock.model import ClockModel
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
+from kinsync.io.clock_model import write_clock_model
 from kinsync.io.profile_scan import (
     read_clock_document,
     read_profile_scan,
@@ -216,7 +218,8 @@ def test_clock_document(tmp_path: Path) -> None:
     cases = {
         "{": "not valid JSON",
         "[1, 2]": "JSON object",
-        json.dumps({"t0_s": 1.0}): "'period_s' must be a finite number",
+        json.dumps({"t0_s": 1.0}): "not a profile clock: no period_s",
+        json.dumps({"t0_s": 1.0, "period_s": None}): "'period_s' must be a finite number",
         json.dumps({"t0_s": "1", "period_s": 0.03}): "'t0_s' must be a finite number",
         json.dumps({"t0_s": 1.0, "period_s": -0.03}): "'period_s': -0.03 is negative",
     }
@@ -225,3 +228,19 @@ def test_clock_document(tmp_path: Path) -> None:
             read_clock_document(_write_text(tmp_path, f"bad{i}.json", text))
     with pytest.raises(InputError, match="not found"):
         read_clock_document(tmp_path / "none.json")
+
+
+def test_a_local_clock_model_is_not_taken_for_a_profile_clock(tmp_path: Path) -> None:
+    # `clock fit --model-out` writes a JSON too; it was refused as "'t0_s' must be a
+    # finite number, got None".
+    path = tmp_path / "model.json"
+    model = ClockModel(
+        reference_local_s=10.0, reference_gps_s=1.4e9, drift_ppm=3.0, span_local_s=(10.0, 20.0)
+    )
+    write_clock_model(model, path)
+    with pytest.raises(InputError) as info:
+        read_clock_document(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: not a profile clock: no t0_s or period_s (its keys: ")
+    assert "drift_ppm" in message
+    assert message.endswith("give the JSON that kinsync sync object-space --json writes")

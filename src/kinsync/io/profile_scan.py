@@ -282,6 +282,14 @@ def read_clock_document(path: Path) -> tuple[float, float]:
     if not isinstance(doc, dict):
         msg = f"{path}: expected a JSON object with t0_s and period_s"
         raise InputError(msg)
+    missing = [key for key in ("t0_s", "period_s") if key not in doc]
+    if missing:
+        keys = ", ".join(sorted(str(k) for k in doc)[:6]) or "none"
+        msg = (
+            f"{path}: not a profile clock: no {' or '.join(missing)} (its keys: {keys}); give "
+            "the JSON that kinsync sync object-space --json writes"
+        )
+        raise InputError(msg)
     values = []
     for key, span in (("t0_s", TIME_S), ("period_s", _PERIOD_S)):
         value = doc.get(key)
