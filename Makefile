@@ -33,18 +33,14 @@ bench: install
 	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
 # The oldest versions pyproject.toml allows (.ci/min-versions.txt) in a venv of their own,
-# on a part of the suite and the demo: run by hand after changing a bound (not in CI, which
+# on the whole suite and the demo: run by hand after changing a bound (not in CI, which
 # tests the newest versions; tests/test_min_versions.py keeps the pins and bounds in step).
 VENV_MIN  := .venv-min
-MIN_TESTS := tests/io tests/georef tests/pipelines tests/latency tests/test_crs.py \
-	tests/ins/test_strapdown.py tests/ins/test_filter.py tests/ins/test_smoother.py \
-	tests/calibration/test_adjustment.py tests/calibration/test_uncertainty.py \
-	tests/cli/test_cli_main.py tests/cli/test_help_text.py tests/test_architecture.py
 
 test-min:
 	$(PYTHON) -m venv $(VENV_MIN)
 	$(VENV_MIN)/bin/python -m pip install --quiet -e ".[scale,test]" -c .ci/min-versions.txt
-	$(VENV_MIN)/bin/pytest -n 2 $(MIN_TESTS)
+	$(VENV_MIN)/bin/pytest -n 2 --dist loadfile
 	$(VENV_MIN)/bin/kinsync demo --out demo-output-min
 
 # numba's on-disk cache keys each kernel on its own module's source only: after editing a

@@ -1,6 +1,6 @@
 """pyproject.toml's lower bounds and .ci/min-versions.txt, the pins that check them, agree.
 
-`make test-min` installs the pins and runs part of the suite on them; a bound raised or
+`make test-min` installs the pins and runs the whole suite on them; a bound raised or
 lowered in pyproject.toml without its pin would leave the bound untested.
 """
 
