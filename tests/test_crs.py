@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -156,11 +157,34 @@ def test_a_compound_crs_without_its_grid_is_refused_naming_the_grid(crs: str) ->
     with pytest.raises(InputError) as caught:
         plan_ecef_to_crs(crs, sample_ecef_m=_ecef(lon, lat, h))
     text = str(caught.value)
-    grid = text.split("need the grid ")[1].split(",", maxsplit=1)[0]
+    grid, role = text.split("need the grid ")[1].split(",", maxsplit=1)[0].split(" ", 1)
     assert grid.endswith(".tif")
+    assert role == "(geoid model)"
     assert f"projsync --file {grid}" in text
     assert "--geoid PATH" in text
     assert "PROJ_NETWORK=ON" in text
+
+
+def test_every_grid_the_transformation_lacks_is_named_with_what_it_does() -> None:
+    # NAD83 state plane feet + NAVD88 feet near Boston: the best transformation needs a
+    # geoid model and a NAD83 datum shift grid. The message named the geoid only, then
+    # listed datum-shift grids as "other grids that would do" (they give no heights).
+    _skip_if_proj_has_grids()
+    pos = _ecef(np.array([-71.06]), np.array([42.36]), np.array([10.0]))
+    with pytest.raises(InputError) as caught:
+        plan_ecef_to_crs("EPSG:2249+6360", sample_ecef_m=pos)
+    text = str(caught.value)
+    assert "would do" not in text
+    head, rest = text.split("need the grid ", 1)[1].split(", which PROJ does not have", 1)
+    geoid, role = head.split(" ", 1)
+    assert role == "(geoid model)", text
+    shifts = re.findall(r"and also (\S+\.tif) \(datum shift\)", rest)
+    assert len(shifts) == 1, text
+    for grid in (geoid, *shifts):
+        assert f"`projsync --file {grid}`" in text
+        assert f"https://cdn.proj.org/{grid}" in text
+    assert "install them with" in text
+    assert "Without them PROJ" in text
 
 
 def test_reading_a_cloud_in_a_compound_crs_without_its_grid_is_refused() -> None:

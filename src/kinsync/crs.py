@@ -26,6 +26,7 @@ georeferencing run rebuilds exactly the operation that was reported.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -69,10 +70,6 @@ _TIME_TEST_EPOCHS = (2000.0, 2030.0)
 _TIME_TOL_DEG = 1e-11
 _TIME_TOL_M = 1e-6
 _EQUATOR_ECEF_M = np.array([[6378137.0, 0.0, 0.0]])  # probe when no data are given
-_GRID_HINT = (
-    "install it with `projsync --file {name}` (or download {url} into {user_dir}), "
-    "or set PROJ_NETWORK=ON, or give a geoid grid with --geoid PATH"
-)
 
 
 @dataclass(frozen=True)
@@ -241,27 +238,57 @@ def _ballpark(transformer: Transformer) -> bool:
     return any(op.has_ballpark_transformation for op in transformer.operations or ())
 
 
+_GRID_ROLES = {
+    "vgridshift": "geoid model",
+    "hgridshift": "horizontal datum shift",
+    "gridshift": "datum shift",
+    "deformation": "deformation model",
+    "xyzgridshift": "datum shift",
+}
+"""What a grid does, by the PROJ step that reads it."""
+
+
+def _grid_roles(operation: Any) -> dict[str, str]:
+    """Each grid of a PROJ operation and what it does (from its ``+grids=`` steps)."""
+    try:
+        text = str(operation.to_proj4())
+    except pyproj.exceptions.CRSError:
+        return {}
+    roles: dict[str, str] = {}
+    for step in text.split("+step"):
+        method = re.search(r"\+proj=(\w+)", step)
+        grids = re.search(r"\+grids=(\S+)", step)
+        if method and grids:
+            for name in grids.group(1).split(","):
+                roles.setdefault(name.lstrip("@"), _GRID_ROLES.get(method.group(1), "grid"))
+    return roles
+
+
 def _missing_grid_message(target_text: str, group: TransformerGroup) -> str:
-    grids: list[tuple[str, str]] = []
-    for op in group.unavailable_operations:
-        for grid in op.grids:
-            if not grid.available and grid.short_name not in [g[0] for g in grids]:
-                grids.append((grid.short_name, grid.url))
-    user_dir = get_user_data_dir()
-    if not grids:
+    """Name the grids the best transformation lacks, each with what it does."""
+    best = group.unavailable_operations[0] if group.unavailable_operations else None
+    missing = [g for g in best.grids if not g.available] if best is not None else []
+    if not missing:
         return (
             f"--crs {target_text!r}: PROJ knows no geoid model from the ellipsoid to these "
             "heights for this area; give one with --geoid PATH (a grid of geoid heights N "
             "above the ellipsoid, GTX or GeoTIFF)"
         )
-    name, url = grids[0]
-    others = ", ".join(g[0] for g in grids[1:4])
-    also = f" (other grids that would do: {others})" if others else ""
-    hint = _GRID_HINT.format(name=name, url=url or "the grid", user_dir=user_dir)
+    roles = _grid_roles(best)
+    # The geoid first: it is what the orthometric heights need.
+    missing.sort(key=lambda g: roles.get(g.short_name) != "geoid model")
+    first, others = missing[0], missing[1:]
+    role = roles.get(first.short_name)
+    also = "".join(f", and also {g.short_name} ({roles.get(g.short_name, 'grid')})" for g in others)
+    installs = " and ".join(f"`projsync --file {g.short_name}`" for g in missing)
+    urls = ", ".join(g.url or g.short_name for g in missing)
     return (
-        f"--crs {target_text!r}: orthometric heights need the grid {name}, which PROJ "
-        f"does not have{also}; {hint}. Without it PROJ would leave ellipsoidal heights "
-        "under the orthometric label"
+        f"--crs {target_text!r}: orthometric heights need the grid {first.short_name}"
+        f"{f' ({role})' if role else ''}, which PROJ does not have{also}; install "
+        f"{'it' if not others else 'them'} with {installs} (or download {urls} into "
+        f"{get_user_data_dir()}), or set PROJ_NETWORK=ON, or give a geoid grid with "
+        f"--geoid PATH. Without {'it' if not others else 'them'} PROJ would leave "
+        "ellipsoidal heights under the orthometric label"
     )
 
 
