@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from collections.abc import Callable
@@ -160,3 +161,16 @@ def test_trajectory_csv_round_trip_and_info(tmp_path: Path, run_cli: RunCli) -> 
     assert doc["median_rate_hz"] == pytest.approx(100.0)
     assert doc["has_velocity"] is True
     assert doc["max_angular_rate_deg_s"] >= 5.0
+
+
+@pytest.mark.parametrize("option", ["--pps", "--nmea"])
+def test_a_file_name_that_is_not_utf8_is_one_line(
+    tmp_path: Path, run_cli: RunCli, assert_one_line_error: OneLineError, option: str
+) -> None:
+    # It was an internal error (exit 1) where pyarrow met the name, and worked elsewhere.
+    name = os.fsdecode(tmp_path / os.fsdecode(b"ok\xff.csv"))
+    other = str(tmp_path / "other.csv")
+    argv = ["clock", "fit", "--pps", other, "--nmea", other]
+    argv[argv.index(option) + 1] = name
+    code, out, err = run_cli(argv)
+    assert_one_line_error(code, out, err, "ok\\xff.csv: not UTF-8 text (byte 0xFF)", "rename")

@@ -22,7 +22,7 @@ from typing import Any, TextIO
 
 from kinsync.cli._options import expand_multi_value_options
 from kinsync.cli.app import app
-from kinsync.errors import KinsyncError, KinsyncWarning
+from kinsync.errors import InputError, KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
 
@@ -113,10 +113,32 @@ def _warnings_on_one_line() -> Iterator[None]:
         print(text, file=sys.stderr)
 
 
+def _check_arguments_are_text(args: Sequence[str]) -> None:
+    """Refuse an argument that is not UTF-8 text (a file name in another encoding).
+
+    Python hands such bytes over as lone surrogates, which pyarrow, the terminal and the
+    JSON output cannot encode: refused here in one line rather than failing deep inside
+    a reader or a writer.
+    """
+    for arg in args:
+        try:
+            arg.encode("utf-8")
+        except UnicodeEncodeError as err:
+            raw = os.fsencode(arg)
+            shown = raw.decode("utf-8", "backslashreplace")
+            bad = arg[err.start].encode("utf-8", "surrogateescape")
+            msg = (
+                f"{shown}: not UTF-8 text (byte 0x{bad[0]:02X}); kinsync reads file names and "
+                "arguments as UTF-8: rename the file (e.g. convmv -f latin1 -t utf8 NAME)"
+            )
+            raise InputError(msg) from None
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
     args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
     try:
+        _check_arguments_are_text(args)
         with _stop_signals_unwind(), _warnings_on_one_line():
             result = app(args=args, prog_name="kinsync", standalone_mode=False)
     except KinsyncError as err:
