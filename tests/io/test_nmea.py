@@ -6,6 +6,7 @@ import contextlib
 import datetime as dt
 import math
 import struct
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from hypothesis import strategies as st
 
 from kinsync.errors import InputError
 from kinsync.io.nmea import (
+    MAX_NMEA_LINE_BYTES,
     format_sentence,
     nmea_checksum,
     parse_em3000,
@@ -728,6 +730,44 @@ def test_read_nmea_log_file_errors(tmp_path: Path, data: bytes, fragment: str) -
         read_nmea_log(path)
     assert str(exc.value).startswith(f"{path}: ")
     assert fragment in str(exc.value)
+
+
+def test_a_line_without_end_is_rejected_without_being_held(tmp_path: Path) -> None:
+    # A 20 MB line (a binary dump, a lost line end) was read whole with the file, and
+    # its text kept in the rejected line.
+    big = b"100.020,$GPZDA" + b"A" * 20_000_000
+    data = b"t_local_s,sentence\n" + f"100.015,{ZDA}\n".encode() + big + b"\n"
+    path = _write(tmp_path / "nmea.csv", data + f"101.020,{HDT}".encode())
+    tracemalloc.start()
+    try:
+        log = read_nmea_log(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2_000_000, peak
+    assert log.lines == (2, 4)
+    (rejected,) = log.rejected
+    assert rejected.line == 3
+    assert rejected.reason == f"line longer than {MAX_NMEA_LINE_BYTES} bytes: not an NMEA sentence"
+    assert rejected.sentence == "100.020,$GPZDA" + "A" * 66 + "..."
+
+
+def test_a_log_with_cr_line_ends_is_refused_in_a_short_message(tmp_path: Path) -> None:
+    lines = [b"t_local_s,sentence", *(f"{100 + k}.015,{ZDA}".encode() for k in range(400))]
+    path = _write(tmp_path / "nmea.csv", b"\r".join(lines))
+    with pytest.raises(NmeaError) as exc:
+        read_nmea_log(path)
+    message = str(exc.value)
+    assert message.startswith(f"{path}: line 1: no line end in its first {MAX_NMEA_LINE_BYTES}")
+    assert "CR-only line ends" in message
+    assert len(message) < 400, len(message)  # it echoed the whole file (35 kB)
+
+
+def test_a_long_wrong_header_is_shown_cut(tmp_path: Path) -> None:
+    path = _write(tmp_path / "nmea.csv", b"x" * 3000 + b"\n1.0," + HDT.encode())
+    with pytest.raises(NmeaError) as exc:
+        read_nmea_log(path)
+    assert f"line 1: header is '{'x' * 80}...'; expected" in str(exc.value)
 
 
 def test_read_nmea_log_missing_or_unreadable(tmp_path: Path) -> None:

@@ -40,7 +40,9 @@ from __future__ import annotations
 import math
 import re
 import struct
+from collections.abc import Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -574,8 +576,29 @@ NMEA_LOG_HEADER = ("t_local_s", "sentence")
 """Columns of an NMEA log file (``nmea.csv``)."""
 
 MAX_NMEA_LOG_BYTES = 1 << 30
-"""Largest NMEA log read (1 GiB; a day of 10 sentences per second is about 70 MB): it is
-read whole, then split into lines."""
+"""Largest NMEA log read (1 GiB; a day of 10 sentences per second is about 70 MB)."""
+
+MAX_NMEA_LINE_BYTES = 4096
+"""Longest line of an NMEA log (an NMEA sentence is at most 82 characters; with its time
+and quotes a line is under 200 bytes): a longer one is rejected, shown cut to its first
+80 bytes, and never held whole (the log is read line by line)."""
+
+_SHOWN_BYTES = 80
+
+
+def _log_lines(fh: BinaryIO) -> Iterator[tuple[bytes, bool]]:
+    """Each line of a binary file, without its end, and whether it was cut short.
+
+    A line longer than `MAX_NMEA_LINE_BYTES` gives its first bytes only; the rest of it
+    is read and dropped in blocks, so memory stays bounded whatever the file holds.
+    """
+    while line := fh.readline(MAX_NMEA_LINE_BYTES + 1):
+        if len(line) > MAX_NMEA_LINE_BYTES and not line.endswith(b"\n"):
+            while (more := fh.readline(1 << 16)) and not more.endswith(b"\n"):
+                pass
+            yield line[:_SHOWN_BYTES], True
+        else:
+            yield line.removesuffix(b"\n").removesuffix(b"\r"), False
 
 
 def _display(raw: bytes) -> str:
@@ -656,31 +679,47 @@ def read_nmea_log(path: Path) -> NmeaLog:
             max_bytes=MAX_NMEA_LOG_BYTES,
             nul_after_first_line=True,
         )
-        data = path.read_bytes()
+        fh = path.open("rb")
     except InputError as err:
         raise NmeaError(str(err)) from err
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise NmeaError(msg) from err
-    data = data.removeprefix(b"\xef\xbb\xbf")
-    lines = data.split(b"\n")
-    header_text = _display(lines[0].rstrip(b"\r"))
-    header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
-    if header != NMEA_LOG_HEADER:
-        what = "empty file" if not data.strip() else f"header is {header_text.strip()!r}"
-        msg = f"{path}: line 1: {what}; expected the header t_local_s,sentence"
-        raise NmeaError(msg)
     accepted: list[tuple[int, float, NmeaRecord, str]] = []
     rejected: list[RejectedLine] = []
-    for line_no, raw_line in enumerate(lines[1:], start=2):
-        raw = raw_line.rstrip(b"\r")
-        if not raw.strip():
-            continue
-        result = _read_line(line_no, raw)
-        if isinstance(result, RejectedLine):
-            rejected.append(result)
-        else:
-            accepted.append((line_no, *result))
+    with fh:
+        lines = _log_lines(fh)
+        first, cut = next(lines, (b"", False))
+        first = first.removeprefix(b"\xef\xbb\xbf")
+        if cut:
+            msg = (
+                f"{path}: line 1: no line end in its first {MAX_NMEA_LINE_BYTES} bytes "
+                f"(starts {_display(first)!r}); expected the header t_local_s,sentence and "
+                "one line per sentence (a file with CR-only line ends? convert them to LF)"
+            )
+            raise NmeaError(msg)
+        header_text = _display(first)
+        header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
+        if header != NMEA_LOG_HEADER:
+            shown = header_text.strip()
+            if len(shown) > _SHOWN_BYTES:
+                shown = shown[:_SHOWN_BYTES] + "..."
+            blank = not shown and not any(line.strip() for line, _ in lines)
+            what = "empty file" if blank else f"header is {shown!r}"
+            msg = f"{path}: line 1: {what}; expected the header t_local_s,sentence"
+            raise NmeaError(msg)
+        for line_no, (raw, cut) in enumerate(lines, start=2):
+            if cut:
+                reason = f"line longer than {MAX_NMEA_LINE_BYTES} bytes: not an NMEA sentence"
+                rejected.append(RejectedLine(line_no, None, _display(raw) + "...", reason))
+                continue
+            if not raw.strip():
+                continue
+            result = _read_line(line_no, raw)
+            if isinstance(result, RejectedLine):
+                rejected.append(result)
+            else:
+                accepted.append((line_no, *result))
     if not accepted:
         n = len(rejected)
         first = f" (line {rejected[0].line}: {rejected[0].reason})" if rejected else ""
