@@ -689,16 +689,16 @@ def read_nmea_log(path: Path) -> NmeaLog:
     rejected: list[RejectedLine] = []
     with fh:
         lines = _log_lines(fh)
-        first, cut = next(lines, (b"", False))
-        first = first.removeprefix(b"\xef\xbb\xbf")
+        head, cut = next(lines, (b"", False))
+        head = head.removeprefix(b"\xef\xbb\xbf")
         if cut:
             msg = (
                 f"{path}: line 1: no line end in its first {MAX_NMEA_LINE_BYTES} bytes "
-                f"(starts {_display(first)!r}); expected the header t_local_s,sentence and "
+                f"(starts {_display(head)!r}); expected the header t_local_s,sentence and "
                 "one line per sentence (a file with CR-only line ends? convert them to LF)"
             )
             raise NmeaError(msg)
-        header_text = _display(first)
+        header_text = _display(head)
         header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
         if header != NMEA_LOG_HEADER:
             shown = header_text.strip()
