@@ -689,3 +689,26 @@ def test_trajectory_info_gives_extent_zone_and_time_scale(
     code, stdout, err = run_cli(["trajectory", "info", str(tmp_path / "t.out"), "--json"])
     assert code == 0, err
     assert json.loads(stdout)["time"]["scale"] == "GPS seconds of week"
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".laz"])
+def test_a_folder_given_as_points_or_trajectory_is_named_a_folder(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    suffix: str,
+) -> None:
+    # Both were "file not found" (points) or "length 4096 bytes is not a multiple of the
+    # 136-byte SBET record" (a folder named like an SBET).
+    folder = setup["dir"] / f"scan{suffix}"
+    folder.mkdir()
+    out = setup["dir"] / "out.csv"
+    args = _args(setup, out)
+    args[args.index("--points") + 1] = str(folder)
+    assert_one_line_error(*run_cli(args), f"{folder}: is a folder, not a file")
+    sbet = setup["dir"] / "trajectory.out"
+    sbet.mkdir()
+    args = _args(setup, out, "--gps-week", "2345")
+    args[args.index("--trajectory") + 1] = str(sbet)
+    assert_one_line_error(*run_cli(args), f"{sbet}: is a folder; give the path of an SBET file")
+    assert not out.exists()

@@ -45,7 +45,7 @@ import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.column_map import ColumnMap
-from kinsync.io.sanity import check_text_file, not_utf8_cell
+from kinsync.io.sanity import check_text_file, not_utf8_cell, require_file
 from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
 
 __all__ = [
@@ -66,9 +66,7 @@ def _suffix(path: Path) -> str:
 
 
 def _check_exists(path: Path) -> None:
-    if not path.is_file():
-        msg = f"{path}: file not found"
-        raise InputError(msg)
+    require_file(path)
 
 
 def _csv_header(path: Path) -> list[str]:

@@ -36,7 +36,7 @@ def memmap_records(
     Raises
     ------
     InputError
-        Missing, unreadable or empty file, a length that is not a multiple of the
+        Missing, unreadable or empty file, a folder, a length that is not a multiple of the
         record size, a file larger than `MAX_RECORD_FILE_BYTES`, or one whose first
         64 KiB of records are all zero bytes (`kinsync.io.sanity.check_record_file`).
     """
@@ -50,6 +50,9 @@ def memmap_records(
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
+    if path.is_dir():
+        msg = f"{path}: is a folder; give the path of an {kind} file"
+        raise InputError(msg)
     n, left = divmod(size, size_b)
     if left:
         msg = (

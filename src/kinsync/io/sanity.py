@@ -58,6 +58,7 @@ __all__ = [
     "check_values",
     "load_json",
     "not_utf8_cell",
+    "require_file",
     "size_text",
 ]
 
@@ -121,6 +122,21 @@ def _read_head(path: Path, n_bytes: int, what: str) -> bytes:
     except OSError as err:
         msg = f"{path}: cannot read the {what} ({err.strerror or err})"
         raise InputError(msg) from err
+
+
+def require_file(path: Path) -> None:
+    """Refuse a path that is not a file: ``file not found``, or ``is a folder``.
+
+    Raises
+    ------
+    InputError
+        Naming the path and which of the two it is.
+    """
+    if path.is_file():
+        return
+    what = "is a folder, not a file" if path.is_dir() else "file not found"
+    msg = f"{path}: {what}"
+    raise InputError(msg)
 
 
 def check_text_file(

@@ -58,6 +58,7 @@ from kinsync.io.points import (
     read_table_slice,
     table_columns,
 )
+from kinsync.io.sanity import require_file
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.pipelines.georef_chunks import (
@@ -520,9 +521,7 @@ def _check_arguments(
             ".parquet or .ply"
         )
         raise InputError(msg)
-    if not points_path.is_file():
-        msg = f"{points_path}: file not found"
-        raise InputError(msg)
+    require_file(points_path)
     las_input = in_suffix in _LAS_SUFFIXES
     if las_input and columns is not None and columns.pairs:
         msg = (

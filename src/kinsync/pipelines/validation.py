@@ -18,6 +18,7 @@ from kinsync.crs import crs_to_ecef_transformer
 from kinsync.errors import InputError, KinsyncError
 from kinsync.io.cloud import CloudExtent, check_finite_chunk, cloud_crs, iter_cloud
 from kinsync.io.control_points import read_control_points
+from kinsync.io.sanity import require_file
 from kinsync.io.trajectory import read_trajectory_file
 from kinsync.trajectory_gaps import max_gap_for
 from kinsync.validation.control_report import ControlPointReport, validate_control_points
@@ -98,9 +99,7 @@ def control_points_file(
     control = read_control_points(Path(control_path))
     trajectory, traj_scale = read_trajectory_file(Path(trajectory_path), gps_week=gps_week)
     max_gap_for(trajectory.t_s, max_gap_s)  # a bad threshold fails before the cloud is read
-    if not cloud_path.is_file():
-        msg = f"{cloud_path}: file not found"
-        raise InputError(msg)
+    require_file(cloud_path)
     crs_text = cloud_crs(cloud_path, crs)
     to_ecef = crs_to_ecef_transformer(crs_text)
     pos_parts: list[FloatArray] = []
@@ -191,9 +190,7 @@ def flatness_file(
     if chunk_points < 1:
         msg = f"--chunk-points must be >= 1, got {chunk_points}"
         raise InputError(msg)
-    if not cloud_path.is_file():
-        msg = f"{cloud_path}: file not found"
-        raise InputError(msg)
+    require_file(cloud_path)
     crs_text = cloud_crs(cloud_path, crs)
     to_ecef = crs_to_ecef_transformer(crs_text)
     parts: list[FloatArray] = []
