@@ -461,6 +461,34 @@ def test_decreasing_time_names_row() -> None:
         _local(t, pos, q=q)
 
 
+def test_decreasing_time_advises_sorting() -> None:
+    t, q, pos = _valid_arrays()
+    t[3] = t[2] - 0.5
+    with pytest.raises(InputError, match="sort the records and drop duplicates"):
+        _local(t, pos, q=q)
+
+
+@pytest.mark.parametrize("week", [0, 2345], ids=["seconds-of-week", "continuous"])
+def test_a_gps_week_rollover_is_named_and_sorting_is_not_advised(week: int) -> None:
+    # Sorting a rolled-over file would put its end before its start.
+    t, q, pos = _valid_arrays(6)
+    t = week * 604_800.0 + np.array([604_798.0, 604_798.5, 604_799.0, 604_799.5, 0.0, 0.5])
+    with pytest.raises(InputError) as info:
+        _local(t, pos, q=q)
+    message = str(info.value)
+    assert "decreasing time in row 4" in message
+    assert "the GPS week rolls over there" in message
+    assert "counting past 604800 s" in message
+    assert "sort" not in message
+
+
+def test_a_jump_back_of_a_day_is_not_a_rollover() -> None:
+    t, q, pos = _valid_arrays(4)
+    t = np.array([200_000.0, 200_001.0, 113_600.0, 113_601.0])
+    with pytest.raises(InputError, match="sort the records"):
+        _local(t, pos, q=q)
+
+
 def test_nan_time_names_row() -> None:
     t, q, pos = _valid_arrays()
     t[1] = math.nan

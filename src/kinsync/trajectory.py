@@ -94,6 +94,20 @@ def _validated_rows(values: ArrayLike | None, n: int, width: int, name: str) -> 
     return arr
 
 
+_SECONDS_PER_WEEK = 604_800.0
+
+
+def _week_rollover(before_s: float, after_s: float) -> bool:
+    """A step back of about a week, from late in a GPS week to early in one.
+
+    What seconds-of-week times read with one GPS week for the whole file (SBET, POSPac
+    and Inertial Explorer exports) show where the week rolls over.
+    """
+    back = before_s - after_s
+    late, early = before_s % _SECONDS_PER_WEEK, after_s % _SECONDS_PER_WEEK
+    return 0.5 * _SECONDS_PER_WEEK < back <= _SECONDS_PER_WEEK + 1.0 and early < late
+
+
 def _validated_times(values: ArrayLike) -> FloatArray:
     """1-D, finite, strictly increasing record times; errors name the row."""
     try:
@@ -112,11 +126,18 @@ def _validated_times(values: ArrayLike) -> FloatArray:
     if np.any(dt <= 0.0):
         row = _first_bad_row(dt <= 0.0) + 1
         kind = "repeated" if dt[row - 1] == 0.0 else "decreasing"
-        msg = (
-            f"trajectory t_s: {kind} time in row {row} "
-            f"(t_s={float(t[row])!r} after {float(t[row - 1])!r}); "
-            "times must be strictly increasing: sort the records and drop duplicates"
-        )
+        before, after = float(t[row - 1]), float(t[row])
+        where = f"trajectory t_s: {kind} time in row {row} (t_s={after!r} after {before!r})"
+        if _week_rollover(before, after):
+            msg = (
+                f"{where}: the GPS week rolls over there (seconds of the week start again "
+                "from 0); a trajectory needs one time scale: export it with times counting "
+                "past 604800 s, or split it at that record and give each part its GPS week"
+            )
+        else:
+            msg = (
+                f"{where}; times must be strictly increasing: sort the records and drop duplicates"
+            )
         raise InputError(msg)
     return t
 
