@@ -231,6 +231,10 @@ GOOD_ROWS = "100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 3
             _ie_text(GOOD_ROWS + "footer\n" + GOOD_ROWS),
             ["line 15: a data row after the text at line 14"],
         ),
+        (  # numpy's fast path skipped a '#' line: a row lost without a word
+            _ie_text(GOOD_ROWS + "# paused\n" + GOOD_ROWS.replace("100.", "101.")),
+            ["line 15: a data row after the text at line 14"],
+        ),
         (_ie_text("100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n"), ["at least 2 records"]),
         (_ie_text(GOOD_ROWS.replace("46.8", "96.8", 1)), ["line 12, column 'Latitude'", "96.8"]),
         (

@@ -299,7 +299,7 @@ def _parse_rows_fast(
     if not rows:
         return None
     try:
-        table = np.loadtxt([lines[i] for i in rows], dtype=np.float64, ndmin=2)
+        table = np.loadtxt([lines[i] for i in rows], dtype=np.float64, ndmin=2, comments=None)
     except ValueError:
         return None
     if table.shape[1] != layout.fields_per_row:
