@@ -88,6 +88,8 @@ def test_reader_names_every_column(tmp_path: Path) -> None:
         (_line([1.0] * 18) + "\n", "line 1 has 18 numbers, expected 17"),
         (_line([1.0] * 17) + "\n" + "1 " * 16 + "x\n", "line 2, column 17: 'x' is not a number"),
         (_line([1.0] * 17) + "\n" + "1 " * 16 + "nan\n", "line 2, column 17: non-finite"),
+        # numpy skipped a '#' line as a comment, and the lines after it were misnumbered
+        (_line([1.0] * 17) + "\n# pause\n" + _line([1.0] * 17) + "\n", "line 2"),
     ],
 )
 def test_reader_bad_files(tmp_path: Path, text: str, fragment: str) -> None:

@@ -318,7 +318,7 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
         msg = f"{path}: no data; expected lines of {CIDCO_COLUMNS} numbers"
         raise InputError(msg)
     try:
-        data = np.loadtxt([ln for _, ln in numbered], dtype=np.float64, ndmin=2)
+        data = np.loadtxt([ln for _, ln in numbered], dtype=np.float64, ndmin=2, comments=None)
     except ValueError as err:
         raise _locate_bad_line(path, text) from err
     if data.shape[1] != CIDCO_COLUMNS or not np.isfinite(data).all():
