@@ -306,7 +306,7 @@ def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
         ("out_suffix", ["unknown output type", ".txt"]),
         ("missing_column", ["z_m"]),
         ("nan", ["not finite"]),
-        ("absurd", ["points.csv: line 19, column 'y_m'", "beyond the 100000 m any laser scanner reaches"]),
+        ("absurd", ["points.csv: line 19, column 'y_m'", "beyond the 100000 m any laser"]),
         ("columns_key", ["--columns", "'t' is not a column kinsync reads", "t_s, x_m"]),
         ("columns_missing", ["--columns maps t_s to column 'time'", "its columns are"]),
     ],

@@ -76,9 +76,7 @@ def profile_points_to_scanner(
         i = int(np.flatnonzero(bad)[0])
         field = "range_m" if not np.isfinite(r[i]) else "angle_rad"
         value = float(r[i]) if field == "range_m" else float(phi[i])
-        problem = (
-            f"{value!r} is not finite (range_m {float(r[i])!r}, angle_rad {float(phi[i])!r})"
-        )
+        problem = f"{value!r} is not finite (range_m {float(r[i])!r}, angle_rad {float(phi[i])!r})"
         raise point_value_error(what, bad, field, problem, "drop or fix them", r.size)
     negative = r < 0.0
     if np.any(negative):

@@ -173,9 +173,9 @@ def _first_bad_cell(
     """First bad row read by ``reader`` (a ``csv.reader``), or None.
 
     Bad: a required cell empty or not a number, or a row with another number of fields
-    than the header. The reader's line 1 is file line ``first_line + 1``. A byte that is not UTF-8 in any cell (text
-    decoded with ``errors="surrogateescape"``) and a line the ``csv`` module cannot read
-    are bad too.
+    than the header. The reader's line 1 is file line ``first_line + 1``. A byte that
+    is not UTF-8 in any cell (text decoded with ``errors="surrogateescape"``) and a line
+    the ``csv`` module cannot read are bad too.
     """
     cols = [(name, list(header).index(name)) for name in required]
     while True:

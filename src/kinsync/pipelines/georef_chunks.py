@@ -596,8 +596,9 @@ def _las_table_output(
     if not_finite.any():
         at = int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
         error = (
-            f"{src.path}: {_task_position(ctx, task, at)}: georeferences to {kept_coords[not_finite][0]} in "
-            f"{ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
+            f"{src.path}: {_task_position(ctx, task, at)}: georeferences to "
+            f"{kept_coords[not_finite][0]} in {ctx.crs}, not a finite coordinate; check the "
+            "trajectory and the CRS"
         )
         return replace(base, error=error)
     columns = las_columns(kept, record.point_format, kept_coords)
