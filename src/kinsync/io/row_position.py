@@ -13,13 +13,15 @@ empty line or one holding only a carriage return is skipped).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["csv_line_of_row", "point_position"]
+__all__ = ["csv_line_of_row", "point_position", "position_span"]
 
 _LF, _CR = 10, 13
+_NUMBER = re.compile(r"^(\D*)(\d+)(.*)$")  # "row 3 of 9": "row ", "3", " of 9"
 _BLOCK_BYTES = 1 << 24
 
 
@@ -123,3 +125,11 @@ def point_position(
             return f"line {line}"
     what = {".csv": "data row", ".parquet": "row"}.get(suffix, "point")
     return f"{what} {row + 1}" + ("" if total is None else f" of {total}")
+
+
+def position_span(first: str, last: str) -> str:
+    """Two positions of `point_position` as one span: ``lines 2..1001``, ``rows 1..9 of 9``."""
+    a, b = _NUMBER.match(first), _NUMBER.match(last)
+    if first == last or a is None or b is None:
+        return first if first == last else f"{first} to {last}"
+    return f"{a.group(1).rstrip()}s {a.group(2)}..{b.group(2)}{a.group(3)}"

@@ -11,7 +11,6 @@ or on Dask workers (`kinsync.pipelines.schedulers`).
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass, replace
@@ -44,7 +43,7 @@ from kinsync.io.points import (
     read_table_slice,
     slice_position,
 )
-from kinsync.io.row_position import point_position
+from kinsync.io.row_position import point_position, position_span
 from kinsync.io.table_numbers import numeric_columns
 from kinsync.mount import Mount
 
@@ -78,7 +77,6 @@ XYZ_COLUMNS = ("x_m", "y_m", "z_m")
 """Scanner-frame coordinates (m) in a point table."""
 OUT_COLUMNS = ("X", "Y", "Z")
 """Georeferenced coordinates (output CRS) in an output table."""
-_NUMBER = re.compile(r"^(\D*)(\d+)(.*)$")  # "row 3 of 9": "row ", "3", " of 9"
 _LAS_BLOCK_POINTS = 65_536  # chunks are georeferenced this many points at a time
 _R = TypeVar("_R")
 
@@ -649,11 +647,7 @@ def _task_position(ctx: ChunkContext, task: ChunkTask, i: int) -> str:
 
 def _task_span(ctx: ChunkContext, task: ChunkTask) -> str:
     """The points of a task as a user finds them: ``lines 2..1001``, ``rows 1..1000 of M``."""
-    first, last = _task_position(ctx, task, 0), _task_position(ctx, task, task.count - 1)
-    a, b = _NUMBER.match(first), _NUMBER.match(last)
-    if first == last or a is None or b is None:
-        return first if first == last else f"{first} to {last}"
-    return f"{a.group(1).rstrip()}s {a.group(2)}..{b.group(2)}{a.group(3)}"
+    return position_span(_task_position(ctx, task, 0), _task_position(ctx, task, task.count - 1))
 
 
 def _point_value_text(ctx: ChunkContext, task: ChunkTask, err: PointValueError) -> str:
