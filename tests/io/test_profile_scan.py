@@ -89,17 +89,20 @@ def _write_text(tmp_path: Path, name: str, text: str) -> Path:
     return path
 
 
+SCAN_HEAD = "profile,angle_rad,range_m,intensity\n"
+
+
 @pytest.mark.parametrize(
     ("text", "fragments"),
     [
         ("profile,angle_rad,range_m\n0,0.1,2\n", ["missing column", "intensity"]),
-        ("profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n1,x,2,0.5\n", ["scan.csv: line 3, column 'angle_rad'"]),
+        (f"{SCAN_HEAD}0,0.1,2,0.5\n1,x,2,0.5\n", ["line 3, column 'angle_rad'"]),
         (
             "profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n3,0.1,2,0.5\n2,0.1,2,0.5\n",
             ["line 4, column 'profile'", "must not decrease", "2 after 3"],
         ),
-        ("profile,angle_rad,range_m,intensity\n0.5,0.1,2,0.5\n", ["scan.csv: line 2, column 'profile'", "whole"]),
-        ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["line 2, column 'profile'", "from 0 to 1e+12"]),
+        (f"{SCAN_HEAD}0.5,0.1,2,0.5\n", ["line 2, column 'profile'", "whole"]),
+        (f"{SCAN_HEAD}-1,0.1,2,0.5\n", ["line 2, column 'profile'", "to 1e+12"]),
         ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["'range_m'", "negative"]),
         ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
         ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
@@ -120,7 +123,8 @@ def test_absurd_profile_numbers_are_refused_without_a_warning(tmp_path: Path, va
     """A column of 1e308 was cast to int64 (a RuntimeWarning) and went on at exit 0."""
     text = f"profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n{value},0.1,2,0.5\n"
     path = _write_text(tmp_path, "scan.csv", text)
-    with pytest.raises(InputError, match=r"scan\.csv: line 3, column 'profile': .* is not a profile number") as err:
+    want = r"scan\.csv: line 3, column 'profile': .* is not a profile number"
+    with pytest.raises(InputError, match=want) as err:
         read_profile_scan(path)
     assert "np.float64" not in str(err.value)
 

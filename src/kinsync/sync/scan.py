@@ -201,7 +201,7 @@ class SyncPoints:
             raise InputError(msg)
         for i, name in enumerate(names):
             if not name.strip():
-                msg = f"{self.source}: point {i} has an empty name"
+                msg = f"{self.source}: point at index {i} (0-based) has an empty name"
                 raise InputError(msg)
             if names.count(name) > 1:
                 msg = f"{self.source}: name {name!r} appears more than once; names must be unique"
