@@ -273,7 +273,7 @@ def test_bad_points_raise_input_error(traj: Trajectory, t: object, xyz: object, 
 def test_a_bad_point_error_carries_its_index_for_pipelines(traj: Trajectory) -> None:
     """Pipelines name the point as the file counts it from the error's attributes."""
     gt = GeorefTrajectory.from_trajectory(traj)
-    xyz = [[0, 0, 0], [0, 0, np.nan], [np.nan, 0, 0]]
+    xyz = np.array([[0, 0, 0], [0, 0, np.nan], [np.nan, 0, 0]])
     with pytest.raises(PointValueError) as err:
         georeference([1.0e9 + 1.0, 1.0e9 + 2.0, 1.0e9 + 3.0], xyz, gt, MOUNT)
     assert (err.value.index, err.value.count, err.value.field) == (1, 2, "z")
