@@ -43,6 +43,39 @@ class InputError(KinsyncError, ValueError):
     """Input data or parameters are invalid (bad value, shape, file content)."""
 
 
+class PointValueError(InputError):
+    """A bad value in arrays of points; the first one located by its 0-based index.
+
+    Algorithms see arrays, not files: they name the point by its index. A pipeline that
+    read the points from a file names it as the file counts it (a CSV line, a Parquet
+    row, a LAS point) from these attributes.
+
+    Attributes
+    ----------
+    index : int
+        The first bad point, 0-based in the arrays given.
+    count : int
+        Bad points (of this kind) in the arrays given.
+    field : str
+        The value that is bad: ``"t"`` (the point time), ``"x"``, ``"y"``, ``"z"``
+        (scanner-frame coordinates) or ``"range_m"``, ``"angle_rad"`` (profile).
+    problem : str
+        What is wrong with it, without its place (``"nan is not finite"``).
+    advice : str
+        What to do.
+    """
+
+    def __init__(
+        self, message: str, *, index: int, count: int, field: str, problem: str, advice: str
+    ) -> None:
+        super().__init__(message)
+        self.index = index
+        self.count = count
+        self.field = field
+        self.problem = plain_values(problem)
+        self.advice = advice
+
+
 class OutsideSpanError(InputError):
     """A time lies outside the span of a time series and would need extrapolation."""
 

@@ -369,5 +369,5 @@ def test_apply_carries_parquet_types_and_refuses_a_null_range(
     pq.write_table(scan.set_column(2, "range_m", pa.array([2.0, 2.0, 3.0, None, 4.0])), holed)
     args = [*base, str(tmp_path / "h.csv")]
     args[args.index("--scan") + 1] = str(holed)
-    assert_one_line_error(*run_cli(args), "holed.parquet", "data row 3", "'range_m'", "empty")
+    assert_one_line_error(*run_cli(args), "holed.parquet: row 4 of 5, column 'range_m': no value")
     assert not (tmp_path / "h.csv").exists()

@@ -359,7 +359,7 @@ def _with_nan() -> FloatArray:
 @pytest.mark.parametrize(
     ("points", "kwargs", "fragment"),
     [
-        (_with_nan(), {}, "non-finite coordinate in point 7"),
+        (_with_nan(), {}, r"non-finite coordinate at index 7 \(0-based"),
         (GOOD[:, :2], {}, r"shape \(N, 3\)"),
         (GOOD.ravel(), {}, r"shape \(N, 3\)"),
         (GOOD[:3], {}, "at least 4 points, got 3"),

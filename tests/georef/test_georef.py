@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from kinsync.budget import beach_scenario, latency_beam_error
-from kinsync.errors import InputError
+from kinsync.errors import InputError, PointValueError
 from kinsync.frames import (
     ecef_to_ned,
     euler_rpy_to_matrix,
@@ -251,11 +251,14 @@ def test_unsorted_times_give_the_same_points(traj: Trajectory) -> None:
     assert np.abs(back - ref).max() < ECEF_ULPS
 
 
+AT_1 = r"point at index 1 \(0-based, of 2\)"  # the API names array indices, said so
+
+
 @pytest.mark.parametrize(
     ("t", "xyz", "match"),
     [
-        ([1.0e9 + 1.0, np.nan], [[0, 0, 0], [0, 0, 0]], "time at index 1 is not finite"),
-        ([1.0e9 + 1.0, 1.0e9 + 2.0], [[0, 0, 0], [0, np.inf, 0]], "index 1 are not finite"),
+        ([1.0e9 + 1.0, np.nan], [[0, 0, 0], [0, 0, 0]], rf"{AT_1}, t: point time nan is not"),
+        ([1.0e9 + 1.0, 1.0e9 + 2.0], [[0, 0, 0], [0, np.inf, 0]], rf"{AT_1}, y: inf is not finite"),
         ([1.0e9 + 1.0], [[0, 0]], "shape"),
         ([[1.0e9]], [[0, 0, 0]], "1-D"),
     ],
@@ -265,6 +268,16 @@ def test_bad_points_raise_input_error(traj: Trajectory, t: object, xyz: object, 
     for fn in (georeference, georeference_numpy):
         with pytest.raises(InputError, match=match):
             fn(t, xyz, gt, MOUNT)  # type: ignore[arg-type]
+
+
+def test_a_bad_point_error_carries_its_index_for_pipelines(traj: Trajectory) -> None:
+    """Pipelines name the point as the file counts it from the error's attributes."""
+    gt = GeorefTrajectory.from_trajectory(traj)
+    xyz = np.array([[0, 0, 0], [0, 0, np.nan], [np.nan, 0, 0]])
+    with pytest.raises(PointValueError) as err:
+        georeference([1.0e9 + 1.0, 1.0e9 + 2.0, 1.0e9 + 3.0], xyz, gt, MOUNT)
+    assert (err.value.index, err.value.count, err.value.field) == (1, 2, "z")
+    assert err.value.problem == "nan is not finite (scanner coordinates [0.0, 0.0, nan])"
 
 
 def test_option_errors(traj: Trajectory) -> None:
@@ -335,9 +348,19 @@ def test_profile_points_within_a_tenth_of_a_millimetre_of_analytic_truth(
     ("r", "phi", "mount", "match"),
     [
         ([1.0, 2.0], [0.0, 0.1], Mount(), r"\[profiler\] azimuth_deg"),
-        ([1.0, np.nan], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "index 1 not finite"),
-        ([1.0, 2.0], [np.inf, 0.1], Mount(profiler_azimuth_deg=0.0), "index 0 not finite"),
-        ([1.0, -2.0], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "index 1 is negative"),
+        ([1.0, np.nan], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), rf"{AT_1}, range_m: nan is"),
+        (
+            [1.0, 2.0],
+            [np.inf, 0.1],
+            Mount(profiler_azimuth_deg=0.0),
+            r"0 \(0-based.*angle_rad: inf",
+        ),
+        (
+            [1.0, -2.0],
+            [0.0, 0.1],
+            Mount(profiler_azimuth_deg=0.0),
+            rf"{AT_1}, range_m: range -2\.0 is",
+        ),
         ([1.0, 2.0], [0.0], Mount(profiler_azimuth_deg=0.0), "one length"),
         ([[1.0]], [[0.0]], Mount(profiler_azimuth_deg=0.0), "1-D"),
         (["a", "b"], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "must be numbers"),

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from tests._las import las_points
 
 import kinsync.io.passes as passes_io
 from kinsync._typing import FloatArray
@@ -304,3 +305,20 @@ def test_write_bad_input(tmp_path: Path) -> None:
     far = SpherePass("far", 2.0, np.array([[0.0, 0.0, 0.0], [1e6, 0.0, 0.0]]))
     with pytest.raises(InputError, match="too large for LAS"):
         write_passes(tmp_path / "far", [far], file_format="las")
+
+
+def test_a_bad_pass_point_is_named_by_its_file_line_or_las_point(tmp_path: Path) -> None:
+    """Past an empty line the CSV line is still right; a LAS point counts from 1 of all."""
+    path = tmp_path / "p.csv"
+    path.write_text("x_m,y_m,z_m\n1,2,3\n\n1,2,3\n1,2,1e9\n")
+    with pytest.raises(InputError, match=r"p\.csv: line 5, column 'z_m'"):
+        read_pass_file(path)
+    las = las_points(
+        {"x_m": np.zeros(3), "y_m": np.zeros(3), "z_m": np.zeros(3), "t_s": 1e9 + np.arange(3.0)}
+    )
+    times = np.asarray(las.gps_time).copy()
+    times[2] = np.nan
+    las.gps_time = times
+    las.write(tmp_path / "p.las")
+    with pytest.raises(InputError, match=r"p\.las: point 3 of 3, column 't_s'"):
+        read_pass_file(tmp_path / "p.las")

@@ -132,10 +132,10 @@ def test_missing_columns(tmp_path: Path, suffix: str) -> None:
 def test_non_numeric_csv_cell_names_line(tmp_path: Path) -> None:
     path = tmp_path / "bad.csv"
     path.write_text("t_s,x_m,y_m,z_m,note\n1,2,3,4,a\n2,abc,3,4,b\n")
-    with pytest.raises(InputError, match=r"bad\.csv: line 3 \(data row 1\), column 'x_m'"):
+    with pytest.raises(InputError, match=r"bad\.csv: line 3, column 'x_m': 'abc' is not"):
         list(iter_table_chunks(path, 10, REQUIRED))
     path.write_text("t_s,x_m,y_m,z_m\n1,2,3,4\n2,3,,4\n")
-    with pytest.raises(InputError, match=r"data row 1, column 'y_m': empty"):
+    with pytest.raises(InputError, match=r"bad\.csv: line 3, column 'y_m': empty cell"):
         list(iter_table_chunks(path, 10, REQUIRED))
 
 
@@ -148,7 +148,7 @@ def test_non_numeric_parquet_cell_names_row(tmp_path: Path) -> None:
         "z_m": np.zeros(3),
     }
     _write(path, cols, 3)
-    with pytest.raises(InputError, match=r"bad\.parquet: data row 2, column 'x_m'"):
+    with pytest.raises(InputError, match=r"bad\.parquet: row 3 of 3, column 'x_m': 'x' is not"):
         list(iter_table_chunks(path, 10, REQUIRED))
 
 
@@ -231,10 +231,10 @@ def test_csv_slice_errors_name_the_file_line_and_data_row(tmp_path: Path) -> Non
     assert [s.n_rows for s in slices] == [5_000] * 30
     read_table_slice(layout, slices[27])
     with pytest.raises(
-        InputError, match=r"bad\.csv: line 140058 \(data row 140037\), column 'y_m'"
+        InputError, match=r"bad\.csv: line 140058, column 'y_m': 'zz' is not a number"
     ):
         read_table_slice(layout, slices[28])
-    with pytest.raises(InputError, match=r"data row 145044, column 'y_m': empty cell"):
+    with pytest.raises(InputError, match=r"bad\.csv: line 145065, column 'y_m': empty cell"):
         read_table_slice(layout, slices[29])
 
 
@@ -257,7 +257,7 @@ def test_changed_file_is_detected(tmp_path: Path) -> None:
     _, fine = plan_table_slices(path, 5, REQUIRED)
     path.write_bytes(path.read_bytes()[: fine[5].byte_start])  # rows 25.. cut off
     read_table_slice(layout, slices[1])
-    with pytest.raises(InputError, match=r"data rows 20\.\.29 read back as 5 rows"):
+    with pytest.raises(InputError, match=r"c\.csv: lines 22\.\.: 10 rows were planned, 5 read"):
         read_table_slice(layout, slices[2])
 
 
@@ -396,7 +396,7 @@ def test_the_csv_reader_is_closed_when_a_chunk_is_bad(
     path = tmp_path / "bad.csv"
     path.write_text("t_s,x_m,y_m,z_m\n" + "\n".join(rows) + "\n")
     chunks = points.iter_table_chunks(path, 1000, ("t_s", "x_m", "y_m", "z_m"))
-    with pytest.raises(InputError, match="data row 3500, column 'y_m': empty cell"):
+    with pytest.raises(InputError, match=r"bad\.csv: line 3502, column 'y_m': empty cell"):
         for _ in chunks:
             pass
     assert _ClosingSpy.instances
@@ -433,7 +433,7 @@ def test_planning_a_csv_opens_no_streaming_reader(
     assert opened == []
     assert layout.total_rows == 100_000
     assert layout.inferred.field("label").type == pa.string()
-    with pytest.raises(InputError, match="data row 13, column 'y_m': empty cell"):
+    with pytest.raises(InputError, match=r"bad\.csv: line 15, column 'y_m': empty cell"):
         points.read_table_slice(layout, slices[0])
 
 
@@ -447,7 +447,7 @@ def test_a_row_with_another_field_count_is_named_by_line(tmp_path: Path, bad_row
     path = tmp_path / "extra.csv"
     path.write_text("t_s,x_m,y_m,z_m,label\n" + "\n".join(rows) + "\n")
     required = ("t_s", "x_m", "y_m", "z_m")
-    where = f"line {bad_row + 2} (data row {bad_row}): 6 field(s) where the header has 5"
+    where = f"extra.csv: line {bad_row + 2}: 6 field(s) where the header has 5"
 
     def read_planned() -> None:
         layout, slices = points.plan_table_slices(path, 10_000, required)
@@ -458,3 +458,64 @@ def test_a_row_with_another_field_count_is_named_by_line(tmp_path: Path, bad_row
         read_planned()
     with pytest.raises(InputError, match=re.escape(where)):
         list(points.iter_table_chunks(path, 10_000, required))
+
+
+def test_parquet_errors_name_the_row_from_one_of_all(tmp_path: Path) -> None:
+    """A null past the first chunk and row group is named ``row N of M``, counted from 1
+    in the whole file (it was ``data row 7``, 0-based, users looked one row too early)."""
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    x = pa.array([1.0] * 7 + [None] + [1.0] * 2)
+    table = pa.table({"t_s": np.arange(10.0), "x_m": x, "y_m": np.ones(10), "z_m": np.ones(10)})
+    path = tmp_path / "holed.parquet"
+    pq.write_table(table, path, row_group_size=3)
+    want = r"holed\.parquet: row 8 of 10, column 'x_m': no value \(null\)"
+    with pytest.raises(InputError, match=want):
+        list(iter_table_chunks(path, 4, REQUIRED))
+    layout, slices = plan_table_slices(path, 4, REQUIRED)
+    assert slices[2].first_row == 6  # the null lies in the third slice, past the first
+    with pytest.raises(InputError, match=want):
+        read_table_slice(layout, slices[2])
+    pq.write_table(table.slice(0, 8), path, row_group_size=3)  # the last row
+    with pytest.raises(InputError, match=r"row 8 of 8, column 'x_m'"):
+        list(iter_table_chunks(path, 4, REQUIRED))
+
+
+@pytest.mark.parametrize("eol", ["\n", "\r\n"])
+def test_csv_errors_name_the_file_line_past_blank_lines_and_chunks(
+    tmp_path: Path, eol: str
+) -> None:
+    """An empty cell in a later chunk, after empty lines, is named by its file line."""
+    rows = [f"{i}.5,1,2,3" for i in range(30)]
+    rows[24] = "24.5,1,,3"  # data row 24 (0-based); blank lines before it push it down
+    body = eol.join(rows[:10]) + eol + eol + eol + eol.join(rows[10:]) + eol
+    path = tmp_path / "gaps.csv"
+    path.write_bytes(("t_s,x_m,y_m,z_m" + eol + body).encode())
+    want = r"gaps\.csv: line 28, column 'y_m': empty cell"  # 24 + header + 2 blank + 1
+    assert path.read_bytes().split(eol.encode())[27].startswith(b"24.5,1,,3")
+    with pytest.raises(InputError, match=want):
+        list(iter_table_chunks(path, 7, REQUIRED))
+    layout, slices = plan_table_slices(path, 7, REQUIRED)
+    with pytest.raises(InputError, match=want):
+        read_table_slice(layout, slices[3])
+
+
+def test_csv_line_of_row_counts_non_empty_lines_across_blocks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kinsync.io import row_position  # noqa: PLC0415
+
+    path = tmp_path / "l.csv"
+    cases = {
+        b"h\n1\n2\n": [2, 3, None],
+        b"h\n1\n\n2": [2, 4, None],
+        b"h\r\n1\r\n\r\n2\r\n": [2, 4, None],
+        b"h\n\n\n1\n2\n\n": [4, 5, None],
+    }
+    for block in (1 << 24, 1, 2):
+        monkeypatch.setattr(row_position, "_BLOCK_BYTES", block)
+        for data, lines in cases.items():
+            path.write_bytes(data)
+            assert [row_position.csv_line_of_row(path, r) for r in range(3)] == lines, data
+    assert row_position.point_position(tmp_path / "p.parquet", 1, 2) == "row 2 of 2"
+    assert row_position.point_position(tmp_path / "p.laz", 0, 9) == "point 1 of 9"

@@ -91,17 +91,20 @@ def _write_text(tmp_path: Path, name: str, text: str) -> Path:
     return path
 
 
+SCAN_HEAD = "profile,angle_rad,range_m,intensity\n"
+
+
 @pytest.mark.parametrize(
     ("text", "fragments"),
     [
         ("profile,angle_rad,range_m\n0,0.1,2\n", ["missing column", "intensity"]),
-        ("profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n1,x,2,0.5\n", ["row 1", "angle_rad"]),
+        (f"{SCAN_HEAD}0,0.1,2,0.5\n1,x,2,0.5\n", ["line 3, column 'angle_rad'"]),
         (
             "profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n3,0.1,2,0.5\n2,0.1,2,0.5\n",
-            ["row 2 (line 4)", "must not decrease", "2 after 3"],
+            ["line 4, column 'profile'", "must not decrease", "2 after 3"],
         ),
-        ("profile,angle_rad,range_m,intensity\n0.5,0.1,2,0.5\n", ["row 0 (line 2)", "whole"]),
-        ("profile,angle_rad,range_m,intensity\n-1,0.1,2,0.5\n", ["row 0", "from 0 to 1e+12"]),
+        (f"{SCAN_HEAD}0.5,0.1,2,0.5\n", ["line 2, column 'profile'", "whole"]),
+        (f"{SCAN_HEAD}-1,0.1,2,0.5\n", ["line 2, column 'profile'", "to 1e+12"]),
         ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["'range_m'", "negative"]),
         ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
         ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
@@ -122,7 +125,8 @@ def test_absurd_profile_numbers_are_refused_without_a_warning(tmp_path: Path, va
     """A column of 1e308 was cast to int64 (a RuntimeWarning) and went on at exit 0."""
     text = f"profile,angle_rad,range_m,intensity\n0,0.1,2,0.5\n{value},0.1,2,0.5\n"
     path = _write_text(tmp_path, "scan.csv", text)
-    with pytest.raises(InputError, match=r"row 1 \(line 3\): .* is not a profile number") as err:
+    want = r"scan\.csv: line 3, column 'profile': .* is not a profile number"
+    with pytest.raises(InputError, match=want) as err:
         read_profile_scan(path)
     assert "np.float64" not in str(err.value)
 
@@ -244,3 +248,17 @@ def test_a_local_clock_model_is_not_taken_for_a_profile_clock(tmp_path: Path) ->
     assert message.startswith(f"{path}: not a profile clock: no t0_s or period_s (its keys: ")
     assert "drift_ppm" in message
     assert message.endswith("give the JSON that kinsync sync object-space --json writes")
+
+
+def test_a_parquet_scan_names_the_row_from_one_of_all(tmp_path: Path) -> None:
+    """Parquet has no lines: a bad profile number is ``row N of M``, counted from 1."""
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    n = 9
+    profile = [0, 1, 2, 3, 4, 5, 6, 7, 2]  # the last row decreases
+    cols = {"profile": profile, "angle_rad": [0.1] * n, "range_m": [2.0] * n}
+    path = tmp_path / "scan.parquet"
+    pq.write_table(pa.table(cols | {"intensity": [0.5] * n}), path, row_group_size=4)
+    with pytest.raises(InputError, match=r"scan\.parquet: row 9 of 9, column 'profile': profile"):
+        read_profile_scan(path)

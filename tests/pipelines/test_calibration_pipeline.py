@@ -155,3 +155,28 @@ def test_cidco_pass_files_carry_their_trajectory() -> None:
         assert line.t_s.max() <= line.trajectory.t_end_s
     with pytest.raises(InputError, match="carry their own trajectory"):
         read_scan_lines(paths, [paths[0]])
+
+
+def test_a_non_finite_return_is_named_by_its_file_line_or_row(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It was "line 'a.csv': return 1 has a non-finite ..." (0-based, no column)."""
+    from kinsync.pipelines import calibration  # noqa: PLC0415
+
+    monkeypatch.setattr(calibration, "_CHUNK", 3)  # the bad row lies past the first chunk
+    folder, sim = survey
+    a = sim.lines[0]
+    table = np.column_stack([a.t_s[:8], a.xyz_scanner_m[:8]]).tolist()
+    rows = [",".join(repr(v) for v in row) for row in table]
+    rows[6] = rows[6].rsplit(",", 1)[0] + ",nan"
+    path = tmp_path / "a.csv"
+    path.write_text("t_s,x_m,y_m,z_m\n" + rows[0] + "\n\n" + "\n".join(rows[1:]) + "\n")
+    sbet = [folder / "trajectory.out"]
+    with pytest.raises(InputError, match=r"a\.csv: line 9, column 'z_m': nan is not finite; 1 "):
+        read_scan_lines([path], sbet, gps_week=sim.gps_week)
+    cols = {"t_s": a.t_s[:8], **{c: a.xyz_scanner_m[:8, j] for j, c in enumerate(("x_m", "y_m"))}}
+    z = a.xyz_scanner_m[:8, 2].copy()
+    z[7] = np.inf
+    pq.write_table(pa.table(cols | {"z_m": z}), tmp_path / "b.parquet", row_group_size=3)
+    with pytest.raises(InputError, match=r"b\.parquet: row 8 of 8, column 'z_m': inf is not"):
+        read_scan_lines([tmp_path / "b.parquet"], sbet, gps_week=sim.gps_week)

@@ -107,4 +107,4 @@ def test_block_threads_report_the_first_bad_point_as_one_thread_does(
                 _run(inputs, "bad.parquet", f"bad_{n}.parquet")
             messages.append(str(err.value))
     assert messages[0] == messages[1]
-    assert f"point {BAD_ROW} of {N}" in messages[0]
+    assert f"bad.parquet: row {BAD_ROW + 1} of {N}, column 'y_m': inf is not finite" in messages[0]

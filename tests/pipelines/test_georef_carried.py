@@ -117,7 +117,7 @@ def test_parquet_to_las_or_ply_refuses_a_null_it_cannot_store(
     src = tmp_path / "points.parquet"
     pq.write_table(table, src)
     out = tmp_path / f"geo{suffix}"
-    with pytest.raises(InputError, match=r"data row 250, column 'maybe': no value \(null\)"):
+    with pytest.raises(InputError, match=r"row 251 of 900, column 'maybe': no value \(null\)"):
         georeference_file(src, traj_path, MOUNT, out, chunk_points=CHUNK, outside="reject")
     assert not out.exists()
 

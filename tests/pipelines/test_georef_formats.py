@@ -163,7 +163,7 @@ def test_table_to_las_refuses_an_intensity_that_does_not_fit(
     with TableChunkWriter(src) as w:
         w.write(cols)
     out = tmp_path / "geo.las"
-    with pytest.raises(InputError, match=r"data row 5, column 'intensity': 70000 does not fit"):
+    with pytest.raises(InputError, match=r"points\.csv: line 7, column 'intensity': 70000 does"):
         georeference_file(src, traj_path, MOUNT, out, crs=CRS)
     assert not out.exists()
 

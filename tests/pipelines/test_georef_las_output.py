@@ -82,7 +82,7 @@ def test_a_span_too_long_for_las_integers_is_a_clear_error(tmp_path: Path) -> No
     traj = _line_trajectory(700.0)
     src = _scan(tmp_path, traj, 2_000)
     out = tmp_path / "geo.laz"
-    with pytest.raises(InputError, match=r"point \d+ georeferences to .*split the file"):
+    with pytest.raises(InputError, match=r"scan\.laz: point \d+ of 2000 georeferences .*split the"):
         georeference_file(src, tmp_path / "traj.csv", MOUNT, out, chunk_points=500)
     assert not out.exists()
     assert list(tmp_path.glob("*.laz")) == [src]
@@ -116,7 +116,11 @@ def test_a_bad_time_beyond_the_first_block_is_named_by_its_index_in_the_chunk(
     t[70_001] = np.nan
     las.gps_time = t
     las.write(src)
-    with pytest.raises(InputError, match=r"points 0\.\.79999: .*time at index 70001 is not finite"):
+    want = (
+        r"scan\.las: point 70002 of 90000, column 'gps_time': point time nan is not finite; "
+        r"1 such point\(s\) in points 1\.\.80000 of 90000"
+    )
+    with pytest.raises(InputError, match=want):
         georeference_file(
             src, tmp_path / "traj.csv", MOUNT, tmp_path / "geo.las", chunk_points=80_000
         )

@@ -216,8 +216,8 @@ def test_carried_types_nulls_and_csv_rejected_lines_are_the_serial_ones(
 @pytest.mark.parametrize(
     ("name", "fragment"),
     [
-        ("bad.csv", "rows 2800..3499: georeference: scanner coordinates at index 3"),
-        ("bad.parquet", "data row 3003, column 'x_m': 'x' is not a number"),  # a read error
+        ("bad.csv", "bad.csv: line 2805, column 'y_m': nan is not finite"),
+        ("bad.parquet", "bad.parquet: row 3004 of 6000, column 'x_m': 'x' is not"),  # read error
     ],
 )
 def test_worker_error_is_the_serial_error(

@@ -135,7 +135,7 @@ def test_kernel_matches_the_formula() -> None:
         georeference_table_points(t, xs[:-1], att, mount)
     bad = xs.copy()
     bad[3, 1] = np.nan
-    with pytest.raises(InputError, match="point 3"):
+    with pytest.raises(InputError, match=r"point at index 3 \(0-based, of 50\), y: nan"):
         georeference_table_points(t, bad, att, mount)
 
 

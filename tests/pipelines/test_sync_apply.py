@@ -65,17 +65,30 @@ def test_apply_bad_input(tmp_path: Path) -> None:
     lines = "profile,angle_rad,range_m\n" + "".join(f"{p},0.1,2\n" for p in [0, 1, 2, 3, 1])
     dec = tmp_path / "dec.csv"
     dec.write_text(lines)
-    with pytest.raises(InputError, match=r"row 4 \(line 6\).*1 after 3"):
+    with pytest.raises(
+        InputError, match=r"dec\.csv: line 6, column 'profile': profile number 1 after 3"
+    ):
         apply_profile_clock(dec, tmp_path / "o.csv", 0.0, 0.03, MOUNT, chunk_points=2)
     assert not (tmp_path / "o.csv").exists()
     assert not list(tmp_path.glob("*.part"))
+    pq.write_table(
+        pa.table({n: pa.array([0.1] * 5) for n in ("angle_rad", "range_m")}).append_column(
+            "profile", pa.array([0, 1, 2, 3, 1])
+        ),
+        tmp_path / "dec.parquet",
+        row_group_size=2,
+    )
+    with pytest.raises(InputError, match=r"dec\.parquet: row 5 of 5, column 'profile': profile"):
+        apply_profile_clock(
+            tmp_path / "dec.parquet", tmp_path / "o.csv", 0.0, 0.03, MOUNT, chunk_points=2
+        )
 
 
 @pytest.mark.parametrize("bad_range", ["-0.5", "1e307", "nan"])
 def test_apply_refuses_a_negative_or_absurd_range(tmp_path: Path, bad_range: str) -> None:
     src = tmp_path / "scan.csv"
     src.write_text(f"profile,angle_rad,range_m\n0,0.1,2\n1,0.1,{bad_range}\n2,0.1,3\n")
-    with pytest.raises(InputError, match=r"data row 1: .*a range is a finite distance"):
+    with pytest.raises(InputError, match=r"scan\.csv: line 3: .*a range is a finite distance"):
         apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
     assert not (tmp_path / "o.csv").exists()
 
@@ -188,12 +201,14 @@ def test_apply_refuses_a_null_in_a_required_column(tmp_path: Path, column: str) 
     scan = scan.set_column(scan.column_names.index(column), column, pa.array(values))
     src = tmp_path / "scan.parquet"
     pq.write_table(scan, src, row_group_size=7)
-    with pytest.raises(InputError, match=rf"scan\.parquet: data row 17, column '{column}': empty"):
+    with pytest.raises(
+        InputError, match=rf"scan\.parquet: row 18 of 23, column '{column}': no value"
+    ):
         apply_profile_clock(src, tmp_path / "o.parquet", 0.0, 0.1, MOUNT, chunk_points=5)
     lines = [f"{i // 2},0.1,2" for i in range(9)]
     lines[6] = {"profile": ",0.1,2", "angle_rad": "3,,2", "range_m": "3,0.1,"}[column]
     csv_src = tmp_path / "scan.csv"
     csv_src.write_text("profile,angle_rad,range_m\n" + "\n".join(lines) + "\n")
-    with pytest.raises(InputError, match=rf"scan\.csv: data row 6, column '{column}': empty"):
+    with pytest.raises(InputError, match=rf"scan\.csv: line 8, column '{column}': empty cell"):
         apply_profile_clock(csv_src, tmp_path / "o.csv", 0.0, 0.1, MOUNT, chunk_points=4)
     assert not list(tmp_path.glob("o.*"))

@@ -407,7 +407,7 @@ def test_extraction_options_are_checked(scene: ControlTargetScene) -> None:
     assert cloud.t_s is not None
     with pytest.raises(InputError, match="shape"):
         CloudPoints(cloud.pos_ecef_m, cloud.t_s[:-1])
-    with pytest.raises(InputError, match="non-finite value at point 3"):
+    with pytest.raises(InputError, match=r"non-finite value at index 3 \(0-based\)"):
         CloudPoints(np.where(np.arange(len(cloud))[:, None] == 3, np.nan, cloud.pos_ecef_m))
 
 

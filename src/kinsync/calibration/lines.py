@@ -15,7 +15,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, PointValueError
 from kinsync.trajectory import Trajectory
 
 __all__ = ["ScanLine"]
@@ -57,11 +57,21 @@ class ScanLine:
         if xyz.shape != (t.size, 3):
             msg = f"line {name!r}: xyz_scanner_m must have shape ({t.size}, 3), got {xyz.shape}"
             raise InputError(msg)
-        bad = ~(np.isfinite(t) & np.all(np.isfinite(xyz), axis=1))
+        finite = np.column_stack([np.isfinite(t), np.isfinite(xyz)])
+        bad = ~np.all(finite, axis=1)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            msg = f"line {name!r}: return {i} has a non-finite time or coordinate"
-            raise InputError(msg)
+            field = ("t", "x", "y", "z")[int(np.flatnonzero(~finite[i])[0])]
+            value = float(t[i]) if field == "t" else float(xyz[i, "xyz".index(field)])
+            problem = f"{value!r} is not finite"
+            count = int(np.count_nonzero(bad))
+            msg = (
+                f"line {name!r}: return at index {i} (0-based), {field}: {problem}; "
+                f"{count} such return(s): drop or fix them"
+            )
+            raise PointValueError(
+                msg, index=i, count=count, field=field, problem=problem, advice="drop or fix them"
+            )
         if not isinstance(self.trajectory, Trajectory):
             msg = f"line {name!r}: trajectory must be a Trajectory"
             raise InputError(msg)

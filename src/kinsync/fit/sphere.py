@@ -176,7 +176,7 @@ def _validated_points(points_m: ArrayLike, what: str) -> FloatArray:
     if not np.isfinite(pts).all():
         row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         msg = (
-            f"{what}: non-finite coordinate in point {row} ({pts[row].tolist()}); "
+            f"{what}: non-finite coordinate at index {row} (0-based, {pts[row].tolist()}); "
             "drop NaN/inf points before fitting"
         )
         raise InputError(msg)

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, PointValueError
 from kinsync.frames import (
     rotation_ned_to_ecef,
 )
@@ -43,6 +43,7 @@ __all__ = [
     "check_latency",
     "georeference",
     "georeference_numpy",
+    "point_value_error",
     "raise_not_finite_points",
     "use_hermite",
     "validated_scanner_points",
@@ -223,8 +224,21 @@ def _shaped_points(
     return t, xyz
 
 
+def point_value_error(
+    what: str, bad: BoolArray, field: str, problem: str, advice: str, n: int
+) -> PointValueError:
+    """A `PointValueError` for the first of the ``bad`` points (of ``n``)."""
+    row = int(np.flatnonzero(bad)[0])
+    count = int(np.count_nonzero(bad))
+    msg = (
+        f"{what}: point at index {row} (0-based, of {n}), {field}: {problem}; "
+        f"{count} such point(s): {advice}"
+    )
+    return PointValueError(msg, index=row, count=count, field=field, problem=problem, advice=advice)
+
+
 def raise_not_finite_points(t: FloatArray, xyz: FloatArray, what: str = "georeference") -> None:
-    """Raise `InputError` naming the first bad point, if any.
+    """Raise `PointValueError` naming the first bad point (by index), if any.
 
     A bad point has a non-finite time or coordinate, or a coordinate beyond
     ±`MAX_SCANNER_RANGE_M`.
@@ -232,30 +246,28 @@ def raise_not_finite_points(t: FloatArray, xyz: FloatArray, what: str = "georefe
     bad_t = ~np.isfinite(t)
     if np.any(bad_t):
         row = int(np.flatnonzero(bad_t)[0])
-        msg = (
-            f"{what}: point time at index {row} is not finite ({float(t[row])!r}); "
-            f"{int(np.count_nonzero(bad_t))} such point(s): drop or fix them"
-        )
-        raise InputError(msg)
-    bad_xyz = ~np.all(np.isfinite(xyz), axis=1)
+        problem = f"point time {float(t[row])!r} is not finite"
+        raise point_value_error(what, bad_t, "t", problem, "drop or fix them", t.size)
+    finite = np.isfinite(xyz)
+    bad_xyz = ~np.all(finite, axis=1)
     if np.any(bad_xyz):
         row = int(np.flatnonzero(bad_xyz)[0])
-        msg = (
-            f"{what}: scanner coordinates at index {row} are not finite (point {row} of "
-            f"{t.size}: {xyz[row].tolist()}); {int(np.count_nonzero(bad_xyz))} such point(s): "
-            "drop or fix them"
+        axis = int(np.flatnonzero(~finite[row])[0])
+        problem = (
+            f"{float(xyz[row, axis])!r} is not finite (scanner coordinates {xyz[row].tolist()})"
         )
-        raise InputError(msg)
-    far = ~np.all(np.abs(xyz) <= MAX_SCANNER_RANGE_M, axis=1)
+        raise point_value_error(what, bad_xyz, "xyz"[axis], problem, "drop or fix them", t.size)
+    within = np.abs(xyz) <= MAX_SCANNER_RANGE_M
+    far = ~np.all(within, axis=1)
     if np.any(far):
         row = int(np.flatnonzero(far)[0])
-        msg = (
-            f"{what}: scanner coordinates at index {row} are {xyz[row].tolist()} m, beyond "
-            f"the {MAX_SCANNER_RANGE_M:.0f} m any laser scanner reaches (point {row} of "
-            f"{t.size}); {int(np.count_nonzero(far))} such point(s): are these scanner-frame "
-            "coordinates in metres?"
+        axis = int(np.flatnonzero(~within[row])[0])
+        problem = (
+            f"scanner coordinates {xyz[row].tolist()} m, beyond the "
+            f"{MAX_SCANNER_RANGE_M:.0f} m any laser scanner reaches"
         )
-        raise InputError(msg)
+        advice = "are these scanner-frame coordinates in metres?"
+        raise point_value_error(what, far, "xyz"[axis], problem, advice, t.size)
 
 
 def validated_scanner_points(

@@ -12,7 +12,7 @@ import numpy as np
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError
-from kinsync.georef.kernel import PositionMethod, georeference
+from kinsync.georef.kernel import PositionMethod, georeference, point_value_error
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
 
@@ -74,19 +74,15 @@ def profile_points_to_scanner(
     bad = ~(np.isfinite(r) & np.isfinite(phi))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
-        msg = (
-            f"{what}: range_m/angle_rad at index {i} not finite ({float(r[i])!r}, "
-            f"{float(phi[i])!r}); {int(np.count_nonzero(bad))} such point(s): drop or fix them"
-        )
-        raise InputError(msg)
+        field = "range_m" if not np.isfinite(r[i]) else "angle_rad"
+        value = float(r[i]) if field == "range_m" else float(phi[i])
+        problem = f"{value!r} is not finite (range_m {float(r[i])!r}, angle_rad {float(phi[i])!r})"
+        raise point_value_error(what, bad, field, problem, "drop or fix them", r.size)
     negative = r < 0.0
     if np.any(negative):
         i = int(np.flatnonzero(negative)[0])
-        msg = (
-            f"{what}: range_m at index {i} is negative ({float(r[i])!r}); "
-            f"{int(np.count_nonzero(negative))} such point(s): a range is >= 0"
-        )
-        raise InputError(msg)
+        problem = f"range {float(r[i])!r} is negative"
+        raise point_value_error(what, negative, "range_m", problem, "a range is >= 0", r.size)
     return mount.profile_to_scanner(phi, r)
 
 

@@ -26,7 +26,8 @@ from kinsync.io.las import (
     scaled_coordinates,
 )
 from kinsync.io.las_crs import LasCrs, read_las_crs
-from kinsync.io.points import iter_table_chunks
+from kinsync.io.points import count_table_rows, iter_table_chunks
+from kinsync.io.row_position import point_position, position_span
 from kinsync.io.trajectory import TimeScale
 
 __all__ = [
@@ -166,26 +167,13 @@ def iter_cloud(
             yield xyz, None, None
 
 
-def _csv_line_of_row(path: Path, row: int) -> int | None:
-    """File line (1-based) of data row ``row`` (0-based) of a CSV; blank lines are skipped."""
-    try:
-        with path.open(encoding="utf-8", errors="replace") as fh:
-            next(fh, None)  # the header, line 1
-            seen = -1
-            for line_no, line in enumerate(fh, start=2):
-                if line.strip():
-                    seen += 1
-                    if seen == row:
-                        return line_no
-    except OSError:
-        return None
-    return None
-
-
 def check_finite_chunk(
     path: Path, xyz: FloatArray, done: int, **columns: FloatArray | None
 ) -> None:
-    """Raise naming the file, the line (CSV) or point, and the column of a non-finite value.
+    """Raise naming the file, the place and the column of the first non-finite value.
+
+    The place is the CSV file line, or the 1-based ``row N of M`` (Parquet) or
+    ``point N of M`` (LAS/LAZ), with how many such points the chunk holds.
 
     Parameters
     ----------
@@ -213,15 +201,26 @@ def check_finite_chunk(
     value = float(other[k]) if other is not None else float(xyz[k, xyz_names.index(name)])
     if name == "t_s" and suffix not in _TABLE_SUFFIXES:
         name = "gps_time"  # a LAS file's times
-    row = done + k
-    if suffix == ".csv":
-        line = _csv_line_of_row(path, row)
-        where = f"line {line}" if line is not None else f"data row {row + 1}"
-    elif suffix == ".parquet":
-        where = f"row {row + 1}"
+    total = _point_total(path)
+    n = xyz.shape[0]
+    n_bad = int(np.count_nonzero(np.logical_or.reduce(list(checks.values()))))
+    if done == 0 and n == total:
+        scope = "in the file"
     else:
-        where = f"point {row} (0-based)"
+        span = position_span(
+            point_position(path, done, total), point_position(path, done + n - 1, total)
+        )
+        scope = f"in {span}"
     msg = (
-        f"{path}: {where}, column {name!r}: {value!r} is not a finite number; drop or fix the point"
+        f"{path}: {point_position(path, done + k, total)}, column {name!r}: {value!r} is not a "
+        f"finite number; {n_bad} such point(s) {scope}: drop or fix them"
     )
     raise InputError(msg)
+
+
+def _point_total(path: Path) -> int | None:
+    """Points of a LAS/LAZ or rows of a Parquet file (None for a CSV: named by line)."""
+    suffix = path.suffix.lower()
+    if suffix in _LAS_SUFFIXES:
+        return las_info(path).point_count
+    return count_table_rows(path) if suffix == ".parquet" else None

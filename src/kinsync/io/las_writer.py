@@ -272,7 +272,8 @@ class LasChunkWriter:
             i = store_scaled(v, float(offset), float(scale), array[name], None)
             if i >= 0:
                 msg = (
-                    f"{self.path}: point {self.points_written + i}: {name.lower()}="
+                    f"{self.path}: point {self.points_written + i + 1} of the output: "
+                    f"{name.lower()}="
                     f"{v[i]!r} cannot be stored with offset {offset} and scale {scale}; "
                     "give finite coordinates and an offset near the data (or a coarser scale)"
                 )

@@ -31,7 +31,7 @@ from __future__ import annotations
 import csv
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -222,11 +222,14 @@ def _parse_index_row(
     return PassIndexRow(line=line, file=file, rate_deg_s=rate, axis_ned=axis)
 
 
-def _read_csv_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
+def _read_csv_points(
+    path: Path,
+) -> tuple[FloatArray, FloatArray | None, Callable[[int], int]]:
+    """Points, times and the file line of each data row of a CSV pass file."""
     table = read_numeric_csv(path, required=_XYZ, optional=("t_s", "intensity"))
     pts = np.column_stack([table.columns[c] for c in _XYZ]) if table.n_rows else np.empty((0, 3))
     t = table.columns.get("t_s")
-    return pts, t
+    return pts, t, table.line_of_row
 
 
 def _read_las_points(path: Path) -> tuple[FloatArray, FloatArray | None]:
@@ -274,8 +277,9 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
     """
     path = Path(path)
     suffix = path.suffix.lower()
+    line_of_row = None
     if suffix == ".csv":
-        pts, t = _read_csv_points(path)
+        pts, t, line_of_row = _read_csv_points(path)
     elif suffix in (".las", ".laz"):
         pts, t = _read_las_points(path)
     else:
@@ -285,8 +289,10 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
         msg = f"{path}: the pass holds no points"
         raise InputError(msg)
 
-    def where(i: int) -> str:
-        return f"{path}: line {i + 2}" if suffix == ".csv" else f"{path}: point {i}"
+    def where(i: int) -> str:  # the CSV's file line, or the LAS point counted from 1
+        if line_of_row is not None:
+            return f"{path}: line {line_of_row(i)}"
+        return f"{path}: point {i + 1} of {pts.shape[0]}"
 
     columns = dict(zip(_XYZ, pts.T, strict=True)) | ({} if t is None else {"t_s": t})
     check_columns(columns, _POINT_SPANS, where)

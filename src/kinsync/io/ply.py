@@ -189,11 +189,12 @@ class PlyChunkWriter:
             if values.dtype.kind in "iu" and values.dtype.itemsize == 8:
                 big = np.flatnonzero((values > _EXACT_INT_MAX) | (values < -_EXACT_INT_MAX))
                 if big.size:
-                    row = self.points_written + int(big[0])
+                    row = self.points_written + int(big[0]) + 1  # counted from 1
                     msg = (
-                        f"{self.path}: point {row}, {name} = {int(values[big[0]])}: PLY has "
-                        "no 64-bit integers and a double holds integers exactly only up to "
-                        "2**53; store this attribute another way"
+                        f"{self.path}: point {row} of the output, {name} = "
+                        f"{int(values[big[0]])}: PLY has no 64-bit integers and a double "
+                        "holds integers exactly only up to 2**53; store this attribute "
+                        "another way"
                     )
                     raise InputError(msg)
             out[name] = values

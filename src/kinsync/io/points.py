@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,6 +45,7 @@ import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
 from kinsync.io.column_map import ColumnMap
+from kinsync.io.row_position import point_position
 from kinsync.io.sanity import check_text_file, not_utf8_cell, require_file
 from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
 
@@ -57,6 +58,7 @@ __all__ = [
     "iter_table_chunks",
     "plan_table_slices",
     "read_table_slice",
+    "slice_position",
     "table_columns",
 ]
 
@@ -155,7 +157,7 @@ def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | No
             header = [c.strip() for c in next(reader)]
         except (csv.Error, StopIteration) as err:
             return InputError(f"{path}: cannot read the header ({err})")
-        return _first_bad_cell(path, reader, header, required, first_line=0, first_row=0)
+        return _first_bad_cell(path, reader, header, required, first_line=0)
 
 
 def _first_bad_cell(
@@ -165,18 +167,15 @@ def _first_bad_cell(
     required: Sequence[str],
     *,
     first_line: int,
-    first_row: int,
 ) -> InputError | None:
     """First bad row read by ``reader`` (a ``csv.reader``), or None.
 
     Bad: a required cell empty or not a number, or a row with another number of fields
-    than the header. The reader's line 1 is file line ``first_line + 1``; its first
-    non-empty line is data row ``first_row``. A byte that is not UTF-8 in any cell (text
-    decoded with ``errors="surrogateescape"``) and a line the ``csv`` module cannot read
-    are bad too.
+    than the header. The reader's line 1 is file line ``first_line + 1``. A byte that
+    is not UTF-8 in any cell (text decoded with ``errors="surrogateescape"``) and a line
+    the ``csv`` module cannot read are bad too.
     """
     cols = [(name, list(header).index(name)) for name in required]
-    row = first_row - 1
     while True:
         try:
             cells = next(reader)
@@ -187,13 +186,12 @@ def _first_bad_cell(
             return InputError(f"{path}: line {line}: cannot read as CSV ({err})")
         if not cells or all(not c.strip() for c in cells):
             continue
-        row += 1
         for cell in cells:
             if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
                 return bad
         if len(cells) != len(header):
             msg = (
-                f"{path}: line {first_line + reader.line_num} (data row {row}): {len(cells)} "
+                f"{path}: line {first_line + reader.line_num}: {len(cells)} "
                 f"field(s) where the header has {len(header)}; fix the row (a comma too many "
                 "or too few, or a value holding a comma that needs quotes)"
             )
@@ -205,7 +203,7 @@ def _first_bad_cell(
             except ValueError:
                 what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
                 msg = (
-                    f"{path}: line {first_line + reader.line_num} (data row {row}), column "
+                    f"{path}: line {first_line + reader.line_num}, column "
                     f"{name!r}: {what}; fix or remove the row"
                 )
                 return InputError(msg)
@@ -234,12 +232,18 @@ def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
 
 
 def _chunk_to_numpy(
-    path: Path, table: Any, required: Sequence[str], first_row: int, *, arrow: bool = False
+    path: Path,
+    table: Any,
+    required: Sequence[str],
+    where: Callable[[int], str],
+    *,
+    arrow: bool = False,
 ) -> dict[str, Any]:
     """The columns of a table chunk, required ones checked and float64.
 
     The others are numpy arrays, or with ``arrow`` the pyarrow arrays they are (their
     types and nulls kept: numpy would turn an integer column with nulls into floats).
+    ``where(i)`` names the chunk's row ``i`` in the file (`point_position`).
     """
     out: dict[str, Any] = {}
     for name in table.column_names:
@@ -247,8 +251,9 @@ def _chunk_to_numpy(
         if name in required:
             if col.null_count:
                 idx = int(np.flatnonzero(col.is_null().to_numpy(zero_copy_only=False))[0])
+                what = "empty cell" if _suffix(path) == ".csv" else "no value (null)"
                 msg = (
-                    f"{path}: data row {first_row + idx}, column {name!r}: empty cell; "
+                    f"{path}: {where(idx)}, column {name!r}: {what}; "
                     "every point needs a number there: fix or remove the row"
                 )
                 raise InputError(msg)
@@ -259,7 +264,7 @@ def _chunk_to_numpy(
                         float(v)
                     except (TypeError, ValueError):
                         msg = (
-                            f"{path}: data row {first_row + i}, column {name!r}: {v!r} is "
+                            f"{path}: {where(i)}, column {name!r}: {v!r} is "
                             f"not a number (column type {col.type}); store numbers there"
                         )
                         raise InputError(msg) from None
@@ -365,6 +370,7 @@ def iter_table_chunks(
         block = int(min(max(chunk_points * 16 * max(len(names), 1), 1 << 20), 1 << 30))
         text = [n for n in names if n not in required] if extra_as_text else []
         batches: Iterator[Any] = _csv_batches(path, required, block, text)
+        total = None
     else:
         try:
             pf = pq.ParquetFile(path)
@@ -372,10 +378,15 @@ def iter_table_chunks(
             msg = f"{path}: cannot read as Parquet ({err})"
             raise InputError(msg) from err
         batches = pf.iter_batches(batch_size=chunk_points)
+        total = int(pf.metadata.num_rows)
     first_row = 0
+
+    def where(i: int) -> str:
+        return point_position(path, first_row + i, total)
+
     try:
         for table in _rebatch(batches, chunk_points):
-            chunk = _chunk_to_numpy(path, table, required, first_row, arrow=arrow)
+            chunk = _chunk_to_numpy(path, table, required, where, arrow=arrow)
             yield _renamed(chunk, renames)
             first_row += table.num_rows
     finally:  # close the CSV reader (its read-ahead threads) whatever stopped the loop
@@ -742,14 +753,12 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
                 layout.columns,
                 layout.required,
                 first_line=sl.first_line - 1,
-                first_row=sl.first_row,
             )
             if bad is not None:
                 raise bad from err
         if "conversion error" in str(err):
             msg = (
-                f"{path}: lines {sl.first_line}.. (data rows {sl.first_row}.."
-                f"{sl.first_row + sl.n_rows - 1}): {err}; a column's values change type "
+                f"{path}: lines {sl.first_line}..: {err}; a column's values change type "
                 "after the first rows (types are inferred from the first block): make the "
                 "column uniform"
             )
@@ -819,11 +828,33 @@ def read_table_slice(layout: TableLayout, sl: TableSlice, *, arrow: bool = False
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
     if table.num_rows != sl.n_rows:
+        where = (
+            f"lines {sl.first_line}.."
+            if sl.first_line
+            else f"rows {sl.first_row + 1}..{sl.first_row + sl.n_rows} of {layout.total_rows}"
+        )
         msg = (
-            f"{path}: data rows {sl.first_row}..{sl.first_row + sl.n_rows - 1} read back "
-            f"as {table.num_rows} rows; the file changed while it was read, or a quoted "
+            f"{path}: {where}: {sl.n_rows} rows were planned, {table.num_rows} read back; "
+            "the file changed while it was read, or a quoted "
             "value holds a line break (not supported: remove line breaks from values)"
         )
         raise InputError(msg)
-    columns = _chunk_to_numpy(path, table, layout.required, sl.first_row, arrow=arrow)
+    columns = _chunk_to_numpy(
+        path, table, layout.required, lambda i: slice_position(layout, sl, i), arrow=arrow
+    )
     return _renamed(columns, layout.renames)
+
+
+def slice_position(layout: TableLayout, sl: TableSlice, i: int) -> str:
+    """Row ``i`` of a slice as a user finds it in the file (`point_position`).
+
+    ``line N`` for a CSV (1-based, header = line 1), ``row N of M`` for Parquet.
+    """
+    return point_position(
+        layout.path,
+        sl.first_row + i,
+        layout.total_rows,
+        byte_start=sl.byte_start if sl.first_line else None,
+        first_line=sl.first_line or 2,
+        first_row=sl.first_row,
+    )

@@ -34,6 +34,7 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
+from kinsync.io.row_position import point_position
 from kinsync.io.sanity import (
     ANGLE_RAD,
     HEIGHT_M,
@@ -89,8 +90,8 @@ def read_profile_scan(path: Path) -> ProfileScan:
     ------
     InputError
         Missing file or columns, a non-numeric cell, a value that is not finite or not
-        plausible (`kinsync.io.sanity`), or a bad profile number (naming the row and,
-        for CSV, the line).
+        plausible (`kinsync.io.sanity`), or a bad profile number (naming the CSV line
+        or the Parquet row, counted from 1).
     """
     path = Path(path)
     parts: dict[str, list[FloatArray]] = {c: [] for c in SCAN_COLUMNS}
@@ -101,13 +102,15 @@ def read_profile_scan(path: Path) -> ProfileScan:
         msg = f"{path}: the scan has no data rows; expected columns {list(SCAN_COLUMNS)}"
         raise InputError(msg)
     cols = {c: np.concatenate(v) for c, v in parts.items()}
-    line_offset = 2 if path.suffix.lower() == ".csv" else None
+    total = int(cols["profile"].size)
 
-    def where(row: int) -> str:
-        return f"{path}: " + (f"line {row + 2}" if line_offset else f"row {row}")
+    def where(row: int) -> str:  # CSV: the file line; Parquet: "row N of M"
+        return f"{path}: {point_position(path, row, total)}"
 
     check_columns(cols, _SCAN_SPANS, where)
-    profile = ProfileScan.checked_profile_numbers(cols["profile"], str(path), line_offset)
+    profile = ProfileScan.checked_profile_numbers(
+        cols["profile"], str(path), lambda i: point_position(path, i, total)
+    )
     return ProfileScan(
         profile=profile,
         angle_rad=cols["angle_rad"],

@@ -7,7 +7,7 @@ pyarrow infers from the file's first MiB (``TableLayout.inferred``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -22,7 +22,11 @@ __all__ = ["numeric_columns"]
 
 
 def _cast_error(
-    layout: TableLayout, name: str, values: np.ndarray[Any, Any], target: Any, first_row: int
+    layout: TableLayout,
+    name: str,
+    values: np.ndarray[Any, Any],
+    target: Any,
+    where: Callable[[int], str],
 ) -> InputError:
     """The first value of a text column that does not convert to ``target``."""
     column = layout.file_name(name)
@@ -32,7 +36,7 @@ def _cast_error(
         except (pa.ArrowException, ValueError):
             what = "empty cell" if value == "" else f"{value[:80]!r} is not a {target} value"
             msg = (
-                f"{layout.path}: data row {first_row + i}, column {column!r}: {what} (the "
+                f"{layout.path}: {where(i)}, column {column!r}: {what} (the "
                 f"column reads as {target} from the first rows); fix the value"
             )
             return InputError(msg)
@@ -46,22 +50,26 @@ def _is_number(kind: Any) -> bool:
 
 
 def _without_nulls(
-    layout: TableLayout, name: str, values: Any, first_row: int, needed: BoolArray | None
+    layout: TableLayout,
+    name: str,
+    values: Any,
+    where: Callable[[int], str],
+    needed: BoolArray | None,
 ) -> Any:
     """An integer or boolean pyarrow column's nulls filled, when no needed row has one.
 
     Raises
     ------
     InputError
-        A null in a needed row, naming its data row and column.
+        A null in a needed row, naming where it is (``where``) and its column.
     """
     nulls = np.asarray(values.is_null().to_numpy(zero_copy_only=False))
     if needed is not None:
         nulls &= needed
     if nulls.any():
-        row = first_row + int(np.flatnonzero(nulls)[0])
+        row = int(np.flatnonzero(nulls)[0])
         msg = (
-            f"{layout.path}: data row {row}, column {layout.file_name(name)!r}: no value "
+            f"{layout.path}: {where(row)}, column {layout.file_name(name)!r}: no value "
             f"(null) in a {values.type} column, which this output cannot store as missing: "
             "fill it, or write a CSV or Parquet output (they keep nulls)"
         )
@@ -72,7 +80,7 @@ def _without_nulls(
 def numeric_columns(
     layout: TableLayout,
     columns: Mapping[str, Any],
-    first_row: int,
+    where: Callable[[int], str],
     needed: BoolArray | None = None,
 ) -> dict[str, np.ndarray[Any, Any]]:
     """The numeric (and boolean) columns of a slice, as numpy arrays.
@@ -88,8 +96,9 @@ def numeric_columns(
     layout : TableLayout
     columns : mapping of str to ndarray or pyarrow array, shape (M,)
         A slice as `read_table_slice` gives it (with ``arrow`` or without).
-    first_row : int
-        Data row of the slice's first row (for messages).
+    where : callable of int to str
+        Row ``i`` of the slice as a user finds it in the file (for messages:
+        `kinsync.io.points.slice_position`).
     needed : ndarray of bool, shape (M,), optional
         The rows whose values are used (the others may hold nulls); default all.
 
@@ -97,7 +106,7 @@ def numeric_columns(
     ------
     InputError
         A cell that does not convert, a null in a needed row of an integer or boolean
-        column (naming its data row and column).
+        column (naming its line or row, and column).
     """
     out: dict[str, np.ndarray[Any, Any]] = {}
     for name, values in columns.items():
@@ -105,7 +114,7 @@ def numeric_columns(
         if arrow and _is_number(values.type):
             filled = values
             if values.null_count and not pa.types.is_floating(values.type):
-                filled = _without_nulls(layout, name, values, first_row, needed)
+                filled = _without_nulls(layout, name, values, where, needed)
             out[name] = filled.to_numpy(zero_copy_only=False)
             continue
         if not arrow and values.dtype.kind in "biuf":
@@ -126,5 +135,5 @@ def numeric_columns(
             out[name] = pc.cast(text, target).to_numpy(zero_copy_only=False)
         except (pa.ArrowException, ValueError) as err:
             cells = np.asarray(text.to_numpy(zero_copy_only=False))
-            raise _cast_error(layout, name, cells, target, first_row) from err
+            raise _cast_error(layout, name, cells, target, where) from err
     return out

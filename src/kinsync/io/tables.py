@@ -20,6 +20,7 @@ import pyarrow.csv as pa_csv
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
     MAX_TABLE_BYTES,
     MAX_TEXT_ROWS_BYTES,
@@ -62,8 +63,14 @@ class NumericTable:
         return len(next(iter(self.columns.values()))) if self.columns else 0
 
     def line_of_row(self, row: int) -> int:
-        """File line number (1-based, header = line 1) of a 0-based data row."""
-        return row + 2
+        """File line number (1-based, header = line 1) of a 0-based data row.
+
+        Empty lines are not rows (the reader skips them) but count as lines: the file
+        is read up to the row (messages only) when the source is a file.
+        """
+        path = Path(self.source)
+        line = csv_line_of_row(path, row) if path.is_file() else None
+        return row + 2 if line is None else line
 
 
 def rows_to_lines(text: str, line_of_row: Callable[[int], int]) -> str:

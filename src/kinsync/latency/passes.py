@@ -61,7 +61,7 @@ class SpherePass:
         finite = np.all(np.isfinite(pts), axis=1)
         if not np.all(finite):
             row = int(np.flatnonzero(~finite)[0])
-            msg = f"{self.source}: non-finite coordinate in point {row}"
+            msg = f"{self.source}: non-finite coordinate at point index {row} (0-based)"
             raise InputError(msg)
         pts = pts.copy()
         pts.setflags(write=False)

@@ -32,11 +32,12 @@ from kinsync._typing import FloatArray
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.result import CalibrationResult
-from kinsync.errors import InputError
+from kinsync.errors import InputError, PointValueError
 from kinsync.io.cidco import cidco_scan_line, read_cidco_pass
 from kinsync.io.las import iter_las_chunks, las_info, las_time_offset_s, scaled_coordinates
 from kinsync.io.mount_file import write_mount
 from kinsync.io.points import iter_table_chunks
+from kinsync.io.row_position import point_position
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
@@ -94,6 +95,18 @@ def _read_table(path: Path) -> tuple[FloatArray, FloatArray]:
     if not ts:
         return np.empty(0), np.empty((0, 3))
     return np.concatenate(ts), np.concatenate(xs)
+
+
+def _bad_return_text(path: Path, err: PointValueError, total: int) -> str:
+    """A bad return of a points file, by CSV line, Parquet row or LAS point, and column."""
+    if path.suffix.lower() in _LAS:
+        column = "gps_time" if err.field == "t" else err.field
+    else:
+        column = {"t": "t_s", "x": "x_m", "y": "y_m", "z": "z_m"}[err.field]
+    return (
+        f"{path}: {point_position(path, err.index, total)}, column {column!r}: {err.problem}; "
+        f"{err.count} such point(s) in the file: {err.advice}"
+    )
 
 
 def read_scan_lines(
@@ -158,6 +171,8 @@ def read_scan_lines(
             raise InputError(msg)
         try:
             lines.append(ScanLine(path.name, t, xyz, traj))
+        except PointValueError as err:  # the index is the file's row: say it as the file does
+            raise InputError(_bad_return_text(path, err, t.size)) from err
         except InputError as err:
             msg = f"{path}: {err}"
             raise InputError(msg) from err

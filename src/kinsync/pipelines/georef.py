@@ -662,7 +662,7 @@ def _plan_las(
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
-    return template, ChunkSource(path, "xyz", None, offset), tasks, n
+    return template, ChunkSource(path, "xyz", None, offset, total=n), tasks, n
 
 
 def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> list[float]:

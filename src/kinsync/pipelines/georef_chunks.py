@@ -24,7 +24,7 @@ from numba import njit
 
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.crs import CrsPlan, crs_plan_transformer
-from kinsync.errors import InputError
+from kinsync.errors import InputError, PointValueError
 from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
 from kinsync.georef.profile import profile_points_to_scanner
 from kinsync.georef.trajectory import GeorefTrajectory
@@ -41,7 +41,9 @@ from kinsync.io.points import (
     TableSlice,
     csv_text_columns,
     read_table_slice,
+    slice_position,
 )
+from kinsync.io.row_position import point_position, position_span
 from kinsync.io.table_numbers import numeric_columns
 from kinsync.mount import Mount
 
@@ -101,6 +103,7 @@ class ChunkSource:
     points: Literal["xyz", "profile"]
     table: TableLayout | None = None  # None for LAS/LAZ
     las_time_offset_s: float = 0.0  # added to LAS gps_time
+    total: int = 0  # LAS/LAZ: points in the file (a table's are ``table.total_rows``)
 
 
 @dataclass(frozen=True)
@@ -391,9 +394,10 @@ def _process_table_task(
     try:
         xyz = _scanner_xyz(ctx, columns)
         pos, inside = _georeference_blocks(ctx, t, xyz, blocks)
+    except PointValueError as err:
+        return replace(base, error=_point_value_text(ctx, task, err))
     except InputError as err:
-        error = f"{src.path}: rows {task.first}..{task.first + base.count - 1}: {err}"
-        return replace(base, error=error)
+        return replace(base, error=f"{src.path}: {_task_span(ctx, task)}: {err}")
     all_inside = bool(inside.all())
     if not all_inside and ctx.outside == "error":
         return base
@@ -404,7 +408,8 @@ def _process_table_task(
     if not_finite.any():  # finite inputs, absurd combination (a trajectory, a CRS)
         row = int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
         error = (
-            f"{src.path}: row {task.first + row}: georeferences to {coords[not_finite][0]} "
+            f"{src.path}: {_task_position(ctx, task, row)}: georeferences to "
+            f"{coords[not_finite][0]} "
             f"in {ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
         )
         return replace(base, error=error)
@@ -436,7 +441,7 @@ def _table_output(
     if ctx.output == "las":
         return _table_las_output(ctx, task, base, t, columns, inside, all_inside, coords, rejected)
     if ctx.output == "ply":
-        kept = numeric_columns(layout, columns, task.first, inside)
+        kept = numeric_columns(layout, columns, _slice_where(ctx, task), inside)
         ply = {axis: coords[:, j] for j, axis in enumerate(PLY_XYZ)}
         ply |= {
             n: _inside(kept[layout.kinsync_name(n)], inside, all_inside) for n in ctx.ply_columns
@@ -471,18 +476,18 @@ def _table_las_output(
     assert plan is not None
     assert frame is not None
     assert layout is not None
-    kept = numeric_columns(layout, columns, task.first, inside)
+    kept = numeric_columns(layout, columns, _slice_where(ctx, task), inside)
     wanted = {n: _inside(kept[n], inside, all_inside) for n in plan.standard}
     wanted |= {n: _inside(kept[n], inside, all_inside) for n, _ in plan.extra}
     rows = np.flatnonzero(inside)
     records, error = plan.records(_inside(t, inside, all_inside), wanted)
     if error is not None:
-        at = task.first + int(rows[error[0]])
-        return replace(base, error=f"{ctx.source.path}: data row {at}, {error[1]}")
+        where = _task_position(ctx, task, int(rows[error[0]]))
+        return replace(base, error=f"{ctx.source.path}: {where}, {error[1]}")
     bad = store_coordinates(records, coords, frame.offsets, frame.scales)
     if bad >= 0:
-        at = task.first + int(rows[bad])
-        return replace(base, error=_las_storage_error(ctx, at, coords[bad]))
+        where = _task_position(ctx, task, int(rows[bad]))
+        return replace(base, error=_las_storage_error(ctx, where, coords[bad]))
     return replace(base, records=records, rejected_columns=rejected)
 
 
@@ -532,7 +537,7 @@ def _process_las_task(
         coords = pos if to_crs is None else to_crs(pos)
         bad = store_coordinates(block, coords, frame.offsets, frame.scales, block_inside)
         if bad >= 0:
-            return _las_storage_error(ctx, task.first + start + bad, coords[bad])
+            return _las_storage_error(ctx, _task_position(ctx, task, start + bad), coords[bad])
         inside[start:stop] = block_inside
         return None
 
@@ -587,10 +592,11 @@ def _las_table_output(
     kept_coords = coords if all_inside else coords[inside]
     not_finite = ~np.isfinite(kept_coords).all(axis=1)
     if not_finite.any():
-        at = task.first + int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
+        at = int(np.flatnonzero(inside)[np.flatnonzero(not_finite)[0]])
         error = (
-            f"{src.path}: point {at}: georeferences to {kept_coords[not_finite][0]} in "
-            f"{ctx.crs}, not a finite coordinate; check the trajectory and the CRS"
+            f"{src.path}: {_task_position(ctx, task, at)}: georeferences to "
+            f"{kept_coords[not_finite][0]} in {ctx.crs}, not a finite coordinate; check the "
+            "trajectory and the CRS"
         )
         return replace(base, error=error)
     columns = las_columns(kept, record.point_format, kept_coords)
@@ -606,19 +612,68 @@ def _las_table_output(
 def _las_chunk_error(ctx: ChunkContext, task: ChunkTask, record: Any, err: InputError) -> str:
     """The message for a LAS chunk that failed to georeference.
 
-    It names the first non-finite point by its index in the chunk (the failing block's
-    own error names its index in the block).
+    It names the chunk's first bad point as the file counts it (the failing block's own
+    error names its index in the block).
     """
     t = np.asarray(record.gps_time, dtype=np.float64) + ctx.source.las_time_offset_s
     xyz = scaled_coordinates(record.array, record.scales, record.offsets)
     try:
         raise_not_finite_points(t, xyz)
+    except PointValueError as chunk_err:
+        return _point_value_text(ctx, task, chunk_err)
     except InputError as chunk_err:
         err = chunk_err
-    return f"{ctx.source.path}: points {task.first}..{task.first + t.size - 1}: {err}"
+    return f"{ctx.source.path}: {_task_span(ctx, task)}: {err}"
 
 
-def _las_storage_error(ctx: ChunkContext, index: int, coords: FloatArray) -> str:
+def _slice_where(ctx: ChunkContext, task: ChunkTask) -> Callable[[int], str]:
+    """Row ``i`` of a table task as a user finds it in the file (`slice_position`)."""
+    layout, sl = ctx.source.table, task.table_slice
+    assert layout is not None
+    assert sl is not None
+    return lambda i: slice_position(layout, sl, i)
+
+
+def _task_position(ctx: ChunkContext, task: ChunkTask, i: int) -> str:
+    """Point ``i`` of a task (0-based in the task) as a user finds it in the file.
+
+    ``line N`` (CSV, header = line 1), ``row N of M`` (Parquet), ``point N of M``
+    (LAS/LAZ), counted from 1.
+    """
+    if ctx.source.table is not None:
+        return _slice_where(ctx, task)(i)
+    return point_position(ctx.source.path, task.first + i, ctx.source.total)
+
+
+def _task_span(ctx: ChunkContext, task: ChunkTask) -> str:
+    """The points of a task as a user finds them: ``lines 2..1001``, ``rows 1..1000 of M``."""
+    return position_span(_task_position(ctx, task, 0), _task_position(ctx, task, task.count - 1))
+
+
+def _point_value_text(ctx: ChunkContext, task: ChunkTask, err: PointValueError) -> str:
+    """A kernel's `PointValueError` (0-based index in the task) in the file's own terms.
+
+    Names the point (`_task_position`), the file's column and how many such points the
+    chunk holds (the whole file when it is one chunk).
+    """
+    layout, src = ctx.source.table, ctx.source
+    if layout is None:  # LAS/LAZ: its dimensions
+        column = "gps_time" if err.field == "t" else err.field
+        total = src.total
+    else:
+        column = {"t": "t_s", "x": "x_m", "y": "y_m", "z": "z_m"}.get(err.field, err.field)
+        if src.points == "profile" and err.field in ("x", "y", "z"):
+            column = "range_m"  # the scanner coordinates come from range and angle
+        column = layout.file_name(column)
+        total = layout.total_rows
+    scope = "in the file" if task.count == total else f"in {_task_span(ctx, task)}"
+    return (
+        f"{src.path}: {_task_position(ctx, task, err.index)}, column {column!r}: "
+        f"{err.problem}; {err.count} such point(s) {scope}: {err.advice}"
+    )
+
+
+def _las_storage_error(ctx: ChunkContext, where: str, coords: FloatArray) -> str:
     """The message for a point whose coordinates LAS integers cannot hold.
 
     Scanner coordinates are within ±`kinsync.georef.kernel.MAX_SCANNER_RANGE_M` of the
@@ -632,7 +687,7 @@ def _las_storage_error(ctx: ChunkContext, index: int, coords: FloatArray) -> str
     away = [abs(float(c) - o) for c, o in zip(coords.tolist(), frame.offsets, strict=True)]
     axis = max(range(3), key=lambda j: away[j] / reach[j])
     return (
-        f"{ctx.source.path}: point {index} georeferences to {coords.tolist()} ({ctx.crs}), "
+        f"{ctx.source.path}: {where} georeferences to {coords.tolist()} ({ctx.crs}), "
         f"{away[axis]:.6g} from the file's reference position along {'xyz'[axis]} "
         f"(offsets {list(frame.offsets)}, the trajectory at the middle of the file's time "
         f"span); LAS integers at scales {list(frame.scales)} reach only {reach[axis]:.6g} "

@@ -28,7 +28,8 @@ import pyarrow.parquet as pq
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
-from kinsync.io.points import TableChunkWriter, iter_table_chunks
+from kinsync.io.points import TableChunkWriter, count_table_rows, iter_table_chunks
+from kinsync.io.row_position import point_position
 from kinsync.mount import Mount
 from kinsync.sync.scan import ProfileScan
 
@@ -98,8 +99,8 @@ def apply_profile_clock(
     ------
     InputError
         A mount without ``[profiler]``, a bad clock, an input that already has one of
-        the output columns, bad profile numbers (naming the row), an empty cell or null
-        in ``profile``, ``angle_rad`` or ``range_m`` (naming the data row and column),
+        the output columns, bad profile numbers, an empty cell or null in ``profile``,
+        ``angle_rad`` or ``range_m`` (naming the CSV line or Parquet row, and column),
         unreadable files.
     """
     if mount.profiler_azimuth_deg is None:
@@ -116,7 +117,17 @@ def apply_profile_clock(
     required = ("profile", "angle_rad", "range_m")
     done = 0
     last_profile = 0.0
-    line_offset = 2 if scan_path.suffix.lower() == ".csv" else None
+    csv = scan_path.suffix.lower() == ".csv"
+    total = None if csv else count_table_rows(scan_path)  # Parquet: "row N of M"
+
+    def where(row: int) -> str:
+        """Data row ``row`` (0-based) as a user finds it: CSV line, Parquet row of all."""
+        return point_position(scan_path, row, total)
+
+    def from_row(first: int) -> Callable[[int], str]:
+        """``where`` for an array whose value 0 is data row ``first``."""
+        return lambda i: where(first + i)
+
     stored: dict[str, Any] = {}
     chunks = iter_table_chunks(scan_path, chunk_points, required, extra_as_text=True, arrow=True)
     with TableChunkWriter(Path(out_path)) as writer:
@@ -131,11 +142,11 @@ def apply_profile_clock(
                 )
                 raise InputError(msg)
             before = [] if done == 0 else [last_profile]  # the order checked across chunks
+            first = done - len(before)  # the file's data row of the array's first value
             profile = ProfileScan.checked_profile_numbers(
                 np.concatenate([before, chunk["profile"]]),
                 str(scan_path),
-                line_offset,
-                row_offset=done - len(before),
+                from_row(first),
             )[len(before) :]
             last_profile = float(chunk["profile"][-1])
             phi = chunk["angle_rad"]
@@ -144,7 +155,7 @@ def apply_profile_clock(
             if np.any(bad):
                 row = int(np.flatnonzero(bad)[0])
                 msg = (
-                    f"{scan_path}: data row {done + row}: angle_rad {float(phi[row])!r}, "
+                    f"{scan_path}: {where(done + row)}: angle_rad {float(phi[row])!r}, "
                     f"range_m {float(rng_m[row])!r}: a range is a finite distance, 0 to "
                     f"{MAX_SCANNER_RANGE_M:.0f} m, and an angle finite; fix or remove the row"
                 )

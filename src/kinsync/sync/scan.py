@@ -8,6 +8,7 @@ writes them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,9 +31,9 @@ SCAN_COLUMNS = ("profile", "angle_rad", "range_m", "intensity")
 SYNC_POINT_COLUMNS = ("name", "lat_deg", "lon_deg", "h_m")
 
 
-def _row_text(row: int, line_offset: int | None) -> str:
-    """``row 5`` or ``row 5 (line 7)`` when rows map to file lines."""
-    return f"row {row}" if line_offset is None else f"row {row} (line {row + line_offset})"
+def _index_text(row: int) -> str:
+    """An array index, said to be one (a reader passes the file's own words instead)."""
+    return f"index {row} (0-based)"
 
 
 MAX_PROFILE_NUMBER = 1e12
@@ -41,7 +42,7 @@ damaged column, and its product with the period would lose the profile's time)."
 
 
 def _checked_profile_numbers(
-    profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
+    profile: ArrayLike, source: str, where: Callable[[int], str] | None = None
 ) -> IntArray:
     """Profile numbers as int64: whole, >= 0 and never decreasing.
 
@@ -51,10 +52,9 @@ def _checked_profile_numbers(
         Profile number of each return.
     source : str
         Name used in messages (file path).
-    line_offset : int, optional
-        File line of data row 0 (2 for a CSV with a header), to name lines.
-    row_offset : int
-        Data row of ``profile[0]`` (for chunks of a longer table).
+    where : callable of int to str, optional
+        Names ``profile[i]`` in messages as the reader's file counts it (``line 7``,
+        ``row 6 of 9``); default its 0-based index, said to be one.
 
     Raises
     ------
@@ -62,13 +62,14 @@ def _checked_profile_numbers(
         Naming the first row that is not finite, not whole, negative or smaller than
         the row before.
     """
+    name = _index_text if where is None else where
     p = np.asarray(profile, dtype=np.float64)
     with np.errstate(invalid="ignore"):  # NaN and inf are reported below, not warned
         bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 0) | (p > MAX_PROFILE_NUMBER)
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
         msg = (
-            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: "
+            f"{source}: {name(row)}, column 'profile': "
             f"{float(p[row])!r} is not a profile number (a whole number from 0 to "
             f"{MAX_PROFILE_NUMBER:.0e})"
         )
@@ -77,7 +78,7 @@ def _checked_profile_numbers(
     if np.any(down):
         row = int(np.flatnonzero(down)[0]) + 1
         msg = (
-            f"{source}: column 'profile', {_row_text(row + row_offset, line_offset)}: profile "
+            f"{source}: {name(row)}, column 'profile': profile "
             f"number {int(p[row])} after {int(p[row - 1])}; profile numbers must not decrease "
             "(returns in acquisition order): sort the scan by profile, keeping the order "
             "within each profile"
@@ -94,7 +95,7 @@ def _finite_column(values: ArrayLike, name: str, n: int, source: str) -> FloatAr
     bad = ~np.isfinite(arr)
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
-        msg = f"{source}: column {name!r}, row {row}: {arr[row]!r} is not a finite number"
+        msg = f"{source}: {_index_text(row)}, column {name!r}: {arr[row]!r} is not a finite number"
         raise InputError(msg)
     out = np.array(arr, dtype=np.float64, copy=True)
     out.setflags(write=False)
@@ -140,7 +141,10 @@ class ProfileScan:
         neg = self.range_m < 0
         if np.any(neg):
             row = int(np.flatnonzero(neg)[0])
-            msg = f"{self.source}: column 'range_m', row {row}: negative range {self.range_m[row]}"
+            msg = (
+                f"{self.source}: {_index_text(row)}, column 'range_m': negative range "
+                f"{self.range_m[row]}"
+            )
             raise InputError(msg)
 
     def __len__(self) -> int:
@@ -148,16 +152,16 @@ class ProfileScan:
 
     @staticmethod
     def checked_profile_numbers(
-        profile: ArrayLike, source: str, line_offset: int | None = None, row_offset: int = 0
+        profile: ArrayLike, source: str, where: Callable[[int], str] | None = None
     ) -> IntArray:
         """Profile numbers as int64: whole, >= 0 and never decreasing.
 
         For readers and pipelines that check a column (or a chunk of it) before the
         scan is built; parameters and errors as in the module's
-        ``_checked_profile_numbers``: ``source`` names the file, ``line_offset`` the
-        file line of data row 0, ``row_offset`` the data row of ``profile[0]``.
+        ``_checked_profile_numbers``: ``source`` names the file, ``where(i)`` the
+        place of ``profile[i]`` in it (``line 7``, ``row 6 of 9``).
         """
-        return _checked_profile_numbers(profile, source, line_offset, row_offset)
+        return _checked_profile_numbers(profile, source, where)
 
     @property
     def n_profiles(self) -> int:
@@ -197,7 +201,7 @@ class SyncPoints:
             raise InputError(msg)
         for i, name in enumerate(names):
             if not name.strip():
-                msg = f"{self.source}: point {i} has an empty name"
+                msg = f"{self.source}: point at index {i} (0-based) has an empty name"
                 raise InputError(msg)
             if names.count(name) > 1:
                 msg = f"{self.source}: name {name!r} appears more than once; names must be unique"

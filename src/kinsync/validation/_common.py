@@ -32,7 +32,7 @@ def finite_rows(values: ArrayLike, n: int | None, width: int | None, name: str) 
     bad = ~np.isfinite(arr) if arr.ndim == 1 else ~np.all(np.isfinite(arr), axis=1)
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
-        msg = f"{name}: non-finite value at point {row}; drop or fix it"
+        msg = f"{name}: non-finite value at index {row} (0-based); drop or fix it"
         raise InputError(msg)
     arr.setflags(write=False)
     return arr

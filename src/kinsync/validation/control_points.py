@@ -49,7 +49,10 @@ class ControlPoints:
             raise InputError(msg)
         empty = [i for i, n in enumerate(names) if not n]
         if empty:
-            msg = f"{self.source}: control point {empty[0]} has an empty name; name every point"
+            msg = (
+                f"{self.source}: control point at index {empty[0]} (0-based) has an empty "
+                "name; name every point"
+            )
             raise InputError(msg)
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
