@@ -50,6 +50,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.robust",
             "kinsync.trajectory",
             "kinsync.trajectory_gaps",
+            "kinsync.trajectory_times",
         ),
     ),
     (

@@ -56,6 +56,7 @@ from kinsync.trajectory_gaps import (
     max_gap_for,
     trajectory_gaps,
 )
+from kinsync.trajectory_times import validated_times
 
 __all__ = [
     "VELOCITY_CHECK_ATOL_M",
@@ -92,54 +93,6 @@ def _validated_rows(values: ArrayLike | None, n: int, width: int, name: str) -> 
         msg = f"trajectory {name}: non-finite value in row {row} ({arr[row].tolist()})"
         raise InputError(msg)
     return arr
-
-
-_SECONDS_PER_WEEK = 604_800.0
-
-
-def _week_rollover(before_s: float, after_s: float) -> bool:
-    """A step back of about a week, from late in a GPS week to early in one.
-
-    What seconds-of-week times read with one GPS week for the whole file (SBET, POSPac
-    and Inertial Explorer exports) show where the week rolls over.
-    """
-    back = before_s - after_s
-    late, early = before_s % _SECONDS_PER_WEEK, after_s % _SECONDS_PER_WEEK
-    return 0.5 * _SECONDS_PER_WEEK < back <= _SECONDS_PER_WEEK + 1.0 and early < late
-
-
-def _validated_times(values: ArrayLike) -> FloatArray:
-    """1-D, finite, strictly increasing record times; errors name the row."""
-    try:
-        t = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"trajectory t_s: expected numbers ({err})"
-        raise InputError(msg) from err
-    if t.ndim != 1 or t.size < 2:
-        msg = f"trajectory t_s: expected a 1-D array of at least 2 times, got shape {t.shape}"
-        raise InputError(msg)
-    if not np.all(np.isfinite(t)):
-        row = _first_bad_row(~np.isfinite(t))
-        msg = f"trajectory t_s: non-finite time in row {row}"
-        raise InputError(msg)
-    dt = np.diff(t)
-    if np.any(dt <= 0.0):
-        row = _first_bad_row(dt <= 0.0) + 1
-        kind = "repeated" if dt[row - 1] == 0.0 else "decreasing"
-        before, after = float(t[row - 1]), float(t[row])
-        where = f"trajectory t_s: {kind} time in row {row} (t_s={after!r} after {before!r})"
-        if _week_rollover(before, after):
-            msg = (
-                f"{where}: the GPS week rolls over there (seconds of the week start again "
-                "from 0); a trajectory needs one time scale: export it with times counting "
-                "past 604800 s, or split it at that record and give each part its GPS week"
-            )
-        else:
-            msg = (
-                f"{where}; times must be strictly increasing: sort the records and drop duplicates"
-            )
-        raise InputError(msg)
-    return t
 
 
 def _validated_unit_quaternions(values: ArrayLike, n: int) -> FloatArray:
@@ -504,7 +457,7 @@ class Trajectory:
     _lon_unwrapped_deg: FloatArray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-        t = _validated_times(self.t_s)
+        t = validated_times(self.t_s)
         n = t.size
         q = _validated_unit_quaternions(self.q_body_to_ned, n)
         if (self.lat_lon_h is None) == (self.pos_ned_m is None):
