@@ -170,6 +170,29 @@ def test_a_table_without_points_gives_an_empty_output_with_every_column(
         ]
 
 
+def test_a_csv_with_cr_line_ends_gives_every_point_and_rejects_its_own_lines(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    """Old Mac line ends (CR alone): once read as a header and no point, exit 0."""
+    cols = _points(np.random.default_rng(4), t_lo=-1.0, t_hi=9.9)
+    n_outside = int(np.count_nonzero(cols["t_s"] < T0))
+    with TableChunkWriter(setup["points"]) as w:
+        w.write(cols)
+    lf = setup["points"].read_bytes()
+    cr = setup["dir"] / "cr.csv"
+    cr.write_bytes(lf.replace(b"\n", b"\r"))
+    want, got = setup["dir"] / "lf_geo.csv", setup["dir"] / "cr_geo.csv"
+    for points, out in ((setup["points"], want), (cr, got)):
+        args = _args({**setup, "points": points}, out, "--outside", "reject", "--json")
+        code, stdout, err = run_cli([*args, "--chunk-points", "600"])
+        assert code == 0, err
+        doc = json.loads(stdout)
+        assert (doc["points_in"], doc["points_rejected"]) == (N_POINTS, n_outside)
+    assert got.read_bytes() == want.read_bytes()
+    rejected = (setup["dir"] / "cr_geo.rejected.csv").read_bytes()
+    assert rejected == (setup["dir"] / "lf_geo.rejected.csv").read_bytes().replace(b"\n", b"\r")
+
+
 def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
     out = setup["dir"] / "geo.parquet"
     code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))

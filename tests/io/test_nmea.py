@@ -709,6 +709,15 @@ def test_read_nmea_log_accepts_bom_and_quoted_header(tmp_path: Path) -> None:
     assert log.records == (HdtRecord("GP", 274.07),)
 
 
+def test_read_nmea_log_reads_cr_line_ends(tmp_path: Path) -> None:
+    """A log with CR line ends (no LF) is read line by line, not refused as one header
+    line holding the whole file."""
+    path = _write(tmp_path / "n.csv", f"t_local_s,sentence\r1.0,{HDT}\r\r2.0,{HDT}\r".encode())
+    log = read_nmea_log(path)
+    assert log.records == (HdtRecord("GP", 274.07),) * 2
+    assert log.lines == (2, 4)
+
+
 @pytest.mark.parametrize(
     ("data", "fragment"),
     [

@@ -49,6 +49,16 @@ def test_bad_tables(tmp_path: Path, text: str, fragment: str) -> None:
     assert str(path) in str(exc.value)
 
 
+def test_a_table_with_cr_line_ends_longer_than_the_probe_is_read(tmp_path: Path) -> None:
+    """Old Mac line ends: the header ends at its CR, not "a first line longer than 64 KiB"."""
+    path = tmp_path / "cr.csv"
+    n = 10_000  # about 130 KiB: beyond the 64 KiB a reader probes for the header's end
+    path.write_bytes(b"t_s,x\r" + b"".join(b"%d.5,%d\r" % (i, i) for i in range(n)))
+    table = read_numeric_csv(path, ["t_s"])
+    assert table.n_rows == n
+    np.testing.assert_array_equal(table.columns["x"], np.arange(n))
+
+
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="not found"):
         read_numeric_csv(tmp_path / "none.csv", ["t_s"])

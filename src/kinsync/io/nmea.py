@@ -629,9 +629,9 @@ def read_nmea_log(path: Path) -> NmeaLog:
     path : Path
         CSV file with the header ``t_local_s,sentence``; each line holds the local
         arrival time (end of reception, s) and the raw sentence, quoted or not
-        (everything after the first comma; surrounding double quotes removed). Blank
-        lines are skipped. Lines are decoded one by one, so a byte that is not ASCII
-        rejects its line only.
+        (everything after the first comma; surrounding double quotes removed). Lines
+        end with LF or CRLF, or with CR in a file without LF. Blank lines are skipped.
+        Lines are decoded one by one, so a byte that is not ASCII rejects its line only.
 
     Returns
     -------
@@ -663,7 +663,9 @@ def read_nmea_log(path: Path) -> NmeaLog:
         msg = f"{path}: cannot read ({err})"
         raise NmeaError(msg) from err
     data = data.removeprefix(b"\xef\xbb\xbf")
-    lines = data.split(b"\n")
+    # LF or CRLF ends a line; a file without LF has CR line ends (old Mac style): read
+    # as one line it would be refused as a header of every line
+    lines = data.split(b"\n" if b"\n" in data else b"\r")
     header_text = _display(lines[0].rstrip(b"\r"))
     header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
     if header != NMEA_LOG_HEADER:
