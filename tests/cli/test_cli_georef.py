@@ -193,6 +193,21 @@ def test_a_csv_with_cr_line_ends_gives_every_point_and_rejects_its_own_lines(
     assert rejected == (setup["dir"] / "lf_geo.rejected.csv").read_bytes().replace(b"\n", b"\r")
 
 
+@pytest.mark.parametrize("which", ["points", "traj"])
+def test_a_byte_that_is_not_utf8_near_the_top_is_named_by_its_line(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError, which: str
+) -> None:
+    """Line 6, within the first 8 KiB, was blamed on the header ("cannot read the header
+    ('utf-8' codec can't decode ...)"); line 191 was named."""
+    lines = setup[which].read_bytes().split(b"\n")
+    lines[5] = lines[5][:-1] + b"\xe9"
+    setup[which].write_bytes(b"\n".join(lines))
+    out = setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(setup, out))
+    assert_one_line_error(code, stdout, err, f"{setup[which]}: line 6: byte 0xE9 is not UTF-8")
+    assert not out.exists()
+
+
 def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
     out = setup["dir"] / "geo.parquet"
     code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))

@@ -271,6 +271,27 @@ def test_a_csv_with_cr_line_ends_is_read_whole(tmp_path: Path) -> None:
     assert chunk["note"].tolist() == ["a", "b"]
 
 
+@pytest.mark.parametrize("line", [1, 6, 191])
+def test_a_byte_that_is_not_utf8_is_named_by_its_own_line(tmp_path: Path, line: int) -> None:
+    """Within the first 8 KiB (the text decoder's first read) it was blamed on the header:
+    ``cannot read the header ('utf-8' codec can't decode byte 0xe9 ...)``."""
+    rows = [b"t_s,x_m,y_m,z_m,note"] + [b"%d.5,1,2,3,ok" % i for i in range(300)]
+    rows[line - 1] += b"caf\xe9"
+    path = tmp_path / "u.csv"
+    path.write_bytes(b"\n".join(rows) + b"\n")
+    where = f"u.csv: line {line}: byte 0xE9 is not UTF-8 text"
+
+    def read_planned() -> None:
+        layout, slices = plan_table_slices(path, 100, REQUIRED)
+        for sl in slices:
+            read_table_slice(layout, sl)
+
+    with pytest.raises(InputError, match=where):
+        read_planned()
+    with pytest.raises(InputError, match=where):
+        list(iter_table_chunks(path, 100, REQUIRED, extra_as_text=True))
+
+
 def test_csv_slice_errors_name_the_file_line_and_data_row(tmp_path: Path) -> None:
     path = tmp_path / "bad.csv"
     n = 150_000  # the bad rows lie beyond the first (1 MiB) block
