@@ -170,6 +170,21 @@ def test_a_table_without_points_gives_an_empty_output_with_every_column(
         ]
 
 
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_a_table_without_points_gives_a_las_file_without_points(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    """As for a table output (and ``sync apply``): a valid file, not an error."""
+    empty = setup["dir"] / "empty.csv"
+    empty.write_text("t_s,x_m,y_m,z_m,intensity\n")
+    out = setup["dir"] / f"geo{suffix}"
+    code, stdout, err = run_cli([*_args({**setup, "points": empty}, out), "--json"])
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == 0
+    assert las_info(out).point_count == 0
+    assert las_info(out).crs_wkt is not None
+
+
 def test_a_csv_with_cr_line_ends_gives_every_point_and_rejects_its_own_lines(
     run_cli: RunCli, setup: dict[str, Path]
 ) -> None:
