@@ -170,6 +170,59 @@ def test_a_table_without_points_gives_an_empty_output_with_every_column(
         ]
 
 
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_a_table_without_points_gives_a_las_file_without_points(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    """As for a table output (and ``sync apply``): a valid file, not an error."""
+    empty = setup["dir"] / "empty.csv"
+    empty.write_text("t_s,x_m,y_m,z_m,intensity\n")
+    out = setup["dir"] / f"geo{suffix}"
+    code, stdout, err = run_cli([*_args({**setup, "points": empty}, out), "--json"])
+    assert code == 0, err
+    assert json.loads(stdout)["points_out"] == 0
+    assert las_info(out).point_count == 0
+    assert las_info(out).crs_wkt is not None
+
+
+def test_a_csv_with_cr_line_ends_gives_every_point_and_rejects_its_own_lines(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    """Old Mac line ends (CR alone): once read as a header and no point, exit 0."""
+    cols = _points(np.random.default_rng(4), t_lo=-1.0, t_hi=9.9)
+    n_outside = int(np.count_nonzero(cols["t_s"] < T0))
+    with TableChunkWriter(setup["points"]) as w:
+        w.write(cols)
+    lf = setup["points"].read_bytes()
+    cr = setup["dir"] / "cr.csv"
+    cr.write_bytes(lf.replace(b"\n", b"\r"))
+    want, got = setup["dir"] / "lf_geo.csv", setup["dir"] / "cr_geo.csv"
+    for points, out in ((setup["points"], want), (cr, got)):
+        args = _args({**setup, "points": points}, out, "--outside", "reject", "--json")
+        code, stdout, err = run_cli([*args, "--chunk-points", "600"])
+        assert code == 0, err
+        doc = json.loads(stdout)
+        assert (doc["points_in"], doc["points_rejected"]) == (N_POINTS, n_outside)
+    assert got.read_bytes() == want.read_bytes()
+    rejected = (setup["dir"] / "cr_geo.rejected.csv").read_bytes()
+    assert rejected == (setup["dir"] / "lf_geo.rejected.csv").read_bytes().replace(b"\n", b"\r")
+
+
+@pytest.mark.parametrize("which", ["points", "traj"])
+def test_a_byte_that_is_not_utf8_near_the_top_is_named_by_its_line(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError, which: str
+) -> None:
+    """Line 6, within the first 8 KiB, was blamed on the header ("cannot read the header
+    ('utf-8' codec can't decode ...)"); line 191 was named."""
+    lines = setup[which].read_bytes().split(b"\n")
+    lines[5] = lines[5][:-1] + b"\xe9"
+    setup[which].write_bytes(b"\n".join(lines))
+    out = setup["dir"] / "geo.csv"
+    code, stdout, err = run_cli(_args(setup, out))
+    assert_one_line_error(code, stdout, err, f"{setup[which]}: line 6: byte 0xE9 is not UTF-8")
+    assert not out.exists()
+
+
 def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
     out = setup["dir"] / "geo.parquet"
     code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))

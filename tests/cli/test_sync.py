@@ -255,6 +255,35 @@ def test_apply_then_georeference(
     assert np.abs(dist[on] - radius).max() < 0.015
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_apply_to_a_scan_without_rows_writes_a_table_georef_reads(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path, suffix: str
+) -> None:
+    """A header-only scan gave a 0-byte output with exit 0, which kinsync then refused
+    ("empty file; expected a header line"); now every column and no row, as georef."""
+    _, folder = dataset
+    scan = tmp_path / "h.csv"
+    scan.write_text((folder / "scan.csv").read_text().splitlines()[0] + "\n")
+    clock = tmp_path / "clock.json"
+    clock.write_text('{"t0_s": 1400000000.4, "period_s": 0.0303}')
+    timed = tmp_path / f"timed{suffix}"
+    mount = str(folder / "mount.toml")
+    apply = ["sync", "apply", "--scan", str(scan), "--mount", mount, "--clock", str(clock)]
+    code, out, err = run_cli([*apply, "--out", str(timed), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["points"] == 0
+    table = pq.read_table(timed) if suffix == ".parquet" else pa_csv.read_csv(timed)
+    assert table.num_rows == 0
+    assert table.column_names[-4:] == ["t_s", "x_m", "y_m", "z_m"]
+    geo = tmp_path / "geo.csv"
+    georef = ["georef", "--points", str(timed), "--trajectory", str(folder / "trajectory.csv")]
+    georef += ["--mount", mount, "--out", str(geo), "--point-columns", "xyz", "--json"]
+    code, out, err = run_cli(georef)
+    assert code == 0, err
+    assert json.loads(out)["points_in"] == 0
+    assert pa_csv.read_csv(geo).num_rows == 0
+
+
 def test_simulate_drive_scan(run_cli: RunCli, tmp_path: Path) -> None:
     out = tmp_path / "sim"
     code, stdout, err = run_cli(

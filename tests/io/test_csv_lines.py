@@ -63,7 +63,7 @@ def test_a_changed_file_and_a_wrong_mask_are_errors(tmp_path: Path) -> None:
     rows=st.lists(
         st.tuples(
             st.text(alphabet="0123456789.e+- x", min_size=1, max_size=12),
-            st.sampled_from([b"\n", b"\r\n"]),
+            st.sampled_from([b"\n", b"\r\n", b"\r"]),
             st.booleans(),  # an empty line after it
             st.booleans(),  # chosen
         ),
@@ -72,16 +72,19 @@ def test_a_changed_file_and_a_wrong_mask_are_errors(tmp_path: Path) -> None:
     ),
     chunk=st.integers(1, 9),
     end=st.booleans(),
+    header_end=st.sampled_from([b"\n", b"\r\n", b"\r"]),
 )
 def test_chosen_rows_are_the_lines_written(
     tmp_path_factory: pytest.TempPathFactory,
     rows: list[tuple[str, bytes, bool, bool]],
     chunk: int,
     end: bool,
+    header_end: bytes,
 ) -> None:
+    """Each chosen row's line with its own line end: LF, CRLF or a CR alone."""
     path = tmp_path_factory.mktemp("lines") / "p.csv"
     body = [f"{i},{cell},1,2,3".encode() for i, (cell, *_) in enumerate(rows)]
-    data = b"t_s,code,x_m,y_m,z_m\n"
+    data = b"t_s,code,x_m,y_m,z_m" + header_end
     for i, (line, (_, eol, blank, _)) in enumerate(zip(body, rows, strict=True)):
         last = i == len(rows) - 1
         data += line + (eol if end or not last else b"") + (eol if blank and not last else b"")
@@ -97,6 +100,20 @@ def test_chosen_rows_are_the_lines_written(
         if pick
     )
     assert got == want
+    assert csv_header_line(path) == b"t_s,code,x_m,y_m,z_m" + header_end
+
+
+def test_a_cr_only_file_gives_its_lines_with_their_cr(tmp_path: Path) -> None:
+    """Old Mac line ends: the header is the first line, not the whole file, and the
+    rows come back as they are, so that a rejected file reads like the input."""
+    path = tmp_path / "cr.csv"
+    path.write_bytes(b"t_s,x_m,y_m,z_m,note\r1,1,2,3,a\r\r2,1,2,3,b\r3,1,2,3,c")
+    layout, slices = plan_table_slices(path, 10, REQUIRED)
+    assert csv_header_line(path) == b"t_s,x_m,y_m,z_m,note\r"
+    assert csv_slice_lines(layout, slices[0], np.array([True, False, True])) == (
+        b"1,1,2,3,a\r3,1,2,3,c\n"
+    )
+    assert csv_slice_lines(layout, slices[0], np.array([False, True, False])) == b"2,1,2,3,b\r"
 
 
 def test_line_writer_is_atomic(tmp_path: Path) -> None:

@@ -179,7 +179,7 @@ def _concat(chunks: list[dict[str, np.ndarray[Any, Any]]]) -> dict[str, list[Any
     n_rows=st.integers(1, 40),
     chunk_points=st.integers(1, 12),
     blank_after=st.sets(st.integers(0, 40), max_size=6),
-    crlf=st.booleans(),
+    eol=st.sampled_from(["\n", "\r\n", "\r"]),
     trailing_newline=st.booleans(),
     scan_block=st.sampled_from([5, 64, 1 << 24]),
 )
@@ -188,12 +188,12 @@ def test_csv_slices_cover_every_row_once_in_exact_chunks(
     n_rows: int,
     chunk_points: int,
     blank_after: set[int],
-    crlf: bool,
+    eol: str,
     trailing_newline: bool,
     scan_block: int,
 ) -> None:
-    """Blank lines, CRLF, no final newline, newlines at any block edge: same rows as a read."""
-    eol = "\r\n" if crlf else "\n"
+    """Blank lines, LF, CRLF or CR line ends, no final line end, line ends at any block
+    edge: the same rows as a read."""
     lines = ["t_s,x_m,y_m,z_m,label"]
     for i in range(n_rows):
         lines.append(f"{i}.5,{i},{-i},{2 * i},w{i}")
@@ -218,6 +218,78 @@ def test_csv_slices_cover_every_row_once_in_exact_chunks(
         lines_here = text[s.byte_start : s.byte_end].split(eol)
         assert text.split(eol)[s.first_line - 1] == lines_here[0]
         assert next(x for x in lines_here if x).startswith(f"{s.first_row}.5,")
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    header_end=st.sampled_from(["\n", "\r\n", "\r"]),
+    rows=st.lists(
+        st.tuples(st.sampled_from(["\n", "\r\n", "\r"]), st.sampled_from(["", "\n", "\r"])),
+        min_size=1,
+        max_size=30,
+    ),
+    chunk_points=st.integers(1, 7),
+    scan_block=st.sampled_from([3, 7, 1 << 24]),
+)
+def test_csv_slices_of_mixed_line_ends_are_the_rows_every_reader_sees(
+    tmp_path_factory: pytest.TempPathFactory,
+    header_end: str,
+    rows: list[tuple[str, str]],
+    chunk_points: int,
+    scan_block: int,
+) -> None:
+    """A header ended by CR and rows by LF, CRLF or CR (with blank lines of any kind):
+    the slices hold every row once, as pyarrow's and Python's readers count them. The
+    slicer once split on LF only: a CR-only file was a header and no data row."""
+    text = "t_s,x_m,y_m,z_m,label" + header_end
+    for i, (eol, blank) in enumerate(rows):
+        text += f"{i}.5,{i},{-i},{2 * i},w{i}" + eol + blank
+    path = tmp_path_factory.mktemp("mixed") / "p.csv"
+    path.write_bytes(text.encode())
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr("kinsync.io.points._SCAN_BLOCK_BYTES", scan_block)
+        layout, slices = plan_table_slices(path, chunk_points, REQUIRED)
+    assert layout.total_rows == len(rows)
+    assert [s.first_row for s in slices] == list(range(0, len(rows), chunk_points))
+    got = _concat([read_table_slice(layout, s) for s in slices])
+    assert got["label"] == [f"w{i}" for i in range(len(rows))]
+    assert got == _concat(list(iter_table_chunks(path, 1000, REQUIRED)))
+    lines = text.splitlines()  # Python's line ends: LF, CRLF, CR
+    for s in slices:  # first_line: the file line of the slice's first byte
+        assert lines[s.first_line - 1] == text[s.byte_start :].splitlines()[0]
+
+
+def test_a_csv_with_cr_line_ends_is_read_whole(tmp_path: Path) -> None:
+    """Old Mac line ends: every row planned and read, not a header and no data row."""
+    path = tmp_path / "cr.csv"
+    path.write_bytes(b"time,sx,sy,sz,note\r418472013.0,1,2,3,a\r418472013.1,1,2,3,b\r")
+    layout, slices = plan_table_slices(path, 10, ("time", "sx", "sy", "sz"))
+    assert layout.total_rows == 2
+    assert layout.columns == ("time", "sx", "sy", "sz", "note")
+    chunk = read_table_slice(layout, slices[0])
+    assert chunk["time"].tolist() == [418472013.0, 418472013.1]
+    assert chunk["note"].tolist() == ["a", "b"]
+
+
+@pytest.mark.parametrize("line", [1, 6, 191])
+def test_a_byte_that_is_not_utf8_is_named_by_its_own_line(tmp_path: Path, line: int) -> None:
+    """Within the first 8 KiB (the text decoder's first read) it was blamed on the header:
+    ``cannot read the header ('utf-8' codec can't decode byte 0xe9 ...)``."""
+    rows = [b"t_s,x_m,y_m,z_m,note"] + [b"%d.5,1,2,3,ok" % i for i in range(300)]
+    rows[line - 1] += b"caf\xe9"
+    path = tmp_path / "u.csv"
+    path.write_bytes(b"\n".join(rows) + b"\n")
+    where = f"u.csv: line {line}: byte 0xE9 is not UTF-8 text"
+
+    def read_planned() -> None:
+        layout, slices = plan_table_slices(path, 100, REQUIRED)
+        for sl in slices:
+            read_table_slice(layout, sl)
+
+    with pytest.raises(InputError, match=where):
+        read_planned()
+    with pytest.raises(InputError, match=where):
+        list(iter_table_chunks(path, 100, REQUIRED, extra_as_text=True))
 
 
 def test_csv_slice_errors_name_the_file_line_and_data_row(tmp_path: Path) -> None:

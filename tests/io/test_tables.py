@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, atomic_write_text
-from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+from kinsync.io.nav_csv import read_navigation
+from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 
@@ -47,6 +48,33 @@ def test_bad_tables(tmp_path: Path, text: str, fragment: str) -> None:
     with pytest.raises(InputError, match=fragment) as exc:
         read_numeric_csv(path, ["t_s"])
     assert str(path) in str(exc.value)
+
+
+def test_a_table_with_cr_line_ends_longer_than_the_probe_is_read(tmp_path: Path) -> None:
+    """Old Mac line ends: the header ends at its CR, not "a first line longer than 64 KiB"."""
+    path = tmp_path / "cr.csv"
+    n = 10_000  # about 130 KiB: beyond the 64 KiB a reader probes for the header's end
+    path.write_bytes(b"t_s,x\r" + b"".join(b"%d.5,%d\r" % (i, i) for i in range(n)))
+    table = read_numeric_csv(path, ["t_s"])
+    assert table.n_rows == n
+    np.testing.assert_array_equal(table.columns["x"], np.arange(n))
+
+
+@pytest.mark.parametrize("line", [1, 6, 191])
+def test_a_byte_that_is_not_utf8_is_named_by_its_own_line(tmp_path: Path, line: int) -> None:
+    """Within the first 8 KiB it was blamed on the header ("cannot read the header")."""
+    names = b"t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg"
+    rows = [names] + [b"%d.5,46.8,-71.2,10,0,0,%d" % (i, i) for i in range(300)]
+    rows[line - 1] += b"\xe9"
+    path = tmp_path / "u.csv"
+    path.write_bytes(b"\n".join(rows) + b"\n")
+    where = f"u.csv: line {line}: byte 0xE9 is not UTF-8 text"
+    with pytest.raises(InputError, match=where):
+        read_numeric_csv(path, ["t_s"])
+    with pytest.raises(InputError, match=where):
+        read_navigation(path)
+    with pytest.raises(InputError, match=where):
+        read_csv_rows(path)
 
 
 def test_missing_file(tmp_path: Path) -> None:

@@ -212,3 +212,44 @@ def test_apply_refuses_a_null_in_a_required_column(tmp_path: Path, column: str) 
     with pytest.raises(InputError, match=rf"scan\.csv: line 8, column '{column}': empty cell"):
         apply_profile_clock(csv_src, tmp_path / "o.csv", 0.0, 0.1, MOUNT, chunk_points=4)
     assert not list(tmp_path.glob("o.*"))
+
+
+@pytest.mark.parametrize("out_suffix", [".csv", ".parquet"])
+def test_a_scan_without_rows_gives_an_output_with_every_column(
+    tmp_path: Path, out_suffix: str
+) -> None:
+    """A header-only scan once gave an empty file (0 bytes), which kinsync then refused
+    ("empty file; expected a header line"): like georef, apply writes the header."""
+    src = tmp_path / "h.csv"
+    src.write_text("profile,angle_rad,range_m,intensity,label\n")
+    out = tmp_path / f"o{out_suffix}"
+    assert apply_profile_clock(src, out, 10.0, 0.1, MOUNT) == 0
+    names = ["profile", "angle_rad", "range_m", "intensity", "label", "t_s", "x_m", "y_m", "z_m"]
+    if out_suffix == ".csv":
+        assert out.read_text() == ",".join(names) + "\n"
+    else:  # the types a chunk would have: profile whole, carried CSV columns as text
+        schema = pq.read_schema(out)
+        assert schema.names == names
+        types = ["int64", "double", "double", "string", "string", *["double"] * 4]
+        assert [str(t) for t in schema.types] == types
+    assert list(iter_table_chunks(out, 10, ("t_s", "x_m", "y_m", "z_m"))) == []
+
+
+def test_a_parquet_scan_without_rows_keeps_its_types(tmp_path: Path) -> None:
+    scan = _typed_scan(0, pa.int32())
+    src = tmp_path / "scan.parquet"
+    pq.write_table(scan, src)
+    out = tmp_path / "o.parquet"
+    assert apply_profile_clock(src, out, 10.0, 0.1, MOUNT) == 0
+    got = pq.read_table(out)
+    assert got.num_rows == 0
+    assert got.column_names == [*scan.column_names, "t_s", "x_m", "y_m", "z_m"]
+    assert got.select(scan.column_names).schema == scan.schema
+
+
+def test_a_scan_without_rows_that_has_an_output_column_is_refused(tmp_path: Path) -> None:
+    src = tmp_path / "h.csv"
+    src.write_text("profile,angle_rad,range_m,x_m\n")
+    with pytest.raises(InputError, match=r"already has column\(s\) \['x_m'\]"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    assert not (tmp_path / "o.csv").exists()

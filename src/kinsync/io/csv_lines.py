@@ -8,8 +8,9 @@ file can be read again as the input was. `csv_header_line` gives the input's hea
 line, `csv_slice_lines` the lines of chosen data rows of a slice
 (`kinsync.io.points.TableSlice`), and `CsvLineWriter` writes them, atomically.
 
-Data rows are the file's non-empty lines, as `kinsync.io.points` counts them (an empty
-line or one holding only a carriage return is skipped); no row holds a line break.
+Data rows are the file's non-empty lines, as `kinsync.io.points` counts them: a line
+ends with LF, CRLF or a CR alone (`kinsync.io.text_lines`), an empty line is skipped; no
+row holds a line break.
 """
 
 from __future__ import annotations
@@ -25,14 +26,13 @@ from kinsync._typing import BoolArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.points import TableLayout, TableSlice
+from kinsync.io.text_lines import CR, LF, line_end_indices, read_first_line
 
 __all__ = ["CsvLineWriter", "csv_header_line", "csv_slice_lines"]
 
-_LF, _CR = 10, 13
-
 
 def csv_header_line(path: Path) -> bytes:
-    """The first line of a CSV file, its line end included (one is added if it has none).
+    """The first line of a CSV file, its line end (LF, CRLF or CR) included (LF if none).
 
     Raises
     ------
@@ -41,11 +41,11 @@ def csv_header_line(path: Path) -> bytes:
     """
     try:
         with Path(path).open("rb") as fh:
-            line = fh.readline()
+            line = read_first_line(fh)
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
-    return line if line.endswith(b"\n") else line + b"\n"
+    return line if line.endswith((b"\n", b"\r")) else line + b"\n"
 
 
 def csv_slice_lines(layout: TableLayout, sl: TableSlice, rows: BoolArray) -> bytes:
@@ -63,8 +63,8 @@ def csv_slice_lines(layout: TableLayout, sl: TableSlice, rows: BoolArray) -> byt
     Returns
     -------
     bytes
-        Those rows' lines in file order, each with its own line end (a line feed is
-        added to a last line that has none).
+        Those rows' lines in file order, each with its own line end (LF, CRLF or CR; a
+        line feed is added to a last line that has none).
 
     Raises
     ------
@@ -86,14 +86,18 @@ def csv_slice_lines(layout: TableLayout, sl: TableSlice, rows: BoolArray) -> byt
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
     arr = np.frombuffer(data, dtype=np.uint8)
-    ends = np.flatnonzero(arr == _LF) + 1  # each line's end, its line feed included
-    if arr.size and arr[-1] != _LF:
+    # a slice ends after a line end, so a CR closing it is a line end of its own
+    ends = line_end_indices(arr, None) + 1  # each line's end, its line end included
+    terminated = np.ones(ends.size, dtype=bool)
+    if arr.size and (ends.size == 0 or ends[-1] != arr.size):
         ends = np.append(ends, arr.size)
+        terminated = np.append(terminated, False)
     starts = np.zeros_like(ends)
     starts[1:] = ends[:-1]
-    has_lf = arr[ends - 1] == _LF
-    content = ends - starts - has_lf  # bytes before the line feed
-    nonempty = np.flatnonzero((content > 1) | ((content == 1) & (arr[starts] != _CR)))
+    last = arr[np.maximum(ends - 1, 0)]
+    before = arr[np.maximum(ends - 2, 0)]
+    end_bytes = np.where(terminated, 1 + ((last == LF) & (before == CR) & (ends - starts >= 2)), 0)
+    nonempty = np.flatnonzero(ends - starts - end_bytes > 0)
     if nonempty.size != sl.n_rows:
         msg = (
             f"{path}: lines {sl.first_line}.. hold {nonempty.size} data rows where "
@@ -107,7 +111,7 @@ def csv_slice_lines(layout: TableLayout, sl: TableSlice, rows: BoolArray) -> byt
     edges[starts[chosen]] = 1
     edges[ends[chosen]] -= 1
     out = arr[np.cumsum(edges[:-1]) > 0].tobytes()
-    return out if has_lf[chosen[-1]] else out + b"\n"
+    return out if terminated[chosen[-1]] else out + b"\n"
 
 
 class CsvLineWriter:

@@ -36,7 +36,6 @@ any order, velocities optional).
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +55,7 @@ from kinsync.io.sanity import (
 )
 from kinsync.io.sbet import read_sbet
 from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
+from kinsync.io.text_lines import csv_header_row
 from kinsync.io.trajectory_csv import SPANS, read_trajectory_csv
 from kinsync.trajectory import Trajectory
 
@@ -327,13 +327,7 @@ def write_truth_csv(trajectory: Trajectory, path: Path) -> None:
 
 def _csv_header(path: Path) -> list[str]:
     check_text_file(path, "navigation CSV file")
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:
-            row = next(csv.reader(fh), None)
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read ({err})"
-        raise InputError(msg) from err
-    return [h.strip() for h in row or []]
+    return [h.strip() for h in csv_header_row(path) or []]
 
 
 def read_navigation(path: Path, *, gps_week: int | None = None) -> NavSolution | Trajectory:

@@ -586,19 +586,42 @@ and quotes a line is under 200 bytes): a longer one is rejected, shown cut to it
 _SHOWN_BYTES = 80
 
 
-def _log_lines(fh: BinaryIO) -> Iterator[tuple[bytes, bool]]:
+def _log_lines(fh: BinaryIO, end: bytes) -> Iterator[tuple[bytes, bool]]:
     """Each line of a binary file, without its end, and whether it was cut short.
 
-    A line longer than `MAX_NMEA_LINE_BYTES` gives its first bytes only; the rest of it
-    is read and dropped in blocks, so memory stays bounded whatever the file holds.
+    ``end`` is the line end: LF (a CR before it is dropped too) or, for a file with
+    CR-only line ends (old Mac style), CR. A line longer than `MAX_NMEA_LINE_BYTES`
+    gives its first bytes only; the rest of it is read and dropped block by block, so
+    memory stays bounded whatever the file holds.
     """
-    while line := fh.readline(MAX_NMEA_LINE_BYTES + 1):
-        if len(line) > MAX_NMEA_LINE_BYTES and not line.endswith(b"\n"):
-            while (more := fh.readline(1 << 16)) and not more.endswith(b"\n"):
-                pass
-            yield line[:_SHOWN_BYTES], True
-        else:
-            yield line.removesuffix(b"\n").removesuffix(b"\r"), False
+    pending = b""  # the current line so far, never longer than MAX_NMEA_LINE_BYTES
+    cut: bytes | None = None  # the shown start of a line found too long, until its end
+    while block := fh.read(1 << 16):
+        pieces = block.split(end)
+        for i, piece in enumerate(pieces):
+            if cut is None:
+                pending += piece
+                if len(pending) > MAX_NMEA_LINE_BYTES:
+                    cut, pending = pending[:_SHOWN_BYTES], b""
+            if i == len(pieces) - 1:
+                continue  # no line end after the block's last piece
+            if cut is not None:
+                yield cut, True
+                cut = None
+            else:
+                yield pending.removesuffix(b"\r"), False
+                pending = b""
+    if cut is not None:
+        yield cut, True
+    elif pending:
+        yield pending.removesuffix(b"\r"), False
+
+
+def _line_end(fh: BinaryIO) -> bytes:
+    """LF, or CR for a file whose first block holds CR line ends and no LF."""
+    probe = fh.read(1 << 16)
+    fh.seek(0)
+    return b"\r" if b"\r" in probe and b"\n" not in probe else b"\n"
 
 
 def _display(raw: bytes) -> str:
@@ -652,9 +675,9 @@ def read_nmea_log(path: Path) -> NmeaLog:
     path : Path
         CSV file with the header ``t_local_s,sentence``; each line holds the local
         arrival time (end of reception, s) and the raw sentence, quoted or not
-        (everything after the first comma; surrounding double quotes removed). Blank
-        lines are skipped. Lines are decoded one by one, so a byte that is not ASCII
-        rejects its line only.
+        (everything after the first comma; surrounding double quotes removed). Lines
+        end with LF or CRLF, or with CR in a file without LF. Blank lines are skipped.
+        Lines are decoded one by one, so a byte that is not ASCII rejects its line only.
 
     Returns
     -------
@@ -688,14 +711,14 @@ def read_nmea_log(path: Path) -> NmeaLog:
     accepted: list[tuple[int, float, NmeaRecord, str]] = []
     rejected: list[RejectedLine] = []
     with fh:
-        lines = _log_lines(fh)
+        lines = _log_lines(fh, _line_end(fh))
         head, cut = next(lines, (b"", False))
         head = head.removeprefix(b"\xef\xbb\xbf")
         if cut:
             msg = (
                 f"{path}: line 1: no line end in its first {MAX_NMEA_LINE_BYTES} bytes "
                 f"(starts {_display(head)!r}); expected the header t_local_s,sentence and "
-                "one line per sentence (a file with CR-only line ends? convert them to LF)"
+                "one line per sentence"
             )
             raise NmeaError(msg)
         header_text = _display(head)

@@ -17,7 +17,8 @@ Random access (`plan_table_slices`, `read_table_slice`): the table is cut once i
 slices that any process can read on its own, so that workers read their chunks
 themselves and every run, serial or parallel, sees the same chunks. A CSV is cut at line
 boundaries into byte ranges of exactly ``chunk_points`` data rows (one pass counting
-the newlines; empty lines are skipped, as pyarrow does); column types are inferred once
+the line ends, LF, CRLF or a CR alone as pyarrow reads them (`kinsync.io.text_lines`);
+empty lines are skipped, as pyarrow does); column types are inferred once
 from the file's first MiB (pyarrow's default block) and fixed for every slice. Like
 pyarrow's own reader (its default ``newlines_in_values=False``) this assumes no line
 break inside a quoted value. A Parquet file is cut at row-group boundaries: consecutive
@@ -48,6 +49,7 @@ from kinsync.io.column_map import ColumnMap
 from kinsync.io.row_position import point_position
 from kinsync.io.sanity import check_text_file, not_utf8_cell, require_file
 from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
+from kinsync.io.text_lines import CR, LF, csv_header_row, line_end_indices, read_first_line
 
 __all__ = [
     "TableChunkWriter",
@@ -73,12 +75,7 @@ def _check_exists(path: Path) -> None:
 
 def _csv_header(path: Path) -> list[str]:
     check_text_file(path, "point table (CSV)")
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:
-            row = next(csv.reader(fh), None)
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read the header ({err})"
-        raise InputError(msg) from err
+    row = csv_header_row(path)
     if not row or all(not c.strip() for c in row):
         msg = f"{path}: empty file; expected a header line naming the columns"
         raise InputError(msg)
@@ -426,7 +423,6 @@ def count_table_rows(path: Path) -> int:
 # ---------------------------------------------------------------------- random access
 _SCAN_BLOCK_BYTES = 1 << 24
 _SCHEMA_BLOCK_BYTES = 1 << 20  # pyarrow's default block: types inferred from the first MiB
-_LF, _CR = 10, 13
 
 
 @dataclass(frozen=True)
@@ -546,10 +542,9 @@ def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
 
 
 def _csv_header_bytes(path: Path) -> int:
-    """Byte offset just after the header line."""
+    """Byte offset just after the header line (its end LF, CRLF or CR)."""
     with path.open("rb") as fh:
-        line = fh.readline()
-    return len(line)
+        return len(read_first_line(fh))
 
 
 def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
@@ -565,20 +560,19 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
     with path.open("rb") as fh:
         fh.seek(data_start)
         pos = data_start
-        while True:
-            buf = fh.read(_SCAN_BLOCK_BYTES)
-            if not buf:
-                break
+        buf = fh.read(_SCAN_BLOCK_BYTES)
+        while buf:
+            nxt = fh.read(_SCAN_BLOCK_BYTES)  # its first byte: is a last CR half a CRLF?
             arr = np.frombuffer(buf, dtype=np.uint8)
-            nl = np.flatnonzero(arr == _LF)
+            nl = line_end_indices(arr, nxt[0] if nxt else None)  # LF, CRLF's LF, lone CR
             if nl.size:
-                ends = nl + pos  # absolute offsets of the newlines
+                ends = nl + pos  # absolute offsets of the line ends
                 starts = np.empty(nl.size, dtype=np.int64)
                 starts[0] = line_start
                 starts[1:] = ends[:-1] + 1
-                length = ends - starts
                 before = np.where(nl > 0, arr[np.maximum(nl - 1, 0)], prev_byte)
-                nonempty = ~((length == 0) | ((length == 1) & (before == _CR)))
+                crlf = ((arr[nl] == LF) & (before == CR)).astype(np.int64)
+                nonempty = ends - starts - crlf > 0  # the line holds more than its end
                 cum = rows_in_slice + np.cumsum(nonempty)
                 for k in np.flatnonzero(nonempty & (cum % chunk_points == 0)).tolist():
                     end = int(ends[k]) + 1
@@ -598,8 +592,8 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
                 line_start = int(ends[-1]) + 1
             pos += len(buf)
             prev_byte = int(arr[-1])
-    last_len = size - line_start  # an unterminated last line
-    if last_len > 1 or (last_len == 1 and prev_byte != _CR):
+            buf = nxt
+    if size > line_start:  # an unterminated last line (a last CR ends a line)
         rows_in_slice += 1
     if rows_in_slice:
         slices.append(

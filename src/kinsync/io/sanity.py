@@ -181,7 +181,9 @@ def check_text_file(
     size = _stat(path, what)
     _check_size(path, size, what, max_bytes)
     head = _read_head(path, PROBE_BYTES, what)
-    nul = head.find(b"\x00", 0, head.find(b"\n") if nul_after_first_line else len(head))
+    ends = [i for i in (head.find(b"\n"), head.find(b"\r")) if i >= 0]  # LF, CRLF or CR
+    first_end = min(ends) if ends else -1
+    nul = head.find(b"\x00", 0, first_end if nul_after_first_line else len(head))
     if nul >= 0:
         utf16 = head[:2] in (b"\xff\xfe", b"\xfe\xff") or head[1:8:2] == b"\x00" * 4
         hint = (
@@ -191,7 +193,7 @@ def check_text_file(
         )
         msg = f"{path}: not a text file (byte {nul} is NUL); a {what} is text: {hint}"
         raise InputError(msg)
-    if lines and len(head) == PROBE_BYTES and b"\n" not in head:
+    if lines and len(head) == PROBE_BYTES and first_end < 0:
         msg = (
             f"{path}: the first line is longer than {size_text(PROBE_BYTES)}, too long for "
             f"a {what} (a header, or a record): is this the right file?"

@@ -29,6 +29,7 @@ from kinsync.io.sanity import (
     check_values,
     not_utf8_cell,
 )
+from kinsync.io.text_lines import csv_header_row
 
 __all__ = [
     "NumericTable",
@@ -166,12 +167,7 @@ def read_numeric_csv(
     del optional  # every column is returned; the argument documents intent at call sites
     path = Path(path)
     check_text_file(path, "CSV file", max_bytes=MAX_TABLE_BYTES)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:  # a BOM is not a name
-            header_row = next(csv.reader(fh), None)
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{path}: cannot read the header ({err})"
-        raise InputError(msg) from err
+    header_row = csv_header_row(path)  # a BOM is not a name
     if not header_row:
         msg = f"{path}: empty file; expected a header row with {', '.join(required)}"
         raise InputError(msg)
@@ -246,16 +242,27 @@ def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]
     ------
     InputError
         Missing file, not a text file or larger than `MAX_TEXT_ROWS_BYTES` (see
-        `kinsync.io.sanity.check_text_file`), or a file that cannot be read as CSV.
+        `kinsync.io.sanity.check_text_file`), a file that cannot be read as CSV, or a
+        byte that is not UTF-8 (naming its line).
     """
     check_text_file(Path(path), what, max_bytes=MAX_TEXT_ROWS_BYTES)
+    records: list[tuple[int, list[str]]] = []
     try:
-        with Path(path).open(newline="", encoding="utf-8-sig") as fh:
-            records = list(enumerate(csv.reader(fh), start=1))
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        with Path(path).open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
+            reader = csv.reader(fh)
+            line = 1  # the file line a row starts on
+            for row in reader:
+                if row and any(c.strip() for c in row):
+                    records.append((line, row))
+                line = reader.line_num + 1
+    except (OSError, csv.Error) as err:
         msg = f"{path}: cannot read as CSV ({err})"
         raise InputError(msg) from err
-    return [(line, row) for line, row in records if row and any(c.strip() for c in row)]
+    for line, row in records:  # a byte that is not UTF-8, named by its line
+        for cell in row:
+            if (bad := not_utf8_cell(Path(path), line, cell)) is not None:
+                raise bad
+    return records
 
 
 def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:

@@ -17,7 +17,7 @@ floats.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +28,12 @@ import pyarrow.parquet as pq
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError
 from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
-from kinsync.io.points import TableChunkWriter, count_table_rows, iter_table_chunks
+from kinsync.io.points import (
+    TableChunkWriter,
+    count_table_rows,
+    iter_table_chunks,
+    table_columns,
+)
 from kinsync.io.row_position import point_position
 from kinsync.mount import Mount
 from kinsync.sync.scan import ProfileScan
@@ -57,6 +62,37 @@ def _stored_number_types(path: Path, required: Sequence[str]) -> dict[str, Any]:
     }
 
 
+def _refuse_output_columns(path: Path, names: Iterable[str]) -> None:
+    """An `InputError` when the scan already has a column that apply adds."""
+    clash = [c for c in APPLY_COLUMNS if c in names]
+    if clash:
+        msg = (
+            f"{path}: already has column(s) {clash}; rename them, sync apply "
+            f"adds {list(APPLY_COLUMNS)}"
+        )
+        raise InputError(msg)
+
+
+def _empty_output(path: Path, required: Sequence[str]) -> dict[str, Any]:
+    """The output columns of a scan without data rows, typed as a full chunk's would be.
+
+    Written so that a header-only scan gives a valid header-only table (CSV) or an
+    empty table with every column (Parquet), as ``kinsync georef`` does, not an empty
+    file: every input column (a CSV's carried ones as text, a Parquet scan's with their
+    types), ``profile`` whole, then ``t_s,x_m,y_m,z_m``.
+    """
+    if path.suffix.lower() == ".parquet":
+        kinds = {f.name: f.type for f in pq.read_schema(path)}
+    else:
+        kinds = dict.fromkeys(table_columns(path), pa.string())
+    _refuse_output_columns(path, kinds)
+    stored = _stored_number_types(path, required)
+    for name in required:
+        kinds[name] = stored.get(name, pa.int64() if name == "profile" else pa.float64())
+    kinds |= dict.fromkeys(APPLY_COLUMNS, pa.float64())
+    return {name: pa.array([], type=kind) for name, kind in kinds.items()}
+
+
 def apply_profile_clock(
     scan_path: Path,
     out_path: Path,
@@ -73,7 +109,8 @@ def apply_profile_clock(
     ``(x_m, y_m, z_m) = Rz(azimuth) (0, r sin phi, r cos phi)`` (the mount's
     ``[profiler] azimuth_deg``), appended after every input column (all kept, with
     their types and nulls: see the module docstring), ready for ``kinsync georef
-    --points``.
+    --points``. A scan without data rows gives a table without rows but with every
+    column (a CSV header line), as ``kinsync georef`` gives for a table without points.
 
     Parameters
     ----------
@@ -134,13 +171,7 @@ def apply_profile_clock(
         for chunk in chunks:
             if done == 0:
                 stored = _stored_number_types(scan_path, required)
-            clash = [c for c in APPLY_COLUMNS if c in chunk]
-            if clash:
-                msg = (
-                    f"{scan_path}: already has column(s) {clash}; rename them, sync apply "
-                    f"adds {list(APPLY_COLUMNS)}"
-                )
-                raise InputError(msg)
+            _refuse_output_columns(scan_path, chunk)
             before = [] if done == 0 else [last_profile]  # the order checked across chunks
             first = done - len(before)  # the file's data row of the array's first value
             profile = ProfileScan.checked_profile_numbers(
@@ -169,4 +200,6 @@ def apply_profile_clock(
             done += phi.size
             if progress is not None:
                 progress(done)
+        if done == 0:  # no data rows: the output still gets its header or columns
+            writer.write(_empty_output(scan_path, required))
     return done

@@ -1,0 +1,106 @@
+"""Line ends of a text file read as bytes, and a CSV's header row, as every reader sees them.
+
+A line ends with a line feed (LF), a carriage return and a line feed (CRLF), or a
+carriage return alone (CR: old Mac files, some loggers). Python's ``csv`` module (on a
+file opened with ``newline=""``) and pyarrow's CSV reader both end lines so, and the
+readers that cut a file by bytes (`kinsync.io.points` slices, `kinsync.io.csv_lines`)
+must find the same lines, or a CR-only file reads as a header and no data row.
+`line_end_indices` finds them in a block of bytes, `read_first_line` gives a file's
+first line with its end, and `csv_header_row` reads a CSV's header row without
+decoding the rest of the file, so that a byte that is not UTF-8 further on is named
+by its own line (by the reader of the data rows), not blamed on the header.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from kinsync.errors import InputError
+from kinsync.io.sanity import not_utf8_cell
+
+__all__ = ["CR", "LF", "csv_header_row", "line_end_indices", "read_first_line"]
+
+LF, CR = 10, 13
+_BLOCK_BYTES = 1 << 16
+
+
+def line_end_indices(arr: np.ndarray[Any, Any], next_byte: int | None) -> np.ndarray[Any, Any]:
+    """Indices of the bytes that end a line: every LF, and every CR not followed by LF.
+
+    Parameters
+    ----------
+    arr : ndarray of uint8, shape (N,)
+        A block of the file.
+    next_byte : int or None
+        The file's byte after the block (None at the end of the file): it says whether
+        a CR that ends the block is the first half of a CRLF.
+
+    Returns
+    -------
+    ndarray of int64, shape (M,)
+        Increasing indices into ``arr``; a CRLF counts once, at its LF.
+    """
+    if arr.size == 0:
+        return np.empty(0, dtype=np.int64)
+    lf = arr == LF
+    lf_after = np.empty_like(lf)
+    lf_after[:-1] = lf[1:]
+    lf_after[-1] = next_byte == LF
+    return np.flatnonzero(lf | ((arr == CR) & ~lf_after)).astype(np.int64)
+
+
+def read_first_line(fh: IO[bytes]) -> bytes:
+    """The first line of a binary file from its current position, its line end included.
+
+    The line end is LF, CRLF or CR (`line_end_indices`); a file without one gives all
+    its bytes.
+    """
+    data = b""
+    searched = 0
+    while True:
+        block = fh.read(_BLOCK_BYTES)
+        data += block
+        ends = [i for i in (data.find(b"\n", searched), data.find(b"\r", searched)) if i >= 0]
+        if ends:
+            end = min(ends)
+            if data[end] == LF:
+                return data[: end + 1]
+            if end + 1 < len(data):  # a CR: CRLF, or a CR alone
+                return data[: end + 2] if data[end + 1] == LF else data[: end + 1]
+            if not block:
+                return data
+            searched = end
+            continue
+        if not block:
+            return data
+        searched = len(data)
+
+
+def csv_header_row(path: Path) -> list[str] | None:
+    """The first row of a CSV file (a BOM skipped), None for an empty file.
+
+    Only what the header needs is decoded: a byte that is not UTF-8 on a later line is
+    left to the reader of the data rows, which names its line.
+
+    Raises
+    ------
+    InputError
+        An unreadable file, a header the ``csv`` module cannot read, or a byte in the
+        header that is not UTF-8 (naming the line).
+    """
+    try:
+        with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
+            reader = csv.reader(fh)
+            row = next(reader, None)
+            line = reader.line_num
+    except (OSError, csv.Error) as err:
+        msg = f"{path}: cannot read the header ({err})"
+        raise InputError(msg) from err
+    for cell in row or []:
+        if (bad := not_utf8_cell(path, line, cell)) is not None:
+            raise bad
+    return row
