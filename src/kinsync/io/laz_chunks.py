@@ -113,7 +113,8 @@ def _chunk_table(
     chunks_bytes = table_at - data_start - 8
     if n_chunks == 0 and n == 0:  # an empty file
         return np.zeros(0, np.int64), np.full(1, data_start + 8, np.int64)
-    if n_chunks > chunks_bytes // _MIN_LAZ_CHUNK_BYTES or n_chunks == 0:
+    # + 1: a writer may close the file with an empty chunk (a few bytes, no point)
+    if n_chunks > chunks_bytes // _MIN_LAZ_CHUNK_BYTES + 1 or n_chunks == 0:
         what = f"the LAZ chunk table lists {n_chunks} chunks in {chunks_bytes} bytes"
         raise _laz_corrupt(path, n, what)
     fh.seek(table_at)
@@ -122,10 +123,15 @@ def _chunk_table(
     except lazrs.LazrsError as err:
         what = f"the LAZ chunk table (at byte {table_at}) is unreadable ({err})"
         raise _laz_corrupt(path, n, what) from err
-    if any(not (0 <= int(e[0]) < 2**40 and 0 < int(e[1]) <= chunks_bytes) for e in entries):
+    if any(not (0 <= int(e[0]) < 2**40 and 0 <= int(e[1]) <= chunks_bytes) for e in entries):
         what = f"the LAZ chunk table (at byte {table_at}) lists impossible chunk sizes"
         raise _laz_corrupt(path, n, what)
     sizes = np.array([int(e[1]) for e in entries], dtype=np.int64)
+    counts = np.array([int(e[0]) for e in entries], dtype=np.int64)
+    # A chunk stores its first point uncompressed: one of fewer bytes holds no point.
+    variable = laz_vlr.uses_variable_size_chunks()
+    while len(sizes) and sizes[-1] < header.point_format.size and (counts[-1] == 0 or not variable):
+        sizes, counts = sizes[:-1], counts[:-1]
     first_byte = data_start + 8 + np.concatenate([[0], np.cumsum(sizes)])
     if first_byte[-1] > table_at:
         what = (
@@ -133,7 +139,6 @@ def _chunk_table(
             f"start (byte {data_start}) and the chunk table (byte {table_at})"
         )
         raise _laz_corrupt(path, n, what)
-    counts = np.array([int(e[0]) for e in entries], dtype=np.int64)
     return counts, first_byte.astype(np.int64)
 
 
