@@ -131,6 +131,23 @@ def test_a_laz_count_that_leaves_a_whole_chunk_out_is_refused(tmp_path: Path) ->
         las_info(points)
 
 
+@pytest.mark.parametrize("n", [2, 3, 17, 50_002])
+@pytest.mark.parametrize("point_format", [0, 3])
+def test_a_pointwise_laz_with_the_right_count_is_read_whole(
+    tmp_path: Path, point_format: int, n: int
+) -> None:
+    """The last chunk's bytes are all needed for its last point: no false refusal."""
+    points = tmp_path / "points.laz"
+    header = laspy.LasHeader(point_format=point_format, version="1.2")
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(n)
+    las.x, las.y, las.z = (rng.normal(0, 100, n) for _ in range(3))
+    las.intensity = rng.integers(0, 65535, n).astype(np.uint16)
+    las.write(points, laz_backend=laspy.LazBackend.Lazrs)
+    expected = laspy.read(points, laz_backend=laspy.LazBackend.Lazrs).points.array
+    np.testing.assert_array_equal(read_las_points(points, 0, n).array, expected)
+
+
 def test_an_empty_laz_is_still_read_as_empty(tmp_path: Path) -> None:
     for point_format, version in ((1, "1.2"), (6, "1.4")):
         points = tmp_path / f"empty{point_format}.laz"

@@ -6,9 +6,11 @@ own, so that separate processes can each read their own part of one file: LAS fr
 the run's byte offset, LAZ by decompressing the LAZ chunks that hold the run, found
 in the file's chunk table (fixed- or variable-size chunks: COPC files are read in
 their stored point order). Before any point is read, the header's point count is
-checked against the file (LAS: its size; LAZ: the chunk table), so that a truncated
-or corrupt file is an `InputError` naming the missing points, never a crash or a
-silently short read; so is any failure of laspy or lazrs on damaged bytes.
+checked against the file (LAS: its size; LAZ: the chunk table and chunks, see
+`kinsync.io.las_header.read_las_layout`), so that a truncated or corrupt file, or a
+count that would leave points out, is an `InputError` naming the points concerned,
+never a crash or a silently short read; so is any failure of laspy or lazrs on
+damaged bytes.
 
 GPS time: with the global-encoding bit "adjusted standard GPS time" set
 (``gps_time_type == "adjusted_standard"``), ``gps_time`` is GPS time - 1e9 s

@@ -4,8 +4,10 @@ laspy reads past the end of its header bytes without complaint (a VLR count of 2
 is two billion empty VLRs) and raises whatever its parsing meets in damaged bytes;
 `read_las_header` checks the header's sizes, VLRs and EVLRs against the file first, and
 the header's point count against the file (an uncompressed file's size, a LAZ file's
-chunk table), so that a truncated or corrupt file is an `InputError` naming what is
-missing.
+chunk table and chunks), so that a truncated or corrupt file is an `InputError` naming
+what is missing, and a count below the points the file holds one naming both counts.
+A LAS 1.4 header with the 64-bit count 0 takes the legacy 32-bit count (laspy reads
+only the 64-bit one); scale factors must be finite and non-zero, offsets finite.
 """
 
 from __future__ import annotations
@@ -106,8 +108,8 @@ def _check_scales_offsets(path: Path, header: laspy.LasHeader) -> None:
 
     A zero scale gives every point the offset (all points on one value), a NaN or
     infinite one no coordinate at all. A negative scale is legal and exact (the
-    coordinate is still integer x scale + offset, and kinsync writes with the same
-    scale), so it is read as it is.
+    coordinate is still integer x scale + offset; it mirrors the stored integers), so it
+    is read as it is.
     """
     for axis, scale, offset, at in zip(
         "XYZ", header.scales, header.offsets, (131, 139, 147), strict=True

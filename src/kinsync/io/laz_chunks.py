@@ -8,6 +8,7 @@ table (`laz_chunks`) and decompresses whole chunks
 
 from __future__ import annotations
 
+import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -241,6 +242,14 @@ def _refuse_count(path: Path, header: laspy.LasHeader, held: str) -> NoReturn:
     raise InputError(msg)
 
 
+_MAX_PROBE_BYTES = 1 << 28
+"""A last chunk of more decompressed bytes than this is not probed (LASzip writes 50,000
+points a chunk: 1.7 MB of point format 3)."""
+_PROBED: set[tuple[int, ...]] = set()
+"""Files whose last pointwise chunk was probed in this process (device, inode, size,
+mtime, point count): a file is opened several times (header, end times, each reader)."""
+
+
 def _check_last_pointwise_chunk(
     path: Path, fh: BinaryIO, header: laspy.LasHeader, chunks: LazChunks
 ) -> None:
@@ -250,10 +259,15 @@ def _check_last_pointwise_chunk(
     a chunk with exactly the bytes the decoder reads for the chunk's last point, so when
     the chunk less its last byte still decompresses, the chunk holds more points than the
     header says. A chunk of one point says nothing (the coder starts at the second).
+    Costs one chunk's decompression, once per file and process (`_PROBED`).
     """
     n = int(chunks.first_point[-1])
     a, b = int(chunks.first_point[-2]), n
-    if b - a < 2:  # the coder starts at the second point
+    if b - a < 2 or (b - a) * int(header.point_format.size) > _MAX_PROBE_BYTES:
+        return  # the coder starts at the second point; a chunk too large to probe
+    st = os.fstat(fh.fileno())
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, n)
+    if key in _PROBED:
         return
     start, end = int(chunks.first_byte[-2]), int(chunks.first_byte[-1])
     fh.seek(start)
@@ -264,7 +278,9 @@ def _check_last_pointwise_chunk(
             data, chunks.record_data, out, [(b - a, len(data))]
         )
     except lazrs.LazrsError:
-        return  # the last byte is needed: the chunk ends with the header's last point
+        # The last byte is needed: the chunk ends with the header's last point.
+        _PROBED.add(key)
+        return
     _refuse_count(
         path,
         header,
