@@ -6,9 +6,11 @@ own, so that separate processes can each read their own part of one file: LAS fr
 the run's byte offset, LAZ by decompressing the LAZ chunks that hold the run, found
 in the file's chunk table (fixed- or variable-size chunks: COPC files are read in
 their stored point order). Before any point is read, the header's point count is
-checked against the file (LAS: its size; LAZ: the chunk table), so that a truncated
-or corrupt file is an `InputError` naming the missing points, never a crash or a
-silently short read; so is any failure of laspy or lazrs on damaged bytes.
+checked against the file (LAS: its size; LAZ: the chunk table and chunks, see
+`kinsync.io.las_header.read_las_layout`), so that a truncated or corrupt file, or a
+count that would leave points out, is an `InputError` naming the points concerned,
+never a crash or a silently short read; so is any failure of laspy or lazrs on
+damaged bytes.
 
 GPS time: with the global-encoding bit "adjusted standard GPS time" set
 (``gps_time_type == "adjusted_standard"``), ``gps_time`` is GPS time - 1e9 s
@@ -36,8 +38,8 @@ import numpy as np
 from kinsync.errors import InputError
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
 from kinsync.io.las_crs import las_crs
-from kinsync.io.las_header import las_header, open_las_file, read_las_header
-from kinsync.io.laz_chunks import LazChunks, laz_chunks
+from kinsync.io.las_header import las_header, open_las_file, read_las_layout
+from kinsync.io.laz_chunks import LazChunks
 from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale
 
@@ -313,9 +315,10 @@ class LasPointReader:
         self._threads = laz_threads
         self._fh = open_las_file(self.path)
         self._tail: tuple[int, int, np.ndarray[Any, Any]] | None = None  # LAZ: see _read_laz
+        self._laz: LazChunks | None = None
         try:
             file_size = os.fstat(self._fh.fileno()).st_size
-            header = read_las_header(self.path, self._fh, file_size)
+            header, self._laz = read_las_layout(self.path, self._fh, file_size)
             self.point_count = int(header.point_count)
             self.point_format: laspy.PointFormat = header.point_format
             adjusted = header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD
@@ -326,9 +329,6 @@ class LasPointReader:
             self._offsets = np.array(header.offsets, dtype=np.float64)
             self._dtype = header.point_format.dtype()
             self._data_start = int(header.offset_to_point_data)
-            self._laz: LazChunks | None = None
-            if header.are_points_compressed and self.point_count > 0:
-                self._laz = laz_chunks(self.path, self._fh, header, file_size)
         except BaseException:
             self._fh.close()
             raise

@@ -4,13 +4,16 @@ laspy reads past the end of its header bytes without complaint (a VLR count of 2
 is two billion empty VLRs) and raises whatever its parsing meets in damaged bytes;
 `read_las_header` checks the header's sizes, VLRs and EVLRs against the file first, and
 the header's point count against the file (an uncompressed file's size, a LAZ file's
-chunk table), so that a truncated or corrupt file is an `InputError` naming what is
-missing.
+chunk table and chunks), so that a truncated or corrupt file is an `InputError` naming
+what is missing, and a count below the points the file holds one naming both counts.
+A LAS 1.4 header with the 64-bit count 0 takes the legacy 32-bit count (laspy reads
+only the 64-bit one); scale factors must be finite and non-zero, offsets finite.
 """
 
 from __future__ import annotations
 
 import io
+import math
 import os
 import struct
 from pathlib import Path
@@ -20,13 +23,14 @@ import laspy
 from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.errors import InputError
-from kinsync.io.laz_chunks import laz_chunks
+from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields
 
 __all__ = [
     "las_header",
     "las_suffix",
     "open_las_file",
     "read_las_header",
+    "read_las_layout",
     "set_global_encoding_bit",
 ]
 
@@ -78,8 +82,78 @@ def open_las_file(path: Path) -> io.BufferedReader:
         raise InputError(msg) from err
 
 
+_LEGACY_COUNT_AT = 107  # byte of the legacy (32-bit) point count; LAS 1.4's 64-bit one: 247
+_WAVEFORM_INTERNAL_MASK = 0b10  # global encoding bit 1: waveform packets in this file
+
+
+def _resolve_point_count(fh: BinaryIO, header: laspy.LasHeader) -> None:
+    """Take the legacy 32-bit point count when a LAS 1.4 header leaves the 64-bit one 0.
+
+    LAS 1.4 (R15) keeps the legacy count whenever it can hold the value, and some
+    writers fill only it; laspy reads only the 64-bit count, which read as 0 points.
+    PDAL and LAStools fall back to the legacy count, and so does kinsync. When both are
+    set, the 64-bit count is the one LAS 1.4 defines; the file's size or its LAZ chunks
+    then show whether it is right (`read_las_layout`).
+    """
+    if header.version.minor < 4:
+        return
+    fh.seek(_LEGACY_COUNT_AT)
+    legacy = int.from_bytes(fh.read(4), "little")
+    if int(header.point_count) == 0 and legacy > 0:
+        header.point_count = legacy
+
+
+def _check_scales_offsets(path: Path, header: laspy.LasHeader) -> None:
+    """Scale factors must be finite and non-zero, offsets finite.
+
+    A zero scale gives every point the offset (all points on one value), a NaN or
+    infinite one no coordinate at all. A negative scale is legal and exact (the
+    coordinate is still integer x scale + offset; it mirrors the stored integers), so it
+    is read as it is.
+    """
+    for axis, scale, offset, at in zip(
+        "XYZ", header.scales, header.offsets, (131, 139, 147), strict=True
+    ):
+        if not math.isfinite(float(scale)) or float(scale) == 0.0:
+            msg = (
+                f"{path}: the header's {axis} scale factor (byte {at}) is {float(scale)!r}; "
+                "it must be a finite, non-zero number (e.g. 0.001): fix the header or "
+                "export the file again"
+            )
+            raise InputError(msg)
+        if not math.isfinite(float(offset)):
+            msg = (
+                f"{path}: the header's {axis} offset (byte {at + 24}) is {float(offset)!r}; "
+                "it must be a finite number: fix the header or export the file again"
+            )
+            raise InputError(msg)
+
+
+def _point_data_end(header: laspy.LasHeader, file_size: int) -> tuple[int, str]:
+    """Where an uncompressed file's point data ends (byte) and what follows it.
+
+    The extended VLRs (LAS 1.4) or, in LAS 1.3, the waveform packets stored in the
+    file; else the end of the file.
+    """
+    start = int(header.offset_to_point_data)
+    if header.version.minor >= 4 and int(header.number_of_evlrs) > 0:
+        return min(file_size, max(start, int(header.start_of_first_evlr))), "extended VLRs"
+    waveform_at = int(header.start_of_waveform_data_packet_record)
+    if (
+        header.version.minor == 3  # LAS 1.3
+        and header.global_encoding.value & _WAVEFORM_INTERNAL_MASK
+        and start < waveform_at < file_size
+    ):
+        return waveform_at, "waveform packets"
+    return file_size, "the end of the file"
+
+
 def _check_las_size(path: Path, header: laspy.LasHeader, file_size: int) -> None:
-    """An uncompressed file must hold the header's points: else name the missing ones."""
+    """An uncompressed file must hold exactly the header's points: else name the difference.
+
+    Fewer whole records than the header says is a truncated file; more is a point count
+    that would leave points out (a broken header).
+    """
     n = int(header.point_count)
     size = int(header.point_format.size)
     start = int(header.offset_to_point_data)
@@ -90,6 +164,22 @@ def _check_las_size(path: Path, header: laspy.LasHeader, file_size: int) -> None
             f"{path}: the header says {n} points of {size} bytes from byte {start}, the file "
             f"ends at byte {file_size}: {held}, points {complete}..{n - 1} are missing; the "
             "file is truncated: copy it again"
+        )
+        raise InputError(msg)
+    end, what = _point_data_end(header, file_size)
+    stored = (end - start) // size
+    if stored < n:
+        msg = (
+            f"{path}: the header says {n} points of {size} bytes from byte {start}, but "
+            f"its {what} start at byte {end}, inside them; the file is corrupt: export "
+            "it again"
+        )
+        raise InputError(msg)
+    if stored > n:
+        msg = (
+            f"{path}: the header says {n} points, the point data (bytes {start}..{end - 1}, "
+            f"up to {what}) holds {stored} points of {size} bytes: {stored - n} would be "
+            f"left out; set {point_count_fields(header)} to {stored}, or export the file again"
         )
         raise InputError(msg)
 
@@ -134,8 +224,21 @@ def _check_header_bytes(path: Path, fh: BinaryIO, file_size: int) -> None:
 def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader:
     """The header, VLRs and EVLRs of an open LAS/LAZ file, every failure an `InputError`.
 
-    The file is also checked to hold all the header's points: an uncompressed file by
-    its size, a LAZ file by its chunk table (`kinsync.io.laz_chunks.laz_chunks`).
+    The file is also checked to hold exactly the header's points (`read_las_layout`).
+    """
+    return read_las_layout(path, fh, file_size)[0]
+
+
+def read_las_layout(
+    path: Path, fh: BinaryIO, file_size: int
+) -> tuple[laspy.LasHeader, LazChunks | None]:
+    """The header of an open LAS/LAZ file and, for a LAZ file with points, its chunks.
+
+    A LAS 1.4 header with the 64-bit point count 0 takes the legacy 32-bit count. The
+    point count is checked against the file: an uncompressed file's point data must
+    hold exactly that many points (fewer: truncated; more: points left out), a LAZ
+    file's chunk table and chunks (`kinsync.io.laz_chunks.laz_chunks`) must hold them.
+    Scale factors must be finite and non-zero, offsets finite.
     """
     _check_header_bytes(path, fh, file_size)
     fh.seek(0)
@@ -154,12 +257,16 @@ def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader
     if version[0] != 1 or version[1] > _LAS_MAX_MINOR:
         msg = f"{path}: LAS version {version[0]}.{version[1]} is not supported (1.0 to 1.4)"
         raise InputError(msg)
+    _resolve_point_count(fh, header)
+    _check_scales_offsets(path, header)
+    chunks = None
     if not header.are_points_compressed:
         _check_las_size(path, header, file_size)
-    elif int(header.point_count) > 0:
+    elif int(header.point_count) > 0 or file_size > int(header.offset_to_point_data):
         # The chunk table must hold the header's points: a count of 2**64 - 1 would
-        # otherwise plan (and allocate) work for points that are not there.
-        laz_chunks(path, fh, header, file_size)
+        # otherwise plan (and allocate) work for points that are not there, a count
+        # below the chunks' leave points out (0 included: any chunk is refused).
+        chunks = laz_chunks(path, fh, header, file_size)
     n_evlrs = int(header.number_of_evlrs) if header.version.minor >= 4 else 0
     if n_evlrs:
         _check_evlrs(path, fh, header, file_size)
@@ -173,7 +280,7 @@ def read_las_header(path: Path, fh: BinaryIO, file_size: int) -> laspy.LasHeader
             raise InputError(msg) from err
     else:
         header.evlrs = VLRList() if header.version.minor >= 4 else None
-    return header
+    return header, chunks
 
 
 def _check_evlrs(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int) -> None:

@@ -8,10 +8,11 @@ table (`laz_chunks`) and decompresses whole chunks
 
 from __future__ import annotations
 
+import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, NoReturn
 
 import laspy
 import lazrs
@@ -19,9 +20,10 @@ import numpy as np
 
 from kinsync.errors import InputError
 
-__all__ = ["LazChunks", "laz_chunks"]
+__all__ = ["LazChunks", "laz_chunks", "point_count_fields"]
 
 _LAZ_CHUNKED_COMPRESSORS = (2, 3)  # LASzip "pointwise chunked" and "layered chunked"
+_LAZ_LAYERED = 3
 _MIN_LAZ_CHUNK_BYTES = 20
 """A LAZ chunk holds its first point uncompressed: at least a point of format 0."""
 
@@ -97,24 +99,23 @@ def _laz_table_offset(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_si
     return table_at
 
 
-def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int) -> LazChunks:
-    """Read and check the LAZ chunk table (variable-size chunks, as in COPC, included).
+def _chunk_table(
+    path: Path, fh: BinaryIO, header: laspy.LasHeader, laz_vlr: Any, file_size: int
+) -> tuple[np.ndarray[Any, np.dtype[np.int64]], np.ndarray[Any, np.dtype[np.int64]]]:
+    """The chunk table's point counts and each chunk's first byte (one more: the end).
 
-    lazrs's own seek assumes fixed-size chunks (it lands on wrong points in a COPC
-    file, or fails after allocating gigabytes), so kinsync locates points itself: the
-    chunk table gives each chunk's points and bytes, and runs of whole chunks are
-    decompressed with ``lazrs.decompress_points_with_chunk_table`` (as laspy's COPC
-    reader does). Every count and offset is checked against the header and the file
-    size before anything is allocated.
+    No chunk at all (an empty file) gives empty counts.
     """
     n = int(header.point_count)
     data_start = int(header.offset_to_point_data)
-    record_data, laz_vlr = _laz_vlr(path, header)
     table_at = _laz_table_offset(path, fh, header, file_size)
     fh.seek(table_at)
     _version, n_chunks = struct.unpack("<II", fh.read(8))
     chunks_bytes = table_at - data_start - 8
-    if n_chunks > chunks_bytes // _MIN_LAZ_CHUNK_BYTES or n_chunks == 0:
+    if n_chunks == 0 and n == 0:  # an empty file
+        return np.zeros(0, np.int64), np.full(1, data_start + 8, np.int64)
+    # + 1: a writer may close the file with an empty chunk (a few bytes, no point)
+    if n_chunks > chunks_bytes // _MIN_LAZ_CHUNK_BYTES + 1 or n_chunks == 0:
         what = f"the LAZ chunk table lists {n_chunks} chunks in {chunks_bytes} bytes"
         raise _laz_corrupt(path, n, what)
     fh.seek(table_at)
@@ -123,23 +124,15 @@ def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int
     except lazrs.LazrsError as err:
         what = f"the LAZ chunk table (at byte {table_at}) is unreadable ({err})"
         raise _laz_corrupt(path, n, what) from err
-    if any(not (0 <= int(e[0]) < 2**40 and 0 < int(e[1]) <= chunks_bytes) for e in entries):
+    if any(not (0 <= int(e[0]) < 2**40 and 0 <= int(e[1]) <= chunks_bytes) for e in entries):
         what = f"the LAZ chunk table (at byte {table_at}) lists impossible chunk sizes"
         raise _laz_corrupt(path, n, what)
-    counts = np.array([int(e[0]) for e in entries], dtype=np.int64)
     sizes = np.array([int(e[1]) for e in entries], dtype=np.int64)
-    if not laz_vlr.uses_variable_size_chunks():
-        # Fixed-size chunks: the table repeats the chunk size; the last chunk holds the rest.
-        # Python integers: a header count near 2**64 must not overflow int64.
-        chunk_size = int(laz_vlr.chunk_size())
-        held_by = [min(chunk_size, max(0, n - chunk_size * k)) for k in range(len(counts))]
-        counts = np.array([c for c in held_by if c > 0], dtype=np.int64)
-        sizes = sizes[: len(counts)]
-    held = int(counts.sum())
-    if held != n:
-        missing = f" (points {held}..{n - 1} are missing)" if held < n else ""
-        what = f"the header says {n} points, the LAZ chunk table holds {held}{missing}"
-        raise _laz_corrupt(path, n, what)
+    counts = np.array([int(e[0]) for e in entries], dtype=np.int64)
+    # A chunk stores its first point uncompressed: one of fewer bytes holds no point.
+    variable = laz_vlr.uses_variable_size_chunks()
+    while len(sizes) and sizes[-1] < header.point_format.size and (counts[-1] == 0 or not variable):
+        sizes, counts = sizes[:-1], counts[:-1]
     first_byte = data_start + 8 + np.concatenate([[0], np.cumsum(sizes)])
     if first_byte[-1] > table_at:
         what = (
@@ -147,8 +140,150 @@ def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int
             f"start (byte {data_start}) and the chunk table (byte {table_at})"
         )
         raise _laz_corrupt(path, n, what)
-    return LazChunks(
+    return counts, first_byte.astype(np.int64)
+
+
+def _chunk_counts(
+    path: Path,
+    fh: BinaryIO,
+    header: laspy.LasHeader,
+    laz_vlr: Any,
+    table: np.ndarray[Any, np.dtype[np.int64]],
+    first_byte: np.ndarray[Any, np.dtype[np.int64]],
+) -> tuple[list[int], str]:
+    """How many points each chunk holds, and where that comes from (for messages).
+
+    Variable-size chunks (COPC): the chunk table. Fixed-size chunks: the chunk size,
+    the last chunk the rest, which only the header and, for layered chunks (point
+    formats 6-10), the chunk itself store: a layered chunk starts with its first point
+    uncompressed, then its point count. A fixed-size pointwise chunk (formats 0-5) does
+    not store it; `_check_last_pointwise_chunk` checks it another way.
+    """
+    n = int(header.point_count)
+    if laz_vlr.uses_variable_size_chunks() or len(table) == 0:
+        return [int(c) for c in table], "the LAZ chunk table holds"
+    # Python integers: a header count near 2**64 must not overflow int64.
+    chunk_size = int(laz_vlr.chunk_size())
+    if int.from_bytes(laz_vlr.record_data()[:2], "little") == _LAZ_LAYERED:
+        k = len(table) - 1
+        a, b = int(first_byte[k]), int(first_byte[k + 1])
+        at = a + int(header.point_format.size)
+        fh.seek(at)
+        raw = fh.read(4)
+        last = int.from_bytes(raw, "little")
+        if at + 4 > b or not 0 < last <= chunk_size:
+            what = (
+                f"LAZ chunk {k} (from point {chunk_size * k}, bytes {a}..{b - 1}) has no "
+                f"valid point count ({last} for chunks of {chunk_size})"
+            )
+            raise _laz_corrupt(path, n, what)
+        return [chunk_size] * k + [last], "the LAZ chunks hold"
+    if n <= chunk_size * (len(table) - 1):
+        _refuse_count(
+            path,
+            header,
+            f"the LAZ chunk table lists {len(table)} chunks of {chunk_size} points, "
+            f"more than {chunk_size * (len(table) - 1)} points",
+        )
+    return [min(chunk_size, n - chunk_size * k) for k in range(len(table))], (
+        "the LAZ chunk table holds"
+    )
+
+
+def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int) -> LazChunks:
+    """Read and check the LAZ chunk table (variable-size chunks, as in COPC, included).
+
+    lazrs's own seek assumes fixed-size chunks (it lands on wrong points in a COPC
+    file, or fails after allocating gigabytes), so kinsync locates points itself: the
+    chunk table gives each chunk's points and bytes, and runs of whole chunks are
+    decompressed with ``lazrs.decompress_points_with_chunk_table`` (as laspy's COPC
+    reader does). Every count and offset is checked against the header and the file
+    size before anything is allocated; chunks that hold more points than the header
+    says are refused (`_chunk_counts` says what is known of each chunk's count).
+    """
+    n = int(header.point_count)
+    record_data, laz_vlr = _laz_vlr(path, header)
+    table, first_byte = _chunk_table(path, fh, header, laz_vlr, file_size)
+    counts, source = _chunk_counts(path, fh, header, laz_vlr, table, first_byte)
+    held = sum(counts)
+    if held > n:
+        _refuse_count(path, header, f"{source} {held}")
+    if held < n:
+        what = f"the header says {n} points, {source} {held} (points {held}..{n - 1} are missing)"
+        raise _laz_corrupt(path, n, what)
+    chunks = LazChunks(
         record_data=record_data,
-        first_point=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-        first_byte=first_byte.astype(np.int64),
+        first_point=np.concatenate([[0], np.cumsum(counts, dtype=np.int64)]).astype(np.int64),
+        first_byte=first_byte,
+    )
+    if n > 0 and source == "the LAZ chunk table holds" and not laz_vlr.uses_variable_size_chunks():
+        _check_last_pointwise_chunk(path, fh, header, chunks)
+    return chunks
+
+
+def point_count_fields(header: laspy.LasHeader) -> str:
+    """Which header field(s) hold the point count, for messages."""
+    if header.version.minor >= 4:
+        return (
+            "the point count (the 64-bit 'number of point records' at byte 247 and, for "
+            "point formats 0-5, the legacy 32-bit count at byte 107)"
+        )
+    return "the point count (the 'number of point records' at byte 107)"
+
+
+def _refuse_count(path: Path, header: laspy.LasHeader, held: str) -> NoReturn:
+    """A header point count below what the LAZ chunks hold: those points would be left out."""
+    n = int(header.point_count)
+    msg = (
+        f"{path}: the header says {n} points, {held}: the points beyond {n} would be left "
+        f"out; set {point_count_fields(header)} to the number of points the file holds, "
+        "or export it again"
+    )
+    raise InputError(msg)
+
+
+_MAX_PROBE_BYTES = 1 << 28
+"""A last chunk of more decompressed bytes than this is not probed (LASzip writes 50,000
+points a chunk: 1.7 MB of point format 3)."""
+_PROBED: set[tuple[int, ...]] = set()
+"""Files whose last pointwise chunk was probed in this process (device, inode, size,
+mtime, point count): a file is opened several times (header, end times, each reader)."""
+
+
+def _check_last_pointwise_chunk(
+    path: Path, fh: BinaryIO, header: laspy.LasHeader, chunks: LazChunks
+) -> None:
+    """The last fixed-size pointwise chunk (point formats 0-5) must end where its points do.
+
+    Its point count is stored nowhere but in the header. LASzip's arithmetic coder ends
+    a chunk with exactly the bytes the decoder reads for the chunk's last point, so when
+    the chunk less its last byte still decompresses, the chunk holds more points than the
+    header says. A chunk of one point says nothing (the coder starts at the second).
+    Costs one chunk's decompression, once per file and process (`_PROBED`).
+    """
+    n = int(chunks.first_point[-1])
+    a, b = int(chunks.first_point[-2]), n
+    if b - a < 2 or (b - a) * int(header.point_format.size) > _MAX_PROBE_BYTES:
+        return  # the coder starts at the second point; a chunk too large to probe
+    st = os.fstat(fh.fileno())
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, n)
+    if key in _PROBED:
+        return
+    start, end = int(chunks.first_byte[-2]), int(chunks.first_byte[-1])
+    fh.seek(start)
+    data = fh.read(end - start - 1)
+    out = np.empty((b - a) * int(header.point_format.size), dtype=np.uint8)
+    try:
+        lazrs.decompress_points_with_chunk_table(
+            data, chunks.record_data, out, [(b - a, len(data))]
+        )
+    except lazrs.LazrsError:
+        # The last byte is needed: the chunk ends with the header's last point.
+        _PROBED.add(key)
+        return
+    _refuse_count(
+        path,
+        header,
+        f"the last LAZ chunk (from point {a}, bytes {start}..{end - 1}) holds more than "
+        f"{b - a} points",
     )
