@@ -44,6 +44,7 @@ __all__ = [
     "MAX_ANGLE_DEG",
     "MAX_LATENCY_S",
     "MAX_LEVER_ARM_M",
+    "MAX_PROFILE_ANGLE_RAD",
     "Mount",
     "mount_from_toml_text",
     "mount_to_toml_text",
@@ -65,6 +66,11 @@ MAX_LEVER_ARM_M = 1000.0
 
 MAX_ANGLE_DEG = 360.0
 """Largest boresight or profiler angle (deg, either sign): one turn."""
+
+MAX_PROFILE_ANGLE_RAD = 2.0 * math.pi
+"""Largest mirror angle of a profile return (rad, either sign): one turn, so that both
+-pi..pi and 0..2 pi conventions read; more is degrees given as radians, or garbage, and
+would move a return's clock time by whole profiles (``t = t0 + (n + phi / 2 pi) T``)."""
 
 WARN_LATENCY_S = 1.0
 """A mount latency beyond this (s, either sign) is read with a warning: sensor, serial

@@ -361,6 +361,18 @@ def test_profile_points_within_a_tenth_of_a_millimetre_of_analytic_truth(
             Mount(profiler_azimuth_deg=0.0),
             rf"{AT_1}, range_m: range -2\.0 is",
         ),
+        (  # 1e308 rad (or 45 meaning degrees) was taken as an angle
+            [1.0, 2.0],
+            [0.0, 1e308],
+            Mount(profiler_azimuth_deg=0.0),
+            rf"{AT_1}, angle_rad: angle 1e\+308 rad is beyond one turn",
+        ),
+        (
+            [1.0, 2.0],
+            [0.0, -45.0],
+            Mount(profiler_azimuth_deg=0.0),
+            rf"{AT_1}, angle_rad: angle -45\.0 rad is beyond one turn.*radians within one turn",
+        ),
         ([1.0, 2.0], [0.0], Mount(profiler_azimuth_deg=0.0), "one length"),
         ([[1.0]], [[0.0]], Mount(profiler_azimuth_deg=0.0), "1-D"),
         (["a", "b"], [0.0, 0.1], Mount(profiler_azimuth_deg=0.0), "must be numbers"),
@@ -371,6 +383,13 @@ def test_bad_profile_points_raise_input_error(
 ) -> None:
     with pytest.raises(InputError, match=match):
         profile_points_to_scanner(r, phi, mount)  # type: ignore[arg-type]
+
+
+def test_profile_angles_up_to_one_turn_either_way_are_taken() -> None:
+    mount = Mount(profiler_azimuth_deg=0.0)
+    phi = np.array([-2.0 * np.pi, -np.pi, 0.0, 3.0 * np.pi / 2.0, 2.0 * np.pi])
+    xyz = profile_points_to_scanner(np.ones(5), phi, mount)
+    np.testing.assert_allclose(xyz, mount.profile_to_scanner(phi, np.ones(5)))
 
 
 def test_interval_rotation_vectors_equal_scipy() -> None:

@@ -107,6 +107,10 @@ SCAN_HEAD = "profile,angle_rad,range_m,intensity\n"
         (f"{SCAN_HEAD}-1,0.1,2,0.5\n", ["line 2, column 'profile'", "to 1e+12"]),
         ("profile,angle_rad,range_m,intensity\n0,0.1,-2,0.5\n", ["'range_m'", "negative"]),
         ("profile,angle_rad,range_m,intensity\n0,inf,2,0.5\n", ["angle_rad", "finite"]),
+        (  # 2,800 turns were plausible; a mirror angle is within one turn
+            f"{SCAN_HEAD}0,0.1,2,0.5\n1,45.0,2,0.5\n",
+            ["line 3, column 'angle_rad'", "a mirror angle (one turn)"],
+        ),
         ("profile,angle_rad,range_m,intensity\n", ["no data rows"]),
         ("", ["empty file"]),
     ],

@@ -93,6 +93,16 @@ def test_apply_refuses_a_negative_or_absurd_range(tmp_path: Path, bad_range: str
     assert not (tmp_path / "o.csv").exists()
 
 
+@pytest.mark.parametrize("bad_angle", ["1e308", "-7.0", "nan"])
+def test_apply_refuses_an_angle_beyond_one_turn(tmp_path: Path, bad_angle: str) -> None:
+    # 1e308 gave the return a time of 4.8e305 s, and x, y, z from sin/cos of it.
+    src = tmp_path / "scan.csv"
+    src.write_text(f"profile,angle_rad,range_m\n0,0.1,2\n1,{bad_angle},2\n2,6.283,3\n")
+    with pytest.raises(InputError, match=r"scan\.csv: line 3: .*radians within one turn"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    assert not (tmp_path / "o.csv").exists()
+
+
 def test_apply_carries_extra_csv_columns_as_their_text(tmp_path: Path) -> None:
     src = tmp_path / "scan.csv"
     src.write_text("profile,angle_rad,range_m,code,big\n0,0.1,2,007,1180591620717411303424\n")

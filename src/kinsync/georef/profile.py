@@ -14,7 +14,7 @@ from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, georeference, point_value_error
 from kinsync.georef.trajectory import GeorefTrajectory
-from kinsync.mount import Mount
+from kinsync.mount import MAX_PROFILE_ANGLE_RAD, Mount
 
 __all__ = [
     "PROFILE_COLUMNS",
@@ -53,8 +53,9 @@ def profile_points_to_scanner(
     Raises
     ------
     InputError
-        No profiler azimuth in the mount, mismatched shapes, non-finite values, a
-        negative range (each naming the first bad index).
+        No profiler azimuth in the mount, mismatched shapes, non-finite values, an
+        angle beyond one turn (`kinsync.mount.MAX_PROFILE_ANGLE_RAD`), a negative range
+        (each naming the first bad index).
     """
     if mount.profiler_azimuth_deg is None:
         msg = (
@@ -78,6 +79,13 @@ def profile_points_to_scanner(
         value = float(r[i]) if field == "range_m" else float(phi[i])
         problem = f"{value!r} is not finite (range_m {float(r[i])!r}, angle_rad {float(phi[i])!r})"
         raise point_value_error(what, bad, field, problem, "drop or fix them", r.size)
+    wide = np.abs(phi) > MAX_PROFILE_ANGLE_RAD
+    if np.any(wide):
+        i = int(np.flatnonzero(wide)[0])
+        problem = f"angle {float(phi[i])!r} rad is beyond one turn (+-2 pi)"
+        raise point_value_error(
+            what, wide, "angle_rad", problem, "mirror angles are radians within one turn", r.size
+        )
     negative = r < 0.0
     if np.any(negative):
         i = int(np.flatnonzero(negative)[0])

@@ -36,7 +36,6 @@ from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
 from kinsync.io.row_position import point_position
 from kinsync.io.sanity import (
-    ANGLE_RAD,
     HEIGHT_M,
     INTENSITY,
     LATITUDE_DEG,
@@ -49,6 +48,7 @@ from kinsync.io.sanity import (
     load_json,
 )
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
+from kinsync.mount import MAX_PROFILE_ANGLE_RAD
 from kinsync.sync.scan import (
     SCAN_COLUMNS,
     SYNC_POINT_COLUMNS,
@@ -70,7 +70,9 @@ __all__ = [
 _READ_CHUNK = 1 << 20
 
 _SCAN_SPANS: dict[str, Span] = {
-    "angle_rad": ANGLE_RAD,
+    "angle_rad": Span(
+        -MAX_PROFILE_ANGLE_RAD, MAX_PROFILE_ANGLE_RAD, "rad", "a mirror angle (one turn)"
+    ),
     "range_m": LENGTH_M.positive(0.0, "a range"),
     "intensity": INTENSITY,
 }

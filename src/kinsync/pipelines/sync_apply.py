@@ -35,7 +35,7 @@ from kinsync.io.points import (
     table_columns,
 )
 from kinsync.io.row_position import point_position
-from kinsync.mount import Mount
+from kinsync.mount import MAX_PROFILE_ANGLE_RAD, Mount
 from kinsync.sync.scan import ProfileScan
 
 __all__ = ["APPLY_COLUMNS", "apply_profile_clock"]
@@ -182,13 +182,18 @@ def apply_profile_clock(
             last_profile = float(chunk["profile"][-1])
             phi = chunk["angle_rad"]
             rng_m = chunk["range_m"]
-            bad = ~(np.isfinite(phi) & (rng_m >= 0.0) & (rng_m <= MAX_SCANNER_RANGE_M))
+            bad = ~(
+                (np.abs(phi) <= MAX_PROFILE_ANGLE_RAD)  # False for NaN
+                & (rng_m >= 0.0)
+                & (rng_m <= MAX_SCANNER_RANGE_M)
+            )
             if np.any(bad):
                 row = int(np.flatnonzero(bad)[0])
                 msg = (
                     f"{scan_path}: {where(done + row)}: angle_rad {float(phi[row])!r}, "
                     f"range_m {float(rng_m[row])!r}: a range is a finite distance, 0 to "
-                    f"{MAX_SCANNER_RANGE_M:.0f} m, and an angle finite; fix or remove the row"
+                    f"{MAX_SCANNER_RANGE_M:.0f} m, and a mirror angle radians within one turn "
+                    "(+-2 pi); fix or remove the row"
                 )
                 raise InputError(msg)
             xyz = mount.profile_to_scanner(phi, rng_m)
