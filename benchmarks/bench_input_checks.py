@@ -9,6 +9,8 @@ Prints, each beside a baseline measured in the same run:
   span), against pyarrow reading the same CSV into float64 columns;
 - `kinsync.io.las.las_info` on a LAZ file (header, VLRs and the LAZ chunk table checked
   against the file) against ``laspy.open(...).header``;
+- the point-count check of a pointwise LAZ (its last chunk decompressed once per file
+  and process) against laspy's header and against reading every point;
 - refusing a 10 GiB sparse file given as a trajectory CSV: the time and the bytes read
   (before issue 15 the reader held the whole file in memory).
 
@@ -30,6 +32,7 @@ from _timing import best_of
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic, ned_to_ecef
 from kinsync.georef import GeorefTrajectory
+from kinsync.io import laz_chunks
 from kinsync.io.las import las_info
 from kinsync.io.sanity import PROBE_BYTES
 from kinsync.io.sbet import read_sbet, write_sbet
@@ -130,6 +133,48 @@ def laz_header(folder: Path) -> None:
     print(f"  laspy.open(...).header                  {theirs * 1e3:8.2f} ms  (ratio {ratio:.2f})")
 
 
+def laz_pointwise_count(folder: Path) -> None:
+    """The point-count check of a pointwise LAZ (formats 0-5): its last chunk is probed.
+
+    The first `las_info` of a file in a process decompresses that chunk less its last
+    byte (`kinsync.io.laz_chunks`); later opens hit a cache. Beside: laspy's header
+    alone, and reading the whole file's points (what any command then does).
+    """
+    rng = np.random.default_rng(2)
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([1e-4, 1e-4, 1e-4])
+    header.offsets = np.zeros(3)
+    path = folder / "pointwise.laz"
+    with laspy.open(path, mode="w", header=header) as writer:
+        for start in range(0, LAZ_POINTS, 1_000_000):
+            rec = laspy.ScaleAwarePointRecord.zeros(1_000_000, header=header)
+            rec.x = rng.uniform(-50, 50, 1_000_000)
+            rec.y = rng.uniform(-50, 50, 1_000_000)
+            rec.gps_time = start + np.arange(1_000_000) * 1e-6
+            writer.write_points(rec)
+
+    def first_open() -> None:
+        laz_chunks._PROBED.clear()  # as for the first open of the file in a process
+        las_info(path)
+
+    def laspy_header() -> None:
+        with laspy.open(path) as reader:
+            _ = reader.header.point_count
+
+    cold = best_of(first_open, repeat=5)
+    warm = best_of(lambda: las_info(path), repeat=5)
+    theirs = best_of(laspy_header, repeat=5)
+    whole = best_of(lambda: laspy.read(path), repeat=2)
+    size_mib = path.stat().st_size / 2**20
+    print(f"\npointwise LAZ (format 1), {LAZ_POINTS:,} points ({size_mib:.0f} MiB):")
+    print(f"  las_info, first open (last chunk probed) {cold * 1e3:8.2f} ms")
+    print(f"  las_info, later opens (probe cached)     {warm * 1e3:8.2f} ms")
+    print(f"  laspy.open(...).header                   {theirs * 1e3:8.2f} ms")
+    ratio = cold / whole
+    print(f"  laspy.read (every point)                 {whole * 1e3:8.2f} ms")
+    print(f"  first open / reading every point         {ratio:8.3f}")
+
+
 def sparse_refusal(folder: Path) -> None:
     path = folder / "huge.csv"
     path.touch()
@@ -152,6 +197,7 @@ def main() -> None:
         velocity_check(folder)
         csv_checks(folder)
         laz_header(folder)
+        laz_pointwise_count(folder)
         sparse_refusal(folder)
 
 
