@@ -45,3 +45,12 @@ def test_any_float64_repr_reads_back_as_the_same_value(value: float) -> None:
     shown = plain_values(repr(np.float64(value)))
     assert "np." not in shown
     assert np.array_equal(np.float64(shown), np.float64(value), equal_nan=True)
+
+
+def test_a_quoted_cell_of_the_users_file_is_shown_as_written() -> None:
+    # A cell holding the text np.float64(...) was shown as its number.
+    cell = "np.float64(1418472013.2477386)"
+    err = InputError(f"pts.csv: line 3, column 't_s': {cell!r} is not a number")
+    assert str(err) == f"pts.csv: line 3, column 't_s': '{cell}' is not a number"
+    mixed = InputError(f"the file's value {np.float64(1.5)!r} and {cell!r} at {np.int64(2)!r}")
+    assert str(mixed) == f"the file's value 1.5 and '{cell}' at 2"

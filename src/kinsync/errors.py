@@ -13,19 +13,28 @@ from __future__ import annotations
 
 import re
 
-_NUMPY_SCALAR = re.compile(
-    r"np\.(?:float|int|uint|complex|longdouble|str_|bytes_)(?:8|16|32|64|128|256)?\(([^()]*)\)"
+_NUMPY_REPR = re.compile(
+    r"(?P<quoted>(?<!\w)'(?:[^'\\\n]|\\.)*'(?!\w))"  # a quoted text: the user's, kept
+    r"|np\.(?:float|int|uint|complex|longdouble|str_|bytes_)(?:8|16|32|64|128|256)?"
+    r"\((?P<value>[^()]*)\)"
+    r"|np\.(?P<bool>True|False)_"
 )
-_NUMPY_BOOL = re.compile(r"np\.(True|False)_")
+
+
+def _plain(match: re.Match[str]) -> str:
+    if match["quoted"] is not None:
+        return match[0]
+    return match["value"] if match["value"] is not None else match["bool"]
 
 
 def plain_values(text: str) -> str:
     """``text`` with numpy scalar reprs as their plain values: ``np.float64(1.5)`` -> ``1.5``.
 
     numpy 2 writes ``np.float64(1.5)`` for ``repr`` (and ``!r`` in an f-string) of a
-    scalar taken from an array; a message shows a value as a user writes it.
+    scalar taken from an array; a message shows a value as a user writes it. Quoted
+    text (``'...'``, a cell or a line of the user's file) is left as it is.
     """
-    return _NUMPY_BOOL.sub(r"\1", _NUMPY_SCALAR.sub(r"\1", text))
+    return _NUMPY_REPR.sub(_plain, text)
 
 
 class KinsyncError(Exception):
