@@ -79,6 +79,14 @@ def test_reader_names_every_column(tmp_path: Path) -> None:
         p.points_ecef_m[0, 0] = 0.0
 
 
+def test_a_byte_that_is_not_utf8_is_named_by_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "bad.txt"
+    path.write_bytes((_line([1.0] * 17) + "\n\n").encode() + b"1 " * 16 + b"caf\xe9\n")
+    with pytest.raises(InputError) as exc:
+        read_cidco_pass(path)
+    assert str(exc.value).startswith(f"{path}: line 3: byte 0xE9 is not UTF-8 text")
+
+
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [

@@ -224,6 +224,24 @@ def test_bad_folder(
         assert fragment in message, message
 
 
+@pytest.mark.parametrize("line", [1, 3])
+def test_a_byte_that_is_not_utf8_in_the_index_is_named_by_its_line(
+    tmp_path: Path, line: int
+) -> None:
+    # It was "cannot read ('utf-8' codec can't decode byte 0xe9 in position 42 ...)".
+    lines = [b"file,rate_deg_s", b"a.csv,2", b"b.csv,-2"]
+    lines[line - 1] += b",caf\xe9"
+    folder = tmp_path / "passes"
+    folder.mkdir()
+    (folder / "passes.csv").write_bytes(b"\n".join(lines) + b"\n")
+    with pytest.raises(InputError) as exc:
+        read_passes(folder)
+    assert str(exc.value) == (
+        f"{folder / 'passes.csv'}: line {line}: byte 0xE9 is not UTF-8 text; save the file as "
+        "UTF-8 (or remove the damaged line)"
+    )
+
+
 def test_missing_folder(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="pass folder not found"):
         read_passes(tmp_path / "nope")

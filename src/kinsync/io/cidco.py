@@ -110,6 +110,7 @@ from kinsync.io.sanity import (
     TIME_S,
     check_columns,
     check_text_file,
+    not_utf8_cell,
 )
 from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
@@ -309,11 +310,15 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
     path = Path(path)
     check_text_file(path, "CIDCO pass file", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
+        text = path.read_text(encoding="utf-8", errors="surrogateescape")
+    except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
     numbered = [(no, ln) for no, ln in enumerate(text.splitlines(), start=1) if ln.strip()]
+    for no, ln in numbered:
+        error = not_utf8_cell(path, no, ln)
+        if error is not None:
+            raise error
     if not numbered:
         msg = f"{path}: no data; expected lines of {CIDCO_COLUMNS} numbers"
         raise InputError(msg)

@@ -31,10 +31,10 @@ from __future__ import annotations
 import csv
 import os
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import laspy
 import numpy as np
@@ -52,6 +52,7 @@ from kinsync.io.sanity import (
     check_columns,
     check_text_file,
     check_values,
+    not_utf8_cell,
 )
 from kinsync.io.tables import read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
@@ -117,9 +118,9 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     if index_path.exists():
         check_text_file(index_path, f"pass index ({PASSES_CSV})", max_bytes=MAX_TEXT_ROWS_BYTES)
     try:
-        with index_path.open(newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header_row = next(reader, None)
+        with index_path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
+            reader = _utf8_rows(index_path, csv.reader(fh))
+            header_row = next(reader, (1, None))[1]
             if not header_row or all(not h.strip() for h in header_row):
                 msg = f"{index_path}: empty file; expected a header file,rate_deg_s"
                 raise InputError(msg)
@@ -145,7 +146,7 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
                 )
                 raise InputError(msg)
             col = {name: i for i, name in enumerate(header)}
-            rows = [_parse_index_row(index_path, reader.line_num, r, header, col) for r in reader]
+            rows = [_parse_index_row(index_path, line, r, header, col) for line, r in reader]
     except FileNotFoundError as err:
         msg = f"{index_path}: file not found; a pass folder needs a {PASSES_CSV} index"
         raise InputError(msg) from err
@@ -168,6 +169,17 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
             raise InputError(msg)
         first_line[key] = r.line
     return out
+
+
+def _utf8_rows(path: Path, reader: Any) -> Iterator[tuple[int, list[str]]]:
+    """A csv reader's rows with their lines, refusing a cell with a byte that is not UTF-8."""
+    for row in reader:
+        line = int(reader.line_num)
+        for cell in row:
+            error = not_utf8_cell(path, line, cell)
+            if error is not None:
+                raise error
+        yield line, row
 
 
 def _warn_unlisted(folder: Path, rows: Sequence[PassIndexRow]) -> None:
