@@ -96,3 +96,50 @@ def test_atomic_path_refuses_an_unwritable_folder_as_an_input_error(folder: Path
         atomic_path(folder / "o.csv"),
     ):
         pass
+
+
+def _output_pairs() -> Iterator[Any]:
+    for path, callback in commands():
+        command = " ".join(path)
+        outs = [
+            p
+            for p in path_parameters(callback)
+            if p in OUTPUT_PARAMETERS and not output_is_folder(command, p)
+        ]
+        for i, first in enumerate(outs):
+            for second in outs[i + 1 :]:
+                yield pytest.param(path, callback, first, second, id=f"{command}:{first}={second}")
+
+
+PAIRS = list(_output_pairs())
+
+
+def test_commands_with_two_file_outputs_are_covered() -> None:
+    ids = {p.id for p in PAIRS}
+    assert "clock fit:model_out=figure" in ids
+    assert "calibrate mount:out=report" in ids
+
+
+@pytest.mark.parametrize("by_link", [False, True], ids=["same-path", "symlink"])
+@pytest.mark.parametrize(("path", "callback", "first", "second"), PAIRS)
+def test_two_outputs_naming_one_file_are_refused_before_any_work(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    first: str,
+    second: str,
+    by_link: bool,
+) -> None:
+    # calibrate mount --out cal.toml --report cal.toml wrote the HTML report over the
+    # calibrated mount, with exit 0.
+    spelled = path_parameters(callback)
+    target = tmp_path / "same.csv"
+    other = tmp_path / "link.csv"
+    if by_link:
+        other.symlink_to(target)
+    argv = [*_argv(path, callback, tmp_path), spelled[first], str(target)]
+    argv += [spelled[second], str(other if by_link else target)]
+    assert_one_line_error(*run_cli(argv), "are the same file", spelled[first], spelled[second])
+    assert not target.exists()

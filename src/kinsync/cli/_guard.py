@@ -2,7 +2,8 @@
 
 `guard_commands` wraps every command of the program. Each ``Path`` parameter of a
 command is an input, except those named in `OUTPUT_PARAMETERS`. Before the command
-runs, each output is checked against each input (`kinsync.io.atomic.check_not_an_input`:
+runs, each output is checked against the other outputs (two options naming one file)
+and against each input (`kinsync.io.atomic.check_not_an_input`:
 the same file by any path, an input folder, a file inside one); while it runs, every
 file written (all go through `kinsync.io.atomic.atomic_path`) is checked again, so a
 figure or report written into an input folder cannot replace an input either. Each
@@ -27,6 +28,7 @@ from typing import Any
 import typer
 
 from kinsync.cli._bounds import check_numeric_option
+from kinsync.errors import InputError
 from kinsync.io.atomic import (
     ProtectedInput,
     check_not_an_input,
@@ -122,6 +124,22 @@ def _paths(value: Any) -> Iterator[Path]:
             yield from _paths(v)
 
 
+def _check_not_another_output(path: Path, option: str, outputs: list[tuple[str, Path]]) -> None:
+    """Refuse an output that is the same file as another output of the command.
+
+    Both would be written and the later one would replace the earlier (a report written
+    over the calibrated mount, a figure over the clock model).
+    """
+    where = path.resolve()
+    for other_option, other in outputs:
+        if other.resolve() == where:
+            msg = (
+                f"{option} {path} and {other_option} {other} are the same file: one would "
+                "replace the other; give each its own file"
+            )
+            raise InputError(msg)
+
+
 def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
     spelled = path_parameters(callback)
     numbers = numeric_parameters(callback)
@@ -140,9 +158,12 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             if name in spelled and name not in OUTPUT_PARAMETERS
             for p in _paths(value)
         ]
+        outputs: list[tuple[str, Path]] = []
         for name, value in bound.arguments.items():
             if name in spelled and name in OUTPUT_PARAMETERS:
                 for p in _paths(value):
+                    _check_not_another_output(p, spelled[name], outputs)
+                    outputs.append((spelled[name], p))
                     check_not_an_input(p, inputs, spelled[name])
                     folder = output_is_folder(command, name)
                     check_output_location(p, spelled[name], folder=folder)
