@@ -143,3 +143,25 @@ def test_two_outputs_naming_one_file_are_refused_before_any_work(
     argv += [spelled[second], str(other if by_link else target)]
     assert_one_line_error(*run_cli(argv), "are the same file", spelled[first], spelled[second])
     assert not target.exists()
+
+
+def test_an_output_that_cannot_be_replaced_is_an_input_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # An immutable existing output (chattr +i) ended in an internal error (exit 1) when
+    # the finished temporary file was renamed onto it.
+    out = tmp_path / "out.csv"
+    out.write_text("old\n")
+
+    def refuse(self: Path, target: Path) -> Path:
+        raise PermissionError(1, "Operation not permitted", str(self), None, str(target))
+
+    monkeypatch.setattr(Path, "replace", refuse)
+    with (
+        pytest.raises(InputError, match=r"out\.csv: cannot replace it \(Operation not permitted\)"),
+        atomic_path(out) as tmp,
+    ):
+        tmp.write_text("new\n")
+    monkeypatch.undo()
+    assert out.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]

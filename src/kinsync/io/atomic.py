@@ -238,7 +238,14 @@ def atomic_path(path: Path) -> Iterator[Path]:
     tmp.chmod(0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
     try:
         yield tmp
-        tmp.replace(path)
+        try:
+            tmp.replace(path)
+        except OSError as err:  # e.g. an existing file made immutable (chattr +i)
+            msg = (
+                f"{path}: cannot replace it ({err.strerror or err}); the output is not "
+                "written: make the file writable or choose another"
+            )
+            raise InputError(msg) from None
     finally:
         tmp.unlink(missing_ok=True)
 
