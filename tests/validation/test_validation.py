@@ -161,6 +161,10 @@ def test_heading_error_shows_as_opposite_offsets_left_and_right(
     assert he.p_value < 1e-4
     assert abs(he.estimate - YAW_ERROR_DEG) < 4 * he.std
     assert abs(he.estimate - YAW_ERROR_DEG) < 0.2 * YAW_ERROR_DEG
+    # The t statistic is the reported estimate over its sigma (it had the other sign).
+    assert he.t_statistic == pytest.approx(he.estimate / he.std, rel=1e-12)
+    te = rep.time_error
+    assert te.t_statistic == pytest.approx(te.estimate / te.std, rel=1e-12)
     assert not rep.time_error.significant
     correct = reports["correct"]
     shifts = np.array(

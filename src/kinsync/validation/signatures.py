@@ -430,8 +430,9 @@ def signature_tests(
             return _untestable(quantity, unit, level, reasons[name])
         k = 1 + names.index(name)
         est, sd, dof = float(fit.coef[k]), math.sqrt(float(fit.cov[k, k])), float(fit.dof[k])
-        t_stat = est / sd if sd > 0.0 else (math.copysign(math.inf, est) if est else 0.0)
-        p_val = float(2.0 * stats.t.sf(abs(t_stat), dof))
+        t_coef = est / sd if sd > 0.0 else (math.copysign(math.inf, est) if est else 0.0)
+        p_val = float(2.0 * stats.t.sf(abs(t_coef), dof))
+        t_stat = math.copysign(1.0, scale) * t_coef  # the sign of the reported estimate
         return SignatureTest(
             quantity=quantity,
             unit=unit,
