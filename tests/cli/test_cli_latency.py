@@ -354,7 +354,11 @@ def test_plan_bad_input(
 def test_sphere_raw_applies_the_mount_latency(
     run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
-    """--raw georeferences raw/ with the latency of raw/mount.toml: none is left to find."""
+    """--raw georeferences raw/ with the latency of raw/mount.toml: none is left to find.
+
+    The latency reported is the total, the mount's plus what is left on top of it (it
+    was the residual alone, printed as "latency").
+    """
     folder = tmp_path / "raw_set"
     sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
     write_simulation(sim, folder, raw=True)
@@ -369,8 +373,16 @@ def test_sphere_raw_applies_the_mount_latency(
     code, out, err = run_cli([*argv, "--raw"])
     assert code == 0, err
     corrected = json.loads(out)
-    assert abs(corrected["latency_ms"]) < 4 * corrected["latency_std_ms"]
+    assert abs(corrected["residual_latency_ms"]) < 4 * corrected["latency_std_ms"]
     assert tau * 1e3 > 10 * corrected["latency_std_ms"]
+    assert corrected["mount_latency_ms"] == tau * 1e3
+    total = corrected["mount_latency_ms"] + corrected["residual_latency_ms"]
+    assert corrected["latency_ms"] == pytest.approx(total, rel=1e-12)
+    assert abs(corrected["latency_ms"] - tau * 1e3) < 4 * corrected["latency_std_ms"]
+    code, out, err = run_cli([*argv[:-1], "--raw"])
+    assert code == 0, err
+    assert f"latency {corrected['latency_ms']:.4f} ± " in out
+    assert f"latency_s {tau * 1e3:.4f} ms was applied before the fit" in out
     code, out, err = run_cli(["latency", "sphere", str(sim_folder), "--raw", "--no-figure"])
     assert_one_line_error(code, out, err, "raw folder not found")
 

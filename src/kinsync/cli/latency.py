@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.table import Table
@@ -16,9 +16,72 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.progress import Stages
 
+if TYPE_CHECKING:
+    from kinsync.latency.sphere import SphereLatencyResult
+
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
 
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
+
+
+def _print_sphere_result(
+    result: SphereLatencyResult, applied_s: float, fig_path: Path | None
+) -> None:
+    """The per-rate table and the summary lines of ``latency sphere``."""
+    total_s = result.latency_s + applied_s
+    table = Table(title="Method A: latency per table rate (exact rotation model)")
+    for col in (
+        "rate (deg/s)",
+        "points",
+        "centre σ (mm)",
+        "latency (ms)",
+        "latency σ (ms)",
+        "first-order (ms)",
+    ):
+        table.add_column(col, justify="right")
+    for r in result.per_rate:
+        table.add_row(
+            f"{r.rate_deg_s:g}",
+            str(r.n_points),
+            f"{r.center_std_m * 1e3:.4f}",
+            f"{r.latency_s * 1e3:.4f}",
+            f"{r.latency_std_s * 1e3:.4f}",
+            f"{r.latency_first_order_s * 1e3:.4f}",
+        )
+    console.print(table)
+    if applied_s != 0.0:
+        console.print(
+            f"raw/mount.toml's latency_s {applied_s * 1e3:.4f} ms was applied before the fit: "
+            f"the per-rate latencies are on top of it (residual "
+            f"{result.latency_s * 1e3:.4f} ms)",
+            markup=False,
+        )
+    console.print(
+        f"latency {total_s * 1e3:.4f} ± {result.latency_std_s * 1e3:.4f} ms "
+        f"(tau > 0: navigation lags the scanner); {result.agreement_text()}",
+        markup=False,
+    )
+    for rejected in result.rejected_passes:
+        console.print(
+            f"rejected: {rejected.source} ({rejected.rate_deg_s:+g} deg/s): {rejected.reason}",
+            markup=False,
+            highlight=False,
+        )
+    if result.unpaired_rates_deg_s:
+        console.print(
+            f"left out (passes of one sign only): {list(result.unpaired_rates_deg_s)} deg/s"
+        )
+    console.print(f"passes used: {result.n_passes_used} of {result.n_passes}", highlight=False)
+    if fig_path is not None:
+        console.print(f"figure: {fig_path}")
+
+
+def _applied_latency_s(folder: Path) -> float:
+    """The latency (s) that ``--raw`` georeferencing took from ``raw/mount.toml``."""
+    from kinsync.io.mount_file import read_mount  # noqa: PLC0415
+    from kinsync.io.raw_passes import RAW_DIR, RAW_MOUNT_TOML  # noqa: PLC0415
+
+    return float(read_mount(folder / RAW_DIR / RAW_MOUNT_TOML).latency_s)
 
 
 @app.command("sphere")
@@ -88,6 +151,16 @@ def sphere(
     doc = result.as_document()
     if fig_path is not None:
         doc["figure"] = str(fig_path)
+    applied_s = _applied_latency_s(Path(folder)) if raw else 0.0
+    total_s = result.latency_s + applied_s
+    if applied_s != 0.0:
+        # The raw passes were georeferenced with raw/mount.toml's latency: the fit
+        # measures what is left on top of it; the total is their sum.
+        doc |= {
+            "latency_ms": total_s * 1e3,
+            "mount_latency_ms": applied_s * 1e3,
+            "residual_latency_ms": result.latency_s * 1e3,
+        }
     if result.rates_disagree:
         typer.echo(
             f"kinsync: warning: {folder}: the table rates disagree ({result.agreement_text()}); "
@@ -98,44 +171,7 @@ def sphere(
     if as_json:
         print_json(doc)
         return
-    table = Table(title="Method A: latency per table rate (exact rotation model)")
-    for col in (
-        "rate (deg/s)",
-        "points",
-        "centre σ (mm)",
-        "latency (ms)",
-        "latency σ (ms)",
-        "first-order (ms)",
-    ):
-        table.add_column(col, justify="right")
-    for r in result.per_rate:
-        table.add_row(
-            f"{r.rate_deg_s:g}",
-            str(r.n_points),
-            f"{r.center_std_m * 1e3:.4f}",
-            f"{r.latency_s * 1e3:.4f}",
-            f"{r.latency_std_s * 1e3:.4f}",
-            f"{r.latency_first_order_s * 1e3:.4f}",
-        )
-    console.print(table)
-    console.print(
-        f"latency {result.latency_s * 1e3:.4f} ± {result.latency_std_s * 1e3:.4f} ms "
-        f"(tau > 0: navigation lags the scanner); {result.agreement_text()}",
-        markup=False,
-    )
-    for rejected in result.rejected_passes:
-        console.print(
-            f"rejected: {rejected.source} ({rejected.rate_deg_s:+g} deg/s): {rejected.reason}",
-            markup=False,
-            highlight=False,
-        )
-    if result.unpaired_rates_deg_s:
-        console.print(
-            f"left out (passes of one sign only): {list(result.unpaired_rates_deg_s)} deg/s"
-        )
-    console.print(f"passes used: {result.n_passes_used} of {result.n_passes}", highlight=False)
-    if fig_path is not None:
-        console.print(f"figure: {fig_path}")
+    _print_sphere_result(result, applied_s, fig_path)
 
 
 @app.command("plan")
