@@ -65,7 +65,7 @@ def test_period_json(run_cli: RunCli) -> None:
         (["budget", "serial", "--baud", "115200", "--bytes", "-1"], "bytes"),
         (["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"], "parity"),
         (["budget", "latency", "--range-m", "-50"], "--range-m -50: outside the span"),
-        (["budget", "latency", "--slope-deg", "0"], "slope_deg"),
+        (["budget", "latency", "--slope-deg", "0"], "--slope-deg 0"),  # named as typed
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
         # Exactly at grazing (10 deg/s x 1 s = the 10 deg slope): was exit 0 with 1e17 m.
         (["budget", "latency", "--latency-ms", "1000", "--json"], "reaches or exceeds the grazing"),

@@ -265,6 +265,15 @@ def test_apply_bad_input(
     has_col = tmp_path / "has.csv"
     has_col.write_text("t_local_s,t_gps_s\n1.0,2.0\n")
     assert_one_line_error(*apply(src=has_col), "already has a column 't_gps_s'")
+    # An empty column name was written into the header; a .parquet got CSV text.
+    for name in ("", " ", "a,b", 'say "t"'):
+        assert_one_line_error(*apply("--out-column", name), "--out-column", "give a column name")
+    parquet = tmp_path / "out.parquet"
+    code, o, e = run_cli(
+        ["clock", "apply", "--model", str(model_path), "--in", str(data), "--out", str(parquet)]
+    )
+    assert_one_line_error(code, o, e, "writes CSV; give a .csv file")
+    assert not parquet.exists()
     code, o, e = run_cli(
         ["clock", "apply", "--model", str(model_path), "--in", str(data), "--out", str(data)]
     )

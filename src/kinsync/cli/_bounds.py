@@ -60,7 +60,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     # geometry
     "--range-m": Bounds(0.01, 100_000.0, "m"),
     ("latency plan", "--range-m"): Bounds(0.1, 100.0, "m", "a table scanner sees its sphere"),
-    "--slope-deg": Bounds(0.0, 89.0, "deg"),
+    "--slope-deg": Bounds(0.1, 89.0, "deg", "a horizontal beam meets no horizontal surface"),
     "--rate-deg-s": Bounds(-1_000.0, 1_000.0, "deg/s"),
     "--radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
     "--sphere-radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),

@@ -163,6 +163,15 @@ def apply(
     from kinsync.io.tables import read_time_column, write_with_column  # noqa: PLC0415
 
     policy = _parse_outside(outside)
+    if not out_column.strip() or any(c in out_column for c in ',"\r\n'):
+        msg = (
+            f"--out-column {out_column!r}: give a column name (not empty, without commas, "
+            "quotes or line breaks)"
+        )
+        raise InputError(msg)
+    if out.suffix.lower() != ".csv":
+        msg = f"--out {out}: clock apply writes CSV; give a .csv file"
+        raise InputError(msg)
     clock = read_clock_model(model)
     table, t_local = read_time_column(in_path, column)
     if out_column.strip() in [h.strip() for h in table.header]:
