@@ -442,3 +442,13 @@ def test_plan_refuses_designs_it_cannot_compute(
     allocation of gigabytes: the planner says which before it allocates."""
     code, out, err = run_cli(["latency", "plan", *options])
     assert_one_line_error(code, out, err, *fragments)
+
+
+def test_sphere_figure_and_no_figure_contradict(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    # --no-figure won silently: the figure asked for was not written.
+    fig = tmp_path / "f1.png"
+    argv = ["latency", "sphere", str(sim_folder), "--figure", str(fig), "--no-figure"]
+    assert_one_line_error(*run_cli(argv), "--no-figure contradict")
+    assert not fig.exists()

@@ -18,7 +18,12 @@ from typing import Any
 
 import pytest
 
-from kinsync.cli._guard import OUTPUT_PARAMETERS, output_is_folder, path_parameters
+from kinsync.cli._guard import (
+    OUTPUT_PARAMETERS,
+    OUTPUT_SUFFIXES,
+    output_is_folder,
+    path_parameters,
+)
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, check_output_location
 
@@ -66,16 +71,17 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(
     kind: str,
 ) -> None:
     option = path_parameters(callback)[out]
+    suffix = OUTPUT_SUFFIXES.get(out, ".png")
     if kind == "existing_folder":
-        (tmp_path / "dir.png").mkdir()
-        given, fragment = tmp_path / "dir.png", "is an existing folder"
+        (tmp_path / f"dir{suffix}").mkdir()
+        given, fragment = tmp_path / f"dir{suffix}", "is an existing folder"
     elif kind == "missing_folder":
-        given, fragment = tmp_path / "none" / "o.png", "does not exist"
+        given, fragment = tmp_path / "none" / f"o{suffix}", "does not exist"
     elif kind == "below_a_file":
         (tmp_path / "file").write_text("x")
         given, fragment = tmp_path / "file" / "sub", "is a file, not a folder"
     else:
-        given, fragment = Path(kind.split(":", 1)[1]) / "o.png", "cannot write in the folder"
+        given, fragment = Path(kind.split(":", 1)[1]) / f"o{suffix}", "cannot write in the folder"
     argv = [*_argv(path, callback, tmp_path), option, str(given)]
     before = sorted(tmp_path.rglob("*"))
     code, o, e = run_cli(argv)
@@ -96,6 +102,32 @@ def test_atomic_path_refuses_an_unwritable_folder_as_an_input_error(folder: Path
         atomic_path(folder / "o.csv"),
     ):
         pass
+
+
+def _fixed_format_outputs() -> Iterator[Any]:
+    for path, callback in commands():
+        for out in (p for p in path_parameters(callback) if p in OUTPUT_SUFFIXES):
+            yield pytest.param(path, callback, out, id=f"{' '.join(path)}:{out}")
+
+
+@pytest.mark.parametrize(("path", "callback", "out"), list(_fixed_format_outputs()))
+def test_an_output_of_one_format_refuses_another_suffix(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    out: str,
+) -> None:
+    # A PNG was written into fig.jpg, HTML into report.pdf, JSON into model.toml.
+    option = path_parameters(callback)[out]
+    given = tmp_path / "o.jpg"
+    suffix = OUTPUT_SUFFIXES[out]
+    fragment = f"{option} {given}: this output is {suffix[1:].upper()}; give a {suffix} file"
+    assert_one_line_error(
+        *run_cli([*_argv(path, callback, tmp_path), option, str(given)]), fragment
+    )
+    assert not given.exists()
 
 
 def _output_pairs() -> Iterator[Any]:
@@ -135,8 +167,9 @@ def test_two_outputs_naming_one_file_are_refused_before_any_work(
     # calibrate mount --out cal.toml --report cal.toml wrote the HTML report over the
     # calibrated mount, with exit 0.
     spelled = path_parameters(callback)
-    target = tmp_path / "same.csv"
-    other = tmp_path / "link.csv"
+    suffix = OUTPUT_SUFFIXES.get(first, ".csv")  # the same file for both outputs
+    target = tmp_path / f"same{suffix}"
+    other = tmp_path / f"link{suffix}"
     if by_link:
         other.symlink_to(target)
     argv = [*_argv(path, callback, tmp_path), spelled[first], str(target)]

@@ -47,6 +47,10 @@ __all__ = [
 OUTPUT_PARAMETERS = frozenset({"out", "model_out", "figure", "png", "report"})
 """Names of the ``Path`` parameters that are outputs (files or folders) of a command."""
 
+OUTPUT_SUFFIXES = {"model_out": ".json", "figure": ".png", "png": ".png", "report": ".html"}
+"""The one format each of these outputs is written in: another suffix is refused (a PNG
+written into ``figure.jpg`` or JSON into ``model.toml`` misleads whatever opens it)."""
+
 FOLDER_OUTPUT_COMMANDS = ("simulate ", "demo")
 """Commands (prefixes of their full names) whose ``--out`` is a folder, not a file."""
 
@@ -124,6 +128,13 @@ def _paths(value: Any) -> Iterator[Path]:
             yield from _paths(v)
 
 
+def _check_suffix(path: Path, option: str, suffix: str | None) -> None:
+    """Refuse an output whose suffix is not the one format it is written in."""
+    if suffix is not None and path.suffix.lower() != suffix:
+        msg = f"{option} {path}: this output is {suffix[1:].upper()}; give a {suffix} file"
+        raise InputError(msg)
+
+
 def _check_not_another_output(path: Path, option: str, outputs: list[tuple[str, Path]]) -> None:
     """Refuse an output that is the same file as another output of the command.
 
@@ -162,9 +173,10 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
         for name, value in bound.arguments.items():
             if name in spelled and name in OUTPUT_PARAMETERS:
                 for p in _paths(value):
-                    _check_not_another_output(p, spelled[name], outputs)
-                    outputs.append((spelled[name], p))
                     check_not_an_input(p, inputs, spelled[name])
+                    _check_not_another_output(p, spelled[name], outputs)
+                    _check_suffix(p, spelled[name], OUTPUT_SUFFIXES.get(name))
+                    outputs.append((spelled[name], p))
                     folder = output_is_folder(command, name)
                     check_output_location(p, spelled[name], folder=folder)
                     if folder and command.startswith("simulate "):

@@ -122,6 +122,9 @@ def sphere(
     from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
+    if no_figure and figure is not None:
+        msg = f"--figure {figure} and --no-figure contradict each other; give one of them"
+        raise InputError(msg)
     if max_gap_s is not None and not raw:
         msg = (
             "--max-gap-s is the gap threshold of the attitude log read with --raw; the pass "
