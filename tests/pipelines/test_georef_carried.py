@@ -130,7 +130,8 @@ def test_parquet_to_las_keeps_nulls_of_the_rejected_rows(tmp_path: Path, traj_pa
     summary = georeference_file(
         src, traj_path, MOUNT, out, chunk_points=CHUNK, outside="reject", crs="EPSG:32619"
     )
-    rejected = pq.read_table(tmp_path / "geo.rejected.parquet")
+    assert summary.rejected_path == tmp_path / "geo.las.rejected.parquet"
+    rejected = pq.read_table(summary.rejected_path)
     assert rejected.num_rows == summary.points_rejected > 0
     assert rejected.schema == table.schema
     assert rejected.column("maybe").null_count == rejected.num_rows
@@ -155,7 +156,8 @@ def test_rejected_csv_rows_are_the_input_lines_byte_for_byte(
         src, traj_path, MOUNT, out, chunk_points=7, outside="reject", crs="EPSG:32619"
     )
     assert summary.points_rejected == 3
-    assert summary.rejected_path == tmp_path / "geo.rejected.csv"
+    name = "geo.rejected.csv" if suffix == ".csv" else f"geo{suffix}.rejected.csv"
+    assert summary.rejected_path == tmp_path / name
     assert summary.rejected_path.read_bytes() == header + b"".join(lines)
 
 

@@ -122,7 +122,7 @@ def test_las_to_csv_rejects_to_a_las_file_in_the_input_format(
     n_out = int((cols["t_s"] >= T0).sum())
     assert 0 < n_out < N
     assert (summary.points_out, summary.points_rejected) == (n_out, N - n_out)
-    assert summary.rejected_path == tmp_path / "geo.rejected.las"
+    assert summary.rejected_path == tmp_path / "geo.csv.rejected.las"
     rejected = laspy.read(summary.rejected_path)
     assert len(rejected.points) + pa_csv.read_csv(out).num_rows == N
     np.testing.assert_array_equal(
@@ -205,10 +205,34 @@ def test_ply_output_reads_back_with_every_numeric_attribute(
         np.testing.assert_array_equal(ply["t_s"], cols["t_s"][inside])
         np.testing.assert_array_equal(ply["amplitude"], cols["amplitude"][inside])
         assert "label" not in ply
-        assert summary.rejected_path == tmp_path / "geo.rejected.csv"
+        assert summary.rejected_path == tmp_path / "geo.ply.rejected.csv"
     else:
         np.testing.assert_array_equal(ply["gps_time"] + 1e9, stored["t_s"][inside])
-        assert summary.rejected_path == tmp_path / "geo.rejected.las"
+        assert summary.rejected_path == tmp_path / "geo.ply.rejected.las"
+
+
+def test_outputs_of_one_name_and_two_formats_keep_their_own_rejected_files(
+    tmp_path: Path, traj_path: Path
+) -> None:
+    # geo.csv and geo.las from one CSV input both rejected to geo.rejected.csv: the second
+    # run removed (or replaced) the first run's rejected points.
+    cols = _columns(2, t_lo=-2.0)  # points before the trajectory starts
+    src = tmp_path / "scan.csv"
+    with TableChunkWriter(src) as writer:
+        writer.write(cols)
+    table = georeference_file(src, traj_path, MOUNT, tmp_path / "geo.csv", outside="reject")
+    las = georeference_file(src, traj_path, MOUNT, tmp_path / "geo.las", outside="reject")
+    assert table.rejected_path == tmp_path / "geo.rejected.csv"
+    assert las.rejected_path == tmp_path / "geo.las.rejected.csv"
+    assert table.points_rejected == las.points_rejected > 0
+    assert table.rejected_path.read_bytes() == las.rejected_path.read_bytes()
+    inside = tmp_path / "inside.csv"  # a rerun to geo.las that rejects nothing
+    with TableChunkWriter(inside) as writer:
+        writer.write(_columns(3))
+    rerun = georeference_file(inside, traj_path, MOUNT, tmp_path / "geo.las", outside="reject")
+    assert rerun.points_rejected == 0
+    assert not las.rejected_path.exists()  # its own earlier rejected file is removed
+    assert table.rejected_path.exists()  # another output's is left alone
 
 
 def test_a_column_map_reads_other_names_and_keeps_them(tmp_path: Path, traj_path: Path) -> None:

@@ -163,14 +163,16 @@ def rejected_path_for(out_path: Path, points_path: Path | None = None) -> Path:
     """``OUT.rejected.<ext>``: where points outside the trajectory span go.
 
     They are written unchanged, in the input's own format: ``<ext>`` is the output's
-    suffix when input and output are of one kind (LAS/LAZ, or CSV/Parquet tables),
-    else the input's (a LAZ georeferenced to CSV rejects to ``OUT.rejected.laz``).
+    suffix when input and output are of one kind (LAS/LAZ, or CSV/Parquet tables):
+    ``geo.laz`` rejects to ``geo.rejected.laz``. Else it is the input's, after the
+    output's whole name (a LAZ georeferenced to ``geo.csv`` rejects to
+    ``geo.csv.rejected.laz``), so that runs to ``geo.csv`` and ``geo.las`` from one CSV
+    input never share, replace or remove each other's rejected file.
     """
     out_path = Path(out_path)
-    suffix = out_path.suffix
     if points_path is not None and _kind(Path(points_path)) != _kind(out_path):
-        suffix = Path(points_path).suffix
-    return out_path.with_name(f"{out_path.stem}.rejected{suffix}")
+        return out_path.with_name(f"{out_path.name}.rejected{Path(points_path).suffix}")
+    return out_path.with_name(f"{out_path.stem}.rejected{out_path.suffix}")
 
 
 def _kind(path: Path) -> str:
