@@ -56,3 +56,21 @@ def test_the_same_simulator_may_write_again_and_a_real_clash_is_refused(
     code, out, err = run_cli(["simulate", "rotating-table", "--passes", "1", "--out", str(folder)])
     assert_one_line_error(code, out, err, "`kinsync simulate clock`")
     assert not (folder / "passes.csv").exists()
+
+
+def test_a_folder_with_other_files_is_refused_before_any_work(
+    tmp_path: Path, run_cli: RunCli, assert_one_line_error: OneLineError
+) -> None:
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("keep me\n")
+    code, out, err = run_cli(["simulate", "clock", "--duration-s", "30", "--out", str(folder)])
+    assert_one_line_error(code, out, err, f"--out {folder}", "other files (notes.txt)")
+    assert [p.name for p in folder.iterdir()] == ["notes.txt"]
+    # an earlier simulation with a file of the user's added is not replaced either
+    sim = tmp_path / "clk"
+    assert run_cli(["simulate", "clock", "--duration-s", "30", "--out", str(sim)])[0] == 0
+    (sim / "figure.png").write_bytes(b"png")
+    code, out, err = run_cli(["simulate", "clock", "--duration-s", "30", "--out", str(sim)])
+    assert_one_line_error(code, out, err, "figure.png")
+    assert (sim / "figure.png").read_bytes() == b"png"

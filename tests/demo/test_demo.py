@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
+import kinsync.demo.run as demo_run
 from kinsync.cli import main
+from kinsync.errors import InputError
 from kinsync.report.render_check import check_renders, find_chromium
 from kinsync.report.structure import report_problems
 
@@ -113,3 +115,38 @@ def test_demo_refuses_a_file_as_output_folder(
         main(["demo", "--out", str(target)])
     assert exc.value.code == 2
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_demo_refuses_a_folder_with_other_files_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def no_work(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("the demo started working")
+
+    monkeypatch.setattr(demo_run, "budget_section", no_work)
+    out = tmp_path / "d"
+    (out / "clock").mkdir(parents=True)
+    (out / "budget.json").write_text('{"mine": 1}\n')
+    (out / "clock" / "pps.csv").write_text("t_local_s\n1.0\n")
+    with pytest.raises(InputError, match=r"other files \(budget.json, clock\)"):
+        demo_run.run_demo(out)
+    assert (out / "budget.json").read_text() == '{"mine": 1}\n'
+    assert (out / "clock" / "pps.csv").read_text() == "t_local_s\n1.0\n"
+
+
+def test_an_interrupted_demo_leaves_the_earlier_report(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def interrupt(*_args: object, **_kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(demo_run, "method_a_section", interrupt)  # after the budgets' files
+    out = tmp_path / "d"
+    out.mkdir()
+    (out / "report.html").write_text("<h1>kinsync demo report</h1>\n")
+    (out / "budget.json").write_text("{}\n")
+    with pytest.raises(KeyboardInterrupt):
+        demo_run.run_demo(out)
+    assert sorted(p.name for p in out.iterdir()) == ["budget.json", "report.html"]
+    assert (out / "budget.json").read_text() == "{}\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["d"]

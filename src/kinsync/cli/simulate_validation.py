@@ -42,7 +42,7 @@ def validation(
         curved_wall_scene,
     )
 
-    output_folder(out, "give a folder for the simulation", option="--out")
+    output_folder(out, "give a folder for the simulation", create=False, option="--out")
     with progress_display("simulate validation") as progress:
         stages = Stages(progress, {"control targets": 2.0, "wall": 2.0, "writing files": 1.0})
         stages.start("control targets", "simulating the control-target passes")

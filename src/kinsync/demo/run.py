@@ -31,11 +31,15 @@ from kinsync.demo.method_a import cidco_section, find_cidco_folder, method_a_sec
 from kinsync.demo.method_b import method_b_section
 from kinsync.demo.navego import find_navego_folder, navego_section
 from kinsync.demo.validation import validation_section
-from kinsync.io.atomic import atomic_write_bytes, atomic_write_text, output_folder
+from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_folder, atomic_write_bytes, atomic_write_text
 from kinsync.progress import Progress, Stages
 from kinsync.report.html import Section, render_report
 
-__all__ = ["DemoResult", "run_demo"]
+__all__ = ["DemoResult", "check_demo_folder", "run_demo"]
+
+REPORT_TITLE = "kinsync demo report"
+"""The report's heading; a ``report.html`` holding it marks a folder the demo wrote."""
 
 
 @dataclass(frozen=True)
@@ -111,6 +115,41 @@ _STAGE_WEIGHTS = {
 """Each part's share of the demo's time (measured on 2 cores with ../shared), for the bar."""
 
 
+def check_demo_folder(out_dir: Path) -> None:
+    """Refuse an existing ``out_dir`` that holds anything but an earlier demo report.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The demo's output folder (existing or not).
+
+    Raises
+    ------
+    InputError
+        ``out_dir`` is a folder that is neither empty nor an earlier demo output (its
+        ``report.html`` with the demo's heading and its ``budget.json``).
+    """
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        return
+    entries = sorted(p.name for p in out_dir.iterdir())
+    if not entries:
+        return
+    report = out_dir / "report.html"
+    try:
+        ours = report.is_file() and REPORT_TITLE in report.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        ours = False
+    if ours and (out_dir / "budget.json").is_file():
+        return
+    shown = ", ".join(entries[:3]) + (", ..." if len(entries) > 3 else "")
+    msg = (
+        f"--out {out_dir}: the folder holds other files ({shown}); give a new or empty "
+        "folder (or one holding an earlier demo report, which is replaced)"
+    )
+    raise InputError(msg)
+
+
 def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
     """Run every capability on built-in data and write the report folder.
 
@@ -118,15 +157,32 @@ def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
     ----------
     out_dir : Path
         Folder to write (created if missing): ``report.html``, ``budget.json`` and the
-        figures as PNG files.
+        figures as PNG files. It must be missing, empty or hold an earlier demo report
+        (`check_demo_folder`); the report is written into a hidden folder beside it and
+        renamed into place when complete, replacing the earlier one as a whole (an
+        interrupted demo leaves the folder as it was).
     progress : Progress, optional
         Told the share of the demo done and what runs now, as each part starts.
 
     Returns
     -------
     DemoResult
+
+    Raises
+    ------
+    InputError
+        ``out_dir`` is a file or holds other files (before any work).
     """
-    out_dir = output_folder(out_dir, "choose another --out")
+    final_dir = Path(out_dir)
+    with atomic_folder(final_dir, check_demo_folder, "choose another --out", option="--out") as tmp:
+        summary = _run_sections(tmp, progress)
+    return DemoResult(
+        out_dir=final_dir, report_path=final_dir / "report.html", summary=tuple(summary)
+    )
+
+
+def _run_sections(out_dir: Path, progress: Progress | None) -> list[tuple[str, str, str]]:
+    """Run every part into ``out_dir``, the report last; return the summary rows."""
     summary: list[tuple[str, str, str]] = []
     sections: list[Section] = []
     stages = Stages(progress, _STAGE_WEIGHTS)
@@ -174,7 +230,7 @@ def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
 
     stages.start("report")
     report_path = out_dir / "report.html"
-    html_text = render_report("kinsync demo report", INTRO, sections, _conclusion(sections))
+    html_text = render_report(REPORT_TITLE, INTRO, sections, _conclusion(sections))
     atomic_write_text(report_path, html_text)
     stages.finish()
-    return DemoResult(out_dir=out_dir, report_path=report_path, summary=tuple(summary))
+    return summary

@@ -13,6 +13,11 @@ every output by construction:
   ``.html``).
 * **Nothing is left behind.** A temporary left by a killed run (its process no longer
   exists) is removed when the same output is written next.
+
+A folder of outputs written as one whole (a simulation, the demo report) goes through
+`atomic_folder`: it is written into a hidden temporary folder beside it
+(``.NAME.PID.XXXXXXXX.part``) and published by renames, so that the folder holds either
+its complete old content or its complete new content, never a mix.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -32,6 +38,7 @@ from kinsync.errors import InputError
 
 __all__ = [
     "ProtectedInput",
+    "atomic_folder",
     "atomic_path",
     "atomic_write_bytes",
     "atomic_write_text",
@@ -179,7 +186,7 @@ def check_output_location(path: Path, option: str = "", *, folder: bool = False)
     _probe_writable(probe, shown)
 
 
-_PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.part")
+_PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.(?P<kind>part|old)")
 
 
 def _process_alive(pid: int) -> bool:
@@ -193,16 +200,31 @@ def _process_alive(pid: int) -> bool:
 
 
 def _remove_stale_parts(parent: Path, name: str) -> None:
-    """Remove temporaries of ``parent/name`` whose writing process no longer exists."""
+    """Remove temporaries of ``parent/name`` whose writing process no longer exists.
+
+    A temporary file or folder (``.part``) is removed. A folder set aside while
+    publishing (``.old``, see `atomic_folder`) is put back when ``parent/name`` is
+    missing (the run was killed between the two renames), removed otherwise.
+    """
     prefix = f".{name}."
     with contextlib.suppress(OSError):
-        for entry in os.scandir(parent):
-            if not entry.name.startswith(prefix) or not entry.is_file(follow_symlinks=False):
+        for entry in sorted(os.scandir(parent), key=lambda e: e.name):
+            if not entry.name.startswith(prefix):
                 continue
             match = _PART.fullmatch(entry.name[len(prefix) :])
-            if match is not None and not _process_alive(int(match["pid"])):
-                with contextlib.suppress(OSError):
-                    Path(entry.path).unlink()
+            if match is None or _process_alive(int(match["pid"])):
+                continue
+            stale = Path(entry.path)
+            with contextlib.suppress(OSError):
+                if entry.is_file(follow_symlinks=False):
+                    if match["kind"] == "part":
+                        stale.unlink()
+                elif entry.is_dir(follow_symlinks=False):
+                    target = parent / name
+                    if match["kind"] == "old" and not target.exists():
+                        stale.rename(target)
+                    else:
+                        shutil.rmtree(stale)
 
 
 @contextmanager
@@ -315,3 +337,92 @@ def output_folder(path: Path, hint: str, *, create: bool = True, option: str = "
             msg = f"{prefix}{path}: cannot create the folder ({err.strerror}); {hint}"
             raise InputError(msg) from None
     return path
+
+
+def _publish_folder(new: Path, path: Path) -> None:
+    """Rename the complete folder ``new`` onto ``path``, setting an existing one aside.
+
+    The old folder is renamed to ``.NAME.PID.XXXXXXXX.old``, the new one into place, then
+    the old one removed. If the second rename fails or is interrupted, the old folder is
+    put back; if the process is killed between the renames, the next `atomic_folder` of
+    ``path`` puts it back.
+    """
+    if not path.exists():
+        new.rename(path)
+        return
+    prefix = f".{path.name}.{os.getpid()}."
+    old = Path(tempfile.mkdtemp(prefix=prefix, suffix=".old", dir=new.parent))
+    old.rmdir()  # only the unique name is wanted: rename needs a missing (or empty) target
+    path.rename(old)
+    try:
+        new.rename(path)
+    except BaseException:
+        if not path.exists():
+            old.rename(path)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+@contextmanager
+def atomic_folder(
+    path: Path, check: Callable[[Path], None], hint: str, *, option: str = ""
+) -> Iterator[Path]:
+    """Yield a fresh hidden folder beside ``path``; publish it as ``path`` on success.
+
+    Everything written into the yielded folder appears at ``path`` at once, when the
+    block ends without an error: ``path`` then holds the complete new content, and its
+    earlier content (if any) is removed. On any exception (an interruption included)
+    the temporary folder is removed and ``path`` is left exactly as it was. Temporaries
+    left by a killed run are cleaned up (or, for a set-aside old folder, put back) on
+    the next call.
+
+    Parameters
+    ----------
+    path : Path
+        The output folder: missing, or an existing folder that ``check`` accepts to
+        replace as a whole (a symbolic link to a folder: the folder it points to).
+    check : callable
+        Called with ``path`` when it exists, before anything is written and again just
+        before publishing; raises `InputError` when the folder holds anything that must
+        not be replaced (files of the user's).
+    hint : str
+        What to do instead, ending the error messages (e.g. "give a folder for the
+        simulation").
+    option : str
+        Command-line option naming the folder in messages (e.g. "--out"), if any.
+
+    Raises
+    ------
+    InputError
+        ``path`` exists and is not a folder, ``check`` refuses it, or its parent folder
+        cannot be created or written.
+    """
+    path = Path(path)
+    if path.is_symlink() and path.is_dir():
+        path = Path(os.path.realpath(path))
+    prefix = f"{option} " if option else ""
+    if path.exists() and not path.is_dir():
+        msg = f"{prefix}{path}: exists and is not a folder; {hint}"
+        raise InputError(msg)
+    parent = path.parent if str(path.parent) else Path()
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale_parts(parent, path.name)
+        if path.is_dir():
+            check(path)
+        tmp = Path(
+            tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent)
+        )
+    except OSError as err:
+        msg = f"{prefix}{path}: cannot create the folder ({err.strerror or err}); {hint}"
+        raise InputError(msg) from None
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)  # mkdtemp creates 0700; give the folder the usual mode
+        yield tmp
+        if path.is_dir():
+            check(path)
+        _publish_folder(tmp, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

@@ -50,9 +50,10 @@ from kinsync._validate import finite_number, positive_number
 from kinsync.budget import serial_transmission_time_s
 from kinsync.clock import CLOCK_FORMULA, CONVENTIONS, Convention, gps_to_utc_posix_s, utc_to_gps_s
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path, atomic_write_text, output_folder
+from kinsync.io.atomic import atomic_path, atomic_write_text
 from kinsync.io.nmea import format_sentence
 from kinsync.io.tables import write_numeric_csv
+from kinsync.sim.folder import simulation_folder
 
 __all__ = ["ClockSimConfig", "ClockSimulation", "simulate_clock", "write_clock_simulation"]
 
@@ -453,14 +454,14 @@ def write_clock_simulation(sim: ClockSimulation, folder: Path) -> None:
     InputError
         ``folder`` is an existing file.
     """
-    folder = output_folder(folder, "give a folder for the simulation")
-    write_numeric_csv(folder / "pps.csv", {"t_local_s": sim.pps_t_local_s})
-    with (
-        atomic_path(folder / "nmea.csv") as tmp,
-        tmp.open("w", encoding="ascii", newline="") as fh,
-    ):
-        writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(["t_local_s", "sentence"])
-        for t, sentence in zip(sim.nmea_t_local_s.tolist(), sim.nmea_sentences, strict=True):
-            writer.writerow([repr(t), sentence])
-    atomic_write_text(folder / "truth.json", json.dumps(sim.truth, indent=2) + "\n")
+    with simulation_folder(folder, "clock") as out:
+        write_numeric_csv(out / "pps.csv", {"t_local_s": sim.pps_t_local_s})
+        with (
+            atomic_path(out / "nmea.csv") as tmp,
+            tmp.open("w", encoding="ascii", newline="") as fh,
+        ):
+            writer = csv.writer(fh, lineterminator="\n")
+            writer.writerow(["t_local_s", "sentence"])
+            for t, sentence in zip(sim.nmea_t_local_s.tolist(), sim.nmea_sentences, strict=True):
+                writer.writerow([repr(t), sentence])
+        atomic_write_text(out / "truth.json", json.dumps(sim.truth, indent=2) + "\n")

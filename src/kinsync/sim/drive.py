@@ -23,7 +23,7 @@ from kinsync.errors import InputError
 from kinsync.ins.config import InsConfig
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
-from kinsync.io.atomic import atomic_write_text, output_folder
+from kinsync.io.atomic import atomic_write_text
 from kinsync.io.gnss_csv import write_gnss_csv
 from kinsync.io.imu_csv import write_imu_csv
 from kinsync.io.ins_config import write_ins_config
@@ -44,6 +44,7 @@ from kinsync.sim._route import (
     turn_chord_m,
 )
 from kinsync.sim.drive_truth import DriveTrajectory, simulate_truth
+from kinsync.sim.folder import simulation_folder
 from kinsync.sim.gnss import _outages, simulate_gnss
 from kinsync.sim.imu import ImuErrorModel, ImuErrorTruth, simulate_imu
 from kinsync.trajectory import Trajectory
@@ -377,9 +378,9 @@ def write_drive_simulation(sim: DriveSimulation, out_dir: Path) -> None:
     InputError
         ``out_dir`` is an existing file.
     """
-    folder = output_folder(out_dir, "give a folder for the simulation")
-    write_imu_csv(sim.imu, folder / "imu.csv")
-    write_gnss_csv(sim.gnss, folder / "gnss.csv")
-    write_truth_csv(sim.truth, folder / "truth.csv")
-    atomic_write_text(folder / "truth.json", json.dumps(sim.truth_doc, indent=2) + "\n")
-    write_ins_config(sim.ins_config, folder / "ins.toml")
+    with simulation_folder(out_dir, "drive") as folder:
+        write_imu_csv(sim.imu, folder / "imu.csv")
+        write_gnss_csv(sim.gnss, folder / "gnss.csv")
+        write_truth_csv(sim.truth, folder / "truth.csv")
+        atomic_write_text(folder / "truth.json", json.dumps(sim.truth_doc, indent=2) + "\n")
+        write_ins_config(sim.ins_config, folder / "ins.toml")

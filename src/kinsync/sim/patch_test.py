@@ -86,6 +86,7 @@ from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.mount_file import write_mount
 from kinsync.io.sbet import SECONDS_PER_WEEK, write_sbet
 from kinsync.mount import Mount
+from kinsync.sim.folder import simulation_folder
 from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.patch_config import SCENARIOS, PatchTestConfig, Scenario
 from kinsync.sim.patch_route import LineWindow, drive_patch_test
@@ -545,7 +546,8 @@ def write_patch_test(
     sim : PatchTestSimulation
     out_dir : Path
         Output folder: created if missing; it must be empty or hold an earlier patch
-        test (whose files are removed first, ``truth.json`` first).
+        test, replaced as a whole once the new one is complete (an interrupted run
+        leaves the earlier one untouched).
     file_format : {"laz", "las"}
         Point files compressed (LAZ) or not.
 
@@ -562,19 +564,16 @@ def write_patch_test(
     if file_format not in ("laz", "las"):
         msg = f"patch test: point file format must be laz or las, got {file_format!r}"
         raise InputError(msg)
-    previous = check_patch_test_folder(out_dir)
-    folder = output_folder(out_dir, "give a folder for the simulation")
-    # the old truth goes first: a folder without truth.json is not a complete simulation
-    for path in sorted(previous, key=lambda p: p.name != "truth.json"):
-        path.unlink()
+    check_patch_test_folder(out_dir)
     names = patch_test_files(len(sim.lines), file_format)
-    write_sbet(sim.navigation, folder / names[0])
-    write_mount(sim.mount_nominal, folder / names[1])
-    for i, line in enumerate(sim.lines):
-        _write_line(folder / names[2 + i], line, i + 1)
-    truth = dict(sim.truth)
-    truth["file_format"] = file_format
-    truth["files"] = list(names)
-    truth["lines"] = [{**doc, "file": names[2 + i]} for i, doc in enumerate(sim.truth["lines"])]
-    atomic_write_text(folder / "truth.json", json.dumps(truth, indent=2) + "\n")
-    return tuple(folder / n for n in names)
+    with simulation_folder(out_dir, "patch-test") as folder:
+        write_sbet(sim.navigation, folder / names[0])
+        write_mount(sim.mount_nominal, folder / names[1])
+        for i, line in enumerate(sim.lines):
+            _write_line(folder / names[2 + i], line, i + 1)
+        truth = dict(sim.truth)
+        truth["file_format"] = file_format
+        truth["files"] = list(names)
+        truth["lines"] = [{**doc, "file": names[2 + i]} for i, doc in enumerate(sim.truth["lines"])]
+        atomic_write_text(folder / "truth.json", json.dumps(truth, indent=2) + "\n")
+    return tuple(Path(out_dir) / n for n in names)

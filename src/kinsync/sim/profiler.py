@@ -50,13 +50,14 @@ from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef, quaternion_to_matrix, rotation_ned_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
-from kinsync.io.atomic import atomic_write_text, output_folder
+from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import write_mount
 from kinsync.io.profile_scan import write_profile_scan, write_pulses, write_sync_points
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.sim.drive import figure_eight_route, oval_route
 from kinsync.sim.drive_truth import simulate_truth
+from kinsync.sim.folder import simulation_folder
 from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.scene import NO_HIT, Scene, SceneLayout, Target, build_drive_scene
 from kinsync.sync.scan import ProfileScan, SyncPoints
@@ -679,12 +680,12 @@ def write_drive_scan(sim: DriveScanSimulation, out_dir: Path) -> None:
     InputError
         ``out_dir`` exists and is not a folder.
     """
-    out = output_folder(out_dir, "give a folder for the simulation")
-    write_profile_scan(sim.scanner.scan, out / "scan.csv")
-    write_trajectory_csv(sim.trajectory, out / "trajectory.csv")
-    write_mount(sim.config.mount, out / "mount.toml")
-    write_sync_points(sim.sync_points, out / "sync_points.csv")
-    if sim.control_points is not None:
-        write_sync_points(sim.control_points, out / "control_points.csv")
-    write_pulses(sim.pulses_t_s, out / "pulses.csv")
-    atomic_write_text(out / "truth.json", json.dumps(sim.truth, indent=2) + "\n")
+    with simulation_folder(out_dir, "drive-scan") as out:
+        write_profile_scan(sim.scanner.scan, out / "scan.csv")
+        write_trajectory_csv(sim.trajectory, out / "trajectory.csv")
+        write_mount(sim.config.mount, out / "mount.toml")
+        write_sync_points(sim.sync_points, out / "sync_points.csv")
+        if sim.control_points is not None:
+            write_sync_points(sim.control_points, out / "control_points.csv")
+        write_pulses(sim.pulses_t_s, out / "pulses.csv")
+        atomic_write_text(out / "truth.json", json.dumps(sim.truth, indent=2) + "\n")

@@ -64,13 +64,14 @@ import numpy as np
 from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import InputError
 from kinsync.frames import quaternion_to_euler_rpy
-from kinsync.io.atomic import atomic_write_text, output_folder
+from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import write_mount
 from kinsync.io.passes import PassFileFormat, pass_file_name, write_passes
 from kinsync.io.tables import write_numeric_csv
 from kinsync.latency.passes import SpherePass
 from kinsync.mount import Mount
 from kinsync.progress import Progress, report
+from kinsync.sim.folder import simulation_folder
 from kinsync.sim.table_config import LABEL_NAMES, RotatingTableConfig
 from kinsync.sim.table_scan import _Simulator
 from kinsync.trajectory import Trajectory
@@ -296,36 +297,37 @@ def write_simulation(
     InputError
         ``folder`` is an existing file, or an unknown format.
     """
-    folder = output_folder(folder, "give a folder for the simulation", create=False)
     if file_format not in ("csv", "las", "laz"):
         msg = f"pass file format must be csv, las or laz, got {file_format!r}"
         raise InputError(msg)
-    folder.mkdir(parents=True, exist_ok=True)
-    n = len(sim.passes)
-    if raw:
-        raw_dir = folder / "raw"
-        raw_dir.mkdir(exist_ok=True)
-        for i, (p, xs) in enumerate(zip(sim.passes, sim.points_scanner_m, strict=True)):
-            assert p.t_s is not None
+    with simulation_folder(folder, "rotating-table") as out:
+        n = len(sim.passes)
+        if raw:
+            raw_dir = out / "raw"
+            raw_dir.mkdir(exist_ok=True)
+            for i, (p, xs) in enumerate(zip(sim.passes, sim.points_scanner_m, strict=True)):
+                assert p.t_s is not None
+                write_numeric_csv(
+                    raw_dir / pass_file_name(i, n, "csv"),
+                    {"t_s": p.t_s, "x_m": xs[:, 0], "y_m": xs[:, 1], "z_m": xs[:, 2]},
+                )
+            rpy_deg = np.degrees(quaternion_to_euler_rpy(sim.attitude.q_body_to_ned))
             write_numeric_csv(
-                raw_dir / pass_file_name(i, n, "csv"),
-                {"t_s": p.t_s, "x_m": xs[:, 0], "y_m": xs[:, 1], "z_m": xs[:, 2]},
+                raw_dir / "attitude.csv",
+                {
+                    "t_s": sim.attitude.t_s,
+                    "roll_deg": rpy_deg[:, 0],
+                    "pitch_deg": rpy_deg[:, 1],
+                    "yaw_deg": rpy_deg[:, 2],
+                },
             )
-        rpy_deg = np.degrees(quaternion_to_euler_rpy(sim.attitude.q_body_to_ned))
-        write_numeric_csv(
-            raw_dir / "attitude.csv",
-            {
-                "t_s": sim.attitude.t_s,
-                "roll_deg": rpy_deg[:, 0],
-                "pitch_deg": rpy_deg[:, 1],
-                "yaw_deg": rpy_deg[:, 2],
-            },
-        )
-        write_mount(Mount(boresight_rpy_deg=sim.config.boresight_rpy_deg), raw_dir / "mount.toml")
-    truth = dict(sim.truth)
-    truth["file_format"] = file_format
-    truth["passes"] = [
-        {**p, "file": pass_file_name(i, n, file_format)} for i, p in enumerate(sim.truth["passes"])
-    ]
-    atomic_write_text(folder / "truth.json", json.dumps(truth, indent=2) + "\n")
-    write_passes(folder, sim.passes, file_format=file_format)
+            mount = Mount(boresight_rpy_deg=sim.config.boresight_rpy_deg)
+            write_mount(mount, raw_dir / "mount.toml")
+        truth = dict(sim.truth)
+        truth["file_format"] = file_format
+        truth["passes"] = [
+            {**p, "file": pass_file_name(i, n, file_format)}
+            for i, p in enumerate(sim.truth["passes"])
+        ]
+        atomic_write_text(out / "truth.json", json.dumps(truth, indent=2) + "\n")
+        write_passes(out, sim.passes, file_format=file_format)

@@ -17,6 +17,7 @@ from kinsync.io.control_points import write_control_points
 from kinsync.io.mount_file import write_mount
 from kinsync.io.tables import write_numeric_csv
 from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.sim.folder import simulation_folder
 from kinsync.sim.validation_scene import ControlTargetScene, SimulatedScan, WallScene
 
 __all__ = ["VALIDATION_FILES", "validation_truth", "write_validation_scenes"]
@@ -84,7 +85,7 @@ def validation_truth(targets: ControlTargetScene, wall: WallScene, seed: int) ->
 def write_validation_scenes(
     targets: ControlTargetScene, wall: WallScene, out_dir: Path, seed: int
 ) -> dict[str, Any]:
-    """Write both scenes into ``out_dir`` (`VALIDATION_FILES`), each file atomically.
+    """Write both scenes into ``out_dir`` (`VALIDATION_FILES`), as one whole.
 
     Parameters
     ----------
@@ -93,7 +94,8 @@ def write_validation_scenes(
     wall : WallScene
         A wall on the outside of a tight turn.
     out_dir : Path
-        An existing folder.
+        Output folder: missing, empty or holding an earlier validation simulation,
+        replaced as a whole once the new one is complete (`simulation_folder`).
     seed : int
         The scenes' seed, recorded in ``truth.json``.
 
@@ -110,14 +112,14 @@ def write_validation_scenes(
     if targets.scan.mount != wall.scan.mount:
         msg = "write_validation_scenes: the two scenes must share one mount"
         raise ValueError(msg)
-    out = Path(out_dir)
-    _write_scan(targets.scan, out / "targets_scan.csv")
-    write_trajectory_csv(targets.scan.trajectory, out / "targets_trajectory.csv")
-    write_control_points(targets.control, out / "control.csv")
-    _write_scan(wall.scan, out / "wall_scan.csv")
-    write_trajectory_csv(wall.scan.trajectory, out / "wall_trajectory.csv")
     truth = validation_truth(targets, wall, seed)
-    atomic_write_text(out / "wall_box.txt", truth["wall_box_ecef_m"] + "\n")
-    write_mount(targets.scan.mount, out / "mount.toml")
-    atomic_write_text(out / "truth.json", json.dumps(truth, indent=2) + "\n")
+    with simulation_folder(out_dir, "validation") as out:
+        _write_scan(targets.scan, out / "targets_scan.csv")
+        write_trajectory_csv(targets.scan.trajectory, out / "targets_trajectory.csv")
+        write_control_points(targets.control, out / "control.csv")
+        _write_scan(wall.scan, out / "wall_scan.csv")
+        write_trajectory_csv(wall.scan.trajectory, out / "wall_trajectory.csv")
+        atomic_write_text(out / "wall_box.txt", truth["wall_box_ecef_m"] + "\n")
+        write_mount(targets.scan.mount, out / "mount.toml")
+        atomic_write_text(out / "truth.json", json.dumps(truth, indent=2) + "\n")
     return truth
