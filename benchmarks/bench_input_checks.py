@@ -107,12 +107,12 @@ def csv_checks(folder: Path) -> None:
     print(f"  pyarrow read_csv alone                {arrow * 1e3:8.1f} ms  (ratio {ratio:.2f})")
 
 
-def laz_header(folder: Path) -> None:
-    rng = np.random.default_rng(1)
-    header = laspy.LasHeader(point_format=6, version="1.4")
+def _write_laz(path: Path, point_format: int, version: str, seed: int) -> Path:
+    """`LAZ_POINTS` random points in 1 M-point blocks, as laspy's LAZ writer chunks them."""
+    rng = np.random.default_rng(seed)
+    header = laspy.LasHeader(point_format=point_format, version=version)
     header.scales = np.array([1e-4, 1e-4, 1e-4])
     header.offsets = np.zeros(3)
-    path = folder / "scan.laz"
     with laspy.open(path, mode="w", header=header) as writer:
         for start in range(0, LAZ_POINTS, 1_000_000):
             rec = laspy.ScaleAwarePointRecord.zeros(1_000_000, header=header)
@@ -120,6 +120,11 @@ def laz_header(folder: Path) -> None:
             rec.y = rng.uniform(-50, 50, 1_000_000)
             rec.gps_time = start + np.arange(1_000_000) * 1e-6
             writer.write_points(rec)
+    return path
+
+
+def laz_header(folder: Path) -> None:
+    path = _write_laz(folder / "scan.laz", point_format=6, version="1.4", seed=1)
 
     def laspy_header() -> None:
         with laspy.open(path) as reader:
@@ -140,18 +145,7 @@ def laz_pointwise_count(folder: Path) -> None:
     byte (`kinsync.io.laz_chunks`); later opens hit a cache. Beside: laspy's header
     alone, and reading the whole file's points (what any command then does).
     """
-    rng = np.random.default_rng(2)
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales = np.array([1e-4, 1e-4, 1e-4])
-    header.offsets = np.zeros(3)
-    path = folder / "pointwise.laz"
-    with laspy.open(path, mode="w", header=header) as writer:
-        for start in range(0, LAZ_POINTS, 1_000_000):
-            rec = laspy.ScaleAwarePointRecord.zeros(1_000_000, header=header)
-            rec.x = rng.uniform(-50, 50, 1_000_000)
-            rec.y = rng.uniform(-50, 50, 1_000_000)
-            rec.gps_time = start + np.arange(1_000_000) * 1e-6
-            writer.write_points(rec)
+    path = _write_laz(folder / "pointwise.laz", point_format=1, version="1.2", seed=2)
 
     def first_open() -> None:
         laz_chunks._PROBED.clear()  # as for the first open of the file in a process

@@ -40,14 +40,7 @@ def _print_sphere_result(
     ):
         table.add_column(col, justify="right")
     for r in result.per_rate:
-        table.add_row(
-            f"{r.rate_deg_s:g}",
-            str(r.n_points),
-            f"{r.center_std_m * 1e3:.4f}",
-            f"{r.latency_s * 1e3:.4f}",
-            f"{r.latency_std_s * 1e3:.4f}",
-            f"{r.latency_first_order_s * 1e3:.4f}",
-        )
+        table.add_row(*r.row_text())
     console.print(table)
     if applied_s != 0.0:
         console.print(

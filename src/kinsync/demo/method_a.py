@@ -81,15 +81,7 @@ def _summary_row(run: _MethodARun) -> tuple[str, str, str]:
 def _rate_table(run: _MethodARun) -> Table:
     """Latency per table rate, with the planner's sigma beside the estimate's."""
     rows = [
-        [
-            f"{r.rate_deg_s:g}",
-            str(r.n_points),
-            f"{r.center_std_m * 1e3:.4f}",
-            f"{r.latency_s * 1e3:.4f}",
-            f"{r.latency_std_s * 1e3:.4f}",
-            f"{r.latency_first_order_s * 1e3:.4f}",
-            f"{p.latency_std_s * 1e3:.4f}",
-        ]
+        [*r.row_text(), f"{p.latency_std_s * 1e3:.4f}"]
         for r, p in zip(run.result.per_rate, run.plan.per_rate, strict=True)
     ]
     return Table(

@@ -142,6 +142,17 @@ class RateLatency:
     plus: PoolFit
     minus: PoolFit
 
+    def row_text(self) -> tuple[str, ...]:
+        """Rate (deg/s), points, centre sigma (mm), latency, its sigma, first-order (ms)."""
+        return (
+            f"{self.rate_deg_s:g}",
+            str(self.n_points),
+            f"{self.center_std_m * 1e3:.4f}",
+            f"{self.latency_s * 1e3:.4f}",
+            f"{self.latency_std_s * 1e3:.4f}",
+            f"{self.latency_first_order_s * 1e3:.4f}",
+        )
+
 
 @dataclass(frozen=True)
 class RejectedPass:
