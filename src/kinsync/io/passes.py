@@ -28,13 +28,12 @@ A pass file holds the georeferenced points of one pass in the table-centred NED 
 
 from __future__ import annotations
 
-import csv
 import os
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import laspy
 import numpy as np
@@ -46,15 +45,12 @@ from kinsync.io.atomic import atomic_path
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasPointReader, scaled_coordinates
 from kinsync.io.sanity import (
     LENGTH_M,
-    MAX_TEXT_ROWS_BYTES,
     TIME_S,
     Span,
     check_columns,
-    check_text_file,
     check_values,
-    not_utf8_cell,
 )
-from kinsync.io.tables import read_numeric_csv, write_numeric_csv
+from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
 from kinsync.progress import Progress, report
 
@@ -115,44 +111,37 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
     A pass file listed twice (the same path after normalisation) is an `InputError`
     naming both lines: it would be counted twice.
     """
-    if index_path.exists():
-        check_text_file(index_path, f"pass index ({PASSES_CSV})", max_bytes=MAX_TEXT_ROWS_BYTES)
-    try:
-        with index_path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
-            reader = _utf8_rows(index_path, csv.reader(fh))
-            header_row = next(reader, (1, None))[1]
-            if not header_row or all(not h.strip() for h in header_row):
-                msg = f"{index_path}: empty file; expected a header file,rate_deg_s"
-                raise InputError(msg)
-            header = [h.strip() for h in header_row]
-            dupes = sorted({h for h in header if header.count(h) > 1})
-            if dupes:
-                msg = f"{index_path}: line 1: duplicated column(s) {dupes} in the header"
-                raise InputError(msg)
-            missing = [c for c in ("file", "rate_deg_s") if c not in header]
-            if missing:
-                msg = (
-                    f"{index_path}: line 1: missing column(s) {missing}; the header has "
-                    f"{header}; expected file,rate_deg_s[,axis_n,axis_e,axis_d]"
-                )
-                raise InputError(msg)
-            axis_present = [c for c in _AXIS if c in header]
-            if axis_present and len(axis_present) != 3:
-                absent = [c for c in _AXIS if c not in header]
-                msg = (
-                    f"{index_path}: line 1: the axis is given partially (columns "
-                    f"{axis_present}, missing {absent}); give all of axis_n,axis_e,axis_d "
-                    "or none (default 0,0,1 = +Down)"
-                )
-                raise InputError(msg)
-            col = {name: i for i, name in enumerate(header)}
-            rows = [_parse_index_row(index_path, line, r, header, col) for line, r in reader]
-    except FileNotFoundError as err:
+    if not index_path.exists():
         msg = f"{index_path}: file not found; a pass folder needs a {PASSES_CSV} index"
-        raise InputError(msg) from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        msg = f"{index_path}: cannot read ({err})"
-        raise InputError(msg) from err
+        raise InputError(msg)
+    records = read_csv_rows(index_path, f"pass index ({PASSES_CSV})")
+    if not records:
+        msg = f"{index_path}: empty file; expected a header file,rate_deg_s"
+        raise InputError(msg)
+    header_line, header_row = records[0]
+    header = [h.strip() for h in header_row]
+    dupes = sorted({h for h in header if header.count(h) > 1})
+    if dupes:
+        msg = f"{index_path}: line {header_line}: duplicated column(s) {dupes} in the header"
+        raise InputError(msg)
+    missing = [c for c in ("file", "rate_deg_s") if c not in header]
+    if missing:
+        msg = (
+            f"{index_path}: line {header_line}: missing column(s) {missing}; the header has "
+            f"{header}; expected file,rate_deg_s[,axis_n,axis_e,axis_d]"
+        )
+        raise InputError(msg)
+    axis_present = [c for c in _AXIS if c in header]
+    if axis_present and len(axis_present) != 3:
+        absent = [c for c in _AXIS if c not in header]
+        msg = (
+            f"{index_path}: line {header_line}: the axis is given partially (columns "
+            f"{axis_present}, missing {absent}); give all of axis_n,axis_e,axis_d "
+            "or none (default 0,0,1 = +Down)"
+        )
+        raise InputError(msg)
+    col = {name: i for i, name in enumerate(header)}
+    rows = [_parse_index_row(index_path, line, r, header, col) for line, r in records[1:]]
     out = [r for r in rows if r is not None]
     if not out:
         msg = f"{index_path}: no passes listed; add one line per pass: file,rate_deg_s"
@@ -169,17 +158,6 @@ def read_pass_index(index_path: Path) -> list[PassIndexRow]:
             raise InputError(msg)
         first_line[key] = r.line
     return out
-
-
-def _utf8_rows(path: Path, reader: Any) -> Iterator[tuple[int, list[str]]]:
-    """A csv reader's rows with their lines, refusing a cell with a byte that is not UTF-8."""
-    for row in reader:
-        line = int(reader.line_num)
-        for cell in row:
-            error = not_utf8_cell(path, line, cell)
-            if error is not None:
-                raise error
-        yield line, row
 
 
 def _warn_unlisted(folder: Path, rows: Sequence[PassIndexRow]) -> None:
