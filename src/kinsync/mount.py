@@ -11,12 +11,23 @@ The TOML schema (exactly these keys)::
     [profiler]          # optional: 2D profile scanners only
     azimuth_deg = 0.0   # fixed rotation about the scanner Z axis of the profile plane
 
+    [uncertainty]       # optional, every key too: 1-sigma of the [mount] values
+    lever_arm_body_m = [0.01, 0.01, 0.02]   # m, as surveyed (tape, total station)
+    boresight_rpy_deg = [0.05, 0.05, 0.1]   # deg
+    latency_s = 0.0005                      # s (e.g. from `kinsync latency sphere`)
+
 ``latency_s`` is required: the latency is what kinsync measures, and a file without it
 must not silently mean zero (write ``latency_s = 0.0`` when zero is meant). A missing
 lever arm or boresight means zero. Values a mount cannot have are refused on reading:
 a latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond +-`MAX_LEVER_ARM_M`,
 an angle beyond +-`MAX_ANGLE_DEG`. The `Mount` container itself takes any finite
 values (estimators and simulators build mounts freely).
+
+``[uncertainty]`` says how well the values are known: what a calibration that holds a
+parameter (not estimated, or not determined by the data) adds to the sigma of those it
+estimates (`kinsync.calibration.held`), and what `kinsync calibrate mount` writes for
+the parameters it calibrated. A key left out is not known; a standard deviation is
+finite and not negative, and no larger than the value's own bound.
 
 `toml_document` is the one TOML parser of kinsync's readers (mounts, INS
 configurations): it accepts a UTF-8 byte-order mark and names the line and column of a
@@ -46,6 +57,7 @@ __all__ = [
     "MAX_LEVER_ARM_M",
     "MAX_PROFILE_ANGLE_RAD",
     "Mount",
+    "MountUncertainty",
     "mount_from_toml_text",
     "mount_to_toml_text",
     "toml_document",
@@ -54,6 +66,7 @@ __all__ = [
 Vector3 = tuple[float, float, float]
 
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
+_UNCERTAINTY_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s")
 
 MAX_LATENCY_S = 10.0
 """Largest latency (s, either sign) a mount file may give. Latencies are milliseconds
@@ -161,6 +174,60 @@ def _vector3(value: object, name: str, where: str) -> Vector3:
     return out
 
 
+def _std_value(value: object, label: str, limit: float) -> float:
+    """A standard deviation: a finite number in [0, limit]."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        msg = f"{label}: expected a standard deviation (a number), got {value!r}"
+        raise InputError(msg)
+    out = float(value)
+    if not (math.isfinite(out) and 0.0 <= out <= limit):
+        msg = (
+            f"{label} = {value!r}: a standard deviation must be finite, not negative and "
+            f"at most {limit:g}"
+        )
+        raise InputError(msg)
+    return out
+
+
+@dataclass(frozen=True)
+class MountUncertainty:
+    """Standard deviations (1 sigma) of a mount's values; None where not known.
+
+    Attributes
+    ----------
+    lever_arm_body_m : tuple of 3 float or None
+        Of the scanner lever arm, body frame FRD (m).
+    boresight_rpy_deg : tuple of 3 float or None
+        Of the boresight roll, pitch, yaw (deg).
+    latency_s : float or None
+        Of the latency (s).
+    """
+
+    lever_arm_body_m: Vector3 | None = None
+    boresight_rpy_deg: Vector3 | None = None
+    latency_s: float | None = None
+
+    def __post_init__(self) -> None:
+        limits = {"lever_arm_body_m": MAX_LEVER_ARM_M, "boresight_rpy_deg": MAX_ANGLE_DEG}
+        for name, limit in limits.items():
+            value = getattr(self, name)
+            if value is None:
+                continue
+            vec = _vector3(value, name, "mount [uncertainty] ")
+            checked = tuple(
+                _std_value(v, f"mount [uncertainty] {name}[{i}]", limit) for i, v in enumerate(vec)
+            )
+            object.__setattr__(self, name, checked)
+        if self.latency_s is not None:
+            lat = _std_value(self.latency_s, "mount [uncertainty] latency_s", MAX_LATENCY_S)
+            object.__setattr__(self, "latency_s", lat)
+
+    @property
+    def known(self) -> bool:
+        """True when at least one standard deviation is given."""
+        return any(getattr(self, k) is not None for k in _UNCERTAINTY_KEYS)
+
+
 @dataclass(frozen=True)
 class Mount:
     """Scanner mount on the vehicle body (the "system calibration").
@@ -181,6 +248,9 @@ class Mount:
         puts the profile plane into the scanner frame (SPEC section 4): a profile point
         at mirror angle phi and range r is ``Rz(azimuth) (0, r sin phi, r cos phi)``.
         None when the scanner is not a profiler (no ``[profiler]`` table).
+    uncertainty : MountUncertainty or None
+        How well the values are known (the ``[uncertainty]`` table); None when the file
+        says nothing.
     """
 
     lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
@@ -188,8 +258,12 @@ class Mount:
     antenna_lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
     latency_s: float = 0.0
     profiler_azimuth_deg: float | None = None
+    uncertainty: MountUncertainty | None = None
 
     def __post_init__(self) -> None:
+        if self.uncertainty is not None and not isinstance(self.uncertainty, MountUncertainty):
+            msg = f"mount uncertainty: expected a MountUncertainty, got {self.uncertainty!r}"
+            raise InputError(msg)
         for name in _KEYS[:3]:
             object.__setattr__(self, name, _vector3(getattr(self, name), name, "mount "))
         lat = self.latency_s
@@ -277,9 +351,12 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     if not isinstance(table, Mapping):
         msg = f"{source}: no [mount] table; expected keys {', '.join(_KEYS)}"
         raise InputError(msg)
-    unknown_tables = sorted(set(doc) - {"mount", "profiler"})
+    unknown_tables = sorted(set(doc) - {"mount", "profiler", "uncertainty"})
     if unknown_tables:
-        msg = f"{source}: unknown table(s) {unknown_tables}; only [mount] and [profiler] are read"
+        msg = (
+            f"{source}: unknown table(s) {unknown_tables}; only [mount], [profiler] and "
+            "[uncertainty] are read"
+        )
         raise InputError(msg)
     unknown = sorted(set(table) - set(_KEYS))
     if unknown:
@@ -305,6 +382,8 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             msg = f"{source}: unknown key(s) in [profiler]: {unknown_p}; expected azimuth_deg"
             raise InputError(msg)
         kwargs["profiler_azimuth_deg"] = prof.get("azimuth_deg", 0.0)
+    if "uncertainty" in doc:
+        kwargs["uncertainty"] = _uncertainty_table(doc["uncertainty"], source)
     try:
         mount = Mount(**kwargs)
     except InputError as err:
@@ -318,6 +397,26 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
         raise InputError(msg)
     _check_plausible(mount, source)
     return mount
+
+
+def _uncertainty_table(table: object, source: str) -> MountUncertainty:
+    """The ``[uncertainty]`` table: standard deviations of the ``[mount]`` values."""
+    if not isinstance(table, Mapping):
+        msg = f"{source}: [uncertainty] must be a table with {', '.join(_UNCERTAINTY_KEYS)}"
+        raise InputError(msg)
+    unknown = sorted(set(table) - set(_UNCERTAINTY_KEYS))
+    if unknown:
+        msg = (
+            f"{source}: unknown key(s) in [uncertainty]: {unknown}; expected "
+            f"{', '.join(_UNCERTAINTY_KEYS)} (standard deviations of the [mount] values, in "
+            "their units)"
+        )
+        raise InputError(msg)
+    try:
+        return MountUncertainty(**{str(k): v for k, v in table.items()})
+    except InputError as err:
+        msg = f"{source}: {err}"
+        raise InputError(msg) from err
 
 
 def _check_plausible(mount: Mount, source: str) -> None:
@@ -385,7 +484,7 @@ def mount_to_toml_text(mount: Mount) -> str:
     def vec(v: Vector3) -> str:
         return "[" + ", ".join(repr(float(x)) for x in v) + "]"
 
-    return (
+    text = (
         "[mount]\n"
         f"lever_arm_body_m = {vec(mount.lever_arm_body_m)}\n"
         f"boresight_rpy_deg = {vec(mount.boresight_rpy_deg)}\n"
@@ -396,3 +495,14 @@ def mount_to_toml_text(mount: Mount) -> str:
         if mount.profiler_azimuth_deg is None
         else f"\n[profiler]\nazimuth_deg = {float(mount.profiler_azimuth_deg)!r}\n"
     )
+    unc = mount.uncertainty
+    if unc is None or not unc.known:
+        return text
+    text += "\n[uncertainty]  # 1-sigma of the [mount] values, same units\n"
+    if unc.lever_arm_body_m is not None:
+        text += f"lever_arm_body_m = {vec(unc.lever_arm_body_m)}\n"
+    if unc.boresight_rpy_deg is not None:
+        text += f"boresight_rpy_deg = {vec(unc.boresight_rpy_deg)}\n"
+    if unc.latency_s is not None:
+        text += f"latency_s = {float(unc.latency_s)!r}\n"
+    return text

@@ -1,0 +1,122 @@
+"""The mount file's optional ``[uncertainty]`` table: read, checked, written exactly."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from kinsync.errors import InputError
+from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.mount import (
+    MAX_ANGLE_DEG,
+    MAX_LATENCY_S,
+    MAX_LEVER_ARM_M,
+    Mount,
+    MountUncertainty,
+    mount_from_toml_text,
+    mount_to_toml_text,
+)
+
+BASE = "[mount]\nlever_arm_body_m = [0.1, 0.2, 0.3]\nlatency_s = 0.0\n"
+
+
+def _std(limit: float) -> st.SearchStrategy[float]:
+    return st.floats(min_value=0.0, max_value=limit, allow_nan=False)
+
+
+def _maybe(s: st.SearchStrategy[object]) -> st.SearchStrategy[object]:
+    return st.one_of(st.none(), s)
+
+
+uncertainties = st.builds(
+    MountUncertainty,
+    lever_arm_body_m=_maybe(st.tuples(*[_std(MAX_LEVER_ARM_M)] * 3)),
+    boresight_rpy_deg=_maybe(st.tuples(*[_std(MAX_ANGLE_DEG)] * 3)),
+    latency_s=_maybe(_std(MAX_LATENCY_S)),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(unc=uncertainties)
+def test_uncertainty_round_trips_exactly(unc: MountUncertainty) -> None:
+    mount = Mount(lever_arm_body_m=(0.1, 0.2, 0.3), uncertainty=unc)
+    back = mount_from_toml_text(mount_to_toml_text(mount))
+    if unc.known:
+        assert back == mount
+    else:  # nothing known writes no table, and reads back as none
+        assert back.uncertainty is None
+        assert "[uncertainty]" not in mount_to_toml_text(mount)
+
+
+def test_file_round_trip_and_partial_table(tmp_path: Path) -> None:
+    text = BASE + "\n[uncertainty]\nlever_arm_body_m = [0.01, 0.01, 0.02]\n"
+    mount = mount_from_toml_text(text)
+    assert mount.uncertainty == MountUncertainty(lever_arm_body_m=(0.01, 0.01, 0.02))
+    assert mount.uncertainty.boresight_rpy_deg is None
+    assert mount.uncertainty.latency_s is None
+    path = tmp_path / "m.toml"
+    write_mount(mount, path)
+    assert read_mount(path) == mount
+    written = path.read_text()
+    assert "[uncertainty]" in written
+    assert "boresight_rpy_deg" not in written.split("[uncertainty]")[1]
+
+
+def test_no_table_means_none_and_integers_read() -> None:
+    assert mount_from_toml_text(BASE).uncertainty is None
+    mount = mount_from_toml_text(BASE + "[uncertainty]\nboresight_rpy_deg = [0, 0, 1]\n")
+    assert mount.uncertainty is not None
+    assert mount.uncertainty.boresight_rpy_deg == (0.0, 0.0, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("table", "pattern"),
+    [
+        ("[uncertainty]\nlever_arm_m = [0.1, 0.1, 0.1]\n", r"unknown key.*lever_arm_m"),
+        ("[uncertainty]\nantenna_lever_arm_body_m = [0.1, 0.1, 0.1]\n", "antenna"),
+        ("[uncertainty]\nlatency_s = -0.001\n", r"latency_s = -0.001.*not negative"),
+        ("[uncertainty]\nlatency_s = nan\n", r"latency_s = nan.*finite"),
+        ('[uncertainty]\nlatency_s = "1 ms"\n', r"latency_s.*a number"),
+        ("[uncertainty]\nlatency_s = true\n", r"latency_s.*a number"),
+        ("[uncertainty]\nlever_arm_body_m = [0.1, -0.1, 0.1]\n", r"lever_arm_body_m\[1\]"),
+        ("[uncertainty]\nlever_arm_body_m = [0.1, 0.1]\n", "list of 3 numbers"),
+        ("[uncertainty]\nboresight_rpy_deg = [0.1, inf, 0.1]\n", "boresight_rpy_deg"),
+        ("[uncertainty]\nboresight_rpy_deg = [0.1, 0.1, 400.0]\n", r"at most 360"),
+        ("[uncertainty]\nlatency_s = 11.0\n", r"at most 10"),
+    ],
+    ids=[
+        "unknown-key",
+        "antenna-not-calibrated",
+        "negative",
+        "nan",
+        "string",
+        "bool",
+        "negative-in-vector",
+        "two-numbers",
+        "inf-in-vector",
+        "beyond-one-turn",
+        "beyond-latency-bound",
+    ],
+)
+def test_bad_uncertainty_is_refused_naming_file_and_key(table: str, pattern: str) -> None:
+    with pytest.raises(InputError, match=pattern) as info:
+        mount_from_toml_text(BASE + table, source="cfg/mount.toml")
+    assert str(info.value).startswith("cfg/mount.toml: ")
+
+
+def test_uncertainty_that_is_not_a_table_is_refused() -> None:
+    with pytest.raises(InputError, match=r"\[uncertainty\] must be a table"):
+        mount_from_toml_text("uncertainty = 3\n" + BASE, source="cfg/mount.toml")
+
+
+def test_unknown_table_message_lists_uncertainty() -> None:
+    with pytest.raises(InputError, match=r"\[uncertainty\] are read"):
+        mount_from_toml_text(BASE + "[sigma]\nlatency_s = 0.001\n")
+
+
+def test_container_refuses_what_is_not_an_uncertainty() -> None:
+    with pytest.raises(InputError, match="MountUncertainty"):
+        Mount(uncertainty={"latency_s": 0.001})  # type: ignore[arg-type]
