@@ -110,6 +110,43 @@ def test_calibrate_mount_table(
     assert f"wrote {tmp_path / 'm.toml'}" in " ".join(out.split())
 
 
+def test_held_values_stated_uncertainty_in_table_json_and_mount(
+    run_cli: RunCli, patch: tuple[Path, PatchTestSimulation], tmp_path: Path
+) -> None:
+    folder, _ = patch
+    plain = _base(folder)
+    code, out, err = run_cli(plain)
+    assert code == 0, err
+    # Square brackets are shown as written (rich markup once ate "[uncertainty]").
+    assert "taken as exact (no [uncertainty] given)" in " ".join(out.split())
+    assert "held: lever_x_m (taken as exact): 1 cm moves" in out
+    mount_text = (folder / "mount.toml").read_text()
+    stated = tmp_path / "stated.toml"
+    stated.write_text(mount_text + "\n[uncertainty]\nlever_arm_body_m = [0.02, 0.02, 0.05]\n")
+    new = tmp_path / "new.toml"
+    code, out, err = run_cli([*plain[:-1], str(stated), "--out", str(new)])
+    assert code == 0, err
+    header = next(line for line in out.splitlines() if "parameter" in line)
+    assert [c.strip() for c in header.split("┃")[1:-1]] == [
+        "parameter", "prior", "calibrated", "sigma", "data", "held", "status"
+    ]  # fmt: skip
+    assert "held: lever_z_m (sigma 0.05 m)" in out
+    assert "lever_x_m is held as exact" not in err  # its sigma is stated
+    # 4 lines: a jackknife of 3 degrees of freedom is no honest sigma, so the calibrated
+    # mount states none for what it estimated; the held lever keeps the prior's.
+    unc = read_mount(new).uncertainty
+    assert unc is not None
+    assert unc.lever_arm_body_m == (0.02, 0.02, 0.05)
+    assert unc.boresight_rpy_deg is None
+    code, out, err = run_cli([*plain[:-1], str(stated), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["held"]["lever_z_m"]["std"] == 0.05
+    pitch = doc["parameters"]["boresight_pitch_deg"]
+    assert pitch["std_held"] > 0.0
+    assert pitch["std"] == pytest.approx(np.hypot(pitch["std_data"], pitch["std_held"]))
+
+
 def test_returns_in_a_trajectory_gap_are_refused_unless_max_gap_s_spans_it(
     run_cli: RunCli,
     assert_one_line_error: OneLineError,

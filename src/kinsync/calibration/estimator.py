@@ -12,7 +12,10 @@ estimate, and returns a `CalibrationResult`:
 3. The adjustment (`kinsync.calibration.adjustment`): Gauss-Newton with the features
    as nuisance parameters, robust weights, the real georeferencing model.
 4. Honest sigma (`kinsync.calibration.uncertainty`): the jackknife over lines, which
-   holds the errors every return of a line shares; the formal sigma beside it.
+   holds the errors every return of a line shares; the formal sigma beside it. What
+   the held parameters' stated uncertainty (the mount's ``[uncertainty]``) adds is
+   added to it (`kinsync.calibration.held`); a held value taken as exact whose
+   plausible error would move an estimate is named in the advice.
 5. Status: ``weak`` when the sigma exceeds the stated threshold, or when it is no
    honest sigma: the formal one (fewer than `MIN_JACKKNIFE_GROUPS` lines, or a
    jackknife that failed) or a jackknife with fewer than `MIN_HONEST_DOF` degrees of
@@ -26,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -40,6 +43,7 @@ from kinsync.calibration.adjustment import (
     reduced_normal_matrix,
 )
 from kinsync.calibration.features import Feature
+from kinsync.calibration.held import HeldEffect, held_effect, held_std, uncertainty_from_std
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
@@ -249,19 +253,27 @@ def _parameters(
     solution: Adjustment | None,
     std: FloatArray | None,
     honest: bool = True,
+    held: HeldEffect | None = None,
 ) -> tuple[ParameterEstimate, ...]:
-    """Every parameter's estimate; ``honest``: ``std`` is an honest sigma (else ``weak``)."""
+    """Every parameter's estimate; ``honest``: ``std`` is an honest sigma (else ``weak``).
+
+    ``std`` is the data's sigma; ``held`` adds what the held parameters' stated
+    uncertainty does, and the status reads the sum.
+    """
     out = []
+    extra = held.std if held is not None else None
     for i, name in enumerate(PARAMETER_NAMES):
         scale = REPORT_SCALE[i]
         value = prior[i] if solution is None else solution.values[i]
         if i in obs.estimated and solution is not None and std is not None:
             j = obs.estimated.index(i)
-            s = float(std[j]) * scale
+            data = float(std[j]) * scale
+            added = 0.0 if extra is None else float(extra[j]) * scale
+            s = math.hypot(data, added)
             formal = math.sqrt(max(float(solution.covariance[j, j]), 0.0)) * scale
             status = status_of(i, s) if honest else "weak"
         else:
-            s = formal = math.nan
+            s = formal = data = added = math.nan
             status = "unobservable" if i in requested else "fixed"
         out.append(
             ParameterEstimate(
@@ -271,6 +283,8 @@ def _parameters(
                 std=s,
                 formal_std=formal,
                 status=status,  # type: ignore[arg-type]
+                data_std=data,
+                held_std=added,
             )
         )
     return tuple(out)
@@ -360,19 +374,22 @@ def calibrate_mount(
         if not obs.estimated:
             return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
     honest = jk is not None and jk.honest
-    params = _parameters(prior, requested, obs, solution, std, honest)
+    say("what the held parameters' errors do to the estimates")
+    effect = held_effect(models, observations, solution, frame, held_std(mount))
+    params = _parameters(prior, requested, obs, solution, std, honest, effect)
     advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
+    covariance = _covariance(solution, jk) + effect.covariance
     fitted = [f.feature for f in solution.features]
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
     summaries = _summaries(solution, before, overlaps_before, overlaps_after)
     return CalibrationResult(
-        mount=mount_from_values(mount, solution.values),
+        mount=_calibrated_mount(mount, solution, covariance, honest),
         prior=mount,
         parameters=params,
-        sigma_method=method,
+        sigma_method=method + _held_method(effect),
         correlation_names=tuple(PARAMETER_NAMES[i] for i in obs.estimated),
-        correlation=correlation(_covariance(solution, jk)),
+        correlation=correlation(covariance),
         features=summaries,
         residual_rms_before_m=_pooled_rms(before, counts),
         residual_rms_after_m=_pooled_rms(
@@ -385,7 +402,38 @@ def calibrate_mount(
         overlaps_before=overlaps_before,
         overlaps_after=overlaps_after,
         rejected_lines=rejected,
+        held=effect if effect.held else None,
+        held_advice=effect.advice(std),
     )
+
+
+def _calibrated_mount(
+    mount: Mount, solution: Adjustment, covariance: FloatArray, honest: bool
+) -> Mount:
+    """The calibrated mount, with the standard deviations it is now known to.
+
+    Estimated parameters get their sigma (data and held together) when it is honest
+    (else none: a formal sigma is 3-30x too small); held ones keep the prior's.
+    """
+    std = held_std(mount)
+    est = list(solution.estimated)
+    std[est] = np.sqrt(np.maximum(np.diag(covariance), 0.0)) if honest else np.nan
+    calibrated = mount_from_values(mount, solution.values)
+    return replace(calibrated, uncertainty=uncertainty_from_std(std))
+
+
+def _held_method(held: HeldEffect) -> str:
+    """What the sigma holds of the held parameters, in words (empty when none are held)."""
+    if not held.held:
+        return ""
+    known = [PARAMETER_NAMES[i] for i in held.held if i not in held.unknown]
+    exact = [PARAMETER_NAMES[i] for i in held.unknown]
+    parts = []
+    if known:
+        parts.append(f"plus the stated uncertainty of the held {', '.join(known)}")
+    if exact:
+        parts.append(f"the held {', '.join(exact)} taken as exact (no [uncertainty] given)")
+    return "; " + "; ".join(parts)
 
 
 def _lines_advice(n_lines: int, jk: Jackknife | None) -> str:

@@ -9,6 +9,7 @@ from typing import Any, Literal
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync.calibration.held import HeldEffect
 from kinsync.calibration.overlaps import LineOverlap
 from kinsync.mount import Mount
 
@@ -26,6 +27,20 @@ def _num(value: float) -> float | None:
     return None if not math.isfinite(value) else float(value)
 
 
+def _uncertainty_document(mount: Mount) -> dict[str, Any] | None:
+    """The mount's ``[uncertainty]`` as JSON (None when it has none)."""
+    unc = mount.uncertainty
+    if unc is None:
+        return None
+    return {
+        "lever_arm_body_m": None if unc.lever_arm_body_m is None else list(unc.lever_arm_body_m),
+        "boresight_rpy_deg": (
+            None if unc.boresight_rpy_deg is None else list(unc.boresight_rpy_deg)
+        ),
+        "latency_s": unc.latency_s,
+    }
+
+
 @dataclass(frozen=True)
 class ParameterEstimate:
     """One mount parameter after the calibration (report units: deg, m, ms).
@@ -39,10 +54,17 @@ class ParameterEstimate:
     prior : float
         The starting value (the mount given).
     std : float
-        Standard deviation (NaN for ``unobservable`` and ``fixed``).
+        Standard deviation (NaN for ``unobservable`` and ``fixed``): ``data_std`` and
+        ``held_std`` together (``sqrt(data_std^2 + held_std^2)``).
     formal_std : float
         Formal standard deviation from the Jacobian (NaN when not estimated).
     status : {"estimated", "weak", "unobservable", "fixed"}
+    data_std : float
+        What the data leave: the jackknife over lines, or the formal sigma (NaN when
+        not estimated).
+    held_std : float
+        What the held parameters' stated uncertainty adds (`kinsync.calibration.held`;
+        0 when none is stated, NaN when not estimated).
     """
 
     name: str
@@ -51,6 +73,8 @@ class ParameterEstimate:
     std: float
     formal_std: float
     status: Status
+    data_std: float = math.nan
+    held_std: float = math.nan
 
     @property
     def change(self) -> float:
@@ -58,13 +82,15 @@ class ParameterEstimate:
         return self.value - self.prior
 
     def as_document(self) -> dict[str, Any]:
-        """``{"value", "std", "status", "prior", "formal_std"}``."""
+        """``{"value", "std", "status", "prior", "formal_std", "std_data", "std_held"}``."""
         return {
             "value": self.value,
             "std": _num(self.std),
             "status": self.status,
             "prior": self.prior,
             "formal_std": _num(self.formal_std),
+            "std_data": _num(self.data_std),
+            "std_held": _num(self.held_std),
         }
 
 
@@ -151,6 +177,12 @@ class CalibrationResult:
     rejected_lines : tuple of (str, str)
         Lines given but not used, with the reason (none of their returns lie on a
         feature another line sees): left out of the adjustment and of the jackknife.
+    held : HeldEffect or None
+        How the held parameters' errors reach the estimates (None when nothing was
+        estimated or nothing held).
+    held_advice : tuple of str
+        Held values taken as exact (no stated uncertainty) whose plausible error would
+        move an estimate by more than half its sigma, in words.
     """
 
     mount: Mount
@@ -169,6 +201,8 @@ class CalibrationResult:
     overlaps_before: tuple[LineOverlap, ...] = ()
     overlaps_after: tuple[LineOverlap, ...] = ()
     rejected_lines: tuple[tuple[str, str], ...] = ()
+    held: HeldEffect | None = None
+    held_advice: tuple[str, ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``)."""
@@ -196,11 +230,14 @@ class CalibrationResult:
             "rejected_lines": [
                 {"line": name, "reason": reason} for name, reason in self.rejected_lines
             ],
+            "held": {} if self.held is None else self.held.document(),
+            "held_advice": list(self.held_advice),
             "mount": {
                 "lever_arm_body_m": list(self.mount.lever_arm_body_m),
                 "boresight_rpy_deg": list(self.mount.boresight_rpy_deg),
                 "antenna_lever_arm_body_m": list(self.mount.antenna_lever_arm_body_m),
                 "latency_s": self.mount.latency_s,
                 "profiler_azimuth_deg": self.mount.profiler_azimuth_deg,
+                "uncertainty": _uncertainty_document(self.mount),
             },
         }

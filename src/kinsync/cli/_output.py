@@ -13,8 +13,10 @@ from rich.table import Table
 
 __all__ = ["console", "err_console", "fmt", "print_json", "quantity_table"]
 
-console = Console(soft_wrap=True)
-err_console = Console(stderr=True)
+# Markup off: kinsync prints no styling tags, and text in square brackets (a TOML table
+# such as [uncertainty], a list of names) must be shown as written, not eaten as a tag.
+console = Console(soft_wrap=True, markup=False)
+err_console = Console(stderr=True, markup=False)
 
 
 def _clean(value: Any) -> Any:

@@ -78,12 +78,19 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 def _print_result(result: CalibrationResult) -> None:
     table = Table(title="Mount calibration")
-    for col in ("parameter", "prior", "calibrated", "sigma", "status"):
+    split = any(p.held_std > 0.0 for p in result.parameters)
+    cols = ("parameter", "prior", "calibrated", "sigma", *(("data", "held") if split else ()))
+    for col in (*cols, "status"):
         table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
     for p in result.parameters:
-        table.add_row(p.name, _fmt(p.prior, 6), _fmt(p.value, 6), _fmt(p.std, 2), p.status)
+        parts = (_fmt(p.data_std, 2), _fmt(p.held_std, 2)) if split else ()
+        table.add_row(p.name, _fmt(p.prior, 6), _fmt(p.value, 6), _fmt(p.std, 2), *parts, p.status)
     console.print(table)
     console.print(f"sigma: {result.sigma_method}")
+    if result.held is not None:
+        for line in result.held.lines():
+            console.print(f"held: {line}")
+
     for name, reason in result.rejected_lines:
         console.print(f"rejected line {name}: {reason}")
     _print_undetermined(result.unobservable_reasons, result.advice)
@@ -165,6 +172,8 @@ def mount(
             progress=stages.say,
         )
         stages.finish()
+    for line in run.result.held_advice:
+        typer.echo(f"kinsync: warning: {line}", err=True)
     if as_json:
         doc: dict[str, Any] = run.result.as_document()
         doc["n_points"] = run.n_points

@@ -56,8 +56,12 @@ def _std(p: ParameterEstimate) -> str:
     return "-" if not math.isfinite(p.std) else f"{p.std:.2g}"
 
 
+def _held_part(p: ParameterEstimate) -> str:
+    return "-" if not math.isfinite(p.held_std) else f"{p.held_std:.2g}"
+
+
 def parameter_rows(result: CalibrationResult) -> list[list[str]]:
-    """Rows: parameter, prior, calibrated, change, sigma, formal sigma, status."""
+    """Rows: parameter, prior, calibrated, change, sigma, of which held, formal sigma, status."""
     rows = []
     for p in result.parameters:
         unit = _unit(p.name)
@@ -69,6 +73,7 @@ def parameter_rows(result: CalibrationResult) -> list[list[str]]:
                 _value(p),
                 f"{p.change:+.{digits}f}",
                 _std(p),
+                _held_part(p),
                 "-" if not math.isfinite(p.formal_std) else f"{p.formal_std:.2g}",
                 p.status,
             ]
@@ -179,9 +184,30 @@ def overlap_figure(
     return png_bytes(fig)
 
 
+def _held_paragraphs(result: CalibrationResult) -> tuple[str, ...]:
+    """What each held parameter's error does to the estimates, and which are taken as exact."""
+    if result.held is None:
+        solved = any(p.status in ("estimated", "weak") for p in result.parameters)
+        return ("Nothing held: every parameter was estimated.",) if solved else ("Nothing solved.",)
+    intro = (
+        "Held at their prior values; the sigma holds the stated uncertainty of each (the "
+        "mount's [uncertainty], column 'of which held'). Linearised at the solution:"
+    )
+    return (intro, *result.held.lines(), *(f"Warning: {a}." for a in result.held_advice))
+
+
 def calibration_sections(result: CalibrationResult) -> list[Section]:
     """The certificate's sections (also used by the demo's report)."""
-    headers = ("parameter", "prior", "calibrated", "change", "sigma", "formal sigma", "status")
+    headers = (
+        "parameter",
+        "prior",
+        "calibrated",
+        "change",
+        "sigma",
+        "of which held",
+        "formal sigma",
+        "status",
+    )
     features = [
         [
             f"{i}: {f.description}",
@@ -206,6 +232,7 @@ def calibration_sections(result: CalibrationResult) -> list[Section]:
             tables=(Table("Mount parameters", headers, parameter_rows(result)),),
         ),
         Section(title="What the data could not determine", paragraphs=tuple(why) or ("Nothing.",)),
+        Section(title="Held parameters", paragraphs=_held_paragraphs(result)),
         Section(
             title="Features",
             tables=(

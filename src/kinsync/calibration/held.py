@@ -1,0 +1,264 @@
+"""What the parameters a calibration holds do to those it estimates.
+
+A calibration holds some mount parameters at their prior values: those not asked for
+(``fixed``) and those the data cannot determine (``unobservable``). The estimates are
+then right only if those priors are. A lever arm taped 3 cm off aliases into the
+latency and the boresight (on the simulated vehicle patch test, 3/-2/4 cm moved the
+latency from 5 to 7-11 ms with ``--estimate boresight,latency``), and the jackknife
+over lines cannot see it: every line shares the error.
+
+Linearised at the solution, with the features eliminated as in the adjustment
+(`kinsync.calibration.adjustment`), the reduced normal matrix over all seven
+parameters, split into the estimated (e) and the held (h) ones, gives how the estimates
+follow a change of the held values (the "consider" parameters of orbit determination,
+Schmidt 1966; Bierman 1977, ch. VI)::
+
+    D       = -S_ee^-1 S_eh                 (k x 7; zero columns for the estimated)
+    C_held  = D diag(sigma_h^2) D'          (sigma_h from the mount's [uncertainty])
+    C_total = C_data + C_held
+
+``C_data`` is the jackknife over lines (or the formal covariance); the held priors'
+errors are independent of the lines' errors, so the two add. A held parameter whose
+standard deviation the mount does not give is taken as exact: its column of ``D`` is
+still reported (per `REFERENCE_ERRORS`), and the calibration's advice names it where
+that error would move an estimate by more than half its sigma.
+
+References
+----------
+Schmidt, S. F., "Application of state-space methods to navigation problems", Advances
+in Control Systems 3, 1966, 293-340. Bierman, G. J., Factorization Methods for Discrete
+Sequential Estimation, Academic Press, 1977 (consider covariance, ch. VI).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._typing import FloatArray
+from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
+from kinsync.calibration.model import LineModel, LocalFrame
+from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE
+from kinsync.mount import Mount, MountUncertainty
+
+__all__ = [
+    "REFERENCE_ERRORS",
+    "REFERENCE_TEXT",
+    "HeldEffect",
+    "held_effect",
+    "held_std",
+    "uncertainty_from_std",
+]
+
+REFERENCE_ERRORS: FloatArray = np.array([0.1, 0.1, 0.1, 0.01, 0.01, 0.01, 1.0])
+"""A plausible error of a held value with no stated sigma (report units: deg, m, ms):
+what a tape, a drawing or an earlier calibration leaves. The sensitivities are given per
+this much, and the advice names a held value whose this much moves an estimate by more
+than `ADVICE_SHARE` of its sigma."""
+REFERENCE_TEXT = ("0.1 deg",) * 3 + ("1 cm",) * 3 + ("1 ms",)
+"""`REFERENCE_ERRORS` in words."""
+ADVICE_SHARE = 0.5
+"""Share of an estimate's sigma that a held value's reference error must move it by for
+the advice to name that value."""
+
+
+def held_std(mount: Mount) -> FloatArray:
+    """The seven parameters' standard deviations from ``mount.uncertainty``, shape (7,).
+
+    Internal units (rad, m, s); NaN where the mount does not give one.
+    """
+    out = np.full(7, np.nan)
+    unc = mount.uncertainty
+    if unc is None:
+        return out
+    if unc.boresight_rpy_deg is not None:
+        out[0:3] = np.radians(unc.boresight_rpy_deg)
+    if unc.lever_arm_body_m is not None:
+        out[3:6] = unc.lever_arm_body_m
+    if unc.latency_s is not None:
+        out[6] = unc.latency_s
+    return out
+
+
+def uncertainty_from_std(std: FloatArray) -> MountUncertainty | None:
+    """A `MountUncertainty` from seven standard deviations (internal units), shape (7,).
+
+    A vector (boresight, lever arm) is given only when all three of its components are
+    known; NaN is unknown. None when nothing is known.
+    """
+    s = np.asarray(std, dtype=np.float64)
+
+    def vec(part: FloatArray) -> tuple[float, float, float] | None:
+        if not np.all(np.isfinite(part)):
+            return None
+        return (float(part[0]), float(part[1]), float(part[2]))
+
+    unc = MountUncertainty(
+        boresight_rpy_deg=vec(np.degrees(s[0:3])),
+        lever_arm_body_m=vec(s[3:6]),
+        latency_s=float(s[6]) if math.isfinite(float(s[6])) else None,
+    )
+    return unc if unc.known else None
+
+
+@dataclass(frozen=True, eq=False)
+class HeldEffect:
+    """How the held parameters' errors reach the estimates.
+
+    Attributes
+    ----------
+    estimated : tuple of int
+        The estimated parameters (rows of ``sensitivity``).
+    held : tuple of int
+        The held parameters (the other columns are zero).
+    sensitivity : ndarray, shape (k, 7)
+        ``d estimate / d held value`` (internal units: rad, m, s per rad, m, s).
+    held_std : ndarray, shape (7,)
+        The held values' standard deviations (internal units); NaN where not given,
+        and for the estimated parameters.
+    covariance : ndarray, shape (k, k)
+        What the held values with a known sigma add to the estimates' covariance.
+    """
+
+    estimated: tuple[int, ...]
+    held: tuple[int, ...]
+    sensitivity: FloatArray
+    held_std: FloatArray
+    covariance: FloatArray
+
+    @property
+    def std(self) -> FloatArray:
+        """The estimates' standard deviation from the held values alone, shape (k,)."""
+        out: FloatArray = np.sqrt(np.maximum(np.diag(self.covariance), 0.0))
+        return out
+
+    @property
+    def unknown(self) -> tuple[int, ...]:
+        """Held parameters with no stated standard deviation (taken as exact)."""
+        return tuple(i for i in self.held if not math.isfinite(float(self.held_std[i])))
+
+    def per_reference(self) -> FloatArray:
+        """Shift of each estimate (report units) per `REFERENCE_ERRORS` of each held value.
+
+        Shape (k, 7): row ``j`` estimate ``estimated[j]``, column a held parameter (zero
+        for the estimated ones).
+        """
+        rows = REPORT_SCALE[list(self.estimated)][:, None]
+        return np.asarray(self.sensitivity * rows / REPORT_SCALE * REFERENCE_ERRORS)
+
+    def document(self) -> dict[str, object]:
+        """``--json``: per held parameter, its sigma and each estimate's shift.
+
+        ``{name: {"std", "reference_error", "per_reference_error": {name: shift}}}``,
+        report units (deg, m, ms); ``std`` null when not given (taken as exact).
+        """
+        shifts = self.per_reference()
+        out: dict[str, object] = {}
+        for h in self.held:
+            s = float(self.held_std[h])
+            out[PARAMETER_NAMES[h]] = {
+                "std": s * float(REPORT_SCALE[h]) if math.isfinite(s) else None,
+                "reference_error": float(REFERENCE_ERRORS[h]),
+                "per_reference_error": {
+                    PARAMETER_NAMES[e]: float(shifts[j, h]) for j, e in enumerate(self.estimated)
+                },
+            }
+        return out
+
+    def lines(self) -> tuple[str, ...]:
+        """One line per held parameter: its sigma and what its error does, in words."""
+        shifts = self.per_reference()
+        out = []
+        for h in self.held:
+            s = float(self.held_std[h])
+            unit = PARAMETER_NAMES[h].rsplit("_", 1)[-1]
+            known = (
+                f"sigma {s * float(REPORT_SCALE[h]):.2g} {unit}"
+                if math.isfinite(s)
+                else "taken as exact"
+            )
+            moves = ", ".join(
+                f"{PARAMETER_NAMES[e]} {shifts[j, h]:+.3g}" for j, e in enumerate(self.estimated)
+            )
+            out.append(f"{PARAMETER_NAMES[h]} ({known}): {REFERENCE_TEXT[h]} moves {moves}")
+        return tuple(out)
+
+    def advice(self, data_std: FloatArray) -> tuple[str, ...]:
+        """The held values taken as exact whose plausible error matters, in words.
+
+        Parameters
+        ----------
+        data_std : ndarray, shape (k,)
+            The estimates' sigma from the data (jackknife or formal), internal units.
+        """
+        shifts = self.per_reference()
+        sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
+        out = []
+        for h in self.unknown:
+            share = np.abs(shifts[:, h]) / sigma
+            j = int(np.argmax(share))
+            if not share[j] > ADVICE_SHARE:
+                continue
+            e = self.estimated[j]
+            out.append(
+                f"{PARAMETER_NAMES[h]} is held as exact (the mount gives no [uncertainty] "
+                f"for it): {REFERENCE_TEXT[h]} of error moves {PARAMETER_NAMES[e]} by "
+                f"{shifts[j, h]:+.2g} ({share[j]:.1f} sigma); give its standard deviation in "
+                "the mount file's [uncertainty] table so the sigma holds it, or estimate it"
+            )
+        return tuple(out)
+
+
+def held_effect(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    solution: Adjustment,
+    frame: LocalFrame,
+    std: FloatArray,
+) -> HeldEffect:
+    """The sensitivity of the estimates to the held values, and the covariance it adds.
+
+    Parameters
+    ----------
+    models, observations, frame
+        As given to `kinsync.calibration.adjustment.adjust`.
+    solution : Adjustment
+        The solution (its features, noise scales and values are the linearisation
+        point).
+    std : ndarray, shape (7,)
+        Standard deviations of the held values (internal units, `held_std`); NaN where
+        not known (taken as exact).
+
+    Returns
+    -------
+    HeldEffect
+    """
+    estimated = tuple(solution.estimated)
+    held = tuple(i for i in range(7) if i not in estimated)
+    k = len(estimated)
+    sensitivity = np.zeros((k, 7))
+    sigma_h = np.full(7, np.nan)
+    cov = np.zeros((k, k))
+    if held:
+        fitted = [f.feature for f in solution.features]
+        scales = [f.sigma_m for f in solution.features]
+        S, _, _ = reduced_normal_matrix(
+            models, observations, fitted, solution.values, tuple(range(7)), frame, scales
+        )
+        e, h = list(estimated), list(held)
+        sensitivity[:, h] = -np.linalg.solve(S[np.ix_(e, e)], S[np.ix_(e, h)])
+        sigma_h[h] = np.asarray(std, dtype=np.float64)[h]
+        known = [i for i in h if math.isfinite(float(sigma_h[i]))]
+        if known:
+            d = sensitivity[:, known]
+            cov = d @ np.diag(sigma_h[known] ** 2) @ d.T
+    return HeldEffect(
+        estimated=estimated,
+        held=held,
+        sensitivity=sensitivity,
+        held_std=sigma_h,
+        covariance=cov,
+    )

@@ -1,0 +1,168 @@
+"""Held parameters: their stated uncertainty reaches the sigma of the estimates.
+
+The simulated vehicle patch test with thinned beams (8 lines) and the default
+``--estimate boresight,latency``: the nominal lever arm is 3/-2/4 cm off the truth, and
+the jackknife over lines cannot see an error every line shares. Without a stated
+uncertainty the latency comes out several sigma off; with the lever arm's stated
+(3 cm) the sigma holds the error (`kinsync.calibration.held`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from kinsync.calibration.adjustment import Adjustment, adjust
+from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount, find_features
+from kinsync.calibration.held import REFERENCE_ERRORS, held_effect, held_std
+from kinsync.calibration.model import LineModel, local_frame_for
+from kinsync.calibration.parameters import (
+    PARAMETER_NAMES,
+    REPORT_SCALE,
+    estimated_indices,
+    mount_values,
+)
+from kinsync.calibration.result import CalibrationResult
+from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.mount import MountUncertainty
+from kinsync.sim.patch_config import PatchTestConfig
+from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test
+
+LEVER_STD_M = 0.03
+ESTIMATED = ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg", "latency_ms")
+
+
+@pytest.fixture(scope="module")
+def thin() -> PatchTestSimulation:
+    return simulate_patch_test(PatchTestConfig(scenario="vehicle", density=0.05, seed=3))
+
+
+@pytest.fixture(scope="module")
+def exact(thin: PatchTestSimulation) -> CalibrationResult:
+    """The nominal mount as given by the simulator: no [uncertainty]."""
+    return calibrate_mount(thin.lines, thin.mount_nominal)
+
+
+@pytest.fixture(scope="module")
+def stated(thin: PatchTestSimulation) -> CalibrationResult:
+    unc = MountUncertainty(lever_arm_body_m=(LEVER_STD_M,) * 3)
+    return calibrate_mount(thin.lines, replace(thin.mount_nominal, uncertainty=unc))
+
+
+def _error(result: CalibrationResult, sim: PatchTestSimulation, name: str) -> float:
+    truth = mount_values(sim.mount_true) * REPORT_SCALE
+    return result.parameter(name).value - float(truth[PARAMETER_NAMES.index(name)])
+
+
+def test_stated_lever_uncertainty_makes_the_sigma_hold_the_error(
+    stated: CalibrationResult, thin: PatchTestSimulation
+) -> None:
+    assert [p.name for p in stated.parameters if p.status in ("estimated", "weak")] == list(
+        ESTIMATED
+    )
+    for name in ESTIMATED:
+        p = stated.parameter(name)
+        assert p.std == pytest.approx(math.hypot(p.data_std, p.held_std), rel=1e-12)
+        assert p.held_std > 0.0
+        assert abs(_error(stated, thin, name)) <= 3.0 * p.std, name
+    # The held part is the sensitivity times the stated sigma, axis by axis.
+    assert stated.held is not None
+    shifts = stated.held.per_reference()  # per 1 cm of each lever component
+    j = stated.held.estimated.index(6)
+    expected = math.sqrt(sum((shifts[j, i] * LEVER_STD_M / 0.01) ** 2 for i in (3, 4, 5)))
+    assert stated.parameter("latency_ms").held_std == pytest.approx(expected, rel=1e-9)
+    assert "plus the stated uncertainty of the held lever_x_m" in stated.sigma_method
+    assert stated.held_advice == ()
+
+
+def test_without_stated_uncertainty_the_advice_names_the_lever(
+    exact: CalibrationResult, thin: PatchTestSimulation
+) -> None:
+    # The premise: the data's sigma alone misses the shared lever error by far.
+    latency = exact.parameter("latency_ms")
+    assert abs(_error(exact, thin, "latency_ms")) > 3.0 * latency.std
+    assert latency.held_std == 0.0
+    assert latency.std == latency.data_std
+    assert exact.held is not None
+    assert exact.held.unknown == (3, 4, 5)
+    assert "taken as exact" in exact.sigma_method
+    named = " ".join(exact.held_advice)
+    assert "lever_y_m is held as exact" in named
+    assert "[uncertainty]" in named
+    assert all(" sigma)" in a for a in exact.held_advice)
+
+
+def test_calibrated_mount_carries_its_sigma(stated: CalibrationResult) -> None:
+    unc = stated.mount.uncertainty
+    assert unc is not None
+    assert unc.lever_arm_body_m == (LEVER_STD_M,) * 3  # held: the prior's
+    assert unc.latency_s == pytest.approx(stated.parameter("latency_ms").std / 1e3)
+    assert unc.boresight_rpy_deg == pytest.approx([stated.parameter(n).std for n in ESTIMATED[:3]])
+
+
+def test_json_names_each_held_value_and_its_effect(stated: CalibrationResult) -> None:
+    doc = stated.as_document()
+    assert set(doc["held"]) == {"lever_x_m", "lever_y_m", "lever_z_m"}
+    entry = doc["held"]["lever_y_m"]
+    assert entry["std"] == LEVER_STD_M
+    assert entry["reference_error"] == REFERENCE_ERRORS[4]
+    assert set(entry["per_reference_error"]) == set(ESTIMATED)
+    lat = doc["parameters"]["latency_ms"]
+    assert lat["std"] == pytest.approx(math.hypot(lat["std_data"], lat["std_held"]))
+    assert doc["mount"]["uncertainty"]["lever_arm_body_m"] == [LEVER_STD_M] * 3
+
+
+def test_sensitivity_is_what_a_new_solution_does(thin: PatchTestSimulation) -> None:
+    """The linearised shift against solving again with the held value changed.
+
+    Central differences of +-1 cm, the features' noise scales held (as the jackknife
+    holds them): the shift is then the model's, not a new weighting's.
+    """
+    cache: dict[int, GeorefTrajectory] = {}
+    models = [LineModel.prepare(line, cache) for line in thin.lines]
+    frame = local_frame_for(thin.lines)
+    prior = mount_values(thin.mount_nominal)
+    features, obs = find_features(models, prior, frame, CalibrationOptions())
+    est = estimated_indices("boresight,latency")
+    sol = adjust(models, obs, features, prior, est, frame)
+    effect = held_effect(models, obs, sol, frame, held_std(thin.mount_nominal))
+    assert np.all(np.isnan(effect.held_std[[3, 4, 5]]))  # nothing stated
+    assert np.all(effect.covariance == 0.0)
+    fitted = [f.feature for f in sol.features]
+    scales = [f.sigma_m for f in sol.features]
+
+    def solve_with(h: int, dv: float) -> Adjustment:
+        start = sol.values.copy()
+        start[h] += dv
+        return adjust(models, obs, fitted, start, est, frame, None, scales)
+
+    rows = REPORT_SCALE[list(est)]
+    for h in (3, 4):
+        up, down = solve_with(h, 0.01), solve_with(h, -0.01)
+        resolved = (up.values - down.values)[list(est)] / 2.0 * rows  # per cm
+        linear = effect.per_reference()[:, h]
+        assert np.all(np.abs(resolved - linear) <= 0.2 * np.abs(linear) + 0.02), (
+            PARAMETER_NAMES[h],
+            resolved,
+            linear,
+        )
+    # A lever x error moves the latency by about 1 ms per cm at these speeds.
+    assert abs(effect.per_reference()[est.index(6), 3]) > 0.5
+
+
+def test_certificate_shows_what_each_held_value_does(
+    stated: CalibrationResult, exact: CalibrationResult
+) -> None:
+    from kinsync.report.calibration import calibration_certificate  # noqa: PLC0415
+
+    html = calibration_certificate(stated)
+    assert html.index("Held parameters") < html.index("Features")
+    assert "of which held" in html
+    assert "lever_y_m (sigma 0.03 m): 1 cm moves" in html
+    assert "Warning:" not in html
+    html = calibration_certificate(exact)
+    assert "lever_y_m (taken as exact)" in html
+    assert "Warning: lever_y_m is held as exact" in html
