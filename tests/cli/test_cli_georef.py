@@ -362,6 +362,7 @@ def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
         ("absurd", ["points.csv: line 19, column 'y_m'", "beyond the 100000 m any laser"]),
         ("columns_key", ["--columns", "'t' is not a column kinsync reads", "t_s, x_m"]),
         ("columns_missing", ["--columns maps t_s to column 'time'", "its columns are"]),
+        ("workers_local", ["--workers", "--scheduler local runs every chunk in this process"]),
     ],
 )
 def test_bad_input_is_one_line_error(
@@ -383,7 +384,11 @@ def test_bad_input_is_one_line_error(
         cols["y_m"][17] = np.nan if change == "nan" else 1e307
         with TableChunkWriter(setup["points"]) as w:
             w.write(cols)
-    extra = {"columns_key": ["--columns", "t=time"], "columns_missing": ["--columns", "t_s=time"]}
+    extra = {
+        "columns_key": ["--columns", "t=time"],
+        "columns_missing": ["--columns", "t_s=time"],
+        "workers_local": ["--workers", "4"],  # the default scheduler is local
+    }
     code, stdout, err = run_cli(_args(setup, out, *extra.get(change, [])))
     assert_one_line_error(code, stdout, err, *fragments)
     assert not out.exists()

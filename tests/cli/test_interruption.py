@@ -112,6 +112,11 @@ def _assert_all_gone(procs: list[psutil.Process], timeout_s: float = 10.0) -> No
 
 
 @pytest.mark.parametrize("scheduler", ["local", "processes"])
+def _workers(scheduler: str, n: int) -> tuple[str, ...]:
+    """``--workers n`` where the scheduler uses it (local refuses it)."""
+    return () if scheduler == "local" else ("--workers", str(n))
+
+
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signal_leaves_nothing(
     survey: Path,
@@ -122,7 +127,7 @@ def test_stop_signal_leaves_nothing(
 ) -> None:
     out = tmp_path / "out.csv"
     proc, children = _start_and_wait_for_part(
-        _georef(survey, out, "--scheduler", scheduler, "--workers", "2"), tmp_path
+        _georef(survey, out, "--scheduler", scheduler, *_workers(scheduler, 2)), tmp_path
     )
     assert scheduler == "local" or children, "the pool has no worker"
     proc.send_signal(signum)

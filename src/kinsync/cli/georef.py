@@ -177,12 +177,7 @@ def georef(
     from kinsync.pipelines.georef import georeference_file  # noqa: PLC0415
     from kinsync.trajectory import VelocityConsistencyWarning  # noqa: PLC0415
 
-    if outside not in _OUTSIDE:
-        msg = f"--outside must be 'error' or 'reject', got {outside!r}"
-        raise InputError(msg)
-    if point_columns not in _POINT_COLUMNS:
-        msg = f"--point-columns must be 'auto', 'xyz' or 'profile', got {point_columns!r}"
-        raise InputError(msg)
+    _check_choices(outside, point_columns, scheduler, workers)
     column_map = parse_column_map(columns, _COLUMN_KEYS)
     the_mount = read_mount(mount)
     if latency_ms is not None:
@@ -248,3 +243,20 @@ def georef(
         console.print(f"PROJ pipeline: {summary.crs.proj_pipeline}", soft_wrap=True)
     if summary.rejected_path is not None:
         console.print(f"rejected points: {summary.rejected_path}")
+
+
+def _check_choices(outside: str, point_columns: str, scheduler: str, workers: int | None) -> None:
+    """Refuse an unknown choice, or --workers where nothing would use it, before any work."""
+    if outside not in _OUTSIDE:
+        msg = f"--outside must be 'error' or 'reject', got {outside!r}"
+        raise InputError(msg)
+    if point_columns not in _POINT_COLUMNS:
+        msg = f"--point-columns must be 'auto', 'xyz' or 'profile', got {point_columns!r}"
+        raise InputError(msg)
+    if workers is not None and scheduler == "local":
+        msg = (
+            "--workers sets the processes of --scheduler processes or the workers of a Dask "
+            "scheduler; --scheduler local runs every chunk in this process: drop --workers, "
+            "or give --scheduler processes"
+        )
+        raise InputError(msg)
