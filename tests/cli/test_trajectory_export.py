@@ -140,6 +140,7 @@ def test_kml_line_from_an_sbet(run_cli: RunCli, tmp_path: Path) -> None:
         (["OUT.txt"], ["unknown output type", ".geojson or .kml"]),
         (["OUT.csv", "--crs", "EPSG:99999999"], ["EPSG:99999999"]),
         (["OUT.geojson", "--max-vertices", "1"], ["--max-vertices"]),
+        (["OUT.csv", "--max-vertices", "500"], ["--max-vertices thins", "keeps every record"]),
     ],
 )
 def test_bad_input_is_one_line_error(

@@ -327,9 +327,13 @@ def trajectory_export(
         ),
     ] = None,
     max_vertices: Annotated[
-        int,
-        typer.Option("--max-vertices", help="Most vertices of a .geojson/.kml line.", min=2),
-    ] = 2000,
+        int | None,
+        typer.Option(
+            "--max-vertices",
+            help="Most vertices of a .geojson/.kml line (default 2000; lines only).",
+            min=2,
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Export a trajectory: a table in any CRS, or a KML/GeoJSON line for a quick look."""

@@ -41,10 +41,12 @@ from kinsync.io.quicklook import decimate, write_geojson_line, write_kml_line
 from kinsync.io.table_writer import TableChunkWriter
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 
-__all__ = ["TABLE_SUFFIXES", "TrajectoryExport", "export_trajectory"]
+__all__ = ["DEFAULT_MAX_VERTICES", "TABLE_SUFFIXES", "TrajectoryExport", "export_trajectory"]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
 LINE_SUFFIXES = (".geojson", ".json", ".kml")
+DEFAULT_MAX_VERTICES = 2000
+"""Most vertices of a quick-look line when ``--max-vertices`` is not given."""
 DEFAULT_CRS = "EPSG:4979"  # WGS 84 longitude, latitude, ellipsoidal height
 
 
@@ -94,7 +96,7 @@ def export_trajectory(
     epoch_year: float | None = None,
     trajectory_crs: str = ECEF_WGS84,
     gps_week: int | None = None,
-    max_vertices: int = 2000,
+    max_vertices: int | None = None,
 ) -> TrajectoryExport:
     """Write a trajectory as a table in ``crs`` or as a quick-look line (see the module).
 
@@ -111,14 +113,15 @@ def export_trajectory(
         As for `kinsync.pipelines.georef.georeference_file` (tables only).
     gps_week : int, optional
         GPS week of seconds-of-week times (SBET, text exports).
-    max_vertices : int
-        Most vertices of a line.
+    max_vertices : int, optional
+        Most vertices of a line (default `DEFAULT_MAX_VERTICES`); not for a table, which
+        keeps every record.
 
     Raises
     ------
     InputError
-        Unknown output suffix, CRS options given for a line, a bad CRS, any error of
-        the trajectory readers.
+        Unknown output suffix, CRS options given for a line, ``max_vertices`` for a
+        table, a bad CRS, any error of the trajectory readers.
     """
     path, out_path = Path(path), Path(out_path)
     suffix = out_path.suffix.lower()
@@ -135,6 +138,14 @@ def export_trajectory(
             "--epoch apply to a .csv or .parquet output"
         )
         raise InputError(msg)
+    if not line and max_vertices is not None:
+        msg = (
+            f"{out_path}: --max-vertices thins a .geojson or .kml line; a .csv or .parquet "
+            "table keeps every record: drop --max-vertices"
+        )
+        raise InputError(msg)
+    if max_vertices is None:
+        max_vertices = DEFAULT_MAX_VERTICES
     if line:
         decimate(2, max_vertices)  # a bad --max-vertices fails before reading
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
