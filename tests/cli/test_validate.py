@@ -247,6 +247,12 @@ def test_las_clouds_on_both_gps_time_scales(
         assert abs(te["time_error_s"] - LATENCY_ERROR_S) < 0.2 * LATENCY_ERROR_S
     code, out, err = run_cli(["validate", "control-points", "--cloud", str(week), *args])
     assert_one_line_error(code, out, err, "GPS seconds of week", "--gps-week")
+    # A radius with another centre would not be used: refused, not ignored.
+    radius = ["--target-radius-m", "0.2"]
+    code, out, err = run_cli(
+        ["validate", "control-points", "--cloud", str(adjusted), *args, *radius]
+    )
+    assert_one_line_error(code, out, err, "--target-radius-m", "with --centre tukey")
 
 
 def _state_plane_las(files: dict[str, Path], path: Path, z_unit_code: int) -> None:

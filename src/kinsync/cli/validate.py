@@ -134,6 +134,12 @@ def control_points(
     if key not in _CENTRES:
         msg = f"--centre must be tukey, median or sphere, got {centre!r}"
         raise InputError(msg)
+    if target_radius_m is not None and key != "sphere":
+        msg = (
+            f"--target-radius-m is the radius of --centre sphere; with --centre {key} it "
+            "would not be used: drop it, or give --centre sphere"
+        )
+        raise InputError(msg)
     report = control_points_file(
         cloud,
         control,
