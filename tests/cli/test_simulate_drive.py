@@ -86,6 +86,7 @@ def test_table_output_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--laps", "0"], ("--laps",)),
         (["--static-s", "-1"], ("--static-s -1: outside the span",)),
         (["--seed", "-2"], ("seed",)),
+        (["--static-s", "45"], ("duration_s 40 s ends within the standstill (static_s 45 s)",)),
     ],
 )
 def test_bad_options(

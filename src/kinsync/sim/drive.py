@@ -175,6 +175,13 @@ class DriveSimConfig:
                 set_(self, name, positive_number(value, name))
         if self.laps is not None:
             set_(self, "laps", _count(self.laps, "laps"))
+        if self.duration_s is not None and self.duration_s <= self.static_s:
+            msg = (
+                f"drive simulation: duration_s {self.duration_s:g} s ends within the "
+                f"standstill (static_s {self.static_s:g} s): nothing would be driven; give a "
+                "longer duration or a shorter standstill"
+            )
+            raise InputError(msg)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
             msg = f"drive simulation: seed must be a whole number, got {self.seed!r}"
             raise InputError(msg)
