@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests._cli_args import with_options
 
 from kinsync.cli._options import parse_rates
 from kinsync.errors import InputError
@@ -83,7 +84,7 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
 def test_bad_input_exits_2_with_one_line(
     run_cli: RunCli, tmp_path: Path, extra: list[str], fragment: str
 ) -> None:
-    code, stdout, stderr = run_cli([*BASE, "--out", str(tmp_path / "o"), *extra])
+    code, stdout, stderr = run_cli(with_options([*BASE, "--out", str(tmp_path / "o")], extra))
     assert code == 2
     assert stdout == ""
     assert stderr.startswith("kinsync: error:")
@@ -235,7 +236,7 @@ def test_patch_test_lines_georeference_onto_the_scene(run_cli: RunCli, tmp_path:
 def test_patch_test_bad_input_exits_2_with_one_line(
     run_cli: RunCli, tmp_path: Path, extra: list[str], fragment: str
 ) -> None:
-    code, stdout, stderr = run_cli([*PATCH, "--out", str(tmp_path / "o"), *extra])
+    code, stdout, stderr = run_cli(with_options([*PATCH, "--out", str(tmp_path / "o")], extra))
     assert code == 2
     assert stdout == ""
     assert stderr.startswith("kinsync: error:")

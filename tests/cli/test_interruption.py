@@ -111,12 +111,12 @@ def _assert_all_gone(procs: list[psutil.Process], timeout_s: float = 10.0) -> No
     assert not alive, [p.as_dict(attrs=["pid", "name", "cmdline"]) for p in alive]
 
 
-@pytest.mark.parametrize("scheduler", ["local", "processes"])
 def _workers(scheduler: str, n: int) -> tuple[str, ...]:
     """``--workers n`` where the scheduler uses it (local refuses it)."""
     return () if scheduler == "local" else ("--workers", str(n))
 
 
+@pytest.mark.parametrize("scheduler", ["local", "processes"])
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signal_leaves_nothing(
     survey: Path,

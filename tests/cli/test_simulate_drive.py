@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests._cli_args import with_options
 
 from kinsync.io.ins_config import read_ins_config
 from kinsync.io.tables import read_numeric_csv
@@ -97,7 +98,7 @@ def test_bad_options(
     fragments: tuple[str, ...],
 ) -> None:
     out = tmp_path / "bad"
-    code, stdout, stderr = run_cli([*BASE, "--out", str(out), *extra])
+    code, stdout, stderr = run_cli(with_options([*BASE, "--out", str(out)], extra))
     assert_one_line_error(code, stdout, stderr, *fragments)
     assert not out.exists() or not any(out.iterdir())
 

@@ -20,7 +20,9 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import Any, TextIO
 
-from kinsync.cli._options import expand_multi_value_options
+import typer.main
+
+from kinsync.cli._options import expand_multi_value_options, refuse_repeated_options
 from kinsync.cli.app import app
 from kinsync.errors import InputError, KinsyncError, KinsyncWarning
 
@@ -140,7 +142,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     try:
         _check_arguments_are_text(args)
         with _stop_signals_unwind(), _warnings_on_one_line():
-            result = app(args=args, prog_name="kinsync", standalone_mode=False)
+            # The click command built once: it checks the options before running them.
+            command = typer.main.get_command(app)
+            refuse_repeated_options(command, args)
+            result = command(args=args, prog_name="kinsync", standalone_mode=False)
     except KinsyncError as err:
         print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
         sys.exit(2)

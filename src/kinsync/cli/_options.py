@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -16,6 +16,7 @@ __all__ = [
     "MaxGapOpt",
     "expand_multi_value_options",
     "parse_rates",
+    "refuse_repeated_options",
 ]
 
 MAX_GAP_HELP = (
@@ -62,6 +63,77 @@ def expand_multi_value_options(args: Sequence[str]) -> list[str]:
                 out.append(token)
         return out
     return out
+
+
+def _leaf(command: Any, args: Sequence[str]) -> tuple[Any, int] | None:
+    """The subcommand ``args`` name and the index of its first own argument.
+
+    Duck-typed on click's command tree (``commands`` of a group): typer builds it with
+    click, or with its own copy of click from 0.22 on.
+    """
+    i = 0
+    while isinstance(getattr(command, "commands", None), dict):
+        while i < len(args) and args[i].startswith("-"):
+            i += 1  # the group's own options (--version, --help)
+        if i >= len(args):
+            return None
+        sub = command.commands.get(args[i])
+        if sub is None:
+            return None  # click names the unknown command
+        command, i = sub, i + 1
+    return command, i
+
+
+def refuse_repeated_options(command: Any, args: Sequence[str]) -> None:
+    """Refuse an option that takes one value given more than once.
+
+    click keeps the last value and drops the others without a word: ``--mount a.toml ...
+    --mount b.toml`` georeferenced with ``b.toml``. Options that take several values
+    (``--points``), flags and arguments are not counted.
+
+    Parameters
+    ----------
+    command : click command
+        The program's command tree (``typer.main.get_command``).
+    args : sequence of str
+        The command line, after `expand_multi_value_options`.
+
+    Raises
+    ------
+    InputError
+        Naming the option and every value it was given.
+    """
+    found = _leaf(command, args)
+    if found is None:
+        return
+    leaf, start = found
+    single: dict[str, str] = {}
+    for param in getattr(leaf, "params", ()):
+        if getattr(param, "param_type_name", "") != "option":
+            continue
+        if param.multiple or param.is_flag:
+            continue
+        for name in (*param.opts, *param.secondary_opts):
+            single[name] = param.opts[0]
+    given: dict[str, list[str]] = {}
+    tokens = list(args[start:])
+    for i, item in enumerate(tokens):
+        if item == "--":  # end of options
+            break
+        name, eq, value = item.partition("=")
+        if name not in single:
+            continue
+        if not eq:
+            value = tokens[i + 1] if i + 1 < len(tokens) else ""
+        given.setdefault(single[name], []).append(value)
+    for name, values in given.items():
+        if len(values) > 1:
+            shown = ", ".join(repr(v) for v in values)
+            msg = (
+                f"{name} given {len(values)} times ({shown}); it takes one value, and all but "
+                "the last would be ignored: give it once"
+            )
+            raise InputError(msg)
 
 
 def parse_rates(text: str) -> tuple[float, ...]:
