@@ -89,6 +89,13 @@ def test_demo_writes_a_self_contained_report(
         assert abs(latency["value"] - truth[6]) < 4 * latency["std"]
         assert (out_dir / f"patch-test-{scenario}" / "truth.json").exists()
     assert calibration["vehicle"]["result"]["parameters"]["lever_z_m"]["status"] == "unobservable"
+    # The vehicle's lines again with the lever arm held and its 3 cm stated: the sigma
+    # with the held part holds the error the data's sigma alone misses.
+    held = calibration["vehicle_lever_held"]
+    latency = held["result"]["parameters"]["latency_ms"]
+    assert latency["std_held"] > 0.0
+    assert abs(latency["value"] - held["truth"][6]) < 3 * latency["std"]
+    assert held["result"]["held"]["lever_y_m"]["std"] == 0.03
     assert "mount self-calibration" in out
     for key in ("INS/GNSS", "Method B", "end-to-end: validation"):
         assert key in out
