@@ -57,10 +57,31 @@ report, demo, cli
 
 from __future__ import annotations
 
-from kinsync.errors import InputError, KinsyncError
-from kinsync.mount import Mount
-from kinsync.trajectory import Trajectory
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from kinsync.errors import InputError, KinsyncError
+    from kinsync.mount import Mount
+    from kinsync.trajectory import Trajectory
 
 __version__ = "0.1.0"
 
 __all__ = ["InputError", "KinsyncError", "Mount", "Trajectory", "__version__"]
+
+_LAZY = {
+    "InputError": "kinsync.errors",
+    "KinsyncError": "kinsync.errors",
+    "Mount": "kinsync.mount",
+    "Trajectory": "kinsync.trajectory",
+}
+"""The package's names, imported when first used (PEP 562): ``import kinsync`` loads no
+numpy, so the ``kinsync`` program sets its Ctrl-C handling before the heavy imports."""
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        msg = f"module 'kinsync' has no attribute {name!r}"
+        raise AttributeError(msg)
+    return getattr(importlib.import_module(module), name)

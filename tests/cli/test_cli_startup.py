@@ -105,12 +105,25 @@ def test_selftest_detects_a_loaded_module() -> None:
 
 def test_import_cli_loads_no_heavy_module(tmp_path: Path) -> None:
     proc = _fresh(
-        "import json, sys, kinsync.cli; print(json.dumps(sorted(sys.modules)))", cwd=tmp_path
+        "import json, sys, kinsync.cli.app; print(json.dumps(sorted(sys.modules)))", cwd=tmp_path
     )
     assert proc.returncode == 0, proc.stderr
     modules = json.loads(proc.stdout)
     assert "kinsync.cli.app" in modules  # every command module was imported
     assert _loaded(modules, NOT_AT_START) == []
+
+
+def test_import_kinsync_cli_loads_nothing_before_main(tmp_path: Path) -> None:
+    # The entry point's own import is light: main() sets the Ctrl-C handling before it
+    # imports numpy and the commands (tests/cli/test_interruption.py).
+    proc = _fresh(
+        "import json, sys, kinsync.cli; print(json.dumps(sorted(sys.modules)))", cwd=tmp_path
+    )
+    assert proc.returncode == 0, proc.stderr
+    modules = json.loads(proc.stdout)
+    assert "numpy" not in modules
+    assert "kinsync.cli.app" not in modules
+    assert "typer" not in modules
 
 
 def test_help_loads_no_heavy_module(tmp_path: Path) -> None:

@@ -201,3 +201,31 @@ def test_stale_temporaries_of_live_processes_and_other_outputs_are_kept(tmp_path
     assert not stale.exists()
     assert live.exists()
     assert other.exists()
+
+
+def _maps_numpy(pid: int) -> bool:
+    """True once the process has loaded numpy's extension (its heavy imports began)."""
+    try:
+        return "_multiarray_umath" in Path(f"/proc/{pid}/maps").read_text()
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc")
+def test_ctrl_c_during_the_imports_exits_130_in_one_line(tmp_path: Path) -> None:
+    # The program's imports (numpy, every command module) take most of a second; a
+    # Ctrl-C then once printed a Python traceback.
+    out = tmp_path / "demo"
+    cmd = [sys.executable, "-m", "kinsync", "demo", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60.0
+    while not _maps_numpy(proc.pid):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "numpy was never loaded"
+        time.sleep(0.001)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert err.splitlines() == ["kinsync: interrupted by SIGINT; unfinished outputs removed"]
+    assert not out.exists()

@@ -20,13 +20,19 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import Any, TextIO
 
-import typer.main
-
-from kinsync.cli._options import expand_multi_value_options, refuse_repeated_options
-from kinsync.cli.app import app
 from kinsync.errors import InputError, KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
+
+
+def __getattr__(name: str) -> Any:
+    """``app``, the typer application, imported when first used (it loads every command)."""
+    if name == "app":
+        from kinsync.cli.app import app  # noqa: PLC0415
+
+        return app
+    msg = f"module 'kinsync.cli' has no attribute {name!r}"
+    raise AttributeError(msg)
 
 
 def _one_line(text: str) -> str:
@@ -138,10 +144,20 @@ def _check_arguments_are_text(args: Sequence[str]) -> None:
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
-    args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
     try:
-        _check_arguments_are_text(args)
+        # Ctrl-C is handled from here on, the heavy imports included (numpy, every
+        # command module): an interruption during them exits 130 in one line.
         with _stop_signals_unwind(), _warnings_on_one_line():
+            import typer.main  # noqa: PLC0415
+
+            from kinsync.cli._options import (  # noqa: PLC0415
+                expand_multi_value_options,
+                refuse_repeated_options,
+            )
+            from kinsync.cli.app import app  # noqa: PLC0415
+
+            args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
+            _check_arguments_are_text(args)
             # The click command built once: it checks the options before running them.
             command = typer.main.get_command(app)
             refuse_repeated_options(command, args)
