@@ -78,6 +78,11 @@ def test_demo_writes_a_self_contained_report(
     assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
     assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
     assert not list(out_dir.glob("*.part"))
+    listed = (out_dir / demo_run.MANIFEST).read_text().splitlines()
+    assert "report.html" in listed
+    assert "patch-test-vehicle/mount_lever_uncertainty.toml" in listed
+    assert sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*")
+                  if p.is_file() and p.name != demo_run.MANIFEST) == listed  # fmt: skip
     titles = ("INS/GNSS", "Method B", "Validation", "End to end", "Mount self-calibration")
     for title in (*titles, "Coordinate systems"):
         assert any(h.startswith(title) for h in parser.headings), title
@@ -157,3 +162,21 @@ def test_an_interrupted_demo_leaves_the_earlier_report(
     assert sorted(p.name for p in out.iterdir()) == ["budget.json", "report.html"]
     assert (out / "budget.json").read_text() == "{}\n"
     assert [p.name for p in tmp_path.iterdir()] == ["d"]
+
+
+def test_an_earlier_demo_folder_with_the_users_files_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "d"
+    (out / "patch-test-vehicle").mkdir(parents=True)
+    (out / "report.html").write_text("<h1>kinsync demo report</h1>\n")
+    (out / "budget.json").write_text("{}\n")
+    (out / "patch-test-vehicle" / "line_01.laz").write_bytes(b"x")
+    listed = "budget.json\npatch-test-vehicle/line_01.laz\nreport.html\n"
+    (out / demo_run.MANIFEST).write_text(listed)
+    demo_run.check_demo_folder(out)  # the demo's own files only: replaced on a re-run
+    (out / "patch-test-vehicle" / "my_figure.png").write_bytes(b"mine")
+    with pytest.raises(InputError, match=r"files the demo did not write \(patch-test-vehicle/my"):
+        demo_run.check_demo_folder(out)
+    (out / "patch-test-vehicle" / "my_figure.png").unlink()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match=r"\(notes.txt\)"):
+        demo_run.check_demo_folder(out)
