@@ -7,12 +7,14 @@ import json
 import re
 import shutil
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.mount import Mount, MountUncertainty
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 
@@ -452,3 +454,45 @@ def test_sphere_figure_and_no_figure_contradict(
     argv = ["latency", "sphere", str(sim_folder), "--figure", str(fig), "--no-figure"]
     assert_one_line_error(*run_cli(argv), "--no-figure contradict")
     assert not fig.exists()
+
+
+def test_sphere_writes_the_latency_into_a_mount(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """--mount-out: the acquisition mount with the total latency and its sigma, for a
+    calibration that holds the latency (`calibrate mount --estimate boresight`)."""
+    acquisition = tmp_path / "acq.toml"
+    lever = MountUncertainty(lever_arm_body_m=(0.01, 0.01, 0.02))
+    given = Mount(lever_arm_body_m=(0.1, 0.0, 0.2), latency_s=0.0, uncertainty=lever)
+    write_mount(given, acquisition)
+    out = tmp_path / "measured.toml"
+    argv = ["latency", "sphere", str(sim_folder), "--no-figure", "--mount", str(acquisition)]
+    code, stdout, err = run_cli([*argv, "--mount-out", str(out), "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["mount_out"] == str(out)
+    measured = read_mount(out)
+    assert measured.latency_s * 1e3 == pytest.approx(doc["latency_ms"], rel=1e-12)
+    assert measured.uncertainty is not None
+    std_s = measured.uncertainty.latency_s
+    assert std_s is not None
+    assert std_s * 1e3 == pytest.approx(doc["latency_std_ms"])
+    assert measured.uncertainty.lever_arm_body_m == (0.01, 0.01, 0.02)  # kept
+    assert measured.lever_arm_body_m == given.lever_arm_body_m
+    assert abs(measured.latency_s - TAU_S) < 4 * std_s
+    # The passes georeferenced with 1 ms applied: the total adds it to the fitted latency.
+    write_mount(replace(given, latency_s=0.001), acquisition)
+    code, stdout, err = run_cli([*argv, "--json"])
+    assert code == 0, err
+    shifted = json.loads(stdout)
+    assert shifted["mount_latency_ms"] == pytest.approx(1.0)
+    assert shifted["latency_ms"] == pytest.approx(doc["latency_ms"] + 1.0, rel=1e-12)
+    code, stdout, err = run_cli([*argv[:4], "--mount-out", str(tmp_path / "m.toml")])
+    assert_one_line_error(code, stdout, err, "--mount-out", "give --mount")
+    code, stdout, err = run_cli([*argv, "--raw"])
+    assert_one_line_error(code, stdout, err, "with --raw that is FOLDER/raw/mount.toml")
+    code, stdout, err = run_cli([*argv, "--mount-out", str(tmp_path / "m.json")])
+    assert_one_line_error(code, stdout, err, "--mount-out", "TOML")
+    code, stdout, err = run_cli([*argv, "--mount-out", str(acquisition)])
+    assert_one_line_error(code, stdout, err, "acq.toml")
+    assert read_mount(acquisition).latency_s == 0.001  # the input is never replaced

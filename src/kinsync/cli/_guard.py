@@ -44,10 +44,16 @@ __all__ = [
     "path_parameters",
 ]
 
-OUTPUT_PARAMETERS = frozenset({"out", "model_out", "figure", "png", "report"})
+OUTPUT_PARAMETERS = frozenset({"out", "model_out", "mount_out", "figure", "png", "report"})
 """Names of the ``Path`` parameters that are outputs (files or folders) of a command."""
 
-OUTPUT_SUFFIXES = {"model_out": ".json", "figure": ".png", "png": ".png", "report": ".html"}
+OUTPUT_SUFFIXES = {
+    "model_out": ".json",
+    "mount_out": ".toml",
+    "figure": ".png",
+    "png": ".png",
+    "report": ".html",
+}
 """The one format each of these outputs is written in: another suffix is refused (a PNG
 written into ``figure.jpg`` or JSON into ``model.toml`` misleads whatever opens it)."""
 

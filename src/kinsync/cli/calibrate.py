@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
@@ -119,7 +120,15 @@ def mount(
         ),
     ],
     mount_file: Annotated[
-        Path, typer.Option("--mount", help="The mount the data were acquired with (TOML).")
+        Path,
+        typer.Option(
+            "--mount",
+            help=literal(
+                "The mount the data were acquired with (TOML): the starting values. The "
+                "standard deviations in its [uncertainty] table of the values held (not "
+                "estimated) are added to the sigma of those estimated."
+            ),
+        ),
     ],
     trajectory: Annotated[
         list[Path] | None,

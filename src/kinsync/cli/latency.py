@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -9,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt, parse_rates
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
@@ -18,6 +20,7 @@ from kinsync.progress import Stages
 
 if TYPE_CHECKING:
     from kinsync.latency.sphere import SphereLatencyResult
+    from kinsync.mount import Mount
 
 app = typer.Typer(help="Total IMU-LiDAR latency from a sphere on a rotating table (Method A).")
 
@@ -44,7 +47,7 @@ def _print_sphere_result(
     console.print(table)
     if applied_s != 0.0:
         console.print(
-            f"raw/mount.toml's latency_s {applied_s * 1e3:.4f} ms was applied before the fit: "
+            f"the mount's latency_s {applied_s * 1e3:.4f} ms was applied before the fit: "
             f"the per-rate latencies are on top of it (residual "
             f"{result.latency_s * 1e3:.4f} ms)",
             markup=False,
@@ -69,12 +72,41 @@ def _print_sphere_result(
         console.print(f"figure: {fig_path}")
 
 
-def _applied_latency_s(folder: Path) -> float:
-    """The latency (s) that ``--raw`` georeferencing took from ``raw/mount.toml``."""
+def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | None:
+    """The mount the passes were georeferenced with, or None (no latency applied).
+
+    ``raw/mount.toml`` with ``--raw``, else ``--mount``.
+    """
     from kinsync.io.mount_file import read_mount  # noqa: PLC0415
     from kinsync.io.raw_passes import RAW_DIR, RAW_MOUNT_TOML  # noqa: PLC0415
 
-    return float(read_mount(folder / RAW_DIR / RAW_MOUNT_TOML).latency_s)
+    if raw:
+        return read_mount(folder / RAW_DIR / RAW_MOUNT_TOML)
+    return None if mount_file is None else read_mount(mount_file)
+
+
+def _write_mount_with_latency(mount: Mount, total_s: float, std_s: float, path: Path) -> None:
+    """``mount`` with the measured total latency and its sigma in ``[uncertainty]``."""
+    from kinsync.io.mount_file import write_mount  # noqa: PLC0415
+    from kinsync.mount import MountUncertainty  # noqa: PLC0415
+
+    unc = replace(mount.uncertainty or MountUncertainty(), latency_s=std_s)
+    write_mount(replace(mount, latency_s=total_s, uncertainty=unc), path)
+
+
+def _check_mount_options(raw: bool, mount_file: Path | None, mount_out: Path | None) -> None:
+    if raw and mount_file is not None:
+        msg = (
+            "--mount names the mount the pass files were georeferenced with; with --raw that "
+            "is FOLDER/raw/mount.toml: drop --mount"
+        )
+        raise InputError(msg)
+    if mount_out is not None and mount_file is None and not raw:
+        msg = (
+            "--mount-out writes the measured latency into a mount: give --mount, the mount "
+            "the pass files were georeferenced with (latency_s = 0.0 if none was applied)"
+        )
+        raise InputError(msg)
 
 
 @app.command("sphere")
@@ -102,6 +134,25 @@ def sphere(
             "from raw/mount.toml.",
         ),
     ] = False,
+    mount_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--mount",
+            help="The mount the pass files were georeferenced with: its latency_s was applied, "
+            "so the total latency is it plus the fitted one (not with --raw, which uses "
+            "FOLDER/raw/mount.toml).",
+        ),
+    ] = None,
+    mount_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--mount-out",
+            help=literal(
+                "Write that mount with latency_s = the total latency and its sigma in "
+                "[uncertainty] (TOML), e.g. for calibrate mount to hold."
+            ),
+        ),
+    ] = None,
     max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -118,6 +169,9 @@ def sphere(
     if no_figure and figure is not None:
         msg = f"--figure {figure} and --no-figure contradict each other; give one of them"
         raise InputError(msg)
+    _check_mount_options(raw, mount_file, mount_out)
+    # --mount is read before any work; raw/mount.toml after the raw folder is read.
+    applied = None if raw else _applied_mount(Path(folder), raw, mount_file)
     if max_gap_s is not None and not raw:
         msg = (
             "--max-gap-s is the gap threshold of the attitude log read with --raw; the pass "
@@ -147,7 +201,9 @@ def sphere(
     doc = result.as_document()
     if fig_path is not None:
         doc["figure"] = str(fig_path)
-    applied_s = _applied_latency_s(Path(folder)) if raw else 0.0
+    if raw:
+        applied = _applied_mount(Path(folder), raw, mount_file)
+    applied_s = 0.0 if applied is None else applied.latency_s
     total_s = result.latency_s + applied_s
     if applied_s != 0.0:
         # The raw passes were georeferenced with raw/mount.toml's latency: the fit
@@ -164,10 +220,16 @@ def sphere(
             "unit or axis biases the latency, which the wider sigma does not remove",
             err=True,
         )
+    if mount_out is not None:
+        assert applied is not None  # _check_mount_options
+        _write_mount_with_latency(applied, total_s, result.latency_std_s, mount_out)
+        doc["mount_out"] = str(mount_out)
     if as_json:
         print_json(doc)
         return
     _print_sphere_result(result, applied_s, fig_path)
+    if mount_out is not None:
+        console.print(f"wrote {mount_out}")
 
 
 @app.command("plan")
