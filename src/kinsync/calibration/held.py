@@ -249,7 +249,11 @@ def held_effect(
             models, observations, fitted, solution.values, tuple(range(7)), frame, scales
         )
         e, h = list(estimated), list(held)
-        sensitivity[:, h] = -np.linalg.solve(S[np.ix_(e, e)], S[np.ix_(e, h)])
+        S_ee, S_eh = S[np.ix_(e, e)], S[np.ix_(e, h)]
+        try:
+            sensitivity[:, h] = -np.linalg.solve(S_ee, S_eh)
+        except np.linalg.LinAlgError:  # the estimates passed the observability analysis
+            sensitivity[:, h] = -np.linalg.pinv(S_ee) @ S_eh
         sigma_h[h] = np.asarray(std, dtype=np.float64)[h]
         known = [i for i in h if math.isfinite(float(sigma_h[i]))]
         if known:
