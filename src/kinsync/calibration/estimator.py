@@ -15,7 +15,7 @@ estimate, and returns a `CalibrationResult`:
    holds the errors every return of a line shares; the formal sigma beside it. What
    the held parameters' stated uncertainty (the mount's ``[uncertainty]``) adds is
    added to it (`kinsync.calibration.held`); a held value taken as exact whose
-   plausible error would move an estimate is named in the advice.
+   plausible error would move an estimate is named (``held_advice``).
 5. Status: ``weak`` when the sigma exceeds the stated threshold, or when it is no
    honest sigma: the formal one (fewer than `MIN_JACKKNIFE_GROUPS` lines, or a
    jackknife that failed) or a jackknife with fewer than `MIN_HONEST_DOF` degrees of
