@@ -227,6 +227,18 @@ class MountUncertainty:
         """True when at least one standard deviation is given."""
         return any(getattr(self, k) is not None for k in _UNCERTAINTY_KEYS)
 
+    def as_document(self) -> dict[str, Any]:
+        """The table as JSON: each key's standard deviation(s), null where not known."""
+        return {
+            "lever_arm_body_m": (
+                None if self.lever_arm_body_m is None else list(self.lever_arm_body_m)
+            ),
+            "boresight_rpy_deg": (
+                None if self.boresight_rpy_deg is None else list(self.boresight_rpy_deg)
+            ),
+            "latency_s": self.latency_s,
+        }
+
 
 @dataclass(frozen=True)
 class Mount:

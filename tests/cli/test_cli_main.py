@@ -67,6 +67,32 @@ def test_mount_check(tmp_path: Path, run_cli: RunCli) -> None:
     code, out, _ = run_cli(["mount", "check", str(good)])
     assert code == 0
     assert "lever_arm_body_m" in out
+    assert doc["uncertainty"] is None
+    assert doc["profiler_azimuth_deg"] is None
+
+
+def test_mount_check_shows_uncertainty_and_profiler(tmp_path: Path, run_cli: RunCli) -> None:
+    path = tmp_path / "mount.toml"
+    path.write_text(
+        "[mount]\nlatency_s = 0.0021\n\n[profiler]\nazimuth_deg = 12.5\n\n"
+        "[uncertainty]\nlever_arm_body_m = [0.01, 0.02, 0.03]\nlatency_s = 4e-05\n"
+    )
+    code, out, _ = run_cli(["mount", "check", str(path), "--json"])
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["profiler_azimuth_deg"] == 12.5
+    assert doc["uncertainty"] == {
+        "lever_arm_body_m": [0.01, 0.02, 0.03],
+        "boresight_rpy_deg": None,
+        "latency_s": 4e-05,
+    }
+    code, out, _ = run_cli(["mount", "check", str(path)])
+    assert code == 0
+    assert "sigma lever_arm_body_m" in out
+    assert "0.01, 0.02, 0.03" in out
+    assert "sigma latency_s" in out
+    assert "sigma boresight_rpy_deg" not in out
+    assert "profiler_azimuth_deg" in out
 
 
 def test_mount_check_warns_of_a_latency_in_milliseconds(tmp_path: Path, run_cli: RunCli) -> None:

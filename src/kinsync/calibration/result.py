@@ -27,20 +27,6 @@ def _num(value: float) -> float | None:
     return None if not math.isfinite(value) else float(value)
 
 
-def _uncertainty_document(mount: Mount) -> dict[str, Any] | None:
-    """The mount's ``[uncertainty]`` as JSON (None when it has none)."""
-    unc = mount.uncertainty
-    if unc is None:
-        return None
-    return {
-        "lever_arm_body_m": None if unc.lever_arm_body_m is None else list(unc.lever_arm_body_m),
-        "boresight_rpy_deg": (
-            None if unc.boresight_rpy_deg is None else list(unc.boresight_rpy_deg)
-        ),
-        "latency_s": unc.latency_s,
-    }
-
-
 @dataclass(frozen=True)
 class ParameterEstimate:
     """One mount parameter after the calibration (report units: deg, m, ms).
@@ -238,6 +224,8 @@ class CalibrationResult:
                 "antenna_lever_arm_body_m": list(self.mount.antenna_lever_arm_body_m),
                 "latency_s": self.mount.latency_s,
                 "profiler_azimuth_deg": self.mount.profiler_azimuth_deg,
-                "uncertainty": _uncertainty_document(self.mount),
+                "uncertainty": (
+                    None if self.mount.uncertainty is None else self.mount.uncertainty.as_document()
+                ),
             },
         }

@@ -40,6 +40,8 @@ def mount_check(
         "boresight_rpy_deg": list(mount.boresight_rpy_deg),
         "antenna_lever_arm_body_m": list(mount.antenna_lever_arm_body_m),
         "latency_s": mount.latency_s,
+        "profiler_azimuth_deg": mount.profiler_azimuth_deg,
+        "uncertainty": None if mount.uncertainty is None else mount.uncertainty.as_document(),
         "R_scanner_to_body": mount.R_scanner_to_body.tolist(),
     }
     if as_json:
@@ -50,6 +52,12 @@ def mount_check(
         for key in ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m")
     }
     rows["latency_s"] = f"{mount.latency_s:g}"
+    if mount.profiler_azimuth_deg is not None:
+        rows["profiler_azimuth_deg"] = f"{mount.profiler_azimuth_deg:g}"
+    for key, value in (doc["uncertainty"] or {}).items():
+        if value is not None:
+            shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value:g}"
+            rows[f"sigma {key}"] = shown
     for i, row in enumerate(mount.R_scanner_to_body):
         label = "R_scanner_to_body (boresight)" if i == 0 else ""
         rows[label or " " * (i + 1)] = "  ".join(f"{v:+.6f}" for v in row)
