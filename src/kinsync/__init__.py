@@ -81,7 +81,17 @@ numpy, so the ``kinsync`` program sets its Ctrl-C handling before the heavy impo
 
 def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
-    if module is None:
-        msg = f"module 'kinsync' has no attribute {name!r}"
-        raise AttributeError(msg)
-    return getattr(importlib.import_module(module), name)
+    if module is not None:
+        return getattr(importlib.import_module(module), name)
+    if not name.startswith("_"):  # a submodule: ``kinsync.trajectory`` after ``import kinsync``
+        try:
+            return importlib.import_module(f"kinsync.{name}")
+        except ModuleNotFoundError as err:
+            if err.name != f"kinsync.{name}":
+                raise
+    msg = f"module 'kinsync' has no attribute {name!r}"
+    raise AttributeError(msg)
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})

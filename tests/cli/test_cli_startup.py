@@ -126,6 +126,16 @@ def test_import_kinsync_cli_loads_nothing_before_main(tmp_path: Path) -> None:
     assert "typer" not in modules
 
 
+def test_the_package_names_and_submodules_load_when_used() -> None:
+    import kinsync  # noqa: PLC0415
+
+    assert kinsync.Mount.__name__ == "Mount"
+    assert kinsync.trajectory.__name__ == "kinsync.trajectory"  # a submodule, as before
+    assert {"Mount", "Trajectory", "InputError", "KinsyncError"} <= set(dir(kinsync))
+    with pytest.raises(AttributeError, match="no attribute 'nosuch'"):
+        _ = kinsync.nosuch
+
+
 def test_help_loads_no_heavy_module(tmp_path: Path) -> None:
     code, modules, stdout = _run_main(tmp_path, "--help")
     assert code == 0

@@ -69,6 +69,21 @@ def test_multi_value_options_flags_and_values_are_not_counted() -> None:
     refuse_repeated_options(COMMAND, ["--version"])
 
 
+def test_a_value_that_looks_like_an_option_is_a_value() -> None:
+    # click reads --out's value "--seed" as the folder name: one --seed, not two.
+    refuse_repeated_options(COMMAND, ["simulate", "validation", "--out", "--seed", "--seed", "3"])
+    with pytest.raises(InputError, match=r"--seed given 2 times \('3', '4'\)"):
+        refuse_repeated_options(
+            COMMAND, ["simulate", "validation", "--out", "--seed", "--seed", "3", "--seed", "4"]
+        )
+
+
+def test_help_wins_over_a_repeated_option(run_cli: RunCli) -> None:
+    code, out, err = run_cli(["georef", "--help", "--mount", "a.toml", "--mount", "b.toml"])
+    assert code == 0, err
+    assert "Usage: kinsync georef" in out
+
+
 def test_the_program_refuses_before_any_work(
     run_cli: RunCli, assert_one_line_error: OneLineError
 ) -> None:

@@ -87,7 +87,7 @@ def test_table_output_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--laps", "0"], ("--laps",)),
         (["--static-s", "-1"], ("--static-s -1: outside the span",)),
         (["--seed", "-2"], ("seed",)),
-        (["--static-s", "45"], ("duration_s 40 s ends within the standstill (static_s 45 s)",)),
+        (["--static-s", "45"], ("--duration-s 40 ends within the standstill (--static-s 45)",)),
     ],
 )
 def test_bad_options(

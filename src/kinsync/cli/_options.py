@@ -84,6 +84,20 @@ def _leaf(command: Any, args: Sequence[str]) -> tuple[Any, int] | None:
     return command, i
 
 
+def _value_options(leaf: Any) -> tuple[dict[str, str], set[str]]:
+    """Every value-taking option's names -> its first name; those that take one value."""
+    canonical: dict[str, str] = {}
+    counted: set[str] = set()
+    for param in getattr(leaf, "params", ()):
+        if getattr(param, "param_type_name", "") != "option" or param.is_flag:
+            continue
+        for name in (*param.opts, *param.secondary_opts):
+            canonical[name] = param.opts[0]
+        if not param.multiple:
+            counted.add(param.opts[0])
+    return canonical, counted
+
+
 def refuse_repeated_options(command: Any, args: Sequence[str]) -> None:
     """Refuse an option that takes one value given more than once.
 
@@ -103,29 +117,29 @@ def refuse_repeated_options(command: Any, args: Sequence[str]) -> None:
     InputError
         Naming the option and every value it was given.
     """
+    if "--help" in args:
+        return  # help is shown whatever else the line holds
     found = _leaf(command, args)
     if found is None:
         return
     leaf, start = found
-    single: dict[str, str] = {}
-    for param in getattr(leaf, "params", ()):
-        if getattr(param, "param_type_name", "") != "option":
-            continue
-        if param.multiple or param.is_flag:
-            continue
-        for name in (*param.opts, *param.secondary_opts):
-            single[name] = param.opts[0]
+    canonical, counted = _value_options(leaf)
     given: dict[str, list[str]] = {}
     tokens = list(args[start:])
-    for i, item in enumerate(tokens):
+    i = 0
+    while i < len(tokens):
+        item = tokens[i]
+        i += 1
         if item == "--":  # end of options
             break
         name, eq, value = item.partition("=")
-        if name not in single:
+        if name not in canonical:
             continue
         if not eq:
-            value = tokens[i + 1] if i + 1 < len(tokens) else ""
-        given.setdefault(single[name], []).append(value)
+            value = tokens[i] if i < len(tokens) else ""
+            i += 1  # the value is not an option, whatever it looks like
+        if canonical[name] in counted:
+            given.setdefault(canonical[name], []).append(value)
     for name, values in given.items():
         if len(values) > 1:
             shown = ", ".join(repr(v) for v in values)

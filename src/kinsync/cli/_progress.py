@@ -137,7 +137,7 @@ def progress_display(title: str) -> Iterator[ProgressCallback]:
     """
     if err_console.is_terminal:
         with Progress(
-            TextColumn("{task.description}"),
+            TextColumn("{task.description}", markup=False),  # a file name is shown as written
             BarColumn(),
             TaskProgressColumn(),
             TimeRemainingColumn(),

@@ -333,6 +333,12 @@ def drive(
     if laps is not None and laps < 1:
         msg = f"--laps must be at least 1, got {laps}"
         raise InputError(msg)
+    if duration_s is not None and duration_s <= static_s:
+        msg = (
+            f"--duration-s {duration_s:g} ends within the standstill (--static-s {static_s:g}): "
+            "nothing would be driven; give a longer --duration-s or a shorter --static-s"
+        )
+        raise InputError(msg)
     config = DriveSimConfig(
         route=ROUTE_KINDS[ROUTE_KINDS.index(route_key)],
         speed_m_s=speed_m_s,
