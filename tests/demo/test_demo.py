@@ -10,6 +10,7 @@ import pytest
 
 import kinsync.demo.run as demo_run
 from kinsync.cli import main
+from kinsync.demo.manifest import write_manifest
 from kinsync.errors import InputError
 from kinsync.report.render_check import check_renders, find_chromium
 from kinsync.report.structure import report_problems
@@ -78,7 +79,9 @@ def test_demo_writes_a_self_contained_report(
     assert doc["beach"]["rows"][0]["latency_ms"] == 0.1
     assert (out_dir / "budget_1.png").read_bytes().startswith(b"\x89PNG")
     assert not list(out_dir.glob("*.part"))
-    listed = (out_dir / demo_run.MANIFEST).read_text().splitlines()
+    listed = [
+        line.split("  ", 1)[1] for line in (out_dir / demo_run.MANIFEST).read_text().splitlines()
+    ]
     assert "report.html" in listed
     assert "patch-test-vehicle/mount_lever_uncertainty.toml" in listed
     assert sorted(p.relative_to(out_dir).as_posix() for p in out_dir.rglob("*")
@@ -157,9 +160,10 @@ def test_an_interrupted_demo_leaves_the_earlier_report(
     out.mkdir()
     (out / "report.html").write_text("<h1>kinsync demo report</h1>\n")
     (out / "budget.json").write_text("{}\n")
+    write_manifest(out)
     with pytest.raises(KeyboardInterrupt):
         demo_run.run_demo(out)
-    assert sorted(p.name for p in out.iterdir()) == ["budget.json", "report.html"]
+    assert sorted(p.name for p in out.iterdir()) == ["budget.json", "demo-files.txt", "report.html"]
     assert (out / "budget.json").read_text() == "{}\n"
     assert [p.name for p in tmp_path.iterdir()] == ["d"]
 
@@ -170,13 +174,32 @@ def test_an_earlier_demo_folder_with_the_users_files_is_refused(tmp_path: Path) 
     (out / "report.html").write_text("<h1>kinsync demo report</h1>\n")
     (out / "budget.json").write_text("{}\n")
     (out / "patch-test-vehicle" / "line_01.laz").write_bytes(b"x")
-    listed = "budget.json\npatch-test-vehicle/line_01.laz\nreport.html\n"
-    (out / demo_run.MANIFEST).write_text(listed)
-    demo_run.check_demo_folder(out)  # the demo's own files only: replaced on a re-run
-    (out / "patch-test-vehicle" / "my_figure.png").write_bytes(b"mine")
-    with pytest.raises(InputError, match=r"files the demo did not write \(patch-test-vehicle/my"):
+    with pytest.raises(InputError, match=r"without demo-files.txt"):  # cannot tell
         demo_run.check_demo_folder(out)
-    (out / "patch-test-vehicle" / "my_figure.png").unlink()
-    (out / "notes.txt").write_text("mine")
-    with pytest.raises(InputError, match=r"\(notes.txt\)"):
+    write_manifest(out)
+    demo_run.check_demo_folder(out)  # the demo's own files only: replaced on a re-run
+    cases = {
+        "patch-test-vehicle/my_figure.png": r"did not write \(patch-test-vehicle/my_figure.png\)",
+        "notes.txt": r"did not write \(notes.txt\)",
+    }
+    for name, pattern in cases.items():
+        (out / name).write_text("mine")
+        with pytest.raises(InputError, match=pattern):
+            demo_run.check_demo_folder(out)
+        (out / name).unlink()
+    (out / "budget.json").write_text('{"my own": 1}\n')  # saved under a demo file's name
+    with pytest.raises(InputError, match=r"changed since the demo wrote them \(budget.json\)"):
+        demo_run.check_demo_folder(out)
+    (out / "budget.json").write_text("{}\n")
+    (out / "results" / "deeper").mkdir(parents=True)  # a user's (empty) folders
+    with pytest.raises(InputError, match=r"\(results, results/deeper\)"):
+        demo_run.check_demo_folder(out)
+    (out / "results" / "deeper").rmdir()
+    (out / "results").rmdir()
+    (out / "link").symlink_to(tmp_path)
+    with pytest.raises(InputError, match=r"\(link\)"):
+        demo_run.check_demo_folder(out)
+    (out / "link").unlink()
+    (out / demo_run.MANIFEST).write_text("budget.json\nreport.html\n")  # the first layout
+    with pytest.raises(InputError, match=r"line 1 is not 'SHA256  path'"):
         demo_run.check_demo_folder(out)

@@ -27,6 +27,7 @@ from kinsync.demo.crs import crs_section
 from kinsync.demo.end_to_end import end_to_end_section
 from kinsync.demo.georef import georef_section
 from kinsync.demo.ins import ins_section
+from kinsync.demo.manifest import MANIFEST, check_manifest, write_manifest
 from kinsync.demo.method_a import cidco_section, find_cidco_folder, method_a_section
 from kinsync.demo.method_b import method_b_section
 from kinsync.demo.navego import find_navego_folder, navego_section
@@ -36,13 +37,10 @@ from kinsync.io.atomic import atomic_folder, atomic_write_bytes, atomic_write_te
 from kinsync.progress import Progress, Stages
 from kinsync.report.html import Section, render_report
 
-__all__ = ["DemoResult", "check_demo_folder", "run_demo"]
+__all__ = ["MANIFEST", "DemoResult", "check_demo_folder", "run_demo"]
 
 REPORT_TITLE = "kinsync demo report"
 """The report's heading; a ``report.html`` holding it marks a folder the demo wrote."""
-MANIFEST = "demo-files.txt"
-"""Every file the demo wrote (relative paths, one per line): a re-run replaces the
-folder only when it holds nothing else."""
 
 
 @dataclass(frozen=True)
@@ -131,7 +129,8 @@ def check_demo_folder(out_dir: Path) -> None:
     InputError
         ``out_dir`` is a folder that is neither empty nor an earlier demo output (its
         ``report.html`` with the demo's heading and its ``budget.json``), or an earlier
-        demo output that holds a file its `MANIFEST` does not list.
+        demo output holding anything its `MANIFEST` does not list
+        (`kinsync.demo.manifest.check_manifest`).
     """
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
@@ -145,7 +144,7 @@ def check_demo_folder(out_dir: Path) -> None:
     except (OSError, UnicodeDecodeError):
         ours = False
     if ours and (out_dir / "budget.json").is_file():
-        _check_manifest(out_dir)
+        check_manifest(out_dir)
         return
     shown = ", ".join(entries[:3]) + (", ..." if len(entries) > 3 else "")
     msg = (
@@ -153,35 +152,6 @@ def check_demo_folder(out_dir: Path) -> None:
         "folder (or one holding an earlier demo report, which is replaced)"
     )
     raise InputError(msg)
-
-
-def _written(folder: Path) -> list[str]:
-    """Every file under ``folder``, as sorted relative ``/`` paths."""
-    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if not p.is_dir())
-
-
-def _check_manifest(out_dir: Path) -> None:
-    """Refuse an earlier demo folder that holds a file the demo did not write.
-
-    A folder written before the demo kept `MANIFEST` is taken as the demo's whole.
-    """
-    manifest = out_dir / MANIFEST
-    if not manifest.is_file():
-        return
-    try:
-        listed = set(manifest.read_text(encoding="utf-8").splitlines())
-    except (OSError, UnicodeDecodeError) as err:
-        msg = f"--out {out_dir}: cannot read {MANIFEST} ({err}); choose another --out"
-        raise InputError(msg) from err
-    others = [name for name in _written(out_dir) if name not in listed and name != MANIFEST]
-    if others:
-        shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
-        msg = (
-            f"--out {out_dir}: an earlier demo report, but it also holds files the demo did "
-            f"not write ({shown}); a re-run replaces the whole folder: move them, or choose "
-            "another --out"
-        )
-        raise InputError(msg)
 
 
 def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
@@ -210,7 +180,7 @@ def run_demo(out_dir: Path, progress: Progress | None = None) -> DemoResult:
     final_dir = Path(out_dir)
     with atomic_folder(final_dir, check_demo_folder, "choose another --out", option="--out") as tmp:
         summary = _run_sections(tmp, progress)
-        atomic_write_text(tmp / MANIFEST, "".join(f"{name}\n" for name in _written(tmp)))
+        write_manifest(tmp)
     return DemoResult(
         out_dir=final_dir, report_path=final_dir / "report.html", summary=tuple(summary)
     )
