@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.mount import (
     MAX_ANGLE_DEG,
@@ -21,6 +22,12 @@ from kinsync.mount import (
 )
 
 BASE = "[mount]\nlever_arm_body_m = [0.1, 0.2, 0.3]\nlatency_s = 0.0\n"
+
+# The round trips draw sigmas up to the refusal bounds; the warnings beyond WARN_STD are
+# tested below.
+pytestmark = pytest.mark.filterwarnings(
+    "ignore:.*standard deviation beyond:kinsync.errors.KinsyncWarning"
+)
 
 
 def _std(limit: float) -> st.SearchStrategy[float]:
@@ -120,3 +127,24 @@ def test_unknown_table_message_lists_uncertainty() -> None:
 def test_container_refuses_what_is_not_an_uncertainty() -> None:
     with pytest.raises(InputError, match="MountUncertainty"):
         Mount(uncertainty={"latency_s": 0.001})  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("table", "fragment"),
+    [
+        ("latency_s = 0.5\n", "latency_s = 0.5 s: a standard deviation beyond 0.1 s"),
+        ("lever_arm_body_m = [1, 2, 3]\n", "beyond 1 m is a unit mistake"),
+        ("boresight_rpy_deg = [0.1, 0.1, 10.0]\n", "beyond 5 deg"),
+    ],
+)
+def test_implausible_uncertainty_is_read_with_a_warning(table: str, fragment: str) -> None:
+    with pytest.warns(KinsyncWarning, match=fragment):
+        mount = mount_from_toml_text(BASE + "[uncertainty]\n" + table, source="m.toml")
+    assert mount.uncertainty is not None
+
+
+def test_plausible_uncertainty_reads_without_a_warning() -> None:
+    text = BASE + "[uncertainty]\nlatency_s = 0.001\nlever_arm_body_m = [0.02, 0.02, 0.5]\n"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mount_from_toml_text(text)

@@ -93,6 +93,11 @@ WARN_LEVER_ARM_M = 100.0
 """A lever arm component beyond this (m, either sign) is read with a warning: larger
 than most survey vehicles and vessels, and what 150 cm written as 150 gives."""
 
+WARN_STD = {"lever_arm_body_m": 1.0, "boresight_rpy_deg": 5.0, "latency_s": 0.1}
+"""An ``[uncertainty]`` value beyond these (m, deg, s) is read with a warning: a unit
+mistake (centimetres or milliseconds written as metres or seconds), or a value so poorly
+known that a calibration's linearisation about it means little."""
+
 _BOM = "\ufeff"
 _TOML_END = " (at end of document)"
 _TOML_WHERE = re.compile(r"^(?P<what>.*?) \(at line (?P<line>\d+), column (?P<col>\d+)\)$")
@@ -477,6 +482,7 @@ def _check_plausible(mount: Mount, source: str) -> None:
                 KinsyncWarning,
                 stacklevel=3,
             )
+    _warn_uncertainty(mount.uncertainty, source)
     az = mount.profiler_azimuth_deg
     if az is not None and abs(az) > MAX_ANGLE_DEG:
         msg = (
@@ -484,6 +490,26 @@ def _check_plausible(mount: Mount, source: str) -> None:
             "(give degrees within one turn)"
         )
         raise InputError(msg)
+
+
+def _warn_uncertainty(unc: MountUncertainty | None, source: str) -> None:
+    """Warn of ``[uncertainty]`` values beyond `WARN_STD` (a likely unit mistake)."""
+    if unc is None:
+        return
+    units = {"lever_arm_body_m": "m", "boresight_rpy_deg": "deg", "latency_s": "s"}
+    for key, limit in WARN_STD.items():
+        value = getattr(unc, key)
+        values = () if value is None else (value,) if isinstance(value, float) else value
+        big = [v for v in values if v > limit]
+        if big:
+            warnings.warn(
+                f"{source}: [uncertainty] {key} = {value!r} {units[key]}: a standard deviation "
+                f"beyond {limit:g} {units[key]} is a unit mistake (centimetres as metres, "
+                "milliseconds as seconds?) or a value too poorly known for a calibration to "
+                "hold it: its effect is linearised about the prior",
+                KinsyncWarning,
+                stacklevel=3,
+            )
 
 
 def mount_to_toml_text(mount: Mount) -> str:

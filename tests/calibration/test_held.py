@@ -17,7 +17,12 @@ import pytest
 
 from kinsync.calibration.adjustment import Adjustment, adjust
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount, find_features
-from kinsync.calibration.held import REFERENCE_ERRORS, held_effect, held_std
+from kinsync.calibration.held import (
+    REFERENCE_ERRORS,
+    held_effect,
+    held_std,
+    uncertainty_from_std,
+)
 from kinsync.calibration.model import LineModel, local_frame_for
 from kinsync.calibration.parameters import (
     PARAMETER_NAMES,
@@ -75,7 +80,12 @@ def test_stated_lever_uncertainty_makes_the_sigma_hold_the_error(
     expected = math.sqrt(sum((shifts[j, i] * LEVER_STD_M / 0.01) ** 2 for i in (3, 4, 5)))
     assert stated.parameter("latency_ms").held_std == pytest.approx(expected, rel=1e-9)
     assert "plus the stated uncertainty of the held lever_x_m" in stated.sigma_method
-    assert stated.held_advice == ()
+    # Nothing is taken as exact; the stated lever arm limits the boresight and latency.
+    assert not any("held as exact" in a for a in stated.held_advice)
+    assert any(
+        a.startswith("lever_y_m's stated sigma moves boresight_") and "more than the data" in a
+        for a in stated.held_advice
+    )
 
 
 def test_without_stated_uncertainty_the_advice_names_the_lever(
@@ -93,6 +103,7 @@ def test_without_stated_uncertainty_the_advice_names_the_lever(
     assert "lever_y_m is held as exact" in named
     assert "[uncertainty]" in named
     assert all(" sigma)" in a for a in exact.held_advice)
+    assert all(a.endswith("or estimate it") for a in exact.held_advice)  # not asked for
 
 
 def test_calibrated_mount_carries_its_sigma(stated: CalibrationResult) -> None:
@@ -162,7 +173,18 @@ def test_certificate_shows_what_each_held_value_does(
     assert html.index("Held parameters") < html.index("Features")
     assert "of which held" in html
     assert "lever_y_m (sigma 0.03 m): 1 cm moves" in html
-    assert "Warning:" not in html
+    assert "stated sigma moves boresight_" in html
+    assert "taken as exact" not in html
     html = calibration_certificate(exact)
     assert "lever_y_m (taken as exact)" in html
+    assert "the sigma holds the stated uncertainty" not in html
     assert "Warning: lever_y_m is held as exact" in html
+
+
+def test_a_sigma_beyond_what_a_mount_may_state_is_left_out() -> None:
+    std = np.array([np.radians(0.01)] * 3 + [0.01] * 3 + [15.0])  # latency sigma 15 s
+    unc = uncertainty_from_std(std)
+    assert unc is not None
+    assert unc.latency_s is None
+    assert unc.lever_arm_body_m == (0.01, 0.01, 0.01)
+    assert uncertainty_from_std(np.full(7, np.nan)) is None

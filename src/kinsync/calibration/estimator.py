@@ -403,7 +403,7 @@ def calibrate_mount(
         overlaps_after=overlaps_after,
         rejected_lines=rejected,
         held=effect if effect.held else None,
-        held_advice=effect.advice(std),
+        held_advice=effect.advice(std, requested),
     )
 
 

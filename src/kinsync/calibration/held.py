@@ -42,7 +42,13 @@ from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE
-from kinsync.mount import Mount, MountUncertainty
+from kinsync.mount import (
+    MAX_ANGLE_DEG,
+    MAX_LATENCY_S,
+    MAX_LEVER_ARM_M,
+    Mount,
+    MountUncertainty,
+)
 
 __all__ = [
     "REFERENCE_ERRORS",
@@ -87,19 +93,22 @@ def uncertainty_from_std(std: FloatArray) -> MountUncertainty | None:
     """A `MountUncertainty` from seven standard deviations (internal units), shape (7,).
 
     A vector (boresight, lever arm) is given only when all three of its components are
-    known; NaN is unknown. None when nothing is known.
+    known; NaN is unknown. A sigma beyond what a mount file may state (`MAX_ANGLE_DEG`,
+    `MAX_LEVER_ARM_M`, `MAX_LATENCY_S`) says nothing and is left out too. None when
+    nothing is known.
     """
     s = np.asarray(std, dtype=np.float64)
 
-    def vec(part: FloatArray) -> tuple[float, float, float] | None:
-        if not np.all(np.isfinite(part)):
+    def vec(part: FloatArray, limit: float) -> tuple[float, float, float] | None:
+        if not np.all(np.isfinite(part) & (part <= limit)):
             return None
         return (float(part[0]), float(part[1]), float(part[2]))
 
+    latency = float(s[6])
     unc = MountUncertainty(
-        boresight_rpy_deg=vec(np.degrees(s[0:3])),
-        lever_arm_body_m=vec(s[3:6]),
-        latency_s=float(s[6]) if math.isfinite(float(s[6])) else None,
+        boresight_rpy_deg=vec(np.degrees(s[0:3]), MAX_ANGLE_DEG),
+        lever_arm_body_m=vec(s[3:6], MAX_LEVER_ARM_M),
+        latency_s=latency if math.isfinite(latency) and latency <= MAX_LATENCY_S else None,
     )
     return unc if unc.known else None
 
@@ -186,13 +195,20 @@ class HeldEffect:
             out.append(f"{PARAMETER_NAMES[h]} ({known}): {REFERENCE_TEXT[h]} moves {moves}")
         return tuple(out)
 
-    def advice(self, data_std: FloatArray) -> tuple[str, ...]:
-        """The held values taken as exact whose plausible error matters, in words.
+    def advice(self, data_std: FloatArray, requested: tuple[int, ...] = ()) -> tuple[str, ...]:
+        """The held values whose error matters, in words.
+
+        A value taken as exact whose reference error would move an estimate by more
+        than `ADVICE_SHARE` of its data sigma; a value whose stated sigma moves an
+        estimate by more than the data leave (the held value limits that estimate).
 
         Parameters
         ----------
         data_std : ndarray, shape (k,)
             The estimates' sigma from the data (jackknife or formal), internal units.
+        requested : tuple of int
+            The parameters asked for: a held one among them is one the data could not
+            determine (estimating it is no remedy).
         """
         shifts = self.per_reference()
         sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
@@ -203,11 +219,28 @@ class HeldEffect:
             if not share[j] > ADVICE_SHARE:
                 continue
             e = self.estimated[j]
+            remedy = "" if h in requested else ", or estimate it"
             out.append(
                 f"{PARAMETER_NAMES[h]} is held as exact (the mount gives no [uncertainty] "
                 f"for it): {REFERENCE_TEXT[h]} of error moves {PARAMETER_NAMES[e]} by "
-                f"{shifts[j, h]:+.2g} ({share[j]:.1f} sigma); give its standard deviation in "
-                "the mount file's [uncertainty] table so the sigma holds it, or estimate it"
+                f"{shifts[j, h]:+.3g} ({share[j]:.1f} sigma); give the standard deviation of "
+                f"its vector in the mount file's [uncertainty] table so the sigma holds "
+                f"it{remedy}"
+            )
+        for h in self.held:
+            if h in self.unknown:
+                continue
+            part = np.abs(self.sensitivity[:, h]) * self.held_std[h]
+            part *= REPORT_SCALE[list(self.estimated)]
+            j = int(np.argmax(part / sigma))
+            if not part[j] > sigma[j]:
+                continue
+            e = self.estimated[j]
+            remedy = "knowing it better" if h in requested else "estimating it or knowing it better"
+            out.append(
+                f"{PARAMETER_NAMES[h]}'s stated sigma moves {PARAMETER_NAMES[e]} by "
+                f"+-{part[j]:.3g}, more than the data leave (+-{sigma[j]:.3g}): {remedy} "
+                f"would narrow {PARAMETER_NAMES[e]}'s sigma"
             )
         return tuple(out)
 

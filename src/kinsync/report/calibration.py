@@ -19,6 +19,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from kinsync.calibration.overlaps import LineOverlap
+from kinsync.calibration.parameters import PARAMETER_NAMES
 from kinsync.calibration.result import CalibrationResult, ParameterEstimate
 from kinsync.report.figures import png_bytes
 from kinsync.report.html import Figure, Section, Table, render_report
@@ -189,11 +190,23 @@ def _held_paragraphs(result: CalibrationResult) -> tuple[str, ...]:
     if result.held is None:
         solved = any(p.status in ("estimated", "weak") for p in result.parameters)
         return ("Nothing held: every parameter was estimated.",) if solved else ("Nothing solved.",)
-    intro = (
-        "Held at their prior values; the sigma holds the stated uncertainty of each (the "
-        "mount's [uncertainty], column 'of which held'). Linearised at the solution:"
+    held = result.held
+    known = [PARAMETER_NAMES[i] for i in held.held if i not in held.unknown]
+    exact = [PARAMETER_NAMES[i] for i in held.unknown]
+    intro = "Held at their prior values."
+    if known:
+        intro += (
+            f" The sigma holds the stated uncertainty (the mount's [uncertainty]) of "
+            f"{', '.join(known)}: column 'of which held', combined with the data's in "
+            "quadrature."
+        )
+    if exact:
+        intro += f" Taken as exact (no [uncertainty] given): {', '.join(exact)}."
+    intro += (
+        " What an error of each does, linearised at the solution with its weights and noise "
+        "scales held:"
     )
-    return (intro, *result.held.lines(), *(f"Warning: {a}." for a in result.held_advice))
+    return (intro, *held.lines(), *(f"Warning: {a}." for a in result.held_advice))
 
 
 def calibration_sections(result: CalibrationResult) -> list[Section]:
