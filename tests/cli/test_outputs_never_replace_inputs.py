@@ -103,11 +103,11 @@ def test_an_input_folder_is_refused_as_output_and_its_files_are_kept(
     code, _, err = run_cli(["simulate", "rotating-table", *small, "--out", str(sim)])
     assert code == 0, err
     code, o, e = run_cli(["latency", "sphere", str(sim), "--figure", str(sim)])
-    assert_one_line_error(code, o, e, "is the input folder FOLDER")
+    assert_one_line_error(code, o, e, f"is the input folder FOLDER ({sim})")
     index = sim / "passes.csv"
     before = _digest(index)
     code, o, e = run_cli(["latency", "sphere", str(sim), "--figure", str(index)])
-    assert_one_line_error(code, o, e, "would replace a file of the input folder FOLDER")
+    assert_one_line_error(code, o, e, f"would replace a file of the input folder FOLDER ({sim})")
     assert _digest(index) == before
     code, _, err = run_cli(["latency", "sphere", str(sim), "--figure", str(sim / "fig.png")])
     assert code == 0, err  # a new file in the input folder is fine

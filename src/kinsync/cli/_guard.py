@@ -170,7 +170,7 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             if isinstance(value, int | float) and not isinstance(value, bool):
                 check_numeric_option(command, option, value)
         inputs = [
-            ProtectedInput(p, f"{spelled[name]} {p}")
+            ProtectedInput(p, _input_label(spelled[name], p))
             for name, value in bound.arguments.items()
             if name in spelled and name not in OUTPUT_PARAMETERS
             for p in _paths(value)
@@ -193,6 +193,11 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             return callback(*args, **kwargs)
 
     return guarded
+
+
+def _input_label(spelled: str, path: Path) -> str:
+    """``--mount m.toml`` for an option; ``FOLDER (tbl)`` for an argument."""
+    return f"{spelled} {path}" if spelled.startswith("-") else f"{spelled} ({path})"
 
 
 def guard_commands(app: typer.Typer, prefix: tuple[str, ...] = ()) -> None:
