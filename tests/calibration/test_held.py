@@ -22,6 +22,7 @@ from kinsync.calibration.held import (
     held_effect,
     held_std,
     uncertainty_from_std,
+    uncertainty_notes,
 )
 from kinsync.calibration.model import LineModel, local_frame_for
 from kinsync.calibration.parameters import (
@@ -188,3 +189,32 @@ def test_a_sigma_beyond_what_a_mount_may_state_is_left_out() -> None:
     assert unc.latency_s is None
     assert unc.lever_arm_body_m == (0.01, 0.01, 0.01)
     assert uncertainty_from_std(np.full(7, np.nan)) is None
+
+
+def test_notes_say_what_the_written_uncertainty_leaves_out() -> None:
+    nan = np.nan
+    deg = np.radians(1.0)
+    prior = np.array([0.2 * deg] * 3 + [nan, nan, nan] + [nan])
+    new = np.array([0.01 * deg, 2.17 * deg, 0.1 * deg, 0.02, 0.006, nan, 0.001])
+    notes = uncertainty_notes(prior, new, (0, 1, 2, 3, 4, 6), honest=True)
+    assert len(notes) == 2
+    assert notes[0].startswith("lever_arm_body_m is left out of the written [uncertainty]")
+    assert "the sigma of lever_z_m is not known" in notes[0]
+    assert notes[1].startswith("boresight_pitch_deg: these data give +-2.17, less well than")
+    assert "+-0.2;" in notes[1]
+    expected = (
+        "boresight_rpy_deg is left out of the written [uncertainty]: the calibration's "
+        "sigma is not honest (fewer than 5 lines)"
+    )
+    unknown = new.copy()
+    unknown[[0, 1, 2]] = nan  # as the estimator leaves a sigma that is not honest
+    assert uncertainty_notes(prior, unknown, (0, 1, 2), honest=False) == (expected,)
+    beyond = new.copy()
+    beyond[6] = 15.0
+    assert any("latency_s is left out" in n and "beyond" in n
+               for n in uncertainty_notes(prior, beyond, (6,), honest=True))  # fmt: skip
+
+
+def test_no_notes_when_everything_is_written(stated: CalibrationResult) -> None:
+    assert stated.uncertainty_notes == ()
+    assert stated.as_document()["uncertainty_notes"] == []

@@ -131,6 +131,9 @@ def test_held_values_stated_uncertainty_in_table_json_and_mount(
         "parameter", "prior", "calibrated", "sigma", "data", "held", "status"
     ]  # fmt: skip
     assert "held: lever_z_m (sigma 0.05 m)" in out
+    notes = " ".join(out.split())
+    assert "note: boresight_rpy_deg is left out of the written [uncertainty]" in notes
+    assert "not honest (fewer than 5 lines)" in notes
     assert "lever_x_m is held as exact" not in err  # its sigma is stated
     # 4 lines: a jackknife of 3 degrees of freedom is no honest sigma, so the calibrated
     # mount states none for what it estimated; the held lever keeps the prior's.

@@ -43,7 +43,13 @@ from kinsync.calibration.adjustment import (
     reduced_normal_matrix,
 )
 from kinsync.calibration.features import Feature
-from kinsync.calibration.held import HeldEffect, held_effect, held_std, uncertainty_from_std
+from kinsync.calibration.held import (
+    HeldEffect,
+    held_effect,
+    held_std,
+    uncertainty_from_std,
+    uncertainty_notes,
+)
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
@@ -383,8 +389,9 @@ def calibrate_mount(
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
     summaries = _summaries(solution, before, overlaps_before, overlaps_after)
+    calibrated, notes = _calibrated_mount(mount, solution, covariance, honest)
     return CalibrationResult(
-        mount=_calibrated_mount(mount, solution, covariance, honest),
+        mount=calibrated,
         prior=mount,
         parameters=params,
         sigma_method=method + _held_method(effect),
@@ -404,22 +411,27 @@ def calibrate_mount(
         rejected_lines=rejected,
         held=effect if effect.held else None,
         held_advice=effect.advice(std, requested),
+        uncertainty_notes=notes,
     )
 
 
 def _calibrated_mount(
     mount: Mount, solution: Adjustment, covariance: FloatArray, honest: bool
-) -> Mount:
-    """The calibrated mount, with the standard deviations it is now known to.
+) -> tuple[Mount, tuple[str, ...]]:
+    """The calibrated mount, with the standard deviations it is now known to; notes.
 
     Estimated parameters get their sigma (data and held together) when it is honest
-    (else none: a formal sigma is 3-30x too small); held ones keep the prior's.
+    (else none: a formal sigma is 3-30x too small); held ones keep the prior's. The notes
+    say what is left out of the ``[uncertainty]`` written, and which estimate is now
+    known less well than the mount stated.
     """
-    std = held_std(mount)
+    prior_std = held_std(mount)
+    std = prior_std.copy()
     est = list(solution.estimated)
     std[est] = np.sqrt(np.maximum(np.diag(covariance), 0.0)) if honest else np.nan
     calibrated = mount_from_values(mount, solution.values)
-    return replace(calibrated, uncertainty=uncertainty_from_std(std))
+    notes = uncertainty_notes(prior_std, std, solution.estimated, honest)
+    return replace(calibrated, uncertainty=uncertainty_from_std(std)), notes
 
 
 def _held_method(held: HeldEffect) -> str:

@@ -57,6 +57,7 @@ __all__ = [
     "held_effect",
     "held_std",
     "uncertainty_from_std",
+    "uncertainty_notes",
 ]
 
 REFERENCE_ERRORS: FloatArray = np.array([0.1, 0.1, 0.1, 0.01, 0.01, 0.01, 1.0])
@@ -111,6 +112,50 @@ def uncertainty_from_std(std: FloatArray) -> MountUncertainty | None:
         latency_s=latency if math.isfinite(latency) and latency <= MAX_LATENCY_S else None,
     )
     return unc if unc.known else None
+
+
+_GROUPS = (("boresight_rpy_deg", (0, 1, 2)), ("lever_arm_body_m", (3, 4, 5)), ("latency_s", (6,)))
+
+
+def uncertainty_notes(
+    prior_std: FloatArray, new_std: FloatArray, estimated: tuple[int, ...], honest: bool
+) -> tuple[str, ...]:
+    """What the calibrated mount's ``[uncertainty]`` leaves out or states worse, in words.
+
+    Parameters
+    ----------
+    prior_std : ndarray, shape (7,)
+        The given mount's standard deviations (internal units; NaN unknown).
+    new_std : ndarray, shape (7,)
+        The calibrated mount's, before `uncertainty_from_std` (NaN unknown).
+    estimated : tuple of int
+        The parameters estimated.
+    honest : bool
+        Whether the estimates' sigma is honest (else none is written).
+    """
+    out = []
+    written = uncertainty_from_std(new_std)
+    for key, idx in _GROUPS:
+        if getattr(written, key, None) is not None or not any(i in estimated for i in idx):
+            continue
+        if not honest:
+            why = "the calibration's sigma is not honest (fewer than 5 lines)"
+        elif np.all(np.isfinite(new_std[list(idx)])):
+            why = "its sigma is beyond what a mount file may state"
+        else:
+            unknown = [PARAMETER_NAMES[i] for i in idx if not math.isfinite(float(new_std[i]))]
+            why = f"the sigma of {', '.join(unknown)} is not known (held, none stated)"
+        out.append(f"{key} is left out of the written [uncertainty]: {why}")
+    for i in estimated:
+        before, after = float(prior_std[i]), float(new_std[i])
+        if honest and math.isfinite(before) and math.isfinite(after) and after > before:
+            scale = float(REPORT_SCALE[i])
+            out.append(
+                f"{PARAMETER_NAMES[i]}: these data give +-{after * scale:.3g}, less well than "
+                f"the mount's stated +-{before * scale:.3g}; the calibration does not combine "
+                "them, and the written sigma is the calibration's"
+            )
+    return tuple(out)
 
 
 @dataclass(frozen=True, eq=False)

@@ -167,8 +167,11 @@ class CalibrationResult:
         How the held parameters' errors reach the estimates (None when nothing was
         estimated or nothing held).
     held_advice : tuple of str
-        Held values taken as exact (no stated uncertainty) whose plausible error would
-        move an estimate by more than half its sigma, in words.
+        Held values whose error matters (taken as exact, or limiting an estimate), in
+        words.
+    uncertainty_notes : tuple of str
+        What the calibrated mount's ``[uncertainty]`` leaves out, and which estimate the
+        data give less well than the mount stated.
     """
 
     mount: Mount
@@ -189,6 +192,7 @@ class CalibrationResult:
     rejected_lines: tuple[tuple[str, str], ...] = ()
     held: HeldEffect | None = None
     held_advice: tuple[str, ...] = ()
+    uncertainty_notes: tuple[str, ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``)."""
@@ -218,6 +222,7 @@ class CalibrationResult:
             ],
             "held": {} if self.held is None else self.held.document(),
             "held_advice": list(self.held_advice),
+            "uncertainty_notes": list(self.uncertainty_notes),
             "mount": {
                 "lever_arm_body_m": list(self.mount.lever_arm_body_m),
                 "boresight_rpy_deg": list(self.mount.boresight_rpy_deg),

@@ -192,6 +192,9 @@ def mount(
     for path in (run.mount_path, run.report_path):
         if path is not None:
             console.print(f"wrote {path}")
+    if run.mount_path is not None:
+        for note in run.result.uncertainty_notes:
+            console.print(f"note: {note}")
 
 
 @app.command("plan")
