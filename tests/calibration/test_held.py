@@ -29,6 +29,7 @@ from kinsync.calibration.parameters import (
     PARAMETER_NAMES,
     REPORT_SCALE,
     estimated_indices,
+    mount_from_values,
     mount_values,
 )
 from kinsync.calibration.result import CalibrationResult
@@ -218,3 +219,15 @@ def test_notes_say_what_the_written_uncertainty_leaves_out() -> None:
 def test_no_notes_when_everything_is_written(stated: CalibrationResult) -> None:
     assert stated.uncertainty_notes == ()
     assert stated.as_document()["uncertainty_notes"] == []
+
+
+def test_held_values_are_reported_and_written_exactly_as_given(
+    exact: CalibrationResult, thin: PatchTestSimulation
+) -> None:
+    # The nominal boresight (0, -30, 30) deg went through radians: -29.999999999999996
+    # was reported as the prior and written for a held angle.
+    assert exact.parameter("boresight_pitch_deg").prior == -30.0
+    assert exact.parameter("lever_z_m").value == thin.mount_nominal.lever_arm_body_m[2]
+    held = mount_from_values(thin.mount_nominal, mount_values(thin.mount_nominal))
+    assert held.boresight_rpy_deg == thin.mount_nominal.boresight_rpy_deg == (0.0, -30.0, 30.0)
+    assert exact.mount.lever_arm_body_m == thin.mount_nominal.lever_arm_body_m

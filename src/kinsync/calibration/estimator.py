@@ -69,6 +69,7 @@ from kinsync.calibration.parameters import (
     estimated_indices,
     mount_from_values,
     mount_values,
+    report_values,
 )
 from kinsync.calibration.planes import PatchOptions, find_plane_patches
 from kinsync.calibration.result import CalibrationResult, FeatureSummary, ParameterEstimate
@@ -253,7 +254,7 @@ def _pooled_rms(values: Sequence[float], weights: Sequence[int]) -> float:
 
 
 def _parameters(
-    prior: FloatArray,
+    mount: Mount,
     requested: tuple[int, ...],
     obs: Observability,
     solution: Adjustment | None,
@@ -268,10 +269,12 @@ def _parameters(
     """
     out = []
     extra = held.std if held is not None else None
+    prior = report_values(mount)  # as given: held values are reported exactly so
     for i, name in enumerate(PARAMETER_NAMES):
         scale = REPORT_SCALE[i]
-        value = prior[i] if solution is None else solution.values[i]
+        value = float(prior[i])
         if i in obs.estimated and solution is not None and std is not None:
+            value = float(solution.values[i]) * scale
             j = obs.estimated.index(i)
             data = float(std[j]) * scale
             added = 0.0 if extra is None else float(extra[j]) * scale
@@ -284,8 +287,8 @@ def _parameters(
         out.append(
             ParameterEstimate(
                 name=name,
-                value=float(value) * scale,
-                prior=float(prior[i]) * scale,
+                value=value,
+                prior=float(prior[i]),
                 std=s,
                 formal_std=formal,
                 status=status,  # type: ignore[arg-type]
@@ -356,7 +359,7 @@ def calibrate_mount(
         sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
     ]
     if not obs.estimated:
-        return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
+        return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
     while True:
         say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
         solution = adjust(
@@ -365,9 +368,7 @@ def calibrate_mount(
         if solution.at_bound:
             obs = obs.without(_latency_at_bound(solution))
             if not obs.estimated:
-                return _unsolved(
-                    kept, mount, prior, requested, obs, features, before, counts, rejected
-                )
+                return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
             continue
         jk = _jackknife(models, observations, solution, frame, units, opt, say)
         std, method = _std(solution, jk)
@@ -378,11 +379,11 @@ def calibrate_mount(
             break
         obs = obs.without(held)
         if not obs.estimated:
-            return _unsolved(kept, mount, prior, requested, obs, features, before, counts, rejected)
+            return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
     honest = jk is not None and jk.honest
     say("what the held parameters' errors do to the estimates")
     effect = held_effect(models, observations, solution, frame, held_std(mount))
-    params = _parameters(prior, requested, obs, solution, std, honest, effect)
+    params = _parameters(mount, requested, obs, solution, std, honest, effect)
     advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
     covariance = _covariance(solution, jk) + effect.covariance
     fitted = [f.feature for f in solution.features]
@@ -555,7 +556,6 @@ def _std(solution: Adjustment, jk: Jackknife | None) -> tuple[FloatArray, str]:
 def _unsolved(
     lines: Sequence[ScanLine],
     mount: Mount,
-    prior: FloatArray,
     requested: tuple[int, ...],
     obs: Observability,
     features: Sequence[Feature],
@@ -572,7 +572,7 @@ def _unsolved(
     return CalibrationResult(
         mount=mount,
         prior=mount,
-        parameters=_parameters(prior, requested, obs, None, None),
+        parameters=_parameters(mount, requested, obs, None, None),
         sigma_method="none: no parameter could be determined",
         correlation_names=(),
         correlation=np.zeros((0, 0)),

@@ -32,6 +32,7 @@ __all__ = [
     "estimated_indices",
     "mount_from_values",
     "mount_values",
+    "report_values",
 ]
 
 PARAMETER_NAMES: Final = (
@@ -98,13 +99,27 @@ def mount_values(mount: Mount) -> FloatArray:
     )
 
 
+def report_values(mount: Mount) -> FloatArray:
+    """The seven parameters of ``mount`` in report units (deg, m, ms), shape (7,).
+
+    The angles as the mount gives them: through radians, -30 deg would come back as
+    -29.999999999999996.
+    """
+    return np.array(
+        [*mount.boresight_rpy_deg, *mount.lever_arm_body_m, mount.latency_s * 1e3],
+        dtype=np.float64,
+    )
+
+
 def mount_from_values(base: Mount, values: FloatArray) -> Mount:
     """``base`` with the seven parameters ``values`` (internal units), shape (7,).
 
-    Everything else of ``base`` (antenna lever arm, profiler azimuth) is kept.
+    Everything else of ``base`` (antenna lever arm, profiler azimuth) is kept, and so is
+    each boresight angle whose value is ``base``'s own (held), exactly as written.
     """
     v = np.asarray(values, dtype=np.float64)
-    rpy = np.degrees(v[:3])
+    given = np.radians(base.boresight_rpy_deg)
+    rpy = np.where(v[:3] == given, base.boresight_rpy_deg, np.degrees(v[:3]))
     return replace(
         base,
         boresight_rpy_deg=(float(rpy[0]), float(rpy[1]), float(rpy[2])),
