@@ -1,4 +1,4 @@
-"""How counts and p-values read everywhere ("1 pass", "p < 0.001").
+"""How counts, p-values and lists of names read everywhere ("1 pass", "p < 0.001").
 
 One place for terminal tables, messages, figures and reports alike.
 """
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["P_CEILING", "P_FLOOR", "counted", "format_p_value"]
+__all__ = ["P_CEILING", "P_FLOOR", "counted", "first_few", "format_p_value"]
 
 _IRREGULAR = {"pass": "passes", "axis": "axes", "matrix": "matrices", "patch": "patches"}
 
@@ -32,6 +32,11 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
     if n == 1:
         return f"1 {noun}"
     return f"{n} {plural or _IRREGULAR.get(noun) or noun + 's'}"
+
+
+def first_few(names: list[str], n: int = 3) -> str:
+    """The first ``n`` names, comma-separated, and ``, ...`` when there are more."""
+    return ", ".join(names[:n]) + (", ..." if len(names) > n else "")
 
 
 P_FLOOR = 0.001

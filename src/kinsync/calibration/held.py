@@ -41,7 +41,13 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
-from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE
+from kinsync.calibration.parameters import (
+    BORESIGHT,
+    LATENCY,
+    LEVER,
+    PARAMETER_NAMES,
+    REPORT_SCALE,
+)
 from kinsync.mount import (
     MAX_ANGLE_DEG,
     MAX_LATENCY_S,
@@ -82,11 +88,11 @@ def held_std(mount: Mount) -> FloatArray:
     if unc is None:
         return out
     if unc.boresight_rpy_deg is not None:
-        out[0:3] = np.radians(unc.boresight_rpy_deg)
+        out[list(BORESIGHT)] = np.radians(unc.boresight_rpy_deg)
     if unc.lever_arm_body_m is not None:
-        out[3:6] = unc.lever_arm_body_m
+        out[list(LEVER)] = unc.lever_arm_body_m
     if unc.latency_s is not None:
-        out[6] = unc.latency_s
+        out[LATENCY] = unc.latency_s
     return out
 
 
@@ -105,16 +111,16 @@ def uncertainty_from_std(std: FloatArray) -> MountUncertainty | None:
             return None
         return (float(part[0]), float(part[1]), float(part[2]))
 
-    latency = float(s[6])
+    latency = float(s[LATENCY])
     unc = MountUncertainty(
-        boresight_rpy_deg=vec(np.degrees(s[0:3]), MAX_ANGLE_DEG),
-        lever_arm_body_m=vec(s[3:6], MAX_LEVER_ARM_M),
+        boresight_rpy_deg=vec(np.degrees(s[list(BORESIGHT)]), MAX_ANGLE_DEG),
+        lever_arm_body_m=vec(s[list(LEVER)], MAX_LEVER_ARM_M),
         latency_s=latency if math.isfinite(latency) and latency <= MAX_LATENCY_S else None,
     )
     return unc if unc.known else None
 
 
-_GROUPS = (("boresight_rpy_deg", (0, 1, 2)), ("lever_arm_body_m", (3, 4, 5)), ("latency_s", (6,)))
+_GROUPS = (("boresight_rpy_deg", BORESIGHT), ("lever_arm_body_m", LEVER), ("latency_s", (LATENCY,)))
 
 
 def uncertainty_notes(

@@ -15,6 +15,7 @@ import hashlib
 import os
 from pathlib import Path
 
+from kinsync._text import first_few
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 
@@ -114,15 +115,11 @@ def check_manifest(folder: Path) -> None:
         return
     parts = []
     if others:
-        parts.append(f"entries the demo did not write ({_shown(others)})")
+        parts.append(f"entries the demo did not write ({first_few(sorted(others))})")
     if changed:
-        parts.append(f"files changed since the demo wrote them ({_shown(changed)})")
+        parts.append(f"files changed since the demo wrote them ({first_few(sorted(changed))})")
     msg = (
         f"--out {folder}: an earlier demo report, but it holds {' and '.join(parts)}; a re-run "
         "replaces the whole folder: move them, or choose another --out"
     )
     raise InputError(msg)
-
-
-def _shown(names: list[str]) -> str:
-    return ", ".join(sorted(names)[:3]) + (", ..." if len(names) > 3 else "")

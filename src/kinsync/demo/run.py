@@ -20,6 +20,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from kinsync._text import first_few
 from kinsync.demo.budget import budget_section
 from kinsync.demo.calibration import calibration_section
 from kinsync.demo.clock import clock_section
@@ -146,10 +147,9 @@ def check_demo_folder(out_dir: Path) -> None:
     if ours and (out_dir / "budget.json").is_file():
         check_manifest(out_dir)
         return
-    shown = ", ".join(entries[:3]) + (", ..." if len(entries) > 3 else "")
     msg = (
-        f"--out {out_dir}: the folder holds other files ({shown}); give a new or empty "
-        "folder (or one holding an earlier demo report, which is replaced)"
+        f"--out {out_dir}: the folder holds other files ({first_few(entries)}); give a new or "
+        "empty folder (or one holding an earlier demo report, which is replaced)"
     )
     raise InputError(msg)
 

@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
 
+from kinsync._text import first_few
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_folder
 
@@ -117,8 +118,8 @@ def check_simulation_folder(folder: Path, simulation: str, option: str = "--out"
     if foreign:
         what = "other files" if found is None else f"a `simulate {found}` and other files"
         msg = (
-            f"{option} {folder}: the folder holds {what} ({', '.join(foreign[:3])}"
-            f"{', ...' if len(foreign) > 3 else ''}); give a new or empty folder (or one holding "
+            f"{option} {folder}: the folder holds {what} ({first_few(foreign)}); give a new or "
+            "empty folder (or one holding "
             f"only an earlier `simulate {simulation}`, which is replaced)"
         )
         raise InputError(msg)
