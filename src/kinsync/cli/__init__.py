@@ -51,9 +51,87 @@ _RECEIVED: list[int] = []
 """Stop signals received during this run (typer returns 130 for any KeyboardInterrupt)."""
 
 
-def _raise_interrupted(signum: int, _frame: FrameType | None) -> None:
+_DEFERRED: set[int] = set()
+"""Stop signals received and not raised yet (to be sent again)."""
+
+_UNSAFE_MODULES = ("llvmlite",)
+"""Code that a stop signal must not interrupt: an exception raised inside llvmlite's
+Python code (between a call into LLVM that takes a module over and the line that
+records it) left an object to be disposed of twice, and the unwinding crashed the
+process (exit 139, 2 of 170 SIGTERMs sent to ``ins run`` as numba compiled its
+kernels). llvmlite's calls are short: numba's own code, which runs for seconds while
+it compiles, stays interruptible."""
+
+_STATE = {"active": False, "in_hook": False, "run": 0}
+"""Whether the handlers are installed; whether the unraisable hook is running; which run."""
+
+REDELIVER_AFTER_S = 0.05
+"""Delay before a deferred stop signal is sent again (s)."""
+
+
+def _inside_unsafe_code(frame: FrameType | None) -> bool:
+    """Whether the interrupted Python code runs within llvmlite."""
+    while frame is not None:
+        module = str(frame.f_globals.get("__name__", ""))
+        if module.split(".", 1)[0] in _UNSAFE_MODULES:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
     _RECEIVED.append(signum)
+    if not _STATE["active"]:  # came as the command ended: it has finished
+        _DEFERRED.add(signum)
+        return
+    if _STATE["in_hook"] or _inside_unsafe_code(frame):  # raised when it is safe
+        _redeliver_later(signum)
+        return
+    _DEFERRED.discard(signum)
     raise Interrupted(signum)
+
+
+_ACTIVE_LOCK = threading.Lock()
+"""Held while the handlers are removed, so that no signal is sent again once they are."""
+
+
+def _redeliver(signum: int, run: int) -> None:
+    with _ACTIVE_LOCK:
+        if _STATE["active"] and _STATE["run"] == run and signum in _DEFERRED:
+            os.kill(os.getpid(), signum)
+
+
+def _redeliver_later(signum: int) -> None:
+    _DEFERRED.add(signum)
+    timer = threading.Timer(REDELIVER_AFTER_S, _redeliver, (signum, _STATE["run"]))
+    timer.daemon = True
+    timer.start()
+
+
+def _unraisable_interrupt(previous: Any) -> Any:
+    """An `Interrupted` raised inside a callback from C is sent again, not lost.
+
+    A signal handler runs in whatever Python code the main thread executes next; when
+    that is a callback from C (a ``__del__``, a weakref callback; numba's compiler
+    notifying its cache through llvmlite, now deferred before it gets here) the
+    exception cannot propagate: Python prints it as "Exception ignored in ..." and the
+    command went on to finish, publish its outputs, then exit 143 saying they were
+    removed. The signal is sent again once the callback has returned; any other
+    unraisable exception goes to the previous hook.
+    """
+
+    def hook(unraisable: Any) -> None:
+        err = unraisable.exc_value
+        if not isinstance(err, Interrupted):
+            previous(unraisable)
+            return
+        _STATE["in_hook"] = True
+        try:
+            _redeliver_later(err.signum)
+        finally:
+            _STATE["in_hook"] = False
+
+    return hook
 
 
 @contextmanager
@@ -64,10 +142,20 @@ def _stop_signals_unwind() -> Iterator[None]:
         return
     stops = (signal.SIGINT, signal.SIGTERM)
     _RECEIVED.clear()
-    before = {s: signal.signal(s, _raise_interrupted) for s in stops}
+    _DEFERRED.clear()
+    _STATE["active"] = True
+    _STATE["run"] += 1
+    hook_before = sys.unraisablehook
+    before: dict[signal.Signals, Any] = {}
     try:
+        sys.unraisablehook = _unraisable_interrupt(hook_before)
+        for s in stops:
+            before[s] = signal.signal(s, _raise_interrupted)
         yield
     finally:
+        with _ACTIVE_LOCK:
+            _STATE["active"] = False
+        sys.unraisablehook = hook_before
         for s, handler in before.items():
             signal.signal(s, handler)
 
@@ -162,15 +250,17 @@ def main(argv: Sequence[str] | None = None) -> None:
             command = typer.main.get_command(app)
             refuse_repeated_options(command, args)
             result = command(args=args, prog_name="kinsync", standalone_mode=False)
-    except KinsyncError as err:
-        print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
-        sys.exit(2)
     except KeyboardInterrupt as err:
         _exit_interrupted(_signal_of(err) or int(signal.SIGINT))
     except Exception as err:
-        signum = _signal_of(err)
+        # A failure once a stop signal has come is its consequence (numba's compiler,
+        # cut short inside a callback, fails later with "no compiled object yet").
+        signum = _signal_of(err) or (_RECEIVED[0] if _RECEIVED else None)
         if signum is not None:
             _exit_interrupted(signum)
+        if isinstance(err, KinsyncError):
+            print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
+            sys.exit(2)
         code = getattr(err, "exit_code", None)
         fmt = getattr(err, "format_message", None)
         if isinstance(code, int) and fmt is None:  # Exit raised by a command or --version
@@ -188,6 +278,11 @@ def main(argv: Sequence[str] | None = None) -> None:
             file=sys.stderr,
         )
         sys.exit(1)
+    if _DEFERRED:  # deferred, and the command finished before it came again
+        name = signal.Signals(min(_DEFERRED)).name
+        done = f"kinsync: {name} arrived as the command finished; its outputs are complete"
+        print(done, file=sys.stderr)
+        sys.exit(128 + min(_DEFERRED))
     if _RECEIVED:  # typer turned the interruption into a return value of 130
         _exit_interrupted(_RECEIVED[0])
     sys.exit(result if isinstance(result, int) else 0)
