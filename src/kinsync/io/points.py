@@ -45,6 +45,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from kinsync.errors import InputError
+from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.row_position import point_position
 from kinsync.io.sanity import check_text_file, not_utf8_cell, require_file
@@ -523,11 +524,12 @@ def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
             end = max(data.rfind(b"\n"), data.rfind(b"\r"))
             data = data[: end + 1] if end >= 0 else data
     try:
-        table = pa_csv.read_csv(
-            io.BytesIO(data),
-            read_options=pa_csv.ReadOptions(use_threads=False),
-            convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
-        )
+        with signals_left_to_python():
+            table = pa_csv.read_csv(
+                io.BytesIO(data),
+                read_options=pa_csv.ReadOptions(use_threads=False),
+                convert_options=_csv_convert_options(dict.fromkeys(required, pa.float64())),
+            )
     except pa.ArrowInvalid as err:
         if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             bad = _locate_bad_csv_cell(path, required)
@@ -729,14 +731,17 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
         data = fh.read(sl.byte_end - sl.byte_start)
     types = {f.name: f.type for f in layout.schema}
     try:
-        return pa_csv.read_csv(
-            io.BytesIO(data),
-            # one thread: with pyarrow's thread pool a run that stopped on a bad cell
-            # right after aborted at exit now and then (exit 134, 2 of 20 runs; 0 of 30
-            # without); the slices of --scheduler processes still parse in parallel
-            read_options=pa_csv.ReadOptions(column_names=list(layout.columns), use_threads=False),
-            convert_options=_csv_convert_options(types),
-        )
+        with signals_left_to_python():
+            return pa_csv.read_csv(
+                io.BytesIO(data),
+                # one thread: with pyarrow's thread pool a run that stopped on a bad cell
+                # right after aborted at exit now and then (exit 134, 2 of 20 runs; 0 of 30
+                # without); the slices of --scheduler processes still parse in parallel
+                read_options=pa_csv.ReadOptions(
+                    column_names=list(layout.columns), use_threads=False
+                ),
+                convert_options=_csv_convert_options(types),
+            )
     except pa.ArrowInvalid as err:
         if "conversion error" in str(err) or _PARSE_ERROR in str(err):
             text = data.decode("utf-8", errors="surrogateescape")

@@ -19,6 +19,7 @@ import pyarrow.csv as pa_csv
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
 from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
@@ -124,16 +125,17 @@ def _read_float_columns_arrow(path: Path, header: list[str]) -> dict[str, FloatA
     for ``float()``.
     """
     try:
-        table = pa_csv.read_csv(
-            path,
-            read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
-            convert_options=pa_csv.ConvertOptions(
-                column_types=dict.fromkeys(header, pa.float64()),
-                null_values=["nan", "NaN", "-nan", "+nan"],
-                strings_can_be_null=False,
-                quoted_strings_can_be_null=False,
-            ),
-        )
+        with signals_left_to_python():
+            table = pa_csv.read_csv(
+                path,
+                read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
+                convert_options=pa_csv.ConvertOptions(
+                    column_types=dict.fromkeys(header, pa.float64()),
+                    null_values=["nan", "NaN", "-nan", "+nan"],
+                    strings_can_be_null=False,
+                    quoted_strings_can_be_null=False,
+                ),
+            )
     except (pa.ArrowInvalid, pa.ArrowTypeError):
         return None
     return {
