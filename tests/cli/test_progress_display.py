@@ -154,3 +154,29 @@ def test_latency_sphere_shows_reading_and_fitting(
         "kinsync: latency sphere: reading",
         "kinsync: latency sphere: fitting",
     ]
+
+
+class _Writes(io.StringIO):
+    """A stderr that keeps each write call apart."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.calls: list[str] = []
+
+    def write(self, text: str) -> int:
+        self.calls.append(text)
+        return super().write(text)
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_a_stage_line_is_written_with_its_line_end_in_one_call(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # print() writes the text and the line end apart: a stop signal between the two
+    # left the line open and the "interrupted" message glued onto it.
+    stderr = _Writes()
+    monkeypatch.setattr("sys.stderr", stderr)
+    with progress_display("job") as progress:
+        progress(0.5, "reading")
+    assert stderr.calls
+    assert all(call.endswith("\n") and call.count("\n") == 1 for call in stderr.calls)

@@ -37,6 +37,16 @@ HOLD_S = 5.0
 """Stage lines are written once the work has run this long (s); none for quicker work."""
 
 
+def _write_line(line: str) -> None:
+    """Write ``line`` and its line end in one call.
+
+    A stop signal that came between the text and the line end (two writes in
+    ``print``) left the line open, and the "interrupted" message was glued onto it.
+    """
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
 class _Display:
     """Turns ``(fraction, stage)`` reports into a bar or into stage lines."""
 
@@ -73,7 +83,7 @@ class _Display:
     def _line(self, text: str) -> None:
         line = f"kinsync: {self.title}: {text} ({self._seconds():.1f} s)"
         if self.held is None:
-            print(line, file=sys.stderr, flush=True)
+            _write_line(line)
         else:
             self.held.append(line)
 
@@ -81,7 +91,7 @@ class _Display:
         """Write the stage lines held so far, and the next ones as they come."""
         held, self.held = self.held or [], None
         for line in held:
-            print(line, file=sys.stderr, flush=True)
+            _write_line(line)
 
     def compiling(self) -> None:
         """Say numba compiles: on the bar until the next report; one line otherwise."""
