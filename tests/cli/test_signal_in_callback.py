@@ -156,3 +156,32 @@ def test_a_signal_in_llvmlite_code_waits_until_it_returns(
     assert _run(monkeypatch, app) == 143
     assert marks == ["compiled"]  # not cut inside; stopped soon after
     assert "unfinished outputs removed" in capfd.readouterr().err
+
+
+def test_outputs_complete_before_the_signal_are_named(
+    monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from kinsync.io.atomic import atomic_folder, atomic_write_text  # noqa: PLC0415
+
+    done, folder = tmp_path / "done.csv", tmp_path / "sim"
+    app = typer.Typer()
+
+    @app.command()
+    def work() -> None:
+        atomic_write_text(done, "t\n")
+        with atomic_folder(folder, lambda _: None, "give another folder") as tmp:
+            atomic_write_text(tmp / "inner.csv", "t\n")  # goes with the folder
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+
+    @app.command()
+    def other() -> None:
+        raise InputError("unused")
+
+    assert _run(monkeypatch, app) == 143
+    err = capfd.readouterr().err.strip()
+    assert err == (
+        f"kinsync: interrupted by SIGTERM; written before it: {done}; unfinished outputs removed"
+    )
+    assert done.exists()
+    assert not folder.exists()

@@ -4,8 +4,8 @@ Commands are thin: parse options, call the library, print. One JSON object on st
 with ``--json``, a rich table otherwise. Exit status 0 on success, 2 on bad input
 (a `KinsyncError` or a usage error, reported in one line on stderr), 128 + the signal
 number when interrupted (130 for Ctrl-C / SIGINT, 143 for SIGTERM: unfinished outputs
-are removed on the way out, as on any error), 1 on any other failure (set
-``KINSYNC_DEBUG=1`` to see its traceback).
+are removed on the way out, as on any error, and the outputs already complete are
+named), 1 on any other failure (set ``KINSYNC_DEBUG=1`` to see its traceback).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import Any, TextIO
 
+from kinsync._text import first_few
 from kinsync.errors import InputError, KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
@@ -62,8 +63,9 @@ process (exit 139, 2 of 170 SIGTERMs sent to ``ins run`` as numba compiled its
 kernels). llvmlite's calls are short: numba's own code, which runs for seconds while
 it compiles, stays interruptible."""
 
-_STATE = {"active": False, "in_hook": False, "run": 0}
-"""Whether the handlers are installed; whether the unraisable hook is running; which run."""
+_STATE = {"active": False, "in_hook": False, "run": 0, "published": 0}
+"""Whether the handlers are installed; whether the unraisable hook is running; which run;
+how many outputs the process had published when the run started."""
 
 REDELIVER_AFTER_S = 0.05
 """Delay before a deferred stop signal is sent again (s)."""
@@ -145,6 +147,7 @@ def _stop_signals_unwind() -> Iterator[None]:
     _DEFERRED.clear()
     _STATE["active"] = True
     _STATE["run"] += 1
+    _STATE["published"] = _published_mark()
     hook_before = sys.unraisablehook
     before: dict[signal.Signals, Any] = {}
     try:
@@ -174,8 +177,23 @@ def _signal_of(err: BaseException) -> int | None:
 
 def _exit_interrupted(signum: int) -> None:
     name = signal.Signals(signum).name
-    print(f"kinsync: interrupted by {name}; unfinished outputs removed", file=sys.stderr)
+    done = _published_in_this_run()
+    kept = f"; written before it: {first_few(done)}" if done else ""
+    print(f"kinsync: interrupted by {name}{kept}; unfinished outputs removed", file=sys.stderr)
     sys.exit(128 + signum)
+
+
+def _published_mark() -> int:
+    atomic = sys.modules.get("kinsync.io.atomic")  # not imported for it: start-up stays light
+    return int(atomic.published_count()) if atomic is not None else 0
+
+
+def _published_in_this_run() -> list[str]:
+    """The outputs this run published (complete) before it was interrupted."""
+    atomic = sys.modules.get("kinsync.io.atomic")
+    if atomic is None:
+        return []
+    return [str(path) for path in atomic.published_since(_STATE["published"])]
 
 
 @contextmanager

@@ -227,6 +227,24 @@ def _remove_stale_parts(parent: Path, name: str) -> None:
                         shutil.rmtree(stale)
 
 
+_PUBLISHED: list[Path] = []
+"""Outputs renamed into place by this process, in order."""
+
+
+def published_count() -> int:
+    """How many outputs this process has published so far (a mark for `published_since`)."""
+    return len(_PUBLISHED)
+
+
+def published_since(mark: int) -> list[Path]:
+    """The outputs published after ``mark`` that are still there.
+
+    A file published into a folder that is itself published later (`atomic_folder`)
+    is gone with the temporary folder when the run stops before that: it is left out.
+    """
+    return [p for p in dict.fromkeys(_PUBLISHED[mark:]) if p.exists()]
+
+
 @contextmanager
 def atomic_path(path: Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
@@ -262,6 +280,7 @@ def atomic_path(path: Path) -> Iterator[Path]:
         yield tmp
         try:
             tmp.replace(path)
+            _PUBLISHED.append(path)
         except OSError as err:  # e.g. an existing file made immutable (chattr +i)
             msg = (
                 f"{path}: cannot replace it ({err.strerror or err}); the output is not "
@@ -424,5 +443,6 @@ def atomic_folder(
         if path.is_dir():
             check(path)
         _publish_folder(tmp, path)
+        _PUBLISHED.append(path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
