@@ -9,6 +9,7 @@ import pytest
 from kinsync.calibration.estimator import CalibrationOptions
 from kinsync.calibration.planning import NavigationErrors, PlanResult, plan_calibration
 from kinsync.errors import InputError
+from kinsync.mount import MountUncertainty
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import simulate_patch_test
 
@@ -66,3 +67,29 @@ def test_one_speed_leaves_the_latency_undetermined() -> None:
 def test_bad_errors(kwargs: dict[str, object]) -> None:
     with pytest.raises(InputError):
         NavigationErrors(**kwargs)  # type: ignore[arg-type]
+
+
+def test_held_values_stated_sigma_reaches_the_planned_sigma() -> None:
+    sim = simulate_patch_test(PatchTestConfig(scenario="vehicle", density=0.03, **QUIET))  # type: ignore[arg-type]
+    opts = CalibrationOptions(estimate=("boresight", "latency"))
+    exact = plan_calibration(sim.lines, sim.mount_true, opts)
+    lever = MountUncertainty(lever_arm_body_m=(0.02, 0.02, 0.02))
+    held = plan_calibration(sim.lines, sim.mount_true, opts, held=lever)
+    for before, after in zip(exact.parameters, held.parameters, strict=True):
+        assert after.status in (before.status, "weak"), before.name
+        if not math.isfinite(before.std):
+            assert not math.isfinite(after.std)
+            continue
+        assert before.std_held == 0.0
+        assert after.std_noise_only == before.std_noise_only
+        assert after.std == pytest.approx(math.hypot(before.std, after.std_held), rel=1e-9)
+    latency = next(p for p in held.parameters if p.name == "latency_ms")
+    assert latency.std_held > 0.5  # ms: 2 cm of lever x is ~1 ms of latency at these speeds
+    doc = held.as_document()
+    assert doc["held"]["lever_x_m"]["std"] == pytest.approx(0.02)
+    assert doc["held"]["lever_x_m"]["per_reference_error"]["latency_ms"] < 0.0
+    assert doc["parameters"]["latency_ms"]["std_held"] == pytest.approx(latency.std_held)
+    # the same sensitivity as the estimator's: x forward, the latency takes it up as v dt
+    d = held.held.sensitivity[held.held.estimated.index(6), 3]
+    assert d == pytest.approx(exact.held.sensitivity[exact.held.estimated.index(6), 3])
+    assert exact.as_document()["held"]["lever_x_m"]["std"] is None  # taken as exact

@@ -310,3 +310,30 @@ def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:
     assert code == 0, err
     one = json.loads(out)["parameters"]
     assert one["latency_ms"]["status"] != "estimated"
+
+
+def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
+    base = ["calibrate", "plan", "--passes", "1", "--estimate", "boresight,latency"]
+    code, out, err = run_cli([*base, "--lever-std-m", "0.02", "--latency-std-ms", "3"])
+    assert code == 0, err
+    assert "held" in out.splitlines()[2]  # the table's header has a held column
+    assert "held: lever_x_m (sigma 0.02 m): 1 cm moves" in out
+    code, out, err = run_cli([*base, "--lever-std-m", "0.01,0.02,0.03", "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [doc["held"][f"lever_{a}_m"]["std"] for a in "xyz"] == [0.01, 0.02, 0.03]
+    assert doc["parameters"]["latency_ms"]["std_held"] > 0.0
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "expect"),
+    [("--lever-std-m", "0.01,0.02", "expected one number or three"),
+     ("--lever-std-m", "-0.01", ">= 0"),
+     ("--boresight-std-deg", "400", "--boresight-std-deg"),
+     ("--lever-std-m", "2000", "--lever-std-m")],
+)  # fmt: skip
+def test_plan_refuses_bad_held_sigma(
+    run_cli: RunCli, assert_one_line_error: OneLineError, option: str, value: str, expect: str
+) -> None:
+    code, out, err = run_cli(["calibrate", "plan", option, value])
+    assert_one_line_error(code, out, err, expect)

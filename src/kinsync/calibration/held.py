@@ -60,8 +60,10 @@ __all__ = [
     "REFERENCE_ERRORS",
     "REFERENCE_TEXT",
     "HeldEffect",
+    "effect_of_held",
     "held_effect",
     "held_std",
+    "std_of_uncertainty",
     "uncertainty_from_std",
     "uncertainty_notes",
 ]
@@ -83,8 +85,15 @@ def held_std(mount: Mount) -> FloatArray:
 
     Internal units (rad, m, s); NaN where the mount does not give one.
     """
+    return std_of_uncertainty(mount.uncertainty)
+
+
+def std_of_uncertainty(unc: MountUncertainty | None) -> FloatArray:
+    """The seven parameters' standard deviations from ``unc``, shape (7,).
+
+    Internal units (rad, m, s); NaN where it does not give one.
+    """
     out = np.full(7, np.nan)
-    unc = mount.uncertainty
     if unc is None:
         return out
     if unc.boresight_rpy_deg is not None:
@@ -321,26 +330,50 @@ def held_effect(
     HeldEffect
     """
     estimated = tuple(solution.estimated)
+    if len(estimated) == 7:
+        return effect_of_held(np.zeros((7, 7)), estimated, std)
+    fitted = [f.feature for f in solution.features]
+    scales = [f.sigma_m for f in solution.features]
+    S, _, _ = reduced_normal_matrix(
+        models, observations, fitted, solution.values, tuple(range(7)), frame, scales
+    )
+    return effect_of_held(S, estimated, std)
+
+
+def effect_of_held(S: FloatArray, estimated: tuple[int, ...], std: FloatArray) -> HeldEffect:
+    """`HeldEffect` from the reduced normal matrix over all seven parameters.
+
+    Parameters
+    ----------
+    S : ndarray, shape (7, 7)
+        Reduced normal matrix over the seven parameters (features eliminated; internal
+        units), as `kinsync.calibration.adjustment.reduced_normal_matrix` gives it.
+    estimated : tuple of int
+        The estimated parameters; the others are held.
+    std : ndarray, shape (7,)
+        Standard deviations of the held values (internal units); NaN where not known.
+
+    Returns
+    -------
+    HeldEffect
+        ``D = -S_ee^-1 S_eh`` and ``D Sigma D'`` over the held values with a sigma.
+    """
     held = tuple(i for i in range(7) if i not in estimated)
     k = len(estimated)
     sensitivity = np.zeros((k, 7))
     sigma_h = np.full(7, np.nan)
     cov = np.zeros((k, k))
-    if held:
-        fitted = [f.feature for f in solution.features]
-        scales = [f.sigma_m for f in solution.features]
-        S, _, _ = reduced_normal_matrix(
-            models, observations, fitted, solution.values, tuple(range(7)), frame, scales
-        )
+    if held and k:
         e, h = list(estimated), list(held)
         S_ee, S_eh = S[np.ix_(e, e)], S[np.ix_(e, h)]
         try:
             sensitivity[:, h] = -np.linalg.solve(S_ee, S_eh)
         except np.linalg.LinAlgError:  # the estimates passed the observability analysis
             sensitivity[:, h] = -np.linalg.pinv(S_ee) @ S_eh
-        sigma_h[h] = np.asarray(std, dtype=np.float64)[h]
-        known = [i for i in h if math.isfinite(float(sigma_h[i]))]
-        if known:
+    if held:
+        sigma_h[list(held)] = np.asarray(std, dtype=np.float64)[list(held)]
+        known = [i for i in held if math.isfinite(float(sigma_h[i]))]
+        if known and k:
             d = sensitivity[:, known]
             cov = d @ np.diag(sigma_h[known] ** 2) @ d.T
     return HeldEffect(

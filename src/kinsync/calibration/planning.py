@@ -49,6 +49,7 @@ from kinsync.calibration.adjustment import (
 )
 from kinsync.calibration.estimator import CalibrationOptions, find_features
 from kinsync.calibration.features import Feature
+from kinsync.calibration.held import HeldEffect, effect_of_held, std_of_uncertainty
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import analyse, hold_after_solution, status_of
@@ -61,7 +62,7 @@ from kinsync.calibration.parameters import (
 from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefTrajectory
-from kinsync.mount import Mount
+from kinsync.mount import Mount, MountUncertainty
 
 __all__ = ["NavigationErrors", "PlanResult", "PlannedParameter", "plan_calibration"]
 
@@ -102,21 +103,29 @@ class NavigationErrors:
 
 @dataclass(frozen=True)
 class PlannedParameter:
-    """One parameter's prediction (report units)."""
+    """One parameter's prediction (report units).
+
+    ``std`` holds every error source: range noise, navigation errors and the held
+    values' stated sigma (``std_held``, added in quadrature); NaN where not estimated.
+    """
 
     name: str
     status: str
     std: float
     std_noise_only: float
+    std_held: float = 0.0
 
     def as_document(self) -> dict[str, Any]:
-        """``{"status", "std", "std_noise_only"}`` (null where not estimated)."""
+        """``{"status", "std", "std_noise_only", "std_held"}`` (null where not estimated)."""
+
+        def num(v: float) -> float | None:
+            return v if math.isfinite(v) else None
+
         return {
             "status": self.status,
-            "std": None if not math.isfinite(self.std) else self.std,
-            "std_noise_only": None
-            if not math.isfinite(self.std_noise_only)
-            else self.std_noise_only,
+            "std": num(self.std),
+            "std_noise_only": num(self.std_noise_only),
+            "std_held": num(self.std_held) if math.isfinite(self.std) else None,
         }
 
 
@@ -135,6 +144,9 @@ class PlanResult:
         As in `kinsync.calibration.result.CalibrationResult`.
     errors : NavigationErrors
         The errors assumed.
+    held : HeldEffect
+        How the held values' errors reach the estimates (their stated sigma in
+        ``held.held_std``; NaN where taken as exact).
     """
 
     parameters: tuple[PlannedParameter, ...]
@@ -143,6 +155,7 @@ class PlanResult:
     unobservable_reasons: tuple[str, ...]
     advice: tuple[str, ...]
     errors: NavigationErrors
+    held: HeldEffect
 
     def as_document(self) -> dict[str, Any]:
         """The ``kinsync calibrate plan --json`` document."""
@@ -158,6 +171,7 @@ class PlanResult:
                 "attitude_std_deg": list(self.errors.attitude_std_deg),
                 "corr_time_s": self.errors.corr_time_s,
             },
+            "held": self.held.document(),
         }
 
 
@@ -278,6 +292,7 @@ def plan_calibration(
     mount: Mount,
     options: CalibrationOptions | None = None,
     errors: NavigationErrors | None = None,
+    held: MountUncertainty | None = None,
 ) -> PlanResult:
     """Predict each parameter's sigma and status for a planned survey.
 
@@ -291,6 +306,11 @@ def plan_calibration(
         Features and parameters to estimate, as for the estimator.
     errors : NavigationErrors, optional
         Range noise and the navigation errors shared by a line.
+    held : MountUncertainty, optional
+        How well the values the calibration will hold (not estimated, or not
+        determined) are known: their errors are added to the predicted sigma as
+        ``D Sigma D'`` (`kinsync.calibration.held`), as the estimator adds them. Values
+        without a sigma are taken as exact.
 
     Returns
     -------
@@ -312,19 +332,26 @@ def plan_calibration(
     cov, cov_noise = _predicted(models, observations, features, values, obs.estimated, frame, err)
     while obs.estimated:
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        held = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
-        if held is None:
+        dropped = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
+        if dropped is None:
             break
-        obs = obs.without(held)
+        obs = obs.without(dropped)
         cov, cov_noise = _predicted(
             models, observations, features, values, obs.estimated, frame, err
         )
     est = obs.estimated
+    S7, _, _ = reduced_normal_matrix(
+        models, observations, features, values, tuple(range(7)), frame, sig, robust=False
+    )
+    effect = effect_of_held(S7, est, std_of_uncertainty(held))
     std_all = np.full(7, math.nan)
     std_noise = np.full(7, math.nan)
+    std_held = np.zeros(7)
     for j, i in enumerate(est):
-        std_all[i] = math.sqrt(max(float(cov[j, j]), 0.0)) * REPORT_SCALE[i]
+        total = float(cov[j, j]) + float(effect.covariance[j, j])
+        std_all[i] = math.sqrt(max(total, 0.0)) * REPORT_SCALE[i]
         std_noise[i] = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * REPORT_SCALE[i]
+        std_held[i] = float(effect.std[j]) * REPORT_SCALE[i]
     params = []
     for i, name in enumerate(PARAMETER_NAMES):
         if i in est:
@@ -333,7 +360,11 @@ def plan_calibration(
             status = "unobservable"
         else:
             status = "fixed"
-        params.append(PlannedParameter(name, status, float(std_all[i]), float(std_noise[i])))
+        params.append(
+            PlannedParameter(
+                name, status, float(std_all[i]), float(std_noise[i]), float(std_held[i])
+            )
+        )
     return PlanResult(
         parameters=tuple(params),
         n_features=len(features),
@@ -341,4 +372,5 @@ def plan_calibration(
         unobservable_reasons=obs.explanation(),
         advice=obs.advice(),
         errors=err,
+        held=effect,
     )

@@ -17,6 +17,7 @@ from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import read_mount
+from kinsync.mount import MountUncertainty
 from kinsync.progress import Stages
 
 if TYPE_CHECKING:
@@ -230,6 +231,26 @@ def plan(
         float,
         typer.Option("--corr-time-s", help="Correlation time of the trajectory errors (s)."),
     ] = 15.0,
+    lever_std_m: Annotated[
+        str | None,
+        typer.Option(
+            "--lever-std-m",
+            help="How well the lever arm is known where the calibration holds it (not "
+            "estimated, or not determined): one sigma, or x,y,z (m). Added to the planned "
+            "sigma of the estimates; without it a held value is taken as exact.",
+        ),
+    ] = None,
+    boresight_std_deg: Annotated[
+        str | None,
+        typer.Option(
+            "--boresight-std-deg",
+            help="As --lever-std-m, for the boresight: one sigma, or roll,pitch,yaw (deg).",
+        ),
+    ] = None,
+    latency_std_ms: Annotated[
+        float | None,
+        typer.Option("--latency-std-ms", help="As --lever-std-m, for the latency (ms).", min=0),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Predict each parameter's sigma and status for a survey design, before the survey."""
@@ -237,6 +258,7 @@ def plan(
     from kinsync.sim.patch_test import PatchTestConfig, simulate_patch_test  # noqa: PLC0415
 
     opts = _options(features, estimate, None)
+    held = _held_uncertainty(lever_std_m, boresight_std_deg, latency_std_ms)
     att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
     errors = NavigationErrors(range_noise_m, position_std_m, (att[0], att[1], att[2]), corr_time_s)
     speeds = None if speeds_m_s is None else _floats(speeds_m_s, "--speeds-m-s", None)
@@ -253,22 +275,57 @@ def plan(
         density=0.25,
     )
     sim = simulate_patch_test(config)
-    result = plan_calibration(sim.lines, sim.mount_true, opts, errors)
+    result = plan_calibration(sim.lines, sim.mount_true, opts, errors, held)
     if as_json:
         print_json(result.as_document())
         return
     table = Table(title=f"Calibration plan: {scenario}, {counted(result.n_lines, 'line')}")
-    for col in ("parameter", "status", "sigma", "sigma (range noise only)"):
+    split = any(p.std_held > 0.0 for p in result.parameters)
+    cols = ("parameter", "status", "sigma", "sigma (range noise only)", *(("held",) * split))
+    for col in cols:
         table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
     for p in result.parameters:
-        table.add_row(p.name, p.status, _fmt(p.std, 2), _fmt(p.std_noise_only, 2))
+        held_part = (_fmt(p.std_held if math.isfinite(p.std) else math.nan, 2),) * split
+        table.add_row(p.name, p.status, _fmt(p.std, 2), _fmt(p.std_noise_only, 2), *held_part)
     console.print(table)
+    if result.held.estimated:
+        for line in result.held.lines():
+            console.print(f"held: {line}")
     _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
         "note: against a Monte Carlo of the same designs the planned sigma is optimistic "
         "where trajectory position errors dominate (2x for the roll boresight, 4x for the "
         "vessel's latency); the statuses held"
     )
+
+
+def _held_uncertainty(
+    lever_std_m: str | None, boresight_std_deg: str | None, latency_std_ms: float | None
+) -> MountUncertainty | None:
+    """The planned held values' sigma from the options (None when none is given)."""
+
+    def vector(text: str | None, option: str) -> tuple[float, float, float] | None:
+        if text is None:
+            return None
+        values = _floats(text, option, None)
+        if len(values) not in (1, 3):
+            msg = f"{option} {text!r}: expected one number or three, got {len(values)}"
+            raise InputError(msg)
+        x, y, z = values * 3 if len(values) == 1 else values
+        return (x, y, z)
+
+    lever = vector(lever_std_m, "--lever-std-m")
+    bore = vector(boresight_std_deg, "--boresight-std-deg")
+    if lever is None and bore is None and latency_std_ms is None:
+        return None
+    latency = None if latency_std_ms is None else latency_std_ms / 1000.0
+    try:
+        return MountUncertainty(lever, bore, latency)
+    except InputError as err:
+        given = {"lever_arm_body_m": "--lever-std-m", "boresight_rpy_deg": "--boresight-std-deg"}
+        option = next((o for k, o in given.items() if k in str(err)), "--latency-std-ms")
+        msg = f"{option}: {err}"
+        raise InputError(msg) from None
 
 
 def _print_undetermined(reasons: tuple[str, ...], advice: tuple[str, ...]) -> None:
