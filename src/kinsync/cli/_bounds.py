@@ -41,6 +41,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
         -10_000.0, 10_000.0, "ms", "a latency beyond 10 s is a time-scale error"
     ),
     "--gps-week": Bounds(0, 10_000, "", "GPS weeks since 1980"),
+    "--latency-std-ms": Bounds(0.0, 10_000.0, "ms", "as a mount file's latency sigma"),
     "--t0-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
     "--offset-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
     "--drift-ppm": Bounds(-100_000.0, 100_000.0, "ppm"),
