@@ -79,6 +79,7 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--fifo-bytes", "-3"], "--fifo-bytes -3: outside the span"),
         (["--range-noise-m", "-0.1"], "--range-noise-m -0.1: outside the span"),
         (["--passes", "two"], "--passes"),
+        (["--baud", "9600"], "without --fifo-bytes there is no FIFO and it would not be used"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(

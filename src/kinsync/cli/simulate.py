@@ -15,6 +15,7 @@ from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
 from kinsync.io.atomic import output_folder
 from kinsync.progress import Stages
+from kinsync.sim.table_config import DEFAULT_BAUD
 
 # The simulators (scipy, numba, laspy, pyarrow) load inside the commands, only when they run.
 if TYPE_CHECKING:
@@ -66,7 +67,13 @@ def rotating_table(
         float, typer.Option(help="Range noise along the beam, 1 sigma (m).")
     ] = 0.002,
     fifo_bytes: Annotated[int, typer.Option(help="Serial receive FIFO depth (bytes).")] = 0,
-    baud: Annotated[float, typer.Option(help="Serial line rate (bit/s), 8N1.")] = 115200.0,
+    baud: Annotated[
+        float | None,
+        typer.Option(
+            help="Serial line rate of the FIFO (bit/s), 8N1; with --fifo-bytes "
+            f"(default {DEFAULT_BAUD:g})."
+        ),
+    ] = None,
     file_format: Annotated[
         str, typer.Option("--format", help="Pass file format: csv, las or laz.")
     ] = "csv",
@@ -93,6 +100,12 @@ def rotating_table(
     if not math.isfinite(latency_ms):
         msg = f"--latency-ms must be finite, got {latency_ms}"
         raise InputError(msg)
+    if baud is not None and fifo_bytes == 0:
+        msg = (
+            "--baud is the line rate that empties the serial FIFO; without --fifo-bytes "
+            "there is no FIFO and it would not be used: drop it, or give --fifo-bytes"
+        )
+        raise InputError(msg)
     config = RotatingTableConfig(
         latency_s=latency_ms * 1e-3,
         rates_deg_s=parse_rates(rates_deg_s),
@@ -100,7 +113,7 @@ def rotating_table(
         seed=seed,
         range_noise_m=range_noise_m,
         fifo_bytes=fifo_bytes,
-        baud=baud,
+        baud=DEFAULT_BAUD if baud is None else baud,
     )
     with progress_display("simulate rotating-table") as progress:
         stages = Stages(progress, {"simulating passes": 3.0, "writing files": 1.0})
