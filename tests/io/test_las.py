@@ -17,6 +17,7 @@ from kinsync.io.las import (
     las_end_times,
     las_header,
     las_info,
+    las_takes_gps_week,
     read_las_points,
     scaled_coordinates,
     store_coordinates,
@@ -278,3 +279,19 @@ def test_a_header_laspy_cannot_write_leaves_no_output(tmp_path: Path, suffix: st
     ):
         pass
     assert sorted(p.name for p in tmp_path.iterdir()) == ["src.las"]
+
+
+def test_a_las_file_takes_a_gps_week_when_its_header_says_seconds_of_week(
+    tmp_path: Path,
+) -> None:
+    adjusted = tmp_path / "adjusted.las"
+    _make_las(adjusted, n=10)  # adjusted standard GPS time
+    assert not las_takes_gps_week(adjusted)
+    week = tmp_path / "week.las"
+    las = laspy.read(adjusted)
+    las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.WEEK_TIME
+    las.write(week)
+    assert las_takes_gps_week(week)
+    broken = tmp_path / "broken.las"
+    broken.write_bytes(b"LASF" + b"\0" * 20)
+    assert las_takes_gps_week(broken)  # its reader says what is wrong

@@ -13,7 +13,11 @@ from scipy.spatial.transform import Rotation
 from kinsync.errors import InputError
 from kinsync.frames import quaternion_to_matrix
 from kinsync.io.pos_text import read_pos_text, sniff_pos_text
-from kinsync.io.trajectory import read_trajectory_file, trajectory_file_format
+from kinsync.io.trajectory import (
+    read_trajectory_file,
+    trajectory_file_format,
+    trajectory_takes_gps_week,
+)
 
 WEEK = 2100
 SOW0 = 302_400.0
@@ -269,3 +273,19 @@ def test_dms_fields_read_back_as_the_degrees(value: float) -> None:
     from kinsync.io.pos_text import _dms_to_deg  # noqa: PLC0415
 
     assert abs(_dms_to_deg(_dms(value).split()) - value) < 1e-10
+
+
+def test_which_trajectory_files_take_a_gps_week(tmp_path: Path) -> None:
+    c = _states()
+    with_week, without, pospac = (tmp_path / n for n in ("w.txt", "n.txt", "p.txt"))
+    _write_ie(with_week, c, dms=False, week=True)
+    _write_ie(without, c, dms=False, week=False)
+    _write_pospac(pospac, c)
+    assert not trajectory_takes_gps_week(with_week)  # the export gives its own week
+    assert trajectory_takes_gps_week(without)
+    assert trajectory_takes_gps_week(pospac)
+    assert trajectory_takes_gps_week(tmp_path / "t.sbet")  # seconds of week by format
+    assert not trajectory_takes_gps_week(tmp_path / "t.csv")  # GPS time by format
+    garbled = tmp_path / "g.txt"
+    garbled.write_text("not an export\n")
+    assert trajectory_takes_gps_week(garbled)  # its reader says what is wrong

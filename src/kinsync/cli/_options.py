@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -180,3 +181,53 @@ def parse_rates(text: str) -> tuple[float, ...]:
             raise InputError(msg)
         rates.append(rate)
     return tuple(rates)
+
+
+def refuse_unused_gps_week(
+    gps_week: int | None,
+    *,
+    trajectories: Sequence[Path] = (),
+    points: Sequence[Path] = (),
+    sbet_only: Sequence[Path] = (),
+) -> None:
+    """Refuse ``--gps-week`` when no input carries GPS seconds of week.
+
+    A CSV trajectory or point table carries GPS time, a LAS/LAZ header says which time
+    its points carry, a text export with a week column gives its own week: given with
+    none that takes it, the week was accepted and not used.
+
+    Parameters
+    ----------
+    gps_week : int or None
+        The option's value (nothing to check when not given).
+    trajectories : sequence of Path
+        Trajectory files (CSV, SBET, text exports).
+    points : sequence of Path
+        Point files (LAS/LAZ take a week when their header says seconds of week).
+    sbet_only : sequence of Path
+        Files that take a week only when they are an SBET (navigation files).
+    """
+    if gps_week is None:
+        return
+    from kinsync._text import first_few  # noqa: PLC0415
+    from kinsync.io.las import las_takes_gps_week  # noqa: PLC0415
+    from kinsync.io.trajectory import trajectory_takes_gps_week  # noqa: PLC0415
+
+    named = [Path(p) for p in (*trajectories, *points, *sbet_only)]
+    if not all(p.is_file() for p in named):
+        return  # the reader names the missing input first
+    las = (".las", ".laz")
+    sbet = (".sbet", ".out")
+    if (
+        any(trajectory_takes_gps_week(p) for p in trajectories)
+        or any(las_takes_gps_week(p) for p in points if p.suffix.lower() in las)
+        or any(p.suffix.lower() in sbet for p in sbet_only)
+    ):
+        return
+    names = first_few([str(p) for p in named])
+    msg = (
+        f"--gps-week {gps_week}: no input carries GPS seconds of week ({names}: a CSV "
+        "carries GPS time, a LAS file's header says which, a text export with a week "
+        "column gives its own), so it would not be used: drop it"
+    )
+    raise InputError(msg)

@@ -11,7 +11,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -166,6 +166,7 @@ def mount(
 
     opts = _options(features, estimate, sphere_radius_m, max_gap_s)
     trajectory = trajectory or []
+    refuse_unused_gps_week(gps_week, trajectories=trajectory, points=points)
     prior = read_mount(mount_file)
     with progress_display("calibrate mount") as progress:
         stages = Stages(progress, {"calibrating": 1.0})

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -178,6 +178,7 @@ def georef(
     from kinsync.trajectory import VelocityConsistencyWarning  # noqa: PLC0415
 
     _check_choices(outside, point_columns, scheduler, workers)
+    refuse_unused_gps_week(gps_week, trajectories=[trajectory], points=[points])
     column_map = parse_column_map(columns, _COLUMN_KEYS)
     the_mount = read_mount(mount)
     if latency_ms is not None:

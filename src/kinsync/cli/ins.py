@@ -19,7 +19,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
@@ -395,6 +395,7 @@ def compare(
     from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
     from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
+    refuse_unused_gps_week(gps_week, sbet_only=[solution_path, truth_path])
     solution = read_navigation(solution_path, gps_week=gps_week)
     truth = read_navigation(truth_path, gps_week=gps_week)
     if isinstance(truth, NavSolution):

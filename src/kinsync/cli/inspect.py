@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError
@@ -226,6 +226,7 @@ def trajectory_info(
         trajectory_gaps,
     )
 
+    refuse_unused_gps_week(gps_week, trajectories=[path])
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
     max_gap = max_gap_for(traj.t_s, max_gap_s)
     file_format = trajectory_file_format(path)
@@ -347,6 +348,7 @@ def trajectory_export(
     """Export a trajectory: a table in any CRS, or a KML/GeoJSON line for a quick look."""
     from kinsync.pipelines.trajectory_export import export_trajectory  # noqa: PLC0415
 
+    refuse_unused_gps_week(gps_week, trajectories=[path])
     result = export_trajectory(
         path,
         out,

@@ -11,7 +11,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -113,6 +113,7 @@ def object_space(
     )
     from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
+    refuse_unused_gps_week(gps_week, trajectories=[trajectory])
     config = ObjectSpaceConfig(
         period_prior_s=period_prior_s,
         period_tolerance=period_tolerance,

@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted, format_p_value
-from kinsync.cli._options import MaxGapOpt
+from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -140,6 +140,7 @@ def control_points(
             "would not be used: drop it, or give --centre sphere"
         )
         raise InputError(msg)
+    refuse_unused_gps_week(gps_week, trajectories=[trajectory], points=[cloud])
     report = control_points_file(
         cloud,
         control,

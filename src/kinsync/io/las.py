@@ -52,6 +52,7 @@ __all__ = [
     "las_end_times",
     "las_header",
     "las_info",
+    "las_takes_gps_week",
     "las_time_offset_s",
     "read_las_points",
     "scaled_coordinates",
@@ -190,6 +191,18 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
         "standard GPS time"
     )
     raise InputError(msg)
+
+
+def las_takes_gps_week(path: Path) -> bool:
+    """Whether a GPS week applies to this LAS/LAZ file: its header says seconds of week.
+
+    A file whose header cannot be read is counted as taking one: its reader names what
+    is wrong.
+    """
+    try:
+        return las_info(path).gps_time_type == "week"
+    except InputError:
+        return True
 
 
 def las_info(path: Path) -> LasInfo:

@@ -16,7 +16,12 @@ from kinsync.io.sbet import read_sbet
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.trajectory import Trajectory
 
-__all__ = ["TimeScale", "read_trajectory_file", "trajectory_file_format"]
+__all__ = [
+    "TimeScale",
+    "read_trajectory_file",
+    "trajectory_file_format",
+    "trajectory_takes_gps_week",
+]
 
 TimeScale = Literal["gps", "week"]
 """Time scale of a trajectory or point file: GPS time, or GPS seconds of week."""
@@ -84,3 +89,22 @@ def trajectory_file_format(path: Path) -> Literal["csv", "sbet", "pospac", "iner
     if suffix in (".out", ".sbet"):
         return "sbet"
     return sniff_pos_text(Path(path)).producer
+
+
+def trajectory_takes_gps_week(path: Path) -> bool:
+    """Whether a GPS week applies to this trajectory file (``--gps-week``).
+
+    True for an SBET (GPS seconds of week) and a text export without a week column;
+    False for a CSV (GPS time) and a text export that gives its own week. A file whose
+    kind cannot be told is counted as taking one: its reader names what is wrong.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return False
+    if suffix in (".out", ".sbet"):
+        return True
+    try:
+        return "week" not in sniff_pos_text(path).columns
+    except InputError:
+        return True
