@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from kinsync.calibration.estimator import CalibrationOptions
@@ -93,3 +94,34 @@ def test_held_values_stated_sigma_reaches_the_planned_sigma() -> None:
     d = held.held.sensitivity[held.held.estimated.index(6), 3]
     assert d == pytest.approx(exact.held.sensitivity[exact.held.estimated.index(6), 3])
     assert exact.as_document()["held"]["lever_x_m"]["std"] is None  # taken as exact
+
+
+def test_predicted_feature_scales_are_what_the_estimator_finds() -> None:
+    # The plan weighs each feature by the noise scale it predicts from the navigation
+    # errors; the estimator measures that scale from the residuals of noisy data.
+    from kinsync.calibration.adjustment import adjust  # noqa: PLC0415
+    from kinsync.calibration.estimator import find_features  # noqa: PLC0415
+    from kinsync.calibration.model import LineModel, local_frame_for  # noqa: PLC0415
+    from kinsync.calibration.parameters import mount_values  # noqa: PLC0415
+    from kinsync.calibration.planning import _navigation_scatter  # noqa: PLC0415
+
+    cfg = PatchTestConfig(scenario="vessel", density=0.05, seed=1)
+    sim = simulate_patch_test(cfg)
+    cache: dict[int, object] = {}
+    models = [LineModel.prepare(line, cache) for line in sim.lines]  # type: ignore[arg-type]
+    frame = local_frame_for(list(sim.lines))
+    values = mount_values(sim.mount_true)
+    opts = CalibrationOptions(estimate=("boresight", "latency"))
+    features, observations = find_features(models, values, frame, opts)
+    solution = adjust(models, observations, features, values, (0, 1, 2, 6), frame)
+    measured = np.array([f.sigma_m for f in solution.features])
+    errors = NavigationErrors(
+        range_noise_m=cfg.range_noise_m,
+        position_std_m=float(np.mean(cfg.std_pos_ned_m)),
+        attitude_std_deg=cfg.std_att_deg,
+        corr_time_s=cfg.error_corr_time_s,
+    )
+    scatter = _navigation_scatter(models, observations, features, values, frame, errors)
+    predicted = np.hypot(cfg.range_noise_m, np.array(scatter))
+    assert 0.8 < float(np.median(measured / predicted)) < 1.4
+    assert float(np.median(predicted)) > 2.0 * cfg.range_noise_m  # navigation dominates

@@ -5,28 +5,38 @@ scene with the planned mount. The prediction uses the estimator's own model
 (`kinsync.calibration.adjustment`): the same features, the same reduced normal
 matrix ``S`` and the same observability analysis, with two error sources:
 
-- range noise ``range_noise_m`` along each beam (what the formal sigma holds):
-  ``Cov_noise = S^-1`` with weights ``1 / (range_noise_m |cos(incidence)|)^2``;
+- range noise ``range_noise_m`` along each beam (what the formal sigma holds);
 - navigation errors, correlated in time (what the jackknife of the estimator holds):
   a position error (N, E, D) and a misorientation (about N, E, D, through the body
   reference point) that follow a first-order Gauss-Markov process with the
   trajectory's standard deviations and correlation time ``corr_time_s``, independent
   between lines. Each line's error is represented at knots ``corr_time_s / 3`` apart
-  (linear in between) with correlation ``R = exp(-|t_i - t_j| / corr_time_s)``; with
-  ``U = J_theta' W (I - H_f) G`` the reduced gradient that unit knot errors put on
-  the mount parameters (``H_f`` the projector on the features),
-  ``Cov_nav = S^-1 U (R (x) diag(sigma_c^2)) U' S^-1``.
+  (linear in between) with correlation ``R = exp(-|t_i - t_j| / corr_time_s)``.
 
-The predicted sigma is ``sqrt(diag(Cov_noise + Cov_nav))``; a parameter is
-``unobservable`` by the information test, or when its predicted sigma exceeds what a
-crew knows without calibrating (the estimator's rule after its solution), ``weak``
-above the thresholds of `kinsync.calibration.observability`.
+The estimator weighs each feature by its own noise scale, the robust spread of its
+residuals, which the navigation errors dominate (2-14 cm against 1 cm of range noise on
+the simulated vessel). The plan predicts that scale: the range noise and the RMS
+residual the navigation errors leave after the feature's own fit (``(I - H_f) G xi``,
+per feature; on simulated data the estimator's scales came out 1.08-1.12 times the
+prediction, median over features). With those weights ``W``, ``S`` the reduced normal
+matrix and ``U = J_theta' W (I - H_f) G`` the reduced gradient that unit knot errors
+put on the mount parameters (``H_f`` the projector on the features), the covariance
+is the sandwich ``S^-1 (M_noise + U (R (x) diag(sigma_c^2)) U') S^-1``, ``M_noise`` the
+range noise's part. The sensitivity to held values (`kinsync.calibration.held`) uses
+the same ``S``. Weighting every feature by the range noise alone, as the plan did
+before, gave the vessel's latency 4x too little sensitivity to a held lever arm.
 
-Known limit: against the Monte Carlo of `benchmarks/bench_calibration_sigma.py` the
-navigation part is optimistic where position errors dominate: the roll boresight 2x
-(both scenarios), the vessel's latency 4.4x (planned 0.33 ms, spread 1.45 ms; with
-position errors alone 0.32 against 1.9 ms, with attitude errors alone 0.07 against
-0.11 ms). The statuses agreed.
+A parameter is ``unobservable`` by the information test, or when its predicted sigma
+exceeds what a crew knows without calibrating (the estimator's rule after its
+solution), ``weak`` above the thresholds of `kinsync.calibration.observability`.
+
+Known limit: against the Monte Carlo of `benchmarks/bench_calibration_sigma.py` (30
+runs, density 0.1, the same designs) the plan is optimistic where position errors
+dominate: empirical spread / planned sigma 2.9 for the vehicle's roll boresight, 2.3
+for the vessel's latency (4.3 with range-noise weights), 1.3-2.0 for the vessel's
+boresight and lever x; 0.7-1.6 elsewhere. With a lever arm held at 2 cm the planned
+sigma is 0.8-1.1 times the estimator's own (vessel latency 3.9 against 5.0 ms), the
+vehicle's roll boresight 0.45. The statuses agreed.
 """
 
 from __future__ import annotations
@@ -230,8 +240,13 @@ def _navigation_gradients(
     estimated: tuple[int, ...],
     frame: LocalFrame,
     err: NavigationErrors,
+    scales: Sequence[float],
 ) -> tuple[FloatArray, FloatArray]:
-    """``U = J_theta' W (I - H_f) G`` (k, 6 K) and the knots' correlation ``R`` (K, K)."""
+    """``U = J_theta' W (I - H_f) G`` (k, 6 K) and the knots' correlation ``R`` (K, K).
+
+    ``W`` weighs each feature's returns with its noise scale ``scales`` (m, as the
+    estimator's per-feature scales) and the incidence factor.
+    """
     k = len(estimated)
     layout = ObservationLayout(models, observations, len(features))
     knots = _Knots.build(models, layout, err.corr_time_s)
@@ -251,7 +266,7 @@ def _navigation_gradients(
         grad = feature.gradient_x(ret.x)
         jt = np.einsum("ni,nik->nk", grad, ret.jac)
         jf = feature.jacobian(ret.x)
-        w = 1.0 / (err.range_noise_m * incidence_factor(feature, ret)) ** 2
+        w = 1.0 / (scales[fi] * incidence_factor(feature, ret)) ** 2
         B = (jt * w[:, None]).T @ jf
         # d e / d pose: a position error moves every return; a misorientation turns the
         # returns about the body reference point: grad . (omega x arm) = omega . (arm x grad)
@@ -262,6 +277,61 @@ def _navigation_gradients(
     return U, knots.R
 
 
+def _navigation_scatter(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    values: FloatArray,
+    frame: LocalFrame,
+    err: NavigationErrors,
+) -> list[float]:
+    """Each feature's RMS residual from the navigation errors (range-equivalent, m).
+
+    The residual a line's pose errors leave after the feature's own fit,
+    ``(I - H_f) G xi`` divided by the incidence factor, as the estimator's noise scale
+    sees it (`kinsync.calibration.adjustment`): its expected mean square is
+    ``||diag(1/inc) (I - H_f) G L||_F^2 / n`` with ``L L' = R (x) diag(sigma_c^2)``,
+    block by block over the lines that see the feature (their errors are independent).
+    """
+    layout = ObservationLayout(models, observations, len(features))
+    knots = _Knots.build(models, layout, err.corr_time_s)
+    estimated: tuple[int, ...] = ()
+    geo = georeference_observed(models, layout.by_line, values, estimated, frame)
+    body = {li: models[li].body_positions(idx, values, frame) for li, idx in layout.by_line.items()}
+    t_obs = {li: models[li].line.t_s[idx] for li, idx in layout.by_line.items()}
+    rets = layout.gather(geo)
+    pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
+    chol: dict[int, FloatArray] = {}
+    for li, kt in knots.times.items():
+        j = knots.first[li]
+        block = knots.R[j : j + kt.size, j : j + kt.size]
+        chol[li] = np.kron(np.linalg.cholesky(block + 1e-12 * np.eye(kt.size)), np.diag(pose_sd))
+    out = []
+    for fi, feature in enumerate(features):
+        parts = [(li, sl) for f, li, sl in layout.slices if f == fi]
+        if not parts:
+            out.append(0.0)
+            continue
+        ret = rets[fi]
+        line = np.concatenate([np.full(sl.stop - sl.start, li) for li, sl in parts])
+        t = np.concatenate([t_obs[li][sl] for li, sl in parts])
+        arm = np.concatenate([geo[li][0][sl] - body[li][sl] for li, sl in parts])
+        grad = feature.gradient_x(ret.x)
+        G = knots.design(line, t, np.concatenate([grad, np.cross(arm, grad)], axis=1)).tocsc()
+        blocks = []
+        for li in sorted({li for li, _ in parts}):
+            j = 6 * knots.first[li]
+            blocks.append(np.asarray(G[:, j : j + chol[li].shape[0]] @ chol[li]))
+        BL = np.concatenate(blocks, axis=1)
+        inc = incidence_factor(feature, ret)
+        jf = feature.jacobian(ret.x)
+        w = 1.0 / inc**2
+        fit = jf @ (np.linalg.pinv(jf.T @ (jf * w[:, None])) @ (jf * w[:, None]).T @ BL)
+        r = (BL - fit) / inc[:, None]
+        out.append(math.sqrt(float(np.sum(r * r)) / max(r.shape[0], 1)))
+    return out
+
+
 def _predicted(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
@@ -270,21 +340,38 @@ def _predicted(
     estimated: tuple[int, ...],
     frame: LocalFrame,
     err: NavigationErrors,
+    scales: Sequence[float],
 ) -> tuple[FloatArray, FloatArray]:
-    """Predicted covariance (range noise and navigation errors) and range noise alone."""
+    """Predicted covariance (range noise and navigation errors) and range noise alone.
+
+    The estimator weighs each feature with its own noise scale (``scales``, m): the
+    covariance is the sandwich ``S^-1 (M_noise + U (R (x) Sigma) U') S^-1`` with ``S``
+    under those weights; per feature the range noise's part ``M_noise`` is ``S``'s own
+    contribution times ``range_noise^2 / scale^2``, i.e. the reduced normal matrix with
+    scales ``scale^2 / range_noise``. The range noise alone is ``S_0^-1`` with the
+    range noise as every feature's scale.
+    """
     k = len(estimated)
     if k == 0:
         return np.zeros((0, 0)), np.zeros((0, 0))
-    sig = [err.range_noise_m] * len(features)
-    S, _, _ = reduced_normal_matrix(
-        models, observations, features, values, estimated, frame, sig, robust=False
+
+    def normal(sigmas: Sequence[float]) -> FloatArray:
+        S, _, _ = reduced_normal_matrix(
+            models, observations, features, values, estimated, frame, list(sigmas), robust=False
+        )
+        return np.asarray(S, dtype=np.float64)
+
+    noise = err.range_noise_m
+    S0_inv = np.asarray(np.linalg.pinv(normal([noise] * len(features))), dtype=np.float64)
+    S_inv = np.asarray(np.linalg.pinv(normal(scales)), dtype=np.float64)
+    M_noise = normal([s * s / noise for s in scales])
+    U, R = _navigation_gradients(
+        models, observations, features, values, estimated, frame, err, scales
     )
-    S_inv = np.asarray(np.linalg.pinv(S), dtype=np.float64)
-    U, R = _navigation_gradients(models, observations, features, values, estimated, frame, err)
     pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
     middle = U @ np.kron(R, np.diag(pose_sd**2)) @ U.T
-    cov = np.asarray(S_inv + S_inv @ middle @ S_inv, dtype=np.float64)
-    return cov, S_inv
+    cov = np.asarray(S_inv @ (M_noise + middle) @ S_inv, dtype=np.float64)
+    return cov, S0_inv
 
 
 def plan_calibration(
@@ -324,12 +411,15 @@ def plan_calibration(
     frame = local_frame_for(list(lines))
     values = mount_values(mount)
     features, observations = find_features(models, values, frame, opt)
-    sig = [err.range_noise_m] * len(features)
+    scatter = _navigation_scatter(models, observations, features, values, frame, err)
+    sig = [math.hypot(err.range_noise_m, s) for s in scatter]
     S, motion, _ = reduced_normal_matrix(
         models, observations, features, values, requested, frame, sig, robust=False
     )
     obs = analyse(S, motion, requested, honest_sigma=len(lines) >= MIN_JACKKNIFE_GROUPS)
-    cov, cov_noise = _predicted(models, observations, features, values, obs.estimated, frame, err)
+    cov, cov_noise = _predicted(
+        models, observations, features, values, obs.estimated, frame, err, sig
+    )
     while obs.estimated:
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
         dropped = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
@@ -337,7 +427,7 @@ def plan_calibration(
             break
         obs = obs.without(dropped)
         cov, cov_noise = _predicted(
-            models, observations, features, values, obs.estimated, frame, err
+            models, observations, features, values, obs.estimated, frame, err, sig
         )
     est = obs.estimated
     S7, _, _ = reduced_normal_matrix(

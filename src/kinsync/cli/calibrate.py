@@ -295,8 +295,8 @@ def plan(
     _print_undetermined(result.unobservable_reasons, result.advice)
     console.print(
         "note: against a Monte Carlo of the same designs the planned sigma is optimistic "
-        "where trajectory position errors dominate (2x for the roll boresight, 4x for the "
-        "vessel's latency); the statuses held"
+        "where trajectory position errors dominate (2.9x for the vehicle's roll boresight, "
+        "2.3x for the vessel's latency, up to 2x elsewhere); the statuses held"
     )
 
 
