@@ -185,3 +185,60 @@ def test_outputs_complete_before_the_signal_are_named(
     )
     assert done.exists()
     assert not folder.exists()
+
+
+def test_a_held_back_signal_does_not_break_into_the_clean_up_of_the_next(
+    monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    # SIGINT lands in llvmlite and is held back; SIGTERM then stops the command, and the
+    # SIGINT sent again must not cut the clean-up short (review of this stop).
+    namespace: dict[str, object] = {"__name__": "llvmlite.binding.stand_in"}
+    exec(_COMPILER_LIKE, namespace)  # a function whose module is llvmlite's
+    compile_step = namespace["compile_step"]
+    marks: list[str] = []
+    app = typer.Typer()
+
+    @app.command()
+    def work() -> None:
+        compile_step(int(signal.SIGINT), marks)  # type: ignore[operator]
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        finally:
+            end = time.monotonic() + 0.3  # longer than the 50 ms before a resend
+            while time.monotonic() < end:
+                time.sleep(0.005)
+            marks.append("cleaned up")
+
+    @app.command()
+    def other() -> None:
+        raise InputError("unused")
+
+    assert _run(monkeypatch, app) == 143
+    assert marks == ["compiled", "cleaned up"]
+    assert capfd.readouterr().err.strip().startswith("kinsync: interrupted by SIGTERM")
+
+
+def test_an_interruption_swallowed_by_the_command_says_its_outputs_are_complete(
+    monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    out = tmp_path / "out.txt"
+    app = typer.Typer()
+
+    @app.command()
+    def work() -> None:
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        except BaseException:  # a library that swallows everything
+            pass
+        out.write_text("complete\n")
+
+    @app.command()
+    def other() -> None:
+        raise InputError("unused")
+
+    assert _run(monkeypatch, app) == 143
+    done = "kinsync: SIGTERM arrived as the command finished; its outputs are complete"
+    assert capfd.readouterr().err.strip() == done
+    assert out.read_text() == "complete\n"

@@ -63,9 +63,13 @@ process (exit 139, 2 of 170 SIGTERMs sent to ``ins run`` as numba compiled its
 kernels). llvmlite's calls are short: numba's own code, which runs for seconds while
 it compiles, stays interruptible."""
 
-_STATE = {"active": False, "in_hook": False, "run": 0, "published": 0}
-"""Whether the handlers are installed; whether the unraisable hook is running; which run;
-how many outputs the process had published when the run started."""
+_STATE = {"active": False, "in_hook": False, "raised": 0, "run": 0, "published": 0}
+"""Whether the handlers are installed; whether the unraisable hook is running; the
+signal whose `Interrupted` is unwinding the command (0: none); which run; how many
+outputs the process had published when the run started."""
+
+TYPER_INTERRUPTED = 130
+"""What typer returns (standalone_mode=False) for a KeyboardInterrupt out of a command."""
 
 REDELIVER_AFTER_S = 0.05
 """Delay before a deferred stop signal is sent again (s)."""
@@ -83,13 +87,16 @@ def _inside_unsafe_code(frame: FrameType | None) -> bool:
 
 def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
     _RECEIVED.append(signum)
+    if _STATE["raised"]:  # the command is already unwinding: let its clean-up finish
+        return
     if not _STATE["active"]:  # came as the command ended: it has finished
         _DEFERRED.add(signum)
         return
     if _STATE["in_hook"] or _inside_unsafe_code(frame):  # raised when it is safe
         _redeliver_later(signum)
         return
-    _DEFERRED.discard(signum)
+    _DEFERRED.clear()  # a signal held back earlier is this interruption too
+    _STATE["raised"] = signum
     raise Interrupted(signum)
 
 
@@ -99,7 +106,8 @@ _ACTIVE_LOCK = threading.Lock()
 
 def _redeliver(signum: int, run: int) -> None:
     with _ACTIVE_LOCK:
-        if _STATE["active"] and _STATE["run"] == run and signum in _DEFERRED:
+        live = _STATE["active"] and not _STATE["raised"] and _STATE["run"] == run
+        if live and signum in _DEFERRED:
             os.kill(os.getpid(), signum)
 
 
@@ -123,13 +131,14 @@ def _unraisable_interrupt(previous: Any) -> Any:
     """
 
     def hook(unraisable: Any) -> None:
-        err = unraisable.exc_value
-        if not isinstance(err, Interrupted):
-            previous(unraisable)
-            return
-        _STATE["in_hook"] = True
+        _STATE["in_hook"] = True  # a signal that comes now is held back, not raised here
         try:
-            _redeliver_later(err.signum)
+            err = unraisable.exc_value
+            if isinstance(err, Interrupted):
+                _STATE["raised"] = 0  # it did not unwind anything
+                _redeliver_later(err.signum)
+            else:
+                previous(unraisable)
         finally:
             _STATE["in_hook"] = False
 
@@ -146,6 +155,7 @@ def _stop_signals_unwind() -> Iterator[None]:
     _RECEIVED.clear()
     _DEFERRED.clear()
     _STATE["active"] = True
+    _STATE["raised"] = 0
     _STATE["run"] += 1
     _STATE["published"] = _published_mark()
     hook_before = sys.unraisablehook
@@ -156,8 +166,11 @@ def _stop_signals_unwind() -> Iterator[None]:
             before[s] = signal.signal(s, _raise_interrupted)
         yield
     finally:
+        # First, so that a handler running while the lock is awaited raises nothing;
+        # the lock then waits for a signal being sent again right now.
+        _STATE["active"] = False
         with _ACTIVE_LOCK:
-            _STATE["active"] = False
+            pass
         sys.unraisablehook = hook_before
         for s, handler in before.items():
             signal.signal(s, handler)
@@ -296,11 +309,16 @@ def main(argv: Sequence[str] | None = None) -> None:
             file=sys.stderr,
         )
         sys.exit(1)
-    if _DEFERRED:  # deferred, and the command finished before it came again
-        name = signal.Signals(min(_DEFERRED)).name
+    # The command returned: a signal held back and not sent again yet, or one raised
+    # and then swallowed by the code it interrupted, came as it finished. (typer turns
+    # an interruption that went through the command into a return value of 130.)
+    raised = int(_STATE["raised"])
+    late = sorted(_DEFERRED) or ([raised] if raised and result != TYPER_INTERRUPTED else [])
+    if late:
+        name = signal.Signals(late[0]).name
         done = f"kinsync: {name} arrived as the command finished; its outputs are complete"
         print(done, file=sys.stderr)
-        sys.exit(128 + min(_DEFERRED))
+        sys.exit(128 + late[0])
     if _RECEIVED:  # typer turned the interruption into a return value of 130
-        _exit_interrupted(_RECEIVED[0])
+        _exit_interrupted(raised or _RECEIVED[0])
     sys.exit(result if isinstance(result, int) else 0)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -15,7 +16,6 @@ from kinsync.cli.clock import parse_convention
 from kinsync.errors import InputError
 from kinsync.io.atomic import output_folder
 from kinsync.progress import Stages
-from kinsync.sim.table_config import DEFAULT_BAUD
 
 # The simulators (scipy, numba, laspy, pyarrow) load inside the commands, only when they run.
 if TYPE_CHECKING:
@@ -70,8 +70,7 @@ def rotating_table(
     baud: Annotated[
         float | None,
         typer.Option(
-            help="Serial line rate of the FIFO (bit/s), 8N1; with --fifo-bytes "
-            f"(default {DEFAULT_BAUD:g})."
+            help="Serial line rate of the FIFO (bit/s), 8N1; with --fifo-bytes (default 115200)."
         ),
     ] = None,
     file_format: Annotated[
@@ -113,8 +112,9 @@ def rotating_table(
         seed=seed,
         range_noise_m=range_noise_m,
         fifo_bytes=fifo_bytes,
-        baud=DEFAULT_BAUD if baud is None else baud,
     )
+    if baud is not None:
+        config = replace(config, baud=baud)
     with progress_display("simulate rotating-table") as progress:
         stages = Stages(progress, {"simulating passes": 3.0, "writing files": 1.0})
         sim = simulate_rotating_table(config, progress=stages.start("simulating passes"))

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 
+from kinsync._signals import stop_signals_held
 from kinsync.errors import InputError
 
 __all__ = [
@@ -279,8 +280,9 @@ def atomic_path(path: Path) -> Iterator[Path]:
     try:
         yield tmp
         try:
-            tmp.replace(path)
-            _PUBLISHED.append(path)
+            with stop_signals_held():  # renamed and recorded, or neither
+                tmp.replace(path)
+                _PUBLISHED.append(path)
         except OSError as err:  # e.g. an existing file made immutable (chattr +i)
             msg = (
                 f"{path}: cannot replace it ({err.strerror or err}); the output is not "
@@ -442,7 +444,8 @@ def atomic_folder(
         yield tmp
         if path.is_dir():
             check(path)
-        _publish_folder(tmp, path)
-        _PUBLISHED.append(path)
+        with stop_signals_held():  # published and recorded, or neither
+            _publish_folder(tmp, path)
+            _PUBLISHED.append(path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -21,11 +21,11 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from kinsync._cpus import usable_cpus
+from kinsync._signals import stop_signals_held
 from kinsync.errors import InputError
 from kinsync.io.las import LasPointReader
 from kinsync.pipelines.georef_chunks import ChunkContext, ChunkOutput, ChunkTask, process_chunk
@@ -119,17 +119,6 @@ def process_chunk_in_worker(task: ChunkTask, tally_only: bool) -> ChunkOutput:
 ChunkResult = Callable[[], ChunkOutput]
 
 
-@contextmanager
-def _stop_signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back from this thread within the block."""
-    stops = {signal.SIGINT, signal.SIGTERM}
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, stops)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
-
-
 class SerialRunner:
     """In this process: each chunk is read and computed when its result is asked for.
 
@@ -203,7 +192,7 @@ class ProcessRunner(SerialRunner):
         signals are held meanwhile (delivered right after), so that an interruption
         never leaves a worker reading a truncated context (and printing a traceback).
         """
-        with _stop_signals_held():
+        with stop_signals_held():
             future: Future[ChunkOutput] = self.pool.submit(
                 process_chunk_in_worker, task, tally_only
             )

@@ -17,7 +17,6 @@ from kinsync.budget import serial_transmission_time_s
 from kinsync.errors import InputError
 
 __all__ = [
-    "DEFAULT_BAUD",
     "LABEL_FLOOR",
     "LABEL_NAMES",
     "LABEL_SPHERE",
@@ -53,10 +52,6 @@ def _check(condition: bool, message: str) -> None:
 
 def _finite(value: float, name: str) -> float:
     return finite_number(value, f"rotating-table config: {name}")
-
-
-DEFAULT_BAUD = 115200.0
-"""Serial line rate of the FIFO when none is given (bit/s)."""
 
 
 @dataclass(frozen=True)
@@ -123,7 +118,7 @@ class RotatingTableConfig:
 
     latency_s: float = 0.00421
     fifo_bytes: int = 0
-    baud: float = DEFAULT_BAUD
+    baud: float = 115200.0
     rates_deg_s: tuple[float, ...] = (2.0, 4.0, 6.0, 10.0, 14.0, 18.0)
     passes: int = 15
     seed: int = 1
