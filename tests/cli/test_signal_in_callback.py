@@ -18,7 +18,9 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 import typer
@@ -67,6 +69,26 @@ def _run(monkeypatch: pytest.MonkeyPatch, app: typer.Typer, *args: str) -> int:
         main(["work", *args])
     assert isinstance(stop.value.code, int)
     return stop.value.code
+
+
+def _app_of(work: Callable[[], None]) -> typer.Typer:
+    """A program whose command ``work`` runs ``work`` (and a second, so it is named)."""
+    app = typer.Typer()
+    app.command("work")(work)
+
+    @app.command()
+    def other() -> None:
+        raise InputError("unused")
+
+    return app
+
+
+def _llvmlite_like_step() -> Callable[[int, list[str]], None]:
+    """`_COMPILER_LIKE`'s function, defined in a module named as llvmlite's."""
+    namespace: dict[str, Any] = {"__name__": "llvmlite.binding.stand_in"}
+    exec(_COMPILER_LIKE, namespace)
+    step: Callable[[int, list[str]], None] = namespace["compile_step"]
+    return step
 
 
 @pytest.mark.parametrize(("name", "code"), [("SIGTERM", 143), ("SIGINT", 130)])
@@ -135,25 +157,17 @@ def compile_step(signum, marks):
 def test_a_signal_in_llvmlite_code_waits_until_it_returns(
     monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
 ) -> None:
-    namespace: dict[str, object] = {"__name__": "llvmlite.binding.stand_in"}
-    exec(_COMPILER_LIKE, namespace)  # a function whose module is llvmlite's
-    compile_step = namespace["compile_step"]
+    compile_step = _llvmlite_like_step()
     marks: list[str] = []
-    app = typer.Typer()
 
-    @app.command()
     def work() -> None:
-        compile_step(int(signal.SIGTERM), marks)  # type: ignore[operator]
+        compile_step(int(signal.SIGTERM), marks)
         end = time.monotonic() + 5.0
         while time.monotonic() < end:
             time.sleep(0.005)
         marks.append("worked on")
 
-    @app.command()
-    def other() -> None:
-        raise InputError("unused")
-
-    assert _run(monkeypatch, app) == 143
+    assert _run(monkeypatch, _app_of(work)) == 143
     assert marks == ["compiled"]  # not cut inside; stopped soon after
     assert "unfinished outputs removed" in capfd.readouterr().err
 
@@ -164,9 +178,7 @@ def test_outputs_complete_before_the_signal_are_named(
     from kinsync.io.atomic import atomic_folder, atomic_write_text  # noqa: PLC0415
 
     done, folder = tmp_path / "done.csv", tmp_path / "sim"
-    app = typer.Typer()
 
-    @app.command()
     def work() -> None:
         atomic_write_text(done, "t\n")
         with atomic_folder(folder, lambda _: None, "give another folder") as tmp:
@@ -174,11 +186,7 @@ def test_outputs_complete_before_the_signal_are_named(
             os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(5.0)
 
-    @app.command()
-    def other() -> None:
-        raise InputError("unused")
-
-    assert _run(monkeypatch, app) == 143
+    assert _run(monkeypatch, _app_of(work)) == 143
     err = capfd.readouterr().err.strip()
     assert err == (
         f"kinsync: interrupted by SIGTERM; written before it: {done}; unfinished outputs removed"
@@ -192,15 +200,11 @@ def test_a_held_back_signal_does_not_break_into_the_clean_up_of_the_next(
 ) -> None:
     # SIGINT lands in llvmlite and is held back; SIGTERM then stops the command, and the
     # SIGINT sent again must not cut the clean-up short (review of this stop).
-    namespace: dict[str, object] = {"__name__": "llvmlite.binding.stand_in"}
-    exec(_COMPILER_LIKE, namespace)  # a function whose module is llvmlite's
-    compile_step = namespace["compile_step"]
+    compile_step = _llvmlite_like_step()
     marks: list[str] = []
-    app = typer.Typer()
 
-    @app.command()
     def work() -> None:
-        compile_step(int(signal.SIGINT), marks)  # type: ignore[operator]
+        compile_step(int(signal.SIGINT), marks)
         try:
             os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(5.0)
@@ -210,11 +214,7 @@ def test_a_held_back_signal_does_not_break_into_the_clean_up_of_the_next(
                 time.sleep(0.005)
             marks.append("cleaned up")
 
-    @app.command()
-    def other() -> None:
-        raise InputError("unused")
-
-    assert _run(monkeypatch, app) == 143
+    assert _run(monkeypatch, _app_of(work)) == 143
     assert marks == ["compiled", "cleaned up"]
     assert capfd.readouterr().err.strip().startswith("kinsync: interrupted by SIGTERM")
 
@@ -223,9 +223,7 @@ def test_an_interruption_swallowed_by_the_command_says_its_outputs_are_complete(
     monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     out = tmp_path / "out.txt"
-    app = typer.Typer()
 
-    @app.command()
     def work() -> None:
         try:
             os.kill(os.getpid(), signal.SIGTERM)
@@ -234,11 +232,7 @@ def test_an_interruption_swallowed_by_the_command_says_its_outputs_are_complete(
             pass
         out.write_text("complete\n")
 
-    @app.command()
-    def other() -> None:
-        raise InputError("unused")
-
-    assert _run(monkeypatch, app) == 143
+    assert _run(monkeypatch, _app_of(work)) == 143
     done = "kinsync: SIGTERM arrived as the command finished; its outputs are complete"
     assert capfd.readouterr().err.strip() == done
     assert out.read_text() == "complete\n"

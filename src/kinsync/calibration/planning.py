@@ -51,6 +51,7 @@ from scipy import sparse
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.calibration.adjustment import (
+    FeatureReturns,
     Observation,
     ObservationLayout,
     georeference_observed,
@@ -232,6 +233,44 @@ class _Knots:
         return sparse.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=shape)
 
 
+def _pose_designs(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    values: FloatArray,
+    estimated: tuple[int, ...],
+    frame: LocalFrame,
+    corr_time_s: float,
+) -> tuple[_Knots, list[tuple[int, Feature, FeatureReturns, list[int], sparse.csr_matrix]]]:
+    """The knots, and per feature seen: its returns and ``G``, what unit pose errors do.
+
+    ``G`` (n, 6 K) gives each return's residual change per unit position error (N, E,
+    D) and misorientation (about N, E, D) at its line's knots: a position error moves
+    every return; a misorientation turns the returns about the body reference point,
+    ``grad . (omega x arm) = omega . (arm x grad)``. Each item is ``(feature index,
+    feature, its returns at the state, the lines that see it, G)``.
+    """
+    layout = ObservationLayout(models, observations, len(features))
+    knots = _Knots.build(models, layout, corr_time_s)
+    geo = georeference_observed(models, layout.by_line, values, estimated, frame)
+    body = {li: models[li].body_positions(idx, values, frame) for li, idx in layout.by_line.items()}
+    t_obs = {li: models[li].line.t_s[idx] for li, idx in layout.by_line.items()}
+    rets = layout.gather(geo)
+    out = []
+    for fi, feature in enumerate(features):
+        parts = [(li, sl) for f, li, sl in layout.slices if f == fi]
+        if not parts:
+            continue
+        ret = rets[fi]
+        line = np.concatenate([np.full(sl.stop - sl.start, li) for li, sl in parts])
+        t = np.concatenate([t_obs[li][sl] for li, sl in parts])
+        arm = np.concatenate([geo[li][0][sl] - body[li][sl] for li, sl in parts])
+        grad = feature.gradient_x(ret.x)
+        G = knots.design(line, t, np.concatenate([grad, np.cross(arm, grad)], axis=1))
+        out.append((fi, feature, ret, sorted({li for li, _ in parts}), G))
+    return knots, out
+
+
 def _navigation_gradients(
     models: Sequence[LineModel],
     observations: Sequence[Observation],
@@ -247,30 +286,16 @@ def _navigation_gradients(
     ``W`` weighs each feature's returns with its noise scale ``scales`` (m, as the
     estimator's per-feature scales) and the incidence factor.
     """
-    k = len(estimated)
-    layout = ObservationLayout(models, observations, len(features))
-    knots = _Knots.build(models, layout, err.corr_time_s)
-    geo = georeference_observed(models, layout.by_line, values, estimated, frame)
-    body = {li: models[li].body_positions(idx, values, frame) for li, idx in layout.by_line.items()}
-    t_obs = {li: models[li].line.t_s[idx] for li, idx in layout.by_line.items()}
-    rets = layout.gather(geo)
-    U = np.zeros((k, 6 * knots.R.shape[0]))
-    for fi, feature in enumerate(features):
-        parts = [(li, sl) for f, li, sl in layout.slices if f == fi]
-        if not parts:
-            continue
-        ret = rets[fi]
-        line = np.concatenate([np.full(sl.stop - sl.start, li) for li, sl in parts])
-        t = np.concatenate([t_obs[li][sl] for li, sl in parts])
-        arm = np.concatenate([geo[li][0][sl] - body[li][sl] for li, sl in parts])
+    knots, designs = _pose_designs(
+        models, observations, features, values, estimated, frame, err.corr_time_s
+    )
+    U = np.zeros((len(estimated), 6 * knots.R.shape[0]))
+    for fi, feature, ret, _, G in designs:
         grad = feature.gradient_x(ret.x)
         jt = np.einsum("ni,nik->nk", grad, ret.jac)
         jf = feature.jacobian(ret.x)
         w = 1.0 / (scales[fi] * incidence_factor(feature, ret)) ** 2
         B = (jt * w[:, None]).T @ jf
-        # d e / d pose: a position error moves every return; a misorientation turns the
-        # returns about the body reference point: grad . (omega x arm) = omega . (arm x grad)
-        G = knots.design(line, t, np.concatenate([grad, np.cross(arm, grad)], axis=1))
         WG = sparse.csr_matrix(G.multiply(w[:, None]))
         C_inv_FtWG = np.linalg.pinv(jf.T @ (jf * w[:, None])) @ np.asarray(WG.T @ jf).T
         U += np.asarray((WG.T @ jt).T) - B @ C_inv_FtWG
@@ -293,33 +318,20 @@ def _navigation_scatter(
     ``||diag(1/inc) (I - H_f) G L||_F^2 / n`` with ``L L' = R (x) diag(sigma_c^2)``,
     block by block over the lines that see the feature (their errors are independent).
     """
-    layout = ObservationLayout(models, observations, len(features))
-    knots = _Knots.build(models, layout, err.corr_time_s)
-    estimated: tuple[int, ...] = ()
-    geo = georeference_observed(models, layout.by_line, values, estimated, frame)
-    body = {li: models[li].body_positions(idx, values, frame) for li, idx in layout.by_line.items()}
-    t_obs = {li: models[li].line.t_s[idx] for li, idx in layout.by_line.items()}
-    rets = layout.gather(geo)
+    knots, designs = _pose_designs(
+        models, observations, features, values, (), frame, err.corr_time_s
+    )
     pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
     chol: dict[int, FloatArray] = {}
     for li, kt in knots.times.items():
         j = knots.first[li]
         block = knots.R[j : j + kt.size, j : j + kt.size]
         chol[li] = np.kron(np.linalg.cholesky(block + 1e-12 * np.eye(kt.size)), np.diag(pose_sd))
-    out = []
-    for fi, feature in enumerate(features):
-        parts = [(li, sl) for f, li, sl in layout.slices if f == fi]
-        if not parts:
-            out.append(0.0)
-            continue
-        ret = rets[fi]
-        line = np.concatenate([np.full(sl.stop - sl.start, li) for li, sl in parts])
-        t = np.concatenate([t_obs[li][sl] for li, sl in parts])
-        arm = np.concatenate([geo[li][0][sl] - body[li][sl] for li, sl in parts])
-        grad = feature.gradient_x(ret.x)
-        G = knots.design(line, t, np.concatenate([grad, np.cross(arm, grad)], axis=1)).tocsc()
+    out = [0.0] * len(features)
+    for fi, feature, ret, lines, G_rows in designs:
+        G = G_rows.tocsc()
         blocks = []
-        for li in sorted({li for li, _ in parts}):
+        for li in lines:
             j = 6 * knots.first[li]
             blocks.append(np.asarray(G[:, j : j + chol[li].shape[0]] @ chol[li]))
         BL = np.concatenate(blocks, axis=1)
@@ -328,7 +340,7 @@ def _navigation_scatter(
         w = 1.0 / inc**2
         fit = jf @ (np.linalg.pinv(jf.T @ (jf * w[:, None])) @ (jf * w[:, None]).T @ BL)
         r = (BL - fit) / inc[:, None]
-        out.append(math.sqrt(float(np.sum(r * r)) / max(r.shape[0], 1)))
+        out[fi] = math.sqrt(float(np.sum(r * r)) / max(r.shape[0], 1))
     return out
 
 
