@@ -706,6 +706,14 @@ def _numeric_paths(doc: Any) -> tuple[set[str], set[str]]:
     return numbers, nulls
 
 
+MAY_BE_NULL = {
+    # None, documented, when the positions do not move at all (a file cut to its first,
+    # stationary records: hypothesis found it in CI)
+    ".velocity_check.velocity_scale",
+}
+"""Numbers that a valid, shorter input may turn into a documented null."""
+
+
 def _check_json(out: str, baseline: Any) -> None:
     doc = json.loads(out, parse_constant=_reject_constant)
     for path, v in _walk(doc):
@@ -714,7 +722,7 @@ def _check_json(out: str, baseline: Any) -> None:
     # a number is a non-finite result.
     numbers, nulls = _numeric_paths(baseline)
     _, now_null = _numeric_paths(doc)
-    became_null = sorted((now_null & numbers) - nulls)
+    became_null = sorted((now_null & numbers) - nulls - MAY_BE_NULL)
     assert not became_null, f"null (non-finite) where a number is expected: {became_null}"
 
 

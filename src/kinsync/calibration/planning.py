@@ -188,11 +188,16 @@ class PlanResult:
 
 @dataclass(frozen=True, eq=False)
 class _Knots:
-    """Each line's pose-error knots, ``corr_time_s / 3`` apart, and their correlation."""
+    """Each line's pose-error knots, ``corr_time_s / 3`` apart, and their correlation.
+
+    ``R`` is block-diagonal (lines are independent): only each line's block is kept,
+    ``blocks[line]`` (n_line, n_line); ``size`` is the number of knots over all lines.
+    """
 
     times: dict[int, FloatArray]
     first: dict[int, int]
-    R: FloatArray
+    blocks: dict[int, FloatArray]
+    size: int
 
     @classmethod
     def build(
@@ -206,13 +211,20 @@ class _Knots:
             count = max(2, int(np.ceil(3.0 * (t1 - t0) / corr_time_s)) + 1)
             times[li], first[li] = np.linspace(t0, t1, count), n
             n += count
-        R = np.zeros((n, n))
-        for li, kt in times.items():
-            j = first[li]
-            R[j : j + kt.size, j : j + kt.size] = np.exp(
-                -np.abs(kt[:, None] - kt[None, :]) / corr_time_s
-            )
-        return cls(times, first, R)
+        blocks = {
+            li: np.exp(-np.abs(kt[:, None] - kt[None, :]) / corr_time_s) for li, kt in times.items()
+        }
+        return cls(times, first, blocks, n)
+
+    def covariance_quadratic(self, U: FloatArray, pose_sd: FloatArray) -> FloatArray:
+        """``U (R (x) diag(pose_sd^2)) U'`` for ``U`` (k, 6 K), line block by line block."""
+        k = U.shape[0]
+        out = np.zeros((k, k))
+        for li, block in self.blocks.items():
+            j = 6 * self.first[li]
+            u = U[:, j : j + 6 * block.shape[0]].reshape(k, block.shape[0], 6) * pose_sd
+            out += np.einsum("kac,ab,jbc->kj", u, block, u)
+        return out
 
     def design(self, line: IntArray, t: FloatArray, g6: FloatArray) -> sparse.csr_matrix:
         """Sparse ``G`` (n, 6 K): each return's six pose gradients on its two knots."""
@@ -229,7 +241,7 @@ class _Knots:
                 cols[on, c], vals[on, c] = base + c, (1.0 - a) * g6[on, c]
                 cols[on, 6 + c], vals[on, 6 + c] = base + 6 + c, a * g6[on, c]
         rows = np.repeat(np.arange(n), 12)
-        shape = (n, 6 * self.R.shape[0])
+        shape = (n, 6 * self.size)
         return sparse.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=shape)
 
 
@@ -280,8 +292,8 @@ def _navigation_gradients(
     frame: LocalFrame,
     err: NavigationErrors,
     scales: Sequence[float],
-) -> tuple[FloatArray, FloatArray]:
-    """``U = J_theta' W (I - H_f) G`` (k, 6 K) and the knots' correlation ``R`` (K, K).
+) -> tuple[FloatArray, _Knots]:
+    """``U = J_theta' W (I - H_f) G`` (k, 6 K) and the knots (their correlation ``R``).
 
     ``W`` weighs each feature's returns with its noise scale ``scales`` (m, as the
     estimator's per-feature scales) and the incidence factor.
@@ -289,7 +301,7 @@ def _navigation_gradients(
     knots, designs = _pose_designs(
         models, observations, features, values, estimated, frame, err.corr_time_s
     )
-    U = np.zeros((len(estimated), 6 * knots.R.shape[0]))
+    U = np.zeros((len(estimated), 6 * knots.size))
     for fi, feature, ret, _, G in designs:
         grad = feature.gradient_x(ret.x)
         jt = np.einsum("ni,nik->nk", grad, ret.jac)
@@ -299,7 +311,7 @@ def _navigation_gradients(
         WG = sparse.csr_matrix(G.multiply(w[:, None]))
         C_inv_FtWG = np.linalg.pinv(jf.T @ (jf * w[:, None])) @ np.asarray(WG.T @ jf).T
         U += np.asarray((WG.T @ jt).T) - B @ C_inv_FtWG
-    return U, knots.R
+    return U, knots
 
 
 def _navigation_scatter(
@@ -324,8 +336,7 @@ def _navigation_scatter(
     pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
     chol: dict[int, FloatArray] = {}
     for li, kt in knots.times.items():
-        j = knots.first[li]
-        block = knots.R[j : j + kt.size, j : j + kt.size]
+        block = knots.blocks[li]
         chol[li] = np.kron(np.linalg.cholesky(block + 1e-12 * np.eye(kt.size)), np.diag(pose_sd))
     out = [0.0] * len(features)
     for fi, feature, ret, lines, G_rows in designs:
@@ -377,11 +388,11 @@ def _predicted(
     S0_inv = np.asarray(np.linalg.pinv(normal([noise] * len(features))), dtype=np.float64)
     S_inv = np.asarray(np.linalg.pinv(normal(scales)), dtype=np.float64)
     M_noise = normal([s * s / noise for s in scales])
-    U, R = _navigation_gradients(
+    U, knots = _navigation_gradients(
         models, observations, features, values, estimated, frame, err, scales
     )
     pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
-    middle = U @ np.kron(R, np.diag(pose_sd**2)) @ U.T
+    middle = knots.covariance_quadratic(U, pose_sd)
     cov = np.asarray(S_inv @ (M_noise + middle) @ S_inv, dtype=np.float64)
     return cov, S0_inv
 
