@@ -330,10 +330,20 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
     [("--lever-std-m", "0.01,0.02", "expected one number or three"),
      ("--lever-std-m", "-0.01", ">= 0"),
      ("--boresight-std-deg", "400", "--boresight-std-deg"),
-     ("--lever-std-m", "2000", "--lever-std-m")],
+     ("--lever-std-m", "2000", "--lever-std-m"),
+     ("--lever-std-m", "5", "a sigma beyond 1 is a unit mistake"),
+     ("--latency-std-ms", "nan", "--latency-std-ms"),
+     ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span")],
 )  # fmt: skip
 def test_plan_refuses_bad_held_sigma(
     run_cli: RunCli, assert_one_line_error: OneLineError, option: str, value: str, expect: str
 ) -> None:
     code, out, err = run_cli(["calibrate", "plan", option, value])
     assert_one_line_error(code, out, err, expect)
+
+
+def test_plan_says_when_a_held_sigma_is_not_used(run_cli: RunCli) -> None:
+    code, out, err = run_cli(["calibrate", "plan", "--passes", "1", "--latency-std-ms", "1"])
+    assert code == 0, err
+    assert "note: --latency-std-ms is not used: the plan estimates latency_ms" in out
+    assert "held" not in out.splitlines()[2]  # no held column: nothing with a sigma is held

@@ -41,7 +41,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
         -10_000.0, 10_000.0, "ms", "a latency beyond 10 s is a time-scale error"
     ),
     "--gps-week": Bounds(0, 10_000, "", "GPS weeks since 1980"),
-    "--latency-std-ms": Bounds(0.0, 10_000.0, "ms", "as a mount file's latency sigma"),
+    "--latency-std-ms": Bounds(
+        0.0, 100.0, "ms", "beyond, a unit mistake or too poorly known to plan with"
+    ),
     "--t0-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
     "--offset-s": Bounds(-_GPS_S_MAX, _GPS_S_MAX, "s"),
     "--drift-ppm": Bounds(-100_000.0, 100_000.0, "ppm"),
@@ -78,6 +80,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--position-std-m": Bounds(0.0, 100.0, "m"),
     "--position-corr-time-s": Bounds(0.0, 1e6, "s"),
     "--corr-time-s": Bounds(0.1, 1e5, "s", "the simulated errors are sampled at this scale"),
+    ("calibrate plan", "--corr-time-s"): Bounds(
+        1.0, 1e5, "s", "the plan represents the errors at knots a third of it apart"
+    ),
     "--trajectory-noise-m": Bounds(0.0, 100.0, "m"),
     # platform and record
     "--speed-m-s": Bounds(0.0, 1_000.0, "m/s"),

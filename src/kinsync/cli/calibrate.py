@@ -22,6 +22,7 @@ from kinsync.progress import Stages
 
 if TYPE_CHECKING:
     from kinsync.calibration.estimator import CalibrationOptions
+    from kinsync.calibration.planning import PlanResult
     from kinsync.calibration.result import CalibrationResult
 
 app = typer.Typer(
@@ -250,7 +251,7 @@ def plan(
     ] = None,
     latency_std_ms: Annotated[
         float | None,
-        typer.Option("--latency-std-ms", help="As --lever-std-m, for the latency (ms).", min=0),
+        typer.Option("--latency-std-ms", help="As --lever-std-m, for the latency (ms)."),
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -278,11 +279,13 @@ def plan(
     sim = simulate_patch_test(config)
     result = plan_calibration(sim.lines, sim.mount_true, opts, errors, held)
     if as_json:
-        print_json(result.as_document())
+        doc = result.as_document()
+        doc["notes"] = _unused_held_sigma(result, held)
+        print_json(doc)
         return
     table = Table(title=f"Calibration plan: {scenario}, {counted(result.n_lines, 'line')}")
     split = any(p.std_held > 0.0 for p in result.parameters)
-    cols = ("parameter", "status", "sigma", "sigma (range noise only)", *(("held",) * split))
+    cols = ("parameter", "status", "sigma", "sigma (no navigation errors)", *(("held",) * split))
     for col in cols:
         table.add_column(col, justify="left" if col in ("parameter", "status") else "right")
     for p in result.parameters:
@@ -293,6 +296,8 @@ def plan(
         for line in result.held.lines():
             console.print(f"held: {line}")
     _print_undetermined(result.unobservable_reasons, result.advice)
+    for note in _unused_held_sigma(result, held):
+        console.print(f"note: {note}")
     console.print(
         "note: against a Monte Carlo of the same designs the planned sigma is optimistic "
         "where trajectory position errors dominate (2.9x for the vehicle's roll boresight, "
@@ -303,30 +308,56 @@ def plan(
 def _held_uncertainty(
     lever_std_m: str | None, boresight_std_deg: str | None, latency_std_ms: float | None
 ) -> MountUncertainty | None:
-    """The planned held values' sigma from the options (None when none is given)."""
+    """The planned held values' sigma from the options (None when none is given).
 
-    def vector(text: str | None, option: str) -> tuple[float, float, float] | None:
+    Each is refused beyond what a mount file's ``[uncertainty]`` is read without a
+    warning (1 m, 5 deg, 100 ms): a unit mistake, or a value too poorly known for the
+    linear propagation the plan makes.
+    """
+    from kinsync.mount import WARN_STD  # noqa: PLC0415
+
+    def vector(text: str | None, option: str, limit: float) -> tuple[float, float, float] | None:
         if text is None:
             return None
         values = _floats(text, option, None)
         if len(values) not in (1, 3):
             msg = f"{option} {text!r}: expected one number or three, got {len(values)}"
             raise InputError(msg)
+        if max(values) > limit:
+            msg = (
+                f"{option} {text!r}: a sigma beyond {limit:g} is a unit mistake or too "
+                "poorly known to plan with; estimate the value instead"
+            )
+            raise InputError(msg)
         x, y, z = values * 3 if len(values) == 1 else values
         return (x, y, z)
 
-    lever = vector(lever_std_m, "--lever-std-m")
-    bore = vector(boresight_std_deg, "--boresight-std-deg")
+    lever = vector(lever_std_m, "--lever-std-m", WARN_STD["lever_arm_body_m"])
+    bore = vector(boresight_std_deg, "--boresight-std-deg", WARN_STD["boresight_rpy_deg"])
     if lever is None and bore is None and latency_std_ms is None:
         return None
     latency = None if latency_std_ms is None else latency_std_ms / 1000.0
-    try:
-        return MountUncertainty(lever, bore, latency)
-    except InputError as err:
-        given = {"lever_arm_body_m": "--lever-std-m", "boresight_rpy_deg": "--boresight-std-deg"}
-        option = next((o for k, o in given.items() if k in str(err)), "--latency-std-ms")
-        msg = f"{option}: {err}"
-        raise InputError(msg) from None
+    return MountUncertainty(lever, bore, latency)
+
+
+def _unused_held_sigma(result: PlanResult, held: MountUncertainty | None) -> list[str]:
+    """A note for each held-value sigma given for values the plan estimates."""
+    if held is None:
+        return []
+    names = {
+        "--lever-std-m": (held.lever_arm_body_m, ("lever_x_m", "lever_y_m", "lever_z_m")),
+        "--boresight-std-deg": (
+            held.boresight_rpy_deg,
+            ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"),
+        ),
+        "--latency-std-ms": (held.latency_s, ("latency_ms",)),
+    }
+    status = {p.name: p.status for p in result.parameters}
+    return [
+        f"{option} is not used: the plan estimates {', '.join(params)}"
+        for option, (given, params) in names.items()
+        if given is not None and all(status[n] in ("estimated", "weak") for n in params)
+    ]
 
 
 def _print_undetermined(reasons: tuple[str, ...], advice: tuple[str, ...]) -> None:
