@@ -36,7 +36,7 @@ from kinsync.report.calibration import overlap_figure
 from kinsync.report.html import Figure, Section, Table
 from kinsync.report.verdict import Check
 from kinsync.sim.patch_config import PatchTestConfig, Scenario
-from kinsync.sim.patch_test import simulate_patch_test, write_patch_test
+from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
 
 __all__ = ["calibration_section"]
 
@@ -60,6 +60,7 @@ class _ScenarioRun:
     plan: PlanResult
     n_points: int
     gps_week: int
+    design: PatchTestSimulation  # the same design without errors, as the plan sees it
 
 
 def _run_scenario(scenario: Scenario, out_dir: Path) -> _ScenarioRun:
@@ -86,11 +87,11 @@ def _run_scenario(scenario: Scenario, out_dir: Path) -> _ScenarioRun:
     )
     plan = plan_calibration(design.lines, design.mount_true, CalibrationOptions(estimate=ALL))
     truth = mount_values(sim.mount_true) * REPORT_SCALE
-    return _ScenarioRun(scenario, truth, run.result, plan, run.n_points, sim.gps_week)
+    return _ScenarioRun(scenario, truth, run.result, plan, run.n_points, sim.gps_week, design)
 
 
-def _held_lever(out_dir: Path, vehicle: _ScenarioRun) -> CalibrationResult:
-    """The vehicle's files again, lever arm held with its stated uncertainty."""
+def _held_lever(out_dir: Path, vehicle: _ScenarioRun) -> tuple[CalibrationResult, PlanResult]:
+    """The vehicle's files again, lever arm held with its stated uncertainty; its plan."""
     folder = out_dir / "patch-test-vehicle"
     unc = MountUncertainty(lever_arm_body_m=(HELD_LEVER_STD_M,) * 3)
     mount_path = folder / "mount_lever_uncertainty.toml"
@@ -102,7 +103,11 @@ def _held_lever(out_dir: Path, vehicle: _ScenarioRun) -> CalibrationResult:
         CalibrationOptions(estimate=HELD_ESTIMATE),
         gps_week=vehicle.gps_week,
     )
-    return run.result
+    design = vehicle.design
+    plan = plan_calibration(
+        design.lines, design.mount_true, CalibrationOptions(estimate=HELD_ESTIMATE), held=unc
+    )
+    return run.result, plan
 
 
 def _held_scores(result: CalibrationResult, truth: np.ndarray) -> tuple[float, float, str]:
@@ -118,9 +123,9 @@ def _held_scores(result: CalibrationResult, truth: np.ndarray) -> tuple[float, f
     return total[0] / total[1], max(r[0] / r[2] for r in rows), total[3]
 
 
-def _held_table(result: CalibrationResult, truth: np.ndarray) -> Table:
+def _held_table(result: CalibrationResult, plan: PlanResult, truth: np.ndarray) -> Table:
     rows = []
-    for i, p in enumerate(result.parameters):
+    for i, (p, planned) in enumerate(zip(result.parameters, plan.parameters, strict=True)):
         determined = p.status in ("estimated", "weak")
         err = p.value - truth[i]
         rows.append(
@@ -133,11 +138,12 @@ def _held_table(result: CalibrationResult, truth: np.ndarray) -> Table:
                 _fmt(abs(err) / p.data_std) if determined else "-",
                 _fmt(p.std),
                 _fmt(abs(err) / p.std) if determined else "-",
+                _fmt(planned.std),
                 p.status,
             ]
         )
     headers = ("parameter", "truth", "calibrated", "error", "sigma, data", "|error| / sigma",
-               "sigma with held lever", "|error| / sigma", "status")  # fmt: skip
+               "sigma with held lever", "|error| / sigma", "planned sigma", "status")  # fmt: skip
     caption = (
         "vehicle patch test, lever arm held (3/-2/4 cm off, stated sigma "
         f"{HELD_LEVER_STD_M * 100:.0f} cm per axis): --estimate boresight,latency"
@@ -300,8 +306,14 @@ def _paragraphs(runs: list[_ScenarioRun]) -> list[str]:
     ]
 
 
-def _held_paragraph(result: CalibrationResult, truth: np.ndarray) -> str:
+def _held_paragraph(result: CalibrationResult, plan: PlanResult, truth: np.ndarray) -> str:
     lat = result.parameter("latency_ms")
+    planned = next(p for p in plan.parameters if p.name == "latency_ms")
+    ratios = [
+        r.std / q.std
+        for r, q in zip(result.parameters, plan.parameters, strict=True)
+        if r.status in ("estimated", "weak") and math.isfinite(q.std) and q.std > 0.0
+    ]
     return (
         "Most surveys hold the lever arm at its taped value and calibrate boresight and "
         "latency. The jackknife over lines cannot see a lever-arm error: every line shares "
@@ -311,7 +323,13 @@ def _held_paragraph(result: CalibrationResult, truth: np.ndarray) -> str:
         f"([uncertainty]), the sigma adds what that error does ({lat.held_std:.2f} ms, "
         "linearised at the solution) and holds the error. The certificate lists how far each "
         "held value moves each estimate; a value taken as exact that would matter is named in "
-        "a warning."
+        "a warning. The planner predicts this before the survey (`kinsync calibrate plan "
+        f"--estimate boresight,latency --lever-std-m {HELD_LEVER_STD_M:g}`): for this "
+        f"design, a latency sigma of {planned.std:.2f} ms (the planned sigma column). The "
+        f"calibration reports {min(ratios, default=math.nan):.1f}-"
+        f"{max(ratios, default=math.nan):.1f} times the planned sigma: how far a held value "
+        "moves an estimate depends on the returns each feature holds, which the plan's "
+        "noise-free design only approximates."
     )
 
 
@@ -350,15 +368,16 @@ def calibration_section(
     for r in runs:
         summary.append(("mount self-calibration", f"simulated {r.scenario} patch test",
                         _summary_text(r)))  # fmt: skip
-    held = _held_lever(out_dir, runs[0])
+    held, held_plan = _held_lever(out_dir, runs[0])
     held_score, data_score, _ = _held_scores(held, runs[0].truth)
-    tables.append(_held_table(held, runs[0].truth))
-    doc["vehicle_lever_held"] = {"truth": runs[0].truth.tolist(), "result": held.as_document()}
+    tables.append(_held_table(held, held_plan, runs[0].truth))
+    doc["vehicle_lever_held"] = {"truth": runs[0].truth.tolist(), "result": held.as_document(),
+                                 "plan": held_plan.as_document()}  # fmt: skip
     summary.append(("mount self-calibration", "vehicle, lever arm held (3 cm stated)",
                     (f"largest error {held_score:.1f} σ with the held lever arm's share, "
                      f"{data_score:.1f} σ without")))  # fmt: skip
     paragraphs = _paragraphs(runs)
-    paragraphs.append(_held_paragraph(held, runs[0].truth))
+    paragraphs.append(_held_paragraph(held, held_plan, runs[0].truth))
     if cidco_folder is not None:
         result, acquired = _cidco(cidco_folder)
         tables += [_cidco_table(result, acquired), _parameter_table(result, "CIDCO mount")]
