@@ -188,7 +188,7 @@ def refuse_unused_gps_week(
     *,
     trajectories: Sequence[Path] = (),
     points: Sequence[Path] = (),
-    sbet_only: Sequence[Path] = (),
+    navigation: Sequence[Path] = (),
 ) -> None:
     """Refuse ``--gps-week`` when no input carries GPS seconds of week.
 
@@ -204,24 +204,23 @@ def refuse_unused_gps_week(
         Trajectory files (CSV, SBET, text exports).
     points : sequence of Path
         Point files (LAS/LAZ take a week when their header says seconds of week).
-    sbet_only : sequence of Path
-        Files that take a week only when they are an SBET (navigation files).
+    navigation : sequence of Path
+        Navigation files (`kinsync.io.nav_csv.read_navigation`: an SBET takes a week).
     """
     if gps_week is None:
         return
     from kinsync._text import first_few  # noqa: PLC0415
     from kinsync.io.las import las_takes_gps_week  # noqa: PLC0415
+    from kinsync.io.nav_csv import navigation_takes_gps_week  # noqa: PLC0415
     from kinsync.io.trajectory import trajectory_takes_gps_week  # noqa: PLC0415
 
-    named = [Path(p) for p in (*trajectories, *points, *sbet_only)]
+    named = [Path(p) for p in (*trajectories, *points, *navigation)]
     if not all(p.is_file() for p in named):
         return  # the reader names the missing input first
-    las = (".las", ".laz")
-    sbet = (".sbet", ".out")
     if (
         any(trajectory_takes_gps_week(p) for p in trajectories)
-        or any(las_takes_gps_week(p) for p in points if p.suffix.lower() in las)
-        or any(p.suffix.lower() in sbet for p in sbet_only)
+        or any(las_takes_gps_week(p) for p in points)
+        or any(navigation_takes_gps_week(p) for p in navigation)
     ):
         return
     names = first_few([str(p) for p in named])

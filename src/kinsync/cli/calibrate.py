@@ -342,21 +342,25 @@ def _held_uncertainty(
 
 def _unused_held_sigma(result: PlanResult, held: MountUncertainty | None) -> list[str]:
     """A note for each held-value sigma given for values the plan estimates."""
+    from kinsync.calibration.parameters import (  # noqa: PLC0415
+        BORESIGHT,
+        LATENCY,
+        LEVER,
+        PARAMETER_NAMES,
+    )
+
     if held is None:
         return []
-    names = {
-        "--lever-std-m": (held.lever_arm_body_m, ("lever_x_m", "lever_y_m", "lever_z_m")),
-        "--boresight-std-deg": (
-            held.boresight_rpy_deg,
-            ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"),
-        ),
-        "--latency-std-ms": (held.latency_s, ("latency_ms",)),
+    groups = {
+        "--lever-std-m": (held.lever_arm_body_m, LEVER),
+        "--boresight-std-deg": (held.boresight_rpy_deg, BORESIGHT),
+        "--latency-std-ms": (held.latency_s, (LATENCY,)),
     }
-    status = {p.name: p.status for p in result.parameters}
+    status = [p.status for p in result.parameters]
     return [
-        f"{option} is not used: the plan estimates {', '.join(params)}"
-        for option, (given, params) in names.items()
-        if given is not None and all(status[n] in ("estimated", "weak") for n in params)
+        f"{option} is not used: the plan estimates " + ", ".join(PARAMETER_NAMES[i] for i in group)
+        for option, (given, group) in groups.items()
+        if given is not None and all(status[i] in ("estimated", "weak") for i in group)
     ]
 
 

@@ -395,7 +395,7 @@ def compare(
     from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
     from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
-    refuse_unused_gps_week(gps_week, sbet_only=[solution_path, truth_path])
+    refuse_unused_gps_week(gps_week, navigation=[solution_path, truth_path])
     solution = read_navigation(solution_path, gps_week=gps_week)
     truth = read_navigation(truth_path, gps_week=gps_week)
     if isinstance(truth, NavSolution):

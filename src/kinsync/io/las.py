@@ -38,7 +38,7 @@ import numpy as np
 from kinsync.errors import InputError
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
 from kinsync.io.las_crs import las_crs
-from kinsync.io.las_header import las_header, open_las_file, read_las_layout
+from kinsync.io.las_header import las_header, las_suffix, open_las_file, read_las_layout
 from kinsync.io.laz_chunks import LazChunks
 from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale
@@ -194,11 +194,15 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
 
 
 def las_takes_gps_week(path: Path) -> bool:
-    """Whether a GPS week applies to this LAS/LAZ file: its header says seconds of week.
+    """Whether a GPS week applies to this point file: a LAS/LAZ header saying seconds of week.
 
-    A file whose header cannot be read is counted as taking one: its reader names what
-    is wrong.
+    False for any other kind of file (a table carries GPS time). A LAS/LAZ file whose
+    header cannot be read is counted as taking one: its reader names what is wrong.
     """
+    try:
+        las_suffix(Path(path))
+    except InputError:
+        return False
     try:
         return las_info(path).gps_time_type == "week"
     except InputError:

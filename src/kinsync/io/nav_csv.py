@@ -64,6 +64,7 @@ __all__ = [
     "NAV_COLUMNS",
     "NAV_SCALE_COLUMNS",
     "NAV_STD_COLUMNS",
+    "navigation_takes_gps_week",
     "read_nav_csv",
     "read_navigation",
     "read_truth_csv",
@@ -328,6 +329,11 @@ def write_truth_csv(trajectory: Trajectory, path: Path) -> None:
 def _csv_header(path: Path) -> list[str]:
     check_text_file(path, "navigation CSV file")
     return [h.strip() for h in csv_header_row(path) or []]
+
+
+def navigation_takes_gps_week(path: Path) -> bool:
+    """Whether a GPS week applies to this navigation file (`read_navigation`): an SBET."""
+    return Path(path).suffix.lower() in _SBET_SUFFIXES
 
 
 def read_navigation(path: Path, *, gps_week: int | None = None) -> NavSolution | Trajectory:
