@@ -55,6 +55,26 @@ def test_sigma_scales_with_the_assumed_errors() -> None:
         )
 
 
+def test_position_sigma_per_axis() -> None:
+    one = _plan(NavigationErrors(position_std_m=0.02))
+    same = _plan(NavigationErrors(position_std_m=(0.02, 0.02, 0.02)))
+    worse_height = _plan(NavigationErrors(position_std_m=(0.02, 0.02, 0.06)))
+    worse_north = _plan(NavigationErrors(position_std_m=(0.06, 0.02, 0.02)))
+    for p, q in zip(one.parameters, same.parameters, strict=True):
+        assert p.std == q.std or (math.isnan(p.std) and math.isnan(q.std))
+    # The roll boresight is told by the ground's heights; a north error hardly moves it.
+    roll = [_std(p, "boresight_roll_deg") for p in (one, worse_height, worse_north)]
+    assert roll[1] > 1.2 * roll[0], roll
+    assert roll[2] < roll[1], roll
+    assert worse_height.as_document()["assumed_errors"]["position_std_m"] == [0.02, 0.02, 0.06]
+
+
+@pytest.mark.parametrize("bad", [(0.02, 0.02), (0.02, math.nan, 0.02), (0.02, 0.02, -0.01)])
+def test_position_sigma_refused(bad: tuple[float, ...]) -> None:
+    with pytest.raises(InputError, match=r"position sigma|planning errors"):
+        NavigationErrors(position_std_m=bad)  # type: ignore[arg-type]
+
+
 def test_one_speed_leaves_the_latency_undetermined() -> None:
     plan = _plan(speeds_m_s=(8.0,))
     assert {p.name: p.status for p in plan.parameters}["latency_ms"] != "estimated"

@@ -312,6 +312,20 @@ def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:
     assert one["latency_ms"]["status"] != "estimated"
 
 
+def test_plan_takes_the_position_sigma_per_axis(run_cli: RunCli) -> None:
+    base = ["calibrate", "plan", "--passes", "1", "--json"]
+    docs = []
+    for value in ("0.02", "0.02,0.02,0.06"):
+        code, out, err = run_cli([*base, "--position-std-m", value])
+        assert code == 0, err
+        docs.append(json.loads(out))
+    assert docs[0]["assumed_errors"]["position_std_m"] == [0.02, 0.02, 0.02]
+    assert docs[1]["assumed_errors"]["position_std_m"] == [0.02, 0.02, 0.06]
+    # A worse height: the roll boresight, told by the ground's heights, is known worse.
+    roll = [d["parameters"]["boresight_roll_deg"]["std"] for d in docs]
+    assert roll[1] > 1.2 * roll[0], roll
+
+
 def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
     base = ["calibrate", "plan", "--passes", "1", "--estimate", "boresight,latency"]
     code, out, err = run_cli([*base, "--lever-std-m", "0.02", "--latency-std-ms", "3"])
@@ -333,6 +347,8 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
      ("--lever-std-m", "2000", "--lever-std-m"),
      ("--lever-std-m", "5", "a sigma beyond 1 is a unit mistake"),
      ("--latency-std-ms", "nan", "--latency-std-ms"),
+     ("--position-std-m", "0.02,0.03", "expected one number or three"),
+     ("--position-std-m", "0.02,-0.03,0.03", ">= 0"),
      ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span")],
 )  # fmt: skip
 def test_plan_refuses_bad_held_sigma(

@@ -88,8 +88,9 @@ class NavigationErrors:
     ----------
     range_noise_m : float
         Scanner range noise along the beam (m).
-    position_std_m : float
-        Trajectory position error, per axis (m).
+    position_std_m : float or tuple of 3 float
+        Trajectory position error (m): one sigma for every axis, or N, E, D (a
+        GNSS/INS height is typically 1.5-2 times worse than its horizontal position).
     attitude_std_deg : tuple of 3 float
         Trajectory misorientation about N, E, D (deg).
     corr_time_s : float
@@ -97,12 +98,15 @@ class NavigationErrors:
     """
 
     range_noise_m: float = 0.01
-    position_std_m: float = 0.02
+    position_std_m: float | tuple[float, float, float] = 0.02
     attitude_std_deg: tuple[float, float, float] = (0.005, 0.005, 0.01)
     corr_time_s: float = 15.0
 
     def __post_init__(self) -> None:
-        values = (self.range_noise_m, self.position_std_m, *self.attitude_std_deg)
+        if not isinstance(self.position_std_m, int | float) and len(self.position_std_m) != 3:
+            msg = f"position sigma: one number or N, E, D, got {self.position_std_m!r}"
+            raise InputError(msg)
+        values = (self.range_noise_m, *self.position_std_ned_m, *self.attitude_std_deg)
         if not all(math.isfinite(v) and v >= 0.0 for v in values) or self.range_noise_m <= 0:
             msg = (
                 "planning errors must be finite and >= 0 (range noise > 0), got "
@@ -112,6 +116,20 @@ class NavigationErrors:
         if not (math.isfinite(self.corr_time_s) and self.corr_time_s > 0.0):
             msg = f"--corr-time-s must be a number of seconds > 0, got {self.corr_time_s!r}"
             raise InputError(msg)
+
+    @property
+    def position_std_ned_m(self) -> tuple[float, float, float]:
+        """The position sigma per axis, N, E, D (m)."""
+        p = self.position_std_m
+        if isinstance(p, int | float):
+            return (float(p), float(p), float(p))
+        return (float(p[0]), float(p[1]), float(p[2]))
+
+    @property
+    def pose_std(self) -> FloatArray:
+        """Position N, E, D (m) and misorientation about N, E, D (rad), shape (6,)."""
+        att = [math.radians(a) for a in self.attitude_std_deg]
+        return np.array([*self.position_std_ned_m, *att])
 
 
 @dataclass(frozen=True)
@@ -180,7 +198,7 @@ class PlanResult:
             "advice": list(self.advice),
             "assumed_errors": {
                 "range_noise_m": self.errors.range_noise_m,
-                "position_std_m": self.errors.position_std_m,
+                "position_std_m": list(self.errors.position_std_ned_m),
                 "attitude_std_deg": list(self.errors.attitude_std_deg),
                 "corr_time_s": self.errors.corr_time_s,
             },
@@ -335,7 +353,7 @@ def _navigation_scatter(
     knots, designs = _pose_designs(
         models, observations, features, values, (), frame, err.corr_time_s
     )
-    pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
+    pose_sd = err.pose_std
     chol: dict[int, FloatArray] = {}
     for li, kt in knots.times.items():
         block = knots.blocks[li]
@@ -393,7 +411,7 @@ def _predicted(
     U, knots = _navigation_gradients(
         models, observations, features, values, estimated, frame, err, scales
     )
-    pose_sd = np.array([err.position_std_m] * 3 + [math.radians(a) for a in err.attitude_std_deg])
+    pose_sd = err.pose_std
     middle = knots.covariance_quadratic(U, pose_sd)
     cov = np.asarray(S_inv @ (M_noise + middle) @ S_inv, dtype=np.float64)
     return cov, S0_inv

@@ -219,9 +219,13 @@ def plan(
         float, typer.Option("--range-noise-m", help="Scanner range noise (m).")
     ] = 0.01,
     position_std_m: Annotated[
-        float,
-        typer.Option("--position-std-m", help="Trajectory position error, per axis (m)."),
-    ] = 0.02,
+        str,
+        typer.Option(
+            "--position-std-m",
+            help="Trajectory position error (m): one sigma for every axis, or N,E,D "
+            "(heights are often 1.5-2 times worse).",
+        ),
+    ] = "0.02",
     attitude_std_deg: Annotated[
         str,
         typer.Option(
@@ -262,7 +266,12 @@ def plan(
     opts = _options(features, estimate, None)
     held = _held_uncertainty(lever_std_m, boresight_std_deg, latency_std_ms)
     att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
-    errors = NavigationErrors(range_noise_m, position_std_m, (att[0], att[1], att[2]), corr_time_s)
+    pos = _floats(position_std_m, "--position-std-m", None)
+    if len(pos) not in (1, 3):
+        msg = f"--position-std-m {position_std_m!r}: expected one number or three, got {len(pos)}"
+        raise InputError(msg)
+    pos_ned = (pos[0], pos[0], pos[0]) if len(pos) == 1 else (pos[0], pos[1], pos[2])
+    errors = NavigationErrors(range_noise_m, pos_ned, (att[0], att[1], att[2]), corr_time_s)
     speeds = None if speeds_m_s is None else _floats(speeds_m_s, "--speeds-m-s", None)
     if scenario not in ("vehicle", "vessel"):
         msg = f"--scenario must be vehicle or vessel, got {scenario!r}"
