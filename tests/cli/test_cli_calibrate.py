@@ -349,6 +349,8 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
      ("--latency-std-ms", "nan", "--latency-std-ms"),
      ("--position-std-m", "0.02,0.03", "expected one number or three"),
      ("--position-std-m", "0.02,-0.03,0.03", ">= 0"),
+     ("--position-std-m", "0.02,0.02,500", "--position-std-m 500: outside the span"),
+     ("--attitude-std-deg", "0.005,0.005,30", "--attitude-std-deg 30: outside the span"),
      ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span")],
 )  # fmt: skip
 def test_plan_refuses_bad_held_sigma(

@@ -78,6 +78,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     # noise and navigation errors
     "--range-noise-m": Bounds(0.0, 1.0, "m", "a scanner noisier than 1 m is not calibrated"),
     "--position-std-m": Bounds(0.0, 100.0, "m"),
+    ("calibrate plan", "--attitude-std-deg"): Bounds(
+        0.0, 5.0, "deg", "a patch test refines a trajectory known to a fraction of a degree"
+    ),
     "--position-corr-time-s": Bounds(0.0, 1e6, "s"),
     "--corr-time-s": Bounds(0.1, 1e5, "s", "the simulated errors are sampled at this scale"),
     ("calibrate plan", "--corr-time-s"): Bounds(

@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._bounds import check_numeric_option
 from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json
@@ -393,4 +394,6 @@ def _floats(text: str, option: str, count: int | None) -> tuple[float, ...]:
     if not all(math.isfinite(v) and v >= 0.0 for v in values):
         msg = f"{option} {text!r}: every value must be a finite number >= 0"
         raise InputError(msg)
+    for v in values:
+        check_numeric_option("calibrate plan", option, v)
     return values
