@@ -29,6 +29,11 @@ holds what the held lever arm's error does (`kinsync.calibration.held`). The col
 ``ratio data`` is the same ratio with the data's sigma alone (the jackknife, as before
 the held parameters were considered): the baseline.
 
+``planned`` and ``sd/planned``: the planner's sigma (`kinsync.calibration.planning`) for
+the same design at the same density, without errors, given the errors the simulation
+draws (``NavigationErrors`` from the config), and the empirical spread over it: 1 when
+the plan predicts what the survey will show.
+
 ``density`` thins the beams (0.1 keeps the run to about 12 s). Run: ``make bench``, or
 ``.venv/bin/python benchmarks/bench_calibration_sigma.py [--runs N] [--density D]
 [--workers W] [--scenario vehicle|vessel] [--estimate GROUPS] [--lever-std-m S]``.
@@ -49,6 +54,7 @@ from scipy.stats import t as student_t
 from kinsync._typing import FloatArray
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
 from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE, mount_values
+from kinsync.calibration.planning import NavigationErrors, plan_calibration
 from kinsync.mount import MountUncertainty
 from kinsync.sim.patch_config import PatchTestConfig, Scenario
 from kinsync.sim.patch_test import simulate_patch_test
@@ -93,12 +99,28 @@ def _one_run(args: tuple[Scenario, float, int, str, float]) -> Run:
     )
 
 
+def _planned(scenario: Scenario, density: float, estimate: str, lever_std_m: float) -> FloatArray:
+    """The planner's sigma of each parameter (report units, NaN where not estimated) for
+    the design, given the errors the simulation draws, shape (7,)."""
+    drawn = PatchTestConfig(scenario=scenario, density=density)
+    design = simulate_patch_test(
+        replace(drawn, range_noise_m=0.0, std_pos_ned_m=(0.0,) * 3, std_att_deg=(0.0,) * 3)
+    )
+    errors = NavigationErrors(
+        drawn.range_noise_m, drawn.std_pos_ned_m, drawn.std_att_deg, drawn.error_corr_time_s
+    )
+    held = MountUncertainty(lever_arm_body_m=(lever_std_m,) * 3) if lever_std_m > 0 else None
+    options = CalibrationOptions(estimate=tuple(estimate.split(",")))
+    plan = plan_calibration(design.lines, design.mount_true, options, errors, held)
+    return np.array([p.std for p in plan.parameters])
+
+
 def _rms(values: FloatArray) -> float:
     ok = np.isfinite(values)
     return float(np.sqrt(np.mean(values[ok] ** 2))) if np.any(ok) else math.nan
 
 
-def _report(scenario: str, results: list[Run], wall_s: float) -> None:
+def _report(scenario: str, results: list[Run], wall_s: float, planned: FloatArray) -> None:
     err = np.array([r[0] for r in results])
     jk = np.array([r[1] for r in results])
     formal = np.array([r[2] for r in results])
@@ -109,7 +131,7 @@ def _report(scenario: str, results: list[Run], wall_s: float) -> None:
     head = (
         f"{'parameter':20s} {'estimated':>9s} {'bias/sd':>8s} {'sd':>10s} {'RMS sigma':>10s} "
         f"{'ratio':>6s} {'out 95%':>8s} {'ratio data':>10s} {'out data':>8s} "
-        f"{'RMS formal':>10s} {'ratio formal':>12s}"
+        f"{'RMS formal':>10s} {'ratio formal':>12s} {'planned':>9s} {'sd/planned':>10s}"
     )
     print(head)
     for i, name in enumerate(PARAMETER_NAMES):
@@ -126,7 +148,8 @@ def _report(scenario: str, results: list[Run], wall_s: float) -> None:
         print(
             f"{name:20s} {n:9d} {np.mean(e) / sd:8.2f} {sd:10.3g} {rms_jk:10.3g} "
             f"{sd / rms_jk:6.2f} {outside:8.2f} {sd / rms_data:10.2f} {outside_data:8.2f} "
-            f"{rms_formal:10.3g} {sd / rms_formal:12.1f}"
+            f"{rms_formal:10.3g} {sd / rms_formal:12.1f} {planned[i]:9.3g} "
+            f"{sd / planned[i]:10.2f}"
         )
 
 
@@ -160,7 +183,9 @@ def main() -> None:
         ]
         with ProcessPoolExecutor(max_workers=args.workers) as pool:
             results = list(pool.map(_one_run, jobs))
-        _report(scenario, results, time.perf_counter() - t0)
+        wall_s = time.perf_counter() - t0
+        planned = _planned(scenario, args.density, args.estimate, args.lever_std_m)
+        _report(scenario, results, wall_s, planned)
         if args.lever_std_m > 0.0:
             # The held part can be no more honest than the draws are typical: with 30
             # runs one axis's spread is often 0.75 or 1.25 of the stated sigma.

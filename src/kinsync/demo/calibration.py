@@ -22,7 +22,7 @@ import numpy as np
 
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
 from kinsync.calibration.parameters import REPORT_SCALE, mount_values
-from kinsync.calibration.planning import PlanResult, plan_calibration
+from kinsync.calibration.planning import NavigationErrors, PlanResult, plan_calibration
 from kinsync.calibration.result import CalibrationResult
 from kinsync.demo.files import write_section_files
 from kinsync.demo.tolerances import SIGMA_CONSISTENT
@@ -63,6 +63,13 @@ class _ScenarioRun:
     design: PatchTestSimulation  # the same design without errors, as the plan sees it
 
 
+def _drawn_errors(config: PatchTestConfig) -> NavigationErrors:
+    """The errors the simulation draws, as the plan takes them."""
+    return NavigationErrors(
+        config.range_noise_m, config.std_pos_ned_m, config.std_att_deg, config.error_corr_time_s
+    )
+
+
 def _run_scenario(scenario: Scenario, out_dir: Path) -> _ScenarioRun:
     """Simulate, write the files, calibrate them as the CLI does, plan the same design."""
     config = PatchTestConfig(scenario=scenario, density=DENSITY[scenario], seed=SEED[scenario])
@@ -85,7 +92,9 @@ def _run_scenario(scenario: Scenario, out_dir: Path) -> _ScenarioRun:
             std_att_deg=(0.0, 0.0, 0.0),
         )
     )
-    plan = plan_calibration(design.lines, design.mount_true, CalibrationOptions(estimate=ALL))
+    plan = plan_calibration(
+        design.lines, design.mount_true, CalibrationOptions(estimate=ALL), _drawn_errors(config)
+    )
     truth = mount_values(sim.mount_true) * REPORT_SCALE
     return _ScenarioRun(scenario, truth, run.result, plan, run.n_points, sim.gps_week, design)
 
@@ -105,7 +114,11 @@ def _held_lever(out_dir: Path, vehicle: _ScenarioRun) -> tuple[CalibrationResult
     )
     design = vehicle.design
     plan = plan_calibration(
-        design.lines, design.mount_true, CalibrationOptions(estimate=HELD_ESTIMATE), held=unc
+        design.lines,
+        design.mount_true,
+        CalibrationOptions(estimate=HELD_ESTIMATE),
+        vehicle.plan.errors,
+        held=unc,
     )
     return run.result, plan
 
