@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -15,8 +16,10 @@ from kinsync.mount import (
     MAX_ANGLE_DEG,
     MAX_LATENCY_S,
     MAX_LEVER_ARM_M,
+    MOUNT_PARAMETER_NAMES,
     Mount,
     MountUncertainty,
+    StdCorrelation,
     mount_from_toml_text,
     mount_to_toml_text,
 )
@@ -148,3 +151,94 @@ def test_plausible_uncertainty_reads_without_a_warning() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         mount_from_toml_text(text)
+
+
+# ---- [uncertainty.correlation] -------------------------------------------------------
+
+NOT_PSD = (
+    'parameters = ["lever_x_m", "lever_y_m", "latency_ms"]\n'
+    "matrix = [[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]\n"
+)
+CORR = (
+    "[uncertainty]\nlever_arm_body_m = [0.02, 0.02, 0.03]\nlatency_s = 0.002\n"
+    "[uncertainty.correlation]\n"
+)
+
+
+@st.composite
+def correlated(draw: st.DrawFn) -> MountUncertainty:
+    """An uncertainty whose values' errors are correlated: a random correlation matrix
+    (a Gram matrix of unit vectors) over a random subset of the known values."""
+    names = draw(
+        st.lists(st.sampled_from(MOUNT_PARAMETER_NAMES), min_size=2, max_size=7, unique=True)
+    )
+    unit = st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: sum(x * x for x in v) > 0.01)
+    vectors = np.array(draw(st.lists(unit, min_size=len(names), max_size=len(names))))
+    vectors /= np.linalg.norm(vectors, axis=1, keepdims=True)
+    matrix = vectors @ vectors.T
+    np.fill_diagonal(matrix, 1.0)
+    rows = tuple(tuple(float(v) for v in row) for row in matrix)
+    return MountUncertainty(
+        lever_arm_body_m=(0.01, 0.02, 0.03),
+        boresight_rpy_deg=(0.05, 0.05, 0.1),
+        latency_s=0.0005,
+        correlation=StdCorrelation(tuple(names), rows),
+    )
+
+
+@settings(max_examples=100, deadline=None)
+@given(unc=correlated())
+def test_correlation_round_trips_exactly(unc: MountUncertainty) -> None:
+    mount = Mount(uncertainty=unc)
+    assert mount_from_toml_text(mount_to_toml_text(mount)) == mount
+
+
+def test_correlation_reads_and_documents() -> None:
+    text = (
+        BASE + CORR + 'parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, -0.8], [-0.8, 1]]\n'
+    )
+    unc = mount_from_toml_text(text).uncertainty
+    assert unc is not None
+    assert unc.correlation is not None
+    assert unc.correlation.parameters == ("lever_x_m", "latency_ms")
+    assert unc.correlation.matrix == ((1.0, -0.8), (-0.8, 1.0))
+    assert unc.as_document()["correlation"] == {
+        "parameters": ["lever_x_m", "latency_ms"],
+        "matrix": [[1.0, -0.8], [-0.8, 1.0]],
+    }
+    assert MountUncertainty(latency_s=0.001).as_document()["correlation"] is None
+
+
+@pytest.mark.parametrize(
+    ("table", "pattern"),
+    [
+        ('parameters = ["lever_x_m", "lever_q_m"]\nmatrix = [[1, 0], [0, 1]]\n',
+         r"unknown name\(s\) \['lever_q_m'\]"),
+        ('parameters = ["lever_x_m", "lever_x_m"]\nmatrix = [[1, 0], [0, 1]]\n', "two distinct"),
+        ('parameters = ["lever_x_m"]\nmatrix = [[1]]\n', "at least two"),
+        ('parameters = "lever_x_m"\nmatrix = [[1]]\n', "a list of names"),
+        ("parameters = [1, 2]\nmatrix = [[1, 0], [0, 1]]\n", r"names \(text\)"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0]]\n', "2 rows of 2"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0.5, 1]]\n',
+         "not symmetric"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[2, 0], [0, 1]]\n', "diagonal"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 1.5], [1.5, 1]]\n',
+         r"beyond \[-1, 1\]"),
+        (NOT_PSD, "positive semidefinite"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, nan], [nan, 1]]\n', "not finite"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, "0"], ["0", 1]]\n', "a number"),
+        ('parameters = ["lever_x_m", "boresight_roll_deg"]\nmatrix = [[1, 0], [0, 1]]\n',
+         r"does not give \(boresight_rpy_deg\)"),
+        ('parameters = ["lever_x_m", "latency_ms"]\n', "exactly parameters"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 1]]\nnote = 1\n',
+         "exactly parameters"),
+    ],
+    ids=["unknown-name", "duplicate", "one-name", "names-not-list", "names-not-text",
+         "not-square", "asymmetric", "diagonal", "beyond-one", "not-psd", "nan", "text",
+         "no-sigma", "no-matrix", "extra-key"],
+)  # fmt: skip
+def test_bad_correlation_is_refused_naming_file_and_table(table: str, pattern: str) -> None:
+    with pytest.raises(InputError, match=pattern) as info:
+        mount_from_toml_text(BASE + CORR + table, source="cfg/mount.toml")
+    assert str(info.value).startswith("cfg/mount.toml: ")
+    assert "correlation" in str(info.value)

@@ -16,6 +16,10 @@ The TOML schema (exactly these keys)::
     boresight_rpy_deg = [0.05, 0.05, 0.1]   # deg
     latency_s = 0.0005                      # s (e.g. from `kinsync latency sphere`)
 
+    [uncertainty.correlation]   # optional: correlation coefficients of those errors
+    parameters = ["lever_x_m", "latency_ms"]   # of MOUNT_PARAMETER_NAMES, each with a sigma
+    matrix = [[1.0, -0.8], [-0.8, 1.0]]        # symmetric, unit diagonal, positive semidefinite
+
 ``latency_s`` is required: the latency is what kinsync measures, and a file without it
 must not silently mean zero (write ``latency_s = 0.0`` when zero is meant). A missing
 lever arm or boresight means zero. Values a mount cannot have are refused on reading:
@@ -27,7 +31,11 @@ values (estimators and simulators build mounts freely).
 parameter (not estimated, or not determined by the data) adds to the sigma of those it
 estimates (`kinsync.calibration.held`), and what `kinsync calibrate mount` writes for
 the parameters it calibrated. A key left out is not known; a standard deviation is
-finite and not negative, and no larger than the value's own bound.
+finite and not negative, and no larger than the value's own bound. The correlation
+table says how the errors go together: a calibration's estimates are correlated (a
+latency and a lever arm x told apart by the same speed changes), and a later
+calibration that holds several of them adds ``D Sigma D'`` with the full ``Sigma``.
+Values it does not name are uncorrelated with the others.
 
 `toml_document` is the one TOML parser of kinsync's readers (mounts, INS
 configurations): it accepts a UTF-8 byte-order mark and names the line and column of a
@@ -56,8 +64,10 @@ __all__ = [
     "MAX_LATENCY_S",
     "MAX_LEVER_ARM_M",
     "MAX_PROFILE_ANGLE_RAD",
+    "MOUNT_PARAMETER_NAMES",
     "Mount",
     "MountUncertainty",
+    "StdCorrelation",
     "mount_from_toml_text",
     "mount_to_toml_text",
     "toml_document",
@@ -67,6 +77,29 @@ Vector3 = tuple[float, float, float]
 
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
 _UNCERTAINTY_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s")
+_CORRELATION_KEYS = ("parameters", "matrix")
+
+MOUNT_PARAMETER_NAMES = (
+    "boresight_roll_deg",
+    "boresight_pitch_deg",
+    "boresight_yaw_deg",
+    "lever_x_m",
+    "lever_y_m",
+    "lever_z_m",
+    "latency_ms",
+)
+"""The seven calibrated values by name, in this order (the names a calibration reports
+and ``[uncertainty.correlation]`` uses)."""
+_NAME_KEY = dict(
+    zip(
+        MOUNT_PARAMETER_NAMES,
+        ("boresight_rpy_deg",) * 3 + ("lever_arm_body_m",) * 3 + ("latency_s",),
+        strict=True,
+    )
+)
+_CORRELATION_TOLERANCE = 1e-6
+"""Asymmetry, diagonal's distance from 1 and negative eigenvalue a correlation matrix
+may have (rounding of written values)."""
 
 MAX_LATENCY_S = 10.0
 """Largest latency (s, either sign) a mount file may give. Latencies are milliseconds
@@ -195,6 +228,75 @@ def _std_value(value: object, label: str, limit: float) -> float:
 
 
 @dataclass(frozen=True)
+class StdCorrelation:
+    """Correlation coefficients between the errors of some of a mount's values.
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        Distinct names of `MOUNT_PARAMETER_NAMES`, at least two.
+    matrix : tuple of tuple of float
+        Their correlation matrix, (n, n): symmetric, unit diagonal, coefficients in
+        [-1, 1], positive semidefinite (each within `_CORRELATION_TOLERANCE`).
+    """
+
+    parameters: tuple[str, ...]
+    matrix: tuple[tuple[float, ...], ...]
+
+    def __post_init__(self) -> None:
+        where = "mount [uncertainty.correlation]"
+        names = self.parameters
+        if isinstance(names, str) or not isinstance(names, Sequence):
+            msg = f"{where} parameters: expected a list of names, got {names!r}"
+            raise InputError(msg)
+        unknown = [n for n in names if n not in MOUNT_PARAMETER_NAMES]
+        if unknown:
+            msg = (
+                f"{where} parameters: unknown name(s) {unknown}; expected some of "
+                f"{', '.join(MOUNT_PARAMETER_NAMES)}"
+            )
+            raise InputError(msg)
+        if len(set(names)) != len(names) or len(names) < 2:
+            msg = f"{where} parameters: expected at least two distinct names, got {list(names)}"
+            raise InputError(msg)
+        n = len(names)
+        rows = self.matrix
+        if (
+            isinstance(rows, str)
+            or not isinstance(rows, Sequence)
+            or len(rows) != n
+            or any(isinstance(r, str) or not isinstance(r, Sequence) or len(r) != n for r in rows)
+        ):
+            msg = f"{where} matrix: expected {n} rows of {n} numbers (one per parameter)"
+            raise InputError(msg)
+        for i, row in enumerate(rows):
+            for j, v in enumerate(row):
+                if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                    msg = f"{where} matrix[{i}][{j}]: expected a number, got {v!r}"
+                    raise InputError(msg)
+        r = np.array(rows, dtype=np.float64)
+        tol = _CORRELATION_TOLERANCE
+        bad = (
+            "not finite" if not np.all(np.isfinite(r))
+            else "its diagonal is not 1" if np.max(np.abs(np.diag(r) - 1.0)) > tol
+            else "not symmetric" if np.max(np.abs(r - r.T)) > tol
+            else "a coefficient is beyond [-1, 1]" if np.max(np.abs(r)) > 1.0 + tol
+            else "not positive semidefinite (no errors can have it)"
+            if np.min(np.linalg.eigvalsh(0.5 * (r + r.T))) < -tol
+            else ""
+        )  # fmt: skip
+        if bad:
+            msg = f"{where} matrix: {bad}; give the correlation matrix of {', '.join(names)}"
+            raise InputError(msg)
+        object.__setattr__(self, "parameters", tuple(str(x) for x in names))
+        object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in rows))
+
+    def as_document(self) -> dict[str, Any]:
+        """``{"parameters": [...], "matrix": [[...], ...]}``."""
+        return {"parameters": list(self.parameters), "matrix": [list(r) for r in self.matrix]}
+
+
+@dataclass(frozen=True)
 class MountUncertainty:
     """Standard deviations (1 sigma) of a mount's values; None where not known.
 
@@ -206,13 +308,33 @@ class MountUncertainty:
         Of the boresight roll, pitch, yaw (deg).
     latency_s : float or None
         Of the latency (s).
+    correlation : StdCorrelation or None
+        How the errors of some of these values go together; None: independent. Every
+        value it names has its standard deviation here.
     """
 
     lever_arm_body_m: Vector3 | None = None
     boresight_rpy_deg: Vector3 | None = None
     latency_s: float | None = None
+    correlation: StdCorrelation | None = None
 
     def __post_init__(self) -> None:
+        if self.correlation is not None:
+            if not isinstance(self.correlation, StdCorrelation):
+                got = self.correlation
+                msg = f"mount [uncertainty] correlation: expected a StdCorrelation, got {got!r}"
+                raise InputError(msg)
+            missing = sorted(
+                {_NAME_KEY[n] for n in self.correlation.parameters}
+                - {k for k in _UNCERTAINTY_KEYS if getattr(self, k) is not None}
+            )
+            if missing:
+                msg = (
+                    f"mount [uncertainty.correlation] names values whose standard deviation "
+                    f"[uncertainty] does not give ({', '.join(missing)}): give them, or leave "
+                    "those values out of the correlation"
+                )
+                raise InputError(msg)
         limits = {"lever_arm_body_m": MAX_LEVER_ARM_M, "boresight_rpy_deg": MAX_ANGLE_DEG}
         for name, limit in limits.items():
             value = getattr(self, name)
@@ -233,7 +355,11 @@ class MountUncertainty:
         return any(getattr(self, k) is not None for k in _UNCERTAINTY_KEYS)
 
     def as_document(self) -> dict[str, Any]:
-        """The table as JSON: each key's standard deviation(s), null where not known."""
+        """The table as JSON.
+
+        Each key's standard deviation(s), null where not known, and ``correlation``
+        (`StdCorrelation.as_document`, null when the errors are independent).
+        """
         return {
             "lever_arm_body_m": (
                 None if self.lever_arm_body_m is None else list(self.lever_arm_body_m)
@@ -242,6 +368,7 @@ class MountUncertainty:
                 None if self.boresight_rpy_deg is None else list(self.boresight_rpy_deg)
             ),
             "latency_s": self.latency_s,
+            "correlation": None if self.correlation is None else self.correlation.as_document(),
         }
 
 
@@ -421,19 +548,41 @@ def _uncertainty_table(table: object, source: str) -> MountUncertainty:
     if not isinstance(table, Mapping):
         msg = f"{source}: [uncertainty] must be a table with {', '.join(_UNCERTAINTY_KEYS)}"
         raise InputError(msg)
-    unknown = sorted(set(table) - set(_UNCERTAINTY_KEYS))
+    unknown = sorted(set(table) - {*_UNCERTAINTY_KEYS, "correlation"})
     if unknown:
         msg = (
             f"{source}: unknown key(s) in [uncertainty]: {unknown}; expected "
             f"{', '.join(_UNCERTAINTY_KEYS)} (standard deviations of the [mount] values, in "
-            "their units)"
+            "their units) and the [uncertainty.correlation] table"
         )
         raise InputError(msg)
+    values = {str(k): v for k, v in table.items() if k != "correlation"}
     try:
-        return MountUncertainty(**{str(k): v for k, v in table.items()})
+        if "correlation" in table:
+            values["correlation"] = _correlation_table(table["correlation"])
+        return MountUncertainty(**values)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
+
+
+def _correlation_table(table: object) -> StdCorrelation:
+    """The ``[uncertainty.correlation]`` table: ``parameters`` and ``matrix``."""
+    if not isinstance(table, Mapping) or set(table) != set(_CORRELATION_KEYS):
+        got = sorted(table) if isinstance(table, Mapping) else repr(table)
+        msg = (
+            "[uncertainty.correlation] must be a table with exactly parameters (names) and "
+            f"matrix (their correlation coefficients), got {got}"
+        )
+        raise InputError(msg)
+    names, rows = table["parameters"], table["matrix"]
+    if isinstance(names, str) or not isinstance(names, Sequence):
+        msg = f"mount [uncertainty.correlation] parameters: expected a list of names, got {names!r}"
+        raise InputError(msg)
+    if not all(isinstance(n, str) for n in names):
+        msg = f"mount [uncertainty.correlation] parameters: expected names (text), got {names!r}"
+        raise InputError(msg)
+    return StdCorrelation(tuple(names), rows)
 
 
 def _check_plausible(mount: Mount, source: str) -> None:
@@ -543,4 +692,12 @@ def mount_to_toml_text(mount: Mount) -> str:
         text += f"boresight_rpy_deg = {vec(unc.boresight_rpy_deg)}\n"
     if unc.latency_s is not None:
         text += f"latency_s = {float(unc.latency_s)!r}\n"
+    corr = unc.correlation
+    if corr is not None:
+        names = ", ".join(f'"{n}"' for n in corr.parameters)
+        rows = ",\n".join("    [" + ", ".join(repr(v) for v in row) + "]" for row in corr.matrix)
+        text += (
+            "\n[uncertainty.correlation]  # correlation coefficients of those errors\n"
+            f"parameters = [{names}]\nmatrix = [\n{rows},\n]\n"
+        )
     return text

@@ -19,8 +19,11 @@ from kinsync.calibration.adjustment import Adjustment, adjust
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount, find_features
 from kinsync.calibration.held import (
     REFERENCE_ERRORS,
+    covariance_of_uncertainty,
+    effect_of_held,
+    held_covariance,
     held_effect,
-    held_std,
+    uncertainty_from_covariance,
     uncertainty_from_std,
     uncertainty_notes,
 )
@@ -34,7 +37,12 @@ from kinsync.calibration.parameters import (
 )
 from kinsync.calibration.result import CalibrationResult
 from kinsync.georef.trajectory import GeorefTrajectory
-from kinsync.mount import MountUncertainty
+from kinsync.mount import (
+    MountUncertainty,
+    StdCorrelation,
+    mount_from_toml_text,
+    mount_to_toml_text,
+)
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test
 
@@ -141,7 +149,7 @@ def test_sensitivity_is_what_a_new_solution_does(thin: PatchTestSimulation) -> N
     features, obs = find_features(models, prior, frame, CalibrationOptions())
     est = estimated_indices("boresight,latency")
     sol = adjust(models, obs, features, prior, est, frame)
-    effect = held_effect(models, obs, sol, frame, held_std(thin.mount_nominal))
+    effect = held_effect(models, obs, sol, frame, held_covariance(thin.mount_nominal))
     assert np.all(np.isnan(effect.held_std[[3, 4, 5]]))  # nothing stated
     assert np.all(effect.covariance == 0.0)
     fitted = [f.feature for f in sol.features]
@@ -231,3 +239,102 @@ def test_held_values_are_reported_and_written_exactly_as_given(
     held = mount_from_values(thin.mount_nominal, mount_values(thin.mount_nominal))
     assert held.boresight_rpy_deg == thin.mount_nominal.boresight_rpy_deg == (0.0, -30.0, 30.0)
     assert exact.mount.lever_arm_body_m == thin.mount_nominal.lever_arm_body_m
+
+
+# ---- correlations: read, used, written ---------------------------------------------
+
+
+def test_covariance_of_uncertainty_puts_the_correlations_off_the_diagonal() -> None:
+    corr = StdCorrelation(("lever_x_m", "latency_ms"), ((1.0, -0.8), (-0.8, 1.0)))
+    unc = MountUncertainty(lever_arm_body_m=(0.02, 0.02, 0.03), latency_s=0.002, correlation=corr)
+    cov = covariance_of_uncertainty(unc)
+    assert np.all(np.isnan(np.diag(cov)[:3]))  # the boresight: not known
+    assert np.all(cov[:3, 3:] == 0.0)
+    assert cov[3, 3] == pytest.approx(0.02**2)
+    assert cov[3, 6] == cov[6, 3] == pytest.approx(-0.8 * 0.02 * 0.002)
+    assert cov[4, 6] == 0.0  # not named: independent
+
+
+def test_correlated_held_values_add_the_full_consider_covariance() -> None:
+    # Two held values whose errors cancel in the estimate (perfectly correlated, equal
+    # and opposite effects) add nothing; taken as independent they would add 2 d^2 s^2.
+    S = np.eye(7)
+    S[0, 3] = S[3, 0] = 0.5
+    S[0, 6] = S[6, 0] = 0.5 * 0.01 / 0.001  # latency's unit: its effect equals lever x's
+    S += np.diag([0, 0, 0, 0, 0, 0, 10.0])
+    est = (0, 1, 2, 4, 5)
+    std = np.full(7, np.nan)
+    std[3], std[6] = 0.01, 0.001
+    independent = effect_of_held(S, est, np.diag(std**2))
+    cov = np.diag(std**2)
+    d = -np.linalg.solve(S[np.ix_(est, est)], S[np.ix_(est, [3, 6])])
+    rho = -float(np.sign(d[0, 0] * d[0, 1]))  # the correlation that cancels the two
+    cov[3, 6] = cov[6, 3] = rho * 0.01 * 0.001
+    correlated = effect_of_held(S, est, cov)
+    expected = d @ cov[np.ix_([3, 6], [3, 6])] @ d.T
+    assert correlated.covariance == pytest.approx(expected, abs=1e-15)
+    assert independent.std[0] > 10.0 * correlated.std[0]
+    assert correlated.held_std[3] == pytest.approx(0.01)
+
+
+def test_uncertainty_from_covariance_round_trips_with_its_correlations() -> None:
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=(7, 7)) * np.array([1e-4, 1e-4, 2e-4, 0.01, 0.01, 0.02, 0.001])
+    cov = a.T @ a
+    unc = uncertainty_from_covariance(cov)
+    assert unc is not None
+    assert unc.correlation is not None
+    assert unc.correlation.parameters == PARAMETER_NAMES
+    assert covariance_of_uncertainty(unc) == pytest.approx(cov, rel=1e-9, abs=1e-20)
+    # A vector with an unknown component is left out, and so are its correlations.
+    cov[5, 5] = np.nan
+    part = uncertainty_from_covariance(cov)
+    assert part is not None
+    assert part.lever_arm_body_m is None
+    assert part.correlation is not None
+    assert "lever_x_m" not in part.correlation.parameters
+    # Independent errors write no correlation table.
+    plain = uncertainty_from_covariance(np.diag(np.diag(a.T @ a)))
+    assert plain is not None
+    assert plain.correlation is None
+
+
+def test_the_calibrated_mount_carries_the_joint_covariance(stated: CalibrationResult) -> None:
+    unc = stated.mount.uncertainty
+    assert unc is not None
+    assert unc.correlation is not None
+    cov = covariance_of_uncertainty(unc)
+    est = [PARAMETER_NAMES.index(n) for n in stated.correlation_names]
+    std = np.sqrt(np.diag(cov))
+    # Among the estimates: the correlations the result reports.
+    written = cov[np.ix_(est, est)] / np.outer(std[est], std[est])
+    assert written == pytest.approx(np.asarray(stated.correlation), abs=1e-9)
+    # Between an estimate and a held lever component: D Sigma_h.
+    assert stated.held is not None
+    d = stated.held.sensitivity
+    j = stated.held.estimated.index(6)
+    assert cov[6, 3] == pytest.approx(d[j, 3] * LEVER_STD_M**2, rel=1e-9)
+    # The lever components' own errors stay independent, as the prior stated them.
+    assert cov[3, 4] == 0.0
+    # Read back from the file it is the same.
+    back = mount_from_toml_text(mount_to_toml_text(stated.mount))
+    assert back.uncertainty == unc
+
+
+def test_a_later_calibration_holds_the_correlated_values(
+    stated: CalibrationResult, thin: PatchTestSimulation
+) -> None:
+    # The calibrated mount held again with only the latency estimated: its held part is
+    # D Sigma D' with the written correlations, not with independent errors.
+    again = calibrate_mount(
+        thin.lines, stated.mount, CalibrationOptions(estimate=("latency",), jackknife=False)
+    )
+    assert again.held is not None
+    prior = covariance_of_uncertainty(stated.mount.uncertainty)
+    d = again.held.sensitivity[0]
+    known = [i for i in range(7) if i != 6 and np.isfinite(prior[i, i])]
+    full = float(d[known] @ prior[np.ix_(known, known)] @ d[known])
+    diagonal = float(np.sum(d[known] ** 2 * np.diag(prior)[known]))
+    got = again.parameter("latency_ms").held_std / 1000.0
+    assert got == pytest.approx(math.sqrt(full), rel=1e-9)
+    assert abs(math.sqrt(full) - math.sqrt(diagonal)) > 0.05 * math.sqrt(diagonal)

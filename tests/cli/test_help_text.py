@@ -71,6 +71,26 @@ def test_mount_check_prints_the_boresight_matrix(tmp_path: Path, run_cli: RunCli
     np.testing.assert_allclose(json.loads(out)["R_scanner_to_body"], R, atol=1e-12)
 
 
+def test_mount_check_prints_the_strongest_correlations(tmp_path: Path, run_cli: RunCli) -> None:
+    path = tmp_path / "mount.toml"
+    path.write_text(
+        MOUNT
+        + "\n[uncertainty]\nlever_arm_body_m = [0.02, 0.02, 0.03]\nlatency_s = 0.002\n"
+        + "[uncertainty.correlation]\n"
+        + 'parameters = ["lever_x_m", "lever_z_m", "latency_ms"]\n'
+        + "matrix = [[1, 0.1, -0.86], [0.1, 1, 0.3], [-0.86, 0.3, 1]]\n"
+    )
+    code, out, err = run_cli(["mount", "check", str(path)])
+    assert code == 0, err
+    text = " ".join(out.replace("│", " ").split())
+    strongest = "lever_x_m/latency_ms -0.86, lever_z_m/latency_ms +0.30"
+    assert f"correlation of the errors {strongest}" in text
+    code, out, _ = run_cli(["mount", "check", str(path), "--json"])
+    corr = json.loads(out)["uncertainty"]["correlation"]
+    assert corr["parameters"] == ["lever_x_m", "lever_z_m", "latency_ms"]
+    assert corr["matrix"][0][2] == -0.86
+
+
 @pytest.mark.parametrize(
     ("n", "noun", "text"),
     [

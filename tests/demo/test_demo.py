@@ -104,6 +104,16 @@ def test_demo_writes_a_self_contained_report(
     assert latency["std_held"] > 0.0
     assert abs(latency["value"] - held["truth"][6]) < 3 * latency["std"]
     assert held["result"]["held"]["lever_y_m"]["std"] == 0.03
+    # A later survey holding the vessel's calibrated mount, written with its correlations.
+    later = calibration["vessel_later"]
+    lat = later["result"]["parameters"]["latency_ms"]
+    assert lat["status"] in ("estimated", "weak")
+    assert abs(lat["value"] - later["truth_latency_ms"]) < 3 * lat["std"]
+    assert later["result"]["mount"]["uncertainty"]["correlation"] is not None
+    assert lat["std_held"] > 0.0
+    assert abs(later["latency_std_if_independent_ms"] - lat["std"]) > 0.02 * lat["std"]
+    written = (out_dir / "patch-test-vessel" / "calibrated.toml").read_text()
+    assert "[uncertainty.correlation]" in written
     assert "mount self-calibration" in out
     for key in ("INS/GNSS", "Method B", "end-to-end: validation"):
         assert key in out

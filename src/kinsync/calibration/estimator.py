@@ -45,9 +45,11 @@ from kinsync.calibration.adjustment import (
 from kinsync.calibration.features import Feature
 from kinsync.calibration.held import (
     HeldEffect,
+    held_covariance,
     held_effect,
     held_std,
-    uncertainty_from_std,
+    joint_covariance,
+    uncertainty_from_covariance,
     uncertainty_notes,
 )
 from kinsync.calibration.lines import ScanLine
@@ -382,7 +384,7 @@ def calibrate_mount(
             return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
     honest = jk is not None and jk.honest
     say("what the held parameters' errors do to the estimates")
-    effect = held_effect(models, observations, solution, frame, held_std(mount))
+    effect = held_effect(models, observations, solution, frame, held_covariance(mount))
     params = _parameters(mount, requested, obs, solution, std, honest, effect)
     advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
     covariance = _covariance(solution, jk) + effect.covariance
@@ -390,7 +392,7 @@ def calibrate_mount(
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
     summaries = _summaries(solution, before, overlaps_before, overlaps_after)
-    calibrated, notes = _calibrated_mount(mount, solution, covariance, honest)
+    calibrated, notes = _calibrated_mount(mount, solution, covariance, effect, honest)
     return CalibrationResult(
         mount=calibrated,
         prior=mount,
@@ -417,22 +419,29 @@ def calibrate_mount(
 
 
 def _calibrated_mount(
-    mount: Mount, solution: Adjustment, covariance: FloatArray, honest: bool
+    mount: Mount, solution: Adjustment, covariance: FloatArray, effect: HeldEffect, honest: bool
 ) -> tuple[Mount, tuple[str, ...]]:
-    """The calibrated mount, with the standard deviations it is now known to; notes.
+    """The calibrated mount, with the covariance it is now known to; notes.
 
     Estimated parameters get their sigma (data and held together) when it is honest
-    (else none: a formal sigma is 3-30x too small); held ones keep the prior's. The notes
-    say what is left out of the ``[uncertainty]`` written, and which estimate is now
-    known less well than the mount stated.
+    (else none: a formal sigma is 3-30x too small); held ones keep the prior's; the
+    correlations are those of `kinsync.calibration.held.joint_covariance` (an estimate
+    follows the held values' errors). The notes say what is left out of the
+    ``[uncertainty]`` written, and which estimate is now known less well than the mount
+    stated.
     """
+    prior_cov = held_covariance(mount)
     prior_std = held_std(mount)
-    std = prior_std.copy()
+    joint = joint_covariance(covariance, effect, prior_cov)
     est = list(solution.estimated)
-    std[est] = np.sqrt(np.maximum(np.diag(covariance), 0.0)) if honest else np.nan
+    if not honest:
+        joint[est, :] = 0.0
+        joint[:, est] = 0.0
+        joint[est, est] = np.nan
+    std = np.sqrt(np.where(np.diag(joint) >= 0.0, np.diag(joint), np.nan))
     calibrated = mount_from_values(mount, solution.values)
     notes = uncertainty_notes(prior_std, std, solution.estimated, honest)
-    return replace(calibrated, uncertainty=uncertainty_from_std(std)), notes
+    return replace(calibrated, uncertainty=uncertainty_from_covariance(joint)), notes
 
 
 def _held_method(held: HeldEffect) -> str:

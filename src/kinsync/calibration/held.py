@@ -14,11 +14,17 @@ follow a change of the held values (the "consider" parameters of orbit determina
 Schmidt 1966; Bierman 1977, ch. VI)::
 
     D       = -S_ee^-1 S_eh                 (k x 7; zero columns for the estimated)
-    C_held  = D diag(sigma_h^2) D'          (sigma_h from the mount's [uncertainty])
+    C_held  = D Sigma_h D'                  (Sigma_h from the mount's [uncertainty])
     C_total = C_data + C_held
 
 ``C_data`` is the jackknife over lines (or the formal covariance); the held priors'
-errors are independent of the lines' errors, so the two add. A held parameter whose
+errors are independent of the lines' errors, so the two add. ``Sigma_h`` holds the
+stated standard deviations and, where ``[uncertainty.correlation]`` gives them, their
+correlations: a calibration's estimates are correlated, and a later calibration that
+holds several of them must not take their errors as independent. The calibrated
+mount's ``[uncertainty]`` carries the joint covariance of every value it states: the
+estimates' ``C_total``, the held values' ``Sigma_h`` and between them ``D Sigma_h``
+(an estimate follows the held values' errors). A held parameter whose
 standard deviation the mount does not give is taken as exact: its column of ``D`` is
 still reported (per `REFERENCE_ERRORS`), and the calibration's advice names it where
 that error would move an estimate by more than half its sigma.
@@ -34,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -54,16 +60,21 @@ from kinsync.mount import (
     MAX_LEVER_ARM_M,
     Mount,
     MountUncertainty,
+    StdCorrelation,
 )
 
 __all__ = [
     "REFERENCE_ERRORS",
     "REFERENCE_TEXT",
     "HeldEffect",
+    "covariance_of_uncertainty",
     "effect_of_held",
+    "held_covariance",
     "held_effect",
     "held_std",
+    "joint_covariance",
     "std_of_uncertainty",
+    "uncertainty_from_covariance",
     "uncertainty_from_std",
     "uncertainty_notes",
 ]
@@ -103,6 +114,93 @@ def std_of_uncertainty(unc: MountUncertainty | None) -> FloatArray:
     if unc.latency_s is not None:
         out[LATENCY] = unc.latency_s
     return out
+
+
+def held_covariance(mount: Mount) -> FloatArray:
+    """The covariance of the mount's values from ``mount.uncertainty``, shape (7, 7).
+
+    Internal units (rad, m, s); see `covariance_of_uncertainty`.
+    """
+    return covariance_of_uncertainty(mount.uncertainty)
+
+
+def covariance_of_uncertainty(unc: MountUncertainty | None) -> FloatArray:
+    """The seven parameters' covariance from ``unc``, shape (7, 7), internal units.
+
+    The stated variances on the diagonal (NaN where not known, with that row and
+    column 0 elsewhere), the stated correlations times the standard deviations off it
+    (0 where none is stated: independent).
+    """
+    std = std_of_uncertainty(unc)
+    known = np.isfinite(std)
+    s = np.where(known, std, 0.0)
+    corr = np.eye(7)
+    if unc is not None and unc.correlation is not None:
+        idx = [PARAMETER_NAMES.index(n) for n in unc.correlation.parameters]
+        corr[np.ix_(idx, idx)] = np.asarray(unc.correlation.matrix)
+    out: FloatArray = corr * np.outer(s, s)
+    out[~known, ~known] = np.nan
+    return out
+
+
+def joint_covariance(
+    estimated_cov: FloatArray, effect: HeldEffect, prior_cov: FloatArray
+) -> FloatArray:
+    """The covariance of all seven values after a calibration, shape (7, 7).
+
+    Parameters
+    ----------
+    estimated_cov : ndarray, shape (k, k)
+        The estimates' covariance (data and held parts), order ``effect.estimated``.
+    effect : HeldEffect
+        The held values' effect (its ``sensitivity`` D).
+    prior_cov : ndarray, shape (7, 7)
+        The given mount's covariance (`held_covariance`); NaN diagonal where unknown.
+
+    Returns
+    -------
+    ndarray, shape (7, 7)
+        Estimated block ``estimated_cov``; held block the prior's; between them
+        ``D Sigma_h`` over the held values with a known sigma. NaN on the diagonal of a
+        held value with no sigma, its row and column 0.
+    """
+    out = np.zeros((7, 7))
+    est = list(effect.estimated)
+    held = list(effect.held)
+    out[np.ix_(held, held)] = prior_cov[np.ix_(held, held)]
+    out[np.ix_(est, est)] = estimated_cov
+    known = [h for h in held if math.isfinite(float(prior_cov[h, h]))]
+    if est and known:
+        cross = effect.sensitivity[:, known] @ prior_cov[np.ix_(known, known)]
+        out[np.ix_(est, known)] = cross
+        out[np.ix_(known, est)] = cross.T
+    return out
+
+
+def uncertainty_from_covariance(cov: FloatArray) -> MountUncertainty | None:
+    """A `MountUncertainty` from the seven values' covariance (internal units), (7, 7).
+
+    The standard deviations as `uncertainty_from_std` writes them (NaN diagonal:
+    unknown), and the correlations among the values written when any is not zero.
+    """
+    c = np.asarray(cov, dtype=np.float64)
+    unc = uncertainty_from_std(np.sqrt(np.where(np.diag(c) >= 0.0, np.diag(c), np.nan)))
+    if unc is None:
+        return None
+    written = np.isfinite(std_of_uncertainty(unc))
+    idx = [i for i in range(7) if written[i] and float(c[i, i]) > 0.0]
+    if len(idx) < 2:
+        return unc
+    sub = c[np.ix_(idx, idx)]
+    s = np.sqrt(np.diag(sub))
+    corr = np.clip(sub / np.outer(s, s), -1.0, 1.0)
+    corr = 0.5 * (corr + corr.T)
+    np.fill_diagonal(corr, 1.0)
+    if not np.any(np.abs(corr - np.eye(len(idx))) > 0.0):
+        return unc
+    names = tuple(PARAMETER_NAMES[i] for i in idx)
+    rows = tuple(tuple(float(v) for v in row) for row in corr)
+    return replace(unc, correlation=StdCorrelation(names, rows))
 
 
 def uncertainty_from_std(std: FloatArray) -> MountUncertainty | None:
@@ -310,7 +408,7 @@ def held_effect(
     observations: Sequence[Observation],
     solution: Adjustment,
     frame: LocalFrame,
-    std: FloatArray,
+    prior_cov: FloatArray,
 ) -> HeldEffect:
     """The sensitivity of the estimates to the held values, and the covariance it adds.
 
@@ -321,9 +419,9 @@ def held_effect(
     solution : Adjustment
         The solution (its features, noise scales and values are the linearisation
         point).
-    std : ndarray, shape (7,)
-        Standard deviations of the held values (internal units, `held_std`); NaN where
-        not known (taken as exact).
+    prior_cov : ndarray, shape (7, 7)
+        Covariance of the held values (internal units, `held_covariance`); NaN on the
+        diagonal where not known (taken as exact).
 
     Returns
     -------
@@ -331,16 +429,16 @@ def held_effect(
     """
     estimated = tuple(solution.estimated)
     if len(estimated) == 7:
-        return effect_of_held(np.zeros((7, 7)), estimated, std)
+        return effect_of_held(np.zeros((7, 7)), estimated, prior_cov)
     fitted = [f.feature for f in solution.features]
     scales = [f.sigma_m for f in solution.features]
     S, _, _ = reduced_normal_matrix(
         models, observations, fitted, solution.values, tuple(range(7)), frame, scales
     )
-    return effect_of_held(S, estimated, std)
+    return effect_of_held(S, estimated, prior_cov)
 
 
-def effect_of_held(S: FloatArray, estimated: tuple[int, ...], std: FloatArray) -> HeldEffect:
+def effect_of_held(S: FloatArray, estimated: tuple[int, ...], prior_cov: FloatArray) -> HeldEffect:
     """`HeldEffect` from the reduced normal matrix over all seven parameters.
 
     Parameters
@@ -350,8 +448,9 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], std: FloatArray) -
         units), as `kinsync.calibration.adjustment.reduced_normal_matrix` gives it.
     estimated : tuple of int
         The estimated parameters; the others are held.
-    std : ndarray, shape (7,)
-        Standard deviations of the held values (internal units); NaN where not known.
+    prior_cov : ndarray, shape (7, 7)
+        Covariance of the held values (internal units, `covariance_of_uncertainty`);
+        NaN on the diagonal where not known.
 
     Returns
     -------
@@ -371,11 +470,12 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], std: FloatArray) -
         except np.linalg.LinAlgError:  # the estimates passed the observability analysis
             sensitivity[:, h] = -np.linalg.pinv(S_ee) @ S_eh
     if held:
-        sigma_h[list(held)] = np.asarray(std, dtype=np.float64)[list(held)]
+        prior = np.asarray(prior_cov, dtype=np.float64)
+        sigma_h[list(held)] = np.sqrt(np.diag(prior)[list(held)])
         known = [i for i in held if math.isfinite(float(sigma_h[i]))]
         if known and k:
             d = sensitivity[:, known]
-            cov = d @ np.diag(sigma_h[known] ** 2) @ d.T
+            cov = d @ prior[np.ix_(known, known)] @ d.T
     return HeldEffect(
         estimated=estimated,
         held=held,

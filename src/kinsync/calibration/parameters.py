@@ -19,7 +19,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.mount import Mount
+from kinsync.mount import MOUNT_PARAMETER_NAMES, Mount
 
 __all__ = [
     "BORESIGHT",
@@ -35,15 +35,7 @@ __all__ = [
     "report_values",
 ]
 
-PARAMETER_NAMES: Final = (
-    "boresight_roll_deg",
-    "boresight_pitch_deg",
-    "boresight_yaw_deg",
-    "lever_x_m",
-    "lever_y_m",
-    "lever_z_m",
-    "latency_ms",
-)
+PARAMETER_NAMES: Final = MOUNT_PARAMETER_NAMES
 """Names of the seven parameters, in the report's units (degrees, metres, milliseconds)."""
 
 BORESIGHT: Final = (0, 1, 2)

@@ -64,7 +64,7 @@ from kinsync.calibration.adjustment import (
 )
 from kinsync.calibration.estimator import CalibrationOptions, find_features
 from kinsync.calibration.features import Feature
-from kinsync.calibration.held import HeldEffect, effect_of_held, std_of_uncertainty
+from kinsync.calibration.held import HeldEffect, covariance_of_uncertainty, effect_of_held
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import analyse, hold_after_solution, status_of
@@ -478,7 +478,7 @@ def plan_calibration(
     S7, _, _ = reduced_normal_matrix(
         models, observations, features, values, tuple(range(7)), frame, sig, robust=False
     )
-    effect = effect_of_held(S7, est, std_of_uncertainty(held))
+    effect = effect_of_held(S7, est, covariance_of_uncertainty(held))
     std_all = np.full(7, math.nan)
     std_noise = np.full(7, math.nan)
     std_held = np.zeros(7)

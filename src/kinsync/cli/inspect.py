@@ -14,6 +14,7 @@ from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
+from kinsync.mount import StdCorrelation
 
 mount_app = typer.Typer(help="Mount (system calibration) TOML files.")
 trajectory_app = typer.Typer(help="Trajectory files.")
@@ -55,13 +56,31 @@ def mount_check(
     if mount.profiler_azimuth_deg is not None:
         rows["profiler_azimuth_deg"] = f"{mount.profiler_azimuth_deg:g}"
     for key, value in (doc["uncertainty"] or {}).items():
-        if value is not None:
+        if value is not None and key != "correlation":
             shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value:g}"
             rows[f"sigma {key}"] = shown
+    if mount.uncertainty is not None and mount.uncertainty.correlation is not None:
+        rows["correlation of the errors"] = _strongest_pairs(mount.uncertainty.correlation)
     for i, row in enumerate(mount.R_scanner_to_body):
         label = "R_scanner_to_body (boresight)" if i == 0 else ""
         rows[label or " " * (i + 1)] = "  ".join(f"{v:+.6f}" for v in row)
     _print_quantities(f"Mount {path}", rows)
+
+
+def _strongest_pairs(corr: StdCorrelation, shown: int = 4) -> str:
+    """The ``shown`` largest correlation coefficients by size, in words."""
+    names = corr.parameters
+    pairs = sorted(
+        (
+            (corr.matrix[i][j], f"{names[i]}/{names[j]}")
+            for i in range(len(names))
+            for j in range(i + 1, len(names))
+        ),
+        key=lambda p: -abs(p[0]),
+    )
+    text = ", ".join(f"{label} {r:+.2f}" for r, label in pairs[:shown])
+    rest = len(pairs) - shown
+    return text + (f" (and {rest} more: --json)" if rest > 0 else "")
 
 
 def _smrmsg_document(
