@@ -242,3 +242,40 @@ def test_bad_correlation_is_refused_naming_file_and_table(table: str, pattern: s
         mount_from_toml_text(BASE + CORR + table, source="cfg/mount.toml")
     assert str(info.value).startswith("cfg/mount.toml: ")
     assert "correlation" in str(info.value)
+
+
+def test_a_value_measured_again_drops_its_correlations() -> None:
+    # `latency sphere --mount-out` measures the latency on its own: the calibration's
+    # latency correlations no longer hold; the lever arm's own ones do.
+    names = ("lever_x_m", "lever_y_m", "latency_ms")
+    rows = ((1.0, 0.3, -0.8), (0.3, 1.0, 0.1), (-0.8, 0.1, 1.0))
+    unc = MountUncertainty(
+        lever_arm_body_m=(0.02, 0.02, 0.03),
+        latency_s=0.002,
+        correlation=StdCorrelation(names, rows),
+    )
+    new = unc.with_independent(latency_s=0.0001)
+    assert new.latency_s == 0.0001
+    assert new.lever_arm_body_m == unc.lever_arm_body_m
+    assert new.correlation == StdCorrelation(("lever_x_m", "lever_y_m"), ((1.0, 0.3), (0.3, 1.0)))
+    lever = unc.with_independent(lever_arm_body_m=(0.01, 0.01, 0.01))
+    assert lever.correlation is None  # only the latency is left: nothing to correlate
+    assert MountUncertainty(latency_s=0.001).with_independent(latency_s=0.002).latency_s == 0.002
+
+
+def test_a_matrix_read_within_the_tolerance_is_stored_positive_semidefinite() -> None:
+    # An eigenvalue of -1e-7 is rounding, read; stored as it is it grows through a
+    # calibration's [D; I] Sigma [D; I]' and the written table would then be refused.
+    v = np.linalg.qr(np.random.default_rng(4).normal(size=(4, 4)))[0]
+    r = (v * np.array([-1e-7, 0.5, 1.5, 2.0])) @ v.T
+    d = np.sqrt(np.diag(r))
+    r = r / np.outer(d, d)
+    rows = tuple(tuple(float(x) for x in row) for row in r)
+    corr = StdCorrelation(("lever_x_m", "lever_y_m", "lever_z_m", "latency_ms"), rows)
+    stored = np.array(corr.matrix)
+    assert np.min(np.linalg.eigvalsh(stored)) > -1e-12
+    assert np.allclose(np.diag(stored), 1.0)
+    assert np.max(np.abs(stored - r)) < 1e-6
+    # A valid matrix is kept exactly (a written table reads back the same).
+    exact = ((1.0, -0.8), (-0.8, 1.0))
+    assert StdCorrelation(("lever_x_m", "latency_ms"), exact).matrix == exact

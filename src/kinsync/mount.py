@@ -70,6 +70,7 @@ __all__ = [
     "StdCorrelation",
     "mount_from_toml_text",
     "mount_to_toml_text",
+    "nearest_correlation",
     "toml_document",
 ]
 
@@ -227,6 +228,28 @@ def _std_value(value: object, label: str, limit: float) -> float:
     return out
 
 
+def nearest_correlation(r: FloatArray) -> FloatArray:
+    """The positive semidefinite correlation matrix nearest ``r`` (n, n), shape (n, n).
+
+    ``r`` symmetrised; when an eigenvalue is below -1e-12 (rounding, or a matrix read
+    within `_CORRELATION_TOLERANCE`), negative eigenvalues set to 0 and the diagonal
+    scaled back to 1. Unchanged otherwise, so a written matrix reads back exactly.
+    Propagated through a calibration (``[D; I] Sigma [D; I]'``) a negative eigenvalue
+    grows, and the written table would be refused.
+    """
+    sym = 0.5 * (r + r.T)
+    w, v = np.linalg.eigh(sym)
+    if w[0] >= -1e-12:
+        out: FloatArray = np.array(r, dtype=np.float64)
+        return out
+    fixed = (v * np.maximum(w, 0.0)) @ v.T
+    d = np.sqrt(np.diag(fixed))
+    fixed = np.clip(fixed / np.outer(d, d), -1.0, 1.0)
+    result: FloatArray = 0.5 * (fixed + fixed.T)
+    np.fill_diagonal(result, 1.0)
+    return result
+
+
 @dataclass(frozen=True)
 class StdCorrelation:
     """Correlation coefficients between the errors of some of a mount's values.
@@ -289,7 +312,16 @@ class StdCorrelation:
             msg = f"{where} matrix: {bad}; give the correlation matrix of {', '.join(names)}"
             raise InputError(msg)
         object.__setattr__(self, "parameters", tuple(str(x) for x in names))
-        object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in rows))
+        fixed = nearest_correlation(r)
+        object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in fixed))
+
+    def without(self, names: Sequence[str]) -> StdCorrelation | None:
+        """The correlations of the other values (None when fewer than two remain)."""
+        keep = [i for i, n in enumerate(self.parameters) if n not in names]
+        if len(keep) < 2:
+            return None
+        rows = tuple(tuple(self.matrix[i][j] for j in keep) for i in keep)
+        return StdCorrelation(tuple(self.parameters[i] for i in keep), rows)
 
     def as_document(self) -> dict[str, Any]:
         """``{"parameters": [...], "matrix": [[...], ...]}``."""
@@ -348,6 +380,33 @@ class MountUncertainty:
         if self.latency_s is not None:
             lat = _std_value(self.latency_s, "mount [uncertainty] latency_s", MAX_LATENCY_S)
             object.__setattr__(self, "latency_s", lat)
+
+    def with_independent(
+        self,
+        *,
+        lever_arm_body_m: Vector3 | None = None,
+        boresight_rpy_deg: Vector3 | None = None,
+        latency_s: float | None = None,
+    ) -> MountUncertainty:
+        """These standard deviations replaced by new, independent ones.
+
+        A value measured again on its own (the latency from a sphere) is no longer
+        correlated with the others: the correlations that name it are dropped, the
+        others' kept.
+        """
+        given = {
+            "lever_arm_body_m": lever_arm_body_m,
+            "boresight_rpy_deg": boresight_rpy_deg,
+            "latency_s": latency_s,
+        }
+        names = [n for n, key in _NAME_KEY.items() if given[key] is not None]
+        corr = None if self.correlation is None else self.correlation.without(names)
+        return MountUncertainty(
+            lever_arm_body_m=lever_arm_body_m or self.lever_arm_body_m,
+            boresight_rpy_deg=boresight_rpy_deg or self.boresight_rpy_deg,
+            latency_s=self.latency_s if latency_s is None else latency_s,
+            correlation=corr,
+        )
 
     @property
     def known(self) -> bool:

@@ -338,3 +338,27 @@ def test_a_later_calibration_holds_the_correlated_values(
     got = again.parameter("latency_ms").held_std / 1000.0
     assert got == pytest.approx(math.sqrt(full), rel=1e-9)
     assert abs(math.sqrt(full) - math.sqrt(diagonal)) > 0.05 * math.sqrt(diagonal)
+
+
+def test_the_advice_weighs_a_held_value_with_its_correlations() -> None:
+    # Lever x and latency held, their errors correlated so that their effects on the
+    # roll cancel: knowing either exactly takes nothing out of the roll's sigma, so the
+    # advice names neither; taken as independent each would be named.
+    S = np.eye(7)
+    S[0, 3] = S[3, 0] = 0.5
+    S[0, 6] = S[6, 0] = 5.0
+    S[6, 6] = 11.0
+    est = (0, 1, 2, 4, 5)
+    unknown = np.nan
+    independent_cov = np.diag([unknown] * 3 + [1e-4] + [unknown] * 2 + [1e-6])
+    independent_cov[np.isnan(independent_cov) & ~np.eye(7, dtype=bool)] = 0.0
+    d = -np.linalg.solve(S[np.ix_(est, est)], S[np.ix_(est, [3, 6])])
+    rho = -float(np.sign(d[0, 0] * d[0, 1]))  # the correlation whose effects cancel
+    correlated_cov = independent_cov.copy()
+    correlated_cov[3, 6] = correlated_cov[6, 3] = rho * 0.01 * 0.001
+    data_std = np.full(len(est), 1e-6)
+    named = " ".join(effect_of_held(S, est, independent_cov).advice(data_std))
+    assert "lever_x_m's stated sigma moves boresight_roll_deg" in named
+    assert "latency_ms's stated sigma moves boresight_roll_deg" in named
+    correlated = effect_of_held(S, est, correlated_cov).advice(data_std)
+    assert not any("boresight_roll_deg" in a for a in correlated)

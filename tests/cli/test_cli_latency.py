@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from kinsync.io.mount_file import read_mount, write_mount
-from kinsync.mount import Mount, MountUncertainty
+from kinsync.mount import Mount, MountUncertainty, StdCorrelation
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 
@@ -462,7 +462,15 @@ def test_sphere_writes_the_latency_into_a_mount(
     """--mount-out: the acquisition mount with the total latency and its sigma, for a
     calibration that holds the latency (`calibrate mount --estimate boresight`)."""
     acquisition = tmp_path / "acq.toml"
-    lever = MountUncertainty(lever_arm_body_m=(0.01, 0.01, 0.02))
+    # An earlier calibration's correlations: the latency's no longer hold once the
+    # sphere measures it on its own; the lever arm's own do.
+    names = ("lever_x_m", "lever_y_m", "latency_ms")
+    rows = ((1.0, 0.3, -0.8), (0.3, 1.0, 0.1), (-0.8, 0.1, 1.0))
+    lever = MountUncertainty(
+        lever_arm_body_m=(0.01, 0.01, 0.02),
+        latency_s=0.003,
+        correlation=StdCorrelation(names, rows),
+    )
     given = Mount(lever_arm_body_m=(0.1, 0.0, 0.2), latency_s=0.0, uncertainty=lever)
     write_mount(given, acquisition)
     out = tmp_path / "measured.toml"
@@ -478,6 +486,8 @@ def test_sphere_writes_the_latency_into_a_mount(
     assert std_s is not None
     assert std_s * 1e3 == pytest.approx(doc["latency_std_ms"])
     assert measured.uncertainty.lever_arm_body_m == (0.01, 0.01, 0.02)  # kept
+    kept = StdCorrelation(("lever_x_m", "lever_y_m"), ((1.0, 0.3), (0.3, 1.0)))
+    assert measured.uncertainty.correlation == kept
     assert measured.lever_arm_body_m == given.lever_arm_body_m
     assert abs(measured.latency_s - TAU_S) < 4 * std_s
     # The passes georeferenced with 1 ms applied: the total adds it to the fitted latency.

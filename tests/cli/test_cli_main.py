@@ -85,6 +85,7 @@ def test_mount_check_shows_uncertainty_and_profiler(tmp_path: Path, run_cli: Run
         "lever_arm_body_m": [0.01, 0.02, 0.03],
         "boresight_rpy_deg": None,
         "latency_s": 4e-05,
+        "correlation": None,
     }
     code, out, _ = run_cli(["mount", "check", str(path)])
     assert code == 0

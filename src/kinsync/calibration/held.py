@@ -61,6 +61,7 @@ from kinsync.mount import (
     Mount,
     MountUncertainty,
     StdCorrelation,
+    nearest_correlation,
 )
 
 __all__ = [
@@ -196,6 +197,7 @@ def uncertainty_from_covariance(cov: FloatArray) -> MountUncertainty | None:
     corr = np.clip(sub / np.outer(s, s), -1.0, 1.0)
     corr = 0.5 * (corr + corr.T)
     np.fill_diagonal(corr, 1.0)
+    corr = nearest_correlation(corr)  # a computed covariance's rounding is no user error
     if not np.any(np.abs(corr - np.eye(len(idx))) > 0.0):
         return unc
     names = tuple(PARAMETER_NAMES[i] for i in idx)
@@ -288,6 +290,9 @@ class HeldEffect:
         and for the estimated parameters.
     covariance : ndarray, shape (k, k)
         What the held values with a known sigma add to the estimates' covariance.
+    held_covariance : ndarray, shape (7, 7)
+        The held values' covariance ``Sigma_h`` (internal units; the stated correlations
+        off the diagonal), zero outside the held values with a known sigma.
     """
 
     estimated: tuple[int, ...]
@@ -295,6 +300,7 @@ class HeldEffect:
     sensitivity: FloatArray
     held_std: FloatArray
     covariance: FloatArray
+    held_covariance: FloatArray
 
     @property
     def std(self) -> FloatArray:
@@ -358,7 +364,9 @@ class HeldEffect:
 
         A value taken as exact whose reference error would move an estimate by more
         than `ADVICE_SHARE` of its data sigma; a value whose stated sigma moves an
-        estimate by more than the data leave (the held value limits that estimate).
+        estimate by more than the data leave (the held value limits that estimate):
+        its share ``|(D Sigma_h)[j, h]| / sigma_h``, the error knowing it exactly would
+        take out, with the stated correlations.
 
         Parameters
         ----------
@@ -385,11 +393,15 @@ class HeldEffect:
                 f"its vector in the mount file's [uncertainty] table so the sigma holds "
                 f"it{remedy}"
             )
+        # Each held value's share: what knowing it exactly would take out of an
+        # estimate's sigma, |(D Sigma_h)[:, h]| / sigma_h (|D[:, h]| sigma_h when the
+        # held errors are independent; with correlations the others' share moves too).
+        d_sigma = self.sensitivity @ self.held_covariance
         for h in self.held:
             if h in self.unknown:
                 continue
-            part = np.abs(self.sensitivity[:, h]) * self.held_std[h]
-            part *= REPORT_SCALE[list(self.estimated)]
+            part = np.abs(d_sigma[:, h]) / self.held_std[h] if self.held_std[h] > 0.0 else 0.0
+            part = np.asarray(part * REPORT_SCALE[list(self.estimated)])
             j = int(np.argmax(part / sigma))
             if not part[j] > sigma[j]:
                 continue
@@ -462,6 +474,7 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], prior_cov: FloatAr
     sensitivity = np.zeros((k, 7))
     sigma_h = np.full(7, np.nan)
     cov = np.zeros((k, k))
+    prior_known = np.zeros((7, 7))
     if held and k:
         e, h = list(estimated), list(held)
         S_ee, S_eh = S[np.ix_(e, e)], S[np.ix_(e, h)]
@@ -473,6 +486,8 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], prior_cov: FloatAr
         prior = np.asarray(prior_cov, dtype=np.float64)
         sigma_h[list(held)] = np.sqrt(np.diag(prior)[list(held)])
         known = [i for i in held if math.isfinite(float(sigma_h[i]))]
+        if known:
+            prior_known[np.ix_(known, known)] = prior[np.ix_(known, known)]
         if known and k:
             d = sensitivity[:, known]
             cov = d @ prior[np.ix_(known, known)] @ d.T
@@ -482,4 +497,5 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], prior_cov: FloatAr
         sensitivity=sensitivity,
         held_std=sigma_h,
         covariance=cov,
+        held_covariance=prior_known,
     )

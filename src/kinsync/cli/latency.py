@@ -86,11 +86,15 @@ def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | 
 
 
 def _write_mount_with_latency(mount: Mount, total_s: float, std_s: float, path: Path) -> None:
-    """``mount`` with the measured total latency and its sigma in ``[uncertainty]``."""
+    """``mount`` with the measured total latency and its sigma in ``[uncertainty]``.
+
+    The sphere measures the latency on its own: correlations the mount gave for the
+    latency no longer hold and are dropped.
+    """
     from kinsync.io.mount_file import write_mount  # noqa: PLC0415
     from kinsync.mount import MountUncertainty  # noqa: PLC0415
 
-    unc = replace(mount.uncertainty or MountUncertainty(), latency_s=std_s)
+    unc = (mount.uncertainty or MountUncertainty()).with_independent(latency_s=std_s)
     write_mount(replace(mount, latency_s=total_s, uncertainty=unc), path)
 
 
