@@ -47,6 +47,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
+from kinsync.calibration.observability import correlation
 from kinsync.calibration.parameters import (
     BORESIGHT,
     LATENCY,
@@ -192,9 +193,7 @@ def uncertainty_from_covariance(cov: FloatArray) -> MountUncertainty | None:
     idx = [i for i in range(7) if written[i] and float(c[i, i]) > 0.0]
     if len(idx) < 2:
         return unc
-    sub = c[np.ix_(idx, idx)]
-    s = np.sqrt(np.diag(sub))
-    corr = np.clip(sub / np.outer(s, s), -1.0, 1.0)
+    corr = np.clip(correlation(c[np.ix_(idx, idx)]), -1.0, 1.0)
     corr = 0.5 * (corr + corr.T)
     np.fill_diagonal(corr, 1.0)
     corr = nearest_correlation(corr)  # a computed covariance's rounding is no user error
