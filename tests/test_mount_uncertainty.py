@@ -156,7 +156,7 @@ def test_plausible_uncertainty_reads_without_a_warning() -> None:
 # ---- [uncertainty.correlation] -------------------------------------------------------
 
 NOT_PSD = (
-    'parameters = ["lever_x_m", "lever_y_m", "latency_ms"]\n'
+    'names = ["lever_x_m", "lever_y_m", "latency_ms"]\n'
     "matrix = [[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]\n"
 )
 CORR = (
@@ -194,16 +194,14 @@ def test_correlation_round_trips_exactly(unc: MountUncertainty) -> None:
 
 
 def test_correlation_reads_and_documents() -> None:
-    text = (
-        BASE + CORR + 'parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, -0.8], [-0.8, 1]]\n'
-    )
+    text = BASE + CORR + 'names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, -0.8], [-0.8, 1]]\n'
     unc = mount_from_toml_text(text).uncertainty
     assert unc is not None
     assert unc.correlation is not None
-    assert unc.correlation.parameters == ("lever_x_m", "latency_ms")
+    assert unc.correlation.names == ("lever_x_m", "latency_ms")
     assert unc.correlation.matrix == ((1.0, -0.8), (-0.8, 1.0))
     assert unc.as_document()["correlation"] == {
-        "parameters": ["lever_x_m", "latency_ms"],
+        "names": ["lever_x_m", "latency_ms"],
         "matrix": [[1.0, -0.8], [-0.8, 1.0]],
     }
     assert MountUncertainty(latency_s=0.001).as_document()["correlation"] is None
@@ -212,30 +210,36 @@ def test_correlation_reads_and_documents() -> None:
 @pytest.mark.parametrize(
     ("table", "pattern"),
     [
-        ('parameters = ["lever_x_m", "lever_q_m"]\nmatrix = [[1, 0], [0, 1]]\n',
+        ('names = ["lever_x_m", "lever_q_m"]\nmatrix = [[1, 0], [0, 1]]\n',
          r"unknown name\(s\) \['lever_q_m'\]"),
-        ('parameters = ["lever_x_m", "lever_x_m"]\nmatrix = [[1, 0], [0, 1]]\n', "two distinct"),
-        ('parameters = ["lever_x_m"]\nmatrix = [[1]]\n', "at least two"),
-        ('parameters = "lever_x_m"\nmatrix = [[1]]\n', "a list of names"),
-        ("parameters = [1, 2]\nmatrix = [[1, 0], [0, 1]]\n", r"names \(text\)"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0]]\n', "2 rows of 2"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0.5, 1]]\n',
-         "not symmetric"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[2, 0], [0, 1]]\n', "diagonal"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 1.5], [1.5, 1]]\n',
-         r"beyond \[-1, 1\]"),
+        ('names = ["lever_x_m", "lever_x_m"]\nmatrix = [[1, 0], [0, 1]]\n',
+         "lever_x_m named twice"),
+        ('names = ["lever_x_m"]\nmatrix = [[1]]\n', "at least two"),
+        ('names = "lever_x_m"\nmatrix = [[1]]\n', "a list of names"),
+        ("names = [1, 2]\nmatrix = [[1, 0], [0, 1]]\n", r"names \(text\)"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0]]\n', "2 rows of 2"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0.5, 1]]\n',
+         r"matrix\[0\]\[1\] \(lever_x_m/latency_ms\) = 0.0 but matrix\[1\]\[0\] = 0.5"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[2, 0], [0, 1]]\n', "diagonal"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 1.5], [1.5, 1]]\n',
+         r"matrix\[0\]\[1\] \(lever_x_m/latency_ms\) = 1.5: a coefficient is within"),
         (NOT_PSD, "positive semidefinite"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, nan], [nan, 1]]\n', "not finite"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, "0"], ["0", 1]]\n', "a number"),
-        ('parameters = ["lever_x_m", "boresight_roll_deg"]\nmatrix = [[1, 0], [0, 1]]\n',
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, nan], [nan, 1]]\n',
+         r"matrix\[0\]\[1\].*not a finite"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, "0"], ["0", 1]]\n', "a number"),
+        ('names = ["lever_x_m", "latency_s"]\nmatrix = [[1, 0], [0, 1]]\n',
+         "the latency is latency_ms here"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 0.99]]\n',
+         r"matrix\[1\]\[1\] \(latency_ms/latency_ms\) = 0.99: the diagonal is 1"),
+        ('names = ["lever_x_m", "boresight_roll_deg"]\nmatrix = [[1, 0], [0, 1]]\n',
          r"does not give \(boresight_rpy_deg\)"),
-        ('parameters = ["lever_x_m", "latency_ms"]\n', "exactly parameters"),
-        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 1]]\nnote = 1\n',
-         "exactly parameters"),
+        ('names = ["lever_x_m", "latency_ms"]\n', "exactly names"),
+        ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 1]]\nnote = 1\n',
+         "exactly names"),
     ],
     ids=["unknown-name", "duplicate", "one-name", "names-not-list", "names-not-text",
          "not-square", "asymmetric", "diagonal", "beyond-one", "not-psd", "nan", "text",
-         "no-sigma", "no-matrix", "extra-key"],
+         "table-key-as-name", "diagonal-entry", "no-sigma", "no-matrix", "extra-key"],
 )  # fmt: skip
 def test_bad_correlation_is_refused_naming_file_and_table(table: str, pattern: str) -> None:
     with pytest.raises(InputError, match=pattern) as info:
@@ -279,3 +283,23 @@ def test_a_matrix_read_within_the_tolerance_is_stored_positive_semidefinite() ->
     # A valid matrix is kept exactly (a written table reads back the same).
     exact = ((1.0, -0.8), (-0.8, 1.0))
     assert StdCorrelation(("lever_x_m", "latency_ms"), exact).matrix == exact
+
+
+def test_a_matrix_rounded_by_hand_is_read_with_a_warning() -> None:
+    # A calibration's strong correlations rounded to one decimal: the smallest
+    # eigenvalue goes a little negative; the nearest positive semidefinite matrix is used.
+    rounded = (
+        'names = ["boresight_pitch_deg", "boresight_yaw_deg", "lever_y_m"]\n'
+        "matrix = [[1, 0.99, -0.97], [0.99, 1, -0.9], [-0.97, -0.9, 1]]\n"
+    )
+    text = (
+        BASE
+        + "[uncertainty]\nlever_arm_body_m = [0.02, 0.02, 0.03]\n"
+        + "boresight_rpy_deg = [0.1, 0.1, 0.1]\n[uncertainty.correlation]\n"
+        + rounded
+    )
+    with pytest.warns(KinsyncWarning, match=r"m.toml: .*smallest eigenvalue -0\.0"):
+        unc = mount_from_toml_text(text, source="m.toml").uncertainty
+    assert unc is not None
+    assert unc.correlation is not None
+    assert np.min(np.linalg.eigvalsh(np.array(unc.correlation.matrix))) > -1e-12

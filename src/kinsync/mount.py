@@ -17,7 +17,7 @@ The TOML schema (exactly these keys)::
     latency_s = 0.0005                      # s (e.g. from `kinsync latency sphere`)
 
     [uncertainty.correlation]   # optional: correlation coefficients of those errors
-    parameters = ["lever_x_m", "latency_ms"]   # of MOUNT_PARAMETER_NAMES, each with a sigma
+    names = ["lever_x_m", "latency_ms"]        # of MOUNT_PARAMETER_NAMES, each with a sigma
     matrix = [[1.0, -0.8], [-0.8, 1.0]]        # symmetric, unit diagonal, positive semidefinite
 
 ``latency_s`` is required: the latency is what kinsync measures, and a file without it
@@ -78,7 +78,7 @@ Vector3 = tuple[float, float, float]
 
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
 _UNCERTAINTY_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s")
-_CORRELATION_KEYS = ("parameters", "matrix")
+_CORRELATION_KEYS = ("names", "matrix")
 
 MOUNT_PARAMETER_NAMES = (
     "boresight_roll_deg",
@@ -99,8 +99,8 @@ _NAME_KEY = dict(
     )
 )
 _CORRELATION_TOLERANCE = 1e-6
-"""Asymmetry, diagonal's distance from 1 and negative eigenvalue a correlation matrix
-may have (rounding of written values)."""
+"""Asymmetry, distance of the diagonal from 1 and excess beyond [-1, 1] a correlation
+matrix may have (rounding of written values)."""
 
 MAX_LATENCY_S = 10.0
 """Largest latency (s, either sign) a mount file may give. Latencies are milliseconds
@@ -250,37 +250,97 @@ def nearest_correlation(r: FloatArray) -> FloatArray:
     return result
 
 
+_TABLE_KEY_HINT = {
+    "latency_s": "the latency is latency_ms here (a name, not the [uncertainty] key)",
+    "lever_arm_body_m": "name the components: lever_x_m, lever_y_m, lever_z_m",
+    "boresight_rpy_deg": "name the angles: boresight_roll_deg, boresight_pitch_deg, "
+    "boresight_yaw_deg",
+}
+"""What to write instead of an ``[uncertainty]`` key given as a correlation name."""
+
+PSD_ROUNDING = 0.05
+"""Smallest eigenvalue a correlation matrix may have (read with a warning, then the
+nearest positive semidefinite matrix used): what coefficients rounded to two decimals
+give a 7 x 7 matrix of strong correlations (-0.002 for a calibration's). A more negative
+one is no rounding: no errors can have it."""
+
+
+def _entry(names: Sequence[str], i: int, j: int) -> str:
+    return f"matrix[{i}][{j}] ({names[i]}/{names[j]})"
+
+
+def _matrix_defect(r: FloatArray, names: Sequence[str]) -> str:
+    """What is wrong with a correlation matrix ``r`` (n, n), naming the entry.
+
+    "" if nothing: within `_CORRELATION_TOLERANCE`, eigenvalues down to -`PSD_ROUNDING`.
+    """
+    tol = _CORRELATION_TOLERANCE
+    if not np.all(np.isfinite(r)):
+        i, j = (int(k) for k in np.argwhere(~np.isfinite(r))[0])
+        return f"{_entry(names, i, j)} = {r[i, j]!r}: not a finite number"
+    dev = np.abs(np.diag(r) - 1.0)
+    if np.max(dev) > tol:
+        i = int(np.argmax(dev))
+        return f"{_entry(names, i, i)} = {r[i, i]!r}: the diagonal is 1 (a value with itself)"
+    asym = np.abs(r - r.T)
+    if np.max(asym) > tol:
+        a, b = (int(k) for k in np.unravel_index(int(np.argmax(asym)), asym.shape))
+        return (
+            f"{_entry(names, a, b)} = {r[a, b]!r} but matrix[{b}][{a}] = "
+            f"{r[b, a]!r}: the matrix is symmetric"
+        )
+    if np.max(np.abs(r)) > 1.0 + tol:
+        a, b = (int(k) for k in np.unravel_index(int(np.argmax(np.abs(r))), r.shape))
+        return f"{_entry(names, a, b)} = {r[a, b]!r}: a coefficient is within [-1, 1]"
+    low = float(np.min(np.linalg.eigvalsh(0.5 * (r + r.T))))
+    if low < -PSD_ROUNDING:
+        return (
+            f"matrix: not positive semidefinite (smallest eigenvalue {low:.3g}): no errors "
+            "can have these correlations; copy the table from the mount `calibrate mount "
+            "--out` wrote"
+        )
+    return ""
+
+
 @dataclass(frozen=True)
 class StdCorrelation:
     """Correlation coefficients between the errors of some of a mount's values.
 
     Attributes
     ----------
-    parameters : tuple of str
+    names : tuple of str
         Distinct names of `MOUNT_PARAMETER_NAMES`, at least two.
     matrix : tuple of tuple of float
         Their correlation matrix, (n, n): symmetric, unit diagonal, coefficients in
-        [-1, 1], positive semidefinite (each within `_CORRELATION_TOLERANCE`).
+        [-1, 1] (each within `_CORRELATION_TOLERANCE`), and positive semidefinite:
+        a matrix whose smallest eigenvalue is down to -`PSD_ROUNDING` (coefficients
+        rounded by hand) is stored as the nearest positive semidefinite one
+        (`nearest_correlation`); the reader warns.
     """
 
-    parameters: tuple[str, ...]
+    names: tuple[str, ...]
     matrix: tuple[tuple[float, ...], ...]
 
     def __post_init__(self) -> None:
         where = "mount [uncertainty.correlation]"
-        names = self.parameters
+        names = self.names
         if isinstance(names, str) or not isinstance(names, Sequence):
-            msg = f"{where} parameters: expected a list of names, got {names!r}"
+            msg = f"{where} names: expected a list of names, got {names!r}"
             raise InputError(msg)
         unknown = [n for n in names if n not in MOUNT_PARAMETER_NAMES]
         if unknown:
+            hint = "".join(f"; {_TABLE_KEY_HINT[u]}" for u in unknown if u in _TABLE_KEY_HINT)
             msg = (
-                f"{where} parameters: unknown name(s) {unknown}; expected some of "
-                f"{', '.join(MOUNT_PARAMETER_NAMES)}"
+                f"{where} names: unknown name(s) {unknown}; expected some of "
+                f"{', '.join(MOUNT_PARAMETER_NAMES)}{hint}"
             )
             raise InputError(msg)
-        if len(set(names)) != len(names) or len(names) < 2:
-            msg = f"{where} parameters: expected at least two distinct names, got {list(names)}"
+        twice = sorted({x for x in names if list(names).count(x) > 1})
+        if twice:
+            msg = f"{where} names: {', '.join(twice)} named twice; name each value once"
+            raise InputError(msg)
+        if len(names) < 2:
+            msg = f"{where} names: a correlation needs at least two values, got {list(names)}"
             raise InputError(msg)
         n = len(names)
         rows = self.matrix
@@ -290,7 +350,7 @@ class StdCorrelation:
             or len(rows) != n
             or any(isinstance(r, str) or not isinstance(r, Sequence) or len(r) != n for r in rows)
         ):
-            msg = f"{where} matrix: expected {n} rows of {n} numbers (one per parameter)"
+            msg = f"{where} matrix: expected {n} rows of {n} numbers (one per name)"
             raise InputError(msg)
         for i, row in enumerate(rows):
             for j, v in enumerate(row):
@@ -298,34 +358,25 @@ class StdCorrelation:
                     msg = f"{where} matrix[{i}][{j}]: expected a number, got {v!r}"
                     raise InputError(msg)
         r = np.array(rows, dtype=np.float64)
-        tol = _CORRELATION_TOLERANCE
-        bad = (
-            "not finite" if not np.all(np.isfinite(r))
-            else "its diagonal is not 1" if np.max(np.abs(np.diag(r) - 1.0)) > tol
-            else "not symmetric" if np.max(np.abs(r - r.T)) > tol
-            else "a coefficient is beyond [-1, 1]" if np.max(np.abs(r)) > 1.0 + tol
-            else "not positive semidefinite (no errors can have it)"
-            if np.min(np.linalg.eigvalsh(0.5 * (r + r.T))) < -tol
-            else ""
-        )  # fmt: skip
+        bad = _matrix_defect(r, names)
         if bad:
-            msg = f"{where} matrix: {bad}; give the correlation matrix of {', '.join(names)}"
+            msg = f"{where} {bad}"
             raise InputError(msg)
-        object.__setattr__(self, "parameters", tuple(str(x) for x in names))
+        object.__setattr__(self, "names", tuple(str(x) for x in names))
         fixed = nearest_correlation(r)
         object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in fixed))
 
     def without(self, names: Sequence[str]) -> StdCorrelation | None:
         """The correlations of the other values (None when fewer than two remain)."""
-        keep = [i for i, n in enumerate(self.parameters) if n not in names]
+        keep = [i for i, n in enumerate(self.names) if n not in names]
         if len(keep) < 2:
             return None
         rows = tuple(tuple(self.matrix[i][j] for j in keep) for i in keep)
-        return StdCorrelation(tuple(self.parameters[i] for i in keep), rows)
+        return StdCorrelation(tuple(self.names[i] for i in keep), rows)
 
     def as_document(self) -> dict[str, Any]:
-        """``{"parameters": [...], "matrix": [[...], ...]}``."""
-        return {"parameters": list(self.parameters), "matrix": [list(r) for r in self.matrix]}
+        """``{"names": [...], "matrix": [[...], ...]}``, as the calibration's ``--json``."""
+        return {"names": list(self.names), "matrix": [list(r) for r in self.matrix]}
 
 
 @dataclass(frozen=True)
@@ -357,7 +408,7 @@ class MountUncertainty:
                 msg = f"mount [uncertainty] correlation: expected a StdCorrelation, got {got!r}"
                 raise InputError(msg)
             missing = sorted(
-                {_NAME_KEY[n] for n in self.correlation.parameters}
+                {_NAME_KEY[n] for n in self.correlation.names}
                 - {k for k in _UNCERTAINTY_KEYS if getattr(self, k) is not None}
             )
             if missing:
@@ -618,30 +669,45 @@ def _uncertainty_table(table: object, source: str) -> MountUncertainty:
     values = {str(k): v for k, v in table.items() if k != "correlation"}
     try:
         if "correlation" in table:
-            values["correlation"] = _correlation_table(table["correlation"])
+            values["correlation"] = _correlation_table(table["correlation"], source)
         return MountUncertainty(**values)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
 
 
-def _correlation_table(table: object) -> StdCorrelation:
-    """The ``[uncertainty.correlation]`` table: ``parameters`` and ``matrix``."""
+def _correlation_table(table: object, source: str) -> StdCorrelation:
+    """The ``[uncertainty.correlation]`` table: ``names`` and ``matrix``.
+
+    A matrix that is not quite positive semidefinite (rounded coefficients) is read with
+    a warning naming its smallest eigenvalue; the nearest such matrix is used.
+    """
     if not isinstance(table, Mapping) or set(table) != set(_CORRELATION_KEYS):
         got = sorted(table) if isinstance(table, Mapping) else repr(table)
         msg = (
-            "[uncertainty.correlation] must be a table with exactly parameters (names) and "
+            "[uncertainty.correlation] must be a table with exactly names (of the values) and "
             f"matrix (their correlation coefficients), got {got}"
         )
         raise InputError(msg)
-    names, rows = table["parameters"], table["matrix"]
+    names, rows = table["names"], table["matrix"]
     if isinstance(names, str) or not isinstance(names, Sequence):
-        msg = f"mount [uncertainty.correlation] parameters: expected a list of names, got {names!r}"
+        msg = f"mount [uncertainty.correlation] names: expected a list of names, got {names!r}"
         raise InputError(msg)
     if not all(isinstance(n, str) for n in names):
-        msg = f"mount [uncertainty.correlation] parameters: expected names (text), got {names!r}"
+        msg = f"mount [uncertainty.correlation] names: expected names (text), got {names!r}"
         raise InputError(msg)
-    return StdCorrelation(tuple(names), rows)
+    corr = StdCorrelation(tuple(names), rows)
+    low = float(np.min(np.linalg.eigvalsh(np.array(rows, dtype=np.float64))))
+    if low < -_CORRELATION_TOLERANCE:
+        warnings.warn(
+            f"{source}: [uncertainty.correlation] matrix is not quite positive semidefinite "
+            f"(smallest eigenvalue {low:.2g}, as coefficients rounded by hand give): the "
+            "nearest positive semidefinite matrix is used; copy the table from the mount "
+            "`calibrate mount --out` wrote to keep it exact",
+            KinsyncWarning,
+            stacklevel=4,
+        )
+    return corr
 
 
 def _check_plausible(mount: Mount, source: str) -> None:
@@ -753,10 +819,10 @@ def mount_to_toml_text(mount: Mount) -> str:
         text += f"latency_s = {float(unc.latency_s)!r}\n"
     corr = unc.correlation
     if corr is not None:
-        names = ", ".join(f'"{n}"' for n in corr.parameters)
+        names = ", ".join(f'"{n}"' for n in corr.names)
         rows = ",\n".join("    [" + ", ".join(repr(v) for v in row) + "]" for row in corr.matrix)
         text += (
             "\n[uncertainty.correlation]  # correlation coefficients of those errors\n"
-            f"parameters = [{names}]\nmatrix = [\n{rows},\n]\n"
+            f"names = [{names}]\nmatrix = [\n{rows},\n]\n"
         )
     return text

@@ -284,7 +284,7 @@ def test_uncertainty_from_covariance_round_trips_with_its_correlations() -> None
     unc = uncertainty_from_covariance(cov)
     assert unc is not None
     assert unc.correlation is not None
-    assert unc.correlation.parameters == PARAMETER_NAMES
+    assert unc.correlation.names == PARAMETER_NAMES
     assert covariance_of_uncertainty(unc) == pytest.approx(cov, rel=1e-9, abs=1e-20)
     # A vector with an unknown component is left out, and so are its correlations.
     cov[5, 5] = np.nan
@@ -292,7 +292,7 @@ def test_uncertainty_from_covariance_round_trips_with_its_correlations() -> None
     assert part is not None
     assert part.lever_arm_body_m is None
     assert part.correlation is not None
-    assert "lever_x_m" not in part.correlation.parameters
+    assert "lever_x_m" not in part.correlation.names
     # Independent errors write no correlation table.
     plain = uncertainty_from_covariance(np.diag(np.diag(a.T @ a)))
     assert plain is not None

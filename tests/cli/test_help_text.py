@@ -77,7 +77,7 @@ def test_mount_check_prints_the_strongest_correlations(tmp_path: Path, run_cli: 
         MOUNT
         + "\n[uncertainty]\nlever_arm_body_m = [0.02, 0.02, 0.03]\nlatency_s = 0.002\n"
         + "[uncertainty.correlation]\n"
-        + 'parameters = ["lever_x_m", "lever_z_m", "latency_ms"]\n'
+        + 'names = ["lever_x_m", "lever_z_m", "latency_ms"]\n'
         + "matrix = [[1, 0.1, -0.86], [0.1, 1, 0.3], [-0.86, 0.3, 1]]\n"
     )
     code, out, err = run_cli(["mount", "check", str(path)])
@@ -87,7 +87,7 @@ def test_mount_check_prints_the_strongest_correlations(tmp_path: Path, run_cli: 
     assert f"correlation of the errors {strongest}" in text
     code, out, _ = run_cli(["mount", "check", str(path), "--json"])
     corr = json.loads(out)["uncertainty"]["correlation"]
-    assert corr["parameters"] == ["lever_x_m", "lever_z_m", "latency_ms"]
+    assert corr["names"] == ["lever_x_m", "lever_z_m", "latency_ms"]
     assert corr["matrix"][0][2] == -0.86
 
 

@@ -138,7 +138,7 @@ def covariance_of_uncertainty(unc: MountUncertainty | None) -> FloatArray:
     s = np.where(known, std, 0.0)
     corr = np.eye(7)
     if unc is not None and unc.correlation is not None:
-        idx = [PARAMETER_NAMES.index(n) for n in unc.correlation.parameters]
+        idx = [PARAMETER_NAMES.index(n) for n in unc.correlation.names]
         corr[np.ix_(idx, idx)] = np.asarray(unc.correlation.matrix)
     out: FloatArray = corr * np.outer(s, s)
     out[~known, ~known] = np.nan

@@ -69,7 +69,7 @@ def mount_check(
 
 def _strongest_pairs(corr: StdCorrelation, shown: int = 4) -> str:
     """The ``shown`` largest correlation coefficients by size, in words."""
-    names = corr.parameters
+    names = corr.names
     pairs = sorted(
         (
             (corr.matrix[i][j], f"{names[i]}/{names[j]}")
