@@ -362,3 +362,19 @@ def test_the_advice_weighs_a_held_value_with_its_correlations() -> None:
     assert "latency_ms's stated sigma moves boresight_roll_deg" in named
     correlated = effect_of_held(S, est, correlated_cov).advice(data_std)
     assert not any("boresight_roll_deg" in a for a in correlated)
+
+
+def test_a_sigma_that_takes_a_relevant_held_value_as_exact_is_not_written(
+    exact: CalibrationResult,
+) -> None:
+    # The lever arm is taken as exact and 1 cm of it moves the yaw by 1.8 sigma and the
+    # latency by 0.7: those sigmas hold none of it, and a later calibration that held
+    # the written values would trust them (a surveyor's two-stage run came out 3.8
+    # sigma off). They are left out, saying why and what to give.
+    unc = exact.mount.uncertainty
+    assert unc is None or (unc.boresight_rpy_deg is None and unc.latency_s is None)
+    notes = " ".join(exact.uncertainty_notes)
+    assert "boresight_rpy_deg is left out" in notes
+    assert "takes the held lever_y_m as exact" in notes
+    assert "latency_s is left out" in notes
+    assert "give lever_arm_body_m's standard deviation in the input mount's" in notes

@@ -232,7 +232,11 @@ _GROUPS = (("boresight_rpy_deg", BORESIGHT), ("lever_arm_body_m", LEVER), ("late
 
 
 def uncertainty_notes(
-    prior_std: FloatArray, new_std: FloatArray, estimated: tuple[int, ...], honest: bool
+    prior_std: FloatArray,
+    new_std: FloatArray,
+    estimated: tuple[int, ...],
+    honest: bool,
+    exact: Sequence[tuple[int, int, float]] = (),
 ) -> tuple[str, ...]:
     """What the calibrated mount's ``[uncertainty]`` leaves out or states worse, in words.
 
@@ -246,14 +250,28 @@ def uncertainty_notes(
         The parameters estimated.
     honest : bool
         Whether the estimates' sigma is honest (else none is written).
+    exact : sequence of (int, int, float)
+        `HeldEffect.exact_that_matter` with ``j`` as a parameter index: held values taken
+        as exact that move an estimate by more than half its sigma (that estimate's
+        sigma is not written).
     """
     out = []
     written = uncertainty_from_std(new_std)
     for key, idx in _GROUPS:
         if getattr(written, key, None) is not None or not any(i in estimated for i in idx):
             continue
+        limits = [(h, e, share) for h, e, share in exact if e in idx]
         if not honest:
             why = "the calibration's sigma is not honest (fewer than 5 lines)"
+        elif limits:
+            h, e, share = max(limits, key=lambda x: x[2])
+            vector = next(k for k, group in _GROUPS if h in group)
+            why = (
+                f"its sigma takes the held {PARAMETER_NAMES[h]} as exact, and "
+                f"{REFERENCE_TEXT[h]} of error in it would move {PARAMETER_NAMES[e]} by "
+                f"{share:.1f} sigma; give {vector}'s standard deviation in the input "
+                "mount's [uncertainty] (or estimate it) and calibrate again"
+            )
         elif np.all(np.isfinite(new_std[list(idx)])):
             why = "its sigma is beyond what a mount file may state"
         else:
@@ -358,6 +376,29 @@ class HeldEffect:
             out.append(f"{PARAMETER_NAMES[h]} ({known}): {REFERENCE_TEXT[h]} moves {moves}")
         return tuple(out)
 
+    def exact_that_matter(self, data_std: FloatArray) -> tuple[tuple[int, int, float], ...]:
+        """Held values taken as exact whose error would matter: ``(h, j, share)``.
+
+        A held value with no stated sigma whose reference error (`REFERENCE_ERRORS`)
+        moves estimate ``estimated[j]`` by more than `ADVICE_SHARE` of its data sigma,
+        the estimate it moves most, and by how many data sigma. Such an estimate's sigma
+        holds no part of that error.
+
+        Parameters
+        ----------
+        data_std : ndarray, shape (k,)
+            The estimates' sigma from the data (internal units).
+        """
+        shifts = self.per_reference()
+        sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
+        out = []
+        for h in self.unknown:
+            share = np.abs(shifts[:, h]) / sigma
+            j = int(np.argmax(share))
+            if share[j] > ADVICE_SHARE:
+                out.append((h, j, float(share[j])))
+        return tuple(out)
+
     def advice(self, data_std: FloatArray, requested: tuple[int, ...] = ()) -> tuple[str, ...]:
         """The held values whose error matters, in words.
 
@@ -376,25 +417,21 @@ class HeldEffect:
             determine (estimating it is no remedy).
         """
         shifts = self.per_reference()
-        sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
         out = []
-        for h in self.unknown:
-            share = np.abs(shifts[:, h]) / sigma
-            j = int(np.argmax(share))
-            if not share[j] > ADVICE_SHARE:
-                continue
+        for h, j, share in self.exact_that_matter(data_std):
             e = self.estimated[j]
             remedy = "" if h in requested else ", or estimate it"
             out.append(
                 f"{PARAMETER_NAMES[h]} is held as exact (the mount gives no [uncertainty] "
                 f"for it): {REFERENCE_TEXT[h]} of error moves {PARAMETER_NAMES[e]} by "
-                f"{shifts[j, h]:+.3g} ({share[j]:.1f} sigma); give the standard deviation of "
+                f"{shifts[j, h]:+.3g} ({share:.1f} sigma); give the standard deviation of "
                 f"its vector in the mount file's [uncertainty] table so the sigma holds "
                 f"it{remedy}"
             )
         # Each held value's share: what knowing it exactly would take out of an
         # estimate's sigma, |(D Sigma_h)[:, h]| / sigma_h (|D[:, h]| sigma_h when the
         # held errors are independent; with correlations the others' share moves too).
+        sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
         d_sigma = self.sensitivity @ self.held_covariance
         for h in self.held:
             if h in self.unknown:
