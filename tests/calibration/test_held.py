@@ -338,6 +338,13 @@ def test_a_later_calibration_holds_the_correlated_values(
     got = again.parameter("latency_ms").held_std / 1000.0
     assert got == pytest.approx(math.sqrt(full), rel=1e-9)
     assert abs(math.sqrt(full) - math.sqrt(diagonal)) > 0.05 * math.sqrt(diagonal)
+    # The advice weighs each held value with its correlations, and names the partner
+    # through which most of its share comes (a surveyor lowered one sigma by hand, as
+    # "knowing it better" suggested, and the latency's sigma grew).
+    correlated = [a for a in again.held_advice if a.startswith("knowing ")]
+    assert correlated, again.held_advice
+    assert all("through its stated correlation" in a for a in correlated)
+    assert all("measuring it anew" in a for a in correlated)
 
 
 def test_the_advice_weighs_a_held_value_with_its_correlations() -> None:

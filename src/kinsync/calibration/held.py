@@ -442,13 +442,46 @@ class HeldEffect:
             if not part[j] > sigma[j]:
                 continue
             e = self.estimated[j]
-            remedy = "knowing it better" if h in requested else "estimating it or knowing it better"
+            partner = self._partner(j, h)
+            if partner is None:
+                remedy = (
+                    "knowing it better" if h in requested else "estimating it or knowing it better"
+                )
+                out.append(
+                    f"{PARAMETER_NAMES[h]}'s stated sigma moves {PARAMETER_NAMES[e]} by "
+                    f"+-{part[j]:.3g}, more than the data leave (+-{sigma[j]:.3g}): {remedy} "
+                    f"would narrow {PARAMETER_NAMES[e]}'s sigma"
+                )
+                continue
+            k, rho = partner
+            remedy = "measuring it anew" if h in requested else "estimating it or measuring it anew"
             out.append(
-                f"{PARAMETER_NAMES[h]}'s stated sigma moves {PARAMETER_NAMES[e]} by "
-                f"+-{part[j]:.3g}, more than the data leave (+-{sigma[j]:.3g}): {remedy} "
-                f"would narrow {PARAMETER_NAMES[e]}'s sigma"
+                f"knowing {PARAMETER_NAMES[h]} exactly would take +-{part[j]:.3g} out of "
+                f"{PARAMETER_NAMES[e]}'s sigma (its own effect and, through its stated "
+                f"correlation {rho:+.2f} with {PARAMETER_NAMES[k]}, that value's), more than the "
+                f"data leave (+-{sigma[j]:.3g}): {remedy} would narrow it (a smaller sigma "
+                "written by hand beside the same correlations would not)"
             )
         return tuple(out)
+
+    def _partner(self, j: int, h: int) -> tuple[int, float] | None:
+        """The held value whose correlation carries most of ``h``'s share in estimate ``j``.
+
+        With that correlation; None when ``h``'s own effect is most of it (its share
+        within 10 % of ``|D[j, h]| sigma_h``).
+        """
+        s = self.held_std
+        own = abs(float(self.sensitivity[j, h])) * float(s[h])
+        terms = {
+            k: float(self.sensitivity[j, k] * self.held_covariance[k, h] / s[h])
+            for k in self.held
+            if k != h and math.isfinite(float(s[k])) and self.held_covariance[k, h] != 0.0
+        }
+        total = abs(float(self.sensitivity[j] @ self.held_covariance[:, h]) / float(s[h]))
+        if not terms or abs(total - own) <= 0.1 * max(own, total):
+            return None
+        k = max(terms, key=lambda x: abs(terms[x]))
+        return k, float(self.held_covariance[k, h] / (s[k] * s[h]))
 
 
 def held_effect(
