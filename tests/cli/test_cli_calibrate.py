@@ -332,6 +332,8 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
     assert code == 0, err
     assert "held" in out.splitlines()[2]  # the table's header has a held column
     assert "held: lever_x_m (sigma 0.02 m): 1 cm moves" in out
+    assumed = "assumed: range noise 0.01 m; trajectory position 0.02/0.02/0.03 m N/E/D"
+    assert assumed in " ".join(out.split())
     code, out, err = run_cli([*base, "--lever-std-m", "0.01,0.02,0.03", "--json"])
     assert code == 0, err
     doc = json.loads(out)

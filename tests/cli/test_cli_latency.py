@@ -479,6 +479,9 @@ def test_sphere_writes_the_latency_into_a_mount(
     assert code == 0, err
     doc = json.loads(stdout)
     assert doc["mount_out"] == str(out)
+    # With a mount, the split is always given (the README's keys), zero latency or not.
+    assert doc["mount_latency_ms"] == 0.0
+    assert doc["residual_latency_ms"] == doc["latency_ms"]
     measured = read_mount(out)
     assert measured.latency_s * 1e3 == pytest.approx(doc["latency_ms"], rel=1e-12)
     assert measured.uncertainty is not None

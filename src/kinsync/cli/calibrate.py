@@ -302,6 +302,13 @@ def plan(
         held_part = (_fmt(p.std_held if math.isfinite(p.std) else math.nan, 2),) * split
         table.add_row(p.name, p.status, _fmt(p.std, 2), _fmt(p.std_noise_only, 2), *held_part)
     console.print(table)
+    e = result.errors
+    console.print(
+        f"assumed: range noise {e.range_noise_m:g} m; trajectory position "
+        f"{'/'.join(f'{v:g}' for v in e.position_std_ned_m)} m N/E/D and misorientation "
+        f"{'/'.join(f'{v:g}' for v in e.attitude_std_deg)} deg about N/E/D, correlated over "
+        f"{e.corr_time_s:g} s"
+    )
     if result.held.estimated:
         for line in result.held.lines():
             console.print(f"held: {line}")

@@ -209,9 +209,10 @@ def sphere(
         applied = _applied_mount(Path(folder), raw, mount_file)
     applied_s = 0.0 if applied is None else applied.latency_s
     total_s = result.latency_s + applied_s
-    if applied_s != 0.0:
-        # The raw passes were georeferenced with raw/mount.toml's latency: the fit
-        # measures what is left on top of it; the total is their sum.
+    if applied is not None:
+        # The passes were georeferenced with the mount's latency (raw/mount.toml's, or
+        # --mount's): the fit measures what is left on top of it; the total is their
+        # sum. The keys are there whenever a mount is, zero or not (as documented).
         doc |= {
             "latency_ms": total_s * 1e3,
             "mount_latency_ms": applied_s * 1e3,
