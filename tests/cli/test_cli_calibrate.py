@@ -12,8 +12,9 @@ import pytest
 from tests._trajectory_holes import with_gap
 
 from kinsync.cli._options import expand_multi_value_options
-from kinsync.io.mount_file import read_mount
+from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.mount import Mount, MountUncertainty, StdCorrelation
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
 from kinsync.trajectory import Trajectory
@@ -324,6 +325,52 @@ def test_plan_takes_the_position_sigma_per_axis(run_cli: RunCli) -> None:
     # A worse height: the roll boresight, told by the ground's heights, is known worse.
     roll = [d["parameters"]["boresight_roll_deg"]["std"] for d in docs]
     assert roll[1] > 1.2 * roll[0], roll
+
+
+def test_plan_takes_the_held_values_sigma_and_correlations_from_a_mount(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    # An earlier calibration's mount: held on the next survey, its correlations count.
+    names = ("boresight_pitch_deg", "boresight_yaw_deg", "lever_x_m", "lever_y_m")
+    rows = (
+        (1.0, 0.95, -0.3, -0.9),
+        (0.95, 1.0, -0.4, -0.95),
+        (-0.3, -0.4, 1.0, 0.5),
+        (-0.9, -0.95, 0.5, 1.0),
+    )
+    unc = MountUncertainty(
+        lever_arm_body_m=(0.02, 0.02, 0.03),
+        boresight_rpy_deg=(0.05, 0.3, 0.3),
+        correlation=StdCorrelation(names, rows),
+    )
+    paths = {}
+    for label, given in (
+        ("correlated", unc),
+        (
+            "independent",
+            MountUncertainty(
+                lever_arm_body_m=unc.lever_arm_body_m, boresight_rpy_deg=unc.boresight_rpy_deg
+            ),
+        ),
+    ):
+        paths[label] = tmp_path / f"{label}.toml"
+        write_mount(Mount(uncertainty=given), paths[label])
+    base = ["calibrate", "plan", "--passes", "1", "--estimate", "latency", "--json"]
+    held = {}
+    for label, path in paths.items():
+        code, out, err = run_cli([*base, "--mount", str(path)])
+        assert code == 0, err
+        doc = json.loads(out)
+        held[label] = doc["parameters"]["latency_ms"]["std_held"]
+        assert doc["notes"] == []  # a mount's sigma for estimated values is no misuse
+    assert held["correlated"] > 0.0
+    assert abs(held["correlated"] - held["independent"]) > 0.05 * held["independent"]
+    code, out, err = run_cli([*base, "--mount", str(paths["correlated"]), "--lever-std-m", "0.02"])
+    assert_one_line_error(code, out, err, "--mount gives the held values' sigma")
+    bare = tmp_path / "bare.toml"
+    write_mount(Mount(), bare)
+    code, out, err = run_cli([*base, "--mount", str(bare)])
+    assert_one_line_error(code, out, err, "has no [uncertainty] table")
 
 
 def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:

@@ -258,6 +258,18 @@ def plan(
         float | None,
         typer.Option("--latency-std-ms", help="As --lever-std-m, for the latency (ms)."),
     ] = None,
+    held_mount: Annotated[
+        Path | None,
+        typer.Option(
+            "--mount",
+            help=literal(
+                "A mount whose [uncertainty] (and [uncertainty.correlation]) gives how well "
+                "the held values are known, e.g. an earlier calibration's --out: instead of "
+                "--lever-std-m / --boresight-std-deg / --latency-std-ms. Its values are not "
+                "used (the design is the scenario's)."
+            ),
+        ),
+    ] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Predict each parameter's sigma and status for a survey design, before the survey."""
@@ -266,6 +278,21 @@ def plan(
 
     opts = _options(features, estimate, None)
     held = _held_uncertainty(lever_std_m, boresight_std_deg, latency_std_ms)
+    if held_mount is not None:
+        if held is not None:
+            msg = (
+                "--mount gives the held values' sigma (its [uncertainty]): drop "
+                "--lever-std-m / --boresight-std-deg / --latency-std-ms, or --mount"
+            )
+            raise InputError(msg)
+        held = read_mount(held_mount).uncertainty
+        if held is None:
+            msg = (
+                f"--mount {held_mount}: the mount has no [uncertainty] table, so it says "
+                "nothing of how well the held values are known; give one, or the sigma "
+                "options"
+            )
+            raise InputError(msg)
     att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
     pos = _floats(position_std_m, "--position-std-m", None)
     if len(pos) not in (1, 3):
@@ -290,7 +317,7 @@ def plan(
     result = plan_calibration(sim.lines, sim.mount_true, opts, errors, held)
     if as_json:
         doc = result.as_document()
-        doc["notes"] = _unused_held_sigma(result, held)
+        doc["notes"] = _unused_held_sigma(result, None if held_mount else held)
         print_json(doc)
         return
     table = Table(title=f"Calibration plan: {scenario}, {counted(result.n_lines, 'line')}")
@@ -313,7 +340,7 @@ def plan(
         for line in result.held.lines():
             console.print(f"held: {line}")
     _print_undetermined(result.unobservable_reasons, result.advice)
-    for note in _unused_held_sigma(result, held):
+    for note in _unused_held_sigma(result, None if held_mount else held):
         console.print(f"note: {note}")
     console.print(
         "note: against a Monte Carlo of the same designs the spread of the estimates was "
