@@ -123,7 +123,9 @@ def test_uncertainty_that_is_not_a_table_is_refused() -> None:
 
 
 def test_unknown_table_message_lists_uncertainty() -> None:
-    with pytest.raises(InputError, match=r"\[uncertainty\] are read"):
+    with pytest.raises(
+        InputError, match=r"\[uncertainty\] \(with \[uncertainty.correlation\]\) are read"
+    ):
         mount_from_toml_text(BASE + "[sigma]\nlatency_s = 0.001\n")
 
 
@@ -303,3 +305,12 @@ def test_a_matrix_rounded_by_hand_is_read_with_a_warning() -> None:
     assert unc is not None
     assert unc.correlation is not None
     assert np.min(np.linalg.eigvalsh(np.array(unc.correlation.matrix))) > -1e-12
+
+
+def test_messages_name_the_unit_and_the_right_table() -> None:
+    with pytest.raises(InputError, match=r"at most 360 deg"):
+        mount_from_toml_text(BASE + "[uncertainty]\nboresight_rpy_deg = [0.1, 0.1, 400.0]\n")
+    with pytest.raises(InputError, match=r"go in \[uncertainty.correlation\]"):
+        mount_from_toml_text(BASE + '[correlation]\nnames = ["lever_x_m", "latency_ms"]\n')
+    with pytest.warns(KinsyncWarning, match="arc-minutes or milliradians written as degrees"):
+        mount_from_toml_text(BASE + "[uncertainty]\nboresight_rpy_deg = [0.1, 0.1, 10.0]\n")

@@ -79,6 +79,7 @@ Vector3 = tuple[float, float, float]
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
 _UNCERTAINTY_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s")
 _CORRELATION_KEYS = ("names", "matrix")
+_STD_UNITS = {"lever_arm_body_m": "m", "boresight_rpy_deg": "deg", "latency_s": "s"}
 
 MOUNT_PARAMETER_NAMES = (
     "boresight_roll_deg",
@@ -213,8 +214,8 @@ def _vector3(value: object, name: str, where: str) -> Vector3:
     return out
 
 
-def _std_value(value: object, label: str, limit: float) -> float:
-    """A standard deviation: a finite number in [0, limit]."""
+def _std_value(value: object, label: str, limit: float, unit: str) -> float:
+    """A standard deviation: a finite number in [0, limit] (``unit``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         msg = f"{label}: expected a standard deviation (a number), got {value!r}"
         raise InputError(msg)
@@ -222,7 +223,7 @@ def _std_value(value: object, label: str, limit: float) -> float:
     if not (math.isfinite(out) and 0.0 <= out <= limit):
         msg = (
             f"{label} = {value!r}: a standard deviation must be finite, not negative and "
-            f"at most {limit:g}"
+            f"at most {limit:g} {unit}"
         )
         raise InputError(msg)
     return out
@@ -425,11 +426,12 @@ class MountUncertainty:
                 continue
             vec = _vector3(value, name, "mount [uncertainty] ")
             checked = tuple(
-                _std_value(v, f"mount [uncertainty] {name}[{i}]", limit) for i, v in enumerate(vec)
+                _std_value(v, f"mount [uncertainty] {name}[{i}]", limit, _STD_UNITS[name])
+                for i, v in enumerate(vec)
             )
             object.__setattr__(self, name, checked)
         if self.latency_s is not None:
-            lat = _std_value(self.latency_s, "mount [uncertainty] latency_s", MAX_LATENCY_S)
+            lat = _std_value(self.latency_s, "mount [uncertainty] latency_s", MAX_LATENCY_S, "s")
             object.__setattr__(self, "latency_s", lat)
 
     def with_independent(
@@ -609,7 +611,12 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     if unknown_tables:
         msg = (
             f"{source}: unknown table(s) {unknown_tables}; only [mount], [profiler] and "
-            "[uncertainty] are read"
+            "[uncertainty] (with [uncertainty.correlation]) are read"
+            + (
+                "; the correlations go in [uncertainty.correlation]"
+                if "correlation" in unknown_tables
+                else ""
+            )
         )
         raise InputError(msg)
     unknown = sorted(set(table) - set(_KEYS))
@@ -766,11 +773,19 @@ def _check_plausible(mount: Mount, source: str) -> None:
         raise InputError(msg)
 
 
+_UNIT_SLIPS = {
+    "lever_arm_body_m": "centimetres written as metres?",
+    "boresight_rpy_deg": "arc-minutes or milliradians written as degrees?",
+    "latency_s": "milliseconds written as seconds?",
+}
+"""The likely slip behind an ``[uncertainty]`` value beyond `WARN_STD`, per key."""
+
+
 def _warn_uncertainty(unc: MountUncertainty | None, source: str) -> None:
     """Warn of ``[uncertainty]`` values beyond `WARN_STD` (a likely unit mistake)."""
     if unc is None:
         return
-    units = {"lever_arm_body_m": "m", "boresight_rpy_deg": "deg", "latency_s": "s"}
+    units = _STD_UNITS
     for key, limit in WARN_STD.items():
         value = getattr(unc, key)
         values = () if value is None else (value,) if isinstance(value, float) else value
@@ -778,9 +793,9 @@ def _warn_uncertainty(unc: MountUncertainty | None, source: str) -> None:
         if big:
             warnings.warn(
                 f"{source}: [uncertainty] {key} = {value!r} {units[key]}: a standard deviation "
-                f"beyond {limit:g} {units[key]} is a unit mistake (centimetres as metres, "
-                "milliseconds as seconds?) or a value too poorly known for a calibration to "
-                "hold it: its effect is linearised about the prior",
+                f"beyond {limit:g} {units[key]} is a unit mistake ({_UNIT_SLIPS[key]}) or a "
+                "value too poorly known for a calibration to hold it: its effect is "
+                "linearised about the prior",
                 KinsyncWarning,
                 stacklevel=3,
             )

@@ -276,7 +276,11 @@ def uncertainty_notes(
             why = "its sigma is beyond what a mount file may state"
         else:
             unknown = [PARAMETER_NAMES[i] for i in idx if not math.isfinite(float(new_std[i]))]
-            why = f"the sigma of {', '.join(unknown)} is not known (held, none stated)"
+            why = (
+                f"the sigma of {', '.join(unknown)} is not known (held, none stated); give "
+                f"{key}'s in the input mount's [uncertainty] to have it written, with its "
+                "correlations"
+            )
         out.append(f"{key} is left out of the written [uncertainty]: {why}")
     for i in estimated:
         before, after = float(prior_std[i]), float(new_std[i])
@@ -285,7 +289,8 @@ def uncertainty_notes(
             out.append(
                 f"{PARAMETER_NAMES[i]}: these data give +-{after * scale:.3g}, less well than "
                 f"the mount's stated +-{before * scale:.3g}; the calibration does not combine "
-                "them, and the written sigma is the calibration's"
+                "them, and the written sigma is the calibration's (to keep the mount's value "
+                "and sigma, leave its group out of --estimate: it is then held with its sigma)"
             )
     return tuple(out)
 
