@@ -211,6 +211,9 @@ def test_notes_say_what_the_written_uncertainty_leaves_out() -> None:
     assert "the sigma of lever_z_m is not known" in notes[0]
     assert notes[1].startswith("boresight_pitch_deg: these data give +-2.17, less well than")
     assert "+-0.2;" in notes[1]
+    # Each says what to do.
+    assert "give lever_arm_body_m's in the input mount's [uncertainty]" in notes[0]
+    assert "leave its group out of --estimate" in notes[1]
     expected = (
         "boresight_rpy_deg is left out of the written [uncertainty]: the calibration's "
         "sigma is not honest (fewer than 5 lines)"
