@@ -236,12 +236,14 @@ def test_correlation_reads_and_documents() -> None:
         ('names = ["lever_x_m", "boresight_roll_deg"]\nmatrix = [[1, 0], [0, 1]]\n',
          r"does not give \(boresight_rpy_deg\)"),
         ('names = ["lever_x_m", "latency_ms"]\n', "exactly names"),
+        ('parameters = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 1]]\n',
+         "parameters is now names"),
         ('names = ["lever_x_m", "latency_ms"]\nmatrix = [[1, 0], [0, 1]]\nnote = 1\n',
          "exactly names"),
     ],
     ids=["unknown-name", "duplicate", "one-name", "names-not-list", "names-not-text",
          "not-square", "asymmetric", "diagonal", "beyond-one", "not-psd", "nan", "text",
-         "table-key-as-name", "diagonal-entry", "no-sigma", "no-matrix", "extra-key"],
+         "table-key-as-name", "diagonal-entry", "no-sigma", "no-matrix", "old-key", "extra-key"],
 )  # fmt: skip
 def test_bad_correlation_is_refused_naming_file_and_table(table: str, pattern: str) -> None:
     with pytest.raises(InputError, match=pattern) as info:

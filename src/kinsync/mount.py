@@ -691,9 +691,10 @@ def _correlation_table(table: object, source: str) -> StdCorrelation:
     """
     if not isinstance(table, Mapping) or set(table) != set(_CORRELATION_KEYS):
         got = sorted(table) if isinstance(table, Mapping) else repr(table)
+        renamed = "; parameters is now names" if "parameters" in got else ""
         msg = (
             "[uncertainty.correlation] must be a table with exactly names (of the values) and "
-            f"matrix (their correlation coefficients), got {got}"
+            f"matrix (their correlation coefficients), got {got}{renamed}"
         )
         raise InputError(msg)
     names, rows = table["names"], table["matrix"]

@@ -19,6 +19,7 @@ from kinsync.calibration.adjustment import Adjustment, adjust
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount, find_features
 from kinsync.calibration.held import (
     REFERENCE_ERRORS,
+    HeldEffect,
     covariance_of_uncertainty,
     effect_of_held,
     held_covariance,
@@ -388,3 +389,46 @@ def test_a_sigma_that_takes_a_relevant_held_value_as_exact_is_not_written(
     assert "takes the held lever_y_m as exact" in notes
     assert "latency_s is left out" in notes
     assert "give lever_arm_body_m's standard deviation in the input mount's" in notes
+
+
+def _effect(sensitivity: np.ndarray, held_cov: np.ndarray) -> HeldEffect:
+    """Estimates yaw and latency (2, 6); everything else held with ``held_cov``."""
+    held = (0, 1, 3, 4, 5)
+    std = np.full(7, np.nan)
+    std[list(held)] = np.sqrt(np.diag(held_cov)[list(held)])
+    cov = np.nan_to_num(held_cov, nan=0.0)
+    return HeldEffect((2, 6), held, sensitivity, std, np.zeros((2, 2)), cov)
+
+
+def test_every_estimate_a_held_exact_value_moves_too_far_is_named() -> None:
+    # 1 cm of the lever x (no sigma stated) moves the yaw by 3 sigma and the latency by
+    # 1.5: both are returned (only the largest was, so the latency's sigma was written).
+    d = np.zeros((2, 7))
+    d[0, 3] = np.radians(0.03) / 0.01  # 0.03 deg per cm
+    d[1, 3] = 0.0015 / 0.01  # 1.5 ms per cm
+    cov = np.diag([1e-8, 1e-8, np.nan, np.nan, 1e-4, 1e-4, np.nan])
+    effect = _effect(d, cov)
+    found = effect.exact_that_matter(np.array([np.radians(0.01), 0.001]))
+    assert [(h, j) for h, j, _ in found] == [(3, 0), (3, 1)]
+    assert [round(share, 6) for *_, share in found] == [3.0, 1.5]
+    # A sigma that is NaN or zero is passed over, not a NaN that hides the others.
+    assert [j for _, j, _ in effect.exact_that_matter(np.array([np.nan, 0.001]))] == [1]
+    assert effect.exact_that_matter(np.array([0.0, 0.0])) == ()
+
+
+def test_the_partner_is_named_when_a_correlation_reverses_the_sign() -> None:
+    # Lever x's own effect on the yaw is +0.03 deg; through its -0.9 correlation with
+    # lever y the effect is -0.06: the net -0.03 has the own effect's size, not its sign.
+    d = np.zeros((2, 7))
+    d[0, 3] = np.radians(0.03) / 0.01
+    d[0, 4] = np.radians(0.0667) / 0.01
+    cov = np.diag([np.nan, np.nan, np.nan, 1e-4, 1e-4, np.nan, np.nan])
+    cov[3, 4] = cov[4, 3] = -0.9e-4
+    effect = _effect(d, cov)
+    partner = effect._partner(0, 3)
+    assert partner is not None
+    assert partner[0] == 4
+    assert partner[1] == pytest.approx(-0.9)
+    text = " ".join(effect.advice(np.array([np.radians(0.01), 0.001])))
+    assert "knowing lever_x_m exactly" in text
+    assert "correlation -0.90 with lever_y_m" in text

@@ -392,7 +392,7 @@ def calibrate_mount(
     overlaps_before = overlap_differences(models, observations, features, prior, frame)
     overlaps_after = overlap_differences(models, observations, fitted, solution.values, frame)
     summaries = _summaries(solution, before, overlaps_before, overlaps_after)
-    calibrated, notes = _calibrated_mount(mount, solution, covariance, effect, std, honest)
+    calibrated, notes = _calibrated_mount(mount, solution, covariance, effect, honest, requested)
     return CalibrationResult(
         mount=calibrated,
         prior=mount,
@@ -423,8 +423,8 @@ def _calibrated_mount(
     solution: Adjustment,
     covariance: FloatArray,
     effect: HeldEffect,
-    data_std: FloatArray,
     honest: bool,
+    requested: tuple[int, ...],
 ) -> tuple[Mount, tuple[str, ...]]:
     """The calibrated mount, with the covariance it is now known to; notes.
 
@@ -432,7 +432,8 @@ def _calibrated_mount(
     (else none: a formal sigma is 3-30x too small); held ones keep the prior's; the
     correlations are those of `kinsync.calibration.held.joint_covariance` (an estimate
     follows the held values' errors). An estimate that a held value taken as exact would
-    move by more than half its sigma (`HeldEffect.exact_that_matter`) gets none either:
+    move by more than half its sigma, the one it would be written with
+    (`HeldEffect.exact_that_matter`), gets none either:
     its sigma holds no part of that error, and a later calibration would trust it. The
     notes say what is left out of the ``[uncertainty]`` written and why, and which
     estimate is now known less well than the mount stated.
@@ -441,7 +442,8 @@ def _calibrated_mount(
     prior_std = held_std(mount)
     joint = joint_covariance(covariance, effect, prior_cov)
     est = list(solution.estimated)
-    exact = [(h, est[j], share) for h, j, share in effect.exact_that_matter(data_std)]
+    total_std = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    exact = [(h, est[j], share) for h, j, share in effect.exact_that_matter(total_std)]
     dropped = est if not honest else sorted({e for _, e, _ in exact})
     if dropped:
         joint[dropped, :] = 0.0
@@ -449,7 +451,7 @@ def _calibrated_mount(
         joint[dropped, dropped] = np.nan
     std = np.sqrt(np.where(np.diag(joint) >= 0.0, np.diag(joint), np.nan))
     calibrated = mount_from_values(mount, solution.values)
-    notes = uncertainty_notes(prior_std, std, solution.estimated, honest, exact)
+    notes = uncertainty_notes(prior_std, std, solution.estimated, honest, exact, requested)
     return replace(calibrated, uncertainty=uncertainty_from_covariance(joint)), notes
 
 

@@ -237,6 +237,7 @@ def uncertainty_notes(
     estimated: tuple[int, ...],
     honest: bool,
     exact: Sequence[tuple[int, int, float]] = (),
+    requested: tuple[int, ...] = (),
 ) -> tuple[str, ...]:
     """What the calibrated mount's ``[uncertainty]`` leaves out or states worse, in words.
 
@@ -254,6 +255,9 @@ def uncertainty_notes(
         `HeldEffect.exact_that_matter` with ``j`` as a parameter index: held values taken
         as exact that move an estimate by more than half its sigma (that estimate's
         sigma is not written).
+    requested : tuple of int
+        The parameters asked for: a held one among them is one the data could not
+        determine (estimating it is no remedy).
     """
     out = []
     written = uncertainty_from_std(new_std)
@@ -270,7 +274,8 @@ def uncertainty_notes(
                 f"its sigma takes the held {PARAMETER_NAMES[h]} as exact, and "
                 f"{REFERENCE_TEXT[h]} of error in it would move {PARAMETER_NAMES[e]} by "
                 f"{share:.1f} sigma; give {vector}'s standard deviation in the input "
-                "mount's [uncertainty] (or estimate it) and calibrate again"
+                f"mount's [uncertainty]{'' if h in requested else ' (or estimate it)'} and "
+                "calibrate again"
             )
         elif np.all(np.isfinite(new_std[list(idx)])):
             why = "its sigma is beyond what a mount file may state"
@@ -381,27 +386,28 @@ class HeldEffect:
             out.append(f"{PARAMETER_NAMES[h]} ({known}): {REFERENCE_TEXT[h]} moves {moves}")
         return tuple(out)
 
-    def exact_that_matter(self, data_std: FloatArray) -> tuple[tuple[int, int, float], ...]:
+    def exact_that_matter(self, std: FloatArray) -> tuple[tuple[int, int, float], ...]:
         """Held values taken as exact whose error would matter: ``(h, j, share)``.
 
-        A held value with no stated sigma whose reference error (`REFERENCE_ERRORS`)
-        moves estimate ``estimated[j]`` by more than `ADVICE_SHARE` of its data sigma,
-        the estimate it moves most, and by how many data sigma. Such an estimate's sigma
-        holds no part of that error.
+        Every pair of a held value with no stated sigma and an estimate
+        ``estimated[j]`` that its reference error (`REFERENCE_ERRORS`) moves by more
+        than `ADVICE_SHARE` of the estimate's sigma ``std``, and by how many sigma. Such
+        an estimate's sigma holds no part of that error. An estimate with no finite,
+        positive sigma is passed over.
 
         Parameters
         ----------
-        data_std : ndarray, shape (k,)
-            The estimates' sigma from the data (internal units).
+        std : ndarray, shape (k,)
+            The estimates' sigma (internal units): the data's for the advice, the total
+            (with the held part) for what is written.
         """
         shifts = self.per_reference()
-        sigma = np.asarray(data_std) * REPORT_SCALE[list(self.estimated)]
+        sigma = np.asarray(std, dtype=np.float64) * REPORT_SCALE[list(self.estimated)]
+        usable = np.isfinite(sigma) & (sigma > 0.0)
         out = []
         for h in self.unknown:
-            share = np.abs(shifts[:, h]) / sigma
-            j = int(np.argmax(share))
-            if share[j] > ADVICE_SHARE:
-                out.append((h, j, float(share[j])))
+            share = np.divide(np.abs(shifts[:, h]), sigma, out=np.zeros_like(sigma), where=usable)
+            out += [(h, int(j), float(share[j])) for j in np.flatnonzero(share > ADVICE_SHARE)]
         return tuple(out)
 
     def advice(self, data_std: FloatArray, requested: tuple[int, ...] = ()) -> tuple[str, ...]:
@@ -423,7 +429,11 @@ class HeldEffect:
         """
         shifts = self.per_reference()
         out = []
+        largest: dict[int, tuple[int, float]] = {}
         for h, j, share in self.exact_that_matter(data_std):
+            if h not in largest or share > largest[h][1]:
+                largest[h] = (j, share)
+        for h, (j, share) in largest.items():
             e = self.estimated[j]
             remedy = "" if h in requested else ", or estimate it"
             out.append(
@@ -476,14 +486,14 @@ class HeldEffect:
         within 10 % of ``|D[j, h]| sigma_h``).
         """
         s = self.held_std
-        own = abs(float(self.sensitivity[j, h])) * float(s[h])
+        own = float(self.sensitivity[j, h]) * float(s[h])
         terms = {
             k: float(self.sensitivity[j, k] * self.held_covariance[k, h] / s[h])
             for k in self.held
             if k != h and math.isfinite(float(s[k])) and self.held_covariance[k, h] != 0.0
         }
-        total = abs(float(self.sensitivity[j] @ self.held_covariance[:, h]) / float(s[h]))
-        if not terms or abs(total - own) <= 0.1 * max(own, total):
+        total = own + sum(terms.values())
+        if not terms or abs(total - own) <= 0.1 * max(abs(own), abs(total)):
             return None
         k = max(terms, key=lambda x: abs(terms[x]))
         return k, float(self.held_covariance[k, h] / (s[k] * s[h]))
