@@ -313,6 +313,19 @@ def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:
     assert one["latency_ms"]["status"] != "estimated"
 
 
+def test_plan_says_when_the_trajectory_is_what_limits(run_cli: RunCli) -> None:
+    # 5 m trajectory errors: the design has lines both ways and two speeds; the advice
+    # must say that the trajectory, not the geometry, leaves the values undetermined.
+    base = ["calibrate", "plan", "--passes", "1", "--json"]
+    code, out, err = run_cli([*base, "--position-std-m", "5"])
+    assert code == 0, err
+    advice = json.loads(out)["advice"]
+    assert any("boresight_yaw_deg: a better trajectory" in a for a in advice), advice
+    code, out, err = run_cli(base)
+    assert code == 0, err
+    assert not any("a better trajectory" in a for a in json.loads(out)["advice"])
+
+
 def test_plan_takes_the_position_sigma_per_axis(run_cli: RunCli) -> None:
     base = ["calibrate", "plan", "--passes", "1", "--json"]
     docs = []

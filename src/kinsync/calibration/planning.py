@@ -67,7 +67,12 @@ from kinsync.calibration.features import Feature
 from kinsync.calibration.held import HeldEffect, covariance_of_uncertainty, effect_of_held
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
-from kinsync.calibration.observability import analyse, hold_after_solution, status_of
+from kinsync.calibration.observability import (
+    UNOBSERVABLE_THRESHOLDS,
+    analyse,
+    hold_after_solution,
+    status_of,
+)
 from kinsync.calibration.parameters import (
     PARAMETER_NAMES,
     REPORT_SCALE,
@@ -465,11 +470,22 @@ def plan_calibration(
     cov, cov_noise = _predicted(
         models, observations, features, values, obs.estimated, frame, err, sig
     )
+    trajectory_limited: list[str] = []
     while obs.estimated:
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
         dropped = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
         if dropped is None:
             break
+        c = dropped.cause
+        j = obs.estimated.index(c)
+        alone = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * float(REPORT_SCALE[c])
+        if not dropped.reason and alone <= UNOBSERVABLE_THRESHOLDS[c]:
+            trajectory_limited.append(
+                f"{PARAMETER_NAMES[c]}: a better trajectory (these lines with the range noise "
+                f"alone give +-{alone:.2g}, with the trajectory errors assumed "
+                f"+-{dropped.std_report:.3g}), or more lines: the trajectory errors average "
+                "over lines"
+            )
         obs = obs.without(dropped)
         cov, cov_noise = _predicted(
             models, observations, features, values, obs.estimated, frame, err, sig
@@ -505,7 +521,7 @@ def plan_calibration(
         n_features=len(features),
         n_lines=len(lines),
         unobservable_reasons=obs.explanation(),
-        advice=obs.advice(),
+        advice=(*trajectory_limited, *obs.advice()),
         errors=err,
         held=effect,
     )
