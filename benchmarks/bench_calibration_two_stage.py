@@ -40,7 +40,6 @@ from scipy.stats import t as student_t
 
 from kinsync._typing import FloatArray
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
-from kinsync.calibration.held import covariance_of_uncertainty
 from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE, mount_values
 from kinsync.sim.patch_config import PatchTestConfig, Scenario
 from kinsync.sim.patch_test import simulate_patch_test
@@ -62,30 +61,18 @@ def _one_run(args: tuple[Scenario, float, int]) -> Run:
     )
     calibrated = stage1.mount
     truth = mount_values(first.mount_true)
-    off = truth - mount_values(calibrated)
-    second = simulate_patch_test(
-        PatchTestConfig(
-            scenario=scenario,
-            density=density,
-            seed=seed + 100_000,
-            nominal_mount=calibrated,
-            boresight_error_rpy_deg=tuple(float(v) for v in np.degrees(off[:3])),  # type: ignore[arg-type]
-            lever_arm_error_body_m=tuple(float(v) for v in off[3:6]),  # type: ignore[arg-type]
-            latency_error_s=float(off[6]),
-        )
-    )
+    again = PatchTestConfig(scenario=scenario, density=density, seed=seed + 100_000)
+    second = simulate_patch_test(again.with_nominal(calibrated))
     stage2 = calibrate_mount(second.lines, calibrated, CalibrationOptions(estimate=STAGE_TWO))
-    prior = covariance_of_uncertainty(calibrated.uncertainty)
-    known = [i for i in range(7) if math.isfinite(float(prior[i, i]))]
-    err, std, independent = [], [], []
     assert stage2.held is not None
+    held_alone = stage2.held.std_if_independent
+    err, std, independent = [], [], []
     for i, p in enumerate(stage2.parameters):
         err.append(p.value - float(truth[i] * REPORT_SCALE[i]))
         std.append(p.std)
         if i in stage2.held.estimated:
-            d = stage2.held.sensitivity[stage2.held.estimated.index(i)][known]
-            held_var = float(np.sum(d**2 * np.diag(prior)[known])) * REPORT_SCALE[i] ** 2
-            independent.append(math.sqrt(p.data_std**2 + held_var))
+            part = float(held_alone[stage2.held.estimated.index(i)] * REPORT_SCALE[i])
+            independent.append(math.hypot(p.data_std, part))
         else:
             independent.append(math.nan)
     t95 = float(student_t.ppf(0.975, len(stage2.lines) - 1))

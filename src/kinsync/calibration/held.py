@@ -336,6 +336,17 @@ class HeldEffect:
         return out
 
     @property
+    def std_if_independent(self) -> FloatArray:
+        """The held part's standard deviation with the held errors taken as independent.
+
+        Their stated correlations ignored, shape (k,), internal units: what a mount
+        file without correlations gave.
+        """
+        variances = np.diag(self.held_covariance)
+        out: FloatArray = np.sqrt(self.sensitivity**2 @ variances)
+        return out
+
+    @property
     def unknown(self) -> tuple[int, ...]:
         """Held parameters with no stated standard deviation (taken as exact)."""
         return tuple(i for i in self.held if not math.isfinite(float(self.held_std[i])))

@@ -294,11 +294,7 @@ def plan(
             )
             raise InputError(msg)
     att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
-    pos = _floats(position_std_m, "--position-std-m", None)
-    if len(pos) not in (1, 3):
-        msg = f"--position-std-m {position_std_m!r}: expected one number or three, got {len(pos)}"
-        raise InputError(msg)
-    pos_ned = (pos[0], pos[0], pos[0]) if len(pos) == 1 else (pos[0], pos[1], pos[2])
+    pos_ned = _one_or_three(position_std_m, "--position-std-m")
     errors = NavigationErrors(range_noise_m, pos_ned, (att[0], att[1], att[2]), corr_time_s)
     speeds = None if speeds_m_s is None else _floats(speeds_m_s, "--speeds-m-s", None)
     if scenario not in ("vehicle", "vessel"):
@@ -363,18 +359,14 @@ def _held_uncertainty(
     def vector(text: str | None, option: str, limit: float) -> tuple[float, float, float] | None:
         if text is None:
             return None
-        values = _floats(text, option, None)
-        if len(values) not in (1, 3):
-            msg = f"{option} {text!r}: expected one number or three, got {len(values)}"
-            raise InputError(msg)
+        values = _one_or_three(text, option)
         if max(values) > limit:
             msg = (
                 f"{option} {text!r}: a sigma beyond {limit:g} is a unit mistake or too "
                 "poorly known to plan with; estimate the value instead"
             )
             raise InputError(msg)
-        x, y, z = values * 3 if len(values) == 1 else values
-        return (x, y, z)
+        return values
 
     lever = vector(lever_std_m, "--lever-std-m", WARN_STD["lever_arm_body_m"])
     bore = vector(boresight_std_deg, "--boresight-std-deg", WARN_STD["boresight_rpy_deg"])
@@ -414,6 +406,16 @@ def _print_undetermined(reasons: tuple[str, ...], advice: tuple[str, ...]) -> No
         console.print(f"not determined: {reason}")
     for line in advice:
         console.print(f"would determine it: {line}")
+
+
+def _one_or_three(text: str, option: str) -> tuple[float, float, float]:
+    """An option's one number (for all three axes) or three."""
+    values = _floats(text, option, None)
+    if len(values) not in (1, 3):
+        msg = f"{option} {text!r}: expected one number or three, got {len(values)}"
+        raise InputError(msg)
+    x, y, z = values * 3 if len(values) == 1 else values
+    return (x, y, z)
 
 
 def _floats(text: str, option: str, count: int | None) -> tuple[float, ...]:

@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 
 from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
-from kinsync.calibration.held import covariance_of_uncertainty
 from kinsync.calibration.parameters import LATENCY, REPORT_SCALE, mount_values
 from kinsync.calibration.planning import NavigationErrors, PlanResult, plan_calibration
 from kinsync.calibration.result import CalibrationResult
@@ -145,32 +144,16 @@ def _later_survey(out_dir: Path, vessel: _ScenarioRun) -> _LaterRun:
     write_mount(vessel.result.mount, path)
     calibrated = read_mount(path)
     config = PatchTestConfig(scenario="vessel", density=DENSITY["vessel"], seed=SEED["vessel"])
-    off = mount_values(config.mount_true) - mount_values(calibrated)
-    later = simulate_patch_test(
-        replace(
-            config,
-            seed=SEED["vessel"] + 100,
-            nominal_mount=calibrated,
-            boresight_error_rpy_deg=(
-                math.degrees(off[0]),
-                math.degrees(off[1]),
-                math.degrees(off[2]),
-            ),
-            lever_arm_error_body_m=(float(off[3]), float(off[4]), float(off[5])),
-            latency_error_s=float(off[6]),
-        )
-    )
+    later = simulate_patch_test(replace(config, seed=SEED["vessel"] + 100).with_nominal(calibrated))
     result = calibrate_mount(later.lines, calibrated, CalibrationOptions(estimate=("latency",)))
     latency = result.parameter("latency_ms")
-    prior = covariance_of_uncertainty(calibrated.uncertainty)
     assert result.held is not None
-    d = result.held.sensitivity[result.held.estimated.index(LATENCY)]
-    known = [i for i in range(7) if math.isfinite(float(prior[i, i]))]
-    held_var = float(np.sum(d[known] ** 2 * np.diag(prior)[known])) * REPORT_SCALE[LATENCY] ** 2
+    j = result.held.estimated.index(LATENCY)
+    held_ms = float(result.held.std_if_independent[j] * REPORT_SCALE[LATENCY])
     return _LaterRun(
         result=result,
         truth_ms=float(later.mount_true.latency_s * 1000.0),
-        independent_ms=math.sqrt(latency.data_std**2 + held_var),
+        independent_ms=math.hypot(latency.data_std, held_ms),
         mount_path=path,
     )
 

@@ -283,6 +283,25 @@ class PatchTestConfig:
             latency_s=m.latency_s + self.latency_error_s,
         )
 
+    def with_nominal(self, nominal: Mount) -> PatchTestConfig:
+        """The same survey and true mount, started from ``nominal``.
+
+        ``nominal`` is e.g. an earlier calibration's result: the injected errors become
+        the truth minus ``nominal``.
+        """
+        true = self.mount_true
+
+        def minus(a: Vector3, b: Vector3) -> Vector3:
+            return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+        return replace(
+            self,
+            nominal_mount=nominal,
+            boresight_error_rpy_deg=minus(true.boresight_rpy_deg, nominal.boresight_rpy_deg),
+            lever_arm_error_body_m=minus(true.lever_arm_body_m, nominal.lever_arm_body_m),
+            latency_error_s=true.latency_s - nominal.latency_s,
+        )
+
     @property
     def profile_period_s(self) -> float:
         """Mirror period T (s)."""
