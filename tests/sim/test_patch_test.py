@@ -457,3 +457,24 @@ def test_scene_document_is_complete(vessel: PatchTestSimulation) -> None:
     assert {p["name"] for p in doc["planes"]} == {p.name for p in vessel.scene.planes}
     assert [s["radius_m"] for s in doc["spheres"]] == [0.4, 0.4]
     assert doc["water_returns_dropped"] is True
+
+
+def test_with_nominal_keeps_the_true_mount() -> None:
+    # A second survey started from an earlier calibration's mount: same truth, the
+    # injected errors are what that mount still has wrong.
+    config = PatchTestConfig(scenario="vessel")
+    start = replace(
+        config.mount_nominal,
+        boresight_rpy_deg=(-89.7, -0.2, 20.3),
+        lever_arm_body_m=(0.62, 1.09, -2.95),
+        latency_s=0.004,
+    )
+    again = config.with_nominal(start)
+    assert again.mount_nominal == start
+    np.testing.assert_allclose(again.boresight_error_rpy_deg, (-0.05, -0.1, 0.1), atol=1e-12)
+    np.testing.assert_allclose(again.lever_arm_error_body_m, (0.01, -0.01, -0.01), atol=1e-12)
+    assert again.latency_error_s == pytest.approx(0.001)
+    t, a = config.mount_true, again.mount_true
+    np.testing.assert_allclose(a.boresight_rpy_deg, t.boresight_rpy_deg, atol=1e-12)
+    np.testing.assert_allclose(a.lever_arm_body_m, t.lever_arm_body_m, atol=1e-12)
+    assert a.latency_s == pytest.approx(t.latency_s)
