@@ -226,6 +226,27 @@ def test_malformed_toml_names_source(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("[mount]\nlatency_s = 0.1\nlatency_s = 0.2\n", "line 3, column 16: a key given twice"),
+        ("[mount]\nlatency_s = 0.1\nlatency_s = 0.2", "(latency_s); keep one of the two"),
+        ("[mount]\nlatency_s = 0.1\n[mount]\n", "table [mount] is declared twice"),
+        ("[uncertainty.correlation]\n[uncertainty.correlation]\n", "[uncertainty.correlation]"),
+        ("[mount]\nu = {a = 1}\nu.b = 2\n", "mount.u was written as an inline table"),
+        ("[mount]\nlatency_s = 0.1\n[mount # again\n", "header '[mount' lacks its closing ']'"),
+    ],
+)
+def test_a_name_given_twice_is_said_in_plain_words(text: str, words: str) -> None:
+    """tomllib's "Cannot overwrite a value" names no key: the message names it."""
+    with pytest.raises(InputError) as info:
+        mount_from_toml_text(text, source="m.toml")
+    message = str(info.value)
+    assert message.startswith("m.toml: line ")
+    assert words in message
+    assert "Cannot" not in message
+
+
+@pytest.mark.parametrize(
     ("text", "pattern"),
     [
         ("latency_s = 0.1\n", r"\[mount\]"),

@@ -138,6 +138,41 @@ _TOML_END = " (at end of document)"
 _TOML_WHERE = re.compile(r"^(?P<what>.*?) \(at line (?P<line>\d+), column (?P<col>\d+)\)$")
 
 
+_TOML_TWICE = re.compile(r"^Cannot declare \((?P<key>.*?),?\) twice$")
+_TOML_CLOSED = re.compile(r"^Cannot mutate immutable namespace \((?P<key>.*?),?\)$")
+
+
+def _plain_toml_reason(reason: str, body: str, line_no: int) -> str | None:
+    """The parser's message for a name given twice, in plain words (else None).
+
+    tomllib says "Cannot overwrite a value" for a key written twice, naming no key; the
+    key is read from the line it points at.
+    """
+    if reason == "Cannot overwrite a value":
+        lines = body.split("\n")[:line_no]
+        text = next((ln.strip() for ln in reversed(lines) if ln.strip()), "")
+        key = text.split("=", 1)[0].strip() if "=" in text else text
+        named = f" ({key})" if key else ""
+        return (
+            f"a key given twice in its table, or a key that is also a table{named}; "
+            "keep one of the two"
+        )
+    if (m := _TOML_TWICE.match(reason)) is not None:
+        lines = body.split("\n")
+        header = lines[line_no - 1].split("#", 1)[0].strip() if line_no <= len(lines) else ""
+        if not header.endswith("]"):  # tomllib checks the name before the bracket
+            return f"malformed TOML: table header {header!r} lacks its closing ']'; add it"
+        name = ".".join(part.strip().strip("'\"") for part in m["key"].split(","))
+        return f"table [{name}] is declared twice; merge the two into one table"
+    if (m := _TOML_CLOSED.match(reason)) is not None:
+        name = ".".join(part.strip().strip("'\"") for part in m["key"].split(","))
+        return (
+            f"{name} was written as an inline table or array and is extended later; "
+            "write all of its keys in one place"
+        )
+    return None
+
+
 def toml_document(text: str, source: str) -> dict[str, Any]:
     """Parse a TOML document; the one TOML parser of kinsync's readers.
 
@@ -157,8 +192,10 @@ def toml_document(text: str, source: str) -> dict[str, Any]:
     Raises
     ------
     InputError
-        Malformed TOML: ``<source>: line L, column C: malformed TOML: <reason>``; an
-        integer of more than 4300 digits; nesting too deep for the parser.
+        Malformed TOML: ``<source>: line L, column C: malformed TOML: <reason>``; a
+        key or table given twice, or an inline table extended later (said in plain
+        words, naming the key); an integer of more than 4300 digits; nesting too deep
+        for the parser.
     """
     body = text.removeprefix(_BOM)
     try:
@@ -174,7 +211,12 @@ def toml_document(text: str, source: str) -> dict[str, Any]:
             reason = str(err).removesuffix(_TOML_END)
         else:
             place, reason = "", str(err)
-        msg = f"{source}: {place}malformed TOML: {reason}; fix the TOML syntax there"
+        line_no = int(where["line"]) if where is not None else body.count("\n") + 1
+        plain = _plain_toml_reason(reason, body, line_no)
+        if plain is not None:
+            msg = f"{source}: {place}{plain}"
+        else:
+            msg = f"{source}: {place}malformed TOML: {reason}; fix the TOML syntax there"
         raise InputError(msg) from err
     except ValueError as err:  # tomllib's int() of more than 4300 digits
         reason = str(err).split(";")[0].split(":")[0]

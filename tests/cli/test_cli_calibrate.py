@@ -340,6 +340,17 @@ def test_plan_takes_the_position_sigma_per_axis(run_cli: RunCli) -> None:
     assert roll[1] > 1.2 * roll[0], roll
 
 
+def test_plan_takes_one_attitude_sigma_for_every_axis(run_cli: RunCli) -> None:
+    base = ["calibrate", "plan", "--passes", "1", "--json"]
+    docs = []
+    for value in ("0.01", "0.01,0.01,0.01"):
+        code, out, err = run_cli([*base, "--attitude-std-deg", value])
+        assert code == 0, err
+        docs.append(json.loads(out))
+    assert docs[0]["assumed_errors"]["attitude_std_deg"] == [0.01, 0.01, 0.01]
+    assert docs[0]["parameters"] == docs[1]["parameters"]
+
+
 def test_plan_takes_the_held_values_sigma_and_correlations_from_a_mount(
     run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
@@ -413,6 +424,7 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
      ("--position-std-m", "0.02,-0.03,0.03", ">= 0"),
      ("--position-std-m", "0.02,0.02,500", "--position-std-m 500: outside the span"),
      ("--attitude-std-deg", "0.005,0.005,30", "--attitude-std-deg 30: outside the span"),
+     ("--attitude-std-deg", "0.005,0.005", "expected one number or three"),
      ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span")],
 )  # fmt: skip
 def test_plan_refuses_bad_held_sigma(

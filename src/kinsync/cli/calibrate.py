@@ -231,7 +231,8 @@ def plan(
         str,
         typer.Option(
             "--attitude-std-deg",
-            help="Trajectory misorientation about N,E,D (deg).",
+            help="Trajectory misorientation (deg): one sigma for every axis, or about "
+            "N,E,D (heading is often 2 times worse).",
         ),
     ] = "0.005,0.005,0.01",
     corr_time_s: Annotated[
@@ -293,7 +294,7 @@ def plan(
                 "options"
             )
             raise InputError(msg)
-    att = _floats(attitude_std_deg, "--attitude-std-deg", 3)
+    att = _one_or_three(attitude_std_deg, "--attitude-std-deg")
     pos_ned = _one_or_three(position_std_m, "--position-std-m")
     errors = NavigationErrors(range_noise_m, pos_ned, (att[0], att[1], att[2]), corr_time_s)
     speeds = None if speeds_m_s is None else _floats(speeds_m_s, "--speeds-m-s", None)
