@@ -298,6 +298,10 @@ def test_bad_inputs_are_one_line_errors(
     assert_one_line_error(
         *run_cli([*argv, "--static-s", "0"]), "--static-s 0: the levelling needs a standstill"
     )
+    # A static period beside a given initial state: one of the two is not used.
+    assert_one_line_error(
+        *run_cli([*_run_args(navego, out), "--static-s", "3"]), "--static-s 3", "leave one out"
+    )
     # Missing input file.
     argv = _run_args(navego, out)
     argv[argv.index(str(navego["imu"]))] = str(tmp_path / "none.csv")
@@ -443,6 +447,7 @@ def test_gyro_rates_in_degrees_on_a_calm_drive_are_refused(
         cells = line.split(",")
         cells[1:4] = [repr(math.degrees(float(c))) for c in cells[1:4]]
         rows.append(",".join(cells))
+    del rows[3000:3002]  # two samples lost after the static start: an input warning
     imu_csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
     out = tmp_path / "nav.csv"
     argv = ["ins", "run", "--imu", str(imu_csv), "--gnss", str(tmp_path / "gnss.csv")]
@@ -451,4 +456,7 @@ def test_gyro_rates_in_degrees_on_a_calm_drive_are_refused(
     assert_one_line_error(
         code, stdout, stderr, "chi-square gate rejected", "deg/s", "no solution written"
     )
+    # The one error line carries the input checks' warning, which may name the cause.
+    assert "The input checks had warned:" in stderr
+    assert "missing samples?" in stderr
     assert not out.exists()

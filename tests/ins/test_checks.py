@@ -206,3 +206,64 @@ def test_gate_rejections_warn_then_refuse() -> None:
     assert "deg/s" in warning
     with pytest.raises(InputError, match=r"rejected 300 of 1000 .*no solution written"):
         check_gnss_rejections(np.arange(300.0, dtype=np.float64), 700, config)
+
+
+@pytest.mark.parametrize("gate", [0.9, 0.99, 0.999, 0.9999])
+def test_gate_refuses_a_filter_that_rejects_nearly_everything_at_any_gate(gate: float) -> None:
+    """The refusal holds whatever the gate (it was skipped for a gate of 0.99 or less)."""
+    config = dataclasses.replace(CONFIG, gate_probability=gate)
+    with pytest.raises(InputError, match=r"rejected 2181 of 2182 .*no solution written"):
+        check_gnss_rejections(np.arange(2181.0), 1, config)
+
+
+def test_gate_warning_scales_with_the_gate_rate_and_chance() -> None:
+    config = dataclasses.replace(CONFIG, gate_probability=0.99)
+    # 2 % at a 1 % gate: within three times the gate's own rate.
+    assert check_gnss_rejections(np.arange(20.0), 980, config) == []
+    # 5 % at a 1 % gate: beyond three times its rate and beyond chance: a warning.
+    (warning,) = check_gnss_rejections(np.arange(50.0), 950, config)
+    assert "rejected 50 of 1000" in warning
+    assert "[init] biases" in warning
+    # 4 of 100 at a 0.01 % gate: a 4 % share, but 4 rejections are not chance.
+    strict = dataclasses.replace(CONFIG, gate_probability=0.9999)
+    assert len(check_gnss_rejections(np.arange(4.0), 96, strict)) == 1
+
+
+def test_gnss_times_in_milliseconds_are_an_error() -> None:
+    # 40 Hz GNSS with its times in ms: two epochs fall in the IMU span, 25 "s" apart.
+    gnss = _gnss(t_s=T0 + np.arange(0.0, DURATION_S, 0.025) * 1000.0)
+    with pytest.raises(InputError, match=r"2 GNSS epochs .* a median 25 s apart.*in ms or us"):
+        check_inputs(_imu(), gnss, CONFIG)
+    # 1 Hz GNSS in ms: one epoch in the span; the message says the spacing too.
+    gnss = _gnss(t_s=T0 + np.arange(0.0, DURATION_S, 1.0) * 1000.0)
+    with pytest.raises(InputError, match=r"1 GNSS epoch\(s\) .*a median 1000 s apart"):
+        check_inputs(_imu(), gnss, CONFIG)
+
+
+def test_imu_times_in_milliseconds_are_named() -> None:
+    imu = _imu()
+    slow = _with(imu, t_s=T0 + (imu.t_s - T0) * 1000.0)
+    with pytest.raises(InputError, match=r"a median 10 s apart .*ms or us\? Give t_s in seconds"):
+        check_inputs(slow, _gnss(), CONFIG)
+
+
+def test_axes_with_z_up_are_an_error() -> None:
+    imu = _imu()
+    flu = imu.acc_body_m_s2 * np.array([1.0, -1.0, -1.0])
+    with pytest.raises(InputError, match=r"Z axis is \+9\.8.*Z points up.*negate the Y and Z"):
+        check_inputs(_with(imu, acc_body_m_s2=flu), _gnss(), CONFIG)
+
+
+def test_gravity_on_a_horizontal_axis_is_an_error() -> None:
+    imu = _imu()
+    swapped = imu.acc_body_m_s2[:, [2, 1, 0]]
+    with pytest.raises(InputError, match=r"gravity lies along X.*reorder the columns"):
+        check_inputs(_with(imu, acc_body_m_s2=swapped), _gnss(), CONFIG)
+
+
+def test_antenna_below_the_imu_is_a_warning() -> None:
+    below = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=(0.3, -0.2, 1.5))
+    (warning,) = check_inputs(_imu(), _gnss(), below)
+    assert "1.5 m below the IMU" in warning
+    above = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=(0.3, -0.2, -1.5))
+    assert check_inputs(_imu(), _gnss(), above) == []

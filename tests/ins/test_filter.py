@@ -588,6 +588,12 @@ def test_alignment_errors(sim_drive: SimDrive) -> None:
         align_static_gnss_heading(still, gnss_s, static_s=100.0)
     with pytest.raises(InputError, match="static_s"):
         align_static_gnss_heading(still, gnss_s, static_s=-1.0)
+    # Rates in deg/s at rest: the accelerometers and the GNSS say at rest, the gyros don't.
+    _, drive, gnss_d, _, _ = sim_drive(duration_s=30.0, static_s=10.0, seed=8, gyro_arw=1e-4)
+    in_deg = dataclasses.replace(drive, gyro_body_rad_s=np.degrees(drive.gyro_body_rad_s))
+    align_static_gnss_heading(drive, gnss_d, static_s=5.0)  # in rad/s it levels
+    with pytest.raises(ObservabilityError, match=r"show a vehicle at rest, but the gyro .*deg/s"):
+        align_static_gnss_heading(in_deg, gnss_d, static_s=5.0)
 
 
 @pytest.mark.parametrize("scale_ppm", [0.0, 500.0], ids=["21_states", "27_states"])

@@ -113,7 +113,7 @@ vec3 = st.tuples(positive, positive, positive)
     vec3,
     vec3,
     vec3,
-    st.floats(1e-6, 1.0 - 1e-9, exclude_max=True),
+    st.floats(0.9, 1.0 - 1e-9, exclude_max=True),
 )
 def test_round_trip_is_exact(
     scalars: list[float],
@@ -162,11 +162,12 @@ def test_file_round_trip(tmp_path: Path) -> None:
         ("[gnss]\nstd_pos_ned_m = [1, 1]\n", ["std_pos_ned_m", "3 numbers"]),
         ("[gnss]\nstd_pos_ned_m = 1.0\n", ["std_pos_ned_m", "3 numbers"]),
         ("[gnss]\nstd_pos_ned_m = [1, 'a', 1]\n", ["std_pos_ned_m[1]", "number"]),
-        ("[gnss]\nstd_pos_ned_m = [1, 0, 1]\n", ["gnss_std_pos_ned_m[1]", "positive"]),
+        ("[gnss]\nstd_pos_ned_m = [1, 0, 1]\n", ["[gnss] std_pos_ned_m[1]", "above 0, got 0"]),
         ("[gnss]\nstd_vel_ned_m_s = [1, nan, 1]\n", ["std_vel_ned_m_s[1]", "finite"]),
         ("[filter]\nmax_imu_gap_s = true\n", ["max_imu_gap_s", "number"]),
-        ("[filter]\nmax_imu_gap_s = -0.1\n", ["max_imu_gap_s", "positive"]),
-        ("[filter]\ngate_probability = 1.0\n", ["gate_probability", "(0, 1)"]),
+        ("[filter]\nmax_imu_gap_s = -0.1\n", ["[filter] max_imu_gap_s", "above 0, got -0.1"]),
+        ("[filter]\ngate_probability = 1.0\n", ["gate_probability", "[0.9, 1)"]),
+        ("[filter]\ngate_probability = 0.5\n", ["gate_probability", "[0.9, 1), got 0.5"]),
         ("[filter]\ngate_probability = '0.99'\n", ["gate_probability", "number"]),
     ],
 )
@@ -204,10 +205,47 @@ def test_missing_required_imu_term_names_both_keys() -> None:
 
 
 def test_negative_imu_term_is_rejected() -> None:
-    with pytest.raises(InputError, match="acc_vrw_m_s2_rthz must be positive"):
+    with pytest.raises(
+        InputError, match=r"\[imu\] acc_vrw_m_s2_rthz: must be above 0, got -0\.001"
+    ):
         ins_config_from_toml_text(
             MINIMAL.replace("acc_vrw_m_s2_rthz = 1e-3", "acc_vrw_m_s2_rthz = -1e-3")
         )
+
+
+@pytest.mark.parametrize(
+    ("replace", "words"),
+    [
+        (
+            ("gyro_bias_instability_rad_s = 1e-5", "gyro_bias_instability_deg_h = -6.5"),
+            "[imu] gyro_bias_instability_deg_h: must be above 0, got -6.5",
+        ),
+        (("[imu]", '[init]\ngyro_bias_deg_h = "720"\n[imu]'), "got '720'"),
+    ],
+)
+def test_messages_name_the_key_and_value_as_written(replace: tuple[str, str], words: str) -> None:
+    assert replace[0] in MINIMAL
+    with pytest.raises(InputError) as info:
+        ins_config_from_toml_text(MINIMAL.replace(*replace), source="cfg.toml")
+    assert words in str(info.value)
+    assert "rad_s" not in str(info.value)  # the SI name and value are not what was written
+
+
+def test_micro_g_and_deg_per_second_keys() -> None:
+    text = MINIMAL.replace("acc_vrw_m_s2_rthz = 1e-3", "acc_vrw_ug_rthz = 60").replace(
+        "gyro_arw_rad_s_rthz", "gyro_arw_deg_s_rthz"
+    )
+    for stem in ("acc_bias_sigma", "acc_bias_instability"):
+        line = next(ln for ln in MINIMAL.splitlines() if ln.startswith(f"{stem}_m_s2"))
+        text = text.replace(line, f"{stem}_ug = 100")
+    cfg = ins_config_from_toml_text(text)
+    ref = ins_config_from_toml_text(MINIMAL)
+    assert cfg.acc_vrw_m_s2_rthz == pytest.approx(60 * 9.80665e-6, rel=1e-14)
+    assert cfg.acc_bias_sigma_m_s2 == pytest.approx(100 * 9.80665e-6, rel=1e-14)
+    assert cfg.acc_bias_instability_m_s2 == pytest.approx(100 * 9.80665e-6, rel=1e-14)
+    assert cfg.gyro_arw_rad_s_rthz == pytest.approx(
+        ref.gyro_arw_rad_s_rthz * math.pi / 180.0, rel=1e-14
+    )
 
 
 def test_missing_file(tmp_path: Path) -> None:
@@ -262,8 +300,14 @@ def test_calibrated_turn_on_biases_in_datasheet_units(
 @pytest.mark.parametrize(
     ("extra", "fragments"),
     [
-        ("[init]\ngyro_bias_deg_h = [1, 2, 3]\n", ["init_gyro_bias_rad_s", "σ"]),
-        ("[init]\nacc_bias_std_mg = [1, 1, 1]\n", ["init_acc_bias_m_s2", "go together"]),
+        (
+            "[init]\ngyro_bias_deg_h = [1, 2, 3]\n",
+            ["[init] gyro_bias_deg_h", "gyro_bias_std_deg_h"],
+        ),
+        (
+            "[init]\nacc_bias_std_mg = [1, 1, 1]\n",
+            ["[init] acc_bias_std_mg", "without acc_bias_m_s2"],
+        ),
         (
             "[init]\ngyro_bias_deg_h = [1, 2, 3]\ngyro_bias_deg_s = [1, 2, 3]\n",
             ["two units"],
@@ -274,7 +318,7 @@ def test_calibrated_turn_on_biases_in_datasheet_units(
         ),
         (
             "[init]\nacc_bias_mg = [1, 2, 3]\nacc_bias_std_mg = [1, 0, 1]\n",
-            ["init_acc_bias_std_m_s2[1]", "positive"],
+            ["[init] acc_bias_std_mg[1]", "above 0, got 0"],
         ),
         ("[imu]\ngyro_scale_factor_sigma_ppm = 0\n", ["gyro_scale_factor_sigma_ppm"]),
         ("[imu]\nacc_scale_factor_sigma_ppm = -5\n", ["acc_scale_factor_sigma_ppm"]),

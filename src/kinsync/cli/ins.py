@@ -39,6 +39,7 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 
+_DEFAULT_STATIC_S = 5.0
 _CSV_SUFFIXES = (".csv",)
 _SBET_SUFFIXES = (".sbet", ".out")
 
@@ -118,6 +119,33 @@ def _initial_state_from_file(path: Path, imu: ImuData, max_gap_s: float | None) 
     )
 
 
+def _check_run_options(
+    out: Path, init_from: Path | None, static_s: float | None, max_gap_s: float | None
+) -> float:
+    """Refuse ``ins run`` options that conflict; the static period to level over (s)."""
+    _check_output(out)
+    if static_s is not None and init_from is not None:
+        msg = (
+            f"--static-s {static_s:g} sets the levelling of a start without --init-from; "
+            f"--init-from {init_from} gives the initial state instead: leave one out"
+        )
+        raise InputError(msg)
+    static = _DEFAULT_STATIC_S if static_s is None else static_s
+    if init_from is None and not static > 0.0:
+        msg = (
+            f"--static-s {static:g}: the levelling needs a standstill above 0 s at the start "
+            "of the IMU record; give its length, or a reference state with --init-from"
+        )
+        raise InputError(msg)
+    if max_gap_s is not None and init_from is None:
+        msg = (
+            "--max-gap-s is the gap threshold of the reference read with --init-from: give "
+            "--init-from, or leave --max-gap-s out"
+        )
+        raise InputError(msg)
+    return static
+
+
 def _write_solution(solution: NavSolution, out: Path) -> None:
     from kinsync.io.nav_csv import write_nav_csv  # noqa: PLC0415
     from kinsync.io.sbet import write_sbet  # noqa: PLC0415
@@ -171,13 +199,13 @@ def run(
         ),
     ] = None,
     static_s: Annotated[
-        float,
+        float | None,
         typer.Option(
             "--static-s",
             help="Without --init-from: length (s) of the static period at the IMU start "
-            "used for levelling.",
+            "used for levelling (default 5).",
         ),
-    ] = 5.0,
+    ] = None,
     no_velocity: Annotated[
         bool, typer.Option("--no-velocity", help="Use GNSS positions only, not velocities.")
     ] = False,
@@ -205,19 +233,7 @@ def run(
     from kinsync.io.imu_csv import read_imu_csv  # noqa: PLC0415
     from kinsync.io.ins_config import read_ins_config  # noqa: PLC0415
 
-    _check_output(out)
-    if init_from is None and not static_s > 0.0:
-        msg = (
-            f"--static-s {static_s:g}: the levelling needs a standstill above 0 s at the start "
-            "of the IMU record; give its length, or a reference state with --init-from"
-        )
-        raise InputError(msg)
-    if max_gap_s is not None and init_from is None:
-        msg = (
-            "--max-gap-s is the gap threshold of the reference read with --init-from: give "
-            "--init-from, or leave --max-gap-s out"
-        )
-        raise InputError(msg)
+    static_s = _check_run_options(out, init_from, static_s, max_gap_s)
     config = read_ins_config(config_path)
     imu = read_imu_csv(imu_path)
     gnss = read_gnss_csv(gnss_path)
@@ -247,22 +263,30 @@ def run(
         warnings.append(skipped)
     with progress_display("ins run") as progress:  # after the input checks: errors stay one line
         start = time.perf_counter()
-        result = run_ins(
-            imu,
-            gnss,
-            config,
-            init,
-            use_velocity=not no_velocity,
-            smooth=smooth,
-            progress=part(progress, 0.0, 0.9),
-        )
+        try:
+            result = run_ins(
+                imu,
+                gnss,
+                config,
+                init,
+                use_velocity=not no_velocity,
+                smooth=smooth,
+                progress=part(progress, 0.0, 0.9),
+            )
+            late = check_gnss_rejections(
+                result.gnss_rejected_t_s,
+                result.forward.n_gnss_used,
+                config,
+                gnss_source=str(gnss_path),
+            )
+        except (InputError, ConvergenceError) as err:
+            if not warnings:
+                raise
+            # The one error line carries the input checks' warnings: they may name the cause.
+            earlier = " | ".join(" ".join(w.split()) for w in warnings)
+            msg = f"{err}. The input checks had warned: {earlier}"
+            raise type(err)(msg) from err
         seconds = time.perf_counter() - start
-        late = check_gnss_rejections(
-            result.gnss_rejected_t_s,
-            result.forward.n_gnss_used,
-            config,
-            gnss_source=str(gnss_path),
-        )
         solution = result.smoothed if smooth else result.forward
         if solution is None:
             msg = "the smoother returned no solution; run without --smooth"

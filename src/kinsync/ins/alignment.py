@@ -175,6 +175,20 @@ def _check_static(
             f"{speed:.2f} m/s (limit {STATIC_GNSS_SPEED_M_S}); start the record with the vehicle "
             f"at rest, shorten the static period (--static-s), or {_GIVE_INITIAL_STATE}"
         )
+        at_rest = (
+            acc_std <= STATIC_ACC_STD_M_S2
+            and g_err <= STATIC_GRAVITY_TOL_M_S2
+            and speed <= STATIC_GNSS_SPEED_M_S
+        )
+        if at_rest and gyro_std * math.pi / 180.0 <= STATIC_GYRO_STD_RAD_S:
+            msg = (
+                f"over the first {static_s} s (from t = {t0:.3f} s) the accelerometers"
+                f"{' and the GNSS' if gnss.vel_ned_m_s is not None else ''} show a vehicle at "
+                f"rest, but the gyro std is {gyro_std:.4f} rad/s, "
+                f"{gyro_std / STATIC_GYRO_STD_RAD_S:.3g} times a standstill's limit "
+                f"{STATIC_GYRO_STD_RAD_S}: are the rates in deg/s? Convert them to rad/s "
+                "(multiply by pi/180)"
+            )
         raise ObservabilityError(msg)
 
 

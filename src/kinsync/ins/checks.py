@@ -7,10 +7,15 @@ line ``k + 2``).
 
 Errors (`InputError`, the filter must not run):
 
-- a gap between IMU samples longer than ``InsConfig.max_imu_gap_s``;
-- fewer than two GNSS epochs inside the IMU time span (different time scales?);
+- a gap between IMU samples longer than ``InsConfig.max_imu_gap_s`` (a median interval
+  that long: times in ms or µs);
+- fewer than two GNSS epochs inside the IMU time span (different time scales?), or
+  epochs there a median of more than 10 s apart (GNSS times in ms or µs);
 - specific force whose median magnitude is far from 1 g (0.5 g to 1.5 g accepted):
   units of g, ft/s^2, or counts;
+- a median specific force on Z above +0.7 of that magnitude (Z up: X forward, Y left,
+  Z up axes), or on X or Y beyond ±0.7 (gravity along a horizontal axis: columns out of
+  order);
 - angular rates whose median magnitude exceeds 1 rad/s (57 deg/s): rates in deg/s;
 - a static start (small accelerometer scatter and, where the GNSS gives velocities,
   GNSS speed below 0.5 m/s over the first ``static_s`` seconds) whose mean specific
@@ -24,7 +29,9 @@ Warnings (returned as text, the filter may run):
   the tolerated gap;
 - GNSS outages longer than 10 s (between epochs, or at the start or end of the IMU span);
 - a static start whose gravity magnitude is off by 2 % to 10 %;
-- a median angular rate between 0.3 and 1 rad/s (unusual for a land or sea vehicle).
+- a median angular rate between 0.3 and 1 rad/s (unusual for a land or sea vehicle);
+- an antenna lever arm with Z > 0 (antenna below the IMU in Forward-Right-Down: usually
+  a sign slip, which the data cannot reveal on level ground).
 
 After filtering (`check_gnss_rejections`): the χ² gate rejects about
 ``1 - gate_probability`` of the GNSS epochs when the filter's model fits the data. A
@@ -32,7 +39,9 @@ filter that rejects many more disagrees with its GNSS, whatever the cause (rates
 deg/s on a drive too calm for the median test above, wrong axes, a GNSS time offset,
 a wrong lever arm or initial state): more than `GATE_WARNING_SHARE` rejected is a
 warning, more than `GATE_ERROR_SHARE` an error (the solution no longer follows its
-GNSS: deg/s rates on a calm 2 m/s drive gave 30 %, GNSS tagged 0.2 s late 36 %).
+GNSS: deg/s rates on a calm 2 m/s drive gave 30 %, GNSS tagged 0.2 s late 36 %); each
+share is at least `GATE_RATE_FACTOR` times the gate's own rate ``1 - gate_probability``
+(`InsConfig` keeps it at or below 10 %).
 """
 
 from __future__ import annotations
@@ -60,11 +69,19 @@ GRAVITY_WARNING_REL = 0.02
 GYRO_ERROR_RAD_S = 1.0
 GYRO_WARNING_RAD_S = 0.3
 GNSS_OUTAGE_S = 10.0
+"""GNSS intervals longer than this (s) are outages; a median interval longer is an error."""
+VERTICAL_SHARE = 0.7
+"""A median specific force on one axis beyond this share of its magnitude: that axis is
+vertical (X, Y, or Z pointing up: axes or signs that are not Forward-Right-Down)."""
 GATE_WARNING_SHARE = 0.01
 """Share of GNSS epochs rejected by the χ² gate above which `check_gnss_rejections`
-warns (or 100 times the gate's own rejection rate, if larger)."""
+warns (or `GATE_RATE_FACTOR` times the gate's own rejection rate, if larger), when the
+count is also beyond the chance of a filter that fits (binomial, `GATE_FALSE_ALARM`)."""
 GATE_ERROR_SHARE = 0.2
-"""Share of GNSS epochs rejected above which `check_gnss_rejections` refuses the run."""
+"""Share of GNSS epochs rejected above which `check_gnss_rejections` refuses the run (or
+`GATE_RATE_FACTOR` times the gate's own rejection rate, if larger)."""
+GATE_RATE_FACTOR = 3.0
+GATE_FALSE_ALARM = 1e-3
 _MAX_LISTED = 5
 
 
@@ -84,6 +101,13 @@ def _check_gaps(imu: ImuData, config: InsConfig, source: str) -> list[str]:
             f"{k} (t_s {imu.t_s[k - 1]:.6f} -> {imu.t_s[k]:.6f}, {dt[k - 1]:.6g} s). Fill or "
             "split the record, or raise [filter] max_imu_gap_s in the configuration"
         )
+        median_dt = float(np.median(dt))
+        if median_dt > config.max_imu_gap_s:
+            msg = (
+                f"{source}: the IMU samples are a median {median_dt:.6g} s apart (rows 0 "
+                f"and 1 at t_s {imu.t_s[0]:.6f}, {imu.t_s[1]:.6f}), where an IMU samples at "
+                "50-1000 Hz: are the times in ms or us? Give t_s in seconds"
+            )
         raise InputError(msg)
     warnings: list[str] = []
     median = float(np.median(dt))
@@ -107,12 +131,18 @@ def _inside_span(gnss: GnssData, imu: ImuData) -> BoolArray:
 def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str) -> list[str]:
     inside = _inside_span(gnss, imu)
     n_in = int(np.count_nonzero(inside))
+    spacing = float(np.median(np.diff(gnss.t_s))) if gnss.t_s.size > 1 else 0.0
+    in_ms = (
+        f"; its epochs are a median {spacing:.6g} s apart: are its times in ms or us?"
+        if spacing > GNSS_OUTAGE_S
+        else ""
+    )
     if n_in < 2:
         msg = (
             f"{gnss_source}: {n_in} GNSS epoch(s) inside the IMU span of {imu_source} "
             f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s (GNSS spans [{gnss.t_s[0]:.6f}, "
             f"{gnss.t_s[-1]:.6f}] s); at least 2 are needed: are both files on the same time "
-            "scale (GPS seconds of week vs continuous GPS time, UTC vs GPS)?"
+            f"scale (GPS seconds of week vs continuous GPS time, UTC vs GPS)?{in_ms}"
         )
         raise InputError(msg)
     warnings: list[str] = []
@@ -126,6 +156,16 @@ def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str)
     t_in = gnss.t_s[inside]
     rows_in = np.flatnonzero(inside)
     gaps = np.diff(t_in)
+    median_gap = float(np.median(gaps))
+    if median_gap > GNSS_OUTAGE_S:
+        msg = (
+            f"{gnss_source}: the {n_in} GNSS epochs inside the IMU span of {imu_source} "
+            f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s are a median {median_gap:.6g} s apart "
+            f"(GNSS spans [{gnss.t_s[0]:.6f}, {gnss.t_s[-1]:.6f}] s, {gnss.t_s.size} epochs), "
+            "where the filter needs a position every few seconds: are the GNSS times in ms "
+            "or us, or on another time scale than the IMU's? Give both in GPS seconds"
+        )
+        raise InputError(msg)
     warnings.extend(
         f"{gnss_source}: GNSS outage of {gaps[k]:.3f} s between rows {rows_in[k]} and "
         f"{rows_in[k + 1]} (t_s {t_in[k]:.3f} -> {t_in[k + 1]:.3f}); the solution drifts "
@@ -161,6 +201,24 @@ def _check_units(imu: ImuData, source: str) -> list[str]:
         msg = (
             f"{source}: the median specific-force magnitude is {med_acc:.6g} m/s^2, far from "
             f"gravity (9.8){_units_hint(med_acc)}"
+        )
+        raise InputError(msg)
+    med_axes = np.median(imu.acc_body_m_s2, axis=0)
+    if med_axes[2] > VERTICAL_SHARE * med_acc:
+        msg = (
+            f"{source}: the median specific force on the Z axis is {med_axes[2]:+.4g} m/s^2: "
+            "Z points up, where kinsync's body axes are X forward, Y right, Z down (a "
+            "vehicle's Z reads about -9.8); from X forward, Y left, Z up, negate the Y and Z "
+            "columns of the rates and the specific force"
+        )
+        raise InputError(msg)
+    side = int(np.argmax(np.abs(med_axes[:2])))
+    if abs(med_axes[side]) > VERTICAL_SHARE * med_acc:
+        msg = (
+            f"{source}: the median specific force on the {'XY'[side]} axis is "
+            f"{med_axes[side]:+.4g} m/s^2, so gravity lies along {'XY'[side]}; kinsync's body "
+            "axes are X forward, Y right, Z down (a vehicle's Z reads about -9.8): reorder "
+            "the columns"
         )
         raise InputError(msg)
     med_gyro = float(np.median(np.linalg.norm(imu.gyro_body_rad_s, axis=1)))
@@ -258,6 +316,14 @@ def check_inputs(
     warnings += _check_span(imu, gnss, imu_source, gnss_source)
     warnings += _check_units(imu, imu_source)
     warnings += _check_static_start(imu, gnss, imu_source, static_s)
+    arm_z = config.antenna_lever_arm_body_m[2]
+    if arm_z > 0.0:
+        warnings.append(
+            f"antenna_lever_arm_body_m z = {arm_z:+g} m puts the GNSS antenna {arm_z:g} m "
+            "below the IMU (body axes X forward, Y right, Z down); an antenna is usually "
+            "above it (z < 0). The data cannot tell a wrong sign on level ground: the heights "
+            "would be off by twice the value. Check the sign"
+        )
     return warnings
 
 
@@ -316,18 +382,28 @@ def check_gnss_rejections(
     Returns
     -------
     list of str
-        A warning when more than `GATE_WARNING_SHARE` (or 100 times the gate's rate) of
-        the epochs were rejected, else nothing.
+        A warning when more than `GATE_WARNING_SHARE` (or `GATE_RATE_FACTOR` times the
+        gate's rate) of the epochs were rejected, and more than a filter that fits would
+        reject with probability `GATE_FALSE_ALARM`; else nothing.
 
     Raises
     ------
     InputError
         More than `GATE_ERROR_SHARE` of the epochs rejected.
     """
+    from scipy.stats import binom  # noqa: PLC0415
+
     n_rej = int(rejected_t_s.size)
     n = n_rej + int(n_used)
     expected = 1.0 - config.gate_probability
-    if n == 0 or n_rej < 3 or n_rej <= max(GATE_WARNING_SHARE, 100.0 * expected) * n:
+    if n == 0 or n_rej < 3:
+        return []
+    share = n_rej / n
+    by_chance = float(binom.isf(GATE_FALSE_ALARM, n, expected))
+    refuse = share > max(GATE_ERROR_SHARE, GATE_RATE_FACTOR * expected)
+    if not refuse and (
+        share <= max(GATE_WARNING_SHARE, GATE_RATE_FACTOR * expected) or n_rej <= by_chance
+    ):
         return []
     times = ", ".join(f"{t:.3f}" for t in rejected_t_s[:_MAX_LISTED].tolist())
     more = f" and {n_rej - _MAX_LISTED} more" if n_rej > _MAX_LISTED else ""
@@ -336,9 +412,10 @@ def check_gnss_rejections(
         f"({n_rej / n:.1%}; a filter that fits its data rejects about {expected:.2%}) at "
         f"t_s {times}{more}: the IMU and the GNSS disagree. Check the gyro units (rad/s, "
         "not deg/s) and axes (X forward, Y right, Z down), the GNSS time tags (same time "
-        "scale, no offset), the antenna lever arm, the initial state and the [gnss] sigma"
+        "scale, no offset), the antenna lever arm, the initial state, the [init] biases, "
+        "the [imu] bias sigma (units of their keys) and the [gnss] sigma"
     )
-    if n_rej > GATE_ERROR_SHARE * n:
+    if refuse:
         msg = f"{text}; no solution written"
         raise InputError(msg)
     return [text]

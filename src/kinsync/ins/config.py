@@ -20,9 +20,40 @@ from dataclasses import dataclass
 from kinsync._validate import positive_number
 from kinsync.errors import InputError
 
-__all__ = ["InsConfig"]
+__all__ = ["BIAS_PAIRS", "GATE_PROBABILITY_MIN", "POSITIVE_FIELDS", "InsConfig"]
 
 Vector3 = tuple[float, float, float]
+
+GATE_PROBABILITY_MIN = 0.9
+"""Lowest χ² gate probability: a lower gate throws away more than a tenth of a good
+filter's epochs, and the rejection checks (`kinsync.ins.checks`) could not tell a filter
+that disagrees with its GNSS from one that fits."""
+
+POSITIVE_SCALARS = (
+    "gyro_arw_rad_s_rthz",
+    "acc_vrw_m_s2_rthz",
+    "gyro_bias_sigma_rad_s",
+    "acc_bias_sigma_m_s2",
+    "gyro_bias_instability_rad_s",
+    "acc_bias_instability_m_s2",
+    "gyro_bias_corr_time_s",
+    "acc_bias_corr_time_s",
+    "max_imu_gap_s",
+)
+POSITIVE_VECTORS = (
+    "gnss_std_pos_ned_m",
+    "gnss_std_vel_ned_m_s",
+    "init_std_att_rad",
+    "init_std_vel_ned_m_s",
+    "init_std_pos_ned_m",
+)
+BIAS_PAIRS = (
+    ("init_gyro_bias_rad_s", "init_gyro_bias_std_rad_s"),
+    ("init_acc_bias_m_s2", "init_acc_bias_std_m_s2"),
+)
+"""Each calibrated turn-on bias and its σ: given together or not at all."""
+POSITIVE_FIELDS = frozenset((*POSITIVE_SCALARS, *POSITIVE_VECTORS, *(s for _, s in BIAS_PAIRS)))
+"""The fields whose every value must be above 0."""
 
 
 def _finite3(value: object, name: str) -> Vector3:
@@ -73,7 +104,8 @@ class InsConfig:
     max_imu_gap_s : float
         Longest tolerated gap between IMU samples; longer gaps are an input error.
     gate_probability : float
-        χ² innovation gate (probability of accepting a good measurement), e.g. 0.9999.
+        χ² innovation gate (probability of accepting a good measurement), e.g. 0.9999;
+        at least `GATE_PROBABILITY_MIN`.
     """
 
     gyro_arw_rad_s_rthz: float
@@ -105,25 +137,9 @@ class InsConfig:
         return self.gyro_scale_factor_sigma_ppm > 0.0 or self.acc_scale_factor_sigma_ppm > 0.0
 
     def __post_init__(self) -> None:
-        for name in (
-            "gyro_arw_rad_s_rthz",
-            "acc_vrw_m_s2_rthz",
-            "gyro_bias_sigma_rad_s",
-            "acc_bias_sigma_m_s2",
-            "gyro_bias_instability_rad_s",
-            "acc_bias_instability_m_s2",
-            "gyro_bias_corr_time_s",
-            "acc_bias_corr_time_s",
-            "max_imu_gap_s",
-        ):
+        for name in POSITIVE_SCALARS:
             object.__setattr__(self, name, positive_number(getattr(self, name), name))
-        for name in (
-            "gnss_std_pos_ned_m",
-            "gnss_std_vel_ned_m_s",
-            "init_std_att_rad",
-            "init_std_vel_ned_m_s",
-            "init_std_pos_ned_m",
-        ):
+        for name in POSITIVE_VECTORS:
             vals = tuple(getattr(self, name))
             if len(vals) != 3:
                 msg = f"{name}: expected 3 values, got {len(vals)}"
@@ -137,10 +153,7 @@ class InsConfig:
                 msg = f"{name}: must be a number >= 0 (0: not modelled), got {value!r}"
                 raise InputError(msg)
             object.__setattr__(self, name, value)
-        for value_name, std_name in (
-            ("init_gyro_bias_rad_s", "init_gyro_bias_std_rad_s"),
-            ("init_acc_bias_m_s2", "init_acc_bias_std_m_s2"),
-        ):
+        for value_name, std_name in BIAS_PAIRS:
             value, std = getattr(self, value_name), getattr(self, std_name)
             if (value is None) != (std is None):
                 msg = (
@@ -165,6 +178,9 @@ class InsConfig:
             raise InputError(msg)
         object.__setattr__(self, "antenna_lever_arm_body_m", arm)
         p = float(self.gate_probability)
-        if not 0.0 < p < 1.0:
-            msg = f"gate_probability must be in (0, 1), got {p}"
+        if not GATE_PROBABILITY_MIN <= p < 1.0:
+            msg = (
+                f"gate_probability must be in [{GATE_PROBABILITY_MIN}, 1), got {p}: the gate "
+                "rejects 1 - p of the epochs of a filter that fits (0.999 or 0.9999 are usual)"
+            )
             raise InputError(msg)

@@ -5,12 +5,12 @@ accepted; where datasheets use other units, one alternative key per such unit is
 accepted too and converted on reading (give one key per quantity, not two)::
 
     [imu]                                  # required: the six noise and bias terms
-    gyro_arw_rad_s_rthz = 8.7e-5           # or gyro_arw_deg_rthr (deg/sqrt(h))
-    acc_vrw_m_s2_rthz = 4.8e-4             # or acc_vrw_m_s_rthr (m/s/sqrt(h))
+    gyro_arw_rad_s_rthz = 8.7e-5           # or gyro_arw_deg_rthr (deg/sqrt(h)), _deg_s_rthz
+    acc_vrw_m_s2_rthz = 4.8e-4             # or acc_vrw_m_s_rthr (m/s/sqrt(h)), _ug_rthz
     gyro_bias_sigma_rad_s = 3.5e-3         # turn-on σ; or gyro_bias_sigma_deg_h, _deg_s
-    acc_bias_sigma_m_s2 = 0.157            # turn-on σ; or acc_bias_sigma_mg
+    acc_bias_sigma_m_s2 = 0.157            # turn-on σ; or acc_bias_sigma_mg, _ug
     gyro_bias_instability_rad_s = 3.2e-5   # Gauss-Markov σ; or _deg_h, _deg_s
-    acc_bias_instability_m_s2 = 9.8e-4     # Gauss-Markov σ; or acc_bias_instability_mg
+    acc_bias_instability_m_s2 = 9.8e-4     # Gauss-Markov σ; or _mg, _ug
     gyro_bias_corr_time_s = 3600.0         # optional (default 3600)
     acc_bias_corr_time_s = 3600.0          # optional (default 3600)
     gyro_scale_factor_sigma_ppm = 500.0    # optional: scale factor states (27 in all)
@@ -27,7 +27,7 @@ accepted too and converted on reading (give one key per quantity, not two)::
     std_pos_ned_m = [1.0, 1.0, 2.0]
     gyro_bias_deg_h = [12.0, -8.5, 3.0]    # optional: lab-calibrated turn-on biases, with
     gyro_bias_std_deg_h = [1.0, 1.0, 1.0]  # their σ (or _rad_s, _deg_s keys)
-    acc_bias_mg = [1.2, -0.4, 2.0]         # optional, with acc_bias_std_mg (or _m_s2)
+    acc_bias_mg = [1.2, -0.4, 2.0]         # optional, with acc_bias_std_mg (or _m_s2, _ug)
     acc_bias_std_mg = [0.1, 0.1, 0.1]
 
     [filter]                               # optional table, every key optional
@@ -39,7 +39,8 @@ filter estimates them from zero. ``[init]`` biases come from a laboratory calibr
 the filter starts from them with their σ instead. Each needs its σ key.
 
 Conversions: 1 deg/sqrt(h) = (pi/180)/60 rad/s/sqrt(Hz); 1 m/s/sqrt(h) = 1/60
-m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2. Unknown tables
+m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2; 1 µg/sqrt(Hz) =
+9.80665e-6 m/s^2/sqrt(Hz). Unknown tables
 and keys are rejected (a typo must not silently fall back to a default), as are keys
 given in two units. Values must be plausible (in SI units): noise terms and σ within
 1e-12 to 1e6 (the filter squares them and divides by them), correlation times within
@@ -58,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 from kinsync.errors import InputError
-from kinsync.ins.config import InsConfig
+from kinsync.ins.config import BIAS_PAIRS, GATE_PROBABILITY_MIN, POSITIVE_FIELDS, InsConfig
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import read_toml_text
 from kinsync.io.sanity import Span, check_values
@@ -84,7 +85,7 @@ by in the filter, so far from 0 and from float64's limits."""
 _CORR_TIME = Span(1e-9, 1e10, "s", "a bias correlation time")
 _GAP = Span(1e-9, 1e6, "s", "an IMU gap")
 _LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehicle)")
-_PROBABILITY = Span(0.0, 1.0, "", "a probability")
+_PROBABILITY = Span(GATE_PROBABILITY_MIN, 1.0, "", "a gate probability")
 _PPM = Span(1e-6, 1e6, "ppm", "a scale factor σ")
 _GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
 _ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
@@ -96,8 +97,8 @@ def _rate_keys(stem: str) -> tuple[tuple[str, float], ...]:
 
 
 def _acceleration_keys(stem: str) -> tuple[tuple[str, float], ...]:
-    """The keys of an acceleration ``stem``: m/s^2 (SI) and mg."""
-    return ((f"{stem}_m_s2", 1.0), (f"{stem}_mg", G0_M_S2 * 1e-3))
+    """The keys of an acceleration ``stem``: m/s^2 (SI), mg and µg (``_ug``)."""
+    return ((f"{stem}_m_s2", 1.0), (f"{stem}_mg", G0_M_S2 * 1e-3), (f"{stem}_ug", G0_M_S2 * 1e-6))
 
 
 @dataclass(frozen=True)
@@ -116,13 +117,21 @@ _FIELDS = (
     _Field(
         "gyro_arw_rad_s_rthz",
         "imu",
-        (("gyro_arw_rad_s_rthz", 1.0), ("gyro_arw_deg_rthr", _DEG / 60.0)),
+        (
+            ("gyro_arw_rad_s_rthz", 1.0),
+            ("gyro_arw_deg_rthr", _DEG / 60.0),
+            ("gyro_arw_deg_s_rthz", _DEG),
+        ),
         required=True,
     ),
     _Field(
         "acc_vrw_m_s2_rthz",
         "imu",
-        (("acc_vrw_m_s2_rthz", 1.0), ("acc_vrw_m_s_rthr", 1.0 / 60.0)),
+        (
+            ("acc_vrw_m_s2_rthz", 1.0),
+            ("acc_vrw_m_s_rthr", 1.0 / 60.0),
+            ("acc_vrw_ug_rthz", G0_M_S2 * 1e-6),
+        ),
         required=True,
     ),
     _Field("gyro_bias_sigma_rad_s", "imu", _rate_keys("gyro_bias_sigma"), required=True),
@@ -183,12 +192,40 @@ def _number(value: object, where: str) -> float:
 
 
 def _value(value: object, field: _Field, factor: float, where: str) -> Any:
+    """The value in SI units; a field that must be above 0 is checked as written."""
+
+    def number(v: object, w: str) -> float:
+        out = _number(v, w)
+        if field.attr in POSITIVE_FIELDS and out <= 0.0:
+            msg = f"{w}: must be above 0, got {v!r}"
+            raise InputError(msg)
+        return out * factor
+
     if not field.vector:
-        return _number(value, where) * factor
+        return number(value, where)
     if not isinstance(value, list) or len(value) != 3:
-        msg = f"{where}: expected a list of 3 numbers, got {str(value)[:80]}"
+        msg = f"{where}: expected a list of 3 numbers, got {str(value)[:80]!r}"
+        if isinstance(value, list):
+            msg = f"{where}: expected a list of 3 numbers, got {len(value)}: {str(value)[:80]}"
         raise InputError(msg)
-    return tuple(_number(v, f"{where}[{i}]") * factor for i, v in enumerate(value))
+    return tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
+
+
+def _check_pairs(written: dict[str, str], source: str) -> None:
+    """A calibrated bias and its σ, given together (named as written)."""
+    by_attr = {f.attr: f for f in _FIELDS}
+    for value_attr, std_attr in BIAS_PAIRS:
+        if (value_attr in written) == (std_attr in written):
+            continue
+        has, lacks = (value_attr, std_attr) if value_attr in written else (std_attr, value_attr)
+        keys = " or ".join(k for k, _ in by_attr[lacks].keys)
+        what = (
+            "a calibrated turn-on bias needs its σ"
+            if has == value_attr
+            else ("a σ needs its calibrated bias")
+        )
+        msg = f"{source}: {written[has]} is given without {keys} in [init]: {what}; add it"
+        raise InputError(msg)
 
 
 def _check_spans(config: InsConfig, given: dict[str, str], source: str) -> None:
@@ -233,7 +270,7 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
         Malformed TOML (line and column), an unknown table or key, a quantity given in
         two units, a missing required ``[imu]`` key, a value of the wrong type or
         length, a value outside its plausible span (module docstring), a gate
-        probability outside (0, 1).
+        probability outside [0.9, 1).
     """
     doc = toml_document(text, source)
     unknown_tables = sorted(set(doc) - set(_TABLES))
@@ -273,6 +310,7 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
         key, factor = given[0]
         kwargs[field.attr] = _value(table[key], field, factor, f"{source}: [{field.table}] {key}")
         written[field.attr] = f"[{field.table}] {key}"
+    _check_pairs(written, source)
     try:
         config = InsConfig(**kwargs)
     except InputError as err:
