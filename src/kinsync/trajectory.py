@@ -574,6 +574,35 @@ class Trajectory:
         """Attitude as DIN 9300 ``(roll, pitch, yaw)`` (rad), shape (N, 3)."""
         return quaternion_to_euler_rpy(self.q_body_to_ned)
 
+    def heading_against_course(self, min_speed_m_s: float = 1.0) -> tuple[float, float] | None:
+        """How well the yaw follows the course over ground, read as given and as radians.
+
+        Over the record intervals faster than ``min_speed_m_s`` (horizontal), the
+        median absolute difference between the course ``atan2(dE, dN)`` and (a) the
+        yaw, (b) the yaw's degree value taken as radians (what the yaw would be had a
+        file written radians under a degree column). A crabbing vessel or a reversing
+        vehicle differs from its course by some degrees; yaw in radians read as degrees
+        lies within ±3.2° and differs by anything.
+
+        Returns
+        -------
+        (float, float) or None
+            The two medians (deg); None with fewer than 10 such intervals.
+        """
+        disp = self._displacement_ned_m()
+        dt = np.diff(self.t_s)
+        moving = np.hypot(disp[:, 0], disp[:, 1]) > min_speed_m_s * dt
+        if np.count_nonzero(moving) < 10:
+            return None
+        course = np.arctan2(disp[moving, 1], disp[moving, 0])
+        yaw = self.euler_rpy_rad()[:-1, 2][moving]
+
+        def median_diff_deg(angle_rad: FloatArray) -> float:
+            d = np.angle(np.exp(1j * (angle_rad - course)))
+            return float(np.degrees(np.median(np.abs(d))))
+
+        return median_diff_deg(yaw), median_diff_deg(np.degrees(yaw))
+
     @cached_property
     def _default_gaps(self) -> tuple[TrajectoryGap, ...]:
         return trajectory_gaps(self.t_s, max_gap_for(self.t_s))

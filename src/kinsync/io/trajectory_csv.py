@@ -4,16 +4,20 @@ Columns ``t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg``, optionally follo
 by ``vn_m_s,ve_m_s,vd_m_s``.
 
 Times are read as they are (the caller knows the scale, GPS time by default);
-attitude is DIN 9300 roll, pitch, yaw in degrees; velocities in NED (m/s) are optional
+attitude is DIN 9300 roll, pitch, yaw in degrees (a file whose attitude columns hold
+radians is refused: every value within ±π and a yaw that follows the course over ground
+only when read as radians); velocities in NED (m/s) are optional
 and, when present, enable cubic Hermite position interpolation.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
+from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.sanity import (
     ANGLE_DEG,
@@ -29,6 +33,11 @@ from kinsync.io.tables import read_numeric_csv, rows_to_lines, write_numeric_csv
 from kinsync.trajectory import Trajectory
 
 __all__ = ["read_trajectory_csv", "write_trajectory_csv"]
+
+RADIANS_COURSE_DEG = 20.0
+"""Yaw read as radians within this of the course over ground (median, deg) ..."""
+DEGREES_COURSE_DEG = 45.0
+"""... and read as degrees beyond this: the attitude columns hold radians."""
 
 REQUIRED = ("t_s", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
 VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
@@ -68,7 +77,7 @@ def read_trajectory_csv(path: Path) -> Trajectory:
         raise InputError(msg)
     vel = np.column_stack([c[v] for v in VELOCITY]) if all(present) else None
     try:
-        return Trajectory.from_euler(
+        traj = Trajectory.from_euler(
             c["t_s"],
             np.radians(c["roll_deg"]),
             np.radians(c["pitch_deg"]),
@@ -80,6 +89,31 @@ def read_trajectory_csv(path: Path) -> Trajectory:
         # Trajectory names 0-based data rows; give the file line as well.
         msg = f"{path}: {rows_to_lines(str(err), table.line_of_row)}"
         raise InputError(msg) from err
+    _refuse_radians(path, c, traj)
+    return traj
+
+
+def _refuse_radians(path: Path, c: dict[str, FloatArray], traj: Trajectory) -> None:
+    """Refuse attitude columns that hold radians.
+
+    Every value lies within ±π, and the yaw follows the course over ground only when
+    read as radians (`Trajectory.heading_against_course`).
+    """
+    attitude = np.column_stack([c["roll_deg"], c["pitch_deg"], c["yaw_deg"]])
+    if np.abs(attitude).max() > math.pi + 1e-9:
+        return
+    medians = traj.heading_against_course()
+    if medians is None:
+        return
+    as_deg, as_rad = medians
+    if as_rad < RADIANS_COURSE_DEG and as_deg > DEGREES_COURSE_DEG:
+        msg = (
+            f"{path}: roll_deg, pitch_deg and yaw_deg look like radians: every value lies "
+            f"within +-pi, and yaw_deg read as radians follows the course over ground (median "
+            f"difference {as_rad:.1f} deg) where read as degrees it does not ({as_deg:.1f} "
+            "deg); convert the attitude columns to degrees"
+        )
+        raise InputError(msg)
 
 
 def write_trajectory_csv(trajectory: Trajectory, path: Path) -> None:
