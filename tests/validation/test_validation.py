@@ -657,3 +657,18 @@ def test_confounded_speed_and_side_is_not_tested() -> None:
     assert tests.time_error.testable
     assert not tests.heading_error.testable
     assert "confounded" in tests.heading_error.reason
+
+
+def test_a_trajectory_on_another_time_scale_is_named(scene: ControlTargetScene) -> None:
+    """Every target found, every visit outside the span: say time scale, not 'not found'."""
+    scan = scene.scan
+    cloud = _cloud(scan, scan.mount)
+    week_s = 604800.0 * 2345  # GPS seconds of week against GPS time since 1980
+    shifted = scan.trajectory.shifted(-week_s)
+    with pytest.raises(InputError) as info:
+        validate_control_points(
+            cloud, scene.control, shifted, centre="sphere", target_radius_m=scene.target_radius_m
+        )
+    message = str(info.value)
+    assert message.startswith("every control point seen in the cloud (")
+    assert "same time scale? GPS seconds of week" in message

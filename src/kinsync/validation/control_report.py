@@ -174,6 +174,18 @@ def validate_control_points(
     )
     missing = missing + outside
     if not differences:
+        t_seen = [o.t_s for o in observations]
+        t0, t1 = trajectory.t_start_s, trajectory.t_end_s
+        if t_seen and all(not t0 <= t <= t1 for t in t_seen):
+            msg = (
+                f"every control point seen in the cloud ({len(t_seen)} visits) was scanned "
+                f"at a time outside the trajectory's span [{t0!r}, {t1!r}] s (visits at "
+                f"{min(t_seen)!r} .. {max(t_seen)!r} s): are the cloud and the trajectory on "
+                "the same time scale? GPS seconds of week against GPS time since 1980, or "
+                "UTC against GPS (18 s since 2017); convert the trajectory's times to the "
+                "cloud's"
+            )
+            raise InputError(msg)
         listed = "; ".join(f"{m.name}: {m.reason}" for m in missing[:5])
         more = f" (and {len(missing) - 5} more)" if len(missing) > 5 else ""
         msg = f"no control point found in the cloud: {listed}{more}"
