@@ -121,6 +121,14 @@ def test_attitude_error_equal_to_the_grazing_angle_is_an_error() -> None:
     assert 1e2 < abs(near.vertical_error_m) < 1e6
 
 
+@pytest.mark.parametrize("latency_s", [36.0, 35.0, 18.0, -36.0])
+def test_attitude_error_of_half_a_turn_or_more_is_an_error(latency_s: float) -> None:
+    # At 10 deg/s, 36 s is a full turn: the rotation wrapped to none and the budget read
+    # 1e-11 mm; 35 s (350 deg) read as a 10 deg error of the other sign.
+    with pytest.raises(InputError, match="half a turn or more"):
+        latency_beam_error(beach_scenario(50.0, 10.0, 10.0), latency_s)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [

@@ -44,6 +44,8 @@ Parity = Literal["none", "even", "odd", "mark", "space"]
 _LINEARISATION_SCALE = 1e-6
 _GRAZING_COS = 1e-9
 """A true beam closer than this (cosine to the surface plane, ~2e-7 deg) grazes it."""
+_MAX_ATTITUDE_ERROR_DEG = 180.0
+"""An attitude error |omega tau| from here on is refused: it would wrap to a smaller one."""
 
 
 def _unit3(vec: ArrayLike, name: str) -> FloatArray:
@@ -122,8 +124,9 @@ def beach_scenario(
     slope = finite_number(slope_deg, "slope_deg")
     if not 0.0 < slope < 90.0:
         msg = (
-            "slope_deg: a horizontal beam meets the surface only for a slope in (0, 90), "
-            f"got {slope}"
+            "slope_deg: the beach scenario needs a slope in (0, 90), got "
+            f"{slope}: a horizontal beam never meets a flat beach, and a vertical wall "
+            "(90 deg) has no vertical error"
         )
         raise InputError(msg)
     a = math.radians(slope)
@@ -251,11 +254,22 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
     Raises
     ------
     InputError
-        A non-finite latency, or an attitude error large enough that the true beam
-        misses the surface.
+        A non-finite latency, an attitude error ``|omega tau|`` of half a turn or more
+        (it would wrap to a smaller one), or one large enough that the true beam misses
+        the surface.
     """
     tau = finite_number(latency_s, "latency_s")
     eps = np.asarray(scenario.rate_ned_rad_s) * tau
+    eps_deg = math.degrees(float(np.linalg.norm(eps)))
+    if eps_deg >= _MAX_ATTITUDE_ERROR_DEG:
+        # Beyond half a turn the rotation reads as a smaller one of the other sign (a
+        # full turn as none at all): the budget would be silently wrong.
+        msg = (
+            f"attitude error {eps_deg:.4g} deg (rate x latency) is half a turn or more; a "
+            "latency budget holds for errors well below that: check the latency (ms) "
+            "and the rate (deg/s)"
+        )
+        raise InputError(msg)
     cases = [_errors_for_rotation(scenario, sign * eps) for sign in (1.0, -1.0)]
     small = [
         _errors_for_rotation(scenario, sign * eps * _LINEARISATION_SCALE) for sign in (1.0, -1.0)

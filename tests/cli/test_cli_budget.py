@@ -69,6 +69,18 @@ def test_period_json(run_cli: RunCli) -> None:
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
         # Exactly at grazing (10 deg/s x 1 s = the 10 deg slope): was exit 0 with 1e17 m.
         (["budget", "latency", "--latency-ms", "1000", "--json"], "reaches or exceeds the grazing"),
+        # A repeatable option's values were not held to the option's span, nor to be finite.
+        (["budget", "latency", "--latency-ms", "36000"], "--latency-ms 36000: outside the span"),
+        (
+            ["budget", "latency", "--latency-ms", "1", "--latency-ms", "-20000"],
+            "--latency-ms -20000: outside the span",
+        ),
+        (["budget", "latency", "--latency-ms", "nan"], "--latency-ms nan: not a finite number"),
+        # 100 deg/s x 3.6 s is a full turn: it wrapped to a vertical error of 1e-11 mm.
+        (["budget", "latency", "--rate-deg-s", "100", "--latency-ms", "3600"], "half a turn"),
+        # The reason given for the low end ("a horizontal beam meets no horizontal surface")
+        # was given for the high end too.
+        (["budget", "latency", "--slope-deg", "90"], "not a vertical wall"),
         (
             [
                 "budget",

@@ -24,12 +24,17 @@ __all__ = ["OPTION_BOUNDS", "Bounds", "bounds_for", "check_numeric_option"]
 
 @dataclass(frozen=True)
 class Bounds:
-    """Closed span ``[low, high]`` of an option, with its unit and why."""
+    """Closed span ``[low, high]`` of an option, with its unit and why.
+
+    ``why`` says why a value below ``low`` (and, without ``why_high``, above ``high``)
+    is refused; ``why_high``, when given, why a value above ``high`` is.
+    """
 
     low: float
     high: float
     unit: str = ""
     why: str = ""
+    why_high: str = ""
 
 
 _DAY_S = 86_400.0
@@ -63,7 +68,13 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     # geometry
     "--range-m": Bounds(0.01, 100_000.0, "m"),
     ("latency plan", "--range-m"): Bounds(0.1, 100.0, "m", "a table scanner sees its sphere"),
-    "--slope-deg": Bounds(0.1, 89.0, "deg", "a horizontal beam meets no horizontal surface"),
+    "--slope-deg": Bounds(
+        0.1,
+        89.0,
+        "deg",
+        "a horizontal beam meets no horizontal surface",
+        "the beach scenario's vertical error needs a sloping surface, not a vertical wall",
+    ),
     "--rate-deg-s": Bounds(-1_000.0, 1_000.0, "deg/s"),
     "--radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
     "--sphere-radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
@@ -145,7 +156,8 @@ def check_numeric_option(command: str, option: str, value: float) -> None:
         return
     if not span.low <= value <= span.high:
         unit = f" {span.unit}" if span.unit else ""
-        why = f" ({span.why})" if span.why else ""
+        reason = span.why_high if value > span.high and span.why_high else span.why
+        why = f" ({reason})" if reason else ""
         msg = (
             f"{option} {value:g}: outside the span kinsync accepts, "
             f"{span.low:g} to {span.high:g}{unit}{why}"

@@ -11,8 +11,9 @@ output's location is checked too (`kinsync.io.atomic.check_output_location`): a 
 output that is an existing folder, a missing folder, a folder where nothing can be
 written are refused before any work.
 
-Each ``int`` or ``float`` parameter must be finite and inside its span in
-`kinsync.cli._bounds.OPTION_BOUNDS`, checked before the command starts.
+Each ``int`` or ``float`` parameter, and each value of a repeatable one, must be
+finite and inside its span in `kinsync.cli._bounds.OPTION_BOUNDS`, checked before the
+command starts.
 """
 
 from __future__ import annotations
@@ -111,13 +112,28 @@ def _is_number_type(hint: Any) -> bool:
         return False
     if hint in (int, float):
         return True
-    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+    # A repeatable option (list[float]) is checked value by value.
+    if typing.get_origin(hint) in (typing.Union, types.UnionType, list, tuple):
         return any(_is_number_type(a) for a in typing.get_args(hint))
     return False
 
 
+def _numbers(value: Any) -> Iterator[int | float]:
+    """The numbers of an option's value: itself, or each value of a repeated option."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, int | float):
+        yield value
+    elif isinstance(value, list | tuple):
+        for v in value:
+            yield from _numbers(v)
+
+
 def numeric_parameters(callback: Callable[..., Any]) -> dict[str, str]:
-    """``{parameter name: option spelling}`` of the ``int``/``float`` parameters."""
+    """``{parameter name: option spelling}`` of the ``int``/``float`` parameters.
+
+    Repeatable options (``list[float]``) count: each of their values is checked.
+    """
     hints = typing.get_type_hints(callback, include_extras=True)
     return {
         name: _option_name(name, hint)
@@ -166,8 +182,7 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
     def guarded(*args: Any, **kwargs: Any) -> Any:
         bound = signature.bind(*args, **kwargs)
         for name, option in numbers.items():
-            value = bound.arguments.get(name)
-            if isinstance(value, int | float) and not isinstance(value, bool):
+            for value in _numbers(bound.arguments.get(name)):
                 check_numeric_option(command, option, value)
         inputs = [
             ProtectedInput(p, _input_label(spelled[name], p))
