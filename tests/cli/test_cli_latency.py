@@ -101,20 +101,123 @@ def test_sphere_table_default_figure_and_no_figure(
     assert not (folder / "latency_sphere.png").exists()
 
 
-def test_sphere_warns_when_the_rates_disagree(
-    run_cli: RunCli, sim_folder: Path, tmp_path: Path
-) -> None:
-    folder = copy_of(sim_folder, tmp_path)
+def _flip_rates(folder: Path, which: Callable[[dict[str, str]], bool]) -> None:
+    """Negate, in passes.csv, the signed rates of the lines that ``which`` picks."""
     index = folder / "passes.csv"
     with index.open(newline="") as fh:
         rows = list(csv.DictReader(fh))
-    for row in rows:  # the 6 deg/s passes entered with the wrong sign
-        if abs(float(row["rate_deg_s"])) == 6.0:
+    for row in rows:
+        if which(row):
             row["rate_deg_s"] = str(-float(row["rate_deg_s"]))
     with index.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+
+
+def _drop_times(path: Path) -> None:
+    """Keep only the x_m,y_m,z_m columns of a CSV pass file."""
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=["x_m", "y_m", "z_m"], extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_sphere_refuses_passes_that_turn_against_their_rate(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """A sign or unit of rate_deg_s that the points contradict is an error, not a latency.
+
+    Every rate negated (a controller with the opposite convention) gave -tau with "rates
+    agree"; one pass negated was pooled with the other sign; rad/s gave 57 x tau.
+    """
+    folder = copy_of(sim_folder, tmp_path)
+    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"]
+    _flip_rates(folder, lambda _row: True)
+    code, out, err = run_cli(argv)
+    assert_one_line_error(
+        code, out, err, "every pass turns the other way", "pass_000.csv", "stated -6 deg/s",
+        "shows +5.", "opposite of kinsync's", "negate rate_deg_s", "ENU",
+    )  # fmt: skip
+    _flip_rates(folder, lambda _row: True)
+    _flip_rates(folder, lambda row: row["file"] == "pass_007.csv")  # one -18 deg/s pass
+    code, out, err = run_cli(argv)
+    assert_one_line_error(
+        code, out, err, "1 of 12 passes turns the other way", "pass_007.csv",
+        "stated +18 deg/s", "shows -1",
+    )  # fmt: skip
+    assert "pass_000.csv" not in err
+    index = folder / "passes.csv"
+    original = (sim_folder / "passes.csv").read_text(encoding="utf-8").splitlines()
+    rad = [original[0]]
+    for line in original[1:]:
+        cells = line.split(",")
+        cells[1] = repr(float(cells[1]) * np.pi / 180.0)
+        rad.append(",".join(cells))
+    index.write_text("\n".join(rad) + "\n", encoding="utf-8")
+    code, out, err = run_cli(argv)
+    assert_one_line_error(code, out, err, "look like rad/s", "give rate_deg_s in deg/s")
+
+
+def test_sphere_refuses_points_in_enu(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """Points exported East-North-Up turn the other way about +Down: an error, not -tau."""
+    folder = copy_of(sim_folder, tmp_path)
+    for path in folder.glob("pass_*.csv"):
+        with path.open(newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        for row in rows:
+            row["x_m"], row["y_m"] = row["y_m"], row["x_m"]
+            row["z_m"] = repr(-float(row["z_m"]))
+        with path.open("w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
+    assert_one_line_error(code, out, err, "every pass turns the other way", "ENU")
+
+
+def test_sphere_raw_refuses_an_attitude_that_turns_against_the_rates(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """With --raw the attitude log shows the table rate: a flipped sign or radians say so."""
+    folder = tmp_path / "raw_set"
+    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
+    write_simulation(sim, folder, raw=True)
+    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--raw"]
+    _flip_rates(folder, lambda _row: True)
+    code, out, err = run_cli(argv)
+    assert_one_line_error(
+        code, out, err, "every pass turns the other way", "attitude.csv", "stated -10 deg/s",
+        "shows +10 deg/s", "negate rate_deg_s",
+    )  # fmt: skip
+    _flip_rates(folder, lambda _row: True)
+    log = folder / "raw" / "attitude.csv"
+    lines = log.read_text(encoding="utf-8").splitlines()
+    in_rad = [lines[0]]
+    for line in lines[1:]:
+        t, *angles = line.split(",")
+        in_rad.append(",".join([t, *(repr(float(a) * np.pi / 180.0) for a in angles)]))
+    log.write_text("\n".join(in_rad) + "\n", encoding="utf-8")
+    code, out, err = run_cli(argv)
+    assert_one_line_error(
+        code, out, err, "57 times smaller", "radians", "shows +0.17", "stated +10 deg/s"
+    )
+    assert len(err) < 1000, err
+
+
+def test_sphere_warns_when_the_rates_disagree(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    folder = copy_of(sim_folder, tmp_path)
+    _flip_rates(
+        folder, lambda row: abs(float(row["rate_deg_s"])) == 6.0
+    )  # the 6 deg/s passes the wrong way
+    for path in folder.glob("pass_*.csv"):  # without point times the sign cannot be checked
+        _drop_times(path)
     code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
     assert code == 0, err
     assert "rates DISAGREE: chi2 " in out
@@ -509,3 +612,23 @@ def test_sphere_writes_the_latency_into_a_mount(
     code, stdout, err = run_cli([*argv, "--mount-out", str(acquisition)])
     assert_one_line_error(code, stdout, err, "acq.toml")
     assert read_mount(acquisition).latency_s == 0.001  # the input is never replaced
+
+
+def test_sphere_points_in_millimetres_get_a_unit_hint_and_a_short_message(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """Points in mm: the reason names the unit, once per rate for two rates, then a count."""
+    folder = copy_of(sim_folder, tmp_path)
+    for path in folder.glob("pass_*.csv"):
+        with path.open(newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        for row in rows:
+            for c in ("x_m", "y_m", "z_m"):
+                row[c] = repr(float(row[c]) * 1000.0)
+        with path.open("w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
+    assert_one_line_error(code, out, err, "millimetres or feet", "and 2 more signed rates")
+    assert err.count("millimetres or feet") == 2, err

@@ -351,3 +351,18 @@ def test_pool_keeps_the_gaussian_tail_to_four_robust_sigma_and_cuts_beyond() -> 
     # beyond 4 sigma: 6.3e-5 of 40 000 points, about 3
     assert dropped <= 12, dropped
     assert pool.fit.residual_rms_m == pytest.approx(sigma, rel=0.02)
+
+
+def test_a_scanner_origin_failure_speaks_of_the_table_frame() -> None:
+    """The fitter's origin_m advice is a Python name a CLI user cannot set."""
+    from kinsync.latency.sphere import _pool_failure  # noqa: PLC0415
+
+    err = InputError(
+        "fit_sphere: only 3 of 400 points face origin_m and lie on beams that meet the "
+        "fitted sphere at less than 80 deg incidence; origin_m does not look like the "
+        "scanner that saw these points (check it and its frame)"
+    )
+    text = _pool_failure(err, 0.1)
+    assert "origin_m" not in text
+    assert "table frame, centred on the table axis" in text
+    assert "vessel survey passes are not rotating-table passes" in text

@@ -39,6 +39,7 @@ from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
+from kinsync.latency.rate_check import check_pass_rates
 from kinsync.progress import Progress, report
 from kinsync.robust import robust_sigma
 
@@ -528,14 +529,40 @@ _FIT_PHRASES = (
             "table-centred frame)"
         ),
     ),
+    (
+        ("origin_m does not look like the scanner that saw these points (check it and its frame)"),
+        (
+            "they do not look as seen from the table centre: the points must be in the "
+            "table frame, centred on the table axis where the scanner sits (vessel survey "
+            "passes are not rotating-table passes)"
+        ),
+    ),
+    ("face origin_m", "face the table centre"),
 )
 
+_MAX_SPREAD_TO_RADIUS = 200.0
+"""A cloud spreading more than this many sphere radii hints at points not in metres."""
+_FAILURES_SHOWN = 2
 
-def _pool_failure(err: InputError | ConvergenceError, radius_m: float | None) -> str:
+
+def _unit_hint(spread_m: float, radius_m: float | None) -> str:
+    """A hint at millimetres or feet when the cloud is far larger than the sphere."""
+    if radius_m is None or spread_m <= _MAX_SPREAD_TO_RADIUS * radius_m:
+        return ""
+    return (
+        f"; the points spread {spread_m:.3g} m, {spread_m / radius_m:.0f} times the sphere's "
+        f"radius {radius_m:g} m: are they in millimetres or feet? pass files are in metres"
+    )
+
+
+def _pool_failure(
+    err: InputError | ConvergenceError, radius_m: float | None, spread_m: float = 0.0
+) -> str:
     """Why no sphere was found in a pool, in the latency command's terms, with what to do."""
     text = str(err)
     for phrase, plain in _FIT_PHRASES:
         text = text.replace(phrase, plain)
+    text += _unit_hint(spread_m, radius_m)
     radius = (
         f"that the sphere radius (--radius-m, {radius_m:g} m) is right"
         if radius_m is not None
@@ -585,7 +612,8 @@ def _fit_pool_rejecting(
                 seed=seed,
             )
         except (InputError, ConvergenceError) as err:
-            failure = _pool_failure(err, radius_m)
+            spread_m = float(np.max(np.ptp(np.concatenate([p.points_ned_m for p in usable]), 0)))
+            failure = _pool_failure(err, radius_m, spread_m)
             reason = f"no sphere found at this rate: {failure}"
             rejected += [
                 RejectedPass(p.source, p.rate_deg_s, p.n_points, 0, reason) for p in usable
@@ -693,8 +721,10 @@ def estimate_latency_sphere(
     Raises
     ------
     InputError
-        No passes, no rate with both signs, no rate whose passes of both signs hold a
-        usable sphere.
+        No passes; a pass whose points turn the other way than its stated rate, or
+        more than twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign,
+        rates in rad/s, points in ENU); no rate with both signs; no rate whose passes
+        of both signs hold a usable sphere.
     ObservabilityError
         The rotation axis points at the sphere.
     """
@@ -704,6 +734,7 @@ def estimate_latency_sphere(
     if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
         msg = f"radius_m must be positive, got {radius_m!r}"
         raise InputError(msg)
+    check_pass_rates(passes)
     pairs, unpaired = _pair_groups(passes)
     per_rate: list[RateLatency] = []
     rejected: list[RejectedPass] = []
@@ -733,7 +764,12 @@ def estimate_latency_sphere(
     if not per_rate:
         msg = (
             "no table rate has a usable sphere in passes of both signs ("
-            + "; ".join(failures)
+            + "; ".join(failures[:_FAILURES_SHOWN])
+            + (
+                f"; and {len(failures) - _FAILURES_SHOWN} more signed rates without one"
+                if len(failures) > _FAILURES_SHOWN
+                else ""
+            )
             + ")"
         )
         raise InputError(msg)

@@ -27,6 +27,12 @@ from kinsync.io.raw_passes import (
     read_raw_pass,
 )
 from kinsync.latency.passes import SpherePass
+from kinsync.latency.rate_check import (
+    RateMismatch,
+    attitude_rate_deg_s,
+    mismatch_message,
+    rate_mismatch,
+)
 from kinsync.progress import Progress, report
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import (
@@ -71,6 +77,37 @@ def _unreadable(
     )
 
 
+def _check_attitude_rates(
+    passes: list[SpherePass], corrected: Trajectory, attitude_path: Path, index_path: Path
+) -> None:
+    """Raise when the attitude log turns otherwise than a pass's stated table rate.
+
+    The IMU turns with the table: over each pass the log's rotation about the pass's
+    axis is its table rate, with the same sign (`kinsync.latency.rate_check`).
+    """
+    mismatches: list[RateMismatch] = []
+    n_checked = 0
+    for p in passes:
+        assert p.t_s is not None  # raw passes have their times
+        t0, t1 = float(p.t_s.min()), float(p.t_s.max())
+        inside = (corrected.t_s >= t0) & (corrected.t_s <= t1)
+        t = corrected.t_s[inside]
+        if t.size < 2:
+            continue
+        rotations = corrected.interpolate(t).R_body_to_ned
+        shown = attitude_rate_deg_s(t, rotations, p.axis_ned)
+        if shown is None:
+            continue
+        n_checked += 1
+        if rate_mismatch(p.rate_deg_s, shown):
+            mismatches.append(RateMismatch(p.source, p.rate_deg_s, shown))
+    if mismatches:
+        msg = f"{index_path} and {attitude_path}: " + mismatch_message(
+            mismatches, n_checked, f"the attitude log {attitude_path.name}", points=False
+        )
+        raise InputError(msg)
+
+
 def read_raw_passes(
     folder: Path,
     *,
@@ -107,6 +144,9 @@ def read_raw_passes(
         Naming the file and line at fault: a missing folder, ``raw/`` folder,
         ``passes.csv``, ``attitude.csv``, ``mount.toml`` or raw pass file; missing
         columns; non-numeric or non-finite cells; attitude tags not increasing; an
+        attitude that turns the other way than a pass's stated rate, or more than
+        twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign, rates in
+        rad/s, angles in radians); an
         empty pass; a point time outside the latency-corrected attitude span or inside
         one of its data gaps (`kinsync.trajectory_gaps`: a record interval longer than
         ``max_gap_s``; never interpolated across); a ``max_gap_s`` that is not positive.
@@ -163,5 +203,6 @@ def read_raw_passes(
         except InputError as err:
             msg = f"{where}: {err}"
             raise InputError(msg) from err
+    _check_attitude_rates(passes, corrected, attitude_path, index_path)
     report(progress, 1.0, f"georeferenced {counted(len(rows), 'raw pass', 'raw passes')}")
     return passes

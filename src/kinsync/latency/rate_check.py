@@ -1,0 +1,299 @@
+"""Each pass must turn the way its stated table rate says (Method A, SPEC section 2).
+
+A wrong sign of a pass's rate (or a table controller whose sign convention is the
+opposite of kinsync's), rates in rad/s given as deg/s, or points exported in another
+frame (ENU for NED) do not stop the estimator: they flip or scale the latency. Each is
+seen by comparing the stated rate with the rate the data themselves show:
+
+- the points of a pass: a profile scanner on the table axis sweeps the scene with the
+  table, so in the table-centred frame the azimuth of its returns about the rotation
+  axis turns at the table rate, the same sign as the stated rate (right-handed about
+  the axis: about +Down, clockwise seen from above). `points_azimuth_rate_deg_s` fits
+  that azimuth against the point times;
+- the attitude log (raw input): its rotation about the axis over the pass
+  (`attitude_rate_deg_s`), also the table rate with the same sign.
+
+A rate the data show with the other sign, or more than a factor `RATE_RATIO_LIMIT` off,
+is a mismatch (`RateMismatch`); `mismatch_message` says which, and when the mismatches
+all look like one unit mix-up (rad/s for deg/s, or an attitude in radians), says so.
+The check is loose on purpose: the latency itself moves the points by far less.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinsync._text import counted
+from kinsync._typing import FloatArray
+from kinsync.errors import InputError
+from kinsync.latency.passes import SpherePass
+
+__all__ = [
+    "MIN_SWEEP_CORRELATION",
+    "RATE_RATIO_LIMIT",
+    "RateMismatch",
+    "attitude_rate_deg_s",
+    "check_pass_rates",
+    "mismatch_message",
+    "points_azimuth_rate_deg_s",
+    "rate_mismatch",
+]
+
+RATE_RATIO_LIMIT = 2.0
+"""A shown rate within this factor of the stated one (same sign) agrees with it."""
+
+MIN_SWEEP_CORRELATION = 0.5
+"""The points' azimuth must follow their time at least this closely (|correlation|) for
+their rate to be judged: a scanner that does not sweep with the table (a spinning
+multi-beam head, points without meaningful times) is not judged."""
+
+_MIN_POINTS = 10
+_MIN_CONCENTRATION = 0.5
+"""Least mean resultant length of the points' directions about the axis to judge them."""
+_MIN_AXIS_SINE = 0.5
+"""Half the points must be seen at least 30 deg off the axis (from the table centre)."""
+"""Least mean resultant length of the points' directions about the axis to judge them."""
+_SHOWN_MAX = 3
+_DEG_PER_RAD = math.degrees(1.0)
+_UNIT_TOLERANCE = 1.3
+"""A ratio within this factor of 57.3 (or 1/57.3) reads as a radian/degree mix-up."""
+
+
+@dataclass(frozen=True)
+class RateMismatch:
+    """A pass whose data turn otherwise than its stated table rate.
+
+    Attributes
+    ----------
+    source : str
+        The pass (its file), as the message names it.
+    stated_deg_s : float
+        The signed table rate given for the pass (deg/s).
+    shown_deg_s : float
+        The signed rate about the pass's axis that its data show (deg/s).
+    """
+
+    source: str
+    stated_deg_s: float
+    shown_deg_s: float
+
+    @property
+    def ratio(self) -> float:
+        """``shown / stated`` (negative: opposite signs)."""
+        return self.shown_deg_s / self.stated_deg_s
+
+    def text(self) -> str:
+        """``pass_020.csv: stated +18 deg/s, shows -17.5 deg/s``."""
+        return (
+            f"{self.source}: stated {self.stated_deg_s:+.4g} deg/s, "
+            f"shows {self.shown_deg_s:+.3g} deg/s"
+        )
+
+
+def rate_mismatch(stated_deg_s: float, shown_deg_s: float) -> bool:
+    """True when ``shown_deg_s`` has the other sign or is off by more than `RATE_RATIO_LIMIT`."""
+    ratio = shown_deg_s / stated_deg_s
+    return not 1.0 / RATE_RATIO_LIMIT <= ratio <= RATE_RATIO_LIMIT
+
+
+def _axis_basis(axis_ned: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Unit ``u`` perpendicular to the axis and ``v = axis x u``: azimuth = atan2(v, u).
+
+    The azimuth grows with a right-handed turn about the axis (about +Down: u = North,
+    v = East, clockwise seen from above).
+    """
+    a = axis_ned / np.linalg.norm(axis_ned)
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    u = helper - (helper @ a) * a
+    u /= np.linalg.norm(u)
+    return u, np.cross(a, u)
+
+
+def points_azimuth_rate_deg_s(
+    points_ned_m: FloatArray, t_s: FloatArray, axis_ned: tuple[float, float, float]
+) -> float | None:
+    """Rate at which the points' azimuth about the table axis turns with time (deg/s).
+
+    Parameters
+    ----------
+    points_ned_m : ndarray, shape (N, 3)
+        Points of one pass, table-centred frame (m).
+    t_s : ndarray, shape (N,)
+        Their times (s).
+    axis_ned : tuple of 3 float
+        The table's rotation axis (unit vector).
+
+    Returns
+    -------
+    float or None
+        Signed slope (deg/s) of the least-squares line of azimuth against time,
+        right-handed about ``axis_ned``; None when it says nothing: most points seen
+        within 30 deg of the axis from the table centre (an axis pointing into the
+        scene, which the estimator reports as unobservable), fewer than 10 points away
+        from the axis, points spread all around the axis (mean resultant
+        length of their directions below 0.5: an axis pointing into the scene), no time
+        span, or azimuth and time correlated less than `MIN_SWEEP_CORRELATION`.
+        Points more than 90 deg from the pass's mean direction (the far side of a full
+        profile) are left out.
+    """
+    u, v = _axis_basis(np.asarray(axis_ned, dtype=np.float64))
+    pu, pv = points_ned_m @ u, points_ned_m @ v
+    radial = np.hypot(pu, pv)
+    distance = np.linalg.norm(points_ned_m, axis=1)
+    seen_off_axis = radial > _MIN_AXIS_SINE * distance
+    if np.count_nonzero(seen_off_axis) < 0.5 * radial.size:
+        return None  # the axis points into the scene: the turn hardly moves the azimuth
+    near = radial > 0.05 * float(np.median(radial)) if radial.size else radial > 0
+    if np.count_nonzero(near) < _MIN_POINTS:
+        return None
+    pu, pv, radial, t = pu[near], pv[near], radial[near], t_s[near]
+    sum_v, sum_u = float(np.sum(pv / radial)), float(np.sum(pu / radial))
+    if math.hypot(sum_u, sum_v) < _MIN_CONCENTRATION * radial.size:
+        return None  # points all around the axis (it points into the scene): no azimuth
+    mean_dir = math.atan2(sum_v, sum_u)
+    az = np.angle(np.exp(1j * (np.arctan2(pv, pu) - mean_dir)))
+    front = np.abs(az) < 0.5 * math.pi
+    az, t = az[front], t[front]
+    if az.size < _MIN_POINTS or float(np.ptp(t)) <= 0.0 or float(np.ptp(az)) <= 0.0:
+        return None
+    tc = t - t.mean()
+    azc = az - az.mean()
+    corr = float(tc @ azc / math.sqrt(float(tc @ tc) * float(azc @ azc)))
+    if abs(corr) < MIN_SWEEP_CORRELATION:
+        return None
+    return math.degrees(float(tc @ azc / (tc @ tc)))
+
+
+def attitude_rate_deg_s(
+    t_s: FloatArray, R_body_to_ned: FloatArray, axis_ned: tuple[float, float, float]
+) -> float | None:
+    """Mean rate of the attitude about the table axis over some records (deg/s).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (M,)
+        Record times (s), increasing.
+    R_body_to_ned : ndarray, shape (M, 3, 3)
+        Attitude at those times.
+    axis_ned : tuple of 3 float
+        The table's rotation axis (unit vector).
+
+    Returns
+    -------
+    float or None
+        The turns between consecutive records (``R_k+1 R_k^T``, navigation frame)
+        projected on the axis, summed and divided by the time spanned (deg/s),
+        right-handed about ``axis_ned``; None for fewer than 2 records.
+    """
+    if len(t_s) < 2 or float(t_s[-1] - t_s[0]) <= 0.0:
+        return None
+    step = np.einsum("kij,klj->kil", R_body_to_ned[1:], R_body_to_ned[:-1])
+    # Small turns: the rotation vector from the skew part (exact enough between records).
+    skew_part = 0.5 * (step - np.transpose(step, (0, 2, 1)))
+    vec = np.stack([skew_part[:, 2, 1], skew_part[:, 0, 2], skew_part[:, 1, 0]], axis=1)
+    sin = np.linalg.norm(vec, axis=1)
+    cos = 0.5 * (np.trace(step, axis1=1, axis2=2) - 1.0)
+    angle = np.arctan2(sin, cos)
+    scale = np.divide(angle, sin, out=np.ones_like(sin), where=sin > 1e-15)
+    turned = float(np.sum((vec * scale[:, None]) @ np.asarray(axis_ned, dtype=np.float64)))
+    return math.degrees(turned / float(t_s[-1] - t_s[0]))
+
+
+def mismatch_message(
+    mismatches: Sequence[RateMismatch], n_checked: int, shown_by: str, *, points: bool
+) -> str:
+    """The mismatches in a few plain lines' worth of text, with what to do.
+
+    Parameters
+    ----------
+    mismatches : sequence of RateMismatch
+        At least one.
+    n_checked : int
+        Passes whose rate could be judged.
+    shown_by : str
+        What shows the rate, e.g. "the points' azimuth about the axis" or "the attitude
+        log attitude.csv".
+    points : bool
+        True when the points show the rate: the message then also names a frame
+        mix-up (ENU for NED) and a length unit as causes.
+    """
+    ratios = np.array([m.ratio for m in mismatches])
+    listed = "; ".join(m.text() for m in mismatches[:_SHOWN_MAX])
+    if len(mismatches) > _SHOWN_MAX:
+        listed += f"; and {len(mismatches) - _SHOWN_MAX} more"
+    every = len(mismatches) == n_checked
+    lo, hi = _DEG_PER_RAD / _UNIT_TOLERANCE, _DEG_PER_RAD * _UNIT_TOLERANCE
+    if every and np.all((ratios > 1.0 / hi) & (ratios < 1.0 / lo)):
+        return (
+            f"the table rate shown by {shown_by} is about 57 times smaller than the stated "
+            f"rate in every pass ({listed}): angles in radians read as degrees? kinsync "
+            "reads attitude angles in degrees"
+        )
+    if every and np.all((ratios > lo) & (ratios < hi)):
+        return (
+            f"the stated table rates look like rad/s: {shown_by} shows about 57 times more "
+            f"in every pass ({listed}); give rate_deg_s in deg/s"
+        )
+    enu = (
+        ", or, if the points are in ENU rather than the table-centred NED frame (x and y "
+        "swapped, z up), convert them"
+        if points
+        else ""
+    )
+    if every and np.all(ratios < 0):
+        return (
+            f"every pass turns the other way than its stated table rate ({listed}; shown "
+            f"by {shown_by}): the rates' sign convention is the opposite of kinsync's "
+            "(positive is right-handed about the axis: about +Down, clockwise seen from "
+            f"above): negate rate_deg_s in passes.csv{enu}"
+        )
+    one = len(mismatches) == 1
+    what = f"{len(mismatches)} of {counted(n_checked, 'pass')} " + ("turns" if one else "turn")
+    its = "its" if one else "their"
+    if np.all(ratios < 0):
+        return (
+            f"{what} the other way than {its} stated table rate ({listed}; shown by "
+            f"{shown_by}): correct {its} sign in passes.csv (positive is right-handed "
+            "about the axis: about +Down, clockwise seen from above)"
+        )
+    return (
+        f"{what} otherwise than {its} stated table rate ({listed}; shown by "
+        f"{shown_by}): check each pass's signed rate and its unit (deg/s) in passes.csv"
+        + (", and that the points are in metres in the table-centred NED frame" if points else "")
+    )
+
+
+def check_pass_rates(passes: Sequence[SpherePass]) -> None:
+    """Raise when a pass's points turn otherwise than its stated table rate.
+
+    Each pass with point times is judged by `points_azimuth_rate_deg_s`; a pass
+    without times, or whose points do not sweep with time, is not judged.
+
+    Raises
+    ------
+    InputError
+        A pass whose points turn the other way, or more than a factor
+        `RATE_RATIO_LIMIT` faster or slower, than its stated rate: naming the pass,
+        its stated rate and the rate its points show (`mismatch_message`).
+    """
+    mismatches: list[RateMismatch] = []
+    n_checked = 0
+    for p in passes:
+        if p.t_s is None:
+            continue
+        shown = points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
+        if shown is None:
+            continue
+        n_checked += 1
+        if rate_mismatch(p.rate_deg_s, shown):
+            mismatches.append(RateMismatch(p.source, p.rate_deg_s, shown))
+    if mismatches:
+        raise InputError(
+            mismatch_message(
+                mismatches, n_checked, "the points' azimuth about the axis", points=True
+            )
+        )
