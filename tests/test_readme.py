@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from kinsync.sim.profiler import DRIVE_SCAN_FILES
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 SHARED = ROOT.parent / "shared"
@@ -92,6 +94,19 @@ def test_the_parser_finds_blocks_and_markers() -> None:
         ("sh", None), ("python", "slow"), ("text", None)
     ]  # fmt: skip
     assert blocks[0].code == "echo a\n"
+
+
+def test_the_drive_scan_line_lists_every_file_it_writes() -> None:
+    """The comment of ``simulate drive-scan`` listed all but ``control_points.csv``."""
+    lines = [
+        line
+        for line in README.read_text(encoding="utf-8").splitlines()
+        if line.startswith("kinsync simulate drive-scan ") and "#" in line
+    ]
+    assert lines
+    for line in lines:
+        listed = [name.strip() for name in line.split("#", 1)[1].split(",")]
+        assert listed == list(DRIVE_SCAN_FILES), line
 
 
 def test_only_whole_runs_are_skipped_and_synopses_are_not_shell() -> None:
