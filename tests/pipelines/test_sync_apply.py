@@ -53,6 +53,22 @@ def test_apply_adds_time_and_scanner_coordinates(tmp_path: Path, suffix: str) ->
     np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), scan.range_m)
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_apply_writes_no_negative_zero(tmp_path: Path, suffix: str) -> None:
+    """Azimuth 0 gave x_m = -sin(0) y = -0.0, written as '-0.0' (a nadir angle -0.0 did in y_m)."""
+    src = tmp_path / "scan.csv"
+    src.write_text("profile,angle_rad,range_m\n0,0.5,2\n0,-0.0,3\n1,-0.5,2\n")
+    out = tmp_path / f"out{suffix}"
+    apply_profile_clock(src, out, 100.0, 0.03, Mount(profiler_azimuth_deg=0.0))
+    (chunk,) = iter_table_chunks(out, 10, ("x_m", "y_m", "z_m"))
+    for name in ("x_m", "y_m"):
+        assert not np.any(np.signbit(chunk[name]) & (chunk[name] == 0.0)), name
+    np.testing.assert_array_equal(chunk["x_m"], 0.0)
+    if suffix == ".csv":  # the input's own angle -0.0 is carried as it is
+        cells = [line.split(",")[-3:] for line in out.read_text().splitlines()[1:]]
+        assert "-0.0" not in {cell for row in cells for cell in row}, cells
+
+
 def test_apply_bad_input(tmp_path: Path) -> None:
     src = tmp_path / "scan.csv"
     src.write_text("profile,angle_rad,range_m,t_s\n0,0.1,2,5\n1,0.1,2,5\n")

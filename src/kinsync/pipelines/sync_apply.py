@@ -196,7 +196,7 @@ def apply_profile_clock(
                     "(+-2 pi); fix or remove the row"
                 )
                 raise InputError(msg)
-            xyz = mount.profile_to_scanner(phi, rng_m)
+            xyz = mount.profile_to_scanner(phi, rng_m) + 0.0  # -0.0 written as 0.0
             out = dict(chunk) | {"profile": profile}  # whole numbers (checked)
             out |= {n: pa.array(chunk[n]).cast(t) for n, t in stored.items()}
             out["t_s"] = clock.time_s(chunk["profile"], phi)
