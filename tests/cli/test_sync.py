@@ -133,6 +133,30 @@ def test_object_space_warns_of_a_clock_from_two_sightings(
     assert "kinsync: warning: the clock rests on 2 of 18 sightings: " in err
 
 
+def test_a_gap_in_the_pulses_is_named_by_file_line_and_time(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+) -> None:
+    """Lines 5000-5004 cut out (an empty line left in): 'pulse 4998 comes 6.00 periods
+    after pulse 4997' named neither the file nor its lines, and counted from 0."""
+    sim, folder = dataset
+    lines = (folder / "pulses.csv").read_text().splitlines()
+    cut = tmp_path / "p_gap.csv"
+    cut.write_text("\n".join([*lines[:10], "", *lines[10:4999], *lines[5004:]]) + "\n")
+    t = sim.pulses_t_s
+    code, out, err = run_cli([*_object_space(folder, "--pulses", str(cut)), "--json"])
+    assert_one_line_error(
+        code,
+        out,
+        err,
+        f"{cut}: pulses at t_s={float(t[4997])!r} (line 5000) and ",
+        f"t_s={float(t[5003])!r} (line 5001) are 6.00 periods apart: about 5 pulse(s) missing",
+        "fill the gap or cut the scan there",
+    )
+
+
 def test_object_space_leaves_out_a_crossing_in_a_trajectory_gap(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
 ) -> None:

@@ -411,8 +411,15 @@ def test_pulse_offset() -> None:
     assert not shaky.sure
     uncertain = pulse_offset(1000.0 + n * 0.03, clock, time_std_s=0.01)
     assert not uncertain.sure
-    with pytest.raises(ObservabilityError, match=r"pulse 101 comes 2\.00 periods"):
-        pulse_offset(1000.0 + np.delete(n, 101) * 0.03, clock)
+    gap = 1000.0 + np.delete(n, 101) * 0.03
+    with pytest.raises(
+        ObservabilityError,
+        match=r"^pulses: pulses at t_s=1003\.0 \(pulse 101 of 499\) and t_s=1003\.06 \(pulse 102 "
+        r"of 499\) are 2\.00 periods apart: about 1 pulse\(s\) missing",
+    ):
+        pulse_offset(gap, clock)
+    with pytest.raises(ObservabilityError, match=r"^p\.csv: .* \(line 102\) and .* \(line 103\)"):
+        pulse_offset(gap, clock, source="p.csv", where=lambda i: f"line {i + 2}")
     with pytest.raises(ObservabilityError, match="every"):
         pulse_offset(1000.0 + n * 0.031, clock)
     with pytest.raises(InputError, match="strictly increasing"):

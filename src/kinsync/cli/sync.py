@@ -101,6 +101,7 @@ def object_space(
     """Find the profile clock t0, T from sync points seen in the scan."""
     # Method B (scipy.optimize), kinsync.georef and the readers load only when this runs.
     from kinsync.io.profile_scan import (  # noqa: PLC0415
+        pulse_line,
         read_profile_scan,
         read_pulses,
         read_sync_points,
@@ -134,7 +135,14 @@ def object_space(
         pulse_t = None if pulses is None else read_pulses(pulses)
         stages.start("matching", "matching sightings to sync-point crossings")
         result = synchronise_object_space(
-            the_scan, traj, the_mount, points, config, pulses_t_s=pulse_t
+            the_scan,
+            traj,
+            the_mount,
+            points,
+            config,
+            pulses_t_s=pulse_t,
+            pulses_source=str(pulses),
+            pulses_where=None if pulses is None else pulse_line(pulses),
         )
         stages.finish()
     if result.crossings_in_gaps:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +35,7 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
-from kinsync.io.row_position import point_position
+from kinsync.io.row_position import csv_line_of_row, point_position
 from kinsync.io.sanity import (
     HEIGHT_M,
     INTENSITY,
@@ -57,6 +58,7 @@ from kinsync.sync.scan import (
 )
 
 __all__ = [
+    "pulse_line",
     "read_clock_document",
     "read_profile_scan",
     "read_pulses",
@@ -262,6 +264,16 @@ def read_pulses(path: Path) -> FloatArray:
         raise InputError(msg)
     out: FloatArray = np.array(t, dtype=np.float64)
     return out
+
+
+def pulse_line(path: Path) -> Callable[[int], str]:
+    """``where(i)``: pulse i (0-based data row) of a pulses CSV as its file line, ``"line 7"``.
+
+    For messages only (`kinsync.sync.pulses.pulse_offset`): the file is read up to the row
+    when a message names one (empty lines count, as `read_pulses` skips them).
+    """
+    path = Path(path)
+    return lambda i: f"line {csv_line_of_row(path, i) or i + 2}"
 
 
 def write_pulses(t_s: ArrayLike, path: Path) -> None:

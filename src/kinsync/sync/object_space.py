@@ -147,7 +147,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -381,6 +381,8 @@ def synchronise_object_space(
     config: ObjectSpaceConfig | None = None,
     *,
     pulses_t_s: ArrayLike | None = None,
+    pulses_source: str = "pulses",
+    pulses_where: Callable[[int], str] | None = None,
 ) -> ObjectSpaceResult:
     """Find the profile clock t0, T from sync points in object space (SPEC section 4).
 
@@ -398,6 +400,11 @@ def synchronise_object_space(
     pulses_t_s : array_like, shape (P,), optional
         Hardware profile pulses (s); their integer offset to the profile numbers is
         reported.
+    pulses_source : str
+        The pulses' name in messages (their file).
+    pulses_where : callable, optional
+        ``pulses_where(i)`` names pulse i (0-based) as its file counts it (``"line 7"``),
+        for messages; default ``"pulse i+1 of P"``.
 
     Returns
     -------
@@ -488,10 +495,20 @@ def synchronise_object_space(
             c = crossings[j]
             motion = (c.rate_m_s * period, c.drift_m_s[0] * period, c.drift_m_s[1] * period)
             sightings[i] = refine_sighting(scan, detected[i][1], cfg, motion)
+    pulses = None if pulses_t_s is None else _PulseTrain(pulses_t_s, pulses_source, pulses_where)
     result = _result(
-        best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses_t_s, scan.n_profiles
+        best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses, scan.n_profiles
     )
     return replace(result, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
+
+
+@dataclass(frozen=True)
+class _PulseTrain:
+    """Hardware pulses (s), their name and how to name pulse i in messages."""
+
+    t_s: ArrayLike
+    source: str
+    where: Callable[[int], str] | None
 
 
 def _check_period_prior(
@@ -563,7 +580,7 @@ def _result(
     crossings: Sequence[Crossing],
     n_cross: dict[str, int],
     cfg: ObjectSpaceConfig,
-    pulses_t_s: ArrayLike | None,
+    train: _PulseTrain | None,
     n_profiles: int,
 ) -> ObjectSpaceResult:
     # Final T in the scan-side sigma; the pairs' full covariance (step 5) in a GLS fit.
@@ -595,15 +612,17 @@ def _result(
         )
     used = {i for i, _ in best.pairs}
     pulses: PulseOffset | None = None
-    if pulses_t_s is not None:
+    if train is not None:
         n_ref = int(np.clip(round(-cov[0, 1] / cov[1, 1]), 0, max(n_profiles - 1, 0)))
         time_var = cov[0, 0] + 2.0 * n_ref * cov[0, 1] + n_ref * n_ref * cov[1, 1]
         pulses = pulse_offset(
-            pulses_t_s,
+            train.t_s,
             ProfileClock(fit.t0_s, fit.period_s),
             reference_profile=n_ref,
             time_std_s=math.sqrt(max(time_var, 0.0)),
             period_std_s=math.sqrt(cov[1, 1]),
+            source=train.source,
+            where=train.where,
         )
     alternatives = tuple(
         Alternative(a.fit.t0_s, a.fit.period_s, len(a.pairs), a.fit.chi2)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +52,7 @@ def pulse_offset(
     time_std_s: float = 0.0,
     period_std_s: float = 0.0,
     source: str = "pulses",
+    where: Callable[[int], str] | None = None,
 ) -> PulseOffset:
     """Integer offset k between pulses and profiles: ``pulse[n + k]`` belongs to profile n.
 
@@ -67,7 +69,10 @@ def pulse_offset(
     period_std_s : float
         Sigma of the clock's period (s), to judge the pulse train's period.
     source : str
-        Name for messages.
+        Name for messages (the pulses' file).
+    where : callable, optional
+        ``where(i)`` names pulse i (0-based) as its file counts it (``"line 7"``);
+        default ``"pulse i+1 of P"``.
 
     Returns
     -------
@@ -90,10 +95,14 @@ def pulse_offset(
     gap = step > 1.5 * median_step
     if np.any(gap):
         m = int(np.flatnonzero(gap)[0])
+        place = where or (lambda i: f"pulse {i + 1} of {p.size}")
+        periods = step[m] / median_step
+        missing = max(round(periods) - 1, 1)
         msg = (
-            f"{source}: pulse {m + 1} comes {step[m] / median_step:.2f} periods after pulse "
-            f"{m} (t_s={p[m]!r}): a pulse is missing, so pulses and profiles cannot be "
-            "counted with one offset; fill the gap or cut the scan there"
+            f"{source}: pulses at t_s={p[m]!r} ({place(m)}) and t_s={p[m + 1]!r} "
+            f"({place(m + 1)}) are {periods:.2f} periods apart: about {missing} pulse(s) "
+            "missing between them, so pulses and profiles cannot be counted with one offset; "
+            "fill the gap or cut the scan there"
         )
         raise ObservabilityError(msg)
     n = np.arange(p.size, dtype=np.float64)
