@@ -120,17 +120,74 @@ def test_object_space_refuses_a_wrong_period_prior(
 def test_object_space_warns_of_a_clock_from_two_sightings(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
 ) -> None:
-    """S2 alone, passed twice: two pairs fit any line, nothing checks them."""
-    _, folder = dataset
+    """S2 alone, passed twice: two pairs fit any line, nothing checks them.
+
+    Other pairs of crossings fit as well: the best was 97 s late, exit 0; it is refused
+    as ambiguous now, and the pulses pick the true one (with the warning still).
+    """
+    sim, folder = dataset
     lines = (folder / "sync_points.csv").read_text().splitlines()
     only_s2 = tmp_path / "s2.csv"
     only_s2.write_text("\n".join([lines[0], *(x for x in lines if x.startswith("S2,"))]) + "\n")
     args = _object_space(folder)
     args[args.index("--sync-points") + 1] = str(only_s2)
     code, out, err = run_cli([*args, "--json"])
+    assert code == 2, err
+    assert f"kinsync: error: {only_s2}: ambiguous: " in err
+    code, out, err = run_cli([*args, "--json", "--pulses", str(folder / "pulses.csv")])
     assert code == 0, err
-    assert len(json.loads(out)["sightings"]) == 2
+    doc = json.loads(out)
+    assert len(doc["sightings"]) == 2
+    assert doc["settled_by_pulses"] is True
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) < 3 * doc["t0_std_s"]
     assert "kinsync: warning: the clock rests on 2 of 18 sightings: " in err
+
+
+def test_an_ambiguous_clock_is_refused_unless_the_pulses_settle_it_or_it_is_accepted(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+) -> None:
+    """Sync-point heights 0.5 m off: t0 34 s late, exit 0, 'ambiguous' only a warning.
+
+    The GPS-timed pulses contradicted that clock by 1128 profiles, and sync apply took
+    the file as it was.
+    """
+    sim, folder = dataset
+    lines = (folder / "sync_points.csv").read_text().splitlines()
+    off = tmp_path / "sp_h.csv"
+    rows = [line.split(",") for line in lines[1:]]
+    off.write_text(
+        "\n".join([lines[0], *(",".join([*r[:3], repr(float(r[3]) + 0.5)]) for r in rows)]) + "\n"
+    )
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(off)
+    code, out, err = run_cli([*args, "--json"])
+    assert_one_line_error(
+        code,
+        out,
+        err,
+        f"{off}: ambiguous: 2 other match(es) of sightings to sync-point crossings fit almost as "
+        "well as the best, t0 = ",
+        "(others: t0 = ",
+        "give --pulses (the scanner's GPS-timed profile pulses)",
+        "or take the best with --accept-ambiguous",
+    )
+    code, out, err = run_cli([*args, "--json", "--accept-ambiguous"])
+    assert code == 0, err
+    assert json.loads(out)["ambiguous"] is True
+    assert "kinsync: warning: ambiguous: 2 other assignment(s) of sightings to crossings" in err
+    code, out, err = run_cli([*args, "--pulses", str(folder / "pulses.csv"), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert (doc["ambiguous"], doc["settled_by_pulses"], doc["pulse_offset"]) == (False, True, 1)
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) < 3 * doc["t0_std_s"]
+    assert f"kinsync: warning: {folder / 'pulses.csv'}: the pulses contradict the clock" in err
+    assert "one agrees with the pulses (pulse offset 1) and is taken" in err
+    code, out, err = run_cli([*args, "--pulses", str(folder / "pulses.csv")])
+    assert code == 0, err
+    assert "no (settled by the pulses)" in out
 
 
 def test_a_gap_in_the_pulses_is_named_by_file_line_and_time(

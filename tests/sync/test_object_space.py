@@ -201,6 +201,83 @@ def test_ambiguity_is_reported() -> None:
     assert all(abs(a.period_s - r.period_s) < 1e-6 for a in r.alternatives)
 
 
+def _heights_off(sim: DriveScanSimulation, dh_m: float) -> SyncPoints:
+    """The sync points with every height ``dh_m`` off."""
+    llh = np.array(sim.sync_points.lat_lon_h, dtype=np.float64)
+    llh[:, 2] += dh_m
+    return SyncPoints(sim.sync_points.names, llh)
+
+
+def test_pulses_settle_an_ambiguity_they_contradict(oval: DriveScanSimulation) -> None:
+    """Heights 0.5 m off: 2 of 18 sightings match, three ways almost equally well.
+
+    The best was t0 34 s late, exit 0, with pulse offset 1127 ("not sure") for 9807
+    pulses; the alternative with offset 0 is the true clock. The pulses allow offsets
+    -1 to P - N + 1 only: the one match they allow is taken, with its own sigma.
+    """
+    points = _heights_off(oval, 0.5)
+    scan, traj, mount = oval.scanner.scan, oval.trajectory, oval.config.mount
+    with pytest.warns(KinsyncWarning, match="rests on 2 of 18"):
+        alone = synchronise_object_space(scan, traj, mount, points, EXACT)
+    assert alone.ambiguous  # without pulses nothing settles it (the CLI refuses it)
+    assert abs(alone.t0_s - oval.truth["t0_s"]) > 30.0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = synchronise_object_space(
+            scan, traj, mount, points, EXACT, pulses_t_s=oval.pulses_t_s, pulses_source="p.csv"
+        )
+    said = [str(w.message) for w in caught if issubclass(w.category, KinsyncWarning)]
+    assert any(
+        m.startswith("p.csv: the pulses contradict the clock from the sync points: ")
+        and "pulse offset 1127" in m
+        and "one agrees with the pulses (pulse offset 0) and is taken" in m
+        for m in said
+    ), said
+    assert r.settled_by_pulses
+    assert not r.ambiguous
+    assert r.pulses is not None
+    assert r.pulses.offset == 0
+    assert r.pulses.plausible
+    dt0, dT = _errors(r, oval)
+    assert abs(dt0) < 3 * r.t0_std_s  # 16 ms off (the heights), sigma 16 ms
+    assert abs(dT) < 3 * r.period_std_s
+    assert any(abs(a.t0_s - alone.t0_s) < 1e-6 and a.pulse_offset == 1127 for a in r.alternatives)
+    assert r.as_document()["settled_by_pulses"] is True
+
+
+def test_pulses_that_allow_no_match_refuse_the_clock(oval: DriveScanSimulation) -> None:
+    """Pulses 500 profiles late agree with none of the matches: refused, all named."""
+    points = _heights_off(oval, 0.5)
+    late = oval.pulses_t_s + 500 * oval.truth["period_s"]
+    with pytest.warns(KinsyncWarning), pytest.raises(ObservabilityError) as info:
+        synchronise_object_space(
+            oval.scanner.scan,
+            oval.trajectory,
+            oval.config.mount,
+            points,
+            EXACT,
+            pulses_t_s=late,
+            pulses_source="late.csv",
+        )
+    msg = str(info.value)
+    assert msg.startswith("late.csv: the pulses contradict the clock from the sync points: t0 = ")
+    assert "pulse offset 627 (profile 0 at pulse 628)" in msg
+    assert "the other matches of sightings to crossings with as many sightings: t0 = " in msg
+    assert "pulse offset -500" in msg  # the true clock, 500 pulses early
+    assert "allowed" not in msg
+    assert "check the sync points' coordinates (heights too)" in msg
+    # With the right heights the clock is sure of itself, and still refused.
+    with pytest.raises(ObservabilityError, match=r"gives pulse offset -500 .* allow -1 to "):
+        synchronise_object_space(
+            oval.scanner.scan,
+            oval.trajectory,
+            oval.config.mount,
+            oval.sync_points,
+            EXACT,
+            pulses_t_s=late,
+        )
+
+
 def _refused(sim: DriveScanSimulation, prior_s: float) -> PeriodPriorError:
     """The error of a run with ``--period-prior-s prior_s``."""
     cfg = ObjectSpaceConfig(position_std_m=0.0, period_prior_s=prior_s)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.table import Table
@@ -12,11 +12,14 @@ from rich.table import Table
 from kinsync._text import counted
 from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
-from kinsync.errors import InputError
+from kinsync.errors import InputError, ObservabilityError
 from kinsync.io.mount_file import read_mount
 from kinsync.progress import Stages
+
+if TYPE_CHECKING:
+    from kinsync.sync.object_space import ObjectSpaceResult
 
 app = typer.Typer(
     help="Synchronise a profile scanner to the trajectory in object space (Method B)."
@@ -96,6 +99,16 @@ def object_space(
         typer.Option("--gps-week", help="GPS week of an SBET's seconds-of-week times.", min=0),
     ] = None,
     max_gap_s: MaxGapOpt = None,
+    accept_ambiguous: Annotated[
+        bool,
+        typer.Option(
+            "--accept-ambiguous",
+            help=(
+                "Write the best clock even when other matches of sightings to sync-point "
+                "crossings fit almost as well (refused otherwise; --pulses can settle it)."
+            ),
+        ),
+    ] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Find the profile clock t0, T from sync points seen in the scan."""
@@ -112,7 +125,6 @@ def object_space(
         require_profiler_azimuth,
         synchronise_object_space,
     )
-    from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
 
     refuse_unused_gps_week(gps_week, trajectories=[trajectory])
     config = ObjectSpaceConfig(
@@ -145,22 +157,7 @@ def object_space(
             pulses_where=None if pulses is None else pulse_line(pulses),
         )
         stages.finish()
-    if result.crossings_in_gaps:
-        gaps = result.crossings_in_gaps
-        named = "; ".join(f"{c.name} in {c.gap.describe()}" for c in gaps[:3])
-        more = f"; and {len(gaps) - 3} more" if len(gaps) > 3 else ""
-        typer.echo(
-            f"kinsync: warning: {trajectory}: {len(gaps)} possible sync-point crossing(s) left "
-            f"out, in data gaps of the trajectory ({named}{more}), "
-            f"{gap_threshold_text(result.gap_threshold_s)}, where it is not interpolated; a "
-            f"sighting there stays unmatched: {GAP_ADVICE}",
-            err=True,
-        )
-    if result.ambiguous:
-        err_console.print(
-            f"warning: ambiguous: {len(result.alternatives)} other assignment(s) of sightings "
-            "to crossings fit almost as well; see 'alternatives'"
-        )
+    _warn_or_refuse(result, trajectory, sync_points, pulses, accept_ambiguous=accept_ambiguous)
     if as_json:
         print_json(result.as_document())
         return
@@ -174,7 +171,8 @@ def object_space(
     table.add_row("sigma scale (residuals)", fmt(result.sigma_scale))
     table.add_row("unmatched sightings", str(len(result.unmatched)))
     table.add_row("crossings in trajectory gaps (left out)", str(len(result.crossings_in_gaps)))
-    table.add_row("ambiguous", "yes" if result.ambiguous else "no")
+    settled = " (settled by the pulses)" if result.settled_by_pulses else ""
+    table.add_row("ambiguous", "yes" if result.ambiguous else f"no{settled}")
     if result.pulses is not None:
         sure = "" if result.pulses.sure else " (not sure)"
         table.add_row("pulse offset", f"{result.pulses.offset}{sure}")
@@ -200,6 +198,58 @@ def object_space(
     for row in cells:
         rows.add_row(*row)
     console.print(rows)
+
+
+def _warn_or_refuse(
+    result: ObjectSpaceResult,
+    trajectory: Path,
+    sync_points: Path,
+    pulses: Path | None,
+    *,
+    accept_ambiguous: bool,
+) -> None:
+    """Warn of crossings left out in trajectory gaps; refuse an ambiguous clock not accepted."""
+    from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
+
+    if result.crossings_in_gaps:
+        gaps = result.crossings_in_gaps
+        named = "; ".join(f"{c.name} in {c.gap.describe()}" for c in gaps[:3])
+        more = f"; and {len(gaps) - 3} more" if len(gaps) > 3 else ""
+        typer.echo(
+            f"kinsync: warning: {trajectory}: {len(gaps)} possible sync-point crossing(s) left "
+            f"out, in data gaps of the trajectory ({named}{more}), "
+            f"{gap_threshold_text(result.gap_threshold_s)}, where it is not interpolated; a "
+            f"sighting there stays unmatched: {GAP_ADVICE}",
+            err=True,
+        )
+    if result.ambiguous and not accept_ambiguous:
+        raise ObservabilityError(_ambiguity_message(result, sync_points, pulses))
+    if result.ambiguous:
+        typer.echo(
+            f"kinsync: warning: ambiguous: {len(result.alternatives)} other assignment(s) of "
+            "sightings to crossings fit almost as well; see 'alternatives'",
+            err=True,
+        )
+
+
+def _ambiguity_message(result: ObjectSpaceResult, sync_points: Path, pulses: Path | None) -> str:
+    """Why an ambiguous clock is refused, with the alternatives and what to do."""
+    others = "; ".join(f"{a.t0_s:.6f} s" for a in result.alternatives)
+    unsettled = (
+        f"; the pulses ({pulses}) allow these too, so they cannot settle it"
+        if pulses is not None
+        else ""
+    )
+    settle = (
+        "" if pulses is not None else "give --pulses (the scanner's GPS-timed profile pulses), "
+    )
+    return (
+        f"{sync_points}: ambiguous: {len(result.alternatives)} other match(es) of sightings to "
+        f"sync-point crossings fit almost as well as the best, t0 = {result.t0_s:.6f} s "
+        f"(others: t0 = {others}), so its clock is not sure{unsettled}: {settle}pass each sync "
+        "point at the start and at the end of the drive, or take the best with "
+        "--accept-ambiguous"
+    )
 
 
 @app.command("apply")

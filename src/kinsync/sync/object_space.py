@@ -53,8 +53,9 @@ and T. The algorithm:
    and repeats until the assignment is stable. The assignment matching most
    sightings wins, then the smallest ``chi2 + ((T - T_prior) / (tol T_prior))^2``; a
    different assignment with as many matches within ``ambiguity_chi2`` of it makes
-   the result *ambiguous* (reported, with the alternatives). Sightings left unmatched
-   (control targets, glints) are reported, never used.
+   the result *ambiguous* (reported, with the alternatives), unless the pulses rule
+   it out (step 6). Sightings left unmatched (control targets, glints) are reported,
+   never used.
 
    **A wrong prior.** Two pairs always fit a line exactly, so a prior far from the
    true period still gave an "assignment": two sightings matched by chance, chi2 0,
@@ -130,6 +131,22 @@ and T. The algorithm:
    the misfit is within 0.25 profile and three sigmas within half a profile. A pulse
    train with a gap (a missing pulse) or a period that disagrees with the estimate is
    an error: the offset would change along the scan.
+
+   The offset itself is a check. One pulse per profile, P pulses for N profiles: the
+   train starts with profile 0 (k = 0, or k = P - N with pulses before it) or ends
+   with the last profile, so k lies within ``min(P - N, 0) - 1`` to
+   ``max(P - N, 0) + 1`` (`kinsync.sync.pulses.allowed_offsets`, a first or last
+   pulse lost included). "Not sure" only doubts k by one; an offset outside that
+   range says that the clock is wrong by whole seconds. With sync-point heights
+   0.5 m off, 2 of 18 sightings matched three ways almost equally well and the best
+   was 34 s late, pulse offset 1128 for 9808 pulses and 9807 profiles: exit 0 with
+   warnings. Now the pulses settle an ambiguity: rivals whose offset the train does
+   not allow are ruled out (``settled_by_pulses``); a best clock it does not allow
+   gives way to the one rival it does (a `KinsyncWarning` says so: the sync points
+   alone could not tell them apart), which keeps its own covariance, the pulses
+   being used only to choose; and with no rival, or several, that the pulses allow,
+   the clock is refused (`ObservabilityError`, naming the alternatives and their
+   offsets).
 
 The period error budget of SPEC section 3 follows: a period error dT shifts profile N
 by ``N dT`` (`kinsync.budget.period_error_budget`); `ObjectSpaceResult.time_std_s`
@@ -246,12 +263,17 @@ class MatchedSighting:
 
 @dataclass(frozen=True)
 class Alternative:
-    """Another assignment of sightings to crossings and its clock."""
+    """Another assignment of sightings to crossings and its clock.
+
+    ``pulse_offset`` is the offset the hardware pulses give this clock (module step 6),
+    None without pulses or when their period disagrees with this clock's.
+    """
 
     t0_s: float
     period_s: float
     n_matched: int
     chi2: float
+    pulse_offset: int | None = None
 
 
 @dataclass(frozen=True)
@@ -279,9 +301,13 @@ class ObjectSpaceResult:
     n_crossings : dict of str to int
         Candidate crossings found per sync point.
     ambiguous : bool
-        Another assignment fits almost as well (see ``alternatives``).
+        Another assignment fits almost as well (see ``alternatives``) and the pulses, if
+        given, do not rule it out (module step 6).
     alternatives : tuple of Alternative
         The runner-up assignments with as many matches, best first (at most 5).
+    settled_by_pulses : bool
+        Other assignments fitted almost as well, and the pulses ruled out all but this
+        one (module step 6).
     pulses : PulseOffset or None
         Offset between hardware pulses and profile numbers, when pulses were given.
     crossings_in_gaps : tuple of GapCrossing
@@ -304,6 +330,7 @@ class ObjectSpaceResult:
     ambiguous: bool = False
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
+    settled_by_pulses: bool = False
     crossings_in_gaps: tuple[GapCrossing, ...] = ()
     gap_threshold_s: float = math.inf
 
@@ -352,8 +379,15 @@ class ObjectSpaceResult:
             ],
             "gap_threshold_s": self.gap_threshold_s,
             "ambiguous": self.ambiguous,
+            "settled_by_pulses": self.settled_by_pulses,
             "alternatives": [
-                {"t0_s": a.t0_s, "period_s": a.period_s, "n_matched": a.n_matched, "chi2": a.chi2}
+                {
+                    "t0_s": a.t0_s,
+                    "period_s": a.period_s,
+                    "n_matched": a.n_matched,
+                    "chi2": a.chi2,
+                    "pulse_offset": a.pulse_offset,
+                }
                 for a in self.alternatives
             ],
             "pulse_offset": None if self.pulses is None else self.pulses.offset,
@@ -418,12 +452,15 @@ def synchronise_object_space(
         step 3, a wrong prior).
     ObservabilityError
         Fewer than two distinct sightings; no sync point crossed by the scan plane; no
-        assignment of sightings to crossings with a period within the prior tolerance.
+        assignment of sightings to crossings with a period within the prior tolerance;
+        a gap in the pulses; a clock whose pulse offset the pulse train does not allow,
+        with no single rival that it allows (module step 6).
 
     Warns
     -----
     KinsyncWarning
-        The clock rests on two sightings: nothing checks it (module step 3).
+        The clock rests on two sightings: nothing checks it (module step 3). The pulses
+        ruled out the best assignment and took the one rival they allow (step 6).
     """
     cfg = config or ObjectSpaceConfig()
     require_profiler_azimuth(mount)
@@ -483,23 +520,29 @@ def synchronise_object_space(
             KinsyncWarning,
             stacklevel=2,
         )
+    m = len(best.pairs)
     rivals = [
-        a
-        for a in ranked[1:]
-        if len(a.pairs) == len(best.pairs) and a.score - best.score <= cfg.ambiguity_chi2
+        a for a in ranked[1:] if len(a.pairs) == m and a.score - best.score <= cfg.ambiguity_chi2
     ]
-    # Refit the matched sphere sightings with their crossing's sweep and drift.
-    period = best.fit.period_s
-    for i, j in best.pairs:
-        if sightings[i].refinement == "sphere":
-            c = crossings[j]
-            motion = (c.rate_m_s * period, c.drift_m_s[0] * period, c.drift_m_s[1] * period)
-            sightings[i] = refine_sighting(scan, detected[i][1], cfg, motion)
-    pulses = None if pulses_t_s is None else _PulseTrain(pulses_t_s, pulses_source, pulses_where)
-    result = _result(
-        best, rivals, ranked, sightings, crossings, n_cross, cfg, pulses, scan.n_profiles
-    )
-    return replace(result, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
+    train = None if pulses_t_s is None else _PulseTrain(pulses_t_s, pulses_source, pulses_where)
+
+    def finish(chosen: Assignment, others: Sequence[Assignment]) -> ObjectSpaceResult:
+        """The result of one assignment, its matched sphere sightings refitted."""
+        refined = list(sightings)
+        period = chosen.fit.period_s
+        for i, j in chosen.pairs:  # refit with the crossing's sweep and drift
+            if refined[i].refinement == "sphere":
+                c = crossings[j]
+                motion = (c.rate_m_s * period, c.drift_m_s[0] * period, c.drift_m_s[1] * period)
+                refined[i] = refine_sighting(scan, detected[i][1], cfg, motion)
+        out = _result(chosen, others, refined, crossings, n_cross, cfg, train, scan.n_profiles)
+        return replace(out, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
+
+    runners_up = rivals or [a for a in ranked[1:] if len(a.pairs) == m]
+    result = replace(finish(best, runners_up), ambiguous=bool(rivals))
+    if train is None or result.pulses is None:
+        return result
+    return _settle_by_pulses(result, best, rivals, runners_up, finish, train, scan.n_profiles)
 
 
 @dataclass(frozen=True)
@@ -509,6 +552,135 @@ class _PulseTrain:
     t_s: ArrayLike
     source: str
     where: Callable[[int], str] | None
+
+
+def _pulses_of(
+    t0_s: float, period_s: float, cov: FloatArray, train: _PulseTrain, n_profiles: int
+) -> PulseOffset:
+    """The pulse offset of the clock ``(t0_s, period_s)`` with covariance ``cov`` (step 6).
+
+    Matched at the profile of least time variance, within the scan's profiles.
+    """
+    n_ref = int(np.clip(round(-cov[0, 1] / cov[1, 1]), 0, max(n_profiles - 1, 0)))
+    time_var = cov[0, 0] + 2.0 * n_ref * cov[0, 1] + n_ref * n_ref * cov[1, 1]
+    return pulse_offset(
+        train.t_s,
+        ProfileClock(t0_s, period_s),
+        reference_profile=n_ref,
+        time_std_s=math.sqrt(max(time_var, 0.0)),
+        period_std_s=math.sqrt(cov[1, 1]),
+        source=train.source,
+        where=train.where,
+        n_profiles=n_profiles,
+    )
+
+
+def _offset_of(a: Assignment, train: _PulseTrain, n_profiles: int) -> PulseOffset | None:
+    """An assignment's pulse offset from its matching fit, None when the periods disagree."""
+    try:
+        return _pulses_of(a.fit.t0_s, a.fit.period_s, a.fit.covariance, train, n_profiles)
+    except ObservabilityError:  # the pulses' period is not this clock's
+        return None
+
+
+def _clocks_text(items: Sequence[tuple[Assignment, PulseOffset | None]]) -> str:
+    """``t0 = ... s (pulse offset k)`` for each assignment, for messages."""
+    return "; ".join(
+        f"t0 = {a.fit.t0_s:.6f} s, period {a.fit.period_s:.9g} s ("
+        + (
+            "pulse period disagrees"
+            if k is None
+            else f"pulse offset {k.offset}{', allowed' if k.plausible else ''}"
+        )
+        + ")"
+        for a, k in items
+    )
+
+
+def _settle_by_pulses(
+    result: ObjectSpaceResult,
+    best: Assignment,
+    rivals: Sequence[Assignment],
+    runners_up: Sequence[Assignment],
+    finish: Callable[[Assignment, Sequence[Assignment]], ObjectSpaceResult],
+    train: _PulseTrain,
+    n_profiles: int,
+) -> ObjectSpaceResult:
+    """Use the pulses to rule out assignments whose pulse offset they do not allow (step 6).
+
+    ``result`` is the best assignment's; ``rivals`` fit almost as well (an ambiguity),
+    ``runners_up`` are the alternatives reported. A best clock the pulses allow stays,
+    and the rivals they rule out no longer make it ambiguous; one they do not allow
+    gives way to the one rival they do (with a `KinsyncWarning`), else it is refused.
+
+    Raises
+    ------
+    ObservabilityError
+        The best clock's pulse offset is one the pulse train does not allow, and not
+        exactly one rival's is.
+    """
+    assert result.pulses is not None
+    offsets = {id(a): _offset_of(a, train, n_profiles) for a in (*rivals, *runners_up[:5])}
+
+    def agrees(a: Assignment) -> bool:
+        k = offsets[id(a)]
+        return k is not None and k.plausible
+
+    def listed(chosen: ObjectSpaceResult, others: Sequence[Assignment]) -> ObjectSpaceResult:
+        alts = tuple(
+            replace(alt, pulse_offset=None if (k := offsets.get(id(a))) is None else k.offset)
+            for alt, a in zip(chosen.alternatives, others, strict=False)
+        )
+        return replace(chosen, alternatives=alts)
+
+    if result.pulses.plausible:
+        left = [a for a in rivals if agrees(a)]
+        settled = bool(rivals) and not left
+        return replace(listed(result, runners_up), ambiguous=bool(left), settled_by_pulses=settled)
+    p, lo_hi = result.pulses, result.pulses.allowed
+    assert lo_hi is not None
+    n_pulses = np.asarray(train.t_s).size
+    contradiction = (
+        f"{train.source}: the pulses contradict the clock from the sync points: t0 = "
+        f"{result.t0_s:.6f} s, period {result.period_s:.9g} s gives pulse offset {p.offset} "
+        f"(profile 0 at pulse {p.offset + 1}), but {n_pulses} pulses for {n_profiles} profiles "
+        f"allow {lo_hi[0]} to {lo_hi[1]} (an extra first pulse gives 1)"
+    )
+    agreeing = [a for a in rivals if agrees(a)]
+    if len(agreeing) == 1:
+        others = [best, *(a for a in rivals if a is not agreeing[0])]
+        offsets[id(best)] = p
+        chosen = finish(agreeing[0], others)
+        if chosen.pulses is not None and chosen.pulses.plausible:
+            warnings.warn(
+                f"{contradiction}; of the {len(rivals)} other match(es) of sightings to "
+                f"sync-point crossings that fit almost as well, one agrees with the pulses "
+                f"(pulse offset {chosen.pulses.offset}) and is taken: t0 = {chosen.t0_s:.6f} s; "
+                "the sync points alone could not tell these apart: check their coordinates "
+                "(heights too) and the mount",
+                KinsyncWarning,
+                stacklevel=3,
+            )
+            return replace(listed(chosen, others), ambiguous=False, settled_by_pulses=True)
+    shown = [(a, offsets[id(a)]) for a in (agreeing if len(agreeing) > 1 else runners_up[:5])]
+    if len(agreeing) > 1:
+        others_text = (
+            f"; {len(agreeing)} other matches of sightings to crossings that fit almost as well "
+            f"agree with them, so the pulses cannot tell which: {_clocks_text(shown)}"
+        )
+    elif shown:
+        others_text = (
+            f"; {'the other matches' if rivals else 'other matches, which fit worse,'} of "
+            f"sightings to crossings with as many sightings: {_clocks_text(shown)}"
+        )
+    else:
+        others_text = ""
+    msg = (
+        f"{contradiction}{others_text}: check the sync points' coordinates (heights too), the "
+        "mount (lever arm, boresight, [profiler] azimuth_deg), and that the pulses are this "
+        "scan's, one per profile, on the trajectory's time scale"
+    )
+    raise ObservabilityError(msg)
 
 
 def _check_period_prior(
@@ -574,8 +746,7 @@ def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
 
 def _result(
     best: Assignment,
-    rivals: list[Assignment],
-    ranked: list[Assignment],
+    others: Sequence[Assignment],
     sightings: Sequence[Sighting],
     crossings: Sequence[Crossing],
     n_cross: dict[str, int],
@@ -611,22 +782,9 @@ def _result(
             )
         )
     used = {i for i, _ in best.pairs}
-    pulses: PulseOffset | None = None
-    if train is not None:
-        n_ref = int(np.clip(round(-cov[0, 1] / cov[1, 1]), 0, max(n_profiles - 1, 0)))
-        time_var = cov[0, 0] + 2.0 * n_ref * cov[0, 1] + n_ref * n_ref * cov[1, 1]
-        pulses = pulse_offset(
-            train.t_s,
-            ProfileClock(fit.t0_s, fit.period_s),
-            reference_profile=n_ref,
-            time_std_s=math.sqrt(max(time_var, 0.0)),
-            period_std_s=math.sqrt(cov[1, 1]),
-            source=train.source,
-            where=train.where,
-        )
+    pulses = None if train is None else _pulses_of(fit.t0_s, fit.period_s, cov, train, n_profiles)
     alternatives = tuple(
-        Alternative(a.fit.t0_s, a.fit.period_s, len(a.pairs), a.fit.chi2)
-        for a in (rivals or [a for a in ranked[1:] if len(a.pairs) == m])[:5]
+        Alternative(a.fit.t0_s, a.fit.period_s, len(a.pairs), a.fit.chi2) for a in others[:5]
     )
     return ObjectSpaceResult(
         t0_s=fit.t0_s,
@@ -639,7 +797,6 @@ def _result(
         sightings=tuple(matched),
         unmatched=tuple(s for k, s in enumerate(sightings) if k not in used),
         n_crossings=n_cross,
-        ambiguous=bool(rivals),
         alternatives=alternatives,
         pulses=pulses,
     )

@@ -13,8 +13,33 @@ from kinsync.errors import InputError, ObservabilityError
 
 __all__ = [
     "PulseOffset",
+    "allowed_offsets",
     "pulse_offset",
 ]
+
+
+def allowed_offsets(n_pulses: int, n_profiles: int) -> tuple[int, int]:
+    """The pulse offsets k that ``n_pulses`` pulses for ``n_profiles`` profiles allow.
+
+    One pulse per profile: the train starts with profile 0 (k = 0), with a pulse or
+    more before it (k = P - N > 0, an extra first pulse gives 1), or ends with the
+    last profile (k = 0 when P - N > 0, k = P - N when pulses are missing at the
+    start), or anything between, give or take one pulse (a first or last pulse lost).
+
+    Parameters
+    ----------
+    n_pulses : int
+        P, pulses in the train.
+    n_profiles : int
+        N, profiles the scan spans (last profile number + 1).
+
+    Returns
+    -------
+    (int, int)
+        Smallest and largest k, ``min(P - N, 0) - 1`` and ``max(P - N, 0) + 1``.
+    """
+    extra = int(n_pulses) - int(n_profiles)
+    return min(extra, 0) - 1, max(extra, 0) + 1
 
 
 @dataclass(frozen=True)
@@ -31,12 +56,21 @@ class PulseOffset:
         Sigma of the predicted profile start where the pulse was matched (profiles).
     reference_profile : int
         Profile at which the pulse was matched (least clock variance).
+    allowed : (int, int) or None
+        The offsets the pulse train allows for the scan (`allowed_offsets`), None when
+        the number of profiles was not given.
     """
 
     offset: int
     fraction: float
     std: float
     reference_profile: int
+    allowed: tuple[int, int] | None = None
+
+    @property
+    def plausible(self) -> bool:
+        """True when the offset is one the pulse train allows (or nothing says which)."""
+        return self.allowed is None or self.allowed[0] <= self.offset <= self.allowed[1]
 
     @property
     def sure(self) -> bool:
@@ -53,6 +87,7 @@ def pulse_offset(
     period_std_s: float = 0.0,
     source: str = "pulses",
     where: Callable[[int], str] | None = None,
+    n_profiles: int | None = None,
 ) -> PulseOffset:
     """Integer offset k between pulses and profiles: ``pulse[n + k]`` belongs to profile n.
 
@@ -73,6 +108,9 @@ def pulse_offset(
     where : callable, optional
         ``where(i)`` names pulse i (0-based) as its file counts it (``"line 7"``);
         default ``"pulse i+1 of P"``.
+    n_profiles : int, optional
+        Profiles the scan spans (last profile number + 1): the result then says which
+        offsets the pulse train allows (`PulseOffset.plausible`).
 
     Returns
     -------
@@ -122,4 +160,5 @@ def pulse_offset(
         fraction=float((p[m_star] - predicted) / clock.period_s),
         std=float(time_std_s) / clock.period_s,
         reference_profile=int(reference_profile),
+        allowed=None if n_profiles is None else allowed_offsets(p.size, n_profiles),
     )
