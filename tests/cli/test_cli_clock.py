@@ -162,7 +162,7 @@ def test_apply_outside_span(
     assert run_cli(fit_args(logs, "--json", "--model-out", str(linear)))[0] == 0
     assert run_cli(fit_args(logs, "--json", "--piecewise", "--model-out", str(piecewise)))[0] == 0
     data = tmp_path / "late.csv"
-    data.write_text("t_local_s\n1479384100.0\n1479390000.0\n")
+    data.write_text("t_local_s\n1479384100.0\n1479384900.0\n")
     out = tmp_path / "o.csv"
     base = ["clock", "apply", "--in", str(data), "--out", str(out)]
     code, stdout, err = run_cli([*base, "--model", str(linear)])
@@ -170,12 +170,59 @@ def test_apply_outside_span(
     assert "outside the fitted span" in err
     assert "2 rows" in stdout
     code, out_text, err = run_cli([*base, "--model", str(piecewise)])
-    assert_one_line_error(code, out_text, err, "outside", "piecewise")
+    # The option that allows it is named (it said "allow extrapolation with the linear model").
+    assert_one_line_error(
+        code, out_text, err, "late.csv: line 3", "outside", "piecewise", "--outside nan"
+    )
+    assert "--outside extrapolate" in err
     assert not out.exists() or "nan" not in out.read_text()
     code, stdout, _ = run_cli([*base, "--model", str(piecewise), "--outside", "nan", "--json"])
     assert code == 0
     assert json.loads(stdout)["n_outside_span"] == 1
     assert out.read_text().splitlines()[2].endswith(",nan")
+
+
+def test_apply_refuses_a_time_on_another_clock(
+    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """A model of a boot-time clock applied to a Unix time wrote a date in 2078 (exit 0)."""
+    boot = tmp_path / "boot"
+    boot.mkdir()
+    shift_s = 1479384017.0 - 100.0  # the same logs on a clock started 100 s before them
+    pps = (logs / "pps.csv").read_text().splitlines()
+    (boot / "pps.csv").write_text(
+        "\n".join([pps[0], *(repr(float(x) - shift_s) for x in pps[1:])]) + "\n"
+    )
+    nmea = [x.split(",", 1) for x in (logs / "nmea.csv").read_text().splitlines()]
+    (boot / "nmea.csv").write_text(
+        "\n".join([",".join(nmea[0]), *(f"{float(t) - shift_s!r},{s}" for t, s in nmea[1:])]) + "\n"
+    )
+    model = tmp_path / "boot.json"
+    assert run_cli(fit_args(boot, "--json", "--model-out", str(model)))[0] == 0
+    lo, hi = read_clock_model(model).span_local_s
+    data = tmp_path / "scan.csv"
+    data.write_text(f"t_local_s\n{hi + 10.0!r}\n1718000000.5\n{lo - 0.9 * (hi - lo)!r}\n")
+    out = tmp_path / "scan_gps.csv"
+    base = ["clock", "apply", "--model", str(model), "--in", str(data), "--out", str(out)]
+    code, stdout, err = run_cli(base)
+    assert_one_line_error(
+        code, stdout, err, "scan.csv: line 3", "1718000000.5", "another clock", "--outside"
+    )
+    assert f"[{lo!r}, {hi!r}]" in err
+    assert not out.exists()
+    # Within one span length of either end: extrapolated, with the note.
+    data.write_text(f"t_local_s\n{hi + 10.0!r}\n{lo - 0.9 * (hi - lo)!r}\n")
+    code, stdout, err = run_cli([*base, "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["n_outside_span"] == 2
+    assert doc["extrapolation_limit_local_s"] == [lo - (hi - lo), hi + (hi - lo)]
+    # Asked for: every time is extrapolated.
+    data.write_text("t_local_s\n1718000000.5\n")
+    code, stdout, err = run_cli([*base, "--outside", "extrapolate"])
+    assert code == 0, err
+    assert "1 time(s) outside the fitted span" in err
+    assert float(out.read_text().splitlines()[1].split(",")[1]) > 3e9
 
 
 def test_apply_custom_out_column(run_cli: RunCli, logs: Path, tmp_path: Path) -> None:

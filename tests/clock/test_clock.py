@@ -368,8 +368,10 @@ def test_linear_apply_outside_span_is_allowed_and_reported(case: Case) -> None:
     out = m.apply(t)
     expected = m.reference_gps_s + (t - m.reference_local_s) * (1 + m.drift_ppm * 1e-6)
     np.testing.assert_array_equal(out, expected)
-    with pytest.raises(OutsideSpanError, match="outside"):
+    with pytest.raises(OutsideSpanError, match="outside='extrapolate'"):
         m.apply(t, outside="raise")
+    assert m.extrapolation_limits_s() == (lo - (hi - lo), hi + (hi - lo))
+    assert m.extrapolation_limits_s(0.5) == (lo - 0.5 * (hi - lo), hi + 0.5 * (hi - lo))
     assert np.isnan(m.apply(t, outside="nan")).tolist() == [True, False, False, True]
     assert m.apply(5.0).shape == ()
     with pytest.raises(InputError, match="finite"):

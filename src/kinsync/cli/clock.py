@@ -4,23 +4,29 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
+import numpy as np
 import typer
 
 from kinsync._text import counted
+from kinsync._typing import BoolArray, FloatArray
 from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
 from kinsync.clock import (
     CLOCK_FORMULA,
     CONVENTIONS,
     OUTSIDE_POLICIES,
+    ClockModel,
     Convention,
     OutsidePolicy,
     fit_clock_to_log,
 )
-from kinsync.errors import InputError
+from kinsync.errors import InputError, OutsideSpanError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.messages import RejectedLine
+
+if TYPE_CHECKING:
+    from kinsync.io.tables import TextTable
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
 
@@ -151,8 +157,10 @@ def apply(
     outside: Annotated[
         str | None,
         typer.Option(
-            help="Times outside the fitted span: extrapolate, raise or nan (default: "
-            "extrapolate for a linear model, raise for a piecewise one)."
+            help="Times outside the fitted span: extrapolate (all, with the linear model), "
+            "raise or nan. Default: a linear model extrapolates up to one span length "
+            "beyond either end and refuses times further out (another clock, most "
+            "likely); a piecewise model refuses every time outside the span."
         ),
     ] = None,
     as_json: JsonOpt = False,
@@ -179,11 +187,17 @@ def apply(
             f"{in_path}: already has a column {out_column!r}; choose another name with --out-column"
         )
         raise InputError(msg)
-    t_gps = clock.apply(t_local, outside=policy)
     inside = clock.inside_span(t_local)
+    used = policy or ("raise" if clock.piecewise else "extrapolate")
+    limits = None if policy is not None or clock.piecewise else clock.extrapolation_limits_s()
+    if used == "raise":
+        _refuse_outside(clock, model, table, column, t_local, ~inside)
+    elif limits is not None:
+        far = (t_local < limits[0]) | (t_local > limits[1])
+        _refuse_far_outside(clock, model, table, column, t_local, far)
+    t_gps = clock.apply(t_local, outside=used)
     write_with_column(out, table, out_column, t_gps)
     n_outside = int(len(inside) - inside.sum())
-    used = policy or ("raise" if clock.piecewise else "extrapolate")
     doc = {
         "in": str(in_path),
         "out": str(out),
@@ -193,6 +207,7 @@ def apply(
         "n_outside_span": n_outside,
         "outside": used,
         "span_local_s": list(clock.span_local_s),
+        "extrapolation_limit_local_s": None if limits is None else list(limits),
         "piecewise": clock.piecewise,
     }
     if as_json:
@@ -207,3 +222,54 @@ def apply(
         err_console.print(
             f"note: {n_outside} time(s) outside the fitted span [{lo!r}, {hi!r}] s were {what}"
         )
+
+
+def _refuse_outside(
+    clock: ClockModel,
+    model: Path,
+    table: TextTable,
+    column: str,
+    t_local_s: FloatArray,
+    outside: BoolArray,
+) -> None:
+    """Refuse times outside the fitted span (piecewise model, or ``--outside raise``)."""
+    if not np.any(outside):
+        return
+    row = int(np.flatnonzero(outside)[0])
+    lo, hi = clock.span_local_s
+    kind = "piecewise " if clock.piecewise else ""
+    msg = (
+        f"{table.source}: line {table.lines[row]}, column {column!r}: "
+        f"{float(t_local_s[row])!r} s is outside the span the {kind}clock model {model} was "
+        f"fitted on, [{lo!r}, {hi!r}] s ({counted(int(np.count_nonzero(outside)), 'row')} "
+        "outside); fit the clock over a longer log, or give --outside nan (NaN there) or "
+        "--outside extrapolate (the linear model)"
+    )
+    raise OutsideSpanError(msg)
+
+
+def _refuse_far_outside(
+    clock: ClockModel,
+    model: Path,
+    table: TextTable,
+    column: str,
+    t_local_s: FloatArray,
+    far: BoolArray,
+) -> None:
+    """Refuse times further from the fitted span than its own length (linear default)."""
+    if not np.any(far):
+        return
+    row = int(np.flatnonzero(far)[0])
+    t = float(t_local_s[row])
+    lo, hi = clock.span_local_s
+    where = f"{lo - t:.6g} s before" if t < lo else f"{t - hi:.6g} s after"
+    msg = (
+        f"{table.source}: line {table.lines[row]}, column {column!r}: {t!r} s lies {where} "
+        f"the span the clock model {model} was fitted on, [{lo!r}, {hi!r}] s "
+        f"({hi - lo:.6g} s long), further than that span's own length "
+        f"({counted(int(np.count_nonzero(far)), 'row')} that far out): the column is most "
+        "likely on another clock or time base (Unix time against time since boot, say); "
+        "apply a model fitted on the clock that wrote it, or force the line with --outside "
+        "extrapolate (or --outside nan: NaN outside the span)"
+    )
+    raise OutsideSpanError(msg)

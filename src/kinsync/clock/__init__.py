@@ -26,12 +26,19 @@ from kinsync.clock.leap_seconds import (
     utc_to_gps_s,
     zda_to_gps_s,
 )
-from kinsync.clock.model import CLOCK_FORMULA, OUTSIDE_POLICIES, ClockModel, OutsidePolicy
+from kinsync.clock.model import (
+    CLOCK_FORMULA,
+    EXTRAPOLATION_SPANS,
+    OUTSIDE_POLICIES,
+    ClockModel,
+    OutsidePolicy,
+)
 from kinsync.clock.profile import ProfileClock
 
 __all__ = [
     "CLOCK_FORMULA",
     "CONVENTIONS",
+    "EXTRAPOLATION_SPANS",
     "GPS_EPOCH_POSIX_S",
     "LEAP_SECONDS",
     "OUTSIDE_POLICIES",

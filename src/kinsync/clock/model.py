@@ -25,13 +25,26 @@ from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import finite_number
 from kinsync.errors import InputError, OutsideSpanError
 
-__all__ = ["CLOCK_FORMULA", "OUTSIDE_POLICIES", "ClockModel", "OutsidePolicy"]
+__all__ = [
+    "CLOCK_FORMULA",
+    "EXTRAPOLATION_SPANS",
+    "OUTSIDE_POLICIES",
+    "ClockModel",
+    "OutsidePolicy",
+]
 
 OutsidePolicy = Literal["extrapolate", "raise", "nan"]
 """What `ClockModel.apply` does with a time outside the span of the fitted pulses."""
 
 
 OUTSIDE_POLICIES: tuple[OutsidePolicy, ...] = ("extrapolate", "raise", "nan")
+
+EXTRAPOLATION_SPANS = 1.0
+"""How far beyond either end of the fitted span a linear model is trusted by default
+(`ClockModel.extrapolation_limits_s`), in lengths of that span: a 10-minute fit maps
+times from 10 minutes before its first pulse to 10 minutes after its last. A time much
+further out is most often on another clock or time base (boot time against Unix time),
+where the line gives a confident, wrong date."""
 
 
 CLOCK_FORMULA = (
@@ -149,6 +162,22 @@ class ClockModel:
         lo, hi = self.span_local_s
         return np.asarray((t >= lo) & (t <= hi), dtype=np.bool_)
 
+    def extrapolation_limits_s(self, spans: float = EXTRAPOLATION_SPANS) -> tuple[float, float]:
+        """Local times a linear model is trusted to reach by extrapolation (s, local clock).
+
+        ``(lo - spans * (hi - lo), hi + spans * (hi - lo))`` for ``span_local_s = (lo,
+        hi)``. `apply` does not use it (its ``"extrapolate"`` has no limit); ``kinsync
+        clock apply`` refuses times beyond it unless told ``--outside extrapolate``.
+
+        Parameters
+        ----------
+        spans : float
+            Margin on each side, in lengths of the fitted span (>= 0).
+        """
+        lo, hi = self.span_local_s
+        margin_s = spans * (hi - lo)
+        return lo - margin_s, hi + margin_s
+
     def _linear_gps_s(self, t: FloatArray) -> FloatArray:
         scale = 1.0 + self.drift_ppm * 1e-6
         return np.asarray(
@@ -167,7 +196,9 @@ class ClockModel:
             (the piecewise model's linear fit too), ``"raise"`` raises
             `OutsideSpanError`, ``"nan"`` returns NaN there. Default: ``"extrapolate"``
             for the linear model, ``"raise"`` for the piecewise model (never silently).
-            `inside_span` says which times were outside.
+            `inside_span` says which times were outside. ``"extrapolate"`` has no limit:
+            a time on another clock (boot time against Unix time) gets a GPS time decades
+            off; `extrapolation_limits_s` gives the limit ``kinsync clock apply`` keeps.
 
         Returns
         -------
@@ -198,8 +229,8 @@ class ClockModel:
                 msg = (
                     f"{int(np.count_nonzero(~inside))} local time(s) lie outside the "
                     f"{kind}clock model's span [{lo!r}, {hi!r}] s (first: {first!r}); "
-                    "fit the clock over a longer log, or allow extrapolation with the "
-                    "linear model"
+                    "fit the clock over a longer log, or pass outside='extrapolate' (the "
+                    "linear model) or outside='nan'"
                 )
                 raise OutsideSpanError(msg)
             if policy == "nan":
