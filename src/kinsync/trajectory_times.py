@@ -3,7 +3,8 @@
 A decreasing time is named with the row, and a step back of about a week from the end of
 a GPS week to its start is named a week rollover: what seconds-of-week exports (SBET,
 POSPac, Inertial Explorer) read with one GPS week show there, which sorting would
-scramble.
+scramble. Likewise a pulse log whose clock was stepped back (`backward_step_s`) is told
+from one with shuffled lines.
 """
 
 from __future__ import annotations
@@ -13,9 +14,51 @@ import numpy as np
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 
-__all__ = ["validated_times"]
+__all__ = ["backward_step_s", "validated_times"]
 
 _SECONDS_PER_WEEK = 604_800.0
+
+
+_REGULAR_SPACING = 0.1
+"""Pulse intervals within this fraction of the usual one are regular (`backward_step_s`)."""
+_STEP_CONTEXT = 3
+"""Regular intervals looked at after a backward step (fewer at the end of a log)."""
+
+
+def backward_step_s(t: FloatArray, row: int) -> float | None:
+    """Size of a backward step of the local clock at a pulse out of order, or None.
+
+    ``row`` is a pulse that does not follow its predecessor. A step back by one second
+    or more puts it at or before pulse ``row - 1``, and the pulses go on rising from
+    there, one interval apart as before (sorting would interleave two stretches of
+    clock). Lines swapped or repeated leave a repeated time or a doubled interval
+    around the disorder instead: None.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Pulse times (s, local clock), in file order.
+    row : int
+        Index of the first pulse with ``t[row] <= t[row - 1]`` (1 <= row < N).
+
+    Returns
+    -------
+    float or None
+        The step (s, negative): ``t[row] - t[row - 1]`` less the usual interval.
+    """
+    d = np.diff(t)
+    rising = d[d > 0.0]
+    if len(rising) == 0 or not 1 <= row < len(t) or t[row] >= t[row - 1]:
+        return None
+    interval = float(np.median(rising))
+    around = d[max(row - 2, 0) : row - 1]
+    after = d[row : row + _STEP_CONTEXT]
+    if len(after) == 0:
+        return None
+    near = np.abs(np.r_[around, after] - interval) <= _REGULAR_SPACING * interval
+    if not np.all(near):
+        return None
+    return float(d[row - 1] - interval)
 
 
 def _week_rollover(before_s: float, after_s: float) -> bool:

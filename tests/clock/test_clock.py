@@ -618,3 +618,45 @@ def test_a_zda_without_gps_time_is_rejected_not_fatal(
     assert fit.n_zda == clean.n_zda - 1
     assert fit.as_document()["rejected_zdas"][0]["line"] == 402
     assert abs(fit.model.drift_ppm - clean.model.drift_ppm) < clean.drift_std_ppm
+
+
+# --------------------------------------------------------------------------- PPS file order
+
+
+def _pps_file(path: Path, t: np.ndarray) -> Path:
+    path.write_text("t_local_s\n" + "".join(f"{float(x)!r}\n" for x in t))
+    return path
+
+
+def test_a_backward_step_of_the_local_clock_is_not_called_a_shuffled_file(
+    tmp_path: Path,
+) -> None:
+    """A step back of 2.3 s at pulse 150 said 'sort the file', which mixes two stretches."""
+    t = 1000.0 + np.arange(300) / (1 + 25e-6)
+    t[150:] -= 2.3
+    pps = _pps_file(tmp_path / "pps.csv", t)
+    with pytest.raises(InputError, match="line 152") as err:
+        read_pps_csv(pps)
+    text = str(err.value)
+    assert "stepped back by about 2.3 s" in text
+    assert f"split the PPS and NMEA logs at t_local_s={float(t[150])!r}" in text
+    assert "sort the file" not in text
+    with pytest.raises(InputError, match=r"stepped back by about 2\.3 s"):
+        fit_clock(t, [1000.5], [1.4e9], [38])
+
+
+@pytest.mark.parametrize(
+    "disorder",
+    [
+        lambda t: np.r_[t[:150], t[151], t[150], t[152:]],  # two lines swapped
+        lambda t: np.r_[t[:151], t[150], t[151:]],  # a line repeated
+        lambda t: np.r_[t[:100], np.random.default_rng(0).permutation(t[100:])],  # shuffled
+    ],
+)
+def test_shuffled_or_repeated_pulse_lines_are_told_to_be_sorted(
+    tmp_path: Path, disorder: Any
+) -> None:
+    t = disorder(1000.0 + np.arange(300) / (1 + 25e-6))
+    with pytest.raises(InputError, match="sort the file") as err:
+        read_pps_csv(_pps_file(tmp_path / "pps.csv", t))
+    assert "stepped" not in str(err.value)

@@ -75,6 +75,7 @@ from kinsync.clock.steps import (
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.messages import NmeaLog, RejectedLine, ZdaRecord
 from kinsync.robust import robust_sigma
+from kinsync.trajectory_times import backward_step_s
 
 __all__ = [
     "CONVENTIONS",
@@ -309,6 +310,15 @@ def _increasing_times(values: ArrayLike, name: str) -> FloatArray:
     steps = np.diff(t)
     if np.any(steps <= 0.0):
         i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+        step_s = backward_step_s(t, i)
+        if step_s is not None:
+            before, now = float(t[i - 1]), float(t[i])
+            msg = (
+                f"{name}: index {i} ({now!r}) comes before index {i - 1} ({before!r}) and "
+                "the times rise again from there: the local clock stepped back by about "
+                f"{-step_s:.6g} s there; split the logs at {now!r} and fit each part on its own"
+            )
+            raise InputError(msg)
         msg = (
             f"{name}: times must be strictly increasing; index {i} ({t[i]!r}) does not "
             f"follow index {i - 1} ({t[i - 1]!r}); sort the log and remove duplicates"

@@ -32,6 +32,7 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.sanity import TIME_S, check_values, load_json
 from kinsync.io.tables import read_numeric_csv
+from kinsync.trajectory_times import backward_step_s
 
 __all__ = [
     "read_clock_model",
@@ -96,7 +97,9 @@ def read_pps_csv(path: Path) -> FloatArray:
     ------
     InputError
         Missing file or column, no rows, a non-numeric, non-finite, implausible
-        (`kinsync.io.sanity.TIME_S`), repeated or decreasing time (with its line).
+        (`kinsync.io.sanity.TIME_S`), repeated or decreasing time (with its line; a
+        backward step of the local clock is told from shuffled lines,
+        `kinsync.trajectory_times.backward_step_s`).
     """
     table = read_numeric_csv(Path(path), ["t_local_s"])
     t = table.columns["t_local_s"]
@@ -107,6 +110,17 @@ def read_pps_csv(path: Path) -> FloatArray:
     steps = np.flatnonzero(np.diff(t) <= 0.0)
     if len(steps):
         row = int(steps[0]) + 1
+        step_s = backward_step_s(t, row)
+        if step_s is not None:
+            before, now = float(t[row - 1]), float(t[row])
+            msg = (
+                f"{path}: line {table.line_of_row(row)}, column 't_local_s': {now!r} comes "
+                f"{before - now:.6g} s before {before!r} on the line before and the pulses "
+                "rise again from there: the local clock stepped back by about "
+                f"{-step_s:.6g} s there (sorting would mix the two stretches); split the PPS "
+                f"and NMEA logs at t_local_s={now!r} and fit each part on its own"
+            )
+            raise InputError(msg)
         msg = (
             f"{path}: line {table.line_of_row(row)}, column 't_local_s': {t[row]!r} does not "
             f"follow {t[row - 1]!r} on the line before; pulses must be strictly increasing "
