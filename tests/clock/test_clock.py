@@ -660,3 +660,35 @@ def test_shuffled_or_repeated_pulse_lines_are_told_to_be_sorted(
     with pytest.raises(InputError, match="sort the file") as err:
         read_pps_csv(_pps_file(tmp_path / "pps.csv", t))
     assert "stepped" not in str(err.value)
+
+
+# --------------------------------------------------------------------------- misread logs
+
+
+def test_both_edges_of_each_pulse_are_named() -> None:
+    """Rising and falling edges 0.1 s apart said 'no two pulses are a whole number of
+    seconds apart', though every other pulse is."""
+    pps, zda_t, gps, n_bytes, _ = arrays()
+    both = np.sort(np.r_[pps, pps + 0.1])
+    with pytest.raises(InputError, match=r"two phases 0\.1 s apart") as err:
+        fit_clock(both, zda_t, gps, n_bytes)
+    assert "both edges" in str(err.value)
+    assert "keep one edge (every other line)" in str(err.value)
+    assert "whole number" not in str(err.value)
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(1e3, "milliseconds"), (1e6, "microseconds")])
+def test_times_in_milliseconds_are_named_in_a_short_message(scale: float, unit: str) -> None:
+    """Times in ms gave 'no strict majority: 1 x +0 s, 1 x +999 s, ...', one entry per
+    ZDA: 4,500 bytes for 300 s, 100 kB for two hours."""
+    pps, zda_t, gps, n_bytes, _ = arrays(n=300)
+    with pytest.raises(InputError, match=f"look like {unit}") as err:
+        fit_clock(pps * scale, zda_t * scale, gps, n_bytes)
+    assert f"divide by {scale:g}" in str(err.value)
+    # Only the NMEA times in ms: the ZDAs disagree; a few labels listed, and the unit named.
+    with pytest.raises(InputError, match="no strict majority") as err:
+        fit_clock(pps, zda_t * scale, gps, n_bytes)
+    text = str(err.value)
+    assert len(text) < 600, text
+    assert "more" in text
+    assert f"the ZDAs are about {scale:g} units apart, so they look like {unit}" in text

@@ -327,9 +327,57 @@ def _increasing_times(values: ArrayLike, name: str) -> FloatArray:
     return t
 
 
+_TIME_UNITS = ((1e3, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
+"""Pulse spacings (in the log's unit) that say the times are not in seconds."""
+
+
+def _unit_hint(spacing: float, what: str) -> str:
+    """``"; ... look like milliseconds ..."`` for a median spacing of about 1000, else ""."""
+    for per_second, unit in _TIME_UNITS:
+        if abs(spacing - per_second) <= _PERIOD_TOLERANCE * per_second:
+            return (
+                f"; {what} are about {per_second:g} units apart, so they look like {unit}: "
+                f"give every t_local_s in seconds (divide by {per_second:g})"
+            )
+    return ""
+
+
+def _both_edges_s(t: FloatArray) -> float | None:
+    """Spacing of two interleaved pulse phases (s) when the log holds both edges, else None.
+
+    A capture that logs the rising and the falling edge of each pulse gives intervals
+    alternating ``d`` and ``1 - d``: none is a whole second, every other one is.
+    """
+    d = np.diff(t)
+    if len(d) < 3:
+        return None
+    short = d < 0.5
+    if np.count_nonzero(short) * 3 < len(d):
+        return None
+    d2 = t[2:] - t[:-2]
+    k2 = np.rint(d2)
+    whole = (k2 >= 1.0) & (np.abs(d2 - k2) <= _PERIOD_TOLERANCE * k2)
+    if 2 * np.count_nonzero(whole) <= len(d2):
+        return None
+    return float(np.median(d[short]))
+
+
 def _local_period_s(t: FloatArray) -> float:
     """Median local duration of one GPS second, from the whole-second pulse intervals."""
     d = np.diff(t)
+    two_phases_s = _both_edges_s(t)
+    if two_phases_s is not None:
+        msg = (
+            f"the pulses fall in two phases {two_phases_s:.3g} s apart (intervals alternate "
+            f"about {two_phases_s:.3g} s and {1.0 - two_phases_s:.3g} s): the pulse log holds "
+            "both edges of each pulse (rising and falling); keep one edge (every other line)"
+        )
+        raise InputError(msg)
+    spacing = float(np.median(d))
+    hint = _unit_hint(spacing, "the pulses")
+    if hint:
+        msg = f"the pulse log's times do not look like seconds{hint}"
+        raise InputError(msg)
     k = np.rint(d)
     ok = (k >= 1.0) & (np.abs(d - k) <= _PERIOD_TOLERANCE * k)
     if not np.any(ok):
@@ -469,19 +517,35 @@ def _zda_arrays(
     return z_t, z_gps, z_bytes.astype(np.int64)
 
 
-def _majority_label(k_zda: FloatArray) -> tuple[int, BoolArray]:
-    """The absolute label most ZDAs give the grid (strict majority) and who disagrees."""
+_SHOWN_LABELS = 5
+"""GPS-second labels listed when the ZDAs have no majority."""
+
+
+def _majority_label(k_zda: FloatArray, z_t: FloatArray) -> tuple[int, BoolArray]:
+    """The absolute label most ZDAs give the grid (strict majority) and who disagrees.
+
+    ``z_t`` (the ZDAs' arrival times, s) only serves the message: a spacing of about
+    1000 says the NMEA times are in milliseconds.
+    """
     k_int = np.rint(k_zda)
     whole = np.abs(k_zda - k_int) <= WHOLE_SECOND_TOLERANCE_S
     values, counts = np.unique(k_int[whole], return_counts=True)
     if len(values) == 0 or 2 * int(counts.max()) <= len(k_zda):
-        detail = ", ".join(
-            f"{int(c)} x {v - values[0]:+.0f} s" for v, c in zip(values, counts, strict=True)
-        )
+        # The most common labels first, a few only: one per ZDA made a 100 kB line.
+        top = np.argsort(-counts, kind="stable")[:_SHOWN_LABELS]
+        detail = ", ".join(f"{int(counts[i])} x {values[i] - values[0]:+.0f} s" for i in top)
+        if len(values) > _SHOWN_LABELS:
+            detail += f" and {len(values) - _SHOWN_LABELS} more"
+        if int(np.count_nonzero(~whole)):
+            detail += f"; {int(np.count_nonzero(~whole))} name no whole second"
+        hint = ""
+        if len(z_t) > 1:
+            hint = _unit_hint(float(np.median(np.diff(np.sort(z_t)))), "the ZDAs")
         msg = (
             f"the {len(k_zda)} ZDA messages do not agree on which GPS second the pulses mark "
-            f"(no strict majority: {detail or 'none names a whole second'}); check "
-            "--convention, --baud and that the two logs come from the same clock"
+            f"(no strict majority: {detail if len(values) else 'none names a whole second'})"
+            f"{hint}; check --convention, --baud and that the two logs come from the same "
+            "clock"
         )
         raise InputError(msg)
     k = int(values[np.argmax(counts)])
@@ -592,7 +656,7 @@ def fit_clock(
         find_phase_jump(t, labels, good, alpha, beta),
         find_zda_step(t, labels, good, z_t, z_gps - named, named),
     )
-    k, wrong = _majority_label(z_gps - named)
+    k, wrong = _majority_label(z_gps - named, z_t)
 
     gps_all = (labels + k).astype(np.float64)
     t_good = t[good]
