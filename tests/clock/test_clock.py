@@ -692,3 +692,17 @@ def test_times_in_milliseconds_are_named_in_a_short_message(scale: float, unit: 
     assert len(text) < 600, text
     assert "more" in text
     assert f"the ZDAs are about {scale:g} units apart, so they look like {unit}" in text
+
+
+def test_a_zda_line_logged_twice_is_counted_as_repeated() -> None:
+    """A ZDA line logged twice read 'ZDAs paired / read 301 / 301' with 300 pulses."""
+    pps, zda_t, gps, n_bytes, _ = arrays(n=300)
+    i = 120
+    fit = fit_clock(pps, np.insert(zda_t, i, zda_t[i]), np.insert(gps, i, gps[i]), [39] * 301)
+    assert (fit.n_pulses, fit.n_zda, fit.n_zda_paired) == (300, 301, 300)
+    assert fit.duplicate_zda_t_local_s.tolist() == [zda_t[i]]
+    assert (fit.n_wrong_zda, fit.n_unpaired_zda, fit.n_rejected_messages) == (0, 0, 1)
+    assert fit.as_document()["n_duplicate_zda"] == 1
+    clean = fit_clock(pps, zda_t, gps, n_bytes)
+    assert fit.model.drift_ppm == clean.model.drift_ppm
+    assert fit.zda_delay_s == clean.zda_delay_s

@@ -115,6 +115,8 @@ def fit(
     table.add_row("ZDAs paired / read", f"{result.n_zda_paired} / {result.n_zda}")
     table.add_row("ZDAs naming a wrong second", str(result.n_wrong_zda))
     table.add_row("ZDAs with no pulse", str(result.n_unpaired_zda))
+    if result.n_duplicate_zda:
+        table.add_row("ZDAs repeating a second already named", str(result.n_duplicate_zda))
     table.add_row("rejected NMEA lines", str(result.n_bad_lines))
     table.add_row("rejected messages (total)", str(result.n_rejected_messages))
     table.add_row("ZDA transmission start after its edge (ms)", fmt(result.zda_delay_s, 1e3, 5))

@@ -33,7 +33,8 @@ Robust fit (`fit_clock`)
     4. Final least squares of the GPS seconds of the good pulses on their local times;
        the covariance of offset and drift uses the residual variance ``RSS / (n - 2)``.
        GPS seconds inside the span of good pulses that have no good pulse are
-       *missing*.
+       *missing*. A ZDA naming the same second as an earlier one (a line logged twice)
+       is *repeated* and rejected, so one ZDA pairs with each pulse.
     5. A step of the local clock (its time jumps and stays jumped) would make one
        offset-and-drift line wrong for the whole log, so it is refused, naming the
        pulses it lies between. Three signs, each persistent (isolated spurious pulses
@@ -175,6 +176,10 @@ class ClockFit:
         Arrival times of ZDAs whose named second disagrees with the pulse grid.
     unpaired_zda_t_local_s : ndarray, shape (n_unpaired_zda,)
         Arrival times of ZDAs whose named second has no good pulse.
+    duplicate_zda_t_local_s : ndarray, shape (n_duplicate_zda,)
+        Arrival times of ZDAs naming the same second as an earlier one that agrees with
+        the grid (a line logged twice): one ZDA per second is paired, the others are
+        rejected.
     n_bad_lines : int
         Corrupt lines of the NMEA log (bad checksum, truncated, bad field, bad time,
         ...), the ZDAs of `rejected_zdas` included. Well-formed sentences of types
@@ -206,6 +211,7 @@ class ClockFit:
     n_zda: int
     wrong_zda_t_local_s: FloatArray
     unpaired_zda_t_local_s: FloatArray
+    duplicate_zda_t_local_s: FloatArray
     n_bad_lines: int
     zda_delay_s: float
     rejected_zdas: tuple[RejectedLine, ...] = ()
@@ -236,14 +242,19 @@ class ClockFit:
         return len(self.unpaired_zda_t_local_s)
 
     @property
+    def n_duplicate_zda(self) -> int:
+        """ZDAs naming a second an earlier ZDA already named (a repeated line)."""
+        return len(self.duplicate_zda_t_local_s)
+
+    @property
     def n_zda_paired(self) -> int:
-        """ZDAs paired with a good pulse."""
-        return self.n_zda - self.n_wrong_zda - self.n_unpaired_zda
+        """ZDAs paired with a good pulse (one per second)."""
+        return self.n_zda - self.n_wrong_zda - self.n_unpaired_zda - self.n_duplicate_zda
 
     @property
     def n_rejected_messages(self) -> int:
-        """Bad NMEA lines + wrong ZDAs + unpaired ZDAs."""
-        return self.n_bad_lines + self.n_wrong_zda + self.n_unpaired_zda
+        """Bad NMEA lines + wrong ZDAs + unpaired ZDAs + repeated ZDAs."""
+        return self.n_bad_lines + self.n_wrong_zda + self.n_unpaired_zda + self.n_duplicate_zda
 
     def mapped_std_s(self, t_local_s: ArrayLike) -> FloatArray:
         """Standard deviation of the linear model's GPS time at local times (s).
@@ -289,12 +300,14 @@ class ClockFit:
             "n_zda_paired": self.n_zda_paired,
             "n_wrong_zda": self.n_wrong_zda,
             "n_unpaired_zda": self.n_unpaired_zda,
+            "n_duplicate_zda": self.n_duplicate_zda,
             "n_bad_lines": self.n_bad_lines,
             "n_rejected_messages": self.n_rejected_messages,
             "missing_gps_s": self.missing_gps_s.tolist(),
             "spurious_t_local_s": self.spurious_t_local_s.tolist(),
             "wrong_zda_t_local_s": self.wrong_zda_t_local_s.tolist(),
             "unpaired_zda_t_local_s": self.unpaired_zda_t_local_s.tolist(),
+            "duplicate_zda_t_local_s": self.duplicate_zda_t_local_s.tolist(),
             "rejected_zdas": [
                 {"line": r.line, "t_local_s": r.t_local_s, "reason": r.reason}
                 for r in self.rejected_zdas
@@ -552,6 +565,21 @@ def _majority_label(k_zda: FloatArray, z_t: FloatArray) -> tuple[int, BoolArray]
     return k, np.asarray(~(whole & (k_int == k)), dtype=np.bool_)
 
 
+def _repeated_seconds(z_t: FloatArray, named: IntArray, agree: BoolArray) -> BoolArray:
+    """ZDAs (of those that agree with the grid) naming a count an earlier one named.
+
+    A sentence logged twice would pair two ZDAs with one pulse; the first in time is
+    kept.
+    """
+    idx = np.flatnonzero(agree)
+    idx = idx[np.argsort(z_t[idx], kind="stable")]
+    _, first = np.unique(named[idx], return_index=True)
+    out = np.zeros(len(z_t), dtype=np.bool_)
+    out[idx] = True
+    out[idx[first]] = False
+    return out
+
+
 def _final_least_squares(
     t_good: FloatArray, gps_good: FloatArray
 ) -> tuple[float, float, FloatArray, FloatArray]:
@@ -661,7 +689,8 @@ def fit_clock(
     gps_all = (labels + k).astype(np.float64)
     t_good = t[good]
     gps_good = gps_all[good]
-    unpaired = ~wrong & ~np.isin(named, labels[good])
+    duplicate = _repeated_seconds(z_t, named, ~wrong)
+    unpaired = ~wrong & ~duplicate & ~np.isin(named, labels[good])
 
     ref_gps, drift_ppm, resid, cov = _final_least_squares(t_good, gps_good)
     ref_local = float(t_good[0])
@@ -676,7 +705,7 @@ def fit_clock(
     )
     full = np.arange(int(labels[good][0]), int(labels[good][-1]) + 1)
     missing = np.setdiff1d(full, labels[good]) + k
-    paired = ~wrong & ~unpaired
+    paired = ~wrong & ~unpaired & ~duplicate
     if not np.any(paired):
         msg = (
             f"none of the {len(z_t)} ZDA message(s) names the second of a detected pulse "
@@ -704,6 +733,7 @@ def fit_clock(
         n_zda=len(z_t),
         wrong_zda_t_local_s=readonly_array(z_t[wrong]),
         unpaired_zda_t_local_s=readonly_array(z_t[unpaired]),
+        duplicate_zda_t_local_s=readonly_array(z_t[duplicate]),
         n_bad_lines=int(n_bad_lines),
         zda_delay_s=zda_delay,
     )

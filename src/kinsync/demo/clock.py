@@ -124,7 +124,7 @@ def _tables(run: _ClockRun) -> tuple[Table, ...]:
         ["ZDAs naming a wrong second", str(fit.n_wrong_zda), str(truth["n_wrong_zda"])],
         ["bad NMEA lines (checksum, truncated)", str(fit.n_bad_lines), str(truth["n_bad_lines"])],
         [
-            "rejected messages (bad lines + wrong + unpaired ZDAs)",
+            "rejected messages (bad lines + wrong, unpaired, repeated ZDAs)",
             str(fit.n_rejected_messages),
             str(truth["n_rejected_messages"]),
         ],
