@@ -727,6 +727,11 @@ def test_read_nmea_log_reads_cr_line_ends(tmp_path: Path) -> None:
         (b"time,sentence\n1.0,$GPHDT,274.07,T*03\n", "line 1: header is 'time,sentence'"),
         (b"1.0,$GPHDT,274.07,T*03\n", "line 1: header is '1.0,$GPHDT,274.07,T*03'"),
         (b"t_local_s,sentence\n", "no data lines"),
+        # A tab-separated log showed its raw header 't_local_s\tsentence'.
+        (
+            b"t_local_s\tsentence\n1.0\t$GPHDT,274.07,T*03\n",
+            "line 1: the file looks tab-separated (t_local_s and sentence split by a tab)",
+        ),
         (
             b"t_local_s,sentence\n1.0,$GPHDT,274.07,T*04\n2.0,x\n",
             "none of its 2 data lines is a usable sentence (line 2: bad checksum (got 04, ",

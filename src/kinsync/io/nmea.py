@@ -667,6 +667,32 @@ def _read_line(line_no: int, raw: bytes) -> tuple[float, NmeaRecord, str] | Reje
     return t, record, sentence.decode("ascii").strip()
 
 
+def _check_header(path: Path, head: bytes, lines: Iterator[tuple[bytes, bool]]) -> None:
+    """Refuse a first line that is not the header ``t_local_s,sentence``, saying why.
+
+    ``lines`` (the rest of the file) is read only to tell an empty file from one whose
+    first line is blank.
+    """
+    header_text = _display(head)
+    header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
+    if header != NMEA_LOG_HEADER:
+        shown = header_text.strip()
+        if len(shown) > _SHOWN_BYTES:
+            shown = shown[:_SHOWN_BYTES] + "..."
+        by_tab = tuple(c.strip().strip('"').strip() for c in header_text.split("\t"))
+        if by_tab == NMEA_LOG_HEADER:
+            msg = (
+                f"{path}: line 1: the file looks tab-separated (t_local_s and sentence "
+                "split by a tab); an NMEA log must use a comma: write each line as "
+                "t_local_s,sentence"
+            )
+            raise NmeaError(msg)
+        blank = not shown and not any(line.strip() for line, _ in lines)
+        what = "empty file" if blank else f"header is {shown!r}"
+        msg = f"{path}: line 1: {what}; expected the header t_local_s,sentence"
+        raise NmeaError(msg)
+
+
 def read_nmea_log(path: Path) -> NmeaLog:
     """Read an NMEA log ``nmea.csv`` (``t_local_s,sentence`` per line).
 
@@ -721,16 +747,7 @@ def read_nmea_log(path: Path) -> NmeaLog:
                 "one line per sentence"
             )
             raise NmeaError(msg)
-        header_text = _display(head)
-        header = tuple(c.strip().strip('"').strip() for c in header_text.split(","))
-        if header != NMEA_LOG_HEADER:
-            shown = header_text.strip()
-            if len(shown) > _SHOWN_BYTES:
-                shown = shown[:_SHOWN_BYTES] + "..."
-            blank = not shown and not any(line.strip() for line, _ in lines)
-            what = "empty file" if blank else f"header is {shown!r}"
-            msg = f"{path}: line 1: {what}; expected the header t_local_s,sentence"
-            raise NmeaError(msg)
+        _check_header(path, head, lines)
         for line_no, (raw, cut) in enumerate(lines, start=2):
             if cut:
                 reason = f"line longer than {MAX_NMEA_LINE_BYTES} bytes: not an NMEA sentence"
