@@ -182,13 +182,10 @@ def test_apply_outside_span(
     assert out.read_text().splitlines()[2].endswith(",nan")
 
 
-def test_apply_refuses_a_time_on_another_clock(
-    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
-) -> None:
-    """A model of a boot-time clock applied to a Unix time wrote a date in 2078 (exit 0)."""
-    boot = tmp_path / "boot"
+def _boot_logs(logs: Path, boot: Path) -> Path:
+    """The simulated logs on a clock started 100 s before them (time since boot)."""
     boot.mkdir()
-    shift_s = 1479384017.0 - 100.0  # the same logs on a clock started 100 s before them
+    shift_s = 1479384017.0 - 100.0
     pps = (logs / "pps.csv").read_text().splitlines()
     (boot / "pps.csv").write_text(
         "\n".join([pps[0], *(repr(float(x) - shift_s) for x in pps[1:])]) + "\n"
@@ -197,6 +194,30 @@ def test_apply_refuses_a_time_on_another_clock(
     (boot / "nmea.csv").write_text(
         "\n".join([",".join(nmea[0]), *(f"{float(t) - shift_s!r},{s}" for t, s in nmea[1:])]) + "\n"
     )
+    return boot
+
+
+def test_fit_table_prints_no_offset_digit_the_model_cannot_hold(
+    run_cli: RunCli, logs: Path, tmp_path: Path
+) -> None:
+    """A boot-time clock's offset (1.48e9 s) was printed to 1 ns ('...499999762'), below
+    the 238 ns step of a float64 there."""
+    code, stdout, _ = run_cli(fit_args(_boot_logs(logs, tmp_path / "boot")))
+    assert code == 0
+    row = next(x for x in stdout.splitlines() if "offset at reference" in x)
+    offset_text = row.split("│")[2].split("±")[0].strip()
+    assert offset_text.startswith("1479383917.3")
+    assert len(offset_text.split(".")[1]) == 6
+    code, stdout, _ = run_cli(fit_args(logs))
+    row = next(x for x in stdout.splitlines() if "offset at reference" in x)
+    assert len(row.split("│")[2].split("±")[0].strip().split(".")[1]) == 6
+
+
+def test_apply_refuses_a_time_on_another_clock(
+    run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """A model of a boot-time clock applied to a Unix time wrote a date in 2078 (exit 0)."""
+    boot = _boot_logs(logs, tmp_path / "boot")
     model = tmp_path / "boot.json"
     assert run_cli(fit_args(boot, "--json", "--model-out", str(model)))[0] == 0
     lo, hi = read_clock_model(model).span_local_s

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import calendar
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -706,3 +707,26 @@ def test_a_zda_line_logged_twice_is_counted_as_repeated() -> None:
     clean = fit_clock(pps, zda_t, gps, n_bytes)
     assert fit.model.drift_ppm == clean.model.drift_ppm
     assert fit.zda_delay_s == clean.zda_delay_s
+
+
+# --------------------------------------------------------------------------- float64 offset
+
+
+def test_offset_sigma_includes_the_float64_rounding_of_the_reference() -> None:
+    """reference_gps_s near 1.4e9 s holds only values 238 ns apart; the reported sigma
+    left out that rounding (69 ns rms where the jitter is larger), so with 1 ns of jitter
+    it claimed 0.2 ns against errors of 1 ns."""
+    err_s, std_s = [], []
+    for seed in range(150):
+        pps, zda_t, gps, n_bytes, g0 = arrays(jitter_s=1e-9, seed=seed)
+        fit = fit_clock(pps, zda_t, gps, n_bytes)
+        # In small numbers: the true GPS time at the first pulse, less g0.
+        true_s = (pps[0] - 1000.0) * (1 + 25e-6)
+        err_s.append((fit.model.reference_gps_s - g0) - true_s)
+        std_s.append(fit.offset_std_s)
+    step_s = math.ulp(1.4e9)
+    assert step_s == 2.0**-22
+    ratio = np.std(err_s) / np.sqrt(np.mean(np.square(std_s)))
+    assert 0.8 < ratio < 1.2
+    assert fit.offset_drift_cov[0, 0] == fit.offset_std_s**2
+    assert fit.model.offset_resolution_s == step_s

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -104,7 +105,11 @@ def fit(
         return
     m = result.model
     table = quantity_table(f"Clock model from {pps} and {nmea}")
-    table.add_row("offset at reference (s)", f"{m.offset_s:.9f} ± {result.offset_std_s:.2e}")
+    # No digit below the step the float64 reference times can hold (2.4e-7 s near 1.4e9 s).
+    decimals = min(9, max(0, math.floor(-math.log10(m.offset_resolution_s))))
+    table.add_row(
+        "offset at reference (s)", f"{m.offset_s:.{decimals}f} ± {result.offset_std_s:.2e}"
+    )
     table.add_row("drift (ppm)", f"{m.drift_ppm:.6f} ± {result.drift_std_ppm:.6f}")
     table.add_row("reference_local_s (first good pulse)", repr(m.reference_local_s))
     table.add_row("reference_gps_s", repr(m.reference_gps_s))

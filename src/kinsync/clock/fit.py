@@ -161,9 +161,13 @@ class ClockFit:
         RMS of the residuals (s).
     offset_std_s, drift_std_ppm : float
         Standard deviations of ``reference_gps_s`` (equivalently ``offset_s``) and
-        ``drift_ppm`` from the least-squares covariance scaled by ``RSS / (K - 2)``.
+        ``drift_ppm`` from the least-squares covariance scaled by ``RSS / (K - 2)``;
+        the offset's includes, in quadrature, the rounding of ``reference_gps_s`` to a
+        float64 (up to 1.2e-7 s for a GPS time from 2004 on; 69 ns rms where the pulse
+        jitter exceeds a step of 2.4e-7 s).
     offset_drift_cov : ndarray, shape (2, 2)
-        Covariance of (``reference_gps_s`` in s, ``drift_ppm`` in ppm).
+        Covariance of (``reference_gps_s`` in s, ``drift_ppm`` in ppm), that rounding
+        included.
     n_pulses_read : int
         Pulses in the input, ``n_pulses + n_spurious``.
     missing_gps_s : ndarray, shape (n_missing,)
@@ -586,7 +590,8 @@ def _final_least_squares(
     """Reference GPS time, drift (ppm), residuals and covariance of the linear model.
 
     Solved in small numbers, ``(gps - gps0) - x = a + e x`` with ``x = t - t_good[0]``,
-    so the drift comes out directly and the GPS magnitude costs no precision.
+    so the drift comes out directly and the GPS magnitude costs no precision. The
+    reference's variance includes the square of its rounding to a float64.
     """
     xg = t_good - t_good[0]
     yg = gps_good - gps_good[0]
@@ -602,7 +607,13 @@ def _final_least_squares(
             [-sigma2 * xm / sxx * 1e6, sigma2 / sxx * 1e12],
         ]
     )
-    return float(gps_good[0]) + a, e * 1e6, resid, cov
+    # reference_gps_s is a float64 near 1e9 s: it holds only values 2.4e-7 s apart (from
+    # 2^30 s, 2004 on). Its rounding, known here in small numbers and at most half a
+    # step, is a bias of the whole line: added to the offset's variance.
+    ref_gps = float(gps_good[0]) + a
+    rounding_s = (ref_gps - float(gps_good[0])) - a
+    cov[0, 0] += rounding_s**2
+    return ref_gps, e * 1e6, resid, cov
 
 
 def fit_clock(

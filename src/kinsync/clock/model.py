@@ -14,6 +14,7 @@ PPS and ZDA logs.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -141,6 +142,15 @@ class ClockModel:
     def offset_s(self) -> float:
         """Clock offset at the reference: ``reference_gps_s - reference_local_s`` (s)."""
         return self.reference_gps_s - self.reference_local_s
+
+    @property
+    def offset_resolution_s(self) -> float:
+        """Step between the offsets the model can hold (s).
+
+        The float64 spacing of the larger of its reference times (2.4e-7 s for a GPS
+        time from 2004 on): digits of `offset_s` below it say nothing.
+        """
+        return max(math.ulp(self.reference_gps_s), math.ulp(self.reference_local_s))
 
     @property
     def piecewise(self) -> bool:
