@@ -115,6 +115,28 @@ def _flip_rates(folder: Path, which: Callable[[dict[str, str]], bool]) -> None:
         writer.writerows(rows)
 
 
+def _rewrite_rows(path: Path, change: Callable[[dict[str, str]], None]) -> None:
+    """Apply ``change`` to each row of a CSV pass file, in place."""
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for row in rows:
+        change(row)
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _to_enu(row: dict[str, str]) -> None:
+    row["x_m"], row["y_m"] = row["y_m"], row["x_m"]
+    row["z_m"] = repr(-float(row["z_m"]))
+
+
+def _to_millimetres(row: dict[str, str]) -> None:
+    for c in ("x_m", "y_m", "z_m"):
+        row[c] = repr(float(row[c]) * 1000.0)
+
+
 def _drop_times(path: Path) -> None:
     """Keep only the x_m,y_m,z_m columns of a CSV pass file."""
     with path.open(newline="") as fh:
@@ -167,15 +189,7 @@ def test_sphere_refuses_points_in_enu(
     """Points exported East-North-Up turn the other way about +Down: an error, not -tau."""
     folder = copy_of(sim_folder, tmp_path)
     for path in folder.glob("pass_*.csv"):
-        with path.open(newline="") as fh:
-            rows = list(csv.DictReader(fh))
-        for row in rows:
-            row["x_m"], row["y_m"] = row["y_m"], row["x_m"]
-            row["z_m"] = repr(-float(row["z_m"]))
-        with path.open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        _rewrite_rows(path, _to_enu)
     code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
     assert_one_line_error(code, out, err, "every pass turns the other way", "ENU")
 
@@ -620,15 +634,7 @@ def test_sphere_points_in_millimetres_get_a_unit_hint_and_a_short_message(
     """Points in mm: the reason names the unit, once per rate for two rates, then a count."""
     folder = copy_of(sim_folder, tmp_path)
     for path in folder.glob("pass_*.csv"):
-        with path.open(newline="") as fh:
-            rows = list(csv.DictReader(fh))
-        for row in rows:
-            for c in ("x_m", "y_m", "z_m"):
-                row[c] = repr(float(row[c]) * 1000.0)
-        with path.open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        _rewrite_rows(path, _to_millimetres)
     code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
     assert_one_line_error(code, out, err, "millimetres or feet", "and 2 more signed rates")
     assert err.count("millimetres or feet") == 2, err
