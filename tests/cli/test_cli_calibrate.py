@@ -340,6 +340,22 @@ def test_plan_takes_the_position_sigma_per_axis(run_cli: RunCli) -> None:
     assert roll[1] > 1.2 * roll[0], roll
 
 
+def test_plan_applies_the_estimators_five_line_rule(run_cli: RunCli) -> None:
+    """Four lines: the calibration reports nothing better than weak; so does the plan."""
+    base = ["calibrate", "plan", "--scenario", "vehicle", "--estimate", "boresight,lever,latency"]
+    code, out, err = run_cli([*base, "--speeds-m-s", "5", "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["n_lines"] == 4
+    assert all(p["status"] != "estimated" for p in doc["parameters"].values())
+    assert any("at least 5 independent lines" in a and "4 planned" in a for a in doc["advice"])
+    code, out, err = run_cli([*base, "--json"])  # two speeds: 8 lines
+    assert code == 0, err
+    doc = json.loads(out)
+    assert any(p["status"] == "estimated" for p in doc["parameters"].values())
+    assert not any("at least 5 independent lines" in a for a in doc["advice"])
+
+
 def test_plan_takes_one_attitude_sigma_for_every_axis(run_cli: RunCli) -> None:
     base = ["calibrate", "plan", "--passes", "1", "--json"]
     docs = []

@@ -52,7 +52,7 @@ from kinsync.calibration.held import (
     uncertainty_from_covariance,
     uncertainty_notes,
 )
-from kinsync.calibration.lines import ScanLine
+from kinsync.calibration.lines import ScanLine, two_passes_in_a_line
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
     HeldAfterSolution,
@@ -344,9 +344,8 @@ def calibrate_mount(
     say(f"finding {opt.features} in {len(lines)} lines")
     cache: dict[int, GeorefTrajectory] = {}
     models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
-    frame = local_frame_for(lines)
     prior = mount_values(mount)
-    features, observations = find_features(models, prior, frame, opt)
+    frame, features, observations = _frame_and_features(lines, models, prior, opt)
     S, motion, _ = reduced_normal_matrix(
         models, observations, features, prior, requested, frame, robust=False
     )
@@ -414,7 +413,7 @@ def calibrate_mount(
         rejected_lines=rejected,
         held=effect if effect.held else None,
         held_advice=effect.advice(std, requested),
-        uncertainty_notes=notes,
+        uncertainty_notes=(*two_passes_in_a_line(kept), *notes),
     )
 
 
@@ -492,6 +491,26 @@ def _latency_at_bound(solution: Adjustment) -> HeldAfterSolution:
         "data do not determine it"
     )
     return HeldAfterSolution(LATENCY, LATENCY, math.nan, reason=reason)
+
+
+def _frame_and_features(
+    lines: Sequence[ScanLine],
+    models: Sequence[LineModel],
+    prior: FloatArray,
+    opt: CalibrationOptions,
+) -> tuple[LocalFrame, list[Feature], list[Observation]]:
+    """The local frame of the lines that see a feature, the features and observations.
+
+    The features are found in the frame of all the lines; when some line sees none,
+    again in the frame of the lines kept, so that a rejected line changes nothing.
+    """
+    frame = local_frame_for(lines)
+    features, observations = find_features(models, prior, frame, opt)
+    seen = sorted({o.line for o in observations})
+    if 0 < len(seen) < len(lines):
+        frame = local_frame_for([lines[i] for i in seen])
+        features, observations = find_features(models, prior, frame, opt)
+    return frame, features, observations
 
 
 def _rejected_lines(

@@ -18,15 +18,23 @@ Sphere (q = 4, or 3 with a known radius): centre ``c`` and radius ``R``:
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
 
 import numpy as np
 
-from kinsync._typing import FloatArray
+from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import InputError
 
-__all__ = ["Feature", "FeatureKind", "PlaneFeature", "SphereFeature", "plane_from_points"]
+__all__ = [
+    "Feature",
+    "FeatureKind",
+    "PlaneFeature",
+    "SphereFeature",
+    "plane_from_points",
+    "thin_returns",
+]
 
 FeatureKind = Literal["plane", "sphere"]
 
@@ -185,3 +193,35 @@ def plane_from_points(x: FloatArray) -> PlaneFeature:
     if normal[2] > 0.0 or (abs(normal[2]) < 1e-9 and normal[0] < 0.0):
         normal = -normal  # a consistent orientation: up (negative Down), else north
     return PlaneFeature(normal=normal, offset_m=0.0, reference_m=centroid)
+
+
+def thin_returns(idx: IntArray, limit: int, seed: int, line_name: str) -> IntArray:
+    """At most ``limit`` of one line's returns on one feature, drawn at random, sorted.
+
+    The draw is seeded by ``seed``, the line's name and the returns themselves (their
+    smallest index within the line and their number), so it depends neither on the
+    order in which the lines are given nor on which other lines are given (a shared
+    random stream made the estimate and its sigma change with the file order, and with
+    a file that was then rejected).
+
+    Parameters
+    ----------
+    idx : ndarray of int, shape (n,)
+        Indices of the returns within their line.
+    limit : int
+        Most returns kept.
+    seed : int
+        The options' seed.
+    line_name : str
+        The line's name (`kinsync.calibration.lines.ScanLine.name`).
+
+    Returns
+    -------
+    ndarray of int, shape (min(n, limit),)
+    """
+    if idx.size <= limit:
+        return idx
+    key = [seed & 0xFFFFFFFF, zlib.crc32(line_name.encode()), int(idx.min()), int(idx.size)]
+    rng = np.random.default_rng(key)
+    chosen: IntArray = np.sort(rng.choice(idx, limit, replace=False))
+    return chosen

@@ -16,9 +16,10 @@ import numpy as np
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError, PointValueError
+from kinsync.frames import quaternion_to_euler_rpy
 from kinsync.trajectory import Trajectory
 
-__all__ = ["ScanLine"]
+__all__ = ["PASS_GAP_S", "ScanLine", "two_passes_in_a_line"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,3 +97,43 @@ class ScanLine:
         """The same line with only the returns ``index`` selects (mask or indices)."""
         idx = np.asarray(index)
         return ScanLine(self.name, self.t_s[idx], self.xyz_scanner_m[idx], self.trajectory)
+
+
+PASS_GAP_S = 5.0
+"""A stop of a line's returns longer than this (s), with the heading turned by more than
+`PASS_TURN_DEG` across it, is two passes in one file."""
+PASS_TURN_DEG = 90.0
+
+
+def two_passes_in_a_line(lines: list[ScanLine] | tuple[ScanLine, ...]) -> tuple[str, ...]:
+    """Notes on the lines whose file holds two passes (a long stop, the heading turned).
+
+    The jackknife takes each line as one independent unit: two passes in one file make
+    one unit of two, with too few degrees of freedom and the passes' errors pooled.
+
+    Returns
+    -------
+    tuple of str
+        One note per such line, naming it, the stop and the turn.
+    """
+    notes = []
+    for line in lines:
+        t = np.sort(line.t_s)
+        if t.size < 2:
+            continue
+        k = int(np.argmax(np.diff(t)))
+        gap = float(t[k + 1] - t[k])
+        ends = np.array([t[k], t[k + 1]])
+        if gap <= PASS_GAP_S or not line.trajectory.contains(ends, max_gap_s=np.inf).all():
+            continue
+        q = line.trajectory.interpolate(ends, max_gap_s=np.inf).q_body_to_ned
+        yaw = quaternion_to_euler_rpy(q)[:, 2]
+        turn = abs(float(np.degrees(np.angle(np.exp(1j * (yaw[1] - yaw[0]))))))
+        if turn > PASS_TURN_DEG:
+            notes.append(
+                f"{line.name}: its returns stop for {gap:.1f} s (t {t[k]:.3f} -> "
+                f"{t[k + 1]:.3f} s) and the heading turns {turn:.0f} deg across the stop: "
+                "two passes in one file? The jackknife takes each file as one independent "
+                "line, so give each pass its own file"
+            )
+    return tuple(notes)

@@ -26,6 +26,7 @@ to keep the coordinates small.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,9 +79,16 @@ class LocalFrame:
         return float(lat), float(lon), float(h)
 
 
-def local_frame_for(lines: tuple[ScanLine, ...] | list[ScanLine]) -> LocalFrame:
-    """The local frame at the mean trajectory position over the first line's returns."""
-    line = lines[0]
+def local_frame_for(lines: Sequence[ScanLine]) -> LocalFrame:
+    """The local frame at the mean trajectory position over one line's returns.
+
+    The line is the first by name (then by start time), not the first given: the
+    patches are voxels of this frame, and the first line given made the patches, and
+    with them the estimate, change with the order of the files.
+    (`kinsync.calibration.estimator.calibrate_mount` frames the lines it keeps, so that
+    a rejected line changes nothing either.)
+    """
+    line = min(lines, key=lambda ln: (ln.name, ln.t_start_s))
     gtraj = GeorefTrajectory.from_trajectory(line.trajectory)
     t_mid = 0.5 * (line.t_start_s + line.t_end_s)
     t_mid = min(max(t_mid, gtraj.t_start_s), gtraj.t_end_s)

@@ -16,8 +16,9 @@ it. Patches are then chosen for geometry, not quantity: the largest of each
 orientation class (near-horizontal; walls and slopes by azimuth sectors), at most
 ``max_patches_per_class`` each, so that flat ground cannot drown the walls that carry
 the heading and the roofs that carry the pitch. Every (patch, line) keeps at most
-``max_points_per_line`` returns, drawn at random (seeded): millions of returns
-become a few thousand per patch.
+``max_points_per_line`` returns, drawn at random, seeded by the line and its returns
+(`kinsync.calibration.features.thin_returns`: the same whatever the order of the lines):
+millions of returns become a few thousand per patch.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from numpy.typing import NDArray
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.calibration.adjustment import Observation
-from kinsync.calibration.features import PlaneFeature, plane_from_points
+from kinsync.calibration.features import PlaneFeature, plane_from_points, thin_returns
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import InputError
 from kinsync.robust import robust_sigma
@@ -406,7 +407,6 @@ def _select(
     opt: PatchOptions,
 ) -> PlanePatches:
     """Choose patches by orientation class and size; thin their returns per line."""
-    rng = np.random.default_rng(opt.seed)
     pos = np.clip(np.searchsorted(keys, vkey_ok), 0, keys.size - 1)
     point_label = np.where(keys[pos] == vkey_ok, labels[pos], -1)
     ok_idx = np.flatnonzero(ok)
@@ -433,8 +433,7 @@ def _select(
             if idx is None:
                 continue
             idx = idx - offsets[li]
-            if idx.size > opt.max_points_per_line:
-                idx = np.sort(rng.choice(idx, opt.max_points_per_line, replace=False))
+            idx = thin_returns(idx, opt.max_points_per_line, opt.seed, models[li].line.name)
             per_line.append((int(li), idx))
         if len(per_line) < opt.min_lines or not _lines_agree(
             [x_all[offsets[li] + idx] for li, idx in per_line], opt

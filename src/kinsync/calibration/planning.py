@@ -79,7 +79,7 @@ from kinsync.calibration.parameters import (
     estimated_indices,
     mount_values,
 )
-from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS
+from kinsync.calibration.uncertainty import MIN_HONEST_DOF, MIN_JACKKNIFE_GROUPS
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount, MountUncertainty
@@ -503,10 +503,15 @@ def plan_calibration(
         std_all[i] = math.sqrt(max(total, 0.0)) * REPORT_SCALE[i]
         std_noise[i] = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * REPORT_SCALE[i]
         std_held[i] = float(effect.std[j]) * REPORT_SCALE[i]
+    # The estimator's rule: a jackknife over fewer lines is not an honest sigma, so no
+    # estimate is better than weak there; the plan says the same.
+    few_lines = len(lines) < MIN_HONEST_DOF + 1
     params = []
     for i, name in enumerate(PARAMETER_NAMES):
         if i in est:
             status = status_of(i, float(std_all[i]))
+            if few_lines and status == "estimated":
+                status = "weak"
         elif i in obs.held:
             status = "unobservable"
         else:
@@ -516,12 +521,17 @@ def plan_calibration(
                 name, status, float(std_all[i]), float(std_noise[i]), float(std_held[i])
             )
         )
+    few_lines_text = (
+        f"an honest sigma: at least {MIN_HONEST_DOF + 1} independent lines or passes over "
+        f"the features ({len(lines)} planned), so no estimate is better than weak"
+    )
+    few_lines_advice = (few_lines_text,) if few_lines else ()
     return PlanResult(
         parameters=tuple(params),
         n_features=len(features),
         n_lines=len(lines),
         unobservable_reasons=obs.explanation(),
-        advice=(*trajectory_limited, *obs.advice()),
+        advice=(*trajectory_limited, *obs.advice(), *few_lines_advice),
         errors=err,
         held=effect,
     )

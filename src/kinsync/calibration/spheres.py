@@ -21,7 +21,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.calibration.adjustment import Observation
-from kinsync.calibration.features import SphereFeature
+from kinsync.calibration.features import SphereFeature, thin_returns
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import InputError, KinsyncError
 from kinsync.fit.segment import segment_sphere
@@ -171,7 +171,6 @@ def find_sphere_targets(
         No sphere found, or none seen by two lines.
     """
     opt = options or SphereOptions()
-    rng = np.random.default_rng(opt.seed)
     points = [m.points(None, values, frame) for m in models]
     sightings = [s for li, x in enumerate(points) for s in _search_line(li, x, opt)]
     if not sightings:
@@ -193,9 +192,8 @@ def find_sphere_targets(
     for fid, group in enumerate(groups):
         per_line = []
         for s in group:
-            idx = s.index
-            if idx.size > opt.max_points_per_line:
-                idx = np.sort(rng.choice(idx, opt.max_points_per_line, replace=False))
+            name = models[s.line].line.name
+            idx = thin_returns(s.index, opt.max_points_per_line, opt.seed, name)
             per_line.append((s.line, idx))
         # The start: the mean of the sightings' centres (a wrong mount scatters them;
         # one fit through every pass's returns would not converge), their median radius.
