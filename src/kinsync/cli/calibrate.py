@@ -341,7 +341,7 @@ def plan(
         console.print(f"note: {note}")
     console.print(
         "note: against a Monte Carlo of the same designs the spread of the estimates was "
-        "0.65-1.4 times the planned sigma (the vehicle's roll boresight 1.4x, its yaw and "
+        "0.6-1.4 times the planned sigma (the vehicle's roll boresight 1.3-1.4x, its yaw and "
         "the vessel's boresight 1.2x); the statuses held"
     )
 
