@@ -181,7 +181,7 @@ def test_read_las_points_bad_range_and_truncated_file(tmp_path: Path) -> None:
     # 3950 bytes: 96 whole points of 34 bytes from byte 680; the message names the missing.
     with pytest.raises(
         InputError,
-        match=r"cut\.las: .*points 0\.\.95 are complete, points 96\.\.99 are missing.*truncated",
+        match=r"cut\.las: .*points 1\.\.96 are complete, points 97\.\.100 are missing.*truncated",
     ):
         read_las_points(cut, 90, 10)
     with pytest.raises(InputError, match="not found"):

@@ -39,7 +39,7 @@ from kinsync.errors import InputError
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
 from kinsync.io.las_crs import las_crs
 from kinsync.io.las_header import las_header, las_suffix, open_las_file, read_las_layout
-from kinsync.io.laz_chunks import LazChunks
+from kinsync.io.laz_chunks import LazChunks, points_text
 from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale
 
@@ -376,12 +376,13 @@ class LasPointReader:
             self._fh.seek(self._data_start + start * size)
             got = self._fh.readinto(array.view(np.uint8).data)
         except OSError as err:
-            msg = f"{self.path}: cannot read points {start}..{start + count - 1} ({err})"
+            msg = f"{self.path}: cannot read {points_text(start, start + count - 1)} ({err})"
             raise InputError(msg) from err
         if got != count * size:
             msg = (
-                f"{self.path}: points {start + got // size}..{start + count - 1} are missing "
-                "(the file became shorter while it was read); copy it again"
+                f"{self.path}: {points_text(start + got // size, start + count - 1)} of "
+                f"{self.point_count}: missing (the file became shorter while it was read); "
+                "copy it again"
             )
             raise InputError(msg)
         return array
@@ -436,12 +437,12 @@ class LasPointReader:
             self._fh.seek(b0)
             data = self._fh.read(b1 - b0)
         except OSError as err:
-            msg = f"{self.path}: cannot read points {p0}..{p1 - 1} ({err})"
+            msg = f"{self.path}: cannot read {points_text(p0, p1 - 1)} ({err})"
             raise InputError(msg) from err
         if len(data) != b1 - b0:
             msg = (
-                f"{self.path}: points {p0}..{p1 - 1} are missing (the file became shorter "
-                "while it was read); copy it again"
+                f"{self.path}: {points_text(p0, p1 - 1)} of {self.point_count}: missing (the "
+                "file became shorter while it was read); copy it again"
             )
             raise InputError(msg)
         out = points.view(np.uint8)

@@ -23,7 +23,7 @@ import laspy
 from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.errors import InputError
-from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields
+from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields, points_text
 
 __all__ = [
     "las_header",
@@ -159,11 +159,15 @@ def _check_las_size(path: Path, header: laspy.LasHeader, file_size: int) -> None
     start = int(header.offset_to_point_data)
     complete = max(0, (file_size - start) // size)
     if complete < n:
-        held = f"points 0..{complete - 1} are complete" if complete else "no point is complete"
+        held = (
+            f"{points_text(0, complete - 1)} {'is' if complete == 1 else 'are'} complete"
+            if complete
+            else "no point is complete"
+        )
+        missing = f"{points_text(complete, n - 1)} {'is' if complete == n - 1 else 'are'} missing"
         msg = (
             f"{path}: the header says {n} points of {size} bytes from byte {start}, the file "
-            f"ends at byte {file_size}: {held}, points {complete}..{n - 1} are missing; the "
-            "file is truncated: copy it again"
+            f"ends at byte {file_size}: {held}, {missing}; the file is truncated: copy it again"
         )
         raise InputError(msg)
     end, what = _point_data_end(header, file_size)

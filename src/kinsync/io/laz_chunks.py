@@ -20,7 +20,7 @@ import numpy as np
 
 from kinsync.errors import InputError
 
-__all__ = ["LazChunks", "laz_chunks", "point_count_fields"]
+__all__ = ["LazChunks", "laz_chunks", "point_count_fields", "points_text"]
 
 _LAZ_CHUNKED_COMPRESSORS = (2, 3)  # LASzip "pointwise chunked" and "layered chunked"
 _LAZ_LAYERED = 3
@@ -43,6 +43,17 @@ class LazChunks:
     def chunk_of(self, point: int) -> int:
         """Index of the chunk holding point ``point``."""
         return int(np.searchsorted(self.first_point, point, side="right")) - 1
+
+
+def points_text(first: int, last: int) -> str:
+    """Points ``first .. last`` (0-based, inclusive) as messages count them: from 1.
+
+    ``"points 97..100"``, or ``"point 100"`` for one; every message naming LAS points
+    counts them from 1, as ``point 101 of 54191`` does.
+    """
+    if first == last:
+        return f"point {first + 1}"
+    return f"points {first + 1}..{last + 1}"
 
 
 def _laz_corrupt(path: Path, n: int, what: str) -> InputError:
@@ -209,7 +220,9 @@ def laz_chunks(path: Path, fh: BinaryIO, header: laspy.LasHeader, file_size: int
     if held > n:
         _refuse_count(path, header, f"{source} {held}")
     if held < n:
-        what = f"the header says {n} points, {source} {held} (points {held}..{n - 1} are missing)"
+        missing = points_text(held, n - 1)
+        verb = "is" if held == n - 1 else "are"
+        what = f"the header says {n} points, {source} {held} ({missing} {verb} missing)"
         raise _laz_corrupt(path, n, what)
     chunks = LazChunks(
         record_data=record_data,
