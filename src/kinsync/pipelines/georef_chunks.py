@@ -20,10 +20,12 @@ from typing import Any, Literal, TypeVar, cast
 import laspy
 import numpy as np
 import pyarrow as pa
+import pyproj
 from numba import njit
 
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.crs import CrsPlan, crs_plan_transformer
+from kinsync.crs_axes import output_units
 from kinsync.errors import InputError, PointValueError
 from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
 from kinsync.georef.profile import profile_points_to_scanner
@@ -673,6 +675,10 @@ def _point_value_text(ctx: ChunkContext, task: ChunkTask, err: PointValueError) 
     )
 
 
+_UNIT_SYMBOLS = {"metre": "m", "degree": "deg"}
+"""Short names of the usual axis units in messages; any other unit is named in full."""
+
+
 def _las_storage_error(ctx: ChunkContext, where: str, coords: FloatArray) -> str:
     """The message for a point whose coordinates LAS integers cannot hold.
 
@@ -686,12 +692,14 @@ def _las_storage_error(ctx: ChunkContext, where: str, coords: FloatArray) -> str
     reach = [2.0**31 * s for s in frame.scales]
     away = [abs(float(c) - o) for c, o in zip(coords.tolist(), frame.offsets, strict=True)]
     axis = max(range(3), key=lambda j: away[j] / reach[j])
+    unit_name = output_units(pyproj.CRS.from_user_input(ctx.crs.crs))[axis]
+    unit = _UNIT_SYMBOLS.get(unit_name, unit_name)
     return (
         f"{ctx.source.path}: {where} georeferences to {coords.tolist()} ({ctx.crs}), "
-        f"{away[axis]:.6g} from the file's reference position along {'xyz'[axis]} "
+        f"{away[axis]:.6g} {unit} from the file's reference position along {'xyz'[axis]} "
         f"(offsets {list(frame.offsets)}, the trajectory at the middle of the file's time "
         f"span); LAS integers at scales {list(frame.scales)} reach only {reach[axis]:.6g} "
-        "either way: the points are within the scanner's range of their trajectory, so the "
+        f"{unit} either way: the points are within the scanner's range of their trajectory, so the "
         "trajectory covers too long a distance for one LAS file at this resolution: split "
         "the file into shorter time spans"
     )
