@@ -395,6 +395,30 @@ def test_bad_input_is_one_line_error(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(("separator", "name"), [(";", "semicolon"), ("\t", "tab")])
+@pytest.mark.parametrize("which", ["points", "traj"])
+def test_a_semicolon_or_tab_separated_csv_is_said_to_be_so(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    separator: str,
+    name: str,
+    which: str,
+) -> None:
+    # Read with commas, the header is one column: the message must name the separator,
+    # not blame --columns or the missing columns.
+    path = setup[which]
+    lines = path.read_text(encoding="utf-8").splitlines()
+    path.write_text("\n".join(line.replace(",", separator) for line in lines) + "\n")
+    out = setup["dir"] / "geo.csv"
+    extra = ["--columns", "t_s=t_s,x_m=x_m"] if which == "points" else []
+    code, stdout, err = run_cli(_args(setup, out, *extra))
+    assert_one_line_error(
+        code, stdout, err, f"{path.name}: line 1: the file looks {name}-separated", "use commas"
+    )
+    assert not out.exists()
+
+
 def test_scheduler_processes_gives_the_serial_output(
     run_cli: RunCli, setup: dict[str, Path]
 ) -> None:

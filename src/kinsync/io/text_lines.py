@@ -103,4 +103,30 @@ def csv_header_row(path: Path) -> list[str] | None:
     for cell in row or []:
         if (bad := not_utf8_cell(path, line, cell)) is not None:
             raise bad
+    _refuse_other_separator(path, row)
     return row
+
+
+_OTHER_SEPARATORS = ((";", "semicolon"), ("\t", "tab"))
+_SHOWN_CHARS = 80
+
+
+def _refuse_other_separator(path: Path, row: list[str] | None) -> None:
+    """Refuse a header of one column that semicolons or tabs split into several.
+
+    Such a file was written with another separator (a spreadsheet set to a decimal comma
+    writes semicolons): read with commas, its whole header is one column name, and a
+    reader would go on to blame the missing columns or the user's column map.
+    """
+    if row is None or len(row) != 1:
+        return
+    header = row[0]
+    for separator, name in _OTHER_SEPARATORS:
+        if separator in header:
+            shown = header if len(header) <= _SHOWN_CHARS else header[:_SHOWN_CHARS] + "..."
+            msg = (
+                f"{path}: line 1: the file looks {name}-separated (its header {shown!r} "
+                f"has no comma); use commas: kinsync reads comma-separated files with a "
+                "point as the decimal mark"
+            )
+            raise InputError(msg)
