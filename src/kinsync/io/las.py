@@ -41,10 +41,11 @@ from kinsync.io.las_crs import las_crs
 from kinsync.io.las_header import las_header, las_suffix, open_las_file, read_las_layout
 from kinsync.io.laz_chunks import LazChunks, points_text
 from kinsync.io.sbet import SECONDS_PER_WEEK
-from kinsync.io.trajectory import TimeScale
+from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 
 __all__ = [
     "ADJUSTED_GPS_OFFSET_S",
+    "WEEK_SECONDS_SLACK_S",
     "LasInfo",
     "LasPointReader",
     "check_week_seconds",
@@ -132,18 +133,12 @@ def las_time_offset_s(
         raise InputError(msg)
     if info.gps_time_type == "adjusted_standard":
         if traj_scale == "week":
-            msg = (
-                f"{path}: the points carry adjusted standard GPS time, the trajectory GPS "
-                "seconds of week; give --gps-week so that kinsync can put both on GPS time"
-            )
+            msg = f"{path}: {gps_week_needed_text('adjusted standard GPS time', 'week')}"
             raise InputError(msg)
         return ADJUSTED_GPS_OFFSET_S
     if traj_scale == "gps":
         if gps_week is None:
-            msg = (
-                f"{path}: the points carry GPS seconds of week, the trajectory GPS time; "
-                "give --gps-week so that kinsync can put both on GPS time"
-            )
+            msg = f"{path}: {gps_week_needed_text('GPS seconds of week', 'gps')}"
             raise InputError(msg)
         return gps_week * SECONDS_PER_WEEK
     return 0.0

@@ -18,6 +18,7 @@ from kinsync.trajectory import Trajectory
 
 __all__ = [
     "TimeScale",
+    "gps_week_needed_text",
     "read_trajectory_file",
     "trajectory_file_format",
     "trajectory_takes_gps_week",
@@ -25,6 +26,23 @@ __all__ = [
 
 TimeScale = Literal["gps", "week"]
 """Time scale of a trajectory or point file: GPS time, or GPS seconds of week."""
+
+
+def gps_week_needed_text(points: str, trajectory: TimeScale) -> str:
+    """What to do when points and trajectory are on two time scales a GPS week joins.
+
+    Parameters
+    ----------
+    points : str
+        The points' time scale in words (``"adjusted standard GPS time"``).
+    trajectory : {"gps", "week"}
+        The trajectory's.
+    """
+    traj = "GPS seconds of week" if trajectory == "week" else "GPS time"
+    return (
+        f"the points carry {points}, the trajectory {traj}; give --gps-week so that kinsync "
+        "can put both on GPS time"
+    )
 
 
 def read_trajectory_file(

@@ -84,10 +84,10 @@ from kinsync.pipelines.georef_outputs import (
     TableRejectedSink,
     TableSink,
 )
+from kinsync.pipelines.georef_times import OutsideTally, PointTimes
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
 from kinsync.progress import Progress, report
-from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
 __all__ = [
     "GeorefSummary",
@@ -178,69 +178,6 @@ def rejected_path_for(out_path: Path, points_path: Path | None = None) -> Path:
 def _kind(path: Path) -> str:
     suffix = path.suffix.lower()
     return "las" if suffix in _LAS_SUFFIXES else "ply" if suffix == ".ply" else "table"
-
-
-_GAPS_NAMED = 5  # gaps listed in a message
-
-
-class _OutsideTally:
-    """Counts and time ranges of points outside the span, and of those in its gaps."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.t_min_s = math.inf
-        self.t_max_s = -math.inf
-        self.gap_count = 0
-        self.gap_t_min_s = math.inf
-        self.gap_t_max_s = -math.inf
-
-    def add(self, out: ChunkOutput) -> None:
-        """Add one chunk's accounting."""
-        if out.outside_count:
-            self.count += out.outside_count
-            self.t_min_s = min(self.t_min_s, out.outside_t_min_s)
-            self.t_max_s = max(self.t_max_s, out.outside_t_max_s)
-        if out.gap_count:
-            self.gap_count += out.gap_count
-            self.gap_t_min_s = min(self.gap_t_min_s, out.gap_t_min_s)
-            self.gap_t_max_s = max(self.gap_t_max_s, out.gap_t_max_s)
-
-    def gap_text(self, traj: GeorefTrajectory) -> str:
-        """How many points fell in which gaps of the trajectory, for messages."""
-        hit = [
-            g for g in traj.gaps if g.t_end_s > self.gap_t_min_s and g.t_start_s < self.gap_t_max_s
-        ]
-        named = "; ".join(g.describe() for g in hit[:_GAPS_NAMED])
-        more = f"; and {len(hit) - _GAPS_NAMED} more" if len(hit) > _GAPS_NAMED else ""
-        return (
-            f"{self.gap_count} point(s) with times {self.gap_t_min_s!r} .. "
-            f"{self.gap_t_max_s!r} s fall in {len(hit)} gap(s) of the trajectory, "
-            f"{gap_threshold_text(traj.max_gap_s)}: {named}{more}"
-        )
-
-    def error(self, points_path: Path, traj: GeorefTrajectory, out_path: Path) -> InputError:
-        """The error of a run with points outside the span (``outside="error"``)."""
-        rejected = rejected_path_for(out_path, points_path)
-        outside = self.count - self.gap_count
-        if self.gap_count == 0:
-            what = f"{self.count} point(s) with times {self.t_min_s!r} .. {self.t_max_s!r} s lie"
-        elif outside == 0:
-            what = self.gap_text(traj)
-        else:
-            what = (
-                f"{self.count} point(s) with times {self.t_min_s!r} .. {self.t_max_s!r} s cannot "
-                f"be georeferenced: {self.gap_text(traj)}; {outside} other(s) lie"
-            )
-        if outside:
-            what += f" outside the trajectory span [{traj.t_start_s!r}, {traj.t_end_s!r}] s"
-        no = "interpolate across a gap or extrapolate" if self.gap_count else "extrapolate"
-        msg = (
-            f"{points_path}: {what} (latency {traj.latency_s!r} s applied); kinsync does not "
-            f"{no}: give a trajectory that covers them, check the time scales (--gps-week), "
-            + (f"{GAP_ADVICE}, " if self.gap_count else "")
-            + f"or pass --outside reject to write them to {rejected}"
-        )
-        return InputError(msg)
 
 
 def _remove_stale_rejected(out_path: Path, points_path: Path, trajectory_path: Path) -> list[str]:
@@ -414,6 +351,7 @@ def georeference_file(
     out_kind = _kind(out_path)
     output: OutputKind = "same" if out_kind == _kind(points_path) else cast(OutputKind, out_kind)
     template: Any = None
+    las_time_type: Literal["week", "adjusted_standard"] | None = None
     notes: list[str] = []
     if las_input:
         if point_columns == "profile" or profiler_azimuth_deg is not None:
@@ -424,6 +362,7 @@ def georeference_file(
             )
             raise InputError(msg)
         template, source, tasks, total = _plan_las(points_path, chunk_points, traj_scale, gps_week)
+        las_time_type = las_info(points_path).gps_time_type
         notes += _las_notes(points_path, template, output)
     else:
         source, tasks, total, mount = _plan_table(
@@ -446,7 +385,9 @@ def georeference_file(
         ctx = replace(ctx, las_frame=_las_output_frame(ctx, tasks, total))
     sink, more_notes, ctx = _sink(ctx, template, traj_scale, total, out_path)
     notes += [f"{points_path}: {note}" for note in more_notes]
-    tally = _OutsideTally()
+    tally = OutsideTally(
+        PointTimes(traj_scale, gps_week, las_time_type, ctx.source.las_time_offset_s)
+    )
     with ExitStack() as stack:
         runner = make_runner(ctx, scheduler, workers)
         stack.callback(runner.close)
@@ -454,9 +395,8 @@ def georeference_file(
     points_in, points_out, points_rejected = counts
     if not points_rejected:
         notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
-    if tally.gap_count:
-        rejected = rejected_path_for(out_path, points_path)
-        notes.append(f"{points_path}: {tally.gap_text(traj)}: they went to {rejected}")
+    if tally.count:
+        notes.append(tally.warning(points_path, traj, rejected_path_for(out_path, points_path)))
     return GeorefSummary(
         points_in=points_in,
         points_out=points_out,
@@ -795,7 +735,7 @@ def _outputs_in_order(
     ctx: ChunkContext,
     tasks: Sequence[ChunkTask],
     runner: SerialRunner,
-    tally: _OutsideTally,
+    tally: OutsideTally,
     out_path: Path,
     progress: Progress | None,
     total: int,
@@ -825,8 +765,10 @@ def _outputs_in_order(
             continue
         yield out
         report(progress, n_in / total if total else 1.0, "georeferencing")
+    if tally.none_within(n_in):  # before the outputs are complete: none is published
+        raise tally.span_error(ctx.source.path, ctx.traj)
     if failing:
-        raise tally.error(ctx.source.path, ctx.traj, out_path)
+        raise tally.error(ctx.source.path, ctx.traj, rejected_path_for(out_path, ctx.source.path))
 
 
 def _rejected_sink(ctx: ChunkContext, template: Any, out_path: Path) -> Sink:
@@ -845,7 +787,7 @@ def _write(
     total: int,
     out_path: Path,
     progress: Progress | None,
-    tally: _OutsideTally,
+    tally: OutsideTally,
     runner: SerialRunner,
     sink: Sink,
     template: Any,
