@@ -74,7 +74,9 @@ def test_interpolating_in_a_gap_is_an_error_naming_it() -> None:
     assert traj.gaps()[0].describe() in msg
     assert "interpolate across" in msg
     assert f"record intervals longer than {max_gap_for(traj.t_s):.6g} s" in msg  # the threshold
-    with pytest.raises(OutsideSpanError, match=r"longer than 5 s \(the gap threshold: --max-gap"):
+    # a threshold the user set is named as theirs, not as the default it replaced
+    given = r"longer than 5 s \(the gap threshold given with --max-gap-s\)"
+    with pytest.raises(OutsideSpanError, match=given):
         traj.interpolate(t, max_gap_s=5.0)
     # outside the span: the span message, as before
     with pytest.raises(OutsideSpanError, match="outside the trajectory span"):

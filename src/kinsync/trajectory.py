@@ -719,10 +719,11 @@ class Trajectory:
             n_out = int(np.count_nonzero(~inside))
             gaps = self.gaps(max_gap_s)
             k = int(gap_index(t[row], gaps))
+            limit_s = max_gap_for(self.t_s, max_gap_s)
             why = (
                 f"in a data gap of the trajectory, {gaps[k].describe()} without a record, "
-                f"one of its {gap_threshold_text(max_gap_for(self.t_s, max_gap_s))}; kinsync "
-                "does not interpolate across gaps"
+                f"one of its {gap_threshold_text(limit_s, given=max_gap_s is not None)}; "
+                "kinsync does not interpolate across gaps"
                 if k >= 0
                 else f"outside the trajectory span [{self.t_start_s!r}, {self.t_end_s!r}]; "
                 "kinsync does not extrapolate"

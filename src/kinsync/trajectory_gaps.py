@@ -46,14 +46,22 @@ variable-rate export, a track with irregular steps, a pause): every command that
 a trajectory takes ``--max-gap-s``."""
 
 
-def gap_threshold_text(max_gap_s: float) -> str:
+def gap_threshold_text(max_gap_s: float, *, given: bool = False) -> str:
     """``record intervals longer than X s (...)``: the gap threshold a message names.
 
     Parameters
     ----------
     max_gap_s : float
         The threshold used (s), as `max_gap_for` gives it.
+    given : bool
+        Whether the user set it (``--max-gap-s``): the message then says so, not the
+        default it replaced.
     """
+    if given:
+        return (
+            f"record intervals longer than {max_gap_s:.6g} s (the gap threshold given with "
+            "--max-gap-s)"
+        )
     return (
         f"record intervals longer than {max_gap_s:.6g} s (the gap threshold: --max-gap-s, "
         f"default {GAP_FACTOR:g} median record intervals)"

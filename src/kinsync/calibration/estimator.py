@@ -149,7 +149,9 @@ def _check_gaps(line: ScanLine, tt: FloatArray, latency_s: float, max_gap_s: flo
         f"line {line.name!r}: {int(np.count_nonzero(in_gap))} of {len(line)} returns (times "
         f"{float(tt[in_gap].min())!r} .. {float(tt[in_gap].max())!r} s, latency "
         f"{latency_s * 1e3:g} ms applied) lie in {len(hit)} data gap(s) of its trajectory "
-        f"({named}{more}), {gap_threshold_text(max_gap_for(traj.t_s, max_gap_s))}; kinsync "
+        f"({named}{more}), "
+        f"{gap_threshold_text(max_gap_for(traj.t_s, max_gap_s), given=max_gap_s is not None)}; "
+        "kinsync "
         f"does not interpolate across gaps: {GAP_ADVICE}, or trim the lines"
     )
     raise InputError(msg)

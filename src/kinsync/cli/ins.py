@@ -86,7 +86,8 @@ def _initial_state_from_file(path: Path, imu: ImuData, max_gap_s: float | None) 
     if gap:
         msg = (
             f"--init-from {path}: the IMU starts at t = {t0!r} s, inside a data gap of the "
-            f"file ({gap[0].describe()} without a record; {gap_threshold_text(limit_s)}), "
+            f"file ({gap[0].describe()} without a record; "
+            f"{gap_threshold_text(limit_s, given=max_gap_s is not None)}), "
             f"where its state is not interpolated: {GAP_ADVICE}, or give a reference with "
             "a record near the IMU start"
         )

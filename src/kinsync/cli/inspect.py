@@ -264,7 +264,8 @@ def trajectory_info(
         named = "; ".join(g.describe() for g in gaps[:5])
         more = f"; and {len(gaps) - 5} more" if len(gaps) > 5 else ""
         warnings.append(
-            f"{path}: {len(gaps)} gap(s), {gap_threshold_text(max_gap)}: {named}{more}; "
+            f"{path}: {len(gaps)} gap(s), "
+            f"{gap_threshold_text(max_gap, given=max_gap_s is not None)}: {named}{more}; "
             "kinsync does not interpolate across them (times there are treated as outside "
             f"the span): where such an interval is legitimate, {GAP_ADVICE} (every command "
             "that reads a trajectory takes it)"

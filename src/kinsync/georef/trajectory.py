@@ -127,6 +127,8 @@ class GeorefTrajectory:
         Longest record interval (s) interpolated across; longer ones are gaps.
     gaps : tuple of TrajectoryGap
         The record intervals longer than ``max_gap_s`` (scanner time scale), in order.
+    max_gap_given : bool
+        Whether ``max_gap_s`` was given (``--max-gap-s``), not the default.
     """
 
     trajectory: Trajectory
@@ -139,6 +141,7 @@ class GeorefTrajectory:
     velocity_warning: str | None = None
     max_gap_s: float = math.inf
     gaps: tuple[TrajectoryGap, ...] = ()
+    max_gap_given: bool = False
 
     @classmethod
     def from_trajectory(
@@ -219,6 +222,7 @@ class GeorefTrajectory:
             rotvec_interval_body=readonly_array(rotvec, copy=False),
             velocity_warning=velocity_warning,
             max_gap_s=gap_limit_s,
+            max_gap_given=max_gap_s is not None,
             gaps=trajectory_gaps(corrected.t_s, gap_limit_s),
         )
 

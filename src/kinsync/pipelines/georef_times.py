@@ -181,7 +181,7 @@ class OutsideTally:
         return (
             f"{self.gap_count} point(s) with times {self.gap_t_min_s!r} .. "
             f"{self.gap_t_max_s!r} s fall in {len(hit)} gap(s) of the trajectory, "
-            f"{gap_threshold_text(traj.max_gap_s)}: {named}{more}"
+            f"{gap_threshold_text(traj.max_gap_s, given=traj.max_gap_given)}: {named}{more}"
         )
 
     def describe(self, traj: GeorefTrajectory) -> str:

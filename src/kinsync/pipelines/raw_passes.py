@@ -71,7 +71,8 @@ def _unreadable(
     return (
         f"lies in a data gap of the attitude log {attitude_path}: no record between the tags "
         f"{tags.describe()}, one of its "
-        f"{gap_threshold_text(max_gap_for(corrected.t_s, max_gap_s))} ({read}); kinsync "
+        f"{gap_threshold_text(max_gap_for(corrected.t_s, max_gap_s), given=max_gap_s is not None)}"
+        f" ({read}); kinsync "
         f"does not interpolate across gaps: {GAP_ADVICE}, log the attitude without holes "
         "or trim the pass"
     )
