@@ -335,6 +335,40 @@ def test_las_output_of_a_too_long_trajectory_says_to_split_the_file(
     assert not out.exists()
 
 
+def test_an_already_georeferenced_las_is_said_to_be_so_and_the_count_is_the_chunks(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    # UTM coordinates where scanner-frame ones belong: the count covers the chunk read
+    # (it read like a total), and the file's CRS says why.
+    cols = _points(np.random.default_rng(8))
+    cols["x_m"] = cols["x_m"] + 330_000.0
+    cols["y_m"] = cols["y_m"] + 5_190_000.0
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = np.array([1e-3, 1e-3, 1e-3])
+    header.offsets = np.array([330_000.0, 5_190_000.0, 0.0])
+    header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    header.add_crs(pyproj.CRS.from_epsg(32619))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cols["x_m"], cols["y_m"], cols["z_m"]
+    las.gps_time = cols["t_s"] - 1e9
+    src = setup["dir"] / "utm.las"
+    las.write(src)
+    setup["points"] = src
+    out = setup["dir"] / "geo.las"
+    code, stdout, err = run_cli(_args(setup, out, "--chunk-points", "1000"))
+    assert_one_line_error(
+        code,
+        stdout,
+        err,
+        "utm.las: point 1 of 2500",
+        "1000 such point(s) in the chunk of points 1..1000 of 2500 (the rest of the file not "
+        "checked)",
+        "this file is already georeferenced (EPSG:32619); --points takes points in the "
+        "scanner frame",
+    )
+    assert not out.exists()
+
+
 def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
     run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
 ) -> None:

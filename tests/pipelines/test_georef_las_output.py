@@ -118,7 +118,7 @@ def test_a_bad_time_beyond_the_first_block_is_named_by_its_index_in_the_chunk(
     las.write(src)
     want = (
         r"scan\.las: point 70002 of 90000, column 'gps_time': point time nan is not finite; "
-        r"1 such point\(s\) in points 1\.\.80000 of 90000"
+        r"1 such point\(s\) in the chunk of points 1\.\.80000 of 90000"
     )
     with pytest.raises(InputError, match=want):
         georeference_file(

@@ -106,6 +106,7 @@ class ChunkSource:
     table: TableLayout | None = None  # None for LAS/LAZ
     las_time_offset_s: float = 0.0  # added to LAS gps_time
     total: int = 0  # LAS/LAZ: points in the file (a table's are ``table.total_rows``)
+    georeferenced_crs: str | None = None  # LAS/LAZ: a map or earth CRS its header gives
 
 
 @dataclass(frozen=True)
@@ -668,10 +669,20 @@ def _point_value_text(ctx: ChunkContext, task: ChunkTask, err: PointValueError) 
             column = "range_m"  # the scanner coordinates come from range and angle
         column = layout.file_name(column)
         total = layout.total_rows
-    scope = "in the file" if task.count == total else f"in {_task_span(ctx, task)}"
+    scope = (
+        "in the file"
+        if task.count == total
+        else f"in the chunk of {_task_span(ctx, task)} (the rest of the file not checked)"
+    )
+    advice = err.advice
+    if layout is None and src.georeferenced_crs is not None and err.field in ("x", "y", "z"):
+        advice = (
+            f"this file is already georeferenced ({src.georeferenced_crs}); --points takes "
+            "points in the scanner frame"
+        )
     return (
         f"{src.path}: {_task_position(ctx, task, err.index)}, column {column!r}: "
-        f"{err.problem}; {err.count} such point(s) {scope}: {err.advice}"
+        f"{err.problem}; {err.count} such point(s) {scope}: {advice}"
     )
 
 
