@@ -369,6 +369,22 @@ def test_an_already_georeferenced_las_is_said_to_be_so_and_the_count_is_the_chun
     assert not out.exists()
 
 
+def test_a_time_dependent_output_warns_that_the_file_does_not_record_its_epoch(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    out = setup["dir"] / "geo.parquet"
+    argv = _args(setup, out, "--trajectory-crs", "EPSG:7789", "--crs", "EPSG:22819")
+    code, _, err = run_cli(argv)
+    assert code == 0, err
+    (warning,) = [line for line in err.splitlines() if "coordinate epoch" in line]
+    assert warning.startswith("kinsync: warning: ")
+    assert "which the file does not record" in warning
+    assert "keep the epoch with the file" in warning
+    code, _, err = run_cli(_args(setup, out, "--crs", "EPSG:32619"))
+    assert code == 0, err
+    assert "coordinate epoch" not in err
+
+
 def test_sbet_week_time_with_las_adjusted_time_needs_gps_week(
     run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
 ) -> None:

@@ -397,6 +397,12 @@ def georeference_file(
         notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
     if tally.count:
         notes.append(tally.warning(points_path, traj, rejected_path_for(out_path, points_path)))
+    if crs_info.time_dependent and crs_info.epoch_year is not None:
+        notes.append(
+            f"{out_path}: its coordinates are at coordinate epoch {crs_info.epoch_year:.4f} "
+            "(a time-dependent transformation), which the file does not record (its CRS "
+            "names only the datum): keep the epoch with the file"
+        )
     return GeorefSummary(
         points_in=points_in,
         points_out=points_out,
