@@ -433,6 +433,14 @@ def test_bad_input(
     clock.write_text("{")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock), "--t0-s", "1"]), "not both")
     assert_one_line_error(*run_cli([*base, "--clock", str(clock)]), "c.json", "not valid JSON")
+    # A clock file marked ambiguous: refused unless accepted; the option needs --clock.
+    clock.write_text('{"t0_s": 1400000000.4, "period_s": 0.0303, "ambiguous": true}')
+    assert_one_line_error(*run_cli([*base, "--clock", str(clock)]), "marked ambiguous")
+    assert not Path(out).exists()
+    assert_one_line_error(
+        *run_cli([*base, "--t0-s", "1", "--period-s", "0.03", "--accept-ambiguous"]),
+        "--accept-ambiguous applies to a --clock file",
+    )
     assert_one_line_error(
         *run_cli([*base, "--t0-s", "1", "--period-s", "0"]), "--period-s 0: outside"
     )

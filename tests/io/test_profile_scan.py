@@ -266,3 +266,24 @@ def test_a_parquet_scan_names_the_row_from_one_of_all(tmp_path: Path) -> None:
     pq.write_table(pa.table(cols | {"intensity": [0.5] * n}), path, row_group_size=4)
     with pytest.raises(InputError, match=r"scan\.parquet: row 9 of 9, column 'profile': profile"):
         read_profile_scan(path)
+
+
+def test_an_ambiguous_clock_document_is_refused_unless_accepted(tmp_path: Path) -> None:
+    """A clock file marked ambiguous (written by an older kinsync, or accepted once) may
+    be whole seconds off: applying it needs the same explicit acceptance."""
+    doc = {
+        "t0_s": 1400000034.931,
+        "period_s": 0.0303,
+        "ambiguous": True,
+        "alternatives": [{"t0_s": 1400000000.463}, {"t0_s": 1400000017.5}],
+    }
+    path = _write_text(tmp_path, "amb.json", json.dumps(doc))
+    with pytest.raises(InputError) as info:
+        read_clock_document(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: the clock is marked ambiguous")
+    assert "t0 = 1400000000.463000, 1400000017.500000 s" in message
+    assert "--accept-ambiguous" in message
+    assert read_clock_document(path, accept_ambiguous=True) == (1400000034.931, 0.0303)
+    settled = _write_text(tmp_path, "ok.json", json.dumps({**doc, "ambiguous": False}))
+    assert read_clock_document(settled) == (1400000034.931, 0.0303)

@@ -276,6 +276,14 @@ def apply(
     chunk_points: Annotated[
         int, typer.Option("--chunk-points", help="Rows per chunk (bounds memory).", min=1)
     ] = 1_000_000,
+    accept_ambiguous: Annotated[
+        bool,
+        typer.Option(
+            "--accept-ambiguous",
+            help="Apply a --clock marked ambiguous (refused otherwise: its t0 may be whole "
+            "seconds off).",
+        ),
+    ] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Write the scan with a time and scanner-frame coordinates per return."""
@@ -286,8 +294,11 @@ def apply(
     if clock is not None and (t0_s is not None or period_s is not None):
         msg = "give either --clock or --t0-s with --period-s, not both"
         raise InputError(msg)
+    if accept_ambiguous and clock is None:
+        msg = "--accept-ambiguous applies to a --clock file marked ambiguous; give --clock"
+        raise InputError(msg)
     if clock is not None:
-        t0, period = read_clock_document(clock)
+        t0, period = read_clock_document(clock, accept_ambiguous=accept_ambiguous)
     elif t0_s is not None and period_s is not None:
         t0, period = t0_s, period_s
     else:

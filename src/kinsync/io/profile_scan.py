@@ -281,15 +281,19 @@ def write_pulses(t_s: ArrayLike, path: Path) -> None:
     write_numeric_csv(Path(path), {"t_s": np.asarray(t_s, dtype=np.float64)})
 
 
-def read_clock_document(path: Path) -> tuple[float, float]:
+def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[float, float]:
     """Read ``(t0_s, period_s)`` from a JSON clock document (e.g. object-space output).
+
+    A document marked ``"ambiguous": true`` (other matches of sightings to crossings fit
+    almost as well: its t0 may be whole seconds off) is refused unless
+    ``accept_ambiguous``.
 
     Raises
     ------
     InputError
         Missing or unreadable file, invalid JSON (line and column), not an object,
         missing keys, non-finite or implausible numbers (`kinsync.io.sanity`), a period
-        outside 10 µs to 100 s.
+        outside 10 µs to 100 s, an ambiguous clock not accepted.
     """
     path = Path(path)
     if not path.exists():
@@ -315,4 +319,14 @@ def read_clock_document(path: Path) -> tuple[float, float]:
             raise InputError(msg)
         check_values([float(value)], span, f"{path}: {key!r}")
         values.append(float(value))
+    if doc.get("ambiguous") is True and not accept_ambiguous:
+        others = [a.get("t0_s") for a in doc.get("alternatives", []) if isinstance(a, dict)][:3]
+        listed = ", ".join(f"{t:.6f}" for t in others if isinstance(t, int | float))
+        msg = (
+            f"{path}: the clock is marked ambiguous: other matches of sightings to sync-point "
+            f"crossings fit almost as well{f' (t0 = {listed} s)' if listed else ''}, so its "
+            "t0 may be whole seconds off; run kinsync sync object-space again with --pulses "
+            "to settle it, or apply it anyway with --accept-ambiguous"
+        )
+        raise InputError(msg)
     return values[0], values[1]
