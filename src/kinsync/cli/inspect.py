@@ -19,6 +19,9 @@ from kinsync.mount import StdCorrelation
 mount_app = typer.Typer(help="Mount (system calibration) TOML files.")
 trajectory_app = typer.Typer(help="Trajectory files.")
 
+_TIME_DECIMALS = 6
+"""Durations and intervals of `trajectory info` are rounded to 1 us (float64 steps)."""
+
 
 def _print_quantities(title: str, rows: dict[str, str]) -> None:
     table = quantity_table(title)
@@ -275,9 +278,11 @@ def trajectory_info(
         "records": len(traj),
         "t_start_s": traj.t_start_s,
         "t_end_s": traj.t_end_s,
-        "duration_s": traj.duration_s,
-        "median_rate_hz": float(1.0 / np.median(dt)),
-        "longest_interval_s": float(dt.max()),  # the longest record interval, gap or not
+        # Rounded to 1 us: near 1.4e9 s a float64 time holds 0.24 us steps, so a 200 Hz
+        # record read 199.9954 Hz and its 5 ms intervals 0.005000114 s.
+        "duration_s": round(traj.duration_s, _TIME_DECIMALS),
+        "median_rate_hz": float(1.0 / round(float(np.median(dt)), _TIME_DECIMALS)),
+        "longest_interval_s": round(float(dt.max()), _TIME_DECIMALS),  # gap or not
         "gap_threshold_s": max_gap,
         "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
