@@ -60,6 +60,7 @@ __all__ = [
     "rotation_ned_to_ecef",
     "skew",
     "vehicle_to_body",
+    "wrap_angle_rad",
 ]
 
 
@@ -305,6 +306,12 @@ def euler_rpy_to_quaternion(
 def quaternion_to_euler_rpy(q_body_to_ned: ArrayLike) -> FloatArray:
     """Scalar-first unit quaternion to DIN 9300 ``(roll, pitch, yaw)`` (rad), shape ``(..., 3)``."""
     return matrix_to_euler_rpy(quaternion_to_matrix(q_body_to_ned))
+
+
+def wrap_angle_rad(angle_rad: ArrayLike) -> FloatArray:
+    """Angles (rad) wrapped to (-pi, pi], same shape: a difference of two headings."""
+    out: FloatArray = np.angle(np.exp(1j * np.asarray(angle_rad, dtype=np.float64)))
+    return out
 
 
 def rotation_ned_to_ecef(lat_deg: ArrayLike, lon_deg: ArrayLike) -> FloatArray:

@@ -47,6 +47,7 @@ from kinsync.frames import (
     ned_to_ecef,
     quaternion_to_euler_rpy,
     quaternion_to_matrix,
+    wrap_angle_rad,
 )
 from kinsync.trajectory_gaps import (
     GAP_FACTOR,
@@ -598,7 +599,7 @@ class Trajectory:
         yaw = self.euler_rpy_rad()[:-1, 2][moving]
 
         def median_diff_deg(angle_rad: FloatArray) -> float:
-            d = np.angle(np.exp(1j * (angle_rad - course)))
+            d = wrap_angle_rad(angle_rad - course)
             return float(np.degrees(np.median(np.abs(d))))
 
         return median_diff_deg(yaw), median_diff_deg(np.degrees(yaw))

@@ -9,6 +9,7 @@ within a line and taken as independent between lines (the jackknife of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,7 +17,7 @@ import numpy as np
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError, PointValueError
-from kinsync.frames import quaternion_to_euler_rpy
+from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
 from kinsync.trajectory import Trajectory
 
 __all__ = ["PASS_GAP_S", "ScanLine", "two_passes_in_a_line"]
@@ -128,7 +129,7 @@ def two_passes_in_a_line(lines: list[ScanLine] | tuple[ScanLine, ...]) -> tuple[
             continue
         q = line.trajectory.interpolate(ends, max_gap_s=np.inf).q_body_to_ned
         yaw = quaternion_to_euler_rpy(q)[:, 2]
-        turn = abs(float(np.degrees(np.angle(np.exp(1j * (yaw[1] - yaw[0]))))))
+        turn = abs(math.degrees(float(wrap_angle_rad(yaw[1] - yaw[0]))))
         if turn > PASS_TURN_DEG:
             notes.append(
                 f"{line.name}: its returns stop for {gap:.1f} s (t {t[k]:.3f} -> "

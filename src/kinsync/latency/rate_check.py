@@ -22,7 +22,7 @@ The check is loose on purpose: the latency itself moves the points by far less.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +30,7 @@ import numpy as np
 from kinsync._text import counted
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.frames import wrap_angle_rad
 from kinsync.latency.passes import SpherePass
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "RateMismatch",
     "attitude_rate_deg_s",
     "check_pass_rates",
+    "judge_rates",
     "mismatch_message",
     "points_azimuth_rate_deg_s",
     "rate_mismatch",
@@ -155,7 +157,7 @@ def points_azimuth_rate_deg_s(
     if math.hypot(sum_u, sum_v) < _MIN_CONCENTRATION * radial.size:
         return None  # points all around the axis (it points into the scene): no azimuth
     mean_dir = math.atan2(sum_v, sum_u)
-    az = np.angle(np.exp(1j * (np.arctan2(pv, pu) - mean_dir)))
+    az = wrap_angle_rad(np.arctan2(pv, pu) - mean_dir)
     front = np.abs(az) < 0.5 * math.pi
     az, t = az[front], t[front]
     if az.size < _MIN_POINTS or float(np.ptp(t)) <= 0.0 or float(np.ptp(az)) <= 0.0:
@@ -267,6 +269,30 @@ def mismatch_message(
     )
 
 
+def judge_rates(
+    passes: Sequence[SpherePass], shown_rate_deg_s: Callable[[SpherePass], float | None]
+) -> tuple[list[RateMismatch], int]:
+    """Each pass's stated rate against the rate ``shown_rate_deg_s`` gives (deg/s).
+
+    Returns
+    -------
+    mismatches : list of RateMismatch
+        The passes whose shown rate `rate_mismatch` refuses.
+    n_checked : int
+        Passes judged (``shown_rate_deg_s`` gave a rate, not None).
+    """
+    mismatches: list[RateMismatch] = []
+    n_checked = 0
+    for p in passes:
+        shown = shown_rate_deg_s(p)
+        if shown is None:
+            continue
+        n_checked += 1
+        if rate_mismatch(p.rate_deg_s, shown):
+            mismatches.append(RateMismatch(p.source, p.rate_deg_s, shown))
+    return mismatches, n_checked
+
+
 def check_pass_rates(passes: Sequence[SpherePass]) -> None:
     """Raise when a pass's points turn otherwise than its stated table rate.
 
@@ -280,17 +306,13 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> None:
         `RATE_RATIO_LIMIT` faster or slower, than its stated rate: naming the pass,
         its stated rate and the rate its points show (`mismatch_message`).
     """
-    mismatches: list[RateMismatch] = []
-    n_checked = 0
-    for p in passes:
+
+    def shown_by_points(p: SpherePass) -> float | None:
         if p.t_s is None:
-            continue
-        shown = points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
-        if shown is None:
-            continue
-        n_checked += 1
-        if rate_mismatch(p.rate_deg_s, shown):
-            mismatches.append(RateMismatch(p.source, p.rate_deg_s, shown))
+            return None
+        return points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
+
+    mismatches, n_checked = judge_rates(passes, shown_by_points)
     if mismatches:
         raise InputError(
             mismatch_message(

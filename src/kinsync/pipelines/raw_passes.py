@@ -27,12 +27,7 @@ from kinsync.io.raw_passes import (
     read_raw_pass,
 )
 from kinsync.latency.passes import SpherePass
-from kinsync.latency.rate_check import (
-    RateMismatch,
-    attitude_rate_deg_s,
-    mismatch_message,
-    rate_mismatch,
-)
+from kinsync.latency.rate_check import attitude_rate_deg_s, judge_rates, mismatch_message
 from kinsync.progress import Progress, report
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import (
@@ -86,22 +81,17 @@ def _check_attitude_rates(
     The IMU turns with the table: over each pass the log's rotation about the pass's
     axis is its table rate, with the same sign (`kinsync.latency.rate_check`).
     """
-    mismatches: list[RateMismatch] = []
-    n_checked = 0
-    for p in passes:
+
+    def shown_by_attitude(p: SpherePass) -> float | None:
         assert p.t_s is not None  # raw passes have their times
         t0, t1 = float(p.t_s.min()), float(p.t_s.max())
         inside = (corrected.t_s >= t0) & (corrected.t_s <= t1)
         t = corrected.t_s[inside]
         if t.size < 2:
-            continue
-        rotations = corrected.interpolate(t).R_body_to_ned
-        shown = attitude_rate_deg_s(t, rotations, p.axis_ned)
-        if shown is None:
-            continue
-        n_checked += 1
-        if rate_mismatch(p.rate_deg_s, shown):
-            mismatches.append(RateMismatch(p.source, p.rate_deg_s, shown))
+            return None
+        return attitude_rate_deg_s(t, corrected.interpolate(t).R_body_to_ned, p.axis_ned)
+
+    mismatches, n_checked = judge_rates(passes, shown_by_attitude)
     if mismatches:
         msg = f"{index_path} and {attitude_path}: " + mismatch_message(
             mismatches, n_checked, f"the attitude log {attitude_path.name}", points=False

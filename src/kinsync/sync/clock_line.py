@@ -19,6 +19,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from kinsync._typing import FloatArray, IntArray
+from kinsync.frames import wrap_angle_rad
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import Crossing
 from kinsync.sync.sightings import Sighting
@@ -297,7 +298,7 @@ def _compatible_pairs(
     rng_c = np.array([c.range_m for c in crossings])
     compat: list[IntArray] = []
     for s in sightings:
-        d_ang = np.abs(np.angle(np.exp(1j * (ang_c - s.angle_rad))))
+        d_ang = np.abs(wrap_angle_rad(ang_c - s.angle_rad))
         ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
         compat.append(np.flatnonzero(ok).astype(np.int64))
     return x, t_c, compat, _Compatible.build(x, t_c, compat, std)
