@@ -39,6 +39,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync",
             "kinsync.__init__",
             "kinsync._arrays",
+            "kinsync._lazy",
             "kinsync._typing",
             "kinsync._validate",
             "kinsync.crs",

@@ -57,8 +57,9 @@ report, demo, cli
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from kinsync._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from kinsync.errors import InputError, KinsyncError
@@ -69,29 +70,16 @@ __version__ = "0.1.0"
 
 __all__ = ["InputError", "KinsyncError", "Mount", "Trajectory", "__version__"]
 
-_LAZY = {
-    "InputError": "kinsync.errors",
-    "KinsyncError": "kinsync.errors",
-    "Mount": "kinsync.mount",
-    "Trajectory": "kinsync.trajectory",
-}
-"""The package's names, imported when first used (PEP 562): ``import kinsync`` loads no
-numpy, so the ``kinsync`` program sets its Ctrl-C handling before the heavy imports."""
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is not None:
-        return getattr(importlib.import_module(module), name)
-    if not name.startswith("_"):  # a submodule: ``kinsync.trajectory`` after ``import kinsync``
-        try:
-            return importlib.import_module(f"kinsync.{name}")
-        except ModuleNotFoundError as err:
-            if err.name != f"kinsync.{name}":
-                raise
-    msg = f"module 'kinsync' has no attribute {name!r}"
-    raise AttributeError(msg)
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "InputError": "kinsync.errors",
+        "KinsyncError": "kinsync.errors",
+        "Mount": "kinsync.mount",
+        "Trajectory": "kinsync.trajectory",
+    },
+    submodules=True,
+)
+"""The package's names are imported when first used (PEP 562): ``import kinsync`` loads no
+numpy, so the ``kinsync`` program sets its Ctrl-C handling before the heavy imports; a
+submodule is an attribute on first use (``kinsync.trajectory`` after ``import kinsync``)."""

@@ -13,6 +13,18 @@ from __future__ import annotations
 
 import re
 
+__all__ = [
+    "ConvergenceError",
+    "InputError",
+    "KinsyncError",
+    "KinsyncWarning",
+    "ObservabilityError",
+    "OutsideSpanError",
+    "PeriodPriorError",
+    "PointValueError",
+    "plain_values",
+]
+
 _NUMPY_REPR = re.compile(
     r"(?P<quoted>(?<!\w)'(?:[^'\\\n]|\\.)*'(?!\w))"  # a quoted text: the user's, kept
     r"|np\.(?:float|int|uint|complex|longdouble|str_|bytes_)(?:8|16|32|64|128|256)?"
