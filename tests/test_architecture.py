@@ -51,6 +51,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.robust",
             "kinsync.trajectory",
             "kinsync.trajectory_gaps",
+            "kinsync.trajectory_rows",
             "kinsync.trajectory_times",
         ),
     ),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import numpy.typing as npt
@@ -606,3 +607,71 @@ def test_arrays_are_read_only_copies() -> None:
     geo = Trajectory(t_s=t[1:], q_body_to_ned=q[1:], lat_lon_h=np.tile([46.8, 7.0, 500.0], (4, 1)))
     assert geo.lat_lon_h is not None
     assert not geo.lat_lon_h.flags.writeable
+
+
+# ------------------------------------------------------------------ time and angle types
+def _gps_line(n: int = 100) -> tuple[FloatArray, FloatArray, FloatArray]:
+    t: FloatArray = 1.4e9 + 0.1 * np.arange(n, dtype=np.float64)
+    llh: FloatArray = np.column_stack(
+        [46.8 + 1e-5 * (t - t[0]), np.full(n, -71.2), np.full(n, 30.0)]
+    )
+    return t, np.zeros(n), llh
+
+
+def test_float32_gps_times_are_refused_with_their_step() -> None:
+    """float32 holds 128 s steps near 1.4e9 s: interpolate sampled 28 s away, and the
+    constructor spoke of a repeated time only."""
+    t, z, llh = _gps_line()
+    with pytest.raises(InputError, match=r"t_s: float32 times near 1\.4e\+09 s .* steps of 128 s"):
+        Trajectory.from_euler(t.astype(np.float32), z, z, z, lat_lon_h=llh)
+    with pytest.raises(InputError, match=r"trajectory t_s: float32 .*pass float64 times"):
+        Trajectory(t_s=t.astype(np.float32), q_body_to_ned=_identity_q(t.size), lat_lon_h=llh)
+    traj = Trajectory.from_euler(t, z, z, z, lat_lon_h=llh)
+    with pytest.raises(InputError, match=r"interpolation times t_s: float32 .*128 s"):
+        traj.interpolate(t[3:5].astype(np.float32))
+    with pytest.raises(InputError, match=r"float16"):
+        traj.contains(np.array([1.0], dtype=np.float16) * 100)
+    # float32 fine enough where the times are small (a step below 1 us up to 16 s)
+    local = Trajectory.from_euler(
+        np.arange(10, dtype=np.float32),
+        np.zeros(10),
+        np.zeros(10),
+        np.zeros(10),
+        pos_ned_m=np.zeros((10, 3)),
+        origin_lat_lon_h=ORIGIN,
+    )
+    assert local.t_s.dtype == np.float64
+
+
+@pytest.mark.parametrize(
+    ("times", "fragment"),
+    [
+        (np.datetime64("2024-01-01") + np.arange(100).astype("timedelta64[ms]"), "datetime64"),
+        (np.arange(100).astype("timedelta64[s]"), "timedelta64"),
+        (np.array(["a"] * 100), "text"),
+        (np.arange(100.0).astype(object), "Python object"),
+    ],
+)
+def test_times_that_are_not_float_seconds_are_refused(times: object, fragment: str) -> None:
+    """datetime64[ms] was read as ms since 1970 taken for seconds; text raised a raw
+    ValueError."""
+    t, z, llh = _gps_line()
+    with pytest.raises(InputError, match=rf"trajectory t_s: expected .*{fragment}.*1980-01-06"):
+        Trajectory.from_euler(times, z, z, z, lat_lon_h=llh)  # type: ignore[arg-type]
+    traj = Trajectory.from_euler(t, z, z, z, lat_lon_h=llh)
+    with pytest.raises(InputError, match=rf"interpolation times t_s: .*{fragment}"):
+        traj.interpolate(times[:2])  # type: ignore[index]
+
+
+@pytest.mark.parametrize(
+    ("roll", "shape"),
+    [(np.zeros(99), "(99,)"), (np.zeros((100, 1)), "(100, 1)"), (0.0, "()")],
+)
+def test_euler_angles_of_another_shape_are_named(roll: object, shape: str) -> None:
+    """Length N-1 raised numpy's broadcast error; (N, 1) spoke of a q_body_to_ned the
+    caller never gave."""
+    t, z, llh = _gps_line()
+    with pytest.raises(
+        InputError, match=rf"roll_rad: expected shape \(100,\) .* got {re.escape(shape)}"
+    ):
+        Trajectory.from_euler(t, roll, z, z, lat_lon_h=llh)  # type: ignore[arg-type]

@@ -1,14 +1,57 @@
-"""Scalar argument checks shared by the library (messages name the argument)."""
+"""Argument checks shared by the library (messages name the argument).
+
+Scalars: `finite_number`, `positive_number`. Arrays of times and coordinates:
+`time_array`, `coordinate_array`, `ecef_array`, one check each wherever the API takes
+them, so that a float32 or datetime64 array is refused the same way everywhere.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import Literal
 
 import numpy as np
 
+from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 
-__all__ = ["finite_number", "positive_number"]
+__all__ = [
+    "COORDINATE_STEP_M",
+    "ECEF_RADIUS_RANGE_M",
+    "TIME_STEP_S",
+    "coordinate_array",
+    "ecef_array",
+    "finite_number",
+    "name_tuple",
+    "positive_number",
+    "time_array",
+]
+
+TIME_STEP_S = 1e-6
+"""Coarsest step (s) a float dtype may hold times in: 1 us (float32 holds 128 s near 1.4e9 s)."""
+
+COORDINATE_STEP_M = 1e-4
+"""Coarsest step (m) a float dtype may hold coordinates in: 0.1 mm (float32: 0.5 m near 6.4e6 m)."""
+
+ECEF_RADIUS_RANGE_M = (6.30e6, 6.45e6)
+"""Geocentric radii (m) of points kinsync takes as ECEF.
+
+The WGS84 ellipsoid's radius runs from 6 356 752 m (poles) to 6 378 137 m (equator);
+the deepest sea floor lies 11 km below it and airborne surveys fly a few km above it.
+6.30e6 m leaves over 40 km below the deepest point and 6.45e6 m over 60 km above the
+highest flight, while local (NED, ENU, scanner) coordinates lie within a few hundred
+km of zero and map grids' coordinates (UTM northings up to about 6.3e6 m north of the
+equator) mostly fall outside too: a check of the frame, not of the points' accuracy.
+"""
+
+_CLOCK_ADVICE = {
+    "gps": (
+        "give GPS seconds as float64 (seconds since 1980-01-06, ahead of UTC by its leap "
+        "seconds: kinsync.clock.utc_to_gps_s converts POSIX UTC seconds)"
+    ),
+    "local": "give the logger's clock readings as float64 seconds",
+}
 
 
 def finite_number(value: object, name: str) -> float:
@@ -30,3 +73,129 @@ def positive_number(value: object, name: str) -> float:
         msg = f"{name} must be positive, got {value!r}"
         raise InputError(msg)
     return out
+
+
+def name_tuple(values: object, name: str) -> tuple[str, ...]:
+    """A sequence of names as a tuple of str; a lone str (or bytes) is refused.
+
+    ``tuple("ab")`` is ``("a", "b")``: a single name given where a sequence is expected
+    would silently become one name per character.
+    """
+    if isinstance(values, (str, bytes)):
+        msg = (
+            f"{name}: expected a sequence of names, got the single text {values!r}; "
+            f"give a list or tuple, e.g. [{values!r}]"
+        )
+        raise InputError(msg)
+    if not isinstance(values, Iterable):
+        msg = f"{name}: expected a sequence of names, got {type(values).__name__}"
+        raise InputError(msg)
+    return tuple(str(v) for v in values)
+
+
+def _refuse_coarse_floats(
+    arr: np.ndarray, name: str, what: str, step: float, step_text: str, unit: str
+) -> None:
+    """Refuse a float dtype whose step at the values' magnitude is coarser than ``step``."""
+    if arr.dtype.kind != "f" or np.finfo(arr.dtype).resolution <= np.finfo(np.float64).resolution:
+        return
+    finite = np.abs(arr[np.isfinite(arr)])
+    if finite.size == 0:
+        return
+    largest = finite.max()
+    spacing = float(np.spacing(largest))
+    if spacing > step:
+        msg = (
+            f"{name}: {arr.dtype} {what} near {float(largest):.6g} {unit} are held in steps "
+            f"of {spacing:.3g} {unit}, coarser than the {step_text} kinsync needs (they are "
+            f"already rounded: converting them back does not restore them); pass float64 {what}"
+        )
+        raise InputError(msg)
+
+
+def _as_float64(arr: np.ndarray, name: str, what: str) -> FloatArray:
+    try:
+        return np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{name}: expected numbers as {what} ({err})"
+        raise InputError(msg) from err
+
+
+def time_array(
+    values: ArrayLike, name: str, *, clock: Literal["gps", "local"] = "gps"
+) -> FloatArray:
+    """``values`` as a float64 array of times (s), any shape; not checked for finiteness.
+
+    Parameters
+    ----------
+    values : array_like
+        Times (s): GPS seconds (``clock="gps"``) or a logger's clock readings
+        (``clock="local"``).
+    name : str
+        The argument as the caller wrote it, for messages.
+    clock : {"gps", "local"}
+        Which time scale, for the advice of a message.
+
+    Raises
+    ------
+    InputError
+        datetime64/timedelta64, string or object arrays (kinsync cannot tell their time
+        scale), non-numbers, or a float dtype whose step at the values' magnitude is
+        coarser than `TIME_STEP_S` (float32 beyond 16 s, float16).
+    """
+    arr = np.asarray(values)
+    if arr.dtype.kind in "mM":
+        msg = f"{name}: expected seconds, got {arr.dtype} values; {_CLOCK_ADVICE[clock]}"
+        raise InputError(msg)
+    if arr.dtype.kind in "OUSV":
+        kind = "text" if arr.dtype.kind in "US" else "Python object"
+        msg = f"{name}: expected numbers, got {kind} values ({arr.dtype}); {_CLOCK_ADVICE[clock]}"
+        raise InputError(msg)
+    _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s")
+    return _as_float64(arr, name, "seconds")
+
+
+def coordinate_array(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as a float64 array of coordinates (m), any shape; not checked for finiteness.
+
+    Raises
+    ------
+    InputError
+        Non-numbers, or a float dtype whose step at the values' magnitude is coarser
+        than `COORDINATE_STEP_M` (float32 ECEF or map-grid coordinates).
+    """
+    arr = np.asarray(values)
+    if arr.dtype.kind in "mMOUSV":
+        msg = f"{name}: expected numbers (m), got {arr.dtype} values"
+        raise InputError(msg)
+    _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m")
+    return _as_float64(arr, name, "metres")
+
+
+def ecef_array(values: ArrayLike, name: str) -> FloatArray:
+    """`coordinate_array` of ECEF points (..., 3) whose finite rows lie near the Earth.
+
+    Raises
+    ------
+    InputError
+        As `coordinate_array`, or a finite point whose geocentric radius lies outside
+        `ECEF_RADIUS_RANGE_M` (local or map-grid coordinates given as ECEF). Shapes are
+        the caller's to check.
+    """
+    arr = coordinate_array(values, name)
+    if arr.ndim == 0 or arr.shape[-1] != 3 or arr.size == 0:
+        return arr
+    rows = arr.reshape(-1, 3)
+    radius = np.linalg.norm(rows, axis=1)
+    low, high = ECEF_RADIUS_RANGE_M
+    bad = np.isfinite(radius) & ((radius < low) | (radius > high))
+    if np.any(bad):
+        row = int(np.flatnonzero(bad)[0])
+        msg = (
+            f"{name}: point at index {row} (0-based), {rows[row].tolist()} m, lies "
+            f"{radius[row]:.6g} m from the Earth's centre, not near its surface "
+            f"({low:.3g} to {high:.3g} m): these are not ECEF coordinates (local or "
+            "projected coordinates?); convert them to ECEF (m)"
+        )
+        raise InputError(msg)
+    return arr

@@ -38,6 +38,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
+from kinsync._validate import time_array
 from kinsync.errors import InputError, KinsyncWarning, OutsideSpanError
 from kinsync.frames import (
     WGS84_A_M,
@@ -57,6 +58,12 @@ from kinsync.trajectory_gaps import (
     max_gap_for,
     trajectory_gaps,
 )
+from kinsync.trajectory_rows import (
+    check_latitudes,
+    first_bad_row,
+    validated_rows,
+    validated_unit_quaternions,
+)
 from kinsync.trajectory_times import validated_times
 
 __all__ = [
@@ -71,53 +78,6 @@ __all__ = [
 ]
 
 PositionMethod = Literal["auto", "linear", "hermite"]
-
-_QUATERNION_NORM_TOL = 1e-6
-
-
-def _first_bad_row(mask: BoolArray) -> int:
-    return int(np.flatnonzero(mask)[0])
-
-
-def _validated_rows(values: ArrayLike | None, n: int, width: int, name: str) -> FloatArray:
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"trajectory {name}: expected numbers ({err})"
-        raise InputError(msg) from err
-    if arr.shape != (n, width):
-        msg = f"trajectory {name}: expected shape ({n}, {width}) to match t_s, got {arr.shape}"
-        raise InputError(msg)
-    finite = np.all(np.isfinite(arr), axis=1)
-    if not np.all(finite):
-        row = _first_bad_row(~finite)
-        msg = f"trajectory {name}: non-finite value in row {row} ({arr[row].tolist()})"
-        raise InputError(msg)
-    return arr
-
-
-def _validated_unit_quaternions(values: ArrayLike, n: int) -> FloatArray:
-    """(n, 4) quaternions of norm within tolerance of one, renormalised exactly."""
-    q = _validated_rows(values, n, 4, "q_body_to_ned")
-    norm = np.linalg.norm(q, axis=1)
-    bad = np.abs(norm - 1.0) > _QUATERNION_NORM_TOL
-    if np.any(bad):
-        row = _first_bad_row(bad)
-        msg = (
-            f"trajectory q_body_to_ned: row {row} has norm {norm[row]:.9g}, not a unit "
-            "quaternion; normalise it or check the column order (w, x, y, z)"
-        )
-        raise InputError(msg)
-    unit: FloatArray = q / norm[:, None]
-    return unit
-
-
-def _check_latitudes(lat_deg: FloatArray, name: str) -> None:
-    bad = np.abs(lat_deg) > 90.0
-    if np.any(bad):
-        row = _first_bad_row(bad)
-        msg = f"trajectory {name}: latitude {lat_deg[row]} outside [-90, 90] in row {row}"
-        raise InputError(msg)
 
 
 def _meridian_and_normal_radii_m(lat_deg: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -460,7 +420,7 @@ class Trajectory:
     def __post_init__(self) -> None:
         t = validated_times(self.t_s)
         n = t.size
-        q = _validated_unit_quaternions(self.q_body_to_ned, n)
+        q = validated_unit_quaternions(self.q_body_to_ned, n)
         if (self.lat_lon_h is None) == (self.pos_ned_m is None):
             msg = "trajectory: give exactly one of lat_lon_h (geodetic) or pos_ned_m (local NED)"
             raise InputError(msg)
@@ -471,24 +431,24 @@ class Trajectory:
             if self.origin_lat_lon_h is not None:
                 msg = "trajectory: origin_lat_lon_h applies only to a local NED trajectory"
                 raise InputError(msg)
-            llh = _validated_rows(self.lat_lon_h, n, 3, "lat_lon_h")
-            _check_latitudes(llh[:, 0], "lat_lon_h")
+            llh = validated_rows(self.lat_lon_h, n, 3, "lat_lon_h")
+            check_latitudes(llh[:, 0], "lat_lon_h")
             set_(self, "lat_lon_h", readonly_array(llh))
             set_(self, "_lon_unwrapped_deg", readonly_array(np.unwrap(llh[:, 1], period=360.0)))
         else:
             if self.origin_lat_lon_h is None:
                 msg = "trajectory: pos_ned_m needs origin_lat_lon_h (lat_deg, lon_deg, h_m)"
                 raise InputError(msg)
-            origin = _validated_rows([self.origin_lat_lon_h], 1, 3, "origin_lat_lon_h")[0]
-            _check_latitudes(origin[:1], "origin_lat_lon_h")
+            origin = validated_rows([self.origin_lat_lon_h], 1, 3, "origin_lat_lon_h")[0]
+            check_latitudes(origin[:1], "origin_lat_lon_h")
             set_(
                 self,
                 "pos_ned_m",
-                readonly_array(_validated_rows(self.pos_ned_m, n, 3, "pos_ned_m")),
+                readonly_array(validated_rows(self.pos_ned_m, n, 3, "pos_ned_m")),
             )
             set_(self, "origin_lat_lon_h", (float(origin[0]), float(origin[1]), float(origin[2])))
         if self.vel_ned_m_s is not None:
-            vel = _validated_rows(self.vel_ned_m_s, n, 3, "vel_ned_m_s")
+            vel = validated_rows(self.vel_ned_m_s, n, 3, "vel_ned_m_s")
             set_(self, "vel_ned_m_s", readonly_array(vel))
 
     # ------------------------------------------------------------------ constructors
@@ -505,10 +465,12 @@ class Trajectory:
         origin_lat_lon_h: tuple[float, float, float] | None = None,
         vel_ned_m_s: ArrayLike | None = None,
     ) -> Trajectory:
-        """Build a trajectory from DIN 9300 Euler angles (rad), each of shape (N,)."""
-        q = euler_rpy_to_quaternion(roll_rad, pitch_rad, yaw_rad)
+        """Build a trajectory from DIN 9300 Euler angles (rad), each of shape (N,) like t_s."""
+        t = validated_times(t_s)
+        rpy = {"roll_rad": roll_rad, "pitch_rad": pitch_rad, "yaw_rad": yaw_rad}
+        q = euler_rpy_to_quaternion(*(validated_rows(a, t.size, None, k) for k, a in rpy.items()))
         return cls(
-            t_s=np.asarray(t_s, dtype=np.float64),
+            t_s=t,
             q_body_to_ned=q,
             lat_lon_h=None if lat_lon_h is None else np.asarray(lat_lon_h, dtype=np.float64),
             pos_ned_m=None if pos_ned_m is None else np.asarray(pos_ned_m, dtype=np.float64),
@@ -624,7 +586,7 @@ class Trajectory:
         Within ``[t_start_s, t_end_s]`` and not strictly inside a data gap
         (`gaps` with ``max_gap_s``; ``math.inf``: the span alone).
         """
-        t = np.asarray(t_s, dtype=np.float64)
+        t = time_array(t_s, "contains t_s")
         in_span: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)
         return in_span & (gap_index(t, self.gaps(max_gap_s)) < 0)
 
@@ -711,12 +673,12 @@ class Trajectory:
         self, t: FloatArray, *, mask_outside: bool, max_gap_s: float | None
     ) -> BoolArray:
         if not np.all(np.isfinite(t)):
-            row = _first_bad_row(~np.isfinite(t))
+            row = first_bad_row(~np.isfinite(t))
             msg = f"interpolation time at index {row} is not finite ({float(t[row])!r})"
             raise InputError(msg)
         inside = self.contains(t, max_gap_s=max_gap_s)
         if not mask_outside and not np.all(inside):
-            row = _first_bad_row(~inside)
+            row = first_bad_row(~inside)
             n_out = int(np.count_nonzero(~inside))
             gaps = self.gaps(max_gap_s)
             k = int(gap_index(t[row], gaps))
@@ -771,12 +733,13 @@ class Trajectory:
         Raises
         ------
         InputError
-            Non-finite times, an unknown method, "hermite" without velocities or
-            with velocities that disagree with the positions.
+            Non-finite times, times that are not float seconds (datetime64, text, a
+            float dtype too coarse for them), an unknown method, "hermite" without
+            velocities or with velocities that disagree with the positions.
         OutsideSpanError
             A time outside the span or inside a data gap, unless ``mask_outside``.
         """
-        t = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
+        t = np.atleast_1d(time_array(t_s, "interpolation times t_s"))
         if t.ndim != 1:
             msg = f"interpolation times: expected a 1-D array, got shape {t.shape}"
             raise InputError(msg)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
+from kinsync._validate import time_array
 from kinsync.errors import InputError
 
 __all__ = ["backward_step_s", "validated_times"]
@@ -88,14 +89,11 @@ def validated_times(values: ArrayLike) -> FloatArray:
     Raises
     ------
     InputError
-        Naming the 0-based row: not numbers, fewer than 2, non-finite, repeated or
-        decreasing (a GPS week rollover named as such).
+        Naming the 0-based row: not numbers (datetime64, text, or a float dtype too
+        coarse for the times: `kinsync._validate.time_array`), fewer than 2,
+        non-finite, repeated or decreasing (a GPS week rollover named as such).
     """
-    try:
-        t = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"trajectory t_s: expected numbers ({err})"
-        raise InputError(msg) from err
+    t = time_array(values, "trajectory t_s")
     if t.ndim != 1 or t.size < 2:
         msg = f"trajectory t_s: expected a 1-D array of at least 2 times, got shape {t.shape}"
         raise InputError(msg)

@@ -324,6 +324,23 @@ def test_following_convention_shifts_the_named_edge() -> None:
         (lambda a: (a[0] * 0.37, *a[1:]), InputError, "whole number of seconds"),
         (lambda a: (a[0], a[1], a[2] + np.arange(len(a[2])) % 3, a[3]), InputError, "agree"),
         (lambda a: (np.r_[a[0][:2], a[0][2] + 0.5], *a[1:]), ObservabilityError, "grid"),
+        # datetime64 GPS times were fitted on the POSIX scale
+        (
+            lambda a: (a[0], a[1], a[2].astype("datetime64[s]"), a[3]),
+            InputError,
+            r"zda_gps_s: expected seconds, got datetime64\[s\].*1980-01-06",
+        ),
+        (
+            lambda a: (a[0].astype(np.float32), *a[1:]),
+            InputError,
+            r"pps_t_local_s: float32 times near 1119 s .* steps of 0\.000122 s.*pass float64",
+        ),
+        # ZDAs shaped (M, 1) were flattened where pulses shaped (N, 1) were refused
+        (lambda a: (a[0], a[1][:, None], *a[2:]), InputError, r"zda_t_local_s: expected a 1-D"),
+        (lambda a: (a[0], a[1], a[2][:, None], a[3]), InputError, r"zda_gps_s: expected a 1-D"),
+        (lambda a: (a[0][:, None], *a[1:]), InputError, r"pps_t_local_s: expected a 1-D"),
+        (lambda a: (*a[:3], a[3] * 0), InputError, r"zda_n_bytes: index 0 holds 0"),
+        (lambda a: (*a[:3], 39), InputError, r"zda_n_bytes: expected one byte count per ZDA"),
     ],
 )
 def test_bad_fit_input(mutate: object, error: type[Exception], match: str) -> None:

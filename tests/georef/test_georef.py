@@ -261,6 +261,17 @@ AT_1 = r"point at index 1 \(0-based, of 2\)"  # the API names array indices, sai
         ([1.0e9 + 1.0, 1.0e9 + 2.0], [[0, 0, 0], [0, np.inf, 0]], rf"{AT_1}, y: inf is not finite"),
         ([1.0e9 + 1.0], [[0, 0]], "shape"),
         ([[1.0e9]], [[0, 0, 0]], "1-D"),
+        # float32 holds 64 s steps near 1e9 s: georeference said inside, 67 to 311 m off
+        (
+            np.array([1.0e9 + 1.0, 1.0e9 + 2.0], dtype=np.float32),
+            [[0, 0, 0], [0, 0, 0]],
+            r"point times t_s: float32 times near 1e\+09 s are held in steps of 64 s.*float64",
+        ),
+        (
+            np.array(["2024-01-01", "2024-01-02"], dtype="datetime64[ns]"),
+            [[0, 0, 0], [0, 0, 0]],
+            r"point times t_s: expected seconds, got datetime64\[ns\].*GPS seconds",
+        ),
     ],
 )
 def test_bad_points_raise_input_error(traj: Trajectory, t: object, xyz: object, match: str) -> None:

@@ -319,11 +319,16 @@ class ClockFit:
         }
 
 
-def _increasing_times(values: ArrayLike, name: str) -> FloatArray:
-    t = _finite_times(values, name)
-    if t.ndim != 1:
-        msg = f"{name}: expected a 1-D array of times, got shape {t.shape}"
+def _one_dimensional(values: FloatArray, name: str) -> FloatArray:
+    """``values`` unchanged if 1-D; one check for the pulse and ZDA arrays alike."""
+    if values.ndim != 1:
+        msg = f"{name}: expected a 1-D array, one value per row, got shape {values.shape}"
         raise InputError(msg)
+    return values
+
+
+def _increasing_times(values: ArrayLike, name: str) -> FloatArray:
+    t = _one_dimensional(_finite_times(values, name), name)
     steps = np.diff(t)
     if np.any(steps <= 0.0):
         i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
@@ -512,13 +517,20 @@ def _check_log_span(t: FloatArray, labels: IntArray, good: BoolArray) -> None:
 def _zda_arrays(
     zda_t_local_s: ArrayLike, zda_gps_s: ArrayLike, zda_n_bytes: ArrayLike
 ) -> tuple[FloatArray, FloatArray, IntArray]:
-    z_t = _finite_times(zda_t_local_s, "zda_t_local_s").reshape(-1)
-    z_gps = _finite_times(zda_gps_s, "zda_gps_s").reshape(-1)
+    z_t = _one_dimensional(_finite_times(zda_t_local_s, "zda_t_local_s"), "zda_t_local_s")
+    z_gps = _one_dimensional(_finite_times(zda_gps_s, "zda_gps_s", "gps"), "zda_gps_s")
     try:
-        z_bytes = np.asarray(zda_n_bytes, dtype=np.float64).reshape(-1)
+        z_bytes = np.asarray(zda_n_bytes, dtype=np.float64)
     except (TypeError, ValueError) as err:
         msg = f"zda_n_bytes: expected whole numbers ({err})"
         raise InputError(msg) from err
+    if z_bytes.ndim == 0:
+        msg = (
+            f"zda_n_bytes: expected one byte count per ZDA message, got the single number "
+            f"{zda_n_bytes!r}; repeat it, e.g. np.full(len(zda_t_local_s), {zda_n_bytes!r})"
+        )
+        raise InputError(msg)
+    z_bytes = _one_dimensional(z_bytes, "zda_n_bytes")
     if len(z_t) == 0:
         msg = "no ZDA message: the GPS second of the pulses cannot be named without one"
         raise InputError(msg)
@@ -530,6 +542,13 @@ def _zda_arrays(
         raise InputError(msg)
     if not np.all(np.isfinite(z_bytes)) or np.any(z_bytes != np.rint(z_bytes)):
         msg = "zda_n_bytes: every byte count must be a whole number"
+        raise InputError(msg)
+    if np.any(z_bytes < 1):
+        i = int(np.flatnonzero(z_bytes < 1)[0])
+        msg = (
+            f"zda_n_bytes: index {i} holds {z_bytes[i]:g}; each is the ZDA message's length "
+            "on the wire, line end included (len(sentence) + 2), so at least 1"
+        )
         raise InputError(msg)
     return z_t, z_gps, z_bytes.astype(np.int64)
 

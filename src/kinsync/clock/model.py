@@ -23,7 +23,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import finite_number
+from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError, OutsideSpanError
 
 __all__ = [
@@ -54,12 +54,10 @@ CLOCK_FORMULA = (
 """The linear clock model, as written in model files and JSON output."""
 
 
-def _finite_times(t_local_s: ArrayLike, name: str) -> FloatArray:
-    try:
-        t = np.asarray(t_local_s, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"{name}: expected numbers ({err})"
-        raise InputError(msg) from err
+def _finite_times(
+    t_local_s: ArrayLike, name: str, clock: Literal["gps", "local"] = "local"
+) -> FloatArray:
+    t = time_array(t_local_s, name, clock=clock)
     bad = ~np.isfinite(t)
     if np.any(bad):
         first = int(np.flatnonzero(bad.reshape(-1))[0])
@@ -119,7 +117,7 @@ class ClockModel:
             raise InputError(msg)
         if self.knots_local_s is not None and self.knots_gps_s is not None:
             kl = _finite_times(self.knots_local_s, "clock knots_local_s")
-            kg = _finite_times(self.knots_gps_s, "clock knots_gps_s")
+            kg = _finite_times(self.knots_gps_s, "clock knots_gps_s", "gps")
             if kl.ndim != 1 or kl.shape != kg.shape or len(kl) < 2:
                 msg = (
                     "clock knots: knots_local_s and knots_gps_s must be 1-D, of one length, "

@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._validate import time_array
 from kinsync.errors import InputError, PointValueError
 from kinsync.frames import (
     rotation_ned_to_ecef,
@@ -209,8 +210,8 @@ def _read_only(a: FloatArray) -> FloatArray:
 def _shaped_points(
     t_s: ArrayLike, xyz_scanner_m: ArrayLike, what: str = "georeference"
 ) -> tuple[FloatArray, FloatArray]:
+    t = np.ascontiguousarray(time_array(t_s, f"{what}: point times t_s"))
     try:
-        t = np.ascontiguousarray(t_s, dtype=np.float64)
         xyz = np.ascontiguousarray(xyz_scanner_m, dtype=np.float64)
     except (TypeError, ValueError) as err:
         msg = f"{what}: point times and coordinates must be numbers ({err})"

@@ -38,6 +38,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._validate import time_array
 from kinsync.errors import InputError
 from kinsync.frames import (
     geodetic_to_ecef,
@@ -272,7 +273,7 @@ class GeorefTrajectory:
         Within ``[t_start_s, t_end_s]`` and not strictly inside a gap; same shape as
         ``t_s``.
         """
-        t = np.asarray(t_s, dtype=np.float64)
+        t = time_array(t_s, "contains t_s")
         out: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)
         for gap in self.gaps:
             out &= ~((t > gap.t_start_s) & (t < gap.t_end_s))

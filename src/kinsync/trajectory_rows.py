@@ -1,0 +1,64 @@
+"""Per-record arrays of a `~kinsync.trajectory.Trajectory`, checked against its times.
+
+Each message names the argument and the 0-based row at fault.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync.errors import InputError
+
+__all__ = ["check_latitudes", "first_bad_row", "validated_rows", "validated_unit_quaternions"]
+
+_QUATERNION_NORM_TOL = 1e-6
+
+
+def first_bad_row(mask: BoolArray) -> int:
+    """Index of the first True of ``mask``."""
+    return int(np.flatnonzero(mask)[0])
+
+
+def validated_rows(values: ArrayLike | None, n: int, width: int | None, name: str) -> FloatArray:
+    """``values`` as float64 of shape (n, width), or (n,) for ``width`` None; finite."""
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"trajectory {name}: expected numbers ({err})"
+        raise InputError(msg) from err
+    shape = (n,) if width is None else (n, width)
+    if arr.shape != shape:
+        msg = f"trajectory {name}: expected shape {shape} to match t_s, got {arr.shape}"
+        raise InputError(msg)
+    finite = np.isfinite(arr) if width is None else np.all(np.isfinite(arr), axis=1)
+    if not np.all(finite):
+        row = first_bad_row(~finite)
+        msg = f"trajectory {name}: non-finite value in row {row} ({arr[row].tolist()})"
+        raise InputError(msg)
+    return arr
+
+
+def validated_unit_quaternions(values: ArrayLike, n: int) -> FloatArray:
+    """(n, 4) quaternions of norm within tolerance of one, renormalised exactly."""
+    q = validated_rows(values, n, 4, "q_body_to_ned")
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.abs(norm - 1.0) > _QUATERNION_NORM_TOL
+    if np.any(bad):
+        row = first_bad_row(bad)
+        msg = (
+            f"trajectory q_body_to_ned: row {row} has norm {norm[row]:.9g}, not a unit "
+            "quaternion; normalise it or check the column order (w, x, y, z)"
+        )
+        raise InputError(msg)
+    unit: FloatArray = q / norm[:, None]
+    return unit
+
+
+def check_latitudes(lat_deg: FloatArray, name: str) -> None:
+    """Refuse a latitude (deg) outside [-90, 90], naming its row."""
+    bad = np.abs(lat_deg) > 90.0
+    if np.any(bad):
+        row = first_bad_row(bad)
+        msg = f"trajectory {name}: latitude {lat_deg[row]} outside [-90, 90] in row {row}"
+        raise InputError(msg)
