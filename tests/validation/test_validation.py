@@ -672,3 +672,23 @@ def test_a_trajectory_on_another_time_scale_is_named(scene: ControlTargetScene) 
     message = str(info.value)
     assert message.startswith("every control point seen in the cloud (")
     assert "same time scale? GPS seconds of week" in message
+
+
+def test_wall_points_too_coarse_or_not_ecef_are_refused() -> None:
+    """float32 ECEF (0.5 m steps) bent a flat wall by 46 mm; local NED read as ECEF gave
+    an origin at the south pole, 6357 km below the ellipsoid."""
+    rng = np.random.default_rng(6)
+    pts, _ = _plane_points(rng, 1000, 0.003)
+    with pytest.raises(InputError, match=r"pos_ecef_m: float32 .* steps of 0\.5 m.*float64"):
+        fit_wall(pts.astype(np.float32))
+    local = ecef_to_ned(pts, 46.8, -71.2, 30.0)
+    with pytest.raises(InputError, match=r"pos_ecef_m: .*not ECEF coordinates \(local or proj"):
+        fit_wall(local)
+    with pytest.raises(InputError, match=r"cloud pos_ecef_m: float32"):
+        CloudPoints(pos_ecef_m=pts.astype(np.float32))
+    with pytest.raises(InputError, match=r"not ECEF"):
+        ControlPoints(names=("A",), pos_ecef_m=local[:1])
+    with pytest.raises(InputError, match=r"names: expected a sequence of names, got the single"):
+        ControlPoints(names="AB", pos_ecef_m=pts[:2])  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"cloud t_s: expected seconds, got datetime64"):
+        CloudPoints(pos_ecef_m=pts[:3], t_s=np.arange(3).astype("datetime64[s]"))

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
+from kinsync._validate import ecef_array, name_tuple
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef
 
@@ -35,7 +36,9 @@ class ControlPoints:
     Raises
     ------
     InputError
-        Empty or duplicated names, a shape that does not match, non-finite values.
+        Empty or duplicated names, a shape that does not match, non-finite values,
+        float32 coordinates (too coarse for ECEF) or points not near the Earth's
+        surface (local or projected coordinates given as ECEF).
     """
 
     names: tuple[str, ...]
@@ -43,7 +46,7 @@ class ControlPoints:
     source: str = "<control points>"
 
     def __post_init__(self) -> None:
-        names = tuple(str(n).strip() for n in self.names)
+        names = tuple(n.strip() for n in name_tuple(self.names, f"{self.source}: names"))
         if not names:
             msg = f"{self.source}: no control points"
             raise InputError(msg)
@@ -58,11 +61,7 @@ class ControlPoints:
         if dupes:
             msg = f"{self.source}: duplicated control point name(s) {dupes}; names must be unique"
             raise InputError(msg)
-        try:
-            pos = np.array(self.pos_ecef_m, dtype=np.float64)
-        except (TypeError, ValueError) as err:
-            msg = f"{self.source}: control point coordinates must be numbers ({err})"
-            raise InputError(msg) from err
+        pos = np.array(ecef_array(self.pos_ecef_m, f"{self.source}: pos_ecef_m"))
         if pos.shape != (len(names), 3):
             msg = (
                 f"{self.source}: pos_ecef_m must have shape ({len(names)}, 3) to match the "

@@ -37,7 +37,7 @@ import numpy as np
 from scipy import stats
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import finite_number, positive_number
+from kinsync._validate import ecef_array, finite_number, positive_number
 from kinsync.errors import InputError
 from kinsync.frames import (
     ecef_to_geodetic,
@@ -273,13 +273,14 @@ def fit_wall(
     ------
     InputError
         Fewer than 10 points (or inliers), collinear points, a rank-deficient quadratic
-        design, bad options.
+        design, bad options; points in a float dtype too coarse for them (float32 ECEF)
+        or not near the Earth's surface (local coordinates given as ECEF).
 
     References
     ----------
     Draper & Smith 1998 (extra-sum-of-squares F-test).
     """
-    pts = finite_rows(pos_ecef_m, None, 3, "wall points")
+    pts = finite_rows(ecef_array(pos_ecef_m, "wall points pos_ecef_m"), None, 3, "wall points")
     level = finite_number(level, "level")
     if not 0.0 < level < 1.0:
         msg = f"level must lie in (0, 1), e.g. 0.99, got {level}"

@@ -37,7 +37,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from kinsync._typing import ArrayLike, FloatArray, IntArray
-from kinsync._validate import finite_number, positive_number
+from kinsync._validate import ecef_array, finite_number, positive_number, time_array
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.fit import segment_sphere
 from kinsync.frames import (
@@ -95,11 +95,15 @@ class CloudPoints:
     intensity: FloatArray | None = None
 
     def __post_init__(self) -> None:
-        pos = finite_rows(self.pos_ecef_m, None, 3, "cloud pos_ecef_m")
+        pos = finite_rows(
+            ecef_array(self.pos_ecef_m, "cloud pos_ecef_m"), None, 3, "cloud pos_ecef_m"
+        )
         n = pos.shape[0]
         object.__setattr__(self, "pos_ecef_m", pos)
         if self.t_s is not None:
-            object.__setattr__(self, "t_s", finite_rows(self.t_s, n, None, "cloud t_s"))
+            object.__setattr__(
+                self, "t_s", finite_rows(time_array(self.t_s, "cloud t_s"), n, None, "cloud t_s")
+            )
         if self.intensity is not None:
             inten = finite_rows(self.intensity, n, None, "cloud intensity")
             object.__setattr__(self, "intensity", inten)
