@@ -366,3 +366,42 @@ def test_a_scanner_origin_failure_speaks_of_the_table_frame() -> None:
     assert "origin_m" not in text
     assert "table frame, centred on the table axis" in text
     assert "vessel survey passes are not rotating-table passes" in text
+
+
+def test_pass_times_and_rate_of_the_wrong_kind_are_named() -> None:
+    """A NaN time showed as a '+nan deg/s' rate (and numpy warnings); datetime64 times
+    were taken as numbers; a rate given as a 1-element array raised a TypeError."""
+    p = small_simulation(TAU_S, seed=3)[0]
+    n = p.n_points
+    with pytest.raises(InputError, match=r"t_s: time at point index 0 \(0-based\) is not finite"):
+        SpherePass(p.source, p.rate_deg_s, p.points_ned_m, t_s=np.full(n, np.nan))
+    with pytest.raises(InputError, match=r"t_s: expected seconds, got datetime64\[ms\]"):
+        SpherePass(p.source, p.rate_deg_s, p.points_ned_m, t_s=np.arange(n).astype("M8[ms]"))
+    with pytest.raises(InputError, match=r"rate_deg_s: expected a number, got array"):
+        SpherePass(p.source, np.array([6.0]), p.points_ned_m)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("cap", [math.nan, 0.0, 1.4, 90.0])
+def test_max_incidence_is_checked_before_any_fit(cap: float) -> None:
+    """NaN, 0 or 1.4 (radians?) failed later as 'no sphere found'."""
+    passes = small_simulation(TAU_S, seed=3)
+    with pytest.raises(InputError, match=r"max_incidence_deg"):
+        estimate_latency_sphere(passes, radius_m=0.1, max_incidence_deg=cap)
+    with pytest.raises(InputError, match=r"max_incidence_deg"):
+        fit_pool(passes[:1], radius_m=0.1, max_incidence_deg=cap)
+
+
+def test_passes_from_a_generator_are_read_and_the_result_is_read_only() -> None:
+    """A generator gave 'rates found: [] deg/s'; the result's centres were writable."""
+    passes = small_simulation(TAU_S, seed=3)
+    result = estimate_latency_sphere((p for p in passes), radius_m=0.1)
+    assert result.latency_s == estimate_latency_sphere(passes, radius_m=0.1).latency_s
+    arrays = [result.sphere_center_ned_m]
+    for r in result.per_rate:
+        arrays += [r.center_ned_m, r.plus.rate_vector_ned_rad_s, r.minus.rate_vector_ned_rad_s]
+    for a in arrays:
+        assert not a.flags.writeable
+    with pytest.raises(
+        InputError, match=r"passes: expected a sequence of SpherePass, got SpherePass"
+    ):
+        estimate_latency_sphere(passes[0], radius_m=0.1)  # type: ignore[arg-type]

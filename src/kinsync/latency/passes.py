@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
 
 __all__ = ["SpherePass"]
@@ -22,14 +23,15 @@ class SpherePass:
     source : str
         Where the pass came from (file path or label), for messages.
     rate_deg_s : float
-        Signed table rate from the table controller (deg/s): positive is right-handed
+        Signed table rate from the table controller (deg/s), a number (not an array):
+        positive is right-handed
         about ``axis_ned`` (about +Down: clockwise seen from above). Non-zero.
     axis_ned : tuple of 3 float
         Rotation axis, table-centred NED; normalised on construction. Default +Down.
     points_ned_m : array_like, shape (N, 3)
         Georeferenced points, table-centred NED (m); may include clutter.
     t_s : array_like, shape (N,), optional
-        Point times (s), when the file has them.
+        Point times (s, float64: not datetime64), finite, when the file has them.
     """
 
     source: str
@@ -39,10 +41,7 @@ class SpherePass:
     t_s: FloatArray | None = None
 
     def __post_init__(self) -> None:
-        rate = float(self.rate_deg_s)
-        if not math.isfinite(rate):
-            msg = f"{self.source}: rate_deg_s must be finite, got {self.rate_deg_s!r}"
-            raise InputError(msg)
+        rate = finite_number(self.rate_deg_s, f"{self.source}: rate_deg_s")
         if rate == 0.0:
             msg = (
                 f"{self.source}: rate_deg_s is 0; a pass at rest carries no latency "
@@ -69,9 +68,17 @@ class SpherePass:
         object.__setattr__(self, "axis_ned", tuple(float(v) for v in axis / norm))
         object.__setattr__(self, "points_ned_m", pts)
         if self.t_s is not None:
-            t = np.asarray(self.t_s, dtype=np.float64).copy()
+            t = time_array(self.t_s, f"{self.source}: t_s").copy()
             if t.shape != (pts.shape[0],):
                 msg = f"{self.source}: t_s has shape {t.shape}, expected ({pts.shape[0]},)"
+                raise InputError(msg)
+            bad = ~np.isfinite(t)
+            if np.any(bad):
+                row = int(np.flatnonzero(bad)[0])
+                msg = (
+                    f"{self.source}: t_s: time at point index {row} (0-based) is not finite "
+                    f"({t[row]!r}); drop the point or fix its time"
+                )
                 raise InputError(msg)
             t.setflags(write=False)
             object.__setattr__(self, "t_s", t)

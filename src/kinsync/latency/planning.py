@@ -30,14 +30,16 @@ from typing import Any
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync._validate import positive_number
+from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError, ObservabilityError
 
 __all__ = [
     "DEFAULT_MAX_INCIDENCE_DEG",
+    "MIN_MAX_INCIDENCE_DEG",
     "LatencyPlan",
     "RatePlan",
     "TableDesign",
+    "checked_max_incidence_deg",
     "plan_latency_experiment",
 ]
 
@@ -45,6 +47,28 @@ DEFAULT_MAX_INCIDENCE_DEG = 80.0
 """Returns hitting the sphere more obliquely than this are left out of the centre fit
 (estimator and planner alike): near grazing the range derivative grows without bound
 and real returns degrade."""
+
+MIN_MAX_INCIDENCE_DEG = 10.0
+"""Smallest incidence cap (deg) accepted: a tighter cap keeps only a small patch of the
+sphere facing the scanner, too little surface for a centre; a value this small is most
+likely radians given as degrees (1.4 rad is 80 deg)."""
+
+
+def checked_max_incidence_deg(value: object) -> float:
+    """``max_incidence_deg`` as a float in [`MIN_MAX_INCIDENCE_DEG`, 90), else `InputError`.
+
+    One check for the planner (`TableDesign`) and the estimator
+    (`kinsync.latency.sphere.estimate_latency_sphere`, `~kinsync.latency.sphere.fit_pool`).
+    """
+    cap = finite_number(value, "max_incidence_deg")
+    if not MIN_MAX_INCIDENCE_DEG <= cap < 90.0:
+        msg = (
+            f"max_incidence_deg must lie in [{MIN_MAX_INCIDENCE_DEG:g}, 90) degrees, got "
+            f"{value!r}; the default is {DEFAULT_MAX_INCIDENCE_DEG:g} (give degrees, not radians)"
+        )
+        raise InputError(msg)
+    return cap
+
 
 _PHASES = 16
 _MAX_RAYS_PER_PASS = 2e7  # 16 phases x 2e7 rays x 3 float64 ~ 0.5 GB at a time
@@ -113,9 +137,9 @@ class TableDesign:
         if isinstance(self.passes, bool) or int(self.passes) != self.passes or self.passes < 1:
             msg = f"passes must be a whole number >= 1, got {self.passes!r}"
             raise InputError(msg)
-        if not 0.0 < self.max_incidence_deg < 90.0:
-            msg = f"max_incidence_deg must lie in (0, 90), got {self.max_incidence_deg!r}"
-            raise InputError(msg)
+        object.__setattr__(
+            self, "max_incidence_deg", checked_max_incidence_deg(self.max_incidence_deg)
+        )
         if abs(self.sphere_elevation_deg) >= 89.0:
             msg = (
                 "sphere_elevation_deg: a sphere on the table axis has no latency signal; "

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,13 +32,14 @@ import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
+from kinsync._arrays import readonly_array
 from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
-from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
+from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG, checked_max_incidence_deg
 from kinsync.latency.rate_check import check_pass_rates
 from kinsync.progress import Progress, report
 from kinsync.robust import robust_sigma
@@ -101,6 +102,12 @@ class PoolFit:
     sources: tuple[str, ...]
     n_points_per_pass: tuple[int, ...] = ()
 
+    def __post_init__(self) -> None:
+        # Own read-only copy, as SphereFit's arrays: a result never changes.
+        object.__setattr__(
+            self, "rate_vector_ned_rad_s", readonly_array(self.rate_vector_ned_rad_s)
+        )
+
     @property
     def center_std_m(self) -> float:
         """Centre standard deviation, RMS over the three axes (m)."""
@@ -142,6 +149,10 @@ class RateLatency:
     chi2: float
     plus: PoolFit
     minus: PoolFit
+
+    def __post_init__(self) -> None:
+        # Own read-only copy, as SphereFit's arrays: a result never changes.
+        object.__setattr__(self, "center_ned_m", readonly_array(self.center_ned_m))
 
     def row_text(self) -> tuple[str, ...]:
         """Rate (deg/s), points, centre sigma (mm), latency, its sigma, first-order (ms)."""
@@ -248,6 +259,10 @@ class SphereLatencyResult:
     unpaired_rates_deg_s: tuple[float, ...]
     n_passes: int
     rejected_passes: tuple[RejectedPass, ...] = ()
+
+    def __post_init__(self) -> None:
+        # Own read-only copy, as SphereFit's arrays: a result never changes.
+        object.__setattr__(self, "sphere_center_ned_m", readonly_array(self.sphere_center_ned_m))
 
     @property
     def rates_disagree(self) -> bool:
@@ -356,11 +371,13 @@ def fit_pool(
     Raises
     ------
     InputError
-        No sphere found among the pooled points.
+        No sphere found among the pooled points; max_incidence_deg outside
+        [`~kinsync.latency.planning.MIN_MAX_INCIDENCE_DEG`, 90).
     """
     if not passes:
         msg = "fit_pool: no passes given"
         raise InputError(msg)
+    max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
     points = np.concatenate([p.points_ned_m for p in passes])
     origin = None if scanner_origin_ned_m is None else np.asarray(scanner_origin_ned_m, float)
     n_text = f"{counted(len(passes), 'pass')}, {counted(len(points), 'point')}"
@@ -638,6 +655,19 @@ def _fit_pool_rejecting(
     return None, rejected, f"rate {passes[0].rate_deg_s:+g} deg/s: no pass holds a usable sphere"
 
 
+def _pass_sequence(passes: Iterable[SpherePass]) -> tuple[SpherePass, ...]:
+    """``passes`` as a tuple (a generator is read once), each checked to be a `SpherePass`."""
+    if isinstance(passes, (str, bytes, SpherePass)) or not isinstance(passes, Iterable):
+        msg = f"passes: expected a sequence of SpherePass, got {type(passes).__name__}"
+        raise InputError(msg)
+    out = tuple(passes)
+    for i, p in enumerate(out):
+        if not isinstance(p, SpherePass):
+            msg = f"passes: item at index {i} (0-based) is a {type(p).__name__}, not a SpherePass"
+            raise InputError(msg)
+    return out
+
+
 def _group_passes(
     passes: Sequence[SpherePass],
 ) -> dict[tuple[float, tuple[float, float, float]], list[SpherePass]]:
@@ -684,7 +714,7 @@ def _pair_groups(
 
 
 def estimate_latency_sphere(
-    passes: Sequence[SpherePass],
+    passes: Iterable[SpherePass],
     *,
     radius_m: float | None = None,
     scanner_origin_ned_m: ArrayLike | None = (0.0, 0.0, 0.0),
@@ -696,8 +726,9 @@ def estimate_latency_sphere(
 
     Parameters
     ----------
-    passes : sequence of SpherePass
-        Georeferenced passes (table-centred NED) with signed controller rates.
+    passes : iterable of SpherePass
+        Georeferenced passes (table-centred NED) with signed controller rates (a
+        generator is read once, into a tuple).
     radius_m : float, optional
         Known sphere radius (m); estimated per pool when None.
     scanner_origin_ned_m : array_like, shape (3,), optional
@@ -721,16 +752,20 @@ def estimate_latency_sphere(
     Raises
     ------
     InputError
-        No passes; a pass whose points turn the other way than its stated rate, or
+        No passes (or items that are not SpherePass); max_incidence_deg outside
+        [`~kinsync.latency.planning.MIN_MAX_INCIDENCE_DEG`, 90); a pass whose points
+        turn the other way than its stated rate, or
         more than twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign,
         rates in rad/s, points in ENU); no rate with both signs; no rate whose passes
         of both signs hold a usable sphere.
     ObservabilityError
         The rotation axis points at the sphere.
     """
+    passes = _pass_sequence(passes)
     if not passes:
         msg = "no passes given"
         raise InputError(msg)
+    max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
     if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
         msg = f"radius_m must be positive, got {radius_m!r}"
         raise InputError(msg)
