@@ -24,8 +24,9 @@ The TOML schema (exactly these keys)::
 must not silently mean zero (write ``latency_s = 0.0`` when zero is meant). A missing
 lever arm or boresight means zero. Values a mount cannot have are refused on reading:
 a latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond +-`MAX_LEVER_ARM_M`,
-an angle beyond +-`MAX_ANGLE_DEG`. The `Mount` container itself takes any finite
-values (estimators and simulators build mounts freely).
+an angle beyond +-`MAX_ANGLE_DEG`: the `Mount` container refuses these itself (one
+check for a file and a mount built in Python); the reader adds warnings for values few
+mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`).
 
 ``[uncertainty]`` says how well the values are known: what a calibration that holds a
 parameter (not estimated, or not determined by the data) adds to the sigma of those it
@@ -549,6 +550,13 @@ class Mount:
     uncertainty : MountUncertainty or None
         How well the values are known (the ``[uncertainty]`` table); None when the file
         says nothing.
+
+    Raises
+    ------
+    InputError
+        A value that is not a finite number (or 3 of them), or one no mount has: a
+        latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond
+        +-`MAX_LEVER_ARM_M`, a boresight or profiler angle beyond +-`MAX_ANGLE_DEG`.
     """
 
     lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
@@ -583,6 +591,7 @@ class Mount:
                 msg = f"mount [profiler] azimuth_deg: must be finite, got {az!r}"
                 raise InputError(msg)
             object.__setattr__(self, "profiler_azimuth_deg", az_deg)
+        _refuse_impossible(self)
 
     @cached_property
     def R_scanner_to_body(self) -> FloatArray:
@@ -760,18 +769,17 @@ def _correlation_table(table: object, source: str) -> StdCorrelation:
     return corr
 
 
-def _check_plausible(mount: Mount, source: str) -> None:
+def _refuse_impossible(mount: Mount) -> None:
     """Refuse values no mount has (`MAX_LATENCY_S`, `MAX_LEVER_ARM_M`, `MAX_ANGLE_DEG`).
 
-    Values that few mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`) are read with a
-    `KinsyncWarning` naming the likely unit mistake.
+    The container's own check (`Mount.__post_init__`), so a mount file and a mount built
+    in Python are held to one rule; the reader prefixes the file's name.
     """
     if abs(mount.latency_s) > MAX_LATENCY_S:
         msg = (
-            f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
-            f"+-{MAX_LATENCY_S:g} s; latencies are milliseconds: a larger value is a unit "
-            "or time-scale mistake (give seconds, and put the trajectory and the points on "
-            "one time scale)"
+            f"mount latency_s = {mount.latency_s!r} s is beyond +-{MAX_LATENCY_S:g} s; "
+            "latencies are milliseconds: a larger value is a unit or time-scale mistake "
+            "(give seconds, and put the trajectory and the points on one time scale)"
         )
         raise InputError(msg)
     limits = (
@@ -783,11 +791,23 @@ def _check_plausible(mount: Mount, source: str) -> None:
         values: Vector3 = getattr(mount, name)
         for i, value in enumerate(values):
             if abs(value) > limit:
-                msg = (
-                    f"{source}: [mount] {name}[{i}] = {value!r} {unit} is beyond "
-                    f"+-{limit:g} {unit} ({hint})"
-                )
+                msg = f"mount {name}[{i}] = {value!r} {unit} is beyond +-{limit:g} {unit} ({hint})"
                 raise InputError(msg)
+    az = mount.profiler_azimuth_deg
+    if az is not None and abs(az) > MAX_ANGLE_DEG:
+        msg = (
+            f"mount [profiler] azimuth_deg = {az!r} deg is beyond +-{MAX_ANGLE_DEG:g} deg "
+            "(give degrees within one turn)"
+        )
+        raise InputError(msg)
+
+
+def _check_plausible(mount: Mount, source: str) -> None:
+    """Warn of values that few mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`).
+
+    Each `KinsyncWarning` names the likely unit mistake; values no mount has were
+    refused by the container (`_refuse_impossible`).
+    """
     if abs(mount.latency_s) > WARN_LATENCY_S:
         warnings.warn(
             f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
@@ -807,13 +827,6 @@ def _check_plausible(mount: Mount, source: str) -> None:
                 stacklevel=3,
             )
     _warn_uncertainty(mount.uncertainty, source)
-    az = mount.profiler_azimuth_deg
-    if az is not None and abs(az) > MAX_ANGLE_DEG:
-        msg = (
-            f"{source}: [profiler] azimuth_deg = {az!r} deg is beyond +-{MAX_ANGLE_DEG:g} deg "
-            "(give degrees within one turn)"
-        )
-        raise InputError(msg)
 
 
 _UNIT_SLIPS = {
