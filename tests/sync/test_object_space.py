@@ -54,6 +54,13 @@ def oval_result(oval: DriveScanSimulation) -> ObjectSpaceResult:
     )
 
 
+def test_crossing_counts_are_read_only(oval_result: ObjectSpaceResult) -> None:
+    """n_crossings was a plain dict in a frozen result."""
+    with pytest.raises(TypeError):
+        oval_result.n_crossings["S1"] = 0  # type: ignore[index]
+    assert dict(oval_result.n_crossings) == oval_result.as_document()["n_crossings"]
+
+
 def _errors(result: ObjectSpaceResult, sim: DriveScanSimulation) -> tuple[float, float]:
     return result.t0_s - sim.truth["t0_s"], result.period_s - sim.truth["period_s"]
 

@@ -164,8 +164,9 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -298,8 +299,8 @@ class ObjectSpaceResult:
         The regression pairs, in profile order.
     unmatched : tuple of Sighting
         Sightings matched to no sync-point crossing (control targets, glints...).
-    n_crossings : dict of str to int
-        Candidate crossings found per sync point.
+    n_crossings : Mapping of str to int
+        Candidate crossings found per sync point (a read-only mapping).
     ambiguous : bool
         Another assignment fits almost as well (see ``alternatives``) and the pulses, if
         given, do not rule it out (module step 6).
@@ -326,13 +327,17 @@ class ObjectSpaceResult:
     sigma_scale: float
     sightings: tuple[MatchedSighting, ...]
     unmatched: tuple[Sighting, ...]
-    n_crossings: dict[str, int] = field(default_factory=dict)
+    n_crossings: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
     ambiguous: bool = False
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
     settled_by_pulses: bool = False
     crossings_in_gaps: tuple[GapCrossing, ...] = ()
     gap_threshold_s: float = math.inf
+
+    def __post_init__(self) -> None:
+        # A frozen result holds no mutable state: a read-only copy of the counts.
+        object.__setattr__(self, "n_crossings", MappingProxyType(dict(self.n_crossings)))
 
     @property
     def clock(self) -> ProfileClock:

@@ -14,8 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray, IntArray
+from kinsync._validate import name_tuple
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
+from kinsync.mount import MAX_PROFILE_ANGLE_RAD
 
 __all__ = [
     "MAX_PROFILE_NUMBER",
@@ -111,7 +113,8 @@ class ProfileScan:
     profile : ndarray of int64, shape (N,)
         Profile number n of each return, >= 0, never decreasing.
     angle_rad : ndarray, shape (N,)
-        Mirror angle phi from nadir, positive towards the scanner's +Y (rad).
+        Mirror angle phi from nadir, positive towards the scanner's +Y (rad), within
+        +-`~kinsync.mount.MAX_PROFILE_ANGLE_RAD` (one turn; more is degrees).
     range_m : ndarray, shape (N,)
         Range (m), >= 0.
     intensity : ndarray, shape (N,)
@@ -138,6 +141,15 @@ class ProfileScan:
             object.__setattr__(
                 self, name, _finite_column(getattr(self, name), name, n, self.source)
             )
+        turned = np.abs(self.angle_rad) > MAX_PROFILE_ANGLE_RAD
+        if np.any(turned):
+            row = int(np.flatnonzero(turned)[0])
+            msg = (
+                f"{self.source}: {_index_text(row)}, column 'angle_rad': "
+                f"{self.angle_rad[row]!r} is beyond one turn (+-2 pi rad); give the mirror "
+                "angles in radians (degrees given as radians?)"
+            )
+            raise InputError(msg)
         neg = self.range_m < 0
         if np.any(neg):
             row = int(np.flatnonzero(neg)[0])
@@ -188,7 +200,7 @@ class SyncPoints:
     source: str = "<sync points>"
 
     def __post_init__(self) -> None:
-        names = tuple(str(n) for n in self.names)
+        names = name_tuple(self.names, f"{self.source}: names")
         llh = np.asarray(self.lat_lon_h, dtype=np.float64)
         if llh.ndim != 2 or llh.shape[1] != 3 or llh.shape[0] != len(names):
             msg = (
