@@ -52,15 +52,21 @@ def test_geodetic_round_trip(
 @given(
     names=names_st,
     coords=st.lists(
-        st.tuples(*[st.floats(-7e6, 7e6, allow_nan=False)] * 3), min_size=8, max_size=8
+        st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: np.linalg.norm(v) > 0.1),
+        min_size=8,
+        max_size=8,
     ),
+    radius_m=st.floats(6.31e6, 6.44e6),
 )
 def test_ecef_round_trip_is_exact(
     tmp_path_factory: pytest.TempPathFactory,
     names: list[str],
     coords: list[tuple[float, float, float]],
+    radius_m: float,
 ) -> None:
-    pos = np.array(coords[: len(names)])
+    """Any ECEF point near the Earth's surface (the container refuses others)."""
+    v = np.array(coords[: len(names)])
+    pos = v / np.linalg.norm(v, axis=1, keepdims=True) * radius_m
     points = ControlPoints(tuple(names), pos)
     path = tmp_path_factory.mktemp("cp") / "control.csv"
     write_control_points(points, path, form="ecef")
@@ -72,12 +78,13 @@ def test_ecef_round_trip_is_exact(
 def test_extra_columns_blank_lines_and_bom_are_fine(tmp_path: Path) -> None:
     path = tmp_path / "c.csv"
     path.write_text(
-        "\ufeffname, x_m ,y_m,z_m,comment\n A ,1.5,2.5,3.5,on the wall\n\nB,4,5,6,\n",
+        "\ufeffname, x_m ,y_m,z_m,comment\n A ,6378137.5,2.5,3.5,on the wall\n\n"
+        "B,4,5,6356752.25,\n",
         encoding="utf-8",
     )
     cp = read_control_points(path)
     assert cp.names == ("A", "B")
-    np.testing.assert_array_equal(cp.pos_ecef_m, [[1.5, 2.5, 3.5], [4.0, 5.0, 6.0]])
+    np.testing.assert_array_equal(cp.pos_ecef_m, [[6378137.5, 2.5, 3.5], [4.0, 5.0, 6356752.25]])
     assert cp.source == str(path)
     np.testing.assert_allclose(
         ControlPoints.from_geodetic(["P"], [46.8], [-71.2], [10.0]).lat_lon_h(),
@@ -125,18 +132,20 @@ def test_missing_and_unreadable_files(tmp_path: Path) -> None:
 
 def test_container_checks() -> None:
     with pytest.raises(InputError, match="shape"):
-        ControlPoints(("A", "B"), np.zeros((3, 3)))
+        ControlPoints(("A", "B"), np.full((3, 3), 3.7e6))
     with pytest.raises(InputError, match="non-finite"):
         ControlPoints(("A",), np.array([[0.0, np.inf, 0.0]]))
     with pytest.raises(InputError, match="duplicated"):
-        ControlPoints(("A", "A"), np.zeros((2, 3)))
+        ControlPoints(("A", "A"), np.full((2, 3), 3.7e6))
     with pytest.raises(InputError, match="empty name"):
-        ControlPoints(("A", " "), np.zeros((2, 3)))
+        ControlPoints(("A", " "), np.full((2, 3), 3.7e6))
     with pytest.raises(InputError, match="no control points"):
         ControlPoints((), np.zeros((0, 3)))
     with pytest.raises(InputError, match="numbers"):
         ControlPoints(("A",), np.array([["x", 0, 0]]))
-    cp = ControlPoints(("A",), np.array([[1.0, 2.0, 3.0]]))
+    with pytest.raises(InputError, match="not ECEF"):
+        ControlPoints(("A",), np.array([[1.0, 2.0, 3.0]]))
+    cp = ControlPoints(("A",), np.array([[6378137.0, 2.0, 3.0]]))
     assert len(cp) == 1
     assert not cp.pos_ecef_m.flags.writeable
 
