@@ -1,17 +1,23 @@
-"""Argument checks shared by the library (messages name the argument).
+"""Argument and value checks shared by the library and the readers (messages name the value).
 
 Scalars: `finite_number`, `positive_number`. Arrays of times and coordinates:
 `time_array`, `coordinate_array`, `ecef_array`, one check each wherever the API takes
 them, so that a float32 or datetime64 array is refused the same way everywhere.
+`Span` is the plausible range of one kind of quantity; `check_values`, `check_quantity`
+and `check_columns` refuse the first value outside it, naming where it came from (the
+readers' value guards, `kinsync.io.sanity`, and containers such as
+`kinsync.ins.config.InsConfig`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
@@ -20,6 +26,10 @@ __all__ = [
     "COORDINATE_STEP_M",
     "ECEF_RADIUS_RANGE_M",
     "TIME_STEP_S",
+    "Span",
+    "check_columns",
+    "check_quantity",
+    "check_values",
     "coordinate_array",
     "ecef_array",
     "finite_number",
@@ -199,3 +209,153 @@ def ecef_array(values: ArrayLike, name: str) -> FloatArray:
         )
         raise InputError(msg)
     return arr
+
+
+@dataclass(frozen=True)
+class Span:
+    """Closed span of plausible values of one kind of quantity.
+
+    Attributes
+    ----------
+    low, high : float
+        Bounds (inclusive).
+    unit : str
+        Unit of the values ("s", "m").
+    what : str
+        What such a value is, for messages ("a time", "an ellipsoidal height").
+    """
+
+    low: float
+    high: float
+    unit: str
+    what: str
+
+    def positive(self, smallest: float, what: str) -> Span:
+        """The span ``[smallest, high]`` of ``what``: a standard deviation, a range, ..."""
+        return Span(smallest, self.high, self.unit, what)
+
+
+def _span_text(span: Span) -> str:
+    unit = f" {span.unit}" if span.unit else ""
+    return f"{span.low:g} to {span.high:g}{unit}"
+
+
+def check_values(
+    values: npt.ArrayLike,
+    span: Span,
+    where: Callable[[int], str] | str,
+    *,
+    allow_nan: bool = False,
+) -> None:
+    """Refuse the first value that is not finite or lies outside ``span``.
+
+    Parameters
+    ----------
+    values : array_like, shape (N,)
+        The values.
+    span : Span
+        Plausible values.
+    where : callable or str
+        ``where(i)`` names value ``i`` in messages ("traj.csv: line 7, column 'h_m'");
+        a str names every value (a single value).
+    allow_nan : bool
+        NaN is accepted (it means "not given" in that column).
+
+    Raises
+    ------
+    InputError
+        Naming the first bad value, what it should be and the span.
+    """
+    v = np.asarray(values, dtype=np.float64).ravel()
+    bad = _bad(v, span, allow_nan=allow_nan)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(_message(where if isinstance(where, str) else where(i), float(v[i]), span))
+
+
+def check_quantity(value: float | tuple[float, ...], span: Span, name: str, note: str = "") -> None:
+    """`check_values` for one named quantity: a number, or a vector's components.
+
+    Parameters
+    ----------
+    value : float or tuple of float
+        The number, or the vector (component ``i`` is named ``name[i]``).
+    span : Span
+        Its plausible values.
+    name : str
+        What messages call it: a field (``"max_imu_gap_s"``) or a key as written in a
+        file (``"cfg.toml: [filter] max_imu_gap_s"``).
+    note : str
+        Appended to the name (``" (in SI units)"`` for a key given in other units).
+
+    Raises
+    ------
+    InputError
+        The value, or the first component, not finite or outside ``span``.
+    """
+    if isinstance(value, tuple):
+        check_values(value, span, lambda i: f"{name}[{i}]{note}")
+    else:
+        check_values([value], span, f"{name}{note}")
+
+
+def _bad(v: npt.NDArray[np.float64], span: Span, *, allow_nan: bool) -> npt.NDArray[np.bool_]:
+    finite = np.isfinite(v)
+    out = ~finite
+    if allow_nan:
+        out &= ~np.isnan(v)
+    out[finite] |= (v[finite] < span.low) | (v[finite] > span.high)
+    return out
+
+
+def _message(where: str, value: float, span: Span) -> str:
+    if not math.isfinite(value):
+        return f"{where}: {value!r} is not a finite number; fix or remove it"
+    if value < 0.0 <= span.low:
+        return f"{where}: {value!r} is negative; {span.what} is >= 0: fix the value"
+    if value < span.low and span.low > 0.0:
+        return f"{where}: {value!r} is too small for {span.what} (at least {span.low:g}); fix it"
+    return (
+        f"{where}: {value!r} is outside {_span_text(span)}, the plausible span of "
+        f"{span.what}; check the unit and the column order, or fix the value"
+    )
+
+
+def check_columns(
+    columns: Mapping[str, npt.ArrayLike],
+    spans: Mapping[str, Span],
+    where: Callable[[int], str],
+    *,
+    allow_nan: tuple[str, ...] = (),
+) -> None:
+    """`check_values` for several columns of a table, naming the first bad row.
+
+    Parameters
+    ----------
+    columns : mapping of str to array_like, each of shape (N,)
+        The table's columns by name.
+    spans : mapping of str to Span
+        Span of each column to check; columns absent from ``columns`` are skipped.
+    where : callable
+        ``where(row)`` names a row ("traj.csv: line 7"); the column is appended.
+    allow_nan : tuple of str
+        Columns in which NaN means "not given" and is accepted.
+
+    Raises
+    ------
+    InputError
+        Naming the earliest row holding a bad value, its column and the span.
+    """
+    first: tuple[int, str, float] | None = None
+    for name, span in spans.items():
+        if name not in columns:
+            continue
+        v = np.asarray(columns[name], dtype=np.float64).ravel()
+        bad = _bad(v, span, allow_nan=name in allow_nan)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            if first is None or row < first[0]:
+                first = (row, name, float(v[row]))
+    if first is not None:
+        row, name, value = first
+        raise InputError(_message(f"{where(row)}, column {name!r}", value, spans[name]))

@@ -6,6 +6,7 @@ import dataclasses
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -336,3 +337,41 @@ def test_bad_scale_factor_and_bias_keys(extra: str, fragments: list[str]) -> Non
     assert message.startswith("cfg.toml: ")
     for frag in fragments:
         assert frag in message, message
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "field", "si_value"),
+    [
+        (
+            MINIMAL.replace("gyro_bias_sigma_rad_s = 1e-3", "gyro_bias_sigma_deg_h = 1e12"),
+            "[imu] gyro_bias_sigma_deg_h",
+            "gyro_bias_sigma_rad_s",
+            1e12 * (math.pi / 180.0 / 3600.0),
+        ),
+        (MINIMAL + "acc_bias_corr_time_s = 1e11\n", "[imu] acc_bias_corr_time_s", None, 1e11),
+        (
+            MINIMAL + "[gnss]\nantenna_lever_arm_body_m = [0, 2000, 0]\n",
+            "[gnss] antenna_lever_arm_body_m",
+            None,
+            (0.0, 2000.0, 0.0),
+        ),
+        (MINIMAL + "[filter]\nmax_imu_gap_s = 1e7\n", "[filter] max_imu_gap_s", None, 1e7),
+    ],
+)
+def test_implausible_values_are_refused_from_a_file_and_from_python_alike(
+    text: str, key: str, field: str | None, si_value: float | tuple[float, ...]
+) -> None:
+    """One check for both paths (`InsConfig`'s): the file's message names the key as
+    written, the container's the field."""
+    field = field or key.split("] ")[1]
+    with pytest.raises(InputError) as from_file:
+        ins_config_from_toml_text(text, source="cfg.toml")
+    changes: dict[str, Any] = {field: si_value}
+    valid = ins_config_from_toml_text(MINIMAL)
+    with pytest.raises(InputError) as from_python:
+        dataclasses.replace(valid, **changes)
+    index = "[1]" if isinstance(si_value, tuple) else ""
+    file_message, python_message = str(from_file.value), str(from_python.value)
+    assert file_message.startswith(f"cfg.toml: {key}{index} (in SI units): ")
+    assert python_message.startswith(f"{field}{index}: ")
+    assert file_message.split(" (in SI units): ")[1] == python_message.split(": ", 1)[1]

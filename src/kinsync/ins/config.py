@@ -10,17 +10,33 @@ datasheet's turn-on σ, or a laboratory calibration with its own σ, the ``init_
 fields) plus an **in-run instability** (the steady-state σ of a first-order
 Gauss–Markov process with the given correlation time): two states per axis in the
 filter (`kinsync.ins._ekf`). Scale factor errors are modelled when their σ is given.
+
+Every value must be finite and plausible (`FIELD_SPANS`, in SI units): noise terms and
+σ within 1e-12 to 1e6 (the filter squares them and divides by them), correlation times
+within 1e-9 to 1e10 s, ``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components
+within ±1000 m, scale factor σ 0 (not modelled) or within 1e-6 to 1e6 ppm, calibrated
+biases within ±10 rad/s and ±1000 m/s^2. `InsConfig` refuses anything else naming its
+field; the TOML reader runs the same check (`kinsync._validate.check_quantity` with
+these spans) first, naming the key as written.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
-from kinsync._validate import positive_number
+from kinsync._validate import Span, check_quantity, finite_number, positive_number
 from kinsync.errors import InputError
 
-__all__ = ["BIAS_PAIRS", "GATE_PROBABILITY_MIN", "POSITIVE_FIELDS", "InsConfig"]
+__all__ = [
+    "BIAS_PAIRS",
+    "FIELD_SPANS",
+    "GATE_PROBABILITY_MIN",
+    "POSITIVE_FIELDS",
+    "SCALE_FACTOR_FIELDS",
+    "InsConfig",
+]
 
 Vector3 = tuple[float, float, float]
 
@@ -54,6 +70,43 @@ BIAS_PAIRS = (
 """Each calibrated turn-on bias and its σ: given together or not at all."""
 POSITIVE_FIELDS = frozenset((*POSITIVE_SCALARS, *POSITIVE_VECTORS, *(s for _, s in BIAS_PAIRS)))
 """The fields whose every value must be above 0."""
+SCALE_FACTOR_FIELDS = ("gyro_scale_factor_sigma_ppm", "acc_scale_factor_sigma_ppm")
+"""Scale factor σ (ppm): 0 leaves the scale factors out of the filter."""
+
+_TERM = Span(1e-12, 1e6, "(SI units)", "an IMU noise or bias term or a standard deviation")
+_CORR_TIME = Span(1e-9, 1e10, "s", "a bias correlation time")
+_GAP = Span(1e-9, 1e6, "s", "an IMU gap")
+_LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehicle)")
+_PPM = Span(1e-6, 1e6, "ppm", "a scale factor σ")
+_GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
+_ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
+
+FIELD_SPANS: dict[str, Span] = {
+    **dict.fromkeys(POSITIVE_FIELDS, _TERM),
+    "gyro_bias_corr_time_s": _CORR_TIME,
+    "acc_bias_corr_time_s": _CORR_TIME,
+    "max_imu_gap_s": _GAP,
+    **dict.fromkeys(SCALE_FACTOR_FIELDS, _PPM),
+    "antenna_lever_arm_body_m": _LEVER_ARM,
+    "init_gyro_bias_rad_s": _GYRO_BIAS,
+    "init_acc_bias_m_s2": _ACC_BIAS,
+}
+"""Plausible values of each numeric field (SI units; `kinsync._validate.Span`). Noise
+densities, bias terms and σ are squared and divided by in the filter, so they must lie
+far from 0 and from float64's limits. ``gate_probability`` has its own bounds
+(`GATE_PROBABILITY_MIN`, below 1)."""
+
+
+def _three(value: object, name: str) -> tuple[object, ...]:
+    """``value`` as a tuple of 3 items, or `InputError` naming ``name``."""
+    if not isinstance(value, Iterable) or isinstance(value, str):
+        msg = f"{name}: expected 3 values, got {value!r}"
+        raise InputError(msg)
+    vals = tuple(value)
+    if len(vals) != 3:
+        msg = f"{name}: expected 3 values, got {len(vals)}"
+        raise InputError(msg)
+    return vals
 
 
 def _finite3(value: object, name: str) -> Vector3:
@@ -140,17 +193,18 @@ class InsConfig:
         for name in POSITIVE_SCALARS:
             object.__setattr__(self, name, positive_number(getattr(self, name), name))
         for name in POSITIVE_VECTORS:
-            vals = tuple(getattr(self, name))
-            if len(vals) != 3:
-                msg = f"{name}: expected 3 values, got {len(vals)}"
-                raise InputError(msg)
+            vals = _three(getattr(self, name), name)
             object.__setattr__(
                 self, name, tuple(positive_number(v, f"{name}[{i}]") for i, v in enumerate(vals))
             )
-        for name in ("gyro_scale_factor_sigma_ppm", "acc_scale_factor_sigma_ppm"):
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value >= 0.0):
-                msg = f"{name}: must be a number >= 0 (0: not modelled), got {value!r}"
+        for name in SCALE_FACTOR_FIELDS:
+            raw = getattr(self, name)
+            try:
+                value = finite_number(raw, name)
+            except InputError:
+                value = math.nan
+            if not value >= 0.0:
+                msg = f"{name}: must be a number >= 0 (0: not modelled), got {raw!r}"
                 raise InputError(msg)
             object.__setattr__(self, name, value)
         for value_name, std_name in BIAS_PAIRS:
@@ -167,15 +221,12 @@ class InsConfig:
             object.__setattr__(
                 self,
                 std_name,
-                tuple(positive_number(v, f"{std_name}[{i}]") for i, v in enumerate(std)),
+                tuple(
+                    positive_number(v, f"{std_name}[{i}]")
+                    for i, v in enumerate(_three(std, std_name))
+                ),
             )
-            if len(getattr(self, std_name)) != 3:
-                msg = f"{std_name}: expected 3 values, got {len(std)}"
-                raise InputError(msg)
-        arm = tuple(float(v) for v in self.antenna_lever_arm_body_m)
-        if len(arm) != 3:
-            msg = f"antenna_lever_arm_body_m: expected 3 values, got {len(arm)}"
-            raise InputError(msg)
+        arm = _finite3(self.antenna_lever_arm_body_m, "antenna_lever_arm_body_m")
         object.__setattr__(self, "antenna_lever_arm_body_m", arm)
         p = float(self.gate_probability)
         if not GATE_PROBABILITY_MIN <= p < 1.0:
@@ -184,3 +235,8 @@ class InsConfig:
                 "rejects 1 - p of the epochs of a filter that fits (0.999 or 0.9999 are usual)"
             )
             raise InputError(msg)
+        for name, span in FIELD_SPANS.items():
+            value = getattr(self, name)
+            if value is None or (name in SCALE_FACTOR_FIELDS and value == 0.0):
+                continue  # not calibrated, or not modelled
+            check_quantity(value, span, name)

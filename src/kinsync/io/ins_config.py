@@ -42,12 +42,14 @@ Conversions: 1 deg/sqrt(h) = (pi/180)/60 rad/s/sqrt(Hz); 1 m/s/sqrt(h) = 1/60
 m/s^2/sqrt(Hz); 1 deg/h = (pi/180)/3600 rad/s; 1 mg = 9.80665e-3 m/s^2; 1 µg/sqrt(Hz) =
 9.80665e-6 m/s^2/sqrt(Hz). Unknown tables
 and keys are rejected (a typo must not silently fall back to a default), as are keys
-given in two units. Values must be plausible (in SI units): noise terms and σ within
-1e-12 to 1e6 (the filter squares them and divides by them), correlation times within
-1e-9 to 1e10 s, ``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components within
-+-1000 m, scale factor σ within 1e-6 to 1e6 ppm, calibrated biases within +-10 rad/s
-and +-1000 m/s^2. `ins_config_to_toml_text` writes the SI keys with ``repr`` floats, so a
-write/read round trip is exact.
+given in two units. Values must be plausible (in SI units), as `InsConfig` requires of
+every configuration (its spans, `kinsync.ins.config.FIELD_SPANS`, checked here first so
+that a message names the key as written): noise terms and σ within 1e-12 to 1e6 (the
+filter squares them and divides by them), correlation times within 1e-9 to 1e10 s,
+``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components within +-1000 m, scale
+factor σ within 1e-6 to 1e6 ppm (leave the key out not to model them), calibrated
+biases within +-10 rad/s and +-1000 m/s^2. `ins_config_to_toml_text` writes the SI keys
+with ``repr`` floats, so a write/read round trip is exact.
 """
 
 from __future__ import annotations
@@ -58,11 +60,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from kinsync._validate import check_quantity
 from kinsync.errors import InputError
-from kinsync.ins.config import BIAS_PAIRS, GATE_PROBABILITY_MIN, POSITIVE_FIELDS, InsConfig
+from kinsync.ins.config import (
+    BIAS_PAIRS,
+    FIELD_SPANS,
+    POSITIVE_FIELDS,
+    SCALE_FACTOR_FIELDS,
+    InsConfig,
+)
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import read_toml_text
-from kinsync.io.sanity import Span, check_values
 from kinsync.mount import toml_document
 
 __all__ = [
@@ -79,18 +87,6 @@ G0_M_S2 = 9.80665
 _DEG = math.pi / 180.0
 
 
-_TERM = Span(1e-12, 1e6, "(SI units)", "an IMU noise or bias term or a standard deviation")
-"""Plausible noise densities, bias terms and σ (`kinsync.io.sanity`): squared and divided
-by in the filter, so far from 0 and from float64's limits."""
-_CORR_TIME = Span(1e-9, 1e10, "s", "a bias correlation time")
-_GAP = Span(1e-9, 1e6, "s", "an IMU gap")
-_LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehicle)")
-_PROBABILITY = Span(GATE_PROBABILITY_MIN, 1.0, "", "a gate probability")
-_PPM = Span(1e-6, 1e6, "ppm", "a scale factor σ")
-_GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
-_ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
-
-
 def _rate_keys(stem: str) -> tuple[tuple[str, float], ...]:
     """The keys of an angular rate ``stem``: rad/s (SI), deg/h and deg/s."""
     return ((f"{stem}_rad_s", 1.0), (f"{stem}_deg_h", _DEG / 3600.0), (f"{stem}_deg_s", _DEG))
@@ -103,14 +99,13 @@ def _acceleration_keys(stem: str) -> tuple[tuple[str, float], ...]:
 
 @dataclass(frozen=True)
 class _Field:
-    """One `InsConfig` field: its table, keys with factors to SI, vector or not, span."""
+    """One `InsConfig` field: its table, keys with factors to SI, vector or not."""
 
     attr: str
     table: str
     keys: tuple[tuple[str, float], ...]
     vector: bool = False
     required: bool = False
-    span: Span = _TERM
 
 
 _FIELDS = (
@@ -145,32 +140,22 @@ _FIELDS = (
         _acceleration_keys("acc_bias_instability"),
         required=True,
     ),
-    _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),), span=_CORR_TIME),
-    _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),), span=_CORR_TIME),
-    _Field(
-        "gyro_scale_factor_sigma_ppm", "imu", (("gyro_scale_factor_sigma_ppm", 1.0),), span=_PPM
-    ),
-    _Field("acc_scale_factor_sigma_ppm", "imu", (("acc_scale_factor_sigma_ppm", 1.0),), span=_PPM),
+    _Field("gyro_bias_corr_time_s", "imu", (("gyro_bias_corr_time_s", 1.0),)),
+    _Field("acc_bias_corr_time_s", "imu", (("acc_bias_corr_time_s", 1.0),)),
+    _Field("gyro_scale_factor_sigma_ppm", "imu", (("gyro_scale_factor_sigma_ppm", 1.0),)),
+    _Field("acc_scale_factor_sigma_ppm", "imu", (("acc_scale_factor_sigma_ppm", 1.0),)),
     _Field("gnss_std_pos_ned_m", "gnss", (("std_pos_ned_m", 1.0),), vector=True),
     _Field("gnss_std_vel_ned_m_s", "gnss", (("std_vel_ned_m_s", 1.0),), vector=True),
-    _Field(
-        "antenna_lever_arm_body_m",
-        "gnss",
-        (("antenna_lever_arm_body_m", 1.0),),
-        vector=True,
-        span=_LEVER_ARM,
-    ),
+    _Field("antenna_lever_arm_body_m", "gnss", (("antenna_lever_arm_body_m", 1.0),), vector=True),
     _Field("init_std_att_rad", "init", (("std_att_rad", 1.0), ("std_att_deg", _DEG)), vector=True),
     _Field("init_std_vel_ned_m_s", "init", (("std_vel_ned_m_s", 1.0),), vector=True),
     _Field("init_std_pos_ned_m", "init", (("std_pos_ned_m", 1.0),), vector=True),
-    _Field("init_gyro_bias_rad_s", "init", _rate_keys("gyro_bias"), vector=True, span=_GYRO_BIAS),
+    _Field("init_gyro_bias_rad_s", "init", _rate_keys("gyro_bias"), vector=True),
     _Field("init_gyro_bias_std_rad_s", "init", _rate_keys("gyro_bias_std"), vector=True),
-    _Field(
-        "init_acc_bias_m_s2", "init", _acceleration_keys("acc_bias"), vector=True, span=_ACC_BIAS
-    ),
+    _Field("init_acc_bias_m_s2", "init", _acceleration_keys("acc_bias"), vector=True),
     _Field("init_acc_bias_std_m_s2", "init", _acceleration_keys("acc_bias_std"), vector=True),
-    _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),), span=_GAP),
-    _Field("gate_probability", "filter", (("gate_probability", 1.0),), span=_PROBABILITY),
+    _Field("max_imu_gap_s", "filter", (("max_imu_gap_s", 1.0),)),
+    _Field("gate_probability", "filter", (("gate_probability", 1.0),)),
 )
 
 _TABLES = ("imu", "gnss", "init", "filter")
@@ -228,25 +213,16 @@ def _check_pairs(written: dict[str, str], source: str) -> None:
         raise InputError(msg)
 
 
-def _check_spans(config: InsConfig, given: dict[str, str], source: str) -> None:
-    """Every value given within its field's span (`_Field.span`), in SI units.
+def _check_spans(values: dict[str, Any], given: dict[str, str], source: str) -> None:
+    """Every value given within its field's span, in SI units, named as written.
 
-    ``given`` maps a field to ``"[table] key"`` as written; `InsConfig` has already
-    refused non-positive values with its own messages.
+    ``values`` maps a field to its value in SI units, ``given`` to ``"[table] key"``
+    as written. The check is `InsConfig`'s own (its `kinsync.ins.config.FIELD_SPANS`),
+    run here first so that its message names the key rather than the field.
     """
-    for field in _FIELDS:
-        if field.attr not in given:
-            continue
-        value = getattr(config, field.attr)
-        where = f"{source}: {given[field.attr]}"
-        if field.vector:
-
-            def component(i: int, w: str = where) -> str:
-                return f"{w}[{i}] (in SI units)"
-
-            check_values(value, field.span, component)
-        else:
-            check_values([value], field.span, f"{where} (in SI units)")
+    for attr, value in values.items():
+        if attr in FIELD_SPANS:
+            check_quantity(value, FIELD_SPANS[attr], f"{source}: {given[attr]}", " (in SI units)")
 
 
 def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
@@ -311,12 +287,12 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
         kwargs[field.attr] = _value(table[key], field, factor, f"{source}: [{field.table}] {key}")
         written[field.attr] = f"[{field.table}] {key}"
     _check_pairs(written, source)
+    _check_spans(kwargs, written, source)
     try:
         config = InsConfig(**kwargs)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
-    _check_spans(config, written, source)
     return config
 
 
@@ -330,7 +306,7 @@ def ins_config_to_toml_text(config: InsConfig) -> str:
                 continue
             key = field.keys[0][0]
             value = getattr(config, field.attr)
-            if value is None or (field.span is _PPM and value == 0.0):
+            if value is None or (field.attr in SCALE_FACTOR_FIELDS and value == 0.0):
                 continue  # not given: not modelled or not calibrated
             if field.vector:
                 text = "[" + ", ".join(repr(float(v)) for v in value) + "]"

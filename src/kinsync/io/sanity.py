@@ -18,6 +18,8 @@ Value guards, after parsing
     and products of the values stay finite in float64, so a finite-but-absurd value
     (1e308 m, a time of 1e300 s) is refused with its file, line and column instead of
     overflowing somewhere downstream into an internal error or a non-finite result.
+    (`Span`, `check_values` and `check_columns` live in `kinsync._validate`, where the
+    containers' own checks use them too.)
 """
 
 from __future__ import annotations
@@ -25,14 +27,10 @@ from __future__ import annotations
 import json
 import math
 import stat
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
+from kinsync._validate import Span, check_columns, check_values
 from kinsync.errors import InputError
 
 __all__ = [
@@ -260,30 +258,6 @@ def not_utf8_cell(path: Path, line: int, cell: str) -> InputError | None:
 
 
 # ---------------------------------------------------------------------- plausible values
-@dataclass(frozen=True)
-class Span:
-    """Closed span of plausible values of one kind of quantity.
-
-    Attributes
-    ----------
-    low, high : float
-        Bounds (inclusive).
-    unit : str
-        Unit of the values ("s", "m").
-    what : str
-        What such a value is, for messages ("a time", "an ellipsoidal height").
-    """
-
-    low: float
-    high: float
-    unit: str
-    what: str
-
-    def positive(self, smallest: float, what: str) -> Span:
-        """The span ``[smallest, high]`` of ``what``: a standard deviation, a range, ..."""
-        return Span(smallest, self.high, self.unit, what)
-
-
 TIME_S = Span(-1e10, 1e10, "s", "a time in seconds (317 years either side of its epoch)")
 """Times: GPS time (1.4e9 s in 2024), GPS seconds of week, a local clock. Beyond 1e10 s
 a float64 resolves less than 2 microseconds; a larger value is a unit mistake (ms, ns)."""
@@ -303,106 +277,6 @@ ANGLE_RAD = Span(-math.radians(1e6), math.radians(1e6), "rad", "an angle (2,800 
 ANGULAR_RATE_RAD_S = Span(-1e3, 1e3, "rad/s", "an angular rate (beyond any gyro's range)")
 ACCELERATION_M_S2 = Span(-1e4, 1e4, "m/s^2", "a specific force (1,000 g, beyond any IMU)")
 INTENSITY = Span(-1e12, 1e12, "", "an intensity")
-
-
-def _span_text(span: Span) -> str:
-    unit = f" {span.unit}" if span.unit else ""
-    return f"{span.low:g} to {span.high:g}{unit}"
-
-
-def check_values(
-    values: npt.ArrayLike,
-    span: Span,
-    where: Callable[[int], str] | str,
-    *,
-    allow_nan: bool = False,
-) -> None:
-    """Refuse the first value that is not finite or lies outside ``span``.
-
-    Parameters
-    ----------
-    values : array_like, shape (N,)
-        The values.
-    span : Span
-        Plausible values.
-    where : callable or str
-        ``where(i)`` names value ``i`` in messages ("traj.csv: line 7, column 'h_m'");
-        a str names every value (a single value).
-    allow_nan : bool
-        NaN is accepted (it means "not given" in that column).
-
-    Raises
-    ------
-    InputError
-        Naming the first bad value, what it should be and the span.
-    """
-    v = np.asarray(values, dtype=np.float64).ravel()
-    bad = _bad(v, span, allow_nan=allow_nan)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(_message(where if isinstance(where, str) else where(i), float(v[i]), span))
-
-
-def _bad(v: npt.NDArray[np.float64], span: Span, *, allow_nan: bool) -> npt.NDArray[np.bool_]:
-    finite = np.isfinite(v)
-    out = ~finite
-    if allow_nan:
-        out &= ~np.isnan(v)
-    out[finite] |= (v[finite] < span.low) | (v[finite] > span.high)
-    return out
-
-
-def _message(where: str, value: float, span: Span) -> str:
-    if not math.isfinite(value):
-        return f"{where}: {value!r} is not a finite number; fix or remove it"
-    if value < 0.0 <= span.low:
-        return f"{where}: {value!r} is negative; {span.what} is >= 0: fix the value"
-    if value < span.low and span.low > 0.0:
-        return f"{where}: {value!r} is too small for {span.what} (at least {span.low:g}); fix it"
-    return (
-        f"{where}: {value!r} is outside {_span_text(span)}, the plausible span of "
-        f"{span.what}; check the unit and the column order, or fix the value"
-    )
-
-
-def check_columns(
-    columns: Mapping[str, npt.ArrayLike],
-    spans: Mapping[str, Span],
-    where: Callable[[int], str],
-    *,
-    allow_nan: tuple[str, ...] = (),
-) -> None:
-    """`check_values` for several columns of a table, naming the first bad row.
-
-    Parameters
-    ----------
-    columns : mapping of str to array_like, each of shape (N,)
-        The table's columns by name.
-    spans : mapping of str to Span
-        Span of each column to check; columns absent from ``columns`` are skipped.
-    where : callable
-        ``where(row)`` names a row ("traj.csv: line 7"); the column is appended.
-    allow_nan : tuple of str
-        Columns in which NaN means "not given" and is accepted.
-
-    Raises
-    ------
-    InputError
-        Naming the earliest row holding a bad value, its column and the span.
-    """
-    first: tuple[int, str, float] | None = None
-    for name, span in spans.items():
-        if name not in columns:
-            continue
-        v = np.asarray(columns[name], dtype=np.float64).ravel()
-        bad = _bad(v, span, allow_nan=name in allow_nan)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            if first is None or row < first[0]:
-                first = (row, name, float(v[row]))
-    if first is not None:
-        row, name, value = first
-        raise InputError(_message(f"{where(row)}, column {name!r}", value, spans[name]))
 
 
 # ---------------------------------------------------------------------- JSON
