@@ -45,7 +45,8 @@ from kinsync.ins._reference import forward_numpy
 from kinsync.ins.checks import check_inputs
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import radii_m
-from kinsync.ins.filter import forward_pass, gnss_epochs, new_gnss_log, run_ins
+from kinsync.ins.filter import forward_pass, new_gnss_log, run_ins
+from kinsync.ins.gnss_observation import gnss_epochs
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.io.gnss_csv import read_gnss_csv

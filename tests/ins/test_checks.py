@@ -1,4 +1,5 @@
-"""Input checks: gaps, time spans, units, static start; errors and warnings name rows."""
+"""Input checks: gaps, time spans, units, static start, initial state; errors and warnings
+name rows."""
 
 from __future__ import annotations
 
@@ -11,10 +12,16 @@ import numpy as np
 import pytest
 
 from kinsync.errors import InputError
-from kinsync.ins.checks import check_gnss_rejections, check_inputs, gnss_within_imu_span
+from kinsync.ins.checks import (
+    check_gnss_rejections,
+    check_initial_state,
+    check_inputs,
+    gnss_within_imu_span,
+)
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
 from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.solution import InitialState
 from kinsync.io.gnss_csv import read_gnss_csv
 from kinsync.io.imu_csv import read_imu_csv
 from kinsync.io.ins_config import read_ins_config
@@ -267,3 +274,53 @@ def test_antenna_below_the_imu_is_a_warning() -> None:
     assert "1.5 m below the IMU" in warning
     above = dataclasses.replace(CONFIG, antenna_lever_arm_body_m=(0.3, -0.2, -1.5))
     assert check_inputs(_imu(), _gnss(), above) == []
+
+
+# ---------------------------------------------------------------------- initial state
+INIT = InitialState(
+    t_s=T0, lat_deg=LAT, lon_deg=6.6, h_m=H, vel_ned_m_s=(0.0, 0.0, 0.0), rpy_rad=(0.0, 0.0, 0.0)
+)
+
+
+def test_an_initial_state_at_the_gnss_passes() -> None:
+    check_initial_state(INIT, _gnss(), CONFIG)
+    # 0.9 km off, or yaw in 0..2pi, or the GNSS a minute later and 10 km away: possible
+    near = dataclasses.replace(INIT, lat_deg=LAT + 0.9 / 111.2, rpy_rad=(-3.14, 1.57, 6.2))
+    check_initial_state(near, _gnss(), CONFIG)
+    far = dataclasses.replace(INIT, lat_deg=LAT + 10.0 / 111.2)
+    check_initial_state(far, _gnss(t_s=T0 + 60.0 + np.arange(0.0, 10.0)), CONFIG)
+
+
+@pytest.mark.parametrize(
+    ("rpy", "words"),
+    [
+        ((0.0, 0.0, 35.0), "rpy_rad[2] (yaw) = 35 rad is beyond -π to 2π: is it in degrees?"),
+        ((0.0, 2.0, 0.0), "rpy_rad[1] (pitch) = 2 rad is beyond ±π/2"),
+        ((-4.0, 0.0, 0.0), "rpy_rad[0] (roll) = -4 rad is beyond ±π"),
+    ],
+)
+def test_initial_angles_in_degrees_are_refused(rpy: tuple[float, float, float], words: str) -> None:
+    with pytest.raises(InputError) as info:
+        check_initial_state(dataclasses.replace(INIT, rpy_rad=rpy), _gnss(), CONFIG)
+    assert words in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("lat", "lon", "words"),
+    [
+        (math.radians(LAT), math.radians(6.6), "look like radians: give degrees (46.8, 6.6)"),
+        (6.6, LAT, "look swapped"),
+        (LAT, -6.6, "south and west negative"),
+        (LAT + 0.02, 6.6, "is it the state of this data set?"),
+    ],
+)
+def test_an_initial_position_far_from_the_gnss_is_refused(
+    lat: float, lon: float, words: str
+) -> None:
+    init = dataclasses.replace(INIT, lat_deg=lat, lon_deg=lon)
+    with pytest.raises(InputError) as info:
+        check_initial_state(init, _gnss(), CONFIG, gnss_source="rx.csv")
+    message = str(info.value)
+    assert message.startswith(f"initial state: lat_deg {lat:.8g}, lon_deg {lon:.8g} at t_s")
+    assert "from the GNSS fix nearest in time (rx.csv row 0, t_s 5000.000" in message
+    assert words in message

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from kinsync.errors import InputError
 from kinsync.ins._ekf import (
     N_ERR,
     N_ERR_SCALE,
@@ -25,16 +26,23 @@ from kinsync.ins._ekf import (
 from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.config import InsConfig
 from kinsync.ins.filter import (
+    GnssStatus,
     forward_pass,
-    gnss_epochs,
     new_gnss_log,
     run_ins,
     transition_matrix,
 )
 from kinsync.ins.forward_run import Checkpoints
+from kinsync.ins.gnss_observation import gnss_epochs
 from kinsync.ins.measurements import GnssData, ImuData
-from kinsync.ins.smoother import ins_matrices, new_smoothed_covariance, smooth_checkpoints
+from kinsync.ins.smoother import (
+    ins_matrices,
+    new_smoothed_covariance,
+    smooth_checkpoints,
+    smooth_forward_run,
+)
 from kinsync.ins.solution import InitialState, NavSolution
+from kinsync.ins.strapdown import nav_solution_from_states, start_epoch
 from kinsync.sim.drive import DriveSimConfig, simulate_drive
 
 SimDrive = Callable[..., tuple[ImuData, ImuData, GnssData, NavSolution, InitialState]]
@@ -296,12 +304,22 @@ def test_smoothed_errors_smaller_and_consistent(
 def test_without_measurements_the_smoother_changes_nothing(sim_drive: SimDrive) -> None:
     _, imu, gnss, _, init = sim_drive(duration_s=30.0, seed=12, gyro_arw=GYRO_ARW, acc_vrw=ACC_VRW)
     far = dataclasses.replace(gnss, t_s=gnss.t_s + 1000.0)  # all outside the IMU span
-    res = run_ins(imu, far, CONFIG, init, smooth=True)
-    assert res.smoothed is not None
-    assert res.forward.n_gnss_used == 0
-    np.testing.assert_array_equal(res.smoothed.lat_deg, res.forward.lat_deg)
-    np.testing.assert_array_equal(res.smoothed.std_pos_ned_m, res.forward.std_pos_ned_m)
-    assert res.innovations_pos_ned_m.shape == (0, 3)
+    with pytest.raises(InputError, match="0 GNSS epoch"):  # run_ins refuses such inputs
+        run_ins(imu, far, CONFIG, init, smooth=True)
+    g_epoch = gnss_epochs(imu.t_s, start_epoch(imu, init), far.t_s)
+    assert (g_epoch < 0).all()
+    log = new_gnss_log(len(far))
+    run = forward_pass(
+        imu, far, CONFIG, init, use_velocity=True, store=True, progress=None,
+        gnss_imu_epoch=g_epoch, log=log,
+    )  # fmt: skip
+    states, std = smooth_forward_run(imu, run, None)
+    assert (log.status == GnssStatus.OUTSIDE).all()
+    k0 = run.k0
+    forward = nav_solution_from_states(imu.t_s[k0:], run.states[k0:], run.std[k0:])
+    smoothed = nav_solution_from_states(imu.t_s[k0:], states[k0:], std[k0:], smoothed=True)
+    np.testing.assert_array_equal(smoothed.lat_deg, forward.lat_deg)
+    np.testing.assert_array_equal(smoothed.std_pos_ned_m, forward.std_pos_ned_m)
 
 
 @pytest.mark.parametrize("scale_factors", [False, True], ids=["22 states", "28 states"])

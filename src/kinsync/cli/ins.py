@@ -224,11 +224,7 @@ def run(
     --max-gap-s is the gap threshold of the --init-from reference.
     """
     from kinsync.ins.alignment import align_static_gnss_heading  # noqa: PLC0415
-    from kinsync.ins.checks import (  # noqa: PLC0415
-        check_gnss_rejections,
-        check_inputs,
-        gnss_within_imu_span,
-    )
+    from kinsync.ins.checks import check_inputs, gnss_within_imu_span  # noqa: PLC0415
     from kinsync.ins.filter import run_ins  # noqa: PLC0415
     from kinsync.io.gnss_csv import read_gnss_csv  # noqa: PLC0415
     from kinsync.io.imu_csv import read_imu_csv  # noqa: PLC0415
@@ -238,6 +234,7 @@ def run(
     config = read_ins_config(config_path)
     imu = read_imu_csv(imu_path)
     gnss = read_gnss_csv(gnss_path)
+    # Checked before levelling on them; run_ins takes these warnings instead of checking again.
     warnings = check_inputs(
         imu,
         gnss,
@@ -264,29 +261,21 @@ def run(
         warnings.append(skipped)
     with progress_display("ins run") as progress:  # after the input checks: errors stay one line
         start = time.perf_counter()
-        try:
-            result = run_ins(
-                imu,
-                gnss,
-                config,
-                init,
-                use_velocity=not no_velocity,
-                smooth=smooth,
-                progress=part(progress, 0.0, 0.9),
-            )
-            late = check_gnss_rejections(
-                result.gnss_rejected_t_s,
-                result.forward.n_gnss_used,
-                config,
-                gnss_source=str(gnss_path),
-            )
-        except (InputError, ConvergenceError) as err:
-            if not warnings:
-                raise
-            # The one error line carries the input checks' warnings: they may name the cause.
-            earlier = " | ".join(" ".join(w.split()) for w in warnings)
-            msg = f"{err}. The input checks had warned: {earlier}"
-            raise type(err)(msg) from err
+        # run_ins checks the initial state and the χ² rejections; an error carries the
+        # input checks' warnings (printed below only after a run that succeeded)
+        result = run_ins(
+            imu,
+            gnss,
+            config,
+            init,
+            use_velocity=not no_velocity,
+            smooth=smooth,
+            progress=part(progress, 0.0, 0.9),
+            imu_source=str(imu_path),
+            gnss_source=str(gnss_path),
+            static_s=static_s,
+            input_warnings=warnings,
+        )
         seconds = time.perf_counter() - start
         solution = result.smoothed if smooth else result.forward
         if solution is None:
@@ -295,10 +284,10 @@ def run(
         report(progress, 0.9, "writing")
         _write_solution(solution, out)
         report(progress, 1.0, "writing")
-    for warning in warnings + late:  # after the run: a failed run prints one error line
+    for warning in result.warnings:  # after the run: a failed run prints one error line
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
-    summary["warnings"] = warnings + late
+    summary["warnings"] = list(result.warnings)
     if as_json:
         print_json(summary)
         return

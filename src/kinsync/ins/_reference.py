@@ -24,7 +24,8 @@ from kinsync._typing import FloatArray
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
-from kinsync.ins.filter import gnss_epochs, initial_covariance, starting_estimates
+from kinsync.ins.filter import initial_covariance, starting_estimates
+from kinsync.ins.gnss_observation import gnss_epochs
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 from kinsync.ins.strapdown import start_epoch

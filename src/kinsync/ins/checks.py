@@ -33,6 +33,12 @@ Warnings (returned as text, the filter may run):
 - an antenna lever arm with Z > 0 (antenna below the IMU in Forward-Right-Down: usually
   a sign slip, which the data cannot reveal on level ground).
 
+Initial state (`check_initial_state`, errors): roll beyond ±π, pitch beyond ±π/2 or
+yaw outside [-π, 2π] (angles given in degrees), and a position more than
+`MAX_INITIAL_OFFSET_M` (plus the lever arm and `MAX_SPEED_M_S` times the time between
+them) from the GNSS fix nearest in time (degrees given in radians, latitude and
+longitude swapped, a lost sign, or the state of another data set).
+
 After filtering (`check_gnss_rejections`): the χ² gate rejects about
 ``1 - gate_probability`` of the GNSS epochs when the filter's model fits the data. A
 filter that rejects many more disagrees with its GNSS, whatever the cause (rates in
@@ -51,12 +57,19 @@ import math
 import numpy as np
 
 from kinsync._typing import BoolArray, FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import ConvergenceError, InputError
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
 from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.solution import InitialState
 
-__all__ = ["check_gnss_rejections", "check_inputs", "gnss_within_imu_span"]
+__all__ = [
+    "check_gnss_rejections",
+    "check_initial_state",
+    "check_inputs",
+    "gnss_within_imu_span",
+    "with_warnings",
+]
 
 G0_M_S2 = 9.80665
 FT_M = 0.3048
@@ -82,6 +95,12 @@ GATE_ERROR_SHARE = 0.2
 `GATE_RATE_FACTOR` times the gate's own rejection rate, if larger)."""
 GATE_RATE_FACTOR = 3.0
 GATE_FALSE_ALARM = 1e-3
+MAX_INITIAL_OFFSET_M = 1000.0
+"""Largest horizontal distance (m) between the initial position and the GNSS fix nearest
+in time (beyond the lever arm and `MAX_SPEED_M_S` times the time between them)."""
+MAX_SPEED_M_S = 300.0
+"""Speed (m/s) allowed for the time between the initial state and that GNSS fix."""
+EARTH_RADIUS_M = 6.371e6
 _MAX_LISTED = 5
 
 
@@ -419,3 +438,105 @@ def check_gnss_rejections(
         msg = f"{text}; no solution written"
         raise InputError(msg)
     return [text]
+
+
+_ATTITUDE_BOUNDS = (
+    ("roll", -math.pi, math.pi, "±π"),
+    ("pitch", -0.5 * math.pi, 0.5 * math.pi, "±π/2"),
+    ("yaw", -math.pi, 2.0 * math.pi, "-π to 2π"),
+)
+
+
+def _distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float) -> float:
+    """Great-circle distance (m) on a sphere of radius `EARTH_RADIUS_M` (haversine)."""
+    p1, p2 = math.radians(lat1_deg), math.radians(lat2_deg)
+    dp, dl = p2 - p1, math.radians(lon2_deg - lon1_deg)
+    a = math.sin(0.5 * dp) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(0.5 * dl) ** 2
+    return 2.0 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(a)))
+
+
+def check_initial_state(
+    init: InitialState,
+    gnss: GnssData,
+    config: InsConfig,
+    *,
+    gnss_source: str = "gnss.csv",
+) -> None:
+    """Refuse an initial attitude or position that cannot be right (a unit mix-up).
+
+    Parameters
+    ----------
+    init : InitialState
+        The filter's initial state (finite values; non-finite ones are left to the
+        filter's own message).
+    gnss : GnssData
+        GNSS epochs; the one nearest ``init.t_s`` in time is compared with the position.
+    config : InsConfig
+        Its antenna lever arm widens the distance accepted.
+    gnss_source : str
+        Name of the GNSS input in messages.
+
+    Raises
+    ------
+    InputError
+        An angle of ``init.rpy_rad`` beyond its range (roll ±π, pitch ±π/2, yaw -π to
+        2π): degrees where radians are expected; or a position farther from the
+        nearest GNSS fix than `MAX_INITIAL_OFFSET_M` plus the lever arm plus
+        `MAX_SPEED_M_S` times the time between them, naming the fields, the fix and the
+        likely mix-up (radians where degrees are expected, latitude and longitude
+        swapped).
+    """
+    try:
+        rpy = [float(v) for v in init.rpy_rad]
+        lat, lon, t0 = float(init.lat_deg), float(init.lon_deg), float(init.t_s)
+    except (TypeError, ValueError):
+        return  # the filter names the malformed state
+    for i, (angle, (name, low, high, text)) in enumerate(zip(rpy, _ATTITUDE_BOUNDS, strict=False)):
+        if math.isfinite(angle) and not low - 1e-9 <= angle <= high + 1e-9:
+            msg = (
+                f"initial state: rpy_rad[{i}] ({name}) = {angle:.6g} rad is beyond {text}: "
+                f"is it in degrees? rpy_rad takes radians ({angle:.6g} deg = "
+                f"{math.radians(angle):.6g} rad)"
+            )
+            raise InputError(msg)
+    if not (math.isfinite(lat) and math.isfinite(lon) and math.isfinite(t0)) or not len(gnss):
+        return
+    j = int(np.argmin(np.abs(gnss.t_s - t0)))
+    lat_g, lon_g, dt = float(gnss.lat_deg[j]), float(gnss.lon_deg[j]), abs(gnss.t_s[j] - t0)
+    arm_m = math.hypot(*config.antenna_lever_arm_body_m)
+    allowed_m = MAX_INITIAL_OFFSET_M + arm_m + MAX_SPEED_M_S * dt
+    offset_m = _distance_m(lat, lon, lat_g, lon_g)
+    if offset_m <= allowed_m:
+        return
+    hint = (
+        "; check the initial position (degrees, WGS84; south and west negative): is it "
+        "the state of this data set?"
+    )
+    if abs(lat) <= 0.5 * math.pi and abs(lon) <= 2.0 * math.pi:
+        as_deg = _distance_m(math.degrees(lat), math.degrees(lon), lat_g, lon_g)
+        if as_deg <= allowed_m:
+            hint = (
+                "; lat_deg and lon_deg look like radians: give degrees "
+                f"({math.degrees(lat):.8g}, {math.degrees(lon):.8g})"
+            )
+    if abs(lon) <= 90.0 and _distance_m(lon, lat, lat_g, lon_g) <= allowed_m:
+        hint = "; lat_deg and lon_deg look swapped: give the latitude first"
+    msg = (
+        f"initial state: lat_deg {lat:.8g}, lon_deg {lon:.8g} at t_s {t0:.3f} lies "
+        f"{offset_m / 1000.0:.4g} km from the GNSS fix nearest in time ({gnss_source} row "
+        f"{j}, t_s {gnss.t_s[j]:.3f}: lat_deg {lat_g:.8g}, lon_deg {lon_g:.8g}), more than "
+        f"the {allowed_m / 1000.0:.4g} km a vehicle could be from it{hint}"
+    )
+    raise InputError(msg)
+
+
+def with_warnings(
+    err: InputError | ConvergenceError, warnings: list[str]
+) -> InputError | ConvergenceError:
+    """``err`` as one line that ends with the input checks' ``warnings`` (a cause, maybe).
+
+    ``kinsync ins run`` prints an error as one line and its warnings only after a run
+    that succeeded, so a failed run's message carries them.
+    """
+    earlier = " | ".join(" ".join(w.split()) for w in warnings)
+    return type(err)(f"{err}. The input checks had warned: {earlier}")

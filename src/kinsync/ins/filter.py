@@ -31,6 +31,10 @@ GNSS epoch assigned to this IMU epoch:
   (exact for the diagonal ``R``), the error state is fed back into the mechanisation
   (closed loop) and reset to zero.
 
+`run_ins` checks its inputs, initial state and χ² rejections as ``kinsync ins run``
+does (`kinsync.ins.checks`): it refuses what the command refuses, with the same
+messages, and returns the warnings in `InsResult.warnings`.
+
 The compiled loop reads and writes named tuples of arrays (`ImuArrays`, `GnssArrays`,
 `FilterState`, `ForwardOutput`, `GnssLog` and the smoother's
 `kinsync.ins.forward_run.CheckpointStore`), which numba compiles like separate array
@@ -54,7 +58,7 @@ Estimation, and Control*, vol. 1, Academic Press 1979, ch. 6.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from typing import Any, NamedTuple, cast
@@ -64,7 +68,7 @@ from numba import njit
 from scipy.special import chdtri
 
 from kinsync._typing import FloatArray, IntArray
-from kinsync.errors import InputError
+from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.ins._ekf import (
     N_ERR,
@@ -98,6 +102,12 @@ from kinsync.ins._ekf import (
     support_index,
     tilt_gravity_mean,
 )
+from kinsync.ins.checks import (
+    check_gnss_rejections,
+    check_initial_state,
+    check_inputs,
+    with_warnings,
+)
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2
 from kinsync.ins.forward_run import (
@@ -107,7 +117,7 @@ from kinsync.ins.forward_run import (
     checkpoints_from_store,
     new_checkpoint_store,
 )
-from kinsync.ins.gnss_observation import MAX_ROWS, gate_stat, observation
+from kinsync.ins.gnss_observation import MAX_ROWS, gate_stat, gnss_epochs, observation
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.smoother import smooth_forward_run
 from kinsync.ins.solution import InitialState, NavSolution
@@ -181,6 +191,10 @@ class InsResult:
         NaN for rejected epochs.
     gnss_status : ndarray of int, shape (m,)
         `GnssStatus` of every GNSS epoch of the input.
+    warnings : tuple of str
+        What the checks of `run_ins` found doubtful without refusing the run (the
+        input checks' warnings, then the χ² gate's), each naming its input; empty when
+        all is well.
     """
 
     forward: NavSolution
@@ -191,6 +205,7 @@ class InsResult:
     innovations_vel_ned_m_s: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
     innovation_std_pos_ned_m: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
     gnss_status: IntArray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    warnings: tuple[str, ...] = ()
 
 
 def transition_matrix(F: FloatArray, dt_s: float) -> FloatArray:
@@ -667,20 +682,6 @@ def starting_estimates(config: InsConfig, init: InitialState) -> InitialState:
     return replace(init, **changes) if changes else init
 
 
-def gnss_epochs(imu_t_s: FloatArray, k0: int, gnss_t_s: FloatArray) -> IntArray:
-    """Nearest IMU epoch of each GNSS epoch, -1 outside ``[t[k0] - dt/2, t[-1] + dt/2]``."""
-    t = imu_t_s
-    idx = np.clip(np.searchsorted(t, gnss_t_s), 1, t.size - 1)
-    left = t[idx - 1]
-    right = t[idx]
-    nearest = np.where(gnss_t_s - left <= right - gnss_t_s, idx - 1, idx)
-    lo = t[k0] - 0.5 * (t[k0 + 1] - t[k0])
-    hi = t[-1] + 0.5 * (t[-1] - t[-2])
-    inside = (gnss_t_s >= lo) & (gnss_t_s <= hi) & (nearest >= k0)
-    out: IntArray = np.where(inside, np.maximum(nearest, k0), -1).astype(np.int64)
-    return out
-
-
 def _gnss_arrays(
     gnss: GnssData, imu_epoch: IntArray, config: InsConfig, *, use_velocity: bool
 ) -> GnssArrays:
@@ -784,22 +785,23 @@ def forward_pass(
 
 
 def run_ins(
-    imu: ImuData,
-    gnss: GnssData,
-    config: InsConfig,
-    init: InitialState,
-    *,
-    use_velocity: bool = True,
-    smooth: bool = False,
-    progress: Progress | None = None,
-) -> InsResult:
-    """Loosely coupled INS/GNSS forward filter, optionally RTS-smoothed.
+    imu: ImuData, gnss: GnssData, config: InsConfig, init: InitialState, *,
+    use_velocity: bool = True, smooth: bool = False, progress: Progress | None = None,
+    imu_source: str = "IMU data", gnss_source: str = "GNSS data", static_s: float = 2.0,
+    input_warnings: Sequence[str] | None = None,
+) -> InsResult:  # fmt: skip
+    """Loosely coupled INS/GNSS forward filter, optionally RTS-smoothed, with its checks.
+
+    First `kinsync.ins.checks.check_inputs` (IMU gaps and units, GNSS within the IMU
+    span) and `kinsync.ins.checks.check_initial_state`; after filtering,
+    `kinsync.ins.checks.check_gnss_rejections` refuses a solution whose χ² gate rejected
+    more than `kinsync.ins.checks.GATE_ERROR_SHARE` of the GNSS epochs.
 
     Parameters
     ----------
     imu : ImuData
         IMU samples (body FRD, rad/s, m/s^2); gaps longer than ``config.max_imu_gap_s``
-        after the initial epoch are an error.
+        are an error.
     gnss : GnssData
         Antenna fixes (WGS84) with σ (NaN -> ``config`` defaults) and, optionally,
         NED velocities.
@@ -815,19 +817,52 @@ def run_ins(
         Told the fraction of the work done (0..1) between chunks of `CHUNK_EPOCHS`
         epochs, stages "filter" and "smoother"; the forward pass is the first half
         when smoothing.
+    imu_source, gnss_source : str
+        Names of the inputs in messages (the file paths, where they came from files).
+    static_s : float
+        Length (s) of the start window the input checks test for a static start.
+    input_warnings : sequence of str, optional
+        Warnings of `kinsync.ins.checks.check_inputs` run by the caller on these inputs
+        (``kinsync ins run`` checks before levelling); None (default): run it here.
 
     Returns
     -------
     InsResult
+        With the checks' warnings in `InsResult.warnings`.
 
     Raises
     ------
     InputError
-        Initial time not an IMU epoch, IMU gap, non-finite initial state, divergence.
+        Inputs or an initial state the checks refuse, initial time not an IMU epoch,
+        divergence, too many GNSS epochs rejected; after input checks that warned,
+        the message ends with their warnings (they may name the cause).
     """
     if not isinstance(imu, ImuData) or not isinstance(gnss, GnssData):
         msg = "run_ins: imu must be ImuData and gnss GnssData"
         raise InputError(msg)
+    warnings = list(input_warnings) if input_warnings is not None else check_inputs(
+        imu, gnss, config, imu_source=imu_source, gnss_source=gnss_source, static_s=static_s
+    )  # fmt: skip
+    try:
+        check_initial_state(init, gnss, config, gnss_source=gnss_source)
+        result = _filter_and_smooth(
+            imu, gnss, config, init, use_velocity=use_velocity, smooth=smooth, progress=progress
+        )
+        warnings += check_gnss_rejections(
+            result.gnss_rejected_t_s, result.forward.n_gnss_used, config, gnss_source=gnss_source
+        )
+    except (InputError, ConvergenceError) as err:
+        if not warnings:
+            raise
+        raise with_warnings(err, warnings) from err
+    return replace(result, warnings=tuple(warnings))
+
+
+def _filter_and_smooth(
+    imu: ImuData, gnss: GnssData, config: InsConfig, init: InitialState, *,
+    use_velocity: bool, smooth: bool, progress: Progress | None,
+) -> InsResult:  # fmt: skip
+    """The forward filter and, when ``smooth``, the smoother (`run_ins` without checks)."""
     k0 = start_epoch(imu, init)
     check_imu_gaps(imu, k0, config.max_imu_gap_s)
     g_epoch = gnss_epochs(imu.t_s, k0, gnss.t_s)

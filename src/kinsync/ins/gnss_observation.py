@@ -15,6 +15,8 @@ Compiled pieces called by the forward loop (`kinsync.ins.filter`) for each GNSS 
   velocity) with the predicted ``S = H P H^T + R``; the filter compares it with
   ``χ²₃(gate_probability)``.
 
+`gnss_epochs` assigns each GNSS epoch to its nearest IMU epoch (Python, once per run).
+
 The error state and its order are those of `kinsync.ins._ekf`.
 
 References
@@ -33,12 +35,12 @@ from typing import Any, cast
 import numpy as np
 from numba import njit
 
-from kinsync._typing import FloatArray
+from kinsync._typing import FloatArray, IntArray
 from kinsync.ins._ekf import N_ERR_SCALE, P_ARM, X_BG, X_MG, X_SG
 from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S
 from kinsync.ins.strapdown import I_BG, I_H, I_LAT, I_LON, I_MG, I_Q, I_SG, I_VEL, quat_to_dcm
 
-__all__ = ["MAX_ROWS", "gate_stat", "observation"]
+__all__ = ["MAX_ROWS", "gate_stat", "gnss_epochs", "observation"]
 
 MAX_ROWS = 6
 """Observation rows per GNSS epoch: position (N, E, D) then velocity (N, E, D)."""
@@ -201,3 +203,17 @@ def _gate_stat(
 
 
 gate_stat = _jit(_gate_stat)
+
+
+def gnss_epochs(imu_t_s: FloatArray, k0: int, gnss_t_s: FloatArray) -> IntArray:
+    """Nearest IMU epoch of each GNSS epoch, -1 outside ``[t[k0] - dt/2, t[-1] + dt/2]``."""
+    t = imu_t_s
+    idx = np.clip(np.searchsorted(t, gnss_t_s), 1, t.size - 1)
+    left = t[idx - 1]
+    right = t[idx]
+    nearest = np.where(gnss_t_s - left <= right - gnss_t_s, idx - 1, idx)
+    lo = t[k0] - 0.5 * (t[k0 + 1] - t[k0])
+    hi = t[-1] + 0.5 * (t[-1] - t[-2])
+    inside = (gnss_t_s >= lo) & (gnss_t_s <= hi) & (nearest >= k0)
+    out: IntArray = np.where(inside, np.maximum(nearest, k0), -1).astype(np.int64)
+    return out
