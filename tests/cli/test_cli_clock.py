@@ -59,6 +59,29 @@ def test_simulate_json_and_files(run_cli: RunCli, tmp_path: Path) -> None:
     assert truth["config"]["zda_delay_ms"] == 20.0
 
 
+def test_simulate_duration_span_is_the_one_declared(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    # The declared span was 1-86400 s, but under 9 s the simulator refused with another
+    # message: the span now starts where the simulator does.
+    from kinsync.cli._bounds import bounds_for  # noqa: PLC0415
+    from kinsync.sim.clock import MIN_DURATION_S  # noqa: PLC0415
+
+    span = bounds_for("simulate clock", "--duration-s")
+    assert span is not None
+    assert span.low == MIN_DURATION_S
+    code, out, err = run_cli(
+        ["simulate", "clock", "--out", str(tmp_path / "short"), "--duration-s", "5"]
+    )
+    assert_one_line_error(
+        code, out, err, "--duration-s 5: outside the span kinsync accepts, 9 to 86400 s"
+    )
+    code, _, err = run_cli(
+        ["simulate", "clock", "--out", str(tmp_path / "ok"), "--duration-s", str(span.low)]
+    )
+    assert code == 0, err
+
+
 def test_simulate_table(run_cli: RunCli, tmp_path: Path) -> None:
     code, stdout, _ = run_cli(["simulate", "clock", "--out", str(tmp_path / "t")])
     assert code == 0

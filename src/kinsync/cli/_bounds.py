@@ -106,6 +106,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--duration-s": Bounds(1.0, _DAY_S, "s"),
     ("simulate drive", "--duration-s"): Bounds(1.0, 21_600.0, "s", "6 h of IMU data in memory"),
     ("simulate drive-scan", "--duration-s"): Bounds(1.0, 7_200.0, "s"),
+    ("simulate clock", "--duration-s"): Bounds(
+        9.0, _DAY_S, "s", "a clock fit needs at least 10 PPS edges, one a second"
+    ),  # kinsync.sim.clock.MIN_DURATION_S
     "--imu-rate-hz": Bounds(1.0, 2_000.0, "Hz"),
     "--gnss-rate-hz": Bounds(0.01, 100.0, "Hz"),
     "--profile-rate-hz": Bounds(0.1, 10_000.0, "Hz"),

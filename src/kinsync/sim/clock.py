@@ -55,11 +55,19 @@ from kinsync.io.nmea import format_sentence
 from kinsync.io.tables import write_numeric_csv
 from kinsync.sim.folder import simulation_folder
 
-__all__ = ["ClockSimConfig", "ClockSimulation", "simulate_clock", "write_clock_simulation"]
+__all__ = [
+    "MIN_DURATION_S",
+    "ClockSimConfig",
+    "ClockSimulation",
+    "simulate_clock",
+    "write_clock_simulation",
+]
 
 _SPURIOUS_PHASE_S = (0.05, 0.95)
 _MAX_BURST_END_S = 0.95
 _MIN_EDGES = 10
+MIN_DURATION_S = float(_MIN_EDGES - 1)
+"""Shortest log simulated (s): ``floor(duration_s) + 1`` edges, at least 10 of them."""
 _LAT_DDMM = "4648.8130"
 _LON_DDDMM = "07112.4925"
 
@@ -155,8 +163,8 @@ class ClockSimConfig:
             _check(value >= 0.0, f"{name} must be >= 0, got {value}")
         duration = finite_number(self.duration_s, "clock simulation: duration_s")
         _check(
-            duration >= _MIN_EDGES - 1,
-            f"duration_s must be at least {_MIN_EDGES - 1} s, got {duration}",
+            duration >= MIN_DURATION_S,
+            f"duration_s must be at least {MIN_DURATION_S:g} s, got {duration}",
         )
         for name in ("missing", "spurious", "bad_zda", "bad_lines", "seed"):
             _count(getattr(self, name), name)
