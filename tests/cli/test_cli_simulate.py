@@ -75,6 +75,9 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--rates-deg-s", ""], "--rates-deg-s is empty"),
         (["--rates-deg-s", "0"], "must be a rate magnitude > 0"),
         (["--rates-deg-s", "-2"], "must be a rate magnitude > 0"),
+        # A crash (1000: no profile at all in a pass) or passes latency sphere cannot use.
+        (["--rates-deg-s", "6,1000"], "item 2 (1000): at 1000 deg/s the profiles cross"),
+        (["--rates-deg-s", "400"], "the largest usable rate is 369 deg/s"),
         (["--format", "ply"], "--format must be csv, las or laz"),
         (["--fifo-bytes", "-3"], "--fifo-bytes -3: outside the span"),
         (["--range-noise-m", "-0.1"], "--range-noise-m -0.1: outside the span"),
@@ -92,6 +95,13 @@ def test_bad_input_exits_2_with_one_line(
     assert stderr.count("\n") == 1
     assert fragment in stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_the_rate_bound_in_the_help_is_the_simulators() -> None:
+    from kinsync.cli.simulate import TABLE_MAX_RATE_DEG_S  # noqa: PLC0415
+    from kinsync.sim.table_config import RotatingTableConfig  # noqa: PLC0415
+
+    assert RotatingTableConfig().max_rate_deg_s == TABLE_MAX_RATE_DEG_S
 
 
 def test_out_is_an_existing_file(run_cli: RunCli, tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_matrix
 from kinsync.io.mount_file import read_mount
 from kinsync.io.passes import read_passes
+from kinsync.latency.sphere import MIN_SPHERE_POINTS_PER_PASS, estimate_latency_sphere
 from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
     RotatingTableSimulation,
@@ -28,6 +29,8 @@ from kinsync.sim.table_config import (
     LABEL_STAND,
     LABEL_STRAY,
     RotatingTableConfig,
+    max_usable_rate_deg_s,
+    worst_sphere_points_per_pass,
 )
 
 QUIET: dict[str, Any] = {
@@ -202,6 +205,9 @@ def test_progress_is_reported() -> None:
         ({"rates_deg_s": (2.0, 0.0)}, "rate magnitudes > 0"),
         ({"rates_deg_s": (-2.0,)}, "rate magnitudes > 0"),
         ({"rates_deg_s": (float("nan"),)}, "finite"),
+        ({"rates_deg_s": (6.0, 1000.0)}, "holds 1000: .* the largest usable rate is 369 deg/s"),
+        ({"rates_deg_s": (30.0,), "angular_step_deg": 5.0}, "the largest usable rate is 28.1"),
+        ({"angular_step_deg": 8.0}, "no rate is, with this angular step and sphere"),
         ({"range_noise_m": -1.0}, "range_noise_m must be >= 0"),
         ({"fifo_bytes": -1}, "fifo_bytes"),
         ({"sphere_range_m": 0.3}, "sphere_range_m"),
@@ -211,6 +217,28 @@ def test_progress_is_reported() -> None:
 def test_bad_config(kwargs: dict[str, Any], fragment: str) -> None:
     with pytest.raises(InputError, match=fragment):
         simulate_rotating_table(_small(**kwargs))
+
+
+def test_the_fastest_usable_rate_keeps_every_pass_usable() -> None:
+    # At 1000 deg/s a pass held no profile (a crash); at 400 deg/s some passes held
+    # no sphere and latency sphere left them out. The bound is the estimator's minimum.
+    geometry = {
+        "profile_rate_hz": 50.0,
+        "angular_step_deg": 0.2,
+        "sphere_radius_m": 0.1,
+        "sphere_range_m": 1.5,
+    }
+    limit = max_usable_rate_deg_s(**geometry)
+    assert worst_sphere_points_per_pass(limit, **geometry) >= MIN_SPHERE_POINTS_PER_PASS
+    assert worst_sphere_points_per_pass(limit * 1.01, **geometry) < MIN_SPHERE_POINTS_PER_PASS
+    assert worst_sphere_points_per_pass(400.0, **geometry) == 0  # a pass can miss it
+    cfg = RotatingTableConfig(rates_deg_s=(limit,), passes=6, seed=2)
+    assert cfg.max_rate_deg_s == limit
+    sim = simulate_rotating_table(cfg)
+    n_sphere = [int(np.count_nonzero(lab == LABEL_SPHERE)) for lab in sim.point_labels]
+    assert min(n_sphere) >= MIN_SPHERE_POINTS_PER_PASS
+    result = estimate_latency_sphere(sim.passes, radius_m=cfg.sphere_radius_m)
+    assert result.n_passes_used == len(sim.passes)
 
 
 def test_write_simulation_round_trip_and_truth(tmp_path: Path) -> None:

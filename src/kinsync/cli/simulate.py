@@ -27,6 +27,9 @@ if TYPE_CHECKING:
 app = typer.Typer(help="Simulate test data (pass folders, logs) with known ground truth.")
 
 _FORMATS: dict[str, PassFileFormat] = {"csv": "csv", "las": "las", "laz": "laz"}
+TABLE_MAX_RATE_DEG_S = 369.0
+"""Largest ``--rates-deg-s`` of ``simulate rotating-table``: the simulated scanner and
+sphere's `kinsync.sim.table_config.max_usable_rate_deg_s` (a test keeps them equal)."""
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")]
 
 
@@ -59,7 +62,13 @@ def rotating_table(
         ),
     ] = 4.21,
     rates_deg_s: Annotated[
-        str, typer.Option(help="Comma-separated table rate magnitudes (deg/s); both signs.")
+        str,
+        typer.Option(
+            help=(
+                f"Comma-separated table rate magnitudes (deg/s), each up to "
+                f"{TABLE_MAX_RATE_DEG_S:g} (faster, a pass can miss the sphere); both signs."
+            )
+        ),
     ] = "2,4,6,10,14,18",
     passes: Annotated[int, typer.Option(help="Passes per rate and direction.")] = 15,
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).")] = 1,
@@ -86,7 +95,7 @@ def rotating_table(
 ) -> None:
     """Simulate a rotating-table latency test (Method A) and write its pass folder."""
     from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation  # noqa: PLC0415
-    from kinsync.sim.table_config import RotatingTableConfig  # noqa: PLC0415
+    from kinsync.sim.table_config import RotatingTableConfig, too_fast_text  # noqa: PLC0415
 
     fmt_key = file_format.strip().lower()
     if fmt_key not in _FORMATS:
@@ -105,9 +114,16 @@ def rotating_table(
             "there is no FIFO and it would not be used: drop it, or give --fifo-bytes"
         )
         raise InputError(msg)
+    rates = parse_rates(rates_deg_s)
+    limit = RotatingTableConfig().max_rate_deg_s
+    for pos, rate in enumerate(rates, start=1):
+        if rate > limit:
+            reason = too_fast_text(rate, limit, RotatingTableConfig.profile_rate_hz)
+            msg = f"--rates-deg-s {rates_deg_s!r}: item {pos} ({rate:g}): {reason}"
+            raise InputError(msg)
     config = RotatingTableConfig(
         latency_s=latency_ms * 1e-3,
-        rates_deg_s=parse_rates(rates_deg_s),
+        rates_deg_s=rates,
         passes=passes,
         seed=seed,
         range_noise_m=range_noise_m,
