@@ -78,6 +78,10 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         # A crash (1000: no profile at all in a pass) or passes latency sphere cannot use.
         (["--rates-deg-s", "6,1000"], "item 2 (1000): at 1000 deg/s the profiles cross"),
         (["--rates-deg-s", "400"], "the largest usable rate is 369 deg/s"),
+        (
+            ["--rates-deg-s", "0.001"],
+            "--rates-deg-s 0.001 with --passes 1: the passes would scan 3,4",
+        ),
         (["--format", "ply"], "--format must be csv, las or laz"),
         (["--fifo-bytes", "-3"], "--fifo-bytes -3: outside the span"),
         (["--range-noise-m", "-0.1"], "--range-noise-m -0.1: outside the span"),

@@ -451,7 +451,15 @@ def test_bad_input(
     assert not Path(out).exists()
     sim = ["simulate", "drive-scan", "--out", str(tmp_path / "s")]
     assert_one_line_error(*run_cli([*sim, "--route", "square"]), "--route")
-    assert_one_line_error(*run_cli([*sim, "--duration-s", "10"]), "at least 40 s")
+    assert_one_line_error(
+        *run_cli([*sim, "--duration-s", "10"]), "--duration-s 10: outside the span", "40 to 7200 s"
+    )
+    # It ran until killed (8e9 beams): the size is estimated before any work.
+    assert_one_line_error(
+        *run_cli([*sim, "--period-s", "1e-5"]),
+        "--duration-s 300 at --period-s 1e-05: 30,000,000 profiles of 271 beams",
+        "give a shorter --duration-s or a longer --period-s",
+    )
     assert_one_line_error(*run_cli(["simulate", "drive-scan", "--out", str(timed)]), "not a folder")
 
 

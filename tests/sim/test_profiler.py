@@ -22,9 +22,11 @@ from kinsync.sim.drive import oval_route
 from kinsync.sim.drive_truth import simulate_truth
 from kinsync.sim.profiler import (
     DRIVE_SCAN_FILES,
+    MAX_DRIVE_SCAN_BEAMS,
     DriveScanConfig,
     DriveScanSimulation,
     ProfilerConfig,
+    drive_scan_size_problem,
     profile_pulses,
     profiles_near_targets,
     simulate_drive_scan,
@@ -207,9 +209,18 @@ def test_drive_scan_config_checks() -> None:
         ({"trajectory_noise_m": -0.1}, "trajectory_noise_m"),
         ({"seed": -1}, "seed"),
         ({"mount": Mount()}, r"\[profiler\]"),
+        ({"period_s": 1e-5}, "more than the 65,000,000 kinsync simulates"),
+        ({"duration_s": 7200.0, "period_s": 0.025}, "give a shorter duration_s or a longer"),
     ]:
         with pytest.raises(InputError, match=frag):
             DriveScanConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_drive_scan_size_limit_keeps_the_declared_durations() -> None:
+    # The longest --duration-s declared (2 h) fits at the default period.
+    assert drive_scan_size_problem(7200.0, DriveScanConfig().period_s) is None
+    n_beams = ProfilerConfig().angles_rad().size
+    assert 7200.0 / 0.030545 * n_beams <= MAX_DRIVE_SCAN_BEAMS
 
 
 def test_full_short_loop_scan() -> None:

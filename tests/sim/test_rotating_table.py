@@ -19,8 +19,10 @@ from kinsync.io.passes import read_passes
 from kinsync.latency.sphere import MIN_SPHERE_POINTS_PER_PASS, estimate_latency_sphere
 from kinsync.pipelines.raw_passes import read_raw_passes
 from kinsync.sim.rotating_table import (
+    MAX_TABLE_PROFILES,
     RotatingTableSimulation,
     simulate_rotating_table,
+    size_problem,
     write_simulation,
 )
 from kinsync.sim.table_config import (
@@ -208,6 +210,8 @@ def test_progress_is_reported() -> None:
         ({"rates_deg_s": (6.0, 1000.0)}, "holds 1000: .* the largest usable rate is 369 deg/s"),
         ({"rates_deg_s": (30.0,), "angular_step_deg": 5.0}, "the largest usable rate is 28.1"),
         ({"angular_step_deg": 8.0}, "no rate is, with this angular step and sphere"),
+        # Points per pass scale as 1 / rate: it ran until killed.
+        ({"rates_deg_s": (0.001,)}, "rates_deg_s 0.001 with passes 1: the passes would scan"),
         ({"range_noise_m": -1.0}, "range_noise_m must be >= 0"),
         ({"fifo_bytes": -1}, "fifo_bytes"),
         ({"sphere_range_m": 0.3}, "sphere_range_m"),
@@ -239,6 +243,13 @@ def test_the_fastest_usable_rate_keeps_every_pass_usable() -> None:
     assert min(n_sphere) >= MIN_SPHERE_POINTS_PER_PASS
     result = estimate_latency_sphere(sim.passes, radius_m=cfg.sphere_radius_m)
     assert result.n_passes_used == len(sim.passes)
+
+
+def test_size_limit_keeps_the_declared_passes_at_the_default_rates() -> None:
+    assert size_problem(RotatingTableConfig(passes=100)) is None  # --passes up to 100
+    problem = size_problem(RotatingTableConfig(rates_deg_s=(0.01,), passes=2))
+    assert problem is not None
+    assert f"more than the {MAX_TABLE_PROFILES:,} kinsync simulates" in problem
 
 
 def test_write_simulation_round_trip_and_truth(tmp_path: Path) -> None:

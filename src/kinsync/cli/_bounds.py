@@ -105,7 +105,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--max-gap-s": Bounds(1e-4, _DAY_S, "s", "a record interval of the trajectory"),
     "--duration-s": Bounds(1.0, _DAY_S, "s"),
     ("simulate drive", "--duration-s"): Bounds(1.0, 21_600.0, "s", "6 h of IMU data in memory"),
-    ("simulate drive-scan", "--duration-s"): Bounds(1.0, 7_200.0, "s"),
+    ("simulate drive-scan", "--duration-s"): Bounds(40.0, 7_200.0, "s"),  # DriveScanConfig's
     ("simulate clock", "--duration-s"): Bounds(
         9.0, _DAY_S, "s", "a clock fit needs at least 10 PPS edges, one a second"
     ),  # kinsync.sim.clock.MIN_DURATION_S

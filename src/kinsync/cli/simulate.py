@@ -70,7 +70,13 @@ def rotating_table(
             )
         ),
     ] = "2,4,6,10,14,18",
-    passes: Annotated[int, typer.Option(help="Passes per rate and direction.")] = 15,
+    passes: Annotated[
+        int,
+        typer.Option(
+            help="Passes per rate and direction; with --rates-deg-s, at most 500,000 "
+            "profiles in all."
+        ),
+    ] = 15,
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).")] = 1,
     range_noise_m: Annotated[
         float, typer.Option(help="Range noise along the beam, 1 sigma (m).")
@@ -94,7 +100,11 @@ def rotating_table(
     as_json: JsonOpt = False,
 ) -> None:
     """Simulate a rotating-table latency test (Method A) and write its pass folder."""
-    from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation  # noqa: PLC0415
+    from kinsync.sim.rotating_table import (  # noqa: PLC0415
+        simulate_rotating_table,
+        size_problem,
+        write_simulation,
+    )
     from kinsync.sim.table_config import RotatingTableConfig, too_fast_text  # noqa: PLC0415
 
     fmt_key = file_format.strip().lower()
@@ -131,6 +141,9 @@ def rotating_table(
     )
     if baud is not None:
         config = replace(config, baud=baud)
+    problem = size_problem(config, rates_name="--rates-deg-s", passes_name="--passes")
+    if problem is not None:
+        raise InputError(problem)
     with progress_display("simulate rotating-table") as progress:
         stages = Stages(progress, {"simulating passes": 3.0, "writing files": 1.0})
         sim = simulate_rotating_table(config, progress=stages.start("simulating passes"))
@@ -420,7 +433,13 @@ def drive_scan(
         typer.Option(help="True start of profile 0 (GPS s); default 0.4371 s after the start."),
     ] = None,
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same data).", min=0)] = 1,
-    duration_s: Annotated[float, typer.Option(help="Length of the drive (s).")] = 300.0,
+    duration_s: Annotated[
+        float,
+        typer.Option(
+            help="Length of the drive (s); with --period-s, at most 65 million beams "
+            "(2 h at the default period)."
+        ),
+    ] = 300.0,
     route: Annotated[
         str, typer.Option(help="oval (two laps) or loop (figure-eight, as many laps as fit).")
     ] = "oval",
@@ -442,6 +461,7 @@ def drive_scan(
     from kinsync.sim.profiler import (  # noqa: PLC0415
         DRIVE_SCAN_FILES,
         DriveScanConfig,
+        drive_scan_size_problem,
         simulate_drive_scan,
         write_drive_scan,
     )
@@ -450,6 +470,11 @@ def drive_scan(
         msg = f"--route must be oval or loop, got {route!r}"
         raise InputError(msg)
     output_folder(out, "give a folder to write the data set to", create=False, option="--out")
+    problem = drive_scan_size_problem(
+        duration_s, period_s, duration_name="--duration-s", period_name="--period-s"
+    )
+    if problem is not None:
+        raise InputError(problem)
     config = DriveScanConfig(
         period_s=period_s,
         t0_s=t0_s,

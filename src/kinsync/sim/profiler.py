@@ -65,10 +65,12 @@ from kinsync.trajectory import Trajectory
 
 __all__ = [
     "DRIVE_SCAN_FILES",
+    "MAX_DRIVE_SCAN_BEAMS",
     "DriveScanConfig",
     "DriveScanSimulation",
     "ProfilerConfig",
     "ProfilerSimulation",
+    "drive_scan_size_problem",
     "profile_pulses",
     "profiles_near_targets",
     "simulate_drive_scan",
@@ -412,6 +414,47 @@ _DEFAULT_MOUNT = Mount(
 )
 
 
+MAX_DRIVE_SCAN_BEAMS = 65_000_000
+"""Most beams one drive scan casts (profiles x beams per profile): 2 h at the default
+mirror period (0.030545 s) and field of view (271 beams), about 40 million returns."""
+
+
+def drive_scan_size_problem(
+    duration_s: float,
+    period_s: float,
+    profiler: ProfilerConfig | None = None,
+    *,
+    duration_name: str = "duration_s",
+    period_name: str = "period_s",
+) -> str | None:
+    """Why a drive scan is too large to simulate (more than `MAX_DRIVE_SCAN_BEAMS`), or None.
+
+    Parameters
+    ----------
+    duration_s, period_s : float
+        Length of the drive and mirror period (s).
+    profiler : ProfilerConfig, optional
+        The scanner (its beams per profile); default `ProfilerConfig`.
+    duration_name, period_name : str
+        How the message names the two (the command's options).
+
+    Returns
+    -------
+    str or None
+        The reason, naming what to change; None when the scan fits.
+    """
+    n_beams = (profiler or ProfilerConfig()).angles_rad().size
+    n_profiles = duration_s / period_s
+    if n_profiles * n_beams <= MAX_DRIVE_SCAN_BEAMS:
+        return None
+    return (
+        f"{duration_name} {duration_s:g} at {period_name} {period_s:g}: {n_profiles:,.0f} "
+        f"profiles of {n_beams} beams, {n_profiles * n_beams:,.0f} beams, more than the "
+        f"{MAX_DRIVE_SCAN_BEAMS:,} kinsync simulates in one run (2 h at the default "
+        f"period); give a shorter {duration_name} or a longer {period_name}"
+    )
+
+
 @dataclass(frozen=True)
 class DriveScanConfig:
     """Set-up of a simulated Method B data set (defaults: the issue's scenario).
@@ -425,7 +468,8 @@ class DriveScanConfig:
     seed : int
         Seed of the scan noise and the trajectory noise.
     duration_s : float
-        Length of the drive (s), >= 40.
+        Length of the drive (s), >= 40; with ``period_s``, at most
+        `MAX_DRIVE_SCAN_BEAMS` beams (`drive_scan_size_problem`).
     route : {"oval", "loop"}
         Oval (two laps, straights stretched to fill ``duration_s``) or figure-eight
         loop (as many laps as fit).
@@ -489,6 +533,9 @@ class DriveScanConfig:
         if self.mount.profiler_azimuth_deg is None:
             msg = "drive scan: the mount needs a [profiler] azimuth_deg"
             raise InputError(msg)
+        problem = drive_scan_size_problem(self.duration_s, self.period_s, self.profiler)
+        if problem is not None:
+            raise InputError(f"drive scan: {problem}")
 
     @property
     def true_t0_s(self) -> float:

@@ -77,8 +77,10 @@ from kinsync.sim.table_scan import _Simulator
 from kinsync.trajectory import Trajectory
 
 __all__ = [
+    "MAX_TABLE_PROFILES",
     "RotatingTableSimulation",
     "simulate_rotating_table",
+    "size_problem",
     "write_simulation",
 ]
 
@@ -114,6 +116,58 @@ class RotatingTableSimulation:
     truth: dict[str, Any] = field(default_factory=dict)
 
 
+MAX_TABLE_PROFILES = 500_000
+"""Most profiles one simulation scans (all passes): about 22 million points, 2 min.
+
+The default set-up scans about 60,000; ``--passes 100`` at the default rates about
+400,000. Slow rates scan for long: a pass at 0.01 deg/s scans for over 3000 s."""
+
+
+def _n_profiles(cfg: RotatingTableConfig, sim: _Simulator) -> float:
+    """Profiles the passes of ``cfg`` scan (each pass turns the table through its span)."""
+    seconds = sum(
+        2.0 * cfg.passes * 2.0 * sim.half_span_rad / math.radians(rate) for rate in cfg.rates_deg_s
+    )
+    return seconds * cfg.profile_rate_hz
+
+
+def size_problem(
+    config: RotatingTableConfig,
+    *,
+    rates_name: str = "rates_deg_s",
+    passes_name: str = "passes",
+    sim: _Simulator | None = None,
+) -> str | None:
+    """Why ``config`` is too large to simulate (more than `MAX_TABLE_PROFILES`), or None.
+
+    Parameters
+    ----------
+    config : RotatingTableConfig
+    rates_name, passes_name : str
+        How the message names the rates and the passes (the command's options).
+    sim : _Simulator, optional
+        The simulation's own state (its drawn scene gives the pass span); default one
+        drawn from ``config.seed``.
+
+    Returns
+    -------
+    str or None
+        The reason, naming what to change; None when the simulation fits.
+    """
+    state = _Simulator(config, np.random.default_rng(config.seed)) if sim is None else sim
+    n = _n_profiles(config, state)
+    if n <= MAX_TABLE_PROFILES:
+        return None
+    rates = ",".join(f"{r:g}" for r in config.rates_deg_s)
+    return (
+        f"{rates_name} {rates} with {passes_name} {config.passes}: the passes would scan "
+        f"{n:,.0f} profiles (each pass turns the table "
+        f"{math.degrees(2.0 * state.half_span_rad):.3g} deg at {config.profile_rate_hz:g} "
+        f"profiles/s), more than the {MAX_TABLE_PROFILES:,} kinsync simulates in one run; "
+        f"give faster rates ({rates_name}) or fewer passes ({passes_name})"
+    )
+
+
 # ---------------------------------------------------------------------- geometry helpers
 
 
@@ -144,11 +198,15 @@ def simulate_rotating_table(
     Raises
     ------
     InputError
-        A configuration in which the scanner never sees the sphere.
+        A configuration in which the scanner never sees the sphere, or one that would
+        scan more than `MAX_TABLE_PROFILES` profiles (`size_problem`).
     """
     cfg = RotatingTableConfig() if config is None else config
     rng = np.random.default_rng(cfg.seed)
     sim = _Simulator(cfg, rng)
+    problem = size_problem(cfg, sim=sim)
+    if problem is not None:
+        raise InputError(f"rotating-table config: {problem}")
     site = cfg.site_lat_lon_h
     rates = cfg.signed_rates_deg_s
     passes: list[SpherePass] = []
