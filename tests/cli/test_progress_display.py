@@ -180,3 +180,44 @@ def test_a_stage_line_is_written_with_its_line_end_in_one_call(
         progress(0.5, "reading")
     assert stderr.calls
     assert all(call.endswith("\n") and call.count("\n") == 1 for call in stderr.calls)
+
+
+class _FakeClock:
+    """A clock the test moves by hand (seconds)."""
+
+    def __init__(self) -> None:
+        self.now_s = 0.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
+def test_held_lines_are_written_at_the_fifth_second_without_a_report(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # A long loop that reports nothing (table_scan's attitude records at 0.01 deg/s)
+    # left the stage lines held until its end: the timer writes them when due.
+    clock = _FakeClock()
+    with progress_display("job", clock=clock) as progress:
+        progress(0.0, "simulating passes")
+        clock.now_s = _progress.HOLD_S - 0.1
+        assert capsys.readouterr().err == ""
+        clock.now_s = _progress.HOLD_S + 0.5  # no report from here on
+        assert isinstance(progress, _progress._Display)
+        assert progress.released.wait(timeout=60.0)  # set by the timer, not by a report
+        assert capsys.readouterr().err == "kinsync: job: simulating passes (0.0 s)\n"
+        clock.now_s = 7.0
+        progress(1.0, "writing files")
+    assert capsys.readouterr().err == "kinsync: job: writing files (7.0 s)\n"
+
+
+def test_the_timer_writes_nothing_for_quick_work(capsys: pytest.CaptureFixture[str]) -> None:
+    clock = _FakeClock()
+    display = _progress._Display("job", None, clock)
+    display(0.0, "reading")
+    clock.now_s = 1.0
+    assert display.tick() == pytest.approx(_progress.HOLD_S - 1.0)
+    assert capsys.readouterr().err == ""
+    clock.now_s = _progress.HOLD_S
+    assert display.tick() <= 0.0
+    assert capsys.readouterr().err == "kinsync: job: reading (0.0 s)\n"

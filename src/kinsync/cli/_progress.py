@@ -5,7 +5,10 @@ removed when the command ends. Otherwise (a log file, a pipe, a test): one plain
 per stage, ``kinsync: TITLE: STAGE (12.3 s)`` with the time since the command started,
 and no escape codes. These lines are held back until the work has run `HOLD_S`
 seconds and dropped if it ends before: a quick command stays quiet, and bad input found
-as the work starts stays the one error line that every command promises. When numba
+as the work starts stays the one error line that every command promises. A timer
+thread writes the held lines at the `HOLD_S`-th second even when the work reports nothing
+then (a long loop without progress callbacks); every line is written whole, under one
+lock, so the timer's lines and the work's never mix. When numba
 compiles kernels (a cache miss: the first run after an install or an upgrade), the
 display says so once, so that a user knows why the first run is slower.
 """
@@ -13,8 +16,9 @@ display says so once, so that a user knows why the first run is slower.
 from __future__ import annotations
 
 import sys
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -50,11 +54,16 @@ def _write_line(line: str) -> None:
 class _Display:
     """Turns ``(fraction, stage)`` reports into a bar or into stage lines."""
 
-    def __init__(self, title: str, bar: Progress | None) -> None:
+    def __init__(
+        self, title: str, bar: Progress | None, clock: Callable[[], float] = time.perf_counter
+    ) -> None:
         self.title = title
         self.bar = bar
         self.task = bar.add_task(title, total=1.0) if bar is not None else None
-        self.start = time.perf_counter()
+        self.clock = clock
+        self.start = clock()
+        self.lock = threading.RLock()  # the work's reports and the timer's release
+        self.released = threading.Event()  # set once the held lines are written
         self.stage: str | None = None
         self.fraction = 0.0
         self.said_compiling = False
@@ -62,6 +71,10 @@ class _Display:
         self.held: list[str] | None = []  # stage lines not written yet; None once released
 
     def __call__(self, fraction: float, stage: str, /) -> None:
+        with self.lock:
+            self._report(fraction, stage)
+
+    def _report(self, fraction: float, stage: str, /) -> None:
         self.fraction = max(self.fraction, min(1.0, fraction))  # the bar never goes back
         self._listen_for_compilation()
         if self.bar is not None and self.task is not None:
@@ -77,8 +90,17 @@ class _Display:
         if self.held is not None and self._seconds() >= HOLD_S:
             self.release()
 
+    def tick(self) -> float:
+        """Write the held lines once the work has run `HOLD_S` (the timer calls this).
+
+        Returns the seconds until they are due (<= 0 once written).
+        """
+        with self.lock:
+            self._release_when_due()
+            return -1.0 if self.held is None else HOLD_S - self._seconds()
+
     def _seconds(self) -> float:
-        return time.perf_counter() - self.start
+        return self.clock() - self.start
 
     def _line(self, text: str) -> None:
         line = f"kinsync: {self.title}: {text} ({self._seconds():.1f} s)"
@@ -89,12 +111,18 @@ class _Display:
 
     def release(self) -> None:
         """Write the stage lines held so far, and the next ones as they come."""
-        held, self.held = self.held or [], None
-        for line in held:
-            _write_line(line)
+        with self.lock:
+            held, self.held = self.held or [], None
+            for line in held:
+                _write_line(line)
+            self.released.set()
 
     def compiling(self) -> None:
         """Say numba compiles: on the bar until the next report; one line otherwise."""
+        with self.lock:
+            self._compiling()
+
+    def _compiling(self) -> None:
         if self.bar is not None and self.task is not None:
             self.bar.update(self.task, description=f"{self.title}: {self.stage}, {COMPILING}")
         elif not self.said_compiling:
@@ -131,14 +159,49 @@ class _Display:
             self.listener = None
 
 
+_TIMER_POLL_S = 0.5
+"""Longest wait of the timer between two looks at the clock (s)."""
+
+
+class _Timer:
+    """A daemon thread that writes the held stage lines when they are due.
+
+    The work may report nothing for minutes (one long loop); the lines it reported
+    before are then written at the `HOLD_S`-th second all the same. The thread looks
+    at the display's clock at least every `_TIMER_POLL_S` and ends once the lines are
+    written or the display closes.
+    """
+
+    def __init__(self, display: _Display) -> None:
+        self.display = display
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="kinsync-progress", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while True:
+            due_s = self.display.tick()
+            if due_s <= 0.0 or self.stop.wait(min(max(due_s, 0.01), _TIMER_POLL_S)):
+                return
+
+    def close(self) -> None:
+        """Stop the thread (a line it is writing is written whole first)."""
+        self.stop.set()
+        self.thread.join(timeout=5.0)
+
+
 @contextmanager
-def progress_display(title: str) -> Iterator[ProgressCallback]:
+def progress_display(
+    title: str, *, clock: Callable[[], float] = time.perf_counter
+) -> Iterator[ProgressCallback]:
     """A `kinsync.progress.Progress` shown on stderr for the duration of the block.
 
     Parameters
     ----------
     title : str
         What runs, as the user typed it (``"ins run"``, ``"georef"``).
+    clock : callable, optional
+        Seconds of a monotonic clock (tests give a fake one).
 
     Yields
     ------
@@ -155,14 +218,16 @@ def progress_display(title: str) -> Iterator[ProgressCallback]:
             console=err_console,
             transient=True,
         ) as bar:
-            display = _Display(title, bar)
+            display = _Display(title, bar, clock)
             try:
                 yield display
             finally:
                 display.close()
     else:
-        display = _Display(title, None)
+        display = _Display(title, None, clock)
+        timer = _Timer(display)
         try:
             yield display
         finally:
+            timer.close()
             display.close()
