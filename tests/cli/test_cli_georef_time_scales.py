@@ -182,3 +182,34 @@ def test_a_wrong_gps_week_is_named() -> None:
     assert f"the points lie in GPS week {WEEK}, the trajectory in GPS week {WEEK + 1}" in hint
     assert f"--gps-week {WEEK + 1}" in hint
     assert time_scale_hint(times, T0 + 1.0, T0 + 2.0, T0 + 100.0, T0 + 200.0) is None
+
+
+def _sbet_in_gps_time(files: dict[str, Path]) -> Path:
+    """The trajectory as an SBET whose time field holds GPS time, not seconds of week."""
+    rec = np.fromfile(files["sbet"], "<f8").reshape(-1, 17)
+    rec[:, 0] += WEEK * SECONDS_PER_WEEK
+    path = files["dir"] / "gps.out"
+    rec.tofile(path)
+    return path
+
+
+def test_an_sbet_whose_times_are_gps_time_is_read_as_such(
+    run_cli: RunCli, files: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    """Review G: read as seconds of week, it lay in 2069 or missed every point."""
+    sbet = _sbet_in_gps_time(files)
+    points = _csv(files["dir"] / "p.csv", [T0 + 1.0, T0 + 1.5])
+    out = files["dir"] / "q.csv"
+    code, _, err = run_cli(_args(files, points, sbet, out))
+    assert code == 0, err
+    reference = files["dir"] / "r.csv"
+    code, _, err = run_cli(_args(files, points, files["csv"], reference))
+    assert code == 0, err
+    assert out.read_text(encoding="utf-8") == reference.read_text(encoding="utf-8")
+    code, stdout, err = run_cli(
+        _args(files, points, sbet, files["dir"] / "w.csv", "--gps-week", str(WEEK))
+    )
+    assert_one_line_error(
+        code, stdout, err, f"--gps-week {WEEK}: the times of {sbet} are already GPS time",
+        "drop it",
+    )  # fmt: skip

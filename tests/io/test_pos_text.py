@@ -193,6 +193,24 @@ def test_novatel_angles_have_the_documented_signs(tmp_path: Path) -> None:
     np.testing.assert_allclose(right, [-np.cos(np.radians(10)), 0.0, np.sin(np.radians(10))])
 
 
+@pytest.mark.parametrize("tilt_deg", [5.0, 40.0, 80.0])
+def test_novatel_and_din_9300_angles_agree_at_any_tilt(tmp_path: Path, tilt_deg: float) -> None:
+    """The same numbers in a POSPac and an Inertial Explorer export: the same attitude.
+
+    The module docstring once said they differ by up to roll x pitch in heading; the
+    axis swap turns NovAtel's Z-X-Y sequence into DIN 9300's Z-Y-X (review G).
+    """
+    c = _states()
+    c["roll"] = np.full(len(c["sow"]), tilt_deg)
+    c["pitch"] = np.full(len(c["sow"]), -0.75 * tilt_deg)
+    ie, pospac = tmp_path / "ie.txt", tmp_path / "pospac.txt"
+    _write_ie(ie, c, dms=False, week=False)
+    _write_pospac(pospac, c)
+    a, b = read_pos_text(ie)[0], read_pos_text(pospac)[0]
+    dots = np.abs(np.sum(a.q_body_to_ned * b.q_body_to_ned, axis=1))
+    np.testing.assert_allclose(dots, 1.0, rtol=0, atol=1e-12)
+
+
 def fast_path_reads(path: Path) -> bool:
     """Whether numpy's one-call parse reads the file (no text among the rows)."""
     from kinsync.io.pos_text import _find_layout, _parse_rows_fast  # noqa: PLC0415
@@ -217,7 +235,11 @@ GOOD_ROWS = "100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 3
         (_ie_text(GOOD_ROWS).replace("Inertial Explorer", "Something"), ["which program"]),
         (
             _ie_text("100.0 46.8 -71.2 10.0 0.1 0.2\n"),
-            ["line 12", "6 fields", "header (line 10) gives 7"],
+            ["line 12", "6 fields", "header (line 10) gives 7", "1 too few", "cut short"],
+        ),
+        (  # review G: a field too many was asked about as a row cut short
+            _ie_text("100.0 46.8 -71.2 10.0 5 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 30.0\n"),
+            ["line 12", "8 fields", "header (line 10) gives 7", "1 too many", "two rows joined"],
         ),
         (
             _ie_text("100.0 46.8 -71.2 10.0 0.1 abc 30.0\n"),

@@ -193,7 +193,8 @@ def refuse_unused_gps_week(
     """Refuse ``--gps-week`` when no input carries GPS seconds of week.
 
     A CSV trajectory or point table carries GPS time, a LAS/LAZ header says which time
-    its points carry, a text export with a week column gives its own week: given with
+    its points carry, a text export with a week column gives its own week, and an SBET
+    or text export whose times lie beyond a week already holds GPS time: given with
     none that takes it, the week was accepted and not used.
 
     Parameters
@@ -212,7 +213,10 @@ def refuse_unused_gps_week(
     from kinsync._text import first_few  # noqa: PLC0415
     from kinsync.io.las import las_takes_gps_week  # noqa: PLC0415
     from kinsync.io.nav_csv import navigation_takes_gps_week  # noqa: PLC0415
-    from kinsync.io.trajectory import trajectory_takes_gps_week  # noqa: PLC0415
+    from kinsync.io.trajectory import (  # noqa: PLC0415
+        trajectory_already_gps_time,
+        trajectory_takes_gps_week,
+    )
 
     named = [Path(p) for p in (*trajectories, *points, *navigation)]
     if not all(p.is_file() for p in named):
@@ -224,6 +228,14 @@ def refuse_unused_gps_week(
     ):
         return
     names = first_few([str(p) for p in named])
+    already = [str(p) for p in (*trajectories, *navigation) if trajectory_already_gps_time(p)]
+    if already:
+        msg = (
+            f"--gps-week {gps_week}: the times of {first_few(already)} are already GPS time "
+            "(seconds since 1980, beyond one week), not seconds of week, and no other input "
+            f"carries seconds of week ({names}), so it would not be used: drop it"
+        )
+        raise InputError(msg)
     msg = (
         f"--gps-week {gps_week}: no input carries GPS seconds of week ({names}: a CSV "
         "carries GPS time, a LAS file's header says which, a text export with a week "

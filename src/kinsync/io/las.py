@@ -36,11 +36,11 @@ import lazrs
 import numpy as np
 
 from kinsync.errors import InputError
+from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
 from kinsync.io.las_crs import las_crs
 from kinsync.io.las_header import las_header, las_suffix, open_las_file, read_las_layout
 from kinsync.io.laz_chunks import LazChunks, points_text
-from kinsync.io.sbet import SECONDS_PER_WEEK
 from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 
 __all__ = [
@@ -144,11 +144,6 @@ def las_time_offset_s(
     return 0.0
 
 
-WEEK_SECONDS_SLACK_S = 86_400.0
-"""Seconds of week a file may run past the week's end (604800 s): some loggers keep
-counting across the week rollover. Beyond this, the times are not seconds of week."""
-
-
 def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -> None:
     """Refuse ``gps_time`` values that cannot be the GPS seconds of week the header says.
 
@@ -169,7 +164,7 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
     if info.gps_time_type == "adjusted_standard" or end_times_s is None:
         return
     t = max(end_times_s)
-    if t <= SECONDS_PER_WEEK + WEEK_SECONDS_SLACK_S:
+    if t <= WEEK_SECONDS_MAX_S:
         return
     likely = (
         f"adjusted standard GPS time (GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s) written with "

@@ -53,7 +53,7 @@ from kinsync.io.sanity import (
     check_columns,
     check_text_file,
 )
-from kinsync.io.sbet import read_sbet
+from kinsync.io.sbet import read_sbet, sbet_holds_gps_time
 from kinsync.io.tables import NumericTable, read_numeric_csv, write_numeric_csv
 from kinsync.io.text_lines import csv_header_row
 from kinsync.io.trajectory_csv import SPANS, read_trajectory_csv
@@ -332,8 +332,18 @@ def _csv_header(path: Path) -> list[str]:
 
 
 def navigation_takes_gps_week(path: Path) -> bool:
-    """Whether a GPS week applies to this navigation file (`read_navigation`): an SBET."""
-    return Path(path).suffix.lower() in _SBET_SUFFIXES
+    """Whether a GPS week applies to this navigation file (`read_navigation`).
+
+    An SBET holding GPS seconds of week, not one whose times already hold GPS time
+    (`kinsync.io.sbet.sbet_holds_gps_time`); an SBET that cannot be read counts as
+    taking one (its reader names what is wrong).
+    """
+    if Path(path).suffix.lower() not in _SBET_SUFFIXES:
+        return False
+    try:
+        return not sbet_holds_gps_time(Path(path))
+    except InputError:
+        return True
 
 
 def read_navigation(path: Path, *, gps_week: int | None = None) -> NavSolution | Trajectory:

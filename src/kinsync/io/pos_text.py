@@ -21,20 +21,24 @@ Two text layouts are read, each found from its header, never from fixed line num
   vehicle frame x right, y forward, z up; pitch right-handed about x, roll right-handed
   about y, azimuth clockwise from north, applied in the order azimuth, pitch, roll
   (intrinsic Z-X-Y, NovAtel's "Determining rotations for Inertial Explorer and SPAN").
-  They are converted to the body frame of kinsync (x forward, y right, z down): equal
-  to DIN 9300 angles for small tilts, different by up to the product of roll and pitch
-  in heading otherwise (0.4 deg at 5 deg each), which is why the producer must be known.
+  They are converted to the body frame of kinsync (x forward, y right, z down). The
+  swap of axes makes NovAtel's Z-X-Y sequence the DIN 9300 one: the vehicle-to-ENU
+  rotation ``Rz(-azimuth) Rx(pitch) Ry(roll)`` seen through the swap (FRD <-> RFU, ENU
+  <-> NED) is ``Rz(heading) Ry(pitch) Rx(roll)``, so the same three numbers give the
+  same attitude from either program, at any tilt (the tests check both to 1e-12).
 
 The columns are recognised by name (`COLUMN_NAMES`, case and units ignored): a time,
 latitude, longitude, ellipsoidal height, roll, pitch and heading are required;
 north/east/up (or down) velocities are optional and, when given, enable Hermite
 position interpolation. The producer is told by its banner (``POS Export Utility``,
 ``POSPac``, ``Applanix``; ``Inertial Explorer``, ``GrafNav``, ``NovAtel``, ``Waypoint``);
-a file with neither is refused, since the two attitude conventions differ.
+a file with neither is refused: the angles of another program may follow another
+convention, which kinsync does not guess.
 
 Times are GPS seconds of week (both programs' default); with a ``Week`` column they
 become continuous GPS time (``week * 604800 + seconds``), else ``gps_week`` does
-(`read_pos_text`), as for an SBET.
+(`read_pos_text`), as for an SBET. Times beyond a week and a day cannot be seconds of
+week: they are read as GPS time as they are (`kinsync.io.gps_week`).
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_quaternion, matrix_to_quaternion, rot_x, rot_y, rot_z
+from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.sanity import (
     ANGLE_DEG,
     HEIGHT_M,
@@ -63,10 +68,16 @@ from kinsync.io.sanity import (
 from kinsync.io.tables import rows_to_lines
 from kinsync.trajectory import Trajectory
 
-__all__ = ["COLUMN_NAMES", "PosTextLayout", "Producer", "read_pos_text", "sniff_pos_text"]
+__all__ = [
+    "COLUMN_NAMES",
+    "PosTextLayout",
+    "Producer",
+    "pos_text_takes_gps_week",
+    "read_pos_text",
+    "sniff_pos_text",
+]
 
 Producer = Literal["pospac", "inertial-explorer"]
-_WEEK_S = 604_800.0
 _HEADER_SCAN_LINES = 400  # the header block of either program is far shorter
 _MAX_BYTES = 8 << 30
 
@@ -280,6 +291,35 @@ def sniff_pos_text(path: Path) -> PosTextLayout:
     return _find_layout(path, head)[0]
 
 
+def pos_text_takes_gps_week(path: Path) -> bool:
+    """Whether a GPS week applies to this export: seconds of week and no ``Week`` column.
+
+    False for an export with a ``Week`` column (it gives its own) or whose first row's
+    time lies beyond a week and a day (GPS time already, `kinsync.io.gps_week`); a
+    first row that cannot be read counts as taking one (`read_pos_text` names it).
+
+    Raises
+    ------
+    InputError
+        As `sniff_pos_text`.
+    """
+    path = Path(path)
+    check_text_file(path, "trajectory export", max_bytes=_MAX_BYTES)
+    with path.open(encoding="utf-8", errors="replace") as fh:
+        head = [line for _, line in zip(range(_HEADER_SCAN_LINES + 8), fh, strict=False)]
+    layout, first = _find_layout(path, head)
+    if "week" in layout.columns:
+        return False
+    if first >= len(head):
+        return True
+    fields = _FIELD_SEPARATOR.split(head[first].strip())
+    start = sum(layout.widths[: layout.columns["t_s"]])
+    try:
+        return not holds_gps_time(float(fields[start]))
+    except (ValueError, IndexError):
+        return True
+
+
 def _dms_to_deg(fields: list[str]) -> float:
     degrees, minutes, seconds = (float(f) for f in fields)
     sign = -1.0 if fields[0].lstrip().startswith("-") else 1.0
@@ -317,6 +357,11 @@ def _parse_rows_fast(
     return out, [i + 1 for i in rows]
 
 
+def _count_text(found: int, expected: int) -> str:
+    """``2 too many`` or ``1 too few``: fields found against the header's count."""
+    return f"{abs(found - expected)} too {'many' if found > expected else 'few'}"
+
+
 def _parse_rows(
     path: Path, lines: list[str], first: int, layout: PosTextLayout
 ) -> tuple[dict[str, FloatArray], list[int]]:
@@ -344,10 +389,16 @@ def _parse_rows(
             )
             raise InputError(msg)
         if len(fields) != layout.fields_per_row:
+            question = (
+                "is the row cut short, or a column empty?"
+                if len(fields) < layout.fields_per_row
+                else "are two rows joined, or a value split by a space?"
+            )
             msg = (
-                f"{path}: line {index + 1}: {len(fields)} fields, the header (line "
+                f"{path}: line {index + 1}: {len(fields)} fields where the header (line "
                 f"{layout.header_line}) gives {layout.fields_per_row} for columns "
-                f"{list(layout.names)}; is the row cut short, or a column empty?"
+                f"{list(layout.names)}: {_count_text(len(fields), layout.fields_per_row)}; "
+                f"{question}"
             )
             raise InputError(msg)
         for quantity, (start, width, name) in wanted.items():
@@ -386,14 +437,15 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     gps_week : int, optional
         GPS week of the first record, for an export without a ``Week`` column: its
         seconds of week become GPS time (a trajectory crossing into the next week keeps
-        counting past 604800 s, as in an SBET).
+        counting past 604800 s, as in an SBET). Not used when the times already hold GPS
+        time (a first time beyond a week and a day, `kinsync.io.gps_week`).
 
     Returns
     -------
     trajectory : Trajectory
     gps_time : bool
-        True when the times are continuous GPS time (a ``Week`` column or ``gps_week``),
-        False for GPS seconds of week.
+        True when the times are continuous GPS time (a ``Week`` column, ``gps_week``, or
+        times beyond a week), False for GPS seconds of week.
 
     Raises
     ------
@@ -418,11 +470,12 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     spans = {layout.names[layout.columns[q]]: span for q, span in _SPANS.items() if q in c}
     check_columns(named, spans, lambda row: f"{path}: line {line_of_row[row]}")
     t = c["t_s"]
-    gps_time = "week" in c or gps_week is not None
+    already_gps = "week" not in c and holds_gps_time(float(t[0]))
+    gps_time = "week" in c or already_gps or gps_week is not None
     if "week" in c:
-        t = c["week"] * _WEEK_S + t
-    elif gps_week is not None:
-        t = gps_week * _WEEK_S + t
+        t = c["week"] * SECONDS_PER_WEEK + t
+    elif gps_week is not None and not already_gps:
+        t = gps_week * SECONDS_PER_WEEK + t
     vel = _velocity(path, c)
     try:
         traj = Trajectory(

@@ -55,7 +55,9 @@ Time scale
 ----------
 SBET times are GPS seconds of week. `read_sbet` returns them unchanged unless
 ``gps_week`` is given, in which case they become continuous GPS seconds
-``gps_week * 604800 + sow`` (the kinsync reference scale). `write_sbet` writes times
+``gps_week * 604800 + sow`` (the kinsync reference scale). Some exports write GPS time
+itself in the time field: a first time beyond a week and a day cannot be seconds of
+week (`kinsync.io.gps_week`) and is read as GPS time, with no week added. `write_sbet` writes times
 below one week as they are; continuous GPS times are written as seconds of the week of
 the first record (a trajectory crossing into the next week keeps counting past
 604800 s, so times stay increasing), and ``read_sbet(path, gps_week=week)`` gives the
@@ -73,6 +75,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.records import memmap_records
 from kinsync.io.sanity import ANGLE_RAD, HEIGHT_M, SPEED_M_S, TIME_S, Span, check_columns
 from kinsync.trajectory import Trajectory
@@ -84,13 +87,11 @@ __all__ = [
     "ned_to_wander_velocity",
     "read_sbet",
     "read_sbet_records",
+    "sbet_holds_gps_time",
     "seconds_of_first_week",
     "wander_to_ned_velocity",
     "write_sbet",
 ]
-
-SECONDS_PER_WEEK = 604800.0
-"""Seconds in one GPS week."""
 
 SBET_DTYPE: np.dtype[np.void] = np.dtype(
     [
@@ -128,6 +129,16 @@ _SPANS: dict[str, Span] = {
     "wander_angle_rad": ANGLE_RAD,
 }
 """Plausible values of the fields a trajectory is made of (`kinsync.io.sanity`)."""
+
+_ATTITUDE_LIMITS_RAD: dict[str, tuple[float, str]] = {
+    "roll_rad": (2 * math.pi, "+-2 pi"),
+    "pitch_rad": (math.pi / 2, "+-pi/2"),
+    "platform_heading_rad": (2 * math.pi, "+-2 pi"),
+    "wander_angle_rad": (2 * math.pi, "+-2 pi"),
+}
+"""Largest magnitude of each angle in radians, and its span in words. A heading is held
+within [0, 2 pi) or +-pi, a roll within +-pi, a pitch within +-pi/2: an angle beyond
+one turn (a pitch beyond a quarter) was written in degrees."""
 
 
 def wander_to_ned_velocity(
@@ -211,7 +222,9 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
         SBET file (memory-mapped while the trajectory is built).
     gps_week : int, optional
         GPS week of the first record. When given, times become continuous GPS seconds
-        ``gps_week * 604800 + sow``; otherwise they stay GPS seconds of week.
+        ``gps_week * 604800 + sow``; otherwise they stay GPS seconds of week. Not used
+        when the time field already holds GPS time (`sbet_holds_gps_time`: a first time
+        beyond a week and a day), which is read as it is.
 
     Returns
     -------
@@ -224,8 +237,9 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     ------
     InputError
         A truncated file (bytes left over), fewer than 2 records, non-finite or
-        implausible values (`kinsync.io.sanity`: a height beyond 100 km, ...), repeated
-        or decreasing times (naming the file and the record, 0-based).
+        implausible values (`kinsync.io.sanity`: a height beyond 100 km, ...), an angle
+        beyond what radians hold (a roll or heading beyond +-2 pi, a pitch beyond +-pi/2:
+        degrees), repeated or decreasing times (naming the file and the record, 0-based).
     """
     path = Path(path)
     if gps_week is not None and gps_week < 0:
@@ -247,8 +261,9 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
         _SPANS,
         lambda i: f"{path}: record {i} (byte {i * SBET_RECORD_BYTES})",
     )
+    _refuse_degrees(path, rec)
     t = np.array(rec["time_sow_s"], dtype=np.float64)
-    if gps_week is not None:
+    if gps_week is not None and not holds_gps_time(float(t[0])):
         t = gps_week * SECONDS_PER_WEEK + t
     wander = np.asarray(rec["wander_angle_rad"], dtype=np.float64)
     vel = wander_to_ned_velocity(
@@ -277,6 +292,44 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
         )
         msg = f"{path}: {text}"
         raise InputError(msg) from err
+    finally:
+        del rec
+
+
+def _refuse_degrees(path: Path, rec: np.memmap[tuple[int], np.dtype[np.void]]) -> None:
+    """Refuse the first angle beyond what radians can hold (`_ATTITUDE_LIMITS_RAD`)."""
+    first: tuple[int, str, float] | None = None
+    for name, (limit, _) in _ATTITUDE_LIMITS_RAD.items():
+        bad = np.abs(np.asarray(rec[name], dtype=np.float64)) > limit
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            if first is None or i < first[0]:
+                first = (i, name, float(rec[name][i]))
+    if first is not None:
+        i, name, value = first
+        msg = (
+            f"{path}: record {i} (byte {i * SBET_RECORD_BYTES}), field {name!r}: {value!r} "
+            f"is beyond {_ATTITUDE_LIMITS_RAD[name][1]} rad: the attitude looks like degrees; "
+            "an SBET holds roll, pitch, heading and wander angle in radians: export it again "
+            "(or convert those fields to radians)"
+        )
+        raise InputError(msg)
+
+
+def sbet_holds_gps_time(path: Path) -> bool:
+    """Whether an SBET's time field holds GPS time rather than GPS seconds of week.
+
+    True when the first record's time lies beyond a week and a day
+    (`kinsync.io.gps_week.holds_gps_time`): `read_sbet` then adds no GPS week.
+
+    Raises
+    ------
+    InputError
+        As `read_sbet_records` (no records, a truncated file).
+    """
+    rec = read_sbet_records(Path(path))
+    try:
+        return rec.shape[0] > 0 and holds_gps_time(float(rec["time_sow_s"][0]))
     finally:
         del rec
 

@@ -39,7 +39,8 @@ exactly one. Nothing else is guessed.
 
 Time scale
 ----------
-As for SBET (`kinsync.io.sbet`): GPS seconds of week unless ``gps_week`` is given.
+As for SBET (`kinsync.io.sbet`): GPS seconds of week unless ``gps_week`` is given;
+times beyond a week and a day are GPS time already and are read as they are.
 Records are returned in file order (some exports are not time-sorted).
 """
 
@@ -55,9 +56,10 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
+from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.records import memmap_records
 from kinsync.io.sanity import ANGLE_DEG, LENGTH_M, SPEED_M_S, TIME_S, Span, check_columns
-from kinsync.io.sbet import SECONDS_PER_WEEK, seconds_of_first_week
+from kinsync.io.sbet import seconds_of_first_week
 
 __all__ = [
     "SMRMSG_DTYPE",
@@ -203,7 +205,9 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
     path : Path
         smrmsg file.
     gps_week : int, optional
-        GPS week of the first record: times become ``gps_week * 604800 + sow``.
+        GPS week of the first record: times become ``gps_week * 604800 + sow``; not used
+        when the times already hold GPS time (a first time beyond a week and a day,
+        `kinsync.io.gps_week.holds_gps_time`), as in `kinsync.io.sbet.read_sbet`.
 
     Returns
     -------
@@ -228,7 +232,9 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
         _SPANS,
         lambda i: f"{path}: record {i} (byte {i * SMRMSG_RECORD_BYTES})",
     )
-    t = values[:, 0] if gps_week is None else gps_week * SECONDS_PER_WEEK + values[:, 0]
+    t = values[:, 0]
+    if gps_week is not None and not (len(t) and holds_gps_time(float(t[0]))):
+        t = gps_week * SECONDS_PER_WEEK + t
     try:
         return SmrmsgData(
             t_s=t,

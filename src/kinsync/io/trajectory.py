@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Literal
 
 from kinsync.errors import InputError
-from kinsync.io.pos_text import read_pos_text, sniff_pos_text
-from kinsync.io.sbet import read_sbet
+from kinsync.io.gps_week import holds_gps_time
+from kinsync.io.pos_text import pos_text_takes_gps_week, read_pos_text, sniff_pos_text
+from kinsync.io.sbet import read_sbet, sbet_holds_gps_time
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.trajectory import Trajectory
 
@@ -20,6 +21,7 @@ __all__ = [
     "TimeScale",
     "gps_week_needed_text",
     "read_trajectory_file",
+    "trajectory_already_gps_time",
     "trajectory_file_format",
     "trajectory_takes_gps_week",
 ]
@@ -58,14 +60,15 @@ def read_trajectory_file(
         `kinsync.io.pos_text`).
     gps_week : int, optional
         GPS week of an SBET's (or a text export's) first record: its seconds of week
-        become GPS time.
+        become GPS time. Not used for a file whose times already hold GPS time (beyond
+        a week and a day, `kinsync.io.gps_week`).
 
     Returns
     -------
     trajectory : Trajectory
     time_scale : {"gps", "week"}
-        "week" for an SBET or a text export without a week read without ``gps_week``
-        (GPS seconds of week), else "gps".
+        "week" for an SBET or a text export without a week, holding seconds of week,
+        read without ``gps_week`` (GPS seconds of week), else "gps".
 
     Raises
     ------
@@ -77,7 +80,9 @@ def read_trajectory_file(
     if suffix == ".csv":
         return read_trajectory_csv(path), "gps"
     if suffix in (".out", ".sbet"):
-        return read_sbet(path, gps_week=gps_week), ("week" if gps_week is None else "gps")
+        traj = read_sbet(path, gps_week=gps_week)
+        on_gps = gps_week is not None or holds_gps_time(traj.t_start_s)
+        return traj, "gps" if on_gps else "week"
     try:
         traj, gps_time = read_pos_text(path, gps_week=gps_week)
     except InputError as err:
@@ -113,16 +118,36 @@ def trajectory_takes_gps_week(path: Path) -> bool:
     """Whether a GPS week applies to this trajectory file (``--gps-week``).
 
     True for an SBET (GPS seconds of week) and a text export without a week column;
-    False for a CSV (GPS time) and a text export that gives its own week. A file whose
+    False for a CSV (GPS time), a text export that gives its own week, and an SBET or
+    text export whose times already hold GPS time (`kinsync.io.gps_week`). A file whose
     kind cannot be told is counted as taking one: its reader names what is wrong.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".csv":
         return False
-    if suffix in (".out", ".sbet"):
-        return True
     try:
-        return "week" not in sniff_pos_text(path).columns
+        if suffix in (".out", ".sbet"):
+            return not sbet_holds_gps_time(path)
+        return pos_text_takes_gps_week(path)
     except InputError:
         return True
+
+
+def trajectory_already_gps_time(path: Path) -> bool:
+    """Whether an SBET or a text export without a week column stores GPS time itself.
+
+    Its first time lies beyond a week and a day (`kinsync.io.gps_week`), so that no GPS
+    week applies. False for a CSV, a text export with a week column, and a file that
+    cannot be read (its reader names what is wrong).
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return False
+    try:
+        if suffix in (".out", ".sbet"):
+            return sbet_holds_gps_time(path)
+        return "week" not in sniff_pos_text(path).columns and not pos_text_takes_gps_week(path)
+    except InputError:
+        return False

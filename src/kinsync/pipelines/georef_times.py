@@ -17,15 +17,15 @@ from typing import Literal
 
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefTrajectory
-from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, WEEK_SECONDS_SLACK_S
-from kinsync.io.sbet import SECONDS_PER_WEEK
+from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 from kinsync.pipelines.georef_chunks import ChunkOutput
 from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
 __all__ = ["GENERIC_TIME_ADVICE", "OutsideTally", "PointTimes", "scale_name", "time_scale_hint"]
 
-_WEEK_MAX_S = SECONDS_PER_WEEK + WEEK_SECONDS_SLACK_S  # beyond this, not seconds of week
+_WEEK_MAX_S = WEEK_SECONDS_MAX_S  # beyond this, not seconds of week
 
 GENERIC_TIME_ADVICE = (
     "check the time scales: GPS seconds of week against GPS time since 1980 (an SBET, or "
