@@ -137,3 +137,56 @@ def test_bad_input_is_one_line_error(
         args = ["trajectory", "info", str(sbet.with_name("traj.txt"))]
     code, out, err = run_cli(args)
     assert_one_line_error(code, out, err, *fragments)
+
+
+def _rows(out: str) -> dict[str, str]:
+    """The table's rows: quantity -> value (one line each)."""
+    rows = {}
+    for line in out.splitlines():
+        cells = [c.strip() for c in line.strip("│ ").split("│")]
+        if len(cells) == 2:
+            rows[cells[0]] = cells[1]
+    return rows
+
+
+def test_table_prints_times_to_the_millisecond(sbet: Path, run_cli: RunCli) -> None:
+    """Review G: 1418472301.61 printed as 1418472302 (10 significant digits)."""
+    code, out, err = run_cli(["trajectory", "info", str(sbet), "--gps-week", str(WEEK)])
+    assert code == 0, err
+    rows = _rows(out)
+    assert rows["t_start_s"] == f"{T0:.3f}"
+    assert rows["t_end_s"] == f"{T0 + 19.995:.3f}"
+
+
+def test_an_smrmsg_outside_the_trajectory_is_a_warning_without_statistics(
+    sbet: Path, run_cli: RunCli, tmp_path: Path
+) -> None:
+    """Review G: only 'overlaps: False', exit 0, and sigmas shown as if they applied."""
+    acc = tmp_path / "acc.out"
+    write_smrmsg(_accuracy(t0=T0 + 3600.0), acc)
+    args = ["trajectory", "info", str(sbet), "--smrmsg", str(acc), "--gps-week", str(WEEK)]
+    code, out, err = run_cli(args)
+    assert code == 0, err
+    warning = [line for line in err.splitlines() if line.startswith(f"kinsync: warning: {acc}")]
+    assert len(warning) == 1, err
+    assert f"{acc}: the smrmsg spans {T0 + 3600.0:.3f} .. {T0 + 3620.0:.3f} s" in warning[0]
+    assert f"the trajectory {T0:.3f} .. {T0 + 19.995:.3f} s" in warning[0]
+    assert "do not overlap" in warning[0]
+    assert "sigma position" not in out
+    assert "not shown" in _rows(out)["sigma statistics"]
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    assert any("do not overlap" in w for w in json.loads(out)["warnings"])
+
+
+def test_reader_warnings_are_listed_with_the_others(tmp_path: Path, run_cli: RunCli) -> None:
+    """A static CSV whose angles could be radians: said on stderr and under warnings."""
+    path = tmp_path / "still.csv"
+    t = 1.4e9 + np.arange(0.0, 30.0, 0.1)
+    rows = "".join(f"{ti:.1f},46.8,-71.2,10.0,0.01,-0.02,1.2\n" for ti in t)
+    path.write_text("t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n" + rows)
+    code, out, err = run_cli(["trajectory", "info", str(path), "--json"])
+    assert code == 0, err
+    (warning,) = json.loads(out)["warnings"]
+    assert "could not be checked" in warning
+    assert err.count("could not be checked") == 1

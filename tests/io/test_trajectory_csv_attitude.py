@@ -7,12 +7,13 @@ backwards and halved the time error's sigma, with exit 0.
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.trajectory_csv import read_trajectory_csv
 
 HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
@@ -59,10 +60,72 @@ def test_degrees_are_read_even_when_the_vessel_crabs(tmp_path: Path, crab_deg: f
 
 
 def test_small_angles_without_motion_are_read(tmp_path: Path) -> None:
-    """A rotating table or a moored vessel: no course to judge by, nothing refused."""
+    """A rotating table or a moored vessel: no course to judge by, read with a warning."""
     t = np.arange(0.0, 60.0, 0.1)
     rows = [f"{ti:.3f},46.8,-71.2,10.0,0.01,-0.02,{math.sin(ti):.6f}" for ti in t]
     path = tmp_path / "still.csv"
     path.write_text(HEADER + "\n".join(rows) + "\n")
-    traj = read_trajectory_csv(path)
+    with pytest.warns(KinsyncWarning, match="could not be checked"):
+        traj = read_trajectory_csv(path)
     assert traj.heading_against_course() is None
+
+
+def test_static_angles_within_pi_warn_that_the_unit_was_not_checked(tmp_path: Path) -> None:
+    """Review G: a static or slow trajectory with attitude in radians passed silently."""
+    t = np.arange(0.0, 60.0, 0.1)
+    rows = [f"{1.4e9 + ti:.3f},46.8,-71.2,10.0,0.01,-0.02,{math.sin(ti):.6f}" for ti in t]
+    path = tmp_path / "still.csv"
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    with pytest.warns(KinsyncWarning) as caught:
+        read_trajectory_csv(path)
+    (message,) = [str(w.message) for w in caught]
+    assert message.startswith(f"{path}: every value of roll_deg, pitch_deg and yaw_deg")
+    assert "could not be checked" in message
+    assert "static or moves too slowly" in message
+
+
+@pytest.mark.parametrize("yaw_deg", [60.0, 1.5])
+def test_moving_degrees_do_not_warn(tmp_path: Path, yaw_deg: float) -> None:
+    """Degrees on the move, even small angles: the course over ground decides."""
+    t = np.arange(0.0, 60.0, 0.1)
+    bearing = math.radians(yaw_deg)
+    along = 5.0 * t
+    lat = 46.8 + np.degrees(along * math.cos(bearing) / 6.37e6)
+    lon = -71.2 + np.degrees(along * math.sin(bearing) / (6.37e6 * math.cos(math.radians(46.8))))
+    rows = [
+        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{yaw_deg}"
+        for ti, la, lo in zip(t, lat, lon, strict=True)
+    ]
+    path = tmp_path / "moving.csv"
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KinsyncWarning)
+        read_trajectory_csv(path)
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "span"),
+    [
+        ("pitch_deg", 95.0, "-90 to 90 deg"),
+        ("pitch_deg", -90.5, "-90 to 90 deg"),
+        ("roll_deg", 400.0, "-360 to 360 deg"),
+        ("yaw_deg", -361.0, "-360 to 360 deg"),
+    ],
+)
+def test_angles_beyond_their_span_are_refused(
+    tmp_path: Path, column: str, value: float, span: str
+) -> None:
+    """Review G: pitch 95 deg and roll 400 deg were read (a mount refuses beyond 360)."""
+    angles = {"roll_deg": 1.0, "pitch_deg": 2.0, "yaw_deg": 30.0, column: value}
+    rows = [
+        f"{1.4e9 + i:.1f},46.8,-71.2,10.0,{angles['roll_deg']},{angles['pitch_deg']},"
+        f"{angles['yaw_deg'] if i else 30.0}"
+        for i in range(3)
+    ]
+    path = tmp_path / "bad.csv"
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    with pytest.raises(InputError) as info:
+        read_trajectory_csv(path)
+    line = 2 if column != "yaw_deg" else 3
+    assert str(info.value).startswith(f"{path}: line {line}, column {column!r}: {value!r}")
+    assert span in str(info.value)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings as pywarnings
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -11,7 +12,7 @@ import typer
 from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
 from kinsync.mount import StdCorrelation
@@ -21,6 +22,8 @@ trajectory_app = typer.Typer(help="Trajectory files.")
 
 _TIME_DECIMALS = 6
 """Durations and intervals of `trajectory info` are rounded to 1 us (float64 steps)."""
+_TIME_ROWS = ("t_start_s", "t_end_s")
+"""Rows of times (GPS time near 1.4e9 s): printed to the ms, as `trajectory export` does."""
 
 
 def _print_quantities(title: str, rows: dict[str, str]) -> None:
@@ -115,9 +118,12 @@ def _smrmsg_rows(doc: dict[str, Any]) -> dict[str, str]:
     rows = {
         "smrmsg": doc["path"],
         "smrmsg records": str(doc["records"]),
-        "smrmsg span (s)": f"{doc['t_start_s']:.10g} .. {doc['t_end_s']:.10g}",
+        "smrmsg span (s)": f"{doc['t_start_s']:.3f} .. {doc['t_end_s']:.3f}",
         "smrmsg overlaps the trajectory": str(doc["overlaps_trajectory"]),
     }
+    if not doc["overlaps_trajectory"]:
+        rows["sigma statistics"] = "not shown: no smrmsg record lies within the trajectory"
+        return rows
     for key, label in (
         ("std_pos_ned_m", "sigma position N, E, D (m)"),
         ("std_vel_ned_m_s", "sigma velocity N, E, D (m/s)"),
@@ -249,7 +255,15 @@ def trajectory_info(
     )
 
     refuse_unused_gps_week(gps_week, trajectories=[path])
-    traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    with pywarnings.catch_warnings(record=True) as caught:
+        pywarnings.simplefilter("always", KinsyncWarning)
+        traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    reader_warnings = []  # listed with the others (--json: under "warnings")
+    for w in caught:
+        if issubclass(w.category, KinsyncWarning):
+            reader_warnings.append(str(w.message))
+        else:
+            pywarnings.showwarning(w.message, w.category, w.filename, w.lineno)
     max_gap = max_gap_for(traj.t_s, max_gap_s)
     file_format = trajectory_file_format(path)
     is_sbet = file_format == "sbet"
@@ -261,7 +275,9 @@ def trajectory_info(
     dt = np.diff(traj.t_s)
     rate = np.degrees(np.linalg.norm(traj.angular_rate_body_rad_s(), axis=1))
     check = traj.velocity_check
-    warnings = [] if check is None or check.consistent else [f"{path}: {check.message}"]
+    warnings = reader_warnings
+    if check is not None and not check.consistent:
+        warnings.append(f"{path}: {check.message}")
     gaps = trajectory_gaps(traj.t_s, max_gap)
     if gaps:
         named = "; ".join(g.describe() for g in gaps[:5])
@@ -298,6 +314,14 @@ def trajectory_info(
             if accuracy is None
             else _smrmsg_document(accuracy, gps_week, traj.t_start_s, traj.t_end_s)
         )
+        if doc["smrmsg"] is not None and not doc["smrmsg"]["overlaps_trajectory"]:
+            sm = doc["smrmsg"]
+            warnings.append(
+                f"{accuracy}: the smrmsg spans {sm['t_start_s']:.3f} .. {sm['t_end_s']:.3f} s, "
+                f"the trajectory {traj.t_start_s:.3f} .. {traj.t_end_s:.3f} s: they do not "
+                "overlap, so its accuracies are not the trajectory's (not shown; --json keeps "
+                "them); is it the smrmsg of another mission, or on another time scale?"
+            )
     for warning in warnings:
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     if as_json:
@@ -305,7 +329,7 @@ def trajectory_info(
         return
     nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps")
     rows = {
-        k: f"{v:.10g}" if isinstance(v, float) else str(v)
+        k: f"{v:.3f}" if k in _TIME_ROWS else f"{v:.10g}" if isinstance(v, float) else str(v)
         for k, v in doc.items()
         if k not in nested
     }

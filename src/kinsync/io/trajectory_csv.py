@@ -4,23 +4,25 @@ Columns ``t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg``, optionally follo
 by ``vn_m_s,ve_m_s,vd_m_s``.
 
 Times are read as they are (the caller knows the scale, GPS time by default);
-attitude is DIN 9300 roll, pitch, yaw in degrees (a file whose attitude columns hold
-radians is refused: every value within ±π and a yaw that follows the course over ground
-only when read as radians); velocities in NED (m/s) are optional
+attitude is DIN 9300 roll, pitch, yaw in degrees, roll and yaw within ±360°, pitch
+within ±90° (a file whose attitude columns hold radians is refused: every value within
+±π and a yaw that follows the course over ground only when read as radians; a static or
+slow trajectory whose every angle lies within ±π is read with a warning, the unit
+unchecked); velocities in NED (m/s) are optional
 and, when present, enable cubic Hermite position interpolation.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.sanity import (
-    ANGLE_DEG,
     HEIGHT_M,
     LATITUDE_DEG,
     LONGITUDE_DEG,
@@ -47,9 +49,9 @@ SPANS: dict[str, Span] = {
     "lat_deg": LATITUDE_DEG,
     "lon_deg": LONGITUDE_DEG,
     "h_m": HEIGHT_M,
-    "roll_deg": ANGLE_DEG,
-    "pitch_deg": ANGLE_DEG,
-    "yaw_deg": ANGLE_DEG,
+    "roll_deg": Span(-360.0, 360.0, "deg", "a roll (one turn either way)"),
+    "pitch_deg": Span(-90.0, 90.0, "deg", "a pitch (-90 to 90)"),
+    "yaw_deg": Span(-360.0, 360.0, "deg", "a yaw (-180 to 180 or 0 to 360)"),
     **dict.fromkeys(VELOCITY, SPEED_M_S),
 }
 """Plausible values of each column (`kinsync.io.sanity`)."""
@@ -94,16 +96,25 @@ def read_trajectory_csv(path: Path) -> Trajectory:
 
 
 def _refuse_radians(path: Path, c: dict[str, FloatArray], traj: Trajectory) -> None:
-    """Refuse attitude columns that hold radians.
+    """Refuse attitude columns that hold radians; warn when that cannot be told.
 
     Every value lies within ±π, and the yaw follows the course over ground only when
-    read as radians (`Trajectory.heading_against_course`).
+    read as radians (`Trajectory.heading_against_course`). A static or slow trajectory
+    has no course over ground: every value within ±π then gives a `KinsyncWarning`.
     """
     attitude = np.column_stack([c["roll_deg"], c["pitch_deg"], c["yaw_deg"]])
     if np.abs(attitude).max() > math.pi + 1e-9:
         return
     medians = traj.heading_against_course()
     if medians is None:
+        warnings.warn(
+            f"{path}: every value of roll_deg, pitch_deg and yaw_deg lies within +-pi "
+            "(+-3.1416), as radians would, and the unit could not be checked: the trajectory "
+            "is static or moves too slowly (below 1 m/s) to compare yaw_deg with the course "
+            "over ground; if these columns hold radians, convert them to degrees",
+            KinsyncWarning,
+            stacklevel=3,
+        )
         return
     as_deg, as_rad = medians
     if as_rad < RADIANS_COURSE_DEG and as_deg > DEGREES_COURSE_DEG:
