@@ -89,3 +89,40 @@ def test_values_outside_the_span_are_refused(
     assert_one_line_error(code, out, err, option)
     reasons = ("not a finite number", "outside the span kinsync accepts", "Invalid value for")
     assert any(r in err for r in reasons), err
+
+
+def _gps_week_commands() -> Iterator[Any]:
+    for path, callback, _, option in _numeric_options():
+        if option == "--gps-week":
+            yield pytest.param(path, callback, id=" ".join(path))
+
+
+@pytest.mark.parametrize(("path", "callback"), list(_gps_week_commands()))
+@pytest.mark.parametrize(
+    ("week", "fragments"),
+    [
+        ("297", ["10-bit week number", "add 2048"]),  # 2345 rolled over twice
+        ("100", ["10-bit week number", "1024 for August 1999 to April 2019"]),
+        ("5000", ["after the current GPS week"]),  # year 2075
+    ],
+)
+def test_gps_week_outside_the_gps_era_is_refused(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    week: str,
+    fragments: list[str],
+) -> None:
+    """Review G: week 5000 was accepted, and week 100 gave times with 'no date'."""
+    argv = _base_argv(path, callback, tmp_path)
+    code, out, err = run_cli([*argv, "--gps-week", week])
+    assert_one_line_error(code, out, err, f"--gps-week {week}", *fragments)
+
+
+def test_a_full_gps_week_is_within_the_span() -> None:
+    span = bounds_for("trajectory info", "--gps-week")
+    assert span is not None
+    assert span.low == 1024
+    assert span.low <= 2345 <= span.high  # December 2024

@@ -15,6 +15,7 @@ has one.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 from kinsync.errors import InputError
@@ -38,6 +39,14 @@ class Bounds:
 
 
 _DAY_S = 86_400.0
+_GPS_EPOCH_UNIX_S = 315_964_800.0  # 1980-01-06T00:00:00Z
+_FIRST_FULL_WEEK = 1024
+"""The first GPS week a 10-bit week number cannot name (August 1999): below it, a week
+is more likely a rolled-over receiver week than a survey of 1980-1999."""
+_GPS_WEEK_NOW = math.floor((time.time() - _GPS_EPOCH_UNIX_S) / 604_800.0)
+"""The current GPS week by this computer's clock (leap seconds do not change it much)."""
+_WEEKS_AHEAD = 104
+"""Weeks after the current one still accepted (two years: a computer clock set wrong)."""
 _GPS_S_MAX = 1e10  # GPS seconds: year ~2297
 
 OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
@@ -45,7 +54,16 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--latency-ms": Bounds(
         -10_000.0, 10_000.0, "ms", "a latency beyond 10 s is a time-scale error"
     ),
-    "--gps-week": Bounds(0, 10_000, "", "GPS weeks since 1980"),
+    "--gps-week": Bounds(
+        _FIRST_FULL_WEEK,
+        _GPS_WEEK_NOW + _WEEKS_AHEAD,
+        "",
+        "a full GPS week number, counted from 6 January 1980, is 1024 or more since August "
+        "1999; a smaller one is a receiver's 10-bit week number, which rolls over every 1024 "
+        "weeks: add 2048 for dates since April 2019, 1024 for August 1999 to April 2019",
+        f"more than {_WEEKS_AHEAD} weeks after the current GPS week, {_GPS_WEEK_NOW}: check "
+        "the week of the survey",
+    ),
     "--latency-std-ms": Bounds(
         0.0, 100.0, "ms", "beyond, a unit mistake or too poorly known to plan with"
     ),
