@@ -5,8 +5,10 @@ an internal error (exit 1) after the work was done. The cases are generated from
 commands themselves (as in ``test_outputs_never_replace_inputs.py``): each output is
 given as an existing folder, in a missing folder, in a folder where no file can be
 created (``/sys`` refuses even root; ``/proc/self`` takes no new file) and, for folder
-outputs, below a file. Each run must stop with exit 2 and one line naming the option,
-before any input is read (the inputs here are not valid files).
+outputs, below a file and as the current folder (``--out .``, empty or not: it ran the
+whole command, then refused its own temporary folder). Each run must stop with exit 2
+and one line naming the option, before any input is read (the inputs here are not valid
+files).
 """
 
 from __future__ import annotations
@@ -40,7 +42,8 @@ def _cases() -> Iterator[Any]:
         command = " ".join(path)
         for out in (p for p in path_parameters(callback) if p in OUTPUT_PARAMETERS):
             folder = output_is_folder(command, out)
-            kinds = ["below_a_file"] if folder else ["existing_folder", "missing_folder"]
+            kinds = ["missing_folder"]
+            kinds += ["below_a_file", "current_empty", "current"] if folder else ["existing_folder"]
             kinds += [f"unwritable:{d}" for d in UNWRITABLE]
             for kind in kinds:
                 yield pytest.param(path, callback, out, kind, id=f"{command}:{out}:{kind}")
@@ -65,6 +68,7 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(
     run_cli: RunCli,
     assert_one_line_error: OneLineError,
     tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
     path: tuple[str, ...],
     callback: Callable[..., Any],
     out: str,
@@ -77,6 +81,12 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(
         given, fragment = tmp_path / f"dir{suffix}", "is an existing folder"
     elif kind == "missing_folder":
         given, fragment = tmp_path / "none" / f"o{suffix}", "does not exist"
+    elif kind in ("current_empty", "current"):
+        # `--out .` ran the whole command, then refused its own temporary folder
+        here = tmp_path / "here"
+        here.mkdir()
+        monkeypatch.chdir(here if kind == "current_empty" else tmp_path)
+        given, fragment = Path(), "is the current folder"
     elif kind == "below_a_file":
         (tmp_path / "file").write_text("x")
         given, fragment = tmp_path / "file" / "sub", "is a file, not a folder"
@@ -91,7 +101,7 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(
 
 def test_the_probe_leaves_nothing(tmp_path: Path) -> None:
     check_output_location(tmp_path / "o.csv", "--out")
-    check_output_location(tmp_path / "new" / "deeper", "--out", folder=True)
+    check_output_location(tmp_path / "new", "--out", folder=True)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -213,3 +213,28 @@ def test_an_earlier_demo_folder_with_the_users_files_is_refused(tmp_path: Path) 
     (out / demo_run.MANIFEST).write_text("budget.json\nreport.html\n")  # the first layout
     with pytest.raises(InputError, match=r"line 1 is not 'SHA256  path'"):
         demo_run.check_demo_folder(out)
+
+
+@pytest.mark.parametrize("where", ["missing_parent", "current_folder"])
+def test_demo_refuses_an_output_it_cannot_publish_before_any_work(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    where: str,
+) -> None:
+    # `--out /tmp/x/nope/deeper/x` created nope/deeper and started work (left behind when
+    # interrupted); `--out .` ran the whole demo, then refused its own temporary folder.
+    def no_work(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("the demo started working")
+
+    monkeypatch.setattr(demo_run, "budget_section", no_work)
+    if where == "current_folder":
+        monkeypatch.chdir(tmp_path)
+        out, fragment = ".", "--out .: is the current folder"
+    else:
+        out, fragment = str(tmp_path / "nope" / "deeper" / "x"), "does not exist"
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", out])
+    assert exc.value.code == 2
+    assert fragment in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

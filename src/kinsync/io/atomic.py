@@ -155,14 +155,16 @@ def check_output_location(path: Path, option: str = "", *, folder: bool = False)
     option : str
         Command-line option naming it in the message (e.g. ``"--out"``).
     folder : bool
-        The output is a folder (created if missing) rather than a file.
+        The output is a folder (created if missing, in an existing folder) rather than a
+        file.
 
     Raises
     ------
     InputError
         A file output that is an existing folder or whose folder does not exist; a
-        folder output that is an existing file or lies below one; a location where no
-        file can be created (permissions, a read-only or virtual file system).
+        folder output that is an existing file, lies below one, is the current folder
+        (``.``) or one above it, or whose parent folder does not exist; a location where
+        no file can be created (permissions, a read-only or virtual file system).
     """
     path = Path(path)
     shown = f"{option} {path}" if option else str(path)
@@ -170,12 +172,8 @@ def check_output_location(path: Path, option: str = "", *, folder: bool = False)
         if path.exists() and not path.is_dir():
             msg = f"{shown}: exists and is not a folder; give a folder for the output"
             raise InputError(msg)
-        probe = path
-        while not probe.exists() and probe != probe.parent:
-            probe = probe.parent
-        if not probe.is_dir():
-            msg = f"{shown}: {probe} is a file, not a folder; give a folder for the output"
-            raise InputError(msg)
+        _check_folder_location(path, shown)
+        probe = path if path.is_dir() else Path(os.path.abspath(path)).parent  # noqa: PTH100
     else:
         if path.is_dir():
             msg = f"{shown}: is an existing folder; give a file name for the output"
@@ -185,6 +183,45 @@ def check_output_location(path: Path, option: str = "", *, folder: bool = False)
             msg = f"{shown}: output folder {probe} does not exist; create it first"
             raise InputError(msg)
     _probe_writable(probe, shown)
+
+
+def _check_not_the_current_folder(path: Path, shown: str) -> None:
+    """Refuse a folder output that is the current folder (``.``, ``""``) or one above it.
+
+    A folder output is written beside itself and renamed into place, replacing the folder
+    as a whole: the current folder would be swapped out from under the shell that runs
+    the command (left in a removed folder).
+    """
+    absolute = Path(os.path.abspath(path))  # noqa: PTH100 - normalises "..", keeps links
+    cwd = Path.cwd()
+    if absolute == cwd or cwd.is_relative_to(absolute):
+        what = "the current folder" if absolute == cwd else "a folder above the current one"
+        msg = (
+            f"{shown}: is {what} ({absolute}); the output replaces its folder as a whole, "
+            "so give a new folder's name (e.g. --out results) instead"
+        )
+        raise InputError(msg)
+
+
+def _check_folder_location(path: Path, shown: str) -> None:
+    """Refuse a folder output that is the current folder or whose parent is missing.
+
+    The folder itself may be missing (it is created), but the folder that holds it must
+    exist, as for a file output.
+    """
+    _check_not_the_current_folder(path, shown)
+    if path.is_dir():
+        return
+    parent = Path(os.path.abspath(path)).parent  # noqa: PTH100
+    probe = parent
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        msg = f"{shown}: {probe} is a file, not a folder; give a folder for the output"
+        raise InputError(msg)
+    if probe != parent:
+        msg = f"{shown}: output folder {path.parent} does not exist; create it first"
+        raise InputError(msg)
 
 
 _PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.(?P<kind>part|old)")
@@ -415,22 +452,28 @@ def atomic_folder(
     Raises
     ------
     InputError
-        ``path`` exists and is not a folder, ``check`` refuses it, or its parent folder
-        cannot be created or written.
+        ``path`` exists and is not a folder, is the current folder or one above it,
+        ``check`` refuses it, or its parent folder cannot be created or written (a
+        command refuses a missing parent folder before any work:
+        `check_output_location`).
     """
     path = Path(path)
-    if path.is_symlink() and path.is_dir():
-        path = Path(os.path.realpath(path))
     prefix = f"{option} " if option else ""
     if path.exists() and not path.is_dir():
         msg = f"{prefix}{path}: exists and is not a folder; {hint}"
         raise InputError(msg)
-    parent = path.parent if str(path.parent) else Path()
+    _check_not_the_current_folder(path, f"{prefix}{path}")
+    # The temporary folder goes beside the output, in the folder that holds it: resolved
+    # first, since Path(".").parent is "." itself (the temporary would land inside).
+    if path.is_symlink() and path.is_dir():
+        path = Path(os.path.realpath(path))
+    given, path = path, Path(os.path.abspath(path))  # noqa: PTH100
+    parent = path.parent
     try:
-        parent.mkdir(parents=True, exist_ok=True)
+        parent.mkdir(parents=True, exist_ok=True)  # commands refuse a missing one at once
         _remove_stale_parts(parent, path.name)
         if path.is_dir():
-            check(path)
+            check(given)
         tmp = Path(
             tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent)
         )
@@ -443,7 +486,7 @@ def atomic_folder(
         tmp.chmod(0o777 & ~umask)  # mkdtemp creates 0700; give the folder the usual mode
         yield tmp
         if path.is_dir():
-            check(path)
+            check(given)
         with stop_signals_held():  # published and recorded, or neither
             _publish_folder(tmp, path)
             _PUBLISHED.append(path)
