@@ -39,3 +39,15 @@ def test_crs_section_figures_agree_with_proj(tmp_path: Path) -> None:
     assert summary
     assert summary[0][0] == "CRS and datums"
     assert f"{GEOID_N_M:g}" in " ".join(section.paragraphs)
+
+
+def test_the_geoid_grid_is_named_as_the_report_folder_holds_it(tmp_path: Path) -> None:
+    # The demo writes into a temporary folder renamed when complete: report.html and
+    # crs.json named the grid by its path there, a folder that no longer existed.
+    section = crs_section(tmp_path, [])
+    text = (tmp_path / "crs.json").read_text()
+    cells = " ".join(c for t in section.tables for row in t.rows for c in row)
+    assert str(tmp_path) not in text
+    assert str(tmp_path) not in cells
+    assert json.loads(text)["geoid"]["geoid"] == "crs_demo_geoid.gtx"
+    assert "crs_demo_geoid.gtx" in cells

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -111,9 +111,30 @@ def _run(out_dir: Path) -> _CrsRun:
         csrs_now=csrs[OBSERVATION_EPOCH][1],
         epoch_shift_m=epoch_shift_m,
         epoch_vs_proj_m=epoch_vs_proj_m,
-        geoid=geoid_plan[1],
+        geoid=_grid_named_in_folder(geoid_plan[1], grid),
         geoid_error_m=geoid_error_m,
         missing_grid=missing,
+    )
+
+
+def _grid_named_in_folder(info: CrsTransformInfo, grid: Path) -> CrsTransformInfo:
+    """``info`` with the grid named by its file name, as the report folder holds it.
+
+    The demo writes into a temporary folder renamed into place when complete: the grid's
+    full path there would be a folder that no longer exists when the report is read.
+    """
+    full = str(grid)
+
+    def named(text: str) -> str:
+        return text.replace(full, grid.name)
+
+    return replace(
+        info,
+        operation=named(info.operation),
+        proj_pipeline=named(info.proj_pipeline),
+        heights=named(info.heights),
+        geoid=None if info.geoid is None else named(info.geoid),
+        warnings=tuple(named(w) for w in info.warnings),
     )
 
 
