@@ -6,7 +6,14 @@ from html.parser import HTMLParser
 
 import pytest
 
-from kinsync.report.html import Section, Table, internal_references, render_report
+from kinsync.report.html import (
+    Section,
+    Skipped,
+    Table,
+    internal_references,
+    render_report,
+    summary_line,
+)
 from kinsync.report.verdict import JUDGING_RULE, Check, Tolerance
 
 MS = Tolerance("latency budget", 0.1, "ms", "abs_at_most", "0.1 ms is 0.9 mm on the beach")
@@ -131,3 +138,35 @@ def test_without_checks_no_summary_or_conclusion() -> None:
 )
 def test_internal_references_are_found(text: str, found: list[str]) -> None:
     assert internal_references(text) == found
+
+
+def test_topics_not_run_are_named_and_the_count_says_it_covers_only_those_run() -> None:
+    # Without its reference data a topic vanished without a word, and the report said
+    # "33 of 33 checks pass ... No check failed. Every topic meets its tolerance".
+    sections = [Section("A", checks=(Check("e", 0.0, MS, 0.01),))]
+    skipped = [Skipped("NaveGo", "not run: data not found (searched /x/shared and /y/shared)")]
+    text, _ = _text(render_report("T", "i", sections, skipped=skipped))
+    assert "Summary: 1 of 1 checks pass in the 1 topics run (1 topic not run: NaveGo)" in text
+    assert "No check failed in the topics run." in text
+    assert text.count("searched /x/shared and /y/shared") == 2  # under the summary, conclusion
+    assert summary_line(sections) == "1 of 1 checks pass"
+
+
+def test_caveats_stand_in_the_verdict_and_the_conclusion() -> None:
+    sections = [Section("A", checks=(Check("e", 0.0, MS, 0.01),), caveats=("σ too small",))]
+    page = render_report("T", "i", sections)
+    text, _ = _text(page)
+    verdict = page[
+        page.index('class="verdict') : page.index("</div>", page.index('class="verdict'))
+    ]
+    assert "Not covered by these checks" in verdict
+    assert "σ too small" in verdict
+    assert "What the checks do not cover: | A: σ too small" in text
+
+
+def test_what_produced_the_report_is_shown_under_the_introduction() -> None:
+    about = [("kinsync version", "0.1.0"), ("command", "kinsync demo --out d")]
+    page = render_report("T", "intro", _sections(), about=about)
+    text, _ = _text(page)
+    assert "How this report was made | kinsync version | 0.1.0 | command | kinsync demo" in text
+    assert page.index("How this report was made") < page.index('class="summary"')

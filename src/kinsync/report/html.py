@@ -3,8 +3,10 @@
 The page needs no network and no other file, so it opens offline in any browser and
 can be mailed as it is. When its sections carry checks (`kinsync.report.verdict`), the
 page leads with a summary table of every check, opens each topic with its verdict
-(what was measured, the value with its σ, the tolerance, pass or fail) before the
-evidence, and ends with a conclusion and the table of the tolerances with their reasons.
+(what was measured, the value with its σ, the tolerance, pass or fail, and what those
+checks do not cover) before the evidence, and ends with a conclusion and the table of
+the tolerances with their reasons. Topics that were not run (`Skipped`) are named with
+why in the summary and the conclusion: the count of checks covers only the topics run.
 """
 
 from __future__ import annotations
@@ -21,9 +23,11 @@ __all__ = [
     "INTERNAL_REFERENCE",
     "Figure",
     "Section",
+    "Skipped",
     "Table",
     "internal_references",
     "render_report",
+    "summary_line",
 ]
 
 INTERNAL_REFERENCE = re.compile(
@@ -59,6 +63,8 @@ figcaption { font-size: .95em; color: #444; }
 .verdict.pass { border-color: #1b7837; }
 .verdict.fail { border-color: #b2182b; background: #fbeff0; }
 .verdict ul { margin: .3em 0; padding-left: 1.3em; }
+.skipped { border-left: 6px solid #b8860b; padding: .4em 1em; background: #fdf8ea; }
+table.about td { text-align: left; }
 .badge { font-weight: bold; padding: 0 .35em; border-radius: 3px; color: #fff; }
 .badge.pass { background: #1b7837; }
 .badge.fail { background: #b2182b; }
@@ -89,7 +95,10 @@ class Figure:
 class Section:
     """One section of the report: heading, verdict, paragraphs, tables and figures, in order.
 
-    ``checks`` are the topic's verdict: rendered first, before the evidence.
+    ``checks`` are the topic's verdict: rendered first, before the evidence. ``caveats``
+    say, from the topic's own numbers, what its checks do not cover (a σ found too small,
+    a figure outside a tolerance that no check judges): shown in the verdict and
+    repeated in the conclusion, so that a pass is not read as more than was checked.
     """
 
     title: str
@@ -98,6 +107,23 @@ class Section:
     figures: Sequence[Figure] = ()
     anchor: str = field(default="")
     checks: Sequence[Check] = ()
+    caveats: Sequence[str] = ()
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A topic the report would hold but that was not run, and why.
+
+    Attributes
+    ----------
+    title : str
+        The topic, as its section would be titled.
+    reason : str
+        Why it was not run and what would run it (e.g. the folders searched for its data).
+    """
+
+    title: str
+    reason: str
 
 
 def _table_html(t: Table) -> str:
@@ -125,17 +151,73 @@ def _badge(passed: bool) -> str:
     return f'<span class="badge {word.lower()}">{word}</span>'
 
 
-def _verdict_html(checks: Sequence[Check]) -> str:
+def _caveats_html(caveats: Sequence[str]) -> str:
+    if not caveats:
+        return ""
+    items = "".join(f"<li>{html.escape(c)}</li>" for c in caveats)
+    return f"<p>Not covered by these checks:</p><ul>{items}</ul>"
+
+
+def _verdict_html(checks: Sequence[Check], caveats: Sequence[str] = ()) -> str:
     passed, total = count_passed(checks)
     ok = passed == total
     items = "".join(f"<li>{_badge(c.passed)} {html.escape(c.sentence())}</li>" for c in checks)
     return (
         f'<div class="verdict {"pass" if ok else "fail"}"><p><strong>Verdict:</strong> '
-        f"{_badge(ok)} {passed} of {total} checks pass.</p><ul>{items}</ul></div>"
+        f"{_badge(ok)} {passed} of {total} checks pass.</p><ul>{items}</ul>"
+        f"{_caveats_html(caveats)}</div>"
     )
 
 
-def _summary_html(sections: Sequence[Section]) -> str:
+def summary_line(sections: Sequence[Section], skipped: Sequence[Skipped] = ()) -> str:
+    """``35 of 38 checks pass``, saying when it covers only the topics run.
+
+    Parameters
+    ----------
+    sections : sequence of Section
+        The topics run.
+    skipped : sequence of Skipped
+        The topics not run.
+
+    Returns
+    -------
+    str
+        E.g. ``33 of 33 checks pass in the 11 topics run (2 topics not run: NaveGo; CIDCO)``.
+    """
+    passed, total = count_passed([c for s in sections for c in s.checks])
+    line = f"{passed} of {total} checks pass"
+    if skipped:
+        topics = sum(bool(s.checks) for s in sections)
+        names = "; ".join(k.title for k in skipped)
+        noun = "topic" if len(skipped) == 1 else "topics"
+        line += f" in the {topics} topics run ({len(skipped)} {noun} not run: {names})"
+    return line
+
+
+def _skipped_html(skipped: Sequence[Skipped]) -> str:
+    if not skipped:
+        return ""
+    items = "".join(
+        f"<li><strong>{html.escape(k.title)}</strong>: {html.escape(k.reason)}</li>"
+        for k in skipped
+    )
+    return (
+        '<div class="skipped"><p>Not run, so neither counted nor judged here:</p>'
+        f"<ul>{items}</ul></div>"
+    )
+
+
+def _about_html(about: Sequence[tuple[str, str]]) -> str:
+    if not about:
+        return ""
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>" for k, v in about)
+    return (
+        '<table class="about"><caption>How this report was made</caption>'
+        f"<tbody>{rows}</tbody></table>"
+    )
+
+
+def _summary_html(sections: Sequence[Section], skipped: Sequence[Skipped] = ()) -> str:
     rows = []
     for i, s in enumerate(sections):
         for c in s.checks:
@@ -147,13 +229,12 @@ def _summary_html(sections: Sequence[Section]) -> str:
                 f'<td class="result">{html.escape(c.tolerance.describe())}</td>'
                 f"<td>{_badge(c.passed)}</td></tr>"
             )
-    all_checks = [c for s in sections for c in s.checks]
-    passed, total = count_passed(all_checks)
     head = "".join(
         f"<th>{h}</th>" for h in ("topic", "what was measured", "result", "tolerance", "verdict")
     )
     return (
-        f'<h2 id="summary">Summary: {passed} of {total} checks pass</h2>'
+        f'<h2 id="summary">Summary: {html.escape(summary_line(sections, skipped))}</h2>'
+        f"{_skipped_html(skipped)}"
         f"<p>{html.escape(JUDGING_RULE)} Each tolerance and the reason for it are listed "
         'in the <a href="#conclusion">conclusion</a>.</p>'
         f'<table class="verdicts"><thead><tr>{head}</tr></thead>'
@@ -169,13 +250,14 @@ def _tolerances(sections: Sequence[Section]) -> list[Tolerance]:
     return list(seen.values())
 
 
-def _conclusion_html(sections: Sequence[Section], conclusion: Sequence[str]) -> str:
+def _conclusion_html(
+    sections: Sequence[Section], conclusion: Sequence[str], skipped: Sequence[Skipped] = ()
+) -> str:
     failed = [(s.title, c) for s in sections for c in s.checks if not c.passed]
-    passed, total = count_passed([c for s in sections for c in s.checks])
     topics = [s for s in sections if s.checks]
     topics_ok = sum(all(c.passed for c in s.checks) for s in topics)
     overall = (
-        f"{passed} of {total} checks pass; {topics_ok} of {len(topics)} topics pass every check."
+        f"{summary_line(sections, skipped)}; {topics_ok} of {len(topics)} topics pass every check."
     )
     parts = [
         '<h2 id="conclusion">Conclusion</h2>',
@@ -189,7 +271,12 @@ def _conclusion_html(sections: Sequence[Section], conclusion: Sequence[str]) -> 
         )
         parts.append(f"<p>Failed checks:</p><ul>{items}</ul>")
     else:
-        parts.append("<p>No check failed.</p>")
+        parts.append("<p>No check failed" + (" in the topics run." if skipped else ".") + "</p>")
+    caveats = [(s.title, c) for s in sections for c in s.caveats]
+    if caveats:
+        items = "".join(f"<li>{html.escape(t)}: {html.escape(c)}</li>" for t, c in caveats)
+        parts.append(f"<p>What the checks do not cover:</p><ul>{items}</ul>")
+    parts.append(_skipped_html(skipped))
     parts.extend(f"<p>{html.escape(p)}</p>" for p in conclusion)
     rows = "".join(
         f"<tr><td>{html.escape(t.name)}</td><td>{html.escape(t.describe())}</td>"
@@ -205,7 +292,13 @@ def _conclusion_html(sections: Sequence[Section], conclusion: Sequence[str]) -> 
 
 
 def render_report(
-    title: str, intro: str, sections: Sequence[Section], conclusion: Sequence[str] = ()
+    title: str,
+    intro: str,
+    sections: Sequence[Section],
+    conclusion: Sequence[str] = (),
+    *,
+    skipped: Sequence[Skipped] = (),
+    about: Sequence[tuple[str, str]] = (),
 ) -> str:
     """Render a complete HTML document.
 
@@ -221,6 +314,12 @@ def render_report(
         checks first) and the table of tolerances.
     conclusion : sequence of str
         Paragraphs added to the conclusion (with checks only).
+    skipped : sequence of Skipped
+        Topics not run: named with why under the summary and in the conclusion, whose
+        counts then say they cover only the topics run.
+    about : sequence of (str, str)
+        What produced the report (version, date, command, folders, seeds): a table
+        under the introduction.
     """
     judged = any(s.checks for s in sections)
     toc = "".join(
@@ -233,21 +332,23 @@ def render_report(
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(title)}</h1><p>{html.escape(intro)}</p>",
+        _about_html(about),
     ]
     if judged:
-        parts.append(f'<section class="summary">{_summary_html(sections)}</section>')
+        parts.append(f'<section class="summary">{_summary_html(sections, skipped)}</section>')
     parts.append(f"<nav><ol>{toc}</ol></nav>")
     for i, s in enumerate(sections):
         parts.append(f'<section class="topic"><h2 id="s{i}">{html.escape(s.title)}</h2>')
         if s.checks:
-            parts.append(_verdict_html(s.checks))
+            parts.append(_verdict_html(s.checks, s.caveats))
         parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
         parts.extend(_table_html(t) for t in s.tables)
         parts.extend(_figure_html(f) for f in s.figures)
         parts.append("</section>")
     if judged:
         parts.append(
-            f'<section class="conclusion">{_conclusion_html(sections, conclusion)}</section>'
+            f'<section class="conclusion">{_conclusion_html(sections, conclusion, skipped)}'
+            "</section>"
         )
     parts.append("</body></html>")
     return "\n".join(parts)
