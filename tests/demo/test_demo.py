@@ -238,3 +238,92 @@ def test_demo_refuses_an_output_it_cannot_publish_before_any_work(
     assert exc.value.code == 2
     assert fragment in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def _stub_sections(monkeypatch: pytest.MonkeyPatch, failing: bool) -> None:
+    """Every part of the demo replaced by a one-check topic; no reference data found."""
+    from kinsync.demo.tolerances import ONE_ERROR_SOURCE  # noqa: PLC0415
+    from kinsync.report.html import Section  # noqa: PLC0415
+    from kinsync.report.verdict import Check  # noqa: PLC0415
+
+    def topic(title: str, value: float = 1.0) -> Section:
+        return Section(title, checks=(Check(f"{title} error", value, ONE_ERROR_SOURCE),))
+
+    monkeypatch.setattr(demo_run, "budget_section", lambda _s: (topic("budgets"), {}))
+    for name in ("method_a", "clock", "georef", "crs", "validation"):
+        monkeypatch.setattr(demo_run, f"{name}_section", lambda *_a, n=name: topic(n))
+    monkeypatch.setattr(
+        demo_run, "ins_section", lambda *_a, **_k: (topic("ins", 50.0 if failing else 1.0), {})
+    )
+    monkeypatch.setattr(demo_run, "method_b_section", lambda *_a: (topic("method b"), {}))
+    monkeypatch.setattr(demo_run, "end_to_end_section", lambda *_a: (topic("end to end"), {}))
+    monkeypatch.setattr(
+        demo_run, "calibration_section", lambda *_a: (topic("self-calibration"), {})
+    )
+    monkeypatch.setattr(demo_run, "find_navego_folder", lambda: None)
+    monkeypatch.setattr(demo_run, "find_cidco_folder", lambda: None)
+
+
+def test_topics_without_their_data_are_named_in_the_report_and_on_the_terminal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Without ../shared the NaveGo and CIDCO topics vanished without a word, the report
+    # said "33 of 33 checks pass ... Every topic meets its tolerance", and the progress
+    # line still said "(simulated patch tests, CIDCO)".
+    _stub_sections(monkeypatch, failing=False)
+    out = tmp_path / "d"
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(out)])
+    assert exc.value.code == 0
+    captured = capsys.readouterr()
+    html_text = (out / "report.html").read_text()
+    line = "10 of 10 checks pass in the 10 topics run (2 topics not run: "
+    assert f"Summary: {line}" in html_text
+    assert f"checks: {line}" in captured.out
+    for where in (html_text, captured.out):
+        assert "NaveGo synthetic set" in where
+        assert "CIDCO" in where
+        assert "searched" in where
+        assert "shared/data/navego-synthetic" in where
+    assert "Every topic meets its tolerance" not in html_text
+    stages: list[str] = []
+    demo_run.run_demo(tmp_path / "e", progress=lambda _f, stage: stages.append(stage))
+    assert "mount self-calibration from survey lines (simulated patch tests)" in stages
+    assert report_problems(html_text) == []
+
+
+def test_the_terminal_names_the_failed_checks_and_json_gives_the_summary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # With 3 FAILs stdout had no count and no failed check; `demo --json`: "No such option".
+    _stub_sections(monkeypatch, failing=True)
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(tmp_path / "d")])
+    assert exc.value.code == 0  # the report is the verdict; exit 2 is for bad input
+    out = capsys.readouterr().out
+    assert "checks: 9 of 10 checks pass" in out
+    assert "FAIL ins: ins error" in out
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--out", str(tmp_path / "e"), "--json"])
+    assert exc.value.code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert (doc["checks_passed"], doc["checks_total"]) == (9, 10)
+    assert doc["failed_checks"] == ["ins: ins error"]
+    assert len(doc["skipped_topics"]) == 2
+    assert doc["rows"] == []
+
+
+def test_the_report_says_what_produced_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _stub_sections(monkeypatch, failing=False)
+    out = tmp_path / "d"
+    demo_run.run_demo(out)
+    html_text = (out / "report.html").read_text()
+    about = html_text[html_text.index("How this report was made") : html_text.index("</table>")]
+    import kinsync  # noqa: PLC0415
+
+    for field in ("kinsync version", kinsync.__version__, "date (UTC)", "command",
+                  f"kinsync demo --out {out}", "output folder", str(out),
+                  "NaveGo synthetic set", "not found; searched", "simulation seeds",
+                  "patch tests vehicle 11, vessel 12"):  # fmt: skip
+        assert field in about, field
+    assert ".part" not in about

@@ -22,7 +22,7 @@ import numpy as np
 from kinsync._typing import BoolArray, FloatArray
 from kinsync._validate import finite_number, positive_number
 from kinsync.demo.files import write_section_files
-from kinsync.demo.tolerances import OUTAGE_TRAJECTORY, SIGMA_COVERAGE
+from kinsync.demo.tolerances import OUTAGE_TRAJECTORY, SIGMA_CONSISTENT, SIGMA_COVERAGE
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_ned, geodetic_to_ecef
 from kinsync.ins.alignment import align_static_gnss_heading
@@ -504,12 +504,58 @@ def _mems_paragraphs(s: InsDemoSetup, run: _MemsRun, o: _MemsOutcome) -> tuple[s
             "0.2 deg/s and 16 mg) plus the in-run instability (Gauss-Markov, 6.5 deg/h and "
             "0.1 mg over 100 s), two states per axis, with the datasheet's figures as "
             "they are. The smoothed accelerometer biases at the start lie within "
-            f"{float(o.acc_start_z.max()):.1f} sigma of the injected ones. (One "
+            f"{float(o.acc_start_z.max()):.1f} sigma of the injected ones; "
+            f"{gyro_bias_sentence(o.bias_doc['gyro_bias_rad_s'])} (One "
             "Gauss-Markov state per bias, as before, relaxed its variance from the "
             "turn-on sigma to the instability within tau/2 = 50 s whatever the data said, "
             "and the filter grew over-confident in the biases it had not yet observed.)"
         ),
     )
+
+
+def gyro_bias_sentence(gyro: Mapping[str, Any]) -> str:
+    """How far the smoothed start gyro biases lie from the injected ones, in their σ.
+
+    Parameters
+    ----------
+    gyro : mapping
+        ``ins.json``'s ``biases.gyro_bias_rad_s``: ``smoothed_start``,
+        ``smoothed_start_std`` and ``injected_start``, 3 values each (rad/s).
+
+    Returns
+    -------
+    str
+        One sentence; an axis beyond 3σ is named with its values (deg/s) and said to
+        have a σ too small.
+    """
+    est = np.asarray(gyro["smoothed_start"], dtype=float)
+    std = np.asarray(gyro["smoothed_start_std"], dtype=float)
+    inj = np.asarray(gyro["injected_start"], dtype=float)
+    z = (est - inj) / std
+    worst = int(np.argmax(np.abs(z)))
+    if abs(z[worst]) <= SIGMA_CONSISTENT.limit:
+        return f"the gyro biases within {float(np.max(np.abs(z))):.1f} sigma."
+    d = math.degrees(1.0)
+    axes = "XYZ"
+    off = [i for i in range(3) if abs(z[i]) > SIGMA_CONSISTENT.limit]
+    named = "; ".join(
+        f"gyro {axes[i]} {est[i] * d:.5f} ± {std[i] * d:.5f} deg/s against {inj[i] * d:.4f} "
+        f"injected ({z[i]:+.2f} sigma)"
+        for i in off
+    )
+    return (
+        f"the gyro biases do not all: {named}. Beyond 3 sigma the smoother's gyro bias sigma "
+        "is too small for that axis at the start of the run (no check of this report judges "
+        "it)."
+    )
+
+
+def _gyro_caveats(gyro: Mapping[str, Any]) -> tuple[str, ...]:
+    """The gyro bias sentence as a caveat of the verdict, when an axis lies beyond 3σ."""
+    sentence = gyro_bias_sentence(gyro)
+    if sentence.startswith("the gyro biases within"):
+        return ()
+    return ("Smoothed start biases: " + sentence,)
 
 
 def _mems_summary_row(s: InsDemoSetup, o: _MemsOutcome) -> tuple[str, str, str]:
@@ -595,6 +641,7 @@ def ins_section(
     section = Section(
         title="INS/GNSS: MEMS drive, static alignment, GNSS outage",
         checks=_mems_checks(s, run, outcome),
+        caveats=_gyro_caveats(outcome.bias_doc["gyro_bias_rad_s"]),
         paragraphs=_mems_paragraphs(s, run, outcome),
         tables=_mems_tables(s, run, outcome),
         figures=figures,

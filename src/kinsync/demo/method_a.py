@@ -7,6 +7,7 @@ the CIDCO set when ``../shared`` is beside the checkout.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,11 +31,13 @@ from kinsync.report.verdict import Check
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 
-__all__ = ["cidco_section", "find_cidco_folder", "method_a_section"]
+__all__ = ["cidco_candidates", "cidco_section", "find_cidco_folder", "method_a_section"]
 
 Summary = list[tuple[str, str, str]]
 
 DEMO_LATENCY_S = 0.00421
+TABLE_SEED = 1
+"""Seed of the simulated rotating-table campaign."""
 CIDCO_RELATIVE = Path("..") / "shared" / "data" / "cidco-port-de-quebec"
 
 
@@ -50,7 +53,7 @@ class _MethodARun:
 
 def _simulate_and_estimate(out_dir: Path, progress: Callable[[str], None] | None) -> _MethodARun:
     """Simulate the table into ``method-a-passes/``, read it back, estimate and plan."""
-    config = RotatingTableConfig(latency_s=DEMO_LATENCY_S, seed=1)
+    config = RotatingTableConfig(latency_s=DEMO_LATENCY_S, seed=TABLE_SEED)
     if progress:
         progress("Method A: simulating the rotating table")
     sim = simulate_rotating_table(config)
@@ -130,7 +133,8 @@ def _paragraphs(run: _MethodARun) -> tuple[str, ...]:
         (
             "A profile scanner and an IMU turn on a table (6 rates, 15 passes each way, "
             "2 mm range noise, levelling error, optical centre off the axis, floor and "
-            "stand clutter) past a 0.2 m sphere at 1.5 m. The IMU records lag the "
+            f"stand clutter) past a sphere of radius {run.truth['sphere_radius_m']:g} m at "
+            "1.5 m. The IMU records lag the "
             f"scanner by {DEMO_LATENCY_S * 1e3:g} ms; the simulated acquisition software "
             "georeferences with them and writes one LAZ file per pass. kinsync reads the "
             "folder, segments the sphere from the clutter, fits one centre per signed "
@@ -169,7 +173,7 @@ def _checks(run: _MethodARun) -> tuple[Check, ...]:
 
 
 def _sphere_checks(worst: tuple[str, float], others_mm: float) -> tuple[Check, ...]:
-    """The real passes' verdict: every pass fits a 0.2 m sphere to 10 mm RMS."""
+    """The real passes' verdict: every pass fits a sphere of radius 0.2 m to 10 mm RMS."""
     name, rms_mm = worst
     return (
         Check(
@@ -199,18 +203,35 @@ def method_a_section(
     )
 
 
+def cidco_candidates() -> list[Path]:
+    """Where the CIDCO passes are looked for: ``../shared`` by the working folder, the checkout."""
+    found = [Path.cwd() / CIDCO_RELATIVE, Path(__file__).resolve().parents[3] / CIDCO_RELATIVE]
+    return list(dict.fromkeys(Path(os.path.normpath(c)) for c in found))
+
+
 def find_cidco_folder() -> Path | None:
     """The CIDCO sphere passes in ``../shared`` beside the working folder or the checkout."""
-    candidates = [
-        Path.cwd() / CIDCO_RELATIVE,
-        Path(__file__).resolve().parents[3] / CIDCO_RELATIVE,
-    ]
-    return next((c for c in candidates if (c / "sphere1").is_dir()), None)
+    return next((c for c in cidco_candidates() if (c / "sphere1").is_dir()), None)
 
 
-def cidco_section(folder: Path, summary: Summary) -> Section:
-    """Fit every real CIDCO pass with free and fixed (0.2 m) radius."""
+def _fit_document(fit: SphereFit) -> dict[str, Any]:
+    """One sphere fit as ``cidco.json`` holds it (metres)."""
+    return {
+        "radius_m": float(fit.radius_m),
+        "residual_rms_m": float(fit.residual_rms_m),
+        "centre_std_m": [float(v) for v in fit.center_std_m],
+        "centre_std_norm_m": float(np.linalg.norm(fit.center_std_m)),
+    }
+
+
+def cidco_section(folder: Path, out_dir: Path, summary: Summary) -> Section:
+    """Fit every real CIDCO pass with free and fixed (0.2 m) radius.
+
+    Writes ``cidco.json`` (the table's numbers per pass) and ``cidco_1.png`` (the
+    residual figure) into ``out_dir``.
+    """
     rows = []
+    passes_doc: list[dict[str, Any]] = []
     residual_fits: list[tuple[str, SphereFit]] = []
     residual_points = []
     free_radii = []
@@ -222,6 +243,14 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
         free_radii.append(free.radius_m)
         label = f"{path.parent.name}/{path.stem}"
         fixed_rms_mm.append((label, fixed.residual_rms_m * 1e3))
+        passes_doc.append(
+            {
+                "pass": label,
+                "returns": len(cp.points_ecef_m),
+                "free_radius": _fit_document(free),
+                "fixed_radius": _fit_document(fixed),
+            }
+        )
         rows.append(
             [
                 label,
@@ -245,6 +274,16 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
     )
     ranked = sorted(fixed_rms_mm, key=lambda item: item[1])
     checks = _sphere_checks(ranked[-1], ranked[-2][1] if len(ranked) > 1 else math.nan)
+    figures = (
+        Figure(
+            caption="Residuals of a distorted pass (sphere1/passage_3) and a clean one "
+            "(sphere1/passage_4), free and fixed radius",
+            png=sphere_residual_figure(residual_fits, residual_points),
+        ),
+    )
+    doc = {"folder": str(folder), "fixed_radius_m": 0.2, "free_radius_bounds_m": [0.1, 0.4],
+           "passes": passes_doc}  # fmt: skip
+    write_section_files(out_dir, "cidco", figures, doc)
     return Section(
         title="Sphere fitting on real returns (CIDCO, Port de Québec)",
         checks=checks,
@@ -252,7 +291,7 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
             (
                 "Twelve vessel passes over two spherical targets (a 2D profiler, 100-490 "
                 "returns each, open data from CIDCO's LidarToolkit). Every pass is segmented "
-                "and fitted in ECEF with a free radius and with the nominal 0.2 m; the "
+                "and fitted in ECEF with a free radius and with the nominal radius 0.2 m; the "
                 "centre sigma is the norm of the three axis sigmas. sphere1/passage_3 shows "
                 "per-profile stripes of +-30 mm in its residuals: a distorted pass, visible "
                 "at once in the figure."
@@ -273,11 +312,5 @@ def cidco_section(folder: Path, summary: Summary) -> Section:
                 rows=rows,
             ),
         ),
-        figures=(
-            Figure(
-                caption="Residuals of a distorted pass (sphere1/passage_3) and a clean one "
-                "(sphere1/passage_4), free and fixed radius",
-                png=sphere_residual_figure(residual_fits, residual_points),
-            ),
-        ),
+        figures=figures,
     )

@@ -43,6 +43,8 @@ __all__ = ["method_b_section"]
 Summary = list[tuple[str, str, str]]
 
 NOISE_M = 0.02
+NOISE_SEED = 7
+"""Seed of the trajectory noise added for the noisy run."""
 
 WRONG_PRIOR_S = 0.0333
 """A period prior 9 % off the simulated 0.030545 s: must be refused (module docstring)."""
@@ -89,7 +91,7 @@ def _simulate_and_synchronise(folder: Path) -> _MethodBRun:
         std_pos_ned_m=(NOISE_M, NOISE_M, NOISE_M),
         std_att_deg=(0.0, 0.0, 0.0),
         corr_time_s=5.0,
-        seed=7,
+        seed=NOISE_SEED,
     )
     noisy = synchronise_object_space(
         scan,

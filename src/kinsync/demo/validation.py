@@ -50,6 +50,8 @@ Summary = list[tuple[str, str, str]]
 LATENCY_ERROR_S = 0.002
 HEADING_ERROR_DEG = 0.1
 WALL_LATENCY_ERROR_S = 0.005
+SCENE_SEED = 3
+"""Seed of the control-target and wall scenes."""
 
 
 def _cloud(scan: SimulatedScan, mount: Mount) -> CloudPoints:
@@ -114,9 +116,9 @@ def _wall_fits(wall: WallScene) -> list[tuple[str, FlatnessResult]]:
 
 def _simulate_and_validate() -> _ValidationRun:
     """Both scenes georeferenced right and wrong, and validated."""
-    scene = control_target_scene(seed=3)
+    scene = control_target_scene(seed=SCENE_SEED)
     reports = _control_point_reports(scene)
-    wall = curved_wall_scene(seed=3)
+    wall = curved_wall_scene(seed=SCENE_SEED)
     return _ValidationRun(scene=scene, reports=reports, wall=wall, walls=_wall_fits(wall))
 
 
