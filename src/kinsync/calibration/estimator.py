@@ -43,6 +43,14 @@ from kinsync.calibration.adjustment import (
     reduced_normal_matrix,
 )
 from kinsync.calibration.features import Feature
+from kinsync.calibration.gross import (
+    MAX_FEATURE_ROUNDS,
+    far_from_start,
+    lines_at_the_same_time,
+    residual_rise,
+    stuck_at_start,
+    unlinked_directions,
+)
 from kinsync.calibration.held import (
     HeldEffect,
     held_covariance,
@@ -342,36 +350,35 @@ def calibrate_mount(
     requested = estimated_indices(opt.estimate)
     lines = list(lines)
     _check_lines(lines, mount.latency_s, opt.max_gap_s)
+    same_time = lines_at_the_same_time(lines)
+    if same_time is not None:
+        raise same_time
     say = progress or (lambda _: None)
     say(f"finding {opt.features} in {len(lines)} lines")
     cache: dict[int, GeorefTrajectory] = {}
     models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
     prior = mount_values(mount)
-    frame, features, observations = _frame_and_features(lines, models, prior, opt)
-    S, motion, _ = reduced_normal_matrix(
-        models, observations, features, prior, requested, frame, robust=False
+    setup, solution = _solve_refinding(lines, models, prior, requested, groups, opt, say)
+    frame, features, observations = setup.frame, setup.features, setup.observations
+    kept, units, obs, before, counts = (
+        setup.kept,
+        setup.units,
+        setup.obs,
+        setup.before,
+        setup.counts,
     )
-    rejected = _rejected_lines(lines, observations, opt.features)
-    used = sorted({o.line for o in observations})
-    kept = [lines[i] for i in used]
-    units = _units(lines, used, groups)
-    honest = opt.jackknife and len(units) >= MIN_JACKKNIFE_GROUPS
-    obs = analyse(S, motion, requested, honest_sigma=honest)
-    before = _rms_before(models, observations, features, prior, frame)
-    counts = [
-        sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
-    ]
-    if not obs.estimated:
+    rejected = setup.rejected
+    if solution is None:
         return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
     while True:
-        say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
-        solution = adjust(
-            models, observations, features, prior, obs.estimated, frame, opt.adjustment
-        )
         if solution.at_bound:
             obs = obs.without(_latency_at_bound(solution))
             if not obs.estimated:
                 return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
+            say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
+            solution = _solve_again(
+                models, observations, features, prior, solution, obs, frame, opt
+            )
             continue
         jk = _jackknife(models, observations, solution, frame, units, opt, say)
         std, method = _std(solution, jk)
@@ -383,6 +390,8 @@ def calibrate_mount(
         obs = obs.without(held)
         if not obs.estimated:
             return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
+        say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
+        solution = _solve_again(models, observations, features, prior, solution, obs, frame, opt)
     honest = jk is not None and jk.honest
     say("what the held parameters' errors do to the estimates")
     effect = held_effect(models, observations, solution, frame, held_covariance(mount))
@@ -415,8 +424,165 @@ def calibrate_mount(
         rejected_lines=rejected,
         held=effect if effect.held else None,
         held_advice=effect.advice(std, requested),
-        uncertainty_notes=(*two_passes_in_a_line(kept), *notes),
+        uncertainty_notes=notes,
+        warnings=_warnings(lines, kept, observations, features, before, counts, summaries),
     )
+
+
+def _solve_refinding(
+    lines: Sequence[ScanLine],
+    models: Sequence[LineModel],
+    prior: FloatArray,
+    requested: tuple[int, ...],
+    groups: Sequence[tuple[str, set[int]]] | None,
+    opt: CalibrationOptions,
+    say: Callable[[str], None],
+) -> tuple[_Setup, Adjustment | None]:
+    """Features found with the prior and solved; found again while the solution moves far.
+
+    Planar patches found with a solution further from the mount they were found with
+    than a crew knows anyway (`kinsync.calibration.gross.far_from_start`) are found
+    again with it, up to `MAX_FEATURE_ROUNDS` times, each solve starting from the
+    solution the features were found with. Spheres are not: each line's sphere is fitted
+    in its own returns and only their pairing depends on the mount, and on the CIDCO
+    passes (fitted radius) finding them again let the lever z, unobservable at the
+    start, wander to -3.2 m. When such a solve cannot leave its start, or the features found
+    again determine nothing, the round before is kept. Returns the features and their
+    solution (None when the data determine no parameter).
+
+    Raises
+    ------
+    ConvergenceError
+        The solution never left its start (`kinsync.calibration.gross.stuck_at_start`).
+    """
+    start, rounds = prior, 0
+    last: tuple[_Setup, Adjustment | None] | None = None
+    while True:
+        setup = _setup(lines, models, prior, start, requested, groups, opt)
+        if not setup.obs.estimated:
+            return last if last is not None else (setup, None)
+        say(f"solving for {len(setup.obs.estimated)} parameters, {len(setup.features)} features")
+        solution = adjust(
+            models, setup.observations, setup.features, start, setup.obs.estimated,
+            setup.frame, opt.adjustment,
+        )  # fmt: skip
+        stuck = stuck_at_start(
+            solution.values, start, setup.obs.estimated, _pooled_rms(setup.before, setup.counts)
+        )
+        if stuck is not None:
+            if last is None:
+                raise stuck
+            return last  # found again, no step leaves the last solution: keep it
+        if (
+            opt.features != "planes"
+            or rounds >= MAX_FEATURE_ROUNDS
+            or not far_from_start(solution.values, start, setup.obs.estimated)
+        ):
+            return setup, solution
+        last = (setup, solution)
+        rounds += 1
+        start = solution.values
+        say("finding the features again with the mount solved so far")
+
+
+def _solve_again(
+    models: Sequence[LineModel],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    prior: FloatArray,
+    last: Adjustment,
+    obs: Observability,
+    frame: LocalFrame,
+    opt: CalibrationOptions,
+) -> Adjustment:
+    """The solution again after a parameter is held, started from the prior.
+
+    When the features were found again with a solution far from the prior, the prior may
+    lie beyond the robust band of their returns and the solve stop there at once; it is
+    then started from the last solution's values (the held parameter at its prior).
+    """
+    solution = adjust(models, observations, features, prior, obs.estimated, frame, opt.adjustment)
+    if stuck_at_start(solution.values, prior, obs.estimated, math.nan) is None:
+        return solution
+    mask = np.zeros(prior.size, dtype=bool)
+    mask[list(obs.estimated)] = True
+    warm = np.where(mask, last.values, prior)
+    return adjust(models, observations, features, warm, obs.estimated, frame, opt.adjustment)
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The features found with one starting mount, and what follows from them."""
+
+    frame: LocalFrame
+    features: list[Feature]
+    observations: list[Observation]
+    rejected: tuple[tuple[str, str], ...]
+    kept: list[ScanLine]
+    units: list[tuple[str, set[int]]]
+    obs: Observability
+    before: list[float]
+    counts: list[int]
+
+
+def _setup(
+    lines: Sequence[ScanLine],
+    models: Sequence[LineModel],
+    prior: FloatArray,
+    start: FloatArray,
+    requested: tuple[int, ...],
+    groups: Sequence[tuple[str, set[int]]] | None,
+    opt: CalibrationOptions,
+) -> _Setup:
+    """Features found with the mount ``start``, and what follows from them.
+
+    The observability is taken there; the residuals with the prior (the mount given:
+    what ``before`` reports).
+    """
+    frame, features, observations = _frame_and_features(lines, models, start, opt)
+    S, motion, _ = reduced_normal_matrix(
+        models, observations, features, start, requested, frame, robust=False
+    )
+    used = sorted({o.line for o in observations})
+    units = _units(lines, used, groups)
+    honest = opt.jackknife and len(units) >= MIN_JACKKNIFE_GROUPS
+    before = _rms_before(models, observations, features, prior, frame)
+    return _Setup(
+        frame=frame,
+        features=features,
+        observations=observations,
+        rejected=_rejected_lines(lines, observations, opt.features),
+        kept=[lines[i] for i in used],
+        units=units,
+        obs=analyse(S, motion, requested, honest_sigma=honest),
+        before=before,
+        counts=[
+            sum(o.index.size for o in observations if o.feature == k) for k in range(len(features))
+        ],
+    )
+
+
+def _warnings(
+    lines: Sequence[ScanLine],
+    kept: Sequence[ScanLine],
+    observations: Sequence[Observation],
+    features: Sequence[Feature],
+    before: Sequence[float],
+    counts: Sequence[int],
+    summaries: Sequence[FeatureSummary],
+) -> tuple[str, ...]:
+    """What the user must know before trusting the estimates (`kinsync.calibration.gross`)."""
+    out = list(two_passes_in_a_line(list(kept)))
+    unlinked = unlinked_directions(lines, observations, features)
+    if unlinked is not None:
+        out.append(unlinked)
+    rise = residual_rise(
+        _pooled_rms(before, counts),
+        _pooled_rms([s.rms_after_m for s in summaries], [s.n_points for s in summaries]),
+    )
+    if rise is not None:
+        out.append(rise)
+    return tuple(out)
 
 
 def _calibrated_mount(

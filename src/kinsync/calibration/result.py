@@ -172,6 +172,10 @@ class CalibrationResult:
     uncertainty_notes : tuple of str
         What the calibrated mount's ``[uncertainty]`` leaves out, and which estimate the
         data give less well than the mount stated.
+    warnings : tuple of str
+        What to know before trusting the estimates: a file holding two passes, lines
+        driven both ways that share no wall (a grossly wrong start), a fit worse than the
+        start (`kinsync.calibration.gross`).
     """
 
     mount: Mount
@@ -193,6 +197,7 @@ class CalibrationResult:
     held: HeldEffect | None = None
     held_advice: tuple[str, ...] = ()
     uncertainty_notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``)."""
@@ -223,6 +228,7 @@ class CalibrationResult:
             "held": {} if self.held is None else self.held.document(),
             "held_advice": list(self.held_advice),
             "uncertainty_notes": list(self.uncertainty_notes),
+            "warnings": list(self.warnings),
             "mount": {
                 "lever_arm_body_m": list(self.mount.lever_arm_body_m),
                 "boresight_rpy_deg": list(self.mount.boresight_rpy_deg),

@@ -185,7 +185,7 @@ def mount(
             progress=stages.say,
         )
         stages.finish()
-    for line in run.result.held_advice:
+    for line in (*run.result.warnings, *run.result.held_advice):
         typer.echo(f"kinsync: warning: {line}", err=True)
     if as_json:
         doc: dict[str, Any] = run.result.as_document()

@@ -241,7 +241,11 @@ def calibration_sections(result: CalibrationResult) -> list[Section]:
     return [
         Section(
             title="Verdict",
-            paragraphs=(verdict(result), f"Standard deviations: {result.sigma_method}."),
+            paragraphs=(
+                *(f"Warning: {w}." for w in result.warnings),
+                verdict(result),
+                f"Standard deviations: {result.sigma_method}.",
+            ),
             tables=(Table("Mount parameters", headers, parameter_rows(result)),),
         ),
         Section(title="What the data could not determine", paragraphs=tuple(why) or ("Nothing.",)),

@@ -1,0 +1,147 @@
+"""Gross errors of a calibration's inputs (`kinsync.calibration.gross`): lines recorded
+at the same time, a solution stuck at its start or far from it, walls that the two
+directions never share, a fit worse than the start."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from kinsync.calibration.adjustment import Observation
+from kinsync.calibration.features import Feature, PlaneFeature, SphereFeature
+from kinsync.calibration.gross import (
+    LINKED_SHARE,
+    far_from_start,
+    line_heading_rad,
+    lines_at_the_same_time,
+    residual_rise,
+    stuck_at_start,
+    unlinked_directions,
+)
+from kinsync.calibration.lines import ScanLine
+from kinsync.errors import ConvergenceError
+
+from .conftest import line_truth
+
+ALL = (0, 1, 2, 3, 4, 5, 6)
+
+
+def _line(name: str, t0: float, heading_deg: float, duration_s: float = 20.0) -> ScanLine:
+    traj = line_truth(t0, heading_deg, 5.0, (0.0, 0.0), duration_s, np.random.default_rng(1))
+    t = np.linspace(t0 + 0.5, t0 + duration_s - 0.5, 50)
+    return ScanLine(name, t, np.ones((t.size, 3)), traj)
+
+
+def test_lines_recorded_at_the_same_time_are_refused() -> None:
+    a = _line("line_01.laz", 1000.0, 20.0)
+    copy = ScanLine("copy_01.laz", a.t_s, a.xyz_scanner_m, a.trajectory)
+    later = _line("line_02.laz", 1030.0, 200.0)
+    err = lines_at_the_same_time([a, later, copy])
+    assert err is not None
+    assert "'line_01.laz' and 'copy_01.laz' were recorded at the same time" in str(err)
+    assert "given twice" in str(err)
+    assert "two scanners" in str(err)
+    assert lines_at_the_same_time([a, later]) is None
+    # Touching or barely overlapping spans (a line cut in two) are separate lines.
+    tail = _line("line_01b.laz", 1000.0 + 18.0, 20.0)
+    assert lines_at_the_same_time([a, tail]) is None
+
+
+def test_a_solution_that_never_left_its_start_is_an_error() -> None:
+    start = np.array([0.0, -0.5, 0.7, -0.8, 0.0, -1.75, 0.0])
+    err = stuck_at_start(start.copy(), start, ALL, 0.114)
+    assert isinstance(err, ConvergenceError)
+    assert "did not move from the starting mount" in str(err)
+    assert "11.4 cm RMS" in str(err)
+    moved = start.copy()
+    moved[6] += 1e-9
+    assert stuck_at_start(moved, start, ALL, 0.114) is None
+    assert stuck_at_start(start.copy(), start, (), 0.114) is None
+
+
+def test_far_from_start_is_beyond_what_a_crew_knows() -> None:
+    start = np.zeros(7)
+    step = np.zeros(7)
+    step[2] = math.radians(1.5)
+    assert far_from_start(start + step, start, ALL)
+    assert not far_from_start(start + step, start, (0, 1, 3, 4, 5, 6))  # yaw held
+    step[2] = math.radians(0.5)
+    assert not far_from_start(start + step, start, ALL)
+    lever = np.zeros(7)
+    lever[3] = 0.2
+    assert far_from_start(lever, start, ALL)
+    latency = np.zeros(7)
+    latency[6] = 0.02
+    assert far_from_start(latency, start, ALL)
+
+
+def test_a_fit_worse_than_the_start_is_named() -> None:
+    text = residual_rise(0.1035, 0.1101)
+    assert text is not None
+    assert "10.3 cm -> 11 cm" in text
+    assert residual_rise(0.10, 0.101) is None  # within the trimmed RMS's wobble
+    assert residual_rise(0.10, 0.05) is None
+    assert residual_rise(math.nan, 0.05) is None
+
+
+def _wall(azimuth_deg: float) -> PlaneFeature:
+    a = math.radians(azimuth_deg)
+    return PlaneFeature(np.array([math.cos(a), math.sin(a), 0.0]), 0.0, np.zeros(3))
+
+
+def _ground() -> PlaneFeature:
+    return PlaneFeature(np.array([0.0, 0.0, -1.0]), 0.0, np.zeros(3))
+
+
+def _seen(who: list[set[int]]) -> list[Observation]:
+    idx = np.arange(3)
+    return [Observation(i, k, idx) for k, lines in enumerate(who) for i in sorted(lines)]
+
+
+@pytest.fixture(scope="module")
+def four_lines() -> list[ScanLine]:
+    """Lines 0 and 2 driven at 20 deg, 1 and 3 at 200 deg."""
+    return [_line(f"line_0{i + 1}", 1000.0 + 30.0 * i, 20.0 + 180.0 * (i % 2)) for i in range(4)]
+
+
+def test_line_heading_is_the_mean_yaw(four_lines: list[ScanLine]) -> None:
+    assert math.degrees(line_heading_rad(four_lines[0])) == pytest.approx(20.0, abs=0.01)
+    assert math.degrees(line_heading_rad(four_lines[1])) == pytest.approx(-160.0, abs=0.01)
+
+
+def test_walls_never_shared_by_the_two_directions_are_a_warning(
+    four_lines: list[ScanLine],
+) -> None:
+    # Each direction sees its own walls (a boresight far off): three each, one ground
+    # shared by all. The ground looks alike whatever the heading and is not counted.
+    features: list[Feature] = [_ground(), *(_wall(a) for a in (0, 30, 60, 90, 120, 150))]
+    who = [{0, 1, 2, 3}, {0, 2}, {0, 2}, {0, 2}, {1, 3}, {1, 3}, {1, 3}]
+    text = unlinked_directions(four_lines, _seen(who), features)
+    assert text is not None
+    assert text.startswith("0 of 6 walls, roofs or spheres are seen alike")
+    assert "line_01, line_03 (heading 20 deg) see 3 more" in text
+    assert "line_02, line_04 (heading -160 deg) 3 more" in text
+    assert "starting mount is likely grossly wrong" in text
+    # A sphere counts like a wall.
+    spheres: list[Feature] = [SphereFeature(np.zeros(3), 0.2, radius_known=True)] * 4
+    assert unlinked_directions(four_lines, _seen([{0}, {2}, {1}, {3}]), spheres) is not None
+
+
+def test_walls_shared_by_both_directions_or_one_direction_are_no_warning(
+    four_lines: list[ScanLine],
+) -> None:
+    walls: list[Feature] = [_wall(a) for a in range(0, 180, 20)]  # nine walls
+    # Four of nine seen alike (above the share), the rest by one direction each.
+    linked = math.ceil(LINKED_SHARE * 9) + 1
+    who = [{0, 1}] * linked + [{0, 2}, {1, 3}] * ((9 - linked) // 2) + [{0}] * ((9 - linked) % 2)
+    assert unlinked_directions(four_lines, _seen(who), walls) is None
+    # One direction alone sees walls the other never passes (fewer than two each way).
+    assert unlinked_directions(four_lines, _seen([{0, 2}] * 5 + [{1, 3}]), walls[:6]) is None
+    # Lines all driven one way: nothing to compare.
+    same_way = [four_lines[0], four_lines[2]]
+    assert unlinked_directions(same_way, _seen([{0}, {1}] * 3), walls[:6]) is None
+    # Ground seen by one direction only is no evidence.
+    grounds: list[Feature] = [_ground()] * 4
+    assert unlinked_directions(four_lines, _seen([{0}, {2}, {1}, {3}]), grounds) is None
