@@ -40,6 +40,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.__init__",
             "kinsync._arrays",
             "kinsync._lazy",
+            "kinsync._toml",
             "kinsync._typing",
             "kinsync._validate",
             "kinsync.crs",
@@ -53,6 +54,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.trajectory_gaps",
             "kinsync.trajectory_rows",
             "kinsync.trajectory_times",
+            "kinsync.trajectory_velocity",
         ),
     ),
     (
