@@ -152,6 +152,33 @@ def rolling_table_scenario(
     ``elevation_deg`` above horizontal) onto a vertical wall facing the scanner at
     ``range_m`` horizontal distance; the rate vector is the peak roll rate
     ``2 pi f A`` about North plus the yaw rate about Down.
+
+    Parameters
+    ----------
+    elevation_deg : float
+        Beam elevation above horizontal (deg), in (-90, 90); positive points up.
+    range_m : float
+        Horizontal distance from the scanner to the wall (m), > 0; the slant range
+        along the beam is ``range_m / cos(elevation)``.
+    roll_amplitude_deg : float
+        Roll amplitude A of the table (deg); default 6.
+    roll_frequency_hz : float
+        Roll frequency f (Hz); default 1.
+    yaw_rate_deg_s : float
+        Turn rate about Down (deg/s); default 1.
+
+    Returns
+    -------
+    Scenario
+        In the local NED frame at the scanner: beam East at the elevation, wall normal
+        towards the scanner (West), rate ``(2 pi f A, 0, yaw rate)`` (rad/s).
+
+    Raises
+    ------
+    InputError
+        ``elevation_deg`` or ``range_m`` not a finite number, an elevation outside
+        (-90, 90), a range not positive, or a roll or yaw value that gives a
+        non-finite rate.
     """
     el = math.radians(finite_number(elevation_deg, "elevation_deg"))
     if abs(el) >= math.pi / 2:
@@ -308,6 +335,25 @@ def bits_per_serial_byte(
 
     One start bit + ``data_bits`` + one parity bit (unless ``parity == "none"``) +
     ``stop_bits`` (1, 1.5 or 2).
+
+    Parameters
+    ----------
+    data_bits : int
+        Data bits per byte: 5, 6, 7 or 8 (default 8).
+    parity : {"none", "even", "odd", "mark", "space"}
+        Parity bit; "none" (the default) sends none.
+    stop_bits : float
+        Stop bits: 1 (the default), 1.5 or 2.
+
+    Returns
+    -------
+    float
+        Bits per byte on the wire (10.0 for 8N1).
+
+    Raises
+    ------
+    InputError
+        A data-bit count, parity or stop-bit count not among those above.
     """
     if data_bits not in (5, 6, 7, 8):
         msg = f"data bits must be 5, 6, 7 or 8, got {data_bits!r}"

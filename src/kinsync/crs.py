@@ -783,7 +783,21 @@ def crs_to_ecef_transformer(crs_text: str) -> Callable[[FloatArray], FloatArray]
 
 
 def sample_rows(n: int, count: int = 64) -> Sequence[int]:
-    """Up to ``count`` row indices spread over ``n`` rows, first and last included."""
+    """Up to ``count`` row indices spread over ``n`` rows, first and last included.
+
+    Parameters
+    ----------
+    n : int
+        Number of rows (>= 0).
+    count : int
+        Most indices to give (>= 2 for the last row to be among them); default 64.
+
+    Returns
+    -------
+    sequence of int
+        Every row, ``range(n)``, when ``n <= count``; otherwise ``count`` or fewer
+        distinct indices in increasing order, evenly spaced from 0 to ``n - 1``.
+    """
     if n <= count:
         return range(n)
     return sorted({round(i) for i in np.linspace(0, n - 1, count)})

@@ -45,6 +45,18 @@ def plain_values(text: str) -> str:
     numpy 2 writes ``np.float64(1.5)`` for ``repr`` (and ``!r`` in an f-string) of a
     scalar taken from an array; a message shows a value as a user writes it. Quoted
     text (``'...'``, a cell or a line of the user's file) is left as it is.
+
+    Parameters
+    ----------
+    text : str
+        A message, as formatted.
+
+    Returns
+    -------
+    str
+        The message with each ``np.float64(...)``-style repr (float, int, uint,
+        complex, longdouble, str_, bytes_) outside quoted text replaced by the value
+        inside the parentheses, and ``np.True_``/``np.False_`` by ``True``/``False``.
     """
     return _NUMPY_REPR.sub(_plain, text)
 

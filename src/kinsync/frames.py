@@ -108,12 +108,42 @@ def rot_x(angle_rad: ArrayLike) -> FloatArray:
 
 
 def rot_y(angle_rad: ArrayLike) -> FloatArray:
-    """Rotation matrix about Y (active, right-handed), shape ``(..., 3, 3)``."""
+    """Rotation matrix about Y (active, right-handed), shape ``(..., 3, 3)``.
+
+    Parameters
+    ----------
+    angle_rad : array_like, shape (...)
+        Rotation angle (rad), positive right-handed about the Y axis.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    InputError
+        ``angle_rad`` not numbers, or not finite.
+    """
     return _elementary(angle_rad, 1)
 
 
 def rot_z(angle_rad: ArrayLike) -> FloatArray:
-    """Rotation matrix about Z (active, right-handed), shape ``(..., 3, 3)``."""
+    """Rotation matrix about Z (active, right-handed), shape ``(..., 3, 3)``.
+
+    Parameters
+    ----------
+    angle_rad : array_like, shape (...)
+        Rotation angle (rad), positive right-handed about the Z axis.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    InputError
+        ``angle_rad`` not numbers, or not finite.
+    """
     return _elementary(angle_rad, 2)
 
 
@@ -282,7 +312,23 @@ def matrix_to_quaternion(R_body_to_ned: ArrayLike) -> FloatArray:
 def euler_rpy_to_quaternion(
     roll_rad: ArrayLike, pitch_rad: ArrayLike, yaw_rad: ArrayLike
 ) -> FloatArray:
-    """DIN 9300 Euler angles to a scalar-first unit quaternion (``w >= 0``), shape ``(..., 4)``."""
+    """DIN 9300 Euler angles to a scalar-first unit quaternion (``w >= 0``), shape ``(..., 4)``.
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad, yaw_rad : array_like, broadcastable shapes (...)
+        Roll about body X, pitch about body Y, yaw (heading) about Down (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q_body_to_ned`` as ``(w, x, y, z)``: the rotation of `euler_rpy_to_matrix`.
+
+    Raises
+    ------
+    InputError
+        An angle not numbers, or not finite.
+    """
     r, p, y = np.broadcast_arrays(
         _as_float(roll_rad, "roll_rad"),
         _as_float(pitch_rad, "pitch_rad"),
@@ -304,12 +350,42 @@ def euler_rpy_to_quaternion(
 
 
 def quaternion_to_euler_rpy(q_body_to_ned: ArrayLike) -> FloatArray:
-    """Scalar-first unit quaternion to DIN 9300 ``(roll, pitch, yaw)`` (rad), shape ``(..., 3)``."""
+    """Scalar-first unit quaternion to DIN 9300 ``(roll, pitch, yaw)`` (rad), shape ``(..., 3)``.
+
+    Parameters
+    ----------
+    q_body_to_ned : array_like, shape (..., 4)
+        ``(w, x, y, z)`` unit quaternions (norm within 1e-6 of one), body (FRD) to NED.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``(roll, pitch, yaw)`` in rad, with the ranges and gimbal-lock convention of
+        `matrix_to_euler_rpy`.
+
+    Raises
+    ------
+    InputError
+        Not numbers, not finite, last axis not of length 4, or a norm not within 1e-6
+        of one.
+    """
     return matrix_to_euler_rpy(quaternion_to_matrix(q_body_to_ned))
 
 
 def wrap_angle_rad(angle_rad: ArrayLike) -> FloatArray:
-    """Angles (rad) wrapped to (-pi, pi], same shape: a difference of two headings."""
+    """Angles (rad) wrapped to (-pi, pi], same shape: a difference of two headings.
+
+    Parameters
+    ----------
+    angle_rad : array_like, any shape
+        Angles (rad), any size; NaN stays NaN.
+
+    Returns
+    -------
+    ndarray of float64, same shape as ``angle_rad``
+        The same angles (rad) wrapped by whole turns into ``[-pi, pi]``; an odd
+        multiple of pi comes back as pi or -pi, as rounding falls.
+    """
     out: FloatArray = np.angle(np.exp(1j * np.asarray(angle_rad, dtype=np.float64)))
     return out
 
@@ -481,7 +557,29 @@ def ned_to_ecef(
 def ecef_to_ned(
     pos_ecef_m: ArrayLike, origin_lat_deg: float, origin_lon_deg: float, origin_h_m: float
 ) -> FloatArray:
-    """ECEF positions to the local NED frame tangent at an origin, shape ``(..., 3)`` (m)."""
+    """ECEF positions to the local NED frame tangent at an origin, shape ``(..., 3)`` (m).
+
+    The inverse of `ned_to_ecef`.
+
+    Parameters
+    ----------
+    pos_ecef_m : array_like, shape (..., 3)
+        Positions in WGS84 ECEF (m).
+    origin_lat_deg, origin_lon_deg, origin_h_m : float
+        Geodetic origin of the local frame: latitude and longitude (deg, WGS84) and
+        ellipsoidal height (m).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``pos_ned_m``: North, East, Down of each position from the origin (m).
+
+    Raises
+    ------
+    InputError
+        A position or the origin not numbers or not finite, or the origin latitude
+        outside [-90, 90].
+    """
     p = _as_float(pos_ecef_m, "pos_ecef_m")
     origin = geodetic_to_ecef(origin_lat_deg, origin_lon_deg, origin_h_m)
     R = rotation_ned_to_ecef(origin_lat_deg, origin_lon_deg)
@@ -510,7 +608,25 @@ def body_to_vehicle(vec_body: ArrayLike) -> FloatArray:
 
 
 def vehicle_to_body(vec_vehicle: ArrayLike) -> FloatArray:
-    """Vehicle-frame vectors (X right, Y forward, Z up) to body FRD, shape ``(..., 3)``."""
+    """Vehicle-frame vectors (X right, Y forward, Z up) to body FRD, shape ``(..., 3)``.
+
+    The inverse of `body_to_vehicle`.
+
+    Parameters
+    ----------
+    vec_vehicle : array_like, shape (..., 3)
+        Vectors in the vehicle frame (any unit; it is kept).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``vec_body``: the same vectors in the body frame (Forward-Right-Down).
+
+    Raises
+    ------
+    InputError
+        Not numbers, or not finite.
+    """
     # The axis permutation with one sign flip is its own inverse.
     v = _as_float(vec_vehicle, "vec_vehicle")
     out: FloatArray = np.einsum("ij,...j->...i", _BODY_TO_VEHICLE, v)

@@ -185,6 +185,18 @@ def nearest_correlation(r: FloatArray) -> FloatArray:
     scaled back to 1. Unchanged otherwise, so a written matrix reads back exactly.
     Propagated through a calibration (``[D; I] Sigma [D; I]'``) a negative eigenvalue
     grows, and the written table would be refused.
+
+    Parameters
+    ----------
+    r : ndarray, shape (n, n)
+        A correlation matrix (dimensionless): unit diagonal, coefficients in [-1, 1],
+        symmetric to rounding. Not checked here (`StdCorrelation` checks it first).
+
+    Returns
+    -------
+    ndarray of float64, shape (n, n)
+        A copy of ``r`` when its smallest eigenvalue is at least -1e-12; otherwise the
+        repaired matrix: symmetric, unit diagonal, positive semidefinite.
     """
     sym = 0.5 * (r + r.T)
     w, v = np.linalg.eigh(sym)
@@ -316,7 +328,20 @@ class StdCorrelation:
         object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in fixed))
 
     def without(self, names: Sequence[str]) -> StdCorrelation | None:
-        """The correlations of the other values (None when fewer than two remain)."""
+        """The correlations of the other values (None when fewer than two remain).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Names of `MOUNT_PARAMETER_NAMES` to leave out; a name this table does not
+            hold is ignored.
+
+        Returns
+        -------
+        StdCorrelation or None
+            The rows and columns of the remaining names, in this table's order; None
+            when fewer than two names remain (no correlation left to state).
+        """
         keep = [i for i, n in enumerate(self.names) if n not in names]
         if len(keep) < 2:
             return None
@@ -394,6 +419,30 @@ class MountUncertainty:
         A value measured again on its own (the latency from a sphere) is no longer
         correlated with the others: the correlations that name it are dropped, the
         others' kept.
+
+        Parameters
+        ----------
+        lever_arm_body_m : tuple of 3 float, optional
+            New 1-sigma of the scanner lever arm, body frame FRD (m); default: keep
+            this table's.
+        boresight_rpy_deg : tuple of 3 float, optional
+            New 1-sigma of the boresight roll, pitch, yaw (deg); default: keep this
+            table's.
+        latency_s : float, optional
+            New 1-sigma of the latency (s); default: keep this table's.
+
+        Returns
+        -------
+        MountUncertainty
+            A new table; this one is unchanged. A value given replaces the old one and
+            the correlation entries of its names (all three components of a vector) are
+            dropped (`StdCorrelation.without`).
+
+        Raises
+        ------
+        InputError
+            A new value that is not a finite number (or 3 of them), is negative, or is
+            beyond its bound (`MAX_LEVER_ARM_M`, `MAX_ANGLE_DEG`, `MAX_LATENCY_S`).
         """
         given = {
             "lever_arm_body_m": lever_arm_body_m,
@@ -512,7 +561,25 @@ class Mount:
         return np.array(self.lever_arm_body_m)
 
     def with_latency(self, latency_s: float) -> Mount:
-        """Return a copy with another latency (s)."""
+        """Return a copy with another latency (s).
+
+        Parameters
+        ----------
+        latency_s : float
+            The new total latency tau (s), sign as `Mount.latency_s` (tau > 0: the
+            navigation record lags the scanner). The other values and the uncertainty
+            are kept.
+
+        Returns
+        -------
+        Mount
+            A new mount; this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            ``latency_s`` not a finite number, or beyond +-`MAX_LATENCY_S`.
+        """
         return replace(self, latency_s=latency_s)
 
     def profile_to_scanner(self, angle_rad: FloatArray, range_m: FloatArray) -> FloatArray:
@@ -767,6 +834,19 @@ def mount_to_toml_text(mount: Mount) -> str:
 
     Floats are written with ``repr``, the shortest text that reads back to the same
     float64, so a save/load round trip is exact.
+
+    Parameters
+    ----------
+    mount : Mount
+        The mount to write: ``[mount]`` always, ``[profiler]`` when it has a profiler
+        azimuth, ``[uncertainty]`` (and ``[uncertainty.correlation]``) when it gives at
+        least one standard deviation. Units as the schema: m, deg, s.
+
+    Returns
+    -------
+    str
+        The TOML document, ending in a newline, that `mount_from_toml_text` reads
+        back.
     """
 
     def vec(v: Vector3) -> str:

@@ -231,7 +231,36 @@ class Trajectory:
         origin_lat_lon_h: tuple[float, float, float] | None = None,
         vel_ned_m_s: ArrayLike | None = None,
     ) -> Trajectory:
-        """Build a trajectory from DIN 9300 Euler angles (rad), each of shape (N,) like t_s."""
+        """Build a trajectory from DIN 9300 Euler angles (rad), each of shape (N,) like t_s.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (N,)
+            Record times (s, GPS time unless stated), strictly increasing, N >= 2.
+        roll_rad, pitch_rad, yaw_rad : array_like, shape (N,)
+            Attitude body (FRD) -> NED: roll about body X, pitch about body Y, yaw
+            (heading) about Down (rad), as `kinsync.frames.euler_rpy_to_matrix`.
+        lat_lon_h : array_like, shape (N, 3), optional
+            Geodetic WGS84 position: latitude (deg), longitude (deg), ellipsoidal
+            height (m).
+        pos_ned_m : array_like, shape (N, 3), optional
+            Local-level NED position (m) about ``origin_lat_lon_h``.
+        origin_lat_lon_h : tuple of float, optional
+            Geodetic origin (lat_deg, lon_deg, h_m) of ``pos_ned_m``; required with it.
+        vel_ned_m_s : array_like, shape (N, 3), optional
+            Velocity in NED (m/s), as in `Trajectory`.
+
+        Returns
+        -------
+        Trajectory
+            Exactly one of ``lat_lon_h`` and ``pos_ned_m`` must be given.
+
+        Raises
+        ------
+        InputError
+            As `Trajectory`, naming the row and column at fault; and an angle array not
+            numbers, not finite, or not of shape (N,).
+        """
         t = validated_times(t_s)
         rpy = {"roll_rad": roll_rad, "pitch_rad": pitch_rad, "yaw_rad": yaw_rad}
         q = euler_rpy_to_quaternion(*(validated_rows(a, t.size, None, k) for k, a in rpy.items()))
@@ -313,10 +342,17 @@ class Trajectory:
         vehicle differs from its course by some degrees; yaw in radians read as degrees
         lies within ±3.2° and differs by anything.
 
+        Parameters
+        ----------
+        min_speed_m_s : float
+            Horizontal speed (m/s) a record interval must exceed for its course to
+            count; default 1.
+
         Returns
         -------
         (float, float) or None
-            The two medians (deg); None with fewer than 10 such intervals.
+            The two medians (deg), (a) then (b), each in [0, 180]; None with fewer than
+            10 such intervals.
         """
         disp = self._displacement_ned_m()
         dt = np.diff(self.t_s)
@@ -341,6 +377,23 @@ class Trajectory:
 
         ``max_gap_s`` defaults to `kinsync.trajectory_gaps.GAP_FACTOR` median record
         intervals (`kinsync.trajectory_gaps.max_gap_for`); ``math.inf`` finds none.
+
+        Parameters
+        ----------
+        max_gap_s : float, optional
+            The longest record interval (s, positive) that is not a gap; default as
+            above.
+
+        Returns
+        -------
+        tuple of TrajectoryGap
+            Each gap's start and end record times (s, on this trajectory's time scale);
+            empty when there is none.
+
+        Raises
+        ------
+        InputError
+            ``max_gap_s`` not a positive number.
         """
         if max_gap_s is None:
             return self._default_gaps
@@ -351,6 +404,25 @@ class Trajectory:
 
         Within ``[t_start_s, t_end_s]`` and not strictly inside a data gap
         (`gaps` with ``max_gap_s``; ``math.inf``: the span alone).
+
+        Parameters
+        ----------
+        t_s : array_like, any shape
+            Times (s) on this trajectory's time scale; NaN is never contained.
+        max_gap_s : float, optional
+            The longest record interval (s, positive) that is not a gap; default as in
+            `gaps`.
+
+        Returns
+        -------
+        ndarray of bool, same shape as ``t_s``
+
+        Raises
+        ------
+        InputError
+            ``t_s`` not numbers of seconds (datetime64, text, a float dtype too coarse
+            for the times: `kinsync._validate.time_array`), or ``max_gap_s`` not a
+            positive number.
         """
         t = time_array(t_s, "contains t_s")
         in_span: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)
@@ -358,7 +430,25 @@ class Trajectory:
 
     # ------------------------------------------------------------------ transforms
     def shifted(self, dt_s: float) -> Trajectory:
-        """Return a copy whose record times are ``t_s + dt_s``."""
+        """Return a copy whose record times are ``t_s + dt_s``.
+
+        Parameters
+        ----------
+        dt_s : float
+            Time shift (s), added to every record time; positions, attitudes and
+            velocities are kept.
+
+        Returns
+        -------
+        Trajectory
+            A new trajectory; this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            ``dt_s`` not finite, or so large that the shifted times are no longer
+            finite and strictly increasing.
+        """
         if not np.isfinite(dt_s):
             msg = f"time shift must be finite, got {dt_s!r}"
             raise InputError(msg)
@@ -381,11 +471,45 @@ class Trajectory:
         With latency ``tau > 0`` a record tagged ``t`` describes the state at
         ``t - tau``; the corrected trajectory carries it at time ``t - tau``, so
         interpolating it at a point's time ``t`` reads the record tagged ``t + tau``.
+
+        Parameters
+        ----------
+        latency_s : float
+            The latency tau (s), sign as `kinsync.mount.Mount.latency_s` (tau > 0: the
+            navigation record lags the scanner).
+
+        Returns
+        -------
+        Trajectory
+            ``shifted(-latency_s)``; this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            ``latency_s`` not finite (as `shifted`).
         """
         return self.shifted(-latency_s)
 
     def sliced(self, t_start_s: float, t_end_s: float) -> Trajectory:
-        """Records with ``t_start_s <= t <= t_end_s`` (at least two must remain)."""
+        """Records with ``t_start_s <= t <= t_end_s`` (at least two must remain).
+
+        Parameters
+        ----------
+        t_start_s, t_end_s : float
+            First and last time kept (s, on this trajectory's time scale), both
+            inclusive; no record is interpolated at either.
+
+        Returns
+        -------
+        Trajectory
+            A new trajectory of the records kept, with the same origin (local NED);
+            this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            Fewer than two records lie in ``[t_start_s, t_end_s]``.
+        """
         keep = (self.t_s >= t_start_s) & (self.t_s <= t_end_s)
         if np.count_nonzero(keep) < 2:
             msg = f"trajectory slice [{t_start_s}, {t_end_s}] keeps fewer than 2 records"

@@ -207,7 +207,38 @@ def _check_lines(
 def find_features(
     models: Sequence[LineModel], values: FloatArray, frame: LocalFrame, opt: CalibrationOptions
 ) -> tuple[list[Feature], list[Observation]]:
-    """The features of ``opt.features`` seen by several lines, with their observations."""
+    """The features of ``opt.features`` seen by several lines, with their observations.
+
+    Sphere targets (`kinsync.calibration.spheres.find_sphere_targets`) or planar
+    patches (`kinsync.calibration.planes.find_plane_patches`).
+
+    Parameters
+    ----------
+    models : sequence of LineModel
+        The lines, prepared for georeferencing (all their returns are searched).
+    values : ndarray, shape (7,)
+        The mount parameters to georeference with (rad, m, s: boresight roll, pitch,
+        yaw, lever arm x, y, z in the body frame FRD, latency), as
+        `kinsync.calibration.parameters.mount_values`.
+    frame : LocalFrame
+        Local NED frame the features are expressed in.
+    opt : CalibrationOptions
+        ``features`` picks the kind; ``spheres`` or ``patches`` holds its search
+        settings.
+
+    Returns
+    -------
+    features : list of Feature
+        The features found, in the local frame (m).
+    observations : list of Observation
+        For each line and feature it sees, the indices of its returns on it.
+
+    Raises
+    ------
+    InputError
+        No feature found, or none seen by several lines (the message says what to
+        check).
+    """
     if opt.features == "spheres":
         targets = find_sphere_targets(models, values, frame, opt.spheres)
         return list(targets.features), list(targets.observations)

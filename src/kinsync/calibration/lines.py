@@ -95,7 +95,25 @@ class ScanLine:
         return float(self.t_s.max())
 
     def subset(self, index: ArrayLike) -> ScanLine:
-        """The same line with only the returns ``index`` selects (mask or indices)."""
+        """The same line with only the returns ``index`` selects (mask or indices).
+
+        Parameters
+        ----------
+        index : array_like
+            A boolean mask of shape (N,), or integer indices (0-based) of the returns to
+            keep, in the order wanted.
+
+        Returns
+        -------
+        ScanLine
+            Same name and trajectory; the selected times (s) and scanner-frame returns
+            (m), shapes (M,) and (M, 3).
+
+        Raises
+        ------
+        InputError
+            ``index`` selects no return.
+        """
         idx = np.asarray(index)
         return ScanLine(self.name, self.t_s[idx], self.xyz_scanner_m[idx], self.trajectory)
 

@@ -200,7 +200,24 @@ class CalibrationResult:
     warnings: tuple[str, ...] = ()
 
     def parameter(self, name: str) -> ParameterEstimate:
-        """The estimate called ``name`` (e.g. ``latency_ms``)."""
+        """The estimate called ``name`` (e.g. ``latency_ms``).
+
+        Parameters
+        ----------
+        name : str
+            One of `kinsync.mount.MOUNT_PARAMETER_NAMES` (``boresight_roll_deg`` ..
+            ``latency_ms``); the unit is in the name.
+
+        Returns
+        -------
+        ParameterEstimate
+            Its value, prior and standard deviation in the report units (deg, m, ms).
+
+        Raises
+        ------
+        KeyError
+            No parameter of that name.
+        """
         for p in self.parameters:
             if p.name == name:
                 return p

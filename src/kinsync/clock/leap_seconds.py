@@ -165,6 +165,22 @@ def gps_to_utc_posix_s(t_gps_s: float) -> float:
 
     During an inserted leap second (23:59:60) POSIX time repeats: the result is the
     POSIX time of the following 00:00:00.
+
+    Parameters
+    ----------
+    t_gps_s : float
+        GPS time (s since 1980-01-06T00:00:00 UTC, leap seconds not counted), >= 0.
+
+    Returns
+    -------
+    float
+        UTC as POSIX seconds (s since 1970-01-01T00:00:00 UTC, leap seconds not
+        counted).
+
+    Raises
+    ------
+    InputError
+        ``t_gps_s`` not a finite number, or negative (before the GPS epoch).
     """
     g = finite_number(t_gps_s, "t_gps_s")
     if g < 0.0:
@@ -241,6 +257,23 @@ def zda_to_gps_s(record: ZdaRecord) -> float:
 
     The ZDA's local-zone fields describe the receiver's local time zone; the time and
     date fields are UTC whatever they say.
+
+    Parameters
+    ----------
+    record : ZdaRecord
+        A parsed ZDA message: its UTC date (``year``, ``month``, ``day``) and time of
+        day (``utc_time_of_day_s``, s; 86400 up to 86401 is 23:59:60).
+
+    Returns
+    -------
+    float
+        GPS seconds since 1980-01-06T00:00:00 (`utc_fields_to_gps_s`).
+
+    Raises
+    ------
+    InputError
+        A date before the GPS epoch, or a 23:59:60 on a day that ended without an
+        inserted leap second.
     """
     return utc_fields_to_gps_s(record.year, record.month, record.day, record.utc_time_of_day_s)
 

@@ -165,7 +165,24 @@ class ClockModel:
         )
 
     def inside_span(self, t_local_s: ArrayLike) -> BoolArray:
-        """Which local times lie within the span of the fitted pulses (ends included)."""
+        """Which local times lie within the span of the fitted pulses (ends included).
+
+        Parameters
+        ----------
+        t_local_s : array_like, shape (...)
+            Local clock times (s), finite.
+
+        Returns
+        -------
+        ndarray of bool, shape (...)
+            True where ``span_local_s[0] <= t <= span_local_s[1]``.
+
+        Raises
+        ------
+        InputError
+            Times that are not numbers of seconds (datetime64, text, a float dtype too
+            coarse for the times) or not finite, naming the first such index.
+        """
         t = _finite_times(t_local_s, "t_local_s")
         lo, hi = self.span_local_s
         return np.asarray((t >= lo) & (t <= hi), dtype=np.bool_)
@@ -273,6 +290,21 @@ class ClockModel:
     @classmethod
     def from_document(cls, doc: object, source: str = "<document>") -> ClockModel:
         """Build a `ClockModel` from the document `ClockModel.as_document` writes.
+
+        Parameters
+        ----------
+        doc : object
+            The parsed JSON document: an object with ``reference_local_s`` (s, local
+            clock), ``reference_gps_s`` (s, GPS time), ``drift_ppm``, ``span_local_s``
+            (two local times, s) and ``piecewise`` (null, or ``knots_local_s`` and
+            ``knots_gps_s`` lists); ``offset_s`` (s) optional, checked; other keys
+            (``kind``, ``formula``, ...) ignored.
+        source : str
+            Where the document came from (a file name), for messages.
+
+        Returns
+        -------
+        ClockModel
 
         Raises
         ------

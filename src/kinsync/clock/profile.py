@@ -42,7 +42,21 @@ class ProfileClock:
         )
 
     def time_s(self, profile: ArrayLike, angle_rad: ArrayLike) -> FloatArray:
-        """Time (s) of returns at profile numbers and mirror angles (rad), same shape."""
+        """Time (s) of returns at profile numbers and mirror angles (rad), same shape.
+
+        Parameters
+        ----------
+        profile : array_like, shape (...)
+            Profile numbers n (taken as float64, not checked).
+        angle_rad : array_like, shape (...)
+            Mirror angles phi (rad), broadcastable with ``profile``.
+
+        Returns
+        -------
+        ndarray of float64, the broadcast shape
+            ``t0_s + (n + phi / 2 pi) * period_s`` (s, the trajectory's time scale).
+            Not checked: a NaN input gives NaN.
+        """
         n = np.asarray(profile, dtype=np.float64)
         phi = np.asarray(angle_rad, dtype=np.float64)
         out: FloatArray = self.t0_s + (n + phi / math.tau) * self.period_s

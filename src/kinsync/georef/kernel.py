@@ -277,6 +277,32 @@ def validated_scanner_points(
     """Point times (N,) and scanner-frame coordinates (N, 3) as finite float64 arrays.
 
     Raises `InputError`, prefixed with ``what``, naming the first bad shape or point.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Point times (s) on the scanner's time scale.
+    xyz_scanner_m : array_like, shape (N, 3)
+        Points in the scanner frame (m).
+    what : str
+        What is being done, the prefix of a message; default ``"georeference"``.
+
+    Returns
+    -------
+    t_s : ndarray of float64, shape (N,)
+        The times, contiguous.
+    xyz_scanner_m : ndarray of float64, shape (N, 3)
+        The coordinates, contiguous.
+
+    Raises
+    ------
+    InputError
+        Times or coordinates that are not numbers (times: datetime64, text, a float
+        dtype too coarse for the times), times not 1-D, or coordinates not of shape
+        (N, 3).
+    PointValueError
+        A non-finite time or coordinate, or a coordinate beyond
+        +-`MAX_SCANNER_RANGE_M`, naming the first such point (0-based index).
     """
     t, xyz = _shaped_points(t_s, xyz_scanner_m, what)
     raise_not_finite_points(t, xyz, what)
@@ -390,6 +416,43 @@ def georeference_numpy(
     slerped body -> NED, then rotated to ECEF at the interpolated position); kept as
     the reference for the kernel and as the benchmark baseline. Parameters, returns
     and errors as in `georeference`.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Point times (s) on the scanner's time scale, any order.
+    xyz_scanner_m : array_like, shape (N, 3)
+        Points in the scanner frame (m).
+    traj : GeorefTrajectory
+        Precomputed trajectory, corrected for ``mount.latency_s``.
+    mount : Mount
+        Lever arm (m, body frame FRD), boresight scanner -> body and latency (s).
+    position : {"auto", "linear", "hermite"}
+        Position interpolation: linear, or cubic Hermite with the velocities ("auto",
+        the default, picks Hermite when velocities exist).
+
+    Returns
+    -------
+    pos_ecef_m : ndarray, shape (N, 3)
+        Georeferenced points, ECEF (m); NaN where outside the trajectory's span or
+        inside one of its gaps.
+    inside : ndarray of bool, shape (N,)
+        True where the point time lies within ``[traj.t_start_s, traj.t_end_s]`` and
+        not strictly inside a gap (`GeorefTrajectory.contains`).
+
+    Raises
+    ------
+    InputError
+        Times or coordinates that are not numbers, mismatched shapes, an unknown
+        ``position``, Hermite without velocities, or a mount latency that differs from
+        the trajectory's.
+    PointValueError
+        A non-finite time or coordinate, or a coordinate beyond
+        +-`MAX_SCANNER_RANGE_M`, naming the first such point.
+
+    References
+    ----------
+    Shoemake, K., "Animating rotation with quaternion curves", SIGGRAPH 1985 (slerp).
     """
     t, xyz = validated_scanner_points(t_s, xyz_scanner_m)
     check_latency(traj, mount)

@@ -272,6 +272,23 @@ class GeorefTrajectory:
 
         Within ``[t_start_s, t_end_s]`` and not strictly inside a gap; same shape as
         ``t_s``.
+
+        Parameters
+        ----------
+        t_s : array_like, any shape
+            Point times (s) on the scanner's time scale (the trajectory's record times
+            corrected for the latency); NaN is never contained.
+
+        Returns
+        -------
+        ndarray of bool, same shape as ``t_s``
+            The gaps are `gaps` (record intervals longer than `max_gap_s`).
+
+        Raises
+        ------
+        InputError
+            ``t_s`` not numbers of seconds (datetime64, text, a float dtype too coarse
+            for the times: `kinsync._validate.time_array`).
         """
         t = time_array(t_s, "contains t_s")
         out: BoolArray = (t >= self.t_start_s) & (t <= self.t_end_s)

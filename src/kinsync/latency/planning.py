@@ -193,13 +193,52 @@ class LatencyPlan:
     latency_std_s: float
 
     def passes_for_target(self, target_latency_std_s: float) -> int:
-        """Passes per rate and direction that reach a target latency sigma (s)."""
+        """Passes per rate and direction that reach a target latency sigma (s).
+
+        The bound falls as one over the square root of the passes pooled, so the
+        design's passes are scaled by ``(latency_std_s / target) ** 2``.
+
+        Parameters
+        ----------
+        target_latency_std_s : float
+            Target 1-sigma of the combined latency (s), > 0.
+
+        Returns
+        -------
+        int
+            Passes per rate and direction, at least 1 (rounded up).
+
+        Raises
+        ------
+        InputError
+            ``target_latency_std_s`` not a positive finite number.
+        """
         target = positive_number(target_latency_std_s, "target_latency_std_s")
         ratio = (self.latency_std_s / target) ** 2
         return max(1, math.ceil(self.design.passes * ratio - 1e-9))
 
     def as_document(self, target_latency_std_s: float = 1e-4) -> dict[str, Any]:
-        """JSON-ready summary (what ``kinsync latency plan --json`` prints)."""
+        """JSON-ready summary (what ``kinsync latency plan --json`` prints).
+
+        Parameters
+        ----------
+        target_latency_std_s : float
+            Target 1-sigma of the combined latency (s), > 0, for
+            ``passes_for_target``; default 1e-4 (0.1 ms).
+
+        Returns
+        -------
+        dict
+            ``latency_std_ms``, ``passes_for_target``, ``target_latency_std_ms``,
+            ``passes`` and ``per_rate`` (a list, per rate: ``rate_deg_s``,
+            ``points_per_pass``, ``center_std_m``, ``center_tangential_std_m``,
+            ``latency_std_ms``). Latencies in ms, the centre's in m.
+
+        Raises
+        ------
+        InputError
+            ``target_latency_std_s`` not a positive finite number.
+        """
         return {
             "latency_std_ms": self.latency_std_s * 1e3,
             "passes_for_target": self.passes_for_target(target_latency_std_s),

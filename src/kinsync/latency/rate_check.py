@@ -299,6 +299,19 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> None:
     Each pass with point times is judged by `points_azimuth_rate_deg_s`; a pass
     without times, or whose points do not sweep with time, is not judged.
 
+    Parameters
+    ----------
+    passes : sequence of SpherePass
+        The passes, each with its stated table rate (deg/s, signed, right-handed about
+        its axis), rotation axis and points (table-centred NED, m) with their times
+        (s) where the file has them.
+
+    Returns
+    -------
+    None
+        Nothing: every pass judged agrees with its stated rate (or none could be
+        judged).
+
     Raises
     ------
     InputError

@@ -118,7 +118,25 @@ class CrossingSearch:
 
 
 def require_profiler_azimuth(mount: Mount, source: str = "mount") -> float:
-    """The mount's ``[profiler] azimuth_deg`` in radians, or an `InputError` saying so."""
+    """The mount's ``[profiler] azimuth_deg`` in radians, or an `InputError` saying so.
+
+    Parameters
+    ----------
+    mount : Mount
+        The scanner's mount; Method B needs its ``[profiler]`` table.
+    source : str
+        Where the mount came from (a file name), for the message; default ``"mount"``.
+
+    Returns
+    -------
+    float
+        The azimuth of the profile plane about the scanner Z axis (rad).
+
+    Raises
+    ------
+    InputError
+        The mount has no ``[profiler] azimuth_deg`` (``profiler_azimuth_deg`` None).
+    """
     if mount.profiler_azimuth_deg is None:
         msg = (
             f"{source}: no [profiler] azimuth_deg; Method B needs the azimuth of the profile "
@@ -173,7 +191,37 @@ def find_crossings(
     sync_points: SyncPoints,
     config: ObjectSpaceConfig | None = None,
 ) -> tuple[Crossing, ...]:
-    """The timed crossings of `search_crossings` (those in data gaps left out)."""
+    """The timed crossings of `search_crossings` (those in data gaps left out).
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        Body trajectory at its record tags (the mount's latency is applied here).
+    mount : Mount
+        Lever arm, boresight, latency and ``[profiler] azimuth_deg``.
+    sync_points : SyncPoints
+        Target centres (WGS84).
+    config : ObjectSpaceConfig, optional
+        ``max_range_m``, ``max_sync_distance_m`` and ``max_gap_s`` are used; default
+        `ObjectSpaceConfig()`.
+
+    Returns
+    -------
+    tuple of Crossing
+        In time order: each crossing's time (s, trajectory time scale after the
+        latency), mirror angle (rad), range (m), sweep rate (m/s) and plane normal
+        (ECEF).
+
+    Raises
+    ------
+    InputError
+        As `search_crossings`: a mount without ``[profiler]``; a sync point farther
+        than ``max_sync_distance_m`` from the trajectory.
+
+    References
+    ----------
+    Brent, R. P., "Algorithms for Minimization without Derivatives", 1973 (root finding).
+    """
     return search_crossings(trajectory, mount, sync_points, config).crossings
 
 

@@ -350,7 +350,21 @@ class ObjectSpaceResult:
         return np.array([s.residual_s for s in self.sightings])
 
     def time_std_s(self, profile: ArrayLike) -> FloatArray:
-        """Standard deviation (s) of ``t(n, 0)`` at profile numbers n, from the covariance."""
+        """Standard deviation (s) of ``t(n, 0)`` at profile numbers n, from the covariance.
+
+        ``sqrt(var(t0) + 2 n cov(t0, T) + n^2 var(T))`` with `covariance`.
+
+        Parameters
+        ----------
+        profile : array_like, shape (...)
+            Profile numbers n (taken as float64; fractions allowed).
+
+        Returns
+        -------
+        ndarray of float64, shape (...)
+            The standard deviation (s) of the clock's time at the start of each profile
+            (mirror angle 0).
+        """
         n = np.asarray(profile, dtype=np.float64)
         (c00, c01), (_, c11) = self.covariance
         out: FloatArray = np.sqrt(np.maximum(c00 + 2.0 * n * c01 + n * n * c11, 0.0))

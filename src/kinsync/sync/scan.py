@@ -172,6 +172,27 @@ class ProfileScan:
         scan is built; parameters and errors as in the module's
         ``_checked_profile_numbers``: ``source`` names the file, ``where(i)`` the
         place of ``profile[i]`` in it (``line 7``, ``row 6 of 9``).
+
+        Parameters
+        ----------
+        profile : array_like, shape (N,)
+            Profile number of each return, in acquisition order.
+        source : str
+            Name used in messages (file path).
+        where : callable of int to str, optional
+            Names ``profile[i]`` in messages as the reader's file counts it (``line
+            7``, ``row 6 of 9``); default its 0-based index, said to be one.
+
+        Returns
+        -------
+        ndarray of int64, shape (N,)
+            The profile numbers.
+
+        Raises
+        ------
+        InputError
+            Naming the first row that is not finite, not whole, negative, beyond
+            `MAX_PROFILE_NUMBER` or smaller than the row before.
         """
         return _checked_profile_numbers(profile, source, where)
 

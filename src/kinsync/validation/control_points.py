@@ -86,7 +86,31 @@ class ControlPoints:
         h_m: ArrayLike,
         source: str = "<control points>",
     ) -> ControlPoints:
-        """Control points from geodetic WGS84 coordinates (deg, deg, m), each shape (N,)."""
+        """Control points from geodetic WGS84 coordinates (deg, deg, m), each shape (N,).
+
+        Parameters
+        ----------
+        names : sequence of str, length N
+            Point names, non-empty and unique.
+        lat_deg, lon_deg : array_like, shape (N,)
+            Geodetic latitude in [-90, 90] and longitude (deg, WGS84).
+        h_m : array_like, shape (N,)
+            Ellipsoidal height (m).
+        source : str
+            Where they came from (a file name, for messages).
+
+        Returns
+        -------
+        ControlPoints
+            The points converted to ECEF WGS84 (m).
+
+        Raises
+        ------
+        InputError
+            Coordinates not numbers or not finite, a latitude outside [-90, 90], and
+            everything `ControlPoints` refuses (empty or duplicated names, a count of
+            names that does not match the coordinates).
+        """
         pos = geodetic_to_ecef(lat_deg, lon_deg, h_m)
         return cls(names=tuple(names), pos_ecef_m=np.atleast_2d(pos), source=source)
 

@@ -144,17 +144,57 @@ def validate_control_points(
 ) -> ControlPointReport:
     """Extract targets, express the differences in the vehicle frame, test the signatures.
 
-    Parameters are those of `extract_targets`, `control_point_differences` (``max_gap_s``,
+    The options are those of `extract_targets`, `control_point_differences` (``max_gap_s``,
     the trajectory's gap threshold) and `signature_tests`.
+
+    Parameters
+    ----------
+    cloud : CloudPoints
+        Georeferenced points, ECEF WGS84 (m), with their times ``t_s`` (s, the
+        trajectory's time scale) and intensities.
+    control : ControlPoints
+        Surveyed positions of the targets (ECEF, m).
+    trajectory : Trajectory
+        Vehicle trajectory on the cloud's time scale; its attitude gives the vehicle
+        frame of each difference.
+    search_radius_m : float
+        Radius around each control point where its target is looked for (m), > 0;
+        default 0.5.
+    min_intensity : float, optional
+        Intensity threshold of the targets' returns; default: Otsu's threshold in each
+        neighbourhood.
+    centre : {"tukey", "median", "sphere"}
+        Centre estimator of a visit (default "tukey").
+    target_radius_m : float, optional
+        Sphere radius (m), required with ``centre="sphere"``, smaller than
+        ``search_radius_m``.
+    min_points : int
+        Fewest bright points of a visit for a centre (>= 4); default 10.
+    visit_gap_s : float
+        Time gap (s, > 0) that separates two visits of a target; default 1.
+    level : float
+        Confidence level of the signature tests, in (0, 1); default 0.99.
+    pass_gap_s : float
+        Time gap (s, > 0) between visits that starts a new pass; default `PASS_GAP_S`.
+    background_intensity : float, optional
+        The survey's typical (median) intensity; default: the median of
+        ``cloud.intensity``.
+    max_gap_s : float, optional
+        Longest trajectory record interval (s, > 0) interpolated across; default
+        `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
 
     Returns
     -------
     ControlPointReport
+        The differences (vehicle frame, m), the targets missing with why, the time-error
+        (s) and heading-error (deg) tests and the noise components (m).
 
     Raises
     ------
     InputError
-        Bad options, or no control point found at all (each missing one is listed with
+        Bad options (as above), a cloud without times or intensities, every visit
+        outside the trajectory's time span (the message suggests a time-scale
+        mismatch), or no control point found at all (each missing one is listed with
         its reason in the message).
     """
     gap_threshold_s = max_gap_for(trajectory.t_s, max_gap_s)

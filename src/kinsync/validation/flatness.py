@@ -146,7 +146,23 @@ class FlatnessResult:
         return float(np.ptp(self.v_m))
 
     def bend_m(self, u_m: ArrayLike, v_m: ArrayLike) -> FloatArray:
-        """Quadratic surface minus the least-squares plane at in-plane points (m)."""
+        """Quadratic surface minus the least-squares plane at in-plane points (m).
+
+        Both fitted to the inliers' residuals (`quadratic_m`, and the ordinary
+        least-squares plane ``w = a + b u + c v``); `bow_m` is the peak-to-valley of
+        this over the inliers.
+
+        Parameters
+        ----------
+        u_m, v_m : array_like, shape (M,)
+            In-plane coordinates (m) along `u_axis_ned` and `v_axis_ned`, from the
+            inliers' centroid (as `u_m`, `v_m`).
+
+        Returns
+        -------
+        ndarray of float64, shape (M,)
+            The bend along the plane's normal (m) at each point.
+        """
         u = np.asarray(u_m, dtype=np.float64)
         v = np.asarray(v_m, dtype=np.float64)
         return _bend(self.quadratic_m, self._plane_ols, u, v)
@@ -361,7 +377,22 @@ def fit_wall(
 
 
 def select_box(xyz: ArrayLike, box: Box) -> BoolArray:
-    """True for the points inside the box (bounds included), shape (N,)."""
+    """True for the points inside the box (bounds included), shape (N,).
+
+    Parameters
+    ----------
+    xyz : array_like, shape (N, 3)
+        Point coordinates in the cloud's CRS (its units: m for ECEF or a projected
+        CRS).
+    box : Box
+        ``(xmin, ymin, zmin, xmax, ymax, zmax)`` in the same CRS and units.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True where every coordinate lies within its bounds; a NaN coordinate is
+        outside.
+    """
     p = np.asarray(xyz, dtype=np.float64)
     lo = np.asarray(box[:3])
     hi = np.asarray(box[3:])

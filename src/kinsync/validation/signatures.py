@@ -173,6 +173,15 @@ def pass_labels(
     In time order, a new pass starts when the time since the previous visit exceeds
     ``pass_gap_s`` or when a target already seen in the current pass comes again.
 
+    Parameters
+    ----------
+    differences : tuple of ControlPointDifference, length K
+        The visits' differences; each visit's time is ``observation.t_s`` (s, the
+        cloud's point time scale) and its target ``observation.name``.
+    pass_gap_s : float
+        Time between consecutive visits (s) that starts a new pass; default
+        `PASS_GAP_S` (10 s).
+
     Returns
     -------
     ndarray of int64, shape (K,)
