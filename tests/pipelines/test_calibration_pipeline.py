@@ -180,3 +180,32 @@ def test_a_non_finite_return_is_named_by_its_file_line_or_row(
     pq.write_table(pa.table(cols | {"z_m": z}), tmp_path / "b.parquet", row_group_size=3)
     with pytest.raises(InputError, match=r"b\.parquet: row 8 of 8, column 'z_m': inf is not"):
         read_scan_lines([tmp_path / "b.parquet"], sbet, gps_week=sim.gps_week)
+
+
+def test_a_georeferenced_las_line_is_named_by_its_file_point_and_column(
+    survey: tuple[Path, PatchTestSimulation], tmp_path: Path
+) -> None:
+    """UTM coordinates where scanner ones belong: it was "georeference: point at index 0
+    (0-based, of N), x: ..." from deep in the solve, naming no file."""
+    import laspy  # noqa: PLC0415
+    import pyproj  # noqa: PLC0415
+
+    folder, sim = survey
+    src = sorted(folder.glob("line_*.laz"))[0]
+    las = laspy.read(src)
+    x, y, z = np.asarray(las.x) + 330_000.0, np.asarray(las.y) + 5_190_000.0, np.asarray(las.z)
+    las.header.offsets = np.array([330_000.0, 5_190_000.0, 0.0])
+    las.header.add_crs(pyproj.CRS.from_epsg(32619))
+    las.x, las.y, las.z = x, y, z
+    utm = tmp_path / "utm.laz"
+    las.write(utm)
+    with pytest.raises(InputError) as err:
+        read_scan_lines([utm], [folder / "trajectory.out"], gps_week=sim.gps_week)
+    text = str(err.value)
+    assert text.startswith(f"{utm}: point 1 of {len(x)}, column 'x': scanner coordinates [")
+    assert "beyond the 100000 m any laser scanner reaches" in text
+    assert f"{len(x)} such point(s) in the file" in text
+    assert text.endswith(
+        "this file is already georeferenced (EPSG:32619); --points takes points in the "
+        "scanner frame"
+    )

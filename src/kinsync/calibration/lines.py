@@ -18,6 +18,7 @@ from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError, PointValueError
 from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
+from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
 from kinsync.trajectory import Trajectory
 
 __all__ = ["PASS_GAP_S", "ScanLine", "two_passes_in_a_line"]
@@ -34,7 +35,8 @@ class ScanLine:
     t_s : ndarray, shape (N,)
         Time of each return on the trajectory's time scale (s, GPS time), finite.
     xyz_scanner_m : ndarray, shape (N, 3)
-        Returns in the scanner frame (m), finite.
+        Returns in the scanner frame (m), finite and within
+        ±`kinsync.georef.kernel.MAX_SCANNER_RANGE_M`.
     trajectory : Trajectory
         Navigation solution at its own time tags (not corrected for latency): the
         calibration applies the latency it estimates (SPEC section 1).
@@ -73,6 +75,24 @@ class ScanLine:
             )
             raise PointValueError(
                 msg, index=i, count=count, field=field, problem=problem, advice="drop or fix them"
+            )
+        within = np.abs(xyz) <= MAX_SCANNER_RANGE_M
+        far = ~np.all(within, axis=1)
+        if np.any(far):  # map coordinates (a georeferenced file) where scanner ones belong
+            i = int(np.flatnonzero(far)[0])
+            field = "xyz"[int(np.flatnonzero(~within[i])[0])]
+            problem = (
+                f"scanner coordinates {xyz[i].tolist()} m, beyond the "
+                f"{MAX_SCANNER_RANGE_M:.0f} m any laser scanner reaches"
+            )
+            advice = "are these scanner-frame coordinates in metres?"
+            count = int(np.count_nonzero(far))
+            msg = (
+                f"line {name!r}: return at index {i} (0-based), {field}: {problem}; "
+                f"{count} such return(s): {advice}"
+            )
+            raise PointValueError(
+                msg, index=i, count=count, field=field, problem=problem, advice=advice
             )
         if not isinstance(self.trajectory, Trajectory):
             msg = f"line {name!r}: trajectory must be a Trajectory"

@@ -40,6 +40,7 @@ from kinsync.io.points import iter_table_chunks
 from kinsync.io.row_position import point_position
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
+from kinsync.pipelines.georef import _georeferenced_crs
 from kinsync.trajectory import Trajectory
 
 __all__ = ["CalibrationRun", "calibrate_files", "read_scan_lines"]
@@ -98,14 +99,25 @@ def _read_table(path: Path) -> tuple[FloatArray, FloatArray]:
 
 
 def _bad_return_text(path: Path, err: PointValueError, total: int) -> str:
-    """A bad return of a points file, by CSV line, Parquet row or LAS point, and column."""
+    """A bad return of a points file, by CSV line, Parquet row or LAS point, and column.
+
+    A LAS/LAZ file whose header gives a map or earth CRS, with coordinates out of a
+    scanner's reach, is said to be georeferenced already.
+    """
+    advice = err.advice
     if path.suffix.lower() in _LAS:
         column = "gps_time" if err.field == "t" else err.field
+        crs = _georeferenced_crs(las_info(path).crs_wkt) if err.field != "t" else None
+        if crs is not None and "beyond the" in err.problem:
+            advice = (
+                f"this file is already georeferenced ({crs}); --points takes points in the "
+                "scanner frame"
+            )
     else:
         column = {"t": "t_s", "x": "x_m", "y": "y_m", "z": "z_m"}[err.field]
     return (
         f"{path}: {point_position(path, err.index, total)}, column {column!r}: {err.problem}; "
-        f"{err.count} such point(s) in the file: {err.advice}"
+        f"{err.count} such point(s) in the file: {advice}"
     )
 
 
