@@ -90,6 +90,11 @@ def test_bad_errors(kwargs: dict[str, object]) -> None:
         NavigationErrors(**kwargs)  # type: ignore[arg-type]
 
 
+def test_a_range_noise_of_zero_is_named() -> None:
+    with pytest.raises(InputError, match=r"^range noise \(--range-noise-m\) must be .* got 0\.0"):
+        NavigationErrors(range_noise_m=0.0)
+
+
 def test_held_values_stated_sigma_reaches_the_planned_sigma() -> None:
     sim = simulate_patch_test(PatchTestConfig(scenario="vehicle", density=0.03, **QUIET))  # type: ignore[arg-type]
     opts = CalibrationOptions(estimate=("boresight", "latency"))

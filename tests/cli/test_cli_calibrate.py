@@ -441,7 +441,9 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
      ("--position-std-m", "0.02,0.02,500", "--position-std-m 500: outside the span"),
      ("--attitude-std-deg", "0.005,0.005,30", "--attitude-std-deg 30: outside the span"),
      ("--attitude-std-deg", "0.005,0.005", "expected one number or three"),
-     ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span")],
+     ("--corr-time-s", "0.5", "--corr-time-s 0.5: outside the span"),
+     # was "planning errors must be finite ... got 0.0, (0.02, ...)": no option named
+     ("--range-noise-m", "0", "--range-noise-m 0: outside the span kinsync accepts, 0.0001 to")],
 )  # fmt: skip
 def test_plan_refuses_bad_held_sigma(
     run_cli: RunCli, assert_one_line_error: OneLineError, option: str, value: str, expect: str
@@ -455,3 +457,18 @@ def test_plan_says_when_a_held_sigma_is_not_used(run_cli: RunCli) -> None:
     assert code == 0, err
     assert "note: --latency-std-ms is not used: the plan estimates latency_ms" in out
     assert "held" not in out.splitlines()[2]  # no held column: nothing with a sigma is held
+
+
+@pytest.mark.parametrize(
+    ("scenario", "expect"),
+    [("vehicle", "the simulated vehicle design has no sphere targets"),
+     ("vessel", "the simulated vessel design's two spheres get too few returns per line")],
+)  # fmt: skip
+def test_plan_with_spheres_says_the_design_has_none_to_plan_with(
+    run_cli: RunCli, assert_one_line_error: OneLineError, scenario: str, expect: str
+) -> None:
+    """It said "check --sphere-radius-m, that the files hold returns ...": plan has neither."""
+    code, out, err = run_cli(["calibrate", "plan", "--features", "spheres", "--scenario", scenario])
+    assert_one_line_error(code, out, err, "--features spheres: ", expect, "--features planes")
+    assert "--sphere-radius-m" not in err
+    assert "files" not in err

@@ -113,13 +113,19 @@ class NavigationErrors:
         if not isinstance(self.position_std_m, int | float) and len(self.position_std_m) != 3:
             msg = f"position sigma: one number or N, E, D, got {self.position_std_m!r}"
             raise InputError(msg)
-        values = (self.range_noise_m, *self.position_std_ned_m, *self.attitude_std_deg)
-        if not all(math.isfinite(v) and v >= 0.0 for v in values) or self.range_noise_m <= 0:
+        if not (math.isfinite(self.range_noise_m) and self.range_noise_m > 0.0):
             msg = (
-                "planning errors must be finite and >= 0 (range noise > 0), got "
-                f"{self.range_noise_m!r}, {self.position_std_m!r}, {self.attitude_std_deg!r}"
+                f"range noise (--range-noise-m) must be a number of metres > 0, got "
+                f"{self.range_noise_m!r}: the plan weighs each return by it"
             )
             raise InputError(msg)
+        for what, values in (
+            ("trajectory position sigma (--position-std-m)", self.position_std_ned_m),
+            ("trajectory misorientation sigma (--attitude-std-deg)", self.attitude_std_deg),
+        ):
+            if not all(math.isfinite(v) and v >= 0.0 for v in values):
+                msg = f"{what} must be finite and >= 0, got {tuple(values)!r}"
+                raise InputError(msg)
         if not (math.isfinite(self.corr_time_s) and self.corr_time_s > 0.0):
             msg = f"--corr-time-s must be a number of seconds > 0, got {self.corr_time_s!r}"
             raise InputError(msg)

@@ -301,6 +301,17 @@ def plan(
     if scenario not in ("vehicle", "vessel"):
         msg = f"--scenario must be vehicle or vessel, got {scenario!r}"
         raise InputError(msg)
+    if opts.features == "spheres":  # the sphere search found none and blamed files
+        msg = (
+            "--features spheres: the simulated vehicle design has no sphere targets, and the "
+            "vessel design's two spheres get too few returns per line to plan with; plan with "
+            "--features planes (walls, roofs, ground)"
+            if scenario == "vehicle"
+            else "--features spheres: the simulated vessel design's two spheres get too few "
+            "returns per line to plan with, and the vehicle design has none; plan with "
+            "--features planes (quay wall and deck, shed, shore)"
+        )
+        raise InputError(msg)
     config = PatchTestConfig(
         scenario=scenario,  # type: ignore[arg-type]
         speeds_m_s=speeds,
