@@ -75,6 +75,51 @@ def test_hold_after_solution_holds_the_lever_not_the_boresight() -> None:
     }
 
 
+def test_a_cause_held_after_its_partner_is_told_once_and_never_as_estimated() -> None:
+    """A yaw 45 deg off: pitch (+-13.3) could not be told apart from the latency, which was
+    held, then pitch itself (+-13.2). It read "... latency_ms held at its prior value;
+    boresight_roll_deg and boresight_pitch_deg estimated as if that prior were right",
+    then pitch again, held: twice, and once called estimated while held."""
+    roll, pitch = 0, 1
+    first = HeldAfterSolution(LATENCY, pitch, 13.3, (roll, pitch))
+    then = HeldAfterSolution(pitch, pitch, 13.2, (roll,))
+    obs = Observability((roll, pitch, LATENCY), (), ()).without(first).without(then)
+    assert obs.estimated == (roll,)
+    want = (
+        "boresight_pitch_deg is determined only to +-13.2 by these data (more than 1), even "
+        "with latency_ms held at its prior value (the two cannot be told apart): both held at "
+        "their prior values; boresight_roll_deg estimated as if those priors were right"
+    )
+    assert obs.explanation() == (want,)
+
+
+def test_a_partner_held_later_is_not_said_to_be_estimated() -> None:
+    pitch = 1
+    first = HeldAfterSolution(LEVER_X, pitch, 1.5, (pitch, YAW))
+    then = HeldAfterSolution(YAW, YAW, 3.0)
+    obs = Observability((pitch, YAW, LEVER_X), (), ()).without(first).without(then)
+    text = obs.explanation()
+    assert len(text) == 2
+    assert text[0].endswith(
+        "lever_x_m held at its prior value; boresight_pitch_deg estimated as if that prior "
+        "were right"
+    )
+    assert text[1] == (
+        "boresight_yaw_deg is determined only to +-3 by these data (more than 1): held at its "
+        "prior value"
+    )
+
+
+def test_a_null_direction_partner_held_later_is_not_said_to_be_estimated() -> None:
+    direction = ((LEVER_X, 0.7), (LATENCY, 0.7))
+    later = HeldAfterSolution(LEVER_X, LEVER_X, 0.5)
+    obs = Observability((LEVER_X, YAW), (LATENCY,), (direction,)).without(later)
+    assert obs.explanation()[0] == (
+        "lever_x_m and latency_ms cannot be told apart by these data: latency_ms held at its "
+        "prior value"
+    )
+
+
 def test_hold_after_solution_spares_what_the_data_moved() -> None:
     est = (LATENCY,)
     std = np.array([_internal(2.0 * UNOBSERVABLE_THRESHOLDS[LATENCY], LATENCY)])

@@ -37,7 +37,7 @@ change.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -134,8 +134,12 @@ class HeldAfterSolution:
     partners: tuple[int, ...] = ()
     reason: str = ""
 
-    def explanation(self) -> str:
-        """In words: what was too uncertain, what was held, what leans on the prior."""
+    def explanation(self, estimated: Sequence[int] | None = None) -> str:
+        """In words: what was too uncertain, what was held, what leans on the prior.
+
+        ``estimated``: the parameters estimated in the end; partners not among them
+        (held later) are not said to be estimated. None: every partner is.
+        """
         name, cause = PARAMETER_NAMES[self.index], PARAMETER_NAMES[self.cause]
         if self.reason:
             return f"{name}: {self.reason}; held at its prior value"
@@ -148,10 +152,7 @@ class HeldAfterSolution:
             text += ": held at its prior value"
         else:
             text += f", for it cannot be told apart from {name}: {name} held at its prior value"
-        if self.partners:
-            names = " and ".join(PARAMETER_NAMES[j] for j in self.partners)
-            text += f"; {names} estimated as if that prior were right"
-        return text
+        return text + _leaning(self.partners, estimated, "that prior")
 
 
 @dataclass(frozen=True)
@@ -196,21 +197,80 @@ class Observability:
         return tuple(ADVICE[i] for i in sorted(set(self.held) | causes))
 
     def explanation(self) -> tuple[str, ...]:
-        """Each null direction in words: what cannot be told apart, what was held."""
+        """Each null direction in words: what cannot be told apart, what was held.
+
+        Each held parameter is named as held once, with the reason that finally held
+        it; only the parameters estimated in the end are said to be estimated.
+        """
         out = []
         for held, direction in zip(self.unobservable, self.null_directions, strict=True):
             names = [PARAMETER_NAMES[i] for i, _ in direction]
             if len(names) == 1:
                 out.append(f"{names[0]} is not seen by the data (the features absorb it)")
             else:
-                others = [PARAMETER_NAMES[i] for i, _ in direction if i != held]
+                others = [i for i, _ in direction if i != held]
                 out.append(
                     f"{' and '.join(names)} cannot be told apart by these data: "
-                    f"{PARAMETER_NAMES[held]} held at its prior value, "
-                    f"{' and '.join(others)} estimated as if that prior were right"
+                    f"{PARAMETER_NAMES[held]} held at its prior value"
+                    + _leaning(others, self.estimated, "that prior", ",")
                 )
-        out.extend(h.explanation() for h in self.held_after)
+        out.extend(self._held_after_explanation())
         return tuple(out)
+
+    def _held_after_explanation(self) -> list[str]:
+        """`HeldAfterSolution.explanation` of each, a cause held later told with it.
+
+        A parameter held because its cause could not be told apart from it, whose cause
+        was then held too (its sigma still too large): one sentence with the cause's last
+        sigma, instead of one with a sigma since superseded and a second naming the cause
+        again.
+        """
+        entries = self.held_after
+        merged: dict[int, int] = {}  # a later entry -> the earlier one it is told with
+        for k, h in enumerate(entries):
+            if h.reason or h.cause == h.index:
+                continue
+            later = next(
+                (
+                    m
+                    for m in range(k + 1, len(entries))
+                    if entries[m].index == h.cause
+                    and entries[m].cause == h.cause
+                    and not entries[m].reason
+                    and m not in merged
+                ),
+                None,
+            )
+            if later is not None:
+                merged[later] = k
+        together = {k: m for m, k in merged.items()}
+        out = []
+        for k, h in enumerate(entries):
+            if k in merged:
+                continue
+            if k not in together:
+                out.append(h.explanation(self.estimated))
+                continue
+            last = entries[together[k]]
+            name, cause = PARAMETER_NAMES[h.index], PARAMETER_NAMES[h.cause]
+            partners = [j for j in (*h.partners, *last.partners) if j not in (h.index, h.cause)]
+            out.append(
+                f"{cause} is determined only to +-{last.std_report:.3g} by these data (more "
+                f"than {UNOBSERVABLE_THRESHOLDS[h.cause]:g}), even with {name} held at its "
+                f"prior value (the two cannot be told apart): both held at their prior values"
+                + _leaning(dict.fromkeys(partners), self.estimated, "those priors")
+            )
+        return out
+
+
+def _leaning(
+    partners: Iterable[int], estimated: Sequence[int] | None, prior: str, sep: str = ";"
+) -> str:
+    """``"; a and b estimated as if that prior were right"`` for the partners estimated."""
+    names = [PARAMETER_NAMES[j] for j in partners if estimated is None or j in estimated]
+    if not names:
+        return ""
+    return f"{sep} {' and '.join(names)} estimated as if {prior} were right"
 
 
 def _null(
