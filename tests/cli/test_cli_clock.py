@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -130,6 +131,10 @@ def test_fit_table(run_cli: RunCli, logs: Path) -> None:
     assert "reference_gps_s" in stdout
     assert "rejected line" in stdout
     assert "t_gps_s = reference_gps_s" in stdout
+    # the reference times to 1 us, what their float64 holds (it printed 1479384018.0000002)
+    for name in ("reference_local_s", "reference_gps_s"):
+        row = next(line for line in stdout.splitlines() if name in line)
+        assert re.search(r"\b\d{10}\.\d{6}\b", row), row
 
 
 def test_wrong_convention_is_seen_in_the_zda_delay(run_cli: RunCli, logs: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import calendar
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -487,6 +488,9 @@ def test_demo_clock_section(tmp_path: Path) -> None:
     faults = section.tables[1].rows
     assert all(row[1] == row[2] for row in faults)
     assert summary[0][0] == "clock model (PPS + ZDA)"
+    # the reference times to 1 us, what their float64 holds: it printed 1479384018.0000002
+    (model,) = [p for p in section.paragraphs if p.startswith("Model: ")]
+    assert re.match(r"Model: t_gps_s = \d{10}\.\d{6} \+ \(t_local_s - \d{10}\.\d{6}\) ", model)
 
 
 def test_unsupported_sentence_types_are_not_counted_as_rejected_messages(tmp_path: Path) -> None:

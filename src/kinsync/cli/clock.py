@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -106,13 +105,13 @@ def fit(
     m = result.model
     table = quantity_table(f"Clock model from {pps} and {nmea}")
     # No digit below the step the float64 reference times can hold (2.4e-7 s near 1.4e9 s).
-    decimals = min(9, max(0, math.floor(-math.log10(m.offset_resolution_s))))
+    decimals = m.time_decimals
     table.add_row(
         "offset at reference (s)", f"{m.offset_s:.{decimals}f} ± {result.offset_std_s:.2e}"
     )
     table.add_row("drift (ppm)", f"{m.drift_ppm:.6f} ± {result.drift_std_ppm:.6f}")
-    table.add_row("reference_local_s (first good pulse)", repr(m.reference_local_s))
-    table.add_row("reference_gps_s", repr(m.reference_gps_s))
+    table.add_row("reference_local_s (first good pulse)", f"{m.reference_local_s:.{decimals}f}")
+    table.add_row("reference_gps_s", f"{m.reference_gps_s:.{decimals}f}")
     table.add_row("residual RMS (us)", fmt(result.residual_rms_s, 1e6, 4))
     table.add_row("pulses used / read", f"{result.n_pulses} / {result.n_pulses_read}")
     table.add_row("missing pulses", str(result.n_missing))

@@ -151,6 +151,15 @@ class ClockModel:
         return max(math.ulp(self.reference_gps_s), math.ulp(self.reference_local_s))
 
     @property
+    def time_decimals(self) -> int:
+        """Decimals of a second worth printing for its reference times and offset.
+
+        Those above `offset_resolution_s`, at most 9: 6 (1 us) for a GPS time from 2004
+        on, whose float64 cannot say 1479384018.0000002 s from 1479384018 s.
+        """
+        return min(9, max(0, math.floor(-math.log10(self.offset_resolution_s))))
+
+    @property
     def piecewise(self) -> bool:
         """True when the model interpolates between pulses."""
         return self.knots_local_s is not None

@@ -146,6 +146,7 @@ def _tables(run: _ClockRun) -> tuple[Table, ...]:
 
 def _paragraphs(fit: ClockFit) -> tuple[str, ...]:
     """The scenario and the fitted model, in words."""
+    d = fit.model.time_decimals  # the reference times to what their float64 holds (1 us)
     return (
         (
             "An acquisition computer whose clock runs 25 ppm slow and 0.37 s behind GPS "
@@ -158,8 +159,8 @@ def _paragraphs(fit: ClockFit) -> tuple[str, ...]:
             "drift by least squares."
         ),
         (
-            f"Model: t_gps_s = {fit.model.reference_gps_s!r} + (t_local_s - "
-            f"{fit.model.reference_local_s!r}) * (1 + {fit.model.drift_ppm:.6f}e-6). "
+            f"Model: t_gps_s = {fit.model.reference_gps_s:.{d}f} + (t_local_s - "
+            f"{fit.model.reference_local_s:.{d}f}) * (1 + {fit.model.drift_ppm:.6f}e-6). "
             f"ZDA transmission starts {fit.zda_delay_s * 1e3:.2f} ms after the edge it "
             "names."
         ),
