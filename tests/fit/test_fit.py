@@ -446,6 +446,41 @@ def test_residual_figure_is_png() -> None:
         sphere_residual_figure([], [])
 
 
+def test_residual_figure_legend_lies_under_the_panels(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Right of the histogram, the CIDCO figure's legend took half its width."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415
+    from matplotlib.figure import Figure  # noqa: PLC0415
+
+    from kinsync.report import figures, fit_figures  # noqa: PLC0415
+
+    drawn: list[Figure] = []
+    real = figures.png_bytes
+
+    def keep(fig: Figure) -> bytes:
+        drawn.append(fig)
+        return real(fig)
+
+    monkeypatch.setattr(fit_figures, "png_bytes", keep)
+    pts = visible_cap(np.random.default_rng(18), 800, range_noise_m=0.002)
+    free, fixed = fit_sphere(pts), fit_sphere(pts, radius_m=RADIUS_M)
+    fits = [
+        (f"sphere1/passage_{k} {kind}", fit)
+        for k in (3, 4)
+        for kind, fit in (("free", free), ("fixed 0.2 m", fixed))
+    ]
+    sphere_residual_figure(fits, [pts] * 4)
+    (fig,) = drawn
+    renderer = FigureCanvasAgg(fig).get_renderer()  # type: ignore[no-untyped-call]
+    panels = [ax.get_window_extent(renderer) for ax in fig.axes]
+    legends = [*fig.legends, *(g for ax in fig.axes if (g := ax.get_legend()) is not None)]
+    assert len(legends) == 1
+    box = legends[0].get_window_extent(renderer)
+    assert box.y1 <= min(p.y0 for p in panels)  # below the panels
+    assert min(p.x0 for p in panels) - 60 <= box.x0  # within their width, not beside them
+    assert box.x1 <= max(p.x1 for p in panels) + 10
+    assert len(legends[0].get_texts()) == 4
+
+
 def test_segment_sphere_inlier_band_is_three_robust_sigma() -> None:
     # Isotropic noise sigma: the orthogonal residual is N(0, sigma). Returns placed on
     # purpose at 2.5 sigma off the surface are inside the 3-sigma band, at 4 to 6 sigma

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -86,3 +87,37 @@ def test_overlap_figure_for_spheres_planes_or_both(kinds: tuple[str, str]) -> No
     r = _result()
     png = overlap_figure(r.overlaps_before, r.overlaps_after, ["a", "b"], list(kinds))
     assert png.startswith(b"\x89PNG")
+
+
+def test_overlap_figure_plane_numbers_do_not_run_together(monkeypatch: pytest.MonkeyPatch) -> None:
+    """28 planes: the demo's labels 20-27 ran together once enlarged to be read."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415
+    from matplotlib.figure import Figure  # noqa: PLC0415
+
+    from kinsync.report import calibration, figures  # noqa: PLC0415
+
+    drawn: list[Figure] = []
+    real = figures.png_bytes
+
+    def keep(fig: Figure) -> bytes:
+        drawn.append(fig)
+        return real(fig)
+
+    monkeypatch.setattr(calibration, "png_bytes", keep)
+    rng = np.random.default_rng(1)
+    for n in (28, 75):
+        drawn.clear()
+        before, after = (
+            [LineOverlap(k, f"l{j}", (0.0, 0.0, 0.0), float(rng.normal(0, s))) for k in range(n)
+             for j in range(4)]
+            for s in (0.04, 0.02)
+        )  # fmt: skip
+        overlap_figure(before, after, [f"plane {k}" for k in range(n)], ["plane"] * n)
+        (fig,) = drawn
+        renderer = FigureCanvasAgg(fig).get_renderer()  # type: ignore[no-untyped-call]
+        for ax in fig.axes:
+            labels = [t for t in ax.get_xticklabels() if t.get_text()]
+            assert 14 <= len(labels) <= 24, n
+            boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+            for left, right in itertools.pairwise(boxes):
+                assert left.x1 <= right.x0, (n, left, right)

@@ -135,6 +135,23 @@ def _sphere_panels(
         ax.grid(alpha=0.3)
 
 
+_MAX_PLANE_LABELS = 24
+"""Plane numbers labelled on a panel's x axis at most: beyond, every second (third...)."""
+
+
+def _plane_ticks(ax: Axes, planes: Sequence[int]) -> None:
+    """Label the planes upright-rotated, thinned to `_MAX_PLANE_LABELS`; a tick each.
+
+    Upright, 28 plane numbers ran together once the report enlarged them to be read.
+    """
+    step = max(1, math.ceil(len(planes) / _MAX_PLANE_LABELS))
+    shown = list(range(0, len(planes), step))
+    ax.set_xticks(shown)
+    ax.set_xticklabels([str(planes[x]) for x in shown], rotation=90)
+    if step > 1:
+        ax.set_xticks(range(len(planes)), minor=True)
+
+
 def _plane_panels(
     axes: Sequence[Axes], before: Sequence[LineOverlap], after: Sequence[LineOverlap],
     planes: Sequence[int],
@@ -154,8 +171,7 @@ def _plane_panels(
         ax.set_title(f"{label}: {rms:.2f} cm RMS", fontsize=10)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_xlabel("plane (number as in the table)")
-        ax.set_xticks(range(len(planes)))
-        ax.set_xticklabels([str(k) for k in planes], fontsize=7)
+        _plane_ticks(ax, planes)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("one line's offset along the normal (cm)")
 

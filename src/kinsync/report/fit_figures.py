@@ -126,5 +126,16 @@ def sphere_residual_figure(
     ax_hist.set_ylabel("points")
     ax_hist.set_title("Residual distribution (inliers)")
     ax_hist.grid(visible=True, alpha=0.3)
-    ax_hist.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    # Below both panels, in two columns: right of the histogram the long labels took
+    # half the figure's width and squeezed the panels.
+    fig.tight_layout()
+    handles, labels = ax_hist.get_legend_handles_labels()
+    fig.legend(
+        handles,
+        labels,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.0),
+        ncol=min(2, len(fits)),
+        fontsize=7,
+    )
     return png_bytes(fig)
