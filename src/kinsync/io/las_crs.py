@@ -55,6 +55,7 @@ from kinsync.io.las_header import set_global_encoding_bit
 __all__ = [
     "CRS_VLR_NAMES",
     "LasCrs",
+    "georeferenced_crs_name",
     "las_crs",
     "las_crs_keys",
     "read_las_crs",
@@ -317,3 +318,30 @@ def las_crs(header: laspy.LasHeader) -> pyproj.CRS | None:
         A ``VerticalUnitsGeoKey`` that is no EPSG length unit.
     """
     return read_las_crs(header).crs
+
+
+def georeferenced_crs_name(crs_wkt: str | None) -> str | None:
+    """A LAS header's CRS as ``EPSG:32619`` (or its name) when it is a map or earth CRS.
+
+    Parameters
+    ----------
+    crs_wkt : str or None
+        The header's CRS as WKT (`LasInfo.crs_wkt`), or None.
+
+    Returns
+    -------
+    str or None
+        ``AUTHORITY:CODE`` (or the CRS's name) of a projected, geographic or geocentric
+        CRS: the file's coordinates are already georeferenced, not scanner-frame ones;
+        None for no CRS, an unreadable one or an engineering (local) CRS.
+    """
+    if crs_wkt is None:
+        return None
+    try:
+        crs = pyproj.CRS.from_wkt(crs_wkt)
+    except pyproj.exceptions.CRSError:
+        return None
+    if not (crs.is_projected or crs.is_geographic or crs.is_geocentric):
+        return None
+    authority = crs.to_authority()
+    return ":".join(authority) if authority is not None else crs.name

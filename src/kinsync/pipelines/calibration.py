@@ -35,12 +35,12 @@ from kinsync.calibration.result import CalibrationResult
 from kinsync.errors import InputError, PointValueError
 from kinsync.io.cidco import cidco_scan_line, read_cidco_pass
 from kinsync.io.las import iter_las_chunks, las_info, las_time_offset_s, scaled_coordinates
+from kinsync.io.las_crs import georeferenced_crs_name
 from kinsync.io.mount_file import write_mount
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.row_position import point_position
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
-from kinsync.pipelines.georef import _georeferenced_crs
 from kinsync.trajectory import Trajectory
 
 __all__ = ["CalibrationRun", "calibrate_files", "read_scan_lines"]
@@ -107,7 +107,7 @@ def _bad_return_text(path: Path, err: PointValueError, total: int) -> str:
     advice = err.advice
     if path.suffix.lower() in _LAS:
         column = "gps_time" if err.field == "t" else err.field
-        crs = _georeferenced_crs(las_info(path).crs_wkt) if err.field != "t" else None
+        crs = georeferenced_crs_name(las_info(path).crs_wkt) if err.field != "t" else None
         if crs is not None and "beyond the" in err.problem:
             advice = (
                 f"this file is already georeferenced ({crs}); --points takes points in the "

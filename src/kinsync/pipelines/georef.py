@@ -51,6 +51,7 @@ from kinsync.io.las import (
     las_info,
     las_time_offset_s,
 )
+from kinsync.io.las_crs import georeferenced_crs_name
 from kinsync.io.las_table import arrow_numpy_dtype, las_column_types, plan_table_las
 from kinsync.io.las_writer import las_output_notes
 from kinsync.io.points import (
@@ -611,23 +612,9 @@ def _plan_las(
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
     source = ChunkSource(
-        path, "xyz", None, offset, total=n, georeferenced_crs=_georeferenced_crs(info.crs_wkt)
+        path, "xyz", None, offset, total=n, georeferenced_crs=georeferenced_crs_name(info.crs_wkt)
     )
     return template, source, tasks, n
-
-
-def _georeferenced_crs(crs_wkt: str | None) -> str | None:
-    """A LAS header's CRS as ``EPSG:32619`` (or its name) when it is a map or earth CRS."""
-    if crs_wkt is None:
-        return None
-    try:
-        crs = pyproj.CRS.from_wkt(crs_wkt)
-    except pyproj.exceptions.CRSError:
-        return None
-    if not (crs.is_projected or crs.is_geographic or crs.is_geocentric):
-        return None
-    authority = crs.to_authority()
-    return ":".join(authority) if authority is not None else crs.name
 
 
 def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> list[float]:
