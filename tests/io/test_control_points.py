@@ -131,6 +131,11 @@ def test_missing_and_unreadable_files(tmp_path: Path) -> None:
 
 
 def test_container_checks() -> None:
+    # One name as a str was split into its characters: "P1" made points 'P' and '1'.
+    with pytest.raises(InputError, match=r"names: expected a sequence of names, got the single"):
+        ControlPoints("AB", np.full((2, 3), 3.7e6))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"names: expected a sequence of names, got the single"):
+        ControlPoints.from_geodetic("P1", [46.8, 46.8], [-71.2, -71.2], [10.0, 10.0])  # type: ignore[arg-type]
     with pytest.raises(InputError, match="shape"):
         ControlPoints(("A", "B"), np.full((3, 3), 3.7e6))
     with pytest.raises(InputError, match="non-finite"):

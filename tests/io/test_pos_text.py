@@ -263,6 +263,14 @@ GOOD_ROWS = "100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 3
         ),
         (_ie_text("100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n"), ["at least 2 records"]),
         (_ie_text(GOOD_ROWS.replace("46.8", "96.8", 1)), ["line 12, column 'Latitude'", "96.8"]),
+        (  # review G: attitude up to 1e6 deg was read (a pitch of 95 deg, a heading of 720)
+            _ie_text(GOOD_ROWS.replace("0.2 30.0", "95.0 30.0", 1)),
+            ["line 12, column 'Pitch'", "95", "-90 to 90"],
+        ),
+        (
+            _ie_text(GOOD_ROWS.replace("0.2 30.0", "0.2 720.0", 1)),
+            ["line 12, column 'Heading'", "720"],
+        ),
         (
             _ie_text("100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n"),
             ["line 13", "increasing"],

@@ -55,10 +55,12 @@ from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_quaternion, matrix_to_quaternion, rot_x, rot_y, rot_z
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.sanity import (
-    ANGLE_DEG,
+    HEADING_DEG,
     HEIGHT_M,
     LATITUDE_DEG,
     LONGITUDE_DEG,
+    PITCH_DEG,
+    ROLL_DEG,
     SPEED_M_S,
     TIME_S,
     Span,
@@ -113,9 +115,9 @@ _SPANS: dict[str, Span] = {
     "lat_deg": LATITUDE_DEG,
     "lon_deg": LONGITUDE_DEG,
     "h_m": HEIGHT_M,
-    "roll_deg": ANGLE_DEG,
-    "pitch_deg": ANGLE_DEG,
-    "heading_deg": ANGLE_DEG,
+    "roll_deg": ROLL_DEG,
+    "pitch_deg": PITCH_DEG,
+    "heading_deg": HEADING_DEG,
     "vn_m_s": SPEED_M_S,
     "ve_m_s": SPEED_M_S,
     "vu_m_s": SPEED_M_S,

@@ -38,6 +38,7 @@ __all__ = [
     "ANGLE_DEG",
     "ANGLE_RAD",
     "ANGULAR_RATE_RAD_S",
+    "HEADING_DEG",
     "HEIGHT_M",
     "INTENSITY",
     "LATITUDE_DEG",
@@ -46,7 +47,9 @@ __all__ = [
     "MAX_JSON_BYTES",
     "MAX_TABLE_BYTES",
     "MAX_TEXT_ROWS_BYTES",
+    "PITCH_DEG",
     "PROBE_BYTES",
+    "ROLL_DEG",
     "SPEED_M_S",
     "TIME_S",
     "Span",
@@ -273,6 +276,12 @@ LENGTH_M = Span(-1e8, 1e8, "m", "a coordinate or length (1e8 m is 16 Earth radii
 
 SPEED_M_S = Span(-1e4, 1e4, "m/s", "a velocity (10 km/s is beyond orbital speed)")
 ANGLE_DEG = Span(-1e6, 1e6, "deg", "an angle (2,800 turns, even unwrapped)")
+ROLL_DEG = Span(-360.0, 360.0, "deg", "a roll (one turn either way)")
+PITCH_DEG = Span(-90.0, 90.0, "deg", "a pitch (-90 to 90)")
+HEADING_DEG = Span(-360.0, 360.0, "deg", "a yaw (-180 to 180 or 0 to 360)")
+"""A trajectory's attitude (CSV, POSPac and Inertial Explorer text): a pitch beyond 90
+deg or a roll or heading beyond a turn is no attitude (radians times 57, a column
+shifted)."""
 ANGLE_RAD = Span(-math.radians(1e6), math.radians(1e6), "rad", "an angle (2,800 turns)")
 ANGULAR_RATE_RAD_S = Span(-1e3, 1e3, "rad/s", "an angular rate (beyond any gyro's range)")
 ACCELERATION_M_S2 = Span(-1e4, 1e4, "m/s^2", "a specific force (1,000 g, beyond any IMU)")

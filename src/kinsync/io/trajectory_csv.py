@@ -23,9 +23,12 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.sanity import (
+    HEADING_DEG,
     HEIGHT_M,
     LATITUDE_DEG,
     LONGITUDE_DEG,
+    PITCH_DEG,
+    ROLL_DEG,
     SPEED_M_S,
     TIME_S,
     Span,
@@ -49,9 +52,9 @@ SPANS: dict[str, Span] = {
     "lat_deg": LATITUDE_DEG,
     "lon_deg": LONGITUDE_DEG,
     "h_m": HEIGHT_M,
-    "roll_deg": Span(-360.0, 360.0, "deg", "a roll (one turn either way)"),
-    "pitch_deg": Span(-90.0, 90.0, "deg", "a pitch (-90 to 90)"),
-    "yaw_deg": Span(-360.0, 360.0, "deg", "a yaw (-180 to 180 or 0 to 360)"),
+    "roll_deg": ROLL_DEG,
+    "pitch_deg": PITCH_DEG,
+    "yaw_deg": HEADING_DEG,
     **dict.fromkeys(VELOCITY, SPEED_M_S),
 }
 """Plausible values of each column (`kinsync.io.sanity`)."""

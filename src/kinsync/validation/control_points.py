@@ -112,7 +112,8 @@ class ControlPoints:
             names that does not match the coordinates).
         """
         pos = geodetic_to_ecef(lat_deg, lon_deg, h_m)
-        return cls(names=tuple(names), pos_ecef_m=np.atleast_2d(pos), source=source)
+        names_ = name_tuple(names, f"{source}: names")
+        return cls(names=names_, pos_ecef_m=np.atleast_2d(pos), source=source)
 
     def __len__(self) -> int:
         return len(self.names)
