@@ -17,6 +17,7 @@ from kinsync.calibration.gross import (
     line_heading_rad,
     lines_at_the_same_time,
     residual_rise,
+    search_yaw,
     stuck_at_start,
     unlinked_directions,
 )
@@ -145,3 +146,35 @@ def test_walls_shared_by_both_directions_or_one_direction_are_no_warning(
     # Ground seen by one direction only is no evidence.
     grounds: list[Feature] = [_ground()] * 4
     assert unlinked_directions(four_lines, _seen([{0}, {2}, {1}, {3}]), grounds) is None
+
+
+def test_the_yaw_search_finds_the_yaw_under_which_the_directions_share_walls(
+    four_lines: list[ScanLine],
+) -> None:
+    walls: list[Feature] = [_wall(a) for a in range(0, 180, 20)]
+    shared = _seen([{0, 1}] * 7 + [{0, 2}, {1, 3}])
+    apart = _seen([{0, 2}] * 5 + [{1, 3}] * 4)
+    asked: list[float] = []
+
+    def find(values: np.ndarray) -> tuple[list[Feature], list[Observation]]:
+        yaw = math.degrees(float(values[2]))
+        asked.append(yaw)
+        return walls, shared if abs(yaw - 30.0) < 3.0 else apart
+
+    prior = np.zeros(7)
+    prior[2] = math.radians(120.0)
+    found = search_yaw(four_lines, prior, find)
+    assert found is not None
+    start, note = found
+    assert math.degrees(start[2]) == pytest.approx(30.0)
+    np.testing.assert_array_equal(np.delete(start, 2), np.delete(prior, 2))
+    assert len(asked) == 72  # the prior and 71 turns of 5 deg
+    assert "starting boresight yaw 120.0 deg" in note
+    assert "(0 of 9 shared)" in note
+    assert "found 30.0 deg (7 of 9 shared)" in note
+    # A prior whose walls are shared is kept, without a search.
+    prior[2] = math.radians(30.0)
+    assert search_yaw(four_lines, prior, find) is None
+    # No yaw shares them: nothing to start from.
+    prior[2] = math.radians(120.0)
+    assert search_yaw(four_lines, prior, lambda _: (walls, apart)) is None

@@ -264,18 +264,37 @@ def test_a_line_given_twice_under_two_names_is_refused(vehicle: PatchTestSimulat
 
 
 @pytest.mark.parametrize("yaw_error_deg", [10.0, 90.0])
-def test_a_boresight_far_off_is_named_not_blamed_on_the_geometry(
+def test_a_boresight_yaw_far_off_is_searched_for_and_named(
     vehicle: PatchTestSimulation, yaw_error_deg: float
 ) -> None:
     # The features are found with the starting mount: with its yaw 10 deg off only 4 of
     # 30 walls are seen alike from both directions (13 of 14 with the right start), and
     # none at 90 deg; the estimates then printed without a word (roll 0.0022 +- 0.0018
     # 'estimated', 138 sigma off, at 10 deg), or statuses that blamed the survey design.
+    # The yaw is now searched for the one under which the directions share their walls.
     roll, pitch, yaw = vehicle.mount_nominal.boresight_rpy_deg
     start = replace(vehicle.mount_nominal, boresight_rpy_deg=(roll, pitch, yaw + yaw_error_deg))
     res = calibrate_mount(vehicle.lines, start, CalibrationOptions(estimate=ALL))
-    assert any("starting mount is likely grossly wrong" in w for w in res.warnings)
-    assert "warnings" in res.as_document()
+    (note,) = res.warnings
+    assert f"the starting boresight yaw {yaw + yaw_error_deg:.1f} deg" in note
+    assert "search over the yaw in 5 deg steps found" in note
+    assert res.parameter("boresight_yaw_deg").status in ("estimated", "weak")
+    _assert_within(res, vehicle)
+    assert res.as_document()["warnings"] == [note]
+
+
+def test_a_roll_upside_down_is_not_silent(vehicle: PatchTestSimulation) -> None:
+    # Only the yaw is searched. With the roll 180 deg off the search finds a yaw (-145
+    # deg) under which the directions share their walls, and the solution (roll 180.3,
+    # yaw -149.6) is a wrong mount that fits: it printed roll 180.243 +- 0.018
+    # 'estimated' without a word before; now a warning tells to check the boresight.
+    roll, pitch, yaw = vehicle.mount_nominal.boresight_rpy_deg
+    start = replace(vehicle.mount_nominal, boresight_rpy_deg=(roll + 180.0, pitch, yaw))
+    res = calibrate_mount(vehicle.lines, start, CalibrationOptions(estimate=ALL))
+    assert any(
+        "check the mount file's boresight" in w or "starting mount is likely grossly wrong" in w
+        for w in res.warnings
+    ), res.warnings
 
 
 def test_a_start_8_deg_off_in_yaw_converges() -> None:

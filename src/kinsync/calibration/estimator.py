@@ -48,6 +48,7 @@ from kinsync.calibration.gross import (
     far_from_start,
     lines_at_the_same_time,
     residual_rise,
+    search_yaw,
     stuck_at_start,
     unlinked_directions,
 )
@@ -72,6 +73,7 @@ from kinsync.calibration.observability import (
 )
 from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatter_m
 from kinsync.calibration.parameters import (
+    BORESIGHT,
     DEFAULT_ESTIMATE,
     LATENCY,
     PARAMETER_NAMES,
@@ -389,7 +391,9 @@ def calibrate_mount(
     cache: dict[int, GeorefTrajectory] = {}
     models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
     prior = mount_values(mount)
-    setup, solution = _solve_refinding(lines, models, prior, requested, groups, opt, say)
+    searched = _search_yaw(lines, models, prior, requested, opt, say)
+    start = prior if searched is None else searched[0]
+    setup, solution = _solve_refinding(lines, models, prior, start, requested, groups, opt, say)
     frame, features, observations = setup.frame, setup.features, setup.observations
     kept, units, obs, before, counts = (
         setup.kept,
@@ -456,7 +460,10 @@ def calibrate_mount(
         held=effect if effect.held else None,
         held_advice=effect.advice(std, requested),
         uncertainty_notes=notes,
-        warnings=_warnings(lines, kept, observations, features, before, counts, summaries),
+        warnings=(
+            *(() if searched is None else (searched[1],)),
+            *_warnings(lines, kept, observations, features, before, counts, summaries),
+        ),
     )
 
 
@@ -464,12 +471,15 @@ def _solve_refinding(
     lines: Sequence[ScanLine],
     models: Sequence[LineModel],
     prior: FloatArray,
+    start: FloatArray,
     requested: tuple[int, ...],
     groups: Sequence[tuple[str, set[int]]] | None,
     opt: CalibrationOptions,
     say: Callable[[str], None],
 ) -> tuple[_Setup, Adjustment | None]:
-    """Features found with the prior and solved; found again while the solution moves far.
+    """Features found with ``start`` and solved; found again while the solution moves far.
+
+    ``start`` is the prior, or the prior with a searched yaw (`_search_yaw`).
 
     Planar patches found with a solution further from the mount they were found with
     than a crew knows anyway (`kinsync.calibration.gross.far_from_start`) are found
@@ -486,7 +496,7 @@ def _solve_refinding(
     ConvergenceError
         The solution never left its start (`kinsync.calibration.gross.stuck_at_start`).
     """
-    start, rounds = prior, 0
+    rounds = 0
     last: tuple[_Setup, Adjustment | None] | None = None
     while True:
         setup = _setup(lines, models, prior, start, requested, groups, opt)
@@ -514,6 +524,24 @@ def _solve_refinding(
         rounds += 1
         start = solution.values
         say("finding the features again with the mount solved so far")
+
+
+def _search_yaw(
+    lines: Sequence[ScanLine],
+    models: Sequence[LineModel],
+    prior: FloatArray,
+    requested: tuple[int, ...],
+    opt: CalibrationOptions,
+    say: Callable[[str], None],
+) -> tuple[FloatArray, str] | None:
+    """`kinsync.calibration.gross.search_yaw` with this calibration's patches."""
+    if opt.features != "planes" or BORESIGHT[2] not in requested:
+        return None
+
+    def find(values: FloatArray) -> tuple[list[Feature], list[Observation]]:
+        return _frame_and_features(lines, models, values, opt)[1:]
+
+    return search_yaw(lines, prior, find, say)
 
 
 def _solve_again(

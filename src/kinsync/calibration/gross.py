@@ -15,6 +15,8 @@ put it. This module holds what the estimator does about that:
 - `unlinked_directions`: lines driven both ways see walls, roofs or spheres, but few
   are seen alike from both directions: the starting mount or the trajectory is grossly
   wrong (a warning: a scanner that looks to one side only sees different walls each way);
+- `search_yaw`: when the directions share few walls, the boresight yaw is searched all
+  the way round for one under which they do, and the calibration starts there;
 - `residual_rise`: a fit that leaves the features' residuals larger than the starting
   mount did (lines from two scanners, or a wrong start).
 """
@@ -22,16 +24,17 @@ put it. This module holds what the estimator does about that:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from kinsync._typing import FloatArray
+from kinsync._typing import BoolArray, FloatArray
 from kinsync.calibration.adjustment import Observation
 from kinsync.calibration.features import Feature, PlaneFeature
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.observability import UNOBSERVABLE_THRESHOLDS
-from kinsync.calibration.parameters import PARAMETER_NAMES, REPORT_SCALE
+from kinsync.calibration.parameters import BORESIGHT, PARAMETER_NAMES, REPORT_SCALE
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
 
@@ -41,10 +44,15 @@ __all__ = [
     "OPPOSITE_DEG",
     "RESIDUAL_RISE",
     "SAME_TIME_SHARE",
+    "YAW_SEARCH_STEP_DEG",
+    "DirectionLinks",
+    "direction_links",
     "far_from_start",
+    "line_directions",
     "line_heading_rad",
     "lines_at_the_same_time",
     "residual_rise",
+    "search_yaw",
     "stuck_at_start",
     "unlinked_directions",
 ]
@@ -71,6 +79,11 @@ LINKED_SHARE = 1.0 / 3.0
 (with a right start: 13 of 14-16 on the simulated vehicle; with the boresight's yaw 10
 deg off: 4 of 30, 20 deg or more: none; roll or yaw 5 deg off, which converge: 19 of 36
 and 20 of 28)."""
+
+YAW_SEARCH_STEP_DEG = 5.0
+"""Step of the search over the boresight's yaw when the start shares few walls between
+the directions (a start within 3-8 deg converges; 10 deg off, 4 of 30 walls are shared,
+15 deg off none)."""
 
 _MIN_UNLINKED = 2
 """Non-ground features each direction must see alone before the warning speaks."""
@@ -199,6 +212,88 @@ def _non_ground(feature: Feature) -> bool:
     return True
 
 
+@dataclass(frozen=True)
+class DirectionLinks:
+    """How many walls, roofs and spheres the lines of each direction see, alike or alone.
+
+    Attributes
+    ----------
+    linked : int
+        Non-ground features seen by lines of both directions.
+    forward_alone, backward_alone : int
+        Non-ground features seen by lines of one direction only (the first line's, the
+        other).
+    """
+
+    linked: int
+    forward_alone: int
+    backward_alone: int
+
+    @property
+    def total(self) -> int:
+        """Every non-ground feature."""
+        return self.linked + self.forward_alone + self.backward_alone
+
+    @property
+    def unlinked(self) -> bool:
+        """Fewer than `LINKED_SHARE` seen alike, and at least two by each direction alone."""
+        return (
+            min(self.forward_alone, self.backward_alone) >= _MIN_UNLINKED
+            and self.linked <= LINKED_SHARE * self.total
+        )
+
+
+def line_directions(lines: Sequence[ScanLine]) -> BoolArray | None:
+    """Which lines run the first line's way (within `OPPOSITE_DEG`), or None.
+
+    Parameters
+    ----------
+    lines : sequence of ScanLine
+        The lines.
+
+    Returns
+    -------
+    ndarray of bool, shape (len(lines),) or None
+        True for the lines run the first line's way; None when a line's heading is
+        unknown or every line runs one way (nothing to compare).
+    """
+    heading = np.array([line_heading_rad(line) for line in lines])
+    if not np.all(np.isfinite(heading)):
+        return None
+    forward: BoolArray = np.abs(wrap_angle_rad(heading - heading[0])) <= math.radians(OPPOSITE_DEG)
+    return None if forward.all() else forward
+
+
+def direction_links(
+    forward: BoolArray, observations: Sequence[Observation], features: Sequence[Feature]
+) -> DirectionLinks:
+    """Count the non-ground features seen by both directions and by one alone.
+
+    Parameters
+    ----------
+    forward : ndarray of bool, shape (n_lines,)
+        `line_directions` of the lines (indices as in ``observations``).
+    observations : sequence of Observation
+        Which lines see which feature.
+    features : sequence of Feature
+        The features.
+
+    Returns
+    -------
+    DirectionLinks
+    """
+    seen: dict[int, set[int]] = {}
+    for o in observations:
+        seen.setdefault(o.feature, set()).add(o.line)
+    counts = {"linked": 0, True: 0, False: 0}
+    for k, who in seen.items():
+        if not _non_ground(features[k]):
+            continue
+        ways = {bool(forward[i]) for i in who}
+        counts["linked" if len(ways) == 2 else ways.pop()] += 1
+    return DirectionLinks(counts["linked"], counts[True], counts[False])
+
+
 def unlinked_directions(
     lines: Sequence[ScanLine], observations: Sequence[Observation], features: Sequence[Feature]
 ) -> str | None:
@@ -207,8 +302,8 @@ def unlinked_directions(
     With a correct starting mount a wall, a roof or a sphere passed both ways is one
     feature seen by lines of both directions. A boresight several degrees off, axes in
     another order or another drive's trajectory put each direction's returns of it in
-    different places: most such features are then seen by one direction only (fewer
-    than `LINKED_SHARE` seen alike, and at least two by each direction alone).
+    different places: most such features are then seen by one direction only
+    (`DirectionLinks.unlinked`).
 
     Parameters
     ----------
@@ -224,30 +319,13 @@ def unlinked_directions(
     str or None
         The warning, naming both directions' lines and their feature counts.
     """
+    forward = line_directions(lines)
+    if forward is None:
+        return None
+    links = direction_links(forward, observations, features)
+    if not links.unlinked:
+        return None
     heading = np.array([line_heading_rad(line) for line in lines])
-    if not np.all(np.isfinite(heading)):
-        return None
-    first = heading[0]
-    forward = np.abs(wrap_angle_rad(heading - first)) <= math.radians(OPPOSITE_DEG)
-    if forward.all():
-        return None
-    seen: dict[int, set[int]] = {}
-    for o in observations:
-        seen.setdefault(o.feature, set()).add(o.line)
-    counts = {"linked": 0, True: 0, False: 0}
-    for k, who in seen.items():
-        if not _non_ground(features[k]):
-            continue
-        ways = {bool(forward[i]) for i in who}
-        if len(ways) == 2:
-            counts["linked"] += 1
-        else:
-            counts[ways.pop()] += 1
-    alone = counts[True] + counts[False]
-    if min(counts[True], counts[False]) < _MIN_UNLINKED or counts["linked"] > LINKED_SHARE * (
-        counts["linked"] + alone
-    ):
-        return None
     names = {
         way: ", ".join(lines[int(i)].name for i in np.flatnonzero(forward == way))
         for way in (True, False)
@@ -257,14 +335,83 @@ def unlinked_directions(
         for way in (True, False)
     }
     return (
-        f"{counts['linked']} of {counts['linked'] + alone} walls, roofs or spheres are seen "
+        f"{links.linked} of {links.total} walls, roofs or spheres are seen "
         f"alike by the lines driven both ways: {names[True]} (heading {deg[True]:.0f} deg) "
-        f"see {counts[True]} more and {names[False]} (heading {deg[False]:.0f} deg) "
-        f"{counts[False]} more that the other direction does not. The "
+        f"see {links.forward_alone} more and {names[False]} (heading {deg[False]:.0f} deg) "
+        f"{links.backward_alone} more that the other direction does not. The "
         "starting mount is likely grossly wrong (a boresight off by tens of degrees, axes "
         "in another order, a lever arm's sign) or the trajectory is not these lines'; "
         "unless the scanner sees different surfaces each way, do not trust these estimates"
     )
+
+
+def search_yaw(
+    lines: Sequence[ScanLine],
+    prior: FloatArray,
+    find: Callable[[FloatArray], tuple[Sequence[Feature], Sequence[Observation]]],
+    progress: Callable[[str], None] | None = None,
+) -> tuple[FloatArray, str] | None:
+    """A boresight yaw whose walls both directions share, when the prior's are not shared.
+
+    Run for lines driven both ways whose patches found with the prior are mostly seen by
+    one direction alone (`DirectionLinks.unlinked`): the patches are found with the yaw
+    turned in `YAW_SEARCH_STEP_DEG` steps all the way round, and the yaw with the most
+    patches seen alike (and not `DirectionLinks.unlinked`; the nearest the prior's on a
+    tie) is the start. A roll off by 180 deg or axes in another order are not searched.
+
+    Parameters
+    ----------
+    lines : sequence of ScanLine
+        The lines.
+    prior : ndarray, shape (7,)
+        The starting mount's parameters (rad, m, s).
+    find : callable
+        ``find(values)``: the features and observations found with the mount ``values``
+        (raises `InputError` when none are found).
+    progress : callable, optional
+        Told when the search starts.
+
+    Returns
+    -------
+    tuple of (ndarray, str) or None
+        The start (``prior`` with the yaw found) and a warning saying what was found;
+        None when the prior's walls are shared, or no yaw shares them.
+    """
+    yaw = BORESIGHT[2]
+    forward = line_directions(lines)
+    if forward is None:
+        return None
+    features, observations = find(prior)
+    at_prior = direction_links(forward, observations, features)
+    if not at_prior.unlinked:
+        return None
+    n = round(360.0 / YAW_SEARCH_STEP_DEG)
+    if progress is not None:
+        progress(f"searching the boresight yaw ({n} yaws): the two directions share few walls")
+    best: tuple[tuple[int, float], FloatArray, DirectionLinks] | None = None
+    for k in range(1, n):
+        offset = math.radians(k * YAW_SEARCH_STEP_DEG)
+        trial = prior.copy()
+        trial[yaw] = float(wrap_angle_rad(prior[yaw] + offset))
+        try:
+            features, observations = find(trial)
+        except InputError:
+            continue
+        links = direction_links(forward, observations, features)
+        key = (links.linked, -abs(float(wrap_angle_rad(offset))))
+        if not links.unlinked and links.linked > 0 and (best is None or key > best[0]):
+            best = (key, trial, links)
+    if best is None:
+        return None
+    _, trial, links = best
+    note = (
+        f"the starting boresight yaw {math.degrees(prior[yaw]):.1f} deg put the walls seen "
+        f"both ways in different places ({at_prior.linked} of {at_prior.total} shared); a "
+        f"search over the yaw in {YAW_SEARCH_STEP_DEG:g} deg steps found "
+        f"{math.degrees(trial[yaw]):.1f} deg ({links.linked} of {links.total} shared) and the "
+        "calibration started there: check the mount file's boresight"
+    )
+    return trial, note
 
 
 def residual_rise(rms_start_m: float, rms_after_m: float) -> str | None:
