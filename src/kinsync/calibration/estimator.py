@@ -102,6 +102,10 @@ __all__ = ["CalibrationOptions", "calibrate_mount", "find_features"]
 FeatureKind = Literal["planes", "spheres"]
 
 
+_Found = tuple[LocalFrame, list[Feature], list[Observation]]
+"""A local frame, the features found in it and who sees them."""
+
+
 @dataclass(frozen=True)
 class CalibrationOptions:
     """How to calibrate.
@@ -391,9 +395,12 @@ def calibrate_mount(
     cache: dict[int, GeorefTrajectory] = {}
     models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
     prior = mount_values(mount)
-    searched = _search_yaw(lines, models, prior, requested, opt, say)
+    memo: dict[bytes, _Found] = {}  # the features found with the prior, looked at twice
+    searched = _search_yaw(lines, models, prior, requested, opt, say, memo)
     start = prior if searched is None else searched[0]
-    setup, solution = _solve_refinding(lines, models, prior, start, requested, groups, opt, say)
+    setup, solution = _solve_refinding(
+        lines, models, prior, start, requested, groups, opt, say, memo
+    )
     frame, features, observations = setup.frame, setup.features, setup.observations
     kept, units, obs, before, counts = (
         setup.kept,
@@ -476,6 +483,7 @@ def _solve_refinding(
     groups: Sequence[tuple[str, set[int]]] | None,
     opt: CalibrationOptions,
     say: Callable[[str], None],
+    memo: dict[bytes, _Found],
 ) -> tuple[_Setup, Adjustment | None]:
     """Features found with ``start`` and solved; found again while the solution moves far.
 
@@ -499,7 +507,7 @@ def _solve_refinding(
     rounds = 0
     last: tuple[_Setup, Adjustment | None] | None = None
     while True:
-        setup = _setup(lines, models, prior, start, requested, groups, opt)
+        setup = _setup(lines, models, prior, start, requested, groups, opt, memo)
         if not setup.obs.estimated:
             return last if last is not None else (setup, None)
         say(f"solving for {len(setup.obs.estimated)} parameters, {len(setup.features)} features")
@@ -533,13 +541,16 @@ def _search_yaw(
     requested: tuple[int, ...],
     opt: CalibrationOptions,
     say: Callable[[str], None],
+    memo: dict[bytes, _Found],
 ) -> tuple[FloatArray, str] | None:
     """`kinsync.calibration.gross.search_yaw` with this calibration's patches."""
     if opt.features != "planes" or BORESIGHT[2] not in requested:
         return None
 
     def find(values: FloatArray) -> tuple[list[Feature], list[Observation]]:
-        return _frame_and_features(lines, models, values, opt)[1:]
+        kept = memo if values is prior else None  # not the 71 turned yaws
+        _, features, observations = _frame_and_features(lines, models, values, opt, kept)
+        return features, observations
 
     return search_yaw(lines, prior, find, say)
 
@@ -592,13 +603,14 @@ def _setup(
     requested: tuple[int, ...],
     groups: Sequence[tuple[str, set[int]]] | None,
     opt: CalibrationOptions,
+    memo: dict[bytes, _Found],
 ) -> _Setup:
     """Features found with the mount ``start``, and what follows from them.
 
     The observability is taken there; the residuals with the prior (the mount given:
     what ``before`` reports).
     """
-    frame, features, observations = _frame_and_features(lines, models, start, opt)
+    frame, features, observations = _frame_and_features(lines, models, start, opt, memo)
     S, motion, _ = reduced_normal_matrix(
         models, observations, features, start, requested, frame, robust=False
     )
@@ -725,18 +737,26 @@ def _frame_and_features(
     models: Sequence[LineModel],
     prior: FloatArray,
     opt: CalibrationOptions,
-) -> tuple[LocalFrame, list[Feature], list[Observation]]:
+    memo: dict[bytes, _Found] | None = None,
+) -> _Found:
     """The local frame of the lines that see a feature, the features and observations.
 
     The features are found in the frame of all the lines; when some line sees none,
     again in the frame of the lines kept, so that a rejected line changes nothing.
+    ``memo`` keeps them by mount values (the yaw search and the first solve look at the
+    prior's).
     """
+    key = np.asarray(prior, dtype=np.float64).tobytes()
+    if memo is not None and key in memo:
+        return memo[key]
     frame = local_frame_for(lines)
     features, observations = find_features(models, prior, frame, opt)
     seen = sorted({o.line for o in observations})
     if 0 < len(seen) < len(lines):
         frame = local_frame_for([lines[i] for i in seen])
         features, observations = find_features(models, prior, frame, opt)
+    if memo is not None:
+        memo[key] = (frame, features, observations)
     return frame, features, observations
 
 
