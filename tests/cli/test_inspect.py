@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -68,11 +69,14 @@ def test_sbet_info_reports_the_companion_accuracy(sbet: Path, run_cli: RunCli) -
     assert sm["records"] == 21
     assert (sm["t_start_s"], sm["t_end_s"]) == (T0, T0 + 20.0)
     assert sm["overlaps_trajectory"] is True
-    np.testing.assert_allclose(sm["std_pos_ned_m"]["median"], np.median(acc.std_pos_ned_m, 0))
-    np.testing.assert_allclose(sm["std_pos_ned_m"]["max"], acc.std_pos_ned_m.max(0))
-    np.testing.assert_allclose(sm["std_vel_ned_m_s"]["max"], acc.std_vel_ned_m_s.max(0))
+    # the statistics of the records within the trajectory (it ends 5 ms before the last)
+    assert sm["records_within_trajectory"] == 20
+    w = slice(0, 20)
+    np.testing.assert_allclose(sm["std_pos_ned_m"]["median"], np.median(acc.std_pos_ned_m[w], 0))
+    np.testing.assert_allclose(sm["std_pos_ned_m"]["max"], acc.std_pos_ned_m[w].max(0))
+    np.testing.assert_allclose(sm["std_vel_ned_m_s"]["max"], acc.std_vel_ned_m_s[w].max(0))
     np.testing.assert_allclose(
-        sm["std_rpy_deg"]["median"], np.degrees(np.median(acc.std_rpy_rad, 0)), rtol=1e-12
+        sm["std_rpy_deg"]["median"], np.degrees(np.median(acc.std_rpy_rad[w], 0)), rtol=1e-12
     )
     code, out, err = run_cli(["trajectory", "info", str(sbet)])  # seconds of week, a table
     assert code == 0, err
@@ -177,6 +181,35 @@ def test_an_smrmsg_outside_the_trajectory_is_a_warning_without_statistics(
     code, out, err = run_cli([*args, "--json"])
     assert code == 0, err
     assert any("do not overlap" in w for w in json.loads(out)["warnings"])
+
+
+def test_smrmsg_statistics_are_those_of_the_records_within_the_trajectory(
+    sbet: Path, run_cli: RunCli, tmp_path: Path
+) -> None:
+    """Review G: an smrmsg reaching 10 s beyond the trajectory showed the sigmas of its
+    records outside it (here 100 times larger) as the trajectory's."""
+    acc = _accuracy()
+    late = _accuracy(t0=T0 + 21.0)
+    big = replace(late, std_pos_ned_m=late.std_pos_ned_m * 100.0)
+    both = SmrmsgData(
+        t_s=np.concatenate([acc.t_s, big.t_s]),
+        std_pos_ned_m=np.concatenate([acc.std_pos_ned_m, big.std_pos_ned_m]),
+        std_vel_ned_m_s=np.concatenate([acc.std_vel_ned_m_s, big.std_vel_ned_m_s]),
+        std_rpy_rad=np.concatenate([acc.std_rpy_rad, big.std_rpy_rad]),
+    )
+    path = tmp_path / "acc.out"
+    write_smrmsg(both, path)
+    args = ["trajectory", "info", str(sbet), "--smrmsg", str(path), "--gps-week", str(WEEK)]
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)["smrmsg"]
+    within = acc.t_s <= T0 + 19.995
+    assert doc["records"] == 42
+    assert doc["records_within_trajectory"] == int(np.count_nonzero(within))
+    np.testing.assert_allclose(doc["std_pos_ned_m"]["max"], acc.std_pos_ned_m[within].max(axis=0))
+    code, out, err = run_cli(args)
+    assert code == 0, err
+    assert "within the trajectory" in _rows(out)["smrmsg records"]
 
 
 def test_reader_warnings_are_listed_with_the_others(tmp_path: Path, run_cli: RunCli) -> None:

@@ -92,19 +92,27 @@ def _strongest_pairs(corr: StdCorrelation, shown: int = 4) -> str:
 def _smrmsg_document(
     path: Path, gps_week: int | None, t_start_s: float, t_end_s: float
 ) -> dict[str, Any]:
-    """Span and standard-deviation statistics (median, max) of an smrmsg file."""
+    """Span and standard-deviation statistics (median, max) of an smrmsg file.
+
+    The statistics are those of the records within the trajectory's span (all records
+    when none is: the JSON keeps them beside ``overlaps_trajectory: false``); a σ of
+    the hours before or after the trajectory says nothing of it.
+    """
     data = read_smrmsg(path, gps_week=gps_week)
+    within = (data.t_s >= t_start_s) & (data.t_s <= t_end_s)
+    rows = within if within.any() else np.ones_like(within)
 
     def stats(values: np.ndarray[Any, Any]) -> dict[str, list[float]]:
         return {
-            "median": np.median(values, axis=0).tolist(),
-            "max": np.max(values, axis=0).tolist(),
+            "median": np.median(values[rows], axis=0).tolist(),
+            "max": np.max(values[rows], axis=0).tolist(),
         }
 
     t_min, t_max = float(data.t_s.min()), float(data.t_s.max())
     return {
         "path": str(path),
         "records": len(data),
+        "records_within_trajectory": int(np.count_nonzero(within)),
         "t_start_s": t_min,
         "t_end_s": t_max,
         "overlaps_trajectory": bool(t_min <= t_end_s and t_max >= t_start_s),
@@ -117,7 +125,12 @@ def _smrmsg_document(
 def _smrmsg_rows(doc: dict[str, Any]) -> dict[str, str]:
     rows = {
         "smrmsg": doc["path"],
-        "smrmsg records": str(doc["records"]),
+        "smrmsg records": (
+            f"{doc['records']} ({doc['records_within_trajectory']} within the trajectory: "
+            "the statistics below are theirs)"
+            if 0 < doc["records_within_trajectory"] < doc["records"]
+            else str(doc["records"])
+        ),
         "smrmsg span (s)": f"{doc['t_start_s']:.3f} .. {doc['t_end_s']:.3f}",
         "smrmsg overlaps the trajectory": str(doc["overlaps_trajectory"]),
     }
