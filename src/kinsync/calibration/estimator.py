@@ -45,6 +45,7 @@ from kinsync.calibration.adjustment import (
 from kinsync.calibration.features import Feature
 from kinsync.calibration.gross import (
     MAX_FEATURE_ROUNDS,
+    at_start,
     far_from_start,
     lines_at_the_same_time,
     residual_rise,
@@ -572,7 +573,7 @@ def _solve_again(
     then started from the last solution's values (the held parameter at its prior).
     """
     solution = adjust(models, observations, features, prior, obs.estimated, frame, opt.adjustment)
-    if stuck_at_start(solution.values, prior, obs.estimated, math.nan) is None:
+    if not at_start(solution.values, prior, obs.estimated):
         return solution
     mask = np.zeros(prior.size, dtype=bool)
     mask[list(obs.estimated)] = True

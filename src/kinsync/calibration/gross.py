@@ -46,6 +46,7 @@ __all__ = [
     "SAME_TIME_SHARE",
     "YAW_SEARCH_STEP_DEG",
     "DirectionLinks",
+    "at_start",
     "direction_links",
     "far_from_start",
     "line_directions",
@@ -112,6 +113,23 @@ def far_from_start(values: FloatArray, start: FloatArray, estimated: Sequence[in
     )
 
 
+def at_start(values: FloatArray, start: FloatArray, estimated: Sequence[int]) -> bool:
+    """Whether a solve left every estimate exactly at its start (no step was taken).
+
+    Parameters
+    ----------
+    values, start : ndarray, shape (7,)
+        The solution and its starting values (rad, m, s).
+    estimated : sequence of int
+        The estimated parameters (none: False).
+
+    Returns
+    -------
+    bool
+    """
+    return bool(estimated) and all(values[i] == start[i] for i in estimated)
+
+
 def stuck_at_start(
     values: FloatArray, start: FloatArray, estimated: Sequence[int], rms_start_m: float
 ) -> ConvergenceError | None:
@@ -133,7 +151,7 @@ def stuck_at_start(
         the misfit (with real data a start that is already the least-squares solution
         does not happen), so the features absorbed whatever is wrong with the start.
     """
-    if not estimated or any(values[i] != start[i] for i in estimated):
+    if not at_start(values, start, estimated):
         return None
     names = ", ".join(PARAMETER_NAMES[i] for i in estimated)
     return ConvergenceError(
@@ -257,10 +275,16 @@ def line_directions(lines: Sequence[ScanLine]) -> BoolArray | None:
         True for the lines run the first line's way; None when a line's heading is
         unknown or every line runs one way (nothing to compare).
     """
-    heading = np.array([line_heading_rad(line) for line in lines])
-    if not np.all(np.isfinite(heading)):
+    return _directions(np.array([line_heading_rad(line) for line in lines]))
+
+
+def _directions(heading_rad: FloatArray) -> BoolArray | None:
+    """`line_directions` from the lines' headings (rad)."""
+    if not np.all(np.isfinite(heading_rad)):
         return None
-    forward: BoolArray = np.abs(wrap_angle_rad(heading - heading[0])) <= math.radians(OPPOSITE_DEG)
+    forward: BoolArray = np.abs(wrap_angle_rad(heading_rad - heading_rad[0])) <= math.radians(
+        OPPOSITE_DEG
+    )
     return None if forward.all() else forward
 
 
@@ -319,13 +343,13 @@ def unlinked_directions(
     str or None
         The warning, naming both directions' lines and their feature counts.
     """
-    forward = line_directions(lines)
+    heading = np.array([line_heading_rad(line) for line in lines])
+    forward = _directions(heading)
     if forward is None:
         return None
     links = direction_links(forward, observations, features)
     if not links.unlinked:
         return None
-    heading = np.array([line_heading_rad(line) for line in lines])
     names = {
         way: ", ".join(lines[int(i)].name for i in np.flatnonzero(forward == way))
         for way in (True, False)
