@@ -117,9 +117,16 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "points_per_s",
         "crs",
         "gap_threshold_s",
+        "mount",
         "warnings",
     }
     assert doc["warnings"] == []
+    assert doc["mount"] == {
+        "lever_arm_body_m": [0.5, 0.1, -1.0],
+        "boresight_rpy_deg": [0.5, -0.3, 90.0],
+        "latency_s": 0.0,
+        "profiler_azimuth_deg": None,
+    }
     # the gap threshold used: 10 median record intervals of the trajectory
     t_rec = read_trajectory_csv(setup["traj"]).t_s
     assert doc["gap_threshold_s"] == pytest.approx(10.0 * float(np.median(np.diff(t_rec))))
@@ -225,8 +232,12 @@ def test_a_byte_that_is_not_utf8_near_the_top_is_named_by_its_line(
 
 def test_latency_option_and_geographic_crs(run_cli: RunCli, setup: dict[str, Path]) -> None:
     out = setup["dir"] / "geo.parquet"
-    code, _, err = run_cli(_args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979"))
+    code, stdout, err = run_cli(
+        _args(setup, out, "--latency-ms", "12.5", "--crs", "EPSG:4979", "--json")
+    )
     assert code == 0, err
+    # the JSON log says which latency was applied: the option's, not the mount file's
+    assert json.loads(stdout)["mount"]["latency_s"] == pytest.approx(0.0125, abs=1e-15)
     cols = _points(np.random.default_rng(3))
     xyz = np.column_stack([cols["x_m"], cols["y_m"], cols["z_m"]])
     mount = MOUNT.with_latency(0.0125)

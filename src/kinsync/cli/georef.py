@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -17,6 +17,7 @@ from kinsync.io.column_map import parse_column_map
 from kinsync.io.mount_file import read_mount
 
 if TYPE_CHECKING:
+    from kinsync.mount import Mount
     from kinsync.pipelines.georef import OutsidePolicy, PointColumns
 
 _OUTSIDE: dict[str, OutsidePolicy] = {"error": "error", "reject": "reject"}
@@ -218,7 +219,7 @@ def georef(
     for note in notes:
         typer.echo(f"kinsync: warning: {note}", err=True)
     if as_json:
-        print_json({**summary.as_document(), "warnings": notes})
+        print_json({**summary.as_document(), "mount": _applied_mount(the_mount), "warnings": notes})
         return
     table = quantity_table(f"Georeferenced {points} -> {out} ({crs})")
     table.add_row("points in", str(summary.points_in))
@@ -244,6 +245,20 @@ def georef(
         console.print(f"PROJ pipeline: {summary.crs.proj_pipeline}", soft_wrap=True)
     if summary.rejected_path is not None:
         console.print(f"rejected points: {summary.rejected_path}")
+
+
+def _applied_mount(mount: Mount) -> dict[str, Any]:
+    """The mount the points were georeferenced with (after ``--latency-ms``), for ``--json``.
+
+    A JSON log must say which latency and mount a run applied: the mount file's, or the
+    option's override.
+    """
+    return {
+        "lever_arm_body_m": list(mount.lever_arm_body_m),
+        "boresight_rpy_deg": list(mount.boresight_rpy_deg),
+        "latency_s": mount.latency_s,
+        "profiler_azimuth_deg": mount.profiler_azimuth_deg,
+    }
 
 
 def _check_choices(outside: str, point_columns: str, scheduler: str, workers: int | None) -> None:
