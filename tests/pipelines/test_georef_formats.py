@@ -111,6 +111,42 @@ def test_las_to_table_has_every_dimension_and_exact_coordinates(
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".ply"])
+def test_scaled_extra_dimensions_are_written_as_their_real_values(
+    tmp_path: Path, traj_path: Path, suffix: str
+) -> None:
+    """An int16 extra dimension with scale 0.01 holds 0.12, not 0: float64 out."""
+    n = 10
+    cols = {k: v[:n] for k, v in _columns(11).items()}
+    las = las_points(cols)
+    las.add_extra_dims(
+        [
+            laspy.ExtraBytesParams("refl", "i2", scales=np.array([0.01]), offsets=np.array([0.0])),
+            laspy.ExtraBytesParams(
+                "shift", "u1", scales=np.array([1.0]), offsets=np.array([100.0])
+            ),
+            laspy.ExtraBytesParams("raw", "i2"),
+        ]
+    )
+    las.refl = np.arange(n) * 0.12
+    las.shift = 100.0 + np.arange(n)
+    las.raw = np.arange(n, dtype=np.int16) - 3
+    src = tmp_path / "scan.las"
+    las.write(src)
+    out = tmp_path / f"geo{suffix}"
+    georeference_file(src, traj_path, MOUNT, out, crs=CRS)
+    if suffix == ".ply":
+        got = read_ply_vertices(out)
+    else:
+        table = pa_csv.read_csv(out) if suffix == ".csv" else pq.read_table(out)
+        got = {c: table.column(c).to_numpy() for c in ("refl", "shift", "raw")}
+    assert got["refl"].dtype == got["shift"].dtype == np.float64
+    np.testing.assert_allclose(got["refl"], np.arange(n) * 0.12, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(got["shift"], 100.0 + np.arange(n))
+    assert got["raw"].dtype.kind == "i"  # unscaled: its own type (int16; CSV reads int64)
+    np.testing.assert_array_equal(got["raw"], np.arange(n) - 3)
+
+
 def test_las_to_csv_rejects_to_a_las_file_in_the_input_format(
     tmp_path: Path, traj_path: Path
 ) -> None:

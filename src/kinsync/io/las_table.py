@@ -4,7 +4,9 @@ LAS -> table (`las_column_types`, `las_columns`): one column per dimension of th
 point format, in its order, named as laspy names them (``intensity``,
 ``return_number``, ``classification``, ``gps_time``, extra bytes by their own names);
 ``X, Y, Z`` are new float64 coordinates; bit fields become uint8; an extra dimension
-of several values (``3f8``) becomes one column per value (``name_0``, ``name_1``, ...).
+with a scale or an offset becomes float64 (its real values, stored x scale + offset),
+others keep their stored type; an extra dimension of several values (``3f8``) becomes
+one column per value (``name_0``, ``name_1``, ...).
 
 Table -> LAS (`plan_table_las`, `TableLasPlan`): LAS 1.4, point format 6 (7 with
 ``red, green, blue``, 8 with ``nir`` too). The time of each point (``t_s``) goes to
@@ -51,6 +53,8 @@ def _dimension_columns(pf: laspy.PointFormat) -> list[tuple[str, str, np.dtype[A
     """``(column, dimension, dtype, index)`` of every non-coordinate dimension.
 
     ``index`` is -1 for a scalar dimension, else the position in a multi-value one.
+    An extra dimension with a scale or an offset has float64 columns: laspy gives its
+    real values (stored x scale + offset), which its stored type cannot hold.
     """
     out: list[tuple[str, str, np.dtype[Any], int]] = []
     for dim in pf.dimensions:
@@ -60,12 +64,15 @@ def _dimension_columns(pf: laspy.PointFormat) -> list[tuple[str, str, np.dtype[A
             out.append((dim.name, dim.name, np.dtype(np.uint8), -1))
             continue
         dt = np.dtype(dim.dtype)
+        scaled = not dim.is_standard and dim.is_scaled
         if dt.subdtype is not None:
             base, shape = dt.subdtype
+            if scaled:
+                base = np.dtype(np.float64)
             count = int(np.prod(shape))
             out.extend((f"{dim.name}_{i}", dim.name, base, i) for i in range(count))
         else:
-            out.append((dim.name, dim.name, dt, -1))
+            out.append((dim.name, dim.name, np.dtype(np.float64) if scaled else dt, -1))
     return out
 
 
