@@ -274,7 +274,7 @@ def test_a_header_laspy_cannot_write_leaves_no_output(tmp_path: Path, suffix: st
     template = las_header(src)
     out = tmp_path / f"out{suffix}"
     with (
-        pytest.raises(InputError, match="cannot write the header and VLRs of the template"),
+        pytest.raises(InputError, match="cannot write the header and VLRs taken from the input"),
         LasChunkWriter(out, template, None, (0.0, 0.0, 0.0), 1e-4),
     ):
         pass

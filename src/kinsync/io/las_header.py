@@ -32,12 +32,43 @@ __all__ = [
     "read_las_header",
     "read_las_layout",
     "set_global_encoding_bit",
+    "writable_las_version",
 ]
 
 _LAS_MAX_MINOR = 4  # LAS 1.0 to 1.4
 _LAS_HEADER_MIN_BYTES = 227  # LAS 1.0-1.2 header; 1.3 and 1.4 are longer
 _VLR_HEADER_BYTES = 54
 _EVLR_HEADER_BYTES = 60
+_LOWEST_WRITABLE = ((3, "1.2"), (5, "1.3"), (10, "1.4"))
+"""The LAS version a LAS 1.0 header is written as, by point format (up to 3, 5, 10):
+laspy cannot write 1.0; 1.2 holds its formats and nearly all software reads it."""
+
+
+def writable_las_version(header: laspy.LasHeader) -> str | None:
+    """Give a header laspy cannot write (LAS 1.0) the lowest version that it can.
+
+    LAS 1.0 is read (its point formats 0 and 1 are those of LAS 1.2, and kinsync
+    reads its global encoding as LAS 1.2 does), but laspy writes LAS 1.1 to 1.4 only:
+    the header becomes LAS 1.2 (1.3 or 1.4 for a point format only they hold), the
+    point format and everything else unchanged.
+
+    Returns
+    -------
+    str or None
+        What changed, one sentence (``"it is LAS 1.0, ..."``); None when the version
+        is kept.
+    """
+    old = str(header.version)
+    if int(header.version.minor) != 0:
+        return None
+    pf = int(header.point_format.id)
+    new = next(v for top, v in _LOWEST_WRITABLE if pf <= top)
+    header.version = laspy.header.Version.from_str(new)
+    return (
+        f"it is LAS {old}, which kinsync cannot write (its LAS writer, laspy, writes "
+        f"LAS 1.1 to 1.4): its LAS/LAZ outputs are LAS {new}, with the same point format "
+        f"({pf}), points and records"
+    )
 
 
 def set_global_encoding_bit(header: laspy.LasHeader, mask: int, *, on: bool) -> None:

@@ -3,7 +3,8 @@
 `LasChunkWriter` writes chunks whose x, y, z are replaced by new float64 coordinates
 (e.g. georeferenced ECEF), every other dimension carried through byte for byte, with
 the input header's point format, VLRs, EVLRs and extra dimensions, new scales and
-offsets, and the output CRS. Not carried, and said so in its ``notes``
+offsets, and the output CRS. A LAS 1.0 input, which laspy cannot write, gives LAS 1.2
+(said in its ``notes``). Not carried, and said so in its ``notes``
 (`las_output_notes`): waveform data packets (the wave packet fields of the points are
 zeroed and the header's waveform flags, pointer and descriptors cleared, so that
 nothing points to data that is not there) and a COPC index (it addresses the input's
@@ -29,7 +30,11 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.las_coordinates import store_scaled
 from kinsync.io.las_crs import set_las_crs
-from kinsync.io.las_header import las_suffix, set_global_encoding_bit
+from kinsync.io.las_header import (
+    las_suffix,
+    set_global_encoding_bit,
+    writable_las_version,
+)
 
 __all__ = ["LasChunkWriter", "las_output_notes"]
 
@@ -52,9 +57,17 @@ def las_output_notes(template_header: laspy.LasHeader) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        One sentence per thing not carried (waveform data packets, a COPC index).
+        One sentence per thing not carried (waveform data packets, a COPC index) or
+        changed (a LAS 1.0 version, which is written as LAS 1.2).
     """
-    return _drop_uncarried(copy.deepcopy(template_header))[1]
+    return _writable_header(copy.deepcopy(template_header))[1]
+
+
+def _writable_header(header: laspy.LasHeader) -> tuple[bool, tuple[str, ...]]:
+    """`_drop_uncarried`, then a version laspy writes; the notes."""
+    zero_wave, notes = _drop_uncarried(header)
+    version = writable_las_version(header)
+    return zero_wave, notes + ((version,) if version else ())
 
 
 _WAVE_FIELDS = (
@@ -148,8 +161,9 @@ class LasChunkWriter:
     path : Path
         Output file; ``.laz`` is compressed (lazrs), ``.las`` is not.
     template_header : laspy.LasHeader
-        Header of the input (`kinsync.io.las_header.las_header`): its version, point
-        format (extra dimensions included), VLRs and EVLRs are copied.
+        Header of the input (`kinsync.io.las_header.las_header`): its version (LAS 1.2
+        for 1.0), point format (extra dimensions included), System Identifier, VLRs and
+        EVLRs are copied.
     crs : pyproj.CRS or None
         CRS of the output coordinates, written as a WKT VLR (point formats 6-10) or
         GeoTIFF keys (older formats), replacing any CRS of the template. None keeps the
@@ -165,8 +179,8 @@ class LasChunkWriter:
     Attributes
     ----------
     notes : tuple of str
-        What of the template is not carried (waveform data, a COPC index), one
-        sentence each; empty when everything is.
+        What of the template is not carried (waveform data, a COPC index) or changed
+        (LAS 1.0 written as 1.2), one sentence each; empty when everything is kept.
 
     Raises
     ------
@@ -193,7 +207,7 @@ class LasChunkWriter:
             msg = f"{self.path}: coordinate_offset_m must be 3 finite numbers, got {offsets}"
             raise InputError(msg)
         header = copy.deepcopy(template_header)
-        self._zero_wave, self.notes = _drop_uncarried(header)
+        self._zero_wave, self.notes = _writable_header(header)
         header.offsets = offsets
         header.scales = scales
         if crs is not None:
@@ -227,8 +241,10 @@ class LasChunkWriter:
                 raise InputError(msg) from err
             if isinstance(err, Exception):  # laspy's errors on a damaged template vary
                 msg = (
-                    f"{self.path}: cannot write the header and VLRs of the template "
-                    f"({type(err).__name__}: {err}); its input file is damaged"
+                    f"{self.path}: cannot write the header and VLRs taken from the input "
+                    f"({type(err).__name__}: {err}): they are damaged, or of a kind laspy "
+                    "cannot write; rewrite the input with another LAS tool (as LAS 1.2 or "
+                    "1.4) and run again"
                 )
                 raise InputError(msg) from err
             raise

@@ -396,6 +396,8 @@ def georeference_file(
     points_in, points_out, points_rejected = counts
     if not points_rejected:
         notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
+    elif template is not None and output != "same":
+        notes += _rejected_las_notes(points_path, template)
     if tally.count:
         notes.append(tally.warning(points_path, traj, rejected_path_for(out_path, points_path)))
     if crs_info.time_dependent and crs_info.epoch_year is not None:
@@ -493,6 +495,15 @@ def _las_notes(points_path: Path, template: Any, output: OutputKind) -> list[str
             )
         ]
     return []
+
+
+def _rejected_las_notes(points_path: Path, template: Any) -> list[str]:
+    """What the LAS/LAZ file of rejected points changes (a LAS 1.0 written as 1.2)."""
+    return [
+        f"{points_path}: {note}"
+        for note in las_output_notes(template)
+        if note.startswith("it is LAS")
+    ]
 
 
 def _sink(

@@ -1,0 +1,85 @@
+"""The header of the LAS/LAZ files georef writes: version, software, date, identifier."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.mount import Mount
+from kinsync.pipelines.georef import georeference_file
+from kinsync.trajectory import Trajectory
+
+WEEK = 2149
+T0 = WEEK * 604_800.0 + 284_800.0  # GPS time
+MOUNT = Mount(lever_arm_body_m=(0.5, 0.1, -1.0), boresight_rpy_deg=(0.5, -0.3, 90.0))
+N = 200
+
+
+def _trajectory(folder: Path) -> Path:
+    s = np.arange(0.0, 11.0, 1.0)
+    llh = np.column_stack([40.0 + s * 1e-5, np.full_like(s, -71.0), np.full_like(s, 50.0)])
+    zeros = np.zeros_like(s)
+    path = folder / "traj.csv"
+    write_trajectory_csv(Trajectory.from_euler(T0 + s, zeros, zeros, zeros, lat_lon_h=llh), path)
+    return path
+
+
+def _las10(path: Path) -> Path:
+    """A LAS 1.0 file, point format 1, GPS seconds of week; 20 points before the trajectory.
+
+    The bytes of LAS 1.2 with the version minor 0 (the global encoding 0, the reserved
+    field of LAS 1.0), as old software writes them.
+    """
+    rng = np.random.default_rng(3)
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.full(3, 1e-3)
+    header.offsets = np.zeros(3)
+    header.system_identifier = "ACME scanner 7"
+    header.generating_software = "ACME export 1.0"
+    header.creation_date = dt.date(2011, 3, 4)
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = rng.uniform(-1, 1, N), rng.uniform(-9, 9, N), rng.uniform(-3, 3, N)
+    las.gps_time = np.linspace(-2.0, 9.0, N) + T0 - WEEK * 604_800.0
+    las.intensity = np.arange(N, dtype=np.uint16)
+    las.write(path)
+    raw = bytearray(path.read_bytes())
+    raw[25] = 0  # version minor
+    path.write_bytes(bytes(raw))
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".laz", ".las", ".csv"])
+def test_a_las_1_0_input_gives_las_1_2_outputs_and_says_so(tmp_path: Path, suffix: str) -> None:
+    src = _las10(tmp_path / "old.las")
+    assert laspy.read(src).header.version.minor == 0
+    out = tmp_path / f"geo{suffix}"
+    summary = georeference_file(
+        src, _trajectory(tmp_path), MOUNT, out, gps_week=WEEK, outside="reject"
+    )
+    assert summary.points_rejected > 0
+    assert summary.rejected_path is not None
+    said = [w for w in summary.warnings if "LAS 1.0" in w]
+    assert len(said) == 1
+    assert said[0].startswith(f"{src}: it is LAS 1.0")
+    assert "LAS/LAZ outputs are LAS 1.2, with the same point format (1)" in said[0]
+    assert "damaged" not in " ".join(summary.warnings)
+    stored = laspy.read(src)
+    written = [laspy.read(summary.rejected_path)]
+    if suffix != ".csv":
+        written.append(laspy.read(out))
+    for las in written:
+        assert (las.header.version.major, las.header.version.minor) == (1, 2)
+        assert las.header.point_format.id == 1
+        assert las.header.global_encoding.value == 0
+    rejected = written[0]
+    n_rej = summary.points_rejected
+    np.testing.assert_array_equal(rejected.gps_time, stored.gps_time[:n_rej])
+    np.testing.assert_array_equal(rejected.X, stored.X[:n_rej])
+    if suffix != ".csv":
+        np.testing.assert_array_equal(written[1].gps_time, stored.gps_time[n_rej:])
+        np.testing.assert_array_equal(written[1].intensity, stored.intensity[n_rej:])
