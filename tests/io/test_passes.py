@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime as dt
 import tempfile
 import warnings
 from pathlib import Path
@@ -17,6 +18,7 @@ import kinsync.io.passes as passes_io
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.las_header import GENERATING_SOFTWARE
 from kinsync.io.passes import pass_file_name, read_pass_file, read_passes, write_passes
 from kinsync.io.tables import write_numeric_csv
 from kinsync.latency.passes import SpherePass
@@ -72,6 +74,10 @@ def test_las_round_trip_within_scale(tmp_path: Path, fmt: passes_io.PassFileForm
     las = laspy.read(tmp_path / f"pass_000.{fmt}")
     assert las.header.scales[0] <= 1e-5
     assert las.header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD
+    assert las.header.generating_software == GENERATING_SOFTWARE
+    assert las.header.creation_date in {
+        dt.datetime.now(dt.UTC).date() + dt.timedelta(days=d) for d in (-1, 0)
+    }
     # Adjusted standard GPS time in the file, GPS time after reading.
     assert float(np.max(las.gps_time)) < ADJUSTED_GPS_OFFSET_S
     np.testing.assert_allclose(las.header.offsets, np.min(ps[0].points_ned_m, axis=0), atol=1e-6)

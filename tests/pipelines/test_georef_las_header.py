@@ -9,6 +9,7 @@ import laspy
 import numpy as np
 import pytest
 
+from kinsync import __version__
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
@@ -83,3 +84,21 @@ def test_a_las_1_0_input_gives_las_1_2_outputs_and_says_so(tmp_path: Path, suffi
     if suffix != ".csv":
         np.testing.assert_array_equal(written[1].gps_time, stored.gps_time[n_rej:])
         np.testing.assert_array_equal(written[1].intensity, stored.intensity[n_rej:])
+
+
+def test_outputs_are_stamped_kinsync_today_and_keep_the_system_identifier(
+    tmp_path: Path,
+) -> None:
+    src = _las10(tmp_path / "old.las")
+    out = tmp_path / "geo.laz"
+    summary = georeference_file(
+        src, _trajectory(tmp_path), MOUNT, out, gps_week=WEEK, outside="reject"
+    )
+    assert summary.rejected_path is not None
+    for path in (out, summary.rejected_path):
+        header = laspy.read(path).header
+        assert header.generating_software == f"kinsync {__version__}"
+        assert header.creation_date in {
+            dt.datetime.now(dt.UTC).date() + dt.timedelta(days=d) for d in (-1, 0)
+        }
+        assert header.system_identifier == "ACME scanner 7"

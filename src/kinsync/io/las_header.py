@@ -12,6 +12,7 @@ only the 64-bit one); scale factors must be finite and non-zero, offsets finite.
 
 from __future__ import annotations
 
+import datetime as dt
 import io
 import math
 import os
@@ -22,6 +23,7 @@ from typing import BinaryIO
 import laspy
 from laspy.vlrs.vlrlist import VLRList
 
+from kinsync import __version__
 from kinsync.errors import InputError
 from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields, points_text
 
@@ -32,6 +34,7 @@ __all__ = [
     "read_las_header",
     "read_las_layout",
     "set_global_encoding_bit",
+    "stamp_kinsync_header",
     "writable_las_version",
 ]
 
@@ -39,9 +42,22 @@ _LAS_MAX_MINOR = 4  # LAS 1.0 to 1.4
 _LAS_HEADER_MIN_BYTES = 227  # LAS 1.0-1.2 header; 1.3 and 1.4 are longer
 _VLR_HEADER_BYTES = 54
 _EVLR_HEADER_BYTES = 60
+_GENERATING_SOFTWARE_BYTES = 32
+GENERATING_SOFTWARE = f"kinsync {__version__}"[:_GENERATING_SOFTWARE_BYTES]
+"""The Generating Software of every LAS/LAZ kinsync writes (at most 32 ASCII bytes)."""
 _LOWEST_WRITABLE = ((3, "1.2"), (5, "1.3"), (10, "1.4"))
 """The LAS version a LAS 1.0 header is written as, by point format (up to 3, 5, 10):
 laspy cannot write 1.0; 1.2 holds its formats and nearly all software reads it."""
+
+
+def stamp_kinsync_header(header: laspy.LasHeader) -> None:
+    """Mark a header as written by kinsync today: Generating Software, creation date.
+
+    Generating Software becomes ``"kinsync <version>"`` and the creation date today's
+    (UTC); everything else, the System Identifier included, is kept.
+    """
+    header.generating_software = GENERATING_SOFTWARE
+    header.creation_date = dt.datetime.now(dt.UTC).date()
 
 
 def writable_las_version(header: laspy.LasHeader) -> str | None:

@@ -159,7 +159,6 @@ class TableLasPlan:
         set_global_encoding_bit(
             header, laspy.header.GlobalEncoding.GPS_TIME_TYPE_MASK, on=self.time_scale == "gps"
         )
-        header.generating_software = "kinsync georef"
         return header
 
     @cached_property

@@ -3,12 +3,13 @@
 `LasChunkWriter` writes chunks whose x, y, z are replaced by new float64 coordinates
 (e.g. georeferenced ECEF), every other dimension carried through byte for byte, with
 the input header's point format, VLRs, EVLRs and extra dimensions, new scales and
-offsets, and the output CRS. A LAS 1.0 input, which laspy cannot write, gives LAS 1.2
-(said in its ``notes``). Not carried, and said so in its ``notes``
-(`las_output_notes`): waveform data packets (the wave packet fields of the points are
-zeroed and the header's waveform flags, pointer and descriptors cleared, so that
-nothing points to data that is not there) and a COPC index (it addresses the input's
-LAZ chunks). The file appears only when complete.
+offsets, and the output CRS; its Generating Software is ``kinsync <version>`` and its
+creation date today's (UTC), its System Identifier the input's. A LAS 1.0 input, which
+laspy cannot write, gives LAS 1.2 (said in its ``notes``). Not carried, and said so in
+its ``notes`` (`las_output_notes`): waveform data packets (the wave packet fields of the
+points are zeroed and the header's waveform flags, pointer and descriptors cleared, so
+that nothing points to data that is not there) and a COPC index (it addresses the
+input's LAZ chunks). The file appears only when complete.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from kinsync.io.las_crs import set_las_crs
 from kinsync.io.las_header import (
     las_suffix,
     set_global_encoding_bit,
+    stamp_kinsync_header,
     writable_las_version,
 )
 
@@ -64,9 +66,10 @@ def las_output_notes(template_header: laspy.LasHeader) -> tuple[str, ...]:
 
 
 def _writable_header(header: laspy.LasHeader) -> tuple[bool, tuple[str, ...]]:
-    """`_drop_uncarried`, then a version laspy writes; the notes."""
+    """`_drop_uncarried`, then a version laspy writes and kinsync's stamp; the notes."""
     zero_wave, notes = _drop_uncarried(header)
     version = writable_las_version(header)
+    stamp_kinsync_header(header)
     return zero_wave, notes + ((version,) if version else ())
 
 

@@ -43,6 +43,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.atomic import atomic_path
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasPointReader, scaled_coordinates
+from kinsync.io.las_header import stamp_kinsync_header
 from kinsync.io.sanity import (
     LENGTH_M,
     TIME_S,
@@ -375,6 +376,7 @@ def _write_las(path: Path, p: SpherePass, *, compress: bool) -> None:
     pts = p.points_ned_m
     scale = _las_scale_m(pts, p.source)
     header = laspy.LasHeader(point_format=0 if p.t_s is None else 6, version="1.4")
+    stamp_kinsync_header(header)
     mins = pts.min(axis=0)
     header.offsets = np.floor(mins / scale) * scale
     header.scales = np.array([scale, scale, scale])

@@ -516,7 +516,6 @@ def _write_line(path: Path, line: ScanLine, number: int) -> None:
     header = laspy.LasHeader(point_format=6, version="1.4")
     header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
     header.system_identifier = "kinsync patch-test simulator"
-    header.generating_software = "kinsync simulate patch-test"
     n = len(line)
     chunk = laspy.ScaleAwarePointRecord.zeros(n, header=header)
     chunk["gps_time"] = line.t_s - ADJUSTED_GPS_OFFSET_S
