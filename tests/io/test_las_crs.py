@@ -11,7 +11,7 @@ import pyproj
 import pytest
 from tests._las import geotiff_las
 
-from kinsync.crs_axes import output_units
+from kinsync.crs_axes import declared_crs, output_units
 from kinsync.errors import InputError
 from kinsync.io.las_crs import las_crs, las_crs_keys, read_las_crs, set_las_crs
 
@@ -55,6 +55,57 @@ def test_a_compound_crs_in_wkt_reads_back_whole(tmp_path: Path) -> None:
     las = _written(tmp_path, 6, "1.4", crs)
     assert las.header.parse_crs() == crs
     assert las.header.global_encoding.wkt
+
+
+def _wkt_record(las: laspy.LasData) -> str:
+    record = next(v for v in las.header.vlrs if type(v).__name__ == "WktCoordinateSystemVlr")
+    text = record.string
+    return text.decode("ascii") if isinstance(text, bytes) else str(text)
+
+
+@pytest.mark.parametrize(
+    ("code", "keyword"),
+    [
+        ("EPSG:32619", "PROJCS["),
+        ("EPSG:32619+5703", "COMPD_CS["),
+        ("EPSG:4979", "COMPD_CS["),  # WKT1 has no 3D geographic CRS: GDAL's form
+        ("EPSG:4978", "GEOCCS["),
+        ("EPSG:2249", "COMPD_CS["),  # X, Y in US feet, Z the ellipsoidal height in metres
+    ],
+)
+def test_wkt_records_are_wkt1_and_read_back_as_the_crs(
+    tmp_path: Path, code: str, keyword: str
+) -> None:
+    """LAS 1.4 names OGC 01-009 (WKT1); LAStools and GDAL 2 read no WKT2."""
+    crs = pyproj.CRS(code)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    assert set_las_crs(header, crs, tmp_path / "out.las") is None
+    las = _written(tmp_path, 6, "1.4", crs)
+    text = _wkt_record(las)
+    assert text.startswith(keyword)
+    assert not any(w in text for w in ("PROJCRS[", "GEOGCRS[", "GEODCRS[", "COMPOUNDCRS["))
+    declared = declared_crs(crs)
+    for back in (las_crs(las.header), las.header.parse_crs()):
+        assert back is not None
+        assert back.equals(declared, ignore_axis_order=True)
+        assert output_units(back) == output_units(declared)
+    if code in ("EPSG:32619", "EPSG:4979", "EPSG:4978"):
+        assert las.header.parse_crs().to_epsg() == crs.to_epsg()
+
+
+def test_a_crs_wkt1_cannot_represent_is_declared_in_wkt2_with_a_warning(
+    tmp_path: Path,
+) -> None:
+    crs = pyproj.CRS("+proj=ob_tran +o_proj=longlat +o_lon_p=10 +o_lat_p=80 +ellps=WGS84")
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    note = set_las_crs(header, crs, tmp_path / "out.las")
+    assert note is not None
+    assert note.startswith(f"{tmp_path / 'out.las'}: its CRS")
+    assert "cannot be written as WKT1" in note
+    assert "WKT2-2019" in note
+    las = _written(tmp_path, 6, "1.4", crs)
+    assert _wkt_record(las).startswith("GEOGCRS[")
+    assert las.header.parse_crs().to_wkt() == crs.to_wkt()
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""The header of the LAS/LAZ files georef writes: version, software, date, identifier."""
+"""The header of the LAS/LAZ files georef writes: version, software, date, identifier, CRS."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from pathlib import Path
 import laspy
 import numpy as np
 import pytest
+from tests._las import las_points
 
 from kinsync import __version__
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -102,3 +103,30 @@ def test_outputs_are_stamped_kinsync_today_and_keep_the_system_identifier(
             dt.datetime.now(dt.UTC).date() + dt.timedelta(days=d) for d in (-1, 0)
         }
         assert header.system_identifier == "ACME scanner 7"
+
+
+@pytest.mark.parametrize(("crs", "wkt1"), [("EPSG:4979", True), ("EPSG:8857", False)])
+def test_the_output_crs_is_wkt1_or_wkt2_with_a_warning(
+    tmp_path: Path, crs: str, wkt1: bool
+) -> None:
+    """Point format 6: WKT1 where it represents the CRS (Equal Earth it does not)."""
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.5, 9.5, N) + T0
+    cols = {"t_s": t, "x_m": rng.uniform(-1, 1, N), "y_m": rng.uniform(-9, 9, N)}
+    cols["z_m"] = rng.uniform(-3, 3, N)
+    src = tmp_path / "scan.las"
+    las_points(cols).write(src)
+    out = tmp_path / "geo.laz"
+    summary = georeference_file(src, _trajectory(tmp_path), MOUNT, out, crs=crs)
+    said = [w for w in summary.warnings if "WKT1" in w]
+    record = next(
+        v for v in laspy.read(out).header.vlrs if type(v).__name__ == "WktCoordinateSystemVlr"
+    )
+    text = str(record.string)
+    if wkt1:
+        assert not said
+        assert text.startswith("COMPD_CS[")
+    else:
+        assert len(said) == 1
+        assert said[0].startswith(f"{out}: its CRS 'WGS 84 / Equal Earth Greenwich'")
+        assert text.startswith("PROJCRS[")

@@ -10,6 +10,14 @@ read them; a geocentric CRS gets model type 3 (OGC GeoTIFF 1.1, 19-008r4). A CRS
 EPSG code goes in WKT where the LAS version allows it (1.4), and is refused otherwise,
 naming what to do.
 
+The WKT is WKT1 as GDAL writes it (``WKT1_GDAL``, OGC 01-009, which LAS 1.4 R15 names
+and PDAL writes; LAStools and GDAL before 3 read no other), a compound CRS as
+``COMPD_CS``. WKT1 has no 3D geographic or 3D projected CRS: one whose third axis is
+the ellipsoidal height (``EPSG:4979``, the 3D form of ``EPSG:2249``) is written as GDAL
+writes it, a ``COMPD_CS`` with an ellipsoidal ``VERT_CS`` (datum type 2002), which PROJ
+reads back as the 3D CRS. Only a CRS that WKT1 cannot represent (read back, it is
+another CRS) is written as WKT2-2019, and `set_las_crs` says so.
+
 Z's unit is declared with X and Y (`kinsync.crs_axes`): a 2D projected CRS in feet
 (``EPSG:2249``), whose Z is the ellipsoidal height in metres, is declared by its 3D form
 in WKT (an "ellipsoidal height (h)" axis in metres) and with ``VerticalUnitsGeoKey``
@@ -58,6 +66,7 @@ __all__ = [
     "georeferenced_crs_name",
     "las_crs",
     "las_crs_keys",
+    "las_wkt",
     "read_las_crs",
     "set_las_crs",
 ]
@@ -152,7 +161,88 @@ def _geotiff_vlrs(keys: dict[int, int], citation: str) -> tuple[Any, Any]:
     return directory, ascii_vlr
 
 
-def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
+def _ellipsoidal_compound_wkt1(crs: pyproj.CRS) -> str | None:
+    """WKT1 of a 3D geographic/projected CRS as GDAL writes it, or None (see module)."""
+    axes = crs.axis_info
+    if crs.is_compound or len(axes) != 3 or not (crs.is_geographic or crs.is_projected):
+        return None
+    height = axes[2]
+    if "ellipsoidal height" not in height.name.lower():
+        return None
+    try:
+        horizontal = crs.to_2d().to_wkt("WKT1_GDAL")
+    except pyproj.exceptions.CRSError:
+        return None
+    if not horizontal:
+        return None
+    unit = f'UNIT["{height.unit_name}",{height.unit_conversion_factor!r}'
+    if height.unit_auth_code and height.unit_code:
+        unit += f',AUTHORITY["{height.unit_auth_code}","{height.unit_code}"]'
+    name = crs.name.replace('"', "'")
+    return (
+        f'COMPD_CS["{name}",{horizontal},VERT_CS["ellipsoidal height",'
+        f'VERT_DATUM["Ellipsoid",2002],{unit}],AXIS["ellipsoidal height",UP]]]'
+    )
+
+
+def _reads_back(wkt: str | None, crs: pyproj.CRS) -> bool:
+    """Whether ``wkt`` is ``crs``: its axes (names aside) and everything else."""
+    if not wkt:
+        return False
+    try:
+        back = pyproj.CRS.from_wkt(wkt)
+    except pyproj.exceptions.CRSError:
+        return False
+
+    def axes(c: pyproj.CRS) -> list[tuple[str, str, float]]:
+        return [
+            (a.direction, a.unit_name, round(a.unit_conversion_factor, 12)) for a in c.axis_info
+        ]
+
+    return bool(back.equals(crs, ignore_axis_order=True)) and axes(back) == axes(crs)
+
+
+def las_wkt(crs: pyproj.CRS) -> tuple[str, bool]:
+    """The WKT a LAS/LAZ file declares ``crs`` in: WKT1 (GDAL) where it represents it.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS
+        The CRS as declared (`kinsync.crs_axes.declared_crs`).
+
+    Returns
+    -------
+    wkt : str
+        WKT1 (``WKT1_GDAL``; a 3D geographic or projected CRS as a ``COMPD_CS`` with an
+        ellipsoidal ``VERT_CS``), or WKT2-2019 where WKT1 cannot represent ``crs``.
+    is_wkt1 : bool
+        False when WKT2-2019 had to be written.
+    """
+    try:
+        wkt1: str | None = crs.to_wkt("WKT1_GDAL")
+    except pyproj.exceptions.CRSError:
+        wkt1 = None
+    for candidate in (wkt1, _ellipsoidal_compound_wkt1(crs)):
+        if candidate and _reads_back(candidate, crs):
+            return candidate, True
+    return crs.to_wkt(), False
+
+
+def _add_wkt(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> str | None:
+    """Declare ``crs`` in a WKT VLR (`las_wkt`); the note when it is WKT2."""
+    wkt, is_wkt1 = las_wkt(crs)
+    header.vlrs.append(WktCoordinateSystemVlr(wkt))
+    set_global_encoding_bit(header, laspy.header.GlobalEncoding.WKT_MASK, on=True)
+    if is_wkt1:
+        return None
+    return (
+        f"{path}: its CRS {crs.name!r} cannot be written as WKT1 (OGC 01-009, which LAS 1.4 "
+        "names): it is declared in WKT2-2019, which PDAL, GDAL 3 and laspy read but older "
+        "readers (LAStools, GDAL 2) do not"
+    )
+
+
+def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> str | None:
     """Declare ``crs`` in ``header``, replacing any CRS records it had.
 
     Parameters
@@ -164,6 +254,11 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
         The coordinates' CRS.
     path : Path
         The file, for messages.
+
+    Returns
+    -------
+    str or None
+        The warning when the CRS had to be declared in WKT2-2019 (`las_wkt`), or None.
 
     Raises
     ------
@@ -177,16 +272,14 @@ def set_las_crs(header: laspy.LasHeader, crs: pyproj.CRS, path: Path) -> None:
             with suppress(IndexError):
                 header.evlrs.extract(name)
     if header.point_format.id >= 6:
-        header.add_crs(declared_crs(crs))
-        return
+        return _add_wkt(header, declared_crs(crs), path)
     keys = las_crs_keys(crs)
     if keys is not None:
         set_global_encoding_bit(header, laspy.header.GlobalEncoding.WKT_MASK, on=False)
         header.vlrs.extend(_geotiff_vlrs(keys, crs.name))
-        return
+        return None
     if header.version.minor >= 4:
-        header.add_crs(declared_crs(crs), keep_compatibility=False)
-        return
+        return _add_wkt(header, declared_crs(crs), path)
     msg = (
         f"{path}: LAS {header.version} point format {header.point_format.id} declares its "
         f"CRS with EPSG codes, and {crs.name!r} has none; give --crs as EPSG codes "

@@ -168,9 +168,9 @@ class LasChunkWriter:
         for 1.0), point format (extra dimensions included), System Identifier, VLRs and
         EVLRs are copied.
     crs : pyproj.CRS or None
-        CRS of the output coordinates, written as a WKT VLR (point formats 6-10) or
-        GeoTIFF keys (older formats), replacing any CRS of the template. None keeps the
-        template's CRS records.
+        CRS of the output coordinates, written as a WKT VLR (WKT1 where it represents
+        the CRS; point formats 6-10) or GeoTIFF keys (older formats), replacing any CRS
+        of the template. None keeps the template's CRS records.
     coordinate_offset_m : tuple of float
         x, y, z offsets (m, output CRS units) stored in the header. Choose them near
         the data (e.g. the rounded first point in ECEF) so that integers stay small.
@@ -184,6 +184,9 @@ class LasChunkWriter:
     notes : tuple of str
         What of the template is not carried (waveform data, a COPC index) or changed
         (LAS 1.0 written as 1.2), one sentence each; empty when everything is kept.
+    crs_note : str or None
+        The warning when ``crs`` could not be declared in WKT1 and is in WKT2-2019
+        (`kinsync.io.las_crs.set_las_crs`), naming the file; else None.
 
     Raises
     ------
@@ -213,8 +216,7 @@ class LasChunkWriter:
         self._zero_wave, self.notes = _writable_header(header)
         header.offsets = offsets
         header.scales = scales
-        if crs is not None:
-            set_las_crs(header, crs, self.path)
+        self.crs_note = None if crs is None else set_las_crs(header, crs, self.path)
         self.header = header
         self.points_written = 0
         self._stack: ExitStack | None = None

@@ -386,6 +386,8 @@ def georeference_file(
         ctx = replace(ctx, las_frame=_las_output_frame(ctx, tasks, total))
     sink, more_notes, ctx = _sink(ctx, template, traj_scale, total, out_path)
     notes += [f"{points_path}: {note}" for note in more_notes]
+    if isinstance(sink, LasSink) and sink.crs_note is not None:
+        notes.append(sink.crs_note)  # declared in WKT2: WKT1 cannot represent the CRS
     tally = OutsideTally(
         PointTimes(traj_scale, gps_week, las_time_type, ctx.source.las_time_offset_s)
     )

@@ -123,6 +123,7 @@ class LasSink(Sink):
         scales: tuple[float, float, float],
     ) -> None:
         self._las = LasChunkWriter(path, header, crs, offsets, scales)
+        self.crs_note = self._las.crs_note
         super().__init__(self._las)
 
     def write(self, out: ChunkOutput) -> None:  # noqa: D102
