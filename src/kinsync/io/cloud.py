@@ -19,6 +19,7 @@ from kinsync.crs import crs_to_ecef_transformer
 from kinsync.crs_axes import declared_crs, output_units
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.las import (
+    check_week_rollover,
     iter_las_chunks,
     las_header,
     las_info,
@@ -143,16 +144,23 @@ def iter_cloud(
     """Chunks of (xyz in the cloud's CRS, times or None, intensities or None)."""
     suffix = path.suffix.lower()
     if suffix in _LAS_SUFFIXES:
+        info = las_info(path)
         time_offset_s = (
-            las_time_offset_s(
-                las_info(path), traj_scale, gps_week, needed_by="the control-point check"
-            )
+            las_time_offset_s(info, traj_scale, gps_week, needed_by="the control-point check")
             if need_time
             else 0.0
         )
+        seen_s = [np.inf, -np.inf]  # smallest and largest gps_time so far, as stored
         for chunk in iter_las_chunks(path, chunk_points):
             xyz = scaled_coordinates(chunk.array, chunk.scales, chunk.offsets)
-            t = np.asarray(chunk.gps_time, dtype=np.float64) + time_offset_s if need_time else None
+            t = None
+            if need_time:
+                stored = np.asarray(chunk.gps_time, dtype=np.float64)
+                finite = stored[np.isfinite(stored)]
+                if finite.size:
+                    seen_s = [min(seen_s[0], finite.min()), max(seen_s[1], finite.max())]
+                    check_week_rollover(info, float(seen_s[0]), float(seen_s[1]), gps_week)
+                t = stored + time_offset_s
             yield xyz, t, np.asarray(chunk.intensity, dtype=np.float64)
         return
     if suffix not in _TABLE_SUFFIXES:

@@ -48,6 +48,7 @@ __all__ = [
     "WEEK_SECONDS_SLACK_S",
     "LasInfo",
     "LasPointReader",
+    "check_week_rollover",
     "check_week_seconds",
     "iter_las_chunks",
     "las_end_times",
@@ -179,6 +180,53 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
         "las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD, "
         "then write the file again) or ask the software that wrote it for adjusted "
         "standard GPS time"
+    )
+    raise InputError(msg)
+
+
+def check_week_rollover(
+    info: LasInfo, t_min_s: float, t_max_s: float, gps_week: int | None
+) -> None:
+    """Refuse GPS seconds of week that cross the week rollover (604800 s back to 0).
+
+    One GPS week turns a LAS file's seconds of week into GPS time, for every command
+    (`las_time_offset_s`); a file whose times of week start again from 0 holds two
+    weeks, and the points after the rollover would be placed a week early. Times within
+    a day of a week's end (or counting past it) together with times within a day of its
+    start are taken as such a file (no survey file spans the rest of a week); the
+    message says to split it or to store adjusted standard GPS time.
+
+    Parameters
+    ----------
+    info : LasInfo
+        The file's header facts; nothing is checked when it says adjusted standard time.
+    t_min_s, t_max_s : float
+        Smallest and largest ``gps_time`` seen (s, as stored): the first and last
+        point, or every point read so far.
+    gps_week : int or None
+        ``--gps-week``, named in the message.
+
+    Raises
+    ------
+    InputError
+        Times on both sides of the rollover.
+    """
+    if info.gps_time_type == "adjusted_standard":
+        return
+    if not (t_min_s < WEEK_SECONDS_SLACK_S and t_max_s >= SECONDS_PER_WEEK - WEEK_SECONDS_SLACK_S):
+        return
+    weeks = (
+        f"--gps-week {gps_week} for the part before, --gps-week {gps_week + 1} for the part after"
+        if gps_week is not None
+        else "each part with its own GPS week"
+    )
+    tool = f" (LAStools: las2las -week_to_adjusted {gps_week})" if gps_week is not None else ""
+    msg = (
+        f"{info.path}: the points hold GPS seconds of week near the end of a week "
+        f"({t_max_s!r} s) and at the start of the next ({t_min_s!r} s): the file crosses "
+        "the GPS week rollover (its times start again from 0), and one GPS week cannot "
+        f"place both parts. Split the file where gps_time goes back to 0 and give {weeks}, "
+        f"or store its times as adjusted standard GPS time{tool}"
     )
     raise InputError(msg)
 

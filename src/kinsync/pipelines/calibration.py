@@ -34,7 +34,13 @@ from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.result import CalibrationResult
 from kinsync.errors import InputError, PointValueError
 from kinsync.io.cidco import cidco_scan_line, read_cidco_pass
-from kinsync.io.las import iter_las_chunks, las_info, las_time_offset_s, scaled_coordinates
+from kinsync.io.las import (
+    check_week_rollover,
+    iter_las_chunks,
+    las_info,
+    las_time_offset_s,
+    scaled_coordinates,
+)
 from kinsync.io.las_crs import georeferenced_crs_name
 from kinsync.io.mount_file import write_mount
 from kinsync.io.points import iter_table_chunks
@@ -85,7 +91,10 @@ def _read_las(
         xs.append(scaled_coordinates(chunk.array, chunk.scales, chunk.offsets))
     if not ts:
         return np.empty(0), np.empty((0, 3))
-    return np.concatenate(ts), np.concatenate(xs)
+    t = np.concatenate(ts)
+    if t.size and np.all(np.isfinite(t)):
+        check_week_rollover(info, float(t.min()) - offset, float(t.max()) - offset, gps_week)
+    return t, np.concatenate(xs)
 
 
 def _read_table(path: Path) -> tuple[FloatArray, FloatArray]:

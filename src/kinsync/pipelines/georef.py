@@ -45,6 +45,7 @@ from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_lines import csv_header_line
 from kinsync.io.las import (
+    check_week_rollover,
     check_week_seconds,
     las_end_times,
     las_header,
@@ -620,7 +621,10 @@ def _plan_las(
     info = las_info(path)
     template = las_header(path)
     if info.gps_time_type != "adjusted_standard" and info.point_count:
-        check_week_seconds(info, las_end_times(path))
+        ends = las_end_times(path)
+        check_week_seconds(info, ends)
+        if ends is not None:
+            check_week_rollover(info, min(ends), max(ends), gps_week)
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]

@@ -17,7 +17,7 @@ from typing import Literal
 
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefTrajectory
-from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S
+from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 from kinsync.pipelines.georef_chunks import ChunkOutput
@@ -106,6 +106,15 @@ def time_scale_hint(
             return gps_week_needed_text("GPS time (times beyond a week)", "week")
     else:
         stored_min, stored_max = t_min_s - times.las_offset_s, t_max_s - times.las_offset_s
+        rollover = _rollover_hint(
+            times,
+            stored_min,
+            stored_max,
+            traj_start_s - times.las_offset_s,
+            traj_end_s - times.las_offset_s,
+        )
+        if rollover is not None:
+            return rollover
         if (
             times.las_time_type == "adjusted_standard"
             and not traj_on_week
@@ -122,6 +131,34 @@ def time_scale_hint(
                 "--gps-week"
             )
     return _week_hint(times, t_min_s, t_max_s, traj_start_s, traj_end_s)
+
+
+def _rollover_hint(
+    times: PointTimes, stored_min: float, stored_max: float, traj_lo: float, traj_hi: float
+) -> str | None:
+    """Points at one end of a GPS week, the trajectory at the other: a rollover.
+
+    All on the stored seconds-of-week scale of a LAS file. A file whose times of week
+    start again from 0 is refused up front when its first and last points show it
+    (`kinsync.io.las.check_week_rollover`); this names it when they do not (points not
+    in time order).
+    """
+    if times.las_time_type != "week":
+        return None
+    late = SECONDS_PER_WEEK - WEEK_SECONDS_SLACK_S
+    if stored_max < WEEK_SECONDS_SLACK_S and traj_hi >= late:
+        where = "at the start of the GPS week, the trajectory at its end"
+    elif stored_min >= late and traj_lo < WEEK_SECONDS_SLACK_S:
+        where = "at the end of the GPS week, the trajectory at its start"
+    else:
+        return None
+    return (
+        f"the points outside have GPS seconds of week {_range_text(stored_min, stored_max)} "
+        f"as stored, {where}: the file crosses the GPS week rollover (its times start "
+        "again from 0), and one GPS week cannot place both parts; split it where gps_time "
+        "goes back to 0 and give each part its own --gps-week, or store its times as "
+        "adjusted standard GPS time"
+    )
 
 
 def _week_hint(
