@@ -75,6 +75,8 @@ def test_las_round_trip_within_scale(tmp_path: Path, fmt: passes_io.PassFileForm
     assert las.header.scales[0] <= 1e-5
     assert las.header.global_encoding.gps_time_type == laspy.header.GpsTimeType.STANDARD
     assert las.header.generating_software == GENERATING_SOFTWARE
+    assert set(np.asarray(las.return_number).tolist()) == {1}  # 1 of 1, not 0 of 0
+    assert set(np.asarray(las.number_of_returns).tolist()) == {1}
     assert las.header.creation_date in {
         dt.datetime.now(dt.UTC).date() + dt.timedelta(days=d) for d in (-1, 0)
     }

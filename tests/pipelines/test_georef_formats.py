@@ -190,6 +190,30 @@ def test_table_to_las_stores_time_attributes_and_coordinates(
     assert info.crs_wkt is not None
 
 
+@pytest.mark.parametrize("given", ["none", "return_number"])
+def test_table_to_las_without_returns_gives_single_returns(
+    tmp_path: Path, traj_path: Path, given: str
+) -> None:
+    """LAS numbers returns 1 to 15: a table without them is 1 of 1, not 0 of 0."""
+    cols = {k: v for k, v in _columns(12).items() if k in KEYS}
+    if given == "return_number":
+        cols["return_number"] = np.where(np.arange(N) % 3 == 0, 2, 1)
+    src = tmp_path / "points.csv"
+    with TableChunkWriter(src) as w:
+        w.write(cols)
+    out = tmp_path / "geo.laz"
+    georeference_file(src, traj_path, MOUNT, out, crs=CRS, chunk_points=500)
+    las = laspy.read(out)
+    returns = np.asarray(las.return_number)
+    if given == "none":
+        assert (returns == 1).all()
+    else:
+        np.testing.assert_array_equal(returns, cols["return_number"])
+    np.testing.assert_array_equal(np.asarray(las.number_of_returns), returns)
+    by_return = list(las.header.number_of_points_by_return[:3])
+    assert by_return == [int((returns == r).sum()) for r in (1, 2, 3)]
+
+
 def test_table_to_las_refuses_an_intensity_that_does_not_fit(
     tmp_path: Path, traj_path: Path
 ) -> None:

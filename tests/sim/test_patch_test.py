@@ -408,6 +408,8 @@ def test_files_read_back_with_the_project_readers(
         assert np.max(np.abs(xyz - line.xyz_scanner_m)) <= 0.5e-4 + 1e-9
         assert np.allclose(np.asarray(pts.gps_time) + 1e9, line.t_s, rtol=0.0, atol=1e-6)
         assert set(np.asarray(pts.point_source_id).tolist()) == {i + 1}
+        assert set(np.asarray(pts.return_number).tolist()) == {1}  # 1 of 1, not 0 of 0
+        assert set(np.asarray(pts.number_of_returns).tolist()) == {1}
 
 
 def test_las_format_and_replacing_an_earlier_patch_test(

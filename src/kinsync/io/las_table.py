@@ -15,10 +15,11 @@ set) when the times are GPS time, as they are when they are GPS seconds of week.
 column named as a standard dimension of the point format (``intensity``,
 ``return_number``, ``classification``, ``user_data``, ``scan_angle``,
 ``point_source_id``, the flags, ``red``...) fills it: its values must be whole numbers
-within the dimension's range. Every other numeric or boolean column is stored as an
-extra-bytes dimension of its own type (float64, int64, ...; booleans uint8), so that
-nothing numeric is lost; text columns cannot be stored in LAS and are named in
-``dropped``.
+within the dimension's range. Without ``return_number`` / ``number_of_returns`` columns
+a point is return 1 of 1 (LAS numbers returns from 1). Every other numeric or boolean
+column is stored as an extra-bytes dimension of its own type (float64, int64, ...;
+booleans uint8), so that nothing numeric is lost; text columns cannot be stored in LAS
+and are named in ``dropped``.
 """
 
 from __future__ import annotations
@@ -127,6 +128,18 @@ def _integer_range(pf: laspy.PointFormat, name: str) -> tuple[int, int]:
     return 0, 2**bits - 1
 
 
+def _default_returns(record: laspy.PackedPointRecord, given: Sequence[str]) -> None:
+    """Fill the return fields a table does not give: 1 of 1 (LAS returns are 1 to 15).
+
+    A missing ``return_number`` is 1; a missing ``number_of_returns`` is the return
+    number (at least 1), so that a table without return columns gives single returns.
+    """
+    if "return_number" not in given:
+        record["return_number"] = np.ones(len(record), dtype=np.uint8)
+    if "number_of_returns" not in given:
+        record["number_of_returns"] = np.maximum(np.asarray(record["return_number"]), 1)
+
+
 @dataclass(frozen=True)
 class TableLasPlan:
     """How the columns of a point table become LAS points (see the module docstring).
@@ -205,6 +218,7 @@ class TableLasPlan:
                 )
                 return array, (row, error)
             record[name] = as_float.astype(np.int64)
+        _default_returns(record, self.standard)
         for name, _ in self.extra:
             array[name] = np.asarray(columns[name])
         return array, None

@@ -384,6 +384,8 @@ def _write_las(path: Path, p: SpherePass, *, compress: bool) -> None:
     las.x = pts[:, 0]
     las.y = pts[:, 1]
     las.z = pts[:, 2]
+    las.return_number = np.ones(len(pts), dtype=np.uint8)  # single returns: 1 of 1
+    las.number_of_returns = np.ones(len(pts), dtype=np.uint8)
     if p.t_s is not None:
         t = np.asarray(p.t_s, dtype=np.float64)
         if t.size and float(t.min()) >= ADJUSTED_GPS_OFFSET_S:

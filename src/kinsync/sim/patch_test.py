@@ -520,6 +520,8 @@ def _write_line(path: Path, line: ScanLine, number: int) -> None:
     chunk = laspy.ScaleAwarePointRecord.zeros(n, header=header)
     chunk["gps_time"] = line.t_s - ADJUSTED_GPS_OFFSET_S
     chunk["point_source_id"] = np.full(n, number, dtype=np.uint16)
+    chunk["return_number"] = np.ones(n, dtype=np.uint8)  # single returns: 1 of 1
+    chunk["number_of_returns"] = np.ones(n, dtype=np.uint8)
     xyz = line.xyz_scanner_m
     with LasChunkWriter(path, header, None, (0.0, 0.0, 0.0), 1e-4) as writer:
         writer.write(chunk, xyz[:, 0], xyz[:, 1], xyz[:, 2])
