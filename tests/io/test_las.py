@@ -18,6 +18,7 @@ from kinsync.io.las import (
     las_header,
     las_info,
     las_takes_gps_week,
+    las_time_offset_s,
     read_las_points,
     scaled_coordinates,
     store_coordinates,
@@ -254,8 +255,16 @@ def test_las_end_times(tmp_path: Path, suffix: str) -> None:
     no_time = laspy.LasData(laspy.LasHeader(point_format=0, version="1.2"))
     no_time.x = np.zeros(3)
     no_time.write(tmp_path / "f0.las")
-    with pytest.raises(InputError, match="no gps_time"):
+    with pytest.raises(InputError, match=r"no gps_time; export the points .* with gps_time"):
         las_end_times(tmp_path / "f0.las")
+    with pytest.raises(InputError) as err:
+        las_time_offset_s(las_info(tmp_path / "f0.las"), "gps", None, needed_by="georeferencing")
+    assert str(err.value) == (
+        f"{tmp_path / 'f0.las'}: point format 0 has no gps_time; georeferencing needs a time "
+        "per point: export the points from the scanner software in a point format with "
+        "gps_time (1, 3 or 6-10; LAS 1.4 point format 6 is the usual one), or as a CSV/Parquet "
+        "table t_s,x_m,y_m,z_m"
+    )
 
 
 @pytest.mark.parametrize("suffix", [".las", ".laz"])

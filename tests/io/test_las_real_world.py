@@ -378,14 +378,15 @@ def test_corrupt_laz_chunk_names_its_points(tmp_path: Path) -> None:
     points.write_bytes(bytes(data))
     files = _setup(tmp_path, COPC)
     last = first_point + table[k][0] - 1
-    expected = f"points {first_point}..{last} (LAZ chunk {k}, bytes {first_byte}.."
+    # counted from 1, as every message counts LAS points (and the chunks)
+    expected = f"points {first_point + 1}..{last + 1} (LAZ chunk {k + 1}, bytes {first_byte}.."
     for extra in ([], ["--chunk-points", "100"]):
         code, stdout, err = _georef(points, files, tmp_path / "geo.laz", *extra)
         _assert_one_line_error(code, stdout, err, str(points), expected, "corrupt")
     for threads in (True, False):
         with LasPointReader(points, laz_threads=threads) as reader:
             reader.read(0, first_point)  # the chunks before are fine
-            with pytest.raises(InputError, match=rf"points {first_point}\.\.{last} "):
+            with pytest.raises(InputError, match=rf"points {first_point + 1}\.\.{last + 1} "):
                 reader.read(first_point - 5, 10)
 
 
@@ -418,7 +419,7 @@ def test_laz_fixed_size_chunk_shorter_than_the_header_says(tmp_path: Path) -> No
     files = _setup(tmp_path, whole)
     code, stdout, err = _georef(points, files, tmp_path / "geo.laz")
     _assert_one_line_error(
-        code, stdout, err, str(points), "points 0..799 (LAZ chunk 0, bytes", "corrupt"
+        code, stdout, err, str(points), "points 1..800 (LAZ chunk 1, bytes", "corrupt"
     )
 
 

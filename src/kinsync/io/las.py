@@ -104,6 +104,14 @@ ADJUSTED_GPS_OFFSET_S = 1.0e9
 """LAS "adjusted standard GPS time" is GPS time minus this (s)."""
 
 
+_NO_GPS_TIME_ADVICE = (
+    "export the points from the scanner software in a point format with gps_time (1, 3 "
+    "or 6-10; LAS 1.4 point format 6 is the usual one), or as a CSV/Parquet table "
+    "t_s,x_m,y_m,z_m"
+)
+"""What to do with a point format without ``gps_time`` (0 or 2)."""
+
+
 def las_time_offset_s(
     info: LasInfo, traj_scale: TimeScale, gps_week: int | None, *, needed_by: str
 ) -> float:
@@ -129,7 +137,7 @@ def las_time_offset_s(
     if "gps_time" not in laspy.PointFormat(info.point_format_id).dimension_names:
         msg = (
             f"{path}: point format {info.point_format_id} has no gps_time; {needed_by} "
-            "needs a time per point"
+            f"needs a time per point: {_NO_GPS_TIME_ADVICE}"
         )
         raise InputError(msg)
     if info.gps_time_type == "adjusted_standard":
@@ -293,7 +301,10 @@ def las_end_times(path: Path) -> tuple[float, float] | None:
         if reader.point_count == 0:
             return None
         if "gps_time" not in reader.point_format.dimension_names:
-            msg = f"{reader.path}: point format {reader.point_format.id} has no gps_time"
+            msg = (
+                f"{reader.path}: point format {reader.point_format.id} has no gps_time; "
+                f"{_NO_GPS_TIME_ADVICE}"
+            )
             raise InputError(msg)
         first = float(reader.read(0, 1).array["gps_time"][0])
         last = float(reader.read(reader.point_count - 1, 1).array["gps_time"][0])
@@ -504,7 +515,7 @@ class LasPointReader:
                 )
             except lazrs.LazrsError as err:
                 msg = (
-                    f"{self.path}: points {pa + p0}..{pb + p0 - 1} (LAZ chunk {k}, bytes "
+                    f"{self.path}: {points_text(pa + p0, pb + p0 - 1)} (LAZ chunk {k + 1}, bytes "
                     f"{ba + b0}..{bb + b0 - 1}, {c} points) cannot be decompressed ({err}); "
                     "the file is corrupt: copy it again"
                 )

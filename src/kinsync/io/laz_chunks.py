@@ -184,7 +184,7 @@ def _chunk_counts(
         last = int.from_bytes(raw, "little")
         if at + 4 > b or not 0 < last <= chunk_size:
             what = (
-                f"LAZ chunk {k} (from point {chunk_size * k}, bytes {a}..{b - 1}) has no "
+                f"LAZ chunk {k + 1} (from point {chunk_size * k + 1}, bytes {a}..{b - 1}) has no "
                 f"valid point count ({last} for chunks of {chunk_size})"
             )
             raise _laz_corrupt(path, n, what)
@@ -297,6 +297,6 @@ def _check_last_pointwise_chunk(
     _refuse_count(
         path,
         header,
-        f"the last LAZ chunk (from point {a}, bytes {start}..{end - 1}) holds more than "
+        f"the last LAZ chunk (from point {a + 1}, bytes {start}..{end - 1}) holds more than "
         f"{b - a} points",
     )

@@ -266,8 +266,9 @@ def georeference_file(
           standard GPS time, or seconds of week with an SBET read without
           ``gps_week``), columns named as LAS dimensions (``intensity``, ...) in them,
           other numeric columns as extra dimensions, text columns not carried (a
-          warning names them); X, Y, Z at 0.1 mm (1e-7 deg for longitude and latitude)
-          with offsets from the trajectory at the middle of the file's time span;
+          warning names them); X, Y, Z in steps of 1e-4 of their unit (0.1 mm; 1e-7 deg,
+          about 11 mm, for longitude and latitude) with offsets from the trajectory at the
+          middle of the file's time span;
         * ``.ply``: binary little-endian, ``x y z`` as double, every numeric attribute
           (LAS dimensions, or a table's numeric columns) as a property
           (`kinsync.io.ply`), text columns not carried.
