@@ -18,7 +18,6 @@ Sphere (q = 4, or 3 with a known radius): centre ``c`` and radius ``R``:
 from __future__ import annotations
 
 import math
-import zlib
 from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
 
@@ -195,14 +194,16 @@ def plane_from_points(x: FloatArray) -> PlaneFeature:
     return PlaneFeature(normal=normal, offset_m=0.0, reference_m=centroid)
 
 
-def thin_returns(idx: IntArray, limit: int, seed: int, line_name: str) -> IntArray:
+def thin_returns(idx: IntArray, limit: int, seed: int, line_t_s: FloatArray) -> IntArray:
     """At most ``limit`` of one line's returns on one feature, drawn at random, sorted.
 
-    The draw is seeded by ``seed``, the line's name and the returns themselves (their
-    smallest index within the line and their number), so it depends neither on the
-    order in which the lines are given nor on which other lines are given (a shared
-    random stream made the estimate and its sigma change with the file order, and with
-    a file that was then rejected).
+    The draw is seeded by ``seed`` and the returns themselves (the time of the first of
+    them, to 1 us, and their number), so it depends neither on the order in which the
+    lines are given, nor on which other lines are given (a shared random stream made the
+    estimate and its sigma change with the file order, and with a file that was then
+    rejected), nor on what the files are called (a draw seeded by the line's name gave
+    another estimate for the same returns in a renamed file, or in a .las instead of a
+    .laz).
 
     Parameters
     ----------
@@ -212,8 +213,8 @@ def thin_returns(idx: IntArray, limit: int, seed: int, line_name: str) -> IntArr
         Most returns kept.
     seed : int
         The options' seed.
-    line_name : str
-        The line's name (`kinsync.calibration.lines.ScanLine.name`).
+    line_t_s : ndarray of float, shape (N,)
+        The times of the line's returns (s), which ``idx`` indexes.
 
     Returns
     -------
@@ -221,7 +222,9 @@ def thin_returns(idx: IntArray, limit: int, seed: int, line_name: str) -> IntArr
     """
     if idx.size <= limit:
         return idx
-    key = [seed & 0xFFFFFFFF, zlib.crc32(line_name.encode()), int(idx.min()), int(idx.size)]
+    first = int(idx.min())
+    t_first_us = round(float(line_t_s[first]) * 1e6) % (1 << 63)
+    key = [seed & 0xFFFFFFFF, t_first_us, int(idx.size)]
     rng = np.random.default_rng(key)
     chosen: IntArray = np.sort(rng.choice(idx, limit, replace=False))
     return chosen

@@ -82,13 +82,14 @@ class LocalFrame:
 def local_frame_for(lines: Sequence[ScanLine]) -> LocalFrame:
     """The local frame at the mean trajectory position over one line's returns.
 
-    The line is the first by name (then by start time), not the first given: the
+    The line is the first recorded (then the first by name), not the first given: the
     patches are voxels of this frame, and the first line given made the patches, and
-    with them the estimate, change with the order of the files.
+    with them the estimate, change with the order of the files (and the first by name
+    changed them with what the files were called).
     (`kinsync.calibration.estimator.calibrate_mount` frames the lines it keeps, so that
     a rejected line changes nothing either.)
     """
-    line = min(lines, key=lambda ln: (ln.name, ln.t_start_s))
+    line = min(lines, key=lambda ln: (ln.t_start_s, ln.name))
     gtraj = GeorefTrajectory.from_trajectory(line.trajectory)
     t_mid = 0.5 * (line.t_start_s + line.t_end_s)
     t_mid = min(max(t_mid, gtraj.t_start_s), gtraj.t_end_s)

@@ -433,7 +433,7 @@ def _select(
             if idx is None:
                 continue
             idx = idx - offsets[li]
-            idx = thin_returns(idx, opt.max_points_per_line, opt.seed, models[li].line.name)
+            idx = thin_returns(idx, opt.max_points_per_line, opt.seed, models[li].line.t_s)
             per_line.append((int(li), idx))
         if len(per_line) < opt.min_lines or not _lines_agree(
             [x_all[offsets[li] + idx] for li, idx in per_line], opt
