@@ -89,19 +89,20 @@ def test_a_span_too_long_for_las_integers_is_a_clear_error(tmp_path: Path) -> No
 
 
 def test_geographic_output_keeps_heights_at_a_tenth_of_a_millimetre(tmp_path: Path) -> None:
-    """Longitude/latitude at 1e-7 deg, height at 1e-4 m: heights 1 km apart fit."""
+    """Longitude/latitude at 1e-9 deg (0.11 mm; 1e-7 deg was 11 mm), height at 1e-4 m:
+    heights 1 km apart fit."""
     traj = _line_trajectory(20.0, climb_m=1000.0)
     src = _scan(tmp_path, traj, 2_000)
     out = tmp_path / "geo.las"
     georeference_file(src, tmp_path / "traj.csv", MOUNT, out, crs="EPSG:4979", chunk_points=700)
     las = laspy.read(out)
-    assert las.header.scales.tolist() == [1e-7, 1e-7, 1e-4]
+    assert las.header.scales.tolist() == [1e-9, 1e-9, 1e-4]
     to_geo = pyproj.Transformer.from_crs(4978, 4979, always_xy=True)
     ecef = _expected_ecef(tmp_path, src)
     lon, lat, h = to_geo.transform(ecef[:, 0], ecef[:, 1], ecef[:, 2])
     assert np.ptp(h) > 900.0
-    np.testing.assert_allclose(np.asarray(las.x), lon, rtol=0, atol=0.5e-7 + 1e-12)
-    np.testing.assert_allclose(np.asarray(las.y), lat, rtol=0, atol=0.5e-7 + 1e-12)
+    np.testing.assert_allclose(np.asarray(las.x), lon, rtol=0, atol=0.5e-9 + 1e-12)
+    np.testing.assert_allclose(np.asarray(las.y), lat, rtol=0, atol=0.5e-9 + 1e-12)
     np.testing.assert_allclose(np.asarray(las.z), h, rtol=0, atol=0.5e-4 + 1e-9)
 
 

@@ -103,7 +103,7 @@ _LAS_SUFFIXES = (".las", ".laz")
 _TABLE_SUFFIXES = (".csv", ".parquet")
 _ECEF_CRS = "EPSG:4978"
 _LAS_SCALE_M = 1e-4
-_LAS_SCALE_DEG = 1e-7
+_LAS_SCALE_DEG = 1e-9
 _LAS_OFFSET_ROUND = 1000.0
 
 
@@ -266,8 +266,8 @@ def georeference_file(
           standard GPS time, or seconds of week with an SBET read without
           ``gps_week``), columns named as LAS dimensions (``intensity``, ...) in them,
           other numeric columns as extra dimensions, text columns not carried (a
-          warning names them); X, Y, Z in steps of 1e-4 of their unit (0.1 mm; 1e-7 deg,
-          about 11 mm, for longitude and latitude) with offsets from the trajectory at the
+          warning names them); X, Y, Z in steps of 1e-4 of their unit (0.1 mm; 1e-9 deg,
+          0.11 mm, for longitude and latitude) with offsets from the trajectory at the
           middle of the file's time span;
         * ``.ply``: binary little-endian, ``x y z`` as double, every numeric attribute
           (LAS dimensions, or a table's numeric columns) as a property
@@ -662,8 +662,9 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
     trajectory; its middle when neither is usable); the offsets are the trajectory's
     position there in ``crs``, rounded (1 km, or 1 degree for longitude and latitude),
     so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm,
-    65 km at 1e-4 ft) either way from its middle. Scales: 1e-4 of each axis' unit (0.1 mm;
-    1e-7 deg for longitude and latitude).
+    65 km at 1e-4 ft, 2.1 deg at 1e-9 deg) either way from its middle. Scales: 1e-4 of
+    each axis' unit (0.1 mm; 1e-9 deg, 0.11 mm, for longitude and latitude: 1e-7 deg
+    stored them in 11 mm steps).
     """
     crs, traj = ctx.crs, ctx.traj
     geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic

@@ -120,7 +120,7 @@ class LasOutputFrame:
     scales : tuple of 3 float
         x, y, z resolution, each in its axis' unit: 1e-4 (m, or ft for a CRS in feet,
         whose Z is in metres unless a vertical CRS in feet is given) for ECEF and
-        projected CRSs; 1e-7 deg for longitude/latitude and 1e-4 m for the height of
+        projected CRSs; 1e-9 deg for longitude/latitude and 1e-4 m for the height of
         geographic ones.
     """
 
