@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -12,6 +15,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 import pytest
 
+import kinsync.sync
 from kinsync.cli import _output
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.mount_file import write_mount
@@ -188,6 +192,62 @@ def test_an_ambiguous_clock_is_refused_unless_the_pulses_settle_it_or_it_is_acce
     code, out, err = run_cli([*args, "--pulses", str(folder / "pulses.csv")])
     assert code == 0, err
     assert "no (settled by the pulses)" in out
+
+
+def test_an_ambiguity_with_sync_points_seen_off_the_clock_says_what_to_check(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Sightings at their sync points' crossings that fit no clock: check the geometry.
+
+    With the plane slanted 20 deg, sightings of two of four sync points (one pass each,
+    at the start and the end) fit no line and the clock was ambiguous: the advice was to
+    pass each sync point at the start and the end of the drive, which had been done.
+    Here S2 is 0.26 m north and east off (its two sightings fit no line) and the clock is made
+    ambiguous; the message names S2 and the mount and coordinates to check instead.
+    """
+    _, folder = dataset
+    lines = (folder / "sync_points.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    for r in rows:  # S2 0.26 m north and east
+        if r[0] == "S2":
+            lat = float(r[1])
+            r[1] = repr(lat + math.degrees(0.26 / 6_378_137.0))
+            east_deg = math.degrees(0.26 / (6_378_137.0 * math.cos(math.radians(lat))))
+            r[2] = repr(float(r[2]) + east_deg)
+    moved = tmp_path / "sp_s2.csv"
+    moved.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
+    real = kinsync.sync.synchronise_object_space
+
+    def ambiguous(*args: Any, **kwargs: Any) -> kinsync.sync.ObjectSpaceResult:
+        result = real(*args, **kwargs)
+        rival = kinsync.sync.Alternative(result.t0_s + 30.0, result.period_s, 4, 1.0)
+        return dataclasses.replace(result, ambiguous=True, alternatives=(rival,))
+
+    monkeypatch.setattr(kinsync.sync, "synchronise_object_space", ambiguous)
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(moved)
+    code, out, err = run_cli([*args, "--json"])
+    assert_one_line_error(
+        code,
+        out,
+        err,
+        f"{moved}: ambiguous: 1 other match(es) of sightings to sync-point crossings",
+        "2 sighting(s) lie where the scan plane crosses sync point(s) S2 but fit none of "
+        "these clocks: check the mount (lever arm, boresight, latency, [profiler] "
+        "azimuth_deg) and the sync points' coordinates (heights too)",
+        "give --pulses",
+        "or take the best with --accept-ambiguous",
+    )
+    assert "pass each sync point" not in err
+    monkeypatch.setattr(kinsync.sync, "synchronise_object_space", real)
+    code, out, err = run_cli([*args, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [u["at_crossing_of"] for u in doc["unmatched_sightings"]].count("S2") == 2
 
 
 def test_a_gap_in_the_pulses_is_named_by_file_line_and_time(

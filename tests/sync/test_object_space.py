@@ -186,6 +186,51 @@ def test_loop_with_five_candidate_crossings_and_an_extra_pulse(
     assert not r.ambiguous
 
 
+@pytest.mark.parametrize("azimuth_deg", [-20.0, -35.0])
+def test_a_slanted_profile_plane(azimuth_deg: float) -> None:
+    """A profile plane slanted about the scanner Z moves each target within it as it sweeps.
+
+    The detection's sphere fit took the target to stand still in the plane and put it
+    0.5-1.5 profiles (-20 deg) and 1.2-2.6 profiles (-35 deg, where a turn also swept
+    S2 at 0.4 m/s) late on one side of the scan and early on the other: at -20 deg
+    only S2 matched, t0 14 ms off and "ambiguous"; at -35 deg 26 ms off, "ambiguous".
+    Each candidate crossing's track of the target now shapes the fit before matching.
+    """
+    mount = dataclasses.replace(DriveScanConfig().mount, profiler_azimuth_deg=azimuth_deg)
+    sim = simulate_drive_scan(DriveScanConfig(near_targets_only=True, mount=mount))
+    r = synchronise_object_space(sim.scanner.scan, sim.trajectory, mount, sim.sync_points, EXACT)
+    dt0, dT = _errors(r, sim)
+    assert not r.ambiguous
+    assert abs(dt0) < 1e-3
+    assert abs(dt0) < 3 * r.t0_std_s
+    assert abs(dT) < 3 * r.period_std_s
+    names = [s.name for s in r.sightings]
+    assert names.count("S1") >= 2
+    assert names.count("S2") >= 2
+    assert r.sigma_scale == 1.0  # the residuals agree with the sightings' sigmas
+
+
+def test_a_sync_point_seen_off_the_clock_is_named(oval: DriveScanSimulation) -> None:
+    """S2 0.26 m north and east of where it is: its sightings, at its crossings, fit no line.
+
+    The clock rests on S1; `unmatched_at` names S2 for its two sightings (the control
+    targets, glints and far passes stay unnamed).
+    """
+    llh = np.array(oval.sync_points.lat_lon_h, dtype=np.float64)
+    k = oval.sync_points.names.index("S2")
+    llh[k, 0] += math.degrees(0.26 / 6_378_137.0)
+    llh[k, 1] += math.degrees(0.26 / (6_378_137.0 * math.cos(math.radians(llh[k, 0]))))
+    moved = SyncPoints(oval.sync_points.names, llh)
+    r = synchronise_object_space(
+        oval.scanner.scan, oval.trajectory, oval.config.mount, moved, EXACT
+    )
+    assert "S2" not in [s.name for s in r.sightings]
+    assert len(r.unmatched_at) == len(r.unmatched)
+    assert [name for name in r.unmatched_at if name is not None] == ["S2", "S2"]
+    doc = r.as_document()["unmatched_sightings"]
+    assert [u["at_crossing_of"] for u in doc] == list(r.unmatched_at)
+
+
 def test_ambiguity_is_reported() -> None:
     """Two sightings of one target a lap apart fit every pair of consecutive laps."""
     sim = simulate_drive_scan(DriveScanConfig(route="loop", near_targets_only=True, seed=5))

@@ -243,12 +243,23 @@ def _ambiguity_message(result: ObjectSpaceResult, sync_points: Path, pulses: Pat
     settle = (
         "" if pulses is not None else "give --pulses (the scanner's GPS-timed profile pulses), "
     )
+    seen_off = [name for name in result.unmatched_at if name is not None]
+    if seen_off:  # passing them again would not help: they were seen, and fit no clock
+        names = ", ".join(sorted(set(seen_off)))
+        why = (
+            f"; {len(seen_off)} sighting(s) lie where the scan plane crosses sync point(s) "
+            f"{names} but fit none of these clocks: check the mount (lever arm, boresight, "
+            "latency, [profiler] azimuth_deg) and the sync points' coordinates (heights too)"
+        )
+        advice = ""
+    else:
+        why = ""
+        advice = "pass each sync point at the start and at the end of the drive, "
     return (
         f"{sync_points}: ambiguous: {len(result.alternatives)} other match(es) of sightings to "
         f"sync-point crossings fit almost as well as the best, t0 = {result.t0_s:.6f} s "
-        f"(others: t0 = {others}), so its clock is not sure{unsettled}: {settle}pass each sync "
-        "point at the start and at the end of the drive, or take the best with "
-        "--accept-ambiguous"
+        f"(others: t0 = {others}), so its clock is not sure{unsettled}{why}: {settle}{advice}"
+        "or take the best with --accept-ambiguous"
     )
 
 

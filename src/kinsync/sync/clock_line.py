@@ -7,12 +7,16 @@ weighted least squares until the assignment is stable; `candidate_assignments` g
 every distinct assignment, best first. The matching uses each pair's own sigma
 (`pair_timing_std`); the final line is fitted by generalised least squares
 (`gls_line`) with the pairs' full covariance (`pair_covariance`: trajectory errors
-correlated in time). See `kinsync.sync.object_space` for the whole method.
+correlated in time). A sighting may be refined once per compatible crossing (with
+that crossing's in-plane drift, `kinsync.sync.sightings.refine_sighting`): the
+``per_pair`` sightings then give each pair its own abscissa and sigma. See
+`kinsync.sync.object_space` for the whole method.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,17 +26,21 @@ from kinsync._typing import FloatArray, IntArray
 from kinsync.frames import wrap_angle_rad
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import Crossing
-from kinsync.sync.sightings import Sighting
+from kinsync.sync.scan import ProfileScan
+from kinsync.sync.sightings import Sighting, refine_sighting
 
 __all__ = [
     "Assignment",
     "LineFit",
     "best_assignment",
     "candidate_assignments",
+    "compatible_crossings",
     "gls_line",
     "pair_covariance",
     "pair_timing_std",
     "refine_assignment",
+    "seen_off_the_clock",
+    "tracked_sightings",
     "weighted_line",
 ]
 
@@ -171,13 +179,17 @@ def pair_covariance(
     return cov
 
 
+PairSightings = Mapping[tuple[int, int], Sighting]
+"""A sighting refined for one candidate crossing, keyed by (sighting, crossing) index."""
+
+
 @dataclass(frozen=True)
 class _Compatible:
     """Every compatible (sighting, crossing) pair, flat, sightings in order.
 
-    ``sighting``, ``crossing``: indices; ``x``: the sighting's clock abscissa
-    (profiles); ``t_s``: the crossing's time (s); ``std_s``: the pair's timing sigma (s).
-    Within one sighting the crossings keep the order of its ``compat`` entry.
+    ``sighting``, ``crossing``: indices; ``x``: the pair's clock abscissa of the
+    sighting (profiles); ``t_s``: the crossing's time (s); ``std_s``: the pair's timing
+    sigma (s). Within one sighting the crossings keep the order of its ``compat`` entry.
     """
 
     sighting: IntArray
@@ -190,13 +202,15 @@ class _Compatible:
     def build(
         cls, x: FloatArray, t_c: FloatArray, compat: Sequence[IntArray], std: FloatArray
     ) -> _Compatible:
+        """From abscissae ``x`` (shape (S,) or, per pair, (S, C)) and sigmas (S, C)."""
         sighting = np.repeat(np.arange(len(compat), dtype=np.int64), [js.size for js in compat])
         crossing = (
             np.concatenate([np.asarray(js, dtype=np.int64) for js in compat])
             if compat
             else np.zeros(0, dtype=np.int64)
         )
-        return cls(sighting, crossing, x[sighting], t_c[crossing], std[sighting, crossing])
+        x_pair = x[sighting] if x.ndim == 1 else x[sighting, crossing]
+        return cls(sighting, crossing, x_pair, t_c[crossing], std[sighting, crossing])
 
 
 def _first_of_groups(keys: IntArray) -> IntArray:
@@ -236,7 +250,9 @@ def refine_assignment(
 ) -> Assignment | None:
     """Iterate one hypothesis (seed t0, T) to a stable assignment, or None (module step 3).
 
-    ``period_bounds_s`` (s) replaces the prior's window ``period_prior_s (1 +- tol)``.
+    ``x``: the sightings' abscissae, shape (S,), or each pair's, shape (S, C);
+    ``std``: the pairs' timing sigmas (s), shape (S, C). ``period_bounds_s`` (s)
+    replaces the prior's window ``period_prior_s (1 +- tol)``.
     """
     pairs = _Compatible.build(x, t_c, compat, std)
     return _refine(seed_t0, seed_T, pairs, cfg, period_bounds_s or _prior_window(cfg))
@@ -283,17 +299,14 @@ def _refine(
     return Assignment(pairs=previous, fit=fit, score=fit.chi2 + prior)
 
 
-def _compatible_pairs(
+def compatible_crossings(
     sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
-) -> tuple[FloatArray, FloatArray, list[IntArray], _Compatible]:
-    """Abscissae x, crossing times, each sighting's compatible crossings, and the flat pairs.
+) -> list[IntArray]:
+    """Each sighting's compatible crossings (indices, ascending), module step 3.
 
     A sighting and a crossing are compatible when the sighting's angle and range are
     within ``angle_gate_rad`` and ``range_gate_m`` of the crossing's.
     """
-    x = np.array([s.x for s in sightings])
-    t_c = np.array([c.t_s for c in crossings])
-    std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
     ang_c = np.array([c.angle_rad for c in crossings])
     rng_c = np.array([c.range_m for c in crossings])
     compat: list[IntArray] = []
@@ -301,6 +314,33 @@ def _compatible_pairs(
         d_ang = np.abs(wrap_angle_rad(ang_c - s.angle_rad))
         ok = (d_ang <= cfg.angle_gate_rad) & (np.abs(rng_c - s.range_m) <= cfg.range_gate_m)
         compat.append(np.flatnonzero(ok).astype(np.int64))
+    return compat
+
+
+def _compatible_pairs(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    per_pair: PairSightings | None = None,
+) -> tuple[FloatArray, FloatArray, list[IntArray], _Compatible]:
+    """Abscissae x (S, C), crossing times, each sighting's compatible crossings, the pairs.
+
+    ``x[i, j]`` is sighting i's abscissa as refined for crossing j (``per_pair``), or
+    its own where ``per_pair`` has no entry; the pair's sigma likewise.
+    """
+    t_c = np.array([c.t_s for c in crossings])
+    compat = compatible_crossings(sightings, crossings, cfg)
+    std = pair_timing_std(sightings, crossings, cfg, cfg.period_prior_s)
+    x = np.repeat(np.array([s.x for s in sightings], dtype=np.float64)[:, None], len(crossings), 1)
+    if per_pair:
+        keys = list(per_pair)
+        refined = [per_pair[key] for key in keys]
+        rows = np.array([i for i, _ in keys], dtype=np.int64)
+        cols = np.array([j for _, j in keys], dtype=np.int64)
+        x[rows, cols] = [s.x for s in refined]
+        std[rows, cols] = pair_timing_std(refined, crossings, cfg, cfg.period_prior_s)[
+            np.arange(len(keys)), cols
+        ]
     return x, t_c, compat, _Compatible.build(x, t_c, compat, std)
 
 
@@ -309,14 +349,17 @@ def candidate_assignments(
     crossings: Sequence[Crossing],
     cfg: ObjectSpaceConfig,
     period_bounds_s: tuple[float, float] | None = None,
+    per_pair: PairSightings | None = None,
 ) -> list[Assignment]:
     """Every distinct assignment reached from a two-pair hypothesis, best first.
 
     Hypotheses and assignments need a period within ``period_bounds_s`` (s), by default
     the prior's window ``period_prior_s (1 +- period_tolerance)``; best is the most
-    pairs, then the smallest score.
+    pairs, then the smallest score. ``per_pair`` (optional) holds a sighting refined
+    for one compatible crossing, keyed ``(sighting, crossing)``: that pair takes its
+    abscissa and sigma (the sighting's own are the default).
     """
-    x, t_c, compat, compatible = _compatible_pairs(sightings, crossings, cfg)
+    x, t_c, compat, compatible = _compatible_pairs(sightings, crossings, cfg, per_pair)
     bounds = period_bounds_s or _prior_window(cfg)
     lo, hi = bounds
     found: dict[tuple[tuple[int, int], ...], Assignment] = {}
@@ -325,17 +368,18 @@ def candidate_assignments(
     member: dict[tuple[int, int], set[int]] = {}
     for i in range(len(sightings)):
         for i2 in range(i + 1, len(sightings)):
-            dx = x[i2] - x[i]
-            if dx <= 0.0:
-                continue
             for j in compat[i]:
                 for j2 in compat[i2]:
+                    # Sightings are in order of their own abscissa; a pair's may differ.
+                    dx = x[i2, j2] - x[i, j]
+                    if j == j2 or dx == 0.0:
+                        continue
                     T = (t_c[j2] - t_c[j]) / dx
-                    if j == j2 or not lo <= T <= hi:
+                    if not lo <= T <= hi:
                         continue
                     if member.get((i, int(j)), set()) & member.get((i2, int(j2)), set()):
                         continue
-                    a = _refine(t_c[j] - T * x[i], T, compatible, cfg, bounds)
+                    a = _refine(t_c[j] - T * x[i, j], T, compatible, cfg, bounds)
                     if a is None or a.pairs in found:
                         continue
                     found[a.pairs] = a
@@ -368,6 +412,7 @@ def best_assignment(
     cfg: ObjectSpaceConfig,
     period_bounds_s: tuple[float, float],
     more_than: int,
+    per_pair: PairSightings | None = None,
 ) -> Assignment | None:
     """The assignment with the most pairs, if more than ``more_than``, over a period range.
 
@@ -388,6 +433,8 @@ def best_assignment(
         Smallest and largest period (s) of a hypothesis.
     more_than : int
         Assignments of this many pairs or fewer are not wanted.
+    per_pair : Mapping of (int, int) to Sighting, optional
+        Sightings refined for one compatible crossing, as for `candidate_assignments`.
 
     Returns
     -------
@@ -395,7 +442,7 @@ def best_assignment(
         The one with the most pairs (then the smallest score), None when none has more
         than ``more_than``.
     """
-    _, _, _, pairs = _compatible_pairs(sightings, crossings, cfg)
+    _, _, _, pairs = _compatible_pairs(sightings, crossings, cfg, per_pair)
     lo, hi = period_bounds_s
     if pairs.x.size < 2:
         return None
@@ -434,3 +481,58 @@ def best_assignment(
             member.setdefault(pair, set()).add(len(found))
     ranked = sorted(found.values(), key=lambda a: (-len(a.pairs), a.score))
     return ranked[0] if ranked and len(ranked[0].pairs) > more_than else None
+
+
+def tracked_sightings(
+    scan: ProfileScan,
+    detected: Sequence[tuple[Sighting, IntArray]],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+) -> PairSightings:
+    """Each sighting refitted for each compatible crossing, along its track.
+
+    ``detected``: each sighting with the indices of its returns in ``scan``
+    (`kinsync.sync.sightings.detect_clusters`). See `kinsync.sync.object_space`, step 2.
+
+    The target moves relative to the plane as the plane sweeps it (a slanted plane, a
+    turn): the detection fit, which cannot know how, was off by up to a profile or two
+    on a plane slanted 20-35 deg, on opposite sides of the scan in opposite directions
+    (`kinsync.sync.sightings.refine_sighting`). Each candidate crossing's
+    `Crossing.point_track` says how, timed with ``period_prior_s`` times a fitted
+    scale. A cluster whose detection fit failed (a centroid sighting) is tried too.
+    Keyed ``(sighting, crossing)``; empty unless ``refinement`` is ``"sphere"``.
+    """
+    out: dict[tuple[int, int], Sighting] = {}
+    if cfg.refinement != "sphere":
+        return out
+    compat = compatible_crossings([s for s, _ in detected], crossings, cfg)
+    for i, ((_, idx), js) in enumerate(zip(detected, compat, strict=True)):
+        for j in js.tolist():
+            out[(i, j)] = refine_sighting(scan, idx, cfg, crossings[j].point_track())
+    return out
+
+
+def seen_off_the_clock(
+    unmatched: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    t0_s: float,
+    period_s: float,
+) -> tuple[str | None, ...]:
+    """For each unmatched sighting, the sync point it is a sighting of by the clock, or None.
+
+    ``(t0_s, period_s)``: the clock (s).
+
+    A crossing compatible with the sighting (angle and range) that the clock ``(t0_s,
+    period_s)`` puts within the sighting's profiles (one either side): the target was
+    seen when the plane crossed it, yet its sub-profile position fits no clock line.
+    Of several, the one nearest the line.
+    """
+    out: list[str | None] = []
+    for s, js in zip(unmatched, compatible_crossings(unmatched, crossings, cfg), strict=True):
+        n_c = {j: (crossings[j].t_s - t0_s) / period_s - s.angle_rad / math.tau for j in js}
+        inside = [j for j, n in n_c.items() if s.first_profile - 1 <= n <= s.last_profile + 1]
+        out.append(
+            crossings[min(inside, key=lambda j: abs(n_c[j] - s.profile))].name if inside else None
+        )
+    return tuple(out)

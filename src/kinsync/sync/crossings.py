@@ -17,7 +17,8 @@ Brent, R. P., "Algorithms for Minimization without Derivatives", 1973 (root find
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import brentq
@@ -33,13 +34,85 @@ from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import TrajectoryGap
 
 __all__ = [
+    "TRACK_HALF_S",
+    "TRACK_STEP_S",
     "Crossing",
     "CrossingSearch",
     "GapCrossing",
+    "PointTrack",
     "find_crossings",
     "require_profiler_azimuth",
     "search_crossings",
 ]
+
+
+TRACK_HALF_S = 3.0
+"""A crossing's `PointTrack` reaches this far before and after it (s): a 0.5 m sphere
+swept at 0.2 m/s (a turn) takes 2.5 s to pass."""
+
+TRACK_STEP_S = 0.005
+"""Sample interval of a `PointTrack` (s); linear interpolation between samples is good
+to micrometres (the sweep's acceleration is below 1 m/s^2)."""
+
+
+@dataclass(frozen=True, eq=False)
+class PointTrack:
+    """A sync point's motion relative to the scan plane around one crossing.
+
+    Attributes
+    ----------
+    tau_s : ndarray, shape (N,)
+        Time from the crossing (s), increasing, 0 included.
+    normal_m : ndarray, shape (N,)
+        Signed distance ``d_P`` of the point to the scan plane (m), 0 at the crossing.
+    in_plane_m : ndarray, shape (N, 2)
+        The point's displacement within the plane since the crossing, along the plane's
+        ``(r sin phi, r cos phi)`` axes (m).
+
+    Notes
+    -----
+    A sphere sighting is fitted with it (`kinsync.sync.sightings.refine_sighting`): at
+    a return's time the target's centre lies ``normal_m`` off the plane and has moved
+    ``in_plane_m`` within it. Outside ``tau_s`` the ends are held.
+    """
+
+    tau_s: FloatArray
+    normal_m: FloatArray
+    in_plane_m: FloatArray
+
+    @classmethod
+    def linear(cls, rate_m_s: float, drift_m_s: tuple[float, float]) -> PointTrack:
+        """The track of a constant sweep ``rate_m_s`` and drift ``drift_m_s`` (m/s)."""
+        tau = np.array([-1.0e3, 0.0, 1.0e3])
+        return cls(tau, rate_m_s * tau, np.outer(tau, np.asarray(drift_m_s, dtype=np.float64)))
+
+    def at(self, tau_s: FloatArray) -> FloatArray:
+        """``(d_P, dy, dz)`` (m) at times ``tau_s`` (s from the crossing), shape (3, k)."""
+        return np.stack(
+            [
+                np.interp(tau_s, self.tau_s, self.normal_m),
+                np.interp(tau_s, self.tau_s, self.in_plane_m[:, 0]),
+                np.interp(tau_s, self.tau_s, self.in_plane_m[:, 1]),
+            ]
+        )
+
+    @cached_property
+    def _slopes(self) -> FloatArray:
+        """Rates (m/s) over each sample interval, shape (N - 1, 3)."""
+        values = np.column_stack([self.normal_m, self.in_plane_m])
+        out: FloatArray = np.diff(values, axis=0) / np.diff(self.tau_s)[:, None]
+        return out
+
+    def rate_at(self, tau_s: FloatArray) -> FloatArray:
+        """Time derivative of `at` (m/s), shape (3, k): the slope of the sample interval.
+
+        Zero where the ends are held (outside ``tau_s``).
+        """
+        slopes = self._slopes
+        k = np.searchsorted(self.tau_s, tau_s, side="right") - 1
+        inside = (k >= 0) & (k < self.tau_s.size - 1)
+        out: FloatArray = np.where(inside, slopes[np.clip(k, 0, slopes.shape[0] - 1)].T, 0.0)
+        return out
 
 
 @dataclass(frozen=True)
@@ -66,7 +139,13 @@ class Crossing:
         step 5).
     drift_m_s : tuple of 2 float
         Velocity of the point within the profile plane, along the plane's
-        ``(r sin phi, r cos phi)`` axes (m/s): the scanner moves sideways in a turn.
+        ``(r sin phi, r cos phi)`` axes (m/s): the scanner moves sideways in a turn,
+        and a plane slanted by ``[profiler] azimuth_deg`` az moves over the point
+        ``tan(az)`` as fast as it sweeps it.
+    track : PointTrack or None
+        The point's motion relative to the plane from `TRACK_HALF_S` before to after
+        the crossing (`search_crossings` gives it); None: `point_track` makes it linear
+        from ``rate_m_s`` and ``drift_m_s``.
     """
 
     name: str
@@ -76,6 +155,11 @@ class Crossing:
     rate_m_s: float
     normal_ecef: tuple[float, float, float]
     drift_m_s: tuple[float, float] = (0.0, 0.0)
+    track: PointTrack | None = field(default=None, compare=False, repr=False)
+
+    def point_track(self) -> PointTrack:
+        """`track`, or the linear track of ``rate_m_s`` and ``drift_m_s`` without one."""
+        return self.track or PointTrack.linear(self.rate_m_s, self.drift_m_s)
 
 
 @dataclass(frozen=True)
@@ -183,6 +267,28 @@ def _sign_changes(
     sign_change = (np.sign(d[:-1]) != np.sign(d[1:])) | (d[:-1] == 0.0)
     k = np.flatnonzero(sign_change & (near[:-1] | near[1:]))
     return k[~is_gap[k]].tolist(), k[is_gap[k]].tolist()
+
+
+def _point_track(
+    gtraj: GeorefTrajectory, mount: Mount, az: float, t_c: float, p: FloatArray
+) -> PointTrack:
+    """Point p's motion relative to the scan plane around the crossing at ``t_c``.
+
+    Sampled every `TRACK_STEP_S` from `TRACK_HALF_S` before to after (held at the
+    trajectory's ends); samples in a data gap of the trajectory (NaN) are dropped.
+    """
+    tau = np.arange(-TRACK_HALF_S, TRACK_HALF_S + 0.5 * TRACK_STEP_S, TRACK_STEP_S)
+    t = np.clip(t_c + tau, gtraj.t_start_s, gtraj.t_end_s)
+    probe = np.vstack([np.zeros(3), np.eye(3)])  # scanner origin and axes
+    xyz, _ = georeference(np.repeat(t, 4), np.tile(probe, (t.size, 1)), gtraj, mount)
+    xyz = xyz.reshape(t.size, 4, 3)
+    axes = xyz[:, 1:] - xyz[:, :1]  # rows: scanner axes in ECEF
+    v = np.einsum("nij,nj->ni", axes, p - xyz[:, 0])
+    d = math.cos(az) * v[:, 0] + math.sin(az) * v[:, 1]
+    yz = np.column_stack([-math.sin(az) * v[:, 0] + math.cos(az) * v[:, 1], v[:, 2]])
+    ok = np.isfinite(d) & np.all(np.isfinite(yz), axis=1)
+    at_c = yz[int(np.argmin(np.abs(tau)))]  # tau 0 is a sample
+    return PointTrack(tau[ok], d[ok], yz[ok] - at_c)
 
 
 def find_crossings(
@@ -319,6 +425,7 @@ def search_crossings(
                     rate_m_s=rate,
                     normal_ecef=(float(m_c[0]), float(m_c[1]), float(m_c[2])),
                     drift_m_s=((y_hi - y_lo) / (hi - lo), (z_hi - z_lo) / (hi - lo)),
+                    track=_point_track(gtraj, mount, az, t_c, p),
                 )
             )
     out.sort(key=lambda c: c.t_s)

@@ -36,10 +36,20 @@ and T. The algorithm:
    or three profiles, no convergence, an implausible sphere), with an a-priori sigma
    ``centroid_profile_std`` (plus a term for sparse clusters): sampling a round target
    every 0.35-0.45 radii, the centroid is off by 0.11 profile RMS in simulation, the
-   fit by about 0.015 (1 deg beams, 3 mm range noise). After matching, each sphere
-   sighting is fitted again with the sweep and the in-plane drift of its crossing
-   (the scanner, ahead of the body's turning point, slides sideways in a turn: left
-   out, this biased the fit by 0.15 profile in the oval's turns).
+   fit by about 0.015 (1 deg beams, 3 mm range noise). That fit takes the target to
+   stand still in the plane, but it moves: a plane slanted by ``[profiler]
+   azimuth_deg`` az slides over the point ``tan(az)`` as fast as it sweeps it, and in
+   a turn the scanner slides sideways and the sweep slows. Only the cap facing the
+   scanner is seen, so the fit put x_P where that cap was nearest: 0.3 profile off at
+   10 deg, up to 1 at 20 deg, 2 at 35 deg, on opposite sides of the scan in opposite
+   directions, so that sightings were left unmatched and the clock "ambiguous" (0.15
+   profile in the oval's turns at 0 deg). Each cluster is therefore fitted again for
+   each compatible crossing (step 3) along that crossing's track of the point
+   (`Crossing.track`: its distance to the plane and its motion within it, sampled
+   from the trajectory 3 s either side), the returns timed with the prior period
+   times a fitted scale; matching uses these fits, and after matching each matched
+   sighting is fitted once more along its crossing's track timed with the estimated
+   period.
 3. **Identification and ambiguity.** The clock offset t0 is unknown, so a sighting
    cannot be matched to a crossing by time alone. It is matched by position and by
    relative timing: a sighting is *compatible* with a crossing when its angle and
@@ -178,10 +188,13 @@ from kinsync.errors import KinsyncWarning, ObservabilityError, PeriodPriorError
 from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     Assignment,
+    PairSightings,
     best_assignment,
     candidate_assignments,
     gls_line,
     pair_covariance,
+    seen_off_the_clock,
+    tracked_sightings,
 )
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import (
@@ -299,6 +312,13 @@ class ObjectSpaceResult:
         The regression pairs, in profile order.
     unmatched : tuple of Sighting
         Sightings matched to no sync-point crossing (control targets, glints...).
+    unmatched_at : tuple of (str or None)
+        For each of ``unmatched``: the sync point whose crossing lies where the sighting
+        is (angle and range within ``angle_gate_rad`` and ``range_gate_m``) and, by
+        this clock, within the sighting's profiles (one either side), None where none
+        does. A named one is a sync point seen when the plane crossed it whose
+        sub-profile position fits no clock: the geometry (mount, coordinates) or the
+        sighting is wrong, and passing it again would not help.
     n_crossings : Mapping of str to int
         Candidate crossings found per sync point (a read-only mapping).
     ambiguous : bool
@@ -328,6 +348,7 @@ class ObjectSpaceResult:
     sightings: tuple[MatchedSighting, ...]
     unmatched: tuple[Sighting, ...]
     n_crossings: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
+    unmatched_at: tuple[str | None, ...] = ()
     ambiguous: bool = False
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
@@ -388,8 +409,13 @@ class ObjectSpaceResult:
                     "angle_rad": s.angle_rad,
                     "range_m": s.range_m,
                     "n_returns": s.n_returns,
+                    "at_crossing_of": at,
                 }
-                for s in self.unmatched
+                for s, at in zip(
+                    self.unmatched,
+                    self.unmatched_at or (None,) * len(self.unmatched),
+                    strict=True,
+                )
             ],
             "n_crossings": dict(self.n_crossings),
             "crossings_in_gaps": [
@@ -512,8 +538,9 @@ def synchronise_object_space(
             "mount (lever arm, boresight, [profiler] azimuth_deg) and the trajectory"
         )
         raise ObservabilityError(msg)
-    ranked = candidate_assignments(sightings, crossings, cfg)
-    _check_period_prior(ranked, sightings, crossings, cfg)
+    per_pair = tracked_sightings(scan, detected, crossings, cfg)
+    ranked = candidate_assignments(sightings, crossings, cfg, per_pair=per_pair)
+    _check_period_prior(ranked, sightings, crossings, cfg, per_pair)
     if not ranked:
         never = [n for n, c in n_cross.items() if c == 0]
         msg = (
@@ -550,10 +577,13 @@ def synchronise_object_space(
         refined = list(sightings)
         period = chosen.fit.period_s
         for i, j in chosen.pairs:  # refit with the crossing's sweep and drift
-            if refined[i].refinement == "sphere":
-                c = crossings[j]
-                motion = (c.rate_m_s * period, c.drift_m_s[0] * period, c.drift_m_s[1] * period)
-                refined[i] = refine_sighting(scan, detected[i][1], cfg, motion)
+            matched = per_pair.get((i, j), refined[i])
+            refined[i] = matched
+            if matched.refinement == "sphere":
+                track = crossings[j].point_track()
+                fixed = refine_sighting(scan, detected[i][1], cfg, track, period)
+                if fixed.refinement == "sphere":  # else the matching's fit stands
+                    refined[i] = fixed
         out = _result(chosen, others, refined, crossings, n_cross, cfg, train, scan.n_profiles)
         return replace(out, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
 
@@ -707,6 +737,7 @@ def _check_period_prior(
     sightings: Sequence[Sighting],
     crossings: Sequence[Crossing],
     cfg: ObjectSpaceConfig,
+    per_pair: PairSightings | None = None,
 ) -> None:
     """Raise `PeriodPriorError` when a period outside the prior's window fits more sightings.
 
@@ -717,7 +748,9 @@ def _check_period_prior(
     prior, tol = cfg.period_prior_s, cfg.period_tolerance
     n_in = len(ranked[0].pairs) if ranked else 0
     bounds = (prior / PERIOD_SEARCH_FACTOR, prior * PERIOD_SEARCH_FACTOR)
-    wider = best_assignment(sightings, crossings, cfg, bounds, more_than=max(n_in, 2))
+    wider = best_assignment(
+        sightings, crossings, cfg, bounds, more_than=max(n_in, 2), per_pair=per_pair
+    )
     if wider is None:
         return
     period = wider.fit.period_s
@@ -801,6 +834,10 @@ def _result(
             )
         )
     used = {i for i, _ in best.pairs}
+    unused = [k for k in range(len(sightings)) if k not in used]
+    unmatched_at = seen_off_the_clock(
+        [sightings[k] for k in unused], crossings, cfg, fit.t0_s, fit.period_s
+    )
     pulses = None if train is None else _pulses_of(fit.t0_s, fit.period_s, cov, train, n_profiles)
     alternatives = tuple(
         Alternative(a.fit.t0_s, a.fit.period_s, len(a.pairs), a.fit.chi2) for a in others[:5]
@@ -814,8 +851,9 @@ def _result(
         chi2=fit.chi2,
         sigma_scale=math.sqrt(scale),
         sightings=tuple(matched),
-        unmatched=tuple(s for k, s in enumerate(sightings) if k not in used),
+        unmatched=tuple(sightings[k] for k in unused),
         n_crossings=n_cross,
+        unmatched_at=unmatched_at,
         alternatives=alternatives,
         pulses=pulses,
     )

@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from kinsync._typing import FloatArray, IntArray
 from kinsync.sync.config import ObjectSpaceConfig
+from kinsync.sync.crossings import PointTrack
 from kinsync.sync.scan import ProfileScan
 
 __all__ = [
@@ -72,16 +73,28 @@ def _sphere_refine(
     ang: FloatArray,
     rng_m: FloatArray,
     cfg: ObjectSpaceConfig,
-    motion: tuple[float, float, float] | None = None,
+    track: PointTrack | None = None,
+    period_s: float | None = None,
 ) -> tuple[float, float, float, float] | None:
     """Sphere fit of one cluster: ``(x_P, phi_P, centre range, sigma of x_P)`` or None.
 
-    Each return lies on a sphere in ``(s (x - x_P), y, z)`` (module step 2). Without
-    ``motion`` the five unknowns ``(x_P, y_c, z_c, R, s)`` are fitted by
-    Levenberg-Marquardt (detection). With ``motion = (s, a_y, a_z)`` from the matched
-    crossing's geometry (m per profile: the plane's sweep over the point and the
-    centre's drift within the plane as the scanner slides sideways in a turn), s is
-    fixed and the centre moves by ``(a_y, a_z)`` per profile; four unknowns remain.
+    Each return, at profile-plane coordinates ``(y, z)`` and abscissa x, lies on the
+    sphere (module step 2). Without ``track`` the centre is taken to stay at ``(y_c,
+    z_c)`` while the plane sweeps it at s m per profile: ``(s (x - x_P), y - y_c, z -
+    z_c)`` has length R, and ``(x_P, y_c, z_c, R, s)`` are fitted by Levenberg-Marquardt
+    (detection). With a candidate crossing's ``track`` the target moves as the
+    trajectory says: at ``tau = (x - x_P) T`` from the crossing the centre is
+    ``d_P(tau)`` off the plane and at ``(y_c, z_c) + (dy, dz)(tau)`` within it. With
+    ``period_s`` T is that (the matched clock's), four unknowns; without it T is
+    ``period_prior_s`` times a fitted scale (> 0), so that a prior a few per cent off
+    does not bend the fit.
+
+    The drift matters: a plane slanted by ``[profiler] azimuth_deg`` az moves over the
+    point by ``tan(az)`` of its sweep, and the scanner slides sideways and the sweep
+    slows in a turn. Only the cap facing the scanner is seen, and a fit without the
+    drift puts x_P where that cap is nearest: 0.3 profile off at 10 deg, up to 1 at 20
+    deg and 2 at 35 deg (2 m/s, 0.15 m spheres, 33 rev/s), 1.2 to 1.7 where a turn
+    swept the target at 0.4 m/s.
     """
     if prof.size < max(cfg.sphere_min_returns, 6) or np.unique(prof).size < 3:
         return None
@@ -94,24 +107,45 @@ def _sphere_refine(
     dist0 = max(float(np.linalg.norm(mean_yz)), 1e-6)
     centre0 = mean_yz * (1.0 + 0.7 * radius0 / dist0)
     p0 = [float(np.mean(x)), centre0[0], centre0[1], radius0]
-    if motion is None:
-        p0.append(2.0 * radius0 / span)
-        a_y = a_z = 0.0
-    else:
-        a_y, a_z = motion[1], motion[2]
+    if track is None:
+        p0.append(2.0 * radius0 / span)  # sweep, m per profile
+    elif period_s is None:
+        p0.append(1.0)  # scale of the prior period
 
     def residuals(p: FloatArray) -> FloatArray:
         dx = x - p[0]
-        sweep = p[4] if motion is None else motion[0]
-        out: FloatArray = (
-            np.sqrt((sweep * dx) ** 2 + (y - p[1] - a_y * dx) ** 2 + (z - p[2] - a_z * dx) ** 2)
-            - p[3]
-        )
+        if track is None:
+            d, dy, dz = p[4] * dx, 0.0, 0.0
+        else:
+            d, dy, dz = track.at(dx * (period_s or cfg.period_prior_s * p[4]))
+        out: FloatArray = np.sqrt(d**2 + (y - p[1] - dy) ** 2 + (z - p[2] - dz) ** 2) - p[3]
         return out
+
+    def jacobian(p: FloatArray) -> FloatArray:
+        """Of `residuals` along a track: d/dtau of the distance via the track's rates."""
+        assert track is not None
+        dx = x - p[0]
+        period = period_s or cfg.period_prior_s * p[4]
+        tau = dx * period
+        d, dy, dz = track.at(tau)
+        rate = track.rate_at(tau)
+        e_y, e_z = y - p[1] - dy, z - p[2] - dz
+        length = np.maximum(np.sqrt(d**2 + e_y**2 + e_z**2), 1e-12)
+        along = (d * rate[0] - e_y * rate[1] - e_z * rate[2]) / length  # d length / d tau
+        cols = [-along * period, -e_y / length, -e_z / length, -np.ones_like(x)]
+        if period_s is None:
+            cols.append(along * dx * cfg.period_prior_s)
+        return np.column_stack(cols)
 
     n_par = len(p0)
     try:
-        sol = least_squares(residuals, np.array(p0), method="lm", x_scale="jac")
+        sol = least_squares(
+            residuals,
+            np.array(p0),
+            jac="2-point" if track is None else jacobian,
+            method="lm",
+            x_scale="jac",
+        )
         jac = np.asarray(sol.jac, dtype=np.float64)
         cov = np.linalg.inv(jac.T @ jac) * float(np.sum(sol.fun**2)) / (prof.size - n_par)
     except (ValueError, np.linalg.LinAlgError):
@@ -121,7 +155,7 @@ def _sphere_refine(
     plausible = (
         sol.success
         and 0.0 < radius < 5.0 * radius0 + 0.05
-        and (motion is not None or abs(float(sol.x[4])) > 0.0)
+        and (n_par == 4 or (float(sol.x[4]) > 0.0 if track else float(sol.x[4]) != 0.0))
         and float(x.min()) - 0.5 <= x_p <= float(x.max()) + 0.5
         and math.isfinite(std_x)
     )
@@ -155,16 +189,37 @@ def refine_sighting(
     scan: ProfileScan,
     idx: IntArray,
     cfg: ObjectSpaceConfig,
-    motion: tuple[float, float, float] | None = None,
+    track: PointTrack | None = None,
+    period_s: float | None = None,
 ) -> Sighting:
-    """Refine one cluster: sphere fit, or the intensity-weighted centroid as fallback."""
+    """Refine one cluster: sphere fit, or the intensity-weighted centroid as fallback.
+
+    Parameters
+    ----------
+    scan : ProfileScan
+    idx : ndarray of int, shape (k,)
+        The cluster's returns (indices into ``scan``).
+    cfg : ObjectSpaceConfig
+        Refinement settings.
+    track : PointTrack, optional
+        A candidate crossing's motion of the target relative to the scan plane
+        (`kinsync.sync.crossings.Crossing.point_track`); without it the target is
+        taken to stand still in the plane, swept at a constant, fitted rate.
+    period_s : float, optional
+        The mirror period (s) that times the returns along ``track``; without it
+        ``period_prior_s`` times a fitted scale. Ignored without ``track``.
+
+    Returns
+    -------
+    Sighting
+    """
     prof = scan.profile[idx].astype(np.float64)
     ang = scan.angle_rad[idx]
     rng_m = scan.range_m[idx]
     first, last = int(prof.min()), int(prof.max())
     fitted = None
     if cfg.refinement == "sphere":
-        fitted = _sphere_refine(prof, ang, rng_m, cfg, motion)
+        fitted = _sphere_refine(prof, ang, rng_m, cfg, track, period_s)
     if fitted is not None:
         x_p, phi_p, range_p, std_x = fitted
         return Sighting(
