@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tracemalloc
 from collections.abc import Callable
 from typing import Any
 
@@ -36,6 +37,7 @@ from kinsync.ins.forward_run import Checkpoints
 from kinsync.ins.gnss_observation import gnss_epochs
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.smoother import (
+    SmoothedCovariance,
     ins_matrices,
     new_smoothed_covariance,
     smooth_checkpoints,
@@ -209,7 +211,13 @@ def test_smoother_equals_batch_least_squares(seed: int) -> None:
             q_buf[i] = model["q"][e + i]
             q_nav[i] = model["q_nav"][e + i]
 
-    smooth_checkpoints(ck, N_EPOCHS - 1, fill, dx, cov)
+    def done(e: int, dx_seg: np.ndarray, cov_seg: SmoothedCovariance) -> None:
+        rows = slice(e, e + dx_seg.shape[0])
+        dx[rows] = dx_seg
+        for name in ("var", "nav", "bias_cross"):
+            getattr(cov, name)[rows] = getattr(cov_seg, name)
+
+    smooth_checkpoints(ck, N_EPOCHS - 1, fill, done)
     smoothed = nominals - dx
     x_ls, cov_ls = _batch_least_squares(model)
     var_ls = np.diagonal(cov_ls, axis1=1, axis2=2)
@@ -373,3 +381,47 @@ def test_smoother_rebuilds_the_forward_covariance_after_a_levelled_standstill(
         np.testing.assert_array_equal(P, ck.P_minus[c + 1])
         compared += 1
     assert compared > 100
+
+
+def test_smoother_memory_does_not_grow_with_the_record_beyond_its_output() -> None:
+    """The backward pass hands each segment's smoothed error and covariance over as it
+    goes, so that beside the smoothed states and σ it returns it allocates one segment's
+    buffers, not arrays per epoch (it held the smoothed error, its covariance entries
+    and the outputs, 138 floats per IMU epoch: a 10 h record at 200 Hz needed 14 GB).
+    Overwriting the forward run's arrays, it allocates nothing per epoch, and the result
+    is the same bit for bit, also with the vertical support state of a levelled start
+    (whose transition the smoother rebuilds from the states it overwrites)."""
+    sim = simulate_drive(
+        DriveSimConfig(imu="mems", imu_rate_hz=100.0, static_s=10.0, duration_s=30.0, seed=5)
+    )
+    config = sim.ins_config
+    init = align_static_gnss_heading(
+        sim.imu, sim.gnss, static_s=5.0, antenna_lever_arm_body_m=config.antenna_lever_arm_body_m
+    )
+    run = forward_pass(
+        sim.imu, sim.gnss, config, init, use_velocity=True, store=True, progress=None,
+        gnss_imu_epoch=gnss_epochs(sim.imu.t_s, 0, sim.gnss.t_s),
+        log=new_gnss_log(len(sim.gnss)),
+    )  # fmt: skip
+    assert run.checkpoints is not None
+    assert run.checkpoints.P_plus.shape[1] == N_ERR + 1  # the vertical support state
+    n = run.states.shape[0]
+    states, std = smooth_forward_run(sim.imu, run)  # compiled before memory is traced
+
+    def traced_peak(smooth: Callable[[], tuple[np.ndarray, np.ndarray]]) -> tuple[int, Any]:
+        tracemalloc.start()
+        try:
+            out = smooth()
+            return tracemalloc.get_traced_memory()[1], out
+        finally:
+            tracemalloc.stop()
+
+    peak, (s, d) = traced_peak(lambda: smooth_forward_run(sim.imu, run))
+    assert peak <= s.nbytes + d.nbytes + 200 * n, (peak - s.nbytes - d.nbytes) / n
+    np.testing.assert_array_equal(s, states)
+    peak, (s, d) = traced_peak(lambda: smooth_forward_run(sim.imu, run, overwrite=True))
+    assert s is run.states
+    assert d is run.std
+    assert peak <= 200 * n, peak / n
+    np.testing.assert_array_equal(s, states)
+    np.testing.assert_array_equal(d, std)

@@ -45,7 +45,8 @@ GNSS update (the prior and posterior covariance, the accepted rows of ``H``, the
 variances and ``z``) and one every `CHECKPOINT_EVERY` epochs
 (`kinsync.ins.forward_run`); `kinsync.ins.smoother` recomputes ``Φ`` and the
 covariances between checkpoints from the stored nominal states, so the memory is
-O(n · 49 + m · 950) floats instead of three 21×21 matrices per epoch.
+O(n · 52 + m · 1 000) floats (n IMU epochs, m GNSS updates, 21 states), not three
+21×21 matrices per epoch; the smoother adds none per epoch (`kinsync.ins.smoother`).
 
 References
 ----------
@@ -879,7 +880,9 @@ def _filter_and_smooth(
     )
     smoothed: NavSolution | None = None
     if smooth:
-        states_s, std_s = smooth_forward_run(imu, run, part(progress, 0.5, 1.0))
+        # `forward` holds copies; the checkpoints go before the smoothed solution is built
+        states_s, std_s = smooth_forward_run(imu, run, part(progress, 0.5, 1.0), overwrite=True)
+        del run
         smoothed = nav_solution_from_states(
             t_out, states_s[k0:], std_s[k0:], smoothed=True, n_gnss_used=n_used,
             n_gnss_rejected=n_rej,

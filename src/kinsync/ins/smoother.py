@@ -39,6 +39,13 @@ propagating ``P^+`` of the earlier checkpoint with ``Φ_k`` and ``Q_k`` rebuilt 
 the stored nominal states (the very same compiled code and inputs as in the forward
 pass, hence the same numbers), kept for that segment only, and the backward
 recursion runs through the segment. The cost is a second covariance propagation.
+The smoothed error and its covariance entries of a segment are applied to the nominal
+states and turned into σ as soon as the segment is done (`smooth_checkpoints` hands
+them over one segment at a time), so nothing of the smoother but the checkpoints
+grows with the record: per IMU epoch the run holds the forward states and σ (52
+floats), which `run_ins` overwrites with the smoothed ones, and the checkpoints (about
+28 floats at 200 Hz IMU and 5 Hz GNSS). It held 138 floats more before (the smoothed
+error, its covariance entries and separate outputs): 14 GB for 10 h at 200 Hz.
 
 **Output.** Per epoch, the smoothed error's variances and the covariance entries the
 solution's standard deviations need (`smoothed_solution_std`): the attitude-velocity
@@ -81,12 +88,13 @@ from kinsync.ins._ekf import (
     support_index,
     support_transition,
 )
-from kinsync.ins.forward_run import CHECKPOINT_EVERY, Checkpoints, ForwardRun
+from kinsync.ins.forward_run import Checkpoints, ForwardRun
 from kinsync.ins.measurements import ImuData
 from kinsync.ins.strapdown import I_CVAR
 from kinsync.progress import Progress, report
 
 __all__ = [
+    "SegmentDone",
     "SegmentMatrices",
     "SmoothedCovariance",
     "smooth_checkpoints",
@@ -118,6 +126,11 @@ class SmoothedCovariance(NamedTuple):
     var: FloatArray
     nav: FloatArray
     bias_cross: FloatArray
+
+
+SegmentDone = Callable[[int, FloatArray, SmoothedCovariance], None]
+"""``done(e, dx, cov)``: the smoothed error ``dx`` (L, n) and its covariance entries
+``cov`` (L rows) at epochs ``e .. e+L-1``; the buffers are reused for the next segment."""
 
 
 def new_smoothed_covariance(n_epochs: int, n_err: int) -> SmoothedCovariance:
@@ -324,11 +337,14 @@ def smooth_checkpoints(
     ck: Checkpoints,
     k_last: int,
     matrices: SegmentMatrices,
-    out_dx: FloatArray,
-    out: SmoothedCovariance,
+    done: SegmentDone,
     progress: Progress | None = None,
 ) -> None:
     """Backward pass over all checkpoints (generic in how ``Φ``, ``Q`` are produced).
+
+    The smoothed errors and covariances are handed over one segment at a time
+    (``done``), in buffers of the longest segment's length, so that the memory does not
+    grow with the record beyond what the caller keeps.
 
     Parameters
     ----------
@@ -338,22 +354,23 @@ def smooth_checkpoints(
         Last epoch (inclusive).
     matrices : SegmentMatrices
         Fills ``Φ`` and ``Q`` of the intervals inside a segment.
-    out_dx : ndarray, shape (k_last + 1, n)
-        Receives the smoothed error state (``true ≈ nominal ⊖ dx``) at epochs
-        ``ck.epoch[0] .. k_last``.
-    out : SmoothedCovariance
-        Receives its covariance entries (`new_smoothed_covariance`).
+    done : SegmentDone
+        Receives, segment by segment from the last, the smoothed error state
+        (``true ≈ nominal ⊖ dx``) and its covariance entries at the segment's epochs;
+        together they cover epochs ``ck.epoch[0] .. k_last``.
     progress : Progress, optional
         Fraction done (stage "smoother"), reported about every 10 000 epochs.
     """
     n = ck.P_plus.shape[1]
-    seg = CHECKPOINT_EVERY + 2
+    seg = 2  # the longest segment, plus its next checkpoint's interval, plus one
     if ck.epoch.size:
-        seg = max(seg, int(np.max(np.diff(np.append(ck.epoch, k_last + 1)))) + 2)
+        seg = int(np.max(np.diff(np.append(ck.epoch, k_last + 1)))) + 2
     Phi_buf = np.zeros((seg, n, n))
     q_buf = np.zeros((seg, n))
     q_nav_buf = np.zeros((seg, 6, 6))
     P_buf = np.zeros((seg, n, n))
+    dx_buf = np.zeros((seg, n))
+    cov_buf = new_smoothed_covariance(seg, n)
     lam = np.zeros(n)
     Lam = np.zeros((n, n))
     n_c = ck.epoch.size
@@ -367,13 +384,12 @@ def smooth_checkpoints(
         L = int(ck.epoch[c + 1]) - e if has_next else k_last + 1 - e
         if L > 0:
             matrices(e, L, has_next, Phi_buf, q_buf, q_nav_buf)
-        segment = SmoothedCovariance(
-            out.var[e : e + L], out.nav[e : e + L], out.bias_cross[e : e + L]
-        )
-        smooth_segment(
-            ck.P_plus[c], Phi_buf, q_buf, q_nav_buf, L, has_next, lam, Lam,
-            out_dx[e : e + L], segment, P_buf,
-        )  # fmt: skip
+            segment = SmoothedCovariance(cov_buf.var[:L], cov_buf.nav[:L], cov_buf.bias_cross[:L])
+            smooth_segment(
+                ck.P_plus[c], Phi_buf, q_buf, q_nav_buf, L, has_next, lam, Lam,
+                dx_buf[:L], segment, P_buf,
+            )  # fmt: skip
+            done(e, dx_buf[:L], segment)
         mbf_update(ck.P_minus[c], ck.H[c], ck.r[c], ck.z[c], int(ck.nrows[c]), lam, Lam)
         if reported - e >= 10_000:
             reported = e
@@ -414,31 +430,54 @@ def smoothed_solution_std(cov: SmoothedCovariance, states: FloatArray, k0: int) 
 
 
 def smooth_forward_run(
-    imu: ImuData, run: ForwardRun, progress: Progress | None = None
+    imu: ImuData, run: ForwardRun, progress: Progress | None = None, *, overwrite: bool = False
 ) -> tuple[FloatArray, FloatArray]:
     """Smoothed nominal states (n, 31) and the solution's 1σ (n, 21) of a forward run.
 
-    Rows before ``run.k0`` are zero.
+    Rows before ``run.k0`` are zero. Each segment's smoothed error and covariance are
+    applied as soon as the backward pass has them, so that beside the two outputs the
+    smoother keeps only the forward run's checkpoints and one segment's buffers.
+
+    Parameters
+    ----------
+    imu : ImuData
+        The IMU data the forward pass ran on.
+    run : ForwardRun
+        The forward pass, with its checkpoints.
+    progress : Progress, optional
+        Fraction done (stage "smoother").
+    overwrite : bool
+        Write the smoothed states and σ into ``run.states`` and ``run.std`` and return
+        those arrays (the forward run is spent), instead of into new arrays: 52 floats
+        less per epoch for a caller that keeps the forward solution elsewhere.
     """
     if run.checkpoints is None:
         msg = "smooth_forward_run: the forward pass was run without storing checkpoints"
         raise ValueError(msg)
     n = run.states.shape[0]
-    n_err = run.checkpoints.P_plus.shape[1]
-    dx = np.zeros((n, n_err))
-    cov = new_smoothed_covariance(n, n_err)
     t = imu.t_s
     gyro = imu.gyro_body_rad_s
     acc = imu.acc_body_m_s2
     states = run.states
     params = run.params
+    # In place, a segment's rows are corrected after its Φ and Q were built from them;
+    # the segment before it then reads only the vertical support's stored variance
+    # (I_CVAR) of its first row, which the correction leaves as it is (`feedback`).
+    out = run.states if overwrite else np.array(run.states, dtype=np.float64)
+    std = run.std if overwrite else np.zeros((n, N_OUT))
+    if overwrite:  # rows before k0 are zero, as in new arrays
+        out[: run.k0] = 0.0
+        std[: run.k0] = 0.0
 
     def fill(
         e: int, L: int, has_next: bool, Phi_buf: FloatArray, q_buf: FloatArray, q_nav: FloatArray
     ) -> None:
         ins_matrices(e, L, has_next, t, gyro, acc, states, params, Phi_buf, q_buf, q_nav)
 
-    smooth_checkpoints(run.checkpoints, n - 1, fill, dx, cov, progress)
-    out = np.array(run.states, dtype=np.float64)
-    apply_corrections(out, dx, run.k0)
-    return out, smoothed_solution_std(cov, out, run.k0)
+    def done(e: int, dx: FloatArray, cov: SmoothedCovariance) -> None:
+        rows = out[e : e + dx.shape[0]]
+        apply_corrections(rows, dx, 0)
+        smoothed_std_rows(cov, rows, 0, std[e : e + dx.shape[0]])
+
+    smooth_checkpoints(run.checkpoints, n - 1, fill, done, progress)
+    return out, std
