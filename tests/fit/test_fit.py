@@ -310,6 +310,63 @@ def test_segment_sphere_finds_the_target_in_clutter(
     assert false_pos < 0.01 * fit.n_points
 
 
+def room_scene(
+    rng: np.random.Generator, n_sphere: int, n_room: int
+) -> tuple[FloatArray, BoolArray]:
+    """A sphere cap on a stand in a room: ``n_room`` points of a wide floor and a wall.
+
+    The floor spans 5 m x 5 m, 0.35 m under the sphere's centre; the wall stands 1.3 m
+    behind it; the stand holds a fifth as many points as the sphere.
+    """
+    sphere = visible_cap(rng, n_sphere, range_noise_m=0.001)
+    c = CENTRE_M
+    floor_z = c[2] + 0.35  # z points down here, as in NED
+    n_floor = (2 * n_room) // 3
+    floor = np.column_stack(
+        [
+            rng.uniform(c[0] - 2.5, c[0] + 2.5, n_floor),
+            rng.uniform(c[1] - 2.5, c[1] + 2.5, n_floor),
+            floor_z + 0.001 * rng.standard_normal(n_floor),
+        ]
+    )
+    n_wall = n_room - n_floor
+    wall = np.column_stack(
+        [
+            c[0] + 1.3 + 0.001 * rng.standard_normal(n_wall),
+            rng.uniform(c[1] - 2.5, c[1] + 2.5, n_wall),
+            rng.uniform(floor_z - 2.0, floor_z, n_wall),
+        ]
+    )
+    n_stand = n_sphere // 5
+    ang = rng.uniform(0.5 * np.pi, 1.5 * np.pi, n_stand)  # the side facing the scanner
+    stand = np.column_stack(
+        [
+            c[0] + 0.015 * np.cos(ang),
+            c[1] + 0.015 * np.sin(ang),
+            rng.uniform(c[2] + RADIUS_M, floor_z, n_stand),
+        ]
+    )
+    pts = np.vstack([sphere, floor, wall, stand])
+    labels = np.zeros(len(pts), dtype=bool)
+    labels[:n_sphere] = True
+    order = rng.permutation(len(pts))
+    return pts[order], labels[order]
+
+
+@pytest.mark.parametrize(("n_sphere", "seed"), [(600, 21), (600, 22), (1500, 23)])
+def test_segment_sphere_finds_a_small_sphere_in_a_room(n_sphere: int, seed: int) -> None:
+    # 5 % and 12 % of the points on the sphere, the rest floor, wall and stand. Was:
+    # "none of the 2000 minimal samples gave an admissible sphere" (random 4-point
+    # samples are all on the sphere with probability 0.05^4): samples are now drawn
+    # near a random first point, within the sphere's reach.
+    rng = np.random.default_rng(seed)
+    pts, is_sphere = room_scene(rng, n_sphere, 11_000)
+    fit = segment_sphere(pts, radius_m=RADIUS_M, origin_m=ORIGIN_M, seed=seed)
+    assert float(np.linalg.norm(fit.center_m - CENTRE_M)) < 5e-4
+    assert int((fit.inliers & is_sphere).sum()) > 0.9 * n_sphere
+    assert int((fit.inliers & ~is_sphere).sum()) < 0.01 * fit.n_points
+
+
 def test_segment_sphere_is_reproducible_and_seeded() -> None:
     pts, _ = cluttered_scene(np.random.default_rng(12), 800, 0.1, 0.001)
     a = segment_sphere(pts, radius_m=RADIUS_M, seed=7)

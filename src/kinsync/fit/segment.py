@@ -1,11 +1,12 @@
 """Robust segmentation of a sphere from a cloud with clutter (floor, stand, walls).
 
-`segment_sphere`: RANSAC on minimal 4-point spheres (solved in batches), scored on a
-random subset then on all points, hypotheses rejected by the known radius or radius
-bounds; then an iteratively reweighted (Tukey biweight) refinement, an inlier
-threshold from a robust scale (`kinsync.robust`), and a final least-squares
-`kinsync.fit.sphere.fit_sphere` on the inliers, along the scanner rays when the
-scanner origin is known.
+`segment_sphere`: RANSAC on minimal 4-point spheres (solved in batches) drawn locally
+(NAPSAC: three points near a random first one, so that clutter away from the sphere
+hardly lowers the chance of an all-inlier sample), scored on a random subset then on
+all points, hypotheses rejected by the known radius or radius bounds; then an
+iteratively reweighted (Tukey biweight) refinement, an inlier threshold from a robust
+scale (`kinsync.robust`), and a final least-squares `kinsync.fit.sphere.fit_sphere` on
+the inliers, along the scanner rays when the scanner origin is known.
 
 References
 ----------
@@ -13,16 +14,20 @@ Fischler, M. A. & Bolles, R. C., "Random sample consensus...", Communications of
 ACM 24(6), 1981, 381-395 (RANSAC).
 Mosteller, F. & Tukey, J. W., *Data Analysis and Regression*, Addison-Wesley 1977
 (biweight).
+Myatt, D. R., Torr, P. H. S., Nasuto, S. J., Bishop, J. M., Craddock, R., "NAPSAC:
+high noise, high dimensional robust estimation - it's in the bag", BMVC 2002 (local
+sampling).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.fit.sphere import (
     _MIN_POINTS,
@@ -59,6 +64,15 @@ _HYPOTHESIS_BATCH = 256
 
 
 _SUBSET_SIZE = 1024
+"""Points each hypothesis is scored on first (a random subset)."""
+
+
+_SAMPLE_POOL_SIZE = 2048
+"""Most points minimal samples are drawn from (a random subset holding the scoring one)."""
+
+
+_SAMPLES_PER_NEIGHBOURHOOD = 8
+"""Minimal samples drawn around each random first point (local sampling)."""
 
 
 _TOP_HYPOTHESES = 16
@@ -107,13 +121,15 @@ def _hypothesis_residuals(
     xc_sub: FloatArray, sq_sub: FloatArray, centres: FloatArray, radii: FloatArray
 ) -> FloatArray:
     """|distance - radius| of (3, S) points to H spheres, shape (H, S)."""
-    d2 = (
-        sq_sub[None, :]
-        - 2.0 * (centres @ xc_sub)
-        + np.einsum("ij,ij->i", centres, centres)[:, None]
-    )
-    np.maximum(d2, 0.0, out=d2)
-    res: FloatArray = np.abs(np.sqrt(d2) - radii[:, None])
+    # In place: with all points (top hypotheses x N) the temporaries dominate.
+    res: FloatArray = centres @ xc_sub
+    res *= -2.0
+    res += sq_sub[None, :]
+    res += np.einsum("ij,ij->i", centres, centres)[:, None]
+    np.maximum(res, 0.0, out=res)
+    np.sqrt(res, out=res)
+    res -= radii[:, None]
+    np.abs(res, out=res)
     return res
 
 
@@ -126,6 +142,92 @@ class _Hypothesis:
     admissible: int
 
 
+def _local_samples(
+    pool: FloatArray, sq_pool: FloatArray, rng: np.random.Generator, n_first: int, reach: float
+) -> IntArray:
+    """Minimal samples drawn locally (NAPSAC): a random first point, three near it.
+
+    Each first point gets `_SAMPLES_PER_NEIGHBOURHOOD` samples whose other three points
+    are drawn (with replacement) among the pool's points within ``reach`` of it. First
+    points with fewer than three neighbours give none.
+
+    Parameters
+    ----------
+    pool : ndarray, shape (3, M)
+        Points samples are drawn from (centred coordinates, m).
+    sq_pool : ndarray, shape (M,)
+        Their squared norms (m^2).
+    rng : numpy.random.Generator
+    n_first : int
+        First points to draw.
+    reach : float
+        Neighbourhood radius (m).
+
+    Returns
+    -------
+    ndarray of int, shape (H, 4)
+        Indices into the pool; ``H <= n_first * _SAMPLES_PER_NEIGHBOURHOOD``; the first
+        column is the first point. Samples may repeat a point (see `_distinct`).
+    """
+    m_pool = pool.shape[1]
+    first = rng.integers(0, m_pool, size=n_first)
+    d2 = sq_pool[first][:, None] + sq_pool[None, :] - 2.0 * (pool.T[first] @ pool)
+    near = d2 <= reach * reach
+    near[np.arange(n_first), first] = False
+    cums = np.cumsum(near, axis=1, dtype=np.int32)
+    counts = cums[:, -1]
+    # The k-th neighbour (1-based) of row i is the first column where cums reaches k:
+    # one searchsorted over the rows laid end to end (offset so they stay sorted).
+    per = _SAMPLES_PER_NEIGHBOURHOOD
+    ranks = np.floor(rng.random((n_first, per, 3)) * counts[:, None, None]).astype(np.int64) + 1
+    offset = (np.arange(n_first, dtype=np.int64) * (m_pool + 1))[:, None, None]
+    flat = np.searchsorted((cums + offset[:, :, 0]).ravel(), (ranks + offset).ravel())
+    others = flat.reshape(n_first, per, 3) - (np.arange(n_first) * m_pool)[:, None, None]
+    quads = np.concatenate(
+        [np.broadcast_to(first[:, None, None], (n_first, per, 1)), others], axis=2
+    )
+    return quads[counts >= 3].reshape(-1, 4)
+
+
+def _distinct(idx: IntArray) -> IntArray:
+    """The rows of an (H, 4) index array whose four indices differ."""
+    keep = (
+        (idx[:, 0] != idx[:, 1])
+        & (idx[:, 0] != idx[:, 2])
+        & (idx[:, 0] != idx[:, 3])
+        & (idx[:, 1] != idx[:, 2])
+        & (idx[:, 1] != idx[:, 3])
+        & (idx[:, 2] != idx[:, 3])
+    )
+    kept: IntArray = idx[keep]
+    return kept
+
+
+def _samples_needed(xc_sub: FloatArray, sq_sub: FloatArray, inlier: BoolArray, reach: float) -> int:
+    """Samples to draw for `_RANSAC_CONFIDENCE` of one all-inlier sample (local sampling).
+
+    A sample is all-inlier when its first point is an inlier and so are its three
+    others, drawn among the points within ``reach`` of it: from the inlier point ``p``,
+    each with probability ``lam_p``, the share of inliers among the points near it. The
+    chance of at least one all-inlier sample in a neighbourhood's
+    `_SAMPLES_PER_NEIGHBOURHOOD` is averaged over the first points (the scoring subset).
+    """
+    n_sub = xc_sub.shape[1]
+    d2 = sq_sub[inlier][:, None] + sq_sub[None, :] - 2.0 * (xc_sub[:, inlier].T @ xc_sub)
+    near = d2 <= reach * reach
+    n_near = near.sum(axis=1) - 1  # not the point itself
+    n_in_near = near[:, inlier].sum(axis=1) - 1
+    lam = np.clip(n_in_near / np.maximum(n_near, 1), 0.0, 1.0)
+    per = _SAMPLES_PER_NEIGHBOURHOOD
+    p_group = float((1.0 - (1.0 - lam**3) ** per).sum()) / n_sub
+    if p_group >= 1.0:
+        return 0
+    if p_group <= 0.0:
+        return sys.maxsize
+    groups = math.ceil(math.log(1.0 - _RANSAC_CONFIDENCE) / math.log1p(-p_group))
+    return per * groups
+
+
 def _ransac(
     xc: FloatArray,
     rng: np.random.Generator,
@@ -134,11 +236,22 @@ def _ransac(
     threshold: float,
     max_hypotheses: int,
 ) -> _Hypothesis | None:
-    """Best sphere hypothesis by MSAC score (subset, then all points) or None."""
+    """Best sphere hypothesis by MSAC score (subset, then all points) or None.
+
+    Minimal samples are drawn locally (`_local_samples`, within ``2 (radius_hi +
+    threshold)`` of a random first point) from a random pool of up to
+    `_SAMPLE_POOL_SIZE` points, so that clutter away from the sphere (floor, walls)
+    hardly lowers the chance of an all-inlier sample.
+    """
     n = xc.shape[1]
-    sub_idx = rng.choice(n, size=min(n, _SUBSET_SIZE), replace=False)
-    xc_sub = xc[:, sub_idx]
-    sq_sub = np.einsum("ij,ij->j", xc_sub, xc_sub)
+    pool_idx = rng.choice(n, size=min(n, _SAMPLE_POOL_SIZE), replace=False)
+    pool = xc[:, pool_idx]
+    sq_pool = np.einsum("ij,ij->j", pool, pool)
+    # The pool is in random order: its head is a random scoring subset.
+    n_sub = min(n, _SUBSET_SIZE)
+    xc_sub = pool[:, :n_sub]
+    sq_sub = sq_pool[:n_sub]
+    reach = 2.0 * (radius_hi + threshold)
     t2 = threshold * threshold
     kept_c: list[FloatArray] = []
     kept_r: list[FloatArray] = []
@@ -147,20 +260,13 @@ def _ransac(
     admissible = 0
     best_ratio = 0.0
     needed = max_hypotheses
+    n_first = _HYPOTHESIS_BATCH // _SAMPLES_PER_NEIGHBOURHOOD
     while tried < min(needed, max_hypotheses):
-        batch = min(_HYPOTHESIS_BATCH, max_hypotheses - tried)
-        idx = rng.integers(0, n, size=(batch, 4))
-        tried += batch
-        distinct = (
-            (idx[:, 0] != idx[:, 1])
-            & (idx[:, 0] != idx[:, 2])
-            & (idx[:, 0] != idx[:, 3])
-            & (idx[:, 1] != idx[:, 2])
-            & (idx[:, 1] != idx[:, 3])
-            & (idx[:, 2] != idx[:, 3])
-        )
-        idx = idx[distinct]
-        centres, radii = _minimal_spheres(xc.T[idx])
+        batch = min(n_first, -(-(max_hypotheses - tried) // _SAMPLES_PER_NEIGHBOURHOOD))
+        idx = _local_samples(pool, sq_pool, rng, batch, reach)
+        tried += batch * _SAMPLES_PER_NEIGHBOURHOOD
+        idx = _distinct(idx)
+        centres, radii = _minimal_spheres(pool.T[idx])
         ok = np.isfinite(radii) & (radii >= radius_lo) & (radii <= radius_hi)
         if not ok.any():
             continue
@@ -171,31 +277,50 @@ def _ransac(
         kept_c.append(centres)
         kept_r.append(radii)
         kept_score.append(score)
-        ratio = float((res < threshold).sum(axis=1).max()) / xc_sub.shape[1]
+        inliers = res < threshold
+        n_in = inliers.sum(axis=1)
+        k = int(np.argmax(n_in))
+        ratio = float(n_in[k]) / n_sub
         if ratio > best_ratio:
             best_ratio = ratio
-            p_good = best_ratio**4
-            if p_good >= 1.0:
-                needed = tried
-            elif p_good > 0.0:
-                needed = math.ceil(math.log(1.0 - _RANSAC_CONFIDENCE) / math.log1p(-p_good))
+            needed = _samples_needed(xc_sub, sq_sub, inliers[k], reach)
     if not kept_c:
         return None
     centres = np.concatenate(kept_c)
     radii = np.concatenate(kept_r)
-    scores = np.concatenate(kept_score)
-    top = np.argsort(scores)[: min(_TOP_HYPOTHESES, len(scores))]
-    sq_all = np.einsum("ij,ij->j", xc, xc)
-    res_all = _hypothesis_residuals(xc, sq_all, centres[top], radii[top])
-    score_all = np.minimum(res_all * res_all, t2).sum(axis=1)
-    k = int(np.argmin(score_all))
+    top = np.argsort(np.concatenate(kept_score), kind="stable")[:_TOP_HYPOTHESES]
+    k, n_inliers = _best_on_all(xc, centres[top], radii[top], threshold)
     return _Hypothesis(
         centre=centres[top[k]],
         radius=float(radii[top[k]]),
-        n_inliers=int((res_all[k] < threshold).sum()),
+        n_inliers=n_inliers,
         tried=tried,
         admissible=admissible,
     )
+
+
+def _best_on_all(
+    xc: FloatArray, centres: FloatArray, radii: FloatArray, threshold: float
+) -> tuple[int, int]:
+    """Index of the hypothesis with the best MSAC score on all points, and its inliers.
+
+    Parameters
+    ----------
+    xc : ndarray, shape (3, N)
+        All points (centred coordinates, m).
+    centres : ndarray, shape (H, 3)
+    radii : ndarray, shape (H,)
+        Hypotheses (m).
+    threshold : float
+        Inlier threshold and truncation of the squared residual (m).
+    """
+    sq_all = np.einsum("ij,ij->j", xc, xc)
+    res_all = _hypothesis_residuals(xc, sq_all, centres, radii)
+    n_inliers_all = (res_all < threshold).sum(axis=1)
+    np.square(res_all, out=res_all)
+    np.minimum(res_all, threshold * threshold, out=res_all)
+    k = int(np.argmin(res_all.sum(axis=1)))
+    return k, int(n_inliers_all[k])
 
 
 def _robust_sigma(abs_res: FloatArray, band: float, floor: float) -> float:
@@ -434,17 +559,21 @@ def segment_sphere(
     radius_bounds_m: tuple[float, float] | None = None,
     inlier_threshold_m: float | None = None,
     origin_m: ArrayLike | None = None,
-    max_hypotheses: int = 2000,
+    max_hypotheses: int = 20000,
     seed: int = 0,
 ) -> SphereFit:
     """Find a sphere in a cluttered cloud and fit it (RANSAC, robust refinement, LSQ).
 
-    1. RANSAC: minimal spheres through 4 random points, solved in batches; hypotheses
-       whose radius is off the known radius (by more than 20 %) or outside
-       ``radius_bounds_m`` are rejected; the rest are scored (MSAC, truncated squared
-       residual) on a random subset of up to 1024 points, the best 16 again on all
-       points. Sampling stops early once 99.9 % confidence of an all-inlier sample is
-       reached, or after ``max_hypotheses``.
+    1. RANSAC: minimal spheres through 4 points, solved in batches, drawn from a
+       random pool of up to 2048 points: a random first point and three among the
+       points within twice the largest admissible radius (plus the inlier band) of it
+       (NAPSAC), 8 samples
+       per first point; hypotheses whose radius is off the known radius (by more than
+       20 %) or outside ``radius_bounds_m`` are rejected; the rest are scored (MSAC,
+       truncated squared residual) on a random subset of up to 1024 points, the best
+       16 again on all points. Sampling stops once 99.9 % confidence of an all-inlier
+       sample is reached (from the best hypothesis' inlier share near each of its
+       inliers), or after ``max_hypotheses``.
     2. Refinement: iteratively reweighted least squares with Tukey's biweight
        (``c = 4.685 sigma``), ``sigma = 1.4826 MAD`` of the residuals near the sphere.
     3. Inliers: ``|r| <= inlier_threshold_m``, by default ``3 sigma`` (with a floor of
@@ -472,7 +601,8 @@ def segment_sphere(
     origin_m : array_like, shape (3,), optional
         Scanner origin (m), same frame; the final fit uses the ray model.
     max_hypotheses : int
-        Most minimal samples drawn.
+        Most minimal samples drawn (reached only when no hypothesis reaches the
+        confidence: a pool without a clear sphere).
     seed : int
         Seed of the random generator (results are reproducible).
 
