@@ -433,6 +433,89 @@ def test_sphere_no_sphere_in_the_passes(
     assert_one_line_error(code, out, err, "sphere")
 
 
+def _points_outside(folder: Path, box: list[float]) -> dict[str, int]:
+    """Per pass file of ``folder``: its points outside ``box`` (xmin,...,zmax)."""
+    out = {}
+    for row in csv.DictReader((folder / "passes.csv").open()):
+        xyz = np.loadtxt(folder / row["file"], delimiter=",", skiprows=1, usecols=(0, 1, 2))
+        inside = np.all((xyz >= box[:3]) & (xyz <= box[3:]), axis=1)
+        out[str(folder / row["file"])] = int((~inside).sum())
+    return out
+
+
+def test_sphere_region_of_interest_counts_the_points_it_leaves_out(
+    run_cli: RunCli, sim_folder: Path
+) -> None:
+    centre = json.loads((sim_folder / "truth.json").read_text())["sphere_center_ned_m"]
+    box = [*(np.array(centre) - 0.13), *(np.array(centre) + 0.13)]
+    roi = ",".join(f"{v:.4f}" for v in box)
+    box = [float(v) for v in roi.split(",")]
+    args = ["latency", "sphere", str(sim_folder), "--no-figure", "--radius-m", "0.1"]
+    code, out, err = run_cli([*args, "--roi-m", roi, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert abs(doc["latency_ms"] - TAU_S * 1e3) < 4 * doc["latency_std_ms"]
+    outside = _points_outside(sim_folder, box)
+    assert doc["roi"]["box_ned_m"] == {"min": box[:3], "max": box[3:]}
+    assert {p["file"]: p["n_points_excluded"] for p in doc["roi"]["passes"]} == outside
+    assert doc["roi"]["n_points_excluded"] == sum(outside.values()) > 0
+    n_read = doc["roi"]["n_points"]
+    assert sum(r["n_points_in"] for r in doc["per_rate"]) == n_read - sum(outside.values())
+    code, out, err = run_cli([*args, "--roi-m", roi])
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "region of interest (--roi-m, table-centred NED)" in text, out
+    assert f"{sum(outside.values())} of {n_read} points outside it, excluded" in text, out
+
+
+@pytest.mark.parametrize(
+    ("roi", "fragment"),
+    [
+        ("1,2,3", "expected 6 comma-separated numbers"),
+        ("0,0,0,1,x,1", "item 5 ('x') is not a number"),
+        ("0,2,0,1,1,1", "ymin 2.0 must be below ymax 1.0"),
+        ("50,50,50,51,51,51", "keeps 0 of its"),
+    ],
+)
+def test_sphere_bad_region_of_interest(
+    run_cli: RunCli,
+    sim_folder: Path,
+    assert_one_line_error: OneLineError,
+    roi: str,
+    fragment: str,
+) -> None:
+    code, out, err = run_cli(
+        ["latency", "sphere", str(sim_folder), "--no-figure", "--roi-m", roi, "--radius-m", "0.1"]
+    )
+    assert_one_line_error(code, out, err, "--roi-m", fragment)
+    if fragment.startswith("keeps"):  # names a pass, and what to do
+        assert "pass_000" in err
+        assert "move or widen the box" in err
+
+
+def test_sphere_no_admissible_sphere_names_the_region_of_interest_option(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    # Was: "... check the radius or the region of interest", which the command did not
+    # offer.
+    folder = tmp_path / "sparse"
+    folder.mkdir()
+    rng = np.random.default_rng(3)
+    for name in ("a.csv", "b.csv"):
+        pts = rng.uniform(0.0, 10.0, (40, 3))
+        np.savetxt(folder / name, pts, delimiter=",", header="x_m,y_m,z_m", comments="")
+    (folder / "passes.csv").write_text("file,rate_deg_s\na.csv,6\nb.csv,-6\n")
+    args = ["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"]
+    code, out, err = run_cli(args)
+    assert_one_line_error(
+        code, out, err, "admissible sphere", "give a region of interest around the sphere (--roi-m)"
+    )
+    code, out, err = run_cli([*args, "--roi-m", "0,0,0,10,10,10"])
+    assert_one_line_error(
+        code, out, err, "check that the region of interest (--roi-m) holds the sphere"
+    )
+
+
 def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
     fig = tmp_path / "plan.png"
     argv = ["latency", "plan", "--range-m", "1.5", "--radius-m", "0.1", "--range-noise-m", "0.002"]

@@ -405,3 +405,53 @@ def test_passes_from_a_generator_are_read_and_the_result_is_read_only() -> None:
         InputError, match=r"passes: expected a sequence of SpherePass, got SpherePass"
     ):
         estimate_latency_sphere(passes[0], radius_m=0.1)  # type: ignore[arg-type]
+
+
+def _box_around(centre: np.ndarray, half_m: float) -> tuple[float, ...]:
+    return (*(centre - half_m), *(centre + half_m))
+
+
+def test_a_region_of_interest_leaves_out_the_points_outside_and_counts_them() -> None:
+    passes = small_simulation(TAU_S, seed=3)
+    plain = estimate_latency_sphere(passes, radius_m=0.1)
+    assert plain.roi is None
+    assert plain.as_document()["roi"] is None
+    box = _box_around(np.asarray(plain.sphere_center_ned_m), 0.13)
+    result = estimate_latency_sphere(passes, radius_m=0.1, roi_ned_m=box)
+    lo, hi = np.array(box[:3]), np.array(box[3:])
+    inside = [np.all((p.points_ned_m >= lo) & (p.points_ned_m <= hi), axis=1) for p in passes]
+    assert result.roi is not None
+    assert result.roi.box_ned_m == box
+    assert result.roi.sources == tuple(p.source for p in passes)
+    assert result.roi.n_points == tuple(p.n_points for p in passes)
+    assert result.roi.n_excluded == tuple(int((~m).sum()) for m in inside)
+    assert 0 < result.roi.n_excluded_total < result.roi.n_points_total
+    # Only the points inside reach the fits; the sphere in the box gives the same latency.
+    [rate] = result.per_rate
+    assert rate.plus.n_points_in + rate.minus.n_points_in == sum(int(m.sum()) for m in inside)
+    assert abs(result.latency_s - plain.latency_s) < 0.1 * plain.latency_std_s
+    doc = result.as_document()["roi"]
+    assert doc["n_points_excluded"] == result.roi.n_excluded_total
+    assert doc["box_ned_m"] == {"min": list(box[:3]), "max": list(box[3:])}
+    assert [d["file"] for d in doc["passes"]] == [p.source for p in passes]
+    assert "outside it, excluded" in result.roi.summary_text()
+
+
+@pytest.mark.parametrize(
+    ("box", "fragment"),
+    [
+        ((0.0, 0.0, 0.0, 1.0, 1.0), "expected 6 finite numbers"),
+        ((0.0, 0.0, 0.0, 1.0, 1.0, math.nan), "expected 6 finite numbers"),
+        ((0.0, 2.0, 0.0, 1.0, 1.0, 1.0), "ymin 2 m must be below ymax 1 m"),
+        (("a", 0, 0, 1, 1, 1), "expected 6 numbers"),
+        ((50.0, 50.0, 50.0, 51.0, 51.0, 51.0), "keeps 0 of its"),
+    ],
+)
+def test_a_bad_region_of_interest_is_refused(box: tuple[object, ...], fragment: str) -> None:
+    passes = small_simulation(TAU_S, seed=3)
+    with pytest.raises(InputError, match=r"region of interest \(--roi-m") as info:
+        estimate_latency_sphere(passes, radius_m=0.1, roi_ned_m=box)  # type: ignore[arg-type]
+    assert fragment in str(info.value)
+    if "keeps" in fragment:  # the passes are named, with what to do
+        assert passes[0].source in str(info.value)
+        assert "move or widen the box" in str(info.value)

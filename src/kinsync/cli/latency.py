@@ -67,6 +67,8 @@ def _print_sphere_result(
         console.print(
             f"left out (passes of one sign only): {list(result.unpaired_rates_deg_s)} deg/s"
         )
+    if result.roi is not None:
+        console.print(result.roi.summary_text(), markup=False, highlight=False)
     console.print(f"passes used: {result.n_passes_used} of {result.n_passes}", highlight=False)
     if fig_path is not None:
         console.print(f"figure: {fig_path}")
@@ -157,6 +159,16 @@ def sphere(
             ),
         ),
     ] = None,
+    roi_m: Annotated[
+        str | None,
+        typer.Option(
+            "--roi-m",
+            help="Region of interest 'xmin,ymin,zmin,xmax,ymax,zmax' (m) around the sphere, "
+            "in the pass files' frame (table-centred NED, their x_m,y_m,z_m): only the "
+            "points inside are fitted (floor, walls left out); those outside are counted "
+            "as excluded.",
+        ),
+    ] = None,
     max_gap_s: MaxGapOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -166,6 +178,7 @@ def sphere(
     """
     # The estimator (scipy.optimize, scipy.stats) and the readers load only when this
     # command runs.
+    from kinsync.cli._box import parse_box  # noqa: PLC0415
     from kinsync.io.passes import read_passes  # noqa: PLC0415
     from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
@@ -174,6 +187,7 @@ def sphere(
         msg = f"--figure {figure} and --no-figure contradict each other; give one of them"
         raise InputError(msg)
     _check_mount_options(raw, mount_file, mount_out)
+    roi = None if roi_m is None else parse_box(roi_m, "--roi-m")
     # --mount is read before any work; raw/mount.toml after the raw folder is read.
     applied = None if raw else _applied_mount(Path(folder), raw, mount_file)
     if max_gap_s is not None and not raw:
@@ -195,6 +209,7 @@ def sphere(
             radius_m=radius_m,
             scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0),
             progress=stages.start("fitting"),
+            roi_ned_m=roi,
         )
         stages.finish()
     fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")

@@ -5,6 +5,8 @@
   opposite rates, with its σ, per-rate figures and the passes it rejected.
 - `kinsync.latency.rate_check`: `check_pass_rates`, the stated table rates against the
   rates the data show (sign convention, rad/s, ENU mix-ups).
+- `kinsync.latency.roi`: `crop_passes`, the points of each pass inside a region of
+  interest, and `RoiCrop`, what it left out.
 - `kinsync.latency.planning`: `plan_latency_experiment`, the σ a table design will give.
 
 Reading pass folders is `kinsync.io.passes.read_passes`.

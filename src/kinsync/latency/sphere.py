@@ -41,6 +41,7 @@ from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG, checked_max_incidence_deg
 from kinsync.latency.rate_check import check_pass_rates
+from kinsync.latency.roi import ROI_OPTION, RoiCrop, checked_roi, crop_passes
 from kinsync.progress import Progress, report
 from kinsync.robust import robust_sigma
 
@@ -243,6 +244,10 @@ class SphereLatencyResult:
         Passes left out of the estimate, each with the reason: fewer than
         `MIN_SPHERE_POINTS_PER_PASS` of its points on the sphere fitted at its rate, or no
         sphere found at its rate at all.
+    roi : RoiCrop or None
+        The region of interest and the points of each pass outside it (left out before
+        segmentation); None when none was given. Point counts elsewhere in the result
+        are of the points inside it.
     """
 
     latency_s: float
@@ -259,6 +264,7 @@ class SphereLatencyResult:
     unpaired_rates_deg_s: tuple[float, ...]
     n_passes: int
     rejected_passes: tuple[RejectedPass, ...] = ()
+    roi: RoiCrop | None = None
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -329,6 +335,7 @@ class SphereLatencyResult:
             "n_passes": self.n_passes,
             "n_passes_used": self.n_passes_used,
             "rejected_passes": [r.as_document() for r in self.rejected_passes],
+            "roi": None if self.roi is None else self.roi.as_document(),
         }
 
 
@@ -573,12 +580,23 @@ def _unit_hint(spread_m: float, radius_m: float | None) -> str:
 
 
 def _pool_failure(
-    err: InputError | ConvergenceError, radius_m: float | None, spread_m: float = 0.0
+    err: InputError | ConvergenceError,
+    radius_m: float | None,
+    spread_m: float = 0.0,
+    *,
+    roi_given: bool = False,
 ) -> str:
     """Why no sphere was found in a pool, in the latency command's terms, with what to do."""
     text = str(err)
     for phrase, plain in _FIT_PHRASES:
         text = text.replace(phrase, plain)
+    roi_advice = (
+        f"check that the region of interest ({ROI_OPTION}) holds the sphere"
+        if roi_given
+        else f"give a region of interest around the sphere ({ROI_OPTION}) to leave out "
+        "floor and walls"
+    )
+    text = text.replace("check the radius or the region of interest", roi_advice)
     text += _unit_hint(spread_m, radius_m)
     radius = (
         f"that the sphere radius (--radius-m, {radius_m:g} m) is right"
@@ -597,6 +615,8 @@ def _fit_pool_rejecting(
     scanner_origin_ned_m: ArrayLike | None,
     max_incidence_deg: float,
     seed: int,
+    *,
+    roi_given: bool = False,
 ) -> tuple[PoolFit | None, list[RejectedPass], str | None]:
     """Fit one pool, leaving out the passes that hold no usable sphere.
 
@@ -630,7 +650,7 @@ def _fit_pool_rejecting(
             )
         except (InputError, ConvergenceError) as err:
             spread_m = float(np.max(np.ptp(np.concatenate([p.points_ned_m for p in usable]), 0)))
-            failure = _pool_failure(err, radius_m, spread_m)
+            failure = _pool_failure(err, radius_m, spread_m, roi_given=roi_given)
             reason = f"no sphere found at this rate: {failure}"
             rejected += [
                 RejectedPass(p.source, p.rate_deg_s, p.n_points, 0, reason) for p in usable
@@ -721,6 +741,7 @@ def estimate_latency_sphere(
     max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
     seed: int = 0,
     progress: Progress | None = None,
+    roi_ned_m: Sequence[float] | None = None,
 ) -> SphereLatencyResult:
     """Total latency from sphere passes at opposite table rates (Method A).
 
@@ -740,6 +761,10 @@ def estimate_latency_sphere(
         RANSAC seed.
     progress : Progress, optional
         Told after each signed rate's sphere is fitted (`kinsync.progress`).
+    roi_ned_m : sequence of 6 float, optional
+        Region of interest ``(x_min, y_min, z_min, x_max, y_max, z_max)``, table-centred
+        NED (m), bounds included: only the points inside it are segmented and fitted
+        (the rate check sees all). ``roi`` of the result counts those left out.
 
     Returns
     -------
@@ -757,7 +782,9 @@ def estimate_latency_sphere(
         turn the other way than its stated rate, or
         more than twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign,
         rates in rad/s, points in ENU); no rate with both signs; no rate whose passes
-        of both signs hold a usable sphere.
+        of both signs hold a usable sphere; a malformed ``roi_ned_m``, or one that
+        leaves a pass of at least `MIN_SPHERE_POINTS_PER_PASS` points with fewer
+        (`kinsync.latency.roi.crop_passes`).
     ObservabilityError
         The rotation axis points at the sphere.
     """
@@ -769,7 +796,11 @@ def estimate_latency_sphere(
     if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
         msg = f"radius_m must be positive, got {radius_m!r}"
         raise InputError(msg)
+    roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
     check_pass_rates(passes)
+    crop = None
+    if roi is not None:
+        passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
     pairs, unpaired = _pair_groups(passes)
     per_rate: list[RateLatency] = []
     rejected: list[RejectedPass] = []
@@ -785,7 +816,12 @@ def estimate_latency_sphere(
                 f"({2 * i + j + 1} of {n_pools})",
             )
             pool, lost, failure = _fit_pool_rejecting(
-                side, radius_m, scanner_origin_ned_m, max_incidence_deg, seed
+                side,
+                radius_m,
+                scanner_origin_ned_m,
+                max_incidence_deg,
+                seed,
+                roi_given=crop is not None,
             )
             fits.append(pool)
             rejected += lost
@@ -843,4 +879,5 @@ def estimate_latency_sphere(
         unpaired_rates_deg_s=tuple(sorted(unpaired)),
         n_passes=len(passes),
         rejected_passes=tuple(rejected),
+        roi=crop,
     )
