@@ -2,7 +2,8 @@
 
 Commands are thin: parse options, call the library, print. One JSON object on stdout
 with ``--json``, a rich table otherwise. Exit status 0 on success, 2 on bad input
-(a `KinsyncError` or a usage error, reported in one line on stderr), 128 + the signal
+(a `KinsyncError` or a usage error, reported in one line on stderr) and on a full disk
+or disk quota (the output named, its partial file removed), 128 + the signal
 number when interrupted (130 for Ctrl-C / SIGINT, 143 for SIGTERM: unfinished outputs
 are removed on the way out, as on any error, and the outputs already complete are
 named), 1 on any other failure (set ``KINSYNC_DEBUG=1`` to see its traceback).
@@ -261,6 +262,22 @@ def _check_arguments_are_text(args: Sequence[str]) -> None:
             raise InputError(msg) from None
 
 
+def _full_disk(err: BaseException) -> str | None:
+    """The one-line message for a full disk or quota met outside an output's writing.
+
+    An output written through `kinsync.io.atomic.atomic_path` is named by its own
+    message (an `InputError`); this covers any other file (a temporary one, a cache).
+    """
+    atomic = sys.modules.get("kinsync.io.atomic")
+    if atomic is None:
+        return None
+    full = atomic.full_disk_cause(err)
+    if full is None:
+        return None
+    where = full.filename if full.filename is not None else "the output"
+    return str(atomic.disk_full_error(str(where), full))
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
     try:
@@ -301,6 +318,10 @@ def main(argv: Sequence[str] | None = None) -> None:
             if message:  # empty when help was shown for a bare group
                 print(f"kinsync: error: {message} (see --help)", file=sys.stderr)
             sys.exit(code)
+        full = _full_disk(err)
+        if full is not None:
+            print(f"kinsync: error: {full}", file=sys.stderr)
+            sys.exit(2)
         if os.environ.get("KINSYNC_DEBUG"):
             raise
         print(

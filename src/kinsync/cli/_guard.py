@@ -34,6 +34,7 @@ from kinsync.io.atomic import (
     ProtectedInput,
     check_not_an_input,
     check_output_location,
+    named_outputs,
     protected_inputs,
 )
 
@@ -204,7 +205,7 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
                         from kinsync.sim.folder import check_simulation_folder  # noqa: PLC0415
 
                         check_simulation_folder(p, command.removeprefix("simulate "))
-        with protected_inputs(inputs):
+        with protected_inputs(inputs), named_outputs(outputs):
             return callback(*args, **kwargs)
 
     return guarded

@@ -23,6 +23,7 @@ its complete old content or its complete new content, never a mix.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import shutil
@@ -35,7 +36,7 @@ from pathlib import Path
 from types import TracebackType
 
 from kinsync._signals import stop_signals_held
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncError
 
 __all__ = [
     "ProtectedInput",
@@ -45,7 +46,10 @@ __all__ = [
     "atomic_write_text",
     "check_not_an_input",
     "check_output_location",
+    "disk_full_error",
     "finish_then_publish",
+    "full_disk_cause",
+    "named_outputs",
     "output_folder",
     "protected_inputs",
 ]
@@ -72,6 +76,17 @@ class ProtectedInput:
 
 _PROTECTED: ContextVar[tuple[ProtectedInput, ...]] = ContextVar("kinsync_protected_inputs")
 
+_NAMED: ContextVar[tuple[tuple[Path, str], ...]] = ContextVar("kinsync_named_outputs")
+"""Outputs as the command line names them (``--out small/g10.csv``), by path."""
+
+_FOLDERS_BEING_WRITTEN: ContextVar[tuple[tuple[Path, Path], ...]] = ContextVar(
+    "kinsync_folders_being_written"
+)
+"""(temporary folder, output folder) of each `atomic_folder` block being written."""
+
+FULL_DISK_ERRNOS = frozenset({errno.ENOSPC, *([errno.EDQUOT] if hasattr(errno, "EDQUOT") else [])})
+"""Error numbers of a full disk (ENOSPC) and of a full disk quota (EDQUOT)."""
+
 
 @contextmanager
 def protected_inputs(inputs: Iterable[ProtectedInput]) -> Iterator[None]:
@@ -81,6 +96,78 @@ def protected_inputs(inputs: Iterable[ProtectedInput]) -> Iterator[None]:
         yield
     finally:
         _PROTECTED.reset(token)
+
+
+@contextmanager
+def named_outputs(outputs: Iterable[tuple[str, Path]]) -> Iterator[None]:
+    """Within this block, messages name these outputs by their option (``--out PATH``).
+
+    Parameters
+    ----------
+    outputs : iterable of (str, Path)
+        Each output's command-line option (e.g. ``"--out"``) and path as given.
+    """
+    named = tuple((Path(os.path.abspath(p)), f"{option} {p}") for option, p in outputs)  # noqa: PTH100
+    token = _NAMED.set((*_NAMED.get(()), *named))
+    try:
+        yield
+    finally:
+        _NAMED.reset(token)
+
+
+def _shown_output(path: Path) -> str:
+    """How a message names output ``path``: by its option when the command line gave it.
+
+    A file written inside the temporary folder of an `atomic_folder` block is named by
+    its place in the output folder.
+    """
+    where = Path(os.path.abspath(path))  # noqa: PTH100
+    for tmp, final in _FOLDERS_BEING_WRITTEN.get(()):
+        if where.is_relative_to(tmp):
+            where = final / where.relative_to(tmp)
+            path = where
+    for named, label in _NAMED.get(()):
+        if named == where:
+            return label
+    return str(path)
+
+
+def full_disk_cause(err: BaseException) -> OSError | None:
+    """The full-disk or full-quota `OSError` behind ``err`` (itself or a cause), if any.
+
+    A `KinsyncError` already says what went wrong: none is looked for behind it.
+    """
+    seen: BaseException | None = err
+    for _ in range(16):  # causes chain; a cycle cannot hang
+        if seen is None or isinstance(seen, KinsyncError):
+            return None
+        if isinstance(seen, OSError) and seen.errno in FULL_DISK_ERRNOS:
+            return seen
+        seen = seen.__cause__ or seen.__context__
+    return None
+
+
+def disk_full_error(path: Path | str, err: OSError) -> InputError:
+    """The one-line error for an output that a full disk (or quota) cut short.
+
+    Parameters
+    ----------
+    path : Path or str
+        The output being written (named by its option when the command line gave it).
+    err : OSError
+        The error, ``ENOSPC`` or ``EDQUOT``.
+    """
+    shown = _shown_output(Path(path)) if isinstance(path, Path) else path
+    quota = hasattr(errno, "EDQUOT") and err.errno == errno.EDQUOT
+    what = "the disk quota is exceeded" if quota else "the disk is full"
+    todo = (
+        "free space in your quota (or ask for a larger one)" if quota else "free space on that disk"
+    )
+    msg = (
+        f"{shown}: {what} ({err.strerror or err}); the output is not written (nothing "
+        f"partial is left): {todo}, or write the output to another disk, then run again"
+    )
+    return InputError(msg)
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -315,7 +402,13 @@ def atomic_path(path: Path) -> Iterator[Path]:
     os.umask(umask)
     tmp.chmod(0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
     try:
-        yield tmp
+        try:
+            yield tmp
+        except Exception as err:
+            full = full_disk_cause(err)
+            if full is not None:
+                raise disk_full_error(path, full) from None
+            raise
         try:
             with stop_signals_held():  # renamed and recorded, or neither
                 tmp.replace(path)
@@ -484,7 +577,18 @@ def atomic_folder(
         umask = os.umask(0)
         os.umask(umask)
         tmp.chmod(0o777 & ~umask)  # mkdtemp creates 0700; give the folder the usual mode
-        yield tmp
+        token = _FOLDERS_BEING_WRITTEN.set(
+            (*_FOLDERS_BEING_WRITTEN.get(()), (Path(os.path.abspath(tmp)), path))  # noqa: PTH100
+        )
+        try:
+            yield tmp
+        except Exception as err:
+            full = full_disk_cause(err)
+            if full is not None:
+                raise disk_full_error(given, full) from None
+            raise
+        finally:
+            _FOLDERS_BEING_WRITTEN.reset(token)
         if path.is_dir():
             check(given)
         with stop_signals_held():  # published and recorded, or neither
