@@ -153,6 +153,27 @@ def _rows(out: str) -> dict[str, str]:
     return rows
 
 
+@pytest.mark.parametrize("as_json", [True, False])
+def test_the_default_gap_threshold_is_rounded_to_the_microsecond(
+    sbet: Path, run_cli: RunCli, as_json: bool
+) -> None:
+    """10 intervals of 5 ms near 1.4e9 s printed 0.05000114441 (0.05000114440917969 s)."""
+    args = ["trajectory", "info", str(sbet), "--gps-week", str(WEEK)]
+    code, out, err = run_cli([*args, "--json"] if as_json else args)
+    assert code == 0, err
+    if as_json:
+        assert json.loads(out)["gap_threshold_s"] == 0.05
+    else:
+        assert _rows(out)["gap_threshold_s"] == "0.05"
+
+
+def test_a_given_gap_threshold_is_shown_as_given(sbet: Path, run_cli: RunCli) -> None:
+    args = ["trajectory", "info", str(sbet), "--gps-week", str(WEEK), "--json"]
+    code, out, err = run_cli([*args, "--max-gap-s", "0.0123456789"])
+    assert code == 0, err
+    assert json.loads(out)["gap_threshold_s"] == 0.0123456789
+
+
 def test_table_prints_times_to_the_millisecond(sbet: Path, run_cli: RunCli) -> None:
     """Review G: 1418472301.61 printed as 1418472302 (10 significant digits)."""
     code, out, err = run_cli(["trajectory", "info", str(sbet), "--gps-week", str(WEEK)])
