@@ -35,7 +35,7 @@ from kinsync.errors import InputError, PointValueError
 from kinsync.frames import (
     rotation_ned_to_ecef,
 )
-from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.georef.trajectory import GeorefRecords, GeorefTrajectory
 from kinsync.mount import Mount
 
 __all__ = [
@@ -45,7 +45,9 @@ __all__ = [
     "georeference",
     "georeference_numpy",
     "point_value_error",
+    "prepared_for_points",
     "raise_not_finite_points",
+    "span_of",
     "use_hermite",
     "validated_scanner_points",
 ]
@@ -309,21 +311,45 @@ def validated_scanner_points(
     return t, xyz
 
 
-def use_hermite(traj: GeorefTrajectory, position: str) -> bool:
+def span_of(t: FloatArray) -> tuple[float, float]:
+    """Earliest and latest of point times ``t`` (s), NaN left out (NaN, NaN: none)."""
+    t_min, t_max = float(np.min(t, initial=math.inf)), float(np.max(t, initial=-math.inf))
+    if math.isnan(t_min) or math.isnan(t_max):  # min and max are NaN when any time is
+        t_min = float(np.nanmin(t)) if not np.isnan(t).all() else math.nan
+        t_max = float(np.nanmax(t)) if not np.isnan(t).all() else math.nan
+    elif t_min > t_max:  # no points
+        return math.nan, math.nan
+    return t_min, t_max
+
+
+def prepared_for_points(
+    traj: GeorefTrajectory | GeorefRecords, t_s: FloatArray
+) -> GeorefTrajectory:
+    """The trajectory prepared over the records that points at times ``t_s`` (s) need.
+
+    A `GeorefRecords` prepares the records bracketing the points' span
+    (`GeorefRecords.prepared_for`); a `GeorefTrajectory` is prepared already.
+    Infinite times count (they lie outside the span either way); NaN ones do not.
+    """
+    t_min, t_max = span_of(np.asarray(t_s, dtype=np.float64))
+    return traj.prepared_for(t_min, t_max)
+
+
+def use_hermite(traj: GeorefTrajectory | GeorefRecords, position: str) -> bool:
     """Whether ``position`` means cubic Hermite for ``traj``; `InputError` if it cannot."""
     if position not in ("auto", "linear", "hermite"):
         msg = f"georeference: position method must be auto, linear or hermite, got {position!r}"
         raise InputError(msg)
-    if position == "hermite" and traj.vel_ecef_m_s is None:
+    if position == "hermite" and not traj.has_velocities:
         msg = (
             "georeference: Hermite position interpolation needs trajectory velocities "
             "(vel_ned_m_s); use position='linear' or a trajectory with velocities"
         )
         raise InputError(msg)
-    return position == "hermite" or (position == "auto" and traj.vel_ecef_m_s is not None)
+    return position == "hermite" or (position == "auto" and traj.has_velocities)
 
 
-def check_latency(traj: GeorefTrajectory, mount: Mount) -> None:
+def check_latency(traj: GeorefTrajectory | GeorefRecords, mount: Mount) -> None:
     """Raise `InputError` unless ``traj`` was corrected for ``mount.latency_s``."""
     if abs(traj.latency_s - mount.latency_s) > _LATENCY_MATCH_TOL_S:
         msg = (
@@ -337,7 +363,7 @@ def check_latency(traj: GeorefTrajectory, mount: Mount) -> None:
 def georeference(
     t_s: ArrayLike,
     xyz_scanner_m: ArrayLike,
-    traj: GeorefTrajectory,
+    traj: GeorefTrajectory | GeorefRecords,
     mount: Mount,
     *,
     position: PositionMethod = "auto",
@@ -350,8 +376,9 @@ def georeference(
         Point times (s) on the scanner's time scale, any order (sorted is fastest).
     xyz_scanner_m : array_like, shape (N, 3)
         Points in the scanner frame (m).
-    traj : GeorefTrajectory
-        Precomputed trajectory, corrected for ``mount.latency_s``.
+    traj : GeorefTrajectory or GeorefRecords
+        Precomputed trajectory, corrected for ``mount.latency_s`` (`GeorefRecords`: the
+        records the points need are prepared, `prepared_for_points`).
     mount : Mount
         Lever arm (m, body frame FRD), boresight scanner -> body and latency (s).
     position : {"auto", "linear", "hermite"}
@@ -376,6 +403,7 @@ def georeference(
     t, xyz = _shaped_points(t_s, xyz_scanner_m)
     check_latency(traj, mount)
     hermite = use_hermite(traj, position)
+    traj = prepared_for_points(traj, t)
     out = np.empty((t.size, 3))
     inside = np.empty(t.size, dtype=np.bool_)
     # numba compiles read-only and writable inputs apart: every input is passed
@@ -404,7 +432,7 @@ def georeference(
 def georeference_numpy(
     t_s: ArrayLike,
     xyz_scanner_m: ArrayLike,
-    traj: GeorefTrajectory,
+    traj: GeorefTrajectory | GeorefRecords,
     mount: Mount,
     *,
     position: PositionMethod = "auto",
@@ -457,6 +485,8 @@ def georeference_numpy(
     t, xyz = validated_scanner_points(t_s, xyz_scanner_m)
     check_latency(traj, mount)
     hermite = use_hermite(traj, position)
+    if isinstance(traj, GeorefRecords):  # the reference interpolates the whole trajectory
+        traj = traj.prepared_for(-math.inf, math.inf)
     sample = traj.trajectory.interpolate(
         t, position="hermite" if hermite else "linear", mask_outside=True, max_gap_s=traj.max_gap_s
     )

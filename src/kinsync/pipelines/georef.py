@@ -40,7 +40,7 @@ from kinsync.crs_axes import output_units
 from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
-from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.georef.trajectory import GeorefRecords
 from kinsync.io.atomic import ProtectedInput, check_not_an_input
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_lines import csv_header_line
@@ -92,12 +92,21 @@ from kinsync.pipelines.write_behind import WriteBehind
 from kinsync.progress import Progress, report
 
 __all__ = [
+    "STAGE_CHECKING_TRAJECTORY",
+    "STAGE_READING_POINTS",
+    "STAGE_READING_TRAJECTORY",
     "GeorefSummary",
     "OutsidePolicy",
     "PointColumns",
     "georeference_file",
     "rejected_path_for",
 ]
+
+STAGE_READING_TRAJECTORY = "reading the trajectory"
+STAGE_CHECKING_TRAJECTORY = "checking the trajectory (velocities, gaps)"
+STAGE_READING_POINTS = "reading the points' layout"
+"""Stages reported (at 0 %) before the points are georeferenced: on a long trajectory
+they take most of a short run (a 10 h SBET: tens of seconds)."""
 
 _LAS_SUFFIXES = (".las", ".laz")
 _TABLE_SUFFIXES = (".csv", ".parquet")
@@ -298,8 +307,10 @@ def georeference_file(
     position : {"auto", "linear", "hermite"}
         Position interpolation (see `georeference`).
     progress : Progress, optional
-        Told the share of the points done (stage "georeferencing") once the inputs
-        are checked and after each chunk written.
+        Told each stage before the points: `STAGE_READING_TRAJECTORY`,
+        `STAGE_CHECKING_TRAJECTORY`, `STAGE_READING_POINTS` (at 0), then the share of
+        the points done (stage "georeferencing") once the inputs are checked and after
+        each chunk written.
     scheduler : str
         Where chunks are read and georeferenced: ``"local"`` (in this process,
         serial), ``"processes"`` (a local process pool) or ``"tcp://HOST:PORT"`` (an
@@ -343,13 +354,15 @@ def georeference_file(
     start = time.perf_counter()
     points_path, out_path = Path(points_path), Path(out_path)
     _check_arguments(points_path, out_path, outside, chunk_points, point_columns, columns)
+    report(progress, 0.0, STAGE_READING_TRAJECTORY)
     trajectory, traj_scale = read_trajectory_file(trajectory_path, gps_week=gps_week)
-    traj = GeorefTrajectory.from_trajectory(
-        trajectory, latency_s=mount.latency_s, max_gap_s=max_gap_s
-    )
+    report(progress, 0.0, STAGE_CHECKING_TRAJECTORY)
+    traj = GeorefRecords.from_trajectory(trajectory, latency_s=mount.latency_s, max_gap_s=max_gap_s)
+    del trajectory
     use_hermite(traj, position)
     check_latency(traj, mount)
     crs_plan, crs_info = _plan_crs(traj, traj_scale, crs, geoid, epoch_year, trajectory_crs)
+    report(progress, 0.0, STAGE_READING_POINTS)
     las_input = _kind(points_path) == "las"
     out_kind = _kind(out_path)
     output: OutputKind = "same" if out_kind == _kind(points_path) else cast(OutputKind, out_kind)
@@ -423,7 +436,7 @@ def georeference_file(
 
 
 def _plan_crs(
-    traj: GeorefTrajectory,
+    traj: GeorefRecords,
     traj_scale: TimeScale,
     crs: str,
     geoid: str | None,
@@ -440,7 +453,7 @@ def _plan_crs(
         geoid=geoid,
         epoch_year=epoch_year,
         source_crs=trajectory_crs,
-        sample_ecef_m=traj.pos_ecef_m[rows],
+        sample_ecef_m=traj.pos_ecef_m_at(rows),
         observation_epoch_year=observed,
     )
 
@@ -675,7 +688,7 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
         if math.isfinite(t)
     ]
     t_mid = 0.5 * (min(times) + max(times)) if times else 0.5 * (traj.t_start_s + traj.t_end_s)
-    pos = np.array([[np.interp(t_mid, traj.t_s, traj.pos_ecef_m[:, j]) for j in range(3)]])
+    pos = traj.position_ecef_m_at(t_mid)[None, :]
     to_crs = crs_plan_transformer(crs)
     centre = (pos if to_crs is None else to_crs(pos))[0]
     if geographic:

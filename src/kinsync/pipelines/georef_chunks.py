@@ -27,9 +27,15 @@ from kinsync._typing import BoolArray, FloatArray
 from kinsync.crs import CrsPlan, crs_plan_transformer
 from kinsync.crs_axes import output_units
 from kinsync.errors import InputError, PointValueError
-from kinsync.georef.kernel import PositionMethod, georeference, raise_not_finite_points
+from kinsync.georef.kernel import (
+    PositionMethod,
+    georeference,
+    prepared_for_points,
+    raise_not_finite_points,
+    span_of,
+)
 from kinsync.georef.profile import profile_points_to_scanner
-from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.georef.trajectory import GeorefRecords, GeorefTrajectory
 from kinsync.io.csv_lines import csv_slice_lines
 from kinsync.io.las import (
     LasPointReader,
@@ -133,7 +139,7 @@ class ChunkContext:
     """What every worker holds once: input, trajectory, mount and options."""
 
     source: ChunkSource
-    traj: GeorefTrajectory
+    traj: GeorefTrajectory | GeorefRecords
     mount: Mount
     position: PositionMethod
     crs: CrsPlan  # the transformation chosen once (`kinsync.crs.plan_ecef_to_crs`)
@@ -349,18 +355,19 @@ def _georeference_blocks(
     n = t.size
     pos = np.empty((n, 3))
     inside = np.empty(n, dtype=np.bool_)
+    traj = prepared_for_points(ctx.traj, t)  # once for the chunk's blocks
 
     def work(a: int, b: int) -> bool:
         try:
             pos[a:b], inside[a:b] = georeference(
-                t[a:b], xyz[a:b], ctx.traj, ctx.mount, position=ctx.position
+                t[a:b], xyz[a:b], traj, ctx.mount, position=ctx.position
             )
         except InputError:
             return False
         return True
 
     if not all(_in_blocks(n, blocks, work)):  # the whole chunk's error: its first bad point
-        return georeference(t, xyz, ctx.traj, ctx.mount, position=ctx.position)
+        return georeference(t, xyz, traj, ctx.mount, position=ctx.position)
     return pos, inside
 
 
@@ -527,6 +534,7 @@ def _process_las_task(
     assert frame is not None
     to_crs = crs_plan_transformer(ctx.crs)
     inside = np.empty(n, dtype=np.bool_)
+    traj = _prepared_for_las(ctx, gps_time)
 
     def work(start: int, stop: int) -> str | None:
         """Georeference one block into its records; the error message, if any."""
@@ -557,6 +565,17 @@ def _process_las_task(
     )
 
 
+def _prepared_for_las(ctx: ChunkContext, gps_time: Any) -> GeorefTrajectory:
+    """The trajectory prepared for a LAS chunk's points (no chunk-sized time array made).
+
+    The span of ``gps_time + las_time_offset_s`` is that of ``gps_time`` moved by the
+    offset: a rounded sum is monotonic, so it holds every point's time.
+    """
+    t_min, t_max = span_of(np.asarray(gps_time, dtype=np.float64))
+    offset = ctx.source.las_time_offset_s
+    return ctx.traj.prepared_for(t_min + offset, t_max + offset)
+
+
 def _las_table_output(
     ctx: ChunkContext, task: ChunkTask, base: ChunkOutput, record: Any, blocks: Executor | None
 ) -> ChunkOutput:
@@ -571,6 +590,7 @@ def _las_table_output(
     inside = np.empty(n, dtype=np.bool_)
     coords = np.empty((n, 3))
     gps_time = record.gps_time
+    traj = _prepared_for_las(ctx, gps_time)
 
     def work(start: int, stop: int) -> str | None:
         """Georeference one block into ``coords``; the error message, if any."""

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Literal
 
 from kinsync.errors import InputError
-from kinsync.georef.trajectory import GeorefTrajectory
+from kinsync.georef.trajectory import GeorefRecords, GeorefTrajectory
 from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
 from kinsync.io.trajectory import TimeScale, gps_week_needed_text
@@ -208,7 +208,7 @@ class OutsideTally:
         """Whether not one of ``points_in`` points lies within the trajectory's span."""
         return points_in > 0 and self.count - self.gap_count == points_in
 
-    def gap_text(self, traj: GeorefTrajectory) -> str:
+    def gap_text(self, traj: GeorefTrajectory | GeorefRecords) -> str:
         """How many points fell in which gaps of the trajectory, for messages."""
         hit = [
             g for g in traj.gaps if g.t_end_s > self.gap_t_min_s and g.t_start_s < self.gap_t_max_s
@@ -221,7 +221,7 @@ class OutsideTally:
             f"{gap_threshold_text(traj.max_gap_s, given=traj.max_gap_given)}: {named}{more}"
         )
 
-    def describe(self, traj: GeorefTrajectory) -> str:
+    def describe(self, traj: GeorefTrajectory | GeorefRecords) -> str:
         """Which points could not be georeferenced and why: in gaps, outside the span."""
         outside = self.count - self.gap_count
         if self.gap_count == 0:
@@ -237,13 +237,15 @@ class OutsideTally:
             what += f" outside the trajectory span [{traj.t_start_s!r}, {traj.t_end_s!r}] s"
         return what
 
-    def hint(self, traj: GeorefTrajectory) -> str | None:
+    def hint(self, traj: GeorefTrajectory | GeorefRecords) -> str | None:
         """The time-scale mix-up the times outside the span show, if one is clear."""
         if self.count == self.gap_count:
             return None
         return time_scale_hint(self.times, self.t_min_s, self.t_max_s, traj.t_start_s, traj.t_end_s)
 
-    def error(self, points_path: Path, traj: GeorefTrajectory, rejected: Path) -> InputError:
+    def error(
+        self, points_path: Path, traj: GeorefTrajectory | GeorefRecords, rejected: Path
+    ) -> InputError:
         """The error of a run with points outside the span (``outside="error"``).
 
         ``rejected``: where ``--outside reject`` would write them.
@@ -266,7 +268,7 @@ class OutsideTally:
         )
         return InputError(msg)
 
-    def span_error(self, points_path: Path, traj: GeorefTrajectory) -> InputError:
+    def span_error(self, points_path: Path, traj: GeorefTrajectory | GeorefRecords) -> InputError:
         """The error of a run none of whose points lies within the trajectory's span."""
         advice = self.hint(traj) or GENERIC_TIME_ADVICE
         msg = (
@@ -279,7 +281,9 @@ class OutsideTally:
         )
         return InputError(msg)
 
-    def warning(self, points_path: Path, traj: GeorefTrajectory, rejected: Path) -> str:
+    def warning(
+        self, points_path: Path, traj: GeorefTrajectory | GeorefRecords, rejected: Path
+    ) -> str:
         """The warning of a run that rejected points to ``rejected`` (``outside="reject"``)."""
         hint = self.hint(traj)
         latency = f" (latency {traj.latency_s!r} s applied)" if self.count > self.gap_count else ""
