@@ -157,3 +157,33 @@ def test_bad_input_is_one_line_error(
     )
     assert_one_line_error(code, stdout, err, *fragments)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_table_is_written_in_blocks_with_the_same_bytes(
+    run_cli: RunCli, traj_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, suffix: str
+) -> None:
+    """A long trajectory is converted and written a block at a time (6.5 GB for 10 h at
+    200 Hz, written at once): the file is the one a single write makes."""
+    from kinsync.io.table_writer import TableChunkWriter  # noqa: PLC0415
+    from kinsync.pipelines import trajectory_export  # noqa: PLC0415
+
+    args = ["trajectory", "export", str(traj_csv), "--crs", "EPSG:32619", "--out"]
+    whole = tmp_path / f"whole{suffix}"
+    assert run_cli([*args, str(whole)])[0] == 0
+    sizes: list[int] = []
+    write = TableChunkWriter.write
+
+    def spy(self: TableChunkWriter, columns: dict[str, np.ndarray]) -> None:
+        sizes.append(len(columns["t_s"]))
+        write(self, columns)
+
+    monkeypatch.setattr(TableChunkWriter, "write", spy)
+    monkeypatch.setattr(trajectory_export, "BLOCK_RECORDS", 1000)
+    blocks = tmp_path / f"blocks{suffix}"
+    assert run_cli([*args, str(blocks)])[0] == 0
+    assert sizes == [1000, 1000, 1000, 1]
+    if suffix == ".csv":
+        assert blocks.read_bytes() == whole.read_bytes()
+    else:  # row groups of a block each (of 2**20 rows, pyarrow's default, when real)
+        assert pq.read_table(blocks).equals(pq.read_table(whole))

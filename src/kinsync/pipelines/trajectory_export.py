@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import pyproj
 
+from kinsync._typing import FloatArray
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_decimal_year
 from kinsync.crs import (
     ECEF_WGS84,
@@ -36,10 +37,12 @@ from kinsync.crs import (
 )
 from kinsync.crs_axes import coordinate_metadata
 from kinsync.errors import InputError
-from kinsync.frames import geodetic_to_ecef
+from kinsync.frames import geodetic_to_ecef, quaternion_to_euler_rpy
 from kinsync.io.quicklook import decimate, write_geojson_line, write_kml_line
 from kinsync.io.table_writer import TableChunkWriter
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
+from kinsync.progress import Progress, report
+from kinsync.trajectory import Trajectory
 
 __all__ = ["DEFAULT_MAX_VERTICES", "TABLE_SUFFIXES", "TrajectoryExport", "export_trajectory"]
 
@@ -48,6 +51,12 @@ LINE_SUFFIXES = (".geojson", ".json", ".kml")
 DEFAULT_MAX_VERTICES = 2000
 """Most vertices of a quick-look line when ``--max-vertices`` is not given."""
 DEFAULT_CRS = "EPSG:4979"  # WGS 84 longitude, latitude, ellipsoidal height
+BLOCK_RECORDS = 1 << 20
+"""Records converted and written at a time: memory stays bounded on a long trajectory
+(a 10 h, 200 Hz SBET took 6.5 GB written at once). Parquet's row groups hold as many
+rows (pyarrow's default), so the file is the one a single write makes."""
+STAGE_READING = "reading the trajectory"
+STAGE_WRITING = "writing"
 
 
 @dataclass(frozen=True)
@@ -97,6 +106,7 @@ def export_trajectory(
     trajectory_crs: str = ECEF_WGS84,
     gps_week: int | None = None,
     max_vertices: int | None = None,
+    progress: Progress | None = None,
 ) -> TrajectoryExport:
     """Write a trajectory as a table in ``crs`` or as a quick-look line (see the module).
 
@@ -116,6 +126,9 @@ def export_trajectory(
     max_vertices : int, optional
         Most vertices of a line (default `DEFAULT_MAX_VERTICES`); not for a table, which
         keeps every record.
+    progress : Progress, optional
+        Told `STAGE_READING` (at 0), then the share of the records written
+        (`STAGE_WRITING`; a table is converted and written `BLOCK_RECORDS` at a time).
 
     Raises
     ------
@@ -148,7 +161,9 @@ def export_trajectory(
         max_vertices = DEFAULT_MAX_VERTICES
     if line:
         decimate(2, max_vertices)  # a bad --max-vertices fails before reading
+    report(progress, 0.0, STAGE_READING)
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    report(progress, 0.0, STAGE_WRITING)
     llh = traj.lat_lon_h
     if llh is None:  # the readers give geodetic trajectories
         msg = f"{path}: the trajectory has no geodetic positions"
@@ -163,7 +178,8 @@ def export_trajectory(
         else:
             write_geojson_line(out_path, llh[rows, 1], llh[rows, 0], llh[rows, 2], props)
         return TrajectoryExport(len(traj), len(rows), scale, traj.t_start_s, traj.t_end_s, None)
-    pos_ecef_m = geodetic_to_ecef(llh[:, 0], llh[:, 1], llh[:, 2])
+    samples = list(sample_rows(len(traj)))
+    sample_ecef_m = geodetic_to_ecef(llh[samples, 0], llh[samples, 1], llh[samples, 2])
     t_mid_s = 0.5 * (traj.t_start_s + traj.t_end_s)
     dated = scale == "gps" and t_mid_s >= PLAUSIBLE_DATE_GPS_S
     plan, info = plan_ecef_to_crs(
@@ -171,26 +187,51 @@ def export_trajectory(
         geoid=geoid,
         epoch_year=epoch_year,
         source_crs=trajectory_crs,
-        sample_ecef_m=pos_ecef_m[list(sample_rows(len(traj)))],
+        sample_ecef_m=sample_ecef_m,
         observation_epoch_year=gps_to_decimal_year(t_mid_s) if dated else None,
     )
     to_crs = crs_plan_transformer(plan)
+    fields, metadata = coordinate_metadata(pyproj.CRS.from_user_input(crs or DEFAULT_CRS))
+    n = len(traj)
+    with TableChunkWriter(out_path, fields, metadata) as writer:
+        for start in range(0, n, BLOCK_RECORDS):
+            block = slice(start, min(start + BLOCK_RECORDS, n))
+            columns = _table_block(traj, block, to_crs, path, crs or DEFAULT_CRS)
+            writer.write({k: np.ascontiguousarray(v) for k, v in columns.items()})
+            report(progress, block.stop / n, STAGE_WRITING)
+    return TrajectoryExport(n, n, scale, traj.t_start_s, traj.t_end_s, info)
+
+
+def _table_block(
+    traj: Trajectory, rows: slice, to_crs: Any, path: Path, crs: str
+) -> dict[str, FloatArray]:
+    """The table's columns for records ``rows``, each of shape (len(rows),).
+
+    Times (s), X, Y, Z in ``crs``, roll, pitch, yaw (deg), NED velocities (m/s) when
+    the trajectory has them. Every value is computed record by record: a block holds
+    the values the whole trajectory converted at once would.
+
+    Raises
+    ------
+    InputError
+        A record that does not convert to ``crs`` (the first one, by its 0-based row).
+    """
+    llh = traj.lat_lon_h
+    assert llh is not None
+    pos_ecef_m = geodetic_to_ecef(llh[rows, 0], llh[rows, 1], llh[rows, 2])
     xyz = pos_ecef_m if to_crs is None else to_crs(pos_ecef_m)
     bad = ~np.isfinite(xyz).all(axis=1)
     if bad.any():
-        row = int(np.flatnonzero(bad)[0])
+        row = int(np.flatnonzero(bad)[0]) + int(rows.start)
         msg = (
             f"{path}: record {row} (t = {traj.t_s[row]!r} s) does not convert to "
-            f"{crs or DEFAULT_CRS}; is the CRS meant for this area?"
+            f"{crs}; is the CRS meant for this area?"
         )
         raise InputError(msg)
-    rpy = np.degrees(traj.euler_rpy_rad())
-    columns = {"t_s": traj.t_s, "X": xyz[:, 0], "Y": xyz[:, 1], "Z": xyz[:, 2]}
+    rpy = np.degrees(quaternion_to_euler_rpy(traj.q_body_to_ned[rows]))
+    columns = {"t_s": traj.t_s[rows], "X": xyz[:, 0], "Y": xyz[:, 1], "Z": xyz[:, 2]}
     columns |= {"roll_deg": rpy[:, 0], "pitch_deg": rpy[:, 1], "yaw_deg": rpy[:, 2]}
     if traj.vel_ned_m_s is not None:
         for j, name in enumerate(("vn_m_s", "ve_m_s", "vd_m_s")):
-            columns[name] = traj.vel_ned_m_s[:, j]
-    fields, metadata = coordinate_metadata(pyproj.CRS.from_user_input(crs or DEFAULT_CRS))
-    with TableChunkWriter(out_path, fields, metadata) as writer:
-        writer.write({k: np.ascontiguousarray(v) for k, v in columns.items()})
-    return TrajectoryExport(len(traj), len(traj), scale, traj.t_start_s, traj.t_end_s, info)
+            columns[name] = traj.vel_ned_m_s[rows, j]
+    return columns
