@@ -221,3 +221,56 @@ def test_the_timer_writes_nothing_for_quick_work(capsys: pytest.CaptureFixture[s
     clock.now_s = _progress.HOLD_S
     assert display.tick() <= 0.0
     assert capsys.readouterr().err == "kinsync: job: reading (0.0 s)\n"
+
+
+def _georef_inputs(folder: Path) -> list[str]:
+    from tests._georef_scan import scan_columns, write_trajectory  # noqa: PLC0415
+
+    from kinsync.io.points import TableChunkWriter  # noqa: PLC0415
+
+    write_trajectory(folder / "traj.csv", 4.0)
+    cols = scan_columns(300, 3.0, 1)
+    keep = cols["t_s"] >= 1.3e9
+    with TableChunkWriter(folder / "p.csv") as w:
+        w.write({k: v[keep] for k, v in cols.items()})
+    (folder / "m.toml").write_text("[mount]\nlever_arm_body_m = [0, 0, 0]\nlatency_s = 0.0\n")
+    return [
+        "--points", str(folder / "p.csv"), "--trajectory", str(folder / "traj.csv"),
+        "--mount", str(folder / "m.toml"),
+    ]  # fmt: skip
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_georef_names_the_stages_before_the_points(run_cli: RunCli, tmp_path: Path) -> None:
+    """Reading a 10 h trajectory (half the run) had no stage line; the bar no stage name."""
+    args = ["georef", *_georef_inputs(tmp_path), "--out", str(tmp_path / "g.csv"), "--json"]
+    code, stdout, stderr = run_cli(args)
+    assert code == 0, stderr
+    json.loads(stdout)
+    stages = [line for line in _lines(stderr) if COMPILING not in line]
+    assert stages == [
+        "kinsync: georef: reading the trajectory",
+        "kinsync: georef: checking the trajectory (velocities, gaps)",
+        "kinsync: georef: reading the points' layout",
+        "kinsync: georef: georeferencing",
+    ]
+
+
+@pytest.mark.usefixtures("no_hold")
+def test_trajectory_info_and_export_name_their_stages(run_cli: RunCli, tmp_path: Path) -> None:
+    _georef_inputs(tmp_path)
+    traj = str(tmp_path / "traj.csv")
+    code, stdout, stderr = run_cli(["trajectory", "info", traj, "--json"])
+    assert code == 0, stderr
+    json.loads(stdout)
+    assert _lines(stderr) == [
+        "kinsync: trajectory info: reading the trajectory",
+        "kinsync: trajectory info: checking the trajectory (velocities, gaps)",
+    ]
+    out = str(tmp_path / "t.csv")
+    code, stdout, stderr = run_cli(["trajectory", "export", traj, "--out", out, "--json"])
+    assert code == 0, stderr
+    assert _lines(stderr) == [
+        "kinsync: trajectory export: reading the trajectory",
+        "kinsync: trajectory export: writing",
+    ]

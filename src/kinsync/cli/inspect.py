@@ -5,18 +5,24 @@ from __future__ import annotations
 import math
 import warnings as pywarnings
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
 
 from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json, quantity_table
+from kinsync.cli._progress import progress_display
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
 from kinsync.mount import StdCorrelation
+from kinsync.progress import Progress as ProgressCallback
+from kinsync.progress import report
+
+if TYPE_CHECKING:
+    from kinsync.trajectory_velocity import VelocityCheck
 
 mount_app = typer.Typer(help="Mount (system calibration) TOML files.")
 trajectory_app = typer.Typer(help="Trajectory files.")
@@ -256,6 +262,40 @@ def trajectory_info(
     (on stderr, and under ``warnings`` with --json): georeferencing then interpolates
     positions linearly.
     """
+    refuse_unused_gps_week(gps_week, trajectories=[path])
+    with progress_display("trajectory info") as progress:
+        doc, check = _trajectory_info(path, gps_week, max_gap_s, smrmsg, progress)
+    for warning in doc["warnings"]:
+        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+    if as_json:
+        print_json(doc)
+        return
+    nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps")
+    rows = {
+        k: f"{v:.3f}" if k in _TIME_ROWS else f"{v:.10g}" if isinstance(v, float) else str(v)
+        for k, v in doc.items()
+        if k not in nested
+    }
+    rows |= _time_rows(doc["time"]) | _area_rows(doc["area"])
+    if check is not None:
+        rows |= _velocity_rows(check.as_document())
+    if "smrmsg" in doc:
+        rows |= {"smrmsg": "none found"} if doc["smrmsg"] is None else _smrmsg_rows(doc["smrmsg"])
+    _print_quantities(f"Trajectory {path}", rows)
+
+
+def _trajectory_info(
+    path: Path,
+    gps_week: int | None,
+    max_gap_s: float | None,
+    smrmsg: Path | None,
+    progress: ProgressCallback,
+) -> tuple[dict[str, Any], VelocityCheck | None]:
+    """The ``trajectory info`` document and its velocity check.
+
+    Reports its stages to ``progress`` (reading, checking): a long trajectory takes a
+    while.
+    """
     # kinsync.georef (numba, laspy, pyarrow) loads only when this command runs.
     from kinsync.io.trajectory import (  # noqa: PLC0415
         read_trajectory_file,
@@ -269,10 +309,11 @@ def trajectory_info(
         trajectory_gaps,
     )
 
-    refuse_unused_gps_week(gps_week, trajectories=[path])
+    report(progress, 0.0, "reading the trajectory")
     with pywarnings.catch_warnings(record=True) as caught:
         pywarnings.simplefilter("always", KinsyncWarning)
         traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    report(progress, 0.5, "checking the trajectory (velocities, gaps)")
     reader_warnings = []  # listed with the others (--json: under "warnings")
     for w in caught:
         if issubclass(w.category, KinsyncWarning):
@@ -342,23 +383,8 @@ def trajectory_info(
                 "overlap, so its accuracies are not the trajectory's (not shown; --json keeps "
                 "them); is it the smrmsg of another mission, or on another time scale?"
             )
-    for warning in warnings:
-        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
-    if as_json:
-        print_json(doc)
-        return
-    nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps")
-    rows = {
-        k: f"{v:.3f}" if k in _TIME_ROWS else f"{v:.10g}" if isinstance(v, float) else str(v)
-        for k, v in doc.items()
-        if k not in nested
-    }
-    rows |= _time_rows(doc["time"]) | _area_rows(doc["area"])
-    if check is not None:
-        rows |= _velocity_rows(check.as_document())
-    if is_sbet:
-        rows |= {"smrmsg": "none found"} if doc["smrmsg"] is None else _smrmsg_rows(doc["smrmsg"])
-    _print_quantities(f"Trajectory {path}", rows)
+    report(progress, 1.0, "checking the trajectory (velocities, gaps)")
+    return doc, check
 
 
 @trajectory_app.command("export")
@@ -418,16 +444,18 @@ def trajectory_export(
     from kinsync.pipelines.trajectory_export import export_trajectory  # noqa: PLC0415
 
     refuse_unused_gps_week(gps_week, trajectories=[path])
-    result = export_trajectory(
-        path,
-        out,
-        crs=crs,
-        geoid=None if geoid is None else str(geoid),
-        epoch_year=epoch,
-        trajectory_crs=trajectory_crs,
-        gps_week=gps_week,
-        max_vertices=max_vertices,
-    )
+    with progress_display("trajectory export") as progress:
+        result = export_trajectory(
+            path,
+            out,
+            crs=crs,
+            geoid=None if geoid is None else str(geoid),
+            epoch_year=epoch,
+            trajectory_crs=trajectory_crs,
+            gps_week=gps_week,
+            max_vertices=max_vertices,
+            progress=progress,
+        )
     info = result.crs
     for warning in () if info is None else info.warnings:
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
