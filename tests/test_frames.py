@@ -560,3 +560,18 @@ _BAD_LATITUDE_CALLS: list[Callable[[], object]] = [
 def test_latitude_out_of_range_raises(call: Callable[[], object]) -> None:
     with pytest.raises(InputError, match="latitude"):
         call()
+
+
+def test_a_long_euler_conversion_in_blocks_gives_the_same_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Long arrays are converted in blocks (no array-sized temporaries): the same bits."""
+    from kinsync import frames  # noqa: PLC0415
+
+    rng = np.random.default_rng(5)
+    r, p, y = rng.uniform(-3.0, 3.0, (3, 10_007))
+    monkeypatch.setattr(frames, "_BLOCK_ROWS", 10**9)
+    whole = frames.euler_rpy_to_quaternion(r, p, y)
+    monkeypatch.setattr(frames, "_BLOCK_ROWS", 1000)
+    blocks = frames.euler_rpy_to_quaternion(r, p, y)
+    assert np.array_equal(whole.view(np.uint64), blocks.view(np.uint64))
