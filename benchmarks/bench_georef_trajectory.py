@@ -32,6 +32,12 @@ WEEK = 2345
 T0_SOW = 216_000.0
 RATE_HZ = 200.0
 POINTS_SPAN_S = 100.0
+LAT0, LON0 = np.radians(46.8), np.radians(-71.2)
+VN, VE = 15.0 * np.cos(0.0075), 15.0 * np.sin(0.0075)  # m/s, a straight course
+_E2 = 6.69437999014e-3  # WGS84 first eccentricity squared
+_W = np.sqrt(1.0 - _E2 * np.sin(LAT0) ** 2)
+M_RADIUS = 6378137.0 * (1.0 - _E2) / _W**3  # meridian radius of curvature (m)
+N_RADIUS = 6378137.0 / _W  # prime-vertical radius of curvature (m)
 
 
 def write_sbet(path: Path, hours: float) -> int:
@@ -44,9 +50,12 @@ def write_sbet(path: Path, hours: float) -> int:
             psi = 0.0075 * s + 0.3 * np.sin(0.05 * s)
             rec = np.zeros(k.size, dtype=SBET_DTYPE)
             rec["time_sow_s"] = T0_SOW + s
-            rec["lat_rad"] = np.radians(46.8) + 15.0 * s * np.cos(0.0075) / 6.37e6
-            rec["lon_rad"] = np.radians(-71.2) + 15.0 * s * np.sin(0.0075) / 4.36e6
+            rec["lat_rad"] = LAT0 + VN * s / M_RADIUS
+            rec["lon_rad"] = LON0 + VE * s / (N_RADIUS * np.cos(LAT0))
             rec["h_m"] = 50.0 + 2.0 * np.sin(2 * np.pi * s / 600.0)
+            rec["vel_x_wander_m_s"] = VN  # wander angle 0: north, east, down
+            rec["vel_y_wander_m_s"] = VE
+            rec["vel_z_wander_m_s"] = -2.0 * 2 * np.pi / 600.0 * np.cos(2 * np.pi * s / 600.0)
             rec["roll_rad"] = np.radians(np.sin(s / 7.0))
             rec["pitch_rad"] = np.radians(0.8 * np.sin(s / 11.0))
             rec["platform_heading_rad"] = np.mod(psi, 2 * np.pi)
