@@ -242,12 +242,34 @@ class GeorefTrajectory:
         return self.vel_ecef_m_s is not None
 
     def prepared_for(self, t_min_s: float, t_max_s: float) -> GeorefTrajectory:
-        """Itself: it is prepared over its whole span (as `GeorefRecords.prepared_for`)."""
+        """Itself: it is prepared over its whole span (as `GeorefRecords.prepared_for`).
+
+        Parameters
+        ----------
+        t_min_s, t_max_s : float
+            Earliest and latest point time (s, scanner time scale); not needed here.
+
+        Returns
+        -------
+        GeorefTrajectory
+            This trajectory.
+        """
         del t_min_s, t_max_s
         return self
 
     def position_ecef_m_at(self, t_s: float) -> FloatArray:
-        """ECEF position (m) at time ``t_s`` (scanner scale), linear between records."""
+        """ECEF position (m) at time ``t_s`` (scanner scale), linear between records.
+
+        Parameters
+        ----------
+        t_s : float
+            Time (s, scanner time scale), clamped to the records by ``np.interp``.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ECEF position (m).
+        """
         return np.array([np.interp(t_s, self.t_s, self.pos_ecef_m[:, j]) for j in range(3)])
 
     @cached_property
@@ -531,7 +553,17 @@ class GeorefRecords:
         """ECEF position (m) at time ``t_s`` (scanner scale), linear between records.
 
         ``np.interp`` over the records that bracket ``t_s``: the value it gives over
-        all of them. Shape (3,).
+        all of them.
+
+        Parameters
+        ----------
+        t_s : float
+            Time (s, scanner time scale), clamped to the records.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ECEF position (m).
         """
         first, last = self.record_span(t_s, t_s)
         first, last = max(first - 1, 0), min(last + 1, self.t_s.size - 1)
