@@ -390,6 +390,53 @@ def test_shifted_moves_record_times() -> None:
         traj.shifted(math.inf)
 
 
+@pytest.mark.parametrize("geodetic", [True, False])
+def test_shifted_is_a_new_trajectory_of_the_shifted_times_sharing_the_rest(
+    geodetic: bool,
+) -> None:
+    """Only the times are checked again: the other arrays, checked and read-only, are
+    shared instead of checked and copied (georef shifts a whole 10 h trajectory); the
+    result is, bit for bit, what a new Trajectory of the shifted times holds."""
+    rng = np.random.default_rng(3)
+    n = 200
+    t = 1.4e9 + 0.005 * np.arange(n)
+    rpy = rng.uniform(-3.0, 3.0, (3, n))
+    pos = np.column_stack([46.8 + 1e-6 * np.arange(n), -71.2 + 2e-6 * np.arange(n), 50 + t * 0])
+    where = {"lat_lon_h": pos} if geodetic else {"pos_ned_m": pos, "origin_lat_lon_h": (46, 7, 0)}
+    traj = Trajectory.from_euler(t, *rpy, vel_ned_m_s=rng.normal(size=(n, 3)), **where)
+    moved = traj.shifted(-0.0123)
+    fresh = Trajectory(
+        t_s=traj.t_s - 0.0123,
+        q_body_to_ned=traj.q_body_to_ned,
+        lat_lon_h=traj.lat_lon_h,
+        pos_ned_m=traj.pos_ned_m,
+        origin_lat_lon_h=traj.origin_lat_lon_h,
+        vel_ned_m_s=traj.vel_ned_m_s,
+    )
+    for name in ("t_s", "q_body_to_ned", "lat_lon_h", "pos_ned_m", "vel_ned_m_s"):
+        a, b = getattr(moved, name), getattr(fresh, name)
+        if b is None:
+            assert a is None
+            continue
+        assert a.tobytes() == b.tobytes(), name
+        assert not a.flags.writeable
+    assert moved.origin_lat_lon_h == fresh.origin_lat_lon_h
+    assert moved.gaps() == fresh.gaps()
+    assert type(moved) is Trajectory
+    kept = traj.lat_lon_h if geodetic else traj.pos_ned_m
+    assert kept is not None
+    assert np.shares_memory(moved.vel_ned_m_s, traj.vel_ned_m_s)
+    assert np.shares_memory(moved.lat_lon_h if geodetic else moved.pos_ned_m, kept)
+
+
+def test_shifted_still_refuses_times_rounded_together() -> None:
+    traj = Trajectory.from_euler(
+        [0.0, 1e-9, 1.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], lat_lon_h=np.zeros((3, 3))
+    )
+    with pytest.raises(InputError, match="repeated time in row 1"):
+        traj.shifted(1e9)
+
+
 @pytest.mark.parametrize("tau", [0.013, -0.021])
 def test_corrected_for_latency_reads_record_t_plus_tau(tau: float) -> None:
     traj = _small_local()

@@ -192,7 +192,7 @@ class Trajectory:
             raise InputError(msg)
         set_ = object.__setattr__
         set_(self, "t_s", readonly_array(t))
-        set_(self, "q_body_to_ned", readonly_array(q))
+        set_(self, "q_body_to_ned", readonly_array(q, copy=False))  # a new array
         if self.lat_lon_h is not None:
             if self.origin_lat_lon_h is not None:
                 msg = "trajectory: origin_lat_lon_h applies only to a local NED trajectory"
@@ -218,6 +218,51 @@ class Trajectory:
             set_(self, "vel_ned_m_s", readonly_array(vel))
 
     # ------------------------------------------------------------------ constructors
+    @staticmethod
+    def _from_checked(
+        t_s: FloatArray,
+        q_body_to_ned: FloatArray,
+        *,
+        lat_lon_h: FloatArray | None = None,
+        pos_ned_m: FloatArray | None = None,
+        origin_lat_lon_h: tuple[float, float, float] | None = None,
+        vel_ned_m_s: FloatArray | None = None,
+        lon_unwrapped_deg: FloatArray | None = None,
+    ) -> Trajectory:
+        """A trajectory of arrays already checked as `Trajectory` checks them; kept as they are.
+
+        For the few callers that have just made and checked every array (a reader that
+        checked its file, `shifted`), so that they are not checked, nor copied, a
+        second time. Each array must be exactly what ``__post_init__`` would store:
+        float64 and C-contiguous, owned by the caller (made by it) or read-only (another
+        trajectory's); ``t_s`` as `validated_times` returns it, ``q_body_to_ned`` as
+        `validated_unit_quaternions` does, positions and velocities of shape (N, 3) and
+        finite, latitudes within +-90 deg, exactly one of ``lat_lon_h`` and
+        ``pos_ned_m`` (the latter with its float ``origin_lat_lon_h``).
+        ``lon_unwrapped_deg`` is that of ``lat_lon_h`` when known (another trajectory's
+        with the same positions). The arrays are made read-only in place. Always a
+        plain `Trajectory`.
+        """
+        out = object.__new__(Trajectory)  # no __post_init__; a subclass's fields unset
+        set_ = object.__setattr__
+        set_(out, "t_s", readonly_array(t_s, copy=False))
+        set_(out, "q_body_to_ned", readonly_array(q_body_to_ned, copy=False))
+        set_(out, "origin_lat_lon_h", origin_lat_lon_h)
+        set_(out, "pos_ned_m", None if pos_ned_m is None else readonly_array(pos_ned_m, copy=False))
+        set_(
+            out,
+            "vel_ned_m_s",
+            None if vel_ned_m_s is None else readonly_array(vel_ned_m_s, copy=False),
+        )
+        set_(out, "lat_lon_h", None)
+        set_(out, "_lon_unwrapped_deg", None)
+        if lat_lon_h is not None:
+            set_(out, "lat_lon_h", readonly_array(lat_lon_h, copy=False))
+            if lon_unwrapped_deg is None:
+                lon_unwrapped_deg = np.unwrap(lat_lon_h[:, 1], period=360.0)
+            set_(out, "_lon_unwrapped_deg", readonly_array(lon_unwrapped_deg, copy=False))
+        return out
+
     @classmethod
     def from_euler(
         cls,
@@ -452,13 +497,17 @@ class Trajectory:
         if not np.isfinite(dt_s):
             msg = f"time shift must be finite, got {dt_s!r}"
             raise InputError(msg)
-        out = Trajectory(
-            t_s=self.t_s + dt_s,
-            q_body_to_ned=self.q_body_to_ned,
+        # Only the times change: they are checked again (a huge shift can round two of
+        # them together); the other arrays, checked and read-only, are shared, and the
+        # attitude is renormalised as a new Trajectory would (which changes some bits).
+        out = Trajectory._from_checked(
+            validated_times(self.t_s + dt_s),
+            validated_unit_quaternions(self.q_body_to_ned, len(self)),
             lat_lon_h=self.lat_lon_h,
             pos_ned_m=self.pos_ned_m,
             origin_lat_lon_h=self.origin_lat_lon_h,
             vel_ned_m_s=self.vel_ned_m_s,
+            lon_unwrapped_deg=self._lon_unwrapped_deg,
         )
         check = self.__dict__.get("velocity_check")
         if isinstance(check, VelocityCheck):  # the check sees differences only

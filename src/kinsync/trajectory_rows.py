@@ -10,9 +10,17 @@ import numpy as np
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError
 
-__all__ = ["check_latitudes", "first_bad_row", "validated_rows", "validated_unit_quaternions"]
+__all__ = [
+    "check_latitudes",
+    "first_bad_row",
+    "normalise_quaternions",
+    "validated_rows",
+    "validated_unit_quaternions",
+]
 
 _QUATERNION_NORM_TOL = 1e-6
+_BLOCK_ROWS = 65_536
+"""Quaternions normalised at a time (`normalise_quaternions`)."""
 
 
 def first_bad_row(mask: BoolArray) -> int:
@@ -40,19 +48,41 @@ def validated_rows(values: ArrayLike | None, n: int, width: int | None, name: st
 
 
 def validated_unit_quaternions(values: ArrayLike, n: int) -> FloatArray:
-    """(n, 4) quaternions of norm within tolerance of one, renormalised exactly."""
+    """(n, 4) quaternions of norm within tolerance of one, renormalised exactly.
+
+    Returns a new C-contiguous array (never ``values`` itself), `normalise_quaternions`
+    of a copy.
+    """
     q = validated_rows(values, n, 4, "q_body_to_ned")
-    norm = np.linalg.norm(q, axis=1)
-    bad = np.abs(norm - 1.0) > _QUATERNION_NORM_TOL
-    if np.any(bad):
-        row = first_bad_row(bad)
-        msg = (
-            f"trajectory q_body_to_ned: row {row} has norm {norm[row]:.9g}, not a unit "
-            "quaternion; normalise it or check the column order (w, x, y, z)"
-        )
-        raise InputError(msg)
-    unit: FloatArray = q / norm[:, None]
+    unit = np.array(q, dtype=np.float64, copy=True, order="C")
+    normalise_quaternions(unit)
     return unit
+
+
+def normalise_quaternions(q: FloatArray) -> None:
+    """Divide finite (N, 4) quaternions by their norms in place, refusing non-unit ones.
+
+    Works ``_BLOCK_ROWS`` rows at a time: the bits of ``q / norm(q)`` without its
+    array-sized temporaries (each row's norm depends on that row alone).
+
+    Raises
+    ------
+    InputError
+        A norm farther than 1e-6 from one, naming the first such row (0-based); rows
+        before it may have been divided already.
+    """
+    for start in range(0, q.shape[0], _BLOCK_ROWS):
+        block = q[start : start + _BLOCK_ROWS]
+        norm = np.linalg.norm(block, axis=1)
+        bad = np.abs(norm - 1.0) > _QUATERNION_NORM_TOL
+        if np.any(bad):
+            i = first_bad_row(bad)
+            msg = (
+                f"trajectory q_body_to_ned: row {start + i} has norm {norm[i]:.9g}, not a "
+                "unit quaternion; normalise it or check the column order (w, x, y, z)"
+            )
+            raise InputError(msg)
+        block /= norm[:, None]
 
 
 def check_latitudes(lat_deg: FloatArray, name: str) -> None:
