@@ -195,3 +195,90 @@ def test_smrmsg_file_given_as_sbet_is_named(tmp_path: Path) -> None:
     path.write_bytes(b"\0" * 1360)  # 10 SBET or 17 smrmsg records: the length cannot tell
     with pytest.raises(InputError, match="looks like an smrmsg accuracy file"):
         read_sbet(path)
+
+
+def _drive_records(n: int) -> np.ndarray:
+    """``n`` plausible SBET records: a drive at 200 Hz with a turning wander angle."""
+    s = 0.005 * np.arange(n)
+    rec = np.zeros(n, dtype=SBET_DTYPE)
+    rec["time_sow_s"] = 216000.0 + s
+    rec["lat_rad"] = np.radians(46.8) + 2e-6 * s
+    rec["lon_rad"] = np.radians(-71.2) + 3e-6 * s
+    rec["h_m"] = 50.0 + np.sin(s)
+    rec["vel_x_wander_m_s"] = 12.0 + np.cos(s)
+    rec["vel_y_wander_m_s"] = 5.0 * np.sin(s)
+    rec["vel_z_wander_m_s"] = -0.1 * np.cos(s)
+    rec["roll_rad"] = 0.02 * np.sin(s / 7.0)
+    rec["pitch_rad"] = 0.01 * np.sin(s / 11.0)
+    rec["platform_heading_rad"] = np.mod(0.3 * s, 2 * np.pi)
+    rec["wander_angle_rad"] = 0.1 * np.sin(s / 3.0)
+    return rec
+
+
+def test_times_are_checked_once_per_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reader checks its arrays; the Trajectory it makes does not check them again.
+
+    (It did: ``from_euler`` checked the times, then ``Trajectory`` checked them, and
+    every other array, once more, copying each.)
+    """
+    import kinsync.io.sbet as sbet_module  # noqa: PLC0415
+    import kinsync.trajectory as trajectory_module  # noqa: PLC0415
+    from kinsync.trajectory_times import validated_times  # noqa: PLC0415
+
+    calls: list[int] = []
+
+    def spy(values: np.ndarray) -> np.ndarray:
+        calls.append(len(values))
+        return validated_times(values)
+
+    monkeypatch.setattr(trajectory_module, "validated_times", spy)
+    monkeypatch.setattr(sbet_module, "validated_times", spy, raising=False)
+    path = tmp_path / "drive.out"
+    _drive_records(500).tofile(path)
+    traj = read_sbet(path, gps_week=2345)
+    assert len(traj) == 500
+    assert calls == [500]
+
+
+def test_read_in_blocks_is_the_whole_read_bit_for_bit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import kinsync.io.sbet as sbet_module  # noqa: PLC0415
+
+    path = tmp_path / "drive.out"
+    _drive_records(500).tofile(path)
+    whole = read_sbet(path, gps_week=2345)
+    monkeypatch.setattr(sbet_module, "_BLOCK_RECORDS", 7)
+    blocks = read_sbet(path, gps_week=2345)
+    for name in ("t_s", "q_body_to_ned", "lat_lon_h", "vel_ned_m_s"):
+        a, b = getattr(whole, name), getattr(blocks, name)
+        assert a.tobytes() == b.tobytes(), name
+        assert not b.flags.writeable
+    assert blocks.velocity_check == whole.velocity_check
+
+
+def test_read_in_blocks_names_the_error_a_whole_read_names(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An implausible value in a later block comes before degrees in an earlier one,
+    which come before a repeated time in an earlier one still."""
+    import kinsync.io.sbet as sbet_module  # noqa: PLC0415
+
+    monkeypatch.setattr(sbet_module, "_BLOCK_RECORDS", 7)
+    rec = _drive_records(40)
+    rec["time_sow_s"][3] = rec["time_sow_s"][2]
+    rec["roll_rad"][12] = 45.0
+    rec["pitch_rad"][9] = 80.0
+    path = tmp_path / "bad.out"
+    rec.tofile(path)
+    with pytest.raises(InputError, match=r"record 9 \(byte 1224\), field 'pitch_rad'"):
+        read_sbet(path)
+    rec["h_m"][30] = 1e6
+    rec.tofile(path)
+    with pytest.raises(InputError, match=r"record 30 \(byte 4080\), column 'h_m'"):
+        read_sbet(path)
+    rec["h_m"][30] = 50.0
+    rec["roll_rad"][12] = rec["pitch_rad"][9] = 0.0
+    rec.tofile(path)
+    with pytest.raises(InputError, match=r"repeated time in record 3 \(byte 408\)"):
+        read_sbet(path)

@@ -10,11 +10,46 @@ import numpy as np
 from kinsync.errors import InputError
 from kinsync.io.sanity import check_record_file
 
-__all__ = ["MAX_RECORD_FILE_BYTES", "memmap_records"]
+__all__ = ["MAX_RECORD_FILE_BYTES", "count_records", "memmap_records"]
 
 MAX_RECORD_FILE_BYTES = 8 << 30
 """Largest record file read (8 GiB: 2 days of a 200 Hz SBET). Its records are copied into
 arrays of about the file's size (twice for a trajectory)."""
+
+
+def count_records(path: Path, dtype: np.dtype[Any], kind: str, mismatch_hint: str) -> int:
+    """Number of fixed-size records in a file, checking its length (`memmap_records`).
+
+    Raises
+    ------
+    InputError
+        As `memmap_records`, except for the mapping itself.
+    """
+    path = Path(path)
+    size_b = dtype.itemsize
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError as err:
+        msg = f"{path}: file not found; give the path of an {kind} file"
+        raise InputError(msg) from err
+    except OSError as err:
+        msg = f"{path}: cannot read ({err})"
+        raise InputError(msg) from err
+    if path.is_dir():
+        msg = f"{path}: is a folder; give the path of an {kind} file"
+        raise InputError(msg)
+    n, left = divmod(size, size_b)
+    if left:
+        msg = (
+            f"{path}: length {size} bytes is not a multiple of the {size_b}-byte "
+            f"{kind} record: {n} whole records and {left} bytes left over; {mismatch_hint}"
+        )
+        raise InputError(msg)
+    if n == 0:
+        msg = f"{path}: empty file; an {kind} file holds {size_b}-byte records"
+        raise InputError(msg)
+    check_record_file(path, size_b, kind, MAX_RECORD_FILE_BYTES)
+    return n
 
 
 def memmap_records(
@@ -41,29 +76,7 @@ def memmap_records(
         64 KiB of records are all zero bytes (`kinsync.io.sanity.check_record_file`).
     """
     path = Path(path)
-    size_b = dtype.itemsize
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError as err:
-        msg = f"{path}: file not found; give the path of an {kind} file"
-        raise InputError(msg) from err
-    except OSError as err:
-        msg = f"{path}: cannot read ({err})"
-        raise InputError(msg) from err
-    if path.is_dir():
-        msg = f"{path}: is a folder; give the path of an {kind} file"
-        raise InputError(msg)
-    n, left = divmod(size, size_b)
-    if left:
-        msg = (
-            f"{path}: length {size} bytes is not a multiple of the {size_b}-byte "
-            f"{kind} record: {n} whole records and {left} bytes left over; {mismatch_hint}"
-        )
-        raise InputError(msg)
-    if n == 0:
-        msg = f"{path}: empty file; an {kind} file holds {size_b}-byte records"
-        raise InputError(msg)
-    check_record_file(path, size_b, kind, MAX_RECORD_FILE_BYTES)
+    n = count_records(path, dtype, kind, mismatch_hint)
     try:
         return np.memmap(path, dtype=dtype, mode="r", shape=(n,))
     except OSError as err:

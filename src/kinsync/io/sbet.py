@@ -68,17 +68,22 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.frames import euler_rpy_to_quaternion
 from kinsync.io.atomic import atomic_path
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
-from kinsync.io.records import memmap_records
+from kinsync.io.records import count_records, memmap_records
 from kinsync.io.sanity import ANGLE_RAD, HEIGHT_M, SPEED_M_S, TIME_S, Span, check_columns
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_rows import normalise_quaternions
+from kinsync.trajectory_times import validated_times
 
 __all__ = [
     "SBET_DTYPE",
@@ -139,6 +144,14 @@ _ATTITUDE_LIMITS_RAD: dict[str, tuple[float, str]] = {
 """Largest magnitude of each angle in radians, and its span in words. A heading is held
 within [0, 2 pi) or +-pi, a roll within +-pi, a pitch within +-pi/2: an angle beyond
 one turn (a pitch beyond a quarter) was written in degrees."""
+
+
+_MISMATCH_HINT = "the file is truncated or not an SBET (re-export or copy it again)"
+"""What to do about an SBET whose length is not a whole number of records."""
+
+_BLOCK_RECORDS = 65_536
+"""Records `read_sbet` reads and converts at a time (8.9 MB): a 10 h, 200 Hz SBET
+(979 MB) is never held whole, nor converted through array-sized temporaries."""
 
 
 def wander_to_ned_velocity(
@@ -205,12 +218,7 @@ def read_sbet_records(path: Path) -> np.memmap[tuple[int], np.dtype[np.void]]:
     InputError
         Missing or empty file, or a length that is not a multiple of 136 bytes.
     """
-    return memmap_records(
-        path,
-        SBET_DTYPE,
-        "SBET",
-        "the file is truncated or not an SBET (re-export or copy it again)",
-    )
+    return memmap_records(path, SBET_DTYPE, "SBET", _MISMATCH_HINT)
 
 
 def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
@@ -219,7 +227,7 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     Parameters
     ----------
     path : Path
-        SBET file (memory-mapped while the trajectory is built).
+        SBET file (read a block of records at a time while the trajectory is built).
     gps_week : int, optional
         GPS week of the first record. When given, times become continuous GPS seconds
         ``gps_week * 604800 + sow``; otherwise they stay GPS seconds of week. Not used
@@ -252,38 +260,19 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
             "info reports the smrmsg beside it)"
         )
         raise InputError(msg)
-    rec = read_sbet_records(path)
-    if rec.shape[0] < 2:
-        msg = f"{path}: a trajectory needs at least 2 records, the SBET holds {rec.shape[0]}"
+    n = count_records(path, SBET_DTYPE, "SBET", _MISMATCH_HINT)
+    if n < 2:
+        msg = f"{path}: a trajectory needs at least 2 records, the SBET holds {n}"
         raise InputError(msg)
-    check_columns(
-        {name: rec[name] for name in _SPANS},
-        _SPANS,
-        lambda i: f"{path}: record {i} (byte {i * SBET_RECORD_BYTES})",
-    )
-    _refuse_degrees(path, rec)
-    t = np.array(rec["time_sow_s"], dtype=np.float64)
-    if gps_week is not None and not holds_gps_time(float(t[0])):
-        t = gps_week * SECONDS_PER_WEEK + t
-    wander = np.asarray(rec["wander_angle_rad"], dtype=np.float64)
-    vel = wander_to_ned_velocity(
-        np.asarray(rec["vel_x_wander_m_s"], dtype=np.float64),
-        np.asarray(rec["vel_y_wander_m_s"], dtype=np.float64),
-        np.asarray(rec["vel_z_wander_m_s"], dtype=np.float64),
-        wander,
-    )
-    llh = np.column_stack(
-        [np.degrees(rec["lat_rad"]), np.degrees(rec["lon_rad"]), np.asarray(rec["h_m"])]
-    )
+    t, llh, vel, q, degrees = _read_blocks(path, n, gps_week)
+    if degrees is not None:
+        _refuse_degrees(path, degrees)
+    # What `Trajectory` checks, once: the angles, positions and velocities are finite
+    # and the latitudes within +-90 deg by the checks above; the times may repeat or
+    # decrease, and the attitudes are normalised as a Trajectory normalises them.
     try:
-        return Trajectory.from_euler(
-            t,
-            np.asarray(rec["roll_rad"], dtype=np.float64),
-            np.asarray(rec["pitch_rad"], dtype=np.float64),
-            np.asarray(rec["platform_heading_rad"], dtype=np.float64) - wander,
-            lat_lon_h=llh,
-            vel_ned_m_s=vel,
-        )
+        validated_times(t)
+        normalise_quaternions(q)
     except InputError as err:
         text = re.sub(
             r"\brow (\d+)\b",
@@ -292,28 +281,117 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
         )
         msg = f"{path}: {text}"
         raise InputError(msg) from err
-    finally:
-        del rec
+    return Trajectory._from_checked(t, q, lat_lon_h=llh, vel_ned_m_s=vel)
 
 
-def _refuse_degrees(path: Path, rec: np.memmap[tuple[int], np.dtype[np.void]]) -> None:
-    """Refuse the first angle beyond what radians can hold (`_ATTITUDE_LIMITS_RAD`)."""
+def _read_blocks(
+    path: Path, n: int, gps_week: int | None
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, tuple[int, str, float] | None]:
+    """An SBET's times, positions, NED velocities and attitudes, a block at a time.
+
+    The file is never held whole, and no conversion makes array-sized temporaries: each
+    value is computed element by element as on the whole file. Refuses the first
+    implausible value (`_SPANS`); the first angle in degrees is returned, not refused.
+
+    Returns
+    -------
+    t_s, lat_lon_h, vel_ned_m_s, q_body_to_ned : ndarray, shapes (n,), (n, 3), (n, 3), (n, 4)
+        As `read_sbet` returns them, the quaternions not yet normalised.
+    degrees : (int, str, float) or None
+        The first angle beyond what radians hold (`_first_degrees`).
+    """
+    t = np.empty(n)
+    llh = np.empty((n, 3))
+    vel = np.empty((n, 3))
+    q = np.empty((n, 4))
+    week_s: float | None = None
+    degrees: tuple[int, str, float] | None = None
+    raw = bytearray(_BLOCK_RECORDS * SBET_RECORD_BYTES)
+    try:
+        with path.open("rb") as fh:
+            for start in range(0, n, _BLOCK_RECORDS):
+                k = min(_BLOCK_RECORDS, n - start)
+                if fh.readinto(memoryview(raw)[: k * SBET_RECORD_BYTES]) != k * SBET_RECORD_BYTES:
+                    msg = (
+                        f"{path}: the file ended while it was read, before its {n} records "
+                        "(its length when opened): was it changed meanwhile? copy it again"
+                    )
+                    raise InputError(msg)
+                rec = np.frombuffer(raw, dtype=SBET_DTYPE, count=k)
+                # The first implausible value anywhere comes first (a block is only
+                # reached when those before it had none), then the first angle in
+                # degrees, then what the Trajectory checks.
+                check_columns(
+                    {name: rec[name] for name in _SPANS},
+                    _SPANS,
+                    _record_namer(path, start),
+                )
+                if degrees is None:
+                    degrees = _first_degrees(rec, start)
+                if (
+                    start == 0
+                    and gps_week is not None
+                    and not holds_gps_time(float(rec["time_sow_s"][0]))
+                ):
+                    week_s = gps_week * SECONDS_PER_WEEK
+                rows = slice(start, start + k)
+                t[rows] = rec["time_sow_s"] if week_s is None else week_s + rec["time_sow_s"]
+                llh[rows, 0] = np.degrees(rec["lat_rad"])
+                llh[rows, 1] = np.degrees(rec["lon_rad"])
+                llh[rows, 2] = rec["h_m"]
+                wander = rec["wander_angle_rad"]
+                vel[rows] = wander_to_ned_velocity(
+                    rec["vel_x_wander_m_s"],
+                    rec["vel_y_wander_m_s"],
+                    rec["vel_z_wander_m_s"],
+                    wander,
+                )
+                q[rows] = euler_rpy_to_quaternion(
+                    rec["roll_rad"], rec["pitch_rad"], rec["platform_heading_rad"] - wander
+                )
+    except OSError as err:
+        msg = f"{path}: cannot read ({err.strerror or err})"
+        raise InputError(msg) from err
+    return t, llh, vel, q, degrees
+
+
+def _record_namer(path: Path, first_record: int) -> Callable[[int], str]:
+    """Names record ``first_record + i`` of ``path`` and its byte, for `check_columns`."""
+
+    def where(i: int) -> str:
+        return f"{path}: record {first_record + i} (byte {(first_record + i) * SBET_RECORD_BYTES})"
+
+    return where
+
+
+def _first_degrees(rec: npt.NDArray[np.void], first_record: int) -> tuple[int, str, float] | None:
+    """The first angle in a block of records beyond what radians hold (`_ATTITUDE_LIMITS_RAD`).
+
+    Returns
+    -------
+    (int, str, float) or None
+        Its record (``first_record`` + its index in ``rec``), field and value.
+    """
     first: tuple[int, str, float] | None = None
     for name, (limit, _) in _ATTITUDE_LIMITS_RAD.items():
-        bad = np.abs(np.asarray(rec[name], dtype=np.float64)) > limit
+        bad = np.abs(rec[name]) > limit
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            if first is None or i < first[0]:
-                first = (i, name, float(rec[name][i]))
-    if first is not None:
-        i, name, value = first
-        msg = (
-            f"{path}: record {i} (byte {i * SBET_RECORD_BYTES}), field {name!r}: {value!r} "
-            f"is beyond {_ATTITUDE_LIMITS_RAD[name][1]} rad: the attitude looks like degrees; "
-            "an SBET holds roll, pitch, heading and wander angle in radians: export it again "
-            "(or convert those fields to radians)"
-        )
-        raise InputError(msg)
+            if first is None or first_record + i < first[0]:
+                first = (first_record + i, name, float(rec[name][i]))
+    return first
+
+
+def _refuse_degrees(path: Path, first: tuple[int, str, float]) -> None:
+    """Refuse the first angle beyond what radians can hold (`_first_degrees`)."""
+    i, name, value = first
+    msg = (
+        f"{path}: record {i} (byte {i * SBET_RECORD_BYTES}), field {name!r}: {value!r} "
+        f"is beyond {_ATTITUDE_LIMITS_RAD[name][1]} rad: the attitude looks like degrees; "
+        "an SBET holds roll, pitch, heading and wander angle in radians: export it again "
+        "(or convert those fields to radians)"
+    )
+    raise InputError(msg)
 
 
 def sbet_holds_gps_time(path: Path) -> bool:
