@@ -9,7 +9,8 @@ Writes a 200 Hz SBET of ``HOURS`` hours (default 1; ``python bench_georef_trajec
   records 100 s of points need, prepared (what ``kinsync georef`` does now);
 * `GeorefTrajectory.from_trajectory`: every record prepared (what it did before);
 
-and prints each figure and the preparation's ratio against the whole preparation, with
+and prints each figure, the checked read's ratio against the plain read and the
+preparation's ratio against the whole preparation, with
 the growth of this process's peak RSS over each step. Run:
 ``.venv/bin/python benchmarks/bench_georef_trajectory.py [HOURS]``.
 """
@@ -84,8 +85,10 @@ def main() -> None:
         print(
             f"SBET: {hours:g} h at {RATE_HZ:g} Hz, {n:,} records; points over {POINTS_SPAN_S:g} s"
         )
-        timed("plain numpy read (np.fromfile, the floor)", lambda: np.fromfile(path, SBET_DTYPE))
-        _, got = timed(
+        floor_s, _ = timed(
+            "plain numpy read (np.fromfile, the floor)", lambda: np.fromfile(path, SBET_DTYPE)
+        )
+        read_s, got = timed(
             "read_trajectory_file (checked Trajectory)",
             lambda: read_trajectory_file(path, gps_week=WEEK)[0],
         )
@@ -101,6 +104,7 @@ def main() -> None:
             "before: every record prepared (GeorefTrajectory)",
             lambda: GeorefTrajectory.from_trajectory(traj, 0.003),  # type: ignore[arg-type]
         )
+        print(f"checked read / plain numpy read: {read_s / floor_s:.1f}")
         print(f"records prepared now: {len(prepared):,} of {n:,}")  # type: ignore[arg-type]
         print(f"preparation time, now / before: {span_s / whole_s:.3f}")
 
