@@ -367,6 +367,52 @@ def test_segment_sphere_finds_a_small_sphere_in_a_room(n_sphere: int, seed: int)
     assert int((fit.inliers & ~is_sphere).sum()) < 0.01 * fit.n_points
 
 
+def edge_clutter(rng: np.random.Generator, n_per_plane: int, noise_m: float) -> FloatArray:
+    """Three thin, sparse planes meeting in a corner in front of the origin; no sphere.
+
+    A floor 0.35 m below the origin (z down), a wall 1.8 m ahead and a side wall 0.8 m
+    to the left, each a 1.5 m square of ``n_per_plane`` uniform points.
+    """
+    n = n_per_plane
+    planes = []
+    for span_a, span_b, level, axis in (
+        ((0.5, 2.0), (-0.8, 0.7), 0.35, 2),
+        ((-0.8, 0.7), (-1.15, 0.35), 1.8, 0),
+        ((0.5, 2.0), (-1.15, 0.35), -0.8, 1),
+    ):
+        a, b = rng.uniform(*span_a, n), rng.uniform(*span_b, n)
+        flat = level + noise_m * rng.standard_normal(n)
+        planes.append(np.insert(np.column_stack([a, b]), axis, flat, axis=1))
+    return np.vstack(planes)
+
+
+@pytest.mark.parametrize("seed", [7, 8, 11, 16])
+def test_segment_sphere_refuses_a_chance_fit_where_planes_meet(seed: int) -> None:
+    # Was: a "sphere" of 7-19 inliers (6-10 mm RMS) in the edge between two planes:
+    # local sampling reaches such fits, and a sphere cut by the planes fits its rings
+    # better than a plane does. Seen from the scanner it is no solid sphere: its
+    # inliers lie along its rim (7, 11), or returns come from inside it (8, 16).
+    pts = edge_clutter(np.random.default_rng(seed), 1000, 0.002)
+    with pytest.raises(InputError, match=r"no solid sphere|no sphere seen from origin_m") as err:
+        segment_sphere(pts, radius_m=RADIUS_M, origin_m=ORIGIN_M, seed=seed)
+    assert "check the radius or the region of interest" in str(err.value)
+
+
+def test_segment_sphere_allows_returns_behind_the_sphere_and_a_few_strays() -> None:
+    # A pooled pass without the sphere in view sees the wall behind it: returns in the
+    # sphere's shadow are no evidence against it, nor are two strays inside it.
+    rng = np.random.default_rng(5)
+    cap = visible_cap(rng, 400, range_noise_m=0.001)
+    rays = cap / np.linalg.norm(cap, axis=1, keepdims=True)
+    wall_x = CENTRE_M[0] + 0.5
+    behind = rays * (wall_x / rays[:, :1]) + 0.001 * rng.standard_normal(rays.shape)
+    strays = CENTRE_M + 0.03 * rng.standard_normal((2, 3))
+    pts = np.vstack([cap, behind, strays])
+    fit = segment_sphere(pts, radius_m=RADIUS_M, origin_m=ORIGIN_M, seed=1)
+    assert float(np.linalg.norm(fit.center_m - CENTRE_M)) < 5e-4
+    assert int(fit.inliers[:400].sum()) > 360
+
+
 def test_segment_sphere_is_reproducible_and_seeded() -> None:
     pts, _ = cluttered_scene(np.random.default_rng(12), 800, 0.1, 0.001)
     a = segment_sphere(pts, radius_m=RADIUS_M, seed=7)

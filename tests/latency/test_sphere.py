@@ -9,6 +9,7 @@ from functools import cache
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from tests.fit.test_fit import edge_clutter
 
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.fit import SphereFit
@@ -280,6 +281,24 @@ def test_a_rate_whose_passes_of_one_sign_hold_no_sphere_is_left_out() -> None:
     assert len(result.rejected_passes) == 3
     assert {r.rate_deg_s for r in result.rejected_passes} == {-10.0}
     assert result.n_passes_used == 6
+
+
+def test_a_rate_whose_pass_holds_only_a_corner_of_floor_and_walls_is_left_out() -> None:
+    # Was: a chance "sphere" where the planes meet became the +18 deg/s centre and the
+    # latency at that rate came out hundreds of ms off. Now the pass is rejected,
+    # named, with the reason, and the rate is left out.
+    passes = [p for p in small_simulation(TAU_S, seed=3, rates=(10.0, 18.0)) if p.rate_deg_s != 18]
+    pts = edge_clutter(np.random.default_rng(120), 1000, 0.002)
+    pts = pts[np.argsort(np.arctan2(pts[:, 1], pts[:, 0]))]  # in the order the table sweeps
+    corner = SpherePass("corner-without-sphere.csv", 18.0, pts)
+    result = estimate_latency_sphere([*passes, corner], radius_m=0.1)
+    assert [r.rate_deg_s for r in result.per_rate] == [10.0]
+    assert result.unpaired_rates_deg_s == (18.0,)
+    [rejected] = result.rejected_passes
+    assert (rejected.source, rejected.rate_deg_s) == (corner.source, 18.0)
+    assert "no solid sphere" in rejected.reason, rejected.reason
+    assert "seen from the table centre" in rejected.reason, rejected.reason
+    assert abs(result.latency_s - TAU_S) < max(4 * result.latency_std_s, 2e-4)
 
 
 def test_no_sphere_among_the_points() -> None:

@@ -57,6 +57,34 @@ _PLANE_TO_SPHERE_RMS = 1.25
 """A segmented sphere must fit its inliers this much better (RMS) than a plane does."""
 
 
+_FACE_CONE_SHARE = 0.8
+"""Beams within this share of the sphere's apparent radius (seen from the scanner) are
+the face the blocking check looks at; grazing beams near the rim, where a return may mix
+the sphere's edge with what lies behind it, are left out."""
+
+
+_MAX_BLOCKED_SHARE = 0.1
+"""Most returns from inside a segmented sphere or in front of its face, as a share of
+its inliers on that face."""
+
+
+_BLOCKED_MARGIN = 2.0
+"""A return counts as inside a segmented sphere or in front of it when it lies this many
+inlier bands off its surface (the band is about 3 robust sigma of the distances to the
+surface over the whole cap; noise on the face, met head-on, is larger)."""
+
+
+_MIN_BLOCKED = 3
+"""Fewest such returns that reject a segmented sphere (one or two may be strays)."""
+
+
+_MIN_FACE_SHARE = 0.25
+"""Least share of a segmented sphere's inliers on the central part of its face: a scanner
+sampling evenly in angle puts about 0.64 (``_FACE_CONE_SHARE ** 2``) of the returns of a
+sphere in full view there; a chance fit to surfaces cutting through a sphere's outline
+puts its inliers along its rim."""
+
+
 _TUKEY_C = 4.685
 
 
@@ -552,6 +580,85 @@ def _check_is_sphere(
         raise InputError(msg)
 
 
+def _check_seen_as_solid(
+    xc: FloatArray,
+    fit: _LocalFit,
+    origin_local: FloatArray,
+    threshold: float,
+    nothing: str,
+    ref: FloatArray,
+) -> None:
+    """Reject a candidate that does not look like a solid sphere seen from the scanner.
+
+    A scanner sampling evenly in angle puts about ``_FACE_CONE_SHARE ** 2`` of a
+    sphere's returns on the central part of its face (the beams within
+    `_FACE_CONE_SHARE` of its apparent radius); fewer than `_MIN_FACE_SHARE` of the
+    points within ``threshold`` of the candidate there mean its inliers lie along its
+    rim, where other surfaces cut through it. And a solid sphere stops every beam that
+    meets its face: the returns on those beams must lie on it or behind it. Returns
+    inside it or in front of it (more than `_BLOCKED_MARGIN` bands off its surface),
+    at least `_MIN_BLOCKED` and more than `_MAX_BLOCKED_SHARE` of those on the face,
+    mean a chance fit to surfaces that cut through it, such as the edge or corner where
+    a floor meets a wall. Returns behind it are allowed: a pooled pass in which the
+    sphere was not in view sees what lies behind it.
+
+    Parameters
+    ----------
+    xc : ndarray, shape (3, N)
+        All points (centred coordinates, m).
+    fit : _LocalFit
+        The candidate (centre in the same coordinates, radius in m).
+    origin_local : ndarray, shape (3,)
+        Scanner origin (centred coordinates, m).
+    threshold : float
+        Inlier band (m): returns within it of the surface are on the sphere.
+    nothing : str
+        Start of the message.
+    ref : ndarray, shape (3,)
+        Offset of the centred coordinates (m), for the message.
+    """
+    to_centre = fit.centre - origin_local
+    d = float(np.linalg.norm(to_centre))
+    rays = xc - origin_local[:, None]
+    ranges = np.sqrt(np.einsum("ij,ij->j", rays, rays))
+    along = (to_centre @ rays) / np.maximum(ranges, np.finfo(float).tiny)  # b = u . (c - o)
+    sin_cone = _FACE_CONE_SHARE * fit.radius / d
+    on_face = along >= d * math.sqrt(max(1.0 - sin_cone * sin_cone, 0.0))
+    diff = xc - fit.centre[:, None]
+    dist = np.sqrt(np.einsum("ij,ij->j", diff, diff))
+    near_range = along - np.sqrt(np.maximum(along * along - d * d + fit.radius**2, 0.0))
+    on = on_face & (np.abs(dist - fit.radius) <= threshold)
+    margin = _BLOCKED_MARGIN * threshold
+    inside = on_face & (dist < fit.radius - margin)
+    in_front = on_face & (dist > fit.radius + margin) & (ranges < near_range)
+    n_on, n_inside, n_front = int(on.sum()), int(inside.sum()), int(in_front.sum())
+    n_band = int((np.abs(dist - fit.radius) <= threshold).sum())
+    where = (
+        f"the best candidate (centre {(ref + fit.centre).round(3).tolist()}, radius "
+        f"{fit.radius:.4g} m, {n_band} points within {threshold:.3g} m of it)"
+    )
+    if n_on < _MIN_FACE_SHARE * n_band:
+        msg = (
+            f"{nothing}: {where} is no sphere seen from origin_m: of those points only "
+            f"{n_on} {'lies' if n_on == 1 else 'lie'} on the central part of its face (a "
+            f"sphere in view puts about {_FACE_CONE_SHARE**2:.0%} of its returns there), the "
+            "rest near its rim or on its far side, where surfaces such as a floor and a wall "
+            "may cut through it; check the radius or the region of interest"
+        )
+        raise InputError(msg)
+    n_blocked = n_inside + n_front
+    if n_blocked < _MIN_BLOCKED or n_blocked <= _MAX_BLOCKED_SHARE * n_on:
+        return
+    msg = (
+        f"{nothing}: {where} is no solid sphere: of the returns on beams through the "
+        f"central part of its face as seen from origin_m, {n_on} lie on it but "
+        f"{n_inside} inside it and {n_front} in front of it, where a sphere "
+        "would have stopped the beam (a chance fit to where surfaces such as a floor and "
+        "a wall meet); check the radius or the region of interest"
+    )
+    raise InputError(msg)
+
+
 def segment_sphere(
     points_m: ArrayLike,
     *,
@@ -583,8 +690,15 @@ def segment_sphere(
     4. Checks: at least 10 inliers; the inliers must fit a sphere clearly better
        (RMS at least 1.25 x smaller) than a plane; a free radius must lie within
        ``radius_bounds_m``; with a known radius, a free-radius fit of the inliers must
-       lie within a factor 1.5 of it (catches a diameter given as a radius). Else no
-       sphere was found.
+       lie within a factor 1.5 of it (catches a diameter given as a radius). With
+       ``origin_m``, the candidate must look like a solid sphere seen from there: at
+       least a quarter of the points within the band of it on the central part of
+       its face (the beams within 0.8 of its apparent radius; about 64 % for a
+       sphere in full view); and of the returns on those beams, those inside it or
+       in front of it, where a sphere would have stopped the beam, must be fewer
+       than 3 or at most 10 % as many as those on it (returns behind it are allowed:
+       a pooled pass may not have had the sphere in view). This refuses chance fits
+       to the edge or corner where a floor meets a wall. Else no sphere was found.
 
     Parameters
     ----------
@@ -658,6 +772,8 @@ def segment_sphere(
     origin_local = None if origin is None else origin - ref
     fit, used, e_orth = _fit_until_stable(xc, p, radius, origin_local, threshold, nothing, hyp)
     _check_is_sphere(xc, fit, used, e_orth, radius, window, nothing)
+    if origin_local is not None:
+        _check_seen_as_solid(xc, fit, origin_local, threshold, nothing, ref)
     if fit.method == "ray":
         assert origin_local is not None
         residuals, _, _ = _ray_residuals_all(xc, origin_local, fit.centre, fit.radius)

@@ -562,6 +562,7 @@ _FIT_PHRASES = (
         ),
     ),
     ("face origin_m", "face the table centre"),
+    ("seen from origin_m", "seen from the table centre"),
 )
 
 _MAX_SPREAD_TO_RADIUS = 200.0
