@@ -14,6 +14,17 @@ from __future__ import annotations
 
 import pytest
 
+SOURCE_DATE_EPOCH = "1700000000"
+"""2023-11-14 UTC: the creation date of every LAS/LAZ the tests write (tests that
+compare two outputs byte for byte failed when the two runs fell either side of
+midnight UTC); tests of the date itself remove or change it."""
+
+
+@pytest.fixture(autouse=True)
+def _fixed_creation_date(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``SOURCE_DATE_EPOCH`` for every test, its subprocesses included."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", SOURCE_DATE_EPOCH)
+
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Move the files with a ``slow`` test to the front; the order is otherwise kept."""

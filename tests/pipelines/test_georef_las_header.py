@@ -11,6 +11,8 @@ import pytest
 from tests._las import las_points
 
 from kinsync import __version__
+from kinsync.errors import InputError
+from kinsync.io.las_header import creation_date
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
@@ -99,9 +101,7 @@ def test_outputs_are_stamped_kinsync_today_and_keep_the_system_identifier(
     for path in (out, summary.rejected_path):
         header = laspy.read(path).header
         assert header.generating_software == f"kinsync {__version__}"
-        assert header.creation_date in {
-            dt.datetime.now(dt.UTC).date() + dt.timedelta(days=d) for d in (-1, 0)
-        }
+        assert header.creation_date == dt.date(2023, 11, 14)  # SOURCE_DATE_EPOCH
         assert header.system_identifier == "ACME scanner 7"
 
 
@@ -130,3 +130,21 @@ def test_the_output_crs_is_wkt1_or_wkt2_with_a_warning(
         assert len(said) == 1
         assert said[0].startswith(f"{out}: its CRS 'WGS 84 / Equal Earth Greenwich'")
         assert text.startswith("PROJCRS[")
+
+
+def test_the_creation_date_is_today_or_source_date_epochs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Today (UTC) without SOURCE_DATE_EPOCH; its date with it; a bad value is named."""
+    monkeypatch.delenv("SOURCE_DATE_EPOCH")
+    before = dt.datetime.now(dt.UTC).date()
+    got = creation_date()
+    assert got in {before, dt.datetime.now(dt.UTC).date()}
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "0")
+    assert creation_date() == dt.date(1970, 1, 1)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1785000000")
+    assert creation_date() == dt.date(2026, 7, 25)
+    for bad in ("yesterday", "1.5e9", "99999999999999999999"):
+        monkeypatch.setenv("SOURCE_DATE_EPOCH", bad)
+        with pytest.raises(InputError, match=r"SOURCE_DATE_EPOCH=.*whole number of seconds"):
+            creation_date()

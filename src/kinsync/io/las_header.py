@@ -50,14 +50,43 @@ _LOWEST_WRITABLE = ((3, "1.2"), (5, "1.3"), (10, "1.4"))
 laspy cannot write 1.0; 1.2 holds its formats and nearly all software reads it."""
 
 
-def stamp_kinsync_header(header: laspy.LasHeader) -> None:
-    """Mark a header as written by kinsync today: Generating Software, creation date.
+def creation_date() -> dt.date:
+    """The creation date of the LAS/LAZ files kinsync writes: today (UTC).
 
-    Generating Software becomes ``"kinsync <version>"`` and the creation date today's
-    (UTC); everything else, the System Identifier included, is kept.
+    Or, when the environment sets ``SOURCE_DATE_EPOCH`` (seconds since 1970-01-01
+    UTC, the reproducible-builds convention), that time's UTC date: the same inputs
+    then give byte-identical outputs on any day (two runs either side of midnight
+    differed in their headers).
+
+    Raises
+    ------
+    InputError
+        ``SOURCE_DATE_EPOCH`` set to something other than a whole number of seconds
+        within the years 1970-9999.
+    """
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is None or epoch == "":
+        return dt.datetime.now(dt.UTC).date()
+    try:
+        return dt.datetime.fromtimestamp(int(epoch), dt.UTC).date()
+    except (ValueError, OverflowError, OSError):
+        msg = (
+            f"SOURCE_DATE_EPOCH={epoch!r}: the creation date of LAS/LAZ outputs is taken "
+            "from it and it must be a whole number of seconds since 1970-01-01 UTC "
+            "(e.g. $(date +%s)); unset it to use today's date"
+        )
+        raise InputError(msg) from None
+
+
+def stamp_kinsync_header(header: laspy.LasHeader) -> None:
+    """Mark a header as written by kinsync: Generating Software, creation date.
+
+    Generating Software becomes ``"kinsync <version>"`` and the creation date
+    `creation_date` (today, UTC, or ``SOURCE_DATE_EPOCH``'s date); everything else,
+    the System Identifier included, is kept.
     """
     header.generating_software = GENERATING_SOFTWARE
-    header.creation_date = dt.datetime.now(dt.UTC).date()
+    header.creation_date = creation_date()
 
 
 def writable_las_version(header: laspy.LasHeader) -> str | None:
