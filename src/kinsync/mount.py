@@ -582,6 +582,18 @@ class Mount:
         """
         return replace(self, latency_s=latency_s)
 
+    def as_document(self) -> dict[str, Any]:
+        """Its values as JSON, ``uncertainty`` as `MountUncertainty.as_document` (or null)."""
+        u = self.uncertainty
+        return {
+            "lever_arm_body_m": list(self.lever_arm_body_m),
+            "boresight_rpy_deg": list(self.boresight_rpy_deg),
+            "antenna_lever_arm_body_m": list(self.antenna_lever_arm_body_m),
+            "latency_s": self.latency_s,
+            "profiler_azimuth_deg": self.profiler_azimuth_deg,
+            "uncertainty": None if u is None else u.as_document(),
+        }
+
     def profile_to_scanner(self, angle_rad: FloatArray, range_m: FloatArray) -> FloatArray:
         """2D profile points (mirror angle, range) in the scanner frame (SPEC section 4).
 

@@ -246,14 +246,5 @@ class CalibrationResult:
             "held_advice": list(self.held_advice),
             "uncertainty_notes": list(self.uncertainty_notes),
             "warnings": list(self.warnings),
-            "mount": {
-                "lever_arm_body_m": list(self.mount.lever_arm_body_m),
-                "boresight_rpy_deg": list(self.mount.boresight_rpy_deg),
-                "antenna_lever_arm_body_m": list(self.mount.antenna_lever_arm_body_m),
-                "latency_s": self.mount.latency_s,
-                "profiler_azimuth_deg": self.mount.profiler_azimuth_deg,
-                "uncertainty": (
-                    None if self.mount.uncertainty is None else self.mount.uncertainty.as_document()
-                ),
-            },
+            "mount": self.mount.as_document(),
         }

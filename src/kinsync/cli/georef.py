@@ -247,18 +247,18 @@ def georef(
         console.print(f"rejected points: {summary.rejected_path}")
 
 
+_APPLIED_MOUNT_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s", "profiler_azimuth_deg")
+"""What of the mount georeferencing applies (the antenna lever arm is the trajectory's)."""
+
+
 def _applied_mount(mount: Mount) -> dict[str, Any]:
     """The mount the points were georeferenced with (after ``--latency-ms``), for ``--json``.
 
     A JSON log must say which latency and mount a run applied: the mount file's, or the
     option's override.
     """
-    return {
-        "lever_arm_body_m": list(mount.lever_arm_body_m),
-        "boresight_rpy_deg": list(mount.boresight_rpy_deg),
-        "latency_s": mount.latency_s,
-        "profiler_azimuth_deg": mount.profiler_azimuth_deg,
-    }
+    doc = mount.as_document()
+    return {k: doc[k] for k in _APPLIED_MOUNT_KEYS}
 
 
 def _check_choices(outside: str, point_columns: str, scheduler: str, workers: int | None) -> None:

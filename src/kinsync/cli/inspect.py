@@ -50,12 +50,7 @@ def mount_check(
     """Validate a mount TOML file and print its values and boresight matrix."""
     mount = read_mount(path)
     doc: dict[str, Any] = {
-        "lever_arm_body_m": list(mount.lever_arm_body_m),
-        "boresight_rpy_deg": list(mount.boresight_rpy_deg),
-        "antenna_lever_arm_body_m": list(mount.antenna_lever_arm_body_m),
-        "latency_s": mount.latency_s,
-        "profiler_azimuth_deg": mount.profiler_azimuth_deg,
-        "uncertainty": None if mount.uncertainty is None else mount.uncertainty.as_document(),
+        **mount.as_document(),
         "R_scanner_to_body": mount.R_scanner_to_body.tolist(),
     }
     if as_json:
