@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinsync._validate import ECEF_RADIUS_RANGE_M, coordinate_array, ecef_array, time_array
+from kinsync._validate import ECEF_HEIGHT_RANGE_M, coordinate_array, ecef_array, time_array
 from kinsync.errors import InputError
 
 
@@ -30,9 +30,21 @@ def test_coordinates_within_0p1_mm_and_ecef_near_the_earth() -> None:
     coordinate_array(np.array([[1000.0, 0.0, 0.0]], dtype=np.float32), "xyz")  # 61 um steps
     with pytest.raises(InputError, match=r"float32 coordinates near 4096 m .* 0\.000488 m"):
         coordinate_array(np.array([[4096.0, 0.0, 0.0]], dtype=np.float32), "xyz")
-    low, high = ECEF_RADIUS_RANGE_M
-    ecef_array([[6_356_752.0 - 11_000.0, 0.0, 0.0], [0.0, 0.0, 6_378_137.0 + 9_000.0]], "p")
-    for r in (low - 1.0, high + 1.0, 5.0):
+    # the deepest ocean floor at the pole and a summit on the equator are ground points
+    ecef_array([[0.0, 0.0, -(6_356_752.3 - 11_000.0)], [6_378_137.0 + 8_800.0, 0.0, 0.0]], "p")
+    lat = np.radians(45.0)  # 11.5 km below and 9.5 km above at 45 degrees
+    n_m = 6_378_137.0 / np.sqrt(1.0 - 6.69437999014e-3 * np.sin(lat) ** 2)
+    for h in (-11_500.0, 9_500.0):
+        ecef_array(
+            [[(n_m + h) * np.cos(lat), 0.0, (n_m * (1 - 6.69437999014e-3) + h) * np.sin(lat)]],
+            "p",
+        )
+    low, high = ECEF_HEIGHT_RANGE_M
+    for r in (6_378_137.0 + low - 1.0, 6_378_137.0 + high + 1.0, 5.0):
         with pytest.raises(InputError, match=r"p: point at index 1 .*not ECEF coordinates"):
-            ecef_array([[6_378_137.0, 0.0, 0.0], [0.0, r, 0.0]], "p")
+            ecef_array([[6_378_137.0, 0.0, 0.0], [r, 0.0, 0.0]], "p")
+    # UTM coordinates (zone 19, 57 degrees north) read as ECEF: within the Earth's radii
+    # (6.30e6 to 6.45e6 m from its centre) but 34 km below the ellipsoid on the equator
+    with pytest.raises(InputError, match=r"34\.\d+ km below the WGS84 ellipsoid.*not ECEF"):
+        ecef_array([[332_118.5, 6_335_319.4, 11.2]], "p")
     ecef_array([[np.nan, 0.0, 0.0]], "p")  # non-finite rows are the caller's to name

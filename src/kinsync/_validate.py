@@ -24,7 +24,7 @@ from kinsync.errors import InputError
 
 __all__ = [
     "COORDINATE_STEP_M",
-    "ECEF_RADIUS_RANGE_M",
+    "ECEF_HEIGHT_RANGE_M",
     "TIME_STEP_S",
     "Span",
     "check_columns",
@@ -44,7 +44,13 @@ TIME_STEP_S = 1e-6
 COORDINATE_STEP_M = 1e-4
 """Coarsest step (m) a float dtype may hold coordinates in: 0.1 mm (float32: 0.5 m near 6.4e6 m)."""
 
-ECEF_RADIUS_RANGE_M = (6.30e6, 6.45e6)
+# Heights above the WGS84 ellipsoid (m) of ground points: the deepest ocean floor lies
+# about 11 km below it, the highest summit 8.8 km above. A map grid's coordinates read
+# as ECEF put their points on the equator; with a northing of 6.3e6-6.45e6 m they would
+# lie within the Earth's radii, but rarely within these heights.
+ECEF_HEIGHT_RANGE_M = (-12_000.0, 10_000.0)
+_WGS84_A_M = 6_378_137.0
+_WGS84_B_M = 6_356_752.314245
 """Geocentric radii (m) of points kinsync takes as ECEF.
 
 The WGS84 ellipsoid's radius runs from 6 356 752 m (poles) to 6 378 137 m (equator);
@@ -183,32 +189,50 @@ def coordinate_array(values: ArrayLike, name: str) -> FloatArray:
 
 
 def ecef_array(values: ArrayLike, name: str) -> FloatArray:
-    """`coordinate_array` of ECEF points (..., 3) whose finite rows lie near the Earth.
+    """`coordinate_array` of ECEF points (..., 3) whose finite rows lie near the ground.
 
     Raises
     ------
     InputError
-        As `coordinate_array`, or a finite point whose geocentric radius lies outside
-        `ECEF_RADIUS_RANGE_M` (local or map-grid coordinates given as ECEF). Shapes are
-        the caller's to check.
+        As `coordinate_array`, or a finite point whose height above the WGS84 ellipsoid
+        lies outside `ECEF_HEIGHT_RANGE_M` (local or map-grid coordinates given as
+        ECEF). Shapes are the caller's to check.
     """
     arr = coordinate_array(values, name)
     if arr.ndim == 0 or arr.shape[-1] != 3 or arr.size == 0:
         return arr
     rows = arr.reshape(-1, 3)
-    radius = np.linalg.norm(rows, axis=1)
-    low, high = ECEF_RADIUS_RANGE_M
-    bad = np.isfinite(radius) & ((radius < low) | (radius > high))
+    height = _height_above_ellipsoid_m(rows)
+    low, high = ECEF_HEIGHT_RANGE_M
+    bad = np.isfinite(height) & ((height < low) | (height > high))
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
+        where = "above" if height[row] > 0 else "below"
         msg = (
             f"{name}: point at index {row} (0-based), {rows[row].tolist()} m, lies "
-            f"{radius[row]:.6g} m from the Earth's centre, not near its surface "
-            f"({low:.3g} to {high:.3g} m): these are not ECEF coordinates (local or "
-            "projected coordinates?); convert them to ECEF (m)"
+            f"{abs(height[row]) / 1000:.4g} km {where} the WGS84 ellipsoid, not near the "
+            f"ground ({-low / 1000:g} km below to {high / 1000:g} km above it): these are "
+            "not ECEF coordinates (local or projected coordinates?); convert them to "
+            "ECEF (m)"
         )
         raise InputError(msg)
     return arr
+
+
+def _height_above_ellipsoid_m(rows: FloatArray) -> FloatArray:
+    """Height (m) of ECEF points (n, 3) above the WGS84 ellipsoid along their radius.
+
+    The ellipsoid's radius at the point's geocentric latitude is subtracted from the
+    point's; this differs from the geodetic height by under 1e-5 of it, enough to tell
+    ground points from coordinates of another kind.
+    """
+    with np.errstate(invalid="ignore", over="ignore"):
+        radius = np.linalg.norm(rows, axis=1)
+        sin2 = np.divide(rows[:, 2] ** 2, radius**2, out=np.zeros_like(radius), where=radius > 0)
+        cos2 = 1.0 - sin2
+        surface = _WGS84_A_M * _WGS84_B_M / np.sqrt(_WGS84_B_M**2 * cos2 + _WGS84_A_M**2 * sin2)
+        out: FloatArray = radius - surface
+    return out
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ LAS/LAZ (with adjusted standard GPS time, or in UTM with the CRS in the file).
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -541,6 +542,9 @@ def test_no_control_point_found(
          "--control", str(elsewhere), "--trajectory", str(files["trajectory"])]
     )  # fmt: skip
     assert_one_line_error(code, out, err, "no point within 0.5 m of any of the 4 control points")
+    # how far off they are (173 m each, the cloud's centre a few metres from the targets)
+    far_m = float(re.search(r"about ([\d,.]+) m from the nearest control point", err)[1])  # type: ignore[index]
+    assert 150.0 < far_m < 200.0
     code, out, err = run_cli(
         ["validate", "control-points", "--cloud", str(files["cloud_csv"]),
          "--control", str(files["control"]), "--trajectory", str(files["trajectory"]),

@@ -107,6 +107,7 @@ def control_points_file(
     i_parts: list[FloatArray] = []
     chunk_medians: list[float] = []  # the survey's typical intensity, chunk by chunk
     extent = CloudExtent()
+    nearest = (np.inf, "")  # (distance (m) from a chunk's mean point, control point name)
     done = 0
     for xyz, t, inten in iter_cloud(
         cloud_path, chunk_points, need_time=True, traj_scale=traj_scale, gps_week=gps_week
@@ -120,6 +121,10 @@ def control_points_file(
             chunk_medians.append(float(np.median(inten)))
         ecef = xyz if to_ecef is None else to_ecef(xyz)
         keep = nearest_control(ecef, control, search_radius_m) >= 0
+        if ecef.shape[0]:  # how far the cloud lies from the control, for the message below
+            gap = np.linalg.norm(control.pos_ecef_m - ecef.mean(axis=0), axis=1)
+            if float(gap.min()) < nearest[0]:
+                nearest = (float(gap.min()), control.names[int(np.argmin(gap))])
         pos_parts.append(ecef[keep])
         t_parts.append(t[keep])
         i_parts.append(inten[keep])
@@ -127,8 +132,8 @@ def control_points_file(
     if pos.shape[0] == 0:
         msg = (
             f"{cloud_path}: no point within {search_radius_m:g} m of any of the "
-            f"{len(control)} control points of {control_path}; {extent.text()} ({crs_text}); "
-            "check --crs, the control file and --search-radius-m"
+            f"{len(control)} control points of {control_path}; {extent.text()} ({crs_text})"
+            f"{_distance_text(nearest)}; check --crs, the control file and --search-radius-m"
         )
         raise InputError(msg)
     cloud = CloudPoints(pos, np.concatenate(t_parts), np.concatenate(i_parts))
@@ -216,3 +221,12 @@ def flatness_file(
     except KinsyncError as err:
         msg = f"{cloud_path}, box {box_text}: {err}"
         raise InputError(msg) from err
+
+
+def _distance_text(nearest: tuple[float, str]) -> str:
+    """``nearest`` (distance (m) from the cloud, control point name) in words, or ""."""
+    distance_m, name = nearest
+    if not np.isfinite(distance_m):
+        return ""
+    far = f"{distance_m / 1000:,.0f} km" if distance_m >= 10_000 else f"{distance_m:,.1f} m"
+    return f", about {far} from the nearest control point ({name})"
