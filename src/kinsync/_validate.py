@@ -44,22 +44,17 @@ TIME_STEP_S = 1e-6
 COORDINATE_STEP_M = 1e-4
 """Coarsest step (m) a float dtype may hold coordinates in: 0.1 mm (float32: 0.5 m near 6.4e6 m)."""
 
-# Heights above the WGS84 ellipsoid (m) of ground points: the deepest ocean floor lies
-# about 11 km below it, the highest summit 8.8 km above. A map grid's coordinates read
-# as ECEF put their points on the equator; with a northing of 6.3e6-6.45e6 m they would
-# lie within the Earth's radii, but rarely within these heights.
 ECEF_HEIGHT_RANGE_M = (-12_000.0, 10_000.0)
+"""Heights (m) above the WGS84 ellipsoid of points kinsync takes as ECEF (ground points).
+
+The deepest sea floor lies about 11 km below the ellipsoid and the highest summit 8.8 km
+above it. Local (NED, ENU, scanner) coordinates lie thousands of km inside the Earth. A
+map grid's coordinates read as ECEF lie on the equator; UTM northings of 6.30e6 to
+6.45e6 m (57 to 58 degrees north) fall within the Earth's radii, and all but a band of
+about 22 km of them outside these heights: a check of the frame, not of accuracy.
+"""
 _WGS84_A_M = 6_378_137.0
 _WGS84_B_M = 6_356_752.314245
-"""Geocentric radii (m) of points kinsync takes as ECEF.
-
-The WGS84 ellipsoid's radius runs from 6 356 752 m (poles) to 6 378 137 m (equator);
-the deepest sea floor lies 11 km below it and airborne surveys fly a few km above it.
-6.30e6 m leaves over 40 km below the deepest point and 6.45e6 m over 60 km above the
-highest flight, while local (NED, ENU, scanner) coordinates lie within a few hundred
-km of zero and map grids' coordinates (UTM northings up to about 6.3e6 m north of the
-equator) mostly fall outside too: a check of the frame, not of the points' accuracy.
-"""
 
 _CLOCK_ADVICE = {
     "gps": (
