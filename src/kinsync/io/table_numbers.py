@@ -34,7 +34,7 @@ def _cast_error(
         try:
             pa.scalar(value, pa.string()).cast(target)
         except (pa.ArrowException, ValueError):
-            what = "empty cell" if value == "" else f"{value[:80]!r} is not a {target} value"
+            what = "empty cell" if value == "" else f"{value[:80]!r} does not read as {target}"
             msg = (
                 f"{layout.path}: {where(i)}, column {column!r}: {what} (the "
                 f"column reads as {target} from the first rows); fix the value"
