@@ -28,6 +28,7 @@ __all__ = [
     "TIME_STEP_S",
     "Span",
     "check_columns",
+    "check_float_step",
     "check_quantity",
     "check_values",
     "coordinate_array",
@@ -105,7 +106,13 @@ def name_tuple(values: object, name: str) -> tuple[str, ...]:
 
 
 def _refuse_coarse_floats(
-    arr: np.ndarray, name: str, what: str, step: float, step_text: str, unit: str
+    arr: np.ndarray,
+    name: str,
+    what: str,
+    step: float,
+    step_text: str,
+    unit: str,
+    advice: str = "",
 ) -> None:
     """Refuse a float dtype whose step at the values' magnitude is coarser than ``step``."""
     if arr.dtype.kind != "f" or np.finfo(arr.dtype).resolution <= np.finfo(np.float64).resolution:
@@ -119,9 +126,35 @@ def _refuse_coarse_floats(
         msg = (
             f"{name}: {arr.dtype} {what} near {float(largest):.6g} {unit} are held in steps "
             f"of {spacing:.3g} {unit}, coarser than the {step_text} kinsync needs (they are "
-            f"already rounded: converting them back does not restore them); pass float64 {what}"
+            f"already rounded: converting them back does not restore them); "
+            f"{advice or f'pass float64 {what}'}"
         )
         raise InputError(msg)
+
+
+def check_float_step(arr: np.ndarray, name: str, kind: Literal["time", "coordinate"]) -> None:
+    """Refuse times or coordinates held in a float dtype coarser than kinsync needs.
+
+    Parameters
+    ----------
+    arr : ndarray
+        Values as stored (any shape); float16/float32 near 1.3e9 s or 5e6 m are rounded
+        to 128 s or 0.5 m. Integer and float64 arrays pass.
+    name : str
+        Where they are stored, for the message (file and column).
+    kind : {"time", "coordinate"}
+        Times need steps of `TIME_STEP_S` (1 us), coordinates `COORDINATE_STEP_M` (0.1 mm).
+
+    Raises
+    ------
+    InputError
+        A float dtype whose step at the values' largest magnitude is coarser.
+    """
+    advice = "write the column as float64 (double)"
+    if kind == "time":
+        _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s", advice)
+    else:
+        _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m", advice)
 
 
 def _as_float64(arr: np.ndarray, name: str, what: str) -> FloatArray:

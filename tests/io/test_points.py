@@ -152,6 +152,32 @@ def test_non_numeric_parquet_cell_names_row(tmp_path: Path) -> None:
         list(iter_table_chunks(path, 10, REQUIRED))
 
 
+def test_float32_times_or_coordinates_in_parquet_are_refused(tmp_path: Path) -> None:
+    """float32 times near 1.4e9 s are stored in steps of 128 s (and UTM coordinates of
+    0.03 m): they were widened to float64 without a word, every point georeferenced up to
+    a minute away from its time. Both readers (chunks and slices) now refuse them."""
+    times = 1.4e9 + np.array([10.0, 100.0, 200.0, 290.0])
+    good = {"t_s": times, "x_m": np.ones(4, np.float32), "y_m": np.zeros(4), "z_m": np.zeros(4)}
+    for name, bad, what in (
+        ("t_s", times.astype(np.float32), r"float32 times near 1\.4e\+09 s .* steps of 128 s"),
+        ("x_m", np.full(4, 402_133.0, np.float32), r"float32 coordinates near 402133 m"),
+    ):
+        path = tmp_path / f"f32_{name}.parquet"
+        _write(path, good | {name: bad}, 4)
+        match = rf"f32_{name}\.parquet: column '{name}': {what}.*write the column as float64"
+        with pytest.raises(InputError, match=match):
+            list(iter_table_chunks(path, 10, REQUIRED))
+        layout, slices = plan_table_slices(path, 10, REQUIRED)
+        with pytest.raises(InputError, match=match):
+            read_table_slice(layout, slices[0])
+    # float32 scanner coordinates near the scanner hold 0.1 mm steps: read as they are
+    path = tmp_path / "near.parquet"
+    _write(path, good | {"x_m": np.full(4, 12.345, np.float32)}, 4)
+    (chunk,) = iter_table_chunks(path, 10, REQUIRED)
+    assert chunk["x_m"].dtype == np.float64
+    assert chunk["x_m"][0] == np.float32(12.345)
+
+
 def test_failing_writer_leaves_no_file_and_bad_suffix(tmp_path: Path) -> None:
     path = tmp_path / "out.parquet"
     with pytest.raises(RuntimeError, match="boom"), TableChunkWriter(path) as w:  # noqa: PT012

@@ -37,13 +37,14 @@ import io
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
+from kinsync._validate import check_float_step
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.column_map import ColumnMap
@@ -268,7 +269,11 @@ def _chunk_to_numpy(
                         raise InputError(msg) from None
                 out[name] = np.asarray(values.astype(np.float64))
                 continue
-            out[name] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=np.float64)
+            stored = col.to_numpy(zero_copy_only=False)
+            # a float32 column is already rounded (times near 1.3e9 s to 128 s)
+            kind: Literal["time", "coordinate"] = "time" if name == "t_s" else "coordinate"
+            check_float_step(stored, f"{path}: column {name!r}", kind)
+            out[name] = np.asarray(stored, dtype=np.float64)
         else:
             out[name] = col if arrow else col.to_numpy(zero_copy_only=False)
     return out
