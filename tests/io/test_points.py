@@ -157,11 +157,17 @@ def test_float32_times_or_coordinates_in_parquet_are_refused(tmp_path: Path) -> 
     0.03 m): they were widened to float64 without a word, every point georeferenced up to
     a minute away from its time. Both readers (chunks and slices) now refuse them."""
     times = 1.4e9 + np.array([10.0, 100.0, 200.0, 290.0])
-    good = {"t_s": times, "x_m": np.ones(4, np.float32), "y_m": np.zeros(4), "z_m": np.zeros(4)}
-    for name, bad, what in (
+    good: dict[str, np.ndarray[Any, Any]] = {
+        "t_s": times,
+        "x_m": np.ones(4, np.float32),
+        "y_m": np.zeros(4),
+        "z_m": np.zeros(4),
+    }
+    cases: tuple[tuple[str, np.ndarray[Any, Any], str], ...] = (
         ("t_s", times.astype(np.float32), r"float32 times near 1\.4e\+09 s .* steps of 128 s"),
         ("x_m", np.full(4, 402_133.0, np.float32), r"float32 coordinates near 402133 m"),
-    ):
+    )
+    for name, bad, what in cases:
         path = tmp_path / f"f32_{name}.parquet"
         _write(path, good | {name: bad}, 4)
         match = rf"f32_{name}\.parquet: column '{name}': {what}.*write the column as float64"
