@@ -182,6 +182,8 @@ def test_a_wrong_gps_week_is_named() -> None:
     assert f"the points lie in GPS week {WEEK}, the trajectory in GPS week {WEEK + 1}" in hint
     assert f"--gps-week {WEEK + 1}" in hint
     assert time_scale_hint(times, T0 + 1.0, T0 + 2.0, T0 + 100.0, T0 + 200.0) is None
+    # points near the largest float: their sum overflowed, exit 1 (OverflowError)
+    assert time_scale_hint(times, 1e308, 1.5e308, start, start + 10.0) is None
 
 
 def _sbet_in_gps_time(files: dict[str, Path]) -> Path:

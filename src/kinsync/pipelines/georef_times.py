@@ -167,8 +167,9 @@ def _week_hint(
     """A --gps-week that puts the points (or the trajectory) in the wrong week."""
     if times.gps_week is None or times.traj_scale == "week" or t_min_s <= _WEEK_MAX_S:
         return None
-    traj_week = math.floor(0.5 * (traj_start_s + traj_end_s) / SECONDS_PER_WEEK)
-    points_week = math.floor(0.5 * (t_min_s + t_max_s) / SECONDS_PER_WEEK)
+    # halves summed: t_min_s + t_max_s overflows to inf for times near 1e308
+    traj_week = math.floor((0.5 * traj_start_s + 0.5 * traj_end_s) / SECONDS_PER_WEEK)
+    points_week = math.floor((0.5 * t_min_s + 0.5 * t_max_s) / SECONDS_PER_WEEK)
     shift_s = (traj_week - points_week) * SECONDS_PER_WEEK
     if shift_s == 0.0 or t_max_s + shift_s < traj_start_s or t_min_s + shift_s > traj_end_s:
         return None
