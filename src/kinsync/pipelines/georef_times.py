@@ -161,6 +161,9 @@ def _rollover_hint(
     )
 
 
+_LAST_WEEK = 16_536  # GPS week of 2297: beyond any survey time (1e10 s after 1980)
+
+
 def _week_hint(
     times: PointTimes, t_min_s: float, t_max_s: float, traj_start_s: float, traj_end_s: float
 ) -> str | None:
@@ -170,6 +173,8 @@ def _week_hint(
     # halves summed: t_min_s + t_max_s overflows to inf for times near 1e308
     traj_week = math.floor((0.5 * traj_start_s + 0.5 * traj_end_s) / SECONDS_PER_WEEK)
     points_week = math.floor((0.5 * t_min_s + 0.5 * t_max_s) / SECONDS_PER_WEEK)
+    if not 0 <= points_week <= _LAST_WEEK:  # times no GPS week holds
+        return None
     shift_s = (traj_week - points_week) * SECONDS_PER_WEEK
     if shift_s == 0.0 or t_max_s + shift_s < traj_start_s or t_min_s + shift_s > traj_end_s:
         return None
