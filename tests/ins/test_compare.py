@@ -131,6 +131,27 @@ def test_yaw_error_is_a_misorientation_about_down() -> None:
     )
 
 
+def test_near_90_deg_pitch_the_misorientation_is_the_error_to_read() -> None:
+    """At 89.99 deg pitch a 0.005 deg misorientation about North reads as 26.6 deg of roll
+    and of yaw difference (gimbal lock); the misorientation RMS and the pitch are given."""
+    t = np.arange(0.0, 10.0, 0.1)
+    pitch = np.full_like(t, math.radians(89.99))
+    llh = np.tile([46.8, -71.2, 10.0], (t.size, 1))
+    truth = Trajectory.from_euler(t, np.zeros_like(t), pitch, np.zeros_like(t), lat_lon_h=llh)
+    turned = Rotation.from_rotvec([math.radians(0.005), 0.0, 0.0]) * Rotation.from_euler(
+        "ZYX", np.column_stack([np.zeros_like(t), pitch, np.zeros_like(t)])
+    )
+    rpy = turned.as_euler("ZYX")[:, ::-1]
+    solution = Trajectory.from_euler(t, rpy[:, 0], rpy[:, 1], rpy[:, 2], lat_lon_h=llh)
+    cmp = compare_to_truth(solution, truth)
+    assert cmp.rms_att_deg[0] > 20.0  # roll and yaw differences mean nothing here
+    np.testing.assert_allclose(cmp.rms_misorientation_ned_deg, [0.005, 0.0, 0.0], atol=1e-9)
+    assert cmp.max_abs_pitch_deg == pytest.approx(89.99)
+    doc = cmp.as_document()
+    assert doc["max_abs_pitch_deg"] == pytest.approx(89.99)
+    assert doc["rms_misorientation_ned_deg"][0] == pytest.approx(0.005)
+
+
 def test_truth_is_interpolated_and_only_the_overlap_compared() -> None:
     t = np.arange(-5.0, 110.0, 0.0371)  # other epochs, starting before and ending after
     cmp = compare_to_truth(_solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), _truth())
@@ -257,6 +278,8 @@ def test_local_ned_truth_and_document() -> None:
         "n_epochs_in_truth_gaps",
         "truth_gaps",
         "gap_threshold_s",
+        "rms_misorientation_ned_deg",
+        "max_abs_pitch_deg",
     }
     assert doc["rms_vel_ned_m_s"] is None
     assert doc["n_epochs"] == t.size

@@ -425,6 +425,15 @@ def compare(
             f"is not interpolated: {GAP_ADVICE}",
             err=True,
         )
+    if result.max_abs_pitch_deg > _GIMBAL_WARNING_PITCH_DEG:
+        typer.echo(
+            f"kinsync: warning: {truth_path}: the reference pitches to "
+            f"{result.max_abs_pitch_deg:.2f} deg: near 90 deg roll and yaw are ill-defined "
+            "(gimbal lock) and their differences can be large for a small misorientation; "
+            "read the misorientation about N, E, D (misorientation RMS, "
+            "rms_misorientation_ned_deg) instead",
+            err=True,
+        )
     if as_json:
         print_json(result.as_document())
         return
@@ -438,6 +447,7 @@ def compare(
     table.add_row("velocity max (m/s)", *_triple(result.max_vel_ned_m_s))
     table.add_row("attitude RMS (deg)", *_triple(result.rms_att_deg))
     table.add_row("attitude max (deg)", *_triple(result.max_att_deg))
+    table.add_row("misorientation RMS (deg, N/E/D)", *_triple(result.rms_misorientation_ned_deg))
     if result.within_3sigma is not None:
         w = result.within_3sigma
         for kind, label in (("pos", "position"), ("vel", "velocity"), ("att", "misorientation")):
@@ -451,3 +461,8 @@ def compare(
             f"{result.truth_gap_threshold_s:.6g} s, --max-gap-s)",
             highlight=False,
         )
+
+
+_GIMBAL_WARNING_PITCH_DEG = 80.0
+"""Above this |pitch| of the reference `ins compare` warns that roll and yaw errors mean
+little: at 80 deg an error of 0.01 deg about North reads as 0.06 deg of roll and yaw."""

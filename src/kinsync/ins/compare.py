@@ -101,6 +101,10 @@ class Comparison:
     truth_gap_threshold_s : float
         Truth record intervals longer than this (s) were data gaps
         (`kinsync.trajectory_gaps.max_gap_for`).
+    max_abs_pitch_deg : float
+        Largest |pitch| of the truth at the epochs compared (deg). Near 90 deg roll and
+        yaw are ill-defined (gimbal lock): their differences can be tens of degrees for
+        a misorientation of millidegrees; `rms_misorientation_ned_deg` holds then.
     """
 
     n_epochs: int
@@ -120,6 +124,12 @@ class Comparison:
     n_in_truth_gaps: int = 0
     truth_gaps: tuple[TrajectoryGap, ...] = ()
     truth_gap_threshold_s: float = math.inf
+    max_abs_pitch_deg: float = 0.0
+
+    @property
+    def rms_misorientation_ned_deg(self) -> Vector3:
+        """RMS of the misorientation's rotation vector about N, E, D (deg), any attitude."""
+        return _rms(np.degrees(self.err_misorientation_ned_rad))
 
     def as_document(self) -> dict[str, Any]:
         """The summary as a JSON-ready dict (the ``kinsync ins compare --json`` object)."""
@@ -134,6 +144,8 @@ class Comparison:
             "n_epochs": self.n_epochs,
             "n_epochs_outside_truth": self.n_outside_truth,
             "n_epochs_in_truth_gaps": self.n_in_truth_gaps,
+            "rms_misorientation_ned_deg": list(self.rms_misorientation_ned_deg),
+            "max_abs_pitch_deg": self.max_abs_pitch_deg,
             "gap_threshold_s": self.truth_gap_threshold_s,
             "truth_gaps": [
                 {"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in self.truth_gaps
@@ -287,4 +299,5 @@ def compare_to_truth(
         n_in_truth_gaps=traj.t_s.size - n - n_outside,
         truth_gaps=truth_gaps,
         truth_gap_threshold_s=limit_s,
+        max_abs_pitch_deg=float(np.max(np.abs(rpy_ref[:, 1]))) if n else 0.0,
     )
