@@ -460,3 +460,33 @@ def test_gyro_rates_in_degrees_on_a_calm_drive_are_refused(
     assert "The input checks had warned:" in stderr
     assert "missing samples?" in stderr
     assert not out.exists()
+
+
+def test_compare_near_90_deg_pitch_warns_and_gives_the_misorientation(
+    run_cli: RunCli, tmp_path: Path
+) -> None:
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+
+    from kinsync.trajectory import Trajectory  # noqa: PLC0415
+
+    t = 1.3e9 + np.arange(0.0, 10.0, 0.1)
+    pitch = np.full(t.size, math.radians(89.99))
+    zero = np.zeros(t.size)
+    llh = np.tile([46.8, -71.2, 10.0], (t.size, 1))
+    truth = tmp_path / "truth.csv"
+    write_trajectory_csv(Trajectory.from_euler(t, zero, pitch, zero, lat_lon_h=llh), truth)
+    turned = Rotation.from_rotvec([math.radians(0.005), 0.0, 0.0]) * Rotation.from_euler(
+        "ZYX", np.column_stack([zero, pitch, zero])
+    )
+    rpy = turned.as_euler("ZYX")[:, ::-1]
+    solution = tmp_path / "sol.csv"
+    write_trajectory_csv(
+        Trajectory.from_euler(t, rpy[:, 0], rpy[:, 1], rpy[:, 2], lat_lon_h=llh), solution
+    )
+    code, stdout, stderr = run_cli(["ins", "compare", str(solution), str(truth)])
+    assert code == 0, stderr
+    assert "the reference pitches to 89.99 deg" in stderr
+    assert "misorientation RMS (deg, N/E/D)" in stdout
+    code, stdout, _ = run_cli(["ins", "compare", str(solution), str(truth), "--json"])
+    doc = json.loads(stdout)
+    assert doc["rms_misorientation_ned_deg"][0] == pytest.approx(0.005, abs=1e-6)
