@@ -136,3 +136,17 @@ def test_weak_threshold() -> None:
     assert status_of(PARAMETER_NAMES.index("latency_ms"), 0.9) == "estimated"
     assert status_of(PARAMETER_NAMES.index("latency_ms"), 1.1) == "weak"
     assert status_of(0, float("nan")) == "weak"
+
+
+def test_a_boresight_near_90_deg_pitch_is_warned_about() -> None:
+    """At a boresight pitch of 90 deg the same data gave roll and yaw σ of 2 deg
+    (`weak`) where the frame turned away from 90 deg gave 0.018 deg (`estimated`)."""
+    from kinsync.calibration.parameters import gimbal_lock_warning  # noqa: PLC0415
+
+    assert gimbal_lock_warning(0.0) is None
+    assert gimbal_lock_warning(-80.0) is None
+    for pitch in (85.0, 90.83, -89.0):
+        text = gimbal_lock_warning(pitch)
+        assert text is not None
+        assert f"the boresight pitch is {pitch:.2f} deg" in text
+        assert "gimbal lock" in text

@@ -80,6 +80,7 @@ from kinsync.calibration.parameters import (
     PARAMETER_NAMES,
     REPORT_SCALE,
     estimated_indices,
+    gimbal_lock_warning,
     mount_from_values,
     mount_values,
     report_values,
@@ -471,6 +472,7 @@ def calibrate_mount(
         warnings=(
             *(() if searched is None else (searched[1],)),
             *_warnings(lines, kept, observations, features, before, counts, summaries),
+            *filter(None, [gimbal_lock_warning(calibrated.boresight_rpy_deg[1])]),
         ),
     )
 

@@ -30,6 +30,7 @@ __all__ = [
     "PARAMETER_NAMES",
     "REPORT_SCALE",
     "estimated_indices",
+    "gimbal_lock_warning",
     "mount_from_values",
     "mount_values",
     "report_values",
@@ -117,4 +118,30 @@ def mount_from_values(base: Mount, values: FloatArray) -> Mount:
         boresight_rpy_deg=(float(rpy[0]), float(rpy[1]), float(rpy[2])),
         lever_arm_body_m=(float(v[3]), float(v[4]), float(v[5])),
         latency_s=float(v[6]),
+    )
+
+
+GIMBAL_PITCH_DEG = 80.0
+"""Beyond this |boresight pitch| roll and yaw are nearly one rotation (gimbal lock)."""
+
+
+def gimbal_lock_warning(pitch_deg: float) -> str | None:
+    """A warning when the boresight pitch lies within 10 deg of +-90 deg, else None.
+
+    The boresight is estimated as roll, pitch and yaw: near a pitch of +-90 deg roll and
+    yaw turn the scanner about nearly one axis, so their σ grow without bound and their
+    statuses degrade while the data fix the scanner's orientation as well as anywhere.
+
+    Parameters
+    ----------
+    pitch_deg : float
+        Boresight pitch (deg), the calibrated one (or the nominal one).
+    """
+    if abs(pitch_deg) <= GIMBAL_PITCH_DEG:
+        return None
+    return (
+        f"the boresight pitch is {pitch_deg:.2f} deg: near +-90 deg roll and yaw are nearly "
+        "the same rotation (gimbal lock): their σ grow and their statuses degrade although "
+        "the data may fix the scanner's orientation as well as anywhere (a σ of degrees for "
+        "a boresight known to hundredths); judge it by the overlaps after calibration"
     )
