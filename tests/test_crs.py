@@ -354,3 +354,47 @@ def test_the_data_area_gives_extent_and_zones() -> None:
     across = data_area(np.array([-17.0, -17.1]), np.array([179.9, -179.9]), np.zeros(2))
     assert across.lon_deg == pytest.approx((179.9, -179.9))
     assert across.utm_epsg in ("EPSG:32760", "EPSG:32701")
+
+
+def test_data_across_the_antimeridian_span_zones_60_and_1() -> None:
+    """Review L3: zones came sorted (1, 60), read as "zones 1-60"."""
+    across = data_area(np.array([-16.5, -16.5]), np.array([179.99, -179.99]), np.zeros(2))
+    assert across.zones_spanned == (60, 1)
+    wide = data_area(np.full(4, -16.5), np.array([173.0, 179.0, -179.0, -173.0]), np.zeros(4))
+    assert wide.zones_spanned == (59, 60, 1, 2)
+    assert wide.lon_deg == (173.0, -173.0)
+    assert wide.utm_epsg == "EPSG:32701"  # the centre, 180 deg, is where zone 1 starts
+
+
+@pytest.mark.parametrize("crs", ["EPSG:32701", "EPSG:32760"])
+def test_the_area_warning_across_the_antimeridian_names_the_zones_there(crs: str) -> None:
+    """Review L3: the plain mean of 179.9999 and -179.9999 deg suggested zone 29S."""
+    lon = np.array([179.9999, 179.99995, -179.99995, -179.9999])
+    _, info = plan_ecef_to_crs(crs, sample_ecef_m=_ecef(lon, np.full(4, -16.5), np.zeros(4)))
+    (warning,) = info.warnings
+    assert "longitude 179.9999 to -179.9999 deg, across the antimeridian" in warning
+    assert "29S" not in warning
+    assert "-180.00 to 180.00" not in warning
+    if crs == "EPSG:32760":
+        assert "the data's zone is 1S: WGS 84 / UTM zone 1S (EPSG:32701)" in warning
+    else:  # the zone asked for is the data's own (their centre is on 180 deg)
+        assert "the data's zone" not in warning
+
+
+@pytest.mark.parametrize(
+    ("lat", "epsg", "name"), [(85.0, "EPSG:32661", "UPS North"), (-82.0, "EPSG:32761", "UPS South")]
+)
+def test_beyond_utms_limits_ups_is_suggested(lat: float, epsg: str, name: str) -> None:
+    """Review L3: at 85 deg N zone 19N (EPSG:32619) was suggested, outside its 0-84 deg N."""
+    area = data_area(np.full(2, lat), np.array([-71.2, -71.1]), np.zeros(2))
+    assert (area.utm_zone, area.utm_epsg, area.zone_name) == (None, epsg, name)
+    assert area.as_document()["utm_zone"] == name
+    aou = pyproj.CRS(epsg).area_of_use
+    assert aou is not None
+    assert aou.south <= lat <= aou.north
+    utm = "EPSG:32619" if lat > 0 else "EPSG:32719"
+    sample = _ecef(np.array([-71.2, -71.1]), np.full(2, lat), np.zeros(2))
+    (warning,) = plan_ecef_to_crs(utm, sample_ecef_m=sample)[1].warnings
+    assert f"the data's zone is {name} (beyond UTM's" in warning
+    assert f"({epsg})" in warning
+    assert data_area(np.full(2, 84.0), np.array([-71.2, -71.1]), np.zeros(2)).utm_zone == 19

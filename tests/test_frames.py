@@ -24,8 +24,10 @@ from kinsync.frames import (
     euler_rpy_to_matrix,
     euler_rpy_to_quaternion,
     geodetic_to_ecef,
+    longitude_span_deg,
     matrix_to_euler_rpy,
     matrix_to_quaternion,
+    mean_longitude_deg,
     ned_to_ecef,
     ned_to_vehicle,
     quaternion_ned_to_ecef,
@@ -575,3 +577,22 @@ def test_a_long_euler_conversion_in_blocks_gives_the_same_bits(
     monkeypatch.setattr(frames, "_BLOCK_ROWS", 1000)
     blocks = frames.euler_rpy_to_quaternion(r, p, y)
     assert np.array_equal(whole.view(np.uint64), blocks.view(np.uint64))
+
+
+# ----------------------------------------------------------------- longitude arcs
+def test_the_longitude_span_is_the_shortest_arc_across_the_antimeridian() -> None:
+    """Review L3: min/max of 179.9999 and -179.9999 made a 360 deg span."""
+    assert longitude_span_deg([179.9999, -179.9999, 180.0]) == (179.9999, -179.9999)
+    assert longitude_span_deg([-72.2, -71.9, -72.0]) == (-72.2, -71.9)
+    assert longitude_span_deg([179.5, 180.0]) == (179.5, 180.0)  # ends on it: not across
+    assert longitude_span_deg([190.0, 200.0]) == (-170.0, -160.0)
+    assert longitude_span_deg([5.0]) == (5.0, 5.0)
+    with pytest.raises(InputError, match="no longitude"):
+        longitude_span_deg([])
+
+
+def test_the_mean_longitude_across_the_antimeridian_is_near_it() -> None:
+    """Review L3: np.mean of 179.99 and -179.99 is 0, the other side of the Earth."""
+    assert mean_longitude_deg([179.99, -179.99]) == pytest.approx(-180.0, abs=1e-9)
+    assert mean_longitude_deg([179.99, -179.97]) == pytest.approx(-179.99, abs=1e-9)
+    assert mean_longitude_deg([-72.2, -71.9]) == float(np.mean([-72.2, -71.9]))

@@ -45,6 +45,7 @@ from pyproj.transformer import Transformer, TransformerGroup
 from kinsync._typing import FloatArray
 from kinsync.crs_axes import VerticalAxis, mixed_units_note, output_units, vertical_axis
 from kinsync.errors import InputError
+from kinsync.frames import longitude_span_deg, mean_longitude_deg
 
 __all__ = [
     "COARSE_ACCURACY_M",
@@ -196,17 +197,22 @@ def _area(lonlat_deg: FloatArray | None) -> Any:  # pyproj's stubs name two Area
     """The data's longitude/latitude box, at least `_MIN_AREA_SIDE_DEG` on each side.
 
     PROJ 9.2 (pyproj 3.6.0's wheels) finds no operation at all for a box of zero width
-    or height (a static trajectory, or a line driven due north).
+    or height (a static trajectory, or a line driven due north). Across the antimeridian
+    the box's west edge is east of its east edge, as PROJ takes it.
     """
     if lonlat_deg is None or not len(lonlat_deg):
         return None
-    lon, lat = lonlat_deg[:, 0], lonlat_deg[:, 1]
-    pad_lon = max(0.0, _MIN_AREA_SIDE_DEG - float(lon.max() - lon.min())) / 2.0
+    lat = lonlat_deg[:, 1]
+    west, east = longitude_span_deg(lonlat_deg[:, 0])
+    pad_lon = max(0.0, _MIN_AREA_SIDE_DEG - (east - west) % 360.0) / 2.0
     pad_lat = max(0.0, _MIN_AREA_SIDE_DEG - float(lat.max() - lat.min())) / 2.0
+    west, east = west - pad_lon, east + pad_lon
+    if west <= east:  # not across the antimeridian: the box stops at it
+        west, east = max(-180.0, west), min(180.0, east)
     return AreaOfInterest(
-        west_lon_degree=max(-180.0, float(lon.min()) - pad_lon),
+        west_lon_degree=(west + 180.0) % 360.0 - 180.0 if west < -180.0 else west,
         south_lat_degree=max(-90.0, float(lat.min()) - pad_lat),
-        east_lon_degree=min(180.0, float(lon.max()) + pad_lon),
+        east_lon_degree=(east + 180.0) % 360.0 - 180.0 if east > 180.0 else east,
         north_lat_degree=min(90.0, float(lat.max()) + pad_lat),
     )
 
@@ -357,13 +363,22 @@ def _area_warnings(target: pyproj.CRS, lonlat_deg: FloatArray | None) -> list[st
     inside = lon_in & (lat >= south) & (lat <= north)
     if np.all(inside):
         return []
-    worst = int(np.argmax(np.where(inside, -1.0, np.abs(lon - 0.5 * (west + east)))))
+    middle = west + 0.5 * ((east - west) % 360.0)  # of the area of use
+    off_deg = np.abs((lon - middle + 180.0) % 360.0 - 180.0)
+    worst = int(np.argmax(np.where(inside, -1.0, off_deg)))
     factors = pyproj.Proj(horizontal).get_factors(
         float(lon[worst]), float(lat[worst]), errcheck=False
     )
     scale = float(factors.meridional_scale)
+    lon_west, lon_east = longitude_span_deg(lon)
+    across = lon_west > lon_east  # then the data lie close to 180: more decimals
+    lon_text = (
+        f"{lon_west:.4f} to {lon_east:.4f} deg, across the antimeridian"
+        if across
+        else f"{lon_west:.2f} to {lon_east:.2f} deg"
+    )
     text = (
-        f"the data (longitude {lon.min():.2f} to {lon.max():.2f} deg, latitude "
+        f"the data (longitude {lon_text}, latitude "
         f"{lat.min():.2f} to {lat.max():.2f} deg) lie outside the area of use of "
         f"{_name(horizontal)} (longitude {west:g} to {east:g}, latitude {south:g} to "
         f"{north:g})"
@@ -377,13 +392,22 @@ def _area_warnings(target: pyproj.CRS, lonlat_deg: FloatArray | None) -> list[st
 
 
 def _suggest_projected(horizontal: pyproj.CRS, lonlat_deg: FloatArray) -> str | None:
-    """The UTM CRS of the same geodetic CRS for the data's centre, when ``horizontal`` is UTM."""
+    """The UTM CRS of the same geodetic CRS for the data's centre, when ``horizontal`` is UTM.
+
+    Beyond UTM's limits (84 deg N, 80 deg S): the WGS 84 UPS CRS of that pole.
+    """
     if " / UTM zone " not in horizontal.name:
         return None
-    lon_c = float(np.mean(lonlat_deg[:, 0]))
+    lon_c = mean_longitude_deg(lonlat_deg[:, 0])
     lat_c = float(np.mean(lonlat_deg[:, 1]))
+    ups = ups_of(lat_c)
+    if ups is not None:
+        name = pyproj.CRS.from_user_input(ups[1]).name
+        return f"{ups[0]} (beyond UTM's {_utm_limit_text(lat_c)}): {name} ({ups[1]})"
     zone, hemisphere = utm_zone_of(lon_c, lat_c)
     wanted = f"{horizontal.name.split(' / ')[0]} / UTM zone {zone}{hemisphere}"
+    if wanted == horizontal.name:  # data at the zone's edge: no other zone to suggest
+        return None
     infos = pyproj.database.query_crs_info(
         auth_name="EPSG",
         pj_types=pyproj.enums.PJType.PROJECTED_CRS,
@@ -402,31 +426,43 @@ class DataArea:
     Attributes
     ----------
     lat_deg, lon_deg, h_m : tuple of float
-        (min, max) latitude and longitude (deg, WGS 84; longitude -180..180, min > max
-        across the antimeridian) and ellipsoidal height (m).
-    utm_zone : int
-        UTM zone of the data's centre; ``utm_hemisphere`` "N" or "S".
+        (min, max) latitude, (west, east) longitude (deg, WGS 84; longitude -180..180,
+        the shortest arc holding the data: west > east across the antimeridian) and
+        (min, max) ellipsoidal height (m).
+    utm_zone : int or None
+        UTM zone of the data's centre; None beyond UTM's limits (84 deg N, 80 deg S),
+        where UPS is suggested. ``utm_hemisphere`` "N" or "S".
     utm_epsg : str
-        The WGS 84 UTM CRS of that zone (``EPSG:326zz`` north, ``EPSG:327zz`` south).
+        The WGS 84 UTM CRS of that zone (``EPSG:326zz`` north, ``EPSG:327zz`` south);
+        beyond UTM's limits the WGS 84 UPS CRS (``EPSG:32661`` north, ``EPSG:32761``
+        south).
     zones_spanned : tuple of int
-        Every UTM zone the data reach (more than one: choose one for the whole job).
+        Every UTM zone the data reach within UTM's limits, west to east (more than one:
+        choose one for the whole job); across the antimeridian 60 comes before 1.
     """
 
     lat_deg: tuple[float, float]
     lon_deg: tuple[float, float]
     h_m: tuple[float, float]
-    utm_zone: int
+    utm_zone: int | None
     utm_hemisphere: str
     utm_epsg: str
     zones_spanned: tuple[int, ...]
 
+    @property
+    def zone_name(self) -> str:
+        """``19N``, or ``UPS North`` / ``UPS South`` beyond UTM's limits."""
+        if self.utm_zone is None:
+            return "UPS North" if self.utm_hemisphere == "N" else "UPS South"
+        return f"{self.utm_zone}{self.utm_hemisphere}"
+
     def as_document(self) -> dict[str, Any]:
-        """JSON-ready mapping."""
+        """JSON-ready mapping (``utm_zone`` is `zone_name`: ``UPS North`` beyond 84 deg N)."""
         return {
             "lat_deg": list(self.lat_deg),
             "lon_deg": list(self.lon_deg),
             "h_m": list(self.h_m),
-            "utm_zone": f"{self.utm_zone}{self.utm_hemisphere}",
+            "utm_zone": self.zone_name,
             "utm_epsg": self.utm_epsg,
             "zones_spanned": list(self.zones_spanned),
         }
@@ -441,32 +477,66 @@ def data_area(lat_deg: FloatArray, lon_deg: FloatArray, h_m: FloatArray) -> Data
         WGS 84 latitude, longitude (deg) and ellipsoidal height (m), n >= 1.
     """
     lat = np.asarray(lat_deg, dtype=np.float64)
-    lon = (np.asarray(lon_deg, dtype=np.float64) + 180.0) % 360.0 - 180.0
+    lon = np.asarray(lon_deg, dtype=np.float64)
     h = np.asarray(h_m, dtype=np.float64)
-    # Across the antimeridian: measure longitudes from the data's first point.
-    rel = (lon - lon[0] + 180.0) % 360.0 - 180.0
-    lo, hi = lon[0] + rel.min(), lon[0] + rel.max()
-    if lo >= -180.0 and hi <= 180.0:  # not across the antimeridian: the values as given
-        wrap = float(lon.min()), float(lon.max())
-    else:
-        wrap = (lo + 180.0) % 360.0 - 180.0, (hi + 180.0) % 360.0 - 180.0
-    lon_c = float(lon[0] + 0.5 * (rel.min() + rel.max()))
+    west, east = longitude_span_deg(lon)  # the shortest arc: across the antimeridian too
+    lon_c = west + 0.5 * ((east - west) % 360.0)
     lat_c = float(0.5 * (lat.min() + lat.max()))
     zone, hemisphere = utm_zone_of(lon_c, lat_c)
-    zones = sorted({utm_zone_of(float(a), float(b))[0] for a, b in zip(lon, lat, strict=True)})
+    within = (lat >= UTM_SOUTH_LIMIT_DEG) & (lat <= UTM_NORTH_LIMIT_DEG)
+    inside = zip(lon[within], lat[within], strict=True)
+    zones = sorted({utm_zone_of(float(a), float(b))[0] for a, b in inside})
+    if west > east:  # across the antimeridian: the zones west of it first (60 before 1)
+        first = utm_zone_of(west, lat_c)[0]
+        zones = [z for z in zones if z >= first] + [z for z in zones if z < first]
+    ups = ups_of(lat_c)
     return DataArea(
         lat_deg=(float(lat.min()), float(lat.max())),
-        lon_deg=(float(wrap[0]), float(wrap[1])),
+        lon_deg=(west, east),
         h_m=(float(h.min()), float(h.max())),
-        utm_zone=zone,
+        utm_zone=None if ups else zone,
         utm_hemisphere=hemisphere,
-        utm_epsg=f"EPSG:{(32600 if hemisphere == 'N' else 32700) + zone}",
+        utm_epsg=ups[1] if ups else f"EPSG:{(32600 if hemisphere == 'N' else 32700) + zone}",
         zones_spanned=tuple(zones),
     )
 
 
+UTM_NORTH_LIMIT_DEG = 84.0
+"""UTM's northern limit (deg): north of it, UPS North (EPSG:32661)."""
+UTM_SOUTH_LIMIT_DEG = -80.0
+"""UTM's southern limit (deg): south of it, UPS South (EPSG:32761)."""
+
+
+def ups_of(lat_deg: float) -> tuple[str, str] | None:
+    """The WGS 84 UPS CRS for a latitude beyond UTM's limits, None within them.
+
+    Parameters
+    ----------
+    lat_deg : float
+        Latitude (deg).
+
+    Returns
+    -------
+    tuple of str or None
+        (``"UPS North"``, ``"EPSG:32661"``) north of 84 deg N, (``"UPS South"``,
+        ``"EPSG:32761"``) south of 80 deg S.
+    """
+    if lat_deg > UTM_NORTH_LIMIT_DEG:
+        return "UPS North", "EPSG:32661"
+    if lat_deg < UTM_SOUTH_LIMIT_DEG:
+        return "UPS South", "EPSG:32761"
+    return None
+
+
+def _utm_limit_text(lat_deg: float) -> str:
+    return "84 deg N limit" if lat_deg > 0.0 else "80 deg S limit"
+
+
 def utm_zone_of(lon_deg: float, lat_deg: float) -> tuple[int, str]:
     """UTM zone number and hemisphere ("N"/"S") of a point, Norway and Svalbard included.
+
+    The zone by longitude only: UTM stops at 84 deg N and 80 deg S (`ups_of` names the
+    polar CRS beyond).
 
     Parameters
     ----------

@@ -48,8 +48,10 @@ __all__ = [
     "euler_rpy_to_matrix",
     "euler_rpy_to_quaternion",
     "geodetic_to_ecef",
+    "longitude_span_deg",
     "matrix_to_euler_rpy",
     "matrix_to_quaternion",
+    "mean_longitude_deg",
     "ned_to_ecef",
     "ned_to_vehicle",
     "quaternion_to_euler_rpy",
@@ -404,6 +406,64 @@ def wrap_angle_rad(angle_rad: ArrayLike) -> FloatArray:
         multiple of pi comes back as pi or -pi, as rounding falls.
     """
     out: FloatArray = np.angle(np.exp(1j * np.asarray(angle_rad, dtype=np.float64)))
+    return out
+
+
+def longitude_span_deg(lon_deg: ArrayLike) -> tuple[float, float]:
+    """West and east ends of the shortest arc of longitude that holds every value.
+
+    Across the antimeridian the west end is the larger number (179.9 to -179.9 spans
+    0.2 deg, not 359.8 deg).
+
+    Parameters
+    ----------
+    lon_deg : array_like, shape (n,)
+        Longitudes (deg, any range: 190 is -170), n >= 1, finite.
+
+    Returns
+    -------
+    tuple of float
+        (west, east) in [-180, 180]: ``west <= east`` unless the arc crosses the
+        antimeridian; an arc that ends on it ends at 180 rather than -180.
+    """
+    lon = np.sort(_wrapped_longitude_deg(lon_deg))
+    if lon.size == 0:
+        msg = "longitude_span_deg: no longitude given"
+        raise InputError(msg)
+    gaps = np.diff(lon, append=lon[0] + 360.0)  # the gap east of each value; last across 180
+    k = lon.size - 1 if gaps[-1] >= gaps.max() else int(np.argmax(gaps))
+    west, east = float(lon[(k + 1) % lon.size]), float(lon[k])
+    if east == -180.0 and west > east:  # ends on the antimeridian: -180 is 180
+        east = 180.0
+    return west, east
+
+
+def mean_longitude_deg(lon_deg: ArrayLike) -> float:
+    """Mean of longitudes along the shortest arc holding them (antimeridian-safe).
+
+    Parameters
+    ----------
+    lon_deg : array_like, shape (n,)
+        Longitudes (deg, any range), n >= 1, finite.
+
+    Returns
+    -------
+    float
+        The mean (deg, in [-180, 180)); the plain mean where the arc does not cross the
+        antimeridian (179.99 and -179.99 average to 180, given as -180).
+    """
+    lon = _wrapped_longitude_deg(lon_deg)
+    west, east = longitude_span_deg(lon)
+    if west <= east:
+        return float(np.mean(lon))
+    mean = west + float(np.mean((lon - west) % 360.0))
+    return float(_wrapped_longitude_deg(mean)[0])
+
+
+def _wrapped_longitude_deg(lon_deg: ArrayLike) -> FloatArray:
+    """Longitudes (deg) as a flat array in [-180, 180); those already there untouched."""
+    lon = np.asarray(lon_deg, dtype=np.float64).ravel()
+    out: FloatArray = np.where((lon >= -180.0) & (lon < 180.0), lon, (lon + 180.0) % 360.0 - 180.0)
     return out
 
 

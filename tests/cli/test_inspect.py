@@ -244,3 +244,25 @@ def test_reader_warnings_are_listed_with_the_others(tmp_path: Path, run_cli: Run
     (warning,) = json.loads(out)["warnings"]
     assert "could not be checked" in warning
     assert err.count("could not be checked") == 1
+
+
+def test_info_across_the_antimeridian_gives_the_zones_there(
+    tmp_path: Path, run_cli: RunCli
+) -> None:
+    """Review L3: data in zones 60 and 1 were said to "span zones 1-60"."""
+    path = tmp_path / "traj.csv"
+    path.write_text(
+        "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
+        "1400000000.0,-16.5,179.99999,10.0,0,0,90\n"
+        "1400000001.0,-16.5,-179.99999,10.0,0,0,90\n"
+    )
+    code, out, err = run_cli(["trajectory", "info", str(path), "--json"])
+    assert code == 0, err
+    area = json.loads(out)["area"]
+    assert area["lon_deg"] == [179.99999, -179.99999]
+    assert area["zones_spanned"] == [60, 1]
+    assert area["utm_epsg"] in ("EPSG:32760", "EPSG:32701")
+    code, out, err = run_cli(["trajectory", "info", str(path)])
+    assert code == 0, err
+    assert "1-60" not in out
+    assert "data span zones 60, 1" in out

@@ -209,12 +209,18 @@ def _area_rows(doc: dict[str, Any] | None) -> dict[str, str]:
     if doc is None:
         return {"extent": "local NED positions (no geodetic extent)"}
     zones = doc["zones_spanned"]
-    spanned = f" (data span zones {zones[0]}-{zones[-1]})" if len(zones) > 1 else ""
+    spanned = ""
+    if len(zones) > 1 and zones[0] > zones[-1]:  # across the antimeridian: 60 before 1
+        spanned = f" (data span zones {', '.join(map(str, zones))}, across the antimeridian)"
+    elif len(zones) > 1:
+        spanned = f" (data span zones {zones[0]}-{zones[-1]})"
+    polar = {"UPS North": " (UTM stops at 84 deg N)", "UPS South": " (UTM stops at 80 deg S)"}
+    polar_text = polar.get(doc["utm_zone"], "")
     return {
         "latitude (deg)": f"{doc['lat_deg'][0]:.6f} to {doc['lat_deg'][1]:.6f}",
         "longitude (deg)": f"{doc['lon_deg'][0]:.6f} to {doc['lon_deg'][1]:.6f}",
         "ellipsoidal height (m)": f"{doc['h_m'][0]:.3f} to {doc['h_m'][1]:.3f}",
-        "suggested UTM zone": f"{doc['utm_zone']}: {doc['utm_epsg']} (WGS 84){spanned}",
+        "suggested UTM zone": f"{doc['utm_zone']}: {doc['utm_epsg']} (WGS 84){spanned}{polar_text}",
     }
 
 

@@ -75,6 +75,7 @@ def _run(out_dir: Path) -> _CrsRun:
     lat, lon, h, pos = _survey_points()
     area = data_area(lat, lon, h)
     right = plan_ecef_to_crs(area.utm_epsg, sample_ecef_m=pos)[1]
+    assert area.utm_zone is not None  # Québec City is within UTM's limits
     wrong_zone = f"EPSG:326{area.utm_zone - 1:02d}"
     wrong = plan_ecef_to_crs(wrong_zone, sample_ecef_m=pos)[1]
     csrs = {
@@ -209,7 +210,7 @@ def crs_section(out_dir: Path, summary: Summary) -> Section:
             "CRS and datums",
             "survey near Québec City, December 2024",
             (
-                f"UTM zone {run.area.utm_zone}{run.area.utm_hemisphere} suggested; wrong "
+                f"UTM zone {run.area.zone_name} suggested; wrong "
                 f"epoch {run.epoch_shift_m * 100:.1f} cm; geoid heights within "
                 f"{run.geoid_error_m * 1e3:.2g} mm"
             ),
@@ -223,7 +224,7 @@ def crs_section(out_dir: Path, summary: Summary) -> Section:
             (
                 f"A 2 km drive at latitude {lat0:.2f} to {lat1:.2f}°, longitude {lon0:.2f} "
                 f"to {lon1:.2f}°: `kinsync trajectory info` suggests UTM zone "
-                f"{run.area.utm_zone}{run.area.utm_hemisphere} ({run.area.utm_epsg}). The "
+                f"{run.area.zone_name} ({run.area.utm_epsg}). The "
                 "zone to the west is allowed but warned about, with the scale error it would "
                 "put into every distance."
             ),
