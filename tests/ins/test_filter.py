@@ -730,3 +730,23 @@ def test_the_standstill_ends_when_the_vehicle_moves(sim_drive: SimDrive) -> None
         acc_body_m_s2=imu.acc_body_m_s2[: k_end + 300],
     )
     assert standstill_end_s(still, gnss, k_end) == still.t_s[-1]
+
+
+@pytest.mark.parametrize("velocities", [True, False])
+def test_static_alignment_on_the_antimeridian(sim_drive: SimDrive, velocities: bool) -> None:
+    """Review L3: the plain mean of fixes either side of 180 deg put the start at 0 deg."""
+    _, imu, gnss, _, _ = sim_drive(duration_s=60.0, static_s=20.0, seed=5)
+    if not velocities:
+        gnss = dataclasses.replace(gnss, vel_ned_m_s=None, std_vel_ned_m_s=None)
+    init = align_static_gnss_heading(imu, gnss, static_s=15.0)
+    static_lon = float(np.median(gnss.lon_deg[gnss.t_s <= imu.t_s[0] + 15.0]))
+    # the same drive moved east so that the static fixes straddle 180 deg
+    moved = (gnss.lon_deg - static_lon + 180.0 + 180.0) % 360.0 - 180.0
+    assert moved.min() < -179.0
+    assert moved.max() > 179.0
+    across = align_static_gnss_heading(imu, dataclasses.replace(gnss, lon_deg=moved), static_s=15.0)
+    shift = (across.lon_deg - (init.lon_deg - static_lon + 180.0) + 180.0) % 360.0 - 180.0
+    _, r_n = radii_m(math.radians(init.lat_deg))
+    assert abs(math.radians(shift) * r_n * math.cos(math.radians(init.lat_deg))) < 1e-3
+    assert across.lat_deg == pytest.approx(init.lat_deg, abs=1e-9)
+    np.testing.assert_allclose(across.rpy_rad, init.rpy_rad, rtol=0, atol=1e-6)

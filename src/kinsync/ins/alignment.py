@@ -21,7 +21,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, ObservabilityError
-from kinsync.frames import euler_rpy_to_matrix
+from kinsync.frames import euler_rpy_to_matrix, mean_longitude_deg
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
@@ -248,7 +248,9 @@ def _heading(
         return yaw
     r_m, r_n = radii_m(lat0)
     dn = np.radians(gnss.lat_deg[after] - math.degrees(lat0)) * r_m
-    de = np.radians(gnss.lon_deg[after] - math.degrees(lon0)) * r_n * math.cos(lat0)
+    dlon_deg = gnss.lon_deg[after] - math.degrees(lon0)
+    dlon_deg = np.where(np.abs(dlon_deg) > 180.0, (dlon_deg + 180.0) % 360.0 - 180.0, dlon_deg)
+    de = np.radians(dlon_deg) * r_n * math.cos(lat0)
     sig = np.nan_to_num(np.hypot(gnss.std_pos_ned_m[after, 0], gnss.std_pos_ned_m[after, 1]))
     far = np.flatnonzero(np.hypot(dn, de) >= np.maximum(HEADING_MIN_DISTANCE_M, 10.0 * sig))
     if far.size == 0:
@@ -341,7 +343,7 @@ def align_static_gnss_heading(
         )
         raise ObservabilityError(msg)
     lat0 = math.radians(float(gnss.lat_deg[in_static].mean()))
-    lon0 = math.radians(float(gnss.lon_deg[in_static].mean()))
+    lon0 = math.radians(mean_longitude_deg(gnss.lon_deg[in_static]))  # 180 deg: not 0
     h0 = float(gnss.h_m[in_static].mean())
     _check_static(imu, gnss, k_end, static_s, lat0, h0)
     acc = imu.acc_body_m_s2[: k_end + 1]
