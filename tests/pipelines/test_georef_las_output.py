@@ -106,6 +106,41 @@ def test_geographic_output_keeps_heights_at_a_tenth_of_a_millimetre(tmp_path: Pa
     np.testing.assert_allclose(np.asarray(las.z), h, rtol=0, atol=0.5e-4 + 1e-9)
 
 
+def _across_the_antimeridian() -> Trajectory:
+    """A 2.1 km eastbound line at 16.5 deg S from 179.99 to -179.99 deg (20 m/s, 1 Hz)."""
+    s = np.arange(0.0, 106.0, 1.0)
+    lon = (179.99 + s * 0.02 / 105.0 + 180.0) % 360.0 - 180.0
+    llh = np.column_stack([np.full_like(s, -16.5), lon, np.full_like(s, 10.0)])
+    zeros = np.zeros_like(s)
+    return Trajectory.from_euler(T0 + s, zeros, zeros, np.full_like(s, np.pi / 2), lat_lon_h=llh)
+
+
+@pytest.mark.parametrize("source", ["scan.laz", "points.csv"])
+def test_geographic_las_output_across_the_antimeridian(tmp_path: Path, source: str) -> None:
+    """Review L3: points at 179.99 deg were "360 deg from the file's reference position"
+    (-180 deg): longitudes are stored within 180 deg of the X offset, continuous."""
+    traj = _across_the_antimeridian()
+    src = _scan(tmp_path, traj, 2_000)
+    want = _expected_ecef(tmp_path, src)
+    if source == "points.csv":
+        las = laspy.read(src)
+        table = np.column_stack([np.asarray(las.gps_time) + 1e9, las.x, las.y, las.z])
+        src = tmp_path / source
+        np.savetxt(src, table, fmt="%.6f", delimiter=",", header="t_s,x_m,y_m,z_m", comments="")
+    out = tmp_path / "geo.laz"
+    georeference_file(src, tmp_path / "traj.csv", MOUNT, out, crs="EPSG:4979", chunk_points=700)
+    las = laspy.read(out)
+    lon = np.asarray(las.x)
+    offset = float(las.header.offsets[0])
+    assert abs(offset) == 180.0
+    assert np.abs(lon - offset).max() < 0.05  # continuous: no jump of 360 deg
+    assert las.header.maxs[0] - las.header.mins[0] < 0.05
+    assert lon.min() < offset < lon.max()
+    to_ecef = pyproj.Transformer.from_crs(4979, 4978, always_xy=True)  # 180.01 is -179.99
+    got = to_ecef.transform(lon, np.asarray(las.y), np.asarray(las.z))
+    np.testing.assert_allclose(np.column_stack(got), want, rtol=0, atol=1e-3)
+
+
 def test_a_bad_time_beyond_the_first_block_is_named_by_its_index_in_the_chunk(
     tmp_path: Path,
 ) -> None:

@@ -677,7 +677,8 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
     so that a time-ordered file reaches ``2**31`` scale steps (about 214 km at 0.1 mm,
     65 km at 1e-4 ft, 2.1 deg at 1e-9 deg) either way from its middle. Scales: 1e-4 of
     each axis' unit (0.1 mm; 1e-9 deg, 0.11 mm, for longitude and latitude: 1e-7 deg
-    stored them in 11 mm steps).
+    stored them in 11 mm steps). A longitude is stored within 180 deg of its offset:
+    across the antimeridian the values run on past 180 (or -180) rather than jump.
     """
     crs, traj = ctx.crs, ctx.traj
     geographic = pyproj.CRS.from_user_input(crs.crs).is_geographic
@@ -697,7 +698,8 @@ def _las_output_frame(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int)
     else:
         r = np.round(centre / _LAS_OFFSET_ROUND) * _LAS_OFFSET_ROUND
         offsets = (float(r[0]), float(r[1]), float(r[2]))
-    return LasOutputFrame(offsets=offsets, scales=scales)
+    longitude_x = geographic and output_units(pyproj.CRS.from_user_input(crs.crs))[0] == "degree"
+    return LasOutputFrame(offsets=offsets, scales=scales, longitude_x=longitude_x)
 
 
 def _table_point_set(

@@ -67,6 +67,7 @@ __all__ = [
     "OutputKind",
     "OutsidePolicy",
     "PointColumns",
+    "continuous_longitude",
     "empty_table_output",
     "outside_tally",
     "process_chunk",
@@ -128,10 +129,40 @@ class LasOutputFrame:
         whose Z is in metres unless a vertical CRS in feet is given) for ECEF and
         projected CRSs; 1e-9 deg for longitude/latitude and 1e-4 m for the height of
         geographic ones.
+    longitude_x : bool
+        X is a longitude in degrees (a geographic CRS): it is stored within 180 deg of
+        the X offset (`continuous_longitude`), so that a file across the antimeridian
+        holds continuous values (180.0001 rather than -179.9999 next to 179.9999).
     """
 
     offsets: tuple[float, float, float]
     scales: tuple[float, float, float]
+    longitude_x: bool = False
+
+
+def continuous_longitude(frame: LasOutputFrame, coords: FloatArray) -> FloatArray:
+    """``coords`` with X (longitude, deg) moved by whole turns to within 180 deg of the X offset.
+
+    Parameters
+    ----------
+    frame : LasOutputFrame
+        The output's offsets; nothing changes unless ``frame.longitude_x``.
+    coords : ndarray, shape (N, 3)
+        Coordinates in the output CRS, changed in place (only those more than 180 deg
+        from the offset: across the antimeridian from it).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        ``coords``.
+    """
+    if not frame.longitude_x or not len(coords):
+        return coords
+    away_deg = coords[:, 0] - frame.offsets[0]
+    far = np.abs(away_deg) > 180.0
+    if far.any():
+        coords[far, 0] = frame.offsets[0] + (away_deg[far] + 180.0) % 360.0 - 180.0
+    return coords
 
 
 @dataclass(frozen=True, eq=False)
@@ -494,6 +525,7 @@ def _table_las_output(
     if error is not None:
         where = _task_position(ctx, task, int(rows[error[0]]))
         return replace(base, error=f"{ctx.source.path}: {where}, {error[1]}")
+    coords = continuous_longitude(frame, coords)
     bad = store_coordinates(records, coords, frame.offsets, frame.scales)
     if bad >= 0:
         where = _task_position(ctx, task, int(rows[bad]))
@@ -545,7 +577,7 @@ def _process_las_task(
             pos, block_inside = georeference(t, xyz, traj, ctx.mount, position=ctx.position)
         except InputError as err:
             return _las_chunk_error(ctx, task, record, err)
-        coords = pos if to_crs is None else to_crs(pos)
+        coords = pos if to_crs is None else continuous_longitude(frame, to_crs(pos))
         bad = store_coordinates(block, coords, frame.offsets, frame.scales, block_inside)
         if bad >= 0:
             return _las_storage_error(ctx, _task_position(ctx, task, start + bad), coords[bad])
