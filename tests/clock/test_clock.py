@@ -28,6 +28,7 @@ from kinsync.clock import (
     utc_to_gps_s,
 )
 from kinsync.clock.fit import MAX_LOG_SPAN_S
+from kinsync.clock.leap_seconds import gps_to_utc_iso
 from kinsync.demo.clock import clock_section
 from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
 from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
@@ -77,6 +78,24 @@ def test_utc_to_gps_known_values() -> None:
         assert float(utc_to_gps_s(gps_to_utc_posix_s(g))) == g
     # 2016-12-31T23:59:60 has no POSIX time: the next 00:00:00 is given.
     assert gps_to_utc_posix_s(1167264017.5) == posix(2017, 1, 1)
+
+
+@pytest.mark.parametrize(
+    ("t_gps_s", "utc"),
+    [
+        (1400000057.9996, "2024-05-17T16:54:00.000"),  # printed 16:53:60.000
+        (1400000057.9994, "2024-05-17T16:53:59.999"),
+        (1167264016.0, "2016-12-31T23:59:59.000"),
+        (1167264016.9996, "2016-12-31T23:59:60.000"),  # a real leap second: 60 is right
+        (1167264017.5, "2016-12-31T23:59:60.500"),
+        (1167264017.9996, "2017-01-01T00:00:00.000"),
+        (1167264018.0, "2017-01-01T00:00:00.000"),
+        (0.0, "1980-01-06T00:00:00.000"),
+    ],
+)
+def test_utc_text_is_rounded_before_it_is_split(t_gps_s: float, utc: str) -> None:
+    """Review L3: 59.9996 s was formatted as "60.000" without carrying into the minute."""
+    assert gps_to_utc_iso(t_gps_s) == utc
 
 
 def test_inserted_leap_second_has_its_own_gps_second() -> None:

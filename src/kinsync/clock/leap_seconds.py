@@ -9,7 +9,6 @@ its own GPS second (`utc_fields_to_gps_s`); POSIX time cannot express it.
 from __future__ import annotations
 
 import calendar
-import math
 import time
 from datetime import date
 from typing import TYPE_CHECKING
@@ -67,12 +66,16 @@ _SECONDS_PER_DAY = 86_400
 
 
 def _utc_iso(utc_posix_s: float) -> str:
-    days = math.floor(utc_posix_s / _SECONDS_PER_DAY)
+    """ISO 8601 UTC of a POSIX time, to the millisecond.
+
+    Rounded before it is split into fields, so that 59.9996 s carries into the next
+    minute (it printed "53:60.000").
+    """
+    days, ms = divmod(round(utc_posix_s * 1000.0), _SECONDS_PER_DAY * 1000)
     d = date.fromordinal(date(1970, 1, 1).toordinal() + days)
-    rest = utc_posix_s - days * _SECONDS_PER_DAY
-    hh, rem = divmod(rest, 3600.0)
-    mm, ss = divmod(rem, 60.0)
-    return f"{d.isoformat()}T{int(hh):02d}:{int(mm):02d}:{ss:06.3f}"
+    hh, ms = divmod(ms, 3_600_000)
+    mm, ms = divmod(ms, 60_000)
+    return f"{d.isoformat()}T{hh:02d}:{mm:02d}:{ms // 1000:02d}.{ms % 1000:03d}"
 
 
 def leap_count_s(utc_posix_s: ArrayLike) -> IntArray:
@@ -299,5 +302,22 @@ def gps_to_decimal_year(t_gps_s: float) -> float:
 
 
 def gps_to_utc_iso(t_gps_s: float) -> str:
-    """GPS time as an ISO 8601 UTC date and time (``2024-07-02T00:00:00.000``)."""
-    return _utc_iso(gps_to_utc_posix_s(t_gps_s))
+    """GPS time as an ISO 8601 UTC date and time to the millisecond (``2024-07-02T00:00:00.000``).
+
+    The time is rounded to the millisecond first, then converted: 59.9996 s is the next
+    minute's 00.000; during an inserted leap second the result is ``23:59:60.xxx``.
+
+    Raises
+    ------
+    InputError
+        ``t_gps_s`` not a finite number, or negative (before the GPS epoch).
+    """
+    g = finite_number(t_gps_s, "t_gps_s")
+    if g < 0.0:
+        msg = f"t_gps_s: {g} is before the GPS epoch"
+        raise InputError(msg)
+    whole_s, ms = divmod(round(g * 1000.0), 1000)
+    utc = gps_to_utc_posix_s(float(whole_s))
+    if float(utc_to_gps_s(utc)) != whole_s:  # inside a leap second: utc is the next 00:00
+        return f"{_utc_iso(utc - 1.0)[:-6]}60.{ms:03d}"
+    return _utc_iso(utc + ms / 1000.0)
