@@ -25,6 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from _timing import best_of
+from kinsync.frames import wrap_angle_rad
 from kinsync.io.mount_file import write_mount
 from kinsync.io.table_writer import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -46,7 +47,11 @@ def write_inputs(folder: Path, n_points: int) -> None:
         [46.8 + 4.5e-4 * np.sin(w * t), -71.2 + 6.6e-4 * (1 - np.cos(w * t)), 10.0 + 0 * t]
     )
     traj = Trajectory.from_euler(
-        t + T0_GPS_S, 0.05 * np.sin(1.1 * t), 0.02 * np.sin(0.7 * t), w * t, lat_lon_h=llh
+        t + T0_GPS_S,
+        0.05 * np.sin(1.1 * t),
+        0.02 * np.sin(0.7 * t),
+        wrap_angle_rad(w * t),
+        lat_lon_h=llh,
     )
     write_trajectory_csv(traj, folder / "traj.csv")
     write_mount(MOUNT, folder / "mount.toml")

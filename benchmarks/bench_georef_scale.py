@@ -35,6 +35,7 @@ from typing import Any
 import laspy
 import numpy as np
 
+from kinsync.frames import wrap_angle_rad
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
@@ -53,7 +54,7 @@ def write_inputs(folder: Path, n_points: int, kind: str) -> Path:
     s = t - T0
     llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
     traj = Trajectory.from_euler(
-        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh
+        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), wrap_angle_rad(0.3 + 0.05 * s), lat_lon_h=llh
     )
     write_trajectory_csv(traj, folder / "traj.csv")
     rng = np.random.default_rng(1)

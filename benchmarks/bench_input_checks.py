@@ -30,7 +30,7 @@ import pyarrow.csv as pa_csv
 
 from _timing import best_of
 from kinsync.errors import InputError
-from kinsync.frames import ecef_to_geodetic, ned_to_ecef
+from kinsync.frames import ecef_to_geodetic, ned_to_ecef, wrap_angle_rad
 from kinsync.georef import GeorefTrajectory
 from kinsync.io import laz_chunks
 from kinsync.io.las import las_info
@@ -58,7 +58,7 @@ def drive(duration_s: float) -> Trajectory:
         T0 + t,
         0.03 * np.sin(0.9 * t),
         0.02 * np.sin(0.6 * t),
-        w * t,
+        wrap_angle_rad(w * t),
         lat_lon_h=llh,
         vel_ned_m_s=vel,
     )

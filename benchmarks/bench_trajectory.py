@@ -13,7 +13,7 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation, Slerp
 
 from _timing import best_of
-from kinsync.frames import euler_rpy_to_matrix, ned_to_ecef
+from kinsync.frames import euler_rpy_to_matrix, ned_to_ecef, wrap_angle_rad
 from kinsync.trajectory import Trajectory
 
 RATE_HZ = 200.0
@@ -27,7 +27,7 @@ def turning_vehicle(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     w = 10.0 / 50.0
     pos = np.column_stack([50 * np.sin(w * t), 50 * (1 - np.cos(w * t)), -0.5 * np.sin(0.3 * t)])
     vel = np.column_stack([10 * np.cos(w * t), 10 * np.sin(w * t), -0.15 * np.cos(0.3 * t)])
-    rpy = np.column_stack([0.05 * np.sin(1.1 * t), 0.02 * np.sin(0.7 * t), w * t])
+    rpy = np.column_stack([0.05 * np.sin(1.1 * t), 0.02 * np.sin(0.7 * t), wrap_angle_rad(w * t)])
     return pos, vel, rpy, euler_rpy_to_matrix(rpy[:, 0], rpy[:, 1], rpy[:, 2])
 
 

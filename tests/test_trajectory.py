@@ -400,7 +400,7 @@ def test_shifted_is_a_new_trajectory_of_the_shifted_times_sharing_the_rest(
     rng = np.random.default_rng(3)
     n = 200
     t = 1.4e9 + 0.005 * np.arange(n)
-    rpy = rng.uniform(-3.0, 3.0, (3, n))
+    rpy = rng.uniform(-3.0, 3.0, (3, n)) * np.array([[1.0], [0.5], [1.0]])  # pitch in +-pi/2
     pos = np.column_stack([46.8 + 1e-6 * np.arange(n), -71.2 + 2e-6 * np.arange(n), 50 + t * 0])
     where = {"lat_lon_h": pos} if geodetic else {"pos_ned_m": pos, "origin_lat_lon_h": (46, 7, 0)}
     traj = Trajectory.from_euler(t, *rpy, vel_ned_m_s=rng.normal(size=(n, 3)), **where)
@@ -722,3 +722,29 @@ def test_euler_angles_of_another_shape_are_named(roll: object, shape: str) -> No
         InputError, match=rf"roll_rad: expected shape \(100,\) .* got {re.escape(shape)}"
     ):
         Trajectory.from_euler(t, roll, z, z, lat_lon_h=llh)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("which", "value", "fragment"),
+    [
+        (1, 30.0, r"pitch_rad: 30 rad in row 0 is beyond \+-pi/2 .*30 deg = 0\.523599 rad"),
+        (1, -1.6, r"pitch_rad: -1\.6 rad in row 0 is beyond \+-pi/2"),
+        (0, 45.0, r"roll_rad: 45 rad in row 0 is beyond \+-2 pi .*wrap_angle_rad"),
+        (2, 1000.0, r"yaw_rad: 1000 rad in row 0 is beyond \+-2 pi .*wrap_angle_rad"),
+    ],
+)
+def test_euler_angles_in_degrees_are_refused_naming_the_argument(
+    which: int, value: float, fragment: str
+) -> None:
+    """A pitch of 30 (degrees, given for radians) built a trajectory 1719 deg nose-up
+    and georeference returned points: the command line refuses such angles, the API
+    took them."""
+    t, z, llh = _gps_line()
+    rpy = [z, z, z]
+    rpy[which] = np.full(t.size, value)
+    with pytest.raises(InputError, match=fragment):
+        Trajectory.from_euler(t, *rpy, lat_lon_h=llh)
+    # The limits themselves are attitudes: pitch +-90 deg, roll and yaw +-360 deg.
+    edge = np.radians([360.0, 90.0, -360.0])
+    traj = Trajectory.from_euler(t, *(np.full(t.size, a) for a in edge), lat_lon_h=llh)
+    assert len(traj) == t.size

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from kinsync.errors import InputError, OutsideSpanError
+from kinsync.frames import wrap_angle_rad
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import TrajectoryGap, gap_index, max_gap_for
 
@@ -29,8 +30,9 @@ def _turning(hole: tuple[float, float] | None = HOLE) -> Trajectory:
     s = t - T0
     pos = np.column_stack([20.0 * np.sin(w * s), 20.0 * (1.0 - np.cos(w * s)), 0.0 * s])
     vel = np.column_stack([5.0 * np.cos(w * s), 5.0 * np.sin(w * s), 0.0 * s])
+    yaw = wrap_angle_rad(w * s)
     return Trajectory.from_euler(
-        t, 0.0 * s, 0.0 * s, w * s, pos_ned_m=pos, origin_lat_lon_h=(46.8, -71.2, 10.0),
+        t, 0.0 * s, 0.0 * s, yaw, pos_ned_m=pos, origin_lat_lon_h=(46.8, -71.2, 10.0),
         vel_ned_m_s=vel,
     )  # fmt: skip
 

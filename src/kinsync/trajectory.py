@@ -57,6 +57,7 @@ from kinsync.trajectory_gaps import (
     trajectory_gaps,
 )
 from kinsync.trajectory_rows import (
+    check_euler_rad,
     check_latitudes,
     first_bad_row,
     validated_rows,
@@ -284,7 +285,9 @@ class Trajectory:
             Record times (s, GPS time unless stated), strictly increasing, N >= 2.
         roll_rad, pitch_rad, yaw_rad : array_like, shape (N,)
             Attitude body (FRD) -> NED: roll about body X, pitch about body Y, yaw
-            (heading) about Down (rad), as `kinsync.frames.euler_rpy_to_matrix`.
+            (heading) about Down (rad), as `kinsync.frames.euler_rpy_to_matrix`. Pitch
+            within +-pi/2, roll and yaw within +-2 pi (the spans the command line reads
+            degrees in, `kinsync.io.sanity`).
         lat_lon_h : array_like, shape (N, 3), optional
             Geodetic WGS84 position: latitude (deg), longitude (deg), ellipsoidal
             height (m).
@@ -304,11 +307,17 @@ class Trajectory:
         ------
         InputError
             As `Trajectory`, naming the row and column at fault; and an angle array not
-            numbers, not finite, or not of shape (N,).
+            numbers, not finite, or not of shape (N,); a pitch beyond +-pi/2, a roll or
+            yaw beyond +-2 pi (degrees given for radians; an unwrapped yaw must be
+            wrapped first, `kinsync.frames.wrap_angle_rad`), naming the argument and
+            row.
         """
         t = validated_times(t_s)
         rpy = {"roll_rad": roll_rad, "pitch_rad": pitch_rad, "yaw_rad": yaw_rad}
-        q = euler_rpy_to_quaternion(*(validated_rows(a, t.size, None, k) for k, a in rpy.items()))
+        angles = [validated_rows(a, t.size, None, k) for k, a in rpy.items()]
+        for name, angle in zip(rpy, angles, strict=True):
+            check_euler_rad(angle, name)
+        q = euler_rpy_to_quaternion(*angles)
         return cls(
             t_s=t,
             q_body_to_ned=q,

@@ -5,18 +5,27 @@ Each message names the argument and the 0-based row at fault.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync.errors import InputError
 
 __all__ = [
+    "EULER_LIMITS_DEG",
+    "check_euler_rad",
     "check_latitudes",
     "first_bad_row",
     "normalise_quaternions",
     "validated_rows",
     "validated_unit_quaternions",
 ]
+
+EULER_LIMITS_DEG = {"roll_rad": 360.0, "pitch_rad": 90.0, "yaw_rad": 360.0}
+"""Largest magnitude (deg) of each Euler angle a trajectory is built from: the spans the
+command line reads attitude columns with (`kinsync.io.sanity.ROLL_DEG`, ``PITCH_DEG``,
+``HEADING_DEG``). Beyond them an angle in radians is one given in degrees."""
 
 _QUATERNION_NORM_TOL = 1e-6
 _BLOCK_ROWS = 65_536
@@ -83,6 +92,39 @@ def normalise_quaternions(q: FloatArray) -> None:
             )
             raise InputError(msg)
         block /= norm[:, None]
+
+
+def check_euler_rad(angle_rad: FloatArray, name: str) -> None:
+    """Refuse an Euler angle (rad) beyond `EULER_LIMITS_DEG` of ``name``, naming its row.
+
+    Parameters
+    ----------
+    angle_rad : ndarray, shape (N,)
+        Finite angles (rad).
+    name : str
+        ``"roll_rad"``, ``"pitch_rad"`` or ``"yaw_rad"``.
+
+    Raises
+    ------
+    InputError
+        The first angle beyond its limit: most likely degrees given where radians are
+        expected (a pitch of 30 is 1719 deg); for roll and yaw, possibly an unwrapped
+        angle, to be wrapped first.
+    """
+    limit_deg = EULER_LIMITS_DEG[name]
+    bad = np.abs(angle_rad) > math.radians(limit_deg)
+    if not np.any(bad):
+        return
+    row = first_bad_row(bad)
+    value = float(angle_rad[row])
+    span = "+-pi/2 (+-90 deg)" if name == "pitch_rad" else "+-2 pi (one turn either way)"
+    msg = (
+        f"trajectory {name}: {value:.6g} rad in row {row} is beyond {span}: is it in "
+        f"degrees? {name} takes radians ({value:.6g} deg = {math.radians(value):.6g} rad)"
+    )
+    if name != "pitch_rad":
+        msg += "; an unwrapped angle must be wrapped first (kinsync.frames.wrap_angle_rad)"
+    raise InputError(msg)
 
 
 def check_latitudes(lat_deg: FloatArray, name: str) -> None:

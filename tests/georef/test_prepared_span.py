@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from kinsync.frames import wrap_angle_rad
 from kinsync.georef import GeorefTrajectory, georeference, georeference_numpy
 from kinsync.georef.trajectory import GeorefRecords
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -42,7 +43,7 @@ def _trajectory(n: int = 20_000, *, velocities: bool = True, gap: bool = True) -
     if velocities:
         vel = np.column_stack([1.113 + 0 * s, 0.152 + 0 * s, -0.01 * np.cos(s)])
     return Trajectory.from_euler(
-        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), 0.3 + 0.05 * s, lat_lon_h=llh,
+        t, 0.02 * np.sin(s), 0.01 * np.cos(0.5 * s), wrap_angle_rad(0.3 + 0.05 * s), lat_lon_h=llh,
         vel_ned_m_s=vel,
     )  # fmt: skip
 

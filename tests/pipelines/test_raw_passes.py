@@ -149,6 +149,19 @@ def test_read_raw_attitude(sim: RotatingTableSimulation, sim_folder: Path) -> No
     np.testing.assert_allclose(R_a, R_b, rtol=0, atol=1e-12)
 
 
+def test_a_raw_attitude_log_may_hold_unwrapped_angles(tmp_path: Path) -> None:
+    """A turning table's log may count its turns (`ANGLE_DEG`); `Trajectory.from_euler`
+    refuses angles beyond a turn, so the reader must not go through it."""
+    t = np.arange(0.0, 20.0, 0.1)
+    yaw_deg = 40.0 * t  # two and a bit turns
+    path = tmp_path / "attitude.csv"
+    rows = "".join(f"{a:.17g},0.5,-1.0,{b:.17g}\n" for a, b in zip(t, yaw_deg, strict=True))
+    path.write_text("t_s,roll_deg,pitch_deg,yaw_deg\n" + rows)
+    att = read_raw_attitude(path)
+    expected = euler_rpy_to_matrix(math.radians(0.5), math.radians(-1.0), np.radians(yaw_deg))
+    np.testing.assert_allclose(att.interpolate(t).R_body_to_ned, expected, rtol=0, atol=1e-12)
+
+
 def test_outside_the_attitude_span_names_pass_and_time(copy: Path) -> None:
     # -0.5 s: the first pass needs records 0.5 s before its start; the log starts 0.2 s before.
     with pytest.raises(InputError, match=r"pass_000\.csv: line \d+: point time t_s=") as exc:

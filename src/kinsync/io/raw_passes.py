@@ -31,6 +31,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.frames import euler_rpy_to_quaternion
 from kinsync.io.sanity import ANGLE_DEG, LENGTH_M, TIME_S, Span, check_columns
 from kinsync.io.tables import NumericTable, read_numeric_csv
 from kinsync.trajectory import Trajectory
@@ -133,11 +134,14 @@ def read_raw_attitude(path: Path) -> Trajectory:
         )
         raise InputError(msg)
     try:
-        return Trajectory.from_euler(
-            t,
-            np.radians(table.columns["roll_deg"]),
-            np.radians(table.columns["pitch_deg"]),
-            np.radians(table.columns["yaw_deg"]),
+        # Not Trajectory.from_euler, which refuses angles beyond a turn (degrees for
+        # radians): a table's log may hold unwrapped angles (`ANGLE_DEG`).
+        q = euler_rpy_to_quaternion(
+            *(np.radians(table.columns[name]) for name in _ATTITUDE_COLUMNS[1:])
+        )
+        return Trajectory(
+            t_s=t,
+            q_body_to_ned=q,
             pos_ned_m=np.zeros((table.n_rows, 3)),
             origin_lat_lon_h=RAW_ORIGIN_LAT_LON_H,
         )
