@@ -81,6 +81,7 @@ def test_run_json_then_compare(
     assert doc["out"] == str(out)
     assert doc["smoothed"] is False
     assert doc["warnings"] == []
+    assert doc["error_states"] == 21  # --init-from: no levelled standstill
     # stderr is not a terminal here: one line per stage, the filter then the writing
     stages = [line.split(": ")[2].rsplit(" (", 1)[0] for line in stderr.splitlines()]
     assert [s for s in stages if not s.startswith("compiling")] == ["filter", "writing"]
@@ -198,6 +199,9 @@ def test_run_with_static_alignment_on_a_simulated_drive(run_cli: RunCli, tmp_pat
     assert doc["epochs"] == len(sim.imu)
     assert doc["gnss_used"] + doc["gnss_rejected"] == len(sim.gnss)
     assert doc["warnings"] == []
+    # 27 with the preset's scale factors, and the levelled standstill's vertical support
+    # is one more (it said 27)
+    assert doc["error_states"] == 28
     code, stdout, stderr = run_cli(
         ["ins", "compare", str(out), str(tmp_path / "truth.csv"), "--json"]
     )

@@ -219,7 +219,10 @@ def run(
         bool, typer.Option("--json", help="Print one JSON object instead of a table.")
     ] = False,
 ) -> None:
-    """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 or 27 states).
+    """Filter IMU + GNSS into a navigation solution (error-state EKF, 21 to 28 states).
+
+    21 error states, 27 with scale factors; one more after a static start (no
+    --init-from): 22 or 28.
 
     --max-gap-s is the gap threshold of the --init-from reference.
     """
@@ -286,7 +289,9 @@ def run(
         report(progress, 1.0, "writing")
     for warning in result.warnings:  # after the run: a failed run prints one error line
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
-    summary = _run_document(solution, config, seconds=seconds, smooth=smooth, out=out)
+    summary = _run_document(
+        solution, config, seconds=seconds, smooth=smooth, out=out, states=result.error_states
+    )
     summary["warnings"] = list(result.warnings)
     if as_json:
         print_json(summary)
@@ -308,7 +313,13 @@ def _before_start(imu: ImuData, gnss: GnssData, t0_s: float, init_from: Path | N
 
 
 def _run_document(
-    solution: NavSolution, config: InsConfig, *, seconds: float, smooth: bool, out: Path
+    solution: NavSolution,
+    config: InsConfig,
+    *,
+    seconds: float,
+    smooth: bool,
+    out: Path,
+    states: int,
 ) -> dict[str, Any]:
     """The ``--json`` document of ``ins run`` (without its warnings)."""
     n = len(solution)
@@ -321,7 +332,7 @@ def _run_document(
         "epochs_per_s": n / seconds if seconds > 0 else None,
         "smoothed": smooth,
         "out": str(out),
-        "error_states": 27 if config.models_scale_factors else 21,
+        "error_states": states,
         "turn_on_biases": "calibrated" if calibrated else "estimated from zero",
         "final_gyro_bias_deg_h": [
             math.degrees(float(v)) * 3600.0 for v in solution.gyro_bias_rad_s[-1]

@@ -22,8 +22,9 @@ if TYPE_CHECKING:
     from kinsync.ins.checks import check_gnss_rejections, check_inputs
     from kinsync.ins.compare import Comparison, compare_to_truth
     from kinsync.ins.config import InsConfig
-    from kinsync.ins.filter import GnssStatus, InsResult, run_ins
+    from kinsync.ins.filter import GnssStatus, run_ins
     from kinsync.ins.measurements import GnssData, ImuData
+    from kinsync.ins.result import InsResult
     from kinsync.ins.solution import InitialState, NavSolution
     from kinsync.ins.strapdown import free_inertial
 
@@ -53,7 +54,7 @@ __getattr__, __dir__ = lazy_exports(
         "InitialState": "kinsync.ins.solution",
         "NavSolution": "kinsync.ins.solution",
         "GnssStatus": "kinsync.ins.filter",
-        "InsResult": "kinsync.ins.filter",
+        "InsResult": "kinsync.ins.result",
         "run_ins": "kinsync.ins.filter",
         "free_inertial": "kinsync.ins.strapdown",
         "align_static_gnss_heading": "kinsync.ins.alignment",

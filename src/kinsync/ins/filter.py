@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from enum import IntEnum
 from typing import Any, NamedTuple, cast
 
@@ -120,6 +120,7 @@ from kinsync.ins.forward_run import (
 )
 from kinsync.ins.gnss_observation import MAX_ROWS, gate_stat, gnss_epochs, observation
 from kinsync.ins.measurements import GnssData, ImuData
+from kinsync.ins.result import InsResult
 from kinsync.ins.smoother import smooth_forward_run
 from kinsync.ins.solution import InitialState, NavSolution
 from kinsync.ins.standstill import standstill_params, with_vertical_support
@@ -165,48 +166,6 @@ class GnssStatus(IntEnum):
     """Passed the χ² gate and updated the filter."""
     REJECTED = 2
     """Failed the χ² gate (position or velocity)."""
-
-
-@dataclass(frozen=True, eq=False)
-class InsResult:
-    """Forward (and optionally smoothed) INS/GNSS solution.
-
-    Attributes
-    ----------
-    forward : NavSolution
-        Forward-filter solution at the IMU epochs from the initial epoch on.
-    smoothed : NavSolution or None
-        RTS-smoothed solution on the same epochs, when requested.
-    innovations_pos_ned_m : ndarray, shape (m_in, 3)
-        GNSS minus predicted antenna position (N, E, D, m) before the update, one row
-        per GNSS epoch inside the IMU span; NaN rows for epochs rejected by the gate.
-    gnss_rejected_t_s : ndarray, shape (r,)
-        Times of the GNSS epochs rejected by the χ² gate (s).
-    innovations_t_s : ndarray, shape (m_in,)
-        GNSS times of the innovation rows (s).
-    innovations_vel_ned_m_s : ndarray, shape (m_in, 3)
-        GNSS minus predicted antenna velocity (m/s); NaN where velocities were not
-        used or the epoch was rejected.
-    innovation_std_pos_ned_m : ndarray, shape (m_in, 3)
-        Predicted standard deviation ``sqrt(diag S)`` of each position innovation (m);
-        NaN for rejected epochs.
-    gnss_status : ndarray of int, shape (m,)
-        `GnssStatus` of every GNSS epoch of the input.
-    warnings : tuple of str
-        What the checks of `run_ins` found doubtful without refusing the run (the
-        input checks' warnings, then the χ² gate's), each naming its input; empty when
-        all is well.
-    """
-
-    forward: NavSolution
-    smoothed: NavSolution | None
-    innovations_pos_ned_m: FloatArray
-    gnss_rejected_t_s: FloatArray
-    innovations_t_s: FloatArray = field(default_factory=lambda: np.empty(0))
-    innovations_vel_ned_m_s: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
-    innovation_std_pos_ned_m: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
-    gnss_status: IntArray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
-    warnings: tuple[str, ...] = ()
 
 
 def transition_matrix(F: FloatArray, dt_s: float) -> FloatArray:
@@ -782,6 +741,7 @@ def forward_pass(
         std=out.std,
         params=params,
         checkpoints=checkpoints_from_store(checkpoints),
+        n_error_states=int(filt.P.shape[0]),
     )
 
 
@@ -872,6 +832,7 @@ def _filter_and_smooth(
         imu, gnss, config, init, use_velocity=use_velocity, store=smooth,
         progress=part(progress, 0.0, 0.5 if smooth else 1.0), gnss_imu_epoch=g_epoch, log=log,
     )  # fmt: skip
+    n_error_states = run.n_error_states
     n_used = int(np.count_nonzero(log.status == GnssStatus.USED))
     n_rej = int(np.count_nonzero(log.status == GnssStatus.REJECTED))
     t_out = imu.t_s[k0:]
@@ -897,4 +858,5 @@ def _filter_and_smooth(
         innovations_vel_ned_m_s=log.innovation[inside, 3:],
         innovation_std_pos_ned_m=log.innovation_std_pos_ned_m[inside],
         gnss_status=log.status,
+        error_states=n_error_states,
     )

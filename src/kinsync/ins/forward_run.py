@@ -151,6 +151,9 @@ class ForwardRun:
     params : ndarray
         Parameter vector of the loop.
     checkpoints : Checkpoints or None
+    n_error_states : int
+        Size of the error state the filter ran with: 21, or 27 with scale factors,
+        plus one after a levelled standstill (`kinsync.ins.standstill`).
     """
 
     k0: int
@@ -158,3 +161,4 @@ class ForwardRun:
     std: FloatArray
     params: FloatArray
     checkpoints: Checkpoints | None
+    n_error_states: int
