@@ -126,3 +126,41 @@ def test_a_full_gps_week_is_within_the_span() -> None:
     assert span is not None
     assert span.low == 1024
     assert span.low <= 2345 <= span.high  # December 2024
+
+
+def _declared_ranges() -> Iterator[tuple[str, float | None, float | None]]:
+    """(command option, typer min, typer max) of each numeric option declaring one."""
+    for path, callback in commands():
+        numbers = numeric_parameters(callback)
+        for name, param in inspect.signature(callback, eval_str=True).parameters.items():
+            for meta in getattr(param.annotation, "__metadata__", ()):
+                low, high = getattr(meta, "min", None), getattr(meta, "max", None)
+                if name in numbers and (low is not None or high is not None):
+                    yield f"{' '.join(path)} {numbers[name]}", low, high
+
+
+def test_a_range_the_help_shows_is_the_span_kinsync_accepts() -> None:
+    """--gps-week showed [x>=0] in every command's help, where 1024 to the current week
+    (plus two years) is accepted: a declared range must be the option's span."""
+    declared = list(_declared_ranges())
+    assert declared
+    wrong = []
+    for where, low, high in declared:
+        command, option = where.rsplit(" ", 1)
+        span = bounds_for(command, option)
+        assert span is not None
+        if (low is not None and low != span.low) or (high is not None and high != span.high):
+            wrong.append(f"{where}: declared {low}..{high}, accepted {span.low:g}..{span.high:g}")
+    assert not wrong
+
+
+@pytest.mark.parametrize(("path", "callback"), list(_gps_week_commands()))
+def test_gps_week_help_gives_the_span(
+    run_cli: RunCli, path: tuple[str, ...], callback: Callable[..., Any]
+) -> None:
+    assert "gps_week" in inspect.signature(callback).parameters
+    code, out, _ = run_cli([*path, "--help"])
+    assert code == 0
+    text = " ".join(out.replace("│", " ").split())
+    assert "x>=0" not in text
+    assert "A full GPS week number, 1024 or more" in text

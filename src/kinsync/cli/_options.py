@@ -12,6 +12,7 @@ import typer
 from kinsync.errors import InputError
 
 __all__ = [
+    "GPS_WEEK_SPAN_HELP",
     "MAX_GAP_HELP",
     "MULTI_VALUE_OPTIONS",
     "MaxGapOpt",
@@ -27,6 +28,14 @@ MAX_GAP_HELP = (
     "to a day."
 )
 """The help of ``--max-gap-s``, one wording for every command that reads a trajectory."""
+
+GPS_WEEK_SPAN_HELP = (
+    "A full GPS week number, 1024 or more (counted from 6 January 1980; a receiver's "
+    "10-bit week plus 2048 since April 2019), up to two years after the current week."
+)
+"""What ``--gps-week`` accepts (`kinsync.cli._bounds`), appended to each command's help;
+its typer option declares no range, so that a smaller week gets the bounds' message
+about 10-bit week numbers."""
 
 MaxGapOpt = Annotated[float | None, typer.Option("--max-gap-s", help=MAX_GAP_HELP)]
 """``--max-gap-s``: the gap threshold (s) of `kinsync.trajectory_gaps.max_gap_for`."""

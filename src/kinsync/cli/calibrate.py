@@ -12,7 +12,7 @@ from rich.table import Table
 from kinsync._text import counted
 from kinsync.cli._bounds import check_numeric_option
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
+from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -147,7 +147,10 @@ def mount(
     estimate: EstimateOpt = "boresight,latency",
     gps_week: Annotated[
         int | None,
-        typer.Option("--gps-week", help="GPS week of SBET / LAS seconds-of-week times.", min=0),
+        typer.Option(
+            "--gps-week",
+            help="GPS week of SBET / LAS seconds-of-week times. " + GPS_WEEK_SPAN_HELP,
+        ),
     ] = None,
     out: Annotated[
         Path | None, typer.Option("--out", help="Write the calibrated mount (TOML) here.")

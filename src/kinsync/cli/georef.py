@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
+from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
@@ -118,8 +118,8 @@ def georef(
         int | None,
         typer.Option(
             "--gps-week",
-            help="GPS week of SBET / LAS seconds-of-week times, to put them on GPS time.",
-            min=0,
+            help="GPS week of SBET / LAS seconds-of-week times, to put them on GPS time. "
+            + GPS_WEEK_SPAN_HELP,
         ),
     ] = None,
     scheduler: Annotated[

@@ -19,7 +19,7 @@ from rich.table import Table
 
 from kinsync._text import counted
 from kinsync.cli._help import literal
-from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
+from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
@@ -402,7 +402,9 @@ def compare(
     ],
     gps_week: Annotated[
         int | None,
-        typer.Option("--gps-week", help="GPS week of SBET seconds-of-week times.", min=0),
+        typer.Option(
+            "--gps-week", help="GPS week of SBET seconds-of-week times. " + GPS_WEEK_SPAN_HELP
+        ),
     ] = None,
     max_gap_s: MaxGapOpt = None,
     as_json: Annotated[

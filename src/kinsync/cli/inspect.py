@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import numpy as np
 import typer
 
-from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
+from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
@@ -237,8 +237,8 @@ def trajectory_info(
         int | None,
         typer.Option(
             "--gps-week",
-            help="GPS week of an SBET (and its smrmsg): times become GPS time.",
-            min=0,
+            help="GPS week of an SBET (and its smrmsg): times become GPS time. "
+            + GPS_WEEK_SPAN_HELP,
         ),
     ] = None,
     smrmsg: Annotated[
@@ -428,7 +428,8 @@ def trajectory_export(
     gps_week: Annotated[
         int | None,
         typer.Option(
-            "--gps-week", help="GPS week of seconds-of-week times (SBET, text exports).", min=0
+            "--gps-week",
+            help="GPS week of seconds-of-week times (SBET, text exports). " + GPS_WEEK_SPAN_HELP,
         ),
     ] = None,
     max_vertices: Annotated[

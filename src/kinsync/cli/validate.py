@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted, format_p_value
-from kinsync.cli._options import MaxGapOpt, refuse_unused_gps_week
+from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -118,7 +118,10 @@ def control_points(
     level: LevelOpt = 0.99,
     gps_week: Annotated[
         int | None,
-        typer.Option("--gps-week", help="GPS week of LAS seconds-of-week times or an SBET.", min=0),
+        typer.Option(
+            "--gps-week",
+            help="GPS week of LAS seconds-of-week times or an SBET. " + GPS_WEEK_SPAN_HELP,
+        ),
     ] = None,
     png: Annotated[
         Path | None,
