@@ -110,3 +110,12 @@ def test_out_is_a_file(
     target.write_text("x")
     code, stdout, stderr = run_cli([*BASE, "--out", str(target)])
     assert_one_line_error(code, stdout, stderr, "--out", "not a folder")
+
+
+def test_out_help_names_every_file_written(run_cli: RunCli) -> None:
+    """The help listed imu.csv, gnss.csv, truth.csv and truth.json, not ins.toml."""
+    code, out, _ = run_cli(["simulate", "drive", "--help"])
+    assert code == 0
+    text = " ".join(out.replace("│", " ").split())
+    for name in DRIVE_FILES:
+        assert name in text, name

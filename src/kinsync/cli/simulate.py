@@ -311,7 +311,11 @@ def drive_summary(sim: DriveSimulation, out: Path) -> dict[str, Any]:
 @app.command("drive")
 def drive(
     out: Annotated[
-        Path, typer.Option(help="Output folder (imu.csv, gnss.csv, truth.csv, truth.json).")
+        Path,
+        typer.Option(
+            help="Output folder (imu.csv, gnss.csv, truth.csv, truth.json, and ins.toml: a "
+            "filter configuration matching the simulated IMU and GNSS)."
+        ),
     ],
     route: Annotated[
         str, typer.Option(help="Route: oval, loop (figure-eight) or lines (survey lines).")
