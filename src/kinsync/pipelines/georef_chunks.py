@@ -761,7 +761,7 @@ def _las_storage_error(ctx: ChunkContext, where: str, coords: FloatArray) -> str
         f"{ctx.source.path}: {where} georeferences to {coords.tolist()} ({ctx.crs}), "
         f"{away[axis]:.6g} {unit} from the file's reference position along {'xyz'[axis]} "
         f"(offsets {list(frame.offsets)}, the trajectory at the middle of the file's time "
-        f"span); LAS integers at scales {list(frame.scales)} reach only {reach[axis]:.6g} "
+        f"span, rounded); LAS integers at scales {list(frame.scales)} reach only {reach[axis]:.6g} "
         f"{unit} either way: the points are within the scanner's range of their trajectory, so the "
         "trajectory covers too long a distance for one LAS file at this resolution: split "
         "the file into shorter time spans"
