@@ -15,7 +15,13 @@ import pytest
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.frames import wrap_angle_rad
 from kinsync.trajectory import Trajectory
-from kinsync.trajectory_gaps import TrajectoryGap, gap_index, max_gap_for
+from kinsync.trajectory_gaps import (
+    TrajectoryGap,
+    gap_index,
+    gap_threshold_shown_s,
+    gap_threshold_text,
+    max_gap_for,
+)
 
 T0 = 1.4e9
 HOLE = (T0 + 30.0, T0 + 40.0)  # records removed strictly between these times
@@ -75,7 +81,9 @@ def test_interpolating_in_a_gap_is_an_error_naming_it() -> None:
     assert "data gap" in msg
     assert traj.gaps()[0].describe() in msg
     assert "interpolate across" in msg
-    assert f"record intervals longer than {max_gap_for(traj.t_s):.6g} s" in msg  # the threshold
+    # the threshold, to 1 us: 0.1 s, where 10 median intervals near 1.4e9 s are 0.0999999 s
+    assert max_gap_for(traj.t_s) != 0.1
+    assert "record intervals longer than 0.1 s (the gap threshold" in msg
     # a threshold the user set is named as theirs, not as the default it replaced
     given = r"longer than 5 s \(the gap threshold given with --max-gap-s\)"
     with pytest.raises(OutsideSpanError, match=given):
@@ -114,3 +122,19 @@ def test_a_regular_trajectory_has_no_gap() -> None:
     traj = _turning(hole=None)
     assert traj.gaps() == ()
     assert traj.contains(traj.t_s).all()
+
+
+@pytest.mark.parametrize(("rate_hz", "shown"), [(100.0, "0.1"), (200.0, "0.05"), (10.0, "1")])
+def test_the_default_threshold_is_shown_to_1_us(rate_hz: float, shown: str) -> None:
+    """Ten median intervals of times near 1.4e9 s carry ten times their 0.24 us steps: the
+    messages said "longer than 0.0999999 s" at 100 Hz, where trajectory info said 0.1."""
+    t = 1.4e9 + np.arange(1000) / rate_hz
+    limit = max_gap_for(t)
+    text = gap_threshold_text(limit)
+    assert f"record intervals longer than {shown} s (the gap threshold: --max-gap-s" in text
+    assert f"{gap_threshold_shown_s(limit):g}" == shown
+    # a threshold given is named as given; no threshold stays infinite
+    assert "longer than 0.0999999 s (the gap threshold given" in gap_threshold_text(
+        0.0999999, given=True
+    )
+    assert gap_threshold_shown_s(math.inf) == math.inf

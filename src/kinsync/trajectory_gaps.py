@@ -28,6 +28,7 @@ __all__ = [
     "GAP_FACTOR",
     "TrajectoryGap",
     "gap_index",
+    "gap_threshold_shown_s",
     "gap_threshold_text",
     "max_gap_for",
     "trajectory_gaps",
@@ -46,13 +47,39 @@ variable-rate export, a track with irregular steps, a pause): every command that
 a trajectory takes ``--max-gap-s``."""
 
 
+def gap_threshold_shown_s(max_gap_s: float) -> float:
+    """The default gap threshold (s) as people are shown it: to 1 us, from a rounded median.
+
+    `max_gap_for` takes `GAP_FACTOR` times the median record interval, and times near
+    1.4e9 s hold 0.24 us steps: at 100 Hz the threshold used is 0.09999990463 s, at
+    200 Hz 0.05000114441 s. Shown is `GAP_FACTOR` times the median interval rounded to
+    1 us (0.1 s, 0.05 s), as ``trajectory info`` shows the rate. A threshold that is not
+    finite, or a median interval under 0.5 us, is returned unchanged.
+
+    Parameters
+    ----------
+    max_gap_s : float
+        The default threshold used (s), `max_gap_for` without ``max_gap_s``.
+
+    Returns
+    -------
+    float
+        The threshold to show (s).
+    """
+    if not math.isfinite(max_gap_s):
+        return max_gap_s
+    median_s = round(max_gap_s / GAP_FACTOR, 6)
+    return round(GAP_FACTOR * median_s, 6) if median_s > 0.0 else max_gap_s
+
+
 def gap_threshold_text(max_gap_s: float, *, given: bool = False) -> str:
     """``record intervals longer than X s (...)``: the gap threshold a message names.
 
     Parameters
     ----------
     max_gap_s : float
-        The threshold used (s), as `max_gap_for` gives it.
+        The threshold used (s), as `max_gap_for` gives it; the default is shown as
+        `gap_threshold_shown_s` (0.1 s, not 0.0999999 s).
     given : bool
         Whether the user set it (``--max-gap-s``): the message then says so, not the
         default it replaced.
@@ -63,8 +90,8 @@ def gap_threshold_text(max_gap_s: float, *, given: bool = False) -> str:
             "--max-gap-s)"
         )
     return (
-        f"record intervals longer than {max_gap_s:.6g} s (the gap threshold: --max-gap-s, "
-        f"default {GAP_FACTOR:g} median record intervals)"
+        f"record intervals longer than {gap_threshold_shown_s(max_gap_s):.6g} s (the gap "
+        f"threshold: --max-gap-s, default {GAP_FACTOR:g} median record intervals)"
     )
 
 

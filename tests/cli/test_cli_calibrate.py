@@ -18,6 +18,7 @@ from kinsync.mount import Mount, MountUncertainty, StdCorrelation
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import gap_threshold_shown_s
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]
 OneLineError = Callable[..., None]
@@ -172,7 +173,7 @@ def test_returns_in_a_trajectory_gap_are_refused_unless_max_gap_s_spans_it(
     ]  # fmt: skip
     assert_one_line_error(
         *run_cli(argv), "line_01.laz", "data gap(s) of its trajectory",
-        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+        f"record intervals longer than {gap_threshold_shown_s(limit):.6g} s", "--max-gap-s",
     )  # fmt: skip
     code, out, err = run_cli([*argv, "--max-gap-s", "1"])
     assert code == 0, err

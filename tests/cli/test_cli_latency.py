@@ -17,6 +17,7 @@ from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
+from kinsync.trajectory_gaps import gap_threshold_shown_s
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
@@ -611,7 +612,7 @@ def test_sphere_raw_refuses_points_in_a_hole_of_the_attitude_log(
     limit = 10.0 * float(np.median(np.diff(t[np.abs(t - mid) > 0.25])))
     assert_one_line_error(
         code, out, err, "pass_000.csv", "data gap of the attitude log", str(log),
-        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+        f"record intervals longer than {gap_threshold_shown_s(limit):.6g} s", "--max-gap-s",
     )  # fmt: skip
     # the half-second hole is legitimate here: a threshold above it reads across it
     code, out, err = run_cli([*argv, "--max-gap-s", "0.6", "--json"])

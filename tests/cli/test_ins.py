@@ -16,6 +16,7 @@ from kinsync.ins.solution import NavSolution
 from kinsync.io.nav_csv import read_nav_csv, read_navigation
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simulation
+from kinsync.trajectory_gaps import gap_threshold_shown_s
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
 OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
@@ -338,7 +339,7 @@ def test_init_from_a_reference_with_a_gap_at_the_imu_start(
     limit = 10.0 * float(np.median(np.diff(truth.t_s)))
     assert_one_line_error(
         *run_cli(argv), "--init-from", "inside a data gap",
-        f"record intervals longer than {limit:.6g} s", "--max-gap-s",
+        f"record intervals longer than {gap_threshold_shown_s(limit):.6g} s", "--max-gap-s",
     )  # fmt: skip
     assert not out.exists()
     code, stdout, stderr = run_cli([*argv, "--max-gap-s", "1.5"])
@@ -380,7 +381,8 @@ def test_compare_leaves_out_epochs_in_a_gap_of_the_reference(
     assert f"{n_hole} solution epochs left out, in 1 data gap of the reference" in stderr
     limit = 10.0 * float(np.median(np.diff(t)))  # the default threshold, named with its option
     assert doc["gap_threshold_s"] == pytest.approx(limit)
-    assert f"record intervals longer than {limit:.6g} s (the gap threshold: --max-gap-s" in stderr
+    shown = f"{gap_threshold_shown_s(limit):.6g}"
+    assert f"record intervals longer than {shown} s (the gap threshold: --max-gap-s" in stderr
     code, stdout, stderr = run_cli(argv)
     assert code == 0, stderr
     assert f"left out: 0 epoch(s) outside the reference's span, {n_hole} in its data gaps" in (

@@ -28,6 +28,7 @@ from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.pipelines.georef import georeference_file
 from kinsync.sim.validation_scene import control_target_scene, curved_wall_scene, write_scene
 from kinsync.trajectory import Trajectory
+from kinsync.trajectory_gaps import gap_threshold_shown_s
 from kinsync.validation.control_points import ControlPoints
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
@@ -205,7 +206,7 @@ def test_a_visit_in_a_trajectory_gap_is_reported_missing(
     limit = 10.0 * float(np.median(np.diff(t_rec)))
     assert doc["gap_threshold_s"] == pytest.approx(limit)
     for m in doc["missing"]:
-        assert f"record intervals longer than {limit:.6g} s" in m["reason"]
+        assert f"record intervals longer than {gap_threshold_shown_s(limit):.6g} s" in m["reason"]
         assert "--max-gap-s" in m["reason"]
     # a threshold above the hole: every visit is read across it
     code, out, err = run_cli([*argv[:-1], "--max-gap-s", "1.5", "--trajectory", str(holed)])

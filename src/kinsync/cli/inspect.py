@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import warnings as pywarnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -304,7 +303,7 @@ def _trajectory_info(
     )
     from kinsync.trajectory_gaps import (  # noqa: PLC0415
         GAP_ADVICE,
-        GAP_FACTOR,
+        gap_threshold_shown_s,
         gap_threshold_text,
         max_gap_for,
         trajectory_gaps,
@@ -358,10 +357,8 @@ def _trajectory_info(
         "longest_interval_s": round(float(dt.max()), _TIME_DECIMALS),  # gap or not
         # The default threshold, GAP_FACTOR median intervals, from the median interval
         # rounded as above (it read 0.05000114440917969 s at 200 Hz, 10 times the
-        # 0.24 us noise); a given --max-gap-s is shown as given.
-        "gap_threshold_s": max_gap
-        if max_gap_s is not None or not math.isfinite(max_gap)
-        else round(GAP_FACTOR * round(float(np.median(dt)), _TIME_DECIMALS), _TIME_DECIMALS),
+        # 0.24 us noise), as the warnings show it; a given --max-gap-s is shown as given.
+        "gap_threshold_s": max_gap if max_gap_s is not None else gap_threshold_shown_s(max_gap),
         "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
         "has_velocity": traj.vel_ned_m_s is not None,
