@@ -388,6 +388,7 @@ def test_compare_leaves_out_epochs_in_a_gap_of_the_reference(
     assert f"left out: 0 epoch(s) outside the reference's span, {n_hole} in its data gaps" in (
         " ".join(stdout.split())
     )
+    assert f"(record intervals longer than {shown} s, --max-gap-s)" in " ".join(stdout.split())
     # A reference legitimately this sparse: a threshold above the hole compares every epoch.
     code, stdout, stderr = run_cli([*argv, "--max-gap-s", "12", "--json"])
     assert code == 0, stderr

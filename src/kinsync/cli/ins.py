@@ -420,7 +420,11 @@ def compare(
     from kinsync.ins.compare import compare_to_truth  # noqa: PLC0415
     from kinsync.ins.solution import NavSolution  # noqa: PLC0415
     from kinsync.io.nav_csv import read_navigation  # noqa: PLC0415
-    from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text  # noqa: PLC0415
+    from kinsync.trajectory_gaps import (  # noqa: PLC0415
+        GAP_ADVICE,
+        gap_threshold_shown_s,
+        gap_threshold_text,
+    )
 
     refuse_unused_gps_week(gps_week, navigation=[solution_path, truth_path])
     solution = read_navigation(solution_path, gps_week=gps_week)
@@ -468,10 +472,12 @@ def compare(
             table.add_row(f"{label} within 3σ (share)", *_triple(shares, digits=3))
     console.print(table)
     if result.n_outside_truth or result.n_in_truth_gaps:
+        limit_s = result.truth_gap_threshold_s
         console.print(
             f"left out: {result.n_outside_truth} epoch(s) outside the reference's span, "
             f"{result.n_in_truth_gaps} in its data gaps (record intervals longer than "
-            f"{result.truth_gap_threshold_s:.6g} s, --max-gap-s)",
+            f"{limit_s if max_gap_s is not None else gap_threshold_shown_s(limit_s):.6g} s, "
+            "--max-gap-s)",
             highlight=False,
         )
 
