@@ -203,3 +203,11 @@ def test_help_fix_is_skipped_on_a_typer_without_display_type_rich() -> None:
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout == "started\n"
+
+
+@pytest.mark.parametrize("path", [p for p, _ in commands()], ids=" ".join)
+def test_help_has_no_rst_markup(path: tuple[str, ...], run_cli: RunCli) -> None:
+    """trajectory info's help showed ``warnings``, a docstring's RST, to the user."""
+    code, out, _ = run_cli([*path, "--help"])
+    assert code == 0
+    assert "``" not in out

@@ -259,7 +259,7 @@ def trajectory_info(
     An SBET's accuracy file (smrmsg) is summarised too.
 
     Velocities are checked against the positions; when they disagree a warning says so
-    (on stderr, and under ``warnings`` with --json): georeferencing then interpolates
+    (on stderr, and under "warnings" with --json): georeferencing then interpolates
     positions linearly.
     """
     refuse_unused_gps_week(gps_week, trajectories=[path])
