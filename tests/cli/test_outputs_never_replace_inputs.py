@@ -113,3 +113,58 @@ def test_an_input_folder_is_refused_as_output_and_its_files_are_kept(
     assert code == 0, err  # a new file in the input folder is fine
     code, _, err = run_cli(["latency", "sphere", str(sim), "--figure", str(sim / "fig.png")])
     assert code == 0, err  # and so is replacing a figure kinsync wrote there before
+
+
+def _loop_cases() -> Iterator[Any]:
+    for path, callback in commands():
+        params = path_parameters(callback)
+        outputs = [p for p in params if p in OUTPUT_PARAMETERS]
+        for inp in (p for p in params if p not in OUTPUT_PARAMETERS):
+            if outputs:
+                yield pytest.param(path, callback, inp, id=f"{'-'.join(path)}:{inp}")
+
+
+@pytest.mark.parametrize(("path", "callback", "inp"), list(_loop_cases()))
+def test_an_input_that_is_a_symbolic_link_loop_is_named(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    inp: str,
+) -> None:
+    # Was an internal error (exit 1): "RuntimeError: Symlink loop from ..." from
+    # Path.resolve, checking that the output is not that input.
+    monkeypatch.chdir(tmp_path)
+    spelled = path_parameters(callback)
+    signature = inspect.signature(callback)
+    argv: list[str] = [*path]
+    loop = tmp_path / "loop.dat"
+    loop.symlink_to(loop.name)
+    out = next(name for name in spelled if name in OUTPUT_PARAMETERS)
+    for name, option in spelled.items():
+        if name in OUTPUT_PARAMETERS:
+            continue
+        f = loop if name == inp else tmp_path / f"{name}.dat"
+        if name != inp:
+            f.write_text(f"content of {name}\n")
+        if signature.parameters[name].default is inspect.Parameter.empty or name == inp:
+            argv += [str(f)] if option.isupper() else [option, str(f)]
+    argv += [spelled[out], str(tmp_path / "out" / "x"), *EXTRA_REQUIRED.get(path, [])]
+    code, o, e = run_cli(argv)
+    shown = f"{spelled[inp]} {loop}" if spelled[inp].startswith("-") else str(loop)
+    assert_one_line_error(code, o, e, shown, "symbolic link loop")
+
+
+def test_an_output_that_is_a_symbolic_link_loop_is_named(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    model = tmp_path / "model.json"
+    model.write_text("{}\n")
+    loop = tmp_path / "out.csv"
+    loop.symlink_to(loop.name)
+    argv = ["clock", "apply", "--model", str(model), "--in", str(tmp_path / "in.csv")]
+    code, o, e = run_cli([*argv, "--out", str(loop)])
+    assert_one_line_error(code, o, e, f"--out {loop}: symbolic link loop")
+    assert loop.is_symlink()

@@ -37,6 +37,7 @@ from types import TracebackType
 
 from kinsync._signals import stop_signals_held
 from kinsync.errors import InputError, KinsyncError
+from kinsync.io.sanity import check_not_link_loop
 
 __all__ = [
     "ProtectedInput",
@@ -195,11 +196,14 @@ def check_not_an_input(
     ------
     InputError
         ``path`` is an input file (by any path), an input folder, or an existing
-        file inside an input folder (figures and reports excepted).
+        file inside an input folder (figures and reports excepted); ``path`` or an
+        input is a loop of symbolic links.
     """
     path = Path(path)
     shown = f"{option} {path}" if option else str(path)
+    check_not_link_loop(path, "output file", shown)
     for item in _PROTECTED.get(()) if inputs is None else inputs:
+        check_not_link_loop(item.path, "input", item.label)
         if item.path.is_dir():
             if _same_file(path, item.path):
                 msg = f"{shown}: is the input folder {item.label}; give an output file"

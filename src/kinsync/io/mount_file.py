@@ -6,6 +6,7 @@ from pathlib import Path
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
+from kinsync.io.sanity import check_not_link_loop, not_a_regular_file
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
 
 __all__ = ["MAX_TOML_BYTES", "read_mount", "read_toml_text", "write_mount"]
@@ -32,10 +33,14 @@ def read_toml_text(path: Path, what: str) -> str:
     Raises
     ------
     InputError
-        A missing file, a directory, one larger than `MAX_TOML_BYTES`, or one that is
-        not UTF-8 text (naming the byte at fault), or any other read failure.
+        A missing file, a directory, a device or a pipe, a symbolic link loop, one
+        larger than `MAX_TOML_BYTES`, or one that is not UTF-8 text (naming the byte at
+        fault), or any other read failure.
     """
     path = Path(path)
+    check_not_link_loop(path, what)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise not_a_regular_file(path, what)  # opening a pipe would wait for a writer
     try:
         with path.open("rb") as fh:  # a bounded read: a device or a huge file cannot hang it
             data = fh.read(MAX_TOML_BYTES + 1)

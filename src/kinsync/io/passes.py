@@ -29,6 +29,7 @@ A pass file holds the georeferenced points of one pass in the table-centred NED 
 from __future__ import annotations
 
 import os
+import stat
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -49,7 +50,10 @@ from kinsync.io.sanity import (
     TIME_S,
     Span,
     check_columns,
+    check_not_link_loop,
     check_values,
+    link_loop_error,
+    not_a_regular_file,
 )
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.latency.passes import SpherePass
@@ -290,6 +294,27 @@ def read_pass_file(path: Path) -> tuple[FloatArray, FloatArray | None]:
     return pts, t
 
 
+def _check_pass_file(path: Path, shown: str, folder: Path) -> None:
+    """Refuse a pass file that is missing, a folder, a device or a pipe, or a link loop.
+
+    ``shown`` names it in messages (``passes.csv: line 3: pass file 'a.csv'``).
+    """
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        msg = f"{shown} not found in {folder}"
+        raise InputError(msg) from None
+    except OSError as err:
+        loop = link_loop_error(shown, err, "pass file")
+        msg = str(loop) if loop is not None else f"{shown}: {err.strerror or err}"
+        raise InputError(msg) from err
+    if stat.S_ISDIR(st.st_mode):
+        msg = f"{shown} in {folder} is a folder, not a file; list the pass files themselves"
+        raise InputError(msg)
+    if not stat.S_ISREG(st.st_mode):
+        raise not_a_regular_file(shown, "pass file")
+
+
 def read_passes(folder: Path, *, progress: Progress | None = None) -> list[SpherePass]:
     """Read a pass folder (``passes.csv`` and the pass files it lists).
 
@@ -320,6 +345,7 @@ def read_passes(folder: Path, *, progress: Progress | None = None) -> list[Spher
         does not list (they are left out).
     """
     folder = Path(folder)
+    check_not_link_loop(folder, "pass folder")
     if not folder.is_dir():
         what = "is not a folder" if folder.exists() else "not found"
         msg = f"{folder}: pass folder {what}; give the folder that holds {PASSES_CSV}"
@@ -331,14 +357,7 @@ def read_passes(folder: Path, *, progress: Progress | None = None) -> list[Spher
         report(progress, k / len(rows), f"reading pass {k + 1} of {len(rows)}")
         where = f"{index_path}: line {row.line}"
         path = folder / row.file
-        try:
-            found = path.is_file()
-        except OSError as err:
-            msg = f"{where}: pass file {row.file[:80]!r}: {err.strerror or err}"
-            raise InputError(msg) from err
-        if not found:
-            msg = f"{where}: pass file {row.file[:80]!r} not found in {folder}"
-            raise InputError(msg)
+        _check_pass_file(path, f"{where}: pass file {row.file[:80]!r}", folder)
         try:
             pts, t = read_pass_file(path)
             passes.append(

@@ -72,7 +72,7 @@ def _suffix(path: Path) -> str:
 
 
 def _check_exists(path: Path) -> None:
-    require_file(path)
+    require_file(path, "point table")
 
 
 def _csv_header(path: Path) -> list[str]:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from kinsync.errors import InputError
-from kinsync.io.sanity import check_record_file
+from kinsync.io.sanity import check_record_file, link_loop_error, not_a_regular_file
 
 __all__ = ["MAX_RECORD_FILE_BYTES", "count_records", "memmap_records"]
 
@@ -28,16 +29,22 @@ def count_records(path: Path, dtype: np.dtype[Any], kind: str, mismatch_hint: st
     path = Path(path)
     size_b = dtype.itemsize
     try:
-        size = path.stat().st_size
+        st = path.stat()
     except FileNotFoundError as err:
         msg = f"{path}: file not found; give the path of an {kind} file"
         raise InputError(msg) from err
     except OSError as err:
+        loop = link_loop_error(path, err, f"{kind} file")
+        if loop is not None:
+            raise loop from err
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
-    if path.is_dir():
+    if stat.S_ISDIR(st.st_mode):
         msg = f"{path}: is a folder; give the path of an {kind} file"
         raise InputError(msg)
+    if not stat.S_ISREG(st.st_mode):  # a pipe or a device: its size says nothing
+        raise not_a_regular_file(path, f"{kind} file")
+    size = st.st_size
     n, left = divmod(size, size_b)
     if left:
         msg = (

@@ -24,6 +24,7 @@ Value guards, after parsing
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import stat
@@ -54,11 +55,15 @@ __all__ = [
     "TIME_S",
     "Span",
     "check_columns",
+    "check_not_link_loop",
     "check_record_file",
     "check_text_file",
     "check_values",
+    "link_loop_error",
     "load_json",
+    "not_a_regular_file",
     "not_utf8_cell",
+    "regular_file_size",
     "require_file",
     "size_text",
 ]
@@ -87,23 +92,98 @@ def size_text(n_bytes: float) -> str:
     return f"{int(n_bytes)} bytes"
 
 
-def _stat(path: Path, what: str) -> int:
-    """Size of a regular file; a missing file, a folder or a device is an `InputError`."""
+def link_loop_error(path: Path | str, err: OSError, what: str) -> InputError | None:
+    """The error for a path that is a loop of symbolic links (``ELOOP``), or None.
+
+    A link that leads back to itself, directly or through other links, names no file;
+    the system's "Too many levels of symbolic links" does not say so plainly.
+
+    Parameters
+    ----------
+    path : Path or str
+        The path given, or how the message names it.
+    err : OSError
+        The error met reaching it.
+    what : str
+        What it should be, for the message ("SBET file", "pass folder").
+    """
+    if err.errno != errno.ELOOP:
+        return None
+    return InputError(
+        f"{path}: symbolic link loop (the link leads back to itself, directly or through "
+        f"other links); give the path of the {what} itself"
+    )
+
+
+def check_not_link_loop(path: Path, what: str, shown: str | None = None) -> None:
+    """Refuse a path that is a loop of symbolic links: it names no file or folder.
+
+    Parameters
+    ----------
+    path : Path
+        The path.
+    what : str
+        What it should be, for the message ("pass folder").
+    shown : str, optional
+        How the message names it (``"--in a.csv"``); default: the path.
+
+    Raises
+    ------
+    InputError
+        ``path`` (or a folder on it) is a loop of symbolic links.
+    """
+    try:
+        path.stat()
+    except OSError as err:
+        loop = link_loop_error(path if shown is None else shown, err, what)
+        if loop is not None:
+            raise loop from None
+
+
+def regular_file_size(path: Path, what: str) -> int:
+    """Size of a regular file; a missing file, a folder or a device is an `InputError`.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    what : str
+        What it should be, for messages ("trajectory export", "point table").
+
+    Returns
+    -------
+    int
+        The file's size (bytes).
+
+    Raises
+    ------
+    InputError
+        A missing file, a symbolic link loop, a folder, a device or a pipe (a FIFO or
+        ``/dev/zero`` reads as endless or empty data, never as the file meant).
+    """
     try:
         st = path.stat()
     except FileNotFoundError as err:
         msg = f"{path}: {what} not found"
         raise InputError(msg) from err
     except OSError as err:
+        loop = link_loop_error(path, err, what)
+        if loop is not None:
+            raise loop from err
         msg = f"{path}: cannot read the {what} ({err.strerror or err})"
         raise InputError(msg) from err
     if stat.S_ISDIR(st.st_mode):
         msg = f"{path}: cannot read the {what}: this is a folder; give the file itself"
         raise InputError(msg)
     if not stat.S_ISREG(st.st_mode):
-        msg = f"{path}: not a regular file (a device or a pipe); give the {what} as a file"
-        raise InputError(msg)
+        raise not_a_regular_file(path, what)
     return int(st.st_size)
+
+
+def not_a_regular_file(path: Path | str, what: str) -> InputError:
+    """The error for a device or a pipe given where a file is read."""
+    todo = "give a regular file" if what == "file" else f"give the {what} as a file"
+    return InputError(f"{path}: not a regular file (a device or a pipe); {todo}")
 
 
 def _check_size(path: Path, size: int, what: str, max_bytes: int | None) -> None:
@@ -125,18 +205,38 @@ def _read_head(path: Path, n_bytes: int, what: str) -> bytes:
         raise InputError(msg) from err
 
 
-def require_file(path: Path) -> None:
-    """Refuse a path that is not a file: ``file not found``, or ``is a folder``.
+def require_file(path: Path, what: str = "file") -> None:
+    """Refuse a path that is not a regular file.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    what : str
+        What it should be, for the message about a device or a pipe ("point table").
 
     Raises
     ------
     InputError
-        Naming the path and which of the two it is.
+        Naming the path and what it is instead: ``file not found``, ``is a folder``, a
+        symbolic link loop, or not a regular file (a device or a pipe).
     """
-    if path.is_file():
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        st = None
+    except OSError as err:
+        loop = link_loop_error(path, err, what)
+        if loop is not None:
+            raise loop from err
+        msg = f"{path}: cannot read the {what} ({err.strerror or err})"
+        raise InputError(msg) from err
+    if st is not None and stat.S_ISREG(st.st_mode):
         return
-    what = "is a folder, not a file" if path.is_dir() else "file not found"
-    msg = f"{path}: {what}"
+    if st is not None and not stat.S_ISDIR(st.st_mode):
+        raise not_a_regular_file(path, what)
+    what_is = "is a folder, not a file" if st is not None else "file not found"
+    msg = f"{path}: {what_is}"
     raise InputError(msg)
 
 
@@ -179,7 +279,7 @@ def check_text_file(
         line longer than 64 KiB.
     """
     path = Path(path)
-    size = _stat(path, what)
+    size = regular_file_size(path, what)
     _check_size(path, size, what, max_bytes)
     head = _read_head(path, PROBE_BYTES, what)
     ends = [i for i in (head.find(b"\n"), head.find(b"\r")) if i >= 0]  # LF, CRLF or CR
@@ -230,7 +330,7 @@ def check_record_file(path: Path, record_bytes: int, what: str, max_bytes: int) 
         file: its times would all be 0).
     """
     path = Path(path)
-    size = _stat(path, f"{what} file")
+    size = regular_file_size(path, f"{what} file")
     _check_size(path, size, f"{what} file", max_bytes)
     if size >= 2 * record_bytes:
         head = _read_head(

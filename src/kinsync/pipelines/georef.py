@@ -489,7 +489,7 @@ def _check_arguments(
             ".parquet or .ply"
         )
         raise InputError(msg)
-    require_file(points_path)
+    require_file(points_path, "point file")
     las_input = in_suffix in _LAS_SUFFIXES
     if las_input and columns is not None and columns.pairs:
         msg = (

@@ -99,7 +99,7 @@ def control_points_file(
     control = read_control_points(Path(control_path))
     trajectory, traj_scale = read_trajectory_file(Path(trajectory_path), gps_week=gps_week)
     max_gap_for(trajectory.t_s, max_gap_s)  # a bad threshold fails before the cloud is read
-    require_file(cloud_path)
+    require_file(cloud_path, "point cloud")
     crs_text = cloud_crs(cloud_path, crs)
     to_ecef = crs_to_ecef_transformer(crs_text)
     pos_parts: list[FloatArray] = []
@@ -195,7 +195,7 @@ def flatness_file(
     if chunk_points < 1:
         msg = f"--chunk-points must be >= 1, got {chunk_points}"
         raise InputError(msg)
-    require_file(cloud_path)
+    require_file(cloud_path, "point cloud")
     crs_text = cloud_crs(cloud_path, crs)
     to_ecef = crs_to_ecef_transformer(crs_text)
     parts: list[FloatArray] = []
