@@ -494,6 +494,46 @@ def test_model_document_errors(tmp_path: Path) -> None:
         read_clock_model(tmp_path / "none.json")
 
 
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        # Each was read (exit 0): -5e8 gave GPS times before 1980, 5e9 the year 2138.
+        ({"reference_gps_s": -5e8}, r"reference_gps_s -500000000\.0 s is not a GPS time"),
+        ({"reference_gps_s": 5e9}, r"reference_gps_s 5000000000\.0 s is not a GPS time"),
+        ({"reference_gps_s": -1.0}, r"reference_gps_s -1\.0 s is not a GPS time"),
+        (
+            {"piecewise": {"knots_local_s": [10.0, 20.0], "knots_gps_s": [1.4e9, 4e9]}},
+            r"piecewise\.knots_gps_s 4000000000\.0 s is not a GPS time",
+        ),
+        ({"kind": "other"}, r"kind 'other' is not a clock model"),
+        ({"version": 2}, r"version 2 is not a clock model version this kinsync reads"),
+        ({"version": "1"}, r"version '1' is not a clock model version this kinsync reads"),
+        ({"version": True}, r"version True is not"),
+    ],
+)
+def test_model_document_with_an_impossible_time_or_another_kind_is_refused(
+    change: dict[str, Any], match: str
+) -> None:
+    good = ClockModel(
+        reference_local_s=10.0, reference_gps_s=1.4e9, drift_ppm=3.0, span_local_s=(10.0, 20.0)
+    ).as_document()
+    doc = {**good, **change}
+    doc.pop("offset_s")  # else its disagreement with the reference times is named first
+    with pytest.raises(InputError, match=rf"^m\.json: {match}"):
+        ClockModel.from_document(doc, source="m.json")
+
+
+def test_model_document_without_kind_or_version_is_read() -> None:
+    """A model written by hand may leave out kind and version (and offset_s)."""
+    doc = {
+        "reference_local_s": 10.0,
+        "reference_gps_s": 1.4e9,
+        "drift_ppm": 3.0,
+        "span_local_s": [10.0, 20.0],
+    }
+    assert ClockModel.from_document(doc).offset_s == 1.4e9 - 10.0
+
+
 def test_demo_clock_section(tmp_path: Path) -> None:
     summary: list[tuple[str, str, str]] = []
     section = clock_section(tmp_path, summary)

@@ -53,6 +53,17 @@ CLOCK_FORMULA = (
 )
 """The linear clock model, as written in model files and JSON output."""
 
+MODEL_KIND = "kinsync clock model"
+"""The ``kind`` a model file states (`ClockModel.as_document`)."""
+
+MODEL_VERSION = 1
+"""The ``version`` of the model file layout this kinsync writes and reads."""
+
+GPS_TIME_SPAN_S = (0.0, 3_786_480_018.0)
+"""GPS times a model file may hold (s): from the GPS epoch (1980-01-06T00:00:00) to
+2100-01-01T00:00:00 UTC, the span of coordinate epochs kinsync accepts. A value outside
+is not a survey's GPS time (a Unix time, seconds of week gone negative, an edit)."""
+
 
 def _finite_times(
     t_local_s: ArrayLike, name: str, clock: Literal["gps", "local"] = "local"
@@ -278,8 +289,8 @@ class ClockModel:
         agrees with the reference times.
         """
         doc: dict[str, Any] = {
-            "kind": "kinsync clock model",
-            "version": 1,
+            "kind": MODEL_KIND,
+            "version": MODEL_VERSION,
             "time_scale": "GPS seconds since 1980-01-06T00:00:00",
             "formula": CLOCK_FORMULA,
             "reference_local_s": self.reference_local_s,
@@ -306,8 +317,8 @@ class ClockModel:
             The parsed JSON document: an object with ``reference_local_s`` (s, local
             clock), ``reference_gps_s`` (s, GPS time), ``drift_ppm``, ``span_local_s``
             (two local times, s) and ``piecewise`` (null, or ``knots_local_s`` and
-            ``knots_gps_s`` lists); ``offset_s`` (s) optional, checked; other keys
-            (``kind``, ``formula``, ...) ignored.
+            ``knots_gps_s`` lists); ``offset_s`` (s), ``kind`` and ``version``
+            optional, checked; other keys (``formula``, ...) ignored.
         source : str
             Where the document came from (a file name), for messages.
 
@@ -318,15 +329,19 @@ class ClockModel:
         Raises
         ------
         InputError
-            Not an object, missing or non-numeric keys, an ``offset_s`` that disagrees
-            with ``reference_gps_s - reference_local_s`` by more than 1 us (an edited file),
-            or inconsistent piecewise knots.
+            Not an object, another ``kind`` or ``version`` than `MODEL_KIND` and
+            `MODEL_VERSION`, missing or non-numeric keys, a GPS time outside
+            `GPS_TIME_SPAN_S`, an ``offset_s`` that disagrees with ``reference_gps_s -
+            reference_local_s`` by more than 1 us (an edited file), or inconsistent
+            piecewise knots.
         """
         if not isinstance(doc, dict):
             msg = f"{source}: expected a JSON object with the clock model's keys"
             raise InputError(msg)
+        _check_kind_and_version(doc, source)
         ref_local = _doc_number(doc, "reference_local_s", source)
         ref_gps = _doc_number(doc, "reference_gps_s", source)
+        _check_gps_times([ref_gps], "reference_gps_s", source)
         drift = _doc_number(doc, "drift_ppm", source)
         if "offset_s" in doc:
             offset = finite_number(doc["offset_s"], f"{source}: offset_s")
@@ -356,7 +371,7 @@ class ClockModel:
             knots_local = _doc_list(pw.get("knots_local_s"), "piecewise.knots_local_s", source)
             knots_gps = _doc_list(pw.get("knots_gps_s"), "piecewise.knots_gps_s", source)
         try:
-            return cls(
+            model = cls(
                 reference_local_s=ref_local,
                 reference_gps_s=ref_gps,
                 drift_ppm=drift,
@@ -367,6 +382,51 @@ class ClockModel:
         except InputError as err:
             msg = f"{source}: {err}"
             raise InputError(msg) from err
+        if model.knots_gps_s is not None:  # increasing: the ends tell
+            ends = model.knots_gps_s[[0, -1]]
+            _check_gps_times(ends, "piecewise.knots_gps_s", source)
+        return model
+
+
+def _check_kind_and_version(doc: dict[str, Any], where: str) -> None:
+    """Refuse a document that says it is something else, or a layout this kinsync predates.
+
+    Both keys may be left out (a model written by hand).
+    """
+    kind = doc.get("kind", MODEL_KIND)
+    if kind != MODEL_KIND:
+        msg = (
+            f"{where}: kind {repr(kind)[:80]} is not a clock model (kind {MODEL_KIND!r}); "
+            "is this the right file? kinsync clock fit --model-out writes one"
+        )
+        raise InputError(msg)
+    version = doc.get("version", MODEL_VERSION)
+    if isinstance(version, bool) or not isinstance(version, int) or version != MODEL_VERSION:
+        msg = (
+            f"{where}: version {repr(version)[:80]} is not a clock model version this "
+            f"kinsync reads (the number {MODEL_VERSION}); fit the clock again with this "
+            "kinsync (clock fit --model-out)"
+        )
+        raise InputError(msg)
+
+
+def _check_gps_times(values: Sequence[float] | FloatArray, key: str, where: str) -> None:
+    """Refuse a GPS time outside `GPS_TIME_SPAN_S` (before 1980 or after 2100).
+
+    Parameters
+    ----------
+    values : sequence of float
+        GPS times (s), named ``key`` of document ``where`` in the message.
+    """
+    lo, hi = GPS_TIME_SPAN_S
+    for value in values:
+        if not lo <= value <= hi:
+            msg = (
+                f"{where}: {key} {float(value)!r} s is not a GPS time of a survey: GPS "
+                f"time counts seconds since 1980-01-06 (about 1.4e9 s in 2024), from {lo:g} "
+                f"to {hi:.4g} s (the year 2100); fix the value, or fit the clock again"
+            )
+            raise InputError(msg)
 
 
 def _doc_number(doc: dict[str, Any], key: str, where: str) -> float:
