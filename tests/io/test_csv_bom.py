@@ -126,3 +126,18 @@ def test_a_bad_cell_after_a_bom_is_still_named(tmp_path: Path) -> None:
     path.write_bytes(BOM + b"t_local_s\n1.0\nabc\n")
     with pytest.raises(Exception, match=r"line 3, column 't_local_s'"):
         read_pps_csv(path)
+
+
+def test_a_bom_on_a_clock_model_is_accepted(tmp_path: Path) -> None:
+    # Was "line 1, column 1: not valid JSON (Unexpected UTF-8 BOM ...)", while CSV and
+    # TOML files with one were read.
+    from kinsync.clock import ClockModel  # noqa: PLC0415
+    from kinsync.io.clock_model import read_clock_model, write_clock_model  # noqa: PLC0415
+
+    model = ClockModel(
+        reference_local_s=10.0, reference_gps_s=1.4e9, drift_ppm=3.0, span_local_s=(10.0, 20.0)
+    )
+    path = tmp_path / "model.json"
+    write_clock_model(model, path)
+    _add_bom(path)
+    assert read_clock_model(path).reference_gps_s == 1.4e9

@@ -417,7 +417,8 @@ def load_json(path: Path, what: str) -> Any:
     Returns
     -------
     Any
-        The parsed document. ``NaN``/``Infinity`` (which Python's parser accepts) and
+        The parsed document (a leading UTF-8 byte-order mark is dropped, as for CSV and
+        TOML files). ``NaN``/``Infinity`` (which Python's parser accepts) and
         integers too long for a float64 are refused; a float literal too large for a
         float64 comes back as ``inf`` for the caller's finiteness check.
 
@@ -437,6 +438,7 @@ def load_json(path: Path, what: str) -> Any:
     except UnicodeDecodeError as err:
         msg = f"{path}: the {what} is not UTF-8 text (byte {err.start}: {err.reason})"
         raise InputError(msg) from err
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write
     try:
         return json.loads(text, parse_constant=_no_constant, parse_int=_float_int)
     except json.JSONDecodeError as err:
