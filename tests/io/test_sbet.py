@@ -282,3 +282,25 @@ def test_read_in_blocks_names_the_error_a_whole_read_names(
     rec.tofile(path)
     with pytest.raises(InputError, match=r"repeated time in record 3 \(byte 408\)"):
         read_sbet(path)
+
+
+@pytest.mark.parametrize("gps_week", [None, 2345])
+def test_negative_seconds_of_week_are_refused_naming_the_record(
+    tmp_path: Path, gps_week: int | None
+) -> None:
+    # Were read as times of an earlier week (exit 0 from trajectory info --gps-week).
+    rec = _drive_records(40)
+    rec["time_sow_s"] -= 216000.0 + 1000.0
+    path = tmp_path / "neg.out"
+    rec.tofile(path)
+    with pytest.raises(InputError, match=r"neg\.out: record 0 \(byte 0\), column 'time_sow_s'"):
+        read_sbet(path, gps_week=gps_week)
+
+
+def test_times_running_past_the_end_of_the_week_are_still_read(tmp_path: Path) -> None:
+    rec = _drive_records(40)
+    rec["time_sow_s"] += SECONDS_PER_WEEK - 216000.0 - 0.1  # 604799.9 s onwards
+    path = tmp_path / "rollover.out"
+    rec.tofile(path)
+    traj = read_sbet(path, gps_week=2345)
+    assert traj.t_s[-1] > 2346 * SECONDS_PER_WEEK

@@ -135,6 +135,14 @@ _SPANS: dict[str, Span] = {
 }
 """Plausible values of the fields a trajectory is made of (`kinsync.io.sanity`)."""
 
+_WEEK_SPANS: dict[str, Span] = {
+    **_SPANS,
+    "time_sow_s": Span(0.0, TIME_S.high, "s", "a time in seconds of week (from 0 at its start)"),
+}
+"""`_SPANS` of an SBET of GPS seconds of week (its first time tells, `holds_gps_time`): a
+negative time was read as a time of an earlier week. No end is set: a trajectory that
+crosses the week's end keeps counting past 604800 s."""
+
 _ATTITUDE_LIMITS_RAD: dict[str, tuple[float, str]] = {
     "roll_rad": (2 * math.pi, "+-2 pi"),
     "pitch_rad": (math.pi / 2, "+-pi/2"),
@@ -245,7 +253,8 @@ def read_sbet(path: Path, *, gps_week: int | None = None) -> Trajectory:
     ------
     InputError
         A truncated file (bytes left over), fewer than 2 records, non-finite or
-        implausible values (`kinsync.io.sanity`: a height beyond 100 km, ...), an angle
+        implausible values (`kinsync.io.sanity`: a height beyond 100 km, a negative
+        time in a file of seconds of week, ...), an angle
         beyond what radians hold (a roll or heading beyond +-2 pi, a pitch beyond +-pi/2:
         degrees), repeated or decreasing times (naming the file and the record, 0-based).
     """
@@ -305,6 +314,7 @@ def _read_blocks(
     vel = np.empty((n, 3))
     q = np.empty((n, 4))
     week_s: float | None = None
+    of_week = True  # the times are seconds of week (the first record tells)
     degrees: tuple[int, str, float] | None = None
     raw = bytearray(_BLOCK_RECORDS * SBET_RECORD_BYTES)
     try:
@@ -318,22 +328,21 @@ def _read_blocks(
                     )
                     raise InputError(msg)
                 rec = np.frombuffer(raw, dtype=SBET_DTYPE, count=k)
+                if start == 0:
+                    of_week = not holds_gps_time(float(rec["time_sow_s"][0]))
+                    if gps_week is not None and of_week:
+                        week_s = gps_week * SECONDS_PER_WEEK
                 # The first implausible value anywhere comes first (a block is only
                 # reached when those before it had none), then the first angle in
                 # degrees, then what the Trajectory checks.
+                spans = _WEEK_SPANS if of_week else _SPANS
                 check_columns(
-                    {name: rec[name] for name in _SPANS},
-                    _SPANS,
+                    {name: rec[name] for name in spans},
+                    spans,
                     _record_namer(path, start),
                 )
                 if degrees is None:
                     degrees = _first_degrees(rec, start)
-                if (
-                    start == 0
-                    and gps_week is not None
-                    and not holds_gps_time(float(rec["time_sow_s"][0]))
-                ):
-                    week_s = gps_week * SECONDS_PER_WEEK
                 rows = slice(start, start + k)
                 t[rows] = rec["time_sow_s"] if week_s is None else week_s + rec["time_sow_s"]
                 llh[rows, 0] = np.degrees(rec["lat_rad"])
