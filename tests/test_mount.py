@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 from pathlib import Path
 
@@ -372,3 +373,24 @@ def test_container_refuses_what_a_mount_file_may_not_hold(
         assert fragment in str(info.value)
     with pytest.raises(InputError, match="beyond"):
         dataclasses.replace(Mount(), **kwargs)  # type: ignore[arg-type]
+
+
+_HUGE = "[" + ", ".join(["1.0"] * 200_000) + "]"
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        # The whole list (a 1 MB line) was repeated.
+        (f"[mount]\nlever_arm_body_m = {_HUGE}\n", "expected a list of 3 numbers, got 200000: ["),
+        (f"[mount]\nlatency_s = {_HUGE}\n", "expected a number of seconds, got ["),
+        (f"[mount]\nlatency_s = 0.1\n[uncertainty]\nlatency_s = {_HUGE}\n", "got ["),
+        (f'[mount]\nlever_arm_body_m = "{"x" * 200_000}"\n', "got 'xxx"),
+        (f"[mount]\n{'k' * 200_000} = 1\n", "unknown key(s) in [mount]: ['kkk"),
+    ],
+)
+def test_a_long_value_is_cut_short_in_the_message(text: str, words: str) -> None:
+    with pytest.raises(InputError, match=re.escape(words)) as info:
+        mount_from_toml_text(text, source="m.toml")
+    assert len(str(info.value)) < 400
+    assert "..." in str(info.value)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["P_CEILING", "P_FLOOR", "counted", "first_few", "format_p_value"]
+__all__ = ["P_CEILING", "P_FLOOR", "counted", "first_few", "format_p_value", "shown_value"]
 
 _IRREGULAR = {"pass": "passes", "axis": "axes", "matrix": "matrices", "patch": "patches"}
 
@@ -37,6 +37,32 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
 def first_few(names: list[str], n: int = 3) -> str:
     """The first ``n`` names, comma-separated, and ``, ...`` when there are more."""
     return ", ".join(names[:n]) + (", ..." if len(names) > n else "")
+
+
+SHOWN_VALUE_CHARS = 80
+"""Most characters of a value a message repeats (`shown_value`)."""
+
+
+def shown_value(value: object, limit: int = SHOWN_VALUE_CHARS) -> str:
+    """A value as a message repeats it: its ``repr``, cut to ``limit`` characters.
+
+    A value read from a file may be a list of 200,000 numbers or a 1 MB string: a
+    message repeats its start, then ``...``, never the whole of it.
+
+    Parameters
+    ----------
+    value : object
+        The value at fault.
+    limit : int
+        Most characters of its ``repr`` kept.
+
+    Returns
+    -------
+    str
+        ``[1.0, 2.0]``, ``'abc'``; ``[1.0, 1.0, 1.0, ...`` when cut.
+    """
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 P_FLOOR = 0.001

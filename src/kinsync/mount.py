@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from kinsync._text import shown_value
 from kinsync._toml import toml_document
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
@@ -145,14 +146,14 @@ def _as_float(value: float | np.floating[Any] | np.integer[Any], label: str) -> 
 
 def _vector3(value: object, name: str, where: str) -> Vector3:
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence | np.ndarray):
-        msg = f"{where}{name}: expected a list of 3 numbers, got {value!r}"
+        msg = f"{where}{name}: expected a list of 3 numbers, got {shown_value(value)}"
         raise InputError(msg)
     items = list(value)
     if len(items) != 3 or not all(
         isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
         for v in items
     ):
-        msg = f"{where}{name}: expected a list of 3 numbers, got {value!r}"
+        msg = f"{where}{name}: expected a list of 3 numbers, got {len(items)}: {shown_value(value)}"
         raise InputError(msg)
     x, y, z = (_as_float(v, f"{where}{name}") for v in items)
     out = (x, y, z)
@@ -165,7 +166,7 @@ def _vector3(value: object, name: str, where: str) -> Vector3:
 def _std_value(value: object, label: str, limit: float, unit: str) -> float:
     """A standard deviation: a finite number in [0, limit] (``unit``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        msg = f"{label}: expected a standard deviation (a number), got {value!r}"
+        msg = f"{label}: expected a standard deviation (a number), got {shown_value(value)}"
         raise InputError(msg)
     out = float(value)
     if not (math.isfinite(out) and 0.0 <= out <= limit):
@@ -286,7 +287,7 @@ class StdCorrelation:
         where = "mount [uncertainty.correlation]"
         names = self.names
         if isinstance(names, str) or not isinstance(names, Sequence):
-            msg = f"{where} names: expected a list of names, got {names!r}"
+            msg = f"{where} names: expected a list of names, got {shown_value(names)}"
             raise InputError(msg)
         unknown = [n for n in names if n not in MOUNT_PARAMETER_NAMES]
         if unknown:
@@ -316,7 +317,7 @@ class StdCorrelation:
         for i, row in enumerate(rows):
             for j, v in enumerate(row):
                 if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
-                    msg = f"{where} matrix[{i}][{j}]: expected a number, got {v!r}"
+                    msg = f"{where} matrix[{i}][{j}]: expected a number, got {shown_value(v)}"
                     raise InputError(msg)
         r = np.array(rows, dtype=np.float64)
         bad = _matrix_defect(r, names)
@@ -528,7 +529,7 @@ class Mount:
             object.__setattr__(self, name, _vector3(getattr(self, name), name, "mount "))
         lat = self.latency_s
         if isinstance(lat, bool) or not isinstance(lat, (int, float, np.floating, np.integer)):
-            msg = f"mount latency_s: expected a number of seconds, got {lat!r}"
+            msg = f"mount latency_s: expected a number of seconds, got {shown_value(lat)}"
             raise InputError(msg)
         lat_s = _as_float(lat, "mount latency_s")
         if not math.isfinite(lat_s):
@@ -538,7 +539,8 @@ class Mount:
         az = self.profiler_azimuth_deg
         if az is not None:
             if isinstance(az, bool) or not isinstance(az, (int, float, np.floating, np.integer)):
-                msg = f"mount [profiler] azimuth_deg: expected a number of degrees, got {az!r}"
+                got = shown_value(az)
+                msg = f"mount [profiler] azimuth_deg: expected a number of degrees, got {got}"
                 raise InputError(msg)
             az_deg = _as_float(az, "mount [profiler] azimuth_deg")
             if not math.isfinite(az_deg):
@@ -645,8 +647,8 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     unknown_tables = sorted(set(doc) - {"mount", "profiler", "uncertainty"})
     if unknown_tables:
         msg = (
-            f"{source}: unknown table(s) {unknown_tables}; only [mount], [profiler] and "
-            "[uncertainty] (with [uncertainty.correlation]) are read"
+            f"{source}: unknown table(s) {shown_value(unknown_tables)}; only [mount], "
+            "[profiler] and [uncertainty] (with [uncertainty.correlation]) are read"
             + (
                 "; the correlations go in [uncertainty.correlation]"
                 if "correlation" in unknown_tables
@@ -656,7 +658,8 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
         raise InputError(msg)
     unknown = sorted(set(table) - set(_KEYS))
     if unknown:
-        msg = f"{source}: unknown key(s) in [mount]: {unknown}; expected {', '.join(_KEYS)}"
+        got = shown_value(unknown)
+        msg = f"{source}: unknown key(s) in [mount]: {got}; expected {', '.join(_KEYS)}"
         raise InputError(msg)
     where = f"{source}: [mount] "
     kwargs: dict[str, Any] = {
@@ -665,7 +668,7 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     if "latency_s" in table:
         lat = table["latency_s"]
         if isinstance(lat, bool) or not isinstance(lat, (int, float)):
-            msg = f"{where}latency_s: expected a number of seconds, got {lat!r}"
+            msg = f"{where}latency_s: expected a number of seconds, got {shown_value(lat)}"
             raise InputError(msg)
         kwargs["latency_s"] = _as_float(lat, f"{where}latency_s")
     if "profiler" in doc:
@@ -675,7 +678,8 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             raise InputError(msg)
         unknown_p = sorted(set(prof) - {"azimuth_deg"})
         if unknown_p:
-            msg = f"{source}: unknown key(s) in [profiler]: {unknown_p}; expected azimuth_deg"
+            got = shown_value(unknown_p)
+            msg = f"{source}: unknown key(s) in [profiler]: {got}; expected azimuth_deg"
             raise InputError(msg)
         kwargs["profiler_azimuth_deg"] = prof.get("azimuth_deg", 0.0)
     if "uncertainty" in doc:
@@ -703,7 +707,7 @@ def _uncertainty_table(table: object, source: str) -> MountUncertainty:
     unknown = sorted(set(table) - {*_UNCERTAINTY_KEYS, "correlation"})
     if unknown:
         msg = (
-            f"{source}: unknown key(s) in [uncertainty]: {unknown}; expected "
+            f"{source}: unknown key(s) in [uncertainty]: {shown_value(unknown)}; expected "
             f"{', '.join(_UNCERTAINTY_KEYS)} (standard deviations of the [mount] values, in "
             "their units) and the [uncertainty.correlation] table"
         )
@@ -725,19 +729,18 @@ def _correlation_table(table: object, source: str) -> StdCorrelation:
     a warning naming its smallest eigenvalue; the nearest such matrix is used.
     """
     if not isinstance(table, Mapping) or set(table) != set(_CORRELATION_KEYS):
-        got = sorted(table) if isinstance(table, Mapping) else repr(table)
-        renamed = "; parameters is now names" if "parameters" in got else ""
+        keys = sorted(table) if isinstance(table, Mapping) else None
+        renamed = "; parameters is now names" if keys and "parameters" in keys else ""
         msg = (
             "[uncertainty.correlation] must be a table with exactly names (of the values) and "
-            f"matrix (their correlation coefficients), got {got}{renamed}"
+            f"matrix (their correlation coefficients), got {shown_value(keys or table)}{renamed}"
         )
         raise InputError(msg)
     names, rows = table["names"], table["matrix"]
-    if isinstance(names, str) or not isinstance(names, Sequence):
-        msg = f"mount [uncertainty.correlation] names: expected a list of names, got {names!r}"
-        raise InputError(msg)
-    if not all(isinstance(n, str) for n in names):
-        msg = f"mount [uncertainty.correlation] names: expected names (text), got {names!r}"
+    listed = not isinstance(names, str) and isinstance(names, Sequence)
+    if not listed or not all(isinstance(n, str) for n in names):
+        got = shown_value(names)
+        msg = f"mount [uncertainty.correlation] names: expected a list of names (text), got {got}"
         raise InputError(msg)
     corr = StdCorrelation(tuple(names), rows)
     low = float(np.min(np.linalg.eigvalsh(np.array(rows, dtype=np.float64))))

@@ -375,3 +375,19 @@ def test_implausible_values_are_refused_from_a_file_and_from_python_alike(
     assert file_message.startswith(f"cfg.toml: {key}{index} (in SI units): ")
     assert python_message.startswith(f"{field}{index}: ")
     assert file_message.split(" (in SI units): ")[1] == python_message.split(": ", 1)[1]
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("gyro_arw_rad_s_rthz", "[" + ", ".join(["1.0"] * 200_000) + "]"),
+        ("gyro_arw_rad_s_rthz", '"' + "x" * 200_000 + '"'),
+        ("k" * 200_000, "1.0"),
+    ],
+)
+def test_a_long_value_is_cut_short_in_the_message(key: str, value: str) -> None:
+    text = MINIMAL.replace("gyro_arw_rad_s_rthz = 1e-4", f"{key} = {value}")
+    with pytest.raises(InputError) as info:
+        ins_config_from_toml_text(text, source="ins.toml")
+    assert len(str(info.value)) < 2000  # the names of the keys expected are listed
+    assert "..." in str(info.value)

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from kinsync._text import shown_value
 from kinsync._validate import check_quantity
 from kinsync.errors import InputError
 from kinsync.ins.config import (
@@ -163,7 +164,7 @@ _TABLES = ("imu", "gnss", "init", "filter")
 
 def _number(value: object, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        msg = f"{where}: expected a number, got {value!r}"
+        msg = f"{where}: expected a number, got {shown_value(value)}"
         raise InputError(msg)
     try:
         out = float(value)
@@ -189,9 +190,9 @@ def _value(value: object, field: _Field, factor: float, where: str) -> Any:
     if not field.vector:
         return number(value, where)
     if not isinstance(value, list) or len(value) != 3:
-        msg = f"{where}: expected a list of 3 numbers, got {str(value)[:80]!r}"
+        msg = f"{where}: expected a list of 3 numbers, got {shown_value(value)}"
         if isinstance(value, list):
-            msg = f"{where}: expected a list of 3 numbers, got {len(value)}: {str(value)[:80]}"
+            msg = f"{where}: expected a list of 3 numbers, got {len(value)}: {shown_value(value)}"
         raise InputError(msg)
     return tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
 
@@ -252,19 +253,20 @@ def ins_config_from_toml_text(text: str, source: str = "<string>") -> InsConfig:
     unknown_tables = sorted(set(doc) - set(_TABLES))
     if unknown_tables:
         msg = (
-            f"{source}: unknown table(s) or top-level key(s) {unknown_tables}; "
+            f"{source}: unknown table(s) or top-level key(s) {shown_value(unknown_tables)}; "
             f"expected tables {['[' + t + ']' for t in _TABLES]}"
         )
         raise InputError(msg)
     for name in _TABLES:
         table = doc.get(name, {})
         if not isinstance(table, Mapping):
-            msg = f"{source}: {name} must be a table [{name}], got {table!r}"
+            msg = f"{source}: {name} must be a table [{name}], got {shown_value(table)}"
             raise InputError(msg)
         known = [k for f in _FIELDS if f.table == name for k, _ in f.keys]
         unknown = sorted(set(table) - set(known))
         if unknown:
-            msg = f"{source}: unknown key(s) in [{name}]: {unknown}; expected one of {known}"
+            got = shown_value(unknown)
+            msg = f"{source}: unknown key(s) in [{name}]: {got}; expected one of {known}"
             raise InputError(msg)
     kwargs: dict[str, Any] = {}
     written: dict[str, str] = {}
