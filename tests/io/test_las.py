@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import laspy
@@ -304,3 +305,24 @@ def test_a_las_file_takes_a_gps_week_when_its_header_says_seconds_of_week(
     broken = tmp_path / "broken.las"
     broken.write_bytes(b"LASF" + b"\0" * 20)
     assert las_takes_gps_week(broken)  # its reader says what is wrong
+
+
+@pytest.mark.parametrize(
+    ("at", "value", "words"),
+    [
+        # Was "cannot read the LAS/LAZ header (error: unpack requires a buffer of 8 bytes)".
+        (25, 9, "LAS version 1.9 is not supported (1.0 to 1.4)"),
+        # Was "PointFormatNotSupported: 35": the byte less the LAZ compression bits.
+        (104, 99, "point data format 99 (header byte 104) is not a LAS point format"),
+    ],
+)
+def test_an_unknown_version_or_point_format_is_named_as_written(
+    tmp_path: Path, at: int, value: int, words: str
+) -> None:
+    path = tmp_path / "s.las"
+    _make_las(path, n=10)
+    data = bytearray(path.read_bytes())
+    data[at] = value
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=rf"^{path}: {re.escape(words)}"):
+        las_info(path)

@@ -40,6 +40,8 @@ __all__ = [
 
 _LAS_MAX_MINOR = 4  # LAS 1.0 to 1.4
 _LAS_HEADER_MIN_BYTES = 227  # LAS 1.0-1.2 header; 1.3 and 1.4 are longer
+_LAS_MAX_POINT_FORMAT = 10  # LAS 1.4 point data record formats 0 to 10
+_LAZ_FORMAT_BITS = 0x3F  # a LAZ file sets bit 7 (and some writers bit 6) of the format byte
 _VLR_HEADER_BYTES = 54
 _EVLR_HEADER_BYTES = 60
 _GENERATING_SOFTWARE_BYTES = 32
@@ -276,6 +278,18 @@ def _check_header_bytes(path: Path, fh: BinaryIO, file_size: int) -> None:
         what = "does not start with 'LASF'" if head[:4] != b"LASF" else "is too short"
         msg = f"{path}: not a LAS/LAZ file (it {what}); check the file"
         raise InputError(msg)
+    major, minor = head[24], head[25]
+    if major != 1 or minor > _LAS_MAX_MINOR:  # before laspy reads fields it does not know
+        msg = f"{path}: LAS version {major}.{minor} is not supported (1.0 to 1.4)"
+        raise InputError(msg)
+    format_byte = head[104]
+    if format_byte & _LAZ_FORMAT_BITS > _LAS_MAX_POINT_FORMAT:
+        msg = (
+            f"{path}: point data format {format_byte} (header byte 104) is not a LAS point "
+            f"format (0 to {_LAS_MAX_POINT_FORMAT}, plus 128 in a LAZ file); the file is "
+            "corrupt or not a LAS/LAZ file"
+        )
+        raise InputError(msg)
     header_size, data_start, n_vlrs = struct.unpack_from("<HII", head, 94)
     if not _LAS_HEADER_MIN_BYTES <= header_size <= data_start <= file_size:
         msg = (
@@ -333,10 +347,6 @@ def read_las_layout(
             "that the file is a complete LAS or LAZ file"
         )
         raise InputError(msg) from err
-    version = (int(header.version.major), int(header.version.minor))
-    if version[0] != 1 or version[1] > _LAS_MAX_MINOR:
-        msg = f"{path}: LAS version {version[0]}.{version[1]} is not supported (1.0 to 1.4)"
-        raise InputError(msg)
     _resolve_point_count(fh, header)
     _check_scales_offsets(path, header)
     chunks = None
