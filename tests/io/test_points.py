@@ -139,6 +139,22 @@ def test_non_numeric_csv_cell_names_line(tmp_path: Path) -> None:
         list(iter_table_chunks(path, 10, REQUIRED))
 
 
+@pytest.mark.parametrize("cell", ["1_000", "\u0661\u0662\u0663", "\uff11\uff12\uff13", "\u00a01.5"])
+def test_a_number_python_reads_but_the_csv_parser_does_not_names_its_line(
+    tmp_path: Path, cell: str
+) -> None:
+    # Was "cannot read as CSV (In CSV column #1: Row #3: ...)": the parser's count of
+    # non-empty rows (3 here), not the file line (5).
+    path = tmp_path / "bad.csv"
+    path.write_text(f"t_s,x_m,y_m,z_m\n1,2,3,4\n\n\n2,{cell},3,4\n", encoding="utf-8")
+    with pytest.raises(
+        InputError, match=r"bad\.csv: line 5, column 'x_m': '.*' is not a plain number"
+    ):
+        list(iter_table_chunks(path, 10, REQUIRED))
+    with pytest.raises(InputError, match=r"bad\.csv: line 5, column 'x_m'"):
+        plan_table_slices(path, 10, REQUIRED)
+
+
 def test_non_numeric_parquet_cell_names_row(tmp_path: Path) -> None:
     path = tmp_path / "bad.parquet"
     cols = {

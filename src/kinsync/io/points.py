@@ -201,11 +201,20 @@ def _first_bad_cell(
                 float(cell)
             except ValueError:
                 what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
-                msg = (
-                    f"{path}: line {first_line + reader.line_num}, column "
-                    f"{name!r}: {what}; fix or remove the row"
+            else:
+                # Python reads '1_000', Arabic-Indic or full-width digits and a no-break
+                # space; the CSV parser does not (and named the row by its own count).
+                if cells[i].isascii() and "_" not in cell:
+                    continue
+                what = (
+                    f"{cell[:80]!r} is not a plain number (digits 0-9, a point, a sign, an "
+                    "exponent; no '_', other digits or spaces)"
                 )
-                return InputError(msg)
+            msg = (
+                f"{path}: line {first_line + reader.line_num}, column "
+                f"{name!r}: {what}; fix or remove the row"
+            )
+            return InputError(msg)
 
 
 _PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
