@@ -186,6 +186,17 @@ def test_a_wrong_gps_week_is_named() -> None:
     assert time_scale_hint(times, 1e308, 1.5e308, start, start + 10.0) is None
 
 
+@pytest.mark.parametrize("t_s", [-1e308, -5.0])
+def test_negative_table_times_are_not_called_seconds_of_week(t_s: float) -> None:
+    # -1e308 s was said to "look like GPS seconds of week" (add 604800 s times the week).
+    times = PointTimes("gps")
+    hint = time_scale_hint(times, t_s, t_s, T0, T0 + 10.0)
+    assert hint is None or "seconds of week" not in hint
+    hint = time_scale_hint(times, 5.0, 6.0, T0, T0 + 10.0)
+    assert hint is not None
+    assert "look like GPS seconds of week" in hint
+
+
 def _sbet_in_gps_time(files: dict[str, Path]) -> Path:
     """The trajectory as an SBET whose time field holds GPS time, not seconds of week."""
     rec = np.fromfile(files["sbet"], "<f8").reshape(-1, 17)

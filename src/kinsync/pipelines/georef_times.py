@@ -96,7 +96,12 @@ def time_scale_hint(
         return None
     traj_on_week = times.traj_scale == "week"
     if times.las_time_type is None:  # a table: its times are read as they are
-        if not traj_on_week and traj_start_s > _WEEK_MAX_S and t_max_s <= _WEEK_MAX_S:
+        if (
+            not traj_on_week
+            and traj_start_s > _WEEK_MAX_S
+            and t_min_s >= 0.0  # seconds of week are not negative
+            and t_max_s <= _WEEK_MAX_S
+        ):
             return (
                 f"the point times ({_range_text(t_min_s, t_max_s)}) look like GPS seconds "
                 "of week; a point table must carry the trajectory's time scale (GPS time "
