@@ -185,10 +185,7 @@ def gps_to_utc_posix_s(t_gps_s: float) -> float:
     InputError
         ``t_gps_s`` not a finite number, or negative (before the GPS epoch).
     """
-    g = finite_number(t_gps_s, "t_gps_s")
-    if g < 0.0:
-        msg = f"t_gps_s: {g} is before the GPS epoch"
-        raise InputError(msg)
+    g = _gps_seconds(t_gps_s)
     base = g + GPS_EPOCH_POSIX_S
     # The UTC time u = base - n with n the count in force at u; largest n first.
     leaps = np.arange(len(LEAP_SECONDS), -1, -1)
@@ -312,12 +309,18 @@ def gps_to_utc_iso(t_gps_s: float) -> str:
     InputError
         ``t_gps_s`` not a finite number, or negative (before the GPS epoch).
     """
-    g = finite_number(t_gps_s, "t_gps_s")
-    if g < 0.0:
-        msg = f"t_gps_s: {g} is before the GPS epoch"
-        raise InputError(msg)
+    g = _gps_seconds(t_gps_s)
     whole_s, ms = divmod(round(g * 1000.0), 1000)
     utc = gps_to_utc_posix_s(float(whole_s))
     if float(utc_to_gps_s(utc)) != whole_s:  # inside a leap second: utc is the next 00:00
         return f"{_utc_iso(utc - 1.0)[:-6]}60.{ms:03d}"
     return _utc_iso(utc + ms / 1000.0)
+
+
+def _gps_seconds(t_gps_s: float) -> float:
+    """``t_gps_s`` as a float, refused when not finite or before the GPS epoch."""
+    g = finite_number(t_gps_s, "t_gps_s")
+    if g < 0.0:
+        msg = f"t_gps_s: {g} is before the GPS epoch"
+        raise InputError(msg)
+    return g
