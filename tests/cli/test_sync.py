@@ -308,8 +308,9 @@ def test_object_space_leaves_out_a_crossing_in_a_trajectory_gap(
     t_rec = np.array([float(ln.split(",")[0]) for ln in kept])
     limit = 10.0 * float(np.median(np.diff(t_rec)))
     assert doc["gap_threshold_s"] == pytest.approx(limit)
+    shown = round(10.0 * round(limit / 10.0, 6), 6)  # as people are shown it: to 1 us
     assert (
-        f"record intervals longer than {limit:.6g} s (the gap threshold: --max-gap-s"
+        f"record intervals longer than {shown:.6g} s (the gap threshold: --max-gap-s"
         in (warnings[0])
     )
     # a threshold above the hole: the crossing is searched across it, nothing left out

@@ -28,6 +28,8 @@ lat_st = st.floats(-89.9, 89.9)
 lon_st = st.floats(-180.0, 180.0)
 h_st = st.floats(-500.0, 9000.0)
 
+GROUND_ECEF_M = (1_409_555.2, -4_140_559.2, 4_626_601.8)  # near Quebec City, 11 m up
+
 
 @settings(max_examples=40, deadline=None)
 @given(names=names_st, data=st.data())
@@ -56,17 +58,20 @@ def test_geodetic_round_trip(
         min_size=8,
         max_size=8,
     ),
-    radius_m=st.floats(6.31e6, 6.44e6),
+    height_m=st.floats(-11_000.0, 9_000.0),
 )
 def test_ecef_round_trip_is_exact(
     tmp_path_factory: pytest.TempPathFactory,
     names: list[str],
     coords: list[tuple[float, float, float]],
-    radius_m: float,
+    height_m: float,
 ) -> None:
-    """Any ECEF point near the Earth's surface (the container refuses others)."""
+    """Any ECEF point near the ground (the container refuses others)."""
     v = np.array(coords[: len(names)])
-    pos = v / np.linalg.norm(v, axis=1, keepdims=True) * radius_m
+    u = v / np.linalg.norm(v, axis=1, keepdims=True)
+    a, b = 6_378_137.0, 6_356_752.314245  # WGS84 radii: the ellipsoid along u, then up
+    surface = a * b / np.sqrt(b**2 * (1.0 - u[:, 2] ** 2) + a**2 * u[:, 2] ** 2)
+    pos = u * (surface + height_m)[:, None]
     points = ControlPoints(tuple(names), pos)
     path = tmp_path_factory.mktemp("cp") / "control.csv"
     write_control_points(points, path, form="ecef")
@@ -133,17 +138,17 @@ def test_missing_and_unreadable_files(tmp_path: Path) -> None:
 def test_container_checks() -> None:
     # One name as a str was split into its characters: "P1" made points 'P' and '1'.
     with pytest.raises(InputError, match=r"names: expected a sequence of names, got the single"):
-        ControlPoints("AB", np.full((2, 3), 3.7e6))  # type: ignore[arg-type]
+        ControlPoints("AB", np.tile(GROUND_ECEF_M, (2, 1)))  # type: ignore[arg-type]
     with pytest.raises(InputError, match=r"names: expected a sequence of names, got the single"):
         ControlPoints.from_geodetic("P1", [46.8, 46.8], [-71.2, -71.2], [10.0, 10.0])  # type: ignore[arg-type]
     with pytest.raises(InputError, match="shape"):
-        ControlPoints(("A", "B"), np.full((3, 3), 3.7e6))
+        ControlPoints(("A", "B"), np.tile(GROUND_ECEF_M, (3, 1)))
     with pytest.raises(InputError, match="non-finite"):
         ControlPoints(("A",), np.array([[0.0, np.inf, 0.0]]))
     with pytest.raises(InputError, match="duplicated"):
-        ControlPoints(("A", "A"), np.full((2, 3), 3.7e6))
+        ControlPoints(("A", "A"), np.tile(GROUND_ECEF_M, (2, 1)))
     with pytest.raises(InputError, match="empty name"):
-        ControlPoints(("A", " "), np.full((2, 3), 3.7e6))
+        ControlPoints(("A", " "), np.tile(GROUND_ECEF_M, (2, 1)))
     with pytest.raises(InputError, match="no control points"):
         ControlPoints((), np.zeros((0, 3)))
     with pytest.raises(InputError, match="numbers"):
