@@ -23,12 +23,15 @@ from kinsync.io.trajectory import read_trajectory_file
 from kinsync.trajectory_gaps import max_gap_for
 from kinsync.validation.control_report import ControlPointReport, validate_control_points
 from kinsync.validation.flatness import Box, FlatnessResult, fit_wall, select_box
+from kinsync.validation.scan_geometry import check_cloud_view, check_visit_ranges
 from kinsync.validation.targets import (
     CentreMethod,
     CloudPoints,
     check_extraction_options,
     nearest_control,
 )
+
+_VIEW_SAMPLE = 256  # cloud points per chunk kept for check_cloud_view
 
 __all__ = [
     "control_points_file",
@@ -100,14 +103,14 @@ def control_points_file(
     trajectory, traj_scale = read_trajectory_file(Path(trajectory_path), gps_week=gps_week)
     max_gap_for(trajectory.t_s, max_gap_s)  # a bad threshold fails before the cloud is read
     require_file(cloud_path, "point cloud")
-    crs_text = cloud_crs(cloud_path, crs)
-    to_ecef = crs_to_ecef_transformer(crs_text)
+    to_ecef = crs_to_ecef_transformer(crs_text := cloud_crs(cloud_path, crs))
     pos_parts: list[FloatArray] = []
     t_parts: list[FloatArray] = []
     i_parts: list[FloatArray] = []
     chunk_medians: list[float] = []  # the survey's typical intensity, chunk by chunk
     extent = CloudExtent()
     nearest = (np.inf, "")  # (distance (m) from a chunk's mean point, control point name)
+    view: list[FloatArray] = []  # a sample of the cloud (t_s, X, Y, Z), for check_cloud_view
     done = 0
     for xyz, t, inten in iter_cloud(
         cloud_path, chunk_points, need_time=True, traj_scale=traj_scale, gps_week=gps_week
@@ -126,6 +129,7 @@ def control_points_file(
             if float(gap.min()) < nearest[0]:
                 nearest = (float(gap.min()), control.names[int(np.argmin(gap))])
         pos_parts.append(ecef[keep])
+        view.append(_view_sample(t, ecef))
         t_parts.append(t[keep])
         i_parts.append(inten[keep])
     pos = np.concatenate(pos_parts) if pos_parts else np.empty((0, 3))
@@ -138,7 +142,7 @@ def control_points_file(
         raise InputError(msg)
     cloud = CloudPoints(pos, np.concatenate(t_parts), np.concatenate(i_parts))
     try:
-        return validate_control_points(
+        report = validate_control_points(
             cloud,
             control,
             trajectory,
@@ -154,6 +158,19 @@ def control_points_file(
     except KinsyncError as err:
         msg = f"{cloud_path}: {err}"
         raise InputError(msg) from err
+    # a trajectory of another place or height: the time error would collapse to zero
+    name = f"{trajectory_path} against {cloud_path}"
+    check_visit_ranges(report.differences, name)
+    sample = np.concatenate(view)  # never empty: the cloud had points near the control
+    check_cloud_view(trajectory, sample[:, 1:], sample[:, 0], name)
+    return report
+
+
+def _view_sample(t_s: FloatArray, pos_ecef_m: FloatArray) -> FloatArray:
+    """At most `_VIEW_SAMPLE` rows ``(t_s, X, Y, Z)`` spread over a chunk, shape (K, 4)."""
+    step = max(1, pos_ecef_m.shape[0] // _VIEW_SAMPLE)
+    out: FloatArray = np.column_stack([t_s, pos_ecef_m])[::step][:_VIEW_SAMPLE]
+    return out
 
 
 def flatness_file(
