@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.control_points import read_control_points, write_control_points
 from kinsync.validation.control_points import ControlPoints
@@ -167,3 +168,19 @@ def test_write_rejects_unknown_form_and_missing_folder(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="does not exist"):
         write_control_points(cp, tmp_path / "nowhere" / "c.csv")
     assert not (tmp_path / "c.csv").exists()
+
+
+@pytest.mark.parametrize("end", ["", "\n", "\r\n"])
+def test_a_file_without_a_final_line_end_is_read_with_a_warning(tmp_path: Path, end: str) -> None:
+    """A file cut mid-number (11.1 for 11.199) is still read, but its last row is named."""
+    path = tmp_path / "cut.csv"
+    text = "name,lat_deg,lon_deg,h_m\nA,46.8,-71.2,11.0\n\nB,46.81,-71.2,11.1"
+    path.write_text(text + end, encoding="utf-8")
+    if end:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            points = read_control_points(path)
+    else:
+        with pytest.warns(KinsyncWarning, match=r"ends without a line end: .* check line 4"):
+            points = read_control_points(path)
+    assert points.names == ("A", "B")

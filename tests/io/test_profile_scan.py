@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from kinsync.clock.model import ClockModel
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.clock_model import write_clock_model
 from kinsync.io.profile_scan import (
@@ -287,3 +287,11 @@ def test_an_ambiguous_clock_document_is_refused_unless_accepted(tmp_path: Path) 
     assert read_clock_document(path, accept_ambiguous=True) == (1400000034.931, 0.0303)
     settled = _write_text(tmp_path, "ok.json", json.dumps({**doc, "ambiguous": False}))
     assert read_clock_document(settled) == (1400000034.931, 0.0303)
+
+
+def test_sync_points_cut_without_a_final_line_end_are_named(tmp_path: Path) -> None:
+    """A sync-point file cut in half keeps its first rows: the last one is named."""
+    text = "name,lat_deg,lon_deg,h_m\nS1,46.8,-71.2,10.0\nS2,46.8,-71.2,1"
+    path = _write_text(tmp_path, "pts.csv", text)
+    with pytest.warns(KinsyncWarning, match=r"pts\.csv: the file ends without a line end.*line 3"):
+        read_sync_points(path)

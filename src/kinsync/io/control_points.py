@@ -126,7 +126,7 @@ def read_control_points(path: Path) -> ControlPoints:
         latitude outside [-90, 90], a height beyond 100 km, ...) (each naming the line).
     """
     path = Path(path)
-    records = read_csv_rows(path, "control point file")
+    records = read_csv_rows(path, "control point file", warn_unended=True)
     if not records:
         msg = f"{path}: empty file; expected a header such as name,lat_deg,lon_deg,h_m"
         raise InputError(msg)

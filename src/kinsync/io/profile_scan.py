@@ -191,7 +191,7 @@ def read_sync_points(path: Path) -> SyncPoints:
         naming the line).
     """
     path = Path(path)
-    records = read_csv_rows(path)
+    records = read_csv_rows(path, warn_unended=True)
     if not records:
         msg = f"{path}: empty file; expected a header {','.join(SYNC_POINT_COLUMNS)}"
         raise InputError(msg)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +19,7 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
 from kinsync.io.row_position import csv_line_of_row
@@ -230,7 +231,9 @@ class TextTable:
     lines: tuple[int, ...]
 
 
-def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]:
+def read_csv_rows(
+    path: Path, what: str = "file", *, warn_unended: bool = False
+) -> list[tuple[int, list[str]]]:
     """The non-blank rows of a small CSV file with their 1-based line numbers.
 
     Parameters
@@ -239,6 +242,10 @@ def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]
         The file (UTF-8, a BOM is skipped).
     what : str
         What the file is, for the not-found message ("control point file", ...).
+    warn_unended : bool
+        Issue a `KinsyncWarning` when the file ends without a line end after a data
+        row: a file cut short ends mid-row, its last number read as complete (11.1
+        for 11.199). Not refused: many tools write no final line end.
 
     Raises
     ------
@@ -264,7 +271,26 @@ def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]
         for cell in row:
             if (bad := not_utf8_cell(Path(path), line, cell)) is not None:
                 raise bad
+    if warn_unended and len(records) > 1 and not _ends_with_line_end(Path(path)):
+        warnings.warn(
+            f"{path}: the file ends without a line end: if it was cut, its last row is "
+            f"incomplete: check line {records[-1][0]}",
+            KinsyncWarning,
+            stacklevel=3,
+        )
     return records
+
+
+def _ends_with_line_end(path: Path) -> bool:
+    """Whether the file's last byte is a line end (or the file is empty)."""
+    try:
+        with path.open("rb") as fh:
+            if fh.seek(0, 2) == 0:
+                return True
+            fh.seek(-1, 2)
+            return fh.read(1) in (b"\n", b"\r")
+    except OSError:  # read a moment ago: a device that cannot seek is not checked
+        return True
 
 
 def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
