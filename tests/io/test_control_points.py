@@ -184,3 +184,28 @@ def test_a_file_without_a_final_line_end_is_read_with_a_warning(tmp_path: Path, 
         with pytest.warns(KinsyncWarning, match=r"ends without a line end: .* check line 4"):
             points = read_control_points(path)
     assert points.names == ("A", "B")
+
+
+@pytest.mark.parametrize(
+    ("text", "fragments"),
+    [
+        (
+            "name,lat_deg,lon_deg,h_m\nA,46.8,-71.2,11.0\nB,46.8,-71.2,11199.6\n",
+            ["line 3, column 'h_m'", "11199.6 m is not near the ground", "mm"],
+        ),
+        (
+            "name,x_m,y_m,z_m\nA,1409.555,-4140.558,4626.602\n",
+            ["line 2:", "6352 km below", "not ECEF coordinates"],
+        ),
+    ],
+)
+def test_a_point_off_the_ground_is_named_by_its_line(
+    tmp_path: Path, text: str, fragments: list[str]
+) -> None:
+    path = tmp_path / "cp.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_control_points(path)
+    for fragment in fragments:
+        assert fragment in str(err.value)
+    assert "0-based" not in str(err.value)

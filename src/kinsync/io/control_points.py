@@ -20,7 +20,9 @@ from typing import Literal
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._validate import ECEF_HEIGHT_RANGE_M
 from kinsync.errors import InputError
+from kinsync.frames import ecef_to_geodetic
 from kinsync.io.atomic import atomic_path
 from kinsync.io.sanity import (
     HEIGHT_M,
@@ -103,6 +105,40 @@ def _parse_row(
     return name, out
 
 
+def _refuse_off_ground(
+    path: Path, lines: list[int], values: FloatArray, coords: tuple[str, ...]
+) -> None:
+    """Refuse a point not near the ground (`ECEF_HEIGHT_RANGE_M`), naming its line.
+
+    ``values`` (N, 3) are the rows' coordinates in the file's form ``coords``, on the
+    file ``lines``. A surveyed control point lies on the ground: a geodetic height out
+    there is in another unit (mm), an ECEF point is not ECEF (local or projected).
+    """
+    geodetic = coords == GEODETIC_COLUMNS
+    height_m = values[:, 2] if geodetic else ecef_to_geodetic(values)[:, 2]
+    low, high = ECEF_HEIGHT_RANGE_M
+    bad = np.flatnonzero((height_m < low) | (height_m > high))
+    if bad.size == 0:
+        return
+    k = int(bad[0])
+    band = f"{-low / 1000:g} km below to {high / 1000:g} km above the WGS84 ellipsoid"
+    if geodetic:
+        msg = (
+            f"{path}: line {lines[k]}, column 'h_m': height {values[k, 2]!r} m is not near "
+            f"the ground ({band}), where a surveyed control point lies: heights in mm or "
+            "another unit? give ellipsoidal heights in metres"
+        )
+    else:
+        msg = (
+            f"{path}: line {lines[k]}: point {values[k].tolist()} lies "
+            f"{abs(float(height_m[k])) / 1000:.4g} km {'above' if height_m[k] > 0 else 'below'}"
+            f" the WGS84 ellipsoid, not near the ground ({band}): these are not ECEF "
+            "coordinates (local or projected coordinates?); convert them to ECEF x_m,y_m,z_m "
+            "(m) or give name,lat_deg,lon_deg,h_m"
+        )
+    raise InputError(msg)
+
+
 def read_control_points(path: Path) -> ControlPoints:
     """Read a control-point CSV (geodetic or ECEF, see the module docstring).
 
@@ -123,7 +159,8 @@ def read_control_points(path: Path) -> ControlPoints:
         missing or ambiguous coordinate columns, duplicated column names, a row with
         another number of fields than the header, an empty or duplicated name, a cell
         that is not a finite number, an implausible coordinate (`kinsync.io.sanity`: a
-        latitude outside [-90, 90], a height beyond 100 km, ...) (each naming the line).
+        latitude outside [-90, 90], a height beyond 100 km, ...), a point not near the
+        ground (a height in mm, coordinates that are not ECEF) (each naming the line).
     """
     path = Path(path)
     records = read_csv_rows(path, "control point file", warn_unended=True)
@@ -155,6 +192,7 @@ def read_control_points(path: Path) -> ControlPoints:
             raise InputError(msg)
         seen[name] = line
         names.append(name)
+    _refuse_off_ground(path, [line for line, _ in body], values, coords)
     if coords == GEODETIC_COLUMNS:
         return ControlPoints.from_geodetic(
             names, values[:, 0], values[:, 1], values[:, 2], source=str(path)
