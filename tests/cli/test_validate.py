@@ -455,6 +455,29 @@ def test_empty_box(
     assert_one_line_error(code, out, err, "no point inside the box", "the cloud's", "span X")
 
 
+@pytest.mark.parametrize(
+    ("box", "shown"),
+    [
+        # a tiny box: printed with %g, xmin and xmax both read 1.40955e+06
+        ("1409550.0001,-4140559,4626600,1409550.0002,-4140558,4626601", "1409550.0001,"),
+        ("46.8,-71.2,0,46.81,-71.19,100", "46.8,-71.2,0.0,46.81,-71.19,100.0"),  # lat/lon
+    ],
+)
+def test_an_empty_box_is_shown_whole_with_the_cloud_crs(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    files: dict[str, Path],
+    box: str,
+    shown: str,
+) -> None:
+    cloud = str(files["wall_ok"])
+    code, out, err = run_cli(["validate", "flatness", "--cloud", cloud, "--box", box])
+    hint = "give --box in the cloud's CRS (EPSG:4978)"
+    assert_one_line_error(code, out, err, f"no point inside the box {shown}", hint)
+    if shown.startswith("1409550"):
+        assert "1409550.0002," in err
+
+
 def test_too_few_and_degenerate_points(
     run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
 ) -> None:

@@ -224,9 +224,13 @@ def flatness_file(
         extent.add(xyz)
         parts.append(xyz[select_box(xyz, box)])
     sel = np.concatenate(parts) if parts else np.empty((0, 3))
-    box_text = ",".join(f"{v:.6g}" for v in box)
+    box_text = ",".join(repr(float(v)) for v in box)  # every digit: a tiny box reads as one
     if sel.shape[0] == 0:
-        msg = f"{cloud_path}: no point inside the box {box_text}; {extent.text()} ({crs_text})"
+        msg = (
+            f"{cloud_path}: no point inside the box {box_text}; {extent.text()} ({crs_text}): "
+            f"give --box in the cloud's CRS ({crs_text}) and units, inside that extent (not "
+            "latitude and longitude unless the cloud's CRS is geographic)"
+        )
         raise InputError(msg)
     try:
         return fit_wall(
