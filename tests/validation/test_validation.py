@@ -294,6 +294,16 @@ def test_missing_targets_are_reported_per_point(scene: ControlTargetScene) -> No
     flat = CloudPoints(cloud.pos_ecef_m, cloud.t_s, np.full(len(cloud), 100.0))
     _, missing = extract_targets(flat, scene.control)
     assert all("no intensity contrast" in m.reason for m in missing)
+    # Surveyed 1 m too high: fewer points in reach than a centre needs, no contrast to
+    # blame: the message says the target is not there (was "give --min-intensity").
+    up_1m = ControlPoints.from_geodetic(
+        scene.control.names, *(scene.control.lat_lon_h() + np.array([0.0, 0.0, 1.0])).T
+    )
+    _, missing = extract_targets(cloud, up_1m, centre="sphere", target_radius_m=0.2)
+    few = [m for m in missing if "point(s) of the cloud within 0.5 m" in m.reason]
+    assert len(few) >= 3
+    assert all("no target at the surveyed position" in m.reason for m in few)
+    assert not [m for m in few if "--min-intensity" in m.reason]
 
 
 def test_targets_bright_throughout_their_radius_are_judged_against_the_cloud(

@@ -384,6 +384,17 @@ def extract_targets(
                 MissingTarget(name, f"no point of the cloud within {search_radius_m:g} m")
             )
             continue
+        if near.size < min_points:  # no threshold could leave enough: the target is elsewhere
+            missing.append(
+                MissingTarget(
+                    name,
+                    f"only {near.size} point(s) of the cloud within {search_radius_m:g} m "
+                    f"(need {min_points} on the target): the cloud holds no target at the "
+                    "surveyed position; check the control point's coordinates and height "
+                    "(and the trajectory's), or --search-radius-m",
+                )
+            )
+            continue
         inten = cloud.intensity[near]
         if min_intensity is None:
             threshold = _auto_threshold(inten, background)
