@@ -345,6 +345,8 @@ def test_profile_to_scanner_follows_spec_formula() -> None:
         ("[mount]\n[profiler]\nazimuth = 3.0\n", "unknown key.*profiler"),
         ("[mount]\n[profiler]\nazimuth_deg = 'x'\n", "azimuth_deg"),
         ("[mount]\nprofiler = 3\n", "unknown key"),
+        # an empty [profiler] table was read as azimuth 0 deg (exit 0)
+        ("[mount]\n[profiler]\n", r"\[profiler\] has no azimuth_deg"),
     ],
 )
 def test_bad_profiler_section(text: str, pattern: str) -> None:

@@ -677,11 +677,11 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             msg = f"{source}: [profiler] must be a table with azimuth_deg"
             raise InputError(msg)
         unknown_p = sorted(set(prof) - {"azimuth_deg"})
-        if unknown_p:
-            got = shown_value(unknown_p)
-            msg = f"{source}: unknown key(s) in [profiler]: {got}; expected azimuth_deg"
-            raise InputError(msg)
-        kwargs["profiler_azimuth_deg"] = prof.get("azimuth_deg", 0.0)
+        if unknown_p or "azimuth_deg" not in prof:  # an empty table is not azimuth 0
+            got = f"unknown key(s) in [profiler]: {shown_value(unknown_p)}; expected"
+            msg = f"{source}: {got if unknown_p else '[profiler] has no'} azimuth_deg"
+            raise InputError(msg + " (deg about the scanner Z axis; 0.0 for an unturned plane)")
+        kwargs["profiler_azimuth_deg"] = prof["azimuth_deg"]
     if "uncertainty" in doc:
         kwargs["uncertainty"] = _uncertainty_table(doc["uncertainty"], source)
     try:
