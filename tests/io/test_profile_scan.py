@@ -268,6 +268,19 @@ def test_a_parquet_scan_names_the_row_from_one_of_all(tmp_path: Path) -> None:
         read_profile_scan(path)
 
 
+def test_a_boolean_parquet_column_is_not_read_as_ones(tmp_path: Path) -> None:
+    """A bool ``range_m`` column was read as 1.0 m for every true (float(True) is 1.0)."""
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    n = 4
+    cols = {"profile": [0, 0, 1, 1], "angle_rad": [0.1] * n, "range_m": [True] * n}
+    path = tmp_path / "scan.parquet"
+    pq.write_table(pa.table(cols | {"intensity": [0.5] * n}), path)
+    with pytest.raises(InputError, match=r"column 'range_m' holds true/false values"):
+        read_profile_scan(path)
+
+
 def test_an_ambiguous_clock_document_is_refused_unless_accepted(tmp_path: Path) -> None:
     """A clock file marked ambiguous (written by an older kinsync, or accepted once) may
     be whole seconds off: applying it needs the same explicit acceptance."""

@@ -265,6 +265,12 @@ def _chunk_to_numpy(
                     "every point needs a number there: fix or remove the row"
                 )
                 raise InputError(msg)
+            if pa.types.is_boolean(col.type):  # float(True) is 1.0: every range 1 m
+                msg = (
+                    f"{path}: column {name!r} holds true/false values (column type bool); "
+                    "store numbers there (integer or floating)"
+                )
+                raise InputError(msg)
             if not (pa.types.is_floating(col.type) or pa.types.is_integer(col.type)):
                 values = col.to_numpy(zero_copy_only=False)
                 for i, v in enumerate(values):
