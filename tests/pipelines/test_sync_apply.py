@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.profile_scan import (
     write_profile_scan,
@@ -279,3 +280,35 @@ def test_a_scan_without_rows_that_has_an_output_column_is_refused(tmp_path: Path
     with pytest.raises(InputError, match=r"already has column\(s\) \['x_m'\]"):
         apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
     assert not (tmp_path / "o.csv").exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_apply_refuses_zero_ranges_naming_the_first_and_the_count(
+    tmp_path: Path, suffix: str
+) -> None:
+    """A range of 0 (a 'no return' code) put the return at the scanner itself (exit 0)."""
+    scan = ProfileScan(
+        profile=np.array([0, 0, 1, 1, 2, 2]),
+        angle_rad=np.full(6, 0.1),
+        range_m=np.array([2.0, 3.0, 0.0, 2.0, 0.0, 0.0]),
+        intensity=np.full(6, 0.5),
+    )
+    src = tmp_path / f"scan{suffix}"
+    write_profile_scan(scan, src)
+    where = "line 4" if suffix == ".csv" else "row 3 of 6"
+    with pytest.raises(InputError, match=rf"{where}: range_m is 0 \(3 of 6 returns\).*remove"):
+        apply_profile_clock(src, tmp_path / f"o{suffix}", 0.0, 0.03, MOUNT, chunk_points=2)
+    assert not (tmp_path / f"o{suffix}").exists()
+    assert not list(tmp_path.glob("*.part"))
+
+
+def test_apply_warns_of_ranges_in_millimetres(tmp_path: Path) -> None:
+    """Ranges in mm (45,043 for 45 m) were written 45 km from the scanner without a word."""
+    src = tmp_path / "scan.csv"
+    src.write_text("profile,angle_rad,range_m\n0,0.1,45043\n0,0.2,1500\n1,0.1,45100\n")
+    with pytest.warns(KinsyncWarning, match=r"2 of 3 ranges .* are the ranges in millimetres"):
+        apply_profile_clock(src, tmp_path / "o.csv", 0.0, 0.03, MOUNT)
+    src.write_text("profile,angle_rad,range_m\n0,0.1,45043\n0,0.2,1500\n1,0.1,45\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        apply_profile_clock(src, tmp_path / "o2.csv", 0.0, 0.03, MOUNT)

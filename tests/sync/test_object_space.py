@@ -559,8 +559,12 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
     scan = oval.scanner.scan
     traj, mount, pts = oval.trajectory, oval.config.mount, oval.sync_points
     dim = ProfileScan(scan.profile, scan.angle_rad, scan.range_m, scan.intensity * 0.5)
-    with pytest.raises(ObservabilityError, match="0 target sighting"):
+    with pytest.raises(ObservabilityError, match="0 target sighting") as info:
         synchronise_object_space(dim, traj, mount, pts, EXACT)
+    assert "millimetres" not in str(info.value)
+    in_mm = ProfileScan(scan.profile, scan.angle_rad, scan.range_m * 1000.0, scan.intensity)
+    with pytest.raises(ObservabilityError, match=r"sighting.*are the ranges in millimetres\?"):
+        synchronise_object_space(in_mm, traj, mount, pts, EXACT)
     first = scan.profile <= scan.profile[np.argmax(scan.intensity > 0.8)] + 10
     one = ProfileScan(
         scan.profile[first], scan.angle_rad[first], scan.range_m[first], scan.intensity[first]

@@ -17,6 +17,7 @@ floats.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -25,8 +26,9 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from kinsync._typing import FloatArray
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
 from kinsync.io.points import (
     TableChunkWriter,
@@ -36,7 +38,7 @@ from kinsync.io.points import (
 )
 from kinsync.io.row_position import point_position
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD, Mount
-from kinsync.sync.scan import ProfileScan
+from kinsync.sync.scan import PROFILE_SCANNER_REACH_M, ProfileScan, long_range_note
 
 __all__ = ["APPLY_COLUMNS", "apply_profile_clock"]
 
@@ -93,6 +95,52 @@ def _empty_output(path: Path, required: Sequence[str]) -> dict[str, Any]:
     return {name: pa.array([], type=kind) for name, kind in kinds.items()}
 
 
+def _checked_ranges(
+    scan_path: Path, phi: FloatArray, rng_m: FloatArray, where: Callable[[int], str]
+) -> tuple[int, int, int]:
+    """Refuse a chunk's bad angle or range; count its zero and very long ranges.
+
+    Parameters
+    ----------
+    scan_path : Path
+        The scan, for messages.
+    phi, rng_m : ndarray, shape (N,)
+        Mirror angles (rad) and ranges (m) of the chunk.
+    where : callable
+        ``where(i)`` names the chunk's row ``i`` in the file.
+
+    Returns
+    -------
+    tuple of int
+        Index of the first zero range (-1 for none), the number of zero ranges (a
+        "no return" code, refused by the caller once counted) and of ranges beyond
+        `PROFILE_SCANNER_REACH_M`.
+
+    Raises
+    ------
+    InputError
+        An angle beyond one turn, a range negative, not finite or beyond
+        `MAX_SCANNER_RANGE_M`, naming the first such row.
+    """
+    bad = ~(
+        (np.abs(phi) <= MAX_PROFILE_ANGLE_RAD)  # False for NaN
+        & (rng_m >= 0.0)
+        & (rng_m <= MAX_SCANNER_RANGE_M)
+    )
+    if np.any(bad):
+        row = int(np.flatnonzero(bad)[0])
+        msg = (
+            f"{scan_path}: {where(row)}: angle_rad {float(phi[row])!r}, "
+            f"range_m {float(rng_m[row])!r}: a range is a finite distance, above 0 up to "
+            f"{MAX_SCANNER_RANGE_M:.0f} m, and a mirror angle radians within one turn "
+            "(+-2 pi); fix or remove the row"
+        )
+        raise InputError(msg)
+    zero = np.flatnonzero(rng_m == 0.0)  # such a return would lie at the scanner itself
+    first = int(zero[0]) if zero.size else -1
+    return first, int(zero.size), int(np.count_nonzero(rng_m > PROFILE_SCANNER_REACH_M))
+
+
 def apply_profile_clock(
     scan_path: Path,
     out_path: Path,
@@ -138,7 +186,12 @@ def apply_profile_clock(
         A mount without ``[profiler]``, a bad clock, an input that already has one of
         the output columns, bad profile numbers, an empty cell or null in ``profile``,
         ``angle_rad`` or ``range_m`` (naming the CSV line or Parquet row, and column),
-        unreadable files.
+        a range of 0 (a "no return" code: the first and the count), unreadable files.
+
+    Warns
+    -----
+    KinsyncWarning
+        More than half of the ranges lie beyond `PROFILE_SCANNER_REACH_M` (millimetres?).
     """
     if mount.profiler_azimuth_deg is None:
         msg = (
@@ -153,6 +206,7 @@ def apply_profile_clock(
     scan_path = Path(scan_path)
     required = ("profile", "angle_rad", "range_m")
     done = 0
+    n_zero, first_zero, n_long = 0, -1, 0  # zero ranges (refused), ranges beyond 2 km
     last_profile = 0.0
     csv = scan_path.suffix.lower() == ".csv"
     total = None if csv else count_table_rows(scan_path)  # Parquet: "row N of M"
@@ -182,20 +236,9 @@ def apply_profile_clock(
             last_profile = float(chunk["profile"][-1])
             phi = chunk["angle_rad"]
             rng_m = chunk["range_m"]
-            bad = ~(
-                (np.abs(phi) <= MAX_PROFILE_ANGLE_RAD)  # False for NaN
-                & (rng_m >= 0.0)
-                & (rng_m <= MAX_SCANNER_RANGE_M)
-            )
-            if np.any(bad):
-                row = int(np.flatnonzero(bad)[0])
-                msg = (
-                    f"{scan_path}: {where(done + row)}: angle_rad {float(phi[row])!r}, "
-                    f"range_m {float(rng_m[row])!r}: a range is a finite distance, 0 to "
-                    f"{MAX_SCANNER_RANGE_M:.0f} m, and a mirror angle radians within one turn "
-                    "(+-2 pi); fix or remove the row"
-                )
-                raise InputError(msg)
+            zero_at, zeros, longs = _checked_ranges(scan_path, phi, rng_m, from_row(done))
+            first_zero = first_zero if first_zero >= 0 or zero_at < 0 else done + zero_at
+            n_zero, n_long = n_zero + zeros, n_long + longs
             xyz = mount.profile_to_scanner(phi, rng_m) + 0.0  # -0.0 written as 0.0
             out = dict(chunk) | {"profile": profile}  # whole numbers (checked)
             out |= {n: pa.array(chunk[n]).cast(t) for n, t in stored.items()}
@@ -205,6 +248,15 @@ def apply_profile_clock(
             done += phi.size
             if progress is not None:
                 progress(done)
+        if n_zero:  # refused once all are counted; the writer then discards its output
+            msg = (
+                f"{scan_path}: {where(first_zero)}: range_m is 0 ({n_zero:,} of {done:,} "
+                "returns): a zero range, a common 'no return' code, would put the return "
+                "at the scanner itself; remove the rows with range 0 and run again"
+            )
+            raise InputError(msg)
         if done == 0:  # no data rows: the output still gets its header or columns
             writer.write(_empty_output(scan_path, required))
+    if long_range_note(n_long, done):
+        warnings.warn(f"{scan_path}: {long_range_note(n_long, done)}", KinsyncWarning, stacklevel=2)
     return done

@@ -204,7 +204,12 @@ from kinsync.sync.crossings import (
     search_crossings,
 )
 from kinsync.sync.pulses import PulseOffset, pulse_offset
-from kinsync.sync.scan import ProfileScan, SyncPoints
+from kinsync.sync.scan import (
+    PROFILE_SCANNER_REACH_M,
+    ProfileScan,
+    SyncPoints,
+    long_range_note,
+)
 from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
@@ -519,7 +524,9 @@ def synchronise_object_space(
             "two distinct sightings of the sync points are needed: check the intensity "
             "threshold and that the retro-reflective targets were scanned"
         )
-        raise ObservabilityError(msg)
+        n_long = int(np.count_nonzero(scan.range_m > PROFILE_SCANNER_REACH_M))
+        note = long_range_note(n_long, len(scan.range_m))
+        raise ObservabilityError(f"{msg}; {note}" if note else msg)
     search = search_crossings(trajectory, mount, sync_points, cfg)
     crossings = search.crossings
     n_cross = {name: sum(c.name == name for c in crossings) for name in sync_points.names}

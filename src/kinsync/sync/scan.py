@@ -21,6 +21,7 @@ from kinsync.mount import MAX_PROFILE_ANGLE_RAD
 
 __all__ = [
     "MAX_PROFILE_NUMBER",
+    "PROFILE_SCANNER_REACH_M",
     "SCAN_COLUMNS",
     "SYNC_POINT_COLUMNS",
     "ProfileScan",
@@ -41,6 +42,36 @@ def _index_text(row: int) -> str:
 MAX_PROFILE_NUMBER = 1e12
 """Largest profile number accepted: 31 years of profiles at 1 kHz (a larger value is a
 damaged column, and its product with the period would lose the profile's time)."""
+
+
+PROFILE_SCANNER_REACH_M = 2000.0
+"""Range (m) beyond any 2D profile scanner's reach: a scan whose median range is longer
+probably has its ranges in millimetres."""
+
+
+def long_range_note(n_long: int, n: int) -> str:
+    """Advice when most ranges lie beyond `PROFILE_SCANNER_REACH_M`, else ``""``.
+
+    Parameters
+    ----------
+    n_long : int
+        Number of returns whose range exceeds `PROFILE_SCANNER_REACH_M`.
+    n : int
+        Number of returns.
+
+    Returns
+    -------
+    str
+        ``"the median range is beyond 2000 m ...: are the ranges in millimetres? ..."``
+        when more than half of the ``n`` ranges are that long, else ``""``.
+    """
+    if n == 0 or 2 * n_long <= n:
+        return ""
+    return (
+        f"{n_long:,} of {n:,} ranges (the median too) are beyond "
+        f"{PROFILE_SCANNER_REACH_M:.0f} m, further than a profile scanner reaches: are the "
+        "ranges in millimetres? range_m is in metres"
+    )
 
 
 def _checked_profile_numbers(
