@@ -308,3 +308,20 @@ def test_sync_points_cut_without_a_final_line_end_are_named(tmp_path: Path) -> N
     path = _write_text(tmp_path, "pts.csv", text)
     with pytest.warns(KinsyncWarning, match=r"pts\.csv: the file ends without a line end.*line 3"):
         read_sync_points(path)
+
+
+@pytest.mark.parametrize(
+    ("extra", "pattern"),
+    [
+        # alternatives 5 gave TypeError: 'int' object is not iterable (internal error)
+        ('"ambiguous": true, "alternatives": 5', r"'alternatives' must be a list, got 5"),
+        # the string "true" was read as a settled clock
+        ('"ambiguous": "true"', r"'ambiguous' must be true or false, got 'true'"),
+        # Python's parser kept the last of two t0_s without a word
+        ('"t0_s": 1400000099.0', r"not a valid clock file \(key 't0_s' is given twice"),
+    ],
+)
+def test_a_malformed_clock_document_is_refused(tmp_path: Path, extra: str, pattern: str) -> None:
+    path = _write_text(tmp_path, "c.json", f'{{"t0_s": 1400000000.5, "period_s": 0.03, {extra}}}')
+    with pytest.raises(InputError, match=pattern):
+        read_clock_document(path, accept_ambiguous=True)

@@ -31,6 +31,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 
+from kinsync._text import shown_value
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
@@ -293,7 +294,8 @@ def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[
     InputError
         Missing or unreadable file, invalid JSON (line and column), not an object,
         missing keys, non-finite or implausible numbers (`kinsync.io.sanity`), a period
-        outside 10 µs to 100 s, an ambiguous clock not accepted.
+        outside 10 µs to 100 s, an ``ambiguous`` not true or false or ``alternatives``
+        not a list, a key given twice, an ambiguous clock not accepted.
     """
     path = Path(path)
     if not path.exists():
@@ -319,6 +321,10 @@ def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[
             raise InputError(msg)
         check_values([float(value)], span, f"{path}: {key!r}")
         values.append(float(value))
+    for key, kind, what in (("ambiguous", bool, "true or false"), ("alternatives", list, "a list")):
+        if key in doc and not isinstance(doc[key], kind):  # "true" would read as settled
+            msg = f"{path}: {key!r} must be {what}, got {shown_value(doc[key])}"
+            raise InputError(msg + "; give the JSON that kinsync sync object-space --json writes")
     if doc.get("ambiguous") is True and not accept_ambiguous:
         others = [a.get("t0_s") for a in doc.get("alternatives", []) if isinstance(a, dict)][:3]
         listed = ", ".join(f"{t:.6f}" for t in others if isinstance(t, int | float))

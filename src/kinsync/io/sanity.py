@@ -31,6 +31,7 @@ import stat
 from pathlib import Path
 from typing import Any
 
+from kinsync._text import shown_value
 from kinsync._validate import Span, check_columns, check_values
 from kinsync.errors import InputError
 
@@ -404,6 +405,17 @@ def _float_int(text: str) -> int:
     return value
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's members as a dict; a key given twice is refused (not the last kept)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            msg = f"key {shown_value(key)} is given twice in one object; keep one"
+            raise ValueError(msg)
+        out[key] = value
+    return out
+
+
 def load_json(path: Path, what: str) -> Any:
     """Read a small UTF-8 JSON document; numbers are plain finite JSON numbers.
 
@@ -426,7 +438,8 @@ def load_json(path: Path, what: str) -> Any:
     ------
     InputError
         Missing or unreadable file, too large, not UTF-8, invalid JSON (with line and
-        column), NaN/Infinity or an integer too large for a float64.
+        column), NaN/Infinity, an integer too large for a float64 or a key given twice in
+        one object (Python's parser keeps the last).
     """
     path = Path(path)
     check_text_file(path, what, max_bytes=MAX_JSON_BYTES, lines=False)
@@ -440,7 +453,9 @@ def load_json(path: Path, what: str) -> Any:
         raise InputError(msg) from err
     text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write
     try:
-        return json.loads(text, parse_constant=_no_constant, parse_int=_float_int)
+        return json.loads(
+            text, parse_constant=_no_constant, parse_int=_float_int, object_pairs_hook=_unique_keys
+        )
     except json.JSONDecodeError as err:
         msg = f"{path}: line {err.lineno}, column {err.colno}: not valid JSON ({err.msg})"
         raise InputError(msg) from err
