@@ -4,6 +4,7 @@ classes 3-5): absurd values are refused before any work, in one line, exit 2."""
 from __future__ import annotations
 
 import inspect
+import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -89,6 +90,35 @@ def test_values_outside_the_span_are_refused(
     assert_one_line_error(code, out, err, option)
     reasons = ("not a finite number", "outside the span kinsync accepts", "Invalid value for")
     assert any(r in err for r in reasons), err
+
+
+def _int_options() -> Iterator[Any]:
+    for path, callback, name, option in _numeric_options():
+        annotation = str(inspect.signature(callback).parameters[name].annotation)
+        if re.match(r"(Annotated\[)?int\b", annotation):
+            yield pytest.param(path, callback, option, id=f"{' '.join(path)} {option}")
+
+
+@pytest.mark.parametrize(("path", "callback", "option"), list(_int_options()))
+@pytest.mark.parametrize("sign", ["", "-"])
+def test_an_integer_beyond_float_range_is_outside_the_span(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    path: tuple[str, ...],
+    callback: Callable[..., Any],
+    option: str,
+    sign: str,
+) -> None:
+    """400 nines gave OverflowError (internal error): math.isfinite cannot take such an int."""
+    argv = _base_argv(path, callback, tmp_path)
+    if option in argv:
+        i = argv.index(option)
+        del argv[i : i + 2]
+    code, out, err = run_cli([*argv, option, sign + "9" * 400])
+    assert_one_line_error(code, out, err, option)
+    ours = f"{option} {sign}(an integer of more than 308 digits): outside the span"
+    assert ours in err or "Invalid value for" in err, err  # typer's own min= check
 
 
 def _gps_week_commands() -> Iterator[Any]:

@@ -15,6 +15,7 @@ has one.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass
 
@@ -168,26 +169,38 @@ def bounds_for(command: str, option: str) -> Bounds | None:
     return OPTION_BOUNDS.get((command, option)) or OPTION_BOUNDS.get(option)
 
 
+_LARGEST_FLOAT_INT = int(sys.float_info.max)
+"""The largest float64 (1.8e308) as an integer: a larger integer has no float64."""
+
+
 def check_numeric_option(command: str, option: str, value: float) -> None:
     """Refuse a non-finite ``value`` or one outside the option's span.
 
     Raises
     ------
     InputError
-        ``value`` is nan or infinite, or outside `bounds_for` ``(command, option)``.
+        ``value`` is nan or infinite, or outside `bounds_for` ``(command, option)`` (an
+        integer too large for a float64, more than 308 digits, is outside every span).
     """
+    shown = None
+    if isinstance(value, int) and abs(value) > _LARGEST_FLOAT_INT:  # float(value) overflows
+        shown = f"{'-' if value < 0 else ''}(an integer of more than 308 digits)"
+        value = sys.float_info.max if value > 0 else -sys.float_info.max  # beyond every span
     if not math.isfinite(value):
         msg = f"{option} {value}: not a finite number"
         raise InputError(msg)
     span = bounds_for(command, option)
     if span is None:
+        if shown is not None:  # every numeric option has a span; none would mean 1.8e308
+            msg = f"{option} {shown}: too large a number for any computation"
+            raise InputError(msg)
         return
     if not span.low <= value <= span.high:
         unit = f" {span.unit}" if span.unit else ""
         reason = span.why_high if value > span.high and span.why_high else span.why
         why = f" ({reason})" if reason else ""
         msg = (
-            f"{option} {value:g}: outside the span kinsync accepts, "
+            f"{option} {shown or format(value, 'g')}: outside the span kinsync accepts, "
             f"{span.low:g} to {span.high:g}{unit}{why}"
         )
         raise InputError(msg)
