@@ -639,3 +639,18 @@ def test_csv_line_of_row_counts_non_empty_lines_across_blocks(
             assert [row_position.csv_line_of_row(path, r) for r in range(3)] == lines, data
     assert row_position.point_position(tmp_path / "p.parquet", 1, 2) == "row 2 of 2"
     assert row_position.point_position(tmp_path / "p.laz", 0, 9) == "point 1 of 9"
+
+
+def test_a_damaged_parquet_data_page_is_named(tmp_path: Path) -> None:
+    """A damaged page read as an internal error (OSError: Corrupt snappy compressed data)."""
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    path = tmp_path / "p.parquet"
+    n = 5000
+    cols = {"t_s": np.arange(n) % 7 * 1.0, "x": np.arange(n) % 5 * 1.0}
+    pq.write_table(pa.table(cols), path, compression="snappy", use_dictionary=False)
+    data = bytearray(path.read_bytes())
+    data[40:60] = b"\xff" * 20  # the first page, well before the footer
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"p\.parquet: the Parquet data is damaged \(.*\); copy"):
+        list(iter_table_chunks(path, 1000, ("t_s", "x")))

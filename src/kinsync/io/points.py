@@ -334,6 +334,16 @@ def _csv_batches(
             reader.close()
 
 
+def _parquet_batches(path: Path, pf: Any, chunk_points: int) -> Iterator[Any]:
+    """``pf.iter_batches``, a damaged data page (bad compression, cut short) named."""
+    try:
+        yield from pf.iter_batches(batch_size=chunk_points)
+    except (pa.ArrowException, OSError) as err:  # 'Corrupt snappy compressed data'
+        why = " ".join(str(err).split())  # pyarrow's message may run over several lines
+        msg = f"{path}: the Parquet data is damaged ({why}); copy or export the file again"
+        raise InputError(msg) from err
+
+
 def iter_table_chunks(
     path: Path,
     chunk_points: int,
@@ -395,7 +405,7 @@ def iter_table_chunks(
         except (pa.ArrowException, OSError) as err:
             msg = f"{path}: cannot read as Parquet ({err})"
             raise InputError(msg) from err
-        batches = pf.iter_batches(batch_size=chunk_points)
+        batches = _parquet_batches(path, pf, chunk_points)
         total = int(pf.metadata.num_rows)
     first_row = 0
 
