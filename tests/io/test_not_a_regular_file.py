@@ -22,9 +22,12 @@ from kinsync.errors import InputError
 from kinsync.io.mount_file import read_toml_text
 from kinsync.io.passes import read_passes, write_passes
 from kinsync.io.points import table_columns
+from kinsync.io.profile_scan import read_clock_document, read_profile_scan
 from kinsync.io.sanity import require_file
 from kinsync.io.trajectory import read_trajectory_file
 from kinsync.latency.passes import SpherePass
+from kinsync.mount import Mount
+from kinsync.pipelines.sync_apply import apply_profile_clock
 
 needs_fifo = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
 
@@ -50,6 +53,7 @@ def _fifo(tmp_path: Path, name: str) -> Iterator[Path]:
         os.close(fd)
 
 
+PROFILER = Mount(profiler_azimuth_deg=0.0)
 READERS: dict[str, tuple[str, Callable[[Path], Any]]] = {
     "trajectory export": ("t.txt", read_trajectory_file),
     "SBET": ("t.out", read_trajectory_file),
@@ -58,7 +62,23 @@ READERS: dict[str, tuple[str, Callable[[Path], Any]]] = {
     "point file": ("p.laz", require_file),
     "pass folder": ("passes", read_passes),
     "mount file": ("m.toml", lambda p: read_toml_text(p, "mount file")),
+    # a link loop given as a clock file read as "clock file not found"
+    "clock file": ("c.json", read_clock_document),
+    "scan": ("s.csv", read_profile_scan),
+    "scan to apply": (
+        "s.csv",
+        lambda p: apply_profile_clock(p, p.with_name("o.csv"), 0.0, 0.03, PROFILER),
+    ),
 }
+
+
+@needs_fifo
+@pytest.mark.parametrize("kind", ["scan", "scan to apply"])
+def test_a_pipe_given_as_a_scan_is_called_a_scan(tmp_path: Path, kind: str) -> None:
+    """It was called a 'point table', the reader's word for georef's input."""
+    name, read = READERS[kind]
+    with _fifo(tmp_path, name) as fifo, pytest.raises(InputError, match="give the scan as a file"):
+        read(fifo)
 
 
 @pytest.mark.parametrize("kind", list(READERS))

@@ -48,6 +48,7 @@ from kinsync.io.sanity import (
     check_columns,
     check_values,
     load_json,
+    require_file,
 )
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD
@@ -99,6 +100,7 @@ def read_profile_scan(path: Path) -> ProfileScan:
         or the Parquet row, counted from 1).
     """
     path = Path(path)
+    require_file(path, "scan")  # a link loop, a pipe, a folder: named as such
     parts: dict[str, list[FloatArray]] = {c: [] for c in SCAN_COLUMNS}
     for chunk in iter_table_chunks(path, _READ_CHUNK, SCAN_COLUMNS):
         for c in SCAN_COLUMNS:
@@ -298,9 +300,10 @@ def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[
         not a list, a key given twice, an ambiguous clock not accepted.
     """
     path = Path(path)
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():  # a link loop "does not exist" either
         msg = f"{path}: clock file not found; write it with kinsync sync object-space --json"
         raise InputError(msg)
+    require_file(path, "clock file")  # a link loop, a pipe, a folder: named as such
     doc = load_json(path, "clock file")
     if not isinstance(doc, dict):
         msg = f"{path}: expected a JSON object with t0_s and period_s"

@@ -37,6 +37,7 @@ from kinsync.io.points import (
     table_columns,
 )
 from kinsync.io.row_position import point_position
+from kinsync.io.sanity import require_file
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD, Mount
 from kinsync.sync.scan import PROFILE_SCANNER_REACH_M, ProfileScan, long_range_note
 
@@ -141,6 +142,20 @@ def _checked_ranges(
     return first, int(zero.size), int(np.count_nonzero(rng_m > PROFILE_SCANNER_REACH_M))
 
 
+def _checked_clock(t0_s: float, period_s: float, mount: Mount) -> ProfileClock:
+    """The profile clock, once the mount has a profiler azimuth and the clock is sound."""
+    if mount.profiler_azimuth_deg is None:
+        msg = (
+            "mount: no [profiler] azimuth_deg; the scanner-frame coordinates of a profile "
+            "need the profile plane's azimuth: add a [profiler] table with azimuth_deg"
+        )
+        raise InputError(msg)
+    if not (math.isfinite(t0_s) and math.isfinite(period_s) and period_s > 0.0):
+        msg = f"clock: t0_s must be finite and period_s > 0, got {t0_s!r}, {period_s!r}"
+        raise InputError(msg)
+    return ProfileClock(t0_s, period_s)
+
+
 def apply_profile_clock(
     scan_path: Path,
     out_path: Path,
@@ -193,21 +208,13 @@ def apply_profile_clock(
     KinsyncWarning
         More than half of the ranges lie beyond `PROFILE_SCANNER_REACH_M` (millimetres?).
     """
-    if mount.profiler_azimuth_deg is None:
-        msg = (
-            "mount: no [profiler] azimuth_deg; the scanner-frame coordinates of a profile "
-            "need the profile plane's azimuth: add a [profiler] table with azimuth_deg"
-        )
-        raise InputError(msg)
-    if not (math.isfinite(t0_s) and math.isfinite(period_s) and period_s > 0.0):
-        msg = f"clock: t0_s must be finite and period_s > 0, got {t0_s!r}, {period_s!r}"
-        raise InputError(msg)
-    clock = ProfileClock(t0_s, period_s)
+    clock = _checked_clock(t0_s, period_s, mount)
     scan_path = Path(scan_path)
     required = ("profile", "angle_rad", "range_m")
     done = 0
     n_zero, first_zero, n_long = 0, -1, 0  # zero ranges (refused), ranges beyond 2 km
     last_profile = 0.0
+    require_file(scan_path, "scan")  # a link loop, a pipe: named as such, as a scan
     csv = scan_path.suffix.lower() == ".csv"
     total = None if csv else count_table_rows(scan_path)  # Parquet: "row N of M"
 
