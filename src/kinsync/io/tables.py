@@ -109,10 +109,17 @@ def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
                     try:
                         float(cell)
                     except ValueError:
-                        return InputError(
-                            f"{path}: line {line_no}, column {name!r}: {cell[:80]!r} is not "
-                            "a number"
+                        what = "is not a number"
+                    else:  # Python reads '1_000' and other digits; the CSV parser does not
+                        if cell.isascii() and "_" not in cell:
+                            continue
+                        what = (
+                            "is not a plain number (digits 0-9, a point, a sign, an exponent; "
+                            "no '_', other digits or spaces)"
                         )
+                    return InputError(
+                        f"{path}: line {line_no}, column {name!r}: {cell[:80]!r} {what}"
+                    )
         except csv.Error as err:
             return InputError(f"{path}: line {reader.line_num}: cannot read as CSV ({err})")
     return InputError(f"{path}: cannot read as a numeric CSV table")
