@@ -23,6 +23,7 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
 
 __all__ = [
+    "ANGLE_STEP_RAD",
     "COORDINATE_STEP_M",
     "ECEF_HEIGHT_RANGE_M",
     "TIME_STEP_S",
@@ -44,6 +45,10 @@ TIME_STEP_S = 1e-6
 
 COORDINATE_STEP_M = 1e-4
 """Coarsest step (m) a float dtype may hold coordinates in: 0.1 mm (float32: 0.5 m near 6.4e6 m)."""
+
+ANGLE_STEP_RAD = 1e-6
+"""Coarsest step (rad) a float dtype may hold angles in: 1 urad, 0.1 mm at 100 m (float32
+holds 2.4e-7 rad near pi, float16 1e-3 rad)."""
 
 ECEF_HEIGHT_RANGE_M = (-12_000.0, 10_000.0)
 """Heights (m) above the WGS84 ellipsoid of points kinsync takes as ECEF (ground points).
@@ -132,8 +137,10 @@ def _refuse_coarse_floats(
         raise InputError(msg)
 
 
-def check_float_step(arr: np.ndarray, name: str, kind: Literal["time", "coordinate"]) -> None:
-    """Refuse times or coordinates held in a float dtype coarser than kinsync needs.
+def check_float_step(
+    arr: np.ndarray, name: str, kind: Literal["time", "coordinate", "angle"]
+) -> None:
+    """Refuse times, coordinates or angles held in a float dtype coarser than kinsync needs.
 
     Parameters
     ----------
@@ -142,8 +149,9 @@ def check_float_step(arr: np.ndarray, name: str, kind: Literal["time", "coordina
         to 128 s or 0.5 m. Integer and float64 arrays pass.
     name : str
         Where they are stored, for the message (file and column).
-    kind : {"time", "coordinate"}
-        Times need steps of `TIME_STEP_S` (1 us), coordinates `COORDINATE_STEP_M` (0.1 mm).
+    kind : {"time", "coordinate", "angle"}
+        Times need steps of `TIME_STEP_S` (1 us), coordinates `COORDINATE_STEP_M` (0.1 mm),
+        angles in radians `ANGLE_STEP_RAD` (1 urad).
 
     Raises
     ------
@@ -153,6 +161,8 @@ def check_float_step(arr: np.ndarray, name: str, kind: Literal["time", "coordina
     advice = "write the column as float64 (double)"
     if kind == "time":
         _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s", advice)
+    elif kind == "angle":
+        _refuse_coarse_floats(arr, name, "angles", ANGLE_STEP_RAD, "1 urad", "rad", advice)
     else:
         _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m", advice)
 

@@ -281,6 +281,23 @@ def test_a_boolean_parquet_column_is_not_read_as_ones(tmp_path: Path) -> None:
         read_profile_scan(path)
 
 
+def test_a_float16_angle_column_is_refused_as_angles(tmp_path: Path) -> None:
+    """It was refused as 'float16 coordinates near 1.70996 m ... 0.1 mm'."""
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    angle = np.array([0.1, 1.71, -0.5, 0.2])
+    cols = {"profile": [0, 0, 1, 1], "range_m": [2.0] * 4, "intensity": [0.5] * 4}
+    path = tmp_path / "scan.parquet"
+    pq.write_table(pa.table(cols | {"angle_rad": angle.astype(np.float16)}), path)
+    with pytest.raises(
+        InputError, match=r"column 'angle_rad': float16 angles near 1\.70\d* rad .* 1 urad"
+    ):
+        read_profile_scan(path)
+    pq.write_table(pa.table(cols | {"angle_rad": angle.astype(np.float32)}), path)
+    np.testing.assert_array_equal(read_profile_scan(path).angle_rad, angle.astype(np.float32))
+
+
 def test_an_ambiguous_clock_document_is_refused_unless_accepted(tmp_path: Path) -> None:
     """A clock file marked ambiguous (written by an older kinsync, or accepted once) may
     be whole seconds off: applying it needs the same explicit acceptance."""

@@ -286,7 +286,9 @@ def _chunk_to_numpy(
                 continue
             stored = col.to_numpy(zero_copy_only=False)
             # a float32 column is already rounded (times near 1.3e9 s to 128 s)
-            kind: Literal["time", "coordinate"] = "time" if name == "t_s" else "coordinate"
+            kind: Literal["time", "coordinate", "angle"] = (
+                "time" if name == "t_s" else "angle" if name.endswith("_rad") else "coordinate"
+            )
             check_float_step(stored, f"{path}: column {name!r}", kind)
             out[name] = np.asarray(stored, dtype=np.float64)
         else:
