@@ -373,8 +373,13 @@ def _bad(v: npt.NDArray[np.float64], span: Span, *, allow_nan: bool) -> npt.NDAr
 def _message(where: str, value: float, span: Span) -> str:
     if not math.isfinite(value):
         return f"{where}: {value!r} is not a finite number; fix or remove it"
-    if value < 0.0 <= span.low:
-        return f"{where}: {value!r} is negative; {span.what} is >= 0: fix the value"
+    if value < 0.0 <= span.low:  # the bound itself when above 0 (a period of 0 is refused too)
+        least = (
+            ">= 0"
+            if span.low == 0.0
+            else f"at least {span.low:g}{f' {span.unit}' if span.unit else ''}"
+        )
+        return f"{where}: {value!r} is negative; {span.what} is {least}: fix the value"
     if value < span.low and span.low > 0.0:
         return f"{where}: {value!r} is too small for {span.what} (at least {span.low:g}); fix it"
     return (

@@ -331,14 +331,22 @@ def test_sync_points_cut_without_a_final_line_end_are_named(tmp_path: Path) -> N
     ("extra", "pattern"),
     [
         # alternatives 5 gave TypeError: 'int' object is not iterable (internal error)
-        ('"ambiguous": true, "alternatives": 5', r"'alternatives' must be a list, got 5"),
+        (
+            '"period_s": 0.03, "ambiguous": true, "alternatives": 5',
+            r"'alternatives' must be a list, got 5",
+        ),
         # the string "true" was read as a settled clock
-        ('"ambiguous": "true"', r"'ambiguous' must be true or false, got 'true'"),
+        ('"period_s": 0.03, "ambiguous": "true"', r"'ambiguous' must be true or false, got 'true'"),
         # Python's parser kept the last of two t0_s without a word
-        ('"t0_s": 1400000099.0', r"not a valid clock file \(key 't0_s' is given twice"),
+        (
+            '"period_s": 0.03, "t0_s": 1400000099.0',
+            r"not a valid clock file \(key 't0_s' is given twice",
+        ),
+        # said 'is >= 0', and then 0 was refused as 'at least 1e-05'
+        ('"period_s": -0.03', r"-0\.03 is negative; a profile period .* is at least 1e-05 s"),
     ],
 )
 def test_a_malformed_clock_document_is_refused(tmp_path: Path, extra: str, pattern: str) -> None:
-    path = _write_text(tmp_path, "c.json", f'{{"t0_s": 1400000000.5, "period_s": 0.03, {extra}}}')
+    path = _write_text(tmp_path, "c.json", f'{{"t0_s": 1400000000.5, {extra}}}')
     with pytest.raises(InputError, match=pattern):
         read_clock_document(path, accept_ambiguous=True)
