@@ -314,6 +314,15 @@ def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:
     assert one["latency_ms"]["status"] != "estimated"
 
 
+@pytest.mark.parametrize("speeds", ["0", "5,0.1", "50"])
+def test_plan_names_the_speeds_option(
+    run_cli: RunCli, assert_one_line_error: OneLineError, speeds: str
+) -> None:
+    """0 read as 'patch test speeds_m_s must be positive', naming no option."""
+    code, out, err = run_cli(["calibrate", "plan", "--speeds-m-s", speeds])
+    assert_one_line_error(code, out, err, "--speeds-m-s", "outside the span", "0.2 to 40 m/s")
+
+
 def test_plan_says_when_the_trajectory_is_what_limits(run_cli: RunCli) -> None:
     # 5 m trajectory errors: the design has lines both ways and two speeds; the advice
     # must say that the trajectory, not the geometry, leaves the values undetermined.

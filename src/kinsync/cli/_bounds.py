@@ -144,6 +144,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     ("simulate rotating-table", "--passes"): Bounds(1, 100, "passes per rate and direction"),
     ("simulate patch-test", "--passes"): Bounds(1, 20, "lines each way per speed"),
     ("calibrate plan", "--passes"): Bounds(1, 20, "lines each way per speed"),
+    ("calibrate plan", "--speeds-m-s"): Bounds(0.2, 40.0, "m/s"),  # PatchTestConfig's span
     "--density": Bounds(1e-6, 1.0, "", "a fraction of the beams"),
     # counts, seeds, chunks
     "--seed": Bounds(0, 2**63 - 1),
