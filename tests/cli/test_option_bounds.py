@@ -72,6 +72,17 @@ def _outside_cases() -> Iterator[Any]:
             )
 
 
+def _argv_without(
+    path: tuple[str, ...], callback: Callable[..., Any], tmp_path: Path, option: str
+) -> list[str]:
+    """The command's working arguments without ``option`` (a required one has a value)."""
+    argv = _base_argv(path, callback, tmp_path)
+    if option in argv:
+        i = argv.index(option)
+        del argv[i : i + 2]
+    return argv
+
+
 @pytest.mark.parametrize(("path", "callback", "option", "value"), list(_outside_cases()))
 def test_values_outside_the_span_are_refused(
     run_cli: RunCli,
@@ -82,10 +93,7 @@ def test_values_outside_the_span_are_refused(
     option: str,
     value: str,
 ) -> None:
-    argv = _base_argv(path, callback, tmp_path)
-    if option in argv:  # a required numeric option: replace its value
-        i = argv.index(option)
-        del argv[i : i + 2]
+    argv = _argv_without(path, callback, tmp_path, option)
     code, out, err = run_cli([*argv, option, value])
     assert_one_line_error(code, out, err, option)
     reasons = ("not a finite number", "outside the span kinsync accepts", "Invalid value for")
@@ -111,10 +119,7 @@ def test_an_integer_beyond_float_range_is_outside_the_span(
     sign: str,
 ) -> None:
     """400 nines gave OverflowError (internal error): math.isfinite cannot take such an int."""
-    argv = _base_argv(path, callback, tmp_path)
-    if option in argv:
-        i = argv.index(option)
-        del argv[i : i + 2]
+    argv = _argv_without(path, callback, tmp_path, option)
     code, out, err = run_cli([*argv, option, sign + "9" * 400])
     assert_one_line_error(code, out, err, option)
     ours = f"{option} {sign}(an integer of more than 308 digits): outside the span"
