@@ -62,7 +62,7 @@ from kinsync.calibration.held import (
     uncertainty_from_covariance,
     uncertainty_notes,
 )
-from kinsync.calibration.lines import ScanLine, two_passes_in_a_line
+from kinsync.calibration.lines import ScanLine, two_passes_in_a_line, without_unspread_lines
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
     HeldAfterSolution,
@@ -173,10 +173,6 @@ def _check_gaps(line: ScanLine, tt: FloatArray, latency_s: float, max_gap_s: flo
     raise InputError(msg)
 
 
-MIN_LINE_SPREAD_M = 0.05
-"""A line whose scanner-frame returns span less than this (m) on every axis is rejected."""
-
-
 def _check_lines(
     lines: Sequence[ScanLine], latency_s: float, max_gap_s: float | None = None
 ) -> None:
@@ -214,57 +210,6 @@ def _check_lines(
     if len(set(names)) != len(names):
         msg = f"line names must be unique, got {names}"
         raise InputError(msg)
-
-
-def _without_unspread_lines(
-    lines: list[ScanLine], groups: Sequence[tuple[str, set[int]]] | None
-) -> tuple[list[ScanLine], Sequence[tuple[str, set[int]]] | None, tuple[tuple[str, str], ...]]:
-    """The lines whose returns spread in the scanner frame; the groups renumbered; the rest.
-
-    A line whose returns all sit within `MIN_LINE_SPREAD_M` of one another in the scanner
-    frame (one point repeated: a corrupt or placeholder file) sees no surface: georeferenced,
-    its returns only trace the trajectory, and they fell on patches the other lines see and
-    pulled the solution (28 features cut to 16, roll 0.31 +- 0.04 deg moved to 0.13 +- 0.35).
-    It is rejected with the reason, as a line that sees no feature is.
-
-    Raises
-    ------
-    InputError
-        Fewer than two lines are left.
-    """
-    xyz_spread = [float(np.max(np.ptp(line.xyz_scanner_m, axis=0))) for line in lines]
-    keep = [i for i, s in enumerate(xyz_spread) if s >= MIN_LINE_SPREAD_M]
-    rejected = tuple(
-        (
-            lines[i].name,
-            (
-                f"its {len(lines[i])} returns all lie within {xyz_spread[i] * 100:.2g} cm of "
-                f"one another in the scanner frame (less than {MIN_LINE_SPREAD_M * 100:g} cm): "
-                "one point repeated sees no surface; left out of the adjustment and of the "
-                "jackknife (check the file)"
-            ),
-        )
-        for i in range(len(lines))
-        if i not in keep
-    )
-    if not rejected:
-        return lines, groups, ()
-    if len(keep) < 2:
-        msg = (
-            f"only {len(keep)} of the {len(lines)} lines have returns that spread in the "
-            "scanner frame: "
-            + "; ".join(f"line {n!r}: {r}" for n, r in rejected)
-            + "; a calibration needs at least 2 overlapping lines"
-        )
-        raise InputError(msg)
-    new_index = {old: new for new, old in enumerate(keep)}
-    if groups is not None:
-        groups = [
-            (name, {new_index[i] for i in members if i in new_index})
-            for name, members in groups
-            if any(i in new_index for i in members)
-        ]
-    return [lines[i] for i in keep], groups, rejected
 
 
 def find_features(
@@ -444,7 +389,7 @@ def calibrate_mount(
     requested = estimated_indices(opt.estimate)
     lines = list(lines)
     _check_lines(lines, mount.latency_s, opt.max_gap_s)
-    lines, groups, no_spread = _without_unspread_lines(lines, groups)
+    lines, groups, no_spread = without_unspread_lines(lines, groups)
     same_time = lines_at_the_same_time(lines)
     if same_time is not None:
         raise same_time
