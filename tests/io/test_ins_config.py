@@ -103,13 +103,15 @@ def test_attitude_sigma_in_degrees() -> None:
 
 positive = st.floats(1e-9, 1e6, allow_nan=False, allow_infinity=False)
 vec3 = st.tuples(positive, positive, positive)
+gnss_std = st.floats(1e-6, 1e6, allow_nan=False, allow_infinity=False)
+gnss_vec3 = st.tuples(gnss_std, gnss_std, gnss_std)
 
 
 @settings(max_examples=50, deadline=None)
 @given(
     st.lists(positive, min_size=9, max_size=9),
-    vec3,
-    vec3,
+    gnss_vec3,
+    gnss_vec3,
     st.tuples(*(st.floats(-10.0, 10.0),) * 3),
     vec3,
     vec3,
@@ -356,6 +358,19 @@ def test_bad_scale_factor_and_bias_keys(extra: str, fragments: list[str]) -> Non
             (0.0, 2000.0, 0.0),
         ),
         (MINIMAL + "[filter]\nmax_imu_gap_s = 1e7\n", "[filter] max_imu_gap_s", None, 1e7),
+        # Review L5: 1e-12 was accepted here, while a GNSS file's sigma column refuses it
+        (
+            MINIMAL + "[gnss]\nstd_pos_ned_m = [1, 1e-12, 1]\n",
+            "[gnss] std_pos_ned_m",
+            "gnss_std_pos_ned_m",
+            (1.0, 1e-12, 1.0),
+        ),
+        (
+            MINIMAL + "[gnss]\nstd_vel_ned_m_s = [1, 1e-7, 1]\n",
+            "[gnss] std_vel_ned_m_s",
+            "gnss_std_vel_ned_m_s",
+            (1.0, 1e-7, 1.0),
+        ),
     ],
 )
 def test_implausible_values_are_refused_from_a_file_and_from_python_alike(
@@ -375,6 +390,8 @@ def test_implausible_values_are_refused_from_a_file_and_from_python_alike(
     assert file_message.startswith(f"cfg.toml: {key}{index} (in SI units): ")
     assert python_message.startswith(f"{field}{index}: ")
     assert file_message.split(" (in SI units): ")[1] == python_message.split(": ", 1)[1]
+    if field.startswith("gnss_std"):
+        assert "at least 1e-06" in file_message  # as a GNSS file's sigma columns
 
 
 @pytest.mark.parametrize(

@@ -12,7 +12,8 @@ Gauss–Markov process with the given correlation time): two states per axis in 
 filter (`kinsync.ins._ekf`). Scale factor errors are modelled when their σ is given.
 
 Every value must be finite and plausible (`FIELD_SPANS`, in SI units): noise terms and
-σ within 1e-12 to 1e6 (the filter squares them and divides by them), correlation times
+σ within 1e-12 to 1e6 (the filter squares them and divides by them; the GNSS σ from 1e-6,
+as in a GNSS file's σ columns), correlation times
 within 1e-9 to 1e10 s, ``max_imu_gap_s`` within 1e-9 to 1e6 s, lever arm components
 within ±1000 m, scale factor σ 0 (not modelled) or within 1e-6 to 1e6 ppm, calibrated
 biases within ±10 rad/s and ±1000 m/s^2. `InsConfig` refuses anything else naming its
@@ -80,12 +81,19 @@ _LEVER_ARM = Span(-1000.0, 1000.0, "m", "a lever arm component (beyond any vehic
 _PPM = Span(1e-6, 1e6, "ppm", "a scale factor σ")
 _GYRO_BIAS = Span(-10.0, 10.0, "rad/s", "a gyro bias (beyond any gyro's range)")
 _ACC_BIAS = Span(-1e3, 1e3, "m/s^2", "an accelerometer bias (100 g)")
+MIN_GNSS_STD = 1e-6
+"""Smallest GNSS position (m) or velocity (m/s) σ, in the configuration as in a GNSS file's
+σ columns: the filter weighs an epoch by 1/σ²."""
+_GNSS_STD_POS = Span(MIN_GNSS_STD, 1e6, "m", "a GNSS position standard deviation")
+_GNSS_STD_VEL = Span(MIN_GNSS_STD, 1e6, "m/s", "a GNSS velocity standard deviation")
 
 FIELD_SPANS: dict[str, Span] = {
     **dict.fromkeys(POSITIVE_FIELDS, _TERM),
     "gyro_bias_corr_time_s": _CORR_TIME,
     "acc_bias_corr_time_s": _CORR_TIME,
     "max_imu_gap_s": _GAP,
+    "gnss_std_pos_ned_m": _GNSS_STD_POS,
+    "gnss_std_vel_ned_m_s": _GNSS_STD_VEL,
     **dict.fromkeys(SCALE_FACTOR_FIELDS, _PPM),
     "antenna_lever_arm_body_m": _LEVER_ARM,
     "init_gyro_bias_rad_s": _GYRO_BIAS,

@@ -21,6 +21,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
+from kinsync.ins.config import MIN_GNSS_STD
 from kinsync.ins.measurements import GnssData
 from kinsync.io.sanity import (
     HEIGHT_M,
@@ -70,13 +71,14 @@ _SPANS: dict[str, Span] = {
 
 _STD_SPANS: dict[str, Span] = {
     **dict.fromkeys(
-        GNSS_STD_POSITION_COLUMNS, LENGTH_M.positive(1e-6, "a position standard deviation")
+        GNSS_STD_POSITION_COLUMNS, LENGTH_M.positive(MIN_GNSS_STD, "a position standard deviation")
     ),
     **dict.fromkeys(
-        GNSS_STD_VELOCITY_COLUMNS, SPEED_M_S.positive(1e-6, "a velocity standard deviation")
+        GNSS_STD_VELOCITY_COLUMNS, SPEED_M_S.positive(MIN_GNSS_STD, "a velocity standard deviation")
     ),
 }
-"""A σ is at least 1 µm (or µm/s): the filter weighs an epoch by 1/σ²."""
+"""A σ is at least 1 µm (or µm/s), as in the configuration's ``[gnss]`` σ: the filter
+weighs an epoch by 1/σ²."""
 
 
 def _check_positive_or_nan(table: NumericTable, names: tuple[str, ...], arr: FloatArray) -> None:
