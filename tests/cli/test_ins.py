@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -271,6 +272,11 @@ def test_bad_inputs_are_one_line_errors(
     argv = _run_args(navego, out)
     argv[argv.index(str(CONFIG))] = str(cfg)
     assert_one_line_error(*run_cli(argv), str(cfg), "max_gap_s")
+    # A gap setting below the sampling interval: the setting is named, not the IMU file.
+    tiny = tmp_path / "tiny_gap.toml"
+    tiny.write_text(re.sub(r"max_imu_gap_s = \S+", "max_imu_gap_s = 1e-9", CONFIG.read_text()))
+    argv[argv.index(str(cfg))] = str(tiny)
+    assert_one_line_error(*run_cli(argv), str(tiny), "max_imu_gap_s = 1e-09 s is below")
     # Initial state without velocities, and one that does not reach the IMU span.
     plain = tmp_path / "plain.csv"
     plain.write_text(

@@ -254,6 +254,18 @@ def test_imu_times_in_milliseconds_are_named() -> None:
         check_inputs(slow, _gnss(), CONFIG)
 
 
+def test_a_gap_setting_below_the_sampling_interval_names_the_setting() -> None:
+    """Review L5: max_imu_gap_s = 1e-9 was reported as 'the IMU samples are a median 0.02 s
+    apart ... are the times in ms or us?', blaming a good IMU file."""
+    tiny = dataclasses.replace(CONFIG, max_imu_gap_s=1e-9)
+    with pytest.raises(InputError) as info:
+        check_inputs(_imu(), _gnss(), tiny, imu_source="imu.csv", config_source="cfg.toml")
+    msg = str(info.value)
+    assert msg.startswith("cfg.toml: [filter] max_imu_gap_s = 1e-09 s is below")
+    assert "median sampling interval 0.01 s (imu.csv)" in msg
+    assert "ms or us" not in msg
+
+
 def test_axes_with_z_up_are_an_error() -> None:
     imu = _imu()
     flu = imu.acc_body_m_s2 * np.array([1.0, -1.0, -1.0])

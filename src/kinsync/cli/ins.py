@@ -245,6 +245,7 @@ def run(
         imu_source=str(imu_path),
         gnss_source=str(gnss_path),
         static_s=static_s,
+        config_source=str(config_path),
     )
     gnss = gnss_within_imu_span(gnss, imu)
     init = (

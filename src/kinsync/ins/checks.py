@@ -8,7 +8,8 @@ line ``k + 2``).
 Errors (`InputError`, the filter must not run):
 
 - a gap between IMU samples longer than ``InsConfig.max_imu_gap_s`` (a median interval
-  that long: times in ms or µs);
+  that long: times in ms or µs, or, when the median interval is that of an IMU in seconds
+  (at most `IMU_MAX_INTERVAL_S`), a ``max_imu_gap_s`` below the sampling interval);
 - fewer than two GNSS epochs inside the IMU time span (different time scales?), or
   epochs there a median of more than 10 s apart (GNSS times in ms or µs);
 - specific force whose median magnitude is far from 1 g (0.5 g to 1.5 g accepted):
@@ -101,6 +102,9 @@ in time (beyond the lever arm and `MAX_SPEED_M_S` times the time between them)."
 MAX_SPEED_M_S = 300.0
 """Speed (m/s) allowed for the time between the initial state and that GNSS fix."""
 EARTH_RADIUS_M = 6.371e6
+IMU_MAX_INTERVAL_S = 0.1
+"""Longest median IMU sampling interval (s, 10 Hz) taken as times in seconds: a longer one
+exceeding ``max_imu_gap_s`` means times in ms or µs, a shorter one a gap set too small."""
 _MAX_LISTED = 5
 
 
@@ -109,7 +113,9 @@ def _rows_text(rows: list[int]) -> str:
     return shown + (f", ... ({len(rows)} in all)" if len(rows) > _MAX_LISTED else "")
 
 
-def _check_gaps(imu: ImuData, config: InsConfig, source: str) -> list[str]:
+def _check_gaps(
+    imu: ImuData, config: InsConfig, source: str, config_source: str = "the configuration"
+) -> list[str]:
     dt = np.diff(imu.t_s)
     long_gap = np.flatnonzero(dt > config.max_imu_gap_s)
     if long_gap.size:
@@ -121,7 +127,14 @@ def _check_gaps(imu: ImuData, config: InsConfig, source: str) -> list[str]:
             "split the record, or raise [filter] max_imu_gap_s in the configuration"
         )
         median_dt = float(np.median(dt))
-        if median_dt > config.max_imu_gap_s:
+        if config.max_imu_gap_s < median_dt <= IMU_MAX_INTERVAL_S:
+            msg = (
+                f"{config_source}: [filter] max_imu_gap_s = {config.max_imu_gap_s:g} s is "
+                f"below the IMU's median sampling interval {median_dt:.6g} s ({source}): "
+                "every interval counts as a gap. Set it above the sampling interval (a few "
+                "intervals, e.g. 0.1 s)"
+            )
+        elif median_dt > config.max_imu_gap_s:
             msg = (
                 f"{source}: the IMU samples are a median {median_dt:.6g} s apart (rows 0 "
                 f"and 1 at t_s {imu.t_s[0]:.6f}, {imu.t_s[1]:.6f}), where an IMU samples at "
@@ -303,6 +316,7 @@ def check_inputs(
     imu_source: str = "imu.csv",
     gnss_source: str = "gnss.csv",
     static_s: float = 2.0,
+    config_source: str = "the configuration",
 ) -> list[str]:
     """Check IMU and GNSS inputs for gaps, time-span mismatch and wrong units.
 
@@ -318,6 +332,8 @@ def check_inputs(
         Names of the inputs used in messages (usually the file paths).
     static_s : float
         Length (s) of the start window tested for a static start.
+    config_source : str
+        Name of the configuration in messages (its file path).
 
     Returns
     -------
@@ -331,7 +347,7 @@ def check_inputs(
         and what to do.
     """
     warnings: list[str] = []
-    warnings += _check_gaps(imu, config, imu_source)
+    warnings += _check_gaps(imu, config, imu_source, config_source)
     warnings += _check_span(imu, gnss, imu_source, gnss_source)
     warnings += _check_units(imu, imu_source)
     warnings += _check_static_start(imu, gnss, imu_source, static_s)
