@@ -140,6 +140,15 @@ def test_reads_the_navego_file() -> None:
         (f"{HEAD}\n5,1,2,3\n4,1,2,3\n", ["decreasing", "line 3"]),
         (f"{HEAD},vn_m_s,ve_m_s,vd_m_s\n0,1,2,3,0,0,0\n1,1,2,3,0,nan,0\n", ["ve_m_s", "line 3"]),
         (f"{HEAD}\n0,1,2,3\n1,1,x,3\n", ["line 3", "lon_deg"]),
+        # an empty σ cell is nan, an empty position cell is not a number
+        (f"{HEAD},std_n_m,std_e_m,std_d_m\n0,1,2,3,,1,1\n1,1,,3,1,1,1\n", ["line 3", "lon_deg"]),
+        (
+            (
+                f"{HEAD},vn_m_s,ve_m_s,vd_m_s,std_vn_m_s,std_ve_m_s,std_vd_m_s\n"
+                "0,1,2,3,0,0,0,1,,1\n1,1,2,3,0,,0,1,1,1\n"
+            ),
+            ["line 3", "ve_m_s", "'' is not a number"],
+        ),
     ],
 )
 def test_bad_files(tmp_path: Path, text: str, fragments: list[str]) -> None:
@@ -151,6 +160,23 @@ def test_bad_files(tmp_path: Path, text: str, fragments: list[str]) -> None:
     assert str(path) in message
     for frag in fragments:
         assert frag in message, message
+
+
+def test_an_empty_sigma_cell_is_the_configured_default_as_nan_is(tmp_path: Path) -> None:
+    """Review L5: an empty σ cell was refused as "'' is not a number", while a literal
+    ``nan`` there means the configured default."""
+    head = f"{HEAD},vn_m_s,ve_m_s,vd_m_s,std_n_m,std_e_m,std_d_m,std_vn_m_s,std_ve_m_s,std_vd_m_s"
+    rows = ["0,1,2,3,0,0,0,0.5,,0.5,0.1,0.1,0.1", '1,1,2,3,0,0,0,0.5,0.5,0.5,0.1,0.1,""']
+    path = tmp_path / "gnss.csv"
+    path.write_text("\n".join([head, *rows]) + "\n")
+    gnss = read_gnss_csv(path)
+    assert gnss.std_vel_ned_m_s is not None
+    np.testing.assert_array_equal(gnss.std_pos_ned_m, [[0.5, np.nan, 0.5], [0.5, 0.5, 0.5]])
+    np.testing.assert_array_equal(gnss.std_vel_ned_m_s, [[0.1, 0.1, 0.1], [0.1, 0.1, np.nan]])
+    path.write_text(path.read_text().replace(",,", ",nan,").replace('""', "nan"))
+    as_nan = read_gnss_csv(path)
+    np.testing.assert_array_equal(as_nan.std_pos_ned_m, gnss.std_pos_ned_m)
+    np.testing.assert_array_equal(as_nan.std_vel_ned_m_s, gnss.std_vel_ned_m_s)
 
 
 def test_missing_file(tmp_path: Path) -> None:

@@ -7,10 +7,11 @@ Columns (header row, any order; other columns are ignored)::
     vn_m_s,ve_m_s,vd_m_s                    optional: antenna velocity in NED (m/s)
     std_vn_m_s,std_ve_m_s,std_vd_m_s        optional (with velocities): velocity σ (m/s)
 
-Each optional group is given whole or not at all. A ``nan`` σ cell means "use the
-configured default" for that epoch (`kinsync.ins.config.InsConfig`); a missing σ group
-means the defaults for every epoch. Epochs may be at any times (strictly increasing).
-Errors name the file and the line (header = line 1).
+Each optional group is given whole or not at all. A ``nan`` or empty σ cell means "use
+the configured default" for that epoch (`kinsync.ins.config.InsConfig`; an empty position
+or velocity cell is refused); a missing σ group means the defaults for every epoch.
+Epochs may be at any times (strictly increasing). Errors name the file and the line
+(header = line 1).
 """
 
 from __future__ import annotations
@@ -127,6 +128,7 @@ def read_gnss_csv(path: Path) -> GnssData:
         path,
         GNSS_POSITION_COLUMNS,
         GNSS_STD_POSITION_COLUMNS + GNSS_VELOCITY_COLUMNS + GNSS_STD_VELOCITY_COLUMNS,
+        empty_is_nan=GNSS_STD_POSITION_COLUMNS + GNSS_STD_VELOCITY_COLUMNS,
     )
     c = table.columns
     if table.n_rows < 2:

@@ -89,7 +89,16 @@ def rows_to_lines(text: str, line_of_row: Callable[[int], int]) -> str:
     )
 
 
-def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
+def _locate_bad_cell(path: Path, header: list[str], empty_is_nan: Sequence[str] = ()) -> InputError:
+    err = _first_bad_cell(path, header, empty_is_nan)
+    return InputError(f"{path}: cannot read as a numeric CSV table") if err is None else err
+
+
+def _first_bad_cell(
+    path: Path, header: list[str], empty_is_nan: Sequence[str] = ()
+) -> InputError | None:
+    """The first cell that is not a plain number (an empty one of ``empty_is_nan`` is)."""
+    blank_ok = set(empty_is_nan)
     with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
@@ -106,6 +115,8 @@ def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
                         f"{len(header)}"
                     )
                 for name, cell in zip(header, row, strict=True):
+                    if name in blank_ok and not cell:
+                        continue
                     try:
                         float(cell)
                     except ValueError:
@@ -122,16 +133,19 @@ def _locate_bad_cell(path: Path, header: list[str]) -> InputError:
                     )
         except csv.Error as err:
             return InputError(f"{path}: line {reader.line_num}: cannot read as CSV ({err})")
-    return InputError(f"{path}: cannot read as a numeric CSV table")
+    return None
 
 
-def _read_float_columns_arrow(path: Path, header: list[str]) -> dict[str, FloatArray] | None:
+def _read_float_columns_arrow(
+    path: Path, header: list[str], *, empty_is_null: bool = False
+) -> dict[str, FloatArray] | None:
     """All columns as float64 through pyarrow's multi-threaded CSV reader.
 
     Returns None when the file is not clean numeric CSV (a non-number, an empty cell,
     a ragged row); the caller then names the first bad line. ``nan`` is a number, as
-    for ``float()``.
+    for ``float()``; so is an empty cell with ``empty_is_null`` (NaN).
     """
+    null_values = ["nan", "NaN", "-nan", "+nan", *([""] if empty_is_null else [])]
     try:
         with signals_left_to_python():
             table = pa_csv.read_csv(
@@ -139,9 +153,9 @@ def _read_float_columns_arrow(path: Path, header: list[str]) -> dict[str, FloatA
                 read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
                 convert_options=pa_csv.ConvertOptions(
                     column_types=dict.fromkeys(header, pa.float64()),
-                    null_values=["nan", "NaN", "-nan", "+nan"],
+                    null_values=null_values,
                     strings_can_be_null=False,
-                    quoted_strings_can_be_null=False,
+                    quoted_strings_can_be_null=empty_is_null,
                 ),
             )
     except (pa.ArrowInvalid, pa.ArrowTypeError):
@@ -153,7 +167,11 @@ def _read_float_columns_arrow(path: Path, header: list[str]) -> dict[str, FloatA
 
 
 def read_numeric_csv(
-    path: Path, required: Sequence[str], optional: Sequence[str] = ()
+    path: Path,
+    required: Sequence[str],
+    optional: Sequence[str] = (),
+    *,
+    empty_is_nan: Sequence[str] = (),
 ) -> NumericTable:
     """Read a comma-separated numeric table with a header row.
 
@@ -165,6 +183,9 @@ def read_numeric_csv(
         Columns that must be present.
     optional : sequence of str
         Columns read when present (others are kept too; listed for documentation).
+    empty_is_nan : sequence of str
+        Columns whose empty cells read as NaN (``nan`` means "not given" there); an empty
+        cell elsewhere is refused as not a number.
 
     Raises
     ------
@@ -191,8 +212,12 @@ def read_numeric_csv(
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
     columns = _read_float_columns_arrow(path, header)
+    if columns is None and empty_is_nan:  # empty cells where they mean nan, and no other?
+        if (err := _first_bad_cell(path, header, empty_is_nan)) is not None:
+            raise err
+        columns = _read_float_columns_arrow(path, header, empty_is_null=True)
     if columns is None:  # not clean numeric CSV: find and name the bad line
-        raise _locate_bad_cell(path, header)
+        raise _locate_bad_cell(path, header, empty_is_nan)
     return NumericTable(source=str(path), columns=columns)
 
 
