@@ -61,6 +61,8 @@ def test_gyro_in_deg_s_is_refused_by_the_chi_square_check(calm: Drive) -> None:
     assert message.startswith("rx.csv: the chi-square gate rejected ")
     assert "of 451 GNSS epochs" in message
     assert "Check the gyro units (rad/s, not deg/s)" in message
+    # Review L5: one bad gyro value also does it, and blamed the GNSS file
+    assert "a spike in an IMU record (one bad gyro or accelerometer value)" in message
 
 
 def test_specific_force_in_g_and_z_up_are_refused(calm: Drive) -> None:

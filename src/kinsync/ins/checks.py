@@ -446,7 +446,8 @@ def check_gnss_rejections(
         f"{gnss_source}: the chi-square gate rejected {n_rej} of {n} GNSS epochs "
         f"({n_rej / n:.1%}; a filter that fits its data rejects about {expected:.2%}) at "
         f"t_s {times}{more}: the IMU and the GNSS disagree. Check the gyro units (rad/s, "
-        "not deg/s) and axes (X forward, Y right, Z down), the GNSS time tags (same time "
+        "not deg/s) and axes (X forward, Y right, Z down), a spike in an IMU record (one "
+        "bad gyro or accelerometer value), the GNSS time tags (same time "
         "scale, no offset), the antenna lever arm, the initial state, the [init] biases, "
         "the [imu] bias sigma (units of their keys) and the [gnss] sigma"
     )
