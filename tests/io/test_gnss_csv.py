@@ -179,6 +179,19 @@ def test_an_empty_sigma_cell_is_the_configured_default_as_nan_is(tmp_path: Path)
     np.testing.assert_array_equal(as_nan.std_vel_ned_m_s, gnss.std_vel_ned_m_s)
 
 
+def test_a_file_without_header_says_so_and_names_the_columns(tmp_path: Path) -> None:
+    """Review L5: rows without a header gave "duplicated column(s) ['0.01', '0.02'] in the
+    header"."""
+    path = tmp_path / "gnss.csv"
+    path.write_text("0,1,2,3,0.01,0.01,0.02\n1,1,2,3,0.01,0.01,0.02\n")
+    with pytest.raises(InputError) as info:
+        read_gnss_csv(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: the first line holds numbers (0,1,2,3,...), not column names")
+    assert "required: t_s, lat_deg, lon_deg, h_m; optional: std_n_m," in msg
+    assert "duplicated" not in msg
+
+
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="not found"):
         read_gnss_csv(tmp_path / "none.csv")

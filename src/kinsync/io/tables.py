@@ -166,6 +166,14 @@ def _read_float_columns_arrow(
     }
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def read_numeric_csv(
     path: Path,
     required: Sequence[str],
@@ -182,7 +190,8 @@ def read_numeric_csv(
     required : sequence of str
         Columns that must be present.
     optional : sequence of str
-        Columns read when present (others are kept too; listed for documentation).
+        Columns read when present (others are kept too; named in the message of a file
+        without a header row).
     empty_is_nan : sequence of str
         Columns whose empty cells read as NaN (``nan`` means "not given" there); an empty
         cell elsewhere is refused as not a number.
@@ -195,7 +204,6 @@ def read_numeric_csv(
         (listing what is there), duplicated column names, a non-numeric cell (line and
         column), ragged rows, bytes that are not UTF-8.
     """
-    del optional  # every column is returned; the argument documents intent at call sites
     path = Path(path)
     check_text_file(path, "CSV file", max_bytes=MAX_TABLE_BYTES)
     header_row = csv_header_row(path)  # a BOM is not a name
@@ -203,6 +211,15 @@ def read_numeric_csv(
         msg = f"{path}: empty file; expected a header row with {', '.join(required)}"
         raise InputError(msg)
     header = [h.strip() for h in header_row]
+    if all(_is_number(h) for h in header):
+        shown = ",".join(header[:4]) + (",..." if len(header) > 4 else "")
+        extra = f"; optional: {', '.join(optional)}" if optional else ""
+        msg = (
+            f"{path}: the first line holds numbers ({shown[:120]}), not column names: the "
+            f"file has no header row. Add one naming the columns (required: "
+            f"{', '.join(required)}{extra})"
+        )
+        raise InputError(msg)
     dupes = sorted({h for h in header if header.count(h) > 1})
     if dupes:
         msg = f"{path}: duplicated column(s) {dupes} in the header"
