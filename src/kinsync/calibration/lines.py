@@ -181,6 +181,9 @@ def two_passes_in_a_line(lines: list[ScanLine] | tuple[ScanLine, ...]) -> tuple[
 
 MIN_LINE_SPREAD_M = 0.05
 """A line whose scanner-frame returns span less than this (m) on every axis is rejected."""
+MIN_RETURNS_FOR_SPREAD = 100
+"""Lines with fewer returns are not judged by their spread (3 returns of a pass that
+missed its sphere are rejected as seeing no sphere)."""
 
 
 def without_unspread_lines(
@@ -188,8 +191,9 @@ def without_unspread_lines(
 ) -> tuple[list[ScanLine], Sequence[tuple[str, set[int]]] | None, tuple[tuple[str, str], ...]]:
     """The lines whose returns spread in the scanner frame; the groups renumbered; the rest.
 
-    A line whose returns all sit within `MIN_LINE_SPREAD_M` of one another in the scanner
-    frame (one point repeated: a corrupt or placeholder file) sees no surface: georeferenced,
+    A line of at least `MIN_RETURNS_FOR_SPREAD` returns that all sit within
+    `MIN_LINE_SPREAD_M` of one another in the scanner frame (one point repeated: a corrupt
+    or placeholder file) sees no surface: georeferenced,
     its returns only trace the trajectory, and they fell on patches the other lines see and
     pulled the solution (28 features cut to 16, roll 0.31 +- 0.04 deg moved to 0.13 +- 0.35).
     It is rejected with the reason, as a line that sees no feature is.
@@ -200,7 +204,12 @@ def without_unspread_lines(
         Fewer than two lines are left.
     """
     xyz_spread = [float(np.max(np.ptp(line.xyz_scanner_m, axis=0))) for line in lines]
-    keep = [i for i, s in enumerate(xyz_spread) if s >= MIN_LINE_SPREAD_M]
+    # a handful of returns (a pass that missed its target) are left to the features' check
+    keep = [
+        i
+        for i, s in enumerate(xyz_spread)
+        if s >= MIN_LINE_SPREAD_M or len(lines[i]) < MIN_RETURNS_FOR_SPREAD
+    ]
     rejected = tuple(
         (
             lines[i].name,
