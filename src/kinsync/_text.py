@@ -7,7 +7,15 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["P_CEILING", "P_FLOOR", "counted", "first_few", "format_p_value", "shown_value"]
+__all__ = [
+    "P_CEILING",
+    "P_FLOOR",
+    "counted",
+    "first_few",
+    "format_p_value",
+    "reads_as_number",
+    "shown_value",
+]
 
 _IRREGULAR = {"pass": "passes", "axis": "axes", "matrix": "matrices", "patch": "patches"}
 
@@ -109,3 +117,18 @@ def format_p_value(p: float, *, prefix: bool = True) -> str:
         text = f"{p:.3f}" if p < 0.01 else f"{p:.2f}"
         body = f"= {text}" if prefix else text
     return f"p {body}" if prefix else body
+
+
+def reads_as_number(text: str) -> bool:
+    """Whether Python's ``float`` reads ``text`` (a CSV cell, a header field) as a number.
+
+    Parameters
+    ----------
+    text : str
+        The text (``"1.5"``, ``" 2 "``, ``"nan"``, ``"1_000"`` read; ``"t_s"`` does not).
+    """
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

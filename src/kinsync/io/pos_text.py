@@ -50,6 +50,7 @@ from typing import Literal
 
 import numpy as np
 
+from kinsync._text import reads_as_number
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_quaternion, matrix_to_quaternion, rot_x, rot_y, rot_z
@@ -168,17 +169,9 @@ def _normalise(name: str) -> str:
     return " ".join(without_units.upper().replace("_", " ").split())
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _is_data(fields: list[str]) -> bool:
     """A row of numbers (at least half its fields; a date such as 04/12/2020 is not)."""
-    return bool(fields) and 2 * sum(_is_number(f) for f in fields) >= len(fields)
+    return bool(fields) and 2 * sum(reads_as_number(f) for f in fields) >= len(fields)
 
 
 def _split_names(line: str) -> list[str]:

@@ -18,6 +18,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 
+from kinsync._text import reads_as_number
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.arrow_signals import signals_left_to_python
@@ -166,14 +167,6 @@ def _read_float_columns_arrow(
     }
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def read_numeric_csv(
     path: Path,
     required: Sequence[str],
@@ -211,7 +204,7 @@ def read_numeric_csv(
         msg = f"{path}: empty file; expected a header row with {', '.join(required)}"
         raise InputError(msg)
     header = [h.strip() for h in header_row]
-    if all(_is_number(h) for h in header):
+    if all(reads_as_number(h) for h in header):
         shown = ",".join(header[:4]) + (",..." if len(header) > 4 else "")
         extra = f"; optional: {', '.join(optional)}" if optional else ""
         msg = (
