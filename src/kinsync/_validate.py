@@ -26,6 +26,7 @@ __all__ = [
     "ANGLE_STEP_RAD",
     "COORDINATE_STEP_M",
     "ECEF_HEIGHT_RANGE_M",
+    "GROUND_BAND_TEXT",
     "TIME_STEP_S",
     "Span",
     "check_columns",
@@ -34,8 +35,10 @@ __all__ = [
     "check_values",
     "coordinate_array",
     "ecef_array",
+    "ecef_height_m",
     "finite_number",
     "name_tuple",
+    "off_ground_text",
     "positive_number",
     "time_array",
 ]
@@ -240,25 +243,49 @@ def ecef_array(values: ArrayLike, name: str) -> FloatArray:
     if arr.ndim == 0 or arr.shape[-1] != 3 or arr.size == 0:
         return arr
     rows = arr.reshape(-1, 3)
-    height = _height_above_ellipsoid_m(rows)
+    height = ecef_height_m(rows)
     low, high = ECEF_HEIGHT_RANGE_M
     bad = np.isfinite(height) & ((height < low) | (height > high))
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
-        where = "above" if height[row] > 0 else "below"
         msg = (
-            f"{name}: point at index {row} (0-based), {rows[row].tolist()} m, lies "
-            f"{abs(height[row]) / 1000:.4g} km {where} the WGS84 ellipsoid, not near the "
-            f"ground ({-low / 1000:g} km below to {high / 1000:g} km above it): these are "
-            "not ECEF coordinates (local or projected coordinates?); convert them to "
-            "ECEF (m)"
+            f"{name}: point at index {row} (0-based), {rows[row].tolist()} m, "
+            f"{off_ground_text(float(height[row]))}: these are not ECEF coordinates (local "
+            "or projected coordinates?); convert them to ECEF (m)"
         )
         raise InputError(msg)
     return arr
 
 
-def _height_above_ellipsoid_m(rows: FloatArray) -> FloatArray:
+GROUND_BAND_TEXT = (
+    f"{-ECEF_HEIGHT_RANGE_M[0] / 1000:g} km below to {ECEF_HEIGHT_RANGE_M[1] / 1000:g} km "
+    "above the WGS84 ellipsoid"
+)
+"""`ECEF_HEIGHT_RANGE_M` in words, for messages."""
+
+
+def off_ground_text(height_m: float) -> str:
+    """Where a point of height ``height_m`` (m, `ecef_height_m`) lies, in words.
+
+    Parameters
+    ----------
+    height_m : float
+        Height above the WGS84 ellipsoid (m).
+    """
+    where = "above" if height_m > 0 else "below"
+    return (
+        f"lies {abs(height_m) / 1000:.4g} km {where} the WGS84 ellipsoid, not near the "
+        f"ground ({GROUND_BAND_TEXT})"
+    )
+
+
+def ecef_height_m(rows: FloatArray) -> FloatArray:
     """Height (m) of ECEF points (n, 3) above the WGS84 ellipsoid along their radius.
+
+    Parameters
+    ----------
+    rows : ndarray, shape (n, 3)
+        ECEF points (m).
 
     The ellipsoid's radius at the point's geocentric latitude is subtracted from the
     point's; this differs from the geodetic height by under 1e-5 of it, enough to tell

@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync._validate import ECEF_HEIGHT_RANGE_M
+from kinsync._validate import ECEF_HEIGHT_RANGE_M, GROUND_BAND_TEXT, off_ground_text
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic
 from kinsync.io.atomic import atomic_path
@@ -121,20 +121,18 @@ def _refuse_off_ground(
     if bad.size == 0:
         return
     k = int(bad[0])
-    band = f"{-low / 1000:g} km below to {high / 1000:g} km above the WGS84 ellipsoid"
     if geodetic:
         msg = (
             f"{path}: line {lines[k]}, column 'h_m': height {values[k, 2]!r} m is not near "
-            f"the ground ({band}), where a surveyed control point lies: heights in mm or "
-            "another unit? give ellipsoidal heights in metres"
+            f"the ground ({GROUND_BAND_TEXT}), where a surveyed control point lies: heights "
+            "in mm or another unit? give ellipsoidal heights in metres"
         )
     else:
         msg = (
-            f"{path}: line {lines[k]}: point {values[k].tolist()} lies "
-            f"{abs(float(height_m[k])) / 1000:.4g} km {'above' if height_m[k] > 0 else 'below'}"
-            f" the WGS84 ellipsoid, not near the ground ({band}): these are not ECEF "
-            "coordinates (local or projected coordinates?); convert them to ECEF x_m,y_m,z_m "
-            "(m) or give name,lat_deg,lon_deg,h_m"
+            f"{path}: line {lines[k]}: point {values[k].tolist()} "
+            f"{off_ground_text(float(height_m[k]))}: these are not ECEF coordinates (local "
+            "or projected coordinates?); convert them to ECEF x_m,y_m,z_m (m) or give "
+            "name,lat_deg,lon_deg,h_m"
         )
     raise InputError(msg)
 
