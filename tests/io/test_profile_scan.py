@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +79,9 @@ def test_scan_csv_round_trip_property(
     )
     path = tmp_path_factory.mktemp("p") / "s.csv"
     write_profile_scan(scan, path)
-    back = read_profile_scan(path)
+    with warnings.catch_warnings():  # a range of 0 is read, with a warning (tested below)
+        warnings.simplefilter("ignore", KinsyncWarning)
+        back = read_profile_scan(path)
     np.testing.assert_array_equal(back.profile, scan.profile)
     np.testing.assert_array_equal(back.angle_rad, scan.angle_rad)
     np.testing.assert_array_equal(back.range_m, scan.range_m)
@@ -350,3 +353,30 @@ def test_a_malformed_clock_document_is_refused(tmp_path: Path, extra: str, patte
     path = _write_text(tmp_path, "c.json", f'{{"t0_s": 1400000000.5, {extra}}}')
     with pytest.raises(InputError, match=pattern):
         read_clock_document(path, accept_ambiguous=True)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_zero_ranges_are_named_with_a_warning_when_read(tmp_path: Path, suffix: str) -> None:
+    """A range of 0 ("no return") is read, but named: `sync apply` will refuse it."""
+    scan = _scan(n=20)
+    rng = scan.range_m.copy()
+    rng[[6, 9]] = 0.0
+    path = tmp_path / f"scan{suffix}"
+    write_profile_scan(
+        ProfileScan(
+            profile=scan.profile, angle_rad=scan.angle_rad, range_m=rng, intensity=scan.intensity
+        ),
+        path,
+    )
+    where = "line 8" if suffix == ".csv" else "row 7 of 20"
+    with pytest.warns(KinsyncWarning, match=rf"{where}: range_m is 0 \(2 of 20 returns\).*apply"):
+        back = read_profile_scan(path)
+    np.testing.assert_array_equal(back.range_m, rng)
+
+
+def test_a_scan_without_zero_ranges_reads_without_a_warning(tmp_path: Path) -> None:
+    path = tmp_path / "scan.csv"
+    write_profile_scan(_scan(n=20), path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_profile_scan(path)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -33,7 +34,7 @@ import pyarrow.csv as pa_csv
 
 from kinsync._text import shown_value
 from kinsync._typing import ArrayLike, FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.atomic import atomic_path
 from kinsync.io.points import TableChunkWriter, iter_table_chunks
 from kinsync.io.row_position import csv_line_of_row, point_position
@@ -57,6 +58,7 @@ from kinsync.sync.scan import (
     SYNC_POINT_COLUMNS,
     ProfileScan,
     SyncPoints,
+    zero_range_note,
 )
 
 __all__ = [
@@ -98,6 +100,12 @@ def read_profile_scan(path: Path) -> ProfileScan:
         Missing file or columns, a non-numeric cell, a value that is not finite or not
         plausible (`kinsync.io.sanity`), or a bad profile number (naming the CSV line
         or the Parquet row, counted from 1).
+
+    Warns
+    -----
+    KinsyncWarning
+        Ranges of 0, a "no return" code that `kinsync sync apply` refuses (the first
+        such row and the count).
     """
     path = Path(path)
     require_file(path, "scan")  # a link loop, a pipe, a folder: named as such
@@ -118,6 +126,8 @@ def read_profile_scan(path: Path) -> ProfileScan:
     profile = ProfileScan.checked_profile_numbers(
         cols["profile"], str(path), lambda i: point_position(path, i, total)
     )
+    if zero_note := zero_range_note(cols["range_m"], where):
+        warnings.warn(zero_note, KinsyncWarning, stacklevel=2)
     return ProfileScan(
         profile=profile,
         angle_rad=cols["angle_rad"],
