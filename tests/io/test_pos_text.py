@@ -276,6 +276,10 @@ GOOD_ROWS = "100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 3
             ["line 13", "increasing"],
         ),
         (_ie_text(GOOD_ROWS).replace("(deg) (deg) (deg)\n", "(rad) (rad) (rad)\n"), ["radians"]),
+        (  # a negative time of week was read as a time of the week before (as in SBET)
+            _ie_text(GOOD_ROWS.replace("100.", "-100.")[:-1] + "\n"),
+            ["line 12, column 'GPSTime'", "-100", "seconds of week"],
+        ),
     ],
 )
 def test_bad_exports_name_the_file_and_line(

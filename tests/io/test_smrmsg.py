@@ -170,3 +170,17 @@ def test_companion_lookup(tmp_path: Path) -> None:
     lone = nested / "trajectory.out"
     lone.write_bytes(b"")
     assert find_smrmsg_companion(lone) is None
+
+
+@pytest.mark.parametrize("gps_week", [None, 2345])
+def test_negative_seconds_of_week_are_refused_naming_the_record(
+    tmp_path: Path, gps_week: int | None
+) -> None:
+    # Were read as times of an earlier week, as in SBET files (test_sbet).
+    rec = np.zeros(4, dtype=SMRMSG_DTYPE)
+    rec["time_sow_s"] = [-3.0, -2.0, -1.0, 0.0]
+    rec.tofile(tmp_path / "negt.out")
+    with pytest.raises(
+        InputError, match=r"negt\.out: record 0 \(byte 0\), column 'time_sow_s'.*seconds of week"
+    ):
+        read_smrmsg(tmp_path / "negt.out", gps_week=gps_week)

@@ -62,6 +62,7 @@ from kinsync.io.sanity import (
     LONGITUDE_DEG,
     PITCH_DEG,
     ROLL_DEG,
+    SECONDS_OF_WEEK_S,
     SPEED_M_S,
     TIME_S,
     Span,
@@ -447,7 +448,8 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     InputError
         An unrecognised layout (naming the file and what kinsync reads), a row with the
         wrong number of fields or a cell that is not a number (naming the line and
-        column), implausible values, fewer than 2 rows, times that do not increase.
+        column), implausible values (a negative time of week among them), fewer than 2
+        rows, times that do not increase.
     """
     path = Path(path)
     check_text_file(path, "trajectory export", max_bytes=_MAX_BYTES)
@@ -461,11 +463,13 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     if len(line_of_row) < 2:
         msg = f"{path}: a trajectory needs at least 2 records, found {len(line_of_row)}"
         raise InputError(msg)
-    named = {layout.names[layout.columns[q]]: v for q, v in c.items()}
-    spans = {layout.names[layout.columns[q]]: span for q, span in _SPANS.items() if q in c}
-    check_columns(named, spans, lambda row: f"{path}: line {line_of_row[row]}")
     t = c["t_s"]
     already_gps = "week" not in c and holds_gps_time(float(t[0]))
+    named = {layout.names[layout.columns[q]]: v for q, v in c.items()}
+    spans = {layout.names[layout.columns[q]]: span for q, span in _SPANS.items() if q in c}
+    if not already_gps:  # seconds of week: a negative one would be read as an earlier week
+        spans[layout.names[layout.columns["t_s"]]] = SECONDS_OF_WEEK_S
+    check_columns(named, spans, lambda row: f"{path}: line {line_of_row[row]}")
     gps_time = "week" in c or already_gps or gps_week is not None
     if "week" in c:
         t = c["week"] * SECONDS_PER_WEEK + t

@@ -52,6 +52,7 @@ __all__ = [
     "PITCH_DEG",
     "PROBE_BYTES",
     "ROLL_DEG",
+    "SECONDS_OF_WEEK_S",
     "SPEED_M_S",
     "TIME_S",
     "Span",
@@ -365,6 +366,10 @@ def not_utf8_cell(path: Path, line: int, cell: str) -> InputError | None:
 TIME_S = Span(-1e10, 1e10, "s", "a time in seconds (317 years either side of its epoch)")
 """Times: GPS time (1.4e9 s in 2024), GPS seconds of week, a local clock. Beyond 1e10 s
 a float64 resolves less than 2 microseconds; a larger value is a unit mistake (ms, ns)."""
+
+SECONDS_OF_WEEK_S = Span(0.0, TIME_S.high, "s", "a time in seconds of week (from 0 at its start)")
+"""GPS seconds of week: a negative value would be read as a time of an earlier week. No end
+is set: a trajectory that crosses the week's end keeps counting past 604800 s."""
 
 LATITUDE_DEG = Span(-90.0, 90.0, "deg", "a latitude")
 LONGITUDE_DEG = Span(-360.0, 360.0, "deg", "a longitude (-180 to 180 or 0 to 360)")

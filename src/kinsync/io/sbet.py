@@ -80,7 +80,15 @@ from kinsync.frames import euler_rpy_to_quaternion
 from kinsync.io.atomic import atomic_path
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.records import count_records, memmap_records
-from kinsync.io.sanity import ANGLE_RAD, HEIGHT_M, SPEED_M_S, TIME_S, Span, check_columns
+from kinsync.io.sanity import (
+    ANGLE_RAD,
+    HEIGHT_M,
+    SECONDS_OF_WEEK_S,
+    SPEED_M_S,
+    TIME_S,
+    Span,
+    check_columns,
+)
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_rows import normalise_quaternions
 from kinsync.trajectory_times import validated_times
@@ -137,11 +145,9 @@ _SPANS: dict[str, Span] = {
 
 _WEEK_SPANS: dict[str, Span] = {
     **_SPANS,
-    "time_sow_s": Span(0.0, TIME_S.high, "s", "a time in seconds of week (from 0 at its start)"),
+    "time_sow_s": SECONDS_OF_WEEK_S,
 }
-"""`_SPANS` of an SBET of GPS seconds of week (its first time tells, `holds_gps_time`): a
-negative time was read as a time of an earlier week. No end is set: a trajectory that
-crosses the week's end keeps counting past 604800 s."""
+"""`_SPANS` of an SBET of GPS seconds of week (its first time tells, `holds_gps_time`)."""
 
 _ATTITUDE_LIMITS_RAD: dict[str, tuple[float, str]] = {
     "roll_rad": (2 * math.pi, "+-2 pi"),

@@ -58,7 +58,15 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
 from kinsync.io.records import memmap_records
-from kinsync.io.sanity import ANGLE_DEG, LENGTH_M, SPEED_M_S, TIME_S, Span, check_columns
+from kinsync.io.sanity import (
+    ANGLE_DEG,
+    LENGTH_M,
+    SECONDS_OF_WEEK_S,
+    SPEED_M_S,
+    TIME_S,
+    Span,
+    check_columns,
+)
 from kinsync.io.sbet import seconds_of_first_week
 
 __all__ = [
@@ -217,8 +225,9 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
     Raises
     ------
     InputError
-        A truncated or empty file, non-finite or implausible values, a negative RMS
-        (naming the file and the record, 0-based, with its byte offset).
+        A truncated or empty file, non-finite or implausible values, a negative RMS, a
+        negative time in a file of seconds of week (naming the file and the record,
+        0-based, with its byte offset).
     """
     path = Path(path)
     if gps_week is not None and gps_week < 0:
@@ -227,9 +236,10 @@ def read_smrmsg(path: Path, *, gps_week: int | None = None) -> SmrmsgData:
     rec = read_smrmsg_records(path)
     values = np.array(rec.view("<f8").reshape(len(rec), _FIELDS), dtype=np.float64)
     del rec  # closes the map
+    of_week = len(values) > 0 and not holds_gps_time(float(values[0, 0]))
     check_columns(
         dict(zip(SMRMSG_DTYPE.names or (), values.T, strict=True)),
-        _SPANS,
+        _SPANS | {"time_sow_s": SECONDS_OF_WEEK_S} if of_week else _SPANS,
         lambda i: f"{path}: record {i} (byte {i * SMRMSG_RECORD_BYTES})",
     )
     t = values[:, 0]
