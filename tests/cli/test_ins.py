@@ -503,3 +503,26 @@ def test_compare_near_90_deg_pitch_warns_and_gives_the_misorientation(
     code, stdout, _ = run_cli(["ins", "compare", str(solution), str(truth), "--json"])
     doc = json.loads(stdout)
     assert doc["rms_misorientation_ned_deg"][0] == pytest.approx(0.005, abs=1e-6)
+
+
+def test_each_gnss_epoch_rejected_by_the_gate_is_named_by_its_time(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    """A count alone left the user to find which fixes the χ² gate threw away."""
+    lines = navego["gnss"].read_text().splitlines(keepends=True)
+    row = 200  # t_s 40.0 (5 Hz): a fix 300 m too high (σ 10 m)
+    fields = lines[row + 1].split(",")
+    fields[3] = f"{float(fields[3]) + 300.0:.4f}"
+    lines[row + 1] = ",".join(fields)
+    gnss = tmp_path / "gnss_spike.csv"
+    gnss.write_text("".join(lines))
+    paths = navego | {"gnss": gnss}
+    code, stdout, stderr = run_cli(_run_args(paths, tmp_path / "nav.csv", "--json"))
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    assert float(fields[0]) in doc["gnss_rejected_t_s"]
+    assert len(doc["gnss_rejected_t_s"]) == doc["gnss_rejected"]
+    code, stdout, stderr = run_cli(_run_args(paths, tmp_path / "nav2.csv"))
+    assert code == 0, stderr
+    shown = rf"rejected.*\b{doc['gnss_rejected']} \(t_s [0-9., ]*{float(fields[0]):.3f}"
+    assert re.search(shown, stdout), stdout

@@ -293,6 +293,7 @@ def run(
     summary = _run_document(
         solution, config, seconds=seconds, smooth=smooth, out=out, states=result.error_states
     )
+    summary["gnss_rejected_t_s"] = result.gnss_rejected_t_s.tolist()  # each one, by its time
     summary["warnings"] = list(result.warnings)
     if as_json:
         print_json(summary)
@@ -348,13 +349,23 @@ def _run_document(
     }
 
 
+def _rejected_text(doc: dict[str, Any], shown: int = 5) -> str:
+    """The χ² rejections: their count, and the times of the first ``shown``."""
+    times = doc.get("gnss_rejected_t_s") or []
+    if not times:
+        return str(doc["gnss_rejected"])
+    listed = ", ".join(f"{t:.3f}" for t in times[:shown])
+    more = f", ... ({len(times)} in all, --json lists each)" if len(times) > shown else ""
+    return f"{doc['gnss_rejected']} (t_s {listed}{more})"
+
+
 def _print_run_table(doc: dict[str, Any], solution: NavSolution, *, title: str) -> None:
     table = quantity_table(title)
     seconds = float(doc["seconds"])
     table.add_row("epochs written", str(doc["epochs"]))
     table.add_row("solution", "smoothed (RTS)" if doc["smoothed"] else "forward filter")
     table.add_row("GNSS epochs used", str(doc["gnss_used"]))
-    table.add_row("GNSS epochs rejected (χ² gate)", str(doc["gnss_rejected"]))
+    table.add_row("GNSS epochs rejected (χ² gate)", _rejected_text(doc))
     table.add_row("seconds", fmt(seconds))
     table.add_row("epochs per second", fmt(doc["epochs_per_s"]))
     table.add_row(
