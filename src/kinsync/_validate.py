@@ -131,9 +131,10 @@ def _refuse_coarse_floats(
     largest = finite.max()
     spacing = float(np.spacing(largest))
     if spacing > step:
+        u = f" {unit}" if unit else ""
         msg = (
-            f"{name}: {arr.dtype} {what} near {float(largest):.6g} {unit} are held in steps "
-            f"of {spacing:.3g} {unit}, coarser than the {step_text} kinsync needs (they are "
+            f"{name}: {arr.dtype} {what} near {float(largest):.6g}{u} are held in steps "
+            f"of {spacing:.3g}{u}, coarser than the {step_text} kinsync needs (they are "
             f"already rounded: converting them back does not restore them); "
             f"{advice or f'pass float64 {what}'}"
         )
@@ -141,9 +142,9 @@ def _refuse_coarse_floats(
 
 
 def check_float_step(
-    arr: np.ndarray, name: str, kind: Literal["time", "coordinate", "angle"]
+    arr: np.ndarray, name: str, kind: Literal["time", "coordinate", "angle", "count"]
 ) -> None:
-    """Refuse times, coordinates or angles held in a float dtype coarser than kinsync needs.
+    """Refuse times, coordinates, angles or counts held in a float dtype coarser than needed.
 
     Parameters
     ----------
@@ -152,9 +153,11 @@ def check_float_step(
         to 128 s or 0.5 m. Integer and float64 arrays pass.
     name : str
         Where they are stored, for the message (file and column).
-    kind : {"time", "coordinate", "angle"}
+    kind : {"time", "coordinate", "angle", "count"}
         Times need steps of `TIME_STEP_S` (1 us), coordinates `COORDINATE_STEP_M` (0.1 mm),
-        angles in radians `ANGLE_STEP_RAD` (1 urad).
+        angles in radians `ANGLE_STEP_RAD` (1 urad), counts (profile numbers) steps of 1
+        (float16 tells every whole number below 2048 from its neighbours, float32 below
+        16,777,216).
 
     Raises
     ------
@@ -166,6 +169,9 @@ def check_float_step(
         _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s", advice)
     elif kind == "angle":
         _refuse_coarse_floats(arr, name, "angles", ANGLE_STEP_RAD, "1 urad", "rad", advice)
+    elif kind == "count":
+        count_advice = "write the column as integers (int64)"
+        _refuse_coarse_floats(arr, name, "whole numbers", 1.0, "step of 1", "", count_advice)
     else:
         _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m", advice)
 

@@ -301,6 +301,34 @@ def test_a_float16_angle_column_is_refused_as_angles(tmp_path: Path) -> None:
     np.testing.assert_array_equal(read_profile_scan(path).angle_rad, angle.astype(np.float32))
 
 
+def test_float16_profile_numbers_and_intensities_are_judged_as_what_they_hold(
+    tmp_path: Path,
+) -> None:
+    """Both were refused as 'float16 coordinates near 9 m ... 0.1 mm'.
+
+    An intensity is a relative strength: float16 holds it well enough. Profile numbers are
+    whole: float16 holds each one below 2048, and from there on skips some.
+    """
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    cols = {"angle_rad": [0.1, 0.2, -0.5, 0.2], "range_m": [2.0] * 4}
+    intensity = np.array([0.5, 0.25, 0.125, 0.3], dtype=np.float16)
+    profile = np.array([0, 0, 2046, 2047], dtype=np.float16)
+    path = tmp_path / "scan.parquet"
+    pq.write_table(pa.table(cols | {"profile": profile, "intensity": intensity}), path)
+    scan = read_profile_scan(path)
+    np.testing.assert_array_equal(scan.intensity, intensity.astype(np.float64))
+    np.testing.assert_array_equal(scan.profile, [0, 0, 2046, 2047])
+    profile = np.array([0, 0, 3000, 3008], dtype=np.float16)
+    pq.write_table(pa.table(cols | {"profile": profile, "intensity": intensity}), path)
+    with pytest.raises(
+        InputError,
+        match=r"column 'profile': float16 whole numbers near 3008 are held in steps of 2, .*int64",
+    ):
+        read_profile_scan(path)
+
+
 def test_an_ambiguous_clock_document_is_refused_unless_accepted(tmp_path: Path) -> None:
     """A clock file marked ambiguous (written by an older kinsync, or accepted once) may
     be whole seconds off: applying it needs the same explicit acceptance."""

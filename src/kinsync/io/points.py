@@ -285,15 +285,23 @@ def _chunk_to_numpy(
                 out[name] = np.asarray(values.astype(np.float64))
                 continue
             stored = col.to_numpy(zero_copy_only=False)
-            # a float32 column is already rounded (times near 1.3e9 s to 128 s)
-            kind: Literal["time", "coordinate", "angle"] = (
-                "time" if name == "t_s" else "angle" if name.endswith("_rad") else "coordinate"
-            )
-            check_float_step(stored, f"{path}: column {name!r}", kind)
+            # a float32 column is already rounded (times near 1.3e9 s to 128 s); an
+            # intensity (a relative strength) needs no particular step
+            if name != "intensity":
+                check_float_step(stored, f"{path}: column {name!r}", _float_kind(name))
             out[name] = np.asarray(stored, dtype=np.float64)
         else:
             out[name] = col if arrow else col.to_numpy(zero_copy_only=False)
     return out
+
+
+def _float_kind(name: str) -> Literal["time", "coordinate", "angle", "count"]:
+    """What a required numeric column holds, for `kinsync._validate.check_float_step`."""
+    if name == "t_s":
+        return "time"
+    if name.endswith("_rad"):
+        return "angle"
+    return "count" if name == "profile" else "coordinate"
 
 
 def _csv_batches(
