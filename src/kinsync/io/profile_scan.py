@@ -58,7 +58,6 @@ from kinsync.sync.scan import (
     SYNC_POINT_COLUMNS,
     ProfileScan,
     SyncPoints,
-    zero_range_note,
 )
 
 __all__ = [
@@ -87,6 +86,33 @@ checked by `ProfileScan.checked_profile_numbers`."""
 
 _SYNC_SPANS = (LATITUDE_DEG, LONGITUDE_DEG, HEIGHT_M)
 _PERIOD_S = Span(1e-5, 100.0, "s", "a profile period (as --period-s)")
+
+
+def _zero_range_note(range_m: FloatArray, where: Callable[[int], str]) -> str:
+    """Advice when some ranges are exactly 0 (a "no return" code), else ``""``.
+
+    Parameters
+    ----------
+    range_m : ndarray, shape (N,)
+        Ranges of the returns (m).
+    where : callable of int to str
+        Names ``range_m[i]`` as the file counts it (``line 7``, ``row 6 of 9``).
+
+    Returns
+    -------
+    str
+        The count and the first of the zero ranges, and why they matter:
+        `kinsync sync apply` refuses them (a return at the scanner itself).
+    """
+    zero = np.flatnonzero(np.asarray(range_m) == 0.0)
+    if zero.size == 0:
+        return ""
+    return (
+        f"{where(int(zero[0]))}: range_m is 0 ({zero.size:,} of {np.size(range_m):,} "
+        "returns), a common 'no return' code: the target search cannot match such a return "
+        "to a sync point, but `kinsync sync apply` refuses them (they would lie at the "
+        "scanner itself): remove the rows with range 0 from the scan"
+    )
 
 
 def read_profile_scan(path: Path) -> ProfileScan:
@@ -126,7 +152,7 @@ def read_profile_scan(path: Path) -> ProfileScan:
     profile = ProfileScan.checked_profile_numbers(
         cols["profile"], str(path), lambda i: point_position(path, i, total)
     )
-    if zero_note := zero_range_note(cols["range_m"], where):
+    if zero_note := _zero_range_note(cols["range_m"], where):
         warnings.warn(zero_note, KinsyncWarning, stacklevel=2)
     return ProfileScan(
         profile=profile,

@@ -26,7 +26,6 @@ __all__ = [
     "SYNC_POINT_COLUMNS",
     "ProfileScan",
     "SyncPoints",
-    "zero_range_note",
 ]
 
 SCAN_COLUMNS = ("profile", "angle_rad", "range_m", "intensity")
@@ -72,33 +71,6 @@ def long_range_note(n_long: int, n: int) -> str:
         f"{n_long:,} of {n:,} ranges (the median too) are beyond "
         f"{PROFILE_SCANNER_REACH_M:.0f} m, further than a profile scanner reaches: are the "
         "ranges in millimetres? range_m is in metres"
-    )
-
-
-def zero_range_note(range_m: FloatArray, where: Callable[[int], str]) -> str:
-    """Advice when some ranges are exactly 0 (a "no return" code), else ``""``.
-
-    Parameters
-    ----------
-    range_m : ndarray, shape (N,)
-        Ranges of the returns (m).
-    where : callable of int to str
-        Names ``range_m[i]`` as the file counts it (``line 7``, ``row 6 of 9``).
-
-    Returns
-    -------
-    str
-        The count and the first of the zero ranges, and why they matter:
-        `kinsync sync apply` refuses them (a return at the scanner itself).
-    """
-    zero = np.flatnonzero(np.asarray(range_m) == 0.0)
-    if zero.size == 0:
-        return ""
-    return (
-        f"{where(int(zero[0]))}: range_m is 0 ({zero.size:,} of {np.size(range_m):,} "
-        "returns), a common 'no return' code: the target search cannot match such a return "
-        "to a sync point, but `kinsync sync apply` refuses them (they would lie at the "
-        "scanner itself): remove the rows with range 0 from the scan"
     )
 
 
