@@ -276,6 +276,14 @@ GOOD_ROWS = "100.0 46.8 -71.2 10.0 0.1 0.2 30.0\n100.1 46.8 -71.2 10.0 0.1 0.2 3
             ["line 13", "increasing"],
         ),
         (_ie_text(GOOD_ROWS).replace("(deg) (deg) (deg)\n", "(rad) (rad) (rad)\n"), ["radians"]),
+        (  # review N3: a time in HMS was asked about as two rows joined
+            _ie_text("12 00 00.0 46.8 -71.2 10.0 0.1 0.2 30.0\n").replace("(sec)", "(HMS)"),
+            ["line 12", "2 too many", "line 11", "HMS", "does not read", "GPS seconds"],
+        ),
+        (  # the same with colons: one field that is not a number
+            _ie_text("12:00:00.0 46.8 -71.2 10.0 0.1 0.2 30.0\n").replace("(sec)", "(HMS)"),
+            ["line 12, column 'GPSTime'", "HMS", "does not read", "GPS seconds"],
+        ),
         (  # a negative time of week was read as a time of the week before (as in SBET)
             _ie_text(GOOD_ROWS.replace("100.", "-100.")[:-1] + "\n"),
             ["line 12, column 'GPSTime'", "-100", "seconds of week"],

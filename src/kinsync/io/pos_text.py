@@ -358,6 +358,24 @@ def _count_text(found: int, expected: int) -> str:
     return f"{abs(found - expected)} too {'many' if found > expected else 'few'}"
 
 
+def _clock_time_hint(lines: list[str], first: int, layout: PosTextLayout) -> str:
+    """Why a row does not read, when the units line gives a clock time (``(HMS)``).
+
+    A time in hours, minutes and seconds takes three fields (or one with colons) where
+    kinsync reads one number of GPS seconds; "" when no unit between the column names and
+    the first row says HMS.
+    """
+    for index in range(layout.header_line, first):
+        units = [u.upper().replace(" ", "") for u in _UNIT_TOKEN.findall(lines[index])]
+        if any("HMS" in u for u in units):
+            return (
+                f"; the units line (line {index + 1}) gives a time in HMS (hours minutes "
+                "seconds, a clock time), which kinsync does not read: export the time as GPS "
+                "seconds of week (GPSTime in seconds, unit (sec)) and no time column in HMS"
+            )
+    return ""
+
+
 def _parse_rows(
     path: Path, lines: list[str], first: int, layout: PosTextLayout
 ) -> tuple[dict[str, FloatArray], list[int]]:
@@ -393,9 +411,10 @@ def _parse_rows(
             msg = (
                 f"{path}: line {index + 1}: {len(fields)} fields where the header (line "
                 f"{layout.header_line}) gives {layout.fields_per_row} for columns "
-                f"{list(layout.names)}: {_count_text(len(fields), layout.fields_per_row)}; "
-                f"{question}"
+                f"{list(layout.names)}: {_count_text(len(fields), layout.fields_per_row)}"
             )
+            hms = _clock_time_hint(lines, first, layout)
+            msg += hms or f"; {question}"
             raise InputError(msg)
         for quantity, (start, width, name) in wanted.items():
             cell = fields[start : start + width]
@@ -403,9 +422,9 @@ def _parse_rows(
                 value = _dms_to_deg(cell) if width == 3 else float(cell[0])
             except ValueError:
                 msg = (
-                    f"{path}: line {index + 1}, column {name!r}: {' '.join(cell)!r} is not a "
-                    "number; fix or remove the row"
+                    f"{path}: line {index + 1}, column {name!r}: {' '.join(cell)!r} is not a number"
                 )
+                msg += _clock_time_hint(lines, first, layout) or "; fix or remove the row"
                 raise InputError(msg) from None
             values[quantity].append(value)
         line_of_row.append(index + 1)
