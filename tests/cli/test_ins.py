@@ -181,7 +181,8 @@ def test_run_positions_only_warns_about_gnss_outside_the_imu_span(
     assert code == 0, stderr
     assert stderr.startswith("kinsync: warning: ")
     assert "5 GNSS epoch(s) outside the IMU span" in stderr
-    assert "rows 300, 301, 302, 303, 304" in stderr
+    # each with its file line, as the errors name them (review N3: rows alone)
+    assert "rows 300 (line 302), 301 (line 303), 302 (line 304), 303 (line 305), 304" in stderr
     doc = json.loads(stdout)
     assert doc["gnss_used"] + doc["gnss_rejected"] == GNSS_ROWS
     assert len(doc["warnings"]) == 1
@@ -216,6 +217,28 @@ def test_run_with_static_alignment_on_a_simulated_drive(run_cli: RunCli, tmp_pat
     assert yaw < 0.5, cmp
 
 
+def test_gnss_times_late_against_the_imu_name_the_first_fix(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """Review N3: GNSS times 18 s late (UTC vs GPS) gave 'no GNSS fix during the static
+    period' without the file, its first fix or the likely cause."""
+    sim = simulate_drive(DriveSimConfig(duration_s=40.0, static_s=10.0, imu="navigation"))
+    write_drive_simulation(sim, tmp_path)
+    gnss = tmp_path / "gnss.csv"
+    header, *rows = gnss.read_text(encoding="utf-8").splitlines()
+    late = [f"{float(r.split(',', 1)[0]) + 18.0!r},{r.split(',', 1)[1]}" for r in rows]
+    gnss.write_text("\n".join([header, *late]) + "\n", encoding="utf-8")
+    argv = ["ins", "run", "--imu", str(tmp_path / "imu.csv"), "--gnss", str(gnss)]
+    argv += ["--config", str(tmp_path / "ins.toml"), "--out", str(tmp_path / "nav.csv")]
+    t1 = float(late[0].split(",", 1)[0])
+    assert_one_line_error(
+        *run_cli(argv),
+        f"{gnss}: no GNSS fix during the static period",
+        f"The first fix is at t_s {t1:.3f} (row 0, line 2), 18.000 s after",
+        "one file in UTC and the other in GPS time",
+    )
+
+
 def test_run_help_lists_options(run_cli: RunCli) -> None:
     code, stdout, _ = run_cli(["ins", "run", "--help"])
     assert code == 0
@@ -241,7 +264,8 @@ def test_bad_inputs_are_one_line_errors(
     gap.write_text("".join(lines[:1001] + lines[1101:]))
     argv = _run_args(navego, out)
     argv[argv.index(str(navego["imu"]))] = str(gap)
-    assert_one_line_error(*run_cli(argv), str(gap), "rows 999 and 1000", "max_imu_gap_s")
+    between = "rows 999 (line 1001) and 1000 (line 1002)"
+    assert_one_line_error(*run_cli(argv), str(gap), between, "max_imu_gap_s")
     # IMU specific force in g.
     header, *rows = lines
     in_g = tmp_path / "in_g.csv"

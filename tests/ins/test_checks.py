@@ -20,6 +20,7 @@ from kinsync.ins.checks import (
 )
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
+from kinsync.ins.file_rows import FileRows
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 from kinsync.io.gnss_csv import read_gnss_csv
@@ -213,6 +214,27 @@ def test_gate_rejections_warn_then_refuse() -> None:
     assert "deg/s" in warning
     with pytest.raises(InputError, match=r"rejected 300 of 1000 .*no solution written"):
         check_gnss_rejections(np.arange(300.0, dtype=np.float64), 700, config)
+
+
+def test_warnings_name_the_file_lines_of_the_rows() -> None:
+    """Review N3: warnings gave 0-based rows where the errors say 'row 300 (line 302)'."""
+    t = T0 + np.concatenate([np.arange(0.0, 5.0), np.arange(17.0, 18.0)])
+    lines = FileRows(lambda r: 2 * r + 3)  # a file with a blank line after each row
+    warnings = check_inputs(_imu(), _gnss(t_s=t), CONFIG, gnss_rows=lines)
+    assert "GNSS outage of 13.000 s between rows 4 (line 11) and 5 (line 13)" in warnings[0]
+    assert "(last used epoch at t_s 5017.000, row 5, line 13)" in warnings[1]
+    config = dataclasses.replace(CONFIG, gate_probability=0.9999)
+    rejected = np.arange(100.0, 150.0, dtype=np.float64)
+    names = FileRows(lambda r: r + 2, first_row=90)  # 90 epochs before the IMU span
+    (warning,) = check_gnss_rejections(
+        rejected, 950, config, rejected_rows=np.arange(500, 550), gnss_rows=names
+    )
+    assert "t_s 100.000 (row 590, line 592), 101.000 (row 591, line 593)" in warning
+    init = dataclasses.replace(INIT, lat_deg=LAT + 0.02)
+    with pytest.raises(InputError, match=r"\(rx\.csv row 3, line 9, t_s 5000\.000"):
+        check_initial_state(init, _gnss(), CONFIG, gnss_source="rx.csv", gnss_rows=FileRows(
+            lambda r: 2 * r + 3, first_row=3
+        ))  # fmt: skip
 
 
 @pytest.mark.parametrize("gate", [0.9, 0.99, 0.999, 0.9999])

@@ -27,6 +27,7 @@ from kinsync.ins._reference import forward_numpy
 from kinsync.ins.alignment import align_static_gnss_heading, standstill_end_s
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, radii_m
+from kinsync.ins.file_rows import FileRows
 from kinsync.ins.filter import (
     GnssStatus,
     InsResult,
@@ -597,6 +598,20 @@ def test_alignment_errors(sim_drive: SimDrive) -> None:
     with pytest.raises(
         ObservabilityError, match=r"no GNSS fix during the static period.*--static-s.*--init-from"
     ):
+        align_static_gnss_heading(still, late, static_s=5.0)
+    # Review N3: 18 s late (UTC vs GPS) named no file, no row and no time offset.
+    utc = dataclasses.replace(gnss_s, t_s=gnss_s.t_s + 18.0)
+    with pytest.raises(ObservabilityError) as info:
+        align_static_gnss_heading(
+            still, utc, static_s=5.0, gnss_source="rx.csv", gnss_rows=FileRows(lambda r: r + 2)
+        )
+    message = str(info.value)
+    assert message.startswith("rx.csv: no GNSS fix during the static period")
+    first = f"The first fix is at t_s {utc.t_s[0]:.3f} (row 0, line 2), 18.000 s after"
+    assert first in message
+    assert "GNSS times late against the IMU's? 18 s is what GPS time runs ahead of UTC" in message
+    assert "--init-from" in message
+    with pytest.raises(ObservabilityError, match=r"t_s [0-9.]+ \(row 0\), 20\.000 s after.*offset"):
         align_static_gnss_heading(still, late, static_s=5.0)
     with pytest.raises(ObservabilityError, match=r"shorter than the static period.*--static-s"):
         align_static_gnss_heading(still, gnss_s, static_s=100.0)

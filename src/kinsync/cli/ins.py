@@ -29,6 +29,7 @@ from kinsync.progress import part, report
 # The INS (numba, scipy.stats) and its readers load inside the commands, only when they run.
 if TYPE_CHECKING:
     from kinsync.ins.config import InsConfig
+    from kinsync.ins.file_rows import FileRows
     from kinsync.ins.measurements import GnssData, ImuData
     from kinsync.ins.solution import InitialState, NavSolution
 
@@ -147,6 +148,21 @@ def _check_run_options(
     return static
 
 
+def _file_rows(path: Path, first_row: int = 0) -> FileRows:
+    """The rows of a CSV read into a container, with their file lines, for messages.
+
+    ``first_row``: the file's data row that holds the container's row 0.
+    """
+    from kinsync.ins.file_rows import FileRows  # noqa: PLC0415
+    from kinsync.io.row_position import csv_line_of_row  # noqa: PLC0415
+
+    def line_of_row(row: int) -> int:
+        line = csv_line_of_row(path, row)
+        return row + 2 if line is None else line
+
+    return FileRows(line_of_row, first_row)
+
+
 def _write_solution(solution: NavSolution, out: Path) -> None:
     from kinsync.io.nav_csv import write_nav_csv  # noqa: PLC0415
     from kinsync.io.sbet import write_sbet  # noqa: PLC0415
@@ -246,7 +262,11 @@ def run(
         gnss_source=str(gnss_path),
         static_s=static_s,
         config_source=str(config_path),
+        imu_rows=_file_rows(imu_path),
+        gnss_rows=_file_rows(gnss_path),
     )
+    # the epochs before the IMU start are cut off: the messages name the file's rows
+    gnss_rows = _file_rows(gnss_path, int(np.count_nonzero(gnss.t_s < imu.t_s[0])))
     gnss = gnss_within_imu_span(gnss, imu)
     init = (
         align_static_gnss_heading(
@@ -256,6 +276,8 @@ def run(
             antenna_lever_arm_body_m=config.antenna_lever_arm_body_m,
             gyro_bias_rad_s=config.init_gyro_bias_rad_s,
             acc_bias_m_s2=config.init_acc_bias_m_s2,
+            gnss_source=str(gnss_path),
+            gnss_rows=gnss_rows,
         )
         if init_from is None
         else _initial_state_from_file(init_from, imu, max_gap_s)
@@ -279,6 +301,7 @@ def run(
             gnss_source=str(gnss_path),
             static_s=static_s,
             input_warnings=warnings,
+            gnss_rows=gnss_rows,
         )
         seconds = time.perf_counter() - start
         solution = result.smoothed if smooth else result.forward

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from kinsync.ins.checks import check_gnss_rejections, check_inputs
     from kinsync.ins.compare import Comparison, compare_to_truth
     from kinsync.ins.config import InsConfig
+    from kinsync.ins.file_rows import FileRows
     from kinsync.ins.filter import GnssStatus, run_ins
     from kinsync.ins.measurements import GnssData, ImuData
     from kinsync.ins.result import InsResult
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Comparison",
+    "FileRows",
     "GnssData",
     "GnssStatus",
     "ImuData",
@@ -51,6 +53,7 @@ __getattr__, __dir__ = lazy_exports(
         "GnssData": "kinsync.ins.measurements",
         "ImuData": "kinsync.ins.measurements",
         "InsConfig": "kinsync.ins.config",
+        "FileRows": "kinsync.ins.file_rows",
         "InitialState": "kinsync.ins.solution",
         "NavSolution": "kinsync.ins.solution",
         "GnssStatus": "kinsync.ins.filter",

@@ -23,6 +23,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import euler_rpy_to_matrix, mean_longitude_deg
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
+from kinsync.ins.file_rows import FileRows
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 
@@ -144,6 +145,38 @@ def _static_window(imu: ImuData, static_s: float) -> int:
         )
         raise ObservabilityError(msg)
     return k_end
+
+
+_LEAP_SECONDS = range(10, 19)
+"""Whole seconds GPS time has run ahead of UTC (10 s in 1995 to 18 s since 2017)."""
+
+
+def _first_fix_text(gnss: GnssData, t0_s: float, names: FileRows | None) -> str:
+    """Where the GNSS fixes are, when none falls in the static period, and why, maybe."""
+    rows_of = names or FileRows()
+    after = int(np.searchsorted(gnss.t_s, t0_s))
+    if after >= len(gnss):
+        return ""
+    t1 = float(gnss.t_s[after])
+    if after > 0:
+        before = float(gnss.t_s[after - 1])
+        return (
+            f". The fixes around it are at t_s {before:.3f} ({rows_of.where(after - 1)}) and "
+            f"t_s {t1:.3f} ({rows_of.where(after)}): a GNSS outage of {t1 - before:.3f} s"
+        )
+    late_s = t1 - t0_s
+    whole = round(late_s)
+    cause = (
+        f"{whole} s is what GPS time runs ahead of UTC (leap seconds; 18 s since 2017): is "
+        "one file in UTC and the other in GPS time?"
+        if whole in _LEAP_SECONDS and abs(late_s - whole) < 0.5
+        else "are they on another time scale, or offset?"
+    )
+    return (
+        f". The first fix is at t_s {t1:.3f} ({rows_of.where(after)}), {late_s:.3f} s after "
+        f"the first IMU sample: are the GNSS times late against the IMU's? {cause} Put both "
+        "on the same time scale"
+    )
 
 
 def _check_static(
@@ -273,6 +306,8 @@ def align_static_gnss_heading(
     antenna_lever_arm_body_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
     gyro_bias_rad_s: tuple[float, float, float] | None = None,
     acc_bias_m_s2: tuple[float, float, float] | None = None,
+    gnss_source: str = "GNSS data",
+    gnss_rows: FileRows | None = None,
 ) -> InitialState:
     """Initial state by static levelling and GNSS course-over-ground heading.
 
@@ -318,6 +353,10 @@ def align_static_gnss_heading(
     gyro_bias_rad_s, acc_bias_m_s2 : (float, float, float), optional
         Known turn-on biases (body frame, e.g. a laboratory calibration), removed
         before levelling and heading; returned in the state as its bias estimates.
+    gnss_source : str
+        Name of the GNSS input in messages (its file path).
+    gnss_rows : FileRows, optional
+        The file rows and lines of ``gnss``'s rows, for messages.
 
     Returns
     -------
@@ -337,9 +376,12 @@ def align_static_gnss_heading(
     t_end = float(imu.t_s[k_end])
     in_static = (gnss.t_s >= t0) & (gnss.t_s <= t_end)
     if not in_static.any():
+        where = _first_fix_text(gnss, t0, gnss_rows)
         msg = (
-            f"no GNSS fix during the static period {t0:.3f} .. {t_end:.3f} s: the initial "
-            "position is unknown; lengthen the static period (--static-s) or " + _GIVE_INITIAL_STATE
+            f"{gnss_source}: no GNSS fix during the static period {t0:.3f} .. {t_end:.3f} s "
+            f"(the first {static_s:g} s of the IMU record), so the initial position is unknown"
+            f"{where}; {'or ' if where else ''}lengthen the static period (--static-s) or "
+            + _GIVE_INITIAL_STATE
         )
         raise ObservabilityError(msg)
     lat0 = math.radians(float(gnss.lat_deg[in_static].mean()))

@@ -57,14 +57,16 @@ import math
 
 import numpy as np
 
-from kinsync._typing import BoolArray, FloatArray
+from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
+from kinsync.ins.file_rows import FileRows, rows_list
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 
 __all__ = [
+    "FileRows",
     "check_gnss_rejections",
     "check_initial_state",
     "check_inputs",
@@ -108,23 +110,24 @@ exceeding ``max_imu_gap_s`` means times in ms or µs, a shorter one a gap set to
 _MAX_LISTED = 5
 
 
-def _rows_text(rows: list[int]) -> str:
-    shown = ", ".join(str(r) for r in rows[:_MAX_LISTED])
-    return shown + (f", ... ({len(rows)} in all)" if len(rows) > _MAX_LISTED else "")
-
-
 def _check_gaps(
-    imu: ImuData, config: InsConfig, source: str, config_source: str = "the configuration"
+    imu: ImuData,
+    config: InsConfig,
+    source: str,
+    config_source: str = "the configuration",
+    names: FileRows | None = None,
 ) -> list[str]:
+    rows_of = names or FileRows()
     dt = np.diff(imu.t_s)
     long_gap = np.flatnonzero(dt > config.max_imu_gap_s)
     if long_gap.size:
         k = int(long_gap[0]) + 1
         msg = (
             f"{source}: {long_gap.size} gap(s) between IMU samples longer than "
-            f"max_imu_gap_s = {config.max_imu_gap_s:g} s; the first between rows {k - 1} and "
-            f"{k} (t_s {imu.t_s[k - 1]:.6f} -> {imu.t_s[k]:.6f}, {dt[k - 1]:.6g} s). Fill or "
-            "split the record, or raise [filter] max_imu_gap_s in the configuration"
+            f"max_imu_gap_s = {config.max_imu_gap_s:g} s; the first between rows "
+            f"{rows_of.row(k - 1)} and {rows_of.row(k)} (t_s {imu.t_s[k - 1]:.6f} -> "
+            f"{imu.t_s[k]:.6f}, {dt[k - 1]:.6g} s). Fill or split the record, or raise "
+            "[filter] max_imu_gap_s in the configuration"
         )
         median_dt = float(np.median(dt))
         if config.max_imu_gap_s < median_dt <= IMU_MAX_INTERVAL_S:
@@ -136,9 +139,10 @@ def _check_gaps(
             )
         elif median_dt > config.max_imu_gap_s:
             msg = (
-                f"{source}: the IMU samples are a median {median_dt:.6g} s apart (rows 0 "
-                f"and 1 at t_s {imu.t_s[0]:.6f}, {imu.t_s[1]:.6f}), where an IMU samples at "
-                "50-1000 Hz: are the times in ms or us? Give t_s in seconds"
+                f"{source}: the IMU samples are a median {median_dt:.6g} s apart (rows "
+                f"{rows_of.row(0)} and {rows_of.row(1)} at t_s {imu.t_s[0]:.6f}, "
+                f"{imu.t_s[1]:.6f}), where an IMU samples at 50-1000 Hz: are the times in ms "
+                "or us? Give t_s in seconds"
             )
         raise InputError(msg)
     warnings: list[str] = []
@@ -146,11 +150,12 @@ def _check_gaps(
     slow = np.flatnonzero(dt > 1.5 * median)
     if slow.size:
         worst = int(slow[np.argmax(dt[slow])]) + 1
-        rows = _rows_text([int(s) + 1 for s in slow])
+        rows = rows_list([int(s) + 1 for s in slow], names)
         warnings.append(
             f"{source}: {slow.size} interval(s) longer than 1.5 x the median sampling "
             f"interval {median:.6g} s (missing samples?), before rows {rows}; "
-            f"the longest {dt[worst - 1]:.6g} s before row {worst} (t_s {imu.t_s[worst]:.6f})"
+            f"the longest {dt[worst - 1]:.6g} s before row {rows_of.row(worst)} "
+            f"(t_s {imu.t_s[worst]:.6f})"
         )
     return warnings
 
@@ -160,7 +165,10 @@ def _inside_span(gnss: GnssData, imu: ImuData) -> BoolArray:
     return inside
 
 
-def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str) -> list[str]:
+def _check_span(
+    imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str, names: FileRows | None = None
+) -> list[str]:
+    rows_of = names or FileRows()
     inside = _inside_span(gnss, imu)
     n_in = int(np.count_nonzero(inside))
     spacing = float(np.median(np.diff(gnss.t_s))) if gnss.t_s.size > 1 else 0.0
@@ -183,7 +191,7 @@ def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str)
         warnings.append(
             f"{gnss_source}: {outside.size} GNSS epoch(s) outside the IMU span "
             f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s are not used (rows "
-            f"{_rows_text(outside.tolist())})"
+            f"{rows_list(outside.tolist(), names)})"
         )
     t_in = gnss.t_s[inside]
     rows_in = np.flatnonzero(inside)
@@ -199,21 +207,21 @@ def _check_span(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str)
         )
         raise InputError(msg)
     warnings.extend(
-        f"{gnss_source}: GNSS outage of {gaps[k]:.3f} s between rows {rows_in[k]} and "
-        f"{rows_in[k + 1]} (t_s {t_in[k]:.3f} -> {t_in[k + 1]:.3f}); the solution drifts "
-        "on the IMU alone there"
+        f"{gnss_source}: GNSS outage of {gaps[k]:.3f} s between rows "
+        f"{rows_of.row(rows_in[k])} and {rows_of.row(rows_in[k + 1])} (t_s {t_in[k]:.3f} "
+        f"-> {t_in[k + 1]:.3f}); the solution drifts on the IMU alone there"
         for k in np.flatnonzero(gaps > GNSS_OUTAGE_S).tolist()
     )
     head, tail = t_in[0] - imu.t_s[0], imu.t_s[-1] - t_in[-1]
     if head > GNSS_OUTAGE_S:
         warnings.append(
             f"{gnss_source}: no GNSS epoch in the first {head:.3f} s of the IMU span "
-            f"(first used epoch at t_s {t_in[0]:.3f}, row {rows_in[0]})"
+            f"(first used epoch at t_s {t_in[0]:.3f}, {rows_of.where(rows_in[0])})"
         )
     if tail > GNSS_OUTAGE_S:
         warnings.append(
             f"{gnss_source}: no GNSS epoch in the last {tail:.3f} s of the IMU span "
-            f"(last used epoch at t_s {t_in[-1]:.3f}, row {rows_in[-1]})"
+            f"(last used epoch at t_s {t_in[-1]:.3f}, {rows_of.where(rows_in[-1])})"
         )
     return warnings
 
@@ -271,7 +279,9 @@ def _check_units(imu: ImuData, source: str) -> list[str]:
     return []
 
 
-def _check_static_start(imu: ImuData, gnss: GnssData, source: str, static_s: float) -> list[str]:
+def _check_static_start(
+    imu: ImuData, gnss: GnssData, source: str, static_s: float, names: FileRows | None = None
+) -> list[str]:
     window = imu.t_s <= imu.t_s[0] + static_s
     if np.count_nonzero(window) < 10:
         return []
@@ -284,7 +294,9 @@ def _check_static_start(imu: ImuData, gnss: GnssData, source: str, static_s: flo
         if (speed > STATIC_GNSS_SPEED_M_S).any():
             return []
     n_rows = int(np.count_nonzero(window))
-    where = f"{source}: static start (rows 0-{n_rows - 1}, first {static_s:g} s)"
+    first_line, last_line = (names or FileRows()).line(0), (names or FileRows()).line(n_rows - 1)
+    lines = "" if first_line is None else f", lines {first_line}-{last_line}"
+    where = f"{source}: static start (rows 0-{n_rows - 1}{lines}, first {static_s:g} s)"
     gyro_mean = float(np.linalg.norm(imu.gyro_body_rad_s[window].mean(axis=0)))
     if gyro_mean > GYRO_ERROR_RAD_S:
         msg = (
@@ -317,6 +329,8 @@ def check_inputs(
     gnss_source: str = "gnss.csv",
     static_s: float = 2.0,
     config_source: str = "the configuration",
+    imu_rows: FileRows | None = None,
+    gnss_rows: FileRows | None = None,
 ) -> list[str]:
     """Check IMU and GNSS inputs for gaps, time-span mismatch and wrong units.
 
@@ -334,11 +348,14 @@ def check_inputs(
         Length (s) of the start window tested for a static start.
     config_source : str
         Name of the configuration in messages (its file path).
+    imu_rows, gnss_rows : FileRows, optional
+        The file rows and lines of the inputs' rows, for messages (default: their rows).
 
     Returns
     -------
     list of str
-        Warnings, each naming its input, rows and times (empty when all is well).
+        Warnings, each naming its input, rows (and lines) and times (empty when all is
+        well).
 
     Raises
     ------
@@ -347,10 +364,10 @@ def check_inputs(
         and what to do.
     """
     warnings: list[str] = []
-    warnings += _check_gaps(imu, config, imu_source, config_source)
-    warnings += _check_span(imu, gnss, imu_source, gnss_source)
+    warnings += _check_gaps(imu, config, imu_source, config_source, imu_rows)
+    warnings += _check_span(imu, gnss, imu_source, gnss_source, gnss_rows)
     warnings += _check_units(imu, imu_source)
-    warnings += _check_static_start(imu, gnss, imu_source, static_s)
+    warnings += _check_static_start(imu, gnss, imu_source, static_s, imu_rows)
     arm_z = config.antenna_lever_arm_body_m[2]
     if arm_z > 0.0:
         warnings.append(
@@ -400,6 +417,8 @@ def check_gnss_rejections(
     config: InsConfig,
     *,
     gnss_source: str = "gnss.csv",
+    rejected_rows: IntArray | None = None,
+    gnss_rows: FileRows | None = None,
 ) -> list[str]:
     """Check how many GNSS epochs the filter's χ² gate rejected.
 
@@ -413,6 +432,10 @@ def check_gnss_rejections(
         Its ``gate_probability`` gives the rejection rate of a filter that fits.
     gnss_source : str
         Name of the GNSS input in messages.
+    rejected_rows : ndarray of int, shape (r,), optional
+        Rows of the rejected epochs in the GNSS data, named with their times.
+    gnss_rows : FileRows, optional
+        The file rows and lines of those rows.
 
     Returns
     -------
@@ -440,16 +463,27 @@ def check_gnss_rejections(
         share <= max(GATE_WARNING_SHARE, GATE_RATE_FACTOR * expected) or n_rej <= by_chance
     ):
         return []
-    times = ", ".join(f"{t:.3f}" for t in rejected_t_s[:_MAX_LISTED].tolist())
+    rows_of = gnss_rows or FileRows()
+    listed = []
+    for i, t in enumerate(rejected_t_s[:_MAX_LISTED].tolist()):
+        where = (
+            f" ({rows_of.where(int(rejected_rows[i]))})"
+            if rejected_rows is not None and i < len(rejected_rows)
+            else ""
+        )
+        listed.append(f"{t:.3f}{where}")
     more = f" and {n_rej - _MAX_LISTED} more" if n_rej > _MAX_LISTED else ""
-    text = (
+    head = (
         f"{gnss_source}: the chi-square gate rejected {n_rej} of {n} GNSS epochs "
         f"({n_rej / n:.1%}; a filter that fits its data rejects about {expected:.2%}) at "
-        f"t_s {times}{more}: the IMU and the GNSS disagree. Check the gyro units (rad/s, "
-        "not deg/s) and axes (X forward, Y right, Z down), a spike in an IMU record (one "
-        "bad gyro or accelerometer value), the GNSS time tags (same time "
-        "scale, no offset), the antenna lever arm, the initial state, the [init] biases, "
-        "the [imu] bias sigma (units of their keys) and the [gnss] sigma"
+        f"t_s {', '.join(listed)}{more}: the IMU and the GNSS disagree"
+    )
+    text = head + (
+        ". Check the gyro units (rad/s, not deg/s) and axes (X forward, Y right, Z "
+        "down), a spike in an IMU record (one bad gyro or accelerometer value), the GNSS "
+        "time tags (same time scale, no offset), the antenna lever arm, the initial "
+        "state, the [init] biases, the [imu] bias sigma (units of their keys) and the "
+        "[gnss] sigma"
     )
     if refuse:
         msg = f"{text}; no solution written"
@@ -478,6 +512,7 @@ def check_initial_state(
     config: InsConfig,
     *,
     gnss_source: str = "gnss.csv",
+    gnss_rows: FileRows | None = None,
 ) -> None:
     """Refuse an initial attitude or position that cannot be right (a unit mix-up).
 
@@ -492,6 +527,8 @@ def check_initial_state(
         Its antenna lever arm widens the distance accepted.
     gnss_source : str
         Name of the GNSS input in messages.
+    gnss_rows : FileRows, optional
+        The file rows and lines of ``gnss``'s rows, for messages.
 
     Raises
     ------
@@ -540,9 +577,10 @@ def check_initial_state(
         hint = "; lat_deg and lon_deg look swapped: give the latitude first"
     msg = (
         f"initial state: lat_deg {lat:.8g}, lon_deg {lon:.8g} at t_s {t0:.3f} lies "
-        f"{offset_m / 1000.0:.4g} km from the GNSS fix nearest in time ({gnss_source} row "
-        f"{j}, t_s {gnss.t_s[j]:.3f}: lat_deg {lat_g:.8g}, lon_deg {lon_g:.8g}), more than "
-        f"the {allowed_m / 1000.0:.4g} km a vehicle could be from it{hint}"
+        f"{offset_m / 1000.0:.4g} km from the GNSS fix nearest in time ({gnss_source} "
+        f"{(gnss_rows or FileRows()).where(j)}, t_s {gnss.t_s[j]:.3f}: lat_deg {lat_g:.8g}, "
+        f"lon_deg {lon_g:.8g}), more than the {allowed_m / 1000.0:.4g} km a vehicle could "
+        f"be from it{hint}"
     )
     raise InputError(msg)
 

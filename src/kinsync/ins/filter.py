@@ -111,6 +111,7 @@ from kinsync.ins.checks import (
 )
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2
+from kinsync.ins.file_rows import FileRows
 from kinsync.ins.forward_run import (
     CHECKPOINT_EVERY,
     CheckpointStore,
@@ -749,7 +750,7 @@ def run_ins(
     imu: ImuData, gnss: GnssData, config: InsConfig, init: InitialState, *,
     use_velocity: bool = True, smooth: bool = False, progress: Progress | None = None,
     imu_source: str = "IMU data", gnss_source: str = "GNSS data", static_s: float = 2.0,
-    input_warnings: Sequence[str] | None = None,
+    input_warnings: Sequence[str] | None = None, gnss_rows: FileRows | None = None,
 ) -> InsResult:  # fmt: skip
     """Loosely coupled INS/GNSS forward filter, optionally RTS-smoothed, with its checks.
 
@@ -785,6 +786,8 @@ def run_ins(
     input_warnings : sequence of str, optional
         Warnings of `kinsync.ins.checks.check_inputs` run by the caller on these inputs
         (``kinsync ins run`` checks before levelling); None (default): run it here.
+    gnss_rows : FileRows, optional
+        The file rows and lines of ``gnss``'s rows, for the checks' messages.
 
     Returns
     -------
@@ -805,13 +808,15 @@ def run_ins(
         imu, gnss, config, imu_source=imu_source, gnss_source=gnss_source, static_s=static_s
     )  # fmt: skip
     try:
-        check_initial_state(init, gnss, config, gnss_source=gnss_source)
+        check_initial_state(init, gnss, config, gnss_source=gnss_source, gnss_rows=gnss_rows)
         result = _filter_and_smooth(
             imu, gnss, config, init, use_velocity=use_velocity, smooth=smooth, progress=progress
         )
         warnings += check_gnss_rejections(
-            result.gnss_rejected_t_s, result.forward.n_gnss_used, config, gnss_source=gnss_source
-        )
+            result.gnss_rejected_t_s, result.forward.n_gnss_used, config, gnss_source=gnss_source,
+            rejected_rows=np.flatnonzero(result.gnss_status == GnssStatus.REJECTED),
+            gnss_rows=gnss_rows,
+        )  # fmt: skip
     except (InputError, ConvergenceError) as err:
         if not warnings:
             raise
