@@ -216,6 +216,42 @@ def test_gate_rejections_warn_then_refuse() -> None:
         check_gnss_rejections(np.arange(300.0, dtype=np.float64), 700, config)
 
 
+def _nu(north: float, east: float, down: float, n: int = 50) -> np.ndarray:
+    """n rejected epochs' normalised innovations of these magnitudes, signs alternating."""
+    signs = np.where(np.arange(n) % 2, -1.0, 1.0)[:, None]
+    out: np.ndarray = signs * np.array([north, east, down])
+    return out
+
+
+def test_gate_rejections_on_the_down_axis_name_the_gnss_heights() -> None:
+    """Review N3: heights in feet left 19.8 % rejected and a message about gyro units,
+    axes, time tags and the lever arm, not the heights (26 m wrong in the solution)."""
+    config = dataclasses.replace(CONFIG, gate_probability=0.9999)
+    times = np.arange(100.0, 150.0, dtype=np.float64)
+    rows = np.arange(500, 550)
+    names = FileRows(lambda r: r + 2, first_row=90)  # 90 epochs before the IMU span
+    (warning,) = check_gnss_rejections(
+        times, 950, config, gnss_source="g.csv", rejected_nu_ned=_nu(0.7, 0.6, 5.3),
+        rejected_rows=rows, gnss_rows=names,
+    )  # fmt: skip
+    assert "t_s 100.000 (row 590, line 592), 101.000 (row 591, line 593)" in warning
+    assert "nearly all for their height" in warning
+    assert "a median 5.3 σ" in warning
+    assert "h_m" in warning
+    assert "feet (multiply by 0.3048)" in warning
+    assert "orthometric" in warning
+    assert "deg/s" not in warning
+    # Off horizontally too (a time offset, deg/s rates that diverge): the general causes.
+    for nu in (_nu(2.3, 2.9, 0.7), _nu(19.0, 4.0, 8.1)):
+        (warning,) = check_gnss_rejections(times, 950, config, rejected_nu_ned=nu)
+        assert "deg/s" in warning
+        assert "feet" not in warning
+    with pytest.raises(InputError, match=r"rejected 300 .*for their height.*no solution"):
+        check_gnss_rejections(
+            np.arange(300.0), 700, config, rejected_nu_ned=_nu(0.1, 0.1, 18.0, n=300)
+        )
+
+
 def test_warnings_name_the_file_lines_of_the_rows() -> None:
     """Review N3: warnings gave 0-based rows where the errors say 'row 300 (line 302)'."""
     t = T0 + np.concatenate([np.arange(0.0, 5.0), np.arange(17.0, 18.0)])

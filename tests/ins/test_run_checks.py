@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Callable
 
 import numpy as np
@@ -110,3 +111,22 @@ def test_warnings_of_input_checks_run_by_the_caller_are_kept(calm: Drive) -> Non
     _, imu, gnss, _, init = calm
     res = run_ins(imu, gnss, CONFIG, init, input_warnings=["checked earlier"])
     assert res.warnings == ("checked earlier",)
+
+
+def test_gnss_heights_that_jump_are_named_as_the_cause(calm: Drive) -> None:
+    """Review N3: the gate's message blamed gyro units, axes and time tags when the GNSS
+    heights were at fault (heights in feet gave 19.8 % rejected, all on the down axis).
+    The filter keeps the rejected epochs' innovations for that diagnosis."""
+    _, imu, gnss, _, init = calm
+    k = int(np.searchsorted(gnss.t_s, gnss.t_s[0] + 60.0))
+    h_m = gnss.h_m.copy()
+    h_m[k:] += 8.0  # σ 1 m: orthometric heights from here on, say
+    jumped = dataclasses.replace(gnss, h_m=h_m)
+    with pytest.raises(InputError) as info:
+        run_ins(imu, jumped, CONFIG, init, gnss_source="rx.csv")
+    message = str(info.value)
+    assert re.search(rf"at t_s {gnss.t_s[k]:.3f}[, ]", message), message[:300]
+    assert "nearly all for their height" in message
+    assert "GNSS height column h_m" in message
+    res = run_ins(imu, gnss, CONFIG, init)
+    assert res.rejected_innovations_pos_ned_m.shape == (0, 3)

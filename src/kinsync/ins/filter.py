@@ -295,9 +295,9 @@ class GnssLog(NamedTuple):
         `GnssStatus` of each epoch (`GnssStatus.OUTSIDE` until visited).
     innovation : ndarray, shape (m, 6)
         GNSS minus predicted antenna position N, E, D (m) and velocity N, E, D (m/s)
-        before the update; NaN where not used.
+        before the update (or the gate's rejection); NaN where not visited.
     innovation_std_pos_ned_m : ndarray, shape (m, 3)
-        ``sqrt(diag S)`` of the position innovations (m); NaN where not used.
+        ``sqrt(diag S)`` of the position innovations (m); NaN where not visited.
     """
 
     next_index: IntArray
@@ -464,16 +464,16 @@ def _forward_loop(  # noqa: PLR0912, PLR0915 - one flat loop is what numba compi
                 # a row offset known only at run time: one compiled gate_stat, not two
                 d2 = gate_stat(P, H, 3 * block, r, z, sd_v if block else sd_p)
                 ok = ok and d2 <= gate
+            for i in range(3):  # a rejected epoch's too: the gate's diagnosis reads them
+                log.innovation[j, i] = -z[i]
+                log.innovation_std_pos_ned_m[j, i] = sd_p[i]
+                if with_vel:
+                    log.innovation[j, 3 + i] = -z[3 + i]
             if not ok:
                 log.status[j] = GnssStatus.REJECTED
                 continue
             log.status[j] = GnssStatus.USED
             nrows = 6 if with_vel else 3
-            for i in range(3):
-                log.innovation[j, i] = -z[i]
-                log.innovation_std_pos_ned_m[j, i] = sd_p[i]
-                if with_vel:
-                    log.innovation[j, 3 + i] = -z[3 + i]
             if checkpoints.enabled:
                 c = checkpoints.n_filled[0]
                 checkpoints.epoch[c] = k
@@ -814,6 +814,8 @@ def run_ins(
         )
         warnings += check_gnss_rejections(
             result.gnss_rejected_t_s, result.forward.n_gnss_used, config, gnss_source=gnss_source,
+            rejected_nu_ned=result.rejected_innovations_pos_ned_m
+            / result.rejected_innovation_std_pos_ned_m,
             rejected_rows=np.flatnonzero(result.gnss_status == GnssStatus.REJECTED),
             gnss_rows=gnss_rows,
         )  # fmt: skip
@@ -854,6 +856,9 @@ def _filter_and_smooth(
             n_gnss_rejected=n_rej,
         )  # fmt: skip
     inside = g_epoch >= 0
+    rejected = log.status == GnssStatus.REJECTED
+    rejected_innovations = log.innovation[rejected, :3], log.innovation_std_pos_ned_m[rejected]
+    log.innovation[rejected] = log.innovation_std_pos_ned_m[rejected] = np.nan  # not used
     return InsResult(
         forward=forward,
         smoothed=smoothed,
@@ -864,4 +869,6 @@ def _filter_and_smooth(
         innovation_std_pos_ned_m=log.innovation_std_pos_ned_m[inside],
         gnss_status=log.status,
         error_states=n_error_states,
+        rejected_innovations_pos_ned_m=rejected_innovations[0],
+        rejected_innovation_std_pos_ned_m=rejected_innovations[1],
     )

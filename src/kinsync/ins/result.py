@@ -46,6 +46,11 @@ class InsResult:
         Size of the error state the filter ran with: 21, or 27 with scale factors
         (`InsConfig.models_scale_factors`), plus one after a levelled standstill
         (22 or 28, `kinsync.ins.standstill`).
+    rejected_innovations_pos_ned_m : ndarray, shape (r, 3)
+        GNSS minus predicted antenna position (N, E, D, m) of each epoch the χ² gate
+        rejected, in the order of ``gnss_rejected_t_s`` (they did not update the filter).
+    rejected_innovation_std_pos_ned_m : ndarray, shape (r, 3)
+        Predicted standard deviation of those innovations (m).
     """
 
     forward: NavSolution
@@ -58,3 +63,5 @@ class InsResult:
     gnss_status: IntArray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     warnings: tuple[str, ...] = ()
     error_states: int = N_ERR
+    rejected_innovations_pos_ned_m: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
+    rejected_innovation_std_pos_ned_m: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
