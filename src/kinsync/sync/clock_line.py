@@ -23,6 +23,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from kinsync._typing import FloatArray, IntArray
+from kinsync.errors import PeriodPriorError
 from kinsync.frames import wrap_angle_rad
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import Crossing
@@ -30,10 +31,12 @@ from kinsync.sync.scan import ProfileScan
 from kinsync.sync.sightings import Sighting, refine_sighting
 
 __all__ = [
+    "PERIOD_SEARCH_FACTOR",
     "Assignment",
     "LineFit",
     "best_assignment",
     "candidate_assignments",
+    "check_period_prior",
     "compatible_crossings",
     "gls_line",
     "pair_covariance",
@@ -536,3 +539,71 @@ def seen_off_the_clock(
             crossings[min(inside, key=lambda j: abs(n_c[j] - s.profile))].name if inside else None
         )
     return tuple(out)
+
+
+PERIOD_SEARCH_FACTOR = 2.5
+"""Periods from ``prior / factor`` to ``prior * factor`` are searched for a clock that fits
+more sightings than the prior's window allows (`kinsync.sync.object_space`, step 3, a
+wrong prior; `check_period_prior`): a prior off by a factor of two (profiles per mirror
+revolution, a datasheet's line rate for its revolution rate) is still caught."""
+
+
+def check_period_prior(
+    ranked: Sequence[Assignment],
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    per_pair: PairSightings | None = None,
+) -> None:
+    """Raise `PeriodPriorError` when a period outside the prior's window fits more sightings.
+
+    See `kinsync.sync.object_space`, step 3, a wrong prior: the search runs over periods
+    within a factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
+    sightings than the best within the window and at least three.
+
+    Parameters
+    ----------
+    ranked : sequence of Assignment
+        The assignments within the prior's window, best first (`candidate_assignments`).
+    sightings, crossings : sequence of Sighting, Crossing
+    cfg : ObjectSpaceConfig
+        ``period_prior_s``, ``period_tolerance``, gates and sigmas.
+    per_pair : Mapping of (int, int) to Sighting, optional
+        Sightings refined for one compatible crossing, as for `candidate_assignments`.
+
+    Raises
+    ------
+    PeriodPriorError
+        A period outside the window fits more sightings, and at least three.
+    """
+    prior, tol = cfg.period_prior_s, cfg.period_tolerance
+    n_in = len(ranked[0].pairs) if ranked else 0
+    bounds = (prior / PERIOD_SEARCH_FACTOR, prior * PERIOD_SEARCH_FACTOR)
+    wider = best_assignment(
+        sightings, crossings, cfg, bounds, more_than=max(n_in, 2), per_pair=per_pair
+    )
+    if wider is None:
+        return
+    period = wider.fit.period_s
+    off = period / prior - 1.0
+    if abs(off) <= tol:
+        return  # the window's own clock, reached from another seed: nothing excluded
+    widen = (
+        f", or widen --period-tolerance to {math.ceil(abs(off) * 100.0) / 100.0:g}"
+        if abs(off) < 0.49  # the tolerance must stay below 0.5
+        else ""
+    )
+    msg = (
+        f"--period-prior-s {prior:g} s: {n_in} of {len(sightings)} sightings fit a clock "
+        f"with a period within {tol * 100.0:g} % of it, {len(wider.pairs)} fit one with a "
+        f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
+        f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
+    )
+    raise PeriodPriorError(
+        msg,
+        period_prior_s=prior,
+        n_within=n_in,
+        n_sightings=len(sightings),
+        suggested_period_s=period,
+        n_suggested=len(wider.pairs),
+    )

@@ -184,13 +184,13 @@ from scipy.stats import chi2 as chi2_dist
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.clock.profile import ProfileClock
-from kinsync.errors import KinsyncWarning, ObservabilityError, PeriodPriorError
+from kinsync.errors import KinsyncWarning, ObservabilityError
 from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
+    PERIOD_SEARCH_FACTOR,
     Assignment,
-    PairSightings,
-    best_assignment,
     candidate_assignments,
+    check_period_prior,
     gls_line,
     pair_covariance,
     seen_off_the_clock,
@@ -221,12 +221,6 @@ __all__ = [
     "ObjectSpaceResult",
     "synchronise_object_space",
 ]
-
-PERIOD_SEARCH_FACTOR = 2.5
-"""Periods from ``prior / factor`` to ``prior * factor`` are searched for a clock that fits
-more sightings than the prior's window allows (module step 3, a wrong prior): a prior
-off by a factor of two (profiles per mirror revolution, a datasheet's line rate for its
-revolution rate) is still caught."""
 
 
 @dataclass(frozen=True)
@@ -547,7 +541,7 @@ def synchronise_object_space(
         raise ObservabilityError(msg)
     per_pair = tracked_sightings(scan, detected, crossings, cfg)
     ranked = candidate_assignments(sightings, crossings, cfg, per_pair=per_pair)
-    _check_period_prior(ranked, sightings, crossings, cfg, per_pair)
+    check_period_prior(ranked, sightings, crossings, cfg, per_pair)
     if not ranked:
         never = [n for n, c in n_cross.items() if c == 0]
         msg = (
@@ -737,52 +731,6 @@ def _settle_by_pulses(
         "scan's, one per profile, on the trajectory's time scale"
     )
     raise ObservabilityError(msg)
-
-
-def _check_period_prior(
-    ranked: Sequence[Assignment],
-    sightings: Sequence[Sighting],
-    crossings: Sequence[Crossing],
-    cfg: ObjectSpaceConfig,
-    per_pair: PairSightings | None = None,
-) -> None:
-    """Raise `PeriodPriorError` when a period outside the prior's window fits more sightings.
-
-    See the module's step 3, a wrong prior: the search runs over periods within a
-    factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
-    sightings than the best within the window and at least three.
-    """
-    prior, tol = cfg.period_prior_s, cfg.period_tolerance
-    n_in = len(ranked[0].pairs) if ranked else 0
-    bounds = (prior / PERIOD_SEARCH_FACTOR, prior * PERIOD_SEARCH_FACTOR)
-    wider = best_assignment(
-        sightings, crossings, cfg, bounds, more_than=max(n_in, 2), per_pair=per_pair
-    )
-    if wider is None:
-        return
-    period = wider.fit.period_s
-    off = period / prior - 1.0
-    if abs(off) <= tol:
-        return  # the window's own clock, reached from another seed: nothing excluded
-    widen = (
-        f", or widen --period-tolerance to {math.ceil(abs(off) * 100.0) / 100.0:g}"
-        if abs(off) < 0.49  # the tolerance must stay below 0.5
-        else ""
-    )
-    msg = (
-        f"--period-prior-s {prior:g} s: {n_in} of {len(sightings)} sightings fit a clock "
-        f"with a period within {tol * 100.0:g} % of it, {len(wider.pairs)} fit one with a "
-        f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
-        f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
-    )
-    raise PeriodPriorError(
-        msg,
-        period_prior_s=prior,
-        n_within=n_in,
-        n_sightings=len(sightings),
-        suggested_period_s=period,
-        n_suggested=len(wider.pairs),
-    )
 
 
 def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
