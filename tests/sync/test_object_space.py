@@ -549,8 +549,16 @@ def test_pulse_offset() -> None:
         pulse_offset(gap, clock)
     with pytest.raises(ObservabilityError, match=r"^p\.csv: .* \(line 102\) and .* \(line 103\)"):
         pulse_offset(gap, clock, source="p.csv", where=lambda i: f"line {i + 2}")
-    with pytest.raises(ObservabilityError, match="every"):
+    with pytest.raises(ObservabilityError, match="every") as info:
         pulse_offset(1000.0 + n * 0.031, clock)
+    assert "they are not this scanner's profile pulses" in str(info.value)
+    # Pulses whose period the prior allows: the clock is as suspect as they are.
+    with pytest.raises(ObservabilityError) as info:
+        pulse_offset(1000.0 + n * 0.031, clock, period_window_s=(0.0297, 0.0313))
+    assert "either the clock from the sync points is wrong" in str(info.value)
+    assert "they are not this scanner's" not in str(info.value)
+    with pytest.raises(ObservabilityError, match="they are not this scanner's profile pulses"):
+        pulse_offset(1000.0 + n * 0.031, clock, period_window_s=(0.0297, 0.0303))
     with pytest.raises(InputError, match="strictly increasing"):
         pulse_offset([1.0, 1.0], clock)
 

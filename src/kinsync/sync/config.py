@@ -101,6 +101,14 @@ class ObjectSpaceConfig:
     max_sync_distance_m: float = 5000.0
     max_gap_s: float | None = None
 
+    @property
+    def period_window_s(self) -> tuple[float, float]:
+        """Smallest and largest period (s) within the prior's relative tolerance."""
+        return (
+            self.period_prior_s * (1.0 - self.period_tolerance),
+            self.period_prior_s * (1.0 + self.period_tolerance),
+        )
+
     def __post_init__(self) -> None:
         positive_number(self.period_prior_s, "--period-prior-s")
         tol = positive_number(self.period_tolerance, "--period-tolerance")

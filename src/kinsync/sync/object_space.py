@@ -571,7 +571,11 @@ def synchronise_object_space(
     rivals = [
         a for a in ranked[1:] if len(a.pairs) == m and a.score - best.score <= cfg.ambiguity_chi2
     ]
-    train = None if pulses_t_s is None else _PulseTrain(pulses_t_s, pulses_source, pulses_where)
+    train = (
+        None
+        if pulses_t_s is None
+        else _PulseTrain(pulses_t_s, pulses_source, pulses_where, cfg.period_window_s)
+    )
 
     def finish(chosen: Assignment, others: Sequence[Assignment]) -> ObjectSpaceResult:
         """The result of one assignment, its matched sphere sightings refitted."""
@@ -602,6 +606,7 @@ class _PulseTrain:
     t_s: ArrayLike
     source: str
     where: Callable[[int], str] | None
+    period_window_s: tuple[float, float] | None = None
 
 
 def _pulses_of(
@@ -622,6 +627,7 @@ def _pulses_of(
         source=train.source,
         where=train.where,
         n_profiles=n_profiles,
+        period_window_s=train.period_window_s,
     )
 
 

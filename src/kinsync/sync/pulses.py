@@ -88,6 +88,7 @@ def pulse_offset(
     source: str = "pulses",
     where: Callable[[int], str] | None = None,
     n_profiles: int | None = None,
+    period_window_s: tuple[float, float] | None = None,
 ) -> PulseOffset:
     """Integer offset k between pulses and profiles: ``pulse[n + k]`` belongs to profile n.
 
@@ -111,6 +112,10 @@ def pulse_offset(
     n_profiles : int, optional
         Profiles the scan spans (last profile number + 1): the result then says which
         offsets the pulse train allows (`PulseOffset.plausible`).
+    period_window_s : (float, float), optional
+        Smallest and largest period (s) the scanner may have (the prior's window): when
+        the pulses' period lies within it and disagrees with the clock's, the message
+        names the clock (its sync points, the mount) as a suspect beside the pulses.
 
     Returns
     -------
@@ -147,11 +152,26 @@ def pulse_offset(
     pulse_period = float(np.polyfit(n, p, 1)[0])
     tolerance = 5.0 * period_std_s + 1e-5 * clock.period_s
     if abs(pulse_period - clock.period_s) > tolerance:
-        msg = (
+        head = (
             f"{source}: the pulses come every {pulse_period!r} s but the estimated period is "
-            f"{clock.period_s!r} s (tolerance {tolerance:.3g} s): they are not this scanner's "
-            "profile pulses, or not on the trajectory's time scale"
+            f"{clock.period_s!r} s (tolerance {tolerance:.3g} s)"
         )
+        if period_window_s is not None and (
+            period_window_s[0] <= pulse_period <= period_window_s[1]
+        ):
+            msg = (
+                f"{head}; the pulses' period lies within the period prior's window "
+                f"({period_window_s[0]:.6g} to {period_window_s[1]:.6g} s), as this scanner's "
+                "would: either the clock from the sync points is wrong (sightings matched to "
+                "the wrong crossings): check the sync points' coordinates (datum, heights) and "
+                "the mount (lever arm, boresight, [profiler] azimuth_deg); or the pulses are "
+                "not this scan's, or not on the trajectory's time scale"
+            )
+        else:
+            msg = (
+                f"{head}: they are not this scanner's profile pulses, or not on the "
+                "trajectory's time scale"
+            )
         raise ObservabilityError(msg)
     predicted = clock.t0_s + reference_profile * clock.period_s
     m_star = int(np.argmin(np.abs(p - predicted)))
