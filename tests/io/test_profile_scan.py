@@ -171,6 +171,9 @@ def test_sync_points_round_trip_and_ecef(tmp_path: Path) -> None:
     write_sync_points(pts, path)
     back = read_sync_points(path)
     assert back.names == pts.names
+    assert back.lines == (2, 3)  # messages name a point by its line
+    assert back.label(1) == "'S 2' (line 3)"
+    assert pts.label(1) == "'S 2'"
     np.testing.assert_array_equal(back.lat_lon_h, pts.lat_lon_h)
     np.testing.assert_allclose(
         back.pos_ecef_m(), geodetic_to_ecef([46.8, 46.8001], [-71.2, -71.2002], [10.0, 11.5])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import warnings
 
 import numpy as np
@@ -229,6 +230,137 @@ def test_a_sync_point_seen_off_the_clock_is_named(oval: DriveScanSimulation) -> 
     assert [name for name in r.unmatched_at if name is not None] == ["S2", "S2"]
     doc = r.as_document()["unmatched_sightings"]
     assert [u["at_crossing_of"] for u in doc] == list(r.unmatched_at)
+
+
+def _moved(
+    sim: DriveScanSimulation, *, east_m: float = 0.0, north_m: float = 0.0, up_m: float = 0.0
+) -> SyncPoints:
+    """The sync points all moved (m), as by a datum, epoch or height mix-up."""
+    llh = np.array(sim.sync_points.lat_lon_h, dtype=np.float64)
+    llh[:, 0] += math.degrees(north_m / 6_378_137.0)
+    llh[:, 1] += math.degrees(east_m / (6_378_137.0 * math.cos(math.radians(llh[0, 0]))))
+    llh[:, 2] += up_m
+    return SyncPoints(sim.sync_points.names, llh, source="sp.csv")
+
+
+def test_sync_points_a_little_off_are_named_not_dropped_silently(
+    oval: DriveScanSimulation,
+) -> None:
+    """Sync points 0.5 m east: t0 was 140 ms off (7 sigma), exit 0, nothing said.
+
+    The two close sightings of S1 (profiles 459 and 5165) lie 8.8 profiles from where
+    the clock puts S1's crossings, beyond the match gate and outside ``at_crossing_of``:
+    they were left out silently, and they are the ones that show the mismatch. A
+    warning names them now, with how far off; the right coordinates stay silent.
+    """
+    scan, traj, mount = oval.scanner.scan, oval.trajectory, oval.config.mount
+    cfg = ObjectSpaceConfig()  # the CLI's defaults: 2 cm positions
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        right = synchronise_object_space(scan, traj, mount, _moved(oval), cfg)
+    assert not [str(w.message) for w in caught], "the right sync points are not warned about"
+    assert right.unmatched_near == (None,) * len(right.unmatched)
+    with pytest.warns(KinsyncWarning) as caught_off:
+        r = synchronise_object_space(scan, traj, mount, _moved(oval, east_m=0.5), cfg)
+    said = [str(w.message) for w in caught_off]
+    assert len(said) == 1, said
+    assert said[0].startswith("sp.csv: 2 sighting(s) lie near crossings of sync points that ")
+    assert re.search(
+        r"'S1' at profile 459\.\d, 8\.\d profiles \(0\.2\d\d s, 0\.5\d m along the track\), "
+        r"at profile 5165\.\d, 8\.\d profiles",
+        said[0],
+    ), said[0]
+    assert (
+        "coordinates (datum, epoch, height), the mount or the trajectory there may be off"
+        in said[0]
+    )
+    assert abs(r.t0_s - oval.truth["t0_s"]) > 4 * r.t0_std_s  # the clock itself is unchanged
+    near = [n for n in r.unmatched_near if n is not None]
+    assert [n.name for n in near] == ["S1", "S1"]
+    assert all(0.4 < n.offset_m < 0.7 and 8.0 < abs(n.offset_profiles) < 10.0 for n in near)
+    doc = r.as_document()["unmatched_sightings"]
+    assert [u["near_crossing_of"] is not None for u in doc] == [
+        n is not None for n in r.unmatched_near
+    ]
+    assert {u["near_crossing_of"]["name"] for u in doc if u["near_crossing_of"]} == {"S1"}
+
+
+def test_a_sync_point_never_crossed_or_listed_twice_is_named(
+    oval: DriveScanSimulation, oval_result: ObjectSpaceResult
+) -> None:
+    """F1 a kilometre away and S3 a copy of S1 were taken without a word."""
+    llh = np.array(oval.sync_points.lat_lon_h, dtype=np.float64)
+    far = llh[0] + np.array([0.01, 0.0, 0.0])  # 1.1 km north of S1
+    points = SyncPoints(
+        (*oval.sync_points.names, "F1", "S3"),
+        np.vstack([llh, far, llh[0]]),
+        source="sp.csv",
+        lines=(2, 3, 4, 5),
+    )
+    with pytest.warns(KinsyncWarning) as caught:
+        r = synchronise_object_space(
+            oval.scanner.scan, oval.trajectory, oval.config.mount, points, EXACT
+        )
+    said = [str(w.message) for w in caught]
+    assert any(
+        re.match(
+            r"sp\.csv: sync point 'F1' \(line 4\) is never crossed by the scan plane within "
+            r"80 m of the scanner \(it lies 1\d{3} m from the nearest trajectory position\)",
+            m,
+        )
+        for m in said
+    ), said
+    assert any(
+        m.startswith("sp.csv: sync points 'S1' (line 2) and 'S3' (line 5) lie 0.000 m apart")
+        for m in said
+    ), said
+    assert r.n_crossings["F1"] == 0
+    assert r.t0_s == pytest.approx(oval_result.t0_s, abs=1e-9)
+
+
+def test_sync_point_heights_29_m_off_say_where_the_geometry_puts_them(
+    oval: DriveScanSimulation,
+) -> None:
+    """Orthometric heights (+29 m here): "no assignment ...", no file, no hint."""
+    with pytest.raises(ObservabilityError) as info:
+        synchronise_object_space(
+            oval.scanner.scan,
+            oval.trajectory,
+            oval.config.mount,
+            _moved(oval, up_m=29.0),
+            ObjectSpaceConfig(),
+        )
+    msg = str(info.value)
+    assert msg.startswith("sp.csv: no assignment of the 18 sighting(s) to the 8 crossing(s) ")
+    assert "none of the 18 sightings lies where the scan plane crosses a sync point" in msg
+    assert re.search(r"put the sync points 2\d\.\d to 3\d\.\d m from the scanner", msg), msg
+    assert "heights too: ellipsoidal, in metres, not orthometric or in feet" in msg
+    assert "--period-prior-s" not in msg  # no period would help
+
+
+def test_pulses_that_disagree_with_a_clock_from_bad_sync_points_name_both(
+    oval: DriveScanSimulation,
+) -> None:
+    """Sync points 1 m north: the pulses were called "not this scanner's"; they are right.
+
+    The clock rests on 2 sightings matched by chance, period 0.03031 s; the pulses'
+    0.030545 s lies within the prior's window, so the sync points are suspects too.
+    """
+    with pytest.warns(KinsyncWarning), pytest.raises(ObservabilityError) as info:
+        synchronise_object_space(
+            oval.scanner.scan,
+            oval.trajectory,
+            oval.config.mount,
+            _moved(oval, north_m=1.0),
+            ObjectSpaceConfig(),
+            pulses_t_s=oval.pulses_t_s,
+            pulses_source="p.csv",
+        )
+    msg = str(info.value)
+    assert msg.startswith("p.csv: the pulses come every 0.0305")
+    assert "lies within the period prior's window (0.029997 to 0.030603 s)" in msg
+    assert "either the clock from the sync points is wrong" in msg
+    assert "check the sync points' coordinates (datum, heights) and the mount" in msg
 
 
 def test_ambiguity_is_reported() -> None:

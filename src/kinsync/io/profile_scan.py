@@ -242,6 +242,7 @@ def read_sync_points(path: Path) -> SyncPoints:
     idx = {c: header.index(c) for c in SYNC_POINT_COLUMNS}
     names: list[str] = []
     llh: list[list[float]] = []
+    lines: list[int] = []
     seen: dict[str, int] = {}
     for line, row in records[1:]:
         if len(row) != len(header):
@@ -256,11 +257,14 @@ def read_sync_points(path: Path) -> SyncPoints:
             raise InputError(msg)
         seen[name] = line
         names.append(name)
+        lines.append(line)
         llh.append(_coordinates(path, line, row, idx))
     if not names:
         msg = f"{path}: no data rows after the header; give at least one point"
         raise InputError(msg)
-    return SyncPoints(names=tuple(names), lat_lon_h=np.array(llh), source=str(path))
+    return SyncPoints(
+        names=tuple(names), lat_lon_h=np.array(llh), source=str(path), lines=tuple(lines)
+    )
 
 
 def write_sync_points(points: SyncPoints, path: Path) -> None:

@@ -194,11 +194,16 @@ class CrossingSearch:
         Sign changes across data gaps of the trajectory (left out), in time order.
     max_gap_s : float
         The gap threshold used (s): record intervals longer than this are data gaps.
+    distance_m : tuple of float
+        Each sync point's distance to the nearest trajectory position (m, of at most
+        20 000 evenly spaced records), in the order of the sync points; empty when not
+        computed.
     """
 
     crossings: tuple[Crossing, ...]
     in_gaps: tuple[GapCrossing, ...] = ()
     max_gap_s: float = math.inf
+    distance_m: tuple[float, ...] = ()
 
 
 def require_profiler_azimuth(mount: Mount, source: str = "mount") -> float:
@@ -238,11 +243,17 @@ def _plane_normal_scanner(azimuth_rad: float) -> FloatArray:
 
 def _check_sync_distance(
     gtraj: GeorefTrajectory, points: SyncPoints, pos_ecef: FloatArray, limit_m: float
-) -> None:
+) -> tuple[float, ...]:
+    """Each point's distance (m) to the nearest of 20 000 trajectory positions at most.
+
+    Raises `InputError` for a point farther than ``limit_m``.
+    """
     step = max(1, len(gtraj) // 20000)
     sampled = gtraj.pos_ecef_m[::step]
+    out: list[float] = []
     for name, p in zip(points.names, pos_ecef, strict=True):
         dist = float(np.min(np.linalg.norm(sampled - p, axis=1)))
+        out.append(dist)
         if dist > limit_m:
             msg = (
                 f"{points.source}: sync point {name!r} lies {dist / 1000.0:.3g} km from the "
@@ -251,6 +262,7 @@ def _check_sync_distance(
                 "latitude/longitude order and signs, and that both files belong to this survey"
             )
             raise InputError(msg)
+    return tuple(out)
 
 
 def _sign_changes(
@@ -353,8 +365,9 @@ def search_crossings(
     Returns
     -------
     CrossingSearch
-        The crossings in time order, and the sign changes across data gaps of the
-        trajectory (record intervals over `GeorefTrajectory.max_gap_s`), left out.
+        The crossings in time order, the sign changes across data gaps of the
+        trajectory (record intervals over `GeorefTrajectory.max_gap_s`), left out, and
+        each sync point's distance to the trajectory.
 
     Raises
     ------
@@ -366,7 +379,7 @@ def search_crossings(
     az = require_profiler_azimuth(mount)
     gtraj = GeorefTrajectory.from_trajectory(trajectory, mount.latency_s, max_gap_s=cfg.max_gap_s)
     pos_p = sync_points.pos_ecef_m()
-    _check_sync_distance(gtraj, sync_points, pos_p, cfg.max_sync_distance_m)
+    distance_m = _check_sync_distance(gtraj, sync_points, pos_p, cfg.max_sync_distance_m)
     n_s = _plane_normal_scanner(az)
     R_be = quaternion_to_matrix(gtraj.q_body_to_ecef)
     origin = gtraj.pos_ecef_m + R_be @ mount.lever_arm_body_m_array
@@ -430,4 +443,4 @@ def search_crossings(
             )
     out.sort(key=lambda c: c.t_s)
     in_gaps.sort(key=lambda c: c.gap.t_start_s)
-    return CrossingSearch(tuple(out), tuple(in_gaps), gtraj.max_gap_s)
+    return CrossingSearch(tuple(out), tuple(in_gaps), gtraj.max_gap_s, distance_m)

@@ -65,7 +65,11 @@ and T. The algorithm:
    different assignment with as many matches within ``ambiguity_chi2`` of it makes
    the result *ambiguous* (reported, with the alternatives), unless the pulses rule
    it out (step 6). Sightings left unmatched (control targets, glints) are reported,
-   never used.
+   never used. One near a crossing of a sync point that the clock leaves unused
+   (compatible, within `kinsync.sync.point_checks.NEAR_CROSSING_M` along the track)
+   is that point seen a little off: with sync points 0.1-0.5 m off (a datum or epoch
+   mix-up) the two sightings that showed it were left out and t0 was 4-7 sigma off,
+   silently; a `KinsyncWarning` now names them, with how far off they are.
 
    **A wrong prior.** Two pairs always fit a line exactly, so a prior far from the
    true period still gave an "assignment": two sightings matched by chance, chi2 0,
@@ -203,6 +207,13 @@ from kinsync.sync.crossings import (
     require_profiler_azimuth,
     search_crossings,
 )
+from kinsync.sync.point_checks import (
+    NearCrossing,
+    near_crossings,
+    near_crossings_text,
+    no_assignment_text,
+    sync_point_notes,
+)
 from kinsync.sync.pulses import PulseOffset, pulse_offset
 from kinsync.sync.scan import (
     PROFILE_SCANNER_REACH_M,
@@ -318,6 +329,12 @@ class ObjectSpaceResult:
         does. A named one is a sync point seen when the plane crossed it whose
         sub-profile position fits no clock: the geometry (mount, coordinates) or the
         sighting is wrong, and passing it again would not help.
+    unmatched_near : tuple of (NearCrossing or None)
+        For each of ``unmatched``: the crossing of a sync point, compatible and matched
+        to no other sighting, that the clock puts within
+        `kinsync.sync.point_checks.NEAR_CROSSING_M` along the track, with how far off
+        (a `KinsyncWarning` names them): the point seen a little off, its coordinates
+        (datum, epoch, height) or the mount wrong by about that much.
     n_crossings : Mapping of str to int
         Candidate crossings found per sync point (a read-only mapping).
     ambiguous : bool
@@ -348,6 +365,7 @@ class ObjectSpaceResult:
     unmatched: tuple[Sighting, ...]
     n_crossings: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
     unmatched_at: tuple[str | None, ...] = ()
+    unmatched_near: tuple[NearCrossing | None, ...] = ()
     ambiguous: bool = False
     alternatives: tuple[Alternative, ...] = ()
     pulses: PulseOffset | None = None
@@ -409,10 +427,12 @@ class ObjectSpaceResult:
                     "range_m": s.range_m,
                     "n_returns": s.n_returns,
                     "at_crossing_of": at,
+                    "near_crossing_of": None if near is None else near.as_document(),
                 }
-                for s, at in zip(
+                for s, at, near in zip(
                     self.unmatched,
                     self.unmatched_at or (None,) * len(self.unmatched),
+                    self.unmatched_near or (None,) * len(self.unmatched),
                     strict=True,
                 )
             ],
@@ -504,7 +524,11 @@ def synchronise_object_space(
     -----
     KinsyncWarning
         The clock rests on two sightings: nothing checks it (module step 3). The pulses
-        ruled out the best assignment and took the one rival they allow (step 6).
+        ruled out the best assignment and took the one rival they allow (step 6). A
+        sync point never crossed within ``max_range_m``, or two at one place; sightings
+        left out near crossings of sync points that the clock leaves unused
+        (`ObjectSpaceResult.unmatched_near`): coordinates a little off
+        (`kinsync.sync.point_checks`).
     """
     cfg = config or ObjectSpaceConfig()
     require_profiler_azimuth(mount)
@@ -539,24 +563,13 @@ def synchronise_object_space(
             "mount (lever arm, boresight, [profiler] azimuth_deg) and the trajectory"
         )
         raise ObservabilityError(msg)
+    for note in sync_point_notes(sync_points, search, n_cross, cfg.max_range_m):
+        warnings.warn(note, KinsyncWarning, stacklevel=2)
     per_pair = tracked_sightings(scan, detected, crossings, cfg)
     ranked = candidate_assignments(sightings, crossings, cfg, per_pair=per_pair)
     check_period_prior(ranked, sightings, crossings, cfg, per_pair)
     if not ranked:
-        never = [n for n, c in n_cross.items() if c == 0]
-        msg = (
-            f"no assignment of the {len(sightings)} sighting(s) to the {len(crossings)} "
-            f"crossing(s) gives a period within {cfg.period_tolerance:g} (relative) of "
-            f"{cfg.period_prior_s!r} s"
-            + (f"; sync point(s) {never} are never crossed" if never else "")
-            + (
-                f"; {len(search.in_gaps)} possible crossing(s) in data gaps of the trajectory "
-                f"({gap_threshold_text(search.max_gap_s)}) left out: {GAP_ADVICE}"
-                if search.in_gaps
-                else ""
-            )
-            + ": check --period-prior-s/--period-tolerance, the mount and the sync points"
-        )
+        msg = no_assignment_text(sync_points, sightings, crossings, search, cfg)
         raise ObservabilityError(msg)
     best = ranked[0]
     if len(best.pairs) == 2:
@@ -594,9 +607,11 @@ def synchronise_object_space(
 
     runners_up = rivals or [a for a in ranked[1:] if len(a.pairs) == m]
     result = replace(finish(best, runners_up), ambiguous=bool(rivals))
-    if train is None or result.pulses is None:
-        return result
-    return _settle_by_pulses(result, best, rivals, runners_up, finish, train, scan.n_profiles)
+    if train is not None and result.pulses is not None:
+        result = _settle_by_pulses(result, best, rivals, runners_up, finish, train, scan.n_profiles)
+    if near := near_crossings_text(sync_points.source, result.unmatched_near):
+        warnings.warn(near, KinsyncWarning, stacklevel=2)
+    return result
 
 
 @dataclass(frozen=True)
@@ -799,6 +814,10 @@ def _result(
     unmatched_at = seen_off_the_clock(
         [sightings[k] for k in unused], crossings, cfg, fit.t0_s, fit.period_s
     )
+    claimed = {j for _, j in best.pairs}
+    near = near_crossings(
+        [sightings[k] for k in unused], crossings, claimed, cfg, fit.t0_s, fit.period_s
+    )
     pulses = None if train is None else _pulses_of(fit.t0_s, fit.period_s, cov, train, n_profiles)
     alternatives = tuple(
         Alternative(a.fit.t0_s, a.fit.period_s, len(a.pairs), a.fit.chi2) for a in others[:5]
@@ -815,6 +834,7 @@ def _result(
         unmatched=tuple(sightings[k] for k in unused),
         n_crossings=n_cross,
         unmatched_at=unmatched_at,
+        unmatched_near=near,
         alternatives=alternatives,
         pulses=pulses,
     )

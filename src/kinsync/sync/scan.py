@@ -245,11 +245,15 @@ class SyncPoints:
         Latitude (deg), longitude (deg), ellipsoidal height (m) of each target centre.
     source : str
         Where they came from (file path), for messages.
+    lines : tuple of int or None
+        The line of ``source`` each point was read from, for messages (`label`); None
+        when the points were not read from a text file.
     """
 
     names: tuple[str, ...]
     lat_lon_h: FloatArray
     source: str = "<sync points>"
+    lines: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         names = name_tuple(self.names, f"{self.source}: names")
@@ -278,13 +282,34 @@ class SyncPoints:
                 "finite WGS84 position with latitude in [-90, 90]"
             )
             raise InputError(msg)
+        if self.lines is not None and len(self.lines) != len(names):
+            msg = f"{self.source}: {len(self.lines)} line numbers for {len(names)} points"
+            raise InputError(msg)
         llh = llh.copy()
         llh.setflags(write=False)
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "lat_lon_h", llh)
+        if self.lines is not None:
+            object.__setattr__(self, "lines", tuple(int(n) for n in self.lines))
 
     def __len__(self) -> int:
         return len(self.names)
+
+    def label(self, i: int) -> str:
+        """Point i named for messages: ``'S1' (line 2)``, or ``'S1'`` without `lines`.
+
+        Parameters
+        ----------
+        i : int
+            Index of the point (0-based).
+
+        Returns
+        -------
+        str
+            The quoted name, with the line of `source` it was read from when known.
+        """
+        line = "" if self.lines is None else f" (line {self.lines[i]})"
+        return f"{self.names[i]!r}{line}"
 
     def pos_ecef_m(self) -> FloatArray:
         """Target centres in ECEF (m), shape (K, 3)."""
