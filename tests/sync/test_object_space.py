@@ -215,16 +215,17 @@ def test_a_sync_point_seen_off_the_clock_is_named(oval: DriveScanSimulation) -> 
     """S2 0.26 m north and east of where it is: its sightings, at its crossings, fit no line.
 
     The clock rests on S1; `unmatched_at` names S2 for its two sightings (the control
-    targets, glints and far passes stay unnamed).
+    targets, glints and far passes stay unnamed), and so does a warning.
     """
     llh = np.array(oval.sync_points.lat_lon_h, dtype=np.float64)
     k = oval.sync_points.names.index("S2")
     llh[k, 0] += math.degrees(0.26 / 6_378_137.0)
     llh[k, 1] += math.degrees(0.26 / (6_378_137.0 * math.cos(math.radians(llh[k, 0]))))
     moved = SyncPoints(oval.sync_points.names, llh)
-    r = synchronise_object_space(
-        oval.scanner.scan, oval.trajectory, oval.config.mount, moved, EXACT
-    )
+    with pytest.warns(KinsyncWarning, match=r"'S2' at profile 4767\.\d, .*, at profile 9473\.\d"):
+        r = synchronise_object_space(
+            oval.scanner.scan, oval.trajectory, oval.config.mount, moved, EXACT
+        )
     assert "S2" not in [s.name for s in r.sightings]
     assert len(r.unmatched_at) == len(r.unmatched)
     assert [name for name in r.unmatched_at if name is not None] == ["S2", "S2"]
