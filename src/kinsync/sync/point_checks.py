@@ -33,6 +33,7 @@ from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
 __all__ = [
     "COINCIDENT_M",
+    "NEAR_CROSSING_FLOOR_M",
     "NEAR_CROSSING_M",
     "NearCrossing",
     "near_crossings",
@@ -47,6 +48,11 @@ along the track (m; the sweep of the scan plane over the point, ``|d'| dt``) is 
 for a sighting of that point, a little off: sync-point coordinates in another datum
 or epoch are off by 0.1 to 2 m. Within at most `kinsync.sync.crossings.TRACK_HALF_S`
 in time, so that a slow sweep in a turn does not reach far."""
+
+NEAR_CROSSING_FLOOR_M = 0.1
+"""...but not within this distance (m): a sighting's own error explains that much (a
+sphere fit off by two or three profiles on a plane slanted 20 deg, where the sweep is
+slow: 0.05 m on exact data)."""
 
 COINCIDENT_M = 0.1
 """Two sync points closer than this (m) are one target listed twice: the centres of two
@@ -117,8 +123,9 @@ def near_crossings(
     -------
     tuple of (NearCrossing or None)
         One per unmatched sighting: the compatible crossing, not claimed, that the
-        clock puts within `NEAR_CROSSING_M` along the track and `TRACK_HALF_S` in time
-        (the nearest of several), None where there is none.
+        clock puts within `NEAR_CROSSING_M` along the track, but not within
+        `NEAR_CROSSING_FLOOR_M`, and within `TRACK_HALF_S` in time (the nearest of
+        several), None where there is none.
     """
     out: list[NearCrossing | None] = []
     for s, js in zip(unmatched, compatible_crossings(unmatched, crossings, cfg), strict=True):
@@ -129,7 +136,9 @@ def near_crossings(
             c = crossings[j]
             offset_s = c.t_s - (t0_s + period_s * s.x)
             offset_m = abs(c.rate_m_s * offset_s)
-            if abs(offset_s) > TRACK_HALF_S or offset_m > NEAR_CROSSING_M:
+            if abs(offset_s) > TRACK_HALF_S or not (
+                NEAR_CROSSING_FLOOR_M <= offset_m <= NEAR_CROSSING_M
+            ):
                 continue
             if best is None or offset_m < best.offset_m:
                 best = NearCrossing(c.name, s.profile, offset_s / period_s, offset_s, offset_m)
