@@ -748,3 +748,15 @@ def test_euler_angles_in_degrees_are_refused_naming_the_argument(
     edge = np.radians([360.0, 90.0, -360.0])
     traj = Trajectory.from_euler(t, *(np.full(t.size, a) for a in edge), lat_lon_h=llh)
     assert len(traj) == t.size
+
+
+def test_an_interpolated_sample_owns_its_times() -> None:
+    """The sample kept the caller's array of times: writing to it changed the sample."""
+    t, z, llh = _gps_line()
+    traj = Trajectory.from_euler(t, z, z, z, lat_lon_h=llh)
+    wanted = t[3:6] + 0.05
+    sample = traj.interpolate(wanted)
+    wanted[0] = 0.0
+    assert sample.t_s[0] == t[3] + 0.05
+    for arr in (sample.t_s, sample.inside):
+        assert not arr.flags.writeable

@@ -100,6 +100,8 @@ def _meridian_and_normal_radii_m(lat_deg: FloatArray) -> tuple[FloatArray, Float
 class TrajectorySample:
     """States of a trajectory interpolated at requested times.
 
+    Its arrays are its own (the requested times are copied) and read-only.
+
     Attributes
     ----------
     t_s : ndarray, shape (M,)
@@ -687,7 +689,7 @@ class Trajectory:
         OutsideSpanError
             A time outside the span or inside a data gap, unless ``mask_outside``.
         """
-        t = np.atleast_1d(time_array(t_s, "interpolation times t_s"))
+        t = np.array(np.atleast_1d(time_array(t_s, "interpolation times t_s")), copy=True)
         if t.ndim != 1:
             msg = f"interpolation times: expected a 1-D array, got shape {t.shape}"
             raise InputError(msg)
@@ -704,8 +706,8 @@ class Trajectory:
             pos_out[inside] = self._hermite(idx, frac) if use_hermite else self._linear(idx, frac)
         if self.lat_lon_h is not None:
             pos_out[:, 1] = (pos_out[:, 1] + 180.0) % 360.0 - 180.0
-        q_out.setflags(write=False)
-        pos_out.setflags(write=False)
+        for arr in (t, inside, q_out, pos_out):  # the sample's own, as the trajectory's
+            arr.setflags(write=False)
         return TrajectorySample(
             t_s=t,
             q_body_to_ned=q_out,

@@ -490,7 +490,7 @@ def georeference_numpy(
     sample = traj.trajectory.interpolate(
         t, position="hermite" if hermite else "linear", mask_outside=True, max_gap_s=traj.max_gap_s
     )
-    inside = sample.inside
+    inside = sample.inside.copy()  # the caller's to change; the sample's is read-only
     out = np.full((t.size, 3), np.nan)
     if not np.any(inside):
         return out, inside

@@ -22,8 +22,13 @@ from kinsync.errors import InputError
 __all__ = ["GnssData", "ImuData"]
 
 
+def _owned(values: FloatArray) -> FloatArray:
+    """A C-contiguous float64 copy: the container's own, never a view of the caller's."""
+    return np.array(values, dtype=np.float64, copy=True, order="C")
+
+
 def _rows(values: FloatArray, n: int, name: str, *, allow_nan: bool = False) -> FloatArray:
-    arr = np.ascontiguousarray(values, dtype=np.float64)
+    arr = _owned(values)
     if arr.shape != (n, 3):
         msg = f"{name}: expected shape ({n}, 3), got {arr.shape}"
         raise InputError(msg)
@@ -37,7 +42,7 @@ def _rows(values: FloatArray, n: int, name: str, *, allow_nan: bool = False) -> 
 
 
 def _times(values: FloatArray, name: str) -> FloatArray:
-    t = np.ascontiguousarray(values, dtype=np.float64)
+    t = _owned(values)
     if t.ndim != 1 or t.size < 2:
         msg = f"{name}: expected at least 2 times in a 1-D array, got shape {t.shape}"
         raise InputError(msg)
@@ -61,6 +66,8 @@ def _times(values: FloatArray, name: str) -> FloatArray:
 @dataclass(frozen=True)
 class ImuData:
     """IMU samples.
+
+    The arrays are copied (the caller's stay as they are) and made read-only.
 
     Attributes
     ----------
@@ -90,6 +97,8 @@ class ImuData:
 class GnssData:
     """GNSS antenna fixes.
 
+    The arrays are copied and made read-only.
+
     Attributes
     ----------
     t_s : ndarray, shape (m,)
@@ -117,7 +126,7 @@ class GnssData:
         n = t.size
         object.__setattr__(self, "t_s", t)
         for name in ("lat_deg", "lon_deg", "h_m"):
-            arr = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
+            arr = _owned(getattr(self, name))
             if arr.shape != (n,) or not np.isfinite(arr).all():
                 msg = f"GNSS {name}: expected {n} finite values"
                 raise InputError(msg)
