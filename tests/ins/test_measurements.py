@@ -1,9 +1,12 @@
-"""The measurement containers own their arrays."""
+"""The measurement containers: times and coordinates checked as the API promises, arrays
+owned by the container."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from kinsync.errors import InputError
 from kinsync.ins.measurements import GnssData, ImuData
 
 N = 100
@@ -24,6 +27,30 @@ def _gnss(lat_deg: np.ndarray, h_m: np.ndarray | None = None) -> GnssData:
         h_m=np.full(n, 10.0) if h_m is None else h_m,
         std_pos_ned_m=np.full((n, 3), 0.02),
     )
+
+
+def test_imu_datetime64_times_are_refused() -> None:
+    """datetime64[ns] was read as nanoseconds taken for seconds (intervals of 5e6 's')."""
+    ts = np.datetime64("2020-01-01T00:00:00", "ns") + np.arange(N) * np.timedelta64(5, "ms")
+    _, gyro, acc = _imu_arrays()
+    with pytest.raises(InputError, match=r"IMU t_s: expected seconds, got datetime64\[ns\]"):
+        ImuData(ts, gyro, acc)  # type: ignore[arg-type]
+
+
+def test_float32_times_are_refused() -> None:
+    """float32 holds 3000 s in steps of 2.4e-4 s: the IMU times were 1.2e-4 s off."""
+    t, gyro, acc = _imu_arrays()
+    with pytest.raises(InputError, match=r"IMU t_s: float32 times near 3000\.5 s .*float64"):
+        ImuData(t.astype(np.float32), gyro, acc)
+    with pytest.raises(InputError, match=r"GNSS t_s: float32 times"):
+        GnssData(
+            (T0 + np.arange(5.0)).astype(np.float32),
+            np.full(5, 46.8),
+            np.full(5, -71.2),
+            np.full(5, 10.0),
+            np.full((5, 3), 0.02),
+        )
+    assert ImuData(t, gyro, acc).t_s[1] == t[1]  # float64 passes
 
 
 def test_containers_copy_the_callers_arrays() -> None:

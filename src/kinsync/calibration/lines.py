@@ -17,6 +17,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, FloatArray
+from kinsync._validate import coordinate_array, time_array
 from kinsync.errors import InputError, PointValueError
 from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
 from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
@@ -34,10 +35,13 @@ class ScanLine:
     name : str
         What the line is called in messages and reports (a file name, ``line 3``).
     t_s : ndarray, shape (N,)
-        Time of each return on the trajectory's time scale (s, GPS time), finite.
+        Time of each return on the trajectory's time scale (s, GPS time), finite; float
+        seconds as `kinsync._validate.time_array` takes them (datetime64, and float32
+        beyond 16 s, are refused).
     xyz_scanner_m : ndarray, shape (N, 3)
         Returns in the scanner frame (m), finite and within
-        ±`kinsync.georef.kernel.MAX_SCANNER_RANGE_M`.
+        ±`kinsync.georef.kernel.MAX_SCANNER_RANGE_M`, in a float dtype that holds
+        0.1 mm (`kinsync._validate.coordinate_array`).
     trajectory : Trajectory
         Navigation solution at its own time tags (not corrected for latency): the
         calibration applies the latency it estimates (SPEC section 1).
@@ -50,12 +54,8 @@ class ScanLine:
 
     def __post_init__(self) -> None:
         name = str(self.name)
-        try:
-            t = np.asarray(self.t_s, dtype=np.float64)
-            xyz = np.asarray(self.xyz_scanner_m, dtype=np.float64)
-        except (TypeError, ValueError) as err:
-            msg = f"line {name!r}: times and scanner coordinates must be numbers ({err})"
-            raise InputError(msg) from err
+        t = time_array(self.t_s, f"line {name!r}: t_s")
+        xyz = coordinate_array(self.xyz_scanner_m, f"line {name!r}: xyz_scanner_m")
         if t.ndim != 1 or t.size == 0:
             msg = f"line {name!r}: needs at least one return, got times of shape {t.shape}"
             raise InputError(msg)

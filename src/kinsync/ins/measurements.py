@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._validate import time_array
 from kinsync.errors import InputError
 
 __all__ = ["GnssData", "ImuData"]
@@ -42,7 +43,7 @@ def _rows(values: FloatArray, n: int, name: str, *, allow_nan: bool = False) -> 
 
 
 def _times(values: FloatArray, name: str) -> FloatArray:
-    t = _owned(values)
+    t = _owned(time_array(values, name))
     if t.ndim != 1 or t.size < 2:
         msg = f"{name}: expected at least 2 times in a 1-D array, got shape {t.shape}"
         raise InputError(msg)
@@ -67,7 +68,9 @@ def _times(values: FloatArray, name: str) -> FloatArray:
 class ImuData:
     """IMU samples.
 
-    The arrays are copied (the caller's stay as they are) and made read-only.
+    The arrays are copied (the caller's stay as they are) and made read-only. Times are
+    float seconds: datetime64, text, or a float dtype too coarse for 1 us (float32 beyond
+    16 s) raise `InputError` naming the argument (`kinsync._validate.time_array`).
 
     Attributes
     ----------
@@ -97,7 +100,7 @@ class ImuData:
 class GnssData:
     """GNSS antenna fixes.
 
-    The arrays are copied and made read-only.
+    The arrays are copied and made read-only. Times are checked as `ImuData`'s.
 
     Attributes
     ----------
