@@ -750,6 +750,41 @@ def test_euler_angles_in_degrees_are_refused_naming_the_argument(
     assert len(traj) == t.size
 
 
+def test_float32_geodetic_positions_are_refused_naming_the_argument() -> None:
+    """float32 holds latitudes near 47 deg in steps of 3.8e-6 deg (0.4 m): the
+    interpolated ECEF positions were 0.28 m off, silently (float32 ECEF was refused)."""
+    t, z, llh = _gps_line()
+    fragment = r"trajectory lat_lon_h \(latitude, longitude\): float32 degrees near 71\.2 deg"
+    with pytest.raises(InputError, match=rf"{fragment}.*pass float64"):
+        Trajectory.from_euler(t, z, z, z, lat_lon_h=llh.astype(np.float32))
+    with pytest.raises(InputError, match=rf"{fragment}.*pass float64"):
+        Trajectory(t_s=t, q_body_to_ned=_identity_q(t.size), lat_lon_h=llh.astype(np.float32))
+    # float32 holds degrees near the null meridian on the equator finely, not 5 km heights
+    high = np.column_stack([llh[:, :2] * 1e-5, np.full(t.size, 5000.0)]).astype(np.float32)
+    with pytest.raises(InputError, match=r"lat_lon_h \(height\): float32 .*near 5000 m"):
+        Trajectory.from_euler(t, z, z, z, lat_lon_h=high)
+    ned = np.full((t.size, 3), 5000.0, dtype=np.float32)  # 0.5 mm steps
+    with pytest.raises(InputError, match=r"trajectory pos_ned_m: float32 coordinates"):
+        Trajectory.from_euler(t, z, z, z, pos_ned_m=ned, origin_lat_lon_h=ORIGIN)
+    # float32 holds a position close to the origin finely enough
+    local = Trajectory.from_euler(
+        t, z, z, z, pos_ned_m=ned * np.float32(0.01), origin_lat_lon_h=ORIGIN
+    )
+    assert local.pos_ned_m is not None
+    assert local.pos_ned_m.dtype == np.float64
+
+
+def test_float16_euler_angles_are_refused_naming_the_argument() -> None:
+    """float16 holds a yaw near 2 rad in steps of 2e-3 rad: the trajectory was built
+    4.8e-4 rad off although ANGLE_STEP_RAD (1 urad) calls float16 too coarse."""
+    t, z, llh = _gps_line()
+    yaw = np.linspace(1.0, 2.0, t.size)
+    with pytest.raises(InputError, match=r"trajectory yaw_rad: float16 angles .*pass float64"):
+        Trajectory.from_euler(t, z, z, yaw.astype(np.float16), lat_lon_h=llh)
+    traj = Trajectory.from_euler(t, z, z, yaw.astype(np.float32), lat_lon_h=llh)  # 1.2e-7 rad
+    assert_allclose(traj.euler_rpy_rad()[:, 2], yaw, atol=1e-6)
+
+
 def test_an_interpolated_sample_owns_its_times() -> None:
     """The sample kept the caller's array of times: writing to it changed the sample."""
     t, z, llh = _gps_line()

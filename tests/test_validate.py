@@ -5,7 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinsync._validate import ECEF_HEIGHT_RANGE_M, coordinate_array, ecef_array, time_array
+from kinsync._validate import (
+    DEGREE_STEP_DEG,
+    ECEF_HEIGHT_RANGE_M,
+    angle_array,
+    check_float_step,
+    coordinate_array,
+    degree_array,
+    ecef_array,
+    geodetic_array,
+    time_array,
+)
 from kinsync.errors import InputError
 
 
@@ -48,3 +58,22 @@ def test_coordinates_within_0p1_mm_and_ecef_near_the_earth() -> None:
     with pytest.raises(InputError, match=r"34\.\d+ km below the WGS84 ellipsoid.*not ECEF"):
         ecef_array([[332_118.5, 6_335_319.4, 11.2]], "p")
     ecef_array([[np.nan, 0.0, 0.0]], "p")  # non-finite rows are the caller's to name
+
+
+def test_degrees_are_held_to_0p1_mm_on_the_ground() -> None:
+    """Latitudes and longitudes need steps of 9e-10 deg (0.1 mm); float32 holds 3.8e-6 deg
+    (0.4 m) near 47 deg."""
+    assert DEGREE_STEP_DEG * 6_378_137.0 * np.pi / 180.0 == pytest.approx(1e-4)
+    with pytest.raises(InputError, match=r"lat_deg: float32 degrees near 46\.8 deg .*float64"):
+        degree_array(np.array([46.8], dtype=np.float32), "lat_deg")
+    assert degree_array(np.array([1e-3], dtype=np.float32), "lat_deg").dtype == np.float64
+    with pytest.raises(InputError, match=r"lat_deg: expected numbers \(deg\)"):
+        degree_array(np.array(["46.8"]), "lat_deg")
+    llh = np.array([[46.8, -71.2, 10.0]], dtype=np.float32)
+    with pytest.raises(InputError, match=r"p \(latitude, longitude\): float32 .*71\.2 deg"):
+        geodetic_array(llh, "p")
+    assert geodetic_array(llh.astype(np.float64), "p").dtype == np.float64
+    with pytest.raises(InputError, match=r"yaw: float16 angles near 2 rad"):
+        angle_array(np.array([2.0], dtype=np.float16), "yaw")
+    with pytest.raises(InputError, match=r"f\.parquet: column 'lat_deg': float32 .*double"):
+        check_float_step(llh[:, 0], "f.parquet: column 'lat_deg'", "degree")

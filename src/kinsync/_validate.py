@@ -1,8 +1,10 @@
 """Argument and value checks shared by the library and the readers (messages name the value).
 
-Scalars: `finite_number`, `positive_number`. Arrays of times and coordinates:
-`time_array`, `coordinate_array`, `ecef_array`, one check each wherever the API takes
-them, so that a float32 or datetime64 array is refused the same way everywhere.
+Scalars: `finite_number`, `positive_number`. Arrays of times, coordinates and angles:
+`time_array`, `coordinate_array`, `ecef_array`, `degree_array`, `geodetic_array`,
+`angle_array`, one check each wherever the API takes them, so that a float32 or
+datetime64 array is refused the same way everywhere (and as the readers refuse such a
+column, `check_float_step`).
 `Span` is the plausible range of one kind of quantity; `check_values`, `check_quantity`
 and `check_columns` refuse the first value outside it, naming where it came from (the
 readers' value guards, `kinsync.io.sanity`, and containers such as
@@ -25,18 +27,22 @@ from kinsync.errors import InputError
 __all__ = [
     "ANGLE_STEP_RAD",
     "COORDINATE_STEP_M",
+    "DEGREE_STEP_DEG",
     "ECEF_HEIGHT_RANGE_M",
     "GROUND_BAND_TEXT",
     "TIME_STEP_S",
     "Span",
+    "angle_array",
     "check_columns",
     "check_float_step",
     "check_quantity",
     "check_values",
     "coordinate_array",
+    "degree_array",
     "ecef_array",
     "ecef_height_m",
     "finite_number",
+    "geodetic_array",
     "name_tuple",
     "off_ground_text",
     "positive_number",
@@ -53,6 +59,14 @@ ANGLE_STEP_RAD = 1e-6
 """Coarsest step (rad) a float dtype may hold angles in: 1 urad, 0.1 mm at 100 m (float32
 holds 2.4e-7 rad near pi, float16 1e-3 rad)."""
 
+_WGS84_A_M = 6_378_137.0
+_WGS84_B_M = 6_356_752.314245
+
+DEGREE_STEP_DEG = math.degrees(COORDINATE_STEP_M / _WGS84_A_M)
+"""Coarsest step (deg) a float dtype may hold latitudes and longitudes in: 9e-10 deg,
+`COORDINATE_STEP_M` (0.1 mm) along the equator (float32 holds 3.8e-6 deg, 0.4 m, near
+47 deg)."""
+
 ECEF_HEIGHT_RANGE_M = (-12_000.0, 10_000.0)
 """Heights (m) above the WGS84 ellipsoid of points kinsync takes as ECEF (ground points).
 
@@ -62,8 +76,6 @@ map grid's coordinates read as ECEF lie on the equator; UTM northings of 6.30e6 
 6.45e6 m (57 to 58 degrees north) fall within the Earth's radii, and all but a band of
 about 22 km of them outside these heights: a check of the frame, not of accuracy.
 """
-_WGS84_A_M = 6_378_137.0
-_WGS84_B_M = 6_356_752.314245
 
 _CLOCK_ADVICE = {
     "gps": (
@@ -142,7 +154,10 @@ def _refuse_coarse_floats(
 
 
 def check_float_step(
-    arr: np.ndarray, name: str, kind: Literal["time", "coordinate", "angle", "count"]
+    arr: np.ndarray,
+    name: str,
+    kind: Literal["time", "coordinate", "degree", "angle", "count"],
+    advice: str = "write the column as float64 (double)",
 ) -> None:
     """Refuse times, coordinates, angles or counts held in a float dtype coarser than needed.
 
@@ -152,28 +167,38 @@ def check_float_step(
         Values as stored (any shape); float16/float32 near 1.3e9 s or 5e6 m are rounded
         to 128 s or 0.5 m. Integer and float64 arrays pass.
     name : str
-        Where they are stored, for the message (file and column).
-    kind : {"time", "coordinate", "angle", "count"}
+        Where they are stored, for the message (file and column, or argument).
+    kind : {"time", "coordinate", "degree", "angle", "count"}
         Times need steps of `TIME_STEP_S` (1 us), coordinates `COORDINATE_STEP_M` (0.1 mm),
-        angles in radians `ANGLE_STEP_RAD` (1 urad), counts (profile numbers) steps of 1
-        (float16 tells every whole number below 2048 from its neighbours, float32 below
+        latitudes and longitudes `DEGREE_STEP_DEG` (0.1 mm on the ground), angles in
+        radians `ANGLE_STEP_RAD` (1 urad), counts (profile numbers) steps of 1 (float16
+        tells every whole number below 2048 from its neighbours, float32 below
         16,777,216).
+    advice : str
+        What the message tells the user to do (a reader's default: rewrite the column);
+        counts always get "write the column as integers (int64)".
 
     Raises
     ------
     InputError
         A float dtype whose step at the values' largest magnitude is coarser.
     """
-    advice = "write the column as float64 (double)"
     if kind == "time":
         _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s", advice)
     elif kind == "angle":
         _refuse_coarse_floats(arr, name, "angles", ANGLE_STEP_RAD, "1 urad", "rad", advice)
+    elif kind == "degree":
+        _refuse_coarse_floats(
+            arr, name, "degrees", DEGREE_STEP_DEG, _DEGREE_STEP_TEXT, "deg", advice
+        )
     elif kind == "count":
         count_advice = "write the column as integers (int64)"
         _refuse_coarse_floats(arr, name, "whole numbers", 1.0, "step of 1", "", count_advice)
     else:
         _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m", advice)
+
+
+_DEGREE_STEP_TEXT = f"{DEGREE_STEP_DEG:.1g} deg (0.1 mm on the ground)"
 
 
 def _as_float64(arr: np.ndarray, name: str, what: str) -> FloatArray:
@@ -233,6 +258,85 @@ def coordinate_array(values: ArrayLike, name: str) -> FloatArray:
         raise InputError(msg)
     _refuse_coarse_floats(arr, name, "coordinates", COORDINATE_STEP_M, "0.1 mm", "m")
     return _as_float64(arr, name, "metres")
+
+
+def _numbers(values: ArrayLike, name: str, unit: str) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.dtype.kind in "mMOUSV":
+        msg = f"{name}: expected numbers ({unit}), got {arr.dtype} values"
+        raise InputError(msg)
+    return arr
+
+
+def degree_array(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as a float64 array of latitudes or longitudes (deg), any shape.
+
+    Not checked for finiteness nor span (the caller's).
+
+    Parameters
+    ----------
+    values : array_like
+        Latitudes or longitudes (deg).
+    name : str
+        The argument as the caller wrote it, for messages.
+
+    Raises
+    ------
+    InputError
+        Non-numbers, or a float dtype whose step at the values' magnitude is coarser
+        than `DEGREE_STEP_DEG` (float32 or float16 latitudes and longitudes).
+    """
+    arr = _numbers(values, name, "deg")
+    check_float_step(arr, name, "degree", "pass float64 degrees")
+    return _as_float64(arr, name, "degrees")
+
+
+def geodetic_array(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as a float64 array of geodetic positions (..., 3): lat_deg, lon_deg, h_m.
+
+    Not checked for finiteness, span nor shape (the caller's; an array whose last axis
+    is not 3 is only converted).
+
+    Parameters
+    ----------
+    values : array_like, shape (..., 3)
+        Latitude (deg), longitude (deg), ellipsoidal height (m).
+    name : str
+        The argument as the caller wrote it, for messages.
+
+    Raises
+    ------
+    InputError
+        Non-numbers, or a float dtype too coarse for the latitudes and longitudes
+        (`DEGREE_STEP_DEG`) or the heights (`COORDINATE_STEP_M`).
+    """
+    arr = _numbers(values, name, "deg, deg, m")
+    if arr.ndim >= 1 and arr.shape[-1] == 3:
+        advice = "pass float64 latitudes, longitudes and heights"
+        check_float_step(arr[..., :2], f"{name} (latitude, longitude)", "degree", advice)
+        check_float_step(arr[..., 2], f"{name} (height)", "coordinate", advice)
+    return _as_float64(arr, name, "degrees and metres")
+
+
+def angle_array(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as a float64 array of angles (rad), any shape; not checked for finiteness.
+
+    Parameters
+    ----------
+    values : array_like
+        Angles (rad).
+    name : str
+        The argument as the caller wrote it, for messages.
+
+    Raises
+    ------
+    InputError
+        Non-numbers, or a float dtype whose step at the values' magnitude is coarser
+        than `ANGLE_STEP_RAD` (float16 angles, float32 ones of thousands of radians).
+    """
+    arr = _numbers(values, name, "rad")
+    check_float_step(arr, name, "angle", "pass float64 angles")
+    return _as_float64(arr, name, "radians")
 
 
 def ecef_array(values: ArrayLike, name: str) -> FloatArray:

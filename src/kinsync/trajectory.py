@@ -37,7 +37,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
-from kinsync._validate import time_array
+from kinsync._validate import angle_array, coordinate_array, geodetic_array, time_array
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.frames import (
     WGS84_A_M,
@@ -175,7 +175,9 @@ class Trajectory:
     ------
     InputError
         Naming the row and column at fault: non-finite values, repeated or decreasing
-        times, non-unit quaternions, mismatched lengths, missing position.
+        times, non-unit quaternions, mismatched lengths, missing position; naming the
+        argument: times, latitudes, longitudes or heights in a float dtype too coarse
+        for them (float32: `kinsync._validate.time_array`, ``geodetic_array``).
     """
 
     t_s: FloatArray
@@ -200,7 +202,9 @@ class Trajectory:
             if self.origin_lat_lon_h is not None:
                 msg = "trajectory: origin_lat_lon_h applies only to a local NED trajectory"
                 raise InputError(msg)
-            llh = validated_rows(self.lat_lon_h, n, 3, "lat_lon_h")
+            llh = validated_rows(
+                geodetic_array(self.lat_lon_h, "trajectory lat_lon_h"), n, 3, "lat_lon_h"
+            )
             check_latitudes(llh[:, 0], "lat_lon_h")
             set_(self, "lat_lon_h", readonly_array(llh))
             set_(self, "_lon_unwrapped_deg", readonly_array(np.unwrap(llh[:, 1], period=360.0)))
@@ -208,13 +212,16 @@ class Trajectory:
             if self.origin_lat_lon_h is None:
                 msg = "trajectory: pos_ned_m needs origin_lat_lon_h (lat_deg, lon_deg, h_m)"
                 raise InputError(msg)
-            origin = validated_rows([self.origin_lat_lon_h], 1, 3, "origin_lat_lon_h")[0]
+            origin = validated_rows(
+                geodetic_array([self.origin_lat_lon_h], "trajectory origin_lat_lon_h"),
+                1,
+                3,
+                "origin_lat_lon_h",
+            )[0]
             check_latitudes(origin[:1], "origin_lat_lon_h")
-            set_(
-                self,
-                "pos_ned_m",
-                readonly_array(validated_rows(self.pos_ned_m, n, 3, "pos_ned_m")),
-            )
+            assert self.pos_ned_m is not None
+            ned = coordinate_array(self.pos_ned_m, "trajectory pos_ned_m")
+            set_(self, "pos_ned_m", readonly_array(validated_rows(ned, n, 3, "pos_ned_m")))
             set_(self, "origin_lat_lon_h", (float(origin[0]), float(origin[1]), float(origin[2])))
         if self.vel_ned_m_s is not None:
             vel = validated_rows(self.vel_ned_m_s, n, 3, "vel_ned_m_s")
@@ -309,22 +316,30 @@ class Trajectory:
         ------
         InputError
             As `Trajectory`, naming the row and column at fault; and an angle array not
-            numbers, not finite, or not of shape (N,); a pitch beyond +-pi/2, a roll or
-            yaw beyond +-2 pi (degrees given for radians; an unwrapped yaw must be
-            wrapped first, `kinsync.frames.wrap_angle_rad`), naming the argument and
+            numbers, not finite, not of shape (N,), or in a float dtype too coarse for
+            1 urad (float16: `kinsync._validate.angle_array`); a pitch beyond +-pi/2, a
+            roll or yaw beyond +-2 pi (degrees given for radians; an unwrapped yaw must
+            be wrapped first, `kinsync.frames.wrap_angle_rad`), naming the argument and
             row.
         """
         t = validated_times(t_s)
         rpy = {"roll_rad": roll_rad, "pitch_rad": pitch_rad, "yaw_rad": yaw_rad}
-        angles = [validated_rows(a, t.size, None, k) for k, a in rpy.items()]
+        angles = [
+            validated_rows(angle_array(a, f"trajectory {k}"), t.size, None, k)
+            for k, a in rpy.items()
+        ]
         for name, angle in zip(rpy, angles, strict=True):
             check_euler_rad(angle, name)
         q = euler_rpy_to_quaternion(*angles)
         return cls(
             t_s=t,
             q_body_to_ned=q,
-            lat_lon_h=None if lat_lon_h is None else np.asarray(lat_lon_h, dtype=np.float64),
-            pos_ned_m=None if pos_ned_m is None else np.asarray(pos_ned_m, dtype=np.float64),
+            lat_lon_h=None
+            if lat_lon_h is None
+            else geodetic_array(lat_lon_h, "trajectory lat_lon_h"),
+            pos_ned_m=None
+            if pos_ned_m is None
+            else coordinate_array(pos_ned_m, "trajectory pos_ned_m"),
             origin_lat_lon_h=origin_lat_lon_h,
             vel_ned_m_s=None if vel_ned_m_s is None else np.asarray(vel_ned_m_s, dtype=np.float64),
         )

@@ -53,6 +53,16 @@ def test_float32_times_are_refused() -> None:
     assert ImuData(t, gyro, acc).t_s[1] == t[1]  # float64 passes
 
 
+def test_float32_gnss_positions_are_refused() -> None:
+    """float32 latitudes are 0.2 m off near 47 deg; float32 ECEF was already refused."""
+    lat = np.full(5, 46.8)
+    with pytest.raises(InputError, match=r"GNSS lat_deg: float32 degrees near 46\.8 .*float64"):
+        _gnss(lat.astype(np.float32))
+    with pytest.raises(InputError, match=r"GNSS h_m: float16 coordinates near 10 m"):
+        _gnss(lat, np.full(5, 10.0, dtype=np.float16))
+    assert _gnss(lat).lat_deg.dtype == np.float64
+
+
 def test_containers_copy_the_callers_arrays() -> None:
     """The caller's arrays were made read-only, and a view's base still changed the
     frozen container."""

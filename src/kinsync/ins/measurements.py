@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import FloatArray
-from kinsync._validate import time_array
+from kinsync._validate import coordinate_array, degree_array, time_array
 from kinsync.errors import InputError
 
 __all__ = ["GnssData", "ImuData"]
@@ -100,7 +100,9 @@ class ImuData:
 class GnssData:
     """GNSS antenna fixes.
 
-    The arrays are copied and made read-only. Times are checked as `ImuData`'s.
+    The arrays are copied and made read-only. Times are checked as `ImuData`'s;
+    latitudes, longitudes and heights in a float dtype too coarse for 0.1 mm (float32)
+    raise `InputError` naming the argument (`kinsync._validate.degree_array`).
 
     Attributes
     ----------
@@ -129,7 +131,8 @@ class GnssData:
         n = t.size
         object.__setattr__(self, "t_s", t)
         for name in ("lat_deg", "lon_deg", "h_m"):
-            arr = _owned(getattr(self, name))
+            check = coordinate_array if name == "h_m" else degree_array
+            arr = _owned(check(getattr(self, name), f"GNSS {name}"))
             if arr.shape != (n,) or not np.isfinite(arr).all():
                 msg = f"GNSS {name}: expected {n} finite values"
                 raise InputError(msg)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray, IntArray
-from kinsync._validate import name_tuple
+from kinsync._validate import geodetic_array, name_tuple
 from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD
@@ -242,7 +242,9 @@ class SyncPoints:
     names : tuple of str
         Unique, non-empty names.
     lat_lon_h : ndarray, shape (K, 3)
-        Latitude (deg), longitude (deg), ellipsoidal height (m) of each target centre.
+        Latitude (deg), longitude (deg), ellipsoidal height (m) of each target centre;
+        a float dtype too coarse for 0.1 mm (float32) is refused
+        (`kinsync._validate.geodetic_array`).
     source : str
         Where they came from (file path), for messages.
     lines : tuple of int or None
@@ -257,7 +259,7 @@ class SyncPoints:
 
     def __post_init__(self) -> None:
         names = name_tuple(self.names, f"{self.source}: names")
-        llh = np.asarray(self.lat_lon_h, dtype=np.float64)
+        llh = geodetic_array(self.lat_lon_h, f"{self.source}: lat_lon_h")
         if llh.ndim != 2 or llh.shape[1] != 3 or llh.shape[0] != len(names):
             msg = (
                 f"{self.source}: expected one (lat_deg, lon_deg, h_m) row per name "

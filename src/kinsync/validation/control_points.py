@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
-from kinsync._validate import ecef_array, name_tuple
+from kinsync._validate import coordinate_array, degree_array, ecef_array, name_tuple
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic, geodetic_to_ecef
 
@@ -107,11 +107,16 @@ class ControlPoints:
         Raises
         ------
         InputError
-            Coordinates not numbers or not finite, a latitude outside [-90, 90], and
+            Coordinates not numbers or not finite, a latitude outside [-90, 90],
+            coordinates in a float dtype too coarse for 0.1 mm (float32), and
             everything `ControlPoints` refuses (empty or duplicated names, a count of
             names that does not match the coordinates).
         """
-        pos = geodetic_to_ecef(lat_deg, lon_deg, h_m)
+        pos = geodetic_to_ecef(
+            degree_array(lat_deg, f"{source}: lat_deg"),
+            degree_array(lon_deg, f"{source}: lon_deg"),
+            coordinate_array(h_m, f"{source}: h_m"),
+        )
         names_ = name_tuple(names, f"{source}: names")
         return cls(names=names_, pos_ecef_m=np.atleast_2d(pos), source=source)
 
