@@ -80,9 +80,14 @@ about 22 km of them outside these heights: a check of the frame, not of accuracy
 _CLOCK_ADVICE = {
     "gps": (
         "give GPS seconds as float64 (seconds since 1980-01-06, ahead of UTC by its leap "
-        "seconds: kinsync.clock.utc_to_gps_s converts POSIX UTC seconds)"
+        "seconds: kinsync.clock.utc_to_gps_s converts UTC given as POSIX seconds or "
+        "datetime64)"
     ),
     "local": "give the logger's clock readings as float64 seconds",
+    "utc": (
+        "give UTC as float64 POSIX seconds (since 1970-01-01, leap seconds not counted) "
+        "or as datetime64"
+    ),
 }
 
 
@@ -210,18 +215,18 @@ def _as_float64(arr: np.ndarray, name: str, what: str) -> FloatArray:
 
 
 def time_array(
-    values: ArrayLike, name: str, *, clock: Literal["gps", "local"] = "gps"
+    values: ArrayLike, name: str, *, clock: Literal["gps", "local", "utc"] = "gps"
 ) -> FloatArray:
     """``values`` as a float64 array of times (s), any shape; not checked for finiteness.
 
     Parameters
     ----------
     values : array_like
-        Times (s): GPS seconds (``clock="gps"``) or a logger's clock readings
-        (``clock="local"``).
+        Times (s): GPS seconds (``clock="gps"``), a logger's clock readings
+        (``clock="local"``) or UTC POSIX seconds (``clock="utc"``).
     name : str
         The argument as the caller wrote it, for messages.
-    clock : {"gps", "local"}
+    clock : {"gps", "local", "utc"}
         Which time scale, for the advice of a message.
 
     Raises

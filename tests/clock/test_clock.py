@@ -80,6 +80,38 @@ def test_utc_to_gps_known_values() -> None:
     assert gps_to_utc_posix_s(1167264017.5) == posix(2017, 1, 1)
 
 
+def test_utc_datetime64_is_converted_by_its_unit() -> None:
+    """datetime64[ns] was read as nanoseconds taken for seconds (1.5778368e18)."""
+    for unit in ("D", "s", "ms", "ns"):
+        day = np.array(["2020-01-01"], dtype=f"datetime64[{unit}]")
+        assert utc_to_gps_s(day).tolist() == [1261872018.0]
+    later = np.array(["2017-01-01T00:00:00.250"], dtype="datetime64[ns]")
+    assert float(utc_to_gps_s(later)[0]) == pytest.approx(1167264018.25, abs=1e-6)
+    with pytest.raises(InputError, match=r"utc_posix_s: every time must be finite"):
+        utc_to_gps_s(np.array(["NaT"], dtype="datetime64[ns]"))
+    with pytest.raises(InputError, match=r"utc_posix_s: expected seconds, got timedelta64"):
+        utc_to_gps_s(np.array([5], dtype="timedelta64[s]"))
+
+
+@pytest.mark.parametrize(
+    ("scale", "hint"),
+    [
+        (1e3, "milliseconds since 1970\\? divide them by 1000"),
+        (1e6, "microseconds since 1970\\? divide them by 1e6"),
+        (1e9, "nanoseconds since 1970\\? divide them by 1e9"),
+    ],
+)
+def test_utc_in_another_unit_is_refused_with_the_divisor(scale: float, hint: str) -> None:
+    """POSIX milliseconds (1577836800000) gave a GPS time of 1.5775e12 s, silently."""
+    with pytest.raises(
+        InputError, match=rf"utc_posix_s: .* \(index 1\) is after the year 2100.*{hint}"
+    ):
+        utc_to_gps_s([posix(2020, 1, 1), posix(2020, 1, 1) * scale])
+    with pytest.raises(InputError, match=r"utc_posix_s: float32 times near 1\.57784e\+09 s"):
+        utc_to_gps_s(np.array([posix(2020, 1, 1)], dtype=np.float32))
+    assert float(utc_to_gps_s(posix(2099, 12, 31))) < 3_786_480_018.0
+
+
 @pytest.mark.parametrize(
     ("t_gps_s", "utc"),
     [

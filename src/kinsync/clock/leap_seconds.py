@@ -2,7 +2,8 @@
 
 ``t_gps_s = utc_posix_s - 315964800 + (GPS - UTC)`` with GPS - UTC from the one table
 `LEAP_SECONDS` (18 s since 2017-01-01), looked up in one place (`leap_count_s`). A
-UTC time before the GPS epoch is refused. A UTC 23:59:60 on a leap-second day maps to
+UTC time before the GPS epoch, or after 2100 (`kinsync.clock.model.GPS_TIME_SPAN_S`: POSIX
+milliseconds given for seconds), is refused. A UTC 23:59:60 on a leap-second day maps to
 its own GPS second (`utc_fields_to_gps_s`); POSIX time cannot express it.
 """
 
@@ -16,7 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray, IntArray
-from kinsync._validate import finite_number
+from kinsync._validate import finite_number, time_array
+from kinsync.clock.model import GPS_TIME_SPAN_S
 from kinsync.errors import InputError
 
 if TYPE_CHECKING:
@@ -131,36 +133,68 @@ def gps_minus_utc_s(utc_posix_s: float) -> int:
 
 
 def utc_to_gps_s(utc_posix_s: ArrayLike) -> FloatArray:
-    """UTC (POSIX seconds) to GPS time (s since the GPS epoch), vectorised.
+    """UTC (POSIX seconds or datetime64) to GPS time (s since the GPS epoch), vectorised.
 
     Parameters
     ----------
     utc_posix_s : array_like, shape (...)
-        UTC as POSIX seconds, on or after 1980-01-06T00:00:00. A POSIX time cannot
-        express 23:59:60; use `utc_fields_to_gps_s` for a leap second itself.
+        UTC as POSIX seconds (float64), or as a numpy datetime64 array of any unit
+        (read as UTC: datetime64 counts no leap seconds, as POSIX time), from
+        1980-01-06T00:00:00 to 2100-01-01. A POSIX time cannot express 23:59:60; use
+        `utc_fields_to_gps_s` for a leap second itself.
 
     Returns
     -------
     ndarray, shape (...)
-        ``utc_posix_s - 315964800 + (GPS - UTC)``.
+        ``utc_posix_s - 315964800 + (GPS - UTC)``, within
+        `kinsync.clock.model.GPS_TIME_SPAN_S`.
 
     Raises
     ------
     InputError
-        Non-numeric or non-finite values, or a time before the GPS epoch.
+        Non-numeric or non-finite values (NaT), timedelta64, a float dtype too coarse
+        for 1 us (float32), a time before the GPS epoch, or one after 2100 (POSIX
+        milliseconds, microseconds or nanoseconds given for seconds).
     """
-    try:
-        t = np.asarray(utc_posix_s, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"utc_posix_s: expected numbers ({err})"
-        raise InputError(msg) from err
+    raw = np.asarray(utc_posix_s)
+    if raw.dtype.kind == "M":  # any unit to float seconds; NaT becomes NaN
+        raw = (raw - np.datetime64(0, "s")) / np.timedelta64(1, "s")
+    t = time_array(raw, "utc_posix_s", clock="utc")
     if not np.all(np.isfinite(t)):
         msg = "utc_posix_s: every time must be finite"
         raise InputError(msg)
     flat = t.reshape(-1)
     _check_after_gps_epoch(flat)
     out = flat - GPS_EPOCH_POSIX_S + leap_count_s(flat)
+    _check_before_2100(flat, out)
     return out.reshape(t.shape)
+
+
+_UNITS_PER_S = (
+    ("milliseconds", 1e3, "1000"),
+    ("microseconds", 1e6, "1e6"),
+    ("nanoseconds", 1e9, "1e9"),
+)
+_POSIX_2100_S = _posix_of_date("2100-01-01")
+
+
+def _check_before_2100(utc_posix_s: FloatArray, t_gps_s: FloatArray) -> None:
+    """Refuse a UTC time whose GPS time lies beyond `GPS_TIME_SPAN_S` (after 2100)."""
+    late = t_gps_s > GPS_TIME_SPAN_S[1]
+    if not np.any(late):
+        return
+    i = int(np.flatnonzero(late)[0])
+    value = float(utc_posix_s[i])
+    hint = "check the unit"
+    for unit, per_s, per_s_text in _UNITS_PER_S:
+        if GPS_EPOCH_POSIX_S <= value / per_s <= _POSIX_2100_S:
+            hint = f"are these {unit} since 1970? divide them by {per_s_text}"
+            break
+    msg = (
+        f"utc_posix_s: {value!r} (index {i}) is after the year 2100, not a UTC time of a "
+        f"survey in POSIX seconds (about 1.7e9 in 2024); {hint}"
+    )
+    raise InputError(msg)
 
 
 def gps_to_utc_posix_s(t_gps_s: float) -> float:
