@@ -15,6 +15,7 @@ import re
 
 __all__ = [
     "ConvergenceError",
+    "DiskFullError",
     "InputError",
     "KinsyncError",
     "KinsyncWarning",
@@ -74,6 +75,10 @@ class KinsyncError(Exception):
 
 class InputError(KinsyncError, ValueError):
     """Input data or parameters are invalid (bad value, shape, file content)."""
+
+
+class DiskFullError(InputError):
+    """A full disk (or disk quota) stopped an output; nothing partial of it is left."""
 
 
 class PointValueError(InputError):

@@ -154,6 +154,29 @@ def test_a_file_inside_a_folder_output_is_named_in_the_output_folder(tmp_path: P
     assert not final.exists()
 
 
+def test_a_file_inside_nested_folder_outputs_is_named_in_the_outer_output(
+    tmp_path: Path,
+) -> None:
+    """The demo writes its passes folder inside its own: the message named the hidden
+    temporary folder (``demo/.passes.123.x.part/pass_007.laz``)."""
+    final = tmp_path / "demo"
+
+    def nothing(_: Path) -> None:
+        return None
+
+    def nested() -> None:
+        with (
+            atomic_folder(final, nothing, "give a folder") as tmp,
+            atomic_folder(tmp / "passes", nothing, "give a folder") as inner,
+        ):
+            _write_on_a_full_disk(inner / "pass_007.laz")
+
+    with pytest.raises(InputError) as info:
+        nested()
+    assert str(info.value).startswith(f"{final / 'passes' / 'pass_007.laz'}: the disk is full")
+    assert not final.exists()
+
+
 def test_a_full_disk_elsewhere_is_one_line_too(
     run_cli: RunCli,
     assert_one_line_error: OneLineError,

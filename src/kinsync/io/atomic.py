@@ -36,7 +36,7 @@ from pathlib import Path
 from types import TracebackType
 
 from kinsync._signals import stop_signals_held
-from kinsync.errors import InputError, KinsyncError
+from kinsync.errors import DiskFullError, InputError, KinsyncError
 from kinsync.io.sanity import check_not_link_loop
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "atomic_path",
     "atomic_write_bytes",
     "atomic_write_text",
+    "cannot_write_error",
     "check_not_an_input",
     "check_output_location",
     "disk_full_error",
@@ -120,10 +121,10 @@ def _shown_output(path: Path) -> str:
     """How a message names output ``path``: by its option when the command line gave it.
 
     A file written inside the temporary folder of an `atomic_folder` block is named by
-    its place in the output folder.
+    its place in the output folder (of each block, for blocks one inside another).
     """
     where = Path(os.path.abspath(path))  # noqa: PTH100
-    for tmp, final in _FOLDERS_BEING_WRITTEN.get(()):
+    for tmp, final in reversed(_FOLDERS_BEING_WRITTEN.get(())):  # the innermost first
         if where.is_relative_to(tmp):
             where = final / where.relative_to(tmp)
             path = where
@@ -148,7 +149,7 @@ def full_disk_cause(err: BaseException) -> OSError | None:
     return None
 
 
-def disk_full_error(path: Path | str, err: OSError) -> InputError:
+def disk_full_error(path: Path | str, err: OSError) -> DiskFullError:
     """The one-line error for an output that a full disk (or quota) cut short.
 
     Parameters
@@ -168,7 +169,25 @@ def disk_full_error(path: Path | str, err: OSError) -> InputError:
         f"{shown}: {what} ({err.strerror or err}); the output is not written (nothing "
         f"partial is left): {todo}, or write the output to another disk, then run again"
     )
-    return InputError(msg)
+    return DiskFullError(msg)
+
+
+def cannot_write_error(path: Path, err: OSError, what: str = "cannot write") -> InputError:
+    """The one-line error for an output that ``err`` stopped: a full disk as `disk_full_error`.
+
+    Parameters
+    ----------
+    path : Path
+        The output being written (named by its option when the command line gave it).
+    err : OSError
+        The error of the write.
+    what : str
+        What failed, for any other error (``"{path}: {what} ({reason})"``).
+    """
+    full = full_disk_cause(err)
+    if full is not None:
+        return disk_full_error(path, full)
+    return InputError(f"{path}: {what} ({err.strerror or err})")
 
 
 def _same_file(a: Path, b: Path) -> bool:

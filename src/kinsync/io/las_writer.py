@@ -28,7 +28,7 @@ from laspy.vlrs.vlrlist import VLRList
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path, finish_then_publish
+from kinsync.io.atomic import atomic_path, cannot_write_error, finish_then_publish
 from kinsync.io.las_coordinates import store_scaled
 from kinsync.io.las_crs import set_las_crs
 from kinsync.io.las_header import (
@@ -38,7 +38,7 @@ from kinsync.io.las_header import (
     writable_las_version,
 )
 
-__all__ = ["LasChunkWriter", "las_output_notes"]
+__all__ = ["ErrorKeepingFile", "LasChunkWriter", "las_output_notes"]
 
 
 _LAZ_BACKEND = next(
@@ -46,6 +46,40 @@ _LAZ_BACKEND = next(
     laspy.LazBackend.Lazrs,
 )
 """lazrs with its thread pool where available: LAZ chunks compress in parallel."""
+
+
+class ErrorKeepingFile:
+    """A binary file that keeps the `OSError` its ``write`` raised (a full disk).
+
+    lazrs reports a failed write as a bare ``LazrsError: IoError: Failed to call
+    write``, the `OSError` lost: given this file instead of ``fh``, the error is kept in
+    `error` for the message (`kinsync.io.atomic.cannot_write_error`).
+
+    Parameters
+    ----------
+    fh : BinaryIO
+        The open file; every attribute but ``write`` is its own.
+
+    Attributes
+    ----------
+    error : OSError or None
+        The last error of ``write``; None while every write succeeded.
+    """
+
+    def __init__(self, fh: BinaryIO) -> None:
+        self._fh = fh
+        self.error: OSError | None = None
+
+    def write(self, data: Any) -> int:
+        """Write ``data`` (bytes-like) to the file, keeping an `OSError` before raising it."""
+        try:
+            return self._fh.write(data)
+        except OSError as err:
+            self.error = err
+            raise
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._fh, name)
 
 
 def las_output_notes(template_header: laspy.LasHeader) -> tuple[str, ...]:
@@ -221,15 +255,17 @@ class LasChunkWriter:
         self.points_written = 0
         self._stack: ExitStack | None = None
         self._writer: Any = None
+        self._file: ErrorKeepingFile | None = None
 
     def __enter__(self) -> LasChunkWriter:
         stack = ExitStack()
         tmp = stack.enter_context(atomic_path(self.path))
         try:
             fh: BinaryIO = stack.enter_context(tmp.open("wb"))
+            self._file = ErrorKeepingFile(fh)
             if self._compress:
                 self._writer = laspy.LasWriter(
-                    fh,
+                    self._file,
                     self.header,
                     do_compress=True,
                     laz_backend=_LAZ_BACKEND,
@@ -241,9 +277,9 @@ class LasChunkWriter:
             # Unwind with the error, so that atomic_path removes the temporary: a plain
             # close would rename the unfinished file onto the output.
             stack.__exit__(type(err), err, err.__traceback__)
-            if isinstance(err, OSError):
-                msg = f"{self.path}: cannot write ({err.strerror or err})"
-                raise InputError(msg) from err
+            failed = self._write_failure(err)
+            if failed is not None:
+                raise cannot_write_error(self.path, failed) from err
             if isinstance(err, Exception):  # laspy's errors on a damaged template vary
                 msg = (
                     f"{self.path}: cannot write the header and VLRs taken from the input "
@@ -337,10 +373,21 @@ class LasChunkWriter:
         )
         try:
             self._writer.write_points(record)
-        except (laspy.errors.LaspyException, OSError) as err:
-            msg = f"{self.path}: cannot write points ({err})"
-            raise InputError(msg) from err
+        except Exception as err:
+            failed = self._write_failure(err)
+            if failed is not None:
+                raise cannot_write_error(self.path, failed, "cannot write points") from err
+            if isinstance(err, laspy.errors.LaspyException):
+                msg = f"{self.path}: cannot write points ({err})"
+                raise InputError(msg) from err
+            raise
         self.points_written += len(array)
+
+    def _write_failure(self, err: BaseException) -> OSError | None:
+        """The `OSError` behind ``err``: its own, or the one lazrs reported without it."""
+        if self._file is not None and self._file.error is not None:
+            return self._file.error
+        return err if isinstance(err, OSError) else None
 
     def __exit__(
         self,
@@ -354,10 +401,18 @@ class LasChunkWriter:
             return
 
         def finish() -> None:
-            if exc_type is None:
-                evlrs = self.header.evlrs
-                if evlrs is not None and len(evlrs) > 0 and self.header.version.minor >= 4:
-                    writer.write_evlrs(VLRList(evlrs))
-            writer.close()
+            try:
+                if exc_type is None:
+                    evlrs = self.header.evlrs
+                    if evlrs is not None and len(evlrs) > 0 and self.header.version.minor >= 4:
+                        writer.write_evlrs(VLRList(evlrs))
+                writer.close()  # a LAZ file's last chunk and chunk table are written here
+            except Exception as err:
+                if exc_type is not None:  # the file is removed: the first error is the one
+                    return
+                failed = self._write_failure(err)
+                if failed is None:
+                    raise
+                raise cannot_write_error(self.path, failed) from err
 
         finish_then_publish(stack, finish, exc_type, exc, tb)

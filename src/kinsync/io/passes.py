@@ -45,6 +45,7 @@ from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.atomic import atomic_path
 from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, LasPointReader, scaled_coordinates
 from kinsync.io.las_header import stamp_kinsync_header
+from kinsync.io.las_writer import ErrorKeepingFile
 from kinsync.io.sanity import (
     LENGTH_M,
     TIME_S,
@@ -413,7 +414,13 @@ def _write_las(path: Path, p: SpherePass, *, compress: bool) -> None:
         las.gps_time = t
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         if compress:
-            las.write(fh, do_compress=True, laz_backend=laspy.LazBackend.Lazrs)
+            kept = ErrorKeepingFile(fh)
+            try:
+                las.write(kept, do_compress=True, laz_backend=laspy.LazBackend.Lazrs)
+            except Exception as err:
+                if kept.error is None:
+                    raise
+                raise kept.error from err  # a full disk, which lazrs reports without its error
         else:
             las.write(fh, do_compress=False)
 

@@ -25,7 +25,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path, finish_then_publish
+from kinsync.io.atomic import atomic_path, cannot_write_error, finish_then_publish
 
 __all__ = ["PlyChunkWriter", "ply_property_type", "read_ply_vertices"]
 
@@ -147,8 +147,7 @@ class PlyChunkWriter:
         except BaseException as err:
             stack.__exit__(type(err), err, err.__traceback__)
             if isinstance(err, OSError):
-                msg = f"{self.path}: cannot write ({err.strerror or err})"
-                raise InputError(msg) from err
+                raise cannot_write_error(self.path, err) from err
             raise
         self._stack, self._fh = stack, fh
         return self
@@ -201,8 +200,7 @@ class PlyChunkWriter:
         try:
             self._fh.write(out.tobytes())
         except OSError as err:
-            msg = f"{self.path}: cannot write ({err.strerror or err})"
-            raise InputError(msg) from err
+            raise cannot_write_error(self.path, err) from err
         self.points_written += count
 
     def __exit__(

@@ -498,5 +498,8 @@ def write_sbet(trajectory: Trajectory, path: Path, *, wander_angle_rad: float = 
     rec["rate_x_body_rad_s"] = rate[:, 0]
     rec["rate_y_body_rad_s"] = rate[:, 1]
     rec["rate_z_body_rad_s"] = rate[:, 2]
-    with atomic_path(path) as tmp:
-        rec.tofile(tmp)
+    # Written through a Python file, not ndarray.tofile: numpy reports a short write
+    # ("N requested and M written") without its error number, and a full disk would
+    # not be recognised as one.
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        fh.write(rec.view(np.uint8).data)

@@ -278,8 +278,11 @@ def write_smrmsg(data: SmrmsgData, path: Path) -> None:
         rec[name] = data.std_vel_ned_m_s[:, i]
     for i, name in enumerate(("std_roll_arcmin", "std_pitch_arcmin", "std_heading_arcmin")):
         rec[name] = data.std_rpy_rad[:, i] / _ARCMIN_TO_RAD
-    with atomic_path(path) as tmp:
-        rec.tofile(tmp)
+    # Written through a Python file, not ndarray.tofile: numpy reports a short write
+    # ("N requested and M written") without its error number, and a full disk would
+    # not be recognised as one.
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        fh.write(rec.view(np.uint8).data)
 
 
 def find_smrmsg_companion(sbet_path: Path) -> Path | None:

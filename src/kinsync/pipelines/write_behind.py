@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextvars
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures import wait as futures_wait
@@ -28,7 +29,10 @@ class WriteBehind:
     def submit(self, write: Callable[..., None], *args: Any) -> None:
         """Run ``write(*args)`` after the previous write, raising that one's error."""
         self.wait()
-        self._pending = self._pool.submit(write, *args)
+        # In the caller's context: a message names an output by its option (--out)
+        # through a context variable (kinsync.io.atomic.named_outputs).
+        context = contextvars.copy_context()
+        self._pending = self._pool.submit(context.run, write, *args)
 
     def wait(self) -> None:
         """Wait for the write in flight, raising its error."""

@@ -1,0 +1,159 @@
+"""A full disk met by outputs written in several steps or by a library (lazrs, numpy).
+
+Each ended otherwise than the one disk-full line (exit 2, the output named, nothing
+partial left): lazrs reports a failed write as ``LazrsError: IoError: Failed to call
+write`` (internal error, exit 1), numpy's ``tofile`` as ``N requested and M written``
+without an error number, and LAS/PLY writes as a bare ``cannot write``. The disk is
+made full by the file objects the writers write to, so no small file system is needed.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+from collections.abc import Callable
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+import pytest
+from laspy._compression.lazrsbackend import LazrsPointWriter
+from tests._georef_scan import scan_columns, write_laz, write_trajectory
+
+from kinsync.errors import InputError
+from kinsync.io.passes import write_passes
+from kinsync.io.sbet import write_sbet
+from kinsync.latency.passes import SpherePass
+from kinsync.trajectory import Trajectory
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]
+OneLineError = Callable[..., None]
+
+
+def _full() -> OSError:
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+class _FullDisk:
+    """A file whose writes fail with ENOSPC once `full` is set, or from one of `room` bytes."""
+
+    def __init__(self, fh: Any, room: int | None) -> None:
+        self._fh = fh
+        self.room = room
+        self.full = False
+
+    def write(self, data: Any) -> int:
+        if self.full or (self.room is not None and memoryview(data).nbytes >= self.room):
+            raise _full()
+        return int(self._fh.write(data))
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._fh, name)
+
+    def __enter__(self) -> _FullDisk:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self._fh.close()
+
+
+def _fill_disk_of(
+    monkeypatch: pytest.MonkeyPatch, name: str, room: int | None = None
+) -> list[_FullDisk]:
+    """Files opened to write ``name`` (its temporary) get a disk that fills up.
+
+    With ``room``, at a write of that many bytes or more; else when a LAZ writer writes
+    its last chunk and chunk table (``LazrsPointWriter.done``, where lazrs writes a small
+    file whole).
+    """
+    opened: list[_FullDisk] = []
+    real_open = Path.open
+
+    def open_full(self: Path, mode: str = "r", *args: Any, **kwargs: Any) -> Any:
+        fh = real_open(self, mode, *args, **kwargs)
+        if "w" in mode and self.name.startswith(f".{name}.{os.getpid()}."):
+            opened.append(_FullDisk(fh, room))
+            return opened[-1]
+        return fh
+
+    real_done = LazrsPointWriter.done
+
+    def done(self: LazrsPointWriter) -> None:
+        for f in opened:
+            f.full = True
+        real_done(self)
+
+    monkeypatch.setattr(Path, "open", open_full)
+    monkeypatch.setattr(LazrsPointWriter, "done", done)
+    return opened
+
+
+def _no_temporaries(folder: Path) -> None:
+    assert not [p.name for p in folder.iterdir() if p.name.endswith(".part")]
+
+
+@pytest.fixture
+def survey(tmp_path: Path) -> dict[str, Path]:
+    """A LAZ scan (some points before the trajectory starts), its trajectory and mount."""
+    write_trajectory(tmp_path / "traj.csv", 4.0)
+    write_laz(scan_columns(300, 3.0, 1), tmp_path / "scan.laz")
+    (tmp_path / "m.toml").write_text("[mount]\nlever_arm_body_m = [0, 0, 0]\nlatency_s = 0.0\n")
+    return {"dir": tmp_path, "points": tmp_path / "scan.laz", "traj": tmp_path / "traj.csv"}
+
+
+def _georef(survey: dict[str, Path], out: Path, *extra: str) -> list[str]:
+    return [
+        *["georef", "--points", str(survey["points"]), "--trajectory", str(survey["traj"])],
+        *["--mount", str(survey["dir"] / "m.toml"), "--out", str(out), *extra],
+    ]
+
+
+@pytest.mark.parametrize("suffix", [".las", ".ply"])
+def test_las_and_ply_outputs_on_a_full_disk_give_the_disk_full_line(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    survey: dict[str, Path],
+    monkeypatch: pytest.MonkeyPatch,
+    suffix: str,
+) -> None:
+    """They said ``cannot write points ([Errno 28] ...)``, naming neither --out nor what to do."""
+    out = survey["dir"] / f"geo{suffix}"
+    _fill_disk_of(monkeypatch, out.name, room=4000)  # the header goes in, 300 points do not
+    code, stdout, err = run_cli(_georef(survey, out, "--outside", "reject"))
+    last = err.splitlines()[-1]
+    assert_one_line_error(code, stdout, last + "\n", f"--out {out}", "disk is full", "free space")
+    assert not out.exists()
+    _no_temporaries(survey["dir"])
+
+
+def test_an_sbet_on_a_full_disk_is_a_disk_full_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """numpy's tofile said ``29354 requested and 752 written``: an internal error."""
+    t = 1.3e9 + np.arange(50) * 0.01
+    z = 0.0 * t
+    llh = np.column_stack([46.8 + z, -71.2 + z, 10.0 + z])
+    _fill_disk_of(monkeypatch, "nav.sbet", room=1)
+    with pytest.raises(InputError, match=r"nav\.sbet: the disk is full"):
+        write_sbet(Trajectory.from_euler(t, z, z, z, lat_lon_h=llh), tmp_path / "nav.sbet")
+    assert not (tmp_path / "nav.sbet").exists()
+    _no_temporaries(tmp_path)
+
+
+def test_a_laz_pass_file_on_a_full_disk_is_a_disk_full_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The simulations and the demo write passes through laspy + lazrs: it was a
+    ``LazrsError`` (internal error, exit 1)."""
+    rng = np.random.default_rng(0)
+    p = SpherePass("p", 2.0, rng.normal(size=(200, 3)), t_s=np.arange(200.0))
+    _fill_disk_of(monkeypatch, "pass_000.laz")
+    with pytest.raises(InputError, match=r"pass_000\.laz: the disk is full"):
+        write_passes(tmp_path / "passes", [p], file_format="laz")
+    assert not (tmp_path / "passes" / "pass_000.laz").exists()
