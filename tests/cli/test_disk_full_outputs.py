@@ -3,8 +3,10 @@
 Each ended otherwise than the one disk-full line (exit 2, the output named, nothing
 partial left): lazrs reports a failed write as ``LazrsError: IoError: Failed to call
 write`` (internal error, exit 1), numpy's ``tofile`` as ``N requested and M written``
-without an error number, and LAS/PLY writes as a bare ``cannot write``. The disk is
-made full by the file objects the writers write to, so no small file system is needed.
+without an error number, and LAS/PLY writes as a bare ``cannot write``. A LAZ output
+failing at its last chunk had its rejected file already renamed onto the earlier one.
+The disk is made full by the file objects the writers write to, so no small file system
+is needed.
 """
 
 from __future__ import annotations
@@ -112,6 +114,46 @@ def _georef(survey: dict[str, Path], out: Path, *extra: str) -> list[str]:
         *["georef", "--points", str(survey["points"]), "--trajectory", str(survey["traj"])],
         *["--mount", str(survey["dir"] / "m.toml"), "--out", str(out), *extra],
     ]
+
+
+def test_a_laz_output_full_at_its_last_chunk_leaves_both_earlier_files(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    survey: dict[str, Path],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The rejected file was renamed into place before the output's last chunk failed."""
+    folder = survey["dir"]
+    out, rejected = folder / "geo.laz", folder / "geo.rejected.laz"
+    out.write_bytes(b"earlier output")
+    rejected.write_bytes(b"earlier rejects")
+    _fill_disk_of(monkeypatch, "geo.laz")
+    code, stdout, err = run_cli(_georef(survey, out, "--outside", "reject"))
+    last = err.splitlines()[-1]  # warnings (the rejected points) come before it
+    assert_one_line_error(code, stdout, last + "\n", f"--out {out}", "disk is full")
+    assert "written before it" not in last
+    assert out.read_bytes() == b"earlier output"
+    assert rejected.read_bytes() == b"earlier rejects"
+    _no_temporaries(folder)
+
+
+def test_a_full_disk_in_the_rejected_laz_file_leaves_both_earlier_files(
+    survey: dict[str, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kinsync.mount import Mount  # noqa: PLC0415
+    from kinsync.pipelines.georef import georeference_file  # noqa: PLC0415
+
+    folder = survey["dir"]
+    out, rejected = folder / "geo.laz", folder / "geo.rejected.laz"
+    out.write_bytes(b"earlier output")
+    rejected.write_bytes(b"earlier rejects")
+    _fill_disk_of(monkeypatch, "geo.rejected.laz")
+    mount = Mount(lever_arm_body_m=(0.0, 0.0, 0.0))
+    with pytest.raises(InputError, match=r"geo\.rejected\.laz: the disk is full"):
+        georeference_file(survey["points"], survey["traj"], mount, out, outside="reject")
+    assert out.read_bytes() == b"earlier output"
+    assert rejected.read_bytes() == b"earlier rejects"
+    _no_temporaries(folder)
 
 
 @pytest.mark.parametrize("suffix", [".las", ".ply"])

@@ -54,6 +54,7 @@ __all__ = [
     "named_outputs",
     "output_folder",
     "protected_inputs",
+    "published_together",
 ]
 
 WRITE_ONLY_SUFFIXES = frozenset({".png", ".svg", ".pdf", ".html"})
@@ -85,6 +86,9 @@ _FOLDERS_BEING_WRITTEN: ContextVar[tuple[tuple[Path, Path], ...]] = ContextVar(
     "kinsync_folders_being_written"
 )
 """(temporary folder, output folder) of each `atomic_folder` block being written."""
+
+_HELD: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("kinsync_held_outputs", default=None)
+"""(temporary, output) of each complete file waiting for its `published_together` block."""
 
 FULL_DISK_ERRNOS = frozenset({errno.ENOSPC, *([errno.EDQUOT] if hasattr(errno, "EDQUOT") else [])})
 """Error numbers of a full disk (ENOSPC) and of a full disk quota (EDQUOT)."""
@@ -424,6 +428,7 @@ def atomic_path(path: Path) -> Iterator[Path]:
     umask = os.umask(0)
     os.umask(umask)
     tmp.chmod(0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
+    held = False
     try:
         try:
             yield tmp
@@ -432,18 +437,53 @@ def atomic_path(path: Path) -> Iterator[Path]:
             if full is not None:
                 raise disk_full_error(path, full) from None
             raise
-        try:
-            with stop_signals_held():  # renamed and recorded, or neither
-                tmp.replace(path)
-                _PUBLISHED.append(path)
-        except OSError as err:  # e.g. an existing file made immutable (chattr +i)
-            msg = (
-                f"{path}: cannot replace it ({err.strerror or err}); the output is not "
-                "written: make the file writable or choose another"
-            )
-            raise InputError(msg) from None
+        waiting = _HELD.get()
+        if waiting is not None:  # renamed with the others when the block ends
+            waiting.append((tmp, path))
+            held = True
+            return
+        with stop_signals_held():  # renamed and recorded, or neither
+            _publish_file(tmp, path)
     finally:
-        tmp.unlink(missing_ok=True)
+        if not held:
+            tmp.unlink(missing_ok=True)
+
+
+def _publish_file(tmp: Path, path: Path) -> None:
+    """Rename the complete temporary ``tmp`` onto ``path`` and record it as published."""
+    try:
+        tmp.replace(path)
+        _PUBLISHED.append(path)
+    except OSError as err:  # e.g. an existing file made immutable (chattr +i)
+        msg = (
+            f"{path}: cannot replace it ({err.strerror or err}); the output is not "
+            "written: make the file writable or choose another"
+        )
+        raise InputError(msg) from None
+
+
+@contextmanager
+def published_together() -> Iterator[None]:
+    """Within this block, files complete in `atomic_path` wait; all are renamed at its end.
+
+    For outputs that belong together (a georeferenced file and the file of its rejected
+    points): none replaces an earlier file until every one is complete. On any
+    exception (an interruption included) the waiting temporaries are removed and every
+    earlier file is left as it was.
+    """
+    waiting: list[tuple[Path, Path]] = []
+    token = _HELD.set(waiting)
+    try:
+        try:
+            yield
+        finally:
+            _HELD.reset(token)
+        with stop_signals_held():  # renamed and recorded, or neither (each)
+            for tmp, path in waiting:
+                _publish_file(tmp, path)
+    finally:
+        for tmp, _ in waiting:
+            tmp.unlink(missing_ok=True)
 
 
 def finish_then_publish(

@@ -41,7 +41,7 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefRecords
-from kinsync.io.atomic import ProtectedInput, check_not_an_input
+from kinsync.io.atomic import ProtectedInput, check_not_an_input, published_together
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_lines import csv_header_line
 from kinsync.io.las import (
@@ -836,10 +836,14 @@ def _write(
     sink: Sink,
     template: Any,
 ) -> tuple[int, int, int]:
-    """Write every chunk's points to ``sink`` and its rejects to the rejected file."""
+    """Write every chunk's points to ``sink`` and its rejects to the rejected file.
+
+    Both files are renamed into place only once both are complete (a LAZ file's last
+    chunk is written as it closes): a run that fails leaves the earlier ones as they were.
+    """
     n_in = n_out = 0
     behind = WriteBehind()
-    with ExitStack() as stack:
+    with published_together(), ExitStack() as stack:
         stack.enter_context(sink)
         stack.callback(behind.close)  # before the sink closes
         rejected: Sink | None = None
