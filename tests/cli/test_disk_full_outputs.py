@@ -4,7 +4,8 @@ Each ended otherwise than the one disk-full line (exit 2, the output named, noth
 partial left): lazrs reports a failed write as ``LazrsError: IoError: Failed to call
 write`` (internal error, exit 1), numpy's ``tofile`` as ``N requested and M written``
 without an error number, and LAS/PLY writes as a bare ``cannot write``. A LAZ output
-failing at its last chunk had its rejected file already renamed onto the earlier one.
+failing at its last chunk had its rejected file already renamed onto the earlier one;
+the second of two outputs failing did not say that the first had replaced its file.
 The disk is made full by the file objects the writers write to, so no small file system
 is needed.
 """
@@ -199,3 +200,49 @@ def test_a_laz_pass_file_on_a_full_disk_is_a_disk_full_error(
     with pytest.raises(InputError, match=r"pass_000\.laz: the disk is full"):
         write_passes(tmp_path / "passes", [p], file_format="laz")
     assert not (tmp_path / "passes" / "pass_000.laz").exists()
+
+
+def test_the_second_of_two_outputs_on_a_full_disk_names_the_first(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """As an interruption does: the model has replaced the earlier one, the user learns so."""
+    logs = tmp_path / "logs"
+    assert run_cli(["simulate", "clock", "--out", str(logs), "--duration-s", "60"])[0] == 0
+    model, figure = tmp_path / "m.json", tmp_path / "f.png"
+    real_write_bytes = Path.write_bytes
+
+    def write_bytes(self: Path, data: Any) -> int:
+        if self.name.startswith(".f.png."):
+            raise _full()
+        return real_write_bytes(self, data)
+
+    monkeypatch.setattr(Path, "write_bytes", write_bytes)
+    argv = ["clock", "fit", "--pps", str(logs / "pps.csv"), "--nmea", str(logs / "nmea.csv")]
+    result = run_cli([*argv, "--model-out", str(model), "--figure", str(figure)])
+    assert_one_line_error(
+        *result, f"--figure {figure}: the disk is full", f"; written before it: {model}"
+    )
+    assert model.is_file()
+    assert not figure.exists()
+
+
+def test_a_full_disk_on_the_only_output_names_nothing_written_before(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    """Outputs of earlier runs in the same process are not this run's."""
+    logs = tmp_path / "logs"
+    assert run_cli(["simulate", "clock", "--out", str(logs), "--duration-s", "60"])[0] == 0
+    model = tmp_path / "m.json"
+
+    def fail(*_: Any, **__: Any) -> int:
+        raise _full()
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Path, "write_bytes", fail)
+        argv = ["clock", "fit", "--pps", str(logs / "pps.csv"), "--nmea", str(logs / "nmea.csv")]
+        code, stdout, err = run_cli([*argv, "--model-out", str(model)])
+    assert_one_line_error(code, stdout, err, f"--model-out {model}: the disk is full")
+    assert "written before it" not in err

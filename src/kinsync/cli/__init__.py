@@ -22,7 +22,7 @@ from types import FrameType
 from typing import Any, TextIO
 
 from kinsync._text import first_few
-from kinsync.errors import InputError, KinsyncError, KinsyncWarning
+from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
 
@@ -202,6 +202,18 @@ def _published_mark() -> int:
     return int(atomic.published_count()) if atomic is not None else 0
 
 
+def _written_before(err: BaseException) -> str:
+    """After a full disk, the outputs this run completed before it, as an interruption says.
+
+    Written one after another, the earlier ones are complete and have replaced any
+    earlier file: the user learns which.
+    """
+    if not isinstance(err, DiskFullError):
+        return ""
+    done = _published_in_this_run()
+    return f"; written before it: {first_few(done)}" if done else ""
+
+
 def _published_in_this_run() -> list[str]:
     """The outputs this run published (complete) before it was interrupted."""
     atomic = sys.modules.get("kinsync.io.atomic")
@@ -275,7 +287,8 @@ def _full_disk(err: BaseException) -> str | None:
     if full is None:
         return None
     where = full.filename if full.filename is not None else "the output"
-    return str(atomic.disk_full_error(str(where), full))
+    error = atomic.disk_full_error(str(where), full)
+    return f"{error}{_written_before(error)}"
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -307,7 +320,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         if signum is not None:
             _exit_interrupted(signum)
         if isinstance(err, KinsyncError):
-            print(f"kinsync: error: {_one_line(str(err))}", file=sys.stderr)
+            print(f"kinsync: error: {_one_line(str(err))}{_written_before(err)}", file=sys.stderr)
             sys.exit(2)
         code = getattr(err, "exit_code", None)
         fmt = getattr(err, "format_message", None)
