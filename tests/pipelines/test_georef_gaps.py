@@ -166,3 +166,69 @@ def test_a_run_that_rejects_nothing_removes_an_earlier_rejected_file(
     assert not (tmp_path / "out.rejected.laz").exists()
     assert any("out.rejected.laz: removed" in w for w in second.warnings)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gap.csv", "out.laz", "scan.laz"]
+
+
+def _write_csv(path: Path, cols: dict[str, np.ndarray]) -> None:
+    rows = np.column_stack([cols[k] for k in ("t_s", "x_m", "y_m", "z_m")])
+    lines = ["t_s,x_m,y_m,z_m", *(",".join(repr(float(v)) for v in row) for row in rows)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_run_removes_the_rejected_file_of_an_earlier_input_format(
+    tmp_path: Path, gap_traj: Path
+) -> None:
+    """A CSV input to out.laz rejects to out.laz.rejected.csv; a LAZ input to the same
+    --out that rejects none left that file there (only out.rejected.laz was looked for)."""
+    cols = _columns()
+    out = tmp_path / "out.laz"
+    _write_csv(tmp_path / "scan.csv", cols)
+    first = georeference_file(
+        tmp_path / "scan.csv", gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject"
+    )
+    assert first.rejected_path == tmp_path / "out.laz.rejected.csv"
+    keep = ~_in_gap(cols["t_s"])
+    _write_las(tmp_path / "scan.laz", {k: v[keep] for k, v in cols.items()})
+    second = georeference_file(
+        tmp_path / "scan.laz", gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject"
+    )
+    assert second.points_rejected == 0
+    assert not (tmp_path / "out.laz.rejected.csv").exists()
+    assert any("out.laz.rejected.csv: removed" in w for w in second.warnings)
+
+
+def test_a_run_that_rejects_removes_the_rejected_file_of_another_input_format(
+    tmp_path: Path, gap_traj: Path
+) -> None:
+    """Its own rejected file has another name: the earlier one would add points."""
+    cols = _columns()
+    out = tmp_path / "out.laz"
+    _write_csv(tmp_path / "scan.csv", cols)
+    georeference_file(
+        tmp_path / "scan.csv", gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject"
+    )
+    _write_las(tmp_path / "scan.laz", cols)
+    second = georeference_file(
+        tmp_path / "scan.laz", gap_traj, MOUNT, out, crs="EPSG:32619", outside="reject"
+    )
+    assert second.rejected_path == tmp_path / "out.rejected.laz"
+    assert second.rejected_path.exists()
+    assert not (tmp_path / "out.laz.rejected.csv").exists()
+    assert any(
+        "out.laz.rejected.csv: removed" in w and "out.rejected.laz" in w for w in second.warnings
+    )
+
+
+def test_rejected_files_of_other_outputs_are_kept(tmp_path: Path, gap_traj: Path) -> None:
+    """Runs to out.csv and out.las from one input keep each their own rejected file."""
+    cols = _columns()
+    _write_csv(tmp_path / "scan.csv", cols)
+    keep = ~_in_gap(cols["t_s"])
+    _write_las(tmp_path / "scan.laz", {k: v[keep] for k, v in cols.items()})
+    for name in ("out.rejected.csv", "out.csv.rejected.laz", "out.rejected.las", "x.laz"):
+        (tmp_path / name).write_text("not this output's")
+    run = georeference_file(
+        tmp_path / "scan.laz", gap_traj, MOUNT, tmp_path / "out.laz", crs="EPSG:32619"
+    )
+    assert run.warnings == ()
+    for name in ("out.rejected.csv", "out.csv.rejected.laz", "out.rejected.las", "x.laz"):
+        assert (tmp_path / name).read_text() == "not this output's"

@@ -15,6 +15,7 @@ written, or written to the rejected file, or the run fails and writes nothing.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Iterator, Sequence
@@ -191,32 +192,61 @@ def _kind(path: Path) -> str:
     return "las" if suffix in _LAS_SUFFIXES else "ply" if suffix == ".ply" else "table"
 
 
-def _remove_stale_rejected(out_path: Path, points_path: Path, trajectory_path: Path) -> list[str]:
-    """Remove the ``OUT.rejected.<ext>`` an earlier run left, after a run that rejected none.
+def _rejected_files_for(out_path: Path) -> list[Path]:
+    """The existing files beside ``out_path`` that `rejected_path_for` gives for some input.
 
-    Left beside the new output, its points would be counted with it and the counts
-    would no longer add up. A file that is one of the inputs is never removed.
+    ``OUT.rejected.<ext>`` with the output's suffix (an input of the output's kind), and
+    ``OUT.<ext>.rejected.<ext2>`` for an input of another kind (``<ext2>`` spelled as
+    that input's suffix was).
     """
-    stale = rejected_path_for(out_path, points_path)
-    if not stale.is_file():
-        return []
+    found = []
+    if _kind(out_path) != "ply":  # no input is a PLY file
+        found.append(rejected_path_for(out_path))
+    prefix = f"{out_path.name}.rejected"
+    with contextlib.suppress(OSError):
+        for name in sorted(p.name for p in out_path.parent.iterdir()):
+            suffix = name[len(prefix) :].lower()
+            if (
+                name.startswith(prefix)
+                and suffix in _LAS_SUFFIXES + _TABLE_SUFFIXES
+                and _kind(Path(name)) != _kind(out_path)
+            ):
+                found.append(out_path.parent / name)
+    return [p for p in found if p.is_file()]
+
+
+def _remove_stale_rejected(
+    out_path: Path, points_path: Path, trajectory_path: Path, written: Path | None
+) -> list[str]:
+    """Remove every ``OUT.rejected.<ext>`` an earlier run left beside ``out_path``.
+
+    Whatever the earlier run's input format (`_rejected_files_for`), but ``written``,
+    this run's own rejected file. Left beside the new output, its points would be
+    counted with it and the counts would no longer add up. A file that is one of the
+    inputs is never removed.
+    """
     inputs = (
         ProtectedInput(points_path, "--points"),
         ProtectedInput(trajectory_path, "--trajectory"),
     )
-    try:
-        check_not_an_input(stale, inputs)
-    except InputError:
-        return []
-    try:
-        stale.unlink()
-    except OSError as err:
-        msg = (
-            f"{stale}: left by an earlier run, could not be removed ({err}); this run "
-            "rejected no points: delete it"
-        )
-        return [msg]
-    return [f"{stale}: removed, left by an earlier run; this run rejected no points"]
+    why = (
+        f"this run's rejected points are in {written}" if written else "this run rejected no points"
+    )
+    notes = []
+    for stale in [p for p in _rejected_files_for(out_path) if p != written]:
+        try:
+            check_not_an_input(stale, inputs)
+        except InputError:
+            continue
+        try:
+            stale.unlink()
+        except OSError as err:
+            notes.append(
+                f"{stale}: left by an earlier run, could not be removed ({err}); {why}: delete it"
+            )
+            continue
+        notes.append(f"{stale}: removed, left by an earlier run; {why}")
+    return notes
 
 
 # ---------------------------------------------------------------------- file pipeline
@@ -411,9 +441,9 @@ def georeference_file(
         stack.callback(runner.close)
         counts = _write(ctx, tasks, total, out_path, progress, tally, runner, sink, template)
     points_in, points_out, points_rejected = counts
-    if not points_rejected:
-        notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path))
-    elif template is not None and output != "same":
+    rejected_path = rejected_path_for(out_path, points_path) if points_rejected else None
+    notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path), rejected_path)
+    if points_rejected and template is not None and output != "same":
         notes += _rejected_las_notes(points_path, template)
     if tally.count:
         notes.append(tally.warning(points_path, traj, rejected_path_for(out_path, points_path)))
@@ -428,7 +458,7 @@ def georeference_file(
         points_out=points_out,
         points_rejected=points_rejected,
         seconds=time.perf_counter() - start,
-        rejected_path=rejected_path_for(out_path, points_path) if points_rejected else None,
+        rejected_path=rejected_path,
         warnings=tuple(notes) + crs_info.warnings,
         crs=crs_info,
         gap_threshold_s=traj.max_gap_s,
