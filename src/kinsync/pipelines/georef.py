@@ -174,7 +174,7 @@ class GeorefSummary:
 def rejected_path_for(out_path: Path, points_path: Path | None = None) -> Path:
     """``OUT.rejected.<ext>``: where points outside the trajectory span go.
 
-    They are written unchanged, in the input's own format: ``<ext>`` is the output's
+    They are written unchanged (as records or columns of the input): ``<ext>`` is the output's
     suffix when input and output are of one kind (LAS/LAZ, or CSV/Parquet tables):
     ``geo.laz`` rejects to ``geo.rejected.laz``. Else it is the input's, after the
     output's whole name (a LAZ georeferenced to ``geo.csv`` rejects to
@@ -326,12 +326,14 @@ def georeference_file(
         fewer), at most this many for Parquet (chunks follow its row groups).
     outside : {"error", "reject"}
         Points outside the trajectory span: an error naming how many and their time
-        range (nothing written), or written unchanged, in the input's format, to
-        ``OUT.rejected.<ext>`` (`rejected_path_for`; a CSV input's rows to a CSV
-        rejected file as the input's own lines, byte for byte, under its header line;
-        to a Parquet one as the table's columns). A run that rejects no point
-        removes the ``OUT.rejected.<ext>`` an earlier run left there (a warning says so),
-        so that the files beside the output always hold exactly this run's points.
+        range (nothing written), or written unchanged to ``OUT.rejected.<ext>``
+        (`rejected_path_for`: the output's format for an input of its kind, else the
+        input's; a CSV input's rows to a CSV rejected file as the input's own lines,
+        byte for byte, under its header line; to a Parquet one as the table's
+        columns), renamed into place with the output once both are complete. A run
+        removes every ``OUT.rejected.<ext>`` an earlier run left there, whatever its
+        input's format, but its own (a warning names each), so that the files beside
+        the output always hold exactly this run's points.
     gps_week : int, optional
         GPS week for SBET and LAS seconds-of-week times (see `read_trajectory_file`).
     position : {"auto", "linear", "hermite"}
@@ -846,7 +848,7 @@ def _outputs_in_order(
 
 
 def _rejected_sink(ctx: ChunkContext, template: Any, out_path: Path) -> Sink:
-    """The sink of the points outside the span: unchanged, in the input's own format."""
+    """The sink of the points outside the span, unchanged (`rejected_path_for`)."""
     path = rejected_path_for(out_path, ctx.source.path)
     if template is not None:
         return LasRejectedSink(path, template)

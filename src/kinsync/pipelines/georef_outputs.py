@@ -3,7 +3,8 @@
 Each sink takes the `ChunkOutput` s of `kinsync.pipelines.georef_chunks` in input order
 and writes what is meant for it: the ``columns`` (table, PLY) or the ``records`` (LAS)
 of the points inside the trajectory span; a rejected sink writes the points outside
-it, unchanged, in the input's own format (``rejected_records`` of a LAS/LAZ input,
+it, unchanged, in the format `kinsync.pipelines.georef.rejected_path_for` names
+(``rejected_records`` of a LAS/LAZ input,
 ``rejected_lines`` of a CSV to a CSV rejected file, ``rejected_columns`` of a table).
 All write atomically (their file appears when the ``with`` block ends without an
 error).
