@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -11,7 +12,7 @@ import typer
 
 from kinsync._text import counted
 from kinsync._typing import BoolArray, FloatArray
-from kinsync.cli._output import console, err_console, fmt, print_json, quantity_table
+from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.clock import (
     CLOCK_FORMULA,
     CONVENTIONS,
@@ -225,9 +226,9 @@ def apply(
     if n_outside:
         lo, hi = clock.span_local_s
         what = "extrapolated with the linear model" if used == "extrapolate" else "set to nan"
-        err_console.print(
-            f"note: {n_outside} time(s) outside the fitted span [{lo!r}, {hi!r}] s were {what}"
-        )
+        # One line, as a warning is (rich would wrap it at 80 columns, into a file too).
+        note = f"{n_outside} time(s) outside the fitted span [{lo!r}, {hi!r}] s were {what}"
+        print(f"kinsync: note: {note}", file=sys.stderr)
 
 
 def _refuse_outside(
