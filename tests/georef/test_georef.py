@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 import pickle
+from collections.abc import Callable
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 import pytest
@@ -28,7 +30,7 @@ from kinsync.georef import (
     georeference_profile,
     profile_points_to_scanner,
 )
-from kinsync.georef.trajectory import _interval_rotvec
+from kinsync.georef.trajectory import GeorefRecords, _interval_rotvec
 from kinsync.mount import Mount
 from kinsync.sim.turning_scan import TurningVehicle
 from kinsync.trajectory import Trajectory
@@ -306,6 +308,26 @@ def test_option_errors(traj: Trajectory) -> None:
     assert np.isfinite(out).all()
     with pytest.raises(InputError, match="finite"):
         GeorefTrajectory.from_trajectory(traj, latency_s=math.nan)
+
+
+@pytest.mark.parametrize("func", [georeference, georeference_numpy])
+def test_a_plain_trajectory_or_mount_is_refused_naming_the_argument(
+    traj: Trajectory, func: object
+) -> None:
+    georef = cast("Callable[..., object]", func)
+    with pytest.raises(InputError, match=r"traj: .*GeorefTrajectory\.from_trajectory"):
+        georef([1.0e9 + 1], [[0, 0, 0]], traj, MOUNT)
+    gt = GeorefTrajectory.from_trajectory(traj)
+    with pytest.raises(InputError, match=r"mount: expected a kinsync\.Mount, got dict"):
+        georef([1.0e9 + 1], [[0, 0, 0]], gt, {"latency_s": 0.0})
+
+
+@pytest.mark.parametrize("latency", [np.array([0.004]), "0.004", None, True])
+def test_a_latency_that_is_not_one_number_is_refused(traj: Trajectory, latency: object) -> None:
+    with pytest.raises(InputError, match="latency_s: expected a number"):
+        GeorefTrajectory.from_trajectory(traj, latency_s=latency)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="latency_s: expected a number"):
+        GeorefRecords.from_trajectory(traj, latency_s=latency)  # type: ignore[arg-type]
 
 
 def test_empty_input(traj: Trajectory) -> None:

@@ -351,6 +351,16 @@ def use_hermite(traj: GeorefTrajectory | GeorefRecords, position: str) -> bool:
 
 def check_latency(traj: GeorefTrajectory | GeorefRecords, mount: Mount) -> None:
     """Raise `InputError` unless ``traj`` was corrected for ``mount.latency_s``."""
+    if not isinstance(traj, (GeorefTrajectory, GeorefRecords)):
+        msg = (
+            f"georeference traj: expected a GeorefTrajectory, got {type(traj).__name__}; "
+            "build it with GeorefTrajectory.from_trajectory(trajectory, "
+            "latency_s=mount.latency_s)"
+        )
+        raise InputError(msg)
+    if not isinstance(mount, Mount):
+        msg = f"georeference mount: expected a kinsync.Mount, got {type(mount).__name__}"
+        raise InputError(msg)
     if abs(traj.latency_s - mount.latency_s) > _LATENCY_MATCH_TOL_S:
         msg = (
             f"georeference: the trajectory was corrected for latency {traj.latency_s!r} s but "

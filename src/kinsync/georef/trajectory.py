@@ -38,7 +38,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import time_array
+from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
 from kinsync.frames import (
     geodetic_to_ecef,
@@ -98,18 +98,17 @@ def _interval_rotvec(q: FloatArray) -> FloatArray:
     return rotvec
 
 
-def _check_latency_value(latency_s: float) -> None:
-    """Refuse a latency (s) that is not finite or beyond `MAX_LATENCY_S`."""
-    if not math.isfinite(latency_s):
-        msg = f"georeference latency_s must be finite, got {latency_s!r}"
-        raise InputError(msg)
-    if abs(latency_s) > MAX_LATENCY_S:
+def _check_latency_value(latency_s: object) -> float:
+    """Return the latency (s) as a float; refuse a non-number, NaN or beyond `MAX_LATENCY_S`."""
+    value = finite_number(latency_s, "georeference latency_s")
+    if abs(value) > MAX_LATENCY_S:
         msg = (
-            f"georeference latency_s = {latency_s!r} s is beyond +-{MAX_LATENCY_S:g} s: "
+            f"georeference latency_s = {value!r} s is beyond +-{MAX_LATENCY_S:g} s: "
             "a latency is a delay of milliseconds; a larger offset is a time-scale or "
             "unit mistake (put the trajectory and the points on one time scale)"
         )
         raise InputError(msg)
+    return value
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,7 +191,7 @@ class GeorefTrajectory:
             time-scale or unit mistake, not a latency); a ``max_gap_s`` that is not
             a positive number.
         """
-        _check_latency_value(latency_s)
+        latency_s = _check_latency_value(latency_s)
         check = trajectory.velocity_check
         velocity_warning = None
         if check is not None and not check.consistent:
@@ -414,7 +413,7 @@ class GeorefRecords:
 
         Parameters, warnings and errors as `GeorefTrajectory.from_trajectory`.
         """
-        _check_latency_value(latency_s)
+        latency_s = _check_latency_value(latency_s)
         check = trajectory.velocity_check
         velocity_warning = None
         if check is not None and not check.consistent:
