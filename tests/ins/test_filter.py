@@ -534,6 +534,32 @@ def test_bad_inputs(drive: Any) -> None:
         )  # fmt: skip
 
 
+def test_a_missing_init_or_config_is_refused_naming_it(drive: Any) -> None:
+    _, imu, gnss, _, init = drive
+    with pytest.raises(InputError, match=r"run_ins: init must be an InitialState, got NoneType"):
+        run_ins(imu, gnss, CONFIG, None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"run_ins: config must be an InsConfig .*got dict"):
+        run_ins(imu, gnss, {}, init)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("argument", "value"),
+    [
+        ("antenna_lever_arm_body_m", [0.0, 0.0]),
+        ("antenna_lever_arm_body_m", (0.0, math.nan, 0.0)),
+        ("antenna_lever_arm_body_m", "0.5,0,0"),
+        ("gyro_bias_rad_s", [[0.0, 0.0, 0.0]]),
+        ("acc_bias_m_s2", (0.0, 0.0, 0.0, 0.0)),
+    ],
+)
+def test_alignment_refuses_a_vector_that_is_not_three_numbers(
+    drive: Any, argument: str, value: object
+) -> None:
+    _, imu, gnss, _, _ = drive
+    with pytest.raises(InputError, match=f"align_static_gnss_heading: {argument} must be 3"):
+        align_static_gnss_heading(imu, gnss, static_s=15.0, **{argument: value})  # type: ignore[arg-type]
+
+
 def test_result_is_frozen(drive: Any) -> None:
     _, imu, gnss, _, init = drive
     res = run_ins(imu, gnss, CONFIG, init)

@@ -126,6 +126,22 @@ _GIVE_INITIAL_STATE = "give the initial state (--init-from; an InitialState in P
 """The way round a failed static alignment, as the command line and the API name it."""
 
 
+def _vector_arg(value: object, name: str) -> FloatArray:
+    """``value`` as 3 finite float64 numbers, or `InputError` naming ``name``."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"align_static_gnss_heading: {name} must be 3 numbers (x, y, z), got {value!r}"
+        raise InputError(msg) from err
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        msg = (
+            f"align_static_gnss_heading: {name} must be 3 finite numbers (x, y, z, body "
+            f"frame), got {value!r}"
+        )
+        raise InputError(msg)
+    return arr
+
+
 def _static_window(imu: ImuData, static_s: float) -> int:
     if not (isinstance(static_s, int | float) and math.isfinite(static_s) and static_s > 0):
         msg = f"align_static_gnss_heading: static_s must be a positive number, got {static_s!r}"
@@ -369,8 +385,14 @@ def align_static_gnss_heading(
     ObservabilityError
         No static start, no GNSS fix during it, or no motion to take the heading from.
     InputError
-        ``static_s`` is not a positive number.
+        ``static_s`` is not a positive number; a lever arm or bias that is not 3 finite
+        numbers.
     """
+    arm = _vector_arg(antenna_lever_arm_body_m, "antenna_lever_arm_body_m")
+    acc_bias = np.zeros(3) if acc_bias_m_s2 is None else _vector_arg(acc_bias_m_s2, "acc_bias_m_s2")
+    known_gyro = None
+    if gyro_bias_rad_s is not None:
+        known_gyro = _vector_arg(gyro_bias_rad_s, "gyro_bias_rad_s")
     k_end = _static_window(imu, static_s)
     t0 = float(imu.t_s[0])
     t_end = float(imu.t_s[k_end])
@@ -389,7 +411,6 @@ def align_static_gnss_heading(
     h0 = float(gnss.h_m[in_static].mean())
     _check_static(imu, gnss, k_end, static_s, lat0, h0)
     acc = imu.acc_body_m_s2[: k_end + 1]
-    acc_bias = np.zeros(3) if acc_bias_m_s2 is None else np.asarray(acc_bias_m_s2, dtype=float)
     f = acc.mean(axis=0) - acc_bias
     roll = math.atan2(-f[1], -f[2])
     pitch = math.atan2(f[0], math.hypot(f[1], f[2]))
@@ -398,8 +419,6 @@ def align_static_gnss_heading(
     gyro = imu.gyro_body_rad_s[: k_end + 1]
     gyro_mean = gyro.mean(axis=0)
     gyro_noise = np.maximum(gyro.std(axis=0) / math.sqrt(gyro.shape[0]), GYRO_MEAN_STD_FLOOR_RAD_S)
-    known_gyro = None if gyro_bias_rad_s is None else np.asarray(gyro_bias_rad_s, dtype=float)
-    arm = np.asarray(antenna_lever_arm_body_m, dtype=np.float64)
     drift = gyro_mean if known_gyro is None else known_gyro
     yaw = _heading(imu, gnss, k_end, lat0, lon0, roll, pitch, drift, arm)
     yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi

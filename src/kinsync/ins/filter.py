@@ -804,6 +804,15 @@ def run_ins(
     if not isinstance(imu, ImuData) or not isinstance(gnss, GnssData):
         msg = "run_ins: imu must be ImuData and gnss GnssData"
         raise InputError(msg)
+    if not isinstance(config, InsConfig):
+        msg = f"run_ins: config must be an InsConfig (read_ins_config), got {type(config).__name__}"
+        raise InputError(msg)
+    if not isinstance(init, InitialState):
+        msg = (
+            f"run_ins: init must be an InitialState, got {type(init).__name__}; take it from "
+            "align_static_gnss_heading(imu, gnss) or build one at an IMU epoch"
+        )
+        raise InputError(msg)
     warnings = list(input_warnings) if input_warnings is not None else check_inputs(
         imu, gnss, config, imu_source=imu_source, gnss_source=gnss_source, static_s=static_s
     )  # fmt: skip
