@@ -340,6 +340,29 @@ def test_profile_to_scanner_follows_spec_formula() -> None:
 
 
 @pytest.mark.parametrize(
+    ("phi", "r", "pattern"),
+    [
+        (
+            [0.1, 0.2],
+            [1.0, 2.0, 3.0],
+            r"range_m must be 1-D arrays of one length, got shapes \(2,\) and \(3,\)",
+        ),
+        ([[0.1, 0.2]], [[1.0, 2.0]], "angle_rad and range_m must be 1-D"),
+        ([0.1, 30.0], [1.0, 2.0], r"angle_rad\[1\] = 30\.0 is not a finite angle within one turn"),
+        ([0.1, math.nan], [1.0, 2.0], r"angle_rad\[1\] = nan"),
+        ([0.1, 0.2], [1.0, -2.0], r"range_m\[1\] = -2\.0: a range is a finite number >= 0"),
+        ([0.1, 0.2], [math.inf, 2.0], r"range_m\[0\] = inf"),
+        (["a"], [1.0], "angle_rad and range_m must be numbers"),
+    ],
+)
+def test_profile_to_scanner_refuses_what_profile_points_to_scanner_refuses(
+    phi: object, r: object, pattern: str
+) -> None:
+    with pytest.raises(InputError, match=r"profile_to_scanner: .*" + pattern):
+        Mount().profile_to_scanner(phi, r)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
     ("text", "pattern"),
     [
         ("[mount]\n[profiler]\nazimuth = 3.0\n", "unknown key.*profiler"),

@@ -271,6 +271,17 @@ def test_a_value_measured_again_drops_its_correlations() -> None:
     assert MountUncertainty(latency_s=0.001).with_independent(latency_s=0.002).latency_s == 0.002
 
 
+def test_with_independent_takes_an_array_and_refuses_an_empty_vector() -> None:
+    unc = MountUncertainty(lever_arm_body_m=(0.02, 0.02, 0.03), latency_s=1e-3)
+    new = unc.with_independent(lever_arm_body_m=np.array([0.01, 0.01, 0.02]))  # type: ignore[arg-type]
+    assert new.lever_arm_body_m == (0.01, 0.01, 0.02)
+    assert new.latency_s == 1e-3
+    with pytest.raises(InputError, match=r"lever_arm_body_m: expected a list of 3 numbers, got 0"):
+        unc.with_independent(lever_arm_body_m=[])  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"boresight_rpy_deg: expected a list of 3 numbers"):
+        unc.with_independent(boresight_rpy_deg=())  # type: ignore[arg-type]
+
+
 def test_a_matrix_read_within_the_tolerance_is_stored_positive_semidefinite() -> None:
     # An eigenvalue of -1e-7 is rounding, read; stored as it is it grows through a
     # calibration's [D; I] Sigma [D; I]' and the written table would then be refused.

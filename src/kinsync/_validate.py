@@ -46,6 +46,7 @@ __all__ = [
     "name_tuple",
     "off_ground_text",
     "positive_number",
+    "profile_arrays",
     "time_array",
 ]
 
@@ -568,3 +569,57 @@ def check_columns(
     if first is not None:
         row, name, value = first
         raise InputError(_message(f"{where(row)}, column {name!r}", value, spans[name]))
+
+
+def profile_arrays(
+    angle_rad: ArrayLike, range_m: ArrayLike, max_angle_rad: float, what: str
+) -> tuple[FloatArray, FloatArray]:
+    """Mirror angles (rad) and ranges (m) of profile points as float64 arrays, checked.
+
+    Parameters
+    ----------
+    angle_rad : array_like, shape (N,)
+        Mirror angles (rad), finite and within +-``max_angle_rad``.
+    range_m : array_like, shape (N,)
+        Ranges (m), finite and >= 0.
+    max_angle_rad : float
+        Largest angle (rad, either sign): one turn (`kinsync.mount.MAX_PROFILE_ANGLE_RAD`).
+    what : str
+        Prefix of error messages (the function checked for).
+
+    Returns
+    -------
+    angle_rad, range_m : ndarray of float64, shape (N,)
+
+    Raises
+    ------
+    InputError
+        Values that are not numbers, arrays not 1-D of one length, an angle not finite
+        or beyond one turn, a range not finite or negative (naming the first index).
+    """
+    try:
+        phi = np.asarray(angle_rad, dtype=np.float64)
+        r = np.asarray(range_m, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"{what}: angle_rad and range_m must be numbers ({err})"
+        raise InputError(msg) from err
+    if phi.ndim != 1 or r.shape != phi.shape:
+        msg = (
+            f"{what}: angle_rad and range_m must be 1-D arrays of one length, got shapes "
+            f"{phi.shape} and {r.shape}"
+        )
+        raise InputError(msg)
+    wide = ~(np.abs(phi) <= max_angle_rad)  # NaN too
+    if wide.any():
+        i = int(np.flatnonzero(wide)[0])
+        msg = (
+            f"{what}: angle_rad[{i}] = {float(phi[i])!r} is not a finite angle within one "
+            f"turn (+-{max_angle_rad:.6g} rad): mirror angles are radians"
+        )
+        raise InputError(msg)
+    bad = ~(np.isfinite(r) & (r >= 0.0))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        msg = f"{what}: range_m[{i}] = {float(r[i])!r}: a range is a finite number >= 0 (m)"
+        raise InputError(msg)
+    return phi, r

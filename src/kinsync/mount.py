@@ -56,7 +56,8 @@ import numpy as np
 
 from kinsync._text import shown_value
 from kinsync._toml import toml_document
-from kinsync._typing import FloatArray
+from kinsync._typing import ArrayLike, FloatArray
+from kinsync._validate import profile_arrays
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import euler_rpy_to_matrix
 
@@ -452,12 +453,8 @@ class MountUncertainty:
         }
         names = [n for n, key in _NAME_KEY.items() if given[key] is not None]
         corr = None if self.correlation is None else self.correlation.without(names)
-        return MountUncertainty(
-            lever_arm_body_m=lever_arm_body_m or self.lever_arm_body_m,
-            boresight_rpy_deg=boresight_rpy_deg or self.boresight_rpy_deg,
-            latency_s=self.latency_s if latency_s is None else latency_s,
-            correlation=corr,
-        )
+        kept: dict[str, Any] = {k: getattr(self, k) if v is None else v for k, v in given.items()}
+        return MountUncertainty(**kept, correlation=corr)
 
     @property
     def known(self) -> bool:
@@ -596,24 +593,28 @@ class Mount:
             "uncertainty": None if u is None else u.as_document(),
         }
 
-    def profile_to_scanner(self, angle_rad: FloatArray, range_m: FloatArray) -> FloatArray:
+    def profile_to_scanner(self, angle_rad: ArrayLike, range_m: ArrayLike) -> FloatArray:
         """2D profile points (mirror angle, range) in the scanner frame (SPEC section 4).
 
         Parameters
         ----------
-        angle_rad : ndarray, shape (n,)
-            Mirror angle phi from nadir, positive towards +Y (rad).
-        range_m : ndarray, shape (n,)
-            Range (m).
+        angle_rad : array_like, shape (n,)
+            Mirror angle phi from nadir, positive towards +Y (rad), within one turn.
+        range_m : array_like, shape (n,)
+            Range (m), >= 0.
 
         Returns
         -------
         ndarray, shape (n, 3)
             ``Rz(azimuth) (0, r sin phi, r cos phi)``, scanner frame (m); azimuth 0 when
             the mount has no ``[profiler]`` table.
+
+        Raises
+        ------
+        InputError
+            Not 1-D of one length, NaN, an angle beyond one turn, a range below 0.
         """
-        phi = np.asarray(angle_rad, dtype=np.float64)
-        r = np.asarray(range_m, dtype=np.float64)
+        phi, r = profile_arrays(angle_rad, range_m, MAX_PROFILE_ANGLE_RAD, "profile_to_scanner")
         az = math.radians(self.profiler_azimuth_deg or 0.0)
         y = r * np.sin(phi)
         z = r * np.cos(phi)
