@@ -330,6 +330,20 @@ def test_targets_bright_throughout_their_radius_are_judged_against_the_cloud(
     assert all("nor against the cloud's median intensity 100" in m.reason for m in missing)
 
 
+def test_observations_of_points_not_in_control_are_refused_naming_them(
+    scene: ControlTargetScene,
+) -> None:
+    scan = scene.scan
+    obs, _ = extract_targets(
+        _cloud(scan, scan.mount), scene.control, centre="sphere",
+        target_radius_m=scene.target_radius_m,
+    )  # fmt: skip
+    first = scene.control.names[0]
+    others = ControlPoints(scene.control.names[1:], scene.control.pos_ecef_m[1:])
+    with pytest.raises(InputError, match=f"observations of {first} but control has no such"):
+        control_point_differences(obs, others, scan.trajectory)
+
+
 def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetScene) -> None:
     scan = scene.scan
     cloud = _cloud(scan, scan.mount)
@@ -464,6 +478,10 @@ def test_otsu_threshold() -> None:
     assert all(math.isnan(v) for v in otsu_threshold(np.full(10, 7.0)))
     assert all(math.isnan(v) for v in otsu_threshold([1.0]))
     assert otsu_threshold([0.0, 0.0, 10.0]) == (5.0, math.inf)
+    with pytest.raises(InputError, match=r"otsu_threshold values\[0\] = nan is not finite"):
+        otsu_threshold([math.nan, 1.0, 2.0])
+    with pytest.raises(InputError, match=r"values\[2\] = inf"):
+        otsu_threshold([1.0, 2.0, math.inf])
 
 
 # ------------------------------------------------------------------ flatness
@@ -581,6 +599,29 @@ def test_bad_wall_selections() -> None:
         fit_wall(np.vstack([pts, [[np.nan, 0, 0]]]))
     with pytest.raises(InputError, match="shape"):
         fit_wall(pts[:, :2])
+    with pytest.raises(InputError, match="max_iterations: expected a whole number"):
+        fit_wall(pts, max_iterations=2.5)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"max_iterations must be >= 0 \(0: no rejection\)"):
+        fit_wall(pts, max_iterations=-1)
+    assert fit_wall(pts, max_iterations=0).n_rejected == 0
+
+
+@pytest.mark.parametrize(
+    ("xyz", "box", "pattern"),
+    [
+        (np.zeros((3, 10)), (0, 0, 0, 1, 1, 1), r"xyz: .*shape \(3, 10\); transpose it"),
+        (np.zeros(3), (0, 0, 0, 1, 1, 1), r"xyz: expected points of shape \(N, 3\)"),
+        (np.zeros((2, 3)), (0, 0, 0, 1), "box: expected 6 finite numbers"),
+        (np.zeros((2, 3)), (0, 0, 0, 1, 1, math.nan), "box: expected 6 finite numbers"),
+        (np.zeros((2, 3)), (0, 0, 0, 1, "a", 1), "box: expected 6 numbers"),
+        (np.zeros((2, 3)), (0, 5, 0, 1, 1, 1), "box: ymin 5.0 must be below ymax 1.0"),
+    ],
+)
+def test_select_box_refuses_transposed_points_and_a_box_that_is_not_one(
+    xyz: np.ndarray, box: object, pattern: str
+) -> None:
+    with pytest.raises(InputError, match="select_box " + pattern):
+        select_box(xyz, box)  # type: ignore[arg-type]
 
 
 # ------------------------------------------------------------------ box parser

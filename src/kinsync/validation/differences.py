@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from kinsync._typing import FloatArray
+from kinsync.errors import InputError
 from kinsync.frames import (
     body_to_vehicle,
     ecef_to_geodetic,
@@ -187,11 +188,20 @@ def control_point_differences(
     Raises
     ------
     InputError
-        A ``max_gap_s`` that is not a positive number.
+        A ``max_gap_s`` that is not a positive number; an observation whose name is not
+        one of ``control``'s.
     """
     limit_s = max_gap_for(trajectory.t_s, max_gap_s)
     gaps = trajectory.gaps(max_gap_s)
     index = {n: i for i, n in enumerate(control.names)}
+    unknown = sorted({obs.name for obs in observations} - set(index))
+    if unknown:
+        msg = (
+            f"control_point_differences: observations of {', '.join(unknown)} but control "
+            f"has no such point (it has {', '.join(control.names) or 'none'}); pass the "
+            "control points the observations were extracted with"
+        )
+        raise InputError(msg)
     out: list[ControlPointDifference] = []
     missing: list[MissingTarget] = []
     for obs in observations:

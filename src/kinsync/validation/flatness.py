@@ -279,7 +279,7 @@ def fit_wall(
     min_bow_m : float
         Least bow (m, >= 0) for ``curvature_significant``.
     max_iterations : int
-        Most rejection passes.
+        Most rejection passes (>= 0; 0: no outlier is rejected).
 
     Returns
     -------
@@ -302,6 +302,12 @@ def fit_wall(
         msg = f"level must lie in (0, 1), e.g. 0.99, got {level}"
         raise InputError(msg)
     positive_number(outlier_k, "outlier_k")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, int | np.integer):
+        msg = f"max_iterations: expected a whole number of passes, got {max_iterations!r}"
+        raise InputError(msg)
+    if max_iterations < 0:
+        msg = f"max_iterations must be >= 0 (0: no rejection), got {max_iterations}"
+        raise InputError(msg)
     if finite_number(min_bow_m, "min_bow_m") < 0.0:
         msg = f"min_bow_m must be >= 0, got {min_bow_m}"
         raise InputError(msg)
@@ -376,6 +382,28 @@ def fit_wall(
     )
 
 
+def _box_bounds(box: object) -> tuple[FloatArray, FloatArray]:
+    """``box`` as its lower and upper bounds, each shape (3,); `InputError` if not a box."""
+    hint = "give (xmin, ymin, zmin, xmax, ymax, zmax)"
+    try:
+        b = np.asarray(box, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        msg = f"select_box box: expected 6 numbers, got {box!r}; {hint}"
+        raise InputError(msg) from err
+    if b.shape != (6,) or not np.isfinite(b).all():
+        msg = f"select_box box: expected 6 finite numbers, got {box!r}; {hint}"
+        raise InputError(msg)
+    for axis in range(3):
+        if not b[axis] < b[axis + 3]:
+            name = "xyz"[axis]
+            msg = (
+                f"select_box box: {name}min {float(b[axis])!r} must be below {name}max "
+                f"{float(b[axis + 3])!r}; {hint}"
+            )
+            raise InputError(msg)
+    return b[:3], b[3:]
+
+
 def select_box(xyz: ArrayLike, box: Box) -> BoolArray:
     """True for the points inside the box (bounds included), shape (N,).
 
@@ -392,9 +420,18 @@ def select_box(xyz: ArrayLike, box: Box) -> BoolArray:
     ndarray of bool, shape (N,)
         True where every coordinate lies within its bounds; a NaN coordinate is
         outside.
+
+    Raises
+    ------
+    InputError
+        ``xyz`` not of shape (N, 3); ``box`` not 6 finite numbers, or a minimum not
+        below its maximum.
     """
     p = np.asarray(xyz, dtype=np.float64)
-    lo = np.asarray(box[:3])
-    hi = np.asarray(box[3:])
+    if p.ndim != 2 or p.shape[1] != 3:
+        flip = "; transpose it (xyz.T)" if p.ndim == 2 and p.shape[0] == 3 else ""
+        msg = f"select_box xyz: expected points of shape (N, 3), got shape {p.shape}{flip}"
+        raise InputError(msg)
+    lo, hi = _box_bounds(box)
     out: BoolArray = np.all((p >= lo) & (p <= hi), axis=1)
     return out

@@ -202,11 +202,22 @@ def otsu_threshold(values: ArrayLike) -> tuple[float, float]:
         Mean of the upper class over mean of the lower class (inf when the lower
         mean is zero, NaN when there is no split).
 
+    Raises
+    ------
+    InputError
+        A value that is not finite (NaN sorts last and would shift the split).
+
     References
     ----------
     Otsu 1979 (IEEE SMC 9, 62-66).
     """
-    v = np.sort(np.asarray(values, dtype=np.float64).ravel())
+    raw = np.asarray(values, dtype=np.float64).ravel()
+    bad = ~np.isfinite(raw)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        msg = f"otsu_threshold values[{i}] = {float(raw[i])!r} is not finite; drop it first"
+        raise InputError(msg)
+    v = np.sort(raw)
     n = v.size
     if n < 2 or v[0] == v[-1]:
         return math.nan, math.nan
