@@ -509,11 +509,15 @@ def test_sphere_no_admissible_sphere_names_the_region_of_interest_option(
     args = ["latency", "sphere", str(folder), "--no-figure", "--radius-m", "0.1"]
     code, out, err = run_cli(args)
     assert_one_line_error(
-        code, out, err, "admissible sphere", "give a region of interest around the sphere (--roi-m)"
+        code,
+        out,
+        err,
+        "admissible sphere",
+        "give a region of interest around the sphere (roi_ned_m, --roi-m)",
     )
     code, out, err = run_cli([*args, "--roi-m", "0,0,0,10,10,10"])
     assert_one_line_error(
-        code, out, err, "check that the region of interest (--roi-m) holds the sphere"
+        code, out, err, "check that the region of interest (roi_ned_m, --roi-m) holds the sphere"
     )
 
 

@@ -316,6 +316,23 @@ def test_bad_radius() -> None:
         estimate_latency_sphere(small_simulation(TAU_S, seed=3), radius_m=-0.1)
 
 
+@pytest.mark.parametrize("radius", ["0.1", math.nan, True, np.array([0.1])])
+def test_a_radius_that_is_not_a_number_is_named(radius: object) -> None:
+    """A text radius was a TypeError from inside; NaN failed later, as a per-rate failure."""
+    with pytest.raises(InputError, match=r"^radius_m: "):
+        estimate_latency_sphere(small_simulation(TAU_S, seed=3), radius_m=radius)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("origin", [(0.0, 0.0), (0.0, math.nan, 0.0), "origin"])
+def test_a_scanner_origin_that_is_not_three_numbers_is_named_up_front(origin: object) -> None:
+    """Was buried in each rate's failure, ending with advice about --radius-m."""
+    passes = small_simulation(TAU_S, seed=3)
+    with pytest.raises(InputError, match=r"^scanner_origin_ned_m: expected 3 finite numbers"):
+        estimate_latency_sphere(passes, radius_m=0.1, scanner_origin_ned_m=origin)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"^scanner_origin_ned_m: expected 3 finite numbers"):
+        fit_pool(passes[:1], radius_m=0.1, scanner_origin_ned_m=origin)  # type: ignore[arg-type]
+
+
 def _beams_on_sphere(
     rng: np.random.Generator, n: int, centre: np.ndarray, radius: float, max_incidence_deg: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -468,7 +485,7 @@ def test_a_region_of_interest_leaves_out_the_points_outside_and_counts_them() ->
 )
 def test_a_bad_region_of_interest_is_refused(box: tuple[object, ...], fragment: str) -> None:
     passes = small_simulation(TAU_S, seed=3)
-    with pytest.raises(InputError, match=r"region of interest \(--roi-m") as info:
+    with pytest.raises(InputError, match=r"region of interest \(roi_ned_m, --roi-m") as info:
         estimate_latency_sphere(passes, radius_m=0.1, roi_ned_m=box)  # type: ignore[arg-type]
     assert fragment in str(info.value)
     if "keeps" in fragment:  # the passes are named, with what to do

@@ -32,6 +32,8 @@ RoiBox = tuple[float, float, float, float, float, float]
 
 ROI_OPTION = "--roi-m"
 """The command-line option that gives the region of interest (named in messages)."""
+_ROI_NAMES = f"roi_ned_m, {ROI_OPTION}"
+"""The argument and the option that give it, as errors name them."""
 
 _SHOWN = 3
 
@@ -52,11 +54,11 @@ def checked_roi(box: Sequence[float]) -> RoiBox:
     try:
         values = [float(v) for v in box]
     except (TypeError, ValueError) as err:
-        msg = f"region of interest ({ROI_OPTION}): expected 6 numbers, got {box!r}"
+        msg = f"region of interest ({_ROI_NAMES}): expected 6 numbers, got {box!r}"
         raise InputError(msg) from err
     if len(values) != 6 or not all(math.isfinite(v) for v in values):
         msg = (
-            f"region of interest ({ROI_OPTION}): expected 6 finite numbers "
+            f"region of interest ({_ROI_NAMES}): expected 6 finite numbers "
             f"xmin,ymin,zmin,xmax,ymax,zmax (m), got {box!r}"
         )
         raise InputError(msg)
@@ -65,7 +67,7 @@ def checked_roi(box: Sequence[float]) -> RoiBox:
         if not lo < hi:
             name = "xyz"[axis]
             msg = (
-                f"region of interest ({ROI_OPTION}): {name}min {lo:g} m must be below "
+                f"region of interest ({_ROI_NAMES}): {name}min {lo:g} m must be below "
                 f"{name}max {hi:g} m (the order is xmin,ymin,zmin,xmax,ymax,zmax)"
             )
             raise InputError(msg)
@@ -178,7 +180,7 @@ def crop_passes(
         everything = np.concatenate([p.points_ned_m for p in passes])
         span = (*everything.min(axis=0), *everything.max(axis=0))
         msg = (
-            f"region of interest ({ROI_OPTION} {roi_text(roi)}, table-centred NED): "
+            f"region of interest ({_ROI_NAMES} {roi_text(roi)}, table-centred NED): "
             + "; ".join(short[:_SHOWN])
             + more
             + f"; a pass needs at least {min_points} points inside: move or widen the box so that "

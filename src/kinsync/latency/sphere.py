@@ -35,6 +35,7 @@ from scipy.spatial.transform import Rotation
 from kinsync._arrays import readonly_array
 from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._validate import positive_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
@@ -386,7 +387,7 @@ def fit_pool(
         raise InputError(msg)
     max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
     points = np.concatenate([p.points_ned_m for p in passes])
-    origin = None if scanner_origin_ned_m is None else np.asarray(scanner_origin_ned_m, float)
+    origin = None if scanner_origin_ned_m is None else _checked_origin(scanner_origin_ned_m)
     n_text = f"{counted(len(passes), 'pass')}, {counted(len(points), 'point')}"
     label = f"rate {passes[0].rate_deg_s:+g} deg/s ({n_text})"
     try:
@@ -592,17 +593,17 @@ def _pool_failure(
     for phrase, plain in _FIT_PHRASES:
         text = text.replace(phrase, plain)
     roi_advice = (
-        f"check that the region of interest ({ROI_OPTION}) holds the sphere"
+        f"check that the region of interest (roi_ned_m, {ROI_OPTION}) holds the sphere"
         if roi_given
-        else f"give a region of interest around the sphere ({ROI_OPTION}) to leave out "
+        else f"give a region of interest around the sphere (roi_ned_m, {ROI_OPTION}) to leave out "
         "floor and walls"
     )
     text = text.replace("check the radius or the region of interest", roi_advice)
     text += _unit_hint(spread_m, radius_m)
     radius = (
-        f"that the sphere radius (--radius-m, {radius_m:g} m) is right"
+        f"that the sphere radius (radius_m, --radius-m, {radius_m:g} m) is right"
         if radius_m is not None
-        else "the sphere radius (give it with --radius-m)"
+        else "the sphere radius (give it: radius_m, --radius-m)"
     )
     return (
         f"{text}; check that the sphere is in view in these passes, that the points are "
@@ -734,6 +735,18 @@ def _pair_groups(
     return pairs, unpaired
 
 
+def _checked_origin(origin: ArrayLike) -> FloatArray:
+    """The scanner origin as 3 finite float64 numbers (m), or `InputError` naming it."""
+    try:
+        out = np.asarray(origin, dtype=np.float64)
+    except (TypeError, ValueError):
+        out = np.empty(0)
+    if out.shape != (3,) or not np.isfinite(out).all():
+        msg = f"scanner_origin_ned_m: expected 3 finite numbers (x, y, z, m), got {origin!r}"
+        raise InputError(msg)
+    return out
+
+
 def estimate_latency_sphere(
     passes: Iterable[SpherePass],
     *,
@@ -778,7 +791,8 @@ def estimate_latency_sphere(
     Raises
     ------
     InputError
-        No passes (or items that are not SpherePass); max_incidence_deg outside
+        No passes (or items that are not SpherePass); a ``radius_m`` that is not a
+        positive number; a ``scanner_origin_ned_m`` not 3 finite numbers; max_incidence_deg outside
         [`~kinsync.latency.planning.MIN_MAX_INCIDENCE_DEG`, 90); a pass whose points
         turn the other way than its stated rate, or
         more than twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign,
@@ -794,9 +808,10 @@ def estimate_latency_sphere(
         msg = "no passes given"
         raise InputError(msg)
     max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
-    if radius_m is not None and not (math.isfinite(radius_m) and radius_m > 0):
-        msg = f"radius_m must be positive, got {radius_m!r}"
-        raise InputError(msg)
+    if radius_m is not None:
+        radius_m = positive_number(radius_m, "radius_m")
+    if scanner_origin_ned_m is not None:
+        scanner_origin_ned_m = _checked_origin(scanner_origin_ned_m)
     roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
     check_pass_rates(passes)
     crop = None
