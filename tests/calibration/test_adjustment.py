@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from kinsync.calibration.adjustment import Observation, adjust, reduced_normal_matrix
+from kinsync.calibration.estimator import CalibrationOptions
 from kinsync.calibration.features import Feature, plane_from_points
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
@@ -179,6 +180,28 @@ def test_estimate_groups() -> None:
         estimated_indices("bore")
     with pytest.raises(InputError, match="at least one"):
         estimated_indices(" , ")
+
+
+def test_options_store_the_groups_as_a_tuple_and_take_only_a_bool_jackknife() -> None:
+    as_set: object = {"latency", "boresight"}
+    as_list: object = ["latency"]
+    as_text: object = "boresight, latency"
+    both = ("boresight", "latency")
+    assert CalibrationOptions(estimate=as_set).estimate == both  # type: ignore[arg-type]
+    assert CalibrationOptions(estimate=as_list).estimate == ("latency",)  # type: ignore[arg-type]
+    assert CalibrationOptions(estimate=as_text).estimate == both  # type: ignore[arg-type]
+    numpy_false: object = np.bool_(False)  # noqa: FBT003
+    assert CalibrationOptions(jackknife=numpy_false).jackknife is False  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"estimate \(--estimate\): unknown group 'bore'"):
+        CalibrationOptions(estimate=("bore",))
+    for bad in (3, None):
+        with pytest.raises(InputError, match="estimate: expected a tuple of group names"):
+            CalibrationOptions(estimate=bad)  # type: ignore[arg-type]
+    for value in ("no", 0, None):
+        with pytest.raises(InputError, match="jackknife: expected True or False"):
+            CalibrationOptions(jackknife=value)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"features \(--features\) must be planes or spheres"):
+        CalibrationOptions(features="plane")  # type: ignore[arg-type]
 
 
 def test_a_return_pushed_out_of_its_trajectory_costs_more_than_any_it_fits() -> None:

@@ -28,7 +28,7 @@ estimate, and returns a `CalibrationResult`:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
@@ -76,6 +76,7 @@ from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatt
 from kinsync.calibration.parameters import (
     BORESIGHT,
     DEFAULT_ESTIMATE,
+    GROUPS,
     LATENCY,
     PARAMETER_NAMES,
     REPORT_SCALE,
@@ -117,7 +118,9 @@ class CalibrationOptions:
     features : {"planes", "spheres"}
         Planar patches found in the lines' overlap, or sphere targets.
     estimate : tuple of str
-        Parameter groups to estimate (`kinsync.calibration.parameters.GROUPS`).
+        Parameter groups to estimate (`kinsync.calibration.parameters.GROUPS`); a
+        list, a set (read in the groups' order) or ``"boresight,latency"`` text is
+        stored as a tuple.
     patches : PatchOptions
         Settings of the patch search.
     spheres : SphereOptions
@@ -125,7 +128,8 @@ class CalibrationOptions:
     adjustment : AdjustmentOptions
         Iteration settings.
     jackknife : bool
-        Compute the jackknife sigma (else the formal sigma is reported).
+        Compute the jackknife sigma (else the formal sigma is reported); True or
+        False only.
     max_gap_s : float or None
         Longest trajectory record interval (s) interpolated across; returns inside a
         longer one (a data gap) are refused like returns outside the trajectory. None
@@ -143,9 +147,23 @@ class CalibrationOptions:
 
     def __post_init__(self) -> None:
         if self.features not in ("planes", "spheres"):
-            msg = f"--features must be planes or spheres, got {self.features!r}"
+            msg = f"features (--features) must be planes or spheres, got {self.features!r}"
             raise InputError(msg)
-        estimated_indices(self.estimate)  # an unknown group fails here
+        est: object = self.estimate
+        if isinstance(est, str):  # "boresight,latency", as --estimate takes them
+            est = [g.strip() for g in est.split(",") if g.strip()]
+        if not isinstance(est, Iterable) or isinstance(est, bytes):
+            msg = f"estimate: expected a tuple of group names ({', '.join(GROUPS)}), got {est!r}"
+            raise InputError(msg)
+        names = tuple(est)
+        estimated_indices(names)  # an unknown group fails here
+        if isinstance(est, set | frozenset):  # no order of its own: the groups' order
+            names = tuple(g for g in GROUPS if g in names)
+        object.__setattr__(self, "estimate", names)
+        if not isinstance(self.jackknife, bool | np.bool_):
+            msg = f"jackknife: expected True or False, got {self.jackknife!r}"
+            raise InputError(msg)
+        object.__setattr__(self, "jackknife", bool(self.jackknife))
         if self.max_gap_s is not None:
             max_gap_for((), self.max_gap_s)  # a positive number of seconds, or inf
 

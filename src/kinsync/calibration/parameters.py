@@ -69,12 +69,12 @@ def estimated_indices(groups: str | tuple[str, ...] | list[str]) -> tuple[int, .
     names = [g.strip() for g in groups.split(",")] if isinstance(groups, str) else list(groups)
     names = [n for n in names if n]
     if not names:
-        msg = f"--estimate: name at least one of {', '.join(GROUPS)}"
+        msg = f"estimate (--estimate): name at least one of {', '.join(GROUPS)}"
         raise InputError(msg)
     out: set[int] = set()
     for name in names:
         if name not in GROUPS:
-            msg = f"--estimate: unknown group {name!r}; use {', '.join(GROUPS)}"
+            msg = f"estimate (--estimate): unknown group {name!r}; use {', '.join(GROUPS)}"
             raise InputError(msg)
         out.update(GROUPS[name])
     return tuple(sorted(out))
