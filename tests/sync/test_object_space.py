@@ -738,8 +738,8 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
     with pytest.raises(InputError, match="must not decrease"):
         ProfileScan(scan.profile[::-1], scan.angle_rad, scan.range_m, scan.intensity)
     for kwargs, frag in [
-        ({"period_tolerance": 0.6}, "too wide"),
-        ({"period_prior_s": -1.0}, "period-prior-s"),
+        ({"period_tolerance": 0.6}, r"^period_tolerance \(--period-tolerance\) .* too wide"),
+        ({"period_prior_s": -1.0}, r"^period_prior_s \(--period-prior-s\) must be positive"),
         ({"position_std_m": -0.1}, "position_std_m"),
         ({"min_returns": 0}, "min_returns"),
         ({"refinement": "median"}, "refinement"),

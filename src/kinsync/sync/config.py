@@ -110,10 +110,13 @@ class ObjectSpaceConfig:
         )
 
     def __post_init__(self) -> None:
-        positive_number(self.period_prior_s, "--period-prior-s")
-        tol = positive_number(self.period_tolerance, "--period-tolerance")
+        positive_number(self.period_prior_s, "period_prior_s (--period-prior-s)")
+        tol = positive_number(self.period_tolerance, "period_tolerance (--period-tolerance)")
         if tol >= 0.5:
-            msg = f"--period-tolerance is relative (0.01 = 1 %); {tol} is too wide (< 0.5)"
+            msg = (
+                f"period_tolerance (--period-tolerance) is relative (0.01 = 1 %); {tol} is "
+                "too wide (< 0.5)"
+            )
             raise InputError(msg)
         finite_number(self.intensity_threshold, "intensity_threshold")
         for name in ("min_returns", "sphere_min_returns"):
