@@ -34,3 +34,16 @@ def test_float32_or_datetime64_times_are_refused_naming_the_line() -> None:
         ScanLine("a", t, xyz.astype(np.float16) * 20, traj)  # type: ignore[arg-type]
     line = ScanLine("a", t, xyz.astype(np.float32), traj)  # float32 holds 1 m to 0.1 um
     assert np.unique(line.t_s).size == t.size
+
+
+def test_subset_refuses_an_index_that_does_not_fit_the_line() -> None:
+    """A mask of another length or an index beyond the returns was a bare IndexError."""
+    t = T0 + 1.0 + np.linspace(0.0, 5.0, 10)
+    line = ScanLine("a", t, np.ones((t.size, 3)), _trajectory())
+    with pytest.raises(InputError, match=r"line 'a': a mask of shape \(2,\) for 10 returns"):
+        line.subset(np.ones(2, bool))
+    for bad in (np.array([0, 10]), np.array([0.0, 1.0]), np.array([[0, 1]])):
+        with pytest.raises(InputError, match=r"line 'a': index must be a boolean mask of 10"):
+            line.subset(bad)
+    np.testing.assert_array_equal(line.subset([9, 0]).t_s, t[[9, 0]])
+    np.testing.assert_array_equal(line.subset(np.arange(10) % 2 == 0).t_s, t[::2])

@@ -224,3 +224,11 @@ def test_float32_geodetic_control_points_are_refused_as_float32_ecef_is() -> Non
         ControlPoints.from_geodetic(["A", "B"], lat, lon, h.astype(np.float16))
     ok = ControlPoints.from_geodetic(["A", "B"], lat, lon, h.astype(f32))  # 1 um steps
     assert ok.pos_ecef_m == pytest.approx(geodetic_to_ecef(lat, lon, h))
+
+
+def test_from_geodetic_refuses_coordinates_that_do_not_match_the_names() -> None:
+    # One latitude for two names was broadcast to both points without a word.
+    with pytest.raises(InputError, match=r"one value per point.*names \(2,\), lat_deg \(1,\)"):
+        ControlPoints.from_geodetic(["a", "b"], [46.8], [-71.2, -71.0], [10.0, 10.0])
+    one = ControlPoints.from_geodetic(["a"], 46.8, -71.2, 10.0)  # one point, as scalars
+    np.testing.assert_allclose(one.lat_lon_h(), [[46.8, -71.2, 10.0]], atol=1e-9)

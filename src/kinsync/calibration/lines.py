@@ -133,9 +133,25 @@ class ScanLine:
         Raises
         ------
         InputError
-            ``index`` selects no return.
+            ``index`` selects no return, is a mask of another length, or holds indices
+            that are not whole numbers or lie beyond the line's returns.
         """
         idx = np.asarray(index)
+        n = self.t_s.size
+        if idx.dtype == np.bool_:
+            if idx.shape != (n,):
+                msg = f"line {self.name!r}: a mask of shape {idx.shape} for {n} returns"
+                raise InputError(msg)
+        elif idx.size and (
+            idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.min() < -n or idx.max() >= n
+        ):
+            msg = (
+                f"line {self.name!r}: index must be a boolean mask of {n} values or 1-D "
+                f"whole-number indices below {n}, got {idx.dtype} of shape {idx.shape}"
+            )
+            raise InputError(msg)
+        elif idx.size == 0:
+            idx = idx.astype(np.int64)
         return ScanLine(self.name, self.t_s[idx], self.xyz_scanner_m[idx], self.trajectory)
 
 

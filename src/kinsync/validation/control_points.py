@@ -112,12 +112,17 @@ class ControlPoints:
             everything `ControlPoints` refuses (empty or duplicated names, a count of
             names that does not match the coordinates).
         """
-        pos = geodetic_to_ecef(
-            degree_array(lat_deg, f"{source}: lat_deg"),
-            degree_array(lon_deg, f"{source}: lon_deg"),
-            coordinate_array(h_m, f"{source}: h_m"),
-        )
+        lat = np.atleast_1d(degree_array(lat_deg, f"{source}: lat_deg"))
+        lon = np.atleast_1d(degree_array(lon_deg, f"{source}: lon_deg"))
+        h = np.atleast_1d(coordinate_array(h_m, f"{source}: h_m"))
         names_ = name_tuple(names, f"{source}: names")
+        shapes = {"names": (len(names_),), "lat_deg": lat.shape, "lon_deg": lon.shape}
+        shapes["h_m"] = h.shape
+        if len(set(shapes.values())) > 1:  # one latitude for two names was broadcast
+            given = ", ".join(f"{k} {v}" for k, v in shapes.items())
+            msg = f"{source}: give one value per point in each argument, got shapes {given}"
+            raise InputError(msg)
+        pos = geodetic_to_ecef(lat, lon, h)
         return cls(names=names_, pos_ecef_m=np.atleast_2d(pos), source=source)
 
     def __len__(self) -> int:
