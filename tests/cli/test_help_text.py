@@ -3,6 +3,7 @@ matrix, counted nouns and tables that fit 80 columns when piped."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import subprocess
@@ -211,3 +212,18 @@ def test_help_has_no_rst_markup(path: tuple[str, ...], run_cli: RunCli) -> None:
     code, out, _ = run_cli([*path, "--help"])
     assert code == 0
     assert "``" not in out
+
+
+def test_help_paragraphs_are_not_broken_mid_sentence(run_cli: RunCli) -> None:
+    """typer kept the docstrings' line ends after the first paragraph, and rich wrapped
+    again at 80 columns: `demo --help` showed "... by name" / "and the" on lines of
+    their own."""
+    for path, _ in commands():
+        code, out, _ = run_cli([*path, "--help"])
+        assert code == 0
+        prose = out.split("╭")[0]  # the text above the option panels
+        lines = [line.strip() for line in prose.splitlines()]
+        for line, following in itertools.pairwise(lines):
+            # a line rich did not fill while the paragraph goes on: a kept line end
+            broken = line and following and len(line) < 50 and not line.startswith("Usage")
+            assert not broken, (path, line, following)

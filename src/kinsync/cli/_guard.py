@@ -29,6 +29,7 @@ from typing import Any
 import typer
 
 from kinsync.cli._bounds import check_numeric_option
+from kinsync.cli._help import reflowed
 from kinsync.errors import InputError
 from kinsync.io.atomic import (
     ProtectedInput,
@@ -221,6 +222,8 @@ def guard_commands(app: typer.Typer, prefix: tuple[str, ...] = ()) -> None:
     for info in app.registered_commands:
         if info.callback is not None and not hasattr(info.callback, "__wrapped__"):
             name = info.name or info.callback.__name__
+            if info.help is None and info.callback.__doc__:
+                info.help = reflowed(info.callback.__doc__)
             info.callback = _guard(info.callback, " ".join((*prefix, name)))
     for group in app.registered_groups:
         if group.typer_instance is not None:

@@ -14,12 +14,35 @@ flag, so there is nothing to change there.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 from rich.markup import escape
 from typer.core import TyperOption
 
-__all__ = ["install_flag_display", "literal"]
+__all__ = ["install_flag_display", "literal", "reflowed"]
+
+
+def reflowed(doc: str) -> str:
+    r"""A command's docstring as ``--help`` should show it: each paragraph one line.
+
+    typer joins the lines of the first paragraph but keeps the line ends of the others,
+    where rich then wraps again at the terminal's width: a paragraph written at 88
+    columns showed one or two words alone on every other line. A paragraph starting
+    with ``\b`` (click's "keep as written") is kept.
+
+    Parameters
+    ----------
+    doc : str
+        The docstring (indented or not).
+
+    Returns
+    -------
+    str
+        Paragraphs separated by a blank line, each without line ends.
+    """
+    text = inspect.cleandoc(doc)
+    return "\n\n".join(p if p.startswith("\b") else " ".join(p.split()) for p in text.split("\n\n"))
 
 
 def literal(text: str) -> str:

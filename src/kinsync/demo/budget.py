@@ -229,11 +229,14 @@ def _checks(budgets: _Budgets) -> tuple[Check, ...]:
     one_ms = budgets.beach_one_ms
     return (
         Check(
-            "vertical error a 1 ms latency causes on the reference beach (10 deg slope at "
-            "50 m, 10 deg/s roll), exact geometry",
+            "size of the vertical error a 1 ms latency causes on the reference beach (10 deg "
+            "slope at 50 m, 10 deg/s roll), exact geometry",
             abs(one_ms.vertical_error_m or 0.0) * 1e3,
             ONE_ERROR_SOURCE,
-            detail=f"horizontal {one_ms.horizontal_error_m * 1e3:.1f} mm; computed, no noise",
+            detail=(
+                f"vertical {_mm(one_ms.vertical_error_m)} mm (signed, as in the summary), "
+                f"horizontal {one_ms.horizontal_error_m * 1e3:.1f} mm; computed, no noise"
+            ),
         ),
     )
 
