@@ -13,12 +13,13 @@ water fail one of these tests.
 Neighbouring candidates (26-neighbourhood) with the same plane are merged (region
 growing), so a wall or a roof becomes one patch with one plane for all lines that see
 it. Patches are then chosen for geometry, not quantity: the largest of each
-orientation class (near-horizontal; walls and slopes by azimuth sectors), at most
-``max_patches_per_class`` each, so that flat ground cannot drown the walls that carry
-the heading and the roofs that carry the pitch. Every (patch, line) keeps at most
-``max_points_per_line`` returns, drawn at random, seeded by the line and its returns
-(`kinsync.calibration.features.thin_returns`: the same whatever the order of the lines):
-millions of returns become a few thousand per patch.
+orientation class (near-horizontal; walls by azimuth modulo 180 deg, slopes by azimuth),
+at most ``max_patches_per_class`` each (twice that per wall class), so that flat ground
+cannot drown the walls that carry the heading and the roofs that carry the pitch.
+Every (patch, line) keeps at most ``max_points_per_line`` returns, drawn at random,
+seeded by the line and its returns (`kinsync.calibration.features.thin_returns`: the
+same whatever the order of the lines): millions of returns become a few thousand per
+patch.
 """
 
 from __future__ import annotations
@@ -62,7 +63,8 @@ class PatchOptions:
         Largest distance of a voxel from its patch's seed (m): patches stay local, so
         that a road's camber or a slope's bend does not become a plane's residual.
     max_patches_per_class : int
-        Patches kept per orientation class.
+        Patches kept per orientation class (twice as many per class of walls, whose
+        classes span 180 deg of azimuth where slopes' span 360 deg).
     max_points_per_line : int
         Returns kept per (patch, line).
     min_lines : int
@@ -284,14 +286,27 @@ def _merge(
     return labels
 
 
+_WALL_CLASSES = range(1, 13)
+"""The orientation classes of walls (`_orientation_class`)."""
+
+
 def _orientation_class(normal: FloatArray) -> int:
-    """0 near-horizontal; 1 + sector for walls; 13 + sector for slopes (30 deg sectors)."""
+    """The orientation class of a plane from its unit normal (local NED).
+
+    0: near-horizontal (tilt below 15 deg). 1 + sector: walls (tilt above 75 deg), by the
+    normal's azimuth modulo 180 deg in 15 deg sectors: a wall's normal has no sign, and
+    orienting it by its tiny vertical component (as slopes are) put the patches of one
+    quay wall into two opposite classes by chance (15 and 5 of them at one placement of
+    the voxel grid, 21 and 0 at another). 13 + sector: slopes, by the azimuth of the
+    downward normal in 30 deg sectors.
+    """
     tilt = math.degrees(math.acos(min(1.0, abs(float(normal[2])))))
-    n = normal if normal[2] <= 0 else -normal
-    sector = int((math.degrees(math.atan2(n[1], n[0])) % 360.0) // 30.0)
     if tilt < 15.0:
         return 0
-    return (1 if tilt > 75.0 else 13) + sector
+    if tilt > 75.0:
+        return 1 + int((math.degrees(math.atan2(normal[1], normal[0])) % 180.0) // 15.0)
+    n = normal if normal[2] <= 0 else -normal
+    return 13 + int((math.degrees(math.atan2(n[1], n[0])) % 360.0) // 30.0)
 
 
 def _flat_returns(x_all: FloatArray, idx: IntArray, opt: PatchOptions) -> IntArray | None:
@@ -422,7 +437,11 @@ def _select(
     by_class: dict[int, list[int]] = {}
     for p in sorted(members_of, key=lambda q: -members_of[q].size):
         by_class.setdefault(_orientation_class(normal_of[p]), []).append(p)
-    chosen = [p for ps in by_class.values() for p in ps[: opt.max_patches_per_class]]
+    chosen = [  # a wall class twice as many: the twelve 15 deg sectors span 180 deg only
+        p
+        for c, ps in by_class.items()
+        for p in ps[: opt.max_patches_per_class * (2 if c in _WALL_CLASSES else 1)]
+    ]
     features: list[PlaneFeature] = []
     observations: list[Observation] = []
     for p in chosen:
