@@ -42,6 +42,7 @@ __all__ = [
     "ecef_array",
     "ecef_height_m",
     "finite_number",
+    "finite_vector",
     "geodetic_array",
     "name_tuple",
     "off_ground_text",
@@ -101,6 +102,35 @@ def finite_number(value: object, name: str) -> float:
     if not math.isfinite(out):
         msg = f"{name}: must be finite, got {value!r}"
         raise InputError(msg)
+    return out
+
+
+def finite_vector(value: object, size: int, name: str, detail: str = "") -> FloatArray:
+    """``value`` as ``size`` finite float64 numbers, or `InputError` naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+        What the caller gave (a sequence or array of numbers).
+    size : int
+        How many numbers.
+    name : str
+        The argument, for the message.
+    detail : str
+        Said after the count (their order and unit, e.g. ``" (x, y, z, m)"``).
+
+    Returns
+    -------
+    ndarray, shape (size,)
+    """
+    msg = f"{name}: expected {size} finite numbers{detail}, got {value!r}"
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise InputError(msg) from err
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        raise InputError(msg)
+    out: FloatArray = arr
     return out
 
 

@@ -24,7 +24,7 @@ from typing import Literal
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
-from kinsync._validate import finite_number
+from kinsync._validate import finite_number, finite_vector
 from kinsync.errors import InputError
 
 __all__ = [
@@ -49,10 +49,7 @@ _MAX_ATTITUDE_ERROR_DEG = 180.0
 
 
 def _unit3(vec: ArrayLike, name: str) -> FloatArray:
-    v = np.asarray(vec, dtype=np.float64)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        msg = f"{name}: expected 3 finite numbers, got {vec!r}"
-        raise InputError(msg)
+    v = finite_vector(vec, 3, name)
     norm = float(np.linalg.norm(v))
     if norm == 0.0:
         msg = f"{name}: the zero vector has no direction"

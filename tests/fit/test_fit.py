@@ -470,7 +470,7 @@ def _with_nan() -> FloatArray:
         (GOOD, {"radius_m": -0.1}, "radius_m must be finite and > 0"),
         (GOOD, {"radius_m": 0.0}, "radius_m must be finite and > 0"),
         (GOOD, {"radius_m": math.nan}, "radius_m must be finite and > 0"),
-        (GOOD, {"origin_m": [0.0, 0.0]}, "origin_m must be 3 finite numbers"),
+        (GOOD, {"origin_m": [0.0, 0.0]}, "origin_m: expected 3 finite numbers"),
         (GOOD, {"origin_m": CENTRE_M}, "origin_m lies inside the fitted sphere"),
         (GOOD, {"max_iterations": 0}, "max_iterations must be >= 1"),
         (GOOD, {"tol_m": 0.0}, "tol_m must be finite and > 0"),

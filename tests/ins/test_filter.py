@@ -556,7 +556,7 @@ def test_alignment_refuses_a_vector_that_is_not_three_numbers(
     drive: Any, argument: str, value: object
 ) -> None:
     _, imu, gnss, _, _ = drive
-    with pytest.raises(InputError, match=f"align_static_gnss_heading: {argument} must be 3"):
+    with pytest.raises(InputError, match=f"align_static_gnss_heading: {argument}: expected 3"):
         align_static_gnss_heading(imu, gnss, static_s=15.0, **{argument: value})  # type: ignore[arg-type]
 
 

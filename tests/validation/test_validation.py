@@ -613,7 +613,7 @@ def test_bad_wall_selections() -> None:
         (np.zeros(3), (0, 0, 0, 1, 1, 1), r"xyz: expected points of shape \(N, 3\)"),
         (np.zeros((2, 3)), (0, 0, 0, 1), "box: expected 6 finite numbers"),
         (np.zeros((2, 3)), (0, 0, 0, 1, 1, math.nan), "box: expected 6 finite numbers"),
-        (np.zeros((2, 3)), (0, 0, 0, 1, "a", 1), "box: expected 6 numbers"),
+        (np.zeros((2, 3)), (0, 0, 0, 1, "a", 1), "box: expected 6 finite numbers"),
         (np.zeros((2, 3)), (0, 5, 0, 1, 1, 1), "box: ymin 5.0 must be below ymax 1.0"),
     ],
 )

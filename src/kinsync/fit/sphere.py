@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._validate import finite_vector
 from kinsync.errors import ConvergenceError, InputError
 
 __all__ = ["SphereFit", "fit_sphere", "fit_sphere_algebraic"]
@@ -198,17 +199,7 @@ def _validated_radius(radius_m: float | None, what: str) -> float | None:
 
 
 def _validated_origin(origin_m: ArrayLike | None, what: str) -> FloatArray | None:
-    if origin_m is None:
-        return None
-    try:
-        o = np.asarray(origin_m, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"{what}: origin_m must be 3 numbers (m), got {origin_m!r}"
-        raise InputError(msg) from err
-    if o.shape != (3,) or not np.isfinite(o).all():
-        msg = f"{what}: origin_m must be 3 finite numbers (m), got {origin_m!r}"
-        raise InputError(msg)
-    return o
+    return None if origin_m is None else finite_vector(origin_m, 3, f"{what}: origin_m", " (m)")
 
 
 def _centred(pts: FloatArray) -> tuple[FloatArray, FloatArray]:

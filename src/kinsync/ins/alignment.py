@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._validate import finite_vector
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.frames import euler_rpy_to_matrix, mean_longitude_deg
 from kinsync.ins.earth import OMEGA_IE_RAD_S, normal_gravity_m_s2, radii_m
@@ -128,18 +129,7 @@ _GIVE_INITIAL_STATE = "give the initial state (--init-from; an InitialState in P
 
 def _vector_arg(value: object, name: str) -> FloatArray:
     """``value`` as 3 finite float64 numbers, or `InputError` naming ``name``."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"align_static_gnss_heading: {name} must be 3 numbers (x, y, z), got {value!r}"
-        raise InputError(msg) from err
-    if arr.shape != (3,) or not np.isfinite(arr).all():
-        msg = (
-            f"align_static_gnss_heading: {name} must be 3 finite numbers (x, y, z, body "
-            f"frame), got {value!r}"
-        )
-        raise InputError(msg)
-    return arr
+    return finite_vector(value, 3, f"align_static_gnss_heading: {name}", " (x, y, z, body frame)")
 
 
 def _static_window(imu: ImuData, static_s: float) -> int:

@@ -27,7 +27,7 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from kinsync._validate import Span, check_quantity, finite_number, positive_number
+from kinsync._validate import Span, check_quantity, finite_number, finite_vector, positive_number
 from kinsync.errors import InputError
 
 __all__ = [
@@ -118,15 +118,8 @@ def _three(value: object, name: str) -> tuple[object, ...]:
 
 
 def _finite3(value: object, name: str) -> Vector3:
-    try:
-        vals = tuple(float(v) for v in value)  # type: ignore[attr-defined]
-    except (TypeError, ValueError) as err:
-        msg = f"{name}: expected 3 numbers, got {value!r}"
-        raise InputError(msg) from err
-    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
-        msg = f"{name}: expected 3 finite numbers, got {value!r}"
-        raise InputError(msg)
-    return (vals[0], vals[1], vals[2])
+    vals = finite_vector(value, 3, name)
+    return (float(vals[0]), float(vals[1]), float(vals[2]))
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 from kinsync._arrays import readonly_array
 from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import positive_number
+from kinsync._validate import finite_vector, positive_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
@@ -737,14 +737,7 @@ def _pair_groups(
 
 def _checked_origin(origin: ArrayLike) -> FloatArray:
     """The scanner origin as 3 finite float64 numbers (m), or `InputError` naming it."""
-    try:
-        out = np.asarray(origin, dtype=np.float64)
-    except (TypeError, ValueError):
-        out = np.empty(0)
-    if out.shape != (3,) or not np.isfinite(out).all():
-        msg = f"scanner_origin_ned_m: expected 3 finite numbers (x, y, z, m), got {origin!r}"
-        raise InputError(msg)
-    return out
+    return finite_vector(origin, 3, "scanner_origin_ned_m", " (x, y, z, m)")
 
 
 def estimate_latency_sphere(

@@ -37,7 +37,7 @@ import numpy as np
 from scipy import stats
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import ecef_array, finite_number, positive_number
+from kinsync._validate import ecef_array, finite_number, finite_vector, positive_number
 from kinsync.errors import InputError
 from kinsync.frames import (
     ecef_to_geodetic,
@@ -385,14 +385,7 @@ def fit_wall(
 def _box_bounds(box: object) -> tuple[FloatArray, FloatArray]:
     """``box`` as its lower and upper bounds, each shape (3,); `InputError` if not a box."""
     hint = "give (xmin, ymin, zmin, xmax, ymax, zmax)"
-    try:
-        b = np.asarray(box, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        msg = f"select_box box: expected 6 numbers, got {box!r}; {hint}"
-        raise InputError(msg) from err
-    if b.shape != (6,) or not np.isfinite(b).all():
-        msg = f"select_box box: expected 6 finite numbers, got {box!r}; {hint}"
-        raise InputError(msg)
+    b = finite_vector(box, 6, "select_box box", f" {hint[5:]}")
     for axis in range(3):
         if not b[axis] < b[axis + 3]:
             name = "xyz"[axis]
