@@ -228,6 +228,26 @@ def test_table_to_las_refuses_an_intensity_that_does_not_fit(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("name", "value", "suffix"),
+    [("Y", 1000, ".laz"), ("Y", 1000.5, ".las"), ("z", 7, ".las"), ("X", 0.25, ".laz")],
+)
+def test_table_to_las_refuses_a_column_named_as_a_coordinate(
+    tmp_path: Path, traj_path: Path, name: str, value: float, suffix: str
+) -> None:
+    """LAS stores the georeferenced coordinates in X, Y, Z: a carried ``Y`` was lost."""
+    cols = _columns(13)
+    cols[name] = np.full(N, value)
+    src = tmp_path / "points.csv"
+    with TableChunkWriter(src) as w:
+        w.write(cols)
+    out = tmp_path / f"geo{suffix}"
+    match = rf"points\.csv: column '{name}' would clash with the output coordinates X, Y, Z"
+    with pytest.raises(InputError, match=match):
+        georeference_file(src, traj_path, MOUNT, out, crs=CRS)
+    assert not out.exists()
+
+
 def test_table_to_las_refuses_part_of_an_rgb_triple(tmp_path: Path, traj_path: Path) -> None:
     cols = _columns(5)
     cols["red"] = np.zeros(N, dtype=np.int64)

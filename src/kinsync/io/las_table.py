@@ -15,7 +15,8 @@ set) when the times are GPS time, as they are when they are GPS seconds of week.
 column named as a standard dimension of the point format (``intensity``,
 ``return_number``, ``classification``, ``user_data``, ``scan_angle``,
 ``point_source_id``, the flags, ``red``...) fills it: its values must be whole numbers
-within the dimension's range. Without ``return_number`` / ``number_of_returns`` columns
+within the dimension's range. A column named ``X``, ``Y`` or ``Z`` (any case) is refused:
+LAS stores the new coordinates there. Without ``return_number`` / ``number_of_returns`` columns
 a point is return 1 of 1 (LAS numbers returns from 1). Every other numeric or boolean
 column is stored as an extra-bytes dimension of its own type (float64, int64, ...;
 booleans uint8), so that nothing numeric is lost; text columns cannot be stored in LAS
@@ -46,6 +47,7 @@ __all__ = [
 ]
 
 _XYZ = ("X", "Y", "Z")
+_COORDINATES = ("x", "y", "z")  # X, Y, Z in any case: laspy's x, y, z are the same values
 _COLOUR = ("red", "green", "blue")
 _EXTRA_NAME_BYTES = 32  # LAS 1.4 extra bytes descriptor: name field of 32 bytes
 
@@ -246,7 +248,8 @@ def plan_table_las(
     ------
     InputError
         ``red, green, blue`` not all present, a ``nir`` without them, a column that
-        would take the ``gps_time`` kinsync fills from the point times, a column name
+        would take the ``gps_time`` kinsync fills from the point times, a column named
+        ``X``, ``Y`` or ``Z`` in any case (the output coordinates), a column name
         that cannot be an extra dimension (more than 32 bytes, not ASCII, or a name
         LAS keeps for itself).
     """
@@ -265,7 +268,7 @@ def plan_table_las(
         msg = "column 'nir': LAS stores nir with red, green and blue (point format 8)"
         raise InputError(msg)
     pf = laspy.PointFormat(pf_id)
-    reserved = {d.lower() for d in pf.dimension_names} | {"x", "y", "z"}
+    reserved = {d.lower() for d in pf.dimension_names}
     standard: list[str] = []
     extra: list[tuple[str, str]] = []
     dropped: list[str] = []
@@ -275,6 +278,13 @@ def plan_table_las(
             msg = (
                 "column 'gps_time': kinsync writes the LAS gps_time from the point times "
                 "(t_s); map t_s to it (--columns t_s=gps_time) or rename it"
+            )
+            raise InputError(msg)
+        if name.lower() in _COORDINATES:
+            msg = (
+                f"column {name!r} would clash with the output coordinates X, Y, Z (LAS "
+                "stores the georeferenced coordinates there, whatever the case of the "
+                "name); rename or remove that column in the file"
             )
             raise InputError(msg)
         if name in pf.dimension_names:
