@@ -248,6 +248,17 @@ def test_table_to_las_refuses_a_column_named_as_a_coordinate(
     assert not out.exists()
 
 
+def test_table_to_las_names_the_range_of_a_flag(tmp_path: Path, traj_path: Path) -> None:
+    cols = _columns(14)
+    cols["synthetic"] = np.where(np.arange(N) == 3, 2, 0)
+    src = tmp_path / "points.csv"
+    with TableChunkWriter(src) as w:
+        w.write(cols)
+    match = r"line 5, column 'synthetic': 2 does not fit the LAS synthetic dimension \(0 or 1\)"
+    with pytest.raises(InputError, match=match):
+        georeference_file(src, traj_path, MOUNT, tmp_path / "geo.las", crs=CRS)
+
+
 def test_table_to_las_refuses_part_of_an_rgb_triple(tmp_path: Path, traj_path: Path) -> None:
     cols = _columns(5)
     cols["red"] = np.zeros(N, dtype=np.int64)

@@ -212,7 +212,7 @@ class TableLasPlan:
             bad = ~((as_float >= lo) & (as_float <= hi) & (np.floor(as_float) == as_float))
             if bad.any():
                 row = int(np.flatnonzero(bad)[0])
-                what = "a whole number" if lo == 0 and hi == 1 else f"a whole number {lo}..{hi}"
+                what = "0 or 1" if (lo, hi) == (0, 1) else f"a whole number {lo}..{hi}"
                 error = (
                     f"column {name!r}: {values[row].item()!r} does not fit the LAS {name} "
                     f"dimension ({what}); fix the value, or rename the column so that it is "
