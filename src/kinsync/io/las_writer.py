@@ -9,7 +9,9 @@ laspy cannot write, gives LAS 1.2 (said in its ``notes``). Not carried, and said
 its ``notes`` (`las_output_notes`): waveform data packets (the wave packet fields of the
 points are zeroed and the header's waveform flags, pointer and descriptors cleared, so
 that nothing points to data that is not there) and a COPC index (it addresses the
-input's LAZ chunks). The file appears only when complete.
+input's LAZ chunks). The min and max of each Extra Bytes descriptor that declares them
+are those of the points written (`kinsync.io.las_extra_bytes`). The file appears only
+when complete.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, cannot_write_error, finish_then_publish
 from kinsync.io.las_coordinates import store_scaled
 from kinsync.io.las_crs import set_las_crs
+from kinsync.io.las_extra_bytes import ExtraBytesRange
 from kinsync.io.las_header import (
     las_suffix,
     set_global_encoding_bit,
@@ -252,6 +255,7 @@ class LasChunkWriter:
         header.scales = scales
         self.crs_note = None if crs is None else set_las_crs(header, crs, self.path)
         self.header = header
+        self._extra_range = ExtraBytesRange(header)
         self.points_written = 0
         self._stack: ExitStack | None = None
         self._writer: Any = None
@@ -381,6 +385,7 @@ class LasChunkWriter:
                 msg = f"{self.path}: cannot write points ({err})"
                 raise InputError(msg) from err
             raise
+        self._extra_range.grow(array)
         self.points_written += len(array)
 
     def _write_failure(self, err: BaseException) -> OSError | None:
@@ -406,6 +411,7 @@ class LasChunkWriter:
                     evlrs = self.header.evlrs
                     if evlrs is not None and len(evlrs) > 0 and self.header.version.minor >= 4:
                         writer.write_evlrs(VLRList(evlrs))
+                self._extra_range.store(writer.header)  # laspy's min/max are wrong
                 writer.close()  # a LAZ file's last chunk and chunk table are written here
             except Exception as err:
                 if exc_type is not None:  # the file is removed: the first error is the one
