@@ -15,6 +15,8 @@ from tests._trajectory_holes import with_gap
 from kinsync.cli import _progress
 from kinsync.ins.solution import NavSolution
 from kinsync.io.nav_csv import read_nav_csv, read_navigation
+from kinsync.io.sbet import read_sbet
+from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.sim.drive import DriveSimConfig, simulate_drive, write_drive_simulation
 from kinsync.trajectory_gaps import gap_threshold_shown_s
@@ -27,6 +29,7 @@ CONFIG = Path(__file__).resolve().parents[2] / "configs" / "navego-adis16488.tom
 SLICE_S = 60.0
 IMU_ROWS = 12_000  # 200 Hz for 60 s
 GNSS_ROWS = 300  # 5 Hz
+KEYS = ("imu", "gnss", "truth")
 
 
 def _head(src: Path, dst: Path, rows: int) -> Path:
@@ -157,6 +160,11 @@ def test_run_smoothed_sbet_with_table(
         assert text in stdout, stdout
     assert "kinsync: ins run: smoother (" in stderr  # the stage lines, not on stdout
     assert "kinsync:" not in stdout
+    # times from 0: seconds of week already, their week unknown; σ beside the SBET
+    assert re.search(r"SBET GPS week\s*│\s*not known", stdout), stdout
+    assert "smrmsg_nav.out" in stdout
+    assert (tmp_path / "smrmsg_nav.out").stat().st_size == 80 * IMU_ROWS
+    assert "nav.sbet: the SBET's body accelerations (fields 11-13) are written as 0" in stderr
     nav = read_navigation(out)
     assert not isinstance(nav, NavSolution)
     assert len(nav) == IMU_ROWS
@@ -169,6 +177,43 @@ def test_run_smoothed_sbet_with_table(
     cmp = json.loads(stdout)
     assert cmp["within_3sigma"] is None
     assert max(cmp["rms_pos_ned_m"]) < 2.0, cmp
+
+
+def _shifted(src: Path, dst: Path, offset_s: float) -> Path:
+    """A copy of a CSV whose first column (the time) is ``offset_s`` later."""
+    lines = src.read_text().splitlines()
+    rows = [
+        f"{float(t) + offset_s:.4f},{rest}" for t, rest in (ln.split(",", 1) for ln in lines[1:])
+    ]
+    dst.write_text("\n".join([lines[0], *rows]) + "\n")
+    return dst
+
+
+def test_run_sbet_names_its_gps_week_and_writes_its_sigmas_beside_it(
+    run_cli: RunCli, navego: dict[str, Path], tmp_path: Path
+) -> None:
+    """GPS-time inputs: the SBET's week is said, its σ are in the smrmsg found beside it."""
+    offset_s = 2345 * 604_800.0 + 3_600.0
+    shifted = {k: _shifted(navego[k], tmp_path / f"{k}.csv", offset_s) for k in KEYS}
+    out, csv = tmp_path / "sbet_run.out", tmp_path / "run.csv"
+    code, stdout, stderr = run_cli(_run_args(shifted | {"dir": tmp_path}, out, "--json"))
+    assert code == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["sbet_gps_week"] == 2345
+    companion = tmp_path / "smrmsg_run.out"
+    assert doc["smrmsg"] == str(companion)
+    assert find_smrmsg_companion(out) == companion
+    assert any("body accelerations (fields 11-13) are written as 0" in w for w in doc["warnings"])
+    sbet = read_sbet(out, gps_week=2345)
+    sigma = read_smrmsg(companion, gps_week=2345)
+    np.testing.assert_allclose(sigma.t_s, sbet.t_s, rtol=0, atol=1e-6)
+    assert sbet.t_s[0] == pytest.approx(offset_s, abs=1e-3)
+    code, _, stderr = run_cli(_run_args(shifted | {"dir": tmp_path}, csv))
+    assert code == 0, stderr
+    sol = read_nav_csv(csv)
+    np.testing.assert_allclose(sigma.std_pos_ned_m, sol.std_pos_ned_m, rtol=1e-12)
+    np.testing.assert_allclose(sigma.std_vel_ned_m_s, sol.std_vel_ned_m_s, rtol=1e-12)
+    np.testing.assert_allclose(sigma.std_rpy_rad, sol.std_rpy_rad(), rtol=1e-12)
 
 
 def test_run_positions_only_warns_about_gnss_outside_the_imu_span(

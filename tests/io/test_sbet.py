@@ -14,6 +14,7 @@ from kinsync.io.sbet import (
     ned_to_wander_velocity,
     read_sbet,
     read_sbet_records,
+    sbet_gps_week,
     wander_to_ned_velocity,
     write_sbet,
 )
@@ -304,3 +305,10 @@ def test_times_running_past_the_end_of_the_week_are_still_read(tmp_path: Path) -
     rec.tofile(path)
     traj = read_sbet(path, gps_week=2345)
     assert traj.t_s[-1] > 2346 * SECONDS_PER_WEEK
+
+
+def test_the_gps_week_of_the_written_seconds_of_week() -> None:
+    week_s = 2345 * SECONDS_PER_WEEK
+    assert sbet_gps_week(np.array([week_s + 604_799.5, week_s + 604_800.5])) == 2345
+    assert sbet_gps_week(np.array([216_000.0])) is None  # seconds of week already
+    assert sbet_gps_week(np.array([])) is None

@@ -20,6 +20,7 @@ from kinsync.io.smrmsg import (
     find_smrmsg_companion,
     read_smrmsg,
     read_smrmsg_records,
+    smrmsg_companion_path,
     write_smrmsg,
 )
 
@@ -184,3 +185,21 @@ def test_negative_seconds_of_week_are_refused_naming_the_record(
         InputError, match=r"negt\.out: record 0 \(byte 0\), column 'time_sow_s'.*seconds of week"
     ):
         read_smrmsg(tmp_path / "negt.out", gps_week=gps_week)
+
+
+@pytest.mark.parametrize(
+    ("sbet", "smrmsg"),
+    [
+        ("sbet_mission1.out", "smrmsg_mission1.out"),
+        ("SBET_A.OUT", "SMRMSG_A.OUT"),
+        ("nav.sbet", "smrmsg_nav.out"),
+    ],
+)
+def test_the_companion_is_written_where_it_is_looked_for(
+    tmp_path: Path, sbet: str, smrmsg: str
+) -> None:
+    path = smrmsg_companion_path(tmp_path / sbet)
+    assert path == tmp_path / smrmsg
+    (tmp_path / sbet).write_bytes(b"")
+    write_smrmsg(_data(), path)
+    assert find_smrmsg_companion(tmp_path / sbet) == path

@@ -163,14 +163,40 @@ def _file_rows(path: Path, first_row: int = 0) -> FileRows:
     return FileRows(line_of_row, first_row)
 
 
-def _write_solution(solution: NavSolution, out: Path) -> None:
-    from kinsync.io.nav_csv import write_nav_csv  # noqa: PLC0415
-    from kinsync.io.sbet import write_sbet  # noqa: PLC0415
+def _write_solution(solution: NavSolution, out: Path) -> dict[str, Any]:
+    """Write the solution; an SBET with its σ in an smrmsg beside it, published together.
 
-    if out.suffix.lower() in _SBET_SUFFIXES:
-        write_sbet(solution.to_trajectory(), out)
-    else:
+    Returns what the summary says of an SBET output (empty for a CSV): the GPS week of
+    its seconds of week (``sbet_gps_week``, None when the times were seconds of week
+    already) and its smrmsg file.
+    """
+    from kinsync.io.atomic import published_together  # noqa: PLC0415
+    from kinsync.io.nav_csv import write_nav_csv  # noqa: PLC0415
+    from kinsync.io.sbet import sbet_gps_week, write_sbet  # noqa: PLC0415
+    from kinsync.io.smrmsg import SmrmsgData, smrmsg_companion_path, write_smrmsg  # noqa: PLC0415
+
+    if out.suffix.lower() not in _SBET_SUFFIXES:
         write_nav_csv(solution, out)
+        return {}
+    companion = smrmsg_companion_path(out)
+    sigma = SmrmsgData(
+        t_s=solution.t_s,
+        std_pos_ned_m=solution.std_pos_ned_m,
+        std_vel_ned_m_s=solution.std_vel_ned_m_s,
+        std_rpy_rad=solution.std_rpy_rad(),
+    )
+    with published_together():  # neither replaces an earlier file unless both are complete
+        write_sbet(solution.to_trajectory(), out)
+        write_smrmsg(sigma, companion)
+    return {"sbet_gps_week": sbet_gps_week(solution.t_s), "smrmsg": str(companion)}
+
+
+def _sbet_note(out: Path) -> str:
+    """The warning of an SBET output: its body accelerations are not filled."""
+    return (
+        f"{out}: the SBET's body accelerations (fields 11-13) are written as 0: kinsync "
+        "does not compute them; take accelerations from the IMU file where they are needed"
+    )
 
 
 @app.command("run")
@@ -202,7 +228,9 @@ def run(
         Path,
         typer.Option(
             "--out",
-            help="Output solution at the IMU rate: .csv (with σ and biases) or .sbet/.out.",
+            help="Output solution at the IMU rate: .csv (with σ and biases) or .sbet/.out "
+            "(SBET, body accelerations written as 0; its σ in an smrmsg beside it: "
+            "smrmsg<rest> for sbet<rest>, else smrmsg_<name>.out).",
         ),
     ],
     init_from: Annotated[
@@ -309,15 +337,17 @@ def run(
             msg = "the smoother returned no solution; run without --smooth"
             raise ConvergenceError(msg)
         report(progress, 0.9, "writing")
-        _write_solution(solution, out)
+        written = _write_solution(solution, out)
         report(progress, 1.0, "writing")
-    for warning in result.warnings:  # after the run: a failed run prints one error line
+    warnings = [*result.warnings, *([_sbet_note(out)] if written else [])]
+    for warning in warnings:  # after the run: a failed run prints one error line
         typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
     summary = _run_document(
         solution, config, seconds=seconds, smooth=smooth, out=out, states=result.error_states
     )
+    summary |= written
     summary["gnss_rejected_t_s"] = result.gnss_rejected_t_s.tolist()  # each one, by its time
-    summary["warnings"] = list(result.warnings)
+    summary["warnings"] = warnings
     if as_json:
         print_json(summary)
         return
@@ -407,6 +437,15 @@ def _print_run_table(doc: dict[str, Any], solution: NavSolution, *, title: str) 
     for label, values in rows:
         if values is not None:
             table.add_row(label, ", ".join(_triple(values)))
+    if "smrmsg" in doc:
+        week = doc["sbet_gps_week"]
+        table.add_row(
+            "SBET GPS week",
+            "not known (the input times are seconds of week)"
+            if week is None
+            else f"{week} (read the SBET with --gps-week {week})",
+        )
+        table.add_row("σ (smrmsg, beside the SBET)", Path(doc["smrmsg"]).name)
     console.print(table)
 
 

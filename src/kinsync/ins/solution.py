@@ -130,6 +130,31 @@ class NavSolution:
     def __len__(self) -> int:
         return int(self.t_s.size)
 
+    def std_rpy_rad(self) -> FloatArray:
+        """1σ of roll, pitch and yaw (rad), shape (n, 3), from ``std_att_rad``.
+
+        To first order a misorientation ψ about N, E, D is ``E · δ(roll, pitch, yaw)``,
+        the columns of ``E`` being the roll axis (body x), the pitch axis (y turned by
+        the yaw) and the yaw axis (down) in NED; so ``δroll = (cos y ψ_N + sin y ψ_E) /
+        cos p``, ``δpitch = -sin y ψ_N + cos y ψ_E``, ``δyaw = ψ_D + tan p (cos y ψ_N +
+        sin y ψ_E)``, and each σ is the root sum of squares of its terms. The solution
+        keeps no correlation between the σ about N, E and D, taken here as none. At a
+        yaw of 0 and level these are the σ about N, E, D; near ±90° pitch the roll and
+        yaw σ grow without bound (Euler angles are singular there).
+        """
+        _, pitch, yaw = np.asarray(self.rpy_rad, dtype=np.float64).T
+        s_n, s_e, s_d = np.asarray(self.std_att_rad, dtype=np.float64).T
+        cos_p = np.maximum(np.abs(np.cos(pitch)), 1e-12)
+        level = np.hypot(np.cos(yaw) * s_n, np.sin(yaw) * s_e)  # σ of cos y ψ_N + sin y ψ_E
+        out: FloatArray = np.column_stack(
+            [
+                level / cos_p,
+                np.hypot(np.sin(yaw) * s_n, np.cos(yaw) * s_e),
+                np.hypot(s_d, np.abs(np.sin(pitch)) / cos_p * level),
+            ]
+        )
+        return out
+
     def to_trajectory(self) -> Trajectory:
         """The solution as a geodetic `Trajectory` (with velocities) for georeferencing."""
         q = euler_rpy_to_quaternion(self.rpy_rad[:, 0], self.rpy_rad[:, 1], self.rpy_rad[:, 2])

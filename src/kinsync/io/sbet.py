@@ -100,6 +100,7 @@ __all__ = [
     "ned_to_wander_velocity",
     "read_sbet",
     "read_sbet_records",
+    "sbet_gps_week",
     "sbet_holds_gps_time",
     "seconds_of_first_week",
     "wander_to_ned_velocity",
@@ -427,14 +428,34 @@ def sbet_holds_gps_time(path: Path) -> bool:
         del rec
 
 
+def sbet_gps_week(t_s: FloatArray) -> int | None:
+    """The GPS week whose seconds `seconds_of_first_week` gives for times ``t_s``.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (N,)
+        Times (s): continuous GPS time, or already seconds of week.
+
+    Returns
+    -------
+    int or None
+        The week of the first time; None when the times are below one week (written
+        as they are: their week is not known here) or there are none.
+    """
+    if len(t_s) == 0:
+        return None
+    week = math.floor(float(t_s[0]) / SECONDS_PER_WEEK)
+    return week if week > 0 else None
+
+
 def seconds_of_first_week(t_s: FloatArray) -> FloatArray:
     """Times (s) as seconds of the first record's GPS week (unchanged below one week).
 
     Continuous GPS times past the end of that week keep counting beyond 604800 s, so
-    that they stay increasing.
+    that they stay increasing. The week is `sbet_gps_week`.
     """
-    week = math.floor(float(t_s[0]) / SECONDS_PER_WEEK)
-    if week <= 0:
+    week = sbet_gps_week(t_s)
+    if week is None:
         return t_s
     out: FloatArray = t_s - week * SECONDS_PER_WEEK
     return out

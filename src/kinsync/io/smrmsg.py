@@ -76,6 +76,7 @@ __all__ = [
     "find_smrmsg_companion",
     "read_smrmsg",
     "read_smrmsg_records",
+    "smrmsg_companion_path",
     "write_smrmsg",
 ]
 
@@ -283,6 +284,30 @@ def write_smrmsg(data: SmrmsgData, path: Path) -> None:
     # not be recognised as one.
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         fh.write(rec.view(np.uint8).data)
+
+
+def smrmsg_companion_path(sbet_path: Path) -> Path:
+    """Where to write the smrmsg of an SBET: the name `find_smrmsg_companion` tries first.
+
+    Parameters
+    ----------
+    sbet_path : Path
+        The SBET file.
+
+    Returns
+    -------
+    Path
+        Beside it: ``smrmsg<rest>`` for ``sbet<rest>`` (``SMRMSG<rest>`` for
+        ``SBET<rest>``, the POSPac convention); for any other name
+        ``smrmsg_<stem>.out``, which `find_smrmsg_companion` finds only as the only
+        ``smrmsg*.out`` of the folder.
+    """
+    sbet_path = Path(sbet_path)
+    name = sbet_path.name
+    if name.lower().startswith("sbet"):
+        prefix = "SMRMSG" if name[:4].isupper() else "smrmsg"
+        return sbet_path.with_name(prefix + name[4:])
+    return sbet_path.with_name(f"smrmsg_{sbet_path.stem}.out")
 
 
 def find_smrmsg_companion(sbet_path: Path) -> Path | None:
