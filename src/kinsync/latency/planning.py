@@ -5,10 +5,11 @@ passes reach a target latency precision. For a design (scanner range noise, angu
 step and profile rate, sphere radius and range, rates, passes) the planner lays the
 scanner's ray grid over the sphere's angular disc for one pass, sums the Fisher
 information of every return's range (``d range / d centre = n / cos(theta)``, n the
-surface normal, theta the incidence), averages over the grid's random phase, scales by
-the passes pooled, and propagates the centre covariances of the +omega and -omega pools
-through the exact rotation model to the latency. Returns more oblique than the
-estimator's incidence cap are left out, as in the estimator.
+surface normal, theta the incidence), averages over the grid's phase against the sphere
+(a lattice of phases spread evenly over one profile spacing and one angular step, each
+rate its own), scales by the passes pooled, and propagates the centre covariances of
+the +omega and -omega pools through the exact rotation model to the latency. Returns
+more oblique than the estimator's incidence cap are left out, as in the estimator.
 
 The bound holds for range noise only; attitude noise, table regulation and levelling
 errors are not in it (the Monte Carlo benchmark measures how close the estimator
@@ -70,8 +71,11 @@ def checked_max_incidence_deg(value: object) -> float:
     return cap
 
 
-_PHASES = 16
-_MAX_RAYS_PER_PASS = 2e7  # 16 phases x 2e7 rays x 3 float64 ~ 0.5 GB at a time
+_PHASE_PROFILES = 4096  # phases x profiles across the sphere, at least
+_MIN_PHASES = 16  # slow rates: many profiles a pass, the phase hardly matters
+_MAX_PHASES = 1024  # fast rates: one or two profiles a pass, the phase decides the pass
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # the lattice's step of the beam phase
+_MAX_RAYS_PER_PASS = 2e7  # 2e7 rays x 3 float64 ~ 0.5 GB at a time
 _MIN_POINTS_PER_PASS = 10.0
 _MAX_CONDITION = 1e12  # of the pass's Fisher information: beyond, the fit is singular
 
@@ -257,10 +261,22 @@ class LatencyPlan:
         }
 
 
+def _phase_count(n_profiles: float) -> int:
+    """Grid phases averaged over for a pass that crosses the sphere with ``n_profiles``."""
+    return int(min(_MAX_PHASES, max(_MIN_PHASES, math.ceil(_PHASE_PROFILES / n_profiles))))
+
+
 def _pass_information(
-    design: TableDesign, rate_deg_s: float, rng: np.random.Generator
+    design: TableDesign, rate_deg_s: float, shift: tuple[float, float]
 ) -> tuple[FloatArray, float]:
-    """Expected 4x4 Fisher information (centre, radius) of one pass, and its point count."""
+    """Expected 4x4 Fisher information (centre, radius) of one pass, and its point count.
+
+    The expectation is over the phase of the profiles and of the beams against the
+    sphere, on a rank-1 lattice: phase k of n puts the profiles ``(k + shift[0]) / n``
+    of a profile spacing and the beams ``k * golden + shift[1]`` (modulo 1) of an
+    angular step off the sphere's centre. A few random phases did not converge at fast
+    rates, where a pass crosses the sphere with one or two profiles.
+    """
     d = design.sphere_range_m
     r = design.sphere_radius_m
     el_c = math.radians(design.sphere_elevation_deg)
@@ -273,7 +289,8 @@ def _pass_information(
     info = np.zeros((4, 4))
     hits = 0.0
     span_el = half / max(math.cos(el_c), 1e-6)
-    n_rays = (2.1 * half / max(math.cos(el_c), 1e-6) / abs(d_az) + 2) * (2.1 * span_el / d_el + 2)
+    n_profiles = 2.1 * half / max(math.cos(el_c), 1e-6) / abs(d_az) + 2
+    n_rays = n_profiles * (2.1 * span_el / d_el + 2)
     if n_rays > _MAX_RAYS_PER_PASS:
         msg = (
             f"at {rate_deg_s:g} deg/s a pass would trace {n_rays:.3g} rays over the sphere "
@@ -282,10 +299,13 @@ def _pass_information(
             f"= {rate_deg_s / design.profile_rate_hz:g} deg) is too fine; coarsen them"
         )
         raise InputError(msg)
-    for _ in range(_PHASES):
-        az = np.arange(-half * 1.05, half * 1.05, d_az) + rng.uniform(0, d_az)
+    n_phases = _phase_count(n_profiles)
+    for k in range(n_phases):
+        phase_az = ((k + shift[0]) / n_phases) % 1.0
+        phase_el = (k * _GOLDEN + shift[1]) % 1.0
+        az = np.arange(-half * 1.05, half * 1.05, d_az) + phase_az * d_az
         az = az / max(math.cos(el_c), 1e-6)
-        el = el_c + np.arange(-span_el * 1.05, span_el * 1.05, d_el) + rng.uniform(0, d_el)
+        el = el_c + np.arange(-span_el * 1.05, span_el * 1.05, d_el) + phase_el * d_el
         a, e = np.meshgrid(az, el, indexing="ij")
         u = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), -np.sin(e)], axis=-1).reshape(
             -1, 3
@@ -301,8 +321,15 @@ def _pass_information(
         use = cos >= cos_cap
         g = np.column_stack([normal[use] / cos[use, None], -1.0 / cos[use]])
         info += g.T @ g
-    info /= _PHASES * design.range_noise_m**2
-    return info, hits / _PHASES
+    info /= n_phases * design.range_noise_m**2
+    return info, hits / n_phases
+
+
+def _lattice_shift(seed: int, rate_deg_s: float) -> tuple[float, float]:
+    """Random shift of a rate's phase lattice, drawn from the seed and the rate alone."""
+    rate_bits = int(np.float64(rate_deg_s).view(np.uint64))
+    shift = np.random.default_rng([seed, rate_bits]).uniform(0.0, 1.0, 2)
+    return float(shift[0]), float(shift[1])
 
 
 def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
@@ -312,13 +339,13 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
     ----------
     design : TableDesign
     seed : int
-        Seed of the random grid phases averaged over.
+        Seed (>= 0) of the random shift of each rate's lattice of grid phases; a rate's
+        figures depend on the seed and that rate only, not on the other rates.
 
     Returns
     -------
     LatencyPlan
     """
-    rng = np.random.default_rng(seed)
     el_c = math.radians(design.sphere_elevation_deg)
     centre = (
         design.sphere_range_m / math.cos(el_c) * np.array([math.cos(el_c), 0.0, -math.sin(el_c)])
@@ -326,7 +353,7 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
     tangential = np.array([0.0, 1.0, 0.0])
     rows: list[RatePlan] = []
     for rate in design.rates_deg_s:
-        info_pass, per_pass = _pass_information(design, rate, rng)
+        info_pass, per_pass = _pass_information(design, rate, _lattice_shift(seed, rate))
         info = info_pass * design.passes
         used = info if not design.radius_known else info[:3, :3]
         if per_pass < _MIN_POINTS_PER_PASS or np.linalg.cond(used) > _MAX_CONDITION:
