@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
 
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.latency import planning
-from kinsync.latency.planning import TableDesign, plan_latency_experiment
+from kinsync.latency.planning import (
+    TableDesign,
+    max_usable_rate_deg_s,
+    plan_latency_experiment,
+    too_fast_text,
+)
+from kinsync.sim.table_config import RotatingTableConfig
 
 
 def test_points_per_pass_match_the_angular_disc() -> None:
@@ -96,6 +103,31 @@ def test_the_phase_average_has_converged(
         monkeypatch.setattr(planning, name, 2 * getattr(planning, name))
     doubled = plan_latency_experiment(design).latency_std_s
     assert doubled == pytest.approx(sig[0], rel=0.02)
+
+
+def test_a_rate_the_simulator_refuses_is_refused_with_its_reason() -> None:
+    """Was: 400 deg/s planned 0.0058 ms (refused only from about 600 deg/s) while
+    simulate rotating-table refused it: a pass there may hold fewer than 10 returns on
+    the sphere, and latency sphere leaves such a pass out."""
+    limit = max_usable_rate_deg_s(
+        profile_rate_hz=50.0, angular_step_deg=0.2, sphere_radius_m=0.1, sphere_range_m=1.5
+    )
+    assert limit == RotatingTableConfig().max_rate_deg_s == 369.0
+    plan_latency_experiment(TableDesign(rates_deg_s=(2.0, limit)))
+    reason = too_fast_text(400.0, limit, 50.0)
+    with pytest.raises(InputError, match=re.escape(reason)):
+        plan_latency_experiment(TableDesign(rates_deg_s=(2.0, 400.0)))
+    with pytest.raises(InputError, match=re.escape(reason)):
+        RotatingTableConfig(rates_deg_s=(400.0,))
+    # a coarser scanner lowers the limit alike
+    coarse = max_usable_rate_deg_s(
+        profile_rate_hz=20.0, angular_step_deg=0.5, sphere_radius_m=0.1, sphere_range_m=1.5
+    )
+    assert coarse < limit
+    with pytest.raises(InputError, match="largest usable rate"):
+        plan_latency_experiment(
+            TableDesign(profile_rate_hz=20.0, angular_step_deg=0.5, rates_deg_s=(coarse * 1.05,))
+        )
 
 
 @pytest.mark.parametrize(

@@ -24,6 +24,7 @@ Seube, N., Picard, A., Rondeau, M., ISPRS J. Photogramm. Remote Sens. 74 (2012) 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -37,11 +38,15 @@ from kinsync.errors import InputError, ObservabilityError
 __all__ = [
     "DEFAULT_MAX_INCIDENCE_DEG",
     "MIN_MAX_INCIDENCE_DEG",
+    "MIN_SPHERE_POINTS_PER_PASS",
     "LatencyPlan",
     "RatePlan",
     "TableDesign",
     "checked_max_incidence_deg",
+    "max_usable_rate_deg_s",
     "plan_latency_experiment",
+    "too_fast_text",
+    "worst_sphere_points_per_pass",
 ]
 
 DEFAULT_MAX_INCIDENCE_DEG = 80.0
@@ -71,12 +76,16 @@ def checked_max_incidence_deg(value: object) -> float:
     return cap
 
 
+MIN_SPHERE_POINTS_PER_PASS = 10
+"""A pass with fewer points on the sphere fitted at its rate is left out (no usable
+sphere): `kinsync.latency.sphere` rejects it, the simulator and the planner refuse a rate
+at which a pass can hold fewer (`max_usable_rate_deg_s`)."""
+
 _PHASE_PROFILES = 4096  # phases x profiles across the sphere, at least
 _MIN_PHASES = 16  # slow rates: many profiles a pass, the phase hardly matters
 _MAX_PHASES = 1024  # fast rates: one or two profiles a pass, the phase decides the pass
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # the lattice's step of the beam phase
 _MAX_RAYS_PER_PASS = 2e7  # 2e7 rays x 3 float64 ~ 0.5 GB at a time
-_MIN_POINTS_PER_PASS = 10.0
 _MAX_CONDITION = 1e12  # of the pass's Fisher information: beyond, the fit is singular
 
 
@@ -261,6 +270,164 @@ class LatencyPlan:
         }
 
 
+_WORST_PHASES = 256  # profile phases over one profile spacing, for the worst case
+_MAX_PHASE_CELLS = 1 << 16  # phases x profiles evaluated at most (slow rates: fewer phases)
+
+
+def _sphere_disc_rad(
+    sphere_radius_m: float,
+    sphere_range_m: float,
+    sphere_elevation_m: float,
+    max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
+) -> float:
+    """Angular radius (rad) of the part of the sphere the estimator uses, seen from the axis.
+
+    A return at angle ``a`` from the sphere centre's direction meets the surface at an
+    incidence ``i`` with ``sin i = (D / r) sin a`` (``D`` the centre's distance): the returns
+    below the incidence cap ``max_incidence_deg`` lie within this disc.
+    """
+    distance_m = math.hypot(sphere_range_m, sphere_elevation_m)
+    cap = math.radians(max_incidence_deg)
+    return math.asin(min(1.0, sphere_radius_m * math.sin(cap) / distance_m))
+
+
+def worst_sphere_points_per_pass(
+    rate_deg_s: float,
+    *,
+    profile_rate_hz: float,
+    angular_step_deg: float,
+    sphere_radius_m: float,
+    sphere_range_m: float,
+    sphere_elevation_m: float = 0.0,
+    max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
+) -> int:
+    """Fewest sphere returns a pass at ``rate_deg_s`` holds, whatever the profiles' phase.
+
+    The scan plane turns with the table, so consecutive profiles cross the sphere
+    ``rate_deg_s / profile_rate_hz`` degrees apart; each puts a beam every
+    ``angular_step_deg`` on its chord of the disc the estimator uses (returns below its
+    incidence cap). The count is the least over the phase of the profiles against the
+    sphere (no noise, no clutter).
+
+    Parameters
+    ----------
+    rate_deg_s : float
+        Table rate (deg/s); its sign does not matter.
+    profile_rate_hz : float
+        Profiles per second.
+    angular_step_deg : float
+        Angle between the beams of a profile (deg).
+    sphere_radius_m, sphere_range_m, sphere_elevation_m : float
+        Sphere radius, horizontal distance from the axis and height above the scanner (m).
+    max_incidence_deg : float
+        Incidence cap of the estimator (deg); default `DEFAULT_MAX_INCIDENCE_DEG`.
+
+    Returns
+    -------
+    int
+        Returns on the sphere in the worst pass (0 when a pass can miss it).
+    """
+    half = _sphere_disc_rad(sphere_radius_m, sphere_range_m, sphere_elevation_m, max_incidence_deg)
+    elevation = math.atan2(sphere_elevation_m, sphere_range_m)
+    spacing = math.radians(abs(rate_deg_s) / profile_rate_hz) * math.cos(elevation)
+    step = math.radians(angular_step_deg)
+    n_profiles = math.ceil(2.0 * half / spacing) + 1
+    n_phases = max(8, min(_WORST_PHASES, _MAX_PHASE_CELLS // n_profiles))  # slow rates: fewer
+    phase = np.arange(n_phases)[:, None] / n_phases * spacing
+    offset = -half + phase + spacing * np.arange(n_profiles)[None, :]  # (phases, profiles)
+    chord = 2.0 * np.sqrt(np.maximum(half * half - offset * offset, 0.0))
+    beams = np.floor(chord / step)
+    return int(np.min(np.sum(beams, axis=1)))
+
+
+@functools.lru_cache(maxsize=64)
+def max_usable_rate_deg_s(
+    *,
+    profile_rate_hz: float,
+    angular_step_deg: float,
+    sphere_radius_m: float,
+    sphere_range_m: float,
+    sphere_elevation_m: float = 0.0,
+    max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG,
+) -> float:
+    """Largest table rate (deg/s, 3 significant digits) at which every pass is usable.
+
+    Every pass then holds at least `MIN_SPHERE_POINTS_PER_PASS` returns on the sphere
+    (`worst_sphere_points_per_pass`), the fewest ``latency sphere`` fits; faster, the
+    profiles are so far apart that a pass can cross the sphere with one profile or none,
+    and the estimator leaves it out.
+
+    Parameters
+    ----------
+    profile_rate_hz, angular_step_deg, sphere_radius_m, sphere_range_m, sphere_elevation_m
+        As in `worst_sphere_points_per_pass`.
+    max_incidence_deg : float
+        As in `worst_sphere_points_per_pass`.
+
+    Returns
+    -------
+    float
+        The rate (deg/s), rounded down to 3 significant digits.
+    """
+
+    def usable(rate: float) -> bool:
+        n = worst_sphere_points_per_pass(
+            rate,
+            profile_rate_hz=profile_rate_hz,
+            angular_step_deg=angular_step_deg,
+            sphere_radius_m=sphere_radius_m,
+            sphere_range_m=sphere_range_m,
+            sphere_elevation_m=sphere_elevation_m,
+            max_incidence_deg=max_incidence_deg,
+        )
+        return n >= MIN_SPHERE_POINTS_PER_PASS
+
+    # Beyond the disc's width a profile can miss the sphere: no pass above it is usable.
+    half = _sphere_disc_rad(sphere_radius_m, sphere_range_m, sphere_elevation_m, max_incidence_deg)
+    elevation = math.atan2(sphere_elevation_m, sphere_range_m)
+    hi = math.degrees(2.0 * half / math.cos(elevation)) * profile_rate_hz
+    lo = hi / 100.0
+    if not usable(lo):
+        return 0.0
+    for _ in range(40):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if usable(mid) else (lo, mid)
+    digits = 2 - math.floor(math.log10(lo))
+    rounded = math.floor(lo * 10.0**digits) / 10.0**digits
+    return rounded if usable(rounded) else lo
+
+
+def too_fast_text(rate_deg_s: float, max_rate_deg_s: float, profile_rate_hz: float) -> str:
+    """Why ``rate_deg_s`` (above `max_usable_rate_deg_s`) is refused, for a message.
+
+    Parameters
+    ----------
+    rate_deg_s : float
+        The rate refused (deg/s); its sign does not matter.
+    max_rate_deg_s : float
+        `max_usable_rate_deg_s` of the scanner and sphere (deg/s); 0 when none is.
+    profile_rate_hz : float
+        Profiles per second.
+
+    Returns
+    -------
+    str
+        The reason, and the largest usable rate.
+    """
+    fix = (
+        f"the largest usable rate is {max_rate_deg_s:g} deg/s"
+        if max_rate_deg_s > 0.0
+        else "no rate is, with this angular step and sphere: scan more finely, or use a "
+        "larger or nearer sphere"
+    )
+    return (
+        f"at {abs(rate_deg_s):g} deg/s the profiles cross the sphere "
+        f"{abs(rate_deg_s) / profile_rate_hz:.3g} deg apart, so a pass may hold fewer than "
+        f"{MIN_SPHERE_POINTS_PER_PASS} returns on it, too few for latency sphere to use it; "
+        f"{fix}"
+    )
+
+
 def _phase_count(n_profiles: float) -> int:
     """Grid phases averaged over for a pass that crosses the sphere with ``n_profiles``."""
     return int(min(_MAX_PHASES, max(_MIN_PHASES, math.ceil(_PHASE_PROFILES / n_profiles))))
@@ -345,18 +512,36 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
     Returns
     -------
     LatencyPlan
+
+    Raises
+    ------
+    InputError
+        A pass would trace too many rays, or a rate is faster than
+        `max_usable_rate_deg_s`: a pass there may hold fewer than
+        `MIN_SPHERE_POINTS_PER_PASS` returns on the sphere, and the estimator leaves it
+        out (the simulator refuses such a rate too).
+    ObservabilityError
+        A pass puts too few returns on the sphere, or too narrow a cap, to fit its centre.
     """
     el_c = math.radians(design.sphere_elevation_deg)
     centre = (
         design.sphere_range_m / math.cos(el_c) * np.array([math.cos(el_c), 0.0, -math.sin(el_c)])
     )
     tangential = np.array([0.0, 1.0, 0.0])
+    max_rate_deg_s = max_usable_rate_deg_s(
+        profile_rate_hz=design.profile_rate_hz,
+        angular_step_deg=design.angular_step_deg,
+        sphere_radius_m=design.sphere_radius_m,
+        sphere_range_m=design.sphere_range_m,
+        sphere_elevation_m=design.sphere_range_m * math.tan(el_c),
+        max_incidence_deg=design.max_incidence_deg,
+    )
     rows: list[RatePlan] = []
     for rate in design.rates_deg_s:
         info_pass, per_pass = _pass_information(design, rate, _lattice_shift(seed, rate))
         info = info_pass * design.passes
         used = info if not design.radius_known else info[:3, :3]
-        if per_pass < _MIN_POINTS_PER_PASS or np.linalg.cond(used) > _MAX_CONDITION:
+        if per_pass < MIN_SPHERE_POINTS_PER_PASS or np.linalg.cond(used) > _MAX_CONDITION:
             msg = (
                 f"at {rate:g} deg/s a pass puts {per_pass:.3g} points on the sphere, too few "
                 "or too narrow a cap to fit its centre: the sphere is too small or too far "
@@ -366,6 +551,8 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
                 "sphere, or scan more finely"
             )
             raise ObservabilityError(msg)
+        if rate > max_rate_deg_s:
+            raise InputError(too_fast_text(rate, max_rate_deg_s, design.profile_rate_hz))
         cov = np.linalg.inv(info[:3, :3]) if design.radius_known else np.linalg.inv(info)[:3, :3]
         w = math.radians(rate) * np.array([0.0, 0.0, 1.0])
         jac = np.zeros((6, 4))

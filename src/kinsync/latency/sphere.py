@@ -40,7 +40,11 @@ from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
 from kinsync.latency.passes import SpherePass
-from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG, checked_max_incidence_deg
+from kinsync.latency.planning import (
+    DEFAULT_MAX_INCIDENCE_DEG,
+    MIN_SPHERE_POINTS_PER_PASS,
+    checked_max_incidence_deg,
+)
 from kinsync.latency.rate_check import check_pass_rates
 from kinsync.latency.roi import ROI_OPTION, RoiCrop, checked_roi, crop_passes
 from kinsync.progress import Progress, report
@@ -63,8 +67,6 @@ _TAIL_CUT_SIGMA = 4.0
 _RATE_KEY_DECIMALS = 6
 _AXIS_KEY_DECIMALS = 3
 _MIN_AXIS_SINE = 1e-3
-MIN_SPHERE_POINTS_PER_PASS = 10
-"""A pass with fewer points on the sphere fitted at its rate is left out (no usable sphere)."""
 RATES_DISAGREE_P = 0.01
 """Below this p-value of the chi-square test between rates the rates disagree: the
 latency sigma is scaled by the Birge ratio and the result is flagged."""

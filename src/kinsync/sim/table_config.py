@@ -7,7 +7,6 @@ a simulated Method A experiment (SPEC section 2), each checked on construction; 
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -16,8 +15,11 @@ import numpy as np
 from kinsync._validate import finite_number
 from kinsync.budget import serial_transmission_time_s
 from kinsync.errors import InputError
-from kinsync.latency.planning import DEFAULT_MAX_INCIDENCE_DEG
-from kinsync.latency.sphere import MIN_SPHERE_POINTS_PER_PASS
+from kinsync.latency.planning import (
+    max_usable_rate_deg_s,
+    too_fast_text,
+    worst_sphere_points_per_pass,
+)
 
 __all__ = [
     "LABEL_FLOOR",
@@ -49,139 +51,6 @@ LABEL_STRAY = 3
 
 LABEL_NAMES = ("sphere", "stand", "floor", "stray")
 """Label names by label value."""
-
-
-_PHASES = 256  # profile phases over one profile spacing, for the worst case
-_MAX_PHASE_CELLS = 1 << 16  # phases x profiles evaluated at most (slow rates: fewer phases)
-
-
-def _sphere_disc_rad(
-    sphere_radius_m: float, sphere_range_m: float, sphere_elevation_m: float
-) -> float:
-    """Angular radius (rad) of the part of the sphere the estimator uses, seen from the axis.
-
-    A return at angle ``a`` from the sphere centre's direction meets the surface at an
-    incidence ``i`` with ``sin i = (D / r) sin a`` (``D`` the centre's distance): the returns
-    below `kinsync.latency.planning.DEFAULT_MAX_INCIDENCE_DEG` lie within this disc.
-    """
-    distance_m = math.hypot(sphere_range_m, sphere_elevation_m)
-    cap = math.radians(DEFAULT_MAX_INCIDENCE_DEG)
-    return math.asin(min(1.0, sphere_radius_m * math.sin(cap) / distance_m))
-
-
-def worst_sphere_points_per_pass(
-    rate_deg_s: float,
-    *,
-    profile_rate_hz: float,
-    angular_step_deg: float,
-    sphere_radius_m: float,
-    sphere_range_m: float,
-    sphere_elevation_m: float = 0.0,
-) -> int:
-    """Fewest sphere returns a pass at ``rate_deg_s`` holds, whatever the profiles' phase.
-
-    The scan plane turns with the table, so consecutive profiles cross the sphere
-    ``rate_deg_s / profile_rate_hz`` degrees apart; each puts a beam every
-    ``angular_step_deg`` on its chord of the disc the estimator uses (returns below its
-    incidence cap, `kinsync.latency.planning.DEFAULT_MAX_INCIDENCE_DEG`). The count is
-    the least over the phase of the profiles against the sphere (no noise, no clutter).
-
-    Parameters
-    ----------
-    rate_deg_s : float
-        Table rate (deg/s); its sign does not matter.
-    profile_rate_hz : float
-        Profiles per second.
-    angular_step_deg : float
-        Angle between the beams of a profile (deg).
-    sphere_radius_m, sphere_range_m, sphere_elevation_m : float
-        Sphere radius, horizontal distance from the axis and height above the scanner (m).
-
-    Returns
-    -------
-    int
-        Returns on the sphere in the worst pass (0 when a pass can miss it).
-    """
-    half = _sphere_disc_rad(sphere_radius_m, sphere_range_m, sphere_elevation_m)
-    elevation = math.atan2(sphere_elevation_m, sphere_range_m)
-    spacing = math.radians(abs(rate_deg_s) / profile_rate_hz) * math.cos(elevation)
-    step = math.radians(angular_step_deg)
-    n_profiles = math.ceil(2.0 * half / spacing) + 1
-    n_phases = max(8, min(_PHASES, _MAX_PHASE_CELLS // n_profiles))  # slow rates: fewer
-    phase = np.arange(n_phases)[:, None] / n_phases * spacing
-    offset = -half + phase + spacing * np.arange(n_profiles)[None, :]  # (phases, profiles)
-    chord = 2.0 * np.sqrt(np.maximum(half * half - offset * offset, 0.0))
-    beams = np.floor(chord / step)
-    return int(np.min(np.sum(beams, axis=1)))
-
-
-@functools.lru_cache(maxsize=64)
-def max_usable_rate_deg_s(
-    *,
-    profile_rate_hz: float,
-    angular_step_deg: float,
-    sphere_radius_m: float,
-    sphere_range_m: float,
-    sphere_elevation_m: float = 0.0,
-) -> float:
-    """Largest table rate (deg/s, 3 significant digits) at which every pass is usable.
-
-    Every pass then holds at least `kinsync.latency.sphere.MIN_SPHERE_POINTS_PER_PASS`
-    returns on the sphere (`worst_sphere_points_per_pass`), the fewest ``latency
-    sphere`` fits; faster, the profiles are so far apart that a pass can cross the
-    sphere with one profile or none, and the estimator leaves it out.
-
-    Parameters
-    ----------
-    profile_rate_hz, angular_step_deg, sphere_radius_m, sphere_range_m, sphere_elevation_m
-        As in `worst_sphere_points_per_pass`.
-
-    Returns
-    -------
-    float
-        The rate (deg/s), rounded down to 3 significant digits.
-    """
-
-    def usable(rate: float) -> bool:
-        n = worst_sphere_points_per_pass(
-            rate,
-            profile_rate_hz=profile_rate_hz,
-            angular_step_deg=angular_step_deg,
-            sphere_radius_m=sphere_radius_m,
-            sphere_range_m=sphere_range_m,
-            sphere_elevation_m=sphere_elevation_m,
-        )
-        return n >= MIN_SPHERE_POINTS_PER_PASS
-
-    # Beyond the disc's width a profile can miss the sphere: no pass above it is usable.
-    half = _sphere_disc_rad(sphere_radius_m, sphere_range_m, sphere_elevation_m)
-    elevation = math.atan2(sphere_elevation_m, sphere_range_m)
-    hi = math.degrees(2.0 * half / math.cos(elevation)) * profile_rate_hz
-    lo = hi / 100.0
-    if not usable(lo):
-        return 0.0
-    for _ in range(40):
-        mid = math.sqrt(lo * hi)
-        lo, hi = (mid, hi) if usable(mid) else (lo, mid)
-    digits = 2 - math.floor(math.log10(lo))
-    rounded = math.floor(lo * 10.0**digits) / 10.0**digits
-    return rounded if usable(rounded) else lo
-
-
-def too_fast_text(rate_deg_s: float, max_rate_deg_s: float, profile_rate_hz: float) -> str:
-    """Why ``rate_deg_s`` (above `max_usable_rate_deg_s`) is refused, for a message."""
-    fix = (
-        f"the largest usable rate is {max_rate_deg_s:g} deg/s"
-        if max_rate_deg_s > 0.0
-        else "no rate is, with this angular step and sphere: scan more finely, or use a "
-        "larger or nearer sphere"
-    )
-    return (
-        f"at {abs(rate_deg_s):g} deg/s the profiles cross the sphere "
-        f"{abs(rate_deg_s) / profile_rate_hz:.3g} deg apart, so a pass may hold fewer than "
-        f"{MIN_SPHERE_POINTS_PER_PASS} returns on it, too few for latency sphere to use it; "
-        f"{fix}"
-    )
 
 
 def _check(condition: bool, message: str) -> None:
