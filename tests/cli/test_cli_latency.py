@@ -541,6 +541,29 @@ def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
     )
 
 
+def test_plan_says_when_passes_alone_cannot_reach_the_target(run_cli: RunCli) -> None:
+    """Was: "393258 passes per rate and direction reach 0.0001 ms", though --passes
+    accepts at most 1000: the plan now says so and names the other levers."""
+    argv = ["latency", "plan", "--rates-deg-s", "2,6,18"]
+    code, out, err = run_cli([*argv, "--target-ms", "0.0001"])
+    assert code == 0, err
+    last = " ".join(out.split())
+    assert "0.0001 ms cannot be reached by passes alone" in last
+    assert "--passes allows at most 1000" in last
+    for lever in ("closer or larger sphere", "finer angular step", "faster profile rate"):
+        assert lever in last
+    assert "faster table rates (--rates-deg-s, up to 369 deg/s here)" in last
+    assert "per rate and direction reach 0.0001 ms" not in last
+    code, out, err = run_cli([*argv, "--target-ms", "0.0001", "--json"])
+    doc = json.loads(out)
+    assert doc["passes_for_target"] > doc["passes_limit"] == 1000
+    assert doc["target_within_passes_limit"] is False
+    code, out, err = run_cli([*argv, "--target-ms", "0.05", "--json"])
+    doc = json.loads(out)
+    assert doc["target_within_passes_limit"] is True
+    assert 1 <= doc["passes_for_target"] <= 1000
+
+
 @pytest.mark.parametrize(
     ("extra", "fragment"),
     [

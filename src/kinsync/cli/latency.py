@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
+from kinsync.cli._bounds import bounds_for
 from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt, parse_rates
 from kinsync.cli._output import console, print_json
@@ -19,6 +20,7 @@ from kinsync.io.atomic import atomic_write_bytes
 from kinsync.progress import Stages
 
 if TYPE_CHECKING:
+    from kinsync.latency.planning import TableDesign
     from kinsync.latency.sphere import SphereLatencyResult
     from kinsync.mount import Mount
 
@@ -285,6 +287,10 @@ def plan(
     )
     result = plan_latency_experiment(design)
     doc = result.as_document(target_ms * 1e-3)
+    passes_span = bounds_for("latency plan", "--passes")
+    passes_limit = int(passes_span.high) if passes_span is not None else 1000
+    doc["passes_limit"] = passes_limit
+    doc["target_within_passes_limit"] = doc["passes_for_target"] <= passes_limit
     if figure is not None:
         from kinsync.report.latency_figures import plan_figure  # noqa: PLC0415  (matplotlib)
 
@@ -308,7 +314,32 @@ def plan(
     console.print(table)
     n_target = int(doc["passes_for_target"])
     verb = "reaches" if n_target == 1 else "reach"
+    if doc["target_within_passes_limit"]:
+        reach = f"{counted(n_target, 'pass')} per rate and direction {verb} {target_ms:g} ms"
+    else:
+        reach = _target_out_of_reach_text(design, target_ms, n_target, doc["passes_limit"])
     console.print(
-        f"all rates: latency σ {result.latency_std_s * 1e3:.4f} ms; "
-        f"{counted(n_target, 'pass')} per rate and direction {verb} {target_ms:g} ms"
+        f"all rates: latency σ {result.latency_std_s * 1e3:.4f} ms; {reach}", markup=False
+    )
+
+
+def _target_out_of_reach_text(
+    design: TableDesign, target_ms: float, n_target: int, limit: int
+) -> str:
+    """Why ``--target-ms`` needs more passes than ``--passes`` allows, and what else helps."""
+    from kinsync.latency.planning import max_usable_rate_deg_s  # noqa: PLC0415
+
+    max_rate = max_usable_rate_deg_s(
+        profile_rate_hz=design.profile_rate_hz,
+        angular_step_deg=design.angular_step_deg,
+        sphere_radius_m=design.sphere_radius_m,
+        sphere_range_m=design.sphere_range_m,
+        max_incidence_deg=design.max_incidence_deg,
+    )
+    return (
+        f"{target_ms:g} ms cannot be reached by passes alone: it would take {n_target} "
+        f"passes per rate and direction, and --passes allows at most {limit}; use a closer "
+        "or larger sphere (--range-m, --radius-m), a finer angular step "
+        "(--angular-step-deg), a faster profile rate (--profile-rate-hz), faster table "
+        f"rates (--rates-deg-s, up to {max_rate:g} deg/s here) or a less noisy scanner"
     )
