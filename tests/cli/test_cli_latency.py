@@ -572,6 +572,10 @@ def test_plan_says_when_passes_alone_cannot_reach_the_target(run_cli: RunCli) ->
         (["--range-noise-m", "-0.002"], "--range-noise-m"),
         (["--passes", "0"], "passes"),
         (["--radius-m", "3"], "smaller"),
+        # was "sphere_radius_m must be smaller than sphere_range_m"
+        (["--range-m", "0.1"], "--radius-m 0.1 must be smaller than --range-m 0.1"),
+        # was "range_noise_m must be positive", though the span said 0 to 1 m
+        (["--range-noise-m", "0"], "--range-noise-m 0: outside the span kinsync accepts, 0.0001"),
     ],
 )
 def test_plan_bad_input(

@@ -107,6 +107,13 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--roll-period-s": Bounds(0.5, 600.0, "s"),
     # noise and navigation errors
     "--range-noise-m": Bounds(0.0, 1.0, "m", "a scanner noisier than 1 m is not calibrated"),
+    ("latency plan", "--range-noise-m"): Bounds(
+        1e-4,
+        1.0,
+        "m",
+        "the plan weighs each return by the scanner's range noise, which is never 0",
+        "a scanner noisier than 1 m is not calibrated",
+    ),
     ("calibrate plan", "--range-noise-m"): Bounds(
         1e-4,
         1.0,

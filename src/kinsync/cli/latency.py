@@ -275,6 +275,13 @@ def plan(
     """Predict centre and latency precision of a rotating-table experiment (Cramér-Rao)."""
     from kinsync.latency.planning import TableDesign, plan_latency_experiment  # noqa: PLC0415
 
+    if radius_m >= range_m:
+        msg = (
+            f"--radius-m {radius_m:g} must be smaller than --range-m {range_m:g} (the "
+            "distance from the table axis to the sphere centre): the scanner stands outside "
+            "the sphere"
+        )
+        raise InputError(msg)
     design = TableDesign(
         sphere_range_m=range_m,
         sphere_radius_m=radius_m,
