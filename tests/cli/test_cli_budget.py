@@ -42,6 +42,10 @@ def test_serial_json(run_cli: RunCli) -> None:
     argv = ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"]
     code, out, _ = run_cli([*argv, "--stop-bits", "2", "--json"])
     assert json.loads(out)["latency_s"] == pytest.approx(16 * 12 / 9600)
+    # any case: "EVEN" was refused as "parity must be one of ..."
+    code, out, err = run_cli([*argv[:-1], "EVEN", "--stop-bits", "1.5", "--json"])
+    assert code == 0, err
+    assert json.loads(out)["latency_s"] == pytest.approx(16 * 11.5 / 9600)
     code, out, _ = run_cli(["budget", "serial", "--baud", "115200", "--bytes", "14"])
     assert "1.215" in out
 
@@ -63,7 +67,15 @@ def test_period_json(run_cli: RunCli) -> None:
             "--baud -115200: outside the span",
         ),
         (["budget", "serial", "--baud", "115200", "--bytes", "-1"], "bytes"),
-        (["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"], "parity"),
+        (
+            ["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"],
+            "--parity 'x': give one of none, even, odd, mark, space",
+        ),
+        # was "stop bits must be 1, 1.5 or 2", not naming the option
+        (
+            ["budget", "serial", "--baud", "115200", "--bytes", "4", "--stop-bits", "1.7"],
+            "--stop-bits 1.7: give 1, 1.5 or 2",
+        ),
         (["budget", "latency", "--range-m", "-50"], "--range-m -50: outside the span"),
         (["budget", "latency", "--slope-deg", "0"], "--slope-deg 0"),  # named as typed
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),

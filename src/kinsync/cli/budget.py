@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated, Any, get_args
 
 import typer
 from rich.table import Table
 
 from kinsync.budget import (
+    Parity,
     beach_scenario,
     bits_per_serial_byte,
     latency_beam_error,
@@ -16,6 +17,7 @@ from kinsync.budget import (
     serial_transmission_time_s,
 )
 from kinsync.cli._output import console, fmt, print_json
+from kinsync.errors import InputError
 
 app = typer.Typer(help="Error budgets: what a latency, a serial FIFO or a period error costs.")
 
@@ -107,11 +109,22 @@ def serial(
         int, typer.Option("--bytes", help="Receive FIFO depth or message length (bytes).")
     ],
     data_bits: Annotated[int, typer.Option(help="Data bits per byte (5-8).")] = 8,
-    parity: Annotated[str, typer.Option(help="none, even, odd, mark or space.")] = "none",
+    parity: Annotated[
+        str, typer.Option(help="none, even, odd, mark or space (any case).")
+    ] = "none",
     stop_bits: Annotated[float, typer.Option(help="Stop bits (1, 1.5 or 2).")] = 1.0,
     as_json: JsonOpt = False,
 ) -> None:
     """Delay added by a serial receive FIFO (or a message's transmission time)."""
+    parities = get_args(Parity)
+    parity_key = parity.strip().lower()
+    if parity_key not in parities:
+        msg = f"--parity {parity!r}: give one of {', '.join(parities)} (any case)"
+        raise InputError(msg)
+    if stop_bits not in (1.0, 1.5, 2.0):
+        msg = f"--stop-bits {stop_bits:g}: give 1, 1.5 or 2"
+        raise InputError(msg)
+    parity = parity_key
     latency_s = serial_transmission_time_s(n_bytes, baud, data_bits, parity, stop_bits)
     if as_json:
         print_json({"latency_s": latency_s})
