@@ -314,11 +314,12 @@ def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:
     assert one["latency_ms"]["status"] != "estimated"
 
 
-@pytest.mark.parametrize("speeds", ["0", "5,0.1", "50"])
+@pytest.mark.parametrize("speeds", ["0", "5,0.1", "50", "-2", "5,-2"])
 def test_plan_names_the_speeds_option(
     run_cli: RunCli, assert_one_line_error: OneLineError, speeds: str
 ) -> None:
-    """0 read as 'patch test speeds_m_s must be positive', naming no option."""
+    """0 read as 'patch test speeds_m_s must be positive', naming no option; -2 as
+    'every value must be a finite number >= 0', though 0 is refused too."""
     code, out, err = run_cli(["calibrate", "plan", "--speeds-m-s", speeds])
     assert_one_line_error(code, out, err, "--speeds-m-s", "outside the span", "0.2 to 40 m/s")
 

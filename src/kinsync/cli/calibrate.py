@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from kinsync._text import counted
-from kinsync.cli._bounds import check_numeric_option
+from kinsync.cli._bounds import bounds_for, check_numeric_option
 from kinsync.cli._help import literal
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
 from kinsync.cli._output import console, print_json
@@ -442,9 +442,12 @@ def _floats(text: str, option: str, count: int | None) -> tuple[float, ...]:
     if count is not None and len(values) != count:
         msg = f"{option} {text!r}: expected {count} numbers, got {len(values)}"
         raise InputError(msg)
-    if not all(math.isfinite(v) and v >= 0.0 for v in values):
-        msg = f"{option} {text!r}: every value must be a finite number >= 0"
-        raise InputError(msg)
+    span = bounds_for("calibrate plan", option)
     for v in values:
+        if not (math.isfinite(v) and v >= 0.0):
+            if span is not None and span.low > 0.0:  # the real span (0.2 to 40 m/s), not >= 0
+                check_numeric_option("calibrate plan", option, v)
+            msg = f"{option} {text!r}: every value must be a finite number >= 0"
+            raise InputError(msg)
         check_numeric_option("calibrate plan", option, v)
     return values
