@@ -69,6 +69,21 @@ def test_small_latency_agrees_with_first_order() -> None:
     assert b.horizontal_error_m == pytest.approx(b.horizontal_error_linear_m, rel=2e-3)
 
 
+def test_first_order_values_of_a_tiny_latency_do_not_underflow() -> None:
+    """Was: 1e-12 s gave vertical_error_linear_m 0.0 (exact -8.7e-12 m): the first-order
+    value was the exact one at a million times smaller an angle, divided back up."""
+    eps = math.radians(10.0) * 1e-12
+    b = latency_beam_error(beach_scenario(50.0, 10.0, 10.0), 1e-12)
+    assert b.vertical_error_linear_m is not None
+    assert b.vertical_error_m is not None
+    vertical = math.copysign(50.0 * eps, b.vertical_error_m)
+    assert b.vertical_error_linear_m == pytest.approx(vertical, rel=1e-9, abs=0.0)
+    # first order, horizontally: R eps / tan(slope)
+    horizontal = 50.0 * eps / math.tan(math.radians(10.0))
+    assert b.horizontal_error_linear_m == pytest.approx(horizontal, rel=1e-9, abs=0.0)
+    assert b.horizontal_error_m == pytest.approx(horizontal, rel=1e-3, abs=0.0)
+
+
 def test_nadir_beam_on_flat_ground_with_3d_rate() -> None:
     # Beam straight down at height 30 m; rate of 20 deg/s about the horizontal diagonal.
     axis = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)

@@ -41,7 +41,6 @@ __all__ = [
 
 Parity = Literal["none", "even", "odd", "mark", "space"]
 
-_LINEARISATION_SCALE = 1e-6
 _GRAZING_COS = 1e-9
 """A true beam closer than this (cosine to the surface plane, ~2e-7 deg) grazes it."""
 _MAX_ATTITUDE_ERROR_DEG = 180.0
@@ -260,6 +259,24 @@ def _errors_for_rotation(
     return vertical, horizontal, point, r_true
 
 
+def _linear_errors(scenario: Scenario, rotvec_ned: FloatArray) -> tuple[float | None, float]:
+    """First-order vertical and horizontal errors of one small attitude error.
+
+    The true beam turns by ``delta = eps x d``; to first order it meets the plane at
+    ``p0 + R (delta - k d)`` with ``k = n . delta / n . d``, and the point placed along
+    ``d`` at the true range sits ``R (n . delta) / n_down`` above the surface. Evaluated
+    in closed form: a scaled-down rotation underflowed for a tiny latency (1e-9 ms gave
+    0.0 for an exact -8.7e-12 m).
+    """
+    d = np.asarray(scenario.beam_ned)
+    n = np.asarray(scenario.normal_ned)
+    delta = np.cross(rotvec_ned, d)
+    k = float(n @ delta) / float(n @ d)
+    horizontal = scenario.range_m * float(np.hypot(*(delta - k * d)[:2]))
+    vertical = None if abs(n[2]) <= 1e-12 else scenario.range_m * float(n @ delta) / float(n[2])
+    return vertical, horizontal
+
+
 def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
     """Exact point error of a latency under a scenario's angular rate.
 
@@ -295,9 +312,7 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
         )
         raise InputError(msg)
     cases = [_errors_for_rotation(scenario, sign * eps) for sign in (1.0, -1.0)]
-    small = [
-        _errors_for_rotation(scenario, sign * eps * _LINEARISATION_SCALE) for sign in (1.0, -1.0)
-    ]
+    small = [_linear_errors(scenario, sign * eps) for sign in (1.0, -1.0)]
 
     def worst_index(values: list[float | None]) -> int | None:
         real = [(abs(v), i) for i, v in enumerate(values) if v is not None]
@@ -314,10 +329,8 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
         vertical_error_m=vertical,
         horizontal_error_m=cases[ih][1],
         point_error_m=cases[ip][2],
-        vertical_error_linear_m=None
-        if vertical_lin is None
-        else vertical_lin / _LINEARISATION_SCALE,
-        horizontal_error_linear_m=small[ih][1] / _LINEARISATION_SCALE,
+        vertical_error_linear_m=vertical_lin,
+        horizontal_error_linear_m=small[ih][1],
         range_true_m=cases[ip][3],
     )
 
