@@ -536,6 +536,9 @@ def test_plan_json_and_figure(run_cli: RunCli, tmp_path: Path) -> None:
     assert fig.read_bytes().startswith(b"\x89PNG")
     code, out, _ = run_cli([*argv, "--rates-deg-s", "2,6,18"])
     assert code == 0
+    # what the centre sigma is (it was "centre σ (mm)" alone)
+    assert "centre σ RMS (mm)" in out
+    assert "one direction's passes pooled, RMS of 3 axes" in " ".join(out.split())
     assert re.search(
         r"\b(1 pass per rate and direction reaches|\d+ passes per rate and direction reach)\b", out
     )

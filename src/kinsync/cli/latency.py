@@ -307,9 +307,10 @@ def plan(
         print_json(doc)
         return
     table = Table(
-        title=f"Method A plan: {counted(passes, 'pass')} each way, range noise {range_noise_m:g} m"
+        title=f"Method A plan: {counted(passes, 'pass')} each way, range noise {range_noise_m:g} m",
+        caption="centre σ: of the centre fitted to one direction's passes pooled, RMS of 3 axes",
     )
-    for col in ("rate (deg/s)", "points/pass", "centre σ (mm)", "latency σ (ms)"):
+    for col in ("rate (deg/s)", "points/pass", "centre σ RMS (mm)", "latency σ (ms)"):
         table.add_column(col, justify="right")
     for r in result.per_rate:
         table.add_row(
