@@ -4,7 +4,7 @@ The simulated vehicle patch test with thinned beams (8 lines) and the default
 ``--estimate boresight,latency``: the nominal lever arm is 3/-2/4 cm off the truth, and
 the jackknife over lines cannot see an error every line shares. Without a stated
 uncertainty the latency comes out several sigma off; with the lever arm's stated
-(3 cm) the sigma holds the error (`kinsync.calibration.held`).
+(2 cm) the sigma holds the error (`kinsync.calibration.held`).
 """
 
 from __future__ import annotations
@@ -24,11 +24,17 @@ from kinsync.calibration.held import (
     effect_of_held,
     held_covariance,
     held_effect,
+    hold_too_uncertain,
     uncertainty_from_covariance,
     uncertainty_from_std,
     uncertainty_notes,
 )
 from kinsync.calibration.model import LineModel, local_frame_for
+from kinsync.calibration.observability import (
+    UNOBSERVABLE_THRESHOLDS,
+    Observability,
+    hold_after_solution,
+)
 from kinsync.calibration.parameters import (
     PARAMETER_NAMES,
     REPORT_SCALE,
@@ -47,7 +53,7 @@ from kinsync.mount import (
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test
 
-LEVER_STD_M = 0.03
+LEVER_STD_M = 0.02
 ESTIMATED = ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg", "latency_ms")
 
 
@@ -97,6 +103,31 @@ def test_stated_lever_uncertainty_makes_the_sigma_hold_the_error(
         a.startswith("lever_y_m's stated sigma moves boresight_") and "more than the data" in a
         for a in stated.held_advice
     )
+
+
+def test_a_held_value_stated_too_loosely_leaves_an_estimate_unobservable(
+    thin: PatchTestSimulation,
+) -> None:
+    # The lever arm stated to 3 cm: the data leave the yaw +-0.23 deg, the lever y's
+    # sigma adds +-1.2: more than the 1 deg a crew knows anyway. The status reads the
+    # total, so the yaw is held at its prior, not printed as a weak +-1.2 (as it was).
+    unc = MountUncertainty(lever_arm_body_m=(0.03,) * 3)
+    result = calibrate_mount(thin.lines, replace(thin.mount_nominal, uncertainty=unc))
+    yaw = result.parameter("boresight_yaw_deg")
+    assert yaw.status == "unobservable"
+    assert yaw.value == yaw.prior
+    assert not math.isfinite(yaw.std)
+    reason = next(r for r in result.unobservable_reasons if r.startswith("boresight_yaw_deg"))
+    assert "these data give +-0.2" in reason
+    assert "the rest is the stated sigma of the held lever_y_m" in reason
+    advice = next(a for a in result.advice if a.startswith("boresight_yaw_deg: "))
+    assert "lever_y_m known to +-0.02" in advice
+    assert advice.endswith("(for a sigma within 1), or estimated")
+    for p in result.parameters:
+        if p.status in ("estimated", "weak"):
+            i = PARAMETER_NAMES.index(p.name)
+            assert p.std <= UNOBSERVABLE_THRESHOLDS[i], p.name
+            assert abs(_error(result, thin, p.name)) <= 3.0 * p.std, p.name
 
 
 def test_without_stated_uncertainty_the_advice_names_the_lever(
@@ -183,7 +214,7 @@ def test_certificate_shows_what_each_held_value_does(
     html = calibration_certificate(stated)
     assert html.index("Held parameters") < html.index("Features")
     assert "of which held" in html
-    assert "lever_y_m (sigma 0.03 m): 1 cm moves" in html
+    assert "lever_y_m (sigma 0.02 m): 1 cm moves" in html
     assert "stated sigma moves boresight_" in html
     assert "taken as exact" not in html
     html = calibration_certificate(exact)
@@ -432,3 +463,46 @@ def test_the_partner_is_named_when_a_correlation_reverses_the_sign() -> None:
     text = " ".join(effect.advice(np.array([np.radians(0.01), 0.001])))
     assert "knowing lever_x_m exactly" in text
     assert "correlation -0.90 with lever_y_m" in text
+
+
+def test_the_unobservable_rule_reads_the_total_sigma() -> None:
+    # Yaw and latency estimated. The data leave the yaw +-0.1 deg and the latency
+    # +-0.5 ms; 1 cm of lever y moves the yaw 0.25 deg, 1 cm of lever x the latency
+    # 1 ms. With the lever y stated to 0.9 m the yaw is +-22.5 deg in all: held, naming
+    # lever y and the sigma that would bring it within 1 deg.
+    d = np.zeros((2, 7))
+    d[0, 4] = np.radians(0.25) / 0.01
+    d[1, 3] = 0.001 / 0.01
+    held_cov = np.diag([np.nan, np.nan, np.nan, 0.02**2, 0.9**2, 0.02**2, np.nan])
+    known = [3, 4, 5]
+    sigma = held_cov[np.ix_(known, known)]
+    std = np.full(7, np.nan)
+    std[known] = np.sqrt(np.diag(sigma))
+    cov_held = d[:, known] @ sigma @ d[:, known].T
+    full = np.zeros((7, 7))
+    full[np.ix_(known, known)] = sigma
+    effect = HeldEffect((2, 6), (0, 1, 3, 4, 5), d, std, cov_held, full)
+    data = np.array([np.radians(0.1), 0.0005])
+    cov = np.diag(data**2)
+    assert hold_after_solution((2, 6), data, [False, False], cov) is None  # the data alone
+    held = hold_too_uncertain((2, 6), data, cov, effect)
+    assert held is not None
+    assert (held.index, held.cause) == (2, 2)
+    assert held.std_report == pytest.approx(math.hypot(0.1, 22.5))
+    assert held.std_data == pytest.approx(0.1)
+    ((h, stated, need),) = held.limited_by  # lever x does nothing to the yaw: not named
+    assert h == 4
+    assert stated == pytest.approx(0.9)
+    assert math.hypot(0.1, 22.5 * need / stated) == pytest.approx(1.0)
+    obs = Observability(estimated=(6,), unobservable=(), null_directions=(), held_after=(held,))
+    assert (
+        "these data give +-0.1, the rest is the stated sigma of the held lever_y_m"
+        in (obs.explanation()[0])
+    )
+    expect = f"boresight_yaw_deg: lever_y_m known to +-{need:.2g} instead of +-0.9"
+    assert obs.advice() == (f"{expect} (for a sigma within 1), or estimated",)
+    # An estimate the data moved beyond 3 of its total sigma is determined: kept.
+    assert hold_too_uncertain((2, 6), data, cov, effect, np.array([np.radians(70.0), 0.0])) is None
+    # No held value with a stated sigma: the data's rule alone, as before.
+    none = replace(effect, covariance=np.zeros((2, 2)))
+    assert hold_too_uncertain((2, 6), data, cov, none) is None

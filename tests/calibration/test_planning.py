@@ -121,6 +121,26 @@ def test_held_values_stated_sigma_reaches_the_planned_sigma() -> None:
     assert exact.as_document()["held"]["lever_x_m"]["std"] is None  # taken as exact
 
 
+def test_a_held_value_known_too_poorly_leaves_the_estimates_unobservable() -> None:
+    # A lever arm known to 0.9 m: the yaw's sigma was printed as a weak +-22 deg, the
+    # latency's as a weak +-100 ms; the status reads the total, so they are unobservable,
+    # with what the lever arm's sigma would have to be.
+    sim = simulate_patch_test(PatchTestConfig(scenario="vehicle", density=0.03, **QUIET))  # type: ignore[arg-type]
+    opts = CalibrationOptions(estimate=("boresight", "latency"))
+    lever = MountUncertainty(lever_arm_body_m=(0.9, 0.9, 0.9))
+    plan = plan_calibration(sim.lines, sim.mount_true, opts, held=lever)
+    for p in plan.parameters:
+        assert p.status == ("fixed" if p.name.startswith("lever") else "unobservable"), p.name
+        assert not math.isfinite(p.std)
+    yaw = next(r for r in plan.unobservable_reasons if r.startswith("boresight_yaw_deg"))
+    assert "(more than 1): these data give +-" in yaw
+    assert "the rest is the stated sigma of the held lever_y_m" in yaw
+    advice = next(a for a in plan.advice if a.startswith("boresight_yaw_deg: "))
+    assert "lever_y_m known to +-0.0" in advice
+    assert "instead of +-0.9" in advice
+    assert not any("a better trajectory" in a for a in plan.advice)
+
+
 def test_predicted_feature_scales_are_what_the_estimator_finds() -> None:
     # The plan weighs each feature by the noise scale it predicts from the navigation
     # errors; the estimator measures that scale from the residuals of noisy data.

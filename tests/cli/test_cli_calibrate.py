@@ -439,6 +439,35 @@ def test_plan_adds_the_held_values_stated_sigma(run_cli: RunCli) -> None:
     assert doc["parameters"]["latency_ms"]["std_held"] > 0.0
 
 
+def test_plan_holds_what_a_poorly_known_held_value_leaves_undetermined(
+    run_cli: RunCli, tmp_path: Path
+) -> None:
+    # A lever arm known to 0.9 m printed the yaw as a weak +-22 deg and the latency as
+    # a weak +-100 ms; the same in a mount file's [uncertainty] in centimetres (20 m, a
+    # warning) as +-500 deg and +-2300 ms. Now: unobservable, held, and what would do.
+    base = ["calibrate", "plan", "--passes", "1", "--estimate", "boresight,latency"]
+    mount = tmp_path / "cm.toml"
+    mount.write_text(
+        "[mount]\nlever_arm_body_m = [0.5, 0.1, -0.3]\nboresight_rpy_deg = [0.0, 0.0, 0.0]\n"
+        "antenna_lever_arm_body_m = [0.0, 0.0, 0.0]\nlatency_s = 0.0\n"
+        "[uncertainty]\nlever_arm_body_m = [20, 20, 20]\nlatency_s = 2\n"
+    )
+    for given in (["--lever-std-m", "0.9"], ["--mount", str(mount)]):
+        code, out, err = run_cli([*base, *given, "--json"])
+        assert code == 0, err
+        doc = json.loads(out)
+        for name, p in doc["parameters"].items():
+            assert p["status"] == ("fixed" if name.startswith("lever") else "unobservable")
+            assert p["std"] is None
+        assert any(a.startswith("boresight_yaw_deg: lever_y_m known to +-") for a in doc["advice"])
+    assert "a unit mistake (centimetres written as metres?)" in err  # the file's, warned
+    code, out, err = run_cli([*base, "--lever-std-m", "0.9"])
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "boresight_yaw_deg │ unobservable │ - │" in text
+    assert "the rest is the stated sigma of the held lever_y_m: held at its prior value" in text
+
+
 @pytest.mark.parametrize(
     ("option", "value", "expect"),
     [("--lever-std-m", "0.01,0.02", "expected one number or three"),

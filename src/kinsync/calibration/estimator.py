@@ -58,6 +58,7 @@ from kinsync.calibration.held import (
     held_covariance,
     held_effect,
     held_std,
+    hold_too_uncertain,
     joint_covariance,
     uncertainty_from_covariance,
     uncertainty_notes,
@@ -69,7 +70,6 @@ from kinsync.calibration.observability import (
     Observability,
     analyse,
     correlation,
-    hold_after_solution,
     status_of,
 )
 from kinsync.calibration.overlaps import LineOverlap, overlap_differences, scatter_m
@@ -445,9 +445,10 @@ def calibrate_mount(
             continue
         jk = _jackknife(models, observations, solution, frame, units, opt, say)
         std, method = _std(solution, jk)
-        moved = [abs(float(solution.values[i] - prior[i])) > 3.0 * std[j]
-                 for j, i in enumerate(obs.estimated)]  # fmt: skip
-        held = hold_after_solution(obs.estimated, std, moved, _covariance(solution, jk))
+        say("what the held parameters' errors do to the estimates")
+        effect = held_effect(models, observations, solution, frame, held_covariance(mount))
+        offsets = (solution.values - prior)[list(obs.estimated)]
+        held = hold_too_uncertain(obs.estimated, std, _covariance(solution, jk), effect, offsets)
         if held is None:
             break
         obs = obs.without(held)
@@ -456,8 +457,6 @@ def calibrate_mount(
         say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
         solution = _solve_again(models, observations, features, prior, solution, obs, frame, opt)
     honest = jk is not None and jk.honest
-    say("what the held parameters' errors do to the estimates")
-    effect = held_effect(models, observations, solution, frame, held_covariance(mount))
     params = _parameters(mount, requested, obs, solution, std, honest, effect)
     advice = obs.advice() if honest else (*obs.advice(), _lines_advice(len(units), jk))
     covariance = _covariance(solution, jk) + effect.covariance

@@ -47,7 +47,12 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
-from kinsync.calibration.observability import correlation
+from kinsync.calibration.observability import (
+    UNOBSERVABLE_THRESHOLDS,
+    HeldAfterSolution,
+    correlation,
+    hold_after_solution,
+)
 from kinsync.calibration.parameters import (
     BORESIGHT,
     LATENCY,
@@ -74,6 +79,7 @@ __all__ = [
     "held_covariance",
     "held_effect",
     "held_std",
+    "hold_too_uncertain",
     "joint_covariance",
     "std_of_uncertainty",
     "uncertainty_from_covariance",
@@ -594,3 +600,74 @@ def effect_of_held(S: FloatArray, estimated: tuple[int, ...], prior_cov: FloatAr
         covariance=cov,
         held_covariance=prior_known,
     )
+
+
+NAMED_SHARE = 1.0 / 3.0
+"""A held value is named as limiting an estimate when its own effect on it is at least
+this share of the largest held value's."""
+
+
+def hold_too_uncertain(
+    estimated: tuple[int, ...],
+    std: FloatArray,
+    covariance: FloatArray,
+    effect: HeldEffect,
+    offsets: FloatArray | None = None,
+) -> HeldAfterSolution | None:
+    """What to hold after a solution, with the held values' stated sigma counted.
+
+    First `kinsync.calibration.observability.hold_after_solution` on the data's sigma
+    alone; when it holds nothing, again on the total sigma (the data's and
+    ``effect.covariance`` added), the status of which reads the total: a lever arm known
+    to 0.9 m leaves the boresight and the latency no better than a crew knows without
+    calibrating, however good the data. Such a parameter is held at its prior too, and
+    the result names the held values whose stated sigma did it, with the sigma they
+    would need (all scaled alike, their correlations kept) to bring it within its
+    threshold. When no held value has a stated sigma this is `hold_after_solution`.
+
+    Parameters
+    ----------
+    estimated : tuple of int
+        The estimated parameters (k), in ``effect.estimated``'s order.
+    std : ndarray, shape (k,)
+        Their honest standard deviations from the data (internal units: rad, m, s).
+    covariance : ndarray, shape (k, k)
+        The data's covariance of the estimates (internal units).
+    effect : HeldEffect
+        What the held values' stated sigma adds (``effect.covariance``).
+    offsets : ndarray, shape (k,), optional
+        How far the solution moved each estimate from its prior (internal units); an
+        estimate moved beyond 3 sigma is determined, if loosely, and is kept. None in a
+        plan (nothing moved).
+
+    Returns
+    -------
+    HeldAfterSolution or None
+    """
+    data_std = np.asarray(std, dtype=np.float64)
+    moved_by = np.zeros(len(estimated)) if offsets is None else np.abs(offsets)
+    held = hold_after_solution(estimated, data_std, list(moved_by > 3.0 * data_std), covariance)
+    if held is not None or not np.any(effect.covariance):
+        return held
+    total_cov = covariance + effect.covariance
+    total = np.sqrt(np.maximum(np.diag(total_cov), 0.0))
+    held = hold_after_solution(estimated, total, list(moved_by > 3.0 * total), total_cov)
+    if held is None:
+        return None
+    j = estimated.index(held.cause)
+    scale = float(REPORT_SCALE[held.cause])
+    data, limit = float(data_std[j]) * scale, UNOBSERVABLE_THRESHOLDS[held.cause]
+    if not data < limit:  # the data alone leave it beyond: say so, as before
+        return replace(held, std_report=data)
+    part = float(effect.std[j]) * scale
+    factor = math.sqrt(limit**2 - data**2) / part
+    stated = effect.held_std * REPORT_SCALE  # report units; NaN where taken as exact
+    own = {  # each held value's own effect on the cause (its correlations left out)
+        h: abs(float(effect.sensitivity[j, h] * effect.held_std[h]))
+        for h in effect.held
+        if h not in effect.unknown
+    }
+    largest = max(own.values())
+    named = sorted((h for h in own if own[h] >= NAMED_SHARE * largest), key=lambda h: -own[h])
+    limited = tuple((h, float(stated[h]), float(stated[h]) * factor) for h in named)
+    return replace(held, std_data=data, limited_by=limited)

@@ -25,7 +25,9 @@ once every feature is free, `kinsync.calibration.adjustment`) before the solutio
   estimates, the first of the group in `HOLD_ORDER` is held at its prior (a sphere
   seen at one range cannot tell a pitch boresight from a lever x: the lever arm, which
   a tape measures, is held, not the boresight); else the parameter itself. The rest is
-  solved again (`HeldAfterSolution`).
+  solved again (`HeldAfterSolution`). The sigma judged is the total: the data's and
+  what the held values' stated sigma adds (`kinsync.calibration.held.hold_too_uncertain`);
+  a lever arm known to 0.9 m leaves no boresight worth printing, however good the data.
 - An estimated parameter is *weak* when its standard deviation exceeds the stated
   threshold (`WEAK_THRESHOLDS`, report units).
 
@@ -37,7 +39,8 @@ change.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import math
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -126,6 +129,12 @@ class HeldAfterSolution:
     reason : str
         Why, when it is not a sigma above `UNOBSERVABLE_THRESHOLDS` (e.g. the latency
         ran to the end of the lines' trajectories); empty otherwise.
+    std_data : float
+        When the held values' stated sigma took ``std_report`` (the total) above the
+        threshold: the data's part of it (report units); NaN otherwise.
+    limited_by : tuple of (int, float, float)
+        Then the held values whose stated sigma did it: each with that sigma and the
+        sigma that would bring ``cause`` within its threshold (report units).
     """
 
     index: int
@@ -133,6 +142,8 @@ class HeldAfterSolution:
     std_report: float
     partners: tuple[int, ...] = ()
     reason: str = ""
+    std_data: float = math.nan
+    limited_by: tuple[tuple[int, float, float], ...] = ()
 
     def explanation(self, estimated: Sequence[int] | None = None) -> str:
         """In words: what was too uncertain, what was held, what leans on the prior.
@@ -148,11 +159,36 @@ class HeldAfterSolution:
             f"{cause} is determined only to +-{self.std_report:.3g} by these data (more than "
             f"{limit:g})"
         )
+        if self.limited_by:
+            names = " and ".join(PARAMETER_NAMES[h] for h, _, _ in self.limited_by)
+            text = (
+                f"{cause} is determined only to +-{self.std_report:.3g} (more than {limit:g}): "
+                f"these data give +-{self.std_data:.3g}, the rest is the stated sigma of the "
+                f"held {names}"
+            )
         if self.index == self.cause:
             text += ": held at its prior value"
         else:
             text += f", for it cannot be told apart from {name}: {name} held at its prior value"
         return text + _leaning(self.partners, estimated, "that prior")
+
+    def held_advice(self, undetermined: Collection[int] = ()) -> str:
+        """What would determine ``cause`` when held values' sigma limits it; else empty.
+
+        ``undetermined``: held values the data could not determine (estimating them is
+        no remedy).
+        """
+        if not self.limited_by:
+            return ""
+        known = " and ".join(
+            f"{PARAMETER_NAMES[h]}{' known' * (k == 0)} to +-{need:.2g} instead of +-{stated:.2g}"
+            for k, (h, stated, need) in enumerate(self.limited_by)
+        )
+        estimable = any(h not in undetermined for h, _, _ in self.limited_by)
+        return (
+            f"{PARAMETER_NAMES[self.cause]}: {known} (for a sigma within "
+            f"{UNOBSERVABLE_THRESHOLDS[self.cause]:g})" + (", or estimated" * estimable)
+        )
 
 
 @dataclass(frozen=True)
@@ -192,9 +228,19 @@ class Observability:
         return self.unobservable + tuple(h.index for h in self.held_after)
 
     def advice(self) -> tuple[str, ...]:
-        """What would determine the parameters not determined, one line each."""
-        causes = {h.cause for h in self.held_after}
-        return tuple(ADVICE[i] for i in sorted(set(self.held) | causes))
+        """What would determine the parameters not determined, one line each.
+
+        A parameter held because the held values' stated sigma took it beyond the
+        threshold gets how well they would have to be known instead of which data
+        would help (the data already determine it).
+        """
+        by_held = [h for h in self.held_after if h.limited_by]
+        limited = {i for h in by_held for i in (h.index, h.cause)}
+        by_data = set(self.unobservable) | {
+            i for h in self.held_after if not h.limited_by for i in (h.index, h.cause)
+        }
+        need = tuple(h.held_advice(self.held) for h in by_held)
+        return need + tuple(ADVICE[i] for i in sorted(by_data | (set(self.held) - limited)))
 
     def explanation(self) -> tuple[str, ...]:
         """Each null direction in words: what cannot be told apart, what was held.
@@ -228,7 +274,7 @@ class Observability:
         entries = self.held_after
         merged: dict[int, int] = {}  # a later entry -> the earlier one it is told with
         for k, h in enumerate(entries):
-            if h.reason or h.cause == h.index:
+            if h.reason or h.limited_by or h.cause == h.index:
                 continue
             later = next(
                 (
@@ -237,6 +283,7 @@ class Observability:
                     if entries[m].index == h.cause
                     and entries[m].cause == h.cause
                     and not entries[m].reason
+                    and not entries[m].limited_by
                     and m not in merged
                 ),
                 None,

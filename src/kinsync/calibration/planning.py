@@ -28,7 +28,9 @@ before, gave the vessel's latency 4x too little sensitivity to a held lever arm.
 
 A parameter is ``unobservable`` by the information test, or when its predicted sigma
 exceeds what a crew knows without calibrating (the estimator's rule after its
-solution), ``weak`` above the thresholds of `kinsync.calibration.observability`.
+solution), ``weak`` above the thresholds of `kinsync.calibration.observability`. Both
+read the total sigma, the held values' stated sigma included
+(`kinsync.calibration.held.hold_too_uncertain`).
 
 Checked against the Monte Carlo of `benchmarks/bench_calibration_sigma.py` (30 runs,
 density 0.1, the same designs, planned with the errors the simulation draws: 2/2/3 cm
@@ -64,13 +66,18 @@ from kinsync.calibration.adjustment import (
 )
 from kinsync.calibration.estimator import CalibrationOptions, find_features
 from kinsync.calibration.features import Feature
-from kinsync.calibration.held import HeldEffect, covariance_of_uncertainty, effect_of_held
+from kinsync.calibration.held import (
+    HeldEffect,
+    covariance_of_uncertainty,
+    effect_of_held,
+    hold_too_uncertain,
+)
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
     UNOBSERVABLE_THRESHOLDS,
+    Observability,
     analyse,
-    hold_after_solution,
     status_of,
 )
 from kinsync.calibration.parameters import (
@@ -476,16 +483,21 @@ def plan_calibration(
     cov, cov_noise = _predicted(
         models, observations, features, values, obs.estimated, frame, err, sig
     )
+    S7, _, _ = reduced_normal_matrix(
+        models, observations, features, values, tuple(range(7)), frame, sig, robust=False
+    )
+    held_cov = covariance_of_uncertainty(held)
     trajectory_limited: list[str] = []
     while obs.estimated:
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        dropped = hold_after_solution(obs.estimated, std, [False] * std.size, cov)
+        effect = effect_of_held(S7, obs.estimated, held_cov)
+        dropped = hold_too_uncertain(obs.estimated, std, cov, effect)
         if dropped is None:
             break
         c = dropped.cause
         j = obs.estimated.index(c)
         alone = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * float(REPORT_SCALE[c])
-        if not dropped.reason and alone <= UNOBSERVABLE_THRESHOLDS[c]:
+        if not (dropped.reason or dropped.limited_by) and alone <= UNOBSERVABLE_THRESHOLDS[c]:
             trajectory_limited.append(
                 f"{PARAMETER_NAMES[c]}: a better trajectory (these lines with the range noise "
                 f"alone give +-{alone:.2g}, with the trajectory errors assumed "
@@ -496,11 +508,39 @@ def plan_calibration(
         cov, cov_noise = _predicted(
             models, observations, features, values, obs.estimated, frame, err, sig
         )
-    est = obs.estimated
-    S7, _, _ = reduced_normal_matrix(
-        models, observations, features, values, tuple(range(7)), frame, sig, robust=False
+    effect = effect_of_held(S7, obs.estimated, held_cov)
+    # The estimator's rule: a jackknife over fewer lines is not an honest sigma, so no
+    # estimate is better than weak there; the plan says the same.
+    few_lines = len(lines) < MIN_HONEST_DOF + 1
+    params = _planned_parameters(obs, cov, cov_noise, effect, few_lines)
+    few_lines_text = (
+        f"an honest sigma: at least {MIN_HONEST_DOF + 1} independent lines or passes over "
+        f"the features ({len(lines)} planned), so no estimate is better than weak"
     )
-    effect = effect_of_held(S7, est, covariance_of_uncertainty(held))
+    few_lines_advice = (few_lines_text,) if few_lines else ()
+    return PlanResult(
+        parameters=params,
+        n_features=len(features),
+        n_lines=len(lines),
+        unobservable_reasons=obs.explanation(),
+        advice=(*trajectory_limited, *obs.advice(), *few_lines_advice),
+        errors=err,
+        held=effect,
+    )
+
+
+def _planned_parameters(
+    obs: Observability,
+    cov: FloatArray,
+    cov_noise: FloatArray,
+    effect: HeldEffect,
+    few_lines: bool,
+) -> tuple[PlannedParameter, ...]:
+    """Every parameter's status and sigma (report units), the held part added.
+
+    ``few_lines``: too few lines for an honest sigma, so nothing is better than weak.
+    """
+    est = obs.estimated
     std_all = np.full(7, math.nan)
     std_noise = np.full(7, math.nan)
     std_held = np.zeros(7)
@@ -509,9 +549,6 @@ def plan_calibration(
         std_all[i] = math.sqrt(max(total, 0.0)) * REPORT_SCALE[i]
         std_noise[i] = math.sqrt(max(float(cov_noise[j, j]), 0.0)) * REPORT_SCALE[i]
         std_held[i] = float(effect.std[j]) * REPORT_SCALE[i]
-    # The estimator's rule: a jackknife over fewer lines is not an honest sigma, so no
-    # estimate is better than weak there; the plan says the same.
-    few_lines = len(lines) < MIN_HONEST_DOF + 1
     params = []
     for i, name in enumerate(PARAMETER_NAMES):
         if i in est:
@@ -527,17 +564,4 @@ def plan_calibration(
                 name, status, float(std_all[i]), float(std_noise[i]), float(std_held[i])
             )
         )
-    few_lines_text = (
-        f"an honest sigma: at least {MIN_HONEST_DOF + 1} independent lines or passes over "
-        f"the features ({len(lines)} planned), so no estimate is better than weak"
-    )
-    few_lines_advice = (few_lines_text,) if few_lines else ()
-    return PlanResult(
-        parameters=tuple(params),
-        n_features=len(features),
-        n_lines=len(lines),
-        unobservable_reasons=obs.explanation(),
-        advice=(*trajectory_limited, *obs.advice(), *few_lines_advice),
-        errors=err,
-        held=effect,
-    )
+    return tuple(params)
