@@ -9,9 +9,10 @@ from typing import Any
 import numpy as np
 
 from kinsync.errors import InputError
+from kinsync.io.atomic import atomic_path
 from kinsync.io.sanity import check_record_file, link_loop_error, not_a_regular_file
 
-__all__ = ["MAX_RECORD_FILE_BYTES", "count_records", "memmap_records"]
+__all__ = ["MAX_RECORD_FILE_BYTES", "count_records", "memmap_records", "write_records"]
 
 MAX_RECORD_FILE_BYTES = 8 << 30
 """Largest record file read (8 GiB: 2 days of a 200 Hz SBET). Its records are copied into
@@ -89,3 +90,21 @@ def memmap_records(
     except OSError as err:
         msg = f"{path}: cannot memory-map ({err})"
         raise InputError(msg) from err
+
+
+def write_records(records: np.ndarray[Any, Any], path: Path) -> None:
+    """Write a structured array of records to ``path``, atomically (`atomic_path`).
+
+    Written through a Python file, not ``ndarray.tofile``: numpy reports a short write
+    ("N requested and M written") without its error number, and a full disk would not be
+    recognised as one.
+
+    Parameters
+    ----------
+    records : ndarray, shape (N,)
+        The records, in their file layout (a little-endian structured dtype).
+    path : Path
+        The file to write.
+    """
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        fh.write(np.ascontiguousarray(records).view(np.uint8).data)

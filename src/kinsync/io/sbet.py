@@ -77,9 +77,8 @@ import numpy.typing as npt
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_quaternion
-from kinsync.io.atomic import atomic_path
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
-from kinsync.io.records import count_records, memmap_records
+from kinsync.io.records import count_records, memmap_records, write_records
 from kinsync.io.sanity import (
     ANGLE_RAD,
     HEIGHT_M,
@@ -519,8 +518,4 @@ def write_sbet(trajectory: Trajectory, path: Path, *, wander_angle_rad: float = 
     rec["rate_x_body_rad_s"] = rate[:, 0]
     rec["rate_y_body_rad_s"] = rate[:, 1]
     rec["rate_z_body_rad_s"] = rate[:, 2]
-    # Written through a Python file, not ndarray.tofile: numpy reports a short write
-    # ("N requested and M written") without its error number, and a full disk would
-    # not be recognised as one.
-    with atomic_path(path) as tmp, tmp.open("wb") as fh:
-        fh.write(rec.view(np.uint8).data)
+    write_records(rec, path)

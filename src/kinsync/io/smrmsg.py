@@ -55,9 +55,8 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
-from kinsync.io.atomic import atomic_path
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
-from kinsync.io.records import memmap_records
+from kinsync.io.records import memmap_records, write_records
 from kinsync.io.sanity import (
     ANGLE_DEG,
     LENGTH_M,
@@ -279,11 +278,7 @@ def write_smrmsg(data: SmrmsgData, path: Path) -> None:
         rec[name] = data.std_vel_ned_m_s[:, i]
     for i, name in enumerate(("std_roll_arcmin", "std_pitch_arcmin", "std_heading_arcmin")):
         rec[name] = data.std_rpy_rad[:, i] / _ARCMIN_TO_RAD
-    # Written through a Python file, not ndarray.tofile: numpy reports a short write
-    # ("N requested and M written") without its error number, and a full disk would
-    # not be recognised as one.
-    with atomic_path(path) as tmp, tmp.open("wb") as fh:
-        fh.write(rec.view(np.uint8).data)
+    write_records(rec, path)
 
 
 def smrmsg_companion_path(sbet_path: Path) -> Path:
