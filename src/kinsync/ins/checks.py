@@ -61,7 +61,7 @@ from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
-from kinsync.ins.file_rows import FileRows, rows_list
+from kinsync.ins.file_rows import MAX_LISTED, FileRows, rows_list
 from kinsync.ins.measurements import GnssData, ImuData
 from kinsync.ins.solution import InitialState
 
@@ -118,7 +118,6 @@ EARTH_RADIUS_M = 6.371e6
 IMU_MAX_INTERVAL_S = 0.1
 """Longest median IMU sampling interval (s, 10 Hz) taken as times in seconds: a longer one
 exceeding ``max_imu_gap_s`` means times in ms or µs, a shorter one a gap set too small."""
-_MAX_LISTED = 5
 
 
 def _check_gaps(
@@ -305,7 +304,8 @@ def _check_static_start(
         if (speed > STATIC_GNSS_SPEED_M_S).any():
             return []
     n_rows = int(np.count_nonzero(window))
-    first_line, last_line = (names or FileRows()).line(0), (names or FileRows()).line(n_rows - 1)
+    rows_of = names or FileRows()
+    first_line, last_line = rows_of.line(0), rows_of.line(n_rows - 1)
     lines = "" if first_line is None else f", lines {first_line}-{last_line}"
     where = f"{source}: static start (rows 0-{n_rows - 1}{lines}, first {static_s:g} s)"
     gyro_mean = float(np.linalg.norm(imu.gyro_body_rad_s[window].mean(axis=0)))
@@ -507,14 +507,14 @@ def check_gnss_rejections(
         return []
     rows_of = gnss_rows or FileRows()
     listed = []
-    for i, t in enumerate(rejected_t_s[:_MAX_LISTED].tolist()):
+    for i, t in enumerate(rejected_t_s[:MAX_LISTED].tolist()):
         where = (
             f" ({rows_of.where(int(rejected_rows[i]))})"
             if rejected_rows is not None and i < len(rejected_rows)
             else ""
         )
         listed.append(f"{t:.3f}{where}")
-    more = f" and {n_rej - _MAX_LISTED} more" if n_rej > _MAX_LISTED else ""
+    more = f" and {n_rej - MAX_LISTED} more" if n_rej > MAX_LISTED else ""
     head = (
         f"{gnss_source}: the chi-square gate rejected {n_rej} of {n} GNSS epochs "
         f"({n_rej / n:.1%}; a filter that fits its data rejects about {expected:.2%}) at "

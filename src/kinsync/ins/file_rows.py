@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["FileRows", "rows_list"]
+__all__ = ["MAX_LISTED", "FileRows", "rows_list"]
 
 MAX_LISTED = 5
 """Rows a message lists before it says how many there are in all."""
