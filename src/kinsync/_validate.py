@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.errors import InputError
+from kinsync.frames import WGS84_A_M, WGS84_B_M
 
 __all__ = [
     "ANGLE_STEP_RAD",
@@ -61,10 +62,8 @@ ANGLE_STEP_RAD = 1e-6
 """Coarsest step (rad) a float dtype may hold angles in: 1 urad, 0.1 mm at 100 m (float32
 holds 2.4e-7 rad near pi, float16 1e-3 rad)."""
 
-_WGS84_A_M = 6_378_137.0
-_WGS84_B_M = 6_356_752.314245
 
-DEGREE_STEP_DEG = math.degrees(COORDINATE_STEP_M / _WGS84_A_M)
+DEGREE_STEP_DEG = math.degrees(COORDINATE_STEP_M / WGS84_A_M)
 """Coarsest step (deg) a float dtype may hold latitudes and longitudes in: 9e-10 deg,
 `COORDINATE_STEP_M` (0.1 mm) along the equator (float32 holds 3.8e-6 deg, 0.4 m, near
 47 deg)."""
@@ -441,7 +440,7 @@ def ecef_height_m(rows: FloatArray) -> FloatArray:
         radius = np.linalg.norm(rows, axis=1)
         sin2 = np.divide(rows[:, 2] ** 2, radius**2, out=np.zeros_like(radius), where=radius > 0)
         cos2 = 1.0 - sin2
-        surface = _WGS84_A_M * _WGS84_B_M / np.sqrt(_WGS84_B_M**2 * cos2 + _WGS84_A_M**2 * sin2)
+        surface = WGS84_A_M * WGS84_B_M / np.sqrt(WGS84_B_M**2 * cos2 + WGS84_A_M**2 * sin2)
         out: FloatArray = radius - surface
     return out
 
