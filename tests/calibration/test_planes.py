@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from kinsync.calibration.planes import _orientation_class
+from kinsync.calibration.planes import _capped, _orientation_class
 
 
 @pytest.mark.parametrize("azimuth_deg", np.arange(0.0, 360.0, 7.0))
@@ -37,3 +37,19 @@ def test_slopes_and_ground_keep_their_classes(azimuth_deg: float) -> None:
     facing_away = np.array([-slope[0], -slope[1], slope[2]])
     assert _orientation_class(facing_away) != _orientation_class(slope)  # downhill differs
     assert _orientation_class(np.array([0.1, 0.0, math.sqrt(0.99)])) == 0
+
+
+def test_a_wall_class_keeps_twice_the_patches_of_ground_or_slope() -> None:
+    """The cap per class: a wall's sectors span half the circle of a slope's, so a wall
+    class keeps twice as many of its largest patches; the order within a class is kept."""
+    by_class = {
+        0: list(range(30)),  # ground
+        5: list(range(100, 130)),  # one wall sector
+        14: list(range(200, 230)),  # one slope sector
+        12: [300, 301],  # a wall sector with fewer than the cap
+    }
+    chosen = _capped(by_class, 12)
+    assert [p for p in chosen if p < 100] == list(range(12))
+    assert [p for p in chosen if 100 <= p < 200] == list(range(100, 124))
+    assert [p for p in chosen if 200 <= p < 300] == list(range(200, 212))
+    assert [p for p in chosen if p >= 300] == [300, 301]

@@ -410,6 +410,19 @@ def _no_candidates(st: _Voxels, opt: PatchOptions, n_lines: int) -> InputError:
     )
 
 
+def _capped(by_class: dict[int, list[int]], max_per_class: int) -> list[int]:
+    """The first ``max_per_class`` patches of each class, twice that of a wall class.
+
+    A wall class has twice the share because its twelve 15 deg sectors span 180 deg
+    only (a wall's normal points either way), where a slope's sectors span 360 deg.
+    """
+    return [
+        p
+        for c, ps in by_class.items()
+        for p in ps[: max_per_class * (2 if c in _WALL_CLASSES else 1)]
+    ]
+
+
 def _select(
     models: Sequence[LineModel],
     x_all: FloatArray,
@@ -437,11 +450,7 @@ def _select(
     by_class: dict[int, list[int]] = {}
     for p in sorted(members_of, key=lambda q: -members_of[q].size):
         by_class.setdefault(_orientation_class(normal_of[p]), []).append(p)
-    chosen = [  # a wall class twice as many: the twelve 15 deg sectors span 180 deg only
-        p
-        for c, ps in by_class.items()
-        for p in ps[: opt.max_patches_per_class * (2 if c in _WALL_CLASSES else 1)]
-    ]
+    chosen = _capped(by_class, opt.max_patches_per_class)
     features: list[PlaneFeature] = []
     observations: list[Observation] = []
     for p in chosen:
