@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import math
 import os
 import sys
@@ -155,7 +156,11 @@ def main() -> None:
             run(f"processes, {w} worker(s)", "processes", w)
         for w in counts if "dask" in kinds else ():  # a running cluster: start-up not counted
             with distributed.LocalCluster(
-                n_workers=w, threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=w,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL,  # a worker's heartbeat at close is no result
             ) as cluster:
                 run(f"dask, {w} worker(s)", str(cluster.scheduler_address), w)
         tiny = write_inputs(folder / "tiny", 1000, args.input)
