@@ -474,7 +474,7 @@ def _refused(sim: DriveScanSimulation, prior_s: float) -> PeriodPriorError:
     return info.value
 
 
-@pytest.mark.parametrize("prior_s", [0.0333, 0.028, 0.031, 0.0606, 0.015])
+@pytest.mark.parametrize("prior_s", [0.0333, 0.028, 0.031, 0.0606, 0.015, 30.3, 0.303, 0.00303])
 def test_a_wrong_period_prior_is_refused(
     oval: DriveScanSimulation, oval_result: ObjectSpaceResult, prior_s: float
 ) -> None:
@@ -483,6 +483,9 @@ def test_a_wrong_period_prior_is_refused(
     Two pairs always fit a line, so some pair of sightings matched by chance; now the
     search over periods within a factor 2.5 of the prior finds the clock that fits all
     six sync-point sightings and the prior is refused, naming what each period fits.
+    A prior in the wrong unit (30.3 or 0.303 for 0.0303 s), beyond that factor, had been
+    "no assignment ... check the prior, the mount and the sync points", and 0.00303 had
+    been "ambiguous": the period the sighting pairs agree on is searched too.
     """
     err = _refused(oval, prior_s)
     msg = str(err)
@@ -500,6 +503,9 @@ def test_a_wrong_period_prior_is_refused(
     assert "datasheet or log" in msg
     off = err.suggested_period_s / prior_s - 1.0
     assert ("widen --period-tolerance" in msg) == (abs(off) < 0.49)
+    far = not 1.0 / 2.5 <= err.suggested_period_s / prior_s <= 2.5
+    assert ("the prior is seconds per profile, e.g. 0.0303 for 33 rev/s" in msg) == far
+    assert ("1/992 of it" in msg) == (prior_s == 30.3)
     # The suggestion gives the clock of a right prior.
     r = synchronise_object_space(
         oval.scanner.scan,

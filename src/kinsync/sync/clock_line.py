@@ -39,6 +39,7 @@ __all__ = [
     "check_period_prior",
     "compatible_crossings",
     "gls_line",
+    "implied_period_s",
     "pair_covariance",
     "pair_timing_std",
     "refine_assignment",
@@ -548,6 +549,62 @@ wrong prior; `check_period_prior`): a prior off by a factor of two (profiles per
 revolution, a datasheet's line rate for its revolution rate) is still caught."""
 
 
+IMPLIED_PERIOD_PAIRS = 6
+"""Sighting pairs that must agree (within `IMPLIED_PERIOD_AGREE`) on one period before
+`implied_period_s` gives it: four sightings of one clock make six pairs."""
+
+IMPLIED_PERIOD_AGREE = 0.01
+"""Relative spread of the periods of pairs that agree (`implied_period_s`)."""
+
+IMPLIED_PERIOD_SPAN = 1.05
+"""`check_period_prior` searches within this factor of the implied period (the median
+of agreeing pairs, each off by its sightings' timing errors)."""
+
+
+def implied_period_s(
+    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
+) -> float | None:
+    """The period most sighting pairs agree on, whatever the prior (s), or None.
+
+    Each pair of sightings (profiles ``p_i < p_j``, at least one apart), each taken with
+    a compatible crossing (`compatible_crossings`, times ``t_a < t_b``), implies the
+    period ``(t_b - t_a) / (p_j - p_i)``; the true clock makes every pair of its own
+    sightings agree. The crossings come from the geometry alone, so this finds a prior
+    given in the wrong unit (30.3 for 0.0303 s), far beyond `PERIOD_SEARCH_FACTOR`.
+
+    Parameters
+    ----------
+    sightings, crossings : sequence of Sighting, Crossing
+    cfg : ObjectSpaceConfig
+        The gates of `compatible_crossings`.
+
+    Returns
+    -------
+    float or None
+        The median period (s) of the largest group of pairs within
+        `IMPLIED_PERIOD_AGREE` of each other, when it holds `IMPLIED_PERIOD_PAIRS` or
+        more; else None.
+    """
+    compat = compatible_crossings(sightings, crossings, cfg)
+    t_c = np.array([c.t_s for c in crossings])
+    found: list[FloatArray] = []
+    for i, s_i in enumerate(sightings):
+        for j, s_j in enumerate(sightings):
+            dp = s_j.profile - s_i.profile
+            if dp >= 1.0 and compat[i].size and compat[j].size:
+                dt = t_c[compat[j]][None, :] - t_c[compat[i]][:, None]
+                found.append(dt[dt > 0.0] / dp)
+    periods = np.sort(np.concatenate(found)) if found else np.empty(0)
+    if periods.size < IMPLIED_PERIOD_PAIRS:
+        return None
+    support = np.searchsorted(periods, periods * (1.0 + IMPLIED_PERIOD_AGREE), side="right")
+    support -= np.arange(periods.size)
+    k = int(np.argmax(support))
+    if support[k] < IMPLIED_PERIOD_PAIRS:
+        return None
+    return float(np.median(periods[k : k + support[k]]))
+
+
 def check_period_prior(
     ranked: Sequence[Assignment],
     sightings: Sequence[Sighting],
@@ -559,7 +616,9 @@ def check_period_prior(
 
     See `kinsync.sync.object_space`, step 3, a wrong prior: the search runs over periods
     within a factor `PERIOD_SEARCH_FACTOR` of ``period_prior_s``; a line must hold more
-    sightings than the best within the window and at least three.
+    sightings than the best within the window and at least three. When it finds none,
+    and the period the sighting pairs agree on (`implied_period_s`) lies beyond that
+    factor (a prior in the wrong unit), the search runs again around it.
 
     Parameters
     ----------
@@ -582,6 +641,12 @@ def check_period_prior(
     wider = best_assignment(
         sightings, crossings, cfg, bounds, more_than=max(n_in, 2), per_pair=per_pair
     )
+    implied = None if wider is not None else implied_period_s(sightings, crossings, cfg)
+    if implied is not None and not bounds[0] <= implied <= bounds[1]:  # a unit mistake
+        near = (implied / IMPLIED_PERIOD_SPAN, implied * IMPLIED_PERIOD_SPAN)
+        wider = best_assignment(
+            sightings, crossings, cfg, near, more_than=max(n_in, 2), per_pair=per_pair
+        )
     if wider is None:
         return
     period = wider.fit.period_s
@@ -593,10 +658,17 @@ def check_period_prior(
         if abs(off) < 0.49  # the tolerance must stay below 0.5
         else ""
     )
+    ratio = period / prior
+    how_far = (
+        f"{off * 100.0:+.1f} %"
+        if 1.0 / PERIOD_SEARCH_FACTOR <= ratio <= PERIOD_SEARCH_FACTOR
+        else (f"{ratio:.4g} times it" if ratio > 1.0 else f"1/{1.0 / ratio:.4g} of it")
+        + ": the prior is seconds per profile, e.g. 0.0303 for 33 rev/s"
+    )
     msg = (
         f"--period-prior-s {prior:g} s: {n_in} of {len(sightings)} sightings fit a clock "
         f"with a period within {tol * 100.0:g} % of it, {len(wider.pairs)} fit one with a "
-        f"period of {period:.6g} s ({off * 100.0:+.1f} %): give the mirror period from "
+        f"period of {period:.6g} s ({how_far}): give the mirror period from "
         f"the scanner's datasheet or log (these data suggest --period-prior-s {period:.6g})" + widen
     )
     raise PeriodPriorError(
