@@ -19,7 +19,7 @@ import kinsync.sync
 from kinsync.cli import _output
 from kinsync.frames import geodetic_to_ecef
 from kinsync.io.mount_file import write_mount
-from kinsync.mount import Mount
+from kinsync.mount import Mount, MountUncertainty
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
@@ -72,6 +72,41 @@ def test_object_space_json(run_cli: RunCli, dataset: tuple[DriveScanSimulation, 
         assert {"name", "profile", "angle_rad", "t_s"} <= set(s)
         assert s["name"] in ("S1", "S2")
     assert doc["ambiguous"] is False
+
+
+def test_object_space_holds_the_mounts_stated_errors(
+    run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path
+) -> None:
+    """The mount's [uncertainty] is in the clock's sigma; without it a warning says so."""
+    sim, folder = dataset
+    code, out, err = run_cli([*_object_space(folder), "--json"])
+    assert code == 0, err
+    exact = json.loads(out)
+    assert exact["t0_std_s"] == exact["t0_std_data_s"]
+    assert "lever_x_m" in exact["mount_effect"]["exact"]
+    assert "kinsync: warning: the clock's sigma takes the mount as exact where it gives no " in err
+    assert "1 cm of lever_x_m moves t0 by -" in err
+    unc = MountUncertainty(
+        lever_arm_body_m=(0.02, 0.02, 0.02), boresight_rpy_deg=(0.5, 0.5, 0.5), latency_s=0.001
+    )
+    stated = tmp_path / "mount.toml"
+    write_mount(dataclasses.replace(sim.config.mount, uncertainty=unc), stated)
+    args = _object_space(folder)
+    args[args.index(str(folder / "mount.toml"))] = str(stated)
+    code, out, err = run_cli(args)
+    assert code == 0, err
+    assert "takes the mount as exact" not in err
+    assert "of which the mount's (ms)" in out
+    assert "of which the mount's (us)" in out
+    code, out, err = run_cli([*args, "--json"])
+    doc = json.loads(out)
+    assert doc["t0_s"] == exact["t0_s"]
+    assert doc["t0_std_data_s"] == pytest.approx(exact["t0_std_s"])
+    assert doc["t0_std_s"] ** 2 == pytest.approx(
+        doc["t0_std_data_s"] ** 2 + doc["mount_effect"]["t0_std_s"] ** 2
+    )
+    assert doc["t0_std_s"] > 2.0 * doc["t0_std_data_s"]
+    assert doc["mount_effect"]["exact"] == []
 
 
 @pytest.mark.parametrize("width", [80, 60])

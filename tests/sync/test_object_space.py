@@ -26,6 +26,7 @@ from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
     ProfilerConfig,
+    exactly_known,
     profiles_near_targets,
     simulate_drive_scan,
     simulate_profiler,
@@ -254,7 +255,8 @@ def test_sync_points_a_little_off_are_named_not_dropped_silently(
     they were left out silently, and they are the ones that show the mismatch. A
     warning names them now, with how far off; the right coordinates stay silent.
     """
-    scan, traj, mount = oval.scanner.scan, oval.trajectory, oval.config.mount
+    scan, traj = oval.scanner.scan, oval.trajectory
+    mount = exactly_known(oval.config.mount)
     cfg = ObjectSpaceConfig()  # the CLI's defaults: 2 cm positions
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -536,7 +538,11 @@ def test_a_right_period_prior_raises_no_alarm(
     with warnings.catch_warnings():
         warnings.simplefilter("error", KinsyncWarning)  # six pairs: nothing to warn of
         r = synchronise_object_space(
-            oval.scanner.scan, oval.trajectory, oval.config.mount, oval.sync_points, cfg
+            oval.scanner.scan,
+            oval.trajectory,
+            exactly_known(oval.config.mount),
+            oval.sync_points,
+            cfg,
         )
     assert [s.t_s for s in r.sightings] == [s.t_s for s in oval_result.sightings]
     assert r.period_s == pytest.approx(oval_result.period_s, rel=1e-9)

@@ -169,8 +169,13 @@ def object_space(
     )
     table.add_row("t0 (s)", f"{result.t0_s:.6f}")
     table.add_row("t0 sigma (ms)", fmt(result.t0_std_s, 1e3))
+    mount_cov = None if result.mount_effect is None else result.mount_effect.covariance
+    if mount_cov is not None and mount_cov[0, 0] > 0.0:  # the mount file states sigma
+        table.add_row("  of which the mount's (ms)", fmt(math.sqrt(mount_cov[0, 0]), 1e3))
     table.add_row("period (s)", f"{result.period_s:.9f}")
     table.add_row("period sigma (us)", fmt(result.period_std_s, 1e6))
+    if mount_cov is not None and mount_cov[1, 1] > 0.0:
+        table.add_row("  of which the mount's (us)", fmt(math.sqrt(mount_cov[1, 1]), 1e6))
     table.add_row("sigma scale (residuals)", fmt(result.sigma_scale))
     table.add_row("unmatched sightings", str(len(result.unmatched)))
     table.add_row("crossings in trajectory gaps (left out)", str(len(result.crossings_in_gaps)))

@@ -24,6 +24,7 @@ from kinsync.demo.end_to_end_survey import (
 from kinsync.ins.alignment import align_static_gnss_heading
 from kinsync.ins.compare import Comparison, compare_to_truth
 from kinsync.ins.filter import InsResult, run_ins
+from kinsync.sim.profiler import exactly_known
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
 from kinsync.trajectory import Trajectory
@@ -192,17 +193,18 @@ def run_chain(survey: Survey, progress: Callable[[str], None] | None = None) -> 
     if progress:
         progress("end-to-end: Method B on the INS trajectory")
     horizontal_std_m = float(np.sqrt(np.mean(ins.smoothed.std_pos_ned_m[:, :2] ** 2)))
+    mount = exactly_known(survey.mount)  # the simulation's: exact
     sync = synchronise_object_space(
         survey.scan.scan,
         trajectory,
-        survey.mount,
+        mount,
         survey.sync_points,
         ObjectSpaceConfig(position_std_m=horizontal_std_m),
     )
     sync_exact = synchronise_object_space(
         survey.scan.scan,
         survey.truth,
-        survey.mount,
+        mount,
         survey.sync_points,
         ObjectSpaceConfig(position_std_m=0.0),
     )

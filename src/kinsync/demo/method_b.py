@@ -32,6 +32,7 @@ from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
+    exactly_known,
     simulate_drive_scan,
     write_drive_scan,
 )
@@ -80,7 +81,7 @@ def _simulate_and_synchronise(folder: Path) -> _MethodBRun:
     write_drive_scan(sim, folder)
     scan = read_profile_scan(folder / "scan.csv")
     traj = read_trajectory_csv(folder / "trajectory.csv")
-    mount = read_mount(folder / "mount.toml")
+    mount = exactly_known(read_mount(folder / "mount.toml"))  # the simulation's: exact
     points = read_sync_points(folder / "sync_points.csv")
     pulses = read_pulses(folder / "pulses.csv")
     exact = synchronise_object_space(

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -54,7 +54,7 @@ from kinsync.io.atomic import atomic_write_text
 from kinsync.io.mount_file import write_mount
 from kinsync.io.profile_scan import write_profile_scan, write_pulses, write_sync_points
 from kinsync.io.trajectory_csv import write_trajectory_csv
-from kinsync.mount import Mount
+from kinsync.mount import Mount, MountUncertainty
 from kinsync.sim.drive import figure_eight_route, oval_route
 from kinsync.sim.drive_truth import simulate_truth
 from kinsync.sim.folder import simulation_folder
@@ -71,6 +71,7 @@ __all__ = [
     "ProfilerConfig",
     "ProfilerSimulation",
     "drive_scan_size_problem",
+    "exactly_known",
     "profile_pulses",
     "profiles_near_targets",
     "simulate_drive_scan",
@@ -79,6 +80,23 @@ __all__ = [
 ]
 
 _CHUNK_BEAMS = 400_000
+
+
+def exactly_known(mount: Mount) -> Mount:
+    """``mount`` with every ``[uncertainty]`` value 0: a simulation's own, exact mount.
+
+    Method B adds the mount's stated errors to the clock's sigma and warns of the values
+    it takes as exact (`kinsync.sync.mount_effect`); the truth of a simulation is exact.
+
+    Parameters
+    ----------
+    mount : Mount
+        The simulation's mount.
+    """
+    known = MountUncertainty(
+        lever_arm_body_m=(0.0, 0.0, 0.0), boresight_rpy_deg=(0.0, 0.0, 0.0), latency_s=0.0
+    )
+    return replace(mount, uncertainty=known)
 
 
 @dataclass(frozen=True)

@@ -207,6 +207,7 @@ from kinsync.sync.crossings import (
     require_profiler_azimuth,
     search_crossings,
 )
+from kinsync.sync.mount_effect import MountEffect, crossing_shifts, exact_text, mount_effect
 from kinsync.sync.point_checks import (
     NearCrossing,
     near_crossings,
@@ -309,9 +310,14 @@ class ObjectSpaceResult:
     t0_s, period_s : float
         The clock ``t(n, phi) = t0 + (n + phi / 2 pi) T`` (s).
     t0_std_s, period_std_s : float
-        Standard deviations (s).
+        Standard deviations (s): the data's and the mount's stated errors
+        (`kinsync.sync.mount_effect`).
     covariance : tuple of tuple of float
-        2 x 2 covariance of (t0, T) (s^2).
+        2 x 2 covariance of (t0, T) (s^2), the data's and the mount's.
+    data_covariance : tuple of tuple of float
+        The part of ``covariance`` from the sightings and the trajectory alone (s^2).
+    mount_effect : MountEffect or None
+        What the mount's errors do to (t0, T), and which values are taken as exact.
     chi2 : float
         ``r^T C^-1 r``: squared residuals weighted by the pairs' a-priori covariance C
         (module step 5).
@@ -372,6 +378,8 @@ class ObjectSpaceResult:
     settled_by_pulses: bool = False
     crossings_in_gaps: tuple[GapCrossing, ...] = ()
     gap_threshold_s: float = math.inf
+    data_covariance: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    mount_effect: MountEffect | None = None
 
     def __post_init__(self) -> None:
         # A frozen result holds no mutable state: a read-only copy of the counts.
@@ -416,6 +424,9 @@ class ObjectSpaceResult:
             "period_s": self.period_s,
             "period_std_s": self.period_std_s,
             "covariance": [list(row) for row in self.covariance],
+            "t0_std_data_s": math.sqrt(self.data_covariance[0][0]),
+            "period_std_data_s": math.sqrt(self.data_covariance[1][1]),
+            "mount_effect": None if self.mount_effect is None else self.mount_effect.as_document(),
             "chi2": self.chi2,
             "sigma_scale": self.sigma_scale,
             "residuals_s": self.residuals_s.tolist(),
@@ -590,6 +601,8 @@ def synchronise_object_space(
         else _PulseTrain(pulses_t_s, pulses_source, pulses_where, cfg.period_window_s)
     )
 
+    shifts = crossing_shifts(trajectory, mount, sync_points, cfg, crossings)
+
     def finish(chosen: Assignment, others: Sequence[Assignment]) -> ObjectSpaceResult:
         """The result of one assignment, its matched sphere sightings refitted."""
         refined = list(sightings)
@@ -602,15 +615,21 @@ def synchronise_object_space(
                 fixed = refine_sighting(scan, detected[i][1], cfg, track, period)
                 if fixed.refinement == "sphere":  # else the matching's fit stands
                     refined[i] = fixed
-        out = _result(chosen, others, refined, crossings, n_cross, cfg, train, scan.n_profiles)
+        out = _result(
+            chosen, others, refined, crossings, n_cross, cfg, train, scan.n_profiles, shifts, mount
+        )
         return replace(out, crossings_in_gaps=search.in_gaps, gap_threshold_s=search.max_gap_s)
 
     runners_up = rivals or [a for a in ranked[1:] if len(a.pairs) == m]
     result = replace(finish(best, runners_up), ambiguous=bool(rivals))
     if train is not None and result.pulses is not None:
         result = _settle_by_pulses(result, best, rivals, runners_up, finish, train, scan.n_profiles)
-    if near := near_crossings_text(sync_points.source, result.unmatched_near):
-        warnings.warn(near, KinsyncWarning, stacklevel=2)
+    for said in (
+        near_crossings_text(sync_points.source, result.unmatched_near),
+        exact_text(result.mount_effect, result.data_covariance),
+    ):
+        if said:
+            warnings.warn(said, KinsyncWarning, stacklevel=2)
     return result
 
 
@@ -781,6 +800,8 @@ def _result(
     cfg: ObjectSpaceConfig,
     train: _PulseTrain | None,
     n_profiles: int,
+    shifts_s: FloatArray,
+    mount: Mount,
 ) -> ObjectSpaceResult:
     # Final T in the scan-side sigma; the pairs' full covariance (step 5) in a GLS fit.
     cov_t = pair_covariance(sightings, crossings, best.pairs, cfg, best.fit.period_s)
@@ -791,7 +812,9 @@ def _result(
     m = len(best.pairs)
     dof = m - 2
     scale = _variance_factor(fit.chi2, float(np.sum((fit.residuals_s / stds) ** 2)), dof)
-    cov = fit.covariance * scale
+    data = fit.covariance * scale
+    effect = mount_effect(xs, cov_t, shifts_s[:, [j for _, j in best.pairs]], mount)
+    cov = data + effect.covariance  # the mount's stated errors (kinsync.sync.mount_effect)
     matched = []
     for (i, j), res, sd in zip(best.pairs, fit.residuals_s, stds, strict=True):
         s, c = sightings[i], crossings[j]
@@ -828,6 +851,11 @@ def _result(
         t0_std_s=math.sqrt(cov[0, 0]),
         period_std_s=math.sqrt(cov[1, 1]),
         covariance=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
+        data_covariance=(
+            (float(data[0, 0]), float(data[0, 1])),
+            (float(data[1, 0]), float(data[1, 1])),
+        ),
+        mount_effect=effect,
         chi2=fit.chi2,
         sigma_scale=math.sqrt(scale),
         sightings=tuple(matched),
