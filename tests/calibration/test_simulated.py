@@ -3,6 +3,7 @@ reported sigma, the latency's sign, and what the data cannot determine."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import replace
 from typing import Any
 
@@ -258,8 +259,35 @@ def test_the_answer_depends_not_on_the_order_nor_the_names_of_the_lines_nor_a_re
         for p, q in zip(base.parameters, other.parameters, strict=True):
             assert p.name == q.name
             assert q.status == p.status, p.name
-            np.testing.assert_allclose(q.value, p.value, rtol=1e-7, atol=1e-12, err_msg=p.name)
+            np.testing.assert_allclose(q.value, p.value, rtol=1e-6, atol=1e-12, err_msg=p.name)
             np.testing.assert_allclose(q.std, p.std, rtol=1e-4, equal_nan=True, err_msg=p.name)
+    # Nor on the order of the returns within a file (a spatially sorted tile), nor on
+    # the time origin (adjusted standard time against seconds of week): the thinning
+    # was seeded by the absolute time of the feature's first return in file order,
+    # which moved the boresight by up to 1 sigma and its sigma by -33 to +15 %.
+    rng = np.random.default_rng(5)
+    shuffled = []
+    for ln in vehicle.lines:
+        perm = rng.permutation(ln.t_s.size)
+        shuffled.append(ScanLine(ln.name, ln.t_s[perm], ln.xyz_scanner_m[perm], ln.trajectory))
+    later = [
+        ScanLine(
+            ln.name,
+            ln.t_s + 1e5,
+            ln.xyz_scanner_m,
+            dataclasses.replace(ln.trajectory, t_s=ln.trajectory.t_s + 1e5),
+        )
+        for ln in vehicle.lines
+    ]
+    for other in (
+        calibrate_mount(shuffled, vehicle.mount_nominal, opts),
+        calibrate_mount(later, vehicle.mount_nominal, opts),
+    ):
+        for p, q in zip(base.parameters, other.parameters, strict=True):
+            assert q.status == p.status, p.name
+            if np.isfinite(p.std):
+                assert abs(q.value - p.value) < 1e-3 * p.std, p.name
+                assert q.std == pytest.approx(p.std, rel=1e-3), p.name
 
 
 def test_a_file_with_two_passes_is_named(vehicle: PatchTestSimulation) -> None:

@@ -194,16 +194,22 @@ def plane_from_points(x: FloatArray) -> PlaneFeature:
     return PlaneFeature(normal=normal, offset_m=0.0, reference_m=centroid)
 
 
-def thin_returns(idx: IntArray, limit: int, seed: int, line_t_s: FloatArray) -> IntArray:
+def thin_returns(
+    idx: IntArray, limit: int, seed: int, line_t_s: FloatArray, line_xyz_m: FloatArray
+) -> IntArray:
     """At most ``limit`` of one line's returns on one feature, drawn at random, sorted.
 
-    The draw is seeded by ``seed`` and the returns themselves (the time of the first of
-    them, to 1 us, and their number), so it depends neither on the order in which the
-    lines are given, nor on which other lines are given (a shared random stream made the
-    estimate and its sigma change with the file order, and with a file that was then
-    rejected), nor on what the files are called (a draw seeded by the line's name gave
-    another estimate for the same returns in a renamed file, or in a .las instead of a
-    .laz).
+    The same returns are drawn whatever the order of the lines, which other lines are
+    given (a shared random stream made the estimate and its sigma change with the file
+    order, and with a file that was then rejected), what the files are called (a draw
+    seeded by the line's name gave another estimate for the same returns in a renamed
+    file, or in a .las instead of a .laz), the order of the returns within the file (a
+    spatially sorted tile), and the time origin (GPS seconds of week or adjusted
+    standard time): the draw is seeded by ``seed``, the time of the first of the
+    returns from the line's first return (to 1 ms) and their number, and it draws from
+    the returns ordered by time, then scanner-frame x, y, z. Seeded by the absolute
+    time of the first return in file order, a shuffled file or times 1e5 s later moved
+    the boresight by up to 1 sigma and its sigma by -33 to +15 %.
 
     Parameters
     ----------
@@ -215,6 +221,9 @@ def thin_returns(idx: IntArray, limit: int, seed: int, line_t_s: FloatArray) -> 
         The options' seed.
     line_t_s : ndarray of float, shape (N,)
         The times of the line's returns (s), which ``idx`` indexes.
+    line_xyz_m : ndarray of float, shape (N, 3)
+        The line's returns in the scanner frame (m): ties in time (returns of one pulse)
+        are ordered by them.
 
     Returns
     -------
@@ -222,9 +231,10 @@ def thin_returns(idx: IntArray, limit: int, seed: int, line_t_s: FloatArray) -> 
     """
     if idx.size <= limit:
         return idx
-    first = int(idx.min())
-    t_first_us = round(float(line_t_s[first]) * 1e6) % (1 << 63)
-    key = [seed & 0xFFFFFFFF, t_first_us, int(idx.size)]
+    xyz = line_xyz_m[idx]
+    canonical = idx[np.lexsort((xyz[:, 2], xyz[:, 1], xyz[:, 0], line_t_s[idx]))]
+    t_rel_ms = round((float(line_t_s[canonical[0]]) - float(np.min(line_t_s))) * 1e3)
+    key = [seed & 0xFFFFFFFF, t_rel_ms % (1 << 63), int(idx.size)]
     rng = np.random.default_rng(key)
-    chosen: IntArray = np.sort(rng.choice(idx, limit, replace=False))
+    chosen: IntArray = np.sort(rng.choice(canonical, limit, replace=False))
     return chosen

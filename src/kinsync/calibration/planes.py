@@ -461,7 +461,8 @@ def _select(
             if idx is None:
                 continue
             idx = idx - offsets[li]
-            idx = thin_returns(idx, opt.max_points_per_line, opt.seed, models[li].line.t_s)
+            line = models[li].line
+            idx = thin_returns(idx, opt.max_points_per_line, opt.seed, line.t_s, line.xyz_scanner_m)
             per_line.append((int(li), idx))
         if len(per_line) < opt.min_lines or not _lines_agree(
             [x_all[offsets[li] + idx] for li, idx in per_line], opt

@@ -192,8 +192,10 @@ def find_sphere_targets(
     for fid, group in enumerate(groups):
         per_line = []
         for s in group:
-            t_s = models[s.line].line.t_s
-            idx = thin_returns(s.index, opt.max_points_per_line, opt.seed, t_s)
+            line = models[s.line].line
+            idx = thin_returns(
+                s.index, opt.max_points_per_line, opt.seed, line.t_s, line.xyz_scanner_m
+            )
             per_line.append((s.line, idx))
         # The start: the mean of the sightings' centres (a wrong mount scatters them;
         # one fit through every pass's returns would not converge), their median radius.
