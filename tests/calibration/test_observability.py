@@ -145,7 +145,11 @@ def test_a_boresight_near_90_deg_pitch_is_warned_about() -> None:
 
     assert gimbal_lock_warning(0.0) is None
     assert gimbal_lock_warning(-80.0) is None
-    for pitch in (85.0, 90.83, -89.0):
+    # (180, -150, 210) is the rotation (0, -30, 30), 60 deg from gimbal lock: it was
+    # warned about by its pitch's size; (180, 95, 180) is (0, 85, 0), near it.
+    assert gimbal_lock_warning(-149.63) is None
+    assert gimbal_lock_warning(180.0) is None
+    for pitch in (85.0, 90.83, -89.0, 95.0, -94.0):
         text = gimbal_lock_warning(pitch)
         assert text is not None
         assert f"the boresight pitch is {pitch:.2f} deg" in text

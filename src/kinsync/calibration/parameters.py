@@ -132,12 +132,15 @@ def gimbal_lock_warning(pitch_deg: float) -> str | None:
     yaw turn the scanner about nearly one axis, so their σ grow without bound and their
     statuses degrade while the data fix the scanner's orientation as well as anywhere.
 
+    Near is judged by ``|sin(pitch)|``, which an equivalent triple (roll + 180, 180 -
+    pitch, yaw + 180) shares: ``(180, -150, 210)`` is ``(0, -30, 30)``, 60 deg from it.
+
     Parameters
     ----------
     pitch_deg : float
         Boresight pitch (deg), the calibrated one (or the nominal one).
     """
-    if abs(pitch_deg) <= GIMBAL_PITCH_DEG:
+    if abs(math.sin(math.radians(pitch_deg))) <= math.sin(math.radians(GIMBAL_PITCH_DEG)):
         return None
     return (
         f"the boresight pitch is {pitch_deg:.2f} deg: near +-90 deg roll and yaw are nearly "
