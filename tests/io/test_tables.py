@@ -50,8 +50,25 @@ def test_bad_tables(tmp_path: Path, text: str, fragment: str) -> None:
     path = tmp_path / "bad.csv"
     path.write_text(text)
     with pytest.raises(InputError, match=fragment) as exc:
-        read_numeric_csv(path, ["t_s"])
+        read_numeric_csv(path, ["t_s"], ["x"])
     assert str(path) in str(exc.value)
+
+
+def test_a_text_column_beside_the_numbers_is_left_out_not_refused(tmp_path: Path) -> None:
+    """An IMU file with a `note` column was refused ("'x' is not a number") where one
+    with a `temp_c` column was read: a column the reader does not use is no error."""
+    path = tmp_path / "t.csv"
+    path.write_bytes(b't_s,note,x,temp_c,flag\n1,ok,2,20,1\n3,"a, b",4,21,\n5,\xe9t\xe9,6,22.5,0\n')
+    table = read_numeric_csv(path, ["t_s"], ["x"])
+    assert table.header == ("t_s", "note", "x", "temp_c", "flag")
+    assert list(table.columns) == ["t_s", "x", "temp_c"]  # numbers only: kept
+    np.testing.assert_array_equal(table.columns["x"], [2.0, 4.0, 6.0])
+    np.testing.assert_array_equal(table.columns["temp_c"], [20.0, 21.0, 22.5])
+    with pytest.raises(InputError, match=r"line 2, column 'note': 'ok' is not a number"):
+        read_numeric_csv(path, ["t_s", "note"])  # a column asked for must hold numbers
+    path.write_bytes(b"t_s,note,x\n1,ok,2\n3,no,4,5\n")
+    with pytest.raises(InputError, match="line 3 has 4 fields, the header has 3"):
+        read_numeric_csv(path, ["t_s"])
 
 
 def test_a_table_with_cr_line_ends_longer_than_the_probe_is_read(tmp_path: Path) -> None:
@@ -74,7 +91,7 @@ def test_a_byte_that_is_not_utf8_is_named_by_its_own_line(tmp_path: Path, line: 
     path.write_bytes(b"\n".join(rows) + b"\n")
     where = f"u.csv: line {line}: byte 0xE9 is not UTF-8 text"
     with pytest.raises(InputError, match=where):
-        read_numeric_csv(path, ["t_s"])
+        read_numeric_csv(path, ["t_s"], names.decode().split(","))
     with pytest.raises(InputError, match=where):
         read_navigation(path)
     with pytest.raises(InputError, match=where):

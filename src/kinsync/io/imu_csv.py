@@ -147,7 +147,7 @@ def read_imu_csv(path: Path) -> ImuData:
     if not any(has_rates) and not any(has_incs):
         msg = (
             f"{path}: no IMU columns; expected {','.join(IMU_RATE_COLUMNS)} (rates) or "
-            f"{','.join(IMU_INCREMENT_COLUMNS)} (increments); the header has {list(c)}"
+            f"{','.join(IMU_INCREMENT_COLUMNS)} (increments); the header has {list(table.header)}"
         )
         raise InputError(msg)
     form: ImuForm = "rates" if any(has_rates) else "increments"
@@ -155,7 +155,8 @@ def read_imu_csv(path: Path) -> ImuData:
     missing = [n for n in names if n not in c]
     if missing:
         msg = (
-            f"{path}: missing column(s) {missing} of the IMU {form} form; the header has {list(c)}"
+            f"{path}: missing column(s) {missing} of the IMU {form} form; the header has "
+            f"{list(table.header)}"
         )
         raise InputError(msg)
     if table.n_rows < 2:

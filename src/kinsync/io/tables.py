@@ -55,11 +55,15 @@ class NumericTable:
     source : str
         File the table came from (for messages).
     columns : dict of str to ndarray, shape (N,)
-        Every column of the file, by header name, float64.
+        The columns asked for (required, and optional ones present) and every other
+        column that holds numbers only, by header name, float64.
+    header : tuple of str
+        Every column name of the file, in order (a text column is not in ``columns``).
     """
 
     source: str
     columns: dict[str, FloatArray]
+    header: tuple[str, ...] = ()
 
     @property
     def n_rows(self) -> int:
@@ -90,16 +94,22 @@ def rows_to_lines(text: str, line_of_row: Callable[[int], int]) -> str:
     )
 
 
-def _locate_bad_cell(path: Path, header: list[str], empty_is_nan: Sequence[str] = ()) -> InputError:
-    err = _first_bad_cell(path, header, empty_is_nan)
+def _locate_bad_cell(
+    path: Path, header: list[str], wanted: Sequence[str], empty_is_nan: Sequence[str] = ()
+) -> InputError:
+    err = _first_bad_cell(path, header, wanted, empty_is_nan)
     return InputError(f"{path}: cannot read as a numeric CSV table") if err is None else err
 
 
 def _first_bad_cell(
-    path: Path, header: list[str], empty_is_nan: Sequence[str] = ()
+    path: Path, header: list[str], wanted: Sequence[str], empty_is_nan: Sequence[str] = ()
 ) -> InputError | None:
-    """The first cell that is not a plain number (an empty one of ``empty_is_nan`` is)."""
+    """The first ragged row, or cell of a ``wanted`` column that is not a plain number.
+
+    An empty cell of an ``empty_is_nan`` column is a number (NaN).
+    """
     blank_ok = set(empty_is_nan)
+    read = set(wanted)
     with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
         reader = csv.reader(fh)
         try:
@@ -107,17 +117,16 @@ def _first_bad_cell(
             for line_no, row in enumerate(reader, start=2):
                 if not row or all(not c.strip() for c in row):
                     continue
-                for cell in row:
-                    if (err := not_utf8_cell(path, line_no, cell)) is not None:
-                        return err
                 if len(row) != len(header):
                     return InputError(
                         f"{path}: line {line_no} has {len(row)} fields, the header has "
                         f"{len(header)}"
                     )
                 for name, cell in zip(header, row, strict=True):
-                    if name in blank_ok and not cell:
+                    if name not in read or (name in blank_ok and not cell):
                         continue
+                    if (err := not_utf8_cell(path, line_no, cell)) is not None:
+                        return err
                     try:
                         float(cell)
                     except ValueError:
@@ -138,9 +147,12 @@ def _first_bad_cell(
 
 
 def _read_float_columns_arrow(
-    path: Path, header: list[str], *, empty_is_null: bool = False
+    path: Path, header: list[str], wanted: Sequence[str], *, empty_is_null: bool = False
 ) -> dict[str, FloatArray] | None:
-    """All columns as float64 through pyarrow's multi-threaded CSV reader.
+    """The columns as float64 through pyarrow's multi-threaded CSV reader.
+
+    The ``wanted`` columns must be numbers; any other column is kept when it holds
+    numbers only, and left out when it holds text (a note, a flag).
 
     Returns None when the file is not clean numeric CSV (a non-number, an empty cell,
     a ragged row); the caller then names the first bad line. ``nan`` is a number, as
@@ -153,7 +165,7 @@ def _read_float_columns_arrow(
                 path,
                 read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
                 convert_options=pa_csv.ConvertOptions(
-                    column_types=dict.fromkeys(header, pa.float64()),
+                    column_types=dict.fromkeys(wanted, pa.float64()),
                     null_values=null_values,
                     strings_can_be_null=False,
                     quoted_strings_can_be_null=empty_is_null,
@@ -164,6 +176,9 @@ def _read_float_columns_arrow(
     return {
         name: np.asarray(table.column(name).to_numpy(zero_copy_only=False), dtype=np.float64)
         for name in header
+        if name in wanted
+        or pa.types.is_integer(table.column(name).type)
+        or pa.types.is_floating(table.column(name).type)
     }
 
 
@@ -183,8 +198,9 @@ def read_numeric_csv(
     required : sequence of str
         Columns that must be present.
     optional : sequence of str
-        Columns read when present (others are kept too; named in the message of a file
-        without a header row).
+        Columns read when present (named in the message of a file without a header
+        row). Other columns are kept when they hold numbers only; a text column (a
+        note, a flag) is left out, not refused.
     empty_is_nan : sequence of str
         Columns whose empty cells read as NaN (``nan`` means "not given" there); an empty
         cell elsewhere is refused as not a number.
@@ -221,14 +237,15 @@ def read_numeric_csv(
     if missing:
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
-    columns = _read_float_columns_arrow(path, header)
+    wanted = [h for h in header if h in required or h in optional]
+    columns = _read_float_columns_arrow(path, header, wanted)
     if columns is None and empty_is_nan:  # empty cells where they mean nan, and no other?
-        if (err := _first_bad_cell(path, header, empty_is_nan)) is not None:
+        if (err := _first_bad_cell(path, header, wanted, empty_is_nan)) is not None:
             raise err
-        columns = _read_float_columns_arrow(path, header, empty_is_null=True)
+        columns = _read_float_columns_arrow(path, header, wanted, empty_is_null=True)
     if columns is None:  # not clean numeric CSV: find and name the bad line
-        raise _locate_bad_cell(path, header, empty_is_nan)
-    return NumericTable(source=str(path), columns=columns)
+        raise _locate_bad_cell(path, header, wanted, empty_is_nan)
+    return NumericTable(source=str(path), columns=columns, header=tuple(header))
 
 
 def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
