@@ -342,7 +342,7 @@ def test_apply_bad_input(
         )
 
     assert_one_line_error(*apply("--column", "time"), "column 'time' is not in the header")
-    assert_one_line_error(*apply("--column", "label"), "line 2", "not a finite number")
+    assert_one_line_error(*apply("--column", "label"), "line 2", "is not a number")
     assert_one_line_error(*apply("--outside", "clip"), "--outside")
     assert_one_line_error(*apply(src=tmp_path / "none.csv"), "none.csv", "not found")
     assert_one_line_error(*apply(model=tmp_path / "none.json"), "none.json", "not found")

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import sys
 from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -13,6 +15,7 @@ import typer
 from kinsync._text import counted
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.cli._output import console, fmt, print_json, quantity_table
+from kinsync.cli._progress import progress_display
 from kinsync.clock import (
     CLOCK_FORMULA,
     CONVENTIONS,
@@ -25,9 +28,7 @@ from kinsync.clock import (
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.io.atomic import atomic_write_bytes
 from kinsync.messages import RejectedLine
-
-if TYPE_CHECKING:
-    from kinsync.io.tables import TextTable
+from kinsync.progress import Stages
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
 
@@ -175,7 +176,9 @@ def apply(
     """Add GPS time (s since 1980-01-06) to a CSV by applying a clock model to a column."""
     # Readers imported here, not at module level: they pull pyarrow, which other commands skip.
     from kinsync.io.clock_model import read_clock_model  # noqa: PLC0415
-    from kinsync.io.tables import read_time_column, write_with_column  # noqa: PLC0415
+    from kinsync.io.points import table_columns  # noqa: PLC0415
+    from kinsync.io.tables import read_time_column  # noqa: PLC0415
+    from kinsync.pipelines.clock_apply import write_with_gps_time  # noqa: PLC0415
 
     policy = _parse_outside(outside)
     if not out_column.strip() or any(c in out_column for c in ',"\r\n'):
@@ -188,29 +191,42 @@ def apply(
         msg = f"--out {out}: clock apply writes CSV; give a .csv file"
         raise InputError(msg)
     clock = read_clock_model(model)
-    table, t_local = read_time_column(in_path, column)
-    if out_column.strip() in [h.strip() for h in table.header]:
-        msg = (
-            f"{in_path}: already has a column {out_column!r}; choose another name with --out-column"
+    with progress_display("clock apply") as progress:
+        stages = Stages(progress, {"reading the time column": 1.0, "writing": 3.0})
+        stages.start("reading the time column")
+        t_local, line_of_row = read_time_column(in_path, column)
+        if out_column.strip() in [h.strip() for h in table_columns(in_path)]:
+            msg = (
+                f"{in_path}: already has a column {out_column!r}; choose another name with "
+                "--out-column"
+            )
+            raise InputError(msg)
+        inside = clock.inside_span(t_local)
+        used = policy or ("raise" if clock.piecewise else "extrapolate")
+        limits = None if policy is not None or clock.piecewise else clock.extrapolation_limits_s()
+        where = _Column(in_path, column, line_of_row)
+        if used == "raise":
+            _refuse_outside(clock, model, where, t_local, ~inside)
+        elif limits is not None:
+            far = (t_local < limits[0]) | (t_local > limits[1])
+            _refuse_far_outside(clock, model, where, t_local, far)
+        t_gps = clock.apply(t_local, outside=used)
+        stages.start("writing", f"writing {out}")
+        n_rows = write_with_gps_time(
+            in_path,
+            out,
+            out_column,
+            t_gps,
+            progress=lambda done: stages.say(f"writing: {done:,} of {t_gps.size:,} rows"),
         )
-        raise InputError(msg)
-    inside = clock.inside_span(t_local)
-    used = policy or ("raise" if clock.piecewise else "extrapolate")
-    limits = None if policy is not None or clock.piecewise else clock.extrapolation_limits_s()
-    if used == "raise":
-        _refuse_outside(clock, model, table, column, t_local, ~inside)
-    elif limits is not None:
-        far = (t_local < limits[0]) | (t_local > limits[1])
-        _refuse_far_outside(clock, model, table, column, t_local, far)
-    t_gps = clock.apply(t_local, outside=used)
-    write_with_column(out, table, out_column, t_gps)
+        stages.finish()
     n_outside = int(len(inside) - inside.sum())
     doc = {
         "in": str(in_path),
         "out": str(out),
         "column": column,
         "out_column": out_column,
-        "n_rows": len(table.rows),
+        "n_rows": n_rows,
         "n_outside_span": n_outside,
         "outside": used,
         "span_local_s": list(clock.span_local_s),
@@ -220,9 +236,7 @@ def apply(
     if as_json:
         print_json(doc)
         return
-    console.print(
-        f"{out}: {counted(len(table.rows), 'row')}, column {out_column} added (GPS seconds)"
-    )
+    console.print(f"{out}: {counted(n_rows, 'row')}, column {out_column} added (GPS seconds)")
     if n_outside:
         lo, hi = clock.span_local_s
         what = "extrapolated with the linear model" if used == "extrapolate" else "set to nan"
@@ -231,11 +245,19 @@ def apply(
         print(f"kinsync: note: {note}", file=sys.stderr)
 
 
+@dataclass(frozen=True)
+class _Column:
+    """The time column of a CSV, and how to name a data row's line."""
+
+    source: Path
+    name: str
+    line_of_row: Callable[[int], int]
+
+
 def _refuse_outside(
     clock: ClockModel,
     model: Path,
-    table: TextTable,
-    column: str,
+    column: _Column,
     t_local_s: FloatArray,
     outside: BoolArray,
 ) -> None:
@@ -246,7 +268,7 @@ def _refuse_outside(
     lo, hi = clock.span_local_s
     kind = "piecewise " if clock.piecewise else ""
     msg = (
-        f"{table.source}: line {table.lines[row]}, column {column!r}: "
+        f"{column.source}: line {column.line_of_row(row)}, column {column.name!r}: "
         f"{float(t_local_s[row])!r} s is outside the span the {kind}clock model {model} was "
         f"fitted on, [{lo!r}, {hi!r}] s ({counted(int(np.count_nonzero(outside)), 'row')} "
         "outside); fit the clock over a longer log, or give --outside nan (NaN there) or "
@@ -258,8 +280,7 @@ def _refuse_outside(
 def _refuse_far_outside(
     clock: ClockModel,
     model: Path,
-    table: TextTable,
-    column: str,
+    column: _Column,
     t_local_s: FloatArray,
     far: BoolArray,
 ) -> None:
@@ -271,7 +292,8 @@ def _refuse_far_outside(
     lo, hi = clock.span_local_s
     where = f"{lo - t:.6g} s before" if t < lo else f"{t - hi:.6g} s after"
     msg = (
-        f"{table.source}: line {table.lines[row]}, column {column!r}: {t!r} s lies {where} "
+        f"{column.source}: line {column.line_of_row(row)}, column {column.name!r}: {t!r} s "
+        f"lies {where} "
         f"the span the clock model {model} was fitted on, [{lo!r}, {hi!r}] s "
         f"({hi - lo:.6g} s long), further than that span's own length "
         f"({counted(int(np.count_nonzero(far)), 'row')} that far out): the column is most "

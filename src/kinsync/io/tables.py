@@ -7,7 +7,6 @@ first bad cell and reports its line and column, so a user can fix the file.
 from __future__ import annotations
 
 import csv
-import math
 import re
 import warnings
 from collections.abc import Callable, Sequence
@@ -36,13 +35,11 @@ from kinsync.io.text_lines import csv_header_row
 
 __all__ = [
     "NumericTable",
-    "TextTable",
     "read_csv_rows",
     "read_numeric_csv",
     "read_time_column",
     "rows_to_lines",
     "write_numeric_csv",
-    "write_with_column",
 ]
 
 
@@ -147,12 +144,18 @@ def _first_bad_cell(
 
 
 def _read_float_columns_arrow(
-    path: Path, header: list[str], wanted: Sequence[str], *, empty_is_null: bool = False
+    path: Path,
+    header: list[str],
+    wanted: Sequence[str],
+    *,
+    empty_is_null: bool = False,
+    only_named: bool = False,
 ) -> dict[str, FloatArray] | None:
     """The columns as float64 through pyarrow's multi-threaded CSV reader.
 
     The ``wanted`` columns must be numbers; any other column is kept when it holds
-    numbers only, and left out when it holds text (a note, a flag).
+    numbers only, and left out when it holds text (a note, a flag), or with
+    ``only_named`` not read at all.
 
     Returns None when the file is not clean numeric CSV (a non-number, an empty cell,
     a ragged row); the caller then names the first bad line. ``nan`` is a number, as
@@ -165,6 +168,7 @@ def _read_float_columns_arrow(
                 path,
                 read_options=pa_csv.ReadOptions(column_names=header, skip_rows=1),
                 convert_options=pa_csv.ConvertOptions(
+                    include_columns=list(wanted) if only_named else [],
                     column_types=dict.fromkeys(wanted, pa.float64()),
                     null_values=null_values,
                     strings_can_be_null=False,
@@ -175,7 +179,7 @@ def _read_float_columns_arrow(
         return None
     return {
         name: np.asarray(table.column(name).to_numpy(zero_copy_only=False), dtype=np.float64)
-        for name in header
+        for name in table.column_names
         if name in wanted
         or pa.types.is_integer(table.column(name).type)
         or pa.types.is_floating(table.column(name).type)
@@ -188,6 +192,7 @@ def read_numeric_csv(
     optional: Sequence[str] = (),
     *,
     empty_is_nan: Sequence[str] = (),
+    only_named: bool = False,
 ) -> NumericTable:
     """Read a comma-separated numeric table with a header row.
 
@@ -204,6 +209,8 @@ def read_numeric_csv(
     empty_is_nan : sequence of str
         Columns whose empty cells read as NaN (``nan`` means "not given" there); an empty
         cell elsewhere is refused as not a number.
+    only_named : bool
+        Read the required and optional columns only (no memory for the others).
 
     Raises
     ------
@@ -238,11 +245,13 @@ def read_numeric_csv(
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
     wanted = [h for h in header if h in required or h in optional]
-    columns = _read_float_columns_arrow(path, header, wanted)
+    columns = _read_float_columns_arrow(path, header, wanted, only_named=only_named)
     if columns is None and empty_is_nan:  # empty cells where they mean nan, and no other?
         if (err := _first_bad_cell(path, header, wanted, empty_is_nan)) is not None:
             raise err
-        columns = _read_float_columns_arrow(path, header, wanted, empty_is_null=True)
+        columns = _read_float_columns_arrow(
+            path, header, wanted, empty_is_null=True, only_named=only_named
+        )
     if columns is None:  # not clean numeric CSV: find and name the bad line
         raise _locate_bad_cell(path, header, wanted, empty_is_nan)
     return NumericTable(source=str(path), columns=columns, header=tuple(header))
@@ -266,28 +275,6 @@ def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
     with atomic_path(Path(path)) as tmp, tmp.open("wb") as fh:
         fh.write((",".join(names) + "\n").encode("utf-8"))
         pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
-
-
-@dataclass(frozen=True, eq=False)
-class TextTable:
-    """A CSV table kept as text, so it can be written back unchanged.
-
-    Attributes
-    ----------
-    source : str
-        File it came from.
-    header : tuple of str
-        Column names as in the file.
-    rows : tuple of tuple of str
-        Data rows (blank lines left out), each as long as the header.
-    lines : tuple of int
-        File line of each row (header = line 1).
-    """
-
-    source: str
-    header: tuple[str, ...]
-    rows: tuple[tuple[str, ...], ...]
-    lines: tuple[int, ...]
 
 
 def read_csv_rows(
@@ -352,8 +339,12 @@ def _ends_with_line_end(path: Path) -> bool:
         return True
 
 
-def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
-    """Read a CSV with a header, keeping every cell, and parse one column as times.
+def read_time_column(path: Path, column: str) -> tuple[FloatArray, Callable[[int], int]]:
+    """Read one column of a CSV with a header as times, and how to name a row's line.
+
+    Only that column is read (through pyarrow): the others may hold anything, and a
+    file of any size up to `MAX_TABLE_BYTES` takes 8 bytes a row
+    (`kinsync.pipelines.clock_apply` then streams the file to write it back).
 
     Parameters
     ----------
@@ -364,9 +355,10 @@ def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
 
     Returns
     -------
-    table : TextTable
     t_s : ndarray, shape (N,)
         The column as float64 (s).
+    line_of_row : callable
+        The file line (1-based, header = line 1) of a 0-based data row, for messages.
 
     Raises
     ------
@@ -377,65 +369,27 @@ def read_time_column(path: Path, column: str) -> tuple[TextTable, FloatArray]:
         plausible time (`kinsync.io.sanity.TIME_S`; with its line).
     """
     path = Path(path)
-    records = read_csv_rows(path)
-    if not records:
+    check_text_file(path, "CSV file", max_bytes=MAX_TABLE_BYTES)
+    names = [h.strip() for h in csv_header_row(path) or []]
+    if not names:
         msg = f"{path}: empty file; expected a header row with a column {column!r}"
         raise InputError(msg)
-    header = tuple(records[0][1])
-    names = [h.strip() for h in header]
     if names.count(column) != 1:
         what = "appears more than once in" if names.count(column) else "is not in"
         msg = f"{path}: column {column!r} {what} the header {names}; choose it with --column"
         raise InputError(msg)
-    col = names.index(column)
-    body = records[1:]
-    if not body:
+    table = read_numeric_csv(path, [column], only_named=True)
+    times = table.columns[column]
+    if times.size == 0:
         msg = f"{path}: no data rows after the header; nothing to convert"
         raise InputError(msg)
-    times = np.empty(len(body))
-    for i, (line, row) in enumerate(body):
-        if len(row) != len(header):
-            msg = f"{path}: line {line} has {len(row)} fields, the header has {len(header)}"
-            raise InputError(msg)
-        cell = row[col]
-        try:
-            value = float(cell)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
-            msg = f"{path}: line {line}, column {column!r}: {cell[:80]!r} is not a finite number"
-            raise InputError(msg)
-        times[i] = value
-    check_values(times, TIME_S, lambda i: f"{path}: line {body[i][0]}, column {column!r}")
-    table = TextTable(
-        source=str(path),
-        header=header,
-        rows=tuple(tuple(row) for _, row in body),
-        lines=tuple(line for line, _ in body),
-    )
-    return table, times
-
-
-def write_with_column(path: Path, table: TextTable, name: str, values: FloatArray) -> None:
-    """Write ``table`` with one more column ``name`` (floats in ``repr`` precision), atomically.
-
-    Every original cell is written back as read; non-finite values are written ``nan``.
-
-    Raises
-    ------
-    InputError
-        The table already has a column ``name``, or ``values`` does not have one value
-        per row.
-    """
-    if name in [h.strip() for h in table.header]:
-        msg = f"{table.source}: already has a column {name!r}; choose another output column name"
+    bad = np.flatnonzero(~np.isfinite(times))
+    if bad.size:
+        row = int(bad[0])
+        msg = (
+            f"{path}: line {table.line_of_row(row)}, column {column!r}: "
+            f"{float(times[row])!r} is not a finite number"
+        )
         raise InputError(msg)
-    v = np.asarray(values, dtype=np.float64)
-    if v.shape != (len(table.rows),):
-        msg = f"{name}: expected {len(table.rows)} values, one per row, got shape {v.shape}"
-        raise InputError(msg)
-    with atomic_path(Path(path)) as tmp, tmp.open("w", encoding="utf-8", newline="") as fh:
-        writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow([*table.header, name])
-        for row, value in zip(table.rows, v.tolist(), strict=True):
-            writer.writerow([*row, repr(value) if math.isfinite(value) else "nan"])
+    check_values(times, TIME_S, lambda i: f"{path}: line {table.line_of_row(i)}, column {column!r}")
+    return times, table.line_of_row
