@@ -113,6 +113,7 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "points_in",
         "points_out",
         "points_rejected",
+        "rejected_file",
         "seconds",
         "points_per_s",
         "crs",
@@ -121,6 +122,7 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "warnings",
     }
     assert doc["warnings"] == []
+    assert doc["rejected_file"] is None
     assert doc["mount"] == {
         "lever_arm_body_m": [0.5, 0.1, -1.0],
         "boresight_rpy_deg": [0.5, -0.3, 90.0],
@@ -266,6 +268,7 @@ def test_outside_span_error_and_reject(
     doc = json.loads(stdout)
     assert doc["points_rejected"] == n_out
     assert doc["points_out"] == N_POINTS - n_out
+    assert doc["rejected_file"] == str(setup["dir"] / "geo.rejected.csv")
     rejected = pa_csv.read_csv(setup["dir"] / "geo.rejected.csv")
     assert rejected.num_rows == n_out
     assert rejected.column_names == list(cols)

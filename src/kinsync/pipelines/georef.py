@@ -163,6 +163,7 @@ class GeorefSummary:
             "points_in": self.points_in,
             "points_out": self.points_out,
             "points_rejected": self.points_rejected,
+            "rejected_file": None if self.rejected_path is None else str(self.rejected_path),
             "seconds": self.seconds,
             "points_per_s": self.points_per_s,
             "crs": None if self.crs is None else self.crs.as_document(),
