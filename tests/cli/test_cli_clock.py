@@ -182,6 +182,30 @@ def test_apply_keeps_every_column_and_row(run_cli: RunCli, logs: Path, tmp_path:
     assert not list(tmp_path.glob("*.part"))
 
 
+@pytest.mark.parametrize("piecewise", [False, True], ids=["linear", "piecewise"])
+def test_fit_json_table_and_model_file_describe_one_model(
+    run_cli: RunCli, logs: Path, tmp_path: Path, piecewise: bool
+) -> None:
+    """--json, the table and --model-out give the same formula and piecewise knots."""
+    model = tmp_path / "model.json"
+    extra = ["--piecewise"] if piecewise else []
+    code, stdout, err = run_cli(fit_args(logs, "--json", *extra, "--model-out", str(model)))
+    assert code == 0, err
+    doc = json.loads(stdout)
+    written = json.loads(model.read_text())
+    assert doc["formula"] == written["formula"] == read_clock_model(model).formula
+    assert doc["piecewise"] == written["piecewise"]
+    if piecewise:
+        assert doc["formula"].startswith("t_gps_s = knots_gps_s[k] + ")
+        assert len(doc["piecewise"]["knots_local_s"]) == doc["n_pulses"]
+    else:
+        assert doc["formula"].startswith("t_gps_s = reference_gps_s + ")
+        assert doc["piecewise"] is None
+    code, table, err = run_cli(fit_args(logs, *extra))
+    assert code == 0, err
+    assert doc["formula"] in table
+
+
 def test_apply_outside_span(
     run_cli: RunCli, logs: Path, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:

@@ -17,7 +17,6 @@ from kinsync._typing import BoolArray, FloatArray
 from kinsync.cli._output import console, fmt, print_json, quantity_table
 from kinsync.cli._progress import progress_display
 from kinsync.clock import (
-    CLOCK_FORMULA,
     CONVENTIONS,
     OUTSIDE_POLICIES,
     ClockModel,
@@ -128,7 +127,7 @@ def fit(
     table.add_row("ZDA transmission start after its edge (ms)", fmt(result.zda_delay_s, 1e3, 5))
     table.add_row("model", "piecewise-linear between pulses" if m.piecewise else "linear")
     console.print(table)
-    console.print(CLOCK_FORMULA)
+    console.print(m.formula)
     _print_rejected(rejected)
     if model_out is not None:
         console.print(f"model: {model_out}")

@@ -64,7 +64,7 @@ from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._validate import positive_number
 from kinsync.budget import Parity, serial_transmission_time_s
 from kinsync.clock.leap_seconds import zda_to_gps_s
-from kinsync.clock.model import CLOCK_FORMULA, ClockModel, _finite_times
+from kinsync.clock.model import ClockModel, _finite_times
 from kinsync.clock.steps import (
     WHOLE_SECOND_TOLERANCE_S,
     check_phase_gaps,
@@ -287,12 +287,12 @@ class ClockFit:
             "drift_ppm": m.drift_ppm,
             "reference_local_s": m.reference_local_s,
             "reference_gps_s": m.reference_gps_s,
-            "formula": CLOCK_FORMULA,
+            "formula": m.formula,
             "offset_std_s": self.offset_std_s,
             "drift_std_ppm": self.drift_std_ppm,
             "residual_rms_s": self.residual_rms_s,
             "span_local_s": list(m.span_local_s),
-            "piecewise": m.piecewise,
+            "piecewise": m.knots_document(),
             "convention": self.convention,
             "baud": self.baud,
             "zda_delay_s": self.zda_delay_s,

@@ -30,6 +30,7 @@ __all__ = [
     "CLOCK_FORMULA",
     "EXTRAPOLATION_SPANS",
     "OUTSIDE_POLICIES",
+    "PIECEWISE_CLOCK_FORMULA",
     "ClockModel",
     "OutsidePolicy",
 ]
@@ -52,6 +53,14 @@ CLOCK_FORMULA = (
     "t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)"
 )
 """The linear clock model, as written in model files and JSON output."""
+
+PIECEWISE_CLOCK_FORMULA = (
+    "t_gps_s = knots_gps_s[k] + (t_local_s - knots_local_s[k]) * (knots_gps_s[k+1] - "
+    "knots_gps_s[k]) / (knots_local_s[k+1] - knots_local_s[k]) where knots_local_s[k] <= "
+    "t_local_s <= knots_local_s[k+1] (the good pulses); outside span_local_s, when "
+    f"extrapolated: {CLOCK_FORMULA}"
+)
+"""The piecewise-linear clock model, as written in model files and JSON output."""
 
 MODEL_KIND = "kinsync clock model"
 """The ``kind`` a model file states (`ClockModel.as_document`)."""
@@ -169,6 +178,11 @@ class ClockModel:
         on, whose float64 cannot say 1479384018.0000002 s from 1479384018 s.
         """
         return min(9, max(0, math.floor(-math.log10(self.offset_resolution_s))))
+
+    @property
+    def formula(self) -> str:
+        """The model as a formula: `CLOCK_FORMULA`, or `PIECEWISE_CLOCK_FORMULA`."""
+        return PIECEWISE_CLOCK_FORMULA if self.piecewise else CLOCK_FORMULA
 
     @property
     def piecewise(self) -> bool:
@@ -292,20 +306,31 @@ class ClockModel:
             "kind": MODEL_KIND,
             "version": MODEL_VERSION,
             "time_scale": "GPS seconds since 1980-01-06T00:00:00",
-            "formula": CLOCK_FORMULA,
+            "formula": self.formula,
             "reference_local_s": self.reference_local_s,
             "reference_gps_s": self.reference_gps_s,
             "drift_ppm": self.drift_ppm,
             "offset_s": self.offset_s,
             "span_local_s": list(self.span_local_s),
-            "piecewise": None,
+            "piecewise": self.knots_document(),
         }
-        if self.knots_local_s is not None and self.knots_gps_s is not None:
-            doc["piecewise"] = {
-                "knots_local_s": self.knots_local_s.tolist(),
-                "knots_gps_s": self.knots_gps_s.tolist(),
-            }
         return doc
+
+    def knots_document(self) -> dict[str, list[float]] | None:
+        """``piecewise`` of the model file and of ``clock fit --json``: the knots, or None.
+
+        Returns
+        -------
+        dict or None
+            ``{"knots_local_s": [...], "knots_gps_s": [...]}`` (s, K each) for the
+            piecewise model; None for the linear one.
+        """
+        if self.knots_local_s is None or self.knots_gps_s is None:
+            return None
+        return {
+            "knots_local_s": self.knots_local_s.tolist(),
+            "knots_gps_s": self.knots_gps_s.tolist(),
+        }
 
     @classmethod
     def from_document(cls, doc: object, source: str = "<document>") -> ClockModel:
