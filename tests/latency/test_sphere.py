@@ -17,6 +17,7 @@ from kinsync.latency.passes import SpherePass
 from kinsync.latency.planning import TableDesign, plan_latency_experiment
 from kinsync.latency.sphere import (
     PoolFit,
+    SphereLatencyResult,
     estimate_latency_sphere,
     fit_pool,
     latency_from_pool_pair,
@@ -237,6 +238,18 @@ def test_rate_with_one_sign_is_left_out_and_reported() -> None:
     result = estimate_latency_sphere(passes, radius_m=0.1)
     assert result.unpaired_rates_deg_s == (10.0,)
     assert [r.rate_deg_s for r in result.per_rate] == [18.0]
+    # Every pass read is used, rejected or listed as unpaired, with the reason.
+    assert [(r.source, r.rate_deg_s) for r in result.unpaired_passes] == [
+        (p.source, 10.0) for p in passes if p.rate_deg_s == 10.0
+    ]
+    assert "no pass at -10 deg/s" in result.unpaired_passes[0].reason
+    _assert_every_pass_accounted_for(result)
+
+
+def _assert_every_pass_accounted_for(result: SphereLatencyResult) -> None:
+    doc = result.as_document()
+    listed = doc["n_passes_used"] + len(doc["rejected_passes"]) + len(doc["unpaired_passes"])
+    assert listed == doc["n_passes"] == result.n_passes
 
 
 def _without_sphere(p: SpherePass, centre: np.ndarray, keep_first: int | None = None) -> SpherePass:
@@ -281,6 +294,11 @@ def test_a_rate_whose_passes_of_one_sign_hold_no_sphere_is_left_out() -> None:
     assert len(result.rejected_passes) == 3
     assert {r.rate_deg_s for r in result.rejected_passes} == {-10.0}
     assert result.n_passes_used == 6
+    assert {r.rate_deg_s for r in result.unpaired_passes} == {10.0}
+    assert len(result.unpaired_passes) == 3
+    assert all(r.n_sphere_points > 0 for r in result.unpaired_passes)
+    assert "the passes at -10 deg/s hold no usable sphere" in result.unpaired_passes[0].reason
+    _assert_every_pass_accounted_for(result)
 
 
 def test_a_rate_whose_pass_holds_only_a_corner_of_floor_and_walls_is_left_out() -> None:
@@ -391,14 +409,14 @@ def test_pool_keeps_the_gaussian_tail_to_four_robust_sigma_and_cuts_beyond() -> 
 
 def test_a_scanner_origin_failure_speaks_of_the_table_frame() -> None:
     """The fitter's origin_m advice is a Python name a CLI user cannot set."""
-    from kinsync.latency.sphere import _pool_failure  # noqa: PLC0415
+    from kinsync.latency.sphere_failures import pool_failure  # noqa: PLC0415
 
     err = InputError(
         "fit_sphere: only 3 of 400 points face origin_m and lie on beams that meet the "
         "fitted sphere at less than 80 deg incidence; origin_m does not look like the "
         "scanner that saw these points (check it and its frame)"
     )
-    text = _pool_failure(err, 0.1)
+    text = pool_failure(err, 0.1)
     assert "origin_m" not in text
     assert "table frame, centred on the table axis" in text
     assert "vessel survey passes are not rotating-table passes" in text

@@ -46,7 +46,8 @@ from kinsync.latency.planning import (
     checked_max_incidence_deg,
 )
 from kinsync.latency.rate_check import check_pass_rates
-from kinsync.latency.roi import ROI_OPTION, RoiCrop, checked_roi, crop_passes
+from kinsync.latency.roi import RoiCrop, checked_roi, crop_passes
+from kinsync.latency.sphere_failures import pool_failure as _pool_failure
 from kinsync.progress import Progress, report
 from kinsync.robust import robust_sigma
 
@@ -247,6 +248,11 @@ class SphereLatencyResult:
         Passes left out of the estimate, each with the reason: fewer than
         `MIN_SPHERE_POINTS_PER_PASS` of its points on the sphere fitted at its rate, or no
         sphere found at its rate at all.
+    unpaired_passes : tuple of RejectedPass
+        Passes left out because no pass of the opposite sign at their rate (about the
+        same axis) was given, or none of those holds a usable sphere, each with the
+        reason (``n_sphere_points`` 0 where its rate was not fitted). ``n_passes`` is
+        `n_passes_used` plus the rejected and the unpaired passes.
     roi : RoiCrop or None
         The region of interest and the points of each pass outside it (left out before
         segmentation); None when none was given. Point counts elsewhere in the result
@@ -268,6 +274,7 @@ class SphereLatencyResult:
     n_passes: int
     rejected_passes: tuple[RejectedPass, ...] = ()
     roi: RoiCrop | None = None
+    unpaired_passes: tuple[RejectedPass, ...] = ()
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -338,6 +345,7 @@ class SphereLatencyResult:
             "n_passes": self.n_passes,
             "n_passes_used": self.n_passes_used,
             "rejected_passes": [r.as_document() for r in self.rejected_passes],
+            "unpaired_passes": [r.as_document() for r in self.unpaired_passes],
             "roi": None if self.roi is None else self.roi.as_document(),
         }
 
@@ -539,78 +547,7 @@ def latency_from_pool_pair(plus: PoolFit, minus: PoolFit) -> RateLatency:
     )
 
 
-_FIT_PHRASES = (
-    # The sphere fitter's messages speak to a Python caller (its function and parameter
-    # names); a pool that fails is reported in the terms of the latency command.
-    ("segment_sphere: ", ""),
-    ("fit_sphere: ", ""),
-    ("; raise max_iterations or check the points", ""),
-    ("; raise max_iterations or fit without origin_m", ""),
-    (
-        (
-            "origin_m lies inside the fitted sphere; the ray model needs the scanner outside "
-            "the target (check origin_m and its frame)"
-        ),
-        (
-            "the fitted sphere encloses the scanner at the table centre (the origin of the "
-            "table-centred frame)"
-        ),
-    ),
-    (
-        ("origin_m does not look like the scanner that saw these points (check it and its frame)"),
-        (
-            "they do not look as seen from the table centre: the points must be in the "
-            "table frame, centred on the table axis where the scanner sits (vessel survey "
-            "passes are not rotating-table passes)"
-        ),
-    ),
-    ("face origin_m", "face the table centre"),
-    ("seen from origin_m", "seen from the table centre"),
-)
-
-_MAX_SPREAD_TO_RADIUS = 200.0
-"""A cloud spreading more than this many sphere radii hints at points not in metres."""
 _FAILURES_SHOWN = 2
-
-
-def _unit_hint(spread_m: float, radius_m: float | None) -> str:
-    """A hint at millimetres or feet when the cloud is far larger than the sphere."""
-    if radius_m is None or spread_m <= _MAX_SPREAD_TO_RADIUS * radius_m:
-        return ""
-    return (
-        f"; the points spread {spread_m:.3g} m, {spread_m / radius_m:.0f} times the sphere's "
-        f"radius {radius_m:g} m: are they in millimetres or feet? pass files are in metres"
-    )
-
-
-def _pool_failure(
-    err: InputError | ConvergenceError,
-    radius_m: float | None,
-    spread_m: float = 0.0,
-    *,
-    roi_given: bool = False,
-) -> str:
-    """Why no sphere was found in a pool, in the latency command's terms, with what to do."""
-    text = str(err)
-    for phrase, plain in _FIT_PHRASES:
-        text = text.replace(phrase, plain)
-    roi_advice = (
-        f"check that the region of interest (roi_ned_m, {ROI_OPTION}) holds the sphere"
-        if roi_given
-        else f"give a region of interest around the sphere (roi_ned_m, {ROI_OPTION}) to leave out "
-        "floor and walls"
-    )
-    text = text.replace("check the radius or the region of interest", roi_advice)
-    text += _unit_hint(spread_m, radius_m)
-    radius = (
-        f"that the sphere radius (radius_m, --radius-m, {radius_m:g} m) is right"
-        if radius_m is not None
-        else "the sphere radius (give it: radius_m, --radius-m)"
-    )
-    return (
-        f"{text}; check that the sphere is in view in these passes, that the points are "
-        f"in the table-centred frame, and {radius}"
-    )
 
 
 def _fit_pool_rejecting(
@@ -711,8 +648,11 @@ def _group_passes(
 
 def _pair_groups(
     passes: Sequence[SpherePass],
-) -> tuple[list[tuple[list[SpherePass], list[SpherePass]]], list[float]]:
-    """Pools at +omega and -omega paired by rate and axis, and the rates with one sign only."""
+) -> tuple[list[tuple[list[SpherePass], list[SpherePass]]], list[float], list[RejectedPass]]:
+    """Pools at +omega and -omega paired by rate and axis; rates with one sign only.
+
+    Also the passes at those rates, each left out with the reason (`_never_paired`).
+    """
     groups = _group_passes(passes)
     pairs: list[tuple[list[SpherePass], list[SpherePass]]] = []
     unpaired: list[float] = []
@@ -734,7 +674,45 @@ def _pair_groups(
             "Method A needs clockwise and counter-clockwise passes at the same rate"
         )
         raise InputError(msg)
-    return pairs, unpaired
+    return pairs, unpaired, _never_paired(passes, pairs)
+
+
+def _never_paired(
+    passes: Sequence[SpherePass], pairs: list[tuple[list[SpherePass], list[SpherePass]]]
+) -> list[RejectedPass]:
+    """The passes at a rate given with one sign only, left out with the reason."""
+    paired = {id(p) for pair in pairs for side in pair for p in side}
+    return [
+        RejectedPass(
+            p.source,
+            p.rate_deg_s,
+            p.n_points,
+            0,
+            f"no pass at {-p.rate_deg_s:+g} deg/s about the same axis to pair it with: "
+            "Method A needs passes of both signs at a rate",
+        )
+        for p in passes
+        if id(p) not in paired
+    ]
+
+
+def _left_without_partner(pool: PoolFit | None, side: Sequence[SpherePass]) -> list[RejectedPass]:
+    """The passes of a fitted pool left out because the opposite sign's hold no sphere.
+
+    None (the pool that failed, its passes rejected) gives none.
+    """
+    if pool is None:
+        return []
+    reason = (
+        f"the passes at {-pool.rate_deg_s:+g} deg/s hold no usable sphere (see the rejected "
+        "passes): Method A needs passes of both signs at a rate"
+    )
+    remaining = list(side)
+    left = []
+    for source, n_sphere in zip(pool.sources, pool.n_points_per_pass, strict=True):
+        p = remaining.pop(next(k for k, q in enumerate(remaining) if q.source == source))
+        left.append(RejectedPass(p.source, p.rate_deg_s, p.n_points, n_sphere, reason))
+    return left
 
 
 def _checked_origin(origin: ArrayLike) -> FloatArray:
@@ -781,7 +759,8 @@ def estimate_latency_sphere(
         tau > 0: the navigation data lag the scanner (SPEC section 1). A pass with no
         usable sphere (fewer than `MIN_SPHERE_POINTS_PER_PASS` of its points on the
         sphere fitted at its rate) is left out and listed in ``rejected_passes``; a rate
-        left with passes of one sign only is listed in ``unpaired_rates_deg_s``.
+        left with passes of one sign only is listed in ``unpaired_rates_deg_s``, and those
+        passes in ``unpaired_passes``.
 
     Raises
     ------
@@ -812,7 +791,7 @@ def estimate_latency_sphere(
     crop = None
     if roi is not None:
         passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
-    pairs, unpaired = _pair_groups(passes)
+    pairs, unpaired, alone = _pair_groups(passes)
     per_rate: list[RateLatency] = []
     rejected: list[RejectedPass] = []
     failures: list[str] = []
@@ -841,6 +820,9 @@ def estimate_latency_sphere(
         plus, minus = fits
         if plus is None or minus is None:
             unpaired.append(abs(plus_passes[0].rate_deg_s))
+            alone += _left_without_partner(plus, plus_passes) + _left_without_partner(
+                minus, minus_passes
+            )
             continue
         per_rate.append(latency_from_pool_pair(plus, minus))
     if not per_rate:
@@ -891,4 +873,5 @@ def estimate_latency_sphere(
         n_passes=len(passes),
         rejected_passes=tuple(rejected),
         roi=crop,
+        unpaired_passes=tuple(alone),
     )
