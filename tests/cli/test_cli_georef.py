@@ -275,6 +275,22 @@ def test_outside_span_error_and_reject(
     assert (rejected.column("t_s").to_numpy() < T0).all()
 
 
+def test_a_mount_warning_is_listed_in_the_json(run_cli: RunCli, setup: dict[str, Path]) -> None:
+    """The mount file's "beyond +-100 m" warning, printed on stderr, is in --json too."""
+    far = replace(MOUNT, lever_arm_body_m=(0.5, 0.1, -175.0))
+    write_mount(far, setup["mount"])
+    code, stdout, err = run_cli(_args(setup, setup["dir"] / "geo.csv", "--json"))
+    assert code == 0, err
+    printed = [
+        line.removeprefix("kinsync: warning: ")
+        for line in err.splitlines()
+        if line.startswith("kinsync: warning: ")
+    ]
+    assert len(printed) == 1, err
+    assert "beyond +-100 m" in printed[0]
+    assert json.loads(stdout)["warnings"] == printed
+
+
 def _write_las(path: Path, cols: dict[str, np.ndarray], *, adjusted: bool) -> None:
     header = laspy.LasHeader(point_format=6, version="1.4")
     header.scales = np.array([1e-4, 1e-4, 1e-4])

@@ -2,11 +2,13 @@
 
 Commands are thin: parse options, call the library, print. One JSON object on stdout
 with ``--json``, a rich table otherwise. Exit status 0 on success, 2 on bad input
-(a `KinsyncError` or a usage error, reported in one line on stderr) and on a full disk
-or disk quota (the output named, its partial file removed), 128 + the signal
-number when interrupted (130 for Ctrl-C / SIGINT, 143 for SIGTERM: unfinished outputs
-are removed on the way out, as on any error, and the outputs already complete are
-named), 1 on any other failure (set ``KINSYNC_DEBUG=1`` to see its traceback).
+(a `KinsyncError` or a usage error, reported in one line on stderr; a closed stdout
+too) and on a full disk or disk quota (the output named, its partial file removed),
+128 + the signal number when interrupted (130 for Ctrl-C / SIGINT, 143 for SIGTERM:
+unfinished outputs are removed on the way out, as on any error, and the outputs
+already complete are named), 141 (128 + SIGPIPE), quietly, when stdout's reader goes
+away (`kinsync.cli._streams`), 1 on any other failure (set ``KINSYNC_DEBUG=1`` to see
+its traceback).
 """
 
 from __future__ import annotations
@@ -22,6 +24,20 @@ from types import FrameType
 from typing import Any, TextIO
 
 from kinsync._text import first_few
+from kinsync.cli._record import (
+    WARNING_PREFIX,
+    drop_run,
+    record_warning,
+    start_run,
+    write_held_json,
+)
+from kinsync.cli._streams import (
+    OutputPipeClosed,
+    check_stdout_open,
+    exit_output_pipe_closed,
+    output_pipe_closed,
+    use_plain_symbols,
+)
 from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
 
 __all__ = ["app", "main"]
@@ -227,7 +243,8 @@ def _warnings_on_one_line() -> Iterator[None]:
     """A `KinsyncWarning` is printed once, ``kinsync: warning: ...``, on stderr.
 
     The warnings are held until the command ends and printed only when it succeeds: a
-    command that fails prints its one error line and nothing else.
+    command that fails prints its one error line and nothing else. Each is recorded for
+    the command's ``--json`` document (`kinsync.cli._record`).
     """
     held: list[str] = []
     with warnings.catch_warnings():
@@ -243,14 +260,15 @@ def _warnings_on_one_line() -> Iterator[None]:
             line: str | None = None,
         ) -> Any:
             if issubclass(category, KinsyncWarning):
-                held.append(f"kinsync: warning: {_one_line(str(message))}")
+                held.append(_one_line(str(message)))
                 return None
             return show(message, category, filename, lineno, file, line)
 
         warnings.showwarning = one_line
         yield
     for text in held:
-        print(text, file=sys.stderr)
+        record_warning(text)
+        print(WARNING_PREFIX + text, file=sys.stderr)
 
 
 def _check_arguments_are_text(args: Sequence[str]) -> None:
@@ -291,29 +309,61 @@ def _full_disk(err: BaseException) -> str | None:
     return f"{error}{_written_before(error)}"
 
 
+def _prepare_output() -> None:
+    """Refuse a closed stdout; spell symbols plain for another encoding; start the run."""
+    check_stdout_open()
+    use_plain_symbols()  # a Latin-1 or cp1252 terminal shows "sigma" for σ
+    start_run()
+
+
+def _run_command(argv: Sequence[str]) -> Any:
+    """Load the commands and run the one ``argv`` names; return its status.
+
+    A pipe closed under click's own output ends quietly too: click ends such a run with
+    status 1, nothing said, after it replaced stdout by its ``PacifyFlushWrapper``: the
+    status of a kinsync fault. The commands' own writes reach the entry point as
+    `OutputPipeClosed` (`_guard`).
+    """
+    import typer.main  # noqa: PLC0415
+
+    from kinsync.cli._options import (  # noqa: PLC0415
+        expand_multi_value_options,
+        refuse_repeated_options,
+    )
+    from kinsync.cli.app import app  # noqa: PLC0415
+
+    args = expand_multi_value_options(argv)
+    _check_arguments_are_text(args)
+    # The click command built once: it checks the options before running them.
+    command = typer.main.get_command(app)
+    refuse_repeated_options(command, args)
+    try:
+        return command(args=args, prog_name="kinsync", standalone_mode=False)
+    except SystemExit:
+        if type(sys.stdout).__name__ == "PacifyFlushWrapper":
+            exit_output_pipe_closed()
+        raise
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the program; never returns (exits with the command's status)."""
     try:
         # Ctrl-C is handled from here on, the heavy imports included (numpy, every
         # command module): an interruption during them exits 130 in one line.
         with _stop_signals_unwind(), _warnings_on_one_line():
-            import typer.main  # noqa: PLC0415
-
-            from kinsync.cli._options import (  # noqa: PLC0415
-                expand_multi_value_options,
-                refuse_repeated_options,
-            )
-            from kinsync.cli.app import app  # noqa: PLC0415
-
-            args = expand_multi_value_options(sys.argv[1:] if argv is None else argv)
-            _check_arguments_are_text(args)
-            # The click command built once: it checks the options before running them.
-            command = typer.main.get_command(app)
-            refuse_repeated_options(command, args)
-            result = command(args=args, prog_name="kinsync", standalone_mode=False)
+            _prepare_output()
+            result = _run_command(sys.argv[1:] if argv is None else argv)
+        write_held_json()  # the --json document, with the warnings just printed
+        sys.stdout.flush()  # a closed pipe is met here, not at exit
     except KeyboardInterrupt as err:
+        drop_run()
         _exit_interrupted(_signal_of(err) or int(signal.SIGINT))
     except Exception as err:
+        drop_run()
+        if isinstance(err, OutputPipeClosed) or (
+            isinstance(err, BrokenPipeError) and output_pipe_closed()
+        ):
+            exit_output_pipe_closed()  # | head -1: quietly, 141
         # A failure once a stop signal has come is its consequence (numba's compiler,
         # cut short inside a callback, fails later with "no compiled object yet").
         signum = _signal_of(err) or (_RECEIVED[0] if _RECEIVED else None)

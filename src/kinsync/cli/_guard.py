@@ -30,6 +30,7 @@ import typer
 
 from kinsync.cli._bounds import check_numeric_option
 from kinsync.cli._help import reflowed
+from kinsync.cli._streams import OutputPipeClosed, output_pipe_closed
 from kinsync.errors import InputError
 from kinsync.io.atomic import (
     ProtectedInput,
@@ -207,7 +208,13 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
 
                         check_simulation_folder(p, command.removeprefix("simulate "))
         with protected_inputs(inputs), named_outputs(outputs):
-            return callback(*args, **kwargs)
+            try:
+                return callback(*args, **kwargs)
+            except BrokenPipeError as err:
+                # stdout's reader left (| head -1); click would end with status 1, silent
+                if output_pipe_closed():
+                    raise OutputPipeClosed(str(err)) from err
+                raise
 
     return guarded
 

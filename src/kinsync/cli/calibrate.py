@@ -13,7 +13,7 @@ from kinsync._text import counted
 from kinsync.cli._bounds import bounds_for, check_numeric_option
 from kinsync.cli._help import literal
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, print_json
+from kinsync.cli._output import console, print_json, warn
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
@@ -189,7 +189,7 @@ def mount(
         )
         stages.finish()
     for line in (*run.result.warnings, *run.result.held_advice):
-        typer.echo(f"kinsync: warning: {line}", err=True)
+        warn(line)
     if as_json:
         doc: dict[str, Any] = run.result.as_document()
         doc["n_points"] = run.n_points

@@ -10,7 +10,7 @@ import typer
 
 from kinsync.cli._help import literal
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, fmt, print_json, quantity_table
+from kinsync.cli._output import console, fmt, print_json, quantity_table, warn
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.column_map import parse_column_map
@@ -217,7 +217,7 @@ def georef(
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     notes += summary.warnings
     for note in notes:
-        typer.echo(f"kinsync: warning: {note}", err=True)
+        warn(note)
     if as_json:
         print_json({**summary.as_document(), "mount": _applied_mount(the_mount), "warnings": notes})
         return

@@ -20,7 +20,7 @@ from rich.table import Table
 from kinsync._text import counted
 from kinsync.cli._help import literal
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, fmt, print_json, quantity_table
+from kinsync.cli._output import console, fmt, print_json, quantity_table, warn
 from kinsync.cli._progress import progress_display
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy
@@ -341,7 +341,7 @@ def run(
         report(progress, 1.0, "writing")
     warnings = [*result.warnings, *([_sbet_note(out)] if written else [])]
     for warning in warnings:  # after the run: a failed run prints one error line
-        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+        warn(warning)
     summary = _run_document(
         solution, config, seconds=seconds, smooth=smooth, out=out, states=result.error_states
     )
@@ -509,21 +509,19 @@ def compare(
     if result.n_in_truth_gaps:
         named = "; ".join(g.describe() for g in result.truth_gaps[:3])
         more = f"; and {len(result.truth_gaps) - 3} more" if len(result.truth_gaps) > 3 else ""
-        typer.echo(
-            f"kinsync: warning: {truth_path}: {counted(result.n_in_truth_gaps, 'solution epoch')} "
+        warn(
+            f"{truth_path}: {counted(result.n_in_truth_gaps, 'solution epoch')} "
             f"left out, in {counted(len(result.truth_gaps), 'data gap')} of the reference "
             f"({named}{more}), {gap_threshold_text(result.truth_gap_threshold_s)}, where it "
-            f"is not interpolated: {GAP_ADVICE}",
-            err=True,
+            f"is not interpolated: {GAP_ADVICE}"
         )
     if result.max_abs_pitch_deg > _GIMBAL_WARNING_PITCH_DEG:
-        typer.echo(
-            f"kinsync: warning: {truth_path}: the reference pitches to "
+        warn(
+            f"{truth_path}: the reference pitches to "
             f"{result.max_abs_pitch_deg:.2f} deg: near 90 deg roll and yaw are ill-defined "
             "(gimbal lock) and their differences can be large for a small misorientation; "
             "read the misorientation about N, E, D (misorientation RMS, "
-            "rms_misorientation_ned_deg) instead",
-            err=True,
+            "rms_misorientation_ned_deg) instead"
         )
     if as_json:
         print_json(result.as_document())

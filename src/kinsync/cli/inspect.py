@@ -10,7 +10,7 @@ import numpy as np
 import typer
 
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, print_json, quantity_table
+from kinsync.cli._output import console, print_json, quantity_table, warn
 from kinsync.cli._progress import progress_display
 from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError, KinsyncWarning
@@ -266,7 +266,7 @@ def trajectory_info(
     with progress_display("trajectory info") as progress:
         doc, check = _trajectory_info(path, gps_week, max_gap_s, smrmsg, progress)
     for warning in doc["warnings"]:
-        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+        warn(warning)
     if as_json:
         print_json(doc)
         return
@@ -457,7 +457,7 @@ def trajectory_export(
         )
     info = result.crs
     for warning in () if info is None else info.warnings:
-        typer.echo(f"kinsync: warning: {' '.join(warning.split())}", err=True)
+        warn(warning)
     if as_json:
         print_json(result.as_document())
         return

@@ -13,7 +13,7 @@ from kinsync._text import counted
 from kinsync.cli._bounds import bounds_for
 from kinsync.cli._help import literal
 from kinsync.cli._options import MaxGapOpt, parse_rates
-from kinsync.cli._output import console, print_json
+from kinsync.cli._output import console, print_json, warn
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_bytes
@@ -236,11 +236,10 @@ def sphere(
             "residual_latency_ms": result.latency_s * 1e3,
         }
     if result.rates_disagree:
-        typer.echo(
-            f"kinsync: warning: {folder}: the table rates disagree ({result.agreement_text()}); "
+        warn(
+            f"{folder}: the table rates disagree ({result.agreement_text()}); "
             "check each pass's signed rate (deg/s) and axis in passes.csv: a wrong sign, "
-            "unit or axis biases the latency, which the wider sigma does not remove",
-            err=True,
+            "unit or axis biases the latency, which the wider sigma does not remove"
         )
     if mount_out is not None:
         assert applied is not None  # _check_mount_options

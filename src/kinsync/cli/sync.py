@@ -12,7 +12,7 @@ from rich.table import Table
 from kinsync._text import counted
 from kinsync.cli._help import literal
 from kinsync.cli._options import GPS_WEEK_SPAN_HELP, MaxGapOpt, refuse_unused_gps_week
-from kinsync.cli._output import console, fmt, print_json, quantity_table
+from kinsync.cli._output import console, fmt, print_json, quantity_table, warn
 from kinsync.cli._progress import progress_display
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.io.mount_file import read_mount
@@ -223,20 +223,18 @@ def _warn_or_refuse(
         gaps = result.crossings_in_gaps
         named = "; ".join(f"{c.name} in {c.gap.describe()}" for c in gaps[:3])
         more = f"; and {len(gaps) - 3} more" if len(gaps) > 3 else ""
-        typer.echo(
-            f"kinsync: warning: {trajectory}: {len(gaps)} possible sync-point crossing(s) left "
+        warn(
+            f"{trajectory}: {len(gaps)} possible sync-point crossing(s) left "
             f"out, in data gaps of the trajectory ({named}{more}), "
             f"{gap_threshold_text(result.gap_threshold_s)}, where it is not interpolated; a "
-            f"sighting there stays unmatched: {GAP_ADVICE}",
-            err=True,
+            f"sighting there stays unmatched: {GAP_ADVICE}"
         )
     if result.ambiguous and not accept_ambiguous:
         raise ObservabilityError(_ambiguity_message(result, sync_points, pulses))
     if result.ambiguous:
-        typer.echo(
-            f"kinsync: warning: ambiguous: {len(result.alternatives)} other assignment(s) of "
-            "sightings to crossings fit almost as well; see 'alternatives'",
-            err=True,
+        warn(
+            f"ambiguous: {len(result.alternatives)} other assignment(s) of "
+            "sightings to crossings fit almost as well; see 'alternatives'"
         )
 
 
