@@ -19,6 +19,7 @@ from kinsync.cli._progress import progress_display
 from kinsync.clock import (
     CONVENTIONS,
     OUTSIDE_POLICIES,
+    ClockFit,
     ClockModel,
     Convention,
     OutsidePolicy,
@@ -26,7 +27,7 @@ from kinsync.clock import (
 )
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.io.atomic import atomic_write_bytes
-from kinsync.messages import RejectedLine
+from kinsync.messages import NmeaLog, RejectedLine
 from kinsync.progress import Stages
 
 app = typer.Typer(help="PPS + ZDA time tagging: map the local clock to GPS time.")
@@ -81,20 +82,8 @@ def fit(
     as_json: JsonOpt = False,
 ) -> None:
     """Fit offset and drift of the local clock from PPS edges and ZDA messages."""
-    # Readers imported here, not at module level: they pull pyarrow, which other commands skip.
-    from kinsync.io.clock_model import read_pps_csv, write_clock_model  # noqa: PLC0415
-    from kinsync.io.nmea import read_nmea_log  # noqa: PLC0415
-
     conv = parse_convention(convention)
-    pulses = read_pps_csv(pps)
-    log = read_nmea_log(nmea)
-    result = fit_clock_to_log(pulses, log, baud=baud, convention=conv, piecewise=piecewise)
-    if model_out is not None:
-        write_clock_model(result.model, model_out, result)
-    if figure is not None:
-        from kinsync.report.clock_figures import clock_residual_figure  # noqa: PLC0415  (matplotlib)
-
-        atomic_write_bytes(figure, clock_residual_figure(result))
+    result, log = _fit_logs(pps, nmea, baud, conv, piecewise, model_out, figure)
     doc: dict[str, Any] = result.as_document()
     rejected = sorted([*log.rejected, *result.rejected_zdas], key=lambda r: r.line)
     doc["rejected_lines"] = [{"line": r.line, "reason": r.reason} for r in rejected]
@@ -150,6 +139,40 @@ def _print_rejected(rejected: list[RejectedLine], shown: int = 5) -> None:
     if ignored:
         kinds = ", ".join(f"{n} {kind}" for kind, n in sorted(ignored.items()))
         console.print(f"ignored (sentence types kinsync does not read, not errors): {kinds}")
+
+
+def _fit_logs(
+    pps: Path,
+    nmea: Path,
+    baud: float,
+    conv: Convention,
+    piecewise: bool,
+    model_out: Path | None,
+    figure: Path | None,
+) -> tuple[ClockFit, NmeaLog]:
+    """Read the logs, fit the clock, write the model and the figure, showing the stages."""
+    # Readers imported here, not at module level: they pull pyarrow, which other commands skip.
+    from kinsync.io.clock_model import read_pps_csv, write_clock_model  # noqa: PLC0415
+    from kinsync.io.nmea import read_nmea_log  # noqa: PLC0415
+
+    with progress_display("clock fit") as progress:  # a day's NMEA log takes 10 s or more
+        stages = Stages(progress, {"reading the logs": 3.0, "fitting": 1.0, "writing": 1.0})
+        stages.start("reading the logs")
+        pulses = read_pps_csv(pps)
+        log = read_nmea_log(nmea)
+        stages.start("fitting")
+        result = fit_clock_to_log(pulses, log, baud=baud, convention=conv, piecewise=piecewise)
+        stages.start("writing")
+        if model_out is not None:
+            write_clock_model(result.model, model_out, result)
+        if figure is not None:
+            from kinsync.report.clock_figures import (  # noqa: PLC0415  (matplotlib)
+                clock_residual_figure,
+            )
+
+            atomic_write_bytes(figure, clock_residual_figure(result))
+        stages.finish()
+    return result, log
 
 
 @app.command("apply")
