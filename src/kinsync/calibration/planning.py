@@ -380,18 +380,25 @@ def _navigation_scatter(
         chol[li] = np.kron(np.linalg.cholesky(block + 1e-12 * np.eye(kt.size)), np.diag(pose_sd))
     out = [0.0] * len(features)
     for fi, feature, ret, lines, G_rows in designs:
+        # ||D (X - H X)||^2 with X = G L, D = diag(1/inc), W = D^2, H the feature's
+        # weighted fit jf C+ jf' W (C = jf' W jf): ||D X||^2 - tr(Y' C+ Y), Y = jf' W X,
+        # summed line by line, so that memory is one line's block of X (returns x 6 K),
+        # not every line's side by side (4.98 GB and 117 s at 16 passes, 8 at 1.73 GB).
         G = G_rows.tocsc()
-        blocks = []
-        for li in lines:
-            j = 6 * knots.first[li]
-            blocks.append(np.asarray(G[:, j : j + chol[li].shape[0]] @ chol[li]))
-        BL = np.concatenate(blocks, axis=1)
         inc = incidence_factor(feature, ret)
         jf = feature.jacobian(ret.x)
         w = 1.0 / inc**2
-        fit = jf @ (np.linalg.pinv(jf.T @ (jf * w[:, None])) @ (jf * w[:, None]).T @ BL)
-        r = (BL - fit) / inc[:, None]
-        out[fi] = math.sqrt(float(np.sum(r * r)) / max(r.shape[0], 1))
+        jw = (jf * w[:, None]).T
+        spread = 0.0
+        ys = []
+        for li in lines:
+            j = 6 * knots.first[li]
+            X = np.asarray(G[:, j : j + chol[li].shape[0]] @ chol[li])
+            spread += float(np.sum(w[:, None] * X * X))
+            ys.append(jw @ X)
+        Y = np.concatenate(ys, axis=1)
+        fitted = float(np.sum(Y * (np.linalg.pinv(jf.T @ (jf * w[:, None])) @ Y)))
+        out[fi] = math.sqrt(max(spread - fitted, 0.0) / max(ret.x.shape[0], 1))
     return out
 
 

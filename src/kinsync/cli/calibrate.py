@@ -324,8 +324,13 @@ def plan(
         std_att_deg=(0.0, 0.0, 0.0),
         density=0.25,
     )
-    sim = simulate_patch_test(config)
-    result = plan_calibration(sim.lines, sim.mount_true, opts, errors, held)
+    with progress_display("calibrate plan") as progress:  # 20-60 s with many passes
+        stages = Stages(progress, {"simulating the design": 2.0, "predicting": 1.0})
+        stages.start("simulating the design", f"simulating the {scenario} design")
+        sim = simulate_patch_test(config)
+        stages.start("predicting", f"predicting from {counted(len(sim.lines), 'line')}")
+        result = plan_calibration(sim.lines, sim.mount_true, opts, errors, held)
+        stages.finish()
     if as_json:
         doc = result.as_document()
         doc["notes"] = _unused_held_sigma(result, None if held_mount else held)
