@@ -23,8 +23,8 @@ from the file's first MiB (pyarrow's default block) and fixed for every slice. L
 pyarrow's own reader (its default ``newlines_in_values=False``) this assumes no line
 break inside a quoted value. A Parquet file is cut at row-group boundaries: consecutive
 row groups are merged up to ``chunk_points`` rows, and a row group larger than that is
-read in pieces of ``chunk_points`` rows. Slices never hold more than ``chunk_points``
-rows.
+read in pieces of ``chunk_points`` rows (read in order, each row is decoded once:
+`kinsync.io.parquet_slices`). Slices never hold more than ``chunk_points`` rows.
 
 Writing (`TableChunkWriter`, `csv_text_columns`) lives in `kinsync.io.table_writer`
 and is re-exported here.
@@ -48,8 +48,11 @@ from kinsync._validate import check_float_step
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.column_map import ColumnMap
+from kinsync.io.csv_cells import first_bad_cell as _first_bad_cell
+from kinsync.io.csv_cells import locate_bad_csv_cell as _locate_bad_csv_cell
+from kinsync.io.parquet_slices import read_row_group_piece, read_row_groups
 from kinsync.io.row_position import point_position
-from kinsync.io.sanity import check_text_file, not_utf8_cell, require_file
+from kinsync.io.sanity import check_text_file, require_file
 from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
 from kinsync.io.text_lines import CR, LF, csv_header_row, line_end_indices, read_first_line
 
@@ -146,75 +149,6 @@ def _renamed(
         return chunk
     to = dict(renames)
     return {to.get(name, name): values for name, values in chunk.items()}
-
-
-def _locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
-    """Scan a CSV for the first bad row (`_first_bad_cell`)."""
-    with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
-        reader = csv.reader(fh)
-        try:
-            header = [c.strip() for c in next(reader)]
-        except (csv.Error, StopIteration) as err:
-            return InputError(f"{path}: cannot read the header ({err})")
-        return _first_bad_cell(path, reader, header, required, first_line=0)
-
-
-def _first_bad_cell(
-    path: Path,
-    reader: Any,
-    header: Sequence[str],
-    required: Sequence[str],
-    *,
-    first_line: int,
-) -> InputError | None:
-    """First bad row read by ``reader`` (a ``csv.reader``), or None.
-
-    Bad: a required cell empty or not a number, or a row with another number of fields
-    than the header. The reader's line 1 is file line ``first_line + 1``. A byte that
-    is not UTF-8 in any cell (text decoded with ``errors="surrogateescape"``) and a line
-    the ``csv`` module cannot read are bad too.
-    """
-    cols = [(name, list(header).index(name)) for name in required]
-    while True:
-        try:
-            cells = next(reader)
-        except StopIteration:
-            return None
-        except csv.Error as err:
-            line = first_line + reader.line_num
-            return InputError(f"{path}: line {line}: cannot read as CSV ({err})")
-        if not cells or all(not c.strip() for c in cells):
-            continue
-        for cell in cells:
-            if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
-                return bad
-        if len(cells) != len(header):
-            msg = (
-                f"{path}: line {first_line + reader.line_num}: {len(cells)} "
-                f"field(s) where the header has {len(header)}; fix the row (a comma too many "
-                "or too few, or a value holding a comma that needs quotes)"
-            )
-            return InputError(msg)
-        for name, i in cols:
-            cell = cells[i].strip() if i < len(cells) else ""
-            try:
-                float(cell)
-            except ValueError:
-                what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
-            else:
-                # Python reads '1_000', Arabic-Indic or full-width digits and a no-break
-                # space; the CSV parser does not (and named the row by its own count).
-                if cells[i].isascii() and "_" not in cell:
-                    continue
-                what = (
-                    f"{cell[:80]!r} is not a plain number (digits 0-9, a point, a sign, an "
-                    "exponent; no '_', other digits or spaces)"
-                )
-            msg = (
-                f"{path}: line {first_line + reader.line_num}, column "
-                f"{name!r}: {what}; fix or remove the row"
-            )
-            return InputError(msg)
 
 
 _PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
@@ -541,9 +475,12 @@ class TableLayout:
         return next((theirs for theirs, ours in self.renames if ours == name), name)
 
 
-def _csv_convert_options(column_types: Mapping[str, Any]) -> Any:
+def _csv_convert_options(column_types: Mapping[str, Any], names: list[str] | None = None) -> Any:
     return pa_csv.ConvertOptions(
-        column_types=dict(column_types), null_values=[""], strings_can_be_null=False
+        column_types=dict(column_types),
+        null_values=[""],
+        strings_can_be_null=False,
+        include_columns=names,
     )
 
 
@@ -764,7 +701,7 @@ def plan_table_slices(
     return layout, slices
 
 
-def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
+def _read_csv_slice(layout: TableLayout, sl: TableSlice, names: list[str] | None) -> Any:
     path = layout.path
     with path.open("rb") as fh:
         fh.seek(sl.byte_start)
@@ -780,7 +717,7 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
                 read_options=pa_csv.ReadOptions(
                     column_names=list(layout.columns), use_threads=False
                 ),
-                convert_options=_csv_convert_options(types),
+                convert_options=_csv_convert_options(types, names),
             )
     except pa.ArrowInvalid as err:
         if "conversion error" in str(err) or _PARSE_ERROR in str(err):
@@ -809,29 +746,31 @@ def _read_csv_slice(layout: TableLayout, sl: TableSlice) -> Any:
         raise InputError(msg) from err
 
 
-def _read_parquet_slice(layout: TableLayout, sl: TableSlice) -> Any:
+def _read_parquet_slice(layout: TableLayout, sl: TableSlice, names: list[str] | None) -> Any:
+    """Whole row groups read at once; a piece of a larger one by `read_row_group_piece`."""
     pf = _open_parquet(layout.path)
+    group = sl.row_groups[0]
     try:
-        if sl.skip_rows == 0 and len(sl.row_groups) > 1:
-            return pf.read_row_groups(list(sl.row_groups))
-        if sl.skip_rows == 0 and pf.metadata.row_group(sl.row_groups[0]).num_rows == sl.n_rows:
-            return pf.read_row_group(sl.row_groups[0])
-        parts, seen = [], 0
-        batch = min(sl.n_rows, 1 << 16)
-        for rb in pf.iter_batches(batch_size=batch, row_groups=list(sl.row_groups)):
-            lo, hi = max(sl.skip_rows - seen, 0), min(sl.skip_rows + sl.n_rows - seen, rb.num_rows)
-            if hi > lo:
-                parts.append(rb.slice(lo, hi - lo))
-            seen += rb.num_rows
-            if seen >= sl.skip_rows + sl.n_rows:
-                break
-        return pa.Table.from_batches(parts, schema=pf.schema_arrow)
+        if sl.skip_rows == 0 and (
+            len(sl.row_groups) > 1 or pf.metadata.row_group(group).num_rows == sl.n_rows
+        ):
+            return read_row_groups(pf, sl.row_groups, names)
+        schema = pf.schema_arrow
+        if names is not None:
+            schema = pa.schema([schema.field(n) for n in names], metadata=schema.metadata)
+        return read_row_group_piece(layout.path, group, sl.skip_rows, sl.n_rows, schema, names)
     except (pa.ArrowException, OSError) as err:
         msg = f"{layout.path}: row groups {list(sl.row_groups)}: cannot read ({err})"
         raise InputError(msg) from err
 
 
-def read_table_slice(layout: TableLayout, sl: TableSlice, *, arrow: bool = False) -> dict[str, Any]:
+def read_table_slice(
+    layout: TableLayout,
+    sl: TableSlice,
+    *,
+    arrow: bool = False,
+    only: Sequence[str] | None = None,
+) -> dict[str, Any]:
     """Read one slice planned by `plan_table_slices`.
 
     Parameters
@@ -842,12 +781,15 @@ def read_table_slice(layout: TableLayout, sl: TableSlice, *, arrow: bool = False
         Give the columns that are not required as pyarrow arrays, with their types and
         nulls (as numpy arrays, an integer column with nulls would become floats, NaN
         for null).
+    only : sequence of str, optional
+        Read only these columns (by the names handed on: kinsync names for mapped
+        columns); the others are neither converted nor checked. Every column when None.
 
     Returns
     -------
     dict of str to ndarray (or pyarrow array), each of shape (``sl.n_rows``,)
-        Every column in file order, with the types of ``layout.schema`` (required
-        columns float64), mapped columns under their kinsync names
+        Every column (or those of ``only``) in file order, with the types of
+        ``layout.schema`` (required columns float64), mapped columns under their kinsync names
         (``layout.renames``), as `iter_table_chunks` gives them.
 
     Raises
@@ -858,11 +800,12 @@ def read_table_slice(layout: TableLayout, sl: TableSlice, *, arrow: bool = False
         since it was planned (another number of rows), an unreadable file.
     """
     path = layout.path
+    names = None if only is None else [n for n in layout.columns if layout.kinsync_name(n) in only]
     try:
         if path.suffix.lower() == ".csv":
-            table = _read_csv_slice(layout, sl)
+            table = _read_csv_slice(layout, sl, names)
         else:
-            table = _read_parquet_slice(layout, sl)
+            table = _read_parquet_slice(layout, sl, names)
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err

@@ -1,0 +1,87 @@
+"""The first bad row of a CSV point table, named for the user (file line and column).
+
+pyarrow's CSV reader says a row is bad but not which: the readers of
+`kinsync.io.points` read the file (or a slice's bytes) again with the ``csv`` module to
+name it.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from kinsync.errors import InputError
+from kinsync.io.sanity import not_utf8_cell
+
+__all__ = ["first_bad_cell", "locate_bad_csv_cell"]
+
+
+def locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
+    """Scan a CSV for the first bad row (`first_bad_cell`)."""
+    with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
+        reader = csv.reader(fh)
+        try:
+            header = [c.strip() for c in next(reader)]
+        except (csv.Error, StopIteration) as err:
+            return InputError(f"{path}: cannot read the header ({err})")
+        return first_bad_cell(path, reader, header, required, first_line=0)
+
+
+def first_bad_cell(
+    path: Path,
+    reader: Any,
+    header: Sequence[str],
+    required: Sequence[str],
+    *,
+    first_line: int,
+) -> InputError | None:
+    """First bad row read by ``reader`` (a ``csv.reader``), or None.
+
+    Bad: a required cell empty or not a number, or a row with another number of fields
+    than the header. The reader's line 1 is file line ``first_line + 1``. A byte that
+    is not UTF-8 in any cell (text decoded with ``errors="surrogateescape"``) and a line
+    the ``csv`` module cannot read are bad too.
+    """
+    cols = [(name, list(header).index(name)) for name in required]
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            return None
+        except csv.Error as err:
+            line = first_line + reader.line_num
+            return InputError(f"{path}: line {line}: cannot read as CSV ({err})")
+        if not cells or all(not c.strip() for c in cells):
+            continue
+        for cell in cells:
+            if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:
+                return bad
+        if len(cells) != len(header):
+            msg = (
+                f"{path}: line {first_line + reader.line_num}: {len(cells)} "
+                f"field(s) where the header has {len(header)}; fix the row (a comma too many "
+                "or too few, or a value holding a comma that needs quotes)"
+            )
+            return InputError(msg)
+        for name, i in cols:
+            cell = cells[i].strip() if i < len(cells) else ""
+            try:
+                float(cell)
+            except ValueError:
+                what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
+            else:
+                # Python reads '1_000', Arabic-Indic or full-width digits and a no-break
+                # space; the CSV parser does not (and named the row by its own count).
+                if cells[i].isascii() and "_" not in cell:
+                    continue
+                what = (
+                    f"{cell[:80]!r} is not a plain number (digits 0-9, a point, a sign, an "
+                    "exponent; no '_', other digits or spaces)"
+                )
+            msg = (
+                f"{path}: line {first_line + reader.line_num}, column "
+                f"{name!r}: {what}; fix or remove the row"
+            )
+            return InputError(msg)
