@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import laspy
 import numpy as np
@@ -13,7 +14,7 @@ from kinsync.errors import InputError
 from kinsync.frames import geodetic_to_ecef
 from kinsync.georef import GeorefTrajectory, georeference
 from kinsync.io.las_writer import LasChunkWriter
-from kinsync.io.points import TableChunkWriter
+from kinsync.io.points import TableChunkWriter, read_table_slice
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
@@ -204,3 +205,36 @@ def test_a_failing_background_write_stops_the_run_and_leaves_nothing(
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         ["scan.laz", "traj.csv"] + (["scan.csv"] if suffix == ".csv" else [])
     )
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_las_output_frame_reads_only_the_time_column_of_a_table(
+    tmp_path: Path, suffix: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The offsets need the first and last point's time: the other columns (a wide CSV's
+    dozens of text columns took gigabytes) are read when the chunks are georeferenced."""
+    traj = _line_trajectory(5.0)
+    las = laspy.read(_scan(tmp_path, traj, 2_000))
+    n = len(las.x)
+    table = {
+        "t_s": np.asarray(las.gps_time) + 1e9,
+        "x_m": np.asarray(las.x),
+        "y_m": np.asarray(las.y),
+        "z_m": np.asarray(las.z),
+        **{f"e{i}": np.full(n, i, dtype=np.int64) for i in range(8)},
+    }
+    src = tmp_path / f"points{suffix}"
+    with TableChunkWriter(src) as writer:
+        writer.write(table)
+    columns_read: list[list[str]] = []
+
+    def spy(*args: Any, **kwargs: Any) -> dict[str, Any]:
+        got = read_table_slice(*args, **kwargs)
+        columns_read.append(list(got))
+        return got
+
+    monkeypatch.setattr("kinsync.pipelines.georef.read_table_slice", spy)
+    out = tmp_path / "geo.laz"
+    georeference_file(src, tmp_path / "traj.csv", MOUNT, out, chunk_points=700)
+    assert columns_read == [["t_s"], ["t_s"]]  # the first and the last slice
+    assert laspy.read(out).header.point_count == n

@@ -684,7 +684,8 @@ def _plan_las(
 def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> list[float]:
     """Times of the input's first and last point, on the trajectory's scale.
 
-    LAS/LAZ: two points are read; a table: the first and the last chunk.
+    LAS/LAZ: two points are read; a table: the time column of its first and last chunk
+    (every column of a wide CSV, as text, took gigabytes for two numbers).
     """
     source = ctx.source
     if total == 0 or not tasks:
@@ -696,8 +697,8 @@ def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -
     first, last = tasks[0].table_slice, tasks[-1].table_slice
     assert first is not None
     assert last is not None
-    t_first = read_table_slice(layout, first)["t_s"]
-    t_last = t_first if last is first else read_table_slice(layout, last)["t_s"]
+    t_first = read_table_slice(layout, first, only=("t_s",))["t_s"]
+    t_last = t_first if last is first else read_table_slice(layout, last, only=("t_s",))["t_s"]
     return [float(t_first[0]), float(t_last[-1])] if len(t_first) and len(t_last) else []
 
 
