@@ -15,7 +15,9 @@ from typing import Any
 from kinsync.errors import InputError
 from kinsync.io.sanity import not_utf8_cell
 
-__all__ = ["first_bad_cell", "locate_bad_csv_cell"]
+__all__ = ["PARSE_ERROR", "first_bad_cell", "locate_bad_csv_cell"]
+
+PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
 
 
 def locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:

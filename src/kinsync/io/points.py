@@ -48,8 +48,10 @@ from kinsync._validate import check_float_step
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.column_map import ColumnMap
+from kinsync.io.csv_cells import PARSE_ERROR as _PARSE_ERROR
 from kinsync.io.csv_cells import first_bad_cell as _first_bad_cell
 from kinsync.io.csv_cells import locate_bad_csv_cell as _locate_bad_csv_cell
+from kinsync.io.csv_stream import csv_batches as _csv_batches
 from kinsync.io.parquet_slices import read_row_group_piece, read_row_groups
 from kinsync.io.row_position import point_position
 from kinsync.io.sanity import check_text_file, require_file
@@ -151,9 +153,6 @@ def _renamed(
     return {to.get(name, name): values for name, values in chunk.items()}
 
 
-_PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
-
-
 def _rebatch(batches: Iterator[Any], chunk_points: int) -> Iterator[Any]:
     """Regroup record batches into tables of exactly ``chunk_points`` rows (last fewer)."""
     pending: list[Any] = []
@@ -238,46 +237,6 @@ def _float_kind(name: str) -> Literal["time", "coordinate", "angle", "count"]:
     return "count" if name == "profile" else "coordinate"
 
 
-def _csv_batches(
-    path: Path, required: Sequence[str], block_bytes: int, text: Sequence[str] = ()
-) -> Iterator[Any]:
-    convert = pa_csv.ConvertOptions(
-        column_types=dict.fromkeys(required, pa.float64()) | dict.fromkeys(text, pa.string()),
-        null_values=[""],
-        strings_can_be_null=False,
-    )
-    read = pa_csv.ReadOptions(block_size=block_bytes)
-    reader = None
-    try:
-        reader = pa_csv.open_csv(path, read_options=read, convert_options=convert)
-        yield from reader
-    except pa.ArrowInvalid as err:
-        if _PARSE_ERROR in str(err):
-            bad = _locate_bad_csv_cell(path, required)
-            if bad is not None:
-                raise bad from err
-        if "conversion error" in str(err):
-            bad = _locate_bad_csv_cell(path, required)
-            if bad is not None:
-                raise bad from err
-            msg = (
-                f"{path}: {err}; a column's values change type after the first rows "
-                "(types are inferred from the first block): make the column uniform"
-            )
-            raise InputError(msg) from err
-        msg = f"{path}: cannot read as CSV ({err})"
-        raise InputError(msg) from err
-    except (pa.ArrowException, OSError) as err:
-        msg = f"{path}: cannot read as CSV ({err})"
-        raise InputError(msg) from err
-    finally:
-        # The streaming reader reads ahead on pyarrow's threads: left open when the
-        # consumer stops (an error in a chunk, a generator dropped), the process can
-        # abort at exit ("terminate called without an active exception").
-        if reader is not None:
-            reader.close()
-
-
 def _parquet_batches(path: Path, pf: Any, chunk_points: int) -> Iterator[Any]:
     """``pf.iter_batches``, a damaged data page (bad compression, cut short) named."""
     try:
@@ -339,9 +298,12 @@ def iter_table_chunks(
     names = table_columns(path)
     required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
-        block = int(min(max(chunk_points * 16 * max(len(names), 1), 1 << 20), 1 << 30))
-        text = [n for n in names if n not in required] if extra_as_text else []
-        batches: Iterator[Any] = _csv_batches(path, required, block, text)
+        block = _csv_block_bytes(chunk_points, len(names))
+        others = [n for n in names if n not in required]
+        text = others if extra_as_text else []
+        # types inferred from the first block the reader had (block reads ahead less)
+        types = None if extra_as_text or not others else _csv_schema(path, required, block)
+        batches: Iterator[Any] = _csv_batches(path, required, block, text, _others(types))
         total = None
     else:
         try:
@@ -486,6 +448,11 @@ def _csv_convert_options(column_types: Mapping[str, Any], names: list[str] | Non
 
 def _csv_block_bytes(chunk_points: int, n_columns: int) -> int:
     return int(min(max(chunk_points * 16 * max(n_columns, 1), 1 << 20), 1 << 30))
+
+
+def _others(schema: Any) -> dict[str, Any] | None:
+    """The types of a CSV's columns by the file's names (`_csv_schema`), or None."""
+    return None if schema is None else {f.name: f.type for f in schema}
 
 
 def _csv_schema(path: Path, required: Sequence[str], block_bytes: int) -> Any:
