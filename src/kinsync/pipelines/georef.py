@@ -684,8 +684,7 @@ def _plan_las(
 def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -> list[float]:
     """Times of the input's first and last point, on the trajectory's scale.
 
-    LAS/LAZ: two points are read; a table: the time column of its first and last chunk
-    (every column of a wide CSV, as text, took gigabytes for two numbers).
+    LAS/LAZ: two points; a table: the time column of its first and last chunk only.
     """
     source = ctx.source
     if total == 0 or not tasks:
