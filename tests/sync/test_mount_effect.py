@@ -24,12 +24,8 @@ from kinsync.calibration.parameters import (
 from kinsync.errors import KinsyncWarning
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
 from kinsync.sim.profiler import (
-    DriveScanConfig,
     DriveScanSimulation,
-    ProfilerConfig,
-    simulate_drive_scan,
 )
-from kinsync.sim.scene import SceneLayout
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.mount_effect import MountEffect, exact_text
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
@@ -41,16 +37,9 @@ STATED = MountUncertainty(
 
 
 @pytest.fixture(scope="module")
-def sim() -> DriveScanSimulation:
-    """The oval at 25 Hz, no control targets, scanned over 50-100 deg: fast."""
-    return simulate_drive_scan(
-        DriveScanConfig(
-            rate_hz=25.0,
-            near_targets_only=True,
-            profiler=ProfilerConfig(range_noise_m=0.003, angle_min_deg=50.0, angle_max_deg=100.0),
-            layout=SceneLayout(n_control=0),
-        )
-    )
+def sim(cheap: DriveScanSimulation) -> DriveScanSimulation:
+    """The oval at 25 Hz, no control targets, scanned over 50-100 deg (conftest): fast."""
+    return cheap
 
 
 def _sync(sim: DriveScanSimulation, mount: Mount) -> ObjectSpaceResult:

@@ -25,13 +25,11 @@ from kinsync.sim.nav_noise import noisy_trajectory
 from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
-    ProfilerConfig,
     exactly_known,
     profiles_near_targets,
     simulate_drive_scan,
     simulate_profiler,
 )
-from kinsync.sim.scene import SceneLayout
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import find_crossings, search_crossings
 from kinsync.sync.object_space import ObjectSpaceResult, synchronise_object_space
@@ -760,19 +758,6 @@ def test_bad_input(oval: DriveScanSimulation) -> None:
     ]:
         with pytest.raises(InputError, match=frag):
             ObjectSpaceConfig(**kwargs)  # type: ignore[arg-type]
-
-
-@pytest.fixture(scope="module")
-def cheap() -> DriveScanSimulation:
-    """The oval with 25 Hz records, no control targets, scanned over 50-100 deg: fast."""
-    return simulate_drive_scan(
-        DriveScanConfig(
-            rate_hz=25.0,
-            near_targets_only=True,
-            profiler=ProfilerConfig(range_noise_m=0.003, angle_min_deg=50.0, angle_max_deg=100.0),
-            layout=SceneLayout(n_control=0),
-        )
-    )
 
 
 def _ratio(errors: list[float], sigmas: list[float]) -> float:
