@@ -14,7 +14,7 @@ arm's error does (`kinsync.calibration.held`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -463,7 +463,10 @@ def _held_paragraph(result: CalibrationResult, plan: PlanResult, truth: np.ndarr
 
 
 def calibration_section(
-    out_dir: Path, summary: Summary, cidco_folder: Path | None = None
+    out_dir: Path,
+    summary: Summary,
+    cidco_folder: Path | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> tuple[Section, dict[str, Any]]:
     """Calibrate the simulated vehicle and vessel patch tests (and the CIDCO passes).
 
@@ -476,6 +479,8 @@ def calibration_section(
         Gets one row per calibration.
     cidco_folder : Path, optional
         The CIDCO data set: its 12 passes are calibrated too.
+    progress : callable, optional
+        Called with what runs now (about a minute in all, six runs).
 
     Returns
     -------
@@ -484,7 +489,11 @@ def calibration_section(
         What ``calibration.json`` holds: each calibration's document and the truth.
     """
     out_dir = Path(out_dir)
-    runs = [_run_scenario(s, out_dir) for s in ("vehicle", "vessel")]
+    say = progress or (lambda _: None)
+    runs = []
+    for scenario in ("vehicle", "vessel"):
+        say(f"mount self-calibration: simulated {scenario} patch test, planned and calibrated")
+        runs.append(_run_scenario(scenario, out_dir))
     tables = [_scenario_table(r) for r in runs]
     pngs = [_figure(r.result) for r in runs]
     captions = [f"{r.scenario}: each line's offset from each patch, along its normal, "
@@ -497,6 +506,7 @@ def calibration_section(
     for r in runs:
         summary.append(("mount self-calibration", f"simulated {r.scenario} patch test",
                         _summary_text(r)))  # fmt: skip
+    say("mount self-calibration: vehicle with its lever arm held (3 cm stated)")
     held, held_plan = _held_lever(out_dir, runs[0])
     held_score, data_score, _ = _held_scores(held, runs[0].truth)
     tables.append(_held_table(held, held_plan, runs[0].truth))
@@ -505,6 +515,7 @@ def calibration_section(
     summary.append(("mount self-calibration", "vehicle, lever arm held (3 cm stated)",
                     (f"largest error {held_score:.1f} σ with the held lever arm's share, "
                      f"{data_score:.1f} σ without")))  # fmt: skip
+    say("mount self-calibration: a later vessel survey holding the calibrated mount")
     later = _later_survey(out_dir, runs[1])
     tables.append(_later_table(later))
     doc["vessel_later"] = {"truth_latency_ms": later.truth_ms,
@@ -523,6 +534,7 @@ def calibration_section(
     paragraphs.append(_held_paragraph(held, held_plan, runs[0].truth))
     paragraphs.append(_later_paragraph(later))
     if cidco_folder is not None:
+        say("mount self-calibration: the 12 CIDCO vessel passes (real data)")
         result, acquired = _cidco(cidco_folder)
         tables += [_cidco_table(result, acquired), _parameter_table(result, "CIDCO mount")]
         pngs.append(_figure(result))

@@ -378,7 +378,7 @@ def _run_sections(
         "mount self-calibration from survey lines (simulated patch tests"
         + (", CIDCO)" if cidco is not None else ")"),
     )
-    sections.append(calibration_section(out_dir, summary, cidco)[0])
+    sections.append(calibration_section(out_dir, summary, cidco, say)[0])
     if cidco is not None:
         stages.start("CIDCO spheres", "sphere fits on the CIDCO real passes")
         sections.append(cidco_section(cidco, out_dir, summary))
