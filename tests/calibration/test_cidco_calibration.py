@@ -58,6 +58,7 @@ def test_boresight_calibration_on_the_twelve_passes(
     assert code == 0, err
     doc = json.loads(out)
     assert doc["sigma_method"].startswith("jackknife over 12 lines")
+    assert doc["sigma_honest"] is True
     spheres = doc["features"]
     assert len(spheres) == 2
     for s in spheres:
@@ -148,6 +149,7 @@ def test_three_passes_give_no_estimate_better_than_weak(
     assert code == 0, err
     doc = json.loads(out)
     assert doc["sigma_method"].startswith("formal")
+    assert doc["sigma_honest"] is False  # for a script: only prose said so
     statuses = {name: p["status"] for name, p in doc["parameters"].items()}
     assert "estimated" not in statuses.values()
     for name in ("boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"):

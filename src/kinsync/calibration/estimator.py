@@ -492,6 +492,7 @@ def calibrate_mount(
             *_warnings(lines, kept, observations, features, before, counts, summaries),
             *filter(None, [gimbal_lock_warning(calibrated.boresight_rpy_deg[1])]),
         ),
+        sigma_honest=honest,
     )
 
 
@@ -881,6 +882,7 @@ def _unsolved(
         prior=mount,
         parameters=_parameters(mount, requested, obs, None, None),
         sigma_method="none: no parameter could be determined",
+        sigma_honest=False,
         correlation_names=(),
         correlation=np.zeros((0, 0)),
         features=summaries,

@@ -176,6 +176,11 @@ class CalibrationResult:
         What to know before trusting the estimates: a file holding two passes, lines
         driven both ways that share no wall (a grossly wrong start), a fit worse than the
         start (`kinsync.calibration.gross`).
+    sigma_honest : bool
+        Whether ``std`` holds the errors a line shares (the jackknife over 5 or more
+        lines); False for the formal sigma (fewer lines, or none could be
+        determined), which trajectory errors correlated over a line make 3-30 times
+        too small (2 lines: lever y 41 sigma off its truth): ``sigma_method`` says why.
     """
 
     mount: Mount
@@ -198,6 +203,7 @@ class CalibrationResult:
     held_advice: tuple[str, ...] = ()
     uncertainty_notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
+    sigma_honest: bool = True
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``).
@@ -229,6 +235,7 @@ class CalibrationResult:
         return {
             "parameters": {p.name: p.as_document() for p in self.parameters},
             "sigma_method": self.sigma_method,
+            "sigma_honest": self.sigma_honest,
             "correlation": {
                 "names": list(self.correlation_names),
                 "matrix": np.round(self.correlation, 6).tolist(),
