@@ -780,7 +780,7 @@ def test_monte_carlo_sigma_is_honest_exact_trajectory(cheap: DriveScanSimulation
             sim.truth_trajectory, sim.config.mount, sim.scene, cfg, profiles=wanted
         )
         r = synchronise_object_space(
-            sc.scan, sim.truth_trajectory, sim.config.mount, sim.sync_points, EXACT
+            sc.scan, sim.truth_trajectory, exactly_known(sim.config.mount), sim.sync_points, EXACT
         )
         e0.append(r.t0_s - t0)
         eT.append(r.period_s - sim.config.period_s)
@@ -807,7 +807,7 @@ def test_monte_carlo_sigma_is_honest_with_trajectory_noise(cheap: DriveScanSimul
             seed=500 + run,
         )
         r = synchronise_object_space(
-            sim.scanner.scan, noisy, sim.config.mount, sim.sync_points, cfg
+            sim.scanner.scan, noisy, exactly_known(sim.config.mount), sim.sync_points, cfg
         )
         dt0, dT = _errors(r, sim)
         e0.append(dt0)

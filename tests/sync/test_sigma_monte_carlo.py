@@ -19,6 +19,7 @@ from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
     ProfilerConfig,
+    exactly_known,
     profiles_near_targets,
     simulate_drive_scan,
     simulate_profiler,
@@ -88,7 +89,7 @@ def _ratios(
         )
         mid = scan.n_profiles / 2.0
         for k, ocfg in enumerate(configs):
-            r = synchronise_object_space(scan.scan, traj, mount, points, ocfg)
+            r = synchronise_object_space(scan.scan, traj, exactly_known(mount), points, ocfg)
             assert len(r.sightings) == (8 if twins else 4)
             t_mid = r.t0_s + mid * r.period_s - (t0 + mid * period)
             err[k, run] = (r.t0_s - t0, r.period_s - period, t_mid)
