@@ -35,6 +35,7 @@ from pathlib import Path
 import laspy
 import numpy as np
 
+from _timing import georef_command, max_rss_mib
 from kinsync.frames import ecef_to_geodetic, euler_rpy_to_matrix, matrix_to_quaternion
 from kinsync.io.mount_file import write_mount
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -107,25 +108,16 @@ def _tree_rss_kib(root: int) -> int:
 
 def run_georef(folder: Path, points: Path, args: argparse.Namespace) -> dict[str, float]:
     out = folder / f"geo{points.suffix}"
-    command = [
-        "/usr/bin/time",
-        "-v",
-        str(Path(sys.executable).with_name("kinsync")),
-        "georef",
-        "--points",
-        str(points),
-        "--trajectory",
-        str(folder / "traj.csv"),
-        "--mount",
-        str(folder / "mount.toml"),
-        "--out",
-        str(out),
+    command = georef_command(
+        folder,
+        points,
+        out,
         "--chunk-points",
         str(args.chunk_points),
         "--scheduler",
         args.scheduler,
         "--json",
-    ]
+    )
     if args.workers:
         command += ["--workers", str(args.workers)]
     peak = [0]
@@ -147,12 +139,10 @@ def run_georef(folder: Path, points: Path, args: argparse.Namespace) -> dict[str
     if proc.returncode != 0:
         sys.exit(f"kinsync georef failed ({proc.returncode}):\n{stderr}")
     summary = json.loads(stdout)
-    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", stderr)
-    maxrss_kib = int(match.group(1)) if match else -1
     out.unlink()
     return {
         "points": summary["points_out"],
-        "maxrss_mib": maxrss_kib / 1024,
+        "maxrss_mib": max_rss_mib(stderr),
         "tree_peak_mib": peak[0] / 1024,
         "wall_s": wall,
         "points_per_s": summary["points_per_s"],

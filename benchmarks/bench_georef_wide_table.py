@@ -20,7 +20,6 @@ Run: ``.venv/bin/python benchmarks/bench_georef_wide_table.py [--points N] [--ex
 from __future__ import annotations
 
 import argparse
-import re
 import subprocess
 import sys
 import tempfile
@@ -31,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 
+from _timing import georef_command, max_rss_mib
 from bench_georef_memory import DURATION_S, T0_GPS_S, write_trajectory
 
 
@@ -49,28 +49,14 @@ def write_points(path: Path, n: int, extra: int) -> None:
 
 def run(folder: Path, points: Path, out: Path) -> tuple[float, float]:
     """Max RSS (MiB) and wall time (s) of ``kinsync georef points -> out``."""
-    command = [
-        "/usr/bin/time",
-        "-v",
-        str(Path(sys.executable).with_name("kinsync")),
-        "georef",
-        "--points",
-        str(points),
-        "--trajectory",
-        str(folder / "traj.csv"),
-        "--mount",
-        str(folder / "mount.toml"),
-        "--out",
-        str(out),
-    ]
+    command = georef_command(folder, points, out)
     start = time.perf_counter()
     proc = subprocess.run(command, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - start
     if proc.returncode != 0:
         sys.exit(f"kinsync georef failed ({proc.returncode}):\n{proc.stderr}")
-    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
     out.unlink()
-    return (int(match.group(1)) / 1024 if match else -1.0), wall
+    return max_rss_mib(proc.stderr), wall
 
 
 def main() -> None:
