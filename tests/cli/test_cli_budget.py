@@ -67,6 +67,15 @@ def test_period_json(run_cli: RunCli) -> None:
             "--baud -115200: outside the span",
         ),
         (["budget", "serial", "--baud", "115200", "--bytes", "-1"], "bytes"),
+        # kbit/s for bit/s: a 115 bit/s line was taken (1.2 s for 14 bytes)
+        (
+            ["budget", "serial", "--baud", "115.2", "--bytes", "14"],
+            "--baud 115.2: a line rate in kbit/s? give bit/s (115200 for 115.2 kbit/s)",
+        ),
+        (
+            ["simulate", "clock", "--out", "x", "--baud", "9.6e0"],
+            "outside the span",
+        ),
         (
             ["budget", "serial", "--baud", "115200", "--bytes", "4", "--parity", "x"],
             "--parity 'x': give one of none, even, odd, mark, space",

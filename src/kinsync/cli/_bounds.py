@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from kinsync.errors import InputError
 
-__all__ = ["OPTION_BOUNDS", "Bounds", "bounds_for", "check_numeric_option"]
+__all__ = ["OPTION_BOUNDS", "STANDARD_BAUDS", "Bounds", "bounds_for", "check_numeric_option"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,12 @@ _GPS_WEEK_NOW = math.floor((time.time() - _GPS_EPOCH_UNIX_S) / 604_800.0)
 _WEEKS_AHEAD = 104
 """Weeks after the current one still accepted (two years: a computer clock set wrong)."""
 _GPS_S_MAX = 1e10  # GPS seconds: year ~2297
+STANDARD_BAUDS = frozenset(
+    {110, 300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 38400, 57600}
+    | {115200, 230400, 460800, 921600}
+)
+"""Serial line rates (bit/s) receivers and loggers offer: ``--baud 115.2`` is 115200 given
+in kbit/s (a 115 bit/s line would take 1.9 s for one NMEA sentence)."""
 
 OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     # time and latency
@@ -210,5 +216,11 @@ def check_numeric_option(command: str, option: str, value: float) -> None:
         msg = (
             f"{option} {shown or format(value, 'g')}: outside the span kinsync accepts, "
             f"{span.low:g} to {span.high:g}{unit}{why}"
+        )
+        raise InputError(msg)
+    if option == "--baud" and value not in STANDARD_BAUDS and round(value * 1000) in STANDARD_BAUDS:
+        msg = (
+            f"--baud {value:g}: a line rate in kbit/s? give bit/s ({round(value * 1000)} for "
+            f"{value:g} kbit/s)"
         )
         raise InputError(msg)
