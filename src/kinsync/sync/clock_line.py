@@ -562,21 +562,27 @@ of agreeing pairs, each off by its sightings' timing errors)."""
 
 
 def implied_period_s(
-    sightings: Sequence[Sighting], crossings: Sequence[Crossing], cfg: ObjectSpaceConfig
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    cfg: ObjectSpaceConfig,
+    per_pair: PairSightings | None = None,
 ) -> float | None:
     """The period most sighting pairs agree on, whatever the prior (s), or None.
 
-    Each pair of sightings (profiles ``p_i < p_j``, at least one apart), each taken with
-    a compatible crossing (`compatible_crossings`, times ``t_a < t_b``), implies the
-    period ``(t_b - t_a) / (p_j - p_i)``; the true clock makes every pair of its own
-    sightings agree. The crossings come from the geometry alone, so this finds a prior
-    given in the wrong unit (30.3 for 0.0303 s), far beyond `PERIOD_SEARCH_FACTOR`.
+    Each two compatible (sighting, crossing) pairs of other sightings and crossings, the
+    sightings at least a profile apart (abscissae ``x_p < x_q``, times ``t_p < t_q``),
+    imply the period ``(t_q - t_p) / (x_q - x_p)``, as the hypotheses of
+    `best_assignment` do; the true clock makes every pair of its own sightings agree.
+    The crossings come from the geometry alone, so this finds a prior given in the
+    wrong unit (30.3 for 0.0303 s), far beyond `PERIOD_SEARCH_FACTOR`.
 
     Parameters
     ----------
     sightings, crossings : sequence of Sighting, Crossing
     cfg : ObjectSpaceConfig
         The gates of `compatible_crossings`.
+    per_pair : Mapping of (int, int) to Sighting, optional
+        Sightings refined for one compatible crossing, as for `candidate_assignments`.
 
     Returns
     -------
@@ -585,16 +591,12 @@ def implied_period_s(
         `IMPLIED_PERIOD_AGREE` of each other, when it holds `IMPLIED_PERIOD_PAIRS` or
         more; else None.
     """
-    compat = compatible_crossings(sightings, crossings, cfg)
-    t_c = np.array([c.t_s for c in crossings])
-    found: list[FloatArray] = []
-    for i, s_i in enumerate(sightings):
-        for j, s_j in enumerate(sightings):
-            dp = s_j.profile - s_i.profile
-            if dp >= 1.0 and compat[i].size and compat[j].size:
-                dt = t_c[compat[j]][None, :] - t_c[compat[i]][:, None]
-                found.append(dt[dt > 0.0] / dp)
-    periods = np.sort(np.concatenate(found)) if found else np.empty(0)
+    _, _, _, pairs = _compatible_pairs(sightings, crossings, cfg, per_pair)
+    dx = pairs.x[None, :] - pairs.x[:, None]
+    dt = pairs.t_s[None, :] - pairs.t_s[:, None]
+    ok = (pairs.sighting[None, :] != pairs.sighting[:, None]) & (dx >= 1.0) & (dt > 0.0)
+    ok &= pairs.crossing[None, :] != pairs.crossing[:, None]
+    periods = np.sort(dt[ok] / dx[ok])
     if periods.size < IMPLIED_PERIOD_PAIRS:
         return None
     support = np.searchsorted(periods, periods * (1.0 + IMPLIED_PERIOD_AGREE), side="right")
@@ -641,7 +643,7 @@ def check_period_prior(
     wider = best_assignment(
         sightings, crossings, cfg, bounds, more_than=max(n_in, 2), per_pair=per_pair
     )
-    implied = None if wider is not None else implied_period_s(sightings, crossings, cfg)
+    implied = None if wider is not None else implied_period_s(sightings, crossings, cfg, per_pair)
     if implied is not None and not bounds[0] <= implied <= bounds[1]:  # a unit mistake
         near = (implied / IMPLIED_PERIOD_SPAN, implied * IMPLIED_PERIOD_SPAN)
         wider = best_assignment(
