@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from kinsync.demo.method_b import method_b_section
 from kinsync.report.html import render_report
 from kinsync.sim.profiler import DRIVE_SCAN_FILES
@@ -37,6 +39,11 @@ def test_method_b_section(tmp_path: Path) -> None:
     (check,) = [c for c in section.checks if "wrong period prior" in c.quantity]
     assert check.passed, check
     assert "refused: " in check.detail
+    # What the mount's errors would do to the clock: 1 cm along the track at 2 m/s is 5 ms.
+    mount = section.paragraphs[-1]
+    assert "1 cm of lever arm along the track moves t0 by -" in mount
+    lever_ms = float(mount.split("moves t0 by ")[1].split(" ms")[0])
+    assert abs(lever_ms) == pytest.approx(5.0, rel=0.1)
     (row,) = summary
     assert row[0].startswith("Method B")
     assert "pulse offset 1" in row[2]
