@@ -51,7 +51,6 @@ least-squares", Commun. Stat. Theory Methods 6(9), 1977, 813-827.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -60,6 +59,7 @@ import numpy as np
 
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.calibration.features import Feature
+from kinsync.calibration.line_detrend import detrend_lines
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.calibration.parameters import LATENCY
 from kinsync.errors import ConvergenceError, ObservabilityError
@@ -370,27 +370,19 @@ def _line_detrended(feature: Feature, at: _AtState, group: IntArray) -> FloatArr
     median): a drift of the line across the plane, a navigation error that changes
     while the plane is seen, leaves no residual, while a car or a bush stays off the
     line's fit. A line with fewer returns is centred on its median. ``group`` holds each
-    line's returns in one run, as `ObservationLayout.gather` makes it.
+    line's returns in one run, as `ObservationLayout.gather` makes it. Compiled:
+    `kinsync.calibration.line_detrend`.
     """
-    e, ok = at.e, at.ok
-    out = e.copy()
-    cuts = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), group.size]
-    for on in itertools.starmap(slice, itertools.pairwise(cuts)):
-        good = ok[on]
-        if not np.any(good):
-            continue
-        r = e[on] - float(np.median(e[on][good]))
-        if np.count_nonzero(good) >= _MIN_LINE_FIT:
-            jac = feature.jacobian(at.xs[on])
-            for _ in range(_LINE_FIT_ITERATIONS):
-                scale = max(robust_sigma(r[good]), _MIN_WITHIN_SCALE_M)
-                root = np.sqrt(np.where(good, _tukey(r / scale), 0.0))
-                if np.count_nonzero(root) < _MIN_LINE_FIT:
-                    break
-                step, *_ = np.linalg.lstsq(jac * root[:, None], -e[on] * root, rcond=None)
-                r = e[on] + jac @ step
-        out[on] = r
-    return out
+    return detrend_lines(
+        at.e,
+        at.ok,
+        feature.jacobian(at.xs),
+        group,
+        min_fit=_MIN_LINE_FIT,
+        iterations=_LINE_FIT_ITERATIONS,
+        tukey_c=_TUKEY_C,
+        min_scale_m=_MIN_WITHIN_SCALE_M,
+    )
 
 
 def _robust_factors(
