@@ -50,6 +50,7 @@ __all__ = [
     "positive_number",
     "profile_arrays",
     "time_array",
+    "time_number",
 ]
 
 TIME_STEP_S = 1e-6
@@ -276,6 +277,40 @@ def time_array(
         raise InputError(msg)
     _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s")
     return _as_float64(arr, name, "seconds")
+
+
+def time_number(
+    value: object, name: str, *, clock: Literal["gps", "local", "utc"] = "gps"
+) -> float:
+    """One time (s) as a finite float, refused as `time_array` refuses an array of them.
+
+    Parameters
+    ----------
+    value : object
+        A time (s): a Python int or float, or a NumPy integer or float scalar.
+    name : str
+        The argument as the caller wrote it, for messages.
+    clock : {"gps", "local", "utc"}
+        Which time scale, for the advice of a message.
+
+    Returns
+    -------
+    float
+        The time (s).
+
+    Raises
+    ------
+    InputError
+        Not a real number (text, complex, bool, datetime64), not finite, or a float
+        type whose step at the value is coarser than `TIME_STEP_S` (a float32 GPS time
+        is held in steps of 128 s: 1.4e9 + 0.437 s reads back 0.437 s early).
+    """
+    out = finite_number(value, name)
+    if isinstance(value, np.floating):
+        _refuse_coarse_floats(
+            np.asarray(value), name, "times", TIME_STEP_S, "1 us", "s", _CLOCK_ADVICE[clock]
+        )
+    return out
 
 
 def coordinate_array(values: ArrayLike, name: str) -> FloatArray:

@@ -842,3 +842,28 @@ def test_offset_sigma_includes_the_float64_rounding_of_the_reference() -> None:
     assert 0.8 < ratio < 1.2
     assert fit.offset_drift_cov[0, 0] == fit.offset_std_s**2
     assert fit.model.offset_resolution_s == step_s
+
+
+def test_a_float32_reference_time_is_refused() -> None:
+    # np.float32(1.4e9 + 0.437) was taken as 1.4e9: every mapped time 0.437 s early.
+    g = 1.4e9 + 0.437
+    with pytest.raises(InputError, match=r"^clock reference_gps_s: float32 times near 1\.4e\+09"):
+        ClockModel(0.0, np.float32(g), 0.0, (0.0, 10.0))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"^clock reference_local_s: float32 times"):
+        ClockModel(np.float32(5e8), g, 0.0, (0.0, 10.0))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"^clock span_local_s\[1\]: float32 times"):
+        ClockModel(0.0, g, 0.0, (0.0, np.float32(5e8)))  # type: ignore[arg-type]
+    assert ClockModel(0.0, np.float64(g), 0.0, (0.0, 10.0)).reference_gps_s == g
+
+
+@pytest.mark.parametrize("reference_gps_s", [-5.0, 1e12])
+def test_a_model_that_can_be_built_can_be_read_back(tmp_path: Path, reference_gps_s: float) -> None:
+    # Both were built and written; reading the file back refused them.
+    with pytest.raises(InputError, match=r"^clock: reference_gps_s .* is not a GPS time"):
+        ClockModel(0.0, reference_gps_s, 0.0, (0.0, 10.0))
+    with pytest.raises(InputError, match=r"^clock: knots_gps_s 4000000000\.0 s is not a GPS"):
+        ClockModel(10.0, 1.4e9, 0.0, (10.0, 20.0), np.array([10.0, 20.0]), np.array([1.4e9, 4e9]))
+    model = ClockModel(0.0, 1.4e9, 0.0, (0.0, 10.0))
+    path = tmp_path / "model.json"
+    write_clock_model(model, path)
+    assert read_clock_model(path).reference_gps_s == 1.4e9

@@ -54,3 +54,28 @@ def test_shape_follows_the_input() -> None:
 def test_bad_clock(t0_s: float, period_s: float, fragment: str) -> None:
     with pytest.raises(InputError, match=fragment):
         ProfileClock(t0_s, period_s)
+
+
+def test_a_float32_start_time_is_refused() -> None:
+    # np.float32(1.4e9 + 0.437) was taken as 1.4e9: t0_s 0.437 s early, silently.
+    with pytest.raises(InputError, match=r"^profile clock t0_s: float32 times near 1\.4e\+09 s"):
+        ProfileClock(np.float32(1.4e9 + 0.437), PERIOD_S)  # type: ignore[arg-type]
+    for bad in (True, 1.4e9 + 1j, "1.4e9"):
+        with pytest.raises(InputError, match=r"^profile clock t0_s: expected a number"):
+            ProfileClock(bad, PERIOD_S)  # type: ignore[arg-type]
+    assert ProfileClock(np.float64(T0_S), PERIOD_S).t0_s == T0_S
+
+
+@pytest.mark.parametrize("period_s", [30.3, 10.5, 5e-6])
+def test_a_period_no_mirror_has_is_refused(period_s: float) -> None:
+    # 30.3 (ms given as s) was accepted: every return timed 1000 times too late.
+    with pytest.raises(InputError, match=r"^profile clock period_s: .* s is outside 1e-05 to 10 s"):
+        ProfileClock(T0_S, period_s)
+
+
+def test_the_cli_period_span_is_the_clock_s() -> None:
+    from kinsync.cli._bounds import OPTION_BOUNDS  # noqa: PLC0415
+    from kinsync.clock.profile import PERIOD_SPAN_S  # noqa: PLC0415
+
+    span = OPTION_BOUNDS["--period-s"]
+    assert (span.low, span.high) == PERIOD_SPAN_S

@@ -23,7 +23,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import finite_number, time_array
+from kinsync._validate import finite_number, time_array, time_number
 from kinsync.errors import InputError, OutsideSpanError
 
 __all__ = [
@@ -107,6 +107,19 @@ class ClockModel:
         Piecewise-linear model: local and GPS times of the good pulses (K >= 2,
         strictly increasing), interpolated linearly inside the span; None for the
         linear model.
+
+    Raises
+    ------
+    InputError
+        A time that is not a finite float64-precise number (a float32 GPS time is held
+        in steps of 128 s), a GPS time (``reference_gps_s``, the knots) outside
+        `GPS_TIME_SPAN_S` (the model file reader refuses those, so a model that can be
+        written can be read back), a drift that stops the clock, inconsistent knots.
+
+    Notes
+    -----
+    Models compare by identity (``==`` is ``is``): two fits of the same log are two
+    models; compare their fields (or `as_document`) to tell whether they agree.
     """
 
     reference_local_s: float
@@ -117,8 +130,12 @@ class ClockModel:
     knots_gps_s: FloatArray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("reference_local_s", "reference_gps_s", "drift_ppm"):
-            object.__setattr__(self, name, finite_number(getattr(self, name), f"clock {name}"))
+        local = time_number(self.reference_local_s, "clock reference_local_s", clock="local")
+        object.__setattr__(self, "reference_local_s", local)
+        gps = time_number(self.reference_gps_s, "clock reference_gps_s", clock="gps")
+        object.__setattr__(self, "reference_gps_s", gps)
+        _check_gps_times([self.reference_gps_s], "reference_gps_s", "clock")
+        object.__setattr__(self, "drift_ppm", finite_number(self.drift_ppm, "clock drift_ppm"))
         if abs(self.drift_ppm) >= 1e6:
             msg = f"clock drift_ppm: {self.drift_ppm} ppm would stop or reverse the clock"
             raise InputError(msg)
@@ -126,8 +143,8 @@ class ClockModel:
         if not isinstance(span, Sequence | np.ndarray) or len(span) != 2:
             msg = f"clock span_local_s: expected two times (first, last), got {span!r}"
             raise InputError(msg)
-        lo = finite_number(span[0], "clock span_local_s[0]")
-        hi = finite_number(span[1], "clock span_local_s[1]")
+        lo = time_number(span[0], "clock span_local_s[0]", clock="local")
+        hi = time_number(span[1], "clock span_local_s[1]", clock="local")
         if hi < lo:
             msg = f"clock span_local_s: last time {hi} is before first time {lo}"
             raise InputError(msg)
@@ -153,6 +170,7 @@ class ClockModel:
                     f"[{lo!r}, {hi!r}]"
                 )
                 raise InputError(msg)
+            _check_gps_times(kg[[0, -1]], "knots_gps_s", "clock")  # increasing: the ends tell
             object.__setattr__(self, "knots_local_s", readonly_array(kl))
             object.__setattr__(self, "knots_gps_s", readonly_array(kg))
 
@@ -395,6 +413,7 @@ class ClockModel:
                 raise InputError(msg)
             knots_local = _doc_list(pw.get("knots_local_s"), "piecewise.knots_local_s", source)
             knots_gps = _doc_list(pw.get("knots_gps_s"), "piecewise.knots_gps_s", source)
+            _check_gps_times(knots_gps, "piecewise.knots_gps_s", source)
         try:
             model = cls(
                 reference_local_s=ref_local,
@@ -407,9 +426,6 @@ class ClockModel:
         except InputError as err:
             msg = f"{source}: {err}"
             raise InputError(msg) from err
-        if model.knots_gps_s is not None:  # increasing: the ends tell
-            ends = model.knots_gps_s[[0, -1]]
-            _check_gps_times(ends, "piecewise.knots_gps_s", source)
         return model
 
 
@@ -437,6 +453,9 @@ def _check_kind_and_version(doc: dict[str, Any], where: str) -> None:
 
 def _check_gps_times(values: Sequence[float] | FloatArray, key: str, where: str) -> None:
     """Refuse a GPS time outside `GPS_TIME_SPAN_S` (before 1980 or after 2100).
+
+    The one check of `ClockModel` and of the model file reader (which names the file's
+    key before building the model).
 
     Parameters
     ----------

@@ -15,9 +15,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
-from kinsync._validate import finite_number, positive_number
+from kinsync._validate import finite_number, time_number
+from kinsync.errors import InputError
 
-__all__ = ["ProfileClock"]
+__all__ = ["PERIOD_SPAN_S", "ProfileClock"]
+
+PERIOD_SPAN_S = (1e-5, 10.0)
+"""Mirror periods (s) a `ProfileClock` may have: 10 us (100,000 profiles a second) to
+10 s (0.1 Hz, the slowest profile rate ``kinsync simulate --profile-rate-hz`` takes;
+``--period-s`` has the same span). Profilers turn 10 to 250 times a second (a period of
+4 to 100 ms): a larger period is most often milliseconds given as seconds (30.3 for
+0.0303 s)."""
 
 
 @dataclass(frozen=True)
@@ -29,17 +37,31 @@ class ProfileClock:
     t0_s : float
         Start of profile 0 (s, the trajectory's time scale, GPS time).
     period_s : float
-        Mirror period T (s), > 0.
+        Mirror period T (s), within `PERIOD_SPAN_S`.
+
+    Raises
+    ------
+    InputError
+        ``t0_s`` not a finite, float64-precise time (a float32 GPS time is held in steps
+        of 128 s), or ``period_s`` not a finite number within `PERIOD_SPAN_S`.
     """
 
     t0_s: float
     period_s: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "t0_s", finite_number(self.t0_s, "profile clock t0_s"))
-        object.__setattr__(
-            self, "period_s", positive_number(self.period_s, "profile clock period_s")
-        )
+        object.__setattr__(self, "t0_s", time_number(self.t0_s, "profile clock t0_s"))
+        period_s = finite_number(self.period_s, "profile clock period_s")
+        low, high = PERIOD_SPAN_S
+        if not low <= period_s <= high:
+            msg = (
+                f"profile clock period_s: {period_s!r} s is outside {low:g} to {high:g} s, "
+                "the periods of a profiler's mirror; the period is in seconds per profile "
+                f"(0.0303 s for 33 rev/s), not milliseconds ({period_s!r} ms would be "
+                f"{period_s / 1e3!r} s)"
+            )
+            raise InputError(msg)
+        object.__setattr__(self, "period_s", period_s)
 
     def time_s(self, profile: ArrayLike, angle_rad: ArrayLike) -> FloatArray:
         """Time (s) of returns at profile numbers and mirror angles (rad), same shape.
