@@ -238,9 +238,10 @@ def test_sphere_warns_when_the_rates_disagree(
     assert "rates DISAGREE: chi2 " in out
     assert "rates agree" not in out
     warning = [line for line in err.splitlines() if "warning" in line]
-    assert len(warning) == 1, err
+    assert len(warning) == 2, err
     assert str(folder) in warning[0]
     assert "passes.csv" in warning[0]
+    assert "the sign and unit of the table rates were not checked on 12 of 12" in warning[1]
     code, out, err = run_cli(
         ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--json"]
     )
@@ -759,3 +760,31 @@ def test_sphere_points_in_millimetres_get_a_unit_hint_and_a_short_message(
     code, out, err = run_cli(["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"])
     assert_one_line_error(code, out, err, "millimetres or feet", "and 2 more signed rates")
     assert err.count("millimetres or feet") == 2, err
+
+
+def test_sphere_says_when_the_rates_could_not_be_checked(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    # Without point times every rate negated gave -tau, and rad/s 57 times tau, each
+    # with "rates agree": nothing said that the rates had not been checked.
+    folder = copy_of(sim_folder, tmp_path)
+    for path in folder.glob("pass_*.csv"):
+        _drop_times(path)
+    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure"]
+    code, out, err = run_cli(argv)
+    assert code == 0, err
+    assert "per-rate latencies agree: chi2 " in out
+    assert "(rates' sign and unit not checked)" in out
+    assert "rates agree" not in out
+    (warning,) = [line for line in err.splitlines() if "warning" in line]
+    assert "the sign and unit of the table rates were not checked on 12 of 12 passes" in warning
+    code, out, err = run_cli([*argv, "--json"])
+    doc = json.loads(out)
+    assert doc["consistency"]["n_passes_rate_checked"] == 0
+    assert any("were not checked on 12 of 12" in w for w in doc["warnings"])
+    code, out, err = run_cli(
+        ["latency", "sphere", str(sim_folder), "--radius-m", "0.1", "--no-figure", "--json"]
+    )
+    doc = json.loads(out)
+    assert doc["consistency"]["n_passes_rate_checked"] == 12
+    assert not any("not checked" in w for w in doc["warnings"])

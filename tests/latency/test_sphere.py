@@ -210,6 +210,28 @@ def test_rates_that_disagree_widen_the_sigma_by_the_birge_ratio_and_say_so() -> 
     assert result.as_document()["consistency"]["rates_disagree"] is True
 
 
+def test_rates_without_point_times_are_said_to_be_unchecked() -> None:
+    # Without point times every rate negated gave -tau, rad/s for deg/s 57 times tau,
+    # both with "rates agree".
+    passes = small_simulation(TAU_S, seed=7, rates=(6.0, 18.0))
+    checked = estimate_latency_sphere(passes, radius_m=0.1)
+    assert checked.n_passes_rate_checked == checked.n_passes == len(passes)
+    assert checked.rates_unchecked_text() == ""
+    timeless = [SpherePass(p.source, -p.rate_deg_s, p.points_ned_m) for p in passes]
+    flipped = estimate_latency_sphere(timeless, radius_m=0.1)
+    assert flipped.latency_s == pytest.approx(-checked.latency_s, abs=3 * checked.latency_std_s)
+    assert flipped.n_passes_rate_checked == 0
+    text = flipped.agreement_text()
+    assert text.startswith("per-rate latencies agree: chi2 "), text
+    assert "rates agree" not in text
+    assert text.endswith("(rates' sign and unit not checked)")
+    assert flipped.rates_unchecked_text().startswith(
+        f"the sign and unit of the table rates were not checked on {len(passes)} of "
+        f"{len(passes)} passes (none of them with point times"
+    )
+    assert flipped.as_document()["consistency"]["n_passes_rate_checked"] == 0
+
+
 def test_one_rate_says_agreement_is_not_tested() -> None:
     result = estimate_latency_sphere(small_simulation(TAU_S, seed=7), radius_m=0.1)
     assert result.dof_between_rates == 0

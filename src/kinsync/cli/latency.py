@@ -76,6 +76,18 @@ def _print_sphere_result(
         console.print(f"figure: {fig_path}")
 
 
+def _warn_about_rates(result: SphereLatencyResult, folder: Path, raw: bool) -> None:
+    """Warn when the rates disagree, or when their sign and unit went unchecked."""
+    if result.rates_disagree:
+        warn(
+            f"{folder}: the table rates disagree ({result.agreement_text()}); "
+            "check each pass's signed rate (deg/s) and axis in passes.csv: a wrong sign, "
+            "unit or axis biases the latency, which the wider sigma does not remove"
+        )
+    if result.rates_unchecked_text() and not raw:  # --raw: the attitude log checked them
+        warn(f"{folder}: {result.rates_unchecked_text()}")
+
+
 def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | None:
     """The mount the passes were georeferenced with, or None (no latency applied).
 
@@ -235,12 +247,7 @@ def sphere(
             "mount_latency_ms": applied_s * 1e3,
             "residual_latency_ms": result.latency_s * 1e3,
         }
-    if result.rates_disagree:
-        warn(
-            f"{folder}: the table rates disagree ({result.agreement_text()}); "
-            "check each pass's signed rate (deg/s) and axis in passes.csv: a wrong sign, "
-            "unit or axis biases the latency, which the wider sigma does not remove"
-        )
+    _warn_about_rates(result, folder, raw)
     if mount_out is not None:
         assert applied is not None  # _check_mount_options
         _write_mount_with_latency(applied, total_s, result.latency_std_s, mount_out)

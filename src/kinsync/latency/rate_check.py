@@ -43,6 +43,7 @@ __all__ = [
     "mismatch_message",
     "points_azimuth_rate_deg_s",
     "rate_mismatch",
+    "unchecked_rates_text",
 ]
 
 RATE_RATIO_LIMIT = 2.0
@@ -293,7 +294,7 @@ def judge_rates(
     return mismatches, n_checked
 
 
-def check_pass_rates(passes: Sequence[SpherePass]) -> None:
+def check_pass_rates(passes: Sequence[SpherePass]) -> int:
     """Raise when a pass's points turn otherwise than its stated table rate.
 
     Each pass with point times is judged by `points_azimuth_rate_deg_s`; a pass
@@ -308,9 +309,10 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> None:
 
     Returns
     -------
-    None
-        Nothing: every pass judged agrees with its stated rate (or none could be
-        judged).
+    int
+        Passes judged, each agreeing with its stated rate; 0 when none could be (no
+        point times): then a wrong sign, rad/s for deg/s or ENU for NED goes unseen
+        (`unchecked_rates_text`).
 
     Raises
     ------
@@ -332,3 +334,26 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> None:
                 mismatches, n_checked, "the points' azimuth about the axis", points=True
             )
         )
+    return n_checked
+
+
+def unchecked_rates_text(n_checked: int, n_passes: int) -> str:
+    """What was not checked of the passes' stated rates, in words; "" when every pass was.
+
+    Parameters
+    ----------
+    n_checked : int
+        Passes whose points judged their stated rate (`check_pass_rates`).
+    n_passes : int
+        Passes given.
+    """
+    if n_checked >= n_passes:
+        return ""
+    which = "none" if n_checked == 0 else f"only {n_checked}"
+    return (
+        f"the sign and unit of the table rates were not checked on {n_passes - n_checked} "
+        f"of {counted(n_passes, 'pass', 'passes')} ({which} of them with point times that "
+        "sweep with the table): a wrong sign flips the latency and rad/s given as deg/s "
+        "scales it 57 times, unseen; give the points' times (a t_s column) or check "
+        "passes.csv by hand"
+    )

@@ -45,7 +45,7 @@ from kinsync.latency.planning import (
     MIN_SPHERE_POINTS_PER_PASS,
     checked_max_incidence_deg,
 )
-from kinsync.latency.rate_check import check_pass_rates
+from kinsync.latency.rate_check import check_pass_rates, unchecked_rates_text
 from kinsync.latency.roi import RoiCrop, checked_roi, crop_passes
 from kinsync.latency.sphere_failures import pool_failure as _pool_failure
 from kinsync.progress import Progress, report
@@ -257,6 +257,10 @@ class SphereLatencyResult:
         The region of interest and the points of each pass outside it (left out before
         segmentation); None when none was given. Point counts elsewhere in the result
         are of the points inside it.
+    n_passes_rate_checked : int
+        Passes whose points confirmed the sign and size of their stated rate
+        (`kinsync.latency.rate_check`); the others (no point times) were not checked:
+        see `rates_unchecked_text`.
     """
 
     latency_s: float
@@ -275,6 +279,7 @@ class SphereLatencyResult:
     rejected_passes: tuple[RejectedPass, ...] = ()
     roi: RoiCrop | None = None
     unpaired_passes: tuple[RejectedPass, ...] = ()
+    n_passes_rate_checked: int = 0
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -289,7 +294,9 @@ class SphereLatencyResult:
         """The chi-square test between rates in words.
 
         E.g. ``rates agree: chi2 1.20 on 2 dof, p = 0.55``; with one rate, that no test
-        was possible; when the test rejects agreement, the widened sigma's factor.
+        was possible; when the test rejects agreement, the widened sigma's factor. Not
+        "rates agree" when the points did not check every stated rate: flipped signs or
+        rad/s agree just as well (`rates_unchecked_text`).
         """
         if self.dof_between_rates == 0:
             return "one rate: its agreement with other rates is not tested"
@@ -298,11 +305,17 @@ class SphereLatencyResult:
             f"{format_p_value(self.p_value_between_rates)}"
         )
         if not self.rates_disagree:
+            if self.rates_unchecked_text():  # a wrong sign or unit agrees as well
+                return f"per-rate latencies agree: {test} (rates' sign and unit not checked)"
             return f"rates agree: {test}"
         return (
             f"rates DISAGREE: {test}; sigma widened x{self.sigma_scale:.2f} to their scatter "
             f"(formal {self.latency_formal_std_s * 1e3:.4f} ms)"
         )
+
+    def rates_unchecked_text(self) -> str:
+        """Which passes' stated rates the points did not check, in words; "" if none."""
+        return unchecked_rates_text(self.n_passes_rate_checked, self.n_passes)
 
     @property
     def n_passes_used(self) -> int:
@@ -340,6 +353,7 @@ class SphereLatencyResult:
                 "dof": self.dof_between_rates,
                 "p_value": self.p_value_between_rates,
                 "rates_disagree": self.rates_disagree,
+                "n_passes_rate_checked": self.n_passes_rate_checked,
             },
             "unpaired_rates_deg_s": list(self.unpaired_rates_deg_s),
             "n_passes": self.n_passes,
@@ -787,7 +801,7 @@ def estimate_latency_sphere(
     if scanner_origin_ned_m is not None:
         scanner_origin_ned_m = _checked_origin(scanner_origin_ned_m)
     roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
-    check_pass_rates(passes)
+    n_rate_checked = check_pass_rates(passes)
     crop = None
     if roi is not None:
         passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
@@ -874,4 +888,5 @@ def estimate_latency_sphere(
         rejected_passes=tuple(rejected),
         roi=crop,
         unpaired_passes=tuple(alone),
+        n_passes_rate_checked=n_rate_checked,
     )
