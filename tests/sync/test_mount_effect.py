@@ -7,8 +7,10 @@ and the trajectory's errors only: a lever arm 1 cm off along the track moved t0 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
+import pickle
 import warnings
 
 import numpy as np
@@ -163,3 +165,22 @@ def test_exact_text_thresholds_and_the_unfollowed() -> None:
     said = exact_text(lost, cov)
     assert said is not None
     assert "the effect of lever_x_m on the clock could not be computed" in said
+
+
+def test_a_result_pickles_copies_and_hashes(exact: ObjectSpaceResult) -> None:
+    # n_crossings was a MappingProxyType: pickle, deepcopy and hash raised TypeError (a
+    # result could not be sent to a worker process or cached); MountEffect, a dataclass
+    # with eq=True over arrays, raised numpy's ambiguous truth value on ==.
+    back: ObjectSpaceResult = pickle.loads(pickle.dumps(exact))
+    assert back.as_document() == exact.as_document()
+    assert copy.deepcopy(exact).as_document() == exact.as_document()
+    assert hash(exact) == hash(exact)
+    assert dict(back.n_crossings) == dict(exact.n_crossings)
+    with pytest.raises(TypeError):
+        back.n_crossings["S1"] = 0  # type: ignore[index]
+    effect = exact.mount_effect
+    assert effect is not None
+    assert effect == exact.mount_effect
+    assert effect != dataclasses.replace(effect)  # compared by identity, never by arrays
+    assert not effect.sensitivity_s.flags.writeable
+    assert not effect.covariance.flags.writeable

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from kinsync._arrays import readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.held import (
     ADVICE_SHARE,
@@ -113,7 +114,7 @@ def crossing_shifts(
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MountEffect:
     """What the mount's errors do to the clock (t0, T).
 
@@ -136,6 +137,11 @@ class MountEffect:
     covariance: FloatArray
     exact: tuple[str, ...]
     unfollowed: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, as every result's arrays (compared by identity: eq=False).
+        object.__setattr__(self, "sensitivity_s", readonly_array(self.sensitivity_s))
+        object.__setattr__(self, "covariance", readonly_array(self.covariance))
 
     def as_document(self) -> dict[str, Any]:
         """JSON-ready dict: per value its reference error and what it does to t0 and T."""

@@ -180,12 +180,12 @@ import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
+from kinsync._arrays import FrozenMapping
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import KinsyncWarning, ObservabilityError
@@ -342,7 +342,8 @@ class ObjectSpaceResult:
         (a `KinsyncWarning` names them): the point seen a little off, its coordinates
         (datum, epoch, height) or the mount wrong by about that much.
     n_crossings : Mapping of str to int
-        Candidate crossings found per sync point (a read-only mapping).
+        Candidate crossings found per sync point (a read-only mapping that pickles:
+        results can be pickled, copied and hashed).
     ambiguous : bool
         Another assignment fits almost as well (see ``alternatives``) and the pulses, if
         given, do not rule it out (module step 6).
@@ -369,7 +370,7 @@ class ObjectSpaceResult:
     sigma_scale: float
     sightings: tuple[MatchedSighting, ...]
     unmatched: tuple[Sighting, ...]
-    n_crossings: Mapping[str, int] = field(default_factory=lambda: MappingProxyType({}))
+    n_crossings: Mapping[str, int] = field(default_factory=FrozenMapping)
     unmatched_at: tuple[str | None, ...] = ()
     unmatched_near: tuple[NearCrossing | None, ...] = ()
     ambiguous: bool = False
@@ -383,7 +384,7 @@ class ObjectSpaceResult:
 
     def __post_init__(self) -> None:
         # A frozen result holds no mutable state: a read-only copy of the counts.
-        object.__setattr__(self, "n_crossings", MappingProxyType(dict(self.n_crossings)))
+        object.__setattr__(self, "n_crossings", FrozenMapping(self.n_crossings))
 
     @property
     def clock(self) -> ProfileClock:
