@@ -64,7 +64,7 @@ def _times(values: FloatArray, name: str) -> FloatArray:
     return t
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ImuData:
     """IMU samples.
 
@@ -96,7 +96,7 @@ class ImuData:
         return int(self.t_s.size)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GnssData:
     """GNSS antenna fixes.
 

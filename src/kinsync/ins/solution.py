@@ -75,7 +75,7 @@ class InitialState:
     static_until_s: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class NavSolution:
     """Navigation solution (IMU reference point), one row per IMU epoch.
 

@@ -108,7 +108,7 @@ def cloud_crs(path: Path, crs: str | None) -> str:
     raise InputError(msg)
 
 
-@dataclass
+@dataclass(eq=False)
 class CloudExtent:
     """Running bounding box of the points read so far (for "nothing found" messages)."""
 

@@ -28,7 +28,7 @@ _MIN_LAZ_CHUNK_BYTES = 20
 """A LAZ chunk holds its first point uncompressed: at least a point of format 0."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LazChunks:
     """Where the points of a LAZ file lie: its LAZ chunk table, checked against the file.
 

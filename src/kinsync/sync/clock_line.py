@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LineFit:
     """Weighted line ``t = t0 + T x``: estimate, a-priori covariance of (t0, T), chi2, residuals."""
 
