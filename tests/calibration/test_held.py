@@ -506,3 +506,16 @@ def test_the_unobservable_rule_reads_the_total_sigma() -> None:
     # No held value with a stated sigma: the data's rule alone, as before.
     none = replace(effect, covariance=np.zeros((2, 2)))
     assert hold_too_uncertain((2, 6), data, cov, none) is None
+
+
+def test_a_calibration_cannot_be_changed_in_place(stated: CalibrationResult) -> None:
+    # correlation and the held effect's arrays were writeable: a result could be edited.
+    assert stated.held is not None
+    arrays = {"correlation": stated.correlation} | {
+        name: getattr(stated.held, name)
+        for name in ("sensitivity", "held_std", "covariance", "held_covariance")
+    }
+    for name, array in arrays.items():
+        assert not array.flags.writeable, name
+        with pytest.raises(ValueError, match="read-only"):
+            array[...] = 0.0

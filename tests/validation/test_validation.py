@@ -526,6 +526,27 @@ def test_flat_wall_is_not_curved_and_bow_is_measured() -> None:
     assert not fit_wall(pts, min_bow_m=0.02).curvature_significant
 
 
+def test_a_wall_fit_cannot_be_changed_in_place() -> None:
+    # Its arrays were writeable: r.normal_ned[:] = 0 changed the result (SphereFit's and
+    # ClockFit's are read-only).
+    result = fit_wall(_plane_points(np.random.default_rng(5), 500, 0.003)[0])
+    for name in (
+        "centre_ned_m",
+        "normal_ned",
+        "u_axis_ned",
+        "v_axis_ned",
+        "u_m",
+        "v_m",
+        "residual_m",
+        "quadratic_m",
+        "quadratic_std_m",
+    ):
+        array = getattr(result, name)
+        assert not array.flags.writeable, name
+        with pytest.raises(ValueError, match="read-only"):
+            array[...] = 0.0
+
+
 def test_gross_outliers_are_rejected() -> None:
     rng = np.random.default_rng(4)
     pts, _ = _plane_points(rng, 10000, 0.005)

@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from kinsync._arrays import readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
@@ -334,6 +335,11 @@ class HeldEffect:
     held_std: FloatArray
     covariance: FloatArray
     held_covariance: FloatArray
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, as every result's arrays: a result never changes.
+        for name in ("sensitivity", "held_std", "covariance", "held_covariance"):
+            object.__setattr__(self, name, readonly_array(getattr(self, name)))
 
     @property
     def std(self) -> FloatArray:

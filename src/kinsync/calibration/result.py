@@ -8,6 +8,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from kinsync._arrays import readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.held import HeldEffect
 from kinsync.calibration.overlaps import LineOverlap
@@ -204,6 +205,10 @@ class CalibrationResult:
     uncertainty_notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     sigma_honest: bool = True
+
+    def __post_init__(self) -> None:
+        # Own read-only copy, as every result's arrays (the held effect's are its own).
+        object.__setattr__(self, "correlation", readonly_array(self.correlation))
 
     def parameter(self, name: str) -> ParameterEstimate:
         """The estimate called ``name`` (e.g. ``latency_ms``).

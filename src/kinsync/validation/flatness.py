@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import ecef_array, finite_number, finite_vector, positive_number
 from kinsync.errors import InputError
@@ -60,6 +61,20 @@ Box = tuple[float, float, float, float, float, float]
 
 MIN_FLATNESS_POINTS = 10
 """Fewest points a wall fit accepts (six coefficients of the quadratic surface, and spare)."""
+
+
+_ARRAY_FIELDS = (
+    "centre_ned_m",
+    "normal_ned",
+    "u_axis_ned",
+    "v_axis_ned",
+    "u_m",
+    "v_m",
+    "residual_m",
+    "quadratic_m",
+    "quadratic_std_m",
+)
+"""The arrays of a `FlatnessResult` (read-only copies)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +149,11 @@ class FlatnessResult:
     curvature_significant: bool
     outlier_k: float
     rule: str = field(default="")
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, as SphereFit's arrays: a result never changes.
+        for name in _ARRAY_FIELDS:
+            object.__setattr__(self, name, readonly_array(getattr(self, name)))
 
     @property
     def extent_u_m(self) -> float:
