@@ -601,3 +601,18 @@ def test_segment_sphere_inlier_band_is_three_robust_sigma() -> None:
     assert not far.any()
     kept = float(fit.inliers[:20_000].mean())
     assert 0.99 < kept < 0.9995, kept  # 3 sigma keeps 99.73 %
+
+
+def test_float32_points_at_map_coordinates_are_refused_as_such() -> None:
+    # float32 UTM-sized points (0.5 m steps) were "coplanar (out-of-plane spread 0 m)".
+    rng = np.random.default_rng(2)
+    d = rng.normal(size=(2000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    pts = np.array([402000.0, 5183000.0, 21.0]) + 0.1 * d
+    for fit in (fit_sphere, segment_sphere):
+        with pytest.raises(
+            InputError, match=r"points_m: float32 coordinates near 5\.183e\+06 m .* steps of 0\.5 m"
+        ):
+            fit(pts.astype(np.float32))
+    near = fit_sphere((0.1 * d + [2.0, 0.3, 0.5]).astype(np.float32))  # table frame: fine
+    assert near.radius_m == pytest.approx(0.1, abs=1e-4)

@@ -62,7 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import finite_vector
+from kinsync._validate import check_float_step, finite_vector
 from kinsync.errors import ConvergenceError, InputError
 
 __all__ = ["SphereFit", "fit_sphere", "fit_sphere_algebraic"]
@@ -159,12 +159,18 @@ class SphereFit:
 
 
 def _validated_points(points_m: ArrayLike, what: str) -> FloatArray:
-    """(N, 3) finite float64 points, N >= 4."""
+    """(N, 3) finite float64 points, N >= 4; float32 map or ECEF coordinates refused.
+
+    float32 holds UTM-sized coordinates in steps of 0.5 m: 0.1 m sphere points came out
+    "coplanar" (`kinsync._validate.check_float_step` says so instead, as fit_wall does).
+    """
     try:
         pts = np.asarray(points_m, dtype=np.float64)
     except (TypeError, ValueError) as err:
         msg = f"{what}: points_m must be numbers, shape (N, 3) ({err})"
         raise InputError(msg) from err
+    if isinstance(points_m, np.ndarray):
+        check_float_step(points_m, f"{what}: points_m", "coordinate", "pass float64 coordinates")
     if pts.ndim != 2 or pts.shape[1] != 3:
         msg = f"{what}: points_m must have shape (N, 3), got {pts.shape}"
         raise InputError(msg)
