@@ -795,3 +795,25 @@ def test_an_interpolated_sample_owns_its_times() -> None:
     assert sample.t_s[0] == t[3] + 0.05
     for arr in (sample.t_s, sample.inside):
         assert not arr.flags.writeable
+
+
+@pytest.mark.parametrize("latency_s", [1e300, -11.0, math.inf, math.nan])
+def test_an_absurd_latency_is_named_not_taken_for_repeated_times(latency_s: float) -> None:
+    # 1e300 gave "repeated time in row 1" (every time shifted to -1e300).
+    t = np.arange(10, dtype=np.float64) * 0.1 + 1.4e9
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (10, 1))
+    tr = Trajectory(t, q, lat_lon_h=np.tile([46.8, -71.2, 10.0], (10, 1)))
+    with pytest.raises(InputError, match=r"^latency_s"):
+        tr.corrected_for_latency(latency_s)
+    assert tr.corrected_for_latency(-10.0).t_s[0] == t[0] + 10.0
+
+
+def test_complex_or_boolean_times_are_refused() -> None:
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (2, 1))
+    llh = np.tile([46.8, -71.2, 10.0], (2, 1))
+    for t, kind in (
+        (np.array([1.4e9, 1.4e9 + 1]) + 1j, "complex"),
+        (np.array([False, True]), "boolean"),
+    ):
+        with pytest.raises(InputError, match=rf"^trajectory t_s: expected numbers, got {kind}"):
+            Trajectory(t, q, lat_lon_h=llh)  # type: ignore[arg-type]

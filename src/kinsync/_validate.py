@@ -49,6 +49,7 @@ __all__ = [
     "off_ground_text",
     "positive_number",
     "profile_arrays",
+    "seed_number",
     "time_array",
     "time_number",
 ]
@@ -103,6 +104,22 @@ def finite_number(value: object, name: str) -> float:
         msg = f"{name}: must be finite, got {value!r}"
         raise InputError(msg)
     return out
+
+
+def seed_number(value: object, name: str) -> int:
+    """A random generator's seed: a whole number >= 0, or `InputError` naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+        What the caller gave.
+    name : str
+        The argument, for the message.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        msg = f"{name}: expected a whole number >= 0 (a random seed), got {value!r}"
+        raise InputError(msg)
+    return int(value)
 
 
 def finite_vector(value: object, size: int, name: str, detail: str = "") -> FloatArray:
@@ -264,15 +281,18 @@ def time_array(
     ------
     InputError
         datetime64/timedelta64, string or object arrays (kinsync cannot tell their time
-        scale), non-numbers, or a float dtype whose step at the values' magnitude is
+        scale), non-numbers, complex or boolean values (the imaginary part dropped, True
+        read as 1 s), or a float dtype whose step at the values' magnitude is
         coarser than `TIME_STEP_S` (float32 beyond 16 s, float16).
     """
     arr = np.asarray(values)
     if arr.dtype.kind in "mM":
         msg = f"{name}: expected seconds, got {arr.dtype} values; {_CLOCK_ADVICE[clock]}"
         raise InputError(msg)
-    if arr.dtype.kind in "OUSV":
-        kind = "text" if arr.dtype.kind in "US" else "Python object"
+    if arr.dtype.kind in "OUSVbc":
+        kind = {"U": "text", "S": "text", "b": "boolean (True/False)", "c": "complex"}.get(
+            arr.dtype.kind, "Python object"
+        )
         msg = f"{name}: expected numbers, got {kind} values ({arr.dtype}); {_CLOCK_ADVICE[clock]}"
         raise InputError(msg)
     _refuse_coarse_floats(arr, name, "times", TIME_STEP_S, "1 us", "s")

@@ -37,7 +37,13 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
-from kinsync._validate import angle_array, coordinate_array, geodetic_array, time_array
+from kinsync._validate import (
+    angle_array,
+    coordinate_array,
+    finite_number,
+    geodetic_array,
+    time_array,
+)
 from kinsync.errors import InputError, OutsideSpanError
 from kinsync.frames import (
     WGS84_A_M,
@@ -49,6 +55,7 @@ from kinsync.frames import (
     quaternion_to_matrix,
     wrap_angle_rad,
 )
+from kinsync.mount import MAX_LATENCY_S
 from kinsync.trajectory_gaps import (
     TrajectoryGap,
     gap_index,
@@ -561,9 +568,19 @@ class Trajectory:
         Raises
         ------
         InputError
-            ``latency_s`` not finite (as `shifted`).
+            ``latency_s`` not a finite number, or beyond +-`kinsync.mount.MAX_LATENCY_S`
+            (10 s: milliseconds given as seconds, or a time-scale mistake), as a mount
+            refuses it.
         """
-        return self.shifted(-latency_s)
+        tau = finite_number(latency_s, "latency_s")
+        if abs(tau) > MAX_LATENCY_S:
+            msg = (
+                f"latency_s = {tau!r} s is beyond +-{MAX_LATENCY_S:g} s; a latency is some "
+                f"milliseconds, given in seconds ({tau!r} ms would be {tau / 1e3!r}): a "
+                "larger value is a unit or time-scale mistake"
+            )
+            raise InputError(msg)
+        return self.shifted(-tau)
 
     def sliced(self, t_start_s: float, t_end_s: float) -> Trajectory:
         """Records with ``t_start_s <= t <= t_end_s`` (at least two must remain).

@@ -455,6 +455,21 @@ def test_pass_times_and_rate_of_the_wrong_kind_are_named() -> None:
         SpherePass(p.source, p.rate_deg_s, p.points_ned_m, t_s=np.arange(n).astype("M8[ms]"))
     with pytest.raises(InputError, match=r"rate_deg_s: expected a number, got array"):
         SpherePass(p.source, np.array([6.0]), p.points_ned_m)  # type: ignore[arg-type]
+    # A ragged list of points raised numpy's ValueError; complex or boolean times were
+    # taken as numbers (the imaginary part dropped, True as 1 s).
+    with pytest.raises(InputError, match=r"^a: points must be numbers, shape \(N, 3\)"):
+        SpherePass("a", 10.0, [[1.0, 2.0, 3.0], [1.0, 2.0]])  # type: ignore[arg-type]
+    for bad, kind in ((np.full(n, 1.0 + 1.0j), "complex"), (np.ones(n, bool), "boolean")):
+        with pytest.raises(InputError, match=rf"t_s: expected numbers, got {kind}"):
+            SpherePass(p.source, p.rate_deg_s, p.points_ned_m, t_s=bad)
+
+
+@pytest.mark.parametrize("seed", ["x", -1, 1.5, True])
+def test_a_seed_that_is_no_seed_is_named(seed: object) -> None:
+    # seed="x" raised numpy's TypeError from inside the RANSAC.
+    passes = small_simulation(TAU_S, seed=3)
+    with pytest.raises(InputError, match=r"^seed: expected a whole number >= 0"):
+        estimate_latency_sphere(passes, seed=seed)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("cap", [math.nan, 0.0, 1.4, 90.0])

@@ -53,7 +53,11 @@ class SpherePass:
         if axis.shape != (3,) or not math.isfinite(norm) or norm < 1e-9:
             msg = f"{self.source}: axis_ned must be a non-zero 3-vector, got {self.axis_ned!r}"
             raise InputError(msg)
-        pts = np.asarray(self.points_ned_m, dtype=np.float64)
+        try:
+            pts = np.asarray(self.points_ned_m, dtype=np.float64)
+        except (TypeError, ValueError) as err:  # text, a ragged list of rows
+            msg = f"{self.source}: points must be numbers, shape (N, 3) ({err})"
+            raise InputError(msg) from err
         if pts.ndim != 2 or pts.shape[1] != 3:
             msg = f"{self.source}: points must have shape (N, 3), got {pts.shape}"
             raise InputError(msg)

@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 from kinsync._arrays import readonly_array
 from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
-from kinsync._validate import finite_vector, positive_number
+from kinsync._validate import finite_vector, positive_number, seed_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
@@ -410,6 +410,7 @@ def fit_pool(
         msg = "fit_pool: no passes given"
         raise InputError(msg)
     max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
+    seed = seed_number(seed, "seed")
     points = np.concatenate([p.points_ned_m for p in passes])
     origin = None if scanner_origin_ned_m is None else _checked_origin(scanner_origin_ned_m)
     n_text = f"{counted(len(passes), 'pass')}, {counted(len(points), 'point')}"
@@ -796,8 +797,8 @@ def estimate_latency_sphere(
         msg = "no passes given"
         raise InputError(msg)
     max_incidence_deg = checked_max_incidence_deg(max_incidence_deg)
-    if radius_m is not None:
-        radius_m = positive_number(radius_m, "radius_m")
+    seed = seed_number(seed, "seed")
+    radius_m = None if radius_m is None else positive_number(radius_m, "radius_m")
     if scanner_origin_ned_m is not None:
         scanner_origin_ned_m = _checked_origin(scanner_origin_ned_m)
     roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
