@@ -11,10 +11,10 @@ Prints, in one run:
   of the same file (ratio, target >= 0.8; the median of interleaved pairs of runs, each
   ratio printed, since on a 2-core machine single runs move by +-0.1);
 - the peak resident memory of a fresh process georeferencing a large LAZ file in
-  1-million-point chunks (target < 1 GB). The file has ``PIPE_POINTS`` points (5 M by
-  default: 20 M takes minutes on a 2-core machine; ``--pipe-points 20000000`` runs it).
+  1-million-point chunks (target < 1 GB). The files have 5 M and 20 M points by default
+  (about 4 minutes on a 2-core machine; ``--pipe-points 5000000`` runs the smaller alone).
 
-Run: ``.venv/bin/python benchmarks/bench_georef.py [--pipe-points N]``.
+Run: ``.venv/bin/python benchmarks/bench_georef.py [--pipe-points N[,N...]]``.
 """
 
 from __future__ import annotations
