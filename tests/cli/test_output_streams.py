@@ -77,6 +77,18 @@ def test_a_pipe_closed_by_its_reader_ends_quietly_with_141(json_flag: list[str])
     assert proc.stderr == b""
 
 
+@pytest.mark.parametrize("args", [["--help"], ["georef", "--help"], ["calibrate"]])
+def test_help_into_a_closed_pipe_ends_quietly_with_141(args: list[str]) -> None:
+    # rich's console, which typer builds for the help, exited 1: a kinsync fault.
+    write_end = _closed_pipe()
+    try:
+        proc = _kinsync(*args, stdout=write_end, stderr=subprocess.PIPE, env=_env())
+    finally:
+        os.close(write_end)
+    assert proc.returncode == PIPE_CLOSED_STATUS
+    assert proc.stderr == b""
+
+
 def test_a_broken_pipe_elsewhere_is_not_taken_for_a_closed_output(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

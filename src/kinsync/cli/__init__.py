@@ -36,6 +36,7 @@ from kinsync.cli._streams import (
     check_stdout_open,
     exit_output_pipe_closed,
     output_pipe_closed,
+    pipe_closed_in_every_console,
     use_plain_symbols,
 )
 from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
@@ -332,6 +333,7 @@ def _run_command(argv: Sequence[str]) -> Any:
     )
     from kinsync.cli.app import app  # noqa: PLC0415
 
+    pipe_closed_in_every_console()  # typer's help console too (| head -1: 141, not 1)
     args = expand_multi_value_options(argv)
     _check_arguments_are_text(args)
     # The click command built once: it checks the options before running them.

@@ -9,7 +9,8 @@ Loaded by the entry point before any command, so it imports nothing heavy.
 - A closed stdout (``>&-``): `check_stdout_open` refuses the run before any work.
 - A pipe closed by its reader (``| head -1``): `OutputPipeClosed` and
   `exit_output_pipe_closed` end the run quietly with 141, as a program killed by
-  SIGPIPE does.
+  SIGPIPE does; `pipe_closed_in_every_console` makes the consoles typer builds for
+  ``--help`` raise it too (rich's own ends the run with status 1, a kinsync fault).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ __all__ = [
     "check_stdout_open",
     "exit_output_pipe_closed",
     "output_pipe_closed",
+    "pipe_closed_in_every_console",
     "plain_symbols",
     "use_plain_symbols",
 ]
@@ -185,6 +187,26 @@ def output_pipe_closed() -> bool:
     output: it must not end the run quietly.
     """
     return _reader_gone(sys.stdout) or _reader_gone(sys.stderr)
+
+
+def _raise_pipe_closed(console: object) -> None:
+    setattr(console, "quiet", True)  # noqa: B010 - any rich Console
+    msg = "the output pipe was closed by its reader"
+    raise OutputPipeClosed(msg)
+
+
+def pipe_closed_in_every_console() -> None:
+    """Make every rich console raise `OutputPipeClosed` when its reader goes away.
+
+    rich's ``Console.on_broken_pipe`` (which its docs say to override) points stdout at
+    /dev/null and raises ``SystemExit(1)``: ``kinsync --help | head -1`` ended with
+    status 1, the status of a kinsync fault, from the console typer builds for the
+    help. Set on the class, for that console is typer's own; rich is loaded here only
+    by the commands, so this is called once they are.
+    """
+    from rich.console import Console  # noqa: PLC0415 - loaded with the commands
+
+    Console.on_broken_pipe = _raise_pipe_closed  # type: ignore[method-assign, assignment]
 
 
 def exit_output_pipe_closed() -> NoReturn:
