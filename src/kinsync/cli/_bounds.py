@@ -20,6 +20,14 @@ import time
 from dataclasses import dataclass
 
 from kinsync.errors import InputError
+from kinsync.sync.config import (
+    INTENSITY_THRESHOLD_SPAN,
+    MAX_RANGE_SPAN_M,
+    PERIOD_PRIOR_SPAN_S,
+    PERIOD_TOLERANCE_SPAN,
+    POSITION_CORR_TIME_SPAN_S,
+    POSITION_STD_SPAN_M,
+)
 
 __all__ = ["OPTION_BOUNDS", "STANDARD_BAUDS", "Bounds", "bounds_for", "check_numeric_option"]
 
@@ -86,8 +94,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
         "",
         "the period is seconds per profile, e.g. 0.0303 for 33 rev/s, not milliseconds",
     ),
-    "--period-prior-s": Bounds(1e-5, 100.0, "s"),
-    "--period-tolerance": Bounds(0.0, 0.5, "", "relative"),
+    # kinsync.sync.config's spans, an ObjectSpaceConfig's
+    "--period-prior-s": Bounds(*PERIOD_PRIOR_SPAN_S, "s"),
+    "--period-tolerance": Bounds(*PERIOD_TOLERANCE_SPAN, "", "relative"),
     "--period-error-s": Bounds(-1.0, 1.0, "s"),
     "--target-ms": Bounds(1e-6, 1_000.0, "ms"),
     # serial line
@@ -111,7 +120,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--sphere-radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
     "--target-radius-m": Bounds(0.001, 10.0, "m", "a target's radius is > 0"),
     "--search-radius-m": Bounds(0.001, 100.0, "m", "a radius that holds no point finds nothing"),
-    "--max-range-m": Bounds(0.1, 10_000.0, "m"),
+    "--max-range-m": Bounds(*MAX_RANGE_SPAN_M, "m"),  # an ObjectSpaceConfig's
     "--profiler-azimuth-deg": Bounds(-360.0, 360.0, "deg"),
     "--epoch": Bounds(1980.0, 2100.0, "year", "a coordinate epoch, e.g. 2024.35"),
     "--angular-step-deg": Bounds(0.001, 10.0, "deg"),
@@ -134,10 +143,11 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
         "a scanner noisier than 1 m is not calibrated",
     ),
     "--position-std-m": Bounds(0.0, 100.0, "m"),
+    ("sync object-space", "--position-std-m"): Bounds(*POSITION_STD_SPAN_M, "m"),
     ("calibrate plan", "--attitude-std-deg"): Bounds(
         0.0, 5.0, "deg", "a patch test refines a trajectory known to a fraction of a degree"
     ),
-    "--position-corr-time-s": Bounds(0.0, 1e6, "s"),
+    "--position-corr-time-s": Bounds(*POSITION_CORR_TIME_SPAN_S, "s"),  # ObjectSpaceConfig's
     "--corr-time-s": Bounds(0.1, 1e5, "s", "the simulated errors are sampled at this scale"),
     ("calibrate plan", "--corr-time-s"): Bounds(
         1.0, 1e5, "s", "the plan represents the errors at knots a third of it apart"
@@ -180,7 +190,7 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--min-bow-mm": Bounds(0.0, 1e6, "mm"),
     "--outlier-k": Bounds(1.0, 1_000.0),
     "--min-intensity": Bounds(-1e12, 1e12),
-    "--intensity-threshold": Bounds(-1e12, 1e12),
+    "--intensity-threshold": Bounds(*INTENSITY_THRESHOLD_SPAN),  # an ObjectSpaceConfig's
 }
 
 

@@ -11,8 +11,40 @@ from kinsync.errors import InputError
 from kinsync.trajectory_gaps import max_gap_for
 
 __all__ = [
+    "INTENSITY_THRESHOLD_SPAN",
+    "MAX_RANGE_SPAN_M",
+    "PERIOD_PRIOR_SPAN_S",
+    "PERIOD_TOLERANCE_SPAN",
+    "POSITION_CORR_TIME_SPAN_S",
+    "POSITION_STD_SPAN_M",
     "ObjectSpaceConfig",
 ]
+
+# The spans `ObjectSpaceConfig` accepts; ``kinsync sync object-space`` takes its options'
+# spans from here (`kinsync.cli._bounds`), so the program and a Python caller agree.
+PERIOD_PRIOR_SPAN_S = (1e-5, 100.0)
+"""Prior mirror periods (s): 10 us to 100 s. Profilers turn with periods of 4 to 100 ms,
+but a prior in the wrong unit (30.3 for 0.0303 s) is let through on purpose: the search
+over periods then names the period the data suggest."""
+PERIOD_TOLERANCE_SPAN = (0.0, 0.5)
+"""Relative tolerances of the prior: more than 0 and less than 0.5 (both ends open)."""
+INTENSITY_THRESHOLD_SPAN = (-1e12, 1e12)
+"""Intensity thresholds (the scanner's intensity unit): any finite intensity a scan holds."""
+MAX_RANGE_SPAN_M = (0.1, 10_000.0)
+"""Farthest sync-point crossings (m) considered: 10 cm to 10 km."""
+POSITION_STD_SPAN_M = (0.0, 100.0)
+"""A-priori position sigmas (m): 0 (exact) to 100 m."""
+POSITION_CORR_TIME_SPAN_S = (0.0, 1e6)
+"""Correlation times (s) of the position error: 0 (independent) to 1e6 s (11.6 days)."""
+
+_SPANS: dict[str, tuple[tuple[float, float], str, str]] = {
+    "period_prior_s": (PERIOD_PRIOR_SPAN_S, " s", "--period-prior-s"),
+    "intensity_threshold": (INTENSITY_THRESHOLD_SPAN, "", "--intensity-threshold"),
+    "max_range_m": (MAX_RANGE_SPAN_M, " m", "--max-range-m"),
+    "position_std_m": (POSITION_STD_SPAN_M, " m", "--position-std-m"),
+    "position_corr_time_s": (POSITION_CORR_TIME_SPAN_S, " s", "--position-corr-time-s"),
+}
+"""Field: (closed span, unit, option of ``kinsync sync object-space``)."""
 
 
 @dataclass(frozen=True)
@@ -22,11 +54,13 @@ class ObjectSpaceConfig:
     Attributes
     ----------
     period_prior_s : float
-        Prior mirror period T (s).
+        Prior mirror period T (s), within `PERIOD_PRIOR_SPAN_S`.
     period_tolerance : float
-        Relative tolerance of the prior: hypotheses need ``|T / prior - 1| <= tol``.
+        Relative tolerance of the prior: hypotheses need ``|T / prior - 1| <= tol``
+        (more than 0, less than 0.5).
     intensity_threshold : float
-        Returns at least this bright are target candidates (scanner's intensity unit).
+        Returns at least this bright are target candidates (scanner's intensity unit),
+        within `INTENSITY_THRESHOLD_SPAN`.
     min_returns : int
         Fewest returns that make a sighting (isolated glints are rejected).
     cluster_gap_profiles : float
@@ -36,7 +70,8 @@ class ObjectSpaceConfig:
     cluster_gap_m : float
         ... and this far apart in range (m).
     max_range_m : float
-        Crossings farther from the scanner are not candidates (m).
+        Crossings farther from the scanner are not candidates (m), within
+        `MAX_RANGE_SPAN_M`.
     angle_gate_rad : float
         A sighting and a crossing are compatible within this mirror-angle difference.
     range_gate_m : float
@@ -54,9 +89,10 @@ class ObjectSpaceConfig:
         simulated spread is within the fit's sigma).
     position_std_m : float
         A-priori sigma of the trajectory and sync-point positions along the plane
-        normal (m); 0 for an exact (simulated) trajectory.
+        normal (m), within `POSITION_STD_SPAN_M`; 0 for an exact (simulated) trajectory.
     position_corr_time_s : float
-        Correlation time of the trajectory's position error (s, >= 0): the errors at
+        Correlation time of the trajectory's position error (s, within
+        `POSITION_CORR_TIME_SPAN_S`): the errors at
         two crossings ``dt`` apart are correlated by ``exp(-|dt| / position_corr_time_s)``
         (first-order Gauss-Markov); 0 takes them as independent (the model before
         issue item 8). The default, 15 s, is the middle of the 10-20 s over which
@@ -112,13 +148,21 @@ class ObjectSpaceConfig:
     def __post_init__(self) -> None:
         positive_number(self.period_prior_s, "period_prior_s (--period-prior-s)")
         tol = positive_number(self.period_tolerance, "period_tolerance (--period-tolerance)")
-        if tol >= 0.5:
+        if tol >= PERIOD_TOLERANCE_SPAN[1]:
             msg = (
                 f"period_tolerance (--period-tolerance) is relative (0.01 = 1 %); {tol} is "
-                "too wide (< 0.5)"
+                f"too wide (< {PERIOD_TOLERANCE_SPAN[1]:g})"
             )
             raise InputError(msg)
-        finite_number(self.intensity_threshold, "intensity_threshold")
+        for name, (span, unit, option) in _SPANS.items():
+            value = finite_number(getattr(self, name), f"{name} ({option})")
+            low, high = span
+            if not low <= value <= high:
+                msg = (
+                    f"{name} ({option}) {value:g}{unit}: outside the span kinsync accepts, "
+                    f"{low:g} to {high:g}{unit}"
+                )
+                raise InputError(msg)
         for name in ("min_returns", "sphere_min_returns"):
             value = getattr(self, name)
             if isinstance(value, bool) or int(value) != value or value < 1:
@@ -143,7 +187,6 @@ class ObjectSpaceConfig:
             positive_number(getattr(self, name), name)
         if self.max_gap_s is not None:
             max_gap_for((), self.max_gap_s)  # a positive number of seconds, or inf
-        for name in ("position_std_m", "position_corr_time_s", "profile_model_std"):
-            if finite_number(getattr(self, name), name) < 0.0:
-                msg = f"{name} must be >= 0, got {getattr(self, name)!r}"
-                raise InputError(msg)
+        if finite_number(self.profile_model_std, "profile_model_std") < 0.0:
+            msg = f"profile_model_std must be >= 0, got {self.profile_model_std!r}"
+            raise InputError(msg)
