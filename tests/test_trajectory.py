@@ -590,6 +590,42 @@ def test_latitude_out_of_range_names_row() -> None:
         )
 
 
+@pytest.mark.parametrize("lon_deg", [400.0, 360.5, -180.5, -300.0])
+def test_longitude_outside_every_convention_names_row(lon_deg: float) -> None:
+    """A longitude of 400 deg (or -300) was accepted and georeferenced as if it were 40."""
+    t, q, _ = _valid_arrays()
+    llh = np.tile([46.8, 7.0, 500.0], (5, 1))
+    llh[3, 1] = lon_deg
+    with pytest.raises(
+        InputError,
+        match=rf"^trajectory lat_lon_h: longitude {lon_deg} outside \[-180, 360\] in row 3: "
+        r"give longitudes in degrees, from -180 to 180 \(east positive\) or from 0 to 360$",
+    ):
+        Trajectory(t_s=t, q_body_to_ned=q, lat_lon_h=llh)
+    with pytest.raises(InputError, match=r"^trajectory origin_lat_lon_h: longitude .* row 0"):
+        Trajectory(
+            t_s=t, q_body_to_ned=q, pos_ned_m=np.zeros((5, 3)), origin_lat_lon_h=(46.8, lon_deg, 0)
+        )
+
+
+def test_longitudes_from_0_to_360_are_those_from_minus_180_to_180() -> None:
+    """-180 to 180 and 0 to 360 (both ends included) give the same positions."""
+    t, q, _ = _valid_arrays()
+    west = np.tile([46.8, -71.2, 50.0], (5, 1))
+    west[:, 1] += 0.001 * np.arange(5)
+    east = west.copy()
+    east[:, 1] += 360.0  # 288.8 deg
+    a = Trajectory(t_s=t, q_body_to_ned=q, lat_lon_h=west).interpolate(t[:-1] + 0.5)
+    b = Trajectory(t_s=t, q_body_to_ned=q, lat_lon_h=east).interpolate(t[:-1] + 0.5)
+    assert_allclose(b.pos_ecef_m(), a.pos_ecef_m(), rtol=0.0, atol=1e-6)
+    for ends in ([-180.0, -179.9], [359.9, 360.0]):
+        llh = np.tile([46.8, 0.0, 50.0], (2, 1))
+        llh[:, 1] = ends
+        kept = Trajectory(t_s=t[:2], q_body_to_ned=q[:2], lat_lon_h=llh).lat_lon_h
+        assert kept is not None
+        assert kept[1, 1] == ends[1]
+
+
 def test_mismatched_lengths() -> None:
     t, q, pos = _valid_arrays()
     with pytest.raises(InputError, match=r"q_body_to_ned.*\(5, 4\)"):

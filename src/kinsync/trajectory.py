@@ -66,6 +66,7 @@ from kinsync.trajectory_gaps import (
 from kinsync.trajectory_rows import (
     check_euler_rad,
     check_latitudes,
+    check_longitudes,
     first_bad_row,
     validated_rows,
     validated_unit_quaternions,
@@ -169,7 +170,9 @@ class Trajectory:
     q_body_to_ned : array_like, shape (N, 4)
         Attitude body (FRD) -> NED, scalar-first unit quaternions (norm within 1e-6).
     lat_lon_h : array_like, shape (N, 3), optional
-        Geodetic WGS84 position: latitude (deg), longitude (deg), ellipsoidal height (m).
+        Geodetic WGS84 position: latitude (deg, within +-90), longitude (deg, -180 to
+        180 or 0 to 360: `kinsync.trajectory_rows.LONGITUDE_SPAN_DEG`), ellipsoidal
+        height (m).
     pos_ned_m : array_like, shape (N, 3), optional
         Local-level NED position (m) about ``origin_lat_lon_h``.
     origin_lat_lon_h : tuple of float, optional
@@ -182,7 +185,8 @@ class Trajectory:
     ------
     InputError
         Naming the row and column at fault: non-finite values, repeated or decreasing
-        times, non-unit quaternions, mismatched lengths, missing position; naming the
+        times, non-unit quaternions, mismatched lengths, missing position, a latitude
+        beyond +-90 deg or a longitude outside -180 to 360 deg; naming the
         argument: times, latitudes, longitudes or heights in a float dtype too coarse
         for them (float32: `kinsync._validate.time_array`, ``geodetic_array``).
     """
@@ -213,6 +217,7 @@ class Trajectory:
                 geodetic_array(self.lat_lon_h, "trajectory lat_lon_h"), n, 3, "lat_lon_h"
             )
             check_latitudes(llh[:, 0], "lat_lon_h")
+            check_longitudes(llh[:, 1], "lat_lon_h")
             set_(self, "lat_lon_h", readonly_array(llh))
             set_(self, "_lon_unwrapped_deg", readonly_array(np.unwrap(llh[:, 1], period=360.0)))
         else:
@@ -226,6 +231,7 @@ class Trajectory:
                 "origin_lat_lon_h",
             )[0]
             check_latitudes(origin[:1], "origin_lat_lon_h")
+            check_longitudes(origin[1:2], "origin_lat_lon_h")
             assert self.pos_ned_m is not None
             ned = coordinate_array(self.pos_ned_m, "trajectory pos_ned_m")
             set_(self, "pos_ned_m", readonly_array(validated_rows(ned, n, 3, "pos_ned_m")))
@@ -254,7 +260,8 @@ class Trajectory:
         float64 and C-contiguous, owned by the caller (made by it) or read-only (another
         trajectory's); ``t_s`` as `validated_times` returns it, ``q_body_to_ned`` as
         `validated_unit_quaternions` does, positions and velocities of shape (N, 3) and
-        finite, latitudes within +-90 deg, exactly one of ``lat_lon_h`` and
+        finite, latitudes within +-90 deg, longitudes within
+        `kinsync.trajectory_rows.LONGITUDE_SPAN_DEG`, exactly one of ``lat_lon_h`` and
         ``pos_ned_m`` (the latter with its float ``origin_lat_lon_h``).
         ``lon_unwrapped_deg`` is that of ``lat_lon_h`` when known (another trajectory's
         with the same positions). The arrays are made read-only in place. Always a

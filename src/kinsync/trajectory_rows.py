@@ -14,9 +14,12 @@ from kinsync.errors import InputError
 
 __all__ = [
     "EULER_LIMITS_DEG",
+    "LONGITUDE_SPAN_DEG",
     "check_euler_rad",
     "check_latitudes",
+    "check_longitudes",
     "first_bad_row",
+    "longitude_message",
     "normalise_quaternions",
     "validated_rows",
     "validated_unit_quaternions",
@@ -26,6 +29,12 @@ EULER_LIMITS_DEG = {"roll_rad": 360.0, "pitch_rad": 90.0, "yaw_rad": 360.0}
 """Largest magnitude (deg) of each Euler angle a trajectory is built from: the spans the
 command line reads attitude columns with (`kinsync.io.sanity.ROLL_DEG`, ``PITCH_DEG``,
 ``HEADING_DEG``). Beyond them an angle in radians is one given in degrees."""
+
+LONGITUDE_SPAN_DEG = (-180.0, 360.0)
+"""Longitudes (deg) a trajectory or GNSS fix may hold: -180 to 180 (east positive) or 0
+to 360. Both give the same positions (the geodetic to ECEF conversion takes any angle)
+and a trajectory across the antimeridian is unwrapped before it is interpolated; beyond
+them a longitude is in no convention (radians, a shifted column, a corrupt record)."""
 
 _QUATERNION_NORM_TOL = 1e-6
 _BLOCK_ROWS = 65_536
@@ -133,4 +142,23 @@ def check_latitudes(lat_deg: FloatArray, name: str) -> None:
     if np.any(bad):
         row = first_bad_row(bad)
         msg = f"trajectory {name}: latitude {lat_deg[row]} outside [-90, 90] in row {row}"
+        raise InputError(msg)
+
+
+def longitude_message(value: float, row: int) -> str:
+    """What is wrong with longitude ``value`` (deg) in ``row``, and what to give instead."""
+    low, high = LONGITUDE_SPAN_DEG
+    return (
+        f"longitude {value} outside [{low:g}, {high:g}] in row {row}: give longitudes in "
+        "degrees, from -180 to 180 (east positive) or from 0 to 360"
+    )
+
+
+def check_longitudes(lon_deg: FloatArray, name: str) -> None:
+    """Refuse a longitude (deg) outside `LONGITUDE_SPAN_DEG`, naming its row."""
+    low, high = LONGITUDE_SPAN_DEG
+    bad = (lon_deg < low) | (lon_deg > high)
+    if np.any(bad):
+        row = first_bad_row(bad)
+        msg = f"trajectory {name}: {longitude_message(float(lon_deg[row]), row)}"
         raise InputError(msg)

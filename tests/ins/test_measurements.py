@@ -83,3 +83,23 @@ def test_containers_copy_the_callers_arrays() -> None:
     assert gnss.lat_deg[0] == 46.8
     for arr in (gnss.t_s, gnss.lat_deg, gnss.std_pos_ned_m):
         assert not arr.flags.writeable
+
+
+@pytest.mark.parametrize("lon_deg", [400.0, -200.0])
+def test_gnss_longitude_outside_every_convention_names_row(lon_deg: float) -> None:
+    """A longitude of 400 deg was accepted (latitudes beyond 90 deg were refused)."""
+    lon = np.full(5, -71.2)
+    lon[2] = lon_deg
+    with pytest.raises(
+        InputError,
+        match=rf"^GNSS lon_deg: longitude {lon_deg} outside \[-180, 360\] in row 2: give "
+        "longitudes in degrees",
+    ):
+        GnssData(
+            T0 + np.arange(5.0), np.full(5, 46.8), lon, np.full(5, 10.0), np.full((5, 3), 0.02)
+        )
+    lon[2] = 288.8  # 0 to 360 deg: accepted, as before
+    gnss = GnssData(
+        T0 + np.arange(5.0), np.full(5, 46.8), lon, np.full(5, 10.0), np.full((5, 3), 0.02)
+    )
+    assert gnss.lon_deg[2] == 288.8

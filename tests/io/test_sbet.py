@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -283,6 +284,22 @@ def test_read_in_blocks_names_the_error_a_whole_read_names(
     rec.tofile(path)
     with pytest.raises(InputError, match=r"repeated time in record 3 \(byte 408\)"):
         read_sbet(path)
+
+
+def test_a_longitude_a_trajectory_refuses_is_refused_naming_the_record(tmp_path: Path) -> None:
+    """-200 deg (within +-2 pi rad) reached a Trajectory unchecked: the reader's spans
+    stand for its checks."""
+    rec = _drive_records(40)
+    rec["lon_rad"][5] = math.radians(-200.0)
+    path = tmp_path / "lon.out"
+    rec.tofile(path)
+    with pytest.raises(InputError, match=r"lon\.out: record 5 \(byte 680\), column 'lon_rad'"):
+        read_sbet(path)
+    rec["lon_rad"] = np.radians(288.8) + 3e-6 * np.arange(40)  # 0 to 2 pi: read as before
+    rec.tofile(path)
+    llh = read_sbet(path).lat_lon_h
+    assert llh is not None
+    assert llh[0, 1] == pytest.approx(288.8)
 
 
 @pytest.mark.parametrize("gps_week", [None, 2345])

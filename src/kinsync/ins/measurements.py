@@ -19,6 +19,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync._validate import coordinate_array, degree_array, time_array
 from kinsync.errors import InputError
+from kinsync.trajectory_rows import LONGITUDE_SPAN_DEG, longitude_message
 
 __all__ = ["GnssData", "ImuData"]
 
@@ -109,7 +110,9 @@ class GnssData:
     t_s : ndarray, shape (m,)
         Epoch times (s), strictly increasing.
     lat_deg, lon_deg, h_m : ndarray, shape (m,)
-        Antenna position, WGS84 geodetic (deg, deg, m ellipsoidal).
+        Antenna position, WGS84 geodetic (deg, deg, m ellipsoidal); latitudes within
+        +-90 deg, longitudes from -180 to 180 or 0 to 360 deg
+        (`kinsync.trajectory_rows.LONGITUDE_SPAN_DEG`).
     std_pos_ned_m : ndarray, shape (m, 3)
         Position standard deviations N, E, D (m); NaN = use the configured default.
     vel_ned_m_s : ndarray, shape (m, 3) or None
@@ -141,6 +144,12 @@ class GnssData:
         if (np.abs(self.lat_deg) > 90.0).any():
             row = int(np.flatnonzero(np.abs(self.lat_deg) > 90.0)[0])
             msg = f"GNSS lat_deg: {self.lat_deg[row]} outside [-90, 90] in row {row}"
+            raise InputError(msg)
+        low, high = LONGITUDE_SPAN_DEG
+        bad = (self.lon_deg < low) | (self.lon_deg > high)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            msg = f"GNSS lon_deg: {longitude_message(float(self.lon_deg[row]), row)}"
             raise InputError(msg)
         std = _rows(self.std_pos_ned_m, n, "GNSS std_pos_ned_m", allow_nan=True)
         if (std <= 0).any():

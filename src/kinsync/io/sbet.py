@@ -135,7 +135,9 @@ SBET_RECORD_BYTES = SBET_DTYPE.itemsize
 _SPANS: dict[str, Span] = {
     "time_sow_s": TIME_S,
     "lat_rad": Span(-math.pi / 2, math.pi / 2, "rad", "a latitude"),
-    "lon_rad": Span(-2 * math.pi, 2 * math.pi, "rad", "a longitude"),
+    "lon_rad": Span(  # a Trajectory's, kinsync.trajectory_rows.LONGITUDE_SPAN_DEG
+        -math.pi, 2 * math.pi, "rad", "a longitude (-pi to pi or 0 to 2 pi)"
+    ),
     "h_m": HEIGHT_M,
     **dict.fromkeys(("vel_x_wander_m_s", "vel_y_wander_m_s", "vel_z_wander_m_s"), SPEED_M_S),
     **dict.fromkeys(("roll_rad", "pitch_rad", "platform_heading_rad"), ANGLE_RAD),
