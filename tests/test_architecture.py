@@ -49,6 +49,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.frames",
             "kinsync.messages",
             "kinsync.mount",
+            "kinsync.mount_slips",
             "kinsync.robust",
             "kinsync.trajectory",
             "kinsync.trajectory_gaps",

@@ -26,7 +26,8 @@ lever arm or boresight means zero. Values a mount cannot have are refused on rea
 a latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond +-`MAX_LEVER_ARM_M`,
 an angle beyond +-`MAX_ANGLE_DEG`: the `Mount` container refuses these itself (one
 check for a file and a mount built in Python); the reader adds warnings for values few
-mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`).
+mounts have (`kinsync.mount_slips`): a latency beyond 1 s warns when a `Mount` is built in
+Python too.
 
 ``[uncertainty]`` says how well the values are known: what a calibration that holds a
 parameter (not estimated, or not determined by the data) adds to the sigma of those it
@@ -60,6 +61,15 @@ from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import profile_arrays
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import euler_rpy_to_matrix
+from kinsync.mount_slips import (
+    STD_UNITS,
+    WARN_LATENCY_S,
+    WARN_LEVER_ARM_M,
+    WARN_STD,
+    derived_mounts,
+    warn_latency_slip,
+    warn_unit_slips,
+)
 
 __all__ = [
     "MAX_ANGLE_DEG",
@@ -67,6 +77,9 @@ __all__ = [
     "MAX_LEVER_ARM_M",
     "MAX_PROFILE_ANGLE_RAD",
     "MOUNT_PARAMETER_NAMES",
+    "WARN_LATENCY_S",  # kinsync.mount_slips's, where they moved
+    "WARN_LEVER_ARM_M",
+    "WARN_STD",
     "Mount",
     "MountUncertainty",
     "StdCorrelation",
@@ -81,7 +94,6 @@ Vector3 = tuple[float, float, float]
 _KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m", "latency_s")
 _UNCERTAINTY_KEYS = ("lever_arm_body_m", "boresight_rpy_deg", "latency_s")
 _CORRELATION_KEYS = ("names", "matrix")
-_STD_UNITS = {"lever_arm_body_m": "m", "boresight_rpy_deg": "deg", "latency_s": "s"}
 
 MOUNT_PARAMETER_NAMES = (
     "boresight_roll_deg",
@@ -121,19 +133,6 @@ MAX_PROFILE_ANGLE_RAD = 2.0 * math.pi
 """Largest mirror angle of a profile return (rad, either sign): one turn, so that both
 -pi..pi and 0..2 pi conventions read; more is degrees given as radians, or garbage, and
 would move a return's clock time by whole profiles (``t = t0 + (n + phi / 2 pi) T``)."""
-
-WARN_LATENCY_S = 1.0
-"""A mount latency beyond this (s, either sign) is read with a warning: sensor, serial
-and buffering delays are milliseconds, and 5 written for 5 ms gives 5 s."""
-
-WARN_LEVER_ARM_M = 100.0
-"""A lever arm component beyond this (m, either sign) is read with a warning: larger
-than most survey vehicles and vessels, and what 150 cm written as 150 gives."""
-
-WARN_STD = {"lever_arm_body_m": 1.0, "boresight_rpy_deg": 5.0, "latency_s": 0.1}
-"""An ``[uncertainty]`` value beyond these (m, deg, s) is read with a warning: a unit
-mistake (centimetres or milliseconds written as metres or seconds), or a value so poorly
-known that a calibration's linearisation about it means little."""
 
 
 def _as_float(value: float | np.floating[Any] | np.integer[Any], label: str) -> float:
@@ -401,7 +400,7 @@ class MountUncertainty:
                 continue
             vec = _vector3(value, name, "mount [uncertainty] ")
             checked = tuple(
-                _std_value(v, f"mount [uncertainty] {name}[{i}]", limit, _STD_UNITS[name])
+                _std_value(v, f"mount [uncertainty] {name}[{i}]", limit, STD_UNITS[name])
                 for i, v in enumerate(vec)
             )
             object.__setattr__(self, name, checked)
@@ -509,6 +508,13 @@ class Mount:
         A value that is not a finite number (or 3 of them), or one no mount has: a
         latency beyond +-`MAX_LATENCY_S`, a lever arm component beyond
         +-`MAX_LEVER_ARM_M`, a boresight or profiler angle beyond +-`MAX_ANGLE_DEG`.
+
+    Warns
+    -----
+    KinsyncWarning
+        A latency beyond +-`kinsync.mount_slips.WARN_LATENCY_S` (1 s), longer than any
+        sensor or serial delay: 5 written for 5 ms (a mount file's reader gives it
+        instead, naming the file).
     """
 
     lever_arm_body_m: Vector3 = (0.0, 0.0, 0.0)
@@ -545,6 +551,7 @@ class Mount:
                 raise InputError(msg)
             object.__setattr__(self, "profiler_azimuth_deg", az_deg)
         _refuse_impossible(self)
+        warn_latency_slip(self.latency_s, stacklevel=3)
 
     @cached_property
     def R_scanner_to_body(self) -> FloatArray:
@@ -580,6 +587,29 @@ class Mount:
             ``latency_s`` not a finite number, or beyond +-`MAX_LATENCY_S`.
         """
         return replace(self, latency_s=latency_s)
+
+    def with_profiler_azimuth(self, azimuth_deg: float) -> Mount:
+        """Return a copy with another profiler azimuth (deg).
+
+        Parameters
+        ----------
+        azimuth_deg : float
+            The fixed azimuth (deg) of the profile plane about the scanner Z axis
+            (`Mount.profiler_azimuth_deg`). The other values are kept, and the latency
+            is not warned of again (it was when this mount was made).
+
+        Returns
+        -------
+        Mount
+            A new mount; this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            ``azimuth_deg`` not a finite number, or beyond +-`MAX_ANGLE_DEG`.
+        """
+        with derived_mounts():
+            return replace(self, profiler_azimuth_deg=azimuth_deg)
 
     def as_document(self) -> dict[str, Any]:
         """Its values as JSON, ``uncertainty`` as `MountUncertainty.as_document` (or null)."""
@@ -686,7 +716,8 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
     if "uncertainty" in doc:
         kwargs["uncertainty"] = _uncertainty_table(doc["uncertainty"], source)
     try:
-        mount = Mount(**kwargs)
+        with derived_mounts():  # warned of below, naming the file
+            mount = Mount(**kwargs)
     except InputError as err:
         msg = f"{source}: {err}"
         raise InputError(msg) from err
@@ -696,7 +727,13 @@ def mount_from_toml_text(text: str, source: str = "<string>") -> Mount:
             "is zero (a missing latency is not taken to mean zero)"
         )
         raise InputError(msg)
-    _check_plausible(mount, source)
+    unc = mount.uncertainty
+    warn_unit_slips(
+        source,
+        mount.latency_s,
+        {name: getattr(mount, name) for name in ("lever_arm_body_m", "antenna_lever_arm_body_m")},
+        {key: None if unc is None else getattr(unc, key) for key in WARN_STD},
+    )
     return mount
 
 
@@ -788,61 +825,6 @@ def _refuse_impossible(mount: Mount) -> None:
             "(give degrees within one turn)"
         )
         raise InputError(msg)
-
-
-def _check_plausible(mount: Mount, source: str) -> None:
-    """Warn of values that few mounts have (`WARN_LATENCY_S`, `WARN_LEVER_ARM_M`).
-
-    Each `KinsyncWarning` names the likely unit mistake; values no mount has were
-    refused by the container (`_refuse_impossible`).
-    """
-    if abs(mount.latency_s) > WARN_LATENCY_S:
-        warnings.warn(
-            f"{source}: [mount] latency_s = {mount.latency_s!r} s is beyond "
-            f"+-{WARN_LATENCY_S:g} s, longer than any sensor or serial delay: latency_s "
-            f"is in seconds ({mount.latency_s!r} ms would be {mount.latency_s / 1e3!r})",
-            KinsyncWarning,
-            stacklevel=3,
-        )
-    for name in ("lever_arm_body_m", "antenna_lever_arm_body_m"):
-        big = [i for i, value in enumerate(getattr(mount, name)) if abs(value) > WARN_LEVER_ARM_M]
-        if big:
-            warnings.warn(
-                f"{source}: [mount] {name}[{big[0]}] = {getattr(mount, name)[big[0]]!r} m is "
-                f"beyond +-{WARN_LEVER_ARM_M:g} m, larger than most vehicles and vessels: "
-                "lever arms are in metres (centimetres give 100 times too much)",
-                KinsyncWarning,
-                stacklevel=3,
-            )
-    _warn_uncertainty(mount.uncertainty, source)
-
-
-_UNIT_SLIPS = {
-    "lever_arm_body_m": "centimetres written as metres?",
-    "boresight_rpy_deg": "arc-minutes or milliradians written as degrees?",
-    "latency_s": "milliseconds written as seconds?",
-}
-"""The likely slip behind an ``[uncertainty]`` value beyond `WARN_STD`, per key."""
-
-
-def _warn_uncertainty(unc: MountUncertainty | None, source: str) -> None:
-    """Warn of ``[uncertainty]`` values beyond `WARN_STD` (a likely unit mistake)."""
-    if unc is None:
-        return
-    units = _STD_UNITS
-    for key, limit in WARN_STD.items():
-        value = getattr(unc, key)
-        values = () if value is None else (value,) if isinstance(value, float) else value
-        big = [v for v in values if v > limit]
-        if big:
-            warnings.warn(
-                f"{source}: [uncertainty] {key} = {value!r} {units[key]}: a standard deviation "
-                f"beyond {limit:g} {units[key]} is a unit mistake ({_UNIT_SLIPS[key]}) or a "
-                "value too poorly known for a calibration to hold it: its effect is "
-                "linearised about the prior",
-                KinsyncWarning,
-                stacklevel=3,
-            )
 
 
 def mount_to_toml_text(mount: Mount) -> str:

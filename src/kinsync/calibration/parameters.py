@@ -20,6 +20,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.mount import MOUNT_PARAMETER_NAMES, Mount
+from kinsync.mount_slips import derived_mounts
 
 __all__ = [
     "BORESIGHT",
@@ -108,17 +109,19 @@ def mount_from_values(base: Mount, values: FloatArray) -> Mount:
     """``base`` with the seven parameters ``values`` (internal units), shape (7,).
 
     Everything else of ``base`` (antenna lever arm, profiler azimuth) is kept, and so is
-    each boresight angle whose value is ``base``'s own (held), exactly as written.
+    each boresight angle whose value is ``base``'s own (held), exactly as written. A
+    latency beyond 1 s gives no warning here: ``base`` was warned of (`derived_mounts`).
     """
     v = np.asarray(values, dtype=np.float64)
     given = np.radians(base.boresight_rpy_deg)
     rpy = np.where(v[:3] == given, base.boresight_rpy_deg, np.degrees(v[:3]))
-    return replace(
-        base,
-        boresight_rpy_deg=(float(rpy[0]), float(rpy[1]), float(rpy[2])),
-        lever_arm_body_m=(float(v[3]), float(v[4]), float(v[5])),
-        latency_s=float(v[6]),
-    )
+    with derived_mounts():
+        return replace(
+            base,
+            boresight_rpy_deg=(float(rpy[0]), float(rpy[1]), float(rpy[2])),
+            lever_arm_body_m=(float(v[3]), float(v[4]), float(v[5])),
+            latency_s=float(v[6]),
+        )
 
 
 GIMBAL_PITCH_DEG = 80.0

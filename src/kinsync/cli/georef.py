@@ -183,7 +183,10 @@ def georef(
     column_map = parse_column_map(columns, _COLUMN_KEYS)
     the_mount = read_mount(mount)
     if latency_ms is not None:
-        the_mount = the_mount.with_latency(latency_ms * 1e-3)
+        from kinsync.mount_slips import derived_mounts  # noqa: PLC0415
+
+        with derived_mounts():  # --latency-ms has its span (cli/_bounds.py); ms, not s
+            the_mount = the_mount.with_latency(latency_ms * 1e-3)
     with (
         warnings.catch_warnings(record=True) as caught,
         progress_display("georef") as progress,

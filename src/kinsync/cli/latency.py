@@ -109,9 +109,12 @@ def _write_mount_with_latency(mount: Mount, total_s: float, std_s: float, path: 
     """
     from kinsync.io.mount_file import write_mount  # noqa: PLC0415
     from kinsync.mount import MountUncertainty  # noqa: PLC0415
+    from kinsync.mount_slips import derived_mounts  # noqa: PLC0415
 
     unc = (mount.uncertainty or MountUncertainty()).with_independent(latency_s=std_s)
-    write_mount(replace(mount, latency_s=total_s, uncertainty=unc), path)
+    with derived_mounts():  # a measured latency: no unit slip to warn of
+        measured = replace(mount, latency_s=total_s, uncertainty=unc)
+    write_mount(measured, path)
 
 
 def _check_mount_options(raw: bool, mount_file: Path | None, mount_out: Path | None) -> None:

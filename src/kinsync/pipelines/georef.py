@@ -792,7 +792,7 @@ def _plan_table(
             )
             raise InputError(msg)
         try:
-            mount = replace(mount, profiler_azimuth_deg=azimuth)
+            mount = mount.with_profiler_azimuth(azimuth)  # warns nothing again
         except InputError as err:
             msg = f"--profiler-azimuth-deg: {err}"
             raise InputError(msg) from err

@@ -55,6 +55,7 @@ from kinsync.io.mount_file import write_mount
 from kinsync.io.profile_scan import write_profile_scan, write_pulses, write_sync_points
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount, MountUncertainty
+from kinsync.mount_slips import derived_mounts
 from kinsync.sim.drive import figure_eight_route, oval_route
 from kinsync.sim.drive_truth import simulate_truth
 from kinsync.sim.folder import simulation_folder
@@ -96,7 +97,8 @@ def exactly_known(mount: Mount) -> Mount:
     known = MountUncertainty(
         lever_arm_body_m=(0.0, 0.0, 0.0), boresight_rpy_deg=(0.0, 0.0, 0.0), latency_s=0.0
     )
-    return replace(mount, uncertainty=known)
+    with derived_mounts():  # the mount's latency was warned of when it was made
+        return replace(mount, uncertainty=known)
 
 
 @dataclass(frozen=True)
