@@ -60,6 +60,19 @@ def test_an_infinite_threshold_finds_no_gap_and_nan_is_refused() -> None:
             max_gap_for(t, bad)
 
 
+def test_a_bad_threshold_from_python_names_the_argument() -> None:
+    """GeorefTrajectory.from_trajectory(max_gap_s=-1) named only the option --max-gap-s."""
+    from kinsync.georef import GeorefTrajectory  # noqa: PLC0415
+
+    with pytest.raises(
+        InputError,
+        match=r"^max_gap_s \(--max-gap-s\), the longest trajectory record interval to "
+        r"interpolate across, must be a positive number of seconds \(math\.inf: no gap\), "
+        r"got -1$",
+    ):
+        GeorefTrajectory.from_trajectory(_turning(), max_gap_s=-1)
+
+
 def test_contains_is_false_strictly_inside_a_gap() -> None:
     traj = _turning()
     (gap,) = traj.gaps()

@@ -143,8 +143,9 @@ def max_gap_for(t_s: ArrayLike, max_gap_s: float | None = None) -> float:
     if max_gap_s is not None:
         if not max_gap_s > 0.0:  # NaN too
             msg = (
-                "the longest trajectory gap to interpolate across (--max-gap-s) must be a "
-                f"positive number of seconds, got {max_gap_s!r}"
+                "max_gap_s (--max-gap-s), the longest trajectory record interval to "
+                "interpolate across, must be a positive number of seconds (math.inf: no "
+                f"gap), got {max_gap_s!r}"
             )
             raise InputError(msg)
         return float(max_gap_s)
