@@ -417,6 +417,28 @@ class Trajectory:
         """Attitude as DIN 9300 ``(roll, pitch, yaw)`` (rad), shape (N, 3)."""
         return quaternion_to_euler_rpy(self.q_body_to_ned)
 
+    def course_and_yaw_rad(self, min_speed_m_s: float = 1.0) -> tuple[FloatArray, FloatArray]:
+        """Course over ground and yaw (rad) over the intervals that move.
+
+        Parameters
+        ----------
+        min_speed_m_s : float
+            Horizontal speed (m/s) a record interval must exceed for its course to
+            count; default 1.
+
+        Returns
+        -------
+        course_rad, yaw_rad : ndarray, shape (M,)
+            Over the M record intervals faster than ``min_speed_m_s``: the course
+            ``atan2(dE, dN)`` and the yaw of the interval's first record (rad, clockwise
+            from north).
+        """
+        disp = self._displacement_ned_m()
+        dt = np.diff(self.t_s)
+        moving = np.hypot(disp[:, 0], disp[:, 1]) > min_speed_m_s * dt
+        course = np.arctan2(disp[moving, 1], disp[moving, 0])
+        return course, self.euler_rpy_rad()[:-1, 2][moving]
+
     def heading_against_course(self, min_speed_m_s: float = 1.0) -> tuple[float, float] | None:
         """How well the yaw follows the course over ground, read as given and as radians.
 
@@ -439,13 +461,9 @@ class Trajectory:
             The two medians (deg), (a) then (b), each in [0, 180]; None with fewer than
             10 such intervals.
         """
-        disp = self._displacement_ned_m()
-        dt = np.diff(self.t_s)
-        moving = np.hypot(disp[:, 0], disp[:, 1]) > min_speed_m_s * dt
-        if np.count_nonzero(moving) < 10:
+        course, yaw = self.course_and_yaw_rad(min_speed_m_s)
+        if course.size < 10:
             return None
-        course = np.arctan2(disp[moving, 1], disp[moving, 0])
-        yaw = self.euler_rpy_rad()[:-1, 2][moving]
 
         def median_diff_deg(angle_rad: FloatArray) -> float:
             d = wrap_angle_rad(angle_rad - course)

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.trajectory_csv import read_trajectory_csv
 
@@ -129,3 +131,50 @@ def test_angles_beyond_their_span_are_refused(
     line = 2 if column != "yaw_deg" else 3
     assert str(info.value).startswith(f"{path}: line {line}, column {column!r}: {value!r}")
     assert span in str(info.value)
+
+
+def _circle(tmp_path: Path, yaw_of_file: Callable[[FloatArray], FloatArray]) -> Path:
+    """A 100 m circle at 5 m/s (every heading), 10 Hz; the file's yaw from the true one."""
+    t = np.arange(0.0, 150.0, 0.1)
+    phase = 5.0 * t / 100.0  # rad along the circle, clockwise seen from above
+    north, east = 100.0 * np.sin(phase), 100.0 - 100.0 * np.cos(phase)
+    heading = np.degrees(phase)  # the course, clockwise from north
+    yaw = (yaw_of_file(heading) + 180.0) % 360.0 - 180.0
+    lat = 46.8 + np.degrees(north / 6.37e6)
+    lon = -71.2 + np.degrees(east / (6.37e6 * math.cos(math.radians(46.8))))
+    rows = [
+        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{y:.6f}"
+        for ti, la, lo, y in zip(t, lat, lon, yaw, strict=True)
+    ]
+    path = tmp_path / "circle.csv"
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("yaw_of_file", "named"),
+    [
+        (lambda h: 90.0 - h, "counter-clockwise from east (ENU)"),
+        (lambda h: -h, "counter-clockwise from north"),
+        (lambda h: h + 180.0, "of the body's -x axis (X backwards)"),
+        (lambda h: h - 90.0, "of a body axis 90 deg right of x"),
+    ],
+)
+def test_a_yaw_in_another_convention_is_named(
+    tmp_path: Path, yaw_of_file: Callable[[FloatArray], FloatArray], named: str
+) -> None:
+    """Review Q3: ENU, counter-clockwise or reversed yaw was read silently (points 11-13 m off)."""
+    path = _circle(tmp_path, yaw_of_file)
+    with pytest.warns(KinsyncWarning) as caught:
+        read_trajectory_csv(path)
+    (message,) = [str(w.message) for w in caught]
+    assert message.startswith(f"{path}: yaw_deg is more than 45 deg off the course over ground")
+    assert f"where a yaw written {named} would follow it (median 0." in message
+
+
+@pytest.mark.parametrize("crab_deg", [0.0, 25.0, -30.0])
+def test_a_yaw_that_follows_the_course_does_not_warn(tmp_path: Path, crab_deg: float) -> None:
+    path = _circle(tmp_path, lambda h: h + crab_deg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KinsyncWarning)
+        read_trajectory_csv(path)

@@ -22,6 +22,7 @@ import numpy as np
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
+from kinsync.frames import wrap_angle_rad
 from kinsync.io.sanity import (
     HEADING_DEG,
     HEIGHT_M,
@@ -43,6 +44,27 @@ RADIANS_COURSE_DEG = 20.0
 """Yaw read as radians within this of the course over ground (median, deg) ..."""
 DEGREES_COURSE_DEG = 45.0
 """... and read as degrees beyond this: the attitude columns hold radians."""
+
+YAW_OFF_COURSE_DEG = 45.0
+"""A yaw more than this (deg) from the course over ground is off course: a crabbing
+vessel or an aircraft in a cross wind stays within 30 deg of it."""
+YAW_OFF_SHARE = 0.1
+"""When more than this share of the moving records are off course (`YAW_OFF_COURSE_DEG`)
+and another yaw convention leaves fewer than `YAW_CONVENTION_OFF_SHARE` off course, with
+a median within `YAW_CONVENTION_FITS_DEG`, a warning names that convention. A share,
+not the median: a drive along one diagonal reads the same in ENU except in its turns."""
+YAW_CONVENTION_OFF_SHARE = 0.02
+YAW_CONVENTION_FITS_DEG = 15.0
+
+_YAW_CONVENTIONS: tuple[tuple[str, str, float, float], ...] = (
+    # (convention, conversion, sign, offset deg): the yaw read = sign * yaw + offset
+    ("counter-clockwise from east (ENU)", "yaw = 90 - yaw_enu, pitch = -pitch_enu", -1.0, 90.0),
+    ("counter-clockwise from north", "yaw = -yaw_ccw", -1.0, 0.0),
+    ("of the body's -x axis (X backwards)", "yaw + 180, and check the IMU's axes", 1.0, 180.0),
+    ("of a body axis 90 deg right of x", "yaw + 90, and check the IMU's axes", 1.0, 90.0),
+    ("of a body axis 90 deg left of x", "yaw - 90, and check the IMU's axes", 1.0, -90.0),
+)
+"""Yaw conventions a file may have been written in, and the yaw kinsync reads from them."""
 
 REQUIRED = ("t_s", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
 VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
@@ -95,6 +117,7 @@ def read_trajectory_csv(path: Path) -> Trajectory:
         msg = f"{path}: {rows_to_lines(str(err), table.line_of_row)}"
         raise InputError(msg) from err
     _refuse_radians(path, c, traj)
+    _warn_yaw_convention(path, traj)
     return traj
 
 
@@ -128,6 +151,54 @@ def _refuse_radians(path: Path, c: dict[str, FloatArray], traj: Trajectory) -> N
             "deg); convert the attitude columns to degrees"
         )
         raise InputError(msg)
+
+
+def _warn_yaw_convention(path: Path, traj: Trajectory) -> None:
+    """Warn when the yaw follows the course over ground only in another convention.
+
+    kinsync reads yaw clockwise from north (DIN 9300, NED). A yaw written counter-
+    clockwise from east (ENU) or from north, or of a body axis other than x, georeferences
+    every point off by metres, and the velocities check nothing of it. On a trajectory
+    that moves (`Trajectory.course_and_yaw_rad`), a yaw more than `YAW_OFF_COURSE_DEG` off
+    the course on more than `YAW_OFF_SHARE` of the moving records, while another
+    convention follows it (`YAW_CONVENTION_OFF_SHARE`, `YAW_CONVENTION_FITS_DEG`), gives a
+    `KinsyncWarning` naming that convention. A warning, not a refusal: a platform may
+    truly move backwards or sideways throughout (a pushed trolley, a hovering aircraft).
+    """
+    course, yaw = traj.course_and_yaw_rad()
+    if course.size < 10:
+        return
+
+    def off_course_deg(angle_rad: FloatArray) -> FloatArray:
+        off: FloatArray = np.degrees(np.abs(wrap_angle_rad(angle_rad - course)))
+        return off
+
+    as_given = off_course_deg(yaw)
+    share = float(np.mean(as_given > YAW_OFF_COURSE_DEG))
+    if share <= YAW_OFF_SHARE:
+        return
+    fits = []
+    for name, conversion, sign, offset_deg in _YAW_CONVENTIONS:
+        off = off_course_deg(sign * yaw + math.radians(offset_deg))
+        median = float(np.median(off))
+        if (
+            median <= YAW_CONVENTION_FITS_DEG
+            and np.mean(off > YAW_OFF_COURSE_DEG) < YAW_CONVENTION_OFF_SHARE
+        ):
+            fits.append((median, name, conversion))
+    if not fits:
+        return
+    off_median, name, conversion = min(fits)
+    warnings.warn(
+        f"{path}: yaw_deg is more than {YAW_OFF_COURSE_DEG:g} deg off the course over ground "
+        f"on {share:.0%} of {course.size} moving records (median "
+        f"{float(np.median(as_given)):.0f} deg), where a yaw written {name} would follow it "
+        f"(median {off_median:.1f} deg): kinsync reads the yaw of the body's x axis "
+        f"(forward) clockwise from north (DIN 9300, NED); convert it ({conversion}) unless "
+        "the platform truly moved that way throughout",
+        KinsyncWarning,
+        stacklevel=3,
+    )
 
 
 def write_trajectory_csv(trajectory: Trajectory, path: Path) -> None:
