@@ -7,7 +7,6 @@ the CIDCO set when ``../shared`` is beside the checkout.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +16,7 @@ import numpy as np
 
 from kinsync._text import counted
 from kinsync.demo.files import write_section_files
+from kinsync.demo.reference_data import reference_candidates
 from kinsync.demo.tolerances import LATENCY_TABLE, ONE_ERROR_SOURCE, SIGMA_CONSISTENT
 from kinsync.fit import SphereFit, segment_sphere
 from kinsync.io.cidco import read_cidco_pass
@@ -38,7 +38,6 @@ Summary = list[tuple[str, str, str]]
 DEMO_LATENCY_S = 0.00421
 TABLE_SEED = 1
 """Seed of the simulated rotating-table campaign."""
-CIDCO_RELATIVE = Path("..") / "shared" / "data" / "cidco-port-de-quebec"
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,9 +203,8 @@ def method_a_section(
 
 
 def cidco_candidates() -> list[Path]:
-    """Where the CIDCO passes are looked for: ``../shared`` by the working folder, the checkout."""
-    found = [Path.cwd() / CIDCO_RELATIVE, Path(__file__).resolve().parents[3] / CIDCO_RELATIVE]
-    return list(dict.fromkeys(Path(os.path.normpath(c)) for c in found))
+    """Where the CIDCO passes are looked for (`kinsync.demo.reference_data`)."""
+    return reference_candidates("cidco-port-de-quebec")
 
 
 def find_cidco_folder() -> Path | None:

@@ -12,13 +12,13 @@ set (A, B: the better peer, pyins; C: KF-GINS) and the set's README for the last
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from kinsync.demo.ins import Summary, Vector3, _series, _triple
+from kinsync.demo.reference_data import reference_candidates
 from kinsync.demo.tolerances import PEER_PARITY
 from kinsync.errors import InputError
 from kinsync.ins.compare import Comparison, compare_to_truth
@@ -47,8 +47,6 @@ __all__ = [
 
 NAVEGO_TITLE = "INS/GNSS on the NaveGo synthetic set (external check)"
 """The section's title (the report names it so when the set is not found)."""
-NAVEGO_RELATIVE = Path("..") / "shared" / "data" / "navego-synthetic"
-
 
 NAVEGO_RESIDUAL_SIGMA_FACTOR = 10.0
 """NaveGo convention: σ of the residual turn-on bias = 10 x the bias instability."""
@@ -67,9 +65,8 @@ and velocity updates with known biases the figure the set's README quotes."""
 
 
 def navego_candidates() -> list[Path]:
-    """Where the NaveGo set is looked for: ``../shared`` beside the working folder, the checkout."""
-    found = [Path.cwd() / NAVEGO_RELATIVE, Path(__file__).resolve().parents[3] / NAVEGO_RELATIVE]
-    return list(dict.fromkeys(Path(os.path.normpath(c)) for c in found))
+    """Where the NaveGo set is looked for (`kinsync.demo.reference_data`)."""
+    return reference_candidates("navego-synthetic")
 
 
 def find_navego_folder() -> Path | None:
