@@ -112,6 +112,7 @@ from kinsync.io.sanity import (
     check_text_file,
     not_utf8_cell,
 )
+from kinsync.io.text_lines import cut_line_hint, warn_if_unended
 from kinsync.mount import Mount
 from kinsync.trajectory import Trajectory
 
@@ -266,7 +267,8 @@ def _locate_bad_line(path: Path, text: str) -> InputError:
             return InputError(
                 f"{path}: line {line_no} has {len(fields)} numbers, expected {CIDCO_COLUMNS} "
                 "(ECEF xyz, local xyz, intensity, time, LiDAR xyz, heading pitch roll, "
-                "lat lon h); is this a CIDCO LidarToolkit pass file?"
+                "lat lon h)"
+                + (cut_line_hint(path, line_no) or "; is this a CIDCO LidarToolkit pass file?")
             )
         for col, cell in enumerate(fields, start=1):
             try:
@@ -309,6 +311,7 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
     """
     path = Path(path)
     check_text_file(path, "CIDCO pass file", max_bytes=MAX_TEXT_ROWS_BYTES)
+    warn_if_unended(path, first_data_line=1)
     try:
         text = path.read_text(encoding="utf-8", errors="surrogateescape")
     except OSError as err:

@@ -32,6 +32,7 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.sanity import TIME_S, check_values, load_json
 from kinsync.io.tables import read_numeric_csv
+from kinsync.io.text_lines import cut_line_hint
 from kinsync.trajectory_times import backward_step_s
 
 __all__ = [
@@ -121,10 +122,11 @@ def read_pps_csv(path: Path) -> FloatArray:
                 f"and NMEA logs at t_local_s={now!r} and fit each part on its own"
             )
             raise InputError(msg)
+        line = table.line_of_row(row)
         msg = (
-            f"{path}: line {table.line_of_row(row)}, column 't_local_s': {t[row]!r} does not "
+            f"{path}: line {line}, column 't_local_s': {t[row]!r} does not "
             f"follow {t[row - 1]!r} on the line before; pulses must be strictly increasing "
-            "(sort the file, remove repeated lines)"
+            f"(sort the file, remove repeated lines){cut_line_hint(Path(path), line)}"
         )
         raise InputError(msg)
     return t

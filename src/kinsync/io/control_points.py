@@ -161,7 +161,7 @@ def read_control_points(path: Path) -> ControlPoints:
         ground (a height in mm, coordinates that are not ECEF) (each naming the line).
     """
     path = Path(path)
-    records = read_csv_rows(path, "control point file", warn_unended=True)
+    records = read_csv_rows(path, "control point file")
     if not records:
         msg = f"{path}: empty file; expected a header such as name,lat_deg,lon_deg,h_m"
         raise InputError(msg)

@@ -14,6 +14,7 @@ from typing import Any
 
 from kinsync.errors import InputError
 from kinsync.io.sanity import not_utf8_cell
+from kinsync.io.text_lines import cut_line_hint
 
 __all__ = ["PARSE_ERROR", "first_bad_cell", "locate_bad_csv_cell"]
 
@@ -65,6 +66,7 @@ def first_bad_cell(
                 f"{path}: line {first_line + reader.line_num}: {len(cells)} "
                 f"field(s) where the header has {len(header)}; fix the row (a comma too many "
                 "or too few, or a value holding a comma that needs quotes)"
+                f"{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)
         for name, i in cols:
@@ -85,5 +87,6 @@ def first_bad_cell(
             msg = (
                 f"{path}: line {first_line + reader.line_num}, column "
                 f"{name!r}: {what}; fix or remove the row"
+                f"{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)

@@ -56,7 +56,14 @@ from kinsync.io.parquet_slices import read_row_group_piece, read_row_groups
 from kinsync.io.row_position import point_position
 from kinsync.io.sanity import check_text_file, require_file
 from kinsync.io.table_writer import TableChunkWriter, csv_text_columns, table_suffix
-from kinsync.io.text_lines import CR, LF, csv_header_row, line_end_indices, read_first_line
+from kinsync.io.text_lines import (
+    CR,
+    LF,
+    csv_header_row,
+    line_end_indices,
+    read_first_line,
+    warn_if_unended,
+)
 
 __all__ = [
     "TableChunkWriter",
@@ -298,6 +305,7 @@ def iter_table_chunks(
     names = table_columns(path)
     required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
+        warn_if_unended(path)
         block = _csv_block_bytes(chunk_points, len(names))
         others = [n for n in names if n not in required]
         text = others if extra_as_text else []
@@ -637,6 +645,7 @@ def plan_table_slices(
     names = table_columns(path)
     required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
+        warn_if_unended(path)
         guessed = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
         schema = pa.schema(  # the header's names (stripped), required columns float64
             [

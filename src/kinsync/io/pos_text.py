@@ -70,6 +70,7 @@ from kinsync.io.sanity import (
     check_text_file,
 )
 from kinsync.io.tables import rows_to_lines
+from kinsync.io.text_lines import cut_line_hint, warn_if_unended
 from kinsync.trajectory import Trajectory
 
 __all__ = [
@@ -414,7 +415,7 @@ def _parse_rows(
                 f"{list(layout.names)}: {_count_text(len(fields), layout.fields_per_row)}"
             )
             hms = _clock_time_hint(lines, first, layout)
-            msg += hms or f"; {question}"
+            msg += cut_line_hint(path, index + 1) or hms or f"; {question}"
             raise InputError(msg)
         for quantity, (start, width, name) in wanted.items():
             cell = fields[start : start + width]
@@ -472,6 +473,7 @@ def read_pos_text(path: Path, *, gps_week: int | None = None) -> tuple[Trajector
     """
     path = Path(path)
     check_text_file(path, "trajectory export", max_bytes=_MAX_BYTES)
+    warn_if_unended(path)
     try:
         lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError as err:

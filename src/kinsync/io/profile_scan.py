@@ -52,6 +52,7 @@ from kinsync.io.sanity import (
     require_file,
 )
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
+from kinsync.io.text_lines import cut_line_hint
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD
 from kinsync.sync.scan import (
     SCAN_COLUMNS,
@@ -230,7 +231,7 @@ def read_sync_points(path: Path) -> SyncPoints:
         naming the line).
     """
     path = Path(path)
-    records = read_csv_rows(path, warn_unended=True)
+    records = read_csv_rows(path)
     if not records:
         msg = f"{path}: empty file; expected a header {','.join(SYNC_POINT_COLUMNS)}"
         raise InputError(msg)
@@ -300,9 +301,11 @@ def read_pulses(path: Path) -> FloatArray:
     step = np.diff(t)
     if np.any(step <= 0):
         row = int(np.flatnonzero(step <= 0)[0]) + 1
+        line = table.line_of_row(row)
         msg = (
-            f"{path}: line {table.line_of_row(row)}: pulse time {t[row]!r} does not follow "
+            f"{path}: line {line}: pulse time {t[row]!r} does not follow "
             f"{t[row - 1]!r}; pulse times must be strictly increasing"
+            f"{cut_line_hint(Path(path), line)}"
         )
         raise InputError(msg)
     out: FloatArray = np.array(t, dtype=np.float64)

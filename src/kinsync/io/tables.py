@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import csv
 import re
-import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +18,7 @@ import pyarrow.csv as pa_csv
 
 from kinsync._text import reads_as_number
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError, KinsyncWarning
+from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
 from kinsync.io.row_position import csv_line_of_row
@@ -31,7 +30,7 @@ from kinsync.io.sanity import (
     check_values,
     not_utf8_cell,
 )
-from kinsync.io.text_lines import csv_header_row
+from kinsync.io.text_lines import csv_header_row, cut_line_hint, warn_if_unended
 
 __all__ = [
     "NumericTable",
@@ -117,7 +116,7 @@ def _first_bad_cell(
                 if len(row) != len(header):
                     return InputError(
                         f"{path}: line {line_no} has {len(row)} fields, the header has "
-                        f"{len(header)}"
+                        f"{len(header)}{cut_line_hint(path, line_no)}"
                     )
                 for name, cell in zip(header, row, strict=True):
                     if name not in read or (name in blank_ok and not cell):
@@ -137,6 +136,7 @@ def _first_bad_cell(
                         )
                     return InputError(
                         f"{path}: line {line_no}, column {name!r}: {cell[:80]!r} {what}"
+                        f"{cut_line_hint(path, line_no)}"
                     )
         except csv.Error as err:
             return InputError(f"{path}: line {reader.line_num}: cannot read as CSV ({err})")
@@ -245,6 +245,7 @@ def read_numeric_csv(
         msg = f"{path}: missing column(s) {missing}; the header has {header}"
         raise InputError(msg)
     wanted = [h for h in header if h in required or h in optional]
+    warn_if_unended(path)
     columns = _read_float_columns_arrow(path, header, wanted, only_named=only_named)
     if columns is None and empty_is_nan:  # empty cells where they mean nan, and no other?
         if (err := _first_bad_cell(path, header, wanted, empty_is_nan)) is not None:
@@ -277,10 +278,11 @@ def write_numeric_csv(path: Path, columns: dict[str, FloatArray]) -> None:
         pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
 
 
-def read_csv_rows(
-    path: Path, what: str = "file", *, warn_unended: bool = False
-) -> list[tuple[int, list[str]]]:
+def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]:
     """The non-blank rows of a small CSV file with their 1-based line numbers.
+
+    A file that ends without a line end after a data row gets a warning
+    (`kinsync.io.text_lines.warn_if_unended`).
 
     Parameters
     ----------
@@ -288,10 +290,6 @@ def read_csv_rows(
         The file (UTF-8, a BOM is skipped).
     what : str
         What the file is, for the not-found message ("control point file", ...).
-    warn_unended : bool
-        Issue a `KinsyncWarning` when the file ends without a line end after a data
-        row: a file cut short ends mid-row, its last number read as complete (11.1
-        for 11.199). Not refused: many tools write no final line end.
 
     Raises
     ------
@@ -317,26 +315,8 @@ def read_csv_rows(
         for cell in row:
             if (bad := not_utf8_cell(Path(path), line, cell)) is not None:
                 raise bad
-    if warn_unended and len(records) > 1 and not _ends_with_line_end(Path(path)):
-        warnings.warn(
-            f"{path}: the file ends without a line end: if it was cut, its last row is "
-            f"incomplete: check line {records[-1][0]}",
-            KinsyncWarning,
-            stacklevel=3,
-        )
+    warn_if_unended(Path(path))
     return records
-
-
-def _ends_with_line_end(path: Path) -> bool:
-    """Whether the file's last byte is a line end (or the file is empty)."""
-    try:
-        with path.open("rb") as fh:
-            if fh.seek(0, 2) == 0:
-                return True
-            fh.seek(-1, 2)
-            return fh.read(1) in (b"\n", b"\r")
-    except OSError:  # read a moment ago: a device that cannot seek is not checked
-        return True
 
 
 def read_time_column(path: Path, column: str) -> tuple[FloatArray, Callable[[int], int]]:

@@ -9,23 +9,40 @@ must find the same lines, or a CR-only file reads as a header and no data row.
 first line with its end, and `csv_header_row` reads a CSV's header row without
 decoding the rest of the file, so that a byte that is not UTF-8 further on is named
 by its own line (by the reader of the data rows), not blamed on the header.
+
+`warn_if_unended` is the one check every text reader makes of a file's end: a file cut
+mid-write (a logger stopped, a copy broken off) ends mid-number without a line end, and
+its last number reads as complete (yaw 17 for 179.999983). It warns, naming the last line;
+it does not refuse, as many tools write no final line end.
 """
 
 from __future__ import annotations
 
 import csv
+import warnings
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.sanity import not_utf8_cell
 
-__all__ = ["CR", "LF", "csv_header_row", "line_end_indices", "read_first_line"]
+__all__ = [
+    "CR",
+    "LF",
+    "csv_header_row",
+    "cut_line_hint",
+    "line_end_indices",
+    "read_first_line",
+    "unended_last_line",
+    "warn_if_unended",
+]
 
 LF, CR = 10, 13
 _BLOCK_BYTES = 1 << 16
+_COUNT_BLOCK_BYTES = 1 << 22
+_BLANK = b" \t,;"  # a last line of these only holds no value to cut
 
 
 def line_end_indices(arr: np.ndarray[Any, Any], next_byte: int | None) -> np.ndarray[Any, Any]:
@@ -130,3 +147,96 @@ def _refuse_other_separator(path: Path, row: list[str] | None) -> None:
                 "point as the decimal mark"
             )
             raise InputError(msg)
+
+
+def unended_last_line(path: Path) -> int | None:
+    """The file line (1-based) of a last line that holds text but no line end after it.
+
+    Parameters
+    ----------
+    path : Path
+        A text file.
+
+    Returns
+    -------
+    int or None
+        The last line's number when the file ends without a line end (LF, CRLF or CR)
+        after a line holding something other than blanks and separators; None for a
+        file that ends with one, an empty file, or a file that cannot be read (its
+        reader says why).
+    """
+    try:
+        with Path(path).open("rb") as fh:
+            size = fh.seek(0, 2)
+            if size == 0:
+                return None
+            start = max(0, size - _BLOCK_BYTES)
+            fh.seek(start)
+            tail = fh.read()
+            if tail[-1:] in (b"\n", b"\r"):
+                return None
+            last = tail[max(tail.rfind(b"\n"), tail.rfind(b"\r")) + 1 :]
+            if not last.strip(_BLANK):
+                return None
+            fh.seek(0)
+            ends = 0
+            block = fh.read(_COUNT_BLOCK_BYTES)
+            while block:
+                after = fh.read(_COUNT_BLOCK_BYTES)
+                arr = np.frombuffer(block, dtype=np.uint8)
+                ends += int(line_end_indices(arr, after[0] if after else None).size)
+                block = after
+    except OSError:
+        return None
+    return ends + 1
+
+
+def warn_if_unended(path: Path, *, first_data_line: int = 2) -> None:
+    """Warn (`KinsyncWarning`) when a text file ends without a line end after its data.
+
+    A file cut short ends mid-row, its last number read as complete (11.1 for 11.199): the
+    warning names the last line to check. Not refused: many tools write no final line end.
+    Every text reader (CSV tables, point tables, exports, pass files) calls this.
+
+    Parameters
+    ----------
+    path : Path
+        The file just read (or about to be).
+    first_data_line : int
+        File line (1-based) of the first data row: a last line before it (a header only)
+        is not warned about.
+    """
+    line = unended_last_line(path)
+    if line is None or line < first_data_line:
+        return
+    warnings.warn(
+        f"{path}: the file ends without a line end: if it was cut, its last row is "
+        f"incomplete: check line {line}",
+        KinsyncWarning,
+        stacklevel=1,  # one place: a file read twice is warned about once
+    )
+
+
+def cut_line_hint(path: Path, line: int) -> str:
+    """Words to add to an error naming ``line`` when it is a last line without a line end.
+
+    Parameters
+    ----------
+    path : Path
+        The file the error is about.
+    line : int
+        The file line (1-based) the error names.
+
+    Returns
+    -------
+    str
+        ``"; it is the last line and the file ends without a line end: ..."`` when the
+        line may have been cut mid-write, else ``""`` (a failing command prints its
+        error only, not the warnings: the error itself must say it).
+    """
+    if unended_last_line(path) != line:
+        return ""
+    return (
+        "; it is the last line and the file ends without a line end: the file was "
+        "probably cut mid-write, remove that line or copy the file again"
+    )
