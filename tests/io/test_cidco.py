@@ -79,6 +79,16 @@ def test_reader_names_every_column(tmp_path: Path) -> None:
         p.points_ecef_m[0, 0] = 0.0
 
 
+def test_a_utf8_byte_order_mark_is_skipped(tmp_path: Path) -> None:
+    """Windows editors start a file with one; every CSV reader skipped it, this one read
+    "line 1, column 1: '\\ufeff1409120.09' is not a number"."""
+    rows = [[float(10 * r + c) for c in range(CIDCO_COLUMNS)] for r in range(2)]
+    path = tmp_path / "passage_1.txt"
+    path.write_bytes(b"\xef\xbb\xbf" + ("\n".join(_line(r) for r in rows) + "\n").encode())
+    p = read_cidco_pass(path)
+    np.testing.assert_array_equal(p.points_ecef_m, np.array(rows)[:, 0:3])
+
+
 def test_a_byte_that_is_not_utf8_is_named_by_its_line(tmp_path: Path) -> None:
     path = tmp_path / "bad.txt"
     path.write_bytes((_line([1.0] * 17) + "\n\n").encode() + b"1 " * 16 + b"caf\xe9\n")

@@ -312,8 +312,8 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
     path = Path(path)
     check_text_file(path, "CIDCO pass file", max_bytes=MAX_TEXT_ROWS_BYTES)
     warn_if_unended(path, first_data_line=1)
-    try:
-        text = path.read_text(encoding="utf-8", errors="surrogateescape")
+    try:  # a UTF-8 byte-order mark (Windows editors) is skipped, as by every CSV reader
+        text = path.read_text(encoding="utf-8-sig", errors="surrogateescape")
     except OSError as err:
         msg = f"{path}: cannot read ({err})"
         raise InputError(msg) from err
