@@ -16,9 +16,42 @@ from kinsync.errors import InputError
 from kinsync.io.sanity import not_utf8_cell
 from kinsync.io.text_lines import cut_line_hint
 
-__all__ = ["PARSE_ERROR", "first_bad_cell", "locate_bad_csv_cell"]
+__all__ = ["PARSE_ERROR", "blank_row_error", "first_bad_cell", "locate_bad_csv_cell"]
 
 PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
+
+
+def blank_row_error(path: Path, line: int, cells: Sequence[str]) -> InputError | None:
+    """The error for a row of blank cells (``,,,,``, spaces or a tab), None for another row.
+
+    A truly empty line is skipped by every reader; a spreadsheet's empty row (only
+    separators) or a line of spaces is not empty to the CSV parser, which counts it as a
+    row whose cells are not numbers.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for the message.
+    line : int
+        The row's file line (1-based).
+    cells : sequence of str
+        The row's cells as the ``csv`` module read them (none for an empty line).
+
+    Returns
+    -------
+    InputError or None
+        The error naming the line, or None when the row is empty or holds a value.
+    """
+    if not cells or any(c.strip() for c in cells):
+        return None
+    if len(cells) == 1:  # a one-column table's empty value is written '""'
+        if not cells[0]:
+            return None
+        return InputError(f"{path}: line {line}: only spaces or tabs, no value; remove the line")
+    return InputError(
+        f"{path}: line {line}: a row of empty cells (only commas, as a spreadsheet writes "
+        "for an empty row), no value; remove the line"
+    )
 
 
 def locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
@@ -56,7 +89,9 @@ def first_bad_cell(
         except csv.Error as err:
             line = first_line + reader.line_num
             return InputError(f"{path}: line {line}: cannot read as CSV ({err})")
-        if not cells or all(not c.strip() for c in cells):
+        if (blank := blank_row_error(path, first_line + reader.line_num, cells)) is not None:
+            return blank
+        if not cells:
             continue
         for cell in cells:
             if (bad := not_utf8_cell(path, first_line + reader.line_num, cell)) is not None:

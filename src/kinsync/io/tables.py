@@ -21,6 +21,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
+from kinsync.io.csv_cells import blank_row_error
 from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
     MAX_TABLE_BYTES,
@@ -111,7 +112,9 @@ def _first_bad_cell(
         try:
             next(reader)
             for line_no, row in enumerate(reader, start=2):
-                if not row or all(not c.strip() for c in row):
+                if (blank := blank_row_error(path, line_no, row)) is not None:
+                    return blank
+                if not row:
                     continue
                 if len(row) != len(header):
                     return InputError(

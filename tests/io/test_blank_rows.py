@@ -1,0 +1,55 @@
+"""A row of empty cells (``,,,,`` as Excel writes an empty row), or a line of spaces or a
+tab, is named by its line: the numeric CSV tables said only "cannot read as a numeric CSV
+table" (their search for the bad cell skipped such rows, the parser did not)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinsync.errors import InputError
+from kinsync.io.clock_model import read_pps_csv
+from kinsync.io.points import iter_table_chunks
+from kinsync.io.tables import read_numeric_csv
+
+HEADER = "t_s,x_m,y_m\n"
+ROWS = ["1.0,2.0,3.0\n", "2.0,2.0,3.0\n", "3.0,2.0,3.0\n"]
+
+
+@pytest.mark.parametrize(
+    ("blank", "words"),
+    [
+        (",,\n", r"a row of empty cells \(only commas"),
+        (" , ,\t\n", r"a row of empty cells \(only commas"),
+        ("   \n", "only spaces or tabs"),
+        ("\t\n", "only spaces or tabs"),
+    ],
+)
+def test_a_row_of_blanks_is_named_by_its_line(tmp_path: Path, blank: str, words: str) -> None:
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + ROWS[0] + "\n" + ROWS[1] + blank + ROWS[2], encoding="utf-8")
+    with pytest.raises(InputError, match=rf"t\.csv: line 5: {words}.*remove the line"):
+        read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+
+
+def test_a_line_of_spaces_in_a_point_table_is_named_by_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "p.csv"
+    path.write_text(HEADER + ROWS[0] + "  \n" + ROWS[1], encoding="utf-8")
+    with pytest.raises(InputError, match=r"p\.csv: line 3: only spaces or tabs"):
+        list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))
+
+
+def test_a_blank_row_of_a_one_column_pps_log_is_named(tmp_path: Path) -> None:
+    path = tmp_path / "pps.csv"
+    path.write_text("t_local_s\n1000.0\n \n1001.0\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"pps\.csv: line 3: only spaces or tabs"):
+        read_pps_csv(path)
+
+
+def test_an_empty_line_is_still_skipped(tmp_path: Path) -> None:
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + ROWS[0] + "\n\r\n" + ROWS[1], encoding="utf-8")
+    table = read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+    np.testing.assert_array_equal(table.columns["t_s"], [1.0, 2.0])
