@@ -144,6 +144,39 @@ def test_some_table_times_in_seconds_of_week_are_named_in_the_warning(
     assert "(--gps-week)" not in err
 
 
+def test_a_trajectory_csv_in_seconds_of_week_is_named_with_the_week_to_add(
+    run_cli: RunCli, files: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    """`trajectory export` without --gps-week writes such a CSV: the error called its times
+    GPS time since 1980 and advised --gps-week, which was then refused as unused."""
+    traj = _trajectory()
+    sow = files["dir"] / "sow.csv"
+    write_trajectory_csv(
+        Trajectory(traj.t_s - WEEK * SECONDS_PER_WEEK, traj.q_body_to_ned, traj.lat_lon_h), sow
+    )
+    points = _csv(files["dir"] / "p.csv", [T0 + 1.0, T0 + 2.0])
+    out = files["dir"] / "q.csv"
+    code, stdout, err = run_cli(_args(files, points, sow, out))
+    assert_one_line_error(
+        code,
+        stdout,
+        err,
+        "look like GPS seconds of week, but a trajectory table (CSV) is read as GPS time",
+        f"the points lie in GPS week {WEEK}: add {WEEK} x 604800 = "
+        f"{WEEK * SECONDS_PER_WEEK:.0f} s to its t_s",
+        f"--gps-week {WEEK}",
+    )
+    code, stdout, err = run_cli(_args(files, points, sow, out, "--gps-week", str(WEEK)))
+    assert_one_line_error(
+        code,
+        stdout,
+        err,
+        f"the times of {sow} (from {SOW0:.10g} s) look like GPS seconds of week",
+        f"add {WEEK} x 604800",
+    )
+    assert not out.exists()
+
+
 def test_a_las_file_saying_adjusted_time_but_holding_seconds_of_week(
     run_cli: RunCli, files: dict[str, Path], assert_one_line_error: OneLineError
 ) -> None:

@@ -133,6 +133,27 @@ def test_kml_line_from_an_sbet(run_cli: RunCli, tmp_path: Path) -> None:
     np.testing.assert_allclose(pairs[-1], traj.lat_lon_h[-1, [1, 0]], atol=1e-8)
 
 
+def test_a_table_of_seconds_of_week_is_written_with_a_warning(
+    run_cli: RunCli, tmp_path: Path
+) -> None:
+    """A CSV from an SBET without --gps-week holds seconds of week, which every kinsync
+    input on GPS time misses (a CSV trajectory is read as GPS time): say so at export."""
+    sbet = tmp_path / "sbet.out"
+    write_sbet(_trajectory(), sbet)
+    out = tmp_path / "t.csv"
+    code, _, err = run_cli(["trajectory", "export", str(sbet), "--out", str(out)])
+    assert code == 0, err
+    assert "kinsync: warning: " in err
+    assert "t.csv: its t_s are GPS seconds of week" in err
+    assert "give --gps-week" in err
+    week = str(int(T0 // 604800))
+    code, _, err = run_cli(
+        ["trajectory", "export", str(sbet), "--out", str(out), "--gps-week", week]
+    )
+    assert code == 0, err
+    assert "warning" not in err
+
+
 @pytest.mark.parametrize(
     ("args", "fragments"),
     [

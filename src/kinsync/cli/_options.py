@@ -237,6 +237,7 @@ def refuse_unused_gps_week(
     ):
         return
     names = first_few([str(p) for p in named])
+    _refuse_week_on_csv(gps_week, trajectories)
     already = [str(p) for p in (*trajectories, *navigation) if trajectory_already_gps_time(p)]
     if already:
         msg = (
@@ -251,3 +252,28 @@ def refuse_unused_gps_week(
         "column gives its own), so it would not be used: drop it"
     )
     raise InputError(msg)
+
+
+def _refuse_week_on_csv(gps_week: int, trajectories: Sequence[Path]) -> None:
+    """Refuse --gps-week for a trajectory CSV whose times look like seconds of week.
+
+    `kinsync trajectory export` without --gps-week writes one from an SBET; a CSV is read
+    as GPS time, so the week does not apply: say what does.
+    """
+    from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S  # noqa: PLC0415
+    from kinsync.io.trajectory import csv_first_time_s  # noqa: PLC0415
+
+    for path in trajectories:
+        if Path(path).suffix.lower() != ".csv":
+            continue
+        t_s = csv_first_time_s(Path(path))
+        if t_s is None or not 0.0 <= t_s <= WEEK_SECONDS_MAX_S:
+            continue
+        shift_s = gps_week * SECONDS_PER_WEEK
+        msg = (
+            f"--gps-week {gps_week}: the times of {path} (from {t_s:.10g} s) look like GPS "
+            "seconds of week, but a trajectory CSV is read as GPS time since 1980 and takes "
+            f"no GPS week: add {gps_week} x {SECONDS_PER_WEEK:.0f} = {shift_s:.0f} s to its "
+            f"t_s, or write it again with kinsync trajectory export --gps-week {gps_week}"
+        )
+        raise InputError(msg)

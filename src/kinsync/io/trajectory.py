@@ -7,6 +7,7 @@ POSPac and Inertial Explorer (`kinsync.io.pos_text`), told apart by suffix: ``.c
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 from typing import Literal
 
@@ -19,6 +20,7 @@ from kinsync.trajectory import Trajectory
 
 __all__ = [
     "TimeScale",
+    "csv_first_time_s",
     "gps_week_needed_text",
     "read_trajectory_file",
     "trajectory_already_gps_time",
@@ -151,3 +153,26 @@ def trajectory_already_gps_time(path: Path) -> bool:
         return "week" not in sniff_pos_text(path).columns and not pos_text_takes_gps_week(path)
     except InputError:
         return False
+
+
+def csv_first_time_s(path: Path) -> float | None:
+    """The ``t_s`` of a trajectory CSV's first data row, for messages; None if unreadable.
+
+    Parameters
+    ----------
+    path : Path
+        A trajectory CSV (`kinsync.io.trajectory_csv`).
+    """
+    try:
+        with Path(path).open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+            reader = csv.reader(fh)
+            header = [h.strip() for h in next(reader, [])]
+            if "t_s" not in header:
+                return None
+            column = header.index("t_s")
+            for row in reader:
+                if len(row) > column and row[column].strip():
+                    return float(row[column])
+    except (OSError, csv.Error, ValueError):
+        return None
+    return None

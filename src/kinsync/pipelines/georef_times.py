@@ -135,7 +135,9 @@ def time_scale_hint(
                 "laspy.header.GpsTimeType.WEEK_TIME, then write the file again) and give "
                 "--gps-week"
             )
-    return _week_hint(times, t_min_s, t_max_s, traj_start_s, traj_end_s)
+    return _week_trajectory_hint(times, t_min_s, t_max_s, traj_start_s, traj_end_s) or _week_hint(
+        times, t_min_s, t_max_s, traj_start_s, traj_end_s
+    )
 
 
 def _rollover_hint(
@@ -167,6 +169,38 @@ def _rollover_hint(
 
 
 _LAST_WEEK = 16_536  # GPS week of 2297: beyond any survey time (1e10 s after 1980)
+
+
+def _week_trajectory_hint(
+    times: PointTimes, t_min_s: float, t_max_s: float, traj_start_s: float, traj_end_s: float
+) -> str | None:
+    """A trajectory table whose times are seconds of week, read as GPS time since 1980.
+
+    `kinsync trajectory export` without --gps-week writes one from an SBET; --gps-week
+    does not apply to a table, whose times are taken as they are.
+    """
+    if times.traj_scale == "week" or traj_end_s > _WEEK_MAX_S or t_min_s <= _WEEK_MAX_S:
+        return None
+    points_week = math.floor((0.5 * t_min_s + 0.5 * t_max_s) / SECONDS_PER_WEEK)
+    shift_s = points_week * SECONDS_PER_WEEK
+    if 0 <= points_week <= _LAST_WEEK and (
+        t_max_s >= traj_start_s + shift_s and t_min_s <= traj_end_s + shift_s
+    ):
+        add = (
+            f"the points lie in GPS week {points_week}: add {points_week} x "
+            f"{SECONDS_PER_WEEK:.0f} = {shift_s:.0f} s to its t_s, or export it again with "
+            f"kinsync trajectory export --gps-week {points_week}"
+        )
+    else:
+        add = (
+            f"add the GPS week x {SECONDS_PER_WEEK:.0f} s to its t_s, or export it again "
+            "with kinsync trajectory export --gps-week"
+        )
+    return (
+        f"the trajectory's times ({_range_text(traj_start_s, traj_end_s)}) look like GPS "
+        "seconds of week, but a trajectory table (CSV) is read as GPS time since 1980 "
+        f"(--gps-week does not apply to it), and the points carry GPS time: {add}"
+    )
 
 
 def _week_hint(

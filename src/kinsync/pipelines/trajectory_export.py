@@ -19,6 +19,7 @@ writes, by the output's suffix:
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from kinsync.crs import (
     sample_rows,
 )
 from kinsync.crs_axes import coordinate_metadata
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import geodetic_to_ecef, quaternion_to_euler_rpy
 from kinsync.io.quicklook import decimate, write_geojson_line, write_kml_line
 from kinsync.io.table_writer import TableChunkWriter
@@ -163,6 +164,15 @@ def export_trajectory(
         decimate(2, max_vertices)  # a bad --max-vertices fails before reading
     report(progress, 0.0, STAGE_READING)
     traj, scale = read_trajectory_file(path, gps_week=gps_week)
+    if scale == "week" and not line:
+        warnings.warn(
+            f"{out_path}: its t_s are GPS seconds of week ({traj.t_start_s:.10g} .. "
+            f"{traj.t_end_s:.10g} s, as in {path}), but kinsync reads a trajectory table as "
+            "GPS time since 1980: it will not match points or logs on GPS time; give "
+            "--gps-week (the GPS week of the first record) to write GPS time",
+            KinsyncWarning,
+            stacklevel=2,
+        )
     report(progress, 0.0, STAGE_WRITING)
     llh = traj.lat_lon_h
     if llh is None:  # the readers give geodetic trajectories
