@@ -413,3 +413,35 @@ def test_document_has_every_field(drive: Trajectory) -> None:
     }
     assert doc["consistent"] is True
     assert doc["message"] == ""
+
+
+@pytest.mark.parametrize(
+    ("fix", "words"),
+    [
+        (lambda v: v[:, [1, 0, 2]], "with north and east swapped ("),
+        (lambda v: v * np.array([1.0, -1.0, 1.0]), "with the sign of east flipped"),
+        (lambda v: v * np.array([-1.0, -1.0, 1.0]), "with the signs of north and east flipped"),
+        (lambda v: v * np.array([1.0, 1.0, -1.0]), "with the sign of down flipped"),
+        (
+            lambda v: v[:, [1, 0, 2]] * np.array([1.0, 1.0, -1.0]),
+            "east, north, up (ENU) velocities in the north, east, down columns",
+        ),
+    ],
+)
+def test_swapped_or_flipped_components_are_named(
+    drive: Trajectory, fix: Callable[[FloatArray], FloatArray], words: str
+) -> None:
+    """North and east swapped were called "the velocities are zero (or nearly)"."""
+    check = _with_velocities(drive, np.asarray(fix(_vel(drive)))).velocity_check
+    assert check is not None
+    assert not check.consistent
+    assert words in check.message
+    assert "are zero" not in check.message
+
+
+@pytest.mark.parametrize("kind", ["zero", "km/h as m/s", "halved"])
+def test_no_mix_up_is_named_for_wrong_magnitudes(drive: Trajectory, kind: str) -> None:
+    check = _with_velocities(drive, BROKEN[kind](_vel(drive))).velocity_check
+    assert check is not None
+    assert check.mix_up is None
+    assert "they match the positions" not in check.message

@@ -83,6 +83,10 @@ class VelocityCheck:
         for km/h taken as m/s; None when the positions do not move at all.
     worst_t_s : float
         Start time (s) of the window with the largest mismatch.
+    mix_up : str or None
+        The swap or sign flip of the velocity components that makes them agree with the
+        positions, in words ("north and east swapped", ...); None when none does or the
+        velocities are consistent.
     """
 
     consistent: bool
@@ -94,6 +98,7 @@ class VelocityCheck:
     rms_mismatch_vertical_m: float
     velocity_scale: float | None
     worst_t_s: float
+    mix_up: str | None = None
 
     @property
     def message(self) -> str:
@@ -122,7 +127,9 @@ class VelocityCheck:
                 "differences overflow: absurdly large positions or velocities)"
             )
         scale = self.velocity_scale
-        if scale is None:
+        if self.mix_up is not None:
+            how = f"they match the positions with {self.mix_up}"
+        elif scale is None:
             how = "the velocities say the vehicle moves while the positions stand still"
         elif abs(scale) < _ZERO_SCALE:
             how = "the velocities are zero (or nearly) while the positions move"
@@ -156,6 +163,57 @@ class VelocityCheck:
 
 def _rms_per_window_m(values: FloatArray) -> float:
     return float(np.sqrt(np.mean(np.sum(values * values, axis=1))))
+
+
+_HORIZONTAL_MIX_UPS = (
+    ("north and east swapped", ((0.0, 1.0), (1.0, 0.0))),
+    ("the signs of north and east flipped", ((-1.0, 0.0), (0.0, -1.0))),
+    ("the sign of north flipped", ((-1.0, 0.0), (0.0, 1.0))),
+    ("the sign of east flipped", ((1.0, 0.0), (0.0, -1.0))),
+    ("north and east swapped and one sign flipped", ((0.0, -1.0), (1.0, 0.0))),
+    ("north and east swapped and one sign flipped", ((0.0, 1.0), (-1.0, 0.0))),
+)
+"""Mix-ups of the horizontal velocity columns, each as the matrix that undoes it."""
+
+
+def _passes(mismatch_rms_m: float, moved_rms_m: float) -> bool:
+    return mismatch_rms_m <= VELOCITY_CHECK_RTOL * moved_rms_m + VELOCITY_CHECK_ATOL_M
+
+
+def _mix_up(moved_w: FloatArray, integrated_w: FloatArray) -> str | None:
+    """The swap or sign flip of the velocity components that makes the check pass, or None.
+
+    ``moved_w`` and ``integrated_w``: per window, the positions' displacement and the
+    integrated velocities (NED, m). The integral is linear in the velocities, so a
+    swapped or flipped component is undone on it.
+    """
+    d_h, d_v = _rms_per_window_m(moved_w[:, :2]), _rms_per_window_m(moved_w[:, 2:])
+    horizontal: str | None = None
+    if not _passes(_rms_per_window_m(moved_w[:, :2] - integrated_w[:, :2]), d_h):
+        # the first that passes: on a straight run several do, the commonest is named
+        horizontal = next(
+            (
+                words
+                for words, m in _HORIZONTAL_MIX_UPS
+                if _passes(
+                    _rms_per_window_m(moved_w[:, :2] - integrated_w[:, :2] @ np.array(m).T), d_h
+                )
+            ),
+            None,
+        )
+        if horizontal is None:
+            return None
+    vertical: str | None = None
+    if not _passes(_rms_per_window_m(moved_w[:, 2:] - integrated_w[:, 2:]), d_v):
+        if not _passes(_rms_per_window_m(moved_w[:, 2:] + integrated_w[:, 2:]), d_v):
+            return None
+        vertical = "the sign of down flipped (up given as down)"
+    if horizontal == "north and east swapped" and vertical is not None:
+        return (
+            "north and east swapped and the sign of down flipped: east, north, up (ENU) "
+            "velocities in the north, east, down columns"
+        )
+    return " and ".join(w for w in (horizontal, vertical) if w is not None) or None
 
 
 def check_velocities(
@@ -252,11 +310,11 @@ def check_velocities(
     finite = all(math.isfinite(x) for x in (r_h, d_h, r_v, d_v)) and (
         scale is None or math.isfinite(scale)
     )
-    consistent = (
-        finite
-        and r_h <= VELOCITY_CHECK_RTOL * d_h + VELOCITY_CHECK_ATOL_M
-        and r_v <= VELOCITY_CHECK_RTOL * d_v + VELOCITY_CHECK_ATOL_M
-    )
+    consistent = finite and _passes(r_h, d_h) and _passes(r_v, d_v)
+    mix_up = None
+    if finite and not consistent:
+        with np.errstate(all="ignore"):
+            mix_up = _mix_up(moved_w, moved_w - mismatch_w)
     return VelocityCheck(
         consistent=consistent,
         window_s=per_window * median_h,
@@ -267,4 +325,5 @@ def check_velocities(
         rms_mismatch_vertical_m=r_v,
         velocity_scale=scale,
         worst_t_s=float(t[starts[worst]]),
+        mix_up=mix_up,
     )
