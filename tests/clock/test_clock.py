@@ -427,6 +427,21 @@ def test_log_without_zda_is_refused(tmp_path: Path) -> None:
         fit_clock_to_log(pps, read_nmea_log(path))
 
 
+def test_log_whose_zdas_are_all_rejected_says_why(tmp_path: Path) -> None:
+    """A 2-digit year on every ZDA gave only "no valid ZDA (... 3 rejected line(s))"."""
+    path = tmp_path / "nmea.csv"
+    bad = [format_sentence(f"GPZDA,12000{i}.00,22,11,26,00,00") for i in range(2)]
+    rows = [format_sentence("HEHDT,12.5,T"), "$GPGGA,broken", *bad]
+    path.write_text("t_local_s,sentence\n" + "".join(f'{i}.0,"{r}"\n' for i, r in enumerate(rows)))
+    pps, *_ = arrays()
+    with pytest.raises(
+        InputError,
+        match=r"no valid ZDA .*3 rejected line\(s\); most often \(2 ZDA lines, first line 4\): "
+        r"field 'year' is not a four-digit year",
+    ):
+        fit_clock_to_log(pps, read_nmea_log(path))
+
+
 # --------------------------------------------------------------------------- model, apply
 
 

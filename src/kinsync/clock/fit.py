@@ -54,6 +54,7 @@ leap-second table (`kinsync.clock.leap_seconds`).
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
@@ -769,6 +770,18 @@ def fit_clock(
     )
 
 
+def _commonest_reason(log: NmeaLog) -> str:
+    """``; most often (N lines, first line L): reason`` of the rejected lines (ZDA first)."""
+    zdas = [r for r in log.rejected if "ZDA" in r.sentence[:8]]
+    lines = zdas or list(log.rejected)
+    if not lines:
+        return ""
+    reason, count = Counter(r.reason for r in lines).most_common(1)[0]
+    first = next(r.line for r in lines if r.reason == reason)
+    what = "ZDA lines" if zdas else "lines"
+    return f"; most often ({count} {what}, first line {first}): {reason}"
+
+
 def fit_clock_to_log(
     pps_t_local_s: ArrayLike,
     log: NmeaLog,
@@ -806,8 +819,8 @@ def fit_clock_to_log(
     if len(zda_records) == 0:
         msg = (
             f"{log.source}: no valid ZDA sentence in the NMEA log ({len(log.records)} valid "
-            f"sentence(s), {len(log.rejected)} rejected line(s)); the receiver must output "
-            "ZDA to name the pulses' GPS second"
+            f"sentence(s), {len(log.rejected)} rejected line(s){_commonest_reason(log)}); the "
+            "receiver must output ZDA to name the pulses' GPS second"
         )
         raise InputError(msg)
     gps = np.full(len(zda_records), np.nan)
