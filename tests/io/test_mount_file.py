@@ -68,6 +68,18 @@ def test_bom_with_windows_line_ends(tmp_path: Path) -> None:
     assert read_mount(path).boresight_rpy_deg == (0.5, -0.25, 90.0)
 
 
+@pytest.mark.parametrize("name", ["mount.toml", "ins.toml"])
+def test_lone_carriage_return_line_ends_are_read(tmp_path: Path, name: str) -> None:
+    """Accepted by every CSV reader, they gave "malformed TOML line 1, column 8"."""
+    path = tmp_path / name
+    text = GOOD_MOUNT if name == "mount.toml" else GOOD_INS
+    path.write_bytes(text.replace("\n", "\r").encode("utf-8"))
+    if name == "mount.toml":
+        assert read_mount(path) == mount_from_toml_text(GOOD_MOUNT)
+    else:
+        assert read_ins_config(path) == ins_config_from_toml_text(GOOD_INS)
+
+
 def test_only_a_leading_bom_is_dropped() -> None:
     """A BOM inside a string is data; one between statements is a syntax error."""
     assert toml_document(BOM + 'a = "x\ufeffy"\n', "t.toml") == {"a": "x\ufeffy"}

@@ -28,7 +28,9 @@ def read_toml_text(path: Path, what: str) -> str:
     Returns
     -------
     str
-        The text as stored (a UTF-8 byte-order mark is kept; the parser drops it).
+        The text as stored (a UTF-8 byte-order mark is kept; the parser drops it), its
+        line ends LF: a lone CR (old Mac files, some editors), which the CSV readers take
+        as a line end and the TOML parser refuses, becomes one, as does a CRLF.
 
     Raises
     ------
@@ -57,7 +59,7 @@ def read_toml_text(path: Path, what: str) -> str:
         )
         raise InputError(msg)
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
     except UnicodeDecodeError as err:
         msg = (
             f"{path}: the {what} is not UTF-8 text (byte {err.start}: {err.reason}); "
