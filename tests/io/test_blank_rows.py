@@ -53,3 +53,14 @@ def test_an_empty_line_is_still_skipped(tmp_path: Path) -> None:
     path.write_text(HEADER + ROWS[0] + "\n\r\n" + ROWS[1], encoding="utf-8")
     table = read_numeric_csv(path, ["t_s", "x_m", "y_m"])
     np.testing.assert_array_equal(table.columns["t_s"], [1.0, 2.0])
+
+
+@pytest.mark.parametrize("comment", ["# logger restarted\n", "// note, here\n", "; 2026-11-28\n"])
+def test_a_comment_line_in_data_is_named_as_such(tmp_path: Path, comment: str) -> None:
+    """It gave "line 3 has 1 fields, the header has 3" and nothing to do."""
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + ROWS[0] + comment + ROWS[1], encoding="utf-8")
+    with pytest.raises(InputError, match=r"t\.csv: line 3 .*looks like a comment.*remove the line"):
+        read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+    with pytest.raises(InputError, match=r"line 3.*looks like a comment"):
+        list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))

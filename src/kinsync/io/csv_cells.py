@@ -16,7 +16,15 @@ from kinsync.errors import InputError
 from kinsync.io.sanity import not_utf8_cell
 from kinsync.io.text_lines import cut_line_hint
 
-__all__ = ["PARSE_ERROR", "blank_row_error", "first_bad_cell", "locate_bad_csv_cell"]
+__all__ = [
+    "PARSE_ERROR",
+    "blank_row_error",
+    "comment_hint",
+    "first_bad_cell",
+    "locate_bad_csv_cell",
+]
+
+_COMMENT_MARKS = ("#", "//", ";")
 
 PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
 
@@ -52,6 +60,25 @@ def blank_row_error(path: Path, line: int, cells: Sequence[str]) -> InputError |
         f"{path}: line {line}: a row of empty cells (only commas, as a spreadsheet writes "
         "for an empty row), no value; remove the line"
     )
+
+
+def comment_hint(cells: Sequence[str]) -> str:
+    """``"; it looks like a comment ..."`` for a row starting with ``#``, ``//`` or ``;``.
+
+    Parameters
+    ----------
+    cells : sequence of str
+        The row's cells.
+
+    Returns
+    -------
+    str
+        Words to add to the message about the row, or ``""``.
+    """
+    first = cells[0].lstrip() if cells else ""
+    if not first.startswith(_COMMENT_MARKS):
+        return ""
+    return "; it looks like a comment, which kinsync does not read in data: remove the line"
 
 
 def locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
@@ -101,7 +128,7 @@ def first_bad_cell(
                 f"{path}: line {first_line + reader.line_num}: {len(cells)} "
                 f"field(s) where the header has {len(header)}; fix the row (a comma too many "
                 "or too few, or a value holding a comma that needs quotes)"
-                f"{cut_line_hint(path, first_line + reader.line_num)}"
+                f"{comment_hint(cells)}{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)
         for name, i in cols:
@@ -122,6 +149,6 @@ def first_bad_cell(
             msg = (
                 f"{path}: line {first_line + reader.line_num}, column "
                 f"{name!r}: {what}; fix or remove the row"
-                f"{cut_line_hint(path, first_line + reader.line_num)}"
+                f"{comment_hint(cells)}{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)

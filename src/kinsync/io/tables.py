@@ -21,7 +21,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
-from kinsync.io.csv_cells import blank_row_error
+from kinsync.io.csv_cells import blank_row_error, comment_hint
 from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
     MAX_TABLE_BYTES,
@@ -119,7 +119,7 @@ def _first_bad_cell(
                 if len(row) != len(header):
                     return InputError(
                         f"{path}: line {line_no} has {len(row)} fields, the header has "
-                        f"{len(header)}{cut_line_hint(path, line_no)}"
+                        f"{len(header)}{comment_hint(row)}{cut_line_hint(path, line_no)}"
                     )
                 for name, cell in zip(header, row, strict=True):
                     if name not in read or (name in blank_ok and not cell):
@@ -139,7 +139,7 @@ def _first_bad_cell(
                         )
                     return InputError(
                         f"{path}: line {line_no}, column {name!r}: {cell[:80]!r} {what}"
-                        f"{cut_line_hint(path, line_no)}"
+                        f"{comment_hint(row)}{cut_line_hint(path, line_no)}"
                     )
         except csv.Error as err:
             return InputError(f"{path}: line {reader.line_num}: cannot read as CSV ({err})")
