@@ -14,6 +14,10 @@ every output by construction:
 * **Nothing is left behind.** A temporary left by a killed run (its process no longer
   exists) is removed when the same output is written next.
 
+An output given as a symbolic link is written to the file the link points to, as
+``cp`` or a shell redirection would: the link stays, and the temporary goes beside its
+target (`write_target`), so that the rename stays on one file system.
+
 A folder of outputs written as one whole (a simulation, the demo report) goes through
 `atomic_folder`: it is written into a hidden temporary folder beside it
 (``.NAME.PID.XXXXXXXX.part``) and published by renames, so that the folder holds either
@@ -55,6 +59,7 @@ __all__ = [
     "output_folder",
     "protected_inputs",
     "published_together",
+    "write_target",
 ]
 
 WRITE_ONLY_SUFFIXES = frozenset({".png", ".svg", ".pdf", ".html"})
@@ -87,8 +92,11 @@ _FOLDERS_BEING_WRITTEN: ContextVar[tuple[tuple[Path, Path], ...]] = ContextVar(
 )
 """(temporary folder, output folder) of each `atomic_folder` block being written."""
 
-_HELD: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("kinsync_held_outputs", default=None)
-"""(temporary, output) of each complete file waiting for its `published_together` block."""
+_HELD: ContextVar[list[tuple[Path, Path, Path]] | None] = ContextVar(
+    "kinsync_held_outputs", default=None
+)
+"""(temporary, output, file renamed onto: `write_target`) of each complete file waiting
+for its `published_together` block."""
 
 FULL_DISK_ERRNOS = frozenset({errno.ENOSPC, *([errno.EDQUOT] if hasattr(errno, "EDQUOT") else [])})
 """Error numbers of a full disk (ENOSPC) and of a full disk quota (EDQUOT)."""
@@ -259,6 +267,30 @@ def _probe_writable(folder: Path, shown: str) -> None:
         Path(name).unlink()
 
 
+def write_target(path: Path) -> Path:
+    """The file an output ``path`` is written to: the target of a symbolic link.
+
+    Renaming a temporary onto a link would replace the link itself with a regular file,
+    and the file it points to (perhaps missing: a dangling link) would never receive the
+    output. The link is followed to its end, as ``cp`` or a shell redirection would.
+
+    Parameters
+    ----------
+    path : Path
+        The output as given.
+
+    Returns
+    -------
+    Path
+        ``path`` itself when it is not a symbolic link; otherwise the path the link
+        (and any link it points to) resolves to, which may not exist yet.
+    """
+    path = Path(path)
+    if not path.is_symlink():
+        return path
+    return Path(os.path.realpath(path))
+
+
 def check_output_location(path: Path, option: str = "", *, folder: bool = False) -> None:
     """Refuse an output that cannot be written there, before any work is done.
 
@@ -292,7 +324,8 @@ def check_output_location(path: Path, option: str = "", *, folder: bool = False)
         if path.is_dir():
             msg = f"{shown}: is an existing folder; give a file name for the output"
             raise InputError(msg)
-        probe = path.parent if str(path.parent) else Path()
+        target = write_target(path)
+        probe = target.parent if str(target.parent) else Path()
         if not probe.is_dir():
             msg = f"{shown}: output folder {probe} does not exist; create it first"
             raise InputError(msg)
@@ -408,17 +441,18 @@ def atomic_path(path: Path) -> Iterator[Path]:
     """
     path = Path(path)
     check_not_an_input(path)
-    parent = path.parent if str(path.parent) else Path()
+    target = write_target(path)  # a symbolic link: the file it points to
+    parent = target.parent if str(target.parent) else Path()
     if not parent.is_dir():
         msg = f"{path}: output folder {parent} does not exist; create it first"
         raise InputError(msg)
     if path.is_dir():
         msg = f"{path}: is an existing folder; give a file name for the output"
         raise InputError(msg)
-    _remove_stale_parts(parent, path.name)
+    _remove_stale_parts(parent, target.name)
     try:
         fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent
+            prefix=f".{target.name}.{os.getpid()}.", suffix=".part", dir=parent
         )
     except OSError as err:
         msg = f"{path}: cannot write in the folder {parent} ({err.strerror or err}); choose another"
@@ -439,20 +473,24 @@ def atomic_path(path: Path) -> Iterator[Path]:
             raise
         waiting = _HELD.get()
         if waiting is not None:  # renamed with the others when the block ends
-            waiting.append((tmp, path))
+            waiting.append((tmp, path, target))
             held = True
             return
         with stop_signals_held():  # renamed and recorded, or neither
-            _publish_file(tmp, path)
+            _publish_file(tmp, path, target)
     finally:
         if not held:
             tmp.unlink(missing_ok=True)
 
 
-def _publish_file(tmp: Path, path: Path) -> None:
-    """Rename the complete temporary ``tmp`` onto ``path`` and record it as published."""
+def _publish_file(tmp: Path, path: Path, target: Path) -> None:
+    """Rename the complete temporary ``tmp`` onto ``target`` and record ``path`` as published.
+
+    ``target`` is ``path``, or the file it points to when ``path`` is a symbolic link
+    (`write_target`): the link is kept.
+    """
     try:
-        tmp.replace(path)
+        tmp.replace(target)
         _PUBLISHED.append(path)
     except OSError as err:  # e.g. an existing file made immutable (chattr +i)
         msg = (
@@ -471,7 +509,7 @@ def published_together() -> Iterator[None]:
     exception (an interruption included) the waiting temporaries are removed and every
     earlier file is left as it was.
     """
-    waiting: list[tuple[Path, Path]] = []
+    waiting: list[tuple[Path, Path, Path]] = []
     token = _HELD.set(waiting)
     try:
         try:
@@ -479,10 +517,10 @@ def published_together() -> Iterator[None]:
         finally:
             _HELD.reset(token)
         with stop_signals_held():  # renamed and recorded, or neither (each)
-            for tmp, path in waiting:
-                _publish_file(tmp, path)
+            for tmp, path, target in waiting:
+                _publish_file(tmp, path, target)
     finally:
-        for tmp, _ in waiting:
+        for tmp, _, _ in waiting:
             tmp.unlink(missing_ok=True)
 
 
