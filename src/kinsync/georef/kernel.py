@@ -27,8 +27,8 @@ from collections.abc import Callable
 from typing import Literal, cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import time_array
 from kinsync.errors import InputError, PointValueError
@@ -198,7 +198,7 @@ def _georef_loop(  # noqa: PLR0915 - one flat loop is what numba compiles best
 # outputs can differ from an unfused build by an ulp, ~1e-9 m in ECEF). No other
 # fast-math assumption: NaN and infinity checks stay exact.
 _georef_kernel = cast(
-    Callable[..., int], njit(cache=True, fastmath={"contract"}, nogil=True)(_georef_loop)
+    Callable[..., int], cached_njit(fastmath={"contract"}, nogil=True)(_georef_loop)
 )
 
 

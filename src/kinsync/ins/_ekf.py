@@ -131,11 +131,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray
 from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S, normal_gravity_m_s2
 from kinsync.ins.strapdown import (
@@ -158,7 +158,7 @@ from kinsync.ins.strapdown import (
     rotvec_to_quat,
 )
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 N_NAV = 9  # attitude, velocity, position: the dense block of F and Φ
 X_BG, X_BA = 9, 12  # turn-on biases (random constants)

@@ -15,12 +15,11 @@ gravity and its height dependence), 5.4 (NED mechanisation rates).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray
 
 __all__ = [
@@ -51,7 +50,7 @@ _G_POLE = 9.8321849378
 _K_SOMIGLIANA = (B_M * _G_POLE) / (A_M * _G_EQUATOR) - 1.0
 _M_RATIO = OMEGA_IE_RAD_S**2 * A_M**2 * B_M / GM_M3_S2
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 
 def _radii_m(lat_rad: Any) -> tuple[Any, Any]:  # pragma: no cover - numba

@@ -65,9 +65,9 @@ from enum import IntEnum
 from typing import Any, NamedTuple, cast
 
 import numpy as np
-from numba import njit
 from scipy.special import chdtri
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import euler_rpy_to_matrix
@@ -155,7 +155,7 @@ MAX_ABS_HEIGHT_M = 1.0e6
 MAX_ABS_LAT_RAD = 1.5707
 """A mechanised latitude beyond this (just short of π/2) means the solution diverged."""
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 
 class GnssStatus(IntEnum):

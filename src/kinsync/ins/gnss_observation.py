@@ -29,12 +29,10 @@ and ch. 17 (innovation-based outlier detection).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray, IntArray
 from kinsync.ins._ekf import N_ERR_SCALE, P_ARM, X_BG, X_MG, X_SG
 from kinsync.ins.earth import A_M, E2, OMEGA_IE_RAD_S
@@ -45,7 +43,7 @@ __all__ = ["MAX_ROWS", "gate_stat", "gnss_epochs", "observation"]
 MAX_ROWS = 6
 """Observation rows per GNSS epoch: position (N, E, D) then velocity (N, E, D)."""
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 
 def _skew_into(

@@ -68,11 +68,11 @@ Systems*, 2nd ed., Artech House, 2013, ch. 3 (Kalman smoothing).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, NamedTuple, cast
+from typing import NamedTuple, cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray
 from kinsync.ins._ekf import (
     N_NAV,
@@ -102,7 +102,7 @@ __all__ = [
     "smoothed_solution_std",
 ]
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 SegmentMatrices = Callable[[int, int, bool, FloatArray, FloatArray, FloatArray], None]
 """``fill(e, L, has_next, Phi_buf, q_buf, q_nav_buf)``: ``Φ_{e+i}``, the diagonal of

@@ -42,11 +42,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import euler_rpy_to_quaternion, quaternion_to_euler_rpy
@@ -56,7 +56,7 @@ from kinsync.ins.solution import InitialState, NavSolution
 
 __all__ = ["free_inertial"]
 
-_jit = cast(Callable[[Callable[..., Any]], Callable[..., Any]], njit(cache=True))
+_jit = cached_njit()
 
 # Layout of the navigation state vector used by the compiled loops.
 I_LAT, I_LON, I_H = 0, 1, 2

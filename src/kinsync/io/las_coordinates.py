@@ -11,8 +11,8 @@ from collections.abc import Callable
 from typing import Any, cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import ArrayLike, FloatArray
 
 __all__ = ["scaled_coordinates", "store_coordinates", "store_scaled"]
@@ -43,7 +43,7 @@ def _store_scaled_loop(
     return -1
 
 
-store_scaled = cast(Callable[..., int], njit(cache=True, nogil=True)(_store_scaled_loop))
+store_scaled = cast(Callable[..., int], cached_njit(nogil=True)(_store_scaled_loop))
 """Compiled `_store_scaled_loop`: ``(values, offset, scale, out, mask) -> first bad index``."""
 
 
@@ -95,7 +95,7 @@ def _scale_into_loop(
         out[i, 2] = Z[i] * scales[2] + offsets[2]
 
 
-_scale_into = cast(Callable[..., None], njit(cache=True, nogil=True)(_scale_into_loop))
+_scale_into = cast(Callable[..., None], cached_njit(nogil=True)(_scale_into_loop))
 
 
 def scaled_coordinates(

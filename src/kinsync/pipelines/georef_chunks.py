@@ -21,8 +21,8 @@ import laspy
 import numpy as np
 import pyarrow as pa
 import pyproj
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.crs import CrsPlan, crs_plan_transformer
 from kinsync.crs_axes import output_units
@@ -274,7 +274,7 @@ def _outside_tally_loop(
 
 outside_tally = cast(
     Callable[..., tuple[int, float, float, int, float, float]],
-    njit(cache=True, nogil=True)(_outside_tally_loop),
+    cached_njit(nogil=True)(_outside_tally_loop),
 )
 
 

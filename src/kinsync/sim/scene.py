@@ -28,8 +28,8 @@ from functools import cached_property
 from typing import Literal, NamedTuple, cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync._validate import finite_number, positive_number
 from kinsync.errors import InputError
@@ -493,7 +493,7 @@ def _cast_panels_loop(
                 hit[i] = ids[p]
 
 
-_cast_panels_kernel = cast(Callable[..., None], njit(cache=True, nogil=True)(_cast_panels_loop))
+_cast_panels_kernel = cast(Callable[..., None], cached_njit(nogil=True)(_cast_panels_loop))
 
 
 def trajectory_to_local(
