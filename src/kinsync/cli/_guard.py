@@ -9,7 +9,9 @@ file written (all go through `kinsync.io.atomic.atomic_path`) is checked again, 
 figure or report written into an input folder cannot replace an input either. Each
 output's location is checked too (`kinsync.io.atomic.check_output_location`): a file
 output that is an existing folder, a missing folder, a folder where nothing can be
-written are refused before any work.
+written are refused before any work. A command drawing figures has matplotlib's folder
+checked then too (`kinsync.report._mpl_folder`): none writable, not even a temporary
+one, is refused before any output is written.
 
 Each ``int`` or ``float`` parameter, and each value of a repeatable one, must be
 finite and inside its span in `kinsync.cli._bounds.OPTION_BOUNDS`, checked before the
@@ -60,6 +62,9 @@ OUTPUT_SUFFIXES = {
 }
 """The one format each of these outputs is written in: another suffix is refused (a PNG
 written into ``figure.jpg`` or JSON into ``model.toml`` misleads whatever opens it)."""
+
+FIGURE_PARAMETERS = frozenset({"figure", "png", "report"})
+"""Outputs drawn with matplotlib (the HTML report holds figures)."""
 
 FOLDER_OUTPUT_COMMANDS = ("simulate ", "demo")
 """Commands (prefixes of their full names) whose ``--out`` is a folder, not a file."""
@@ -194,9 +199,11 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             for p in _paths(value)
         ]
         outputs: list[tuple[str, Path]] = []
+        given_outputs: set[str] = set()
         for name, value in bound.arguments.items():
             if name in spelled and name in OUTPUT_PARAMETERS:
                 for p in _paths(value):
+                    given_outputs.add(name)
                     check_not_an_input(p, inputs, spelled[name])
                     _check_not_another_output(p, spelled[name], outputs)
                     _check_suffix(p, spelled[name], OUTPUT_SUFFIXES.get(name))
@@ -207,6 +214,11 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
                         from kinsync.sim.folder import check_simulation_folder  # noqa: PLC0415
 
                         check_simulation_folder(p, command.removeprefix("simulate "))
+        if command == "demo" or any(name in FIGURE_PARAMETERS for name in given_outputs):
+            # before any output is written: matplotlib may need a folder of its own
+            from kinsync.report._mpl_folder import prepare_matplotlib_folder  # noqa: PLC0415
+
+            prepare_matplotlib_folder()
         with protected_inputs(inputs), named_outputs(outputs):
             try:
                 return callback(*args, **kwargs)
