@@ -78,7 +78,7 @@ class InputError(KinsyncError, ValueError):
 
 
 class DiskFullError(InputError):
-    """A full disk (or disk quota) stopped an output; nothing partial of it is left."""
+    """A full disk, disk quota or file-size limit stopped an output; nothing partial is left."""
 
 
 class PointValueError(InputError):

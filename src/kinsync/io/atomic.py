@@ -98,8 +98,12 @@ _HELD: ContextVar[list[tuple[Path, Path, Path]] | None] = ContextVar(
 """(temporary, output, file renamed onto: `write_target`) of each complete file waiting
 for its `published_together` block."""
 
-FULL_DISK_ERRNOS = frozenset({errno.ENOSPC, *([errno.EDQUOT] if hasattr(errno, "EDQUOT") else [])})
-"""Error numbers of a full disk (ENOSPC) and of a full disk quota (EDQUOT)."""
+FULL_DISK_ERRNOS = frozenset(
+    {errno.ENOSPC, errno.EFBIG, *([errno.EDQUOT] if hasattr(errno, "EDQUOT") else [])}
+)
+"""Error numbers of a full disk (ENOSPC), of a full disk quota (EDQUOT) and of a file
+grown beyond what its file system or the process may write (EFBIG: FAT32's 4 GiB, a
+``ulimit -f``): each stops an output for want of room, not for a fault of kinsync."""
 
 
 @contextmanager
@@ -147,7 +151,9 @@ def _shown_output(path: Path) -> str:
 
 
 def full_disk_cause(err: BaseException) -> OSError | None:
-    """The full-disk or full-quota `OSError` behind ``err`` (itself or a cause), if any.
+    """The full-disk, full-quota or file-too-large `OSError` behind ``err``, if any.
+
+    ``err`` itself or one of its causes (`FULL_DISK_ERRNOS`).
 
     A `KinsyncError` already says what went wrong: none is looked for behind it.
     """
@@ -162,16 +168,25 @@ def full_disk_cause(err: BaseException) -> OSError | None:
 
 
 def disk_full_error(path: Path | str, err: OSError) -> DiskFullError:
-    """The one-line error for an output that a full disk (or quota) cut short.
+    """The one-line error for an output that a full disk (or quota, or a size limit) cut short.
 
     Parameters
     ----------
     path : Path or str
         The output being written (named by its option when the command line gave it).
     err : OSError
-        The error, ``ENOSPC`` or ``EDQUOT``.
+        The error, ``ENOSPC``, ``EDQUOT`` or ``EFBIG``.
     """
     shown = _shown_output(Path(path)) if isinstance(path, Path) else path
+    if err.errno == errno.EFBIG:
+        msg = (
+            f"{shown}: the file has grown beyond the largest file this file system or the "
+            f"process's file-size limit (ulimit -f) allows ({err.strerror or err}); the "
+            "output is not written (nothing partial is left): write it to another file "
+            "system (FAT32 holds at most 4 GiB), raise the limit, or make it smaller "
+            "(split the input, or write LAZ rather than LAS or CSV), then run again"
+        )
+        return DiskFullError(msg)
     quota = hasattr(errno, "EDQUOT") and err.errno == errno.EDQUOT
     what = "the disk quota is exceeded" if quota else "the disk is full"
     todo = (
