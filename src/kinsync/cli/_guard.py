@@ -41,6 +41,7 @@ from kinsync.io.atomic import (
     named_outputs,
     protected_inputs,
 )
+from kinsync.io.sanity import check_name_length
 
 __all__ = [
     "OUTPUT_PARAMETERS",
@@ -198,6 +199,10 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
             if name in spelled and name not in OUTPUT_PARAMETERS
             for p in _paths(value)
         ]
+        for name, value in bound.arguments.items():
+            if name in spelled:
+                for p in _paths(value):
+                    check_name_length(p, _shown(spelled[name], p))
         outputs: list[tuple[str, Path]] = []
         given_outputs: set[str] = set()
         for name, value in bound.arguments.items():
@@ -229,6 +234,11 @@ def _guard(callback: Callable[..., Any], command: str) -> Callable[..., Any]:
                 raise
 
     return guarded
+
+
+def _shown(spelled: str, path: Path) -> str:
+    """``--mount m.toml`` for an option; the path alone for an argument."""
+    return f"{spelled} {path}" if spelled.startswith("-") else str(path)
 
 
 def _input_label(spelled: str, path: Path) -> str:

@@ -1,7 +1,8 @@
 """Write files so that they appear only when complete, and never over an input.
 
 Every file kinsync writes goes through `atomic_path`: the data go to a hidden
-temporary beside the output (``.NAME.PID.XXXXXXXX.part``), renamed onto the output
+temporary beside the output (``.NAME.PID.XXXXXXXX.part``, a NAME over 200 bytes
+shortened with a hash), renamed onto the output
 only when complete, and removed on any error or interruption. Two rules hold for
 every output by construction:
 
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import os
 import re
 import shutil
@@ -41,7 +43,7 @@ from types import TracebackType
 
 from kinsync._signals import stop_signals_held
 from kinsync.errors import DiskFullError, InputError, KinsyncError
-from kinsync.io.sanity import check_not_link_loop
+from kinsync.io.sanity import check_name_length, check_not_link_loop
 
 __all__ = [
     "ProtectedInput",
@@ -386,6 +388,26 @@ def _check_folder_location(path: Path, shown: str) -> None:
         raise InputError(msg)
 
 
+LONGEST_PLAIN_STEM_BYTES = 200
+"""The longest output name a temporary repeats whole: a temporary adds about 22 bytes
+(``.``, ``.PID.XXXXXXXX.part``), and a name may have 255 on most file systems."""
+
+
+def _temp_stem(name: str) -> str:
+    """The output ``name`` as its temporaries spell it: whole, or shortened with a hash.
+
+    A name near the file system's limit (226 to 255 bytes) left no room for the
+    temporary's own characters: such an output was refused ("File name too long"). A
+    long name keeps its first 100 bytes and a hash of the whole, so that temporaries of
+    different outputs still differ and a killed run's are still found.
+    """
+    raw = os.fsencode(name)
+    if len(raw) <= LONGEST_PLAIN_STEM_BYTES:
+        return name
+    digest = hashlib.sha256(raw).hexdigest()[:16]
+    return f"{raw[:100].decode('utf-8', 'ignore')}~{digest}"
+
+
 _PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.(?P<kind>part|old)")
 
 
@@ -406,7 +428,7 @@ def _remove_stale_parts(parent: Path, name: str) -> None:
     publishing (``.old``, see `atomic_folder`) is put back when ``parent/name`` is
     missing (the run was killed between the two renames), removed otherwise.
     """
-    prefix = f".{name}."
+    prefix = f".{_temp_stem(name)}."
     with contextlib.suppress(OSError):
         for entry in sorted(os.scandir(parent), key=lambda e: e.name):
             if not entry.name.startswith(prefix):
@@ -455,6 +477,7 @@ def atomic_path(path: Path) -> Iterator[Path]:
     not writable.
     """
     path = Path(path)
+    check_name_length(path, _shown_output(path))  # a name over 255 bytes: said plainly
     check_not_an_input(path)
     target = write_target(path)  # a symbolic link: the file it points to
     parent = target.parent if str(target.parent) else Path()
@@ -467,7 +490,7 @@ def atomic_path(path: Path) -> Iterator[Path]:
     _remove_stale_parts(parent, target.name)
     try:
         fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{target.name}.{os.getpid()}.", suffix=".part", dir=parent
+            prefix=f".{_temp_stem(target.name)}.{os.getpid()}.", suffix=".part", dir=parent
         )
     except OSError as err:
         msg = f"{path}: cannot write in the folder {parent} ({err.strerror or err}); choose another"
@@ -617,7 +640,7 @@ def _publish_folder(new: Path, path: Path) -> None:
     if not path.exists():
         new.rename(path)
         return
-    prefix = f".{path.name}.{os.getpid()}."
+    prefix = f".{_temp_stem(path.name)}.{os.getpid()}."
     old = Path(tempfile.mkdtemp(prefix=prefix, suffix=".old", dir=new.parent))
     old.rmdir()  # only the unique name is wanted: rename needs a missing (or empty) target
     path.rename(old)
@@ -684,7 +707,9 @@ def atomic_folder(
         if path.is_dir():
             check(given)
         tmp = Path(
-            tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=parent)
+            tempfile.mkdtemp(
+                prefix=f".{_temp_stem(path.name)}.{os.getpid()}.", suffix=".part", dir=parent
+            )
         )
     except OSError as err:
         msg = f"{prefix}{path}: cannot create the folder ({err.strerror or err}); {hint}"

@@ -27,6 +27,7 @@ from __future__ import annotations
 import errno
 import json
 import math
+import os
 import stat
 from pathlib import Path
 from typing import Any
@@ -57,12 +58,15 @@ __all__ = [
     "TIME_S",
     "Span",
     "check_columns",
+    "check_name_length",
     "check_not_link_loop",
     "check_record_file",
     "check_text_file",
     "check_values",
+    "is_file_there",
     "link_loop_error",
     "load_json",
+    "name_too_long_error",
     "not_a_regular_file",
     "not_utf8_cell",
     "regular_file_size",
@@ -140,6 +144,81 @@ def check_not_link_loop(path: Path, what: str, shown: str | None = None) -> None
         loop = link_loop_error(path if shown is None else shown, err, what)
         if loop is not None:
             raise loop from None
+
+
+NAME_MAX_BYTES = 255
+"""The longest file or folder name most file systems take (ext4, XFS, Btrfs, tmpfs, NTFS)."""
+
+
+def name_too_long_error(path: Path | str, shown: str | None = None) -> InputError:
+    """The error for a path the system refused as too long (``ENAMETOOLONG``).
+
+    Parameters
+    ----------
+    path : Path or str
+        The path.
+    shown : str, optional
+        How the message names it (``"--out a.csv"``); default: the path.
+
+    Returns
+    -------
+    InputError
+        Naming the longest name in the path and its length in bytes, or the length of
+        the whole path when no one name is too long.
+    """
+    names = [os.fsencode(part) for part in Path(path).parts] or [b""]
+    longest = max(names, key=len)
+    where = str(path) if shown is None else shown
+    if len(longest) > NAME_MAX_BYTES:
+        start = longest[:24].decode("utf-8", "ignore")
+        return InputError(
+            f"{where}: the name {start}... is {len(longest)} bytes long, more than file "
+            f"systems allow (at most {NAME_MAX_BYTES} on most); give a shorter name"
+        )
+    return InputError(
+        f"{where}: the path is {len(os.fsencode(str(path)))} bytes long, more than the "
+        "system allows; give a shorter path (or run kinsync from a folder nearer to it)"
+    )
+
+
+def check_name_length(path: Path, shown: str | None = None) -> None:
+    """Refuse a path the system cannot look up because a name in it is too long.
+
+    Parameters
+    ----------
+    path : Path
+        An input or output path (an output may not exist yet).
+    shown : str, optional
+        How the message names it (``"--out a.csv"``); default: the path.
+
+    Raises
+    ------
+    InputError
+        Looking ``path`` up fails with ``ENAMETOOLONG`` (a name over the file system's
+        limit, 255 bytes on most, or a path over the system's).
+    """
+    try:
+        Path(path).stat()
+    except OSError as err:
+        if err.errno == errno.ENAMETOOLONG:
+            raise name_too_long_error(path, shown) from None
+
+
+def is_file_there(path: Path) -> bool:
+    """Whether ``path`` is an existing file; False where it cannot be looked up at all.
+
+    `Path.is_file` raises for a name too long for the file system (``ENAMETOOLONG``),
+    which no file can have: such a path is simply not a file.
+
+    Parameters
+    ----------
+    path : Path
+        The path.
+    """
+    try:
+        return path.is_file()
+    except OSError:
+        return False
 
 
 def regular_file_size(path: Path, what: str) -> int:

@@ -61,7 +61,7 @@ from kinsync.io.points import (
     read_table_slice,
     table_columns,
 )
-from kinsync.io.sanity import require_file
+from kinsync.io.sanity import is_file_there, require_file
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.pipelines.georef_chunks import (
@@ -213,7 +213,7 @@ def _rejected_files_for(out_path: Path) -> list[Path]:
                 and _kind(Path(name)) != _kind(out_path)
             ):
                 found.append(out_path.parent / name)
-    return [p for p in found if p.is_file()]
+    return [p for p in found if is_file_there(p)]  # a name too long is no file
 
 
 def _remove_stale_rejected(
