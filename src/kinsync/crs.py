@@ -26,7 +26,6 @@ georeferencing run rebuilds exactly the operation that was reported.
 from __future__ import annotations
 
 import math
-import re
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -39,9 +38,9 @@ import pyproj
 import pyproj.database
 import pyproj.enums
 from pyproj.aoi import AreaOfInterest
-from pyproj.datadir import get_user_data_dir  # type: ignore[attr-defined]
 from pyproj.transformer import Transformer, TransformerGroup
 
+from kinsync._crs_grids import check_grids_reachable, missing_grid_message, pipeline_text
 from kinsync._typing import FloatArray
 from kinsync.crs_axes import VerticalAxis, mixed_units_note, output_units, vertical_axis
 from kinsync.errors import InputError
@@ -244,65 +243,6 @@ def _ballpark(transformer: Transformer) -> bool:
     return any(op.has_ballpark_transformation for op in transformer.operations or ())
 
 
-_GRID_ROLES = {
-    "vgridshift": "geoid model",
-    "hgridshift": "horizontal datum shift",
-    "gridshift": "datum shift",
-    "deformation": "deformation model",
-    "xyzgridshift": "datum shift",
-}
-"""What a grid does, by the PROJ step that reads it."""
-
-
-def _grid_roles(operation: Any) -> dict[str, str]:
-    """Each grid of a PROJ operation and what it does (from its ``+grids=`` steps)."""
-    try:
-        text = str(operation.to_proj4())
-    except pyproj.exceptions.CRSError:
-        return {}
-    roles: dict[str, str] = {}
-    for step in text.split("+step"):
-        method = re.search(r"\+proj=(\w+)", step)
-        grids = re.search(r"\+grids=(\S+)", step)
-        if method and grids:
-            for name in grids.group(1).split(","):
-                roles.setdefault(name.lstrip("@"), _GRID_ROLES.get(method.group(1), "grid"))
-    return roles
-
-
-def _missing_grid_message(target_text: str, group: TransformerGroup) -> str:
-    """Name the grids the best transformation lacks, each with what it does."""
-    best = group.unavailable_operations[0] if group.unavailable_operations else None
-    missing = [g for g in best.grids if not g.available] if best is not None else []
-    if not missing:
-        return (
-            f"--crs {target_text!r}: PROJ knows no geoid model from the ellipsoid to these "
-            "heights for this area; give one with --geoid PATH (a grid of geoid heights N "
-            "above the ellipsoid, GTX or GeoTIFF)"
-        )
-    roles = _grid_roles(best)
-    # The geoid first: it is what the orthometric heights need.
-    missing.sort(key=lambda g: roles.get(g.short_name) != "geoid model")
-    first, others = missing[0], missing[1:]
-    role = roles.get(first.short_name)
-    also = "".join(f", and also {g.short_name} ({roles.get(g.short_name, 'grid')})" for g in others)
-    installs = " and ".join(f"`projsync --file {g.short_name}`" for g in missing)
-    urls = ", ".join(g.url or g.short_name for g in missing)
-    return (
-        f"--crs {target_text!r}: orthometric heights need the grid {first.short_name}"
-        f"{f' ({role})' if role else ''}, which PROJ does not have{also}; install "
-        f"{'it' if not others else 'them'} with {installs} (or download {urls} into "
-        f"{get_user_data_dir()}), or set PROJ_NETWORK=ON, or give a geoid grid with "
-        f"--geoid PATH. Without {'it' if not others else 'them'} PROJ would leave "
-        "ellipsoidal heights under the orthometric label"
-    )
-
-
-def _pipeline_text(transformer: Transformer) -> str:
-    text = str(transformer.definition)
-    return text if text.startswith("proj=pipeline") else f"proj=pipeline step {text}"
-
-
 def _geoid_pipeline(to_geographic: Transformer, geoid: str, vertical: VerticalAxis | None) -> str:
     """ECEF -> (lon, lat, h) of the horizontal datum, then ``H = h - N`` from the grid.
 
@@ -311,7 +251,7 @@ def _geoid_pipeline(to_geographic: Transformer, geoid: str, vertical: VerticalAx
     positive down), as PROJ's own geoid operation would give it.
     """
     text = (
-        f"{_pipeline_text(to_geographic)} step proj=unitconvert xy_in=deg xy_out=rad "
+        f"{pipeline_text(to_geographic)} step proj=unitconvert xy_in=deg xy_out=rad "
         f'step proj=vgridshift grids="{geoid}" multiplier=-1 '
         "step proj=unitconvert xy_in=rad xy_out=deg"
     )
@@ -658,8 +598,9 @@ def plan_ecef_to_crs(
     if geoid is None:
         transformer, group = _best(source, target, area)
         if _ballpark_vertical(transformer):
-            raise InputError(_missing_grid_message(crs, group))
-        pipeline = _pipeline_text(transformer)
+            raise InputError(missing_grid_message(crs, group))
+        check_grids_reachable(crs, transformer, group)
+        pipeline = pipeline_text(transformer)
         height_pipeline = None
         heights = _heights_text(target, None)
     else:
@@ -671,7 +612,7 @@ def plan_ecef_to_crs(
             raise InputError(msg)
         transformer, _ = _best(source, horizontal.to_3d(), area)
         to_geographic, _ = _best(source, geographic_crs.to_3d(), area)
-        pipeline = _pipeline_text(transformer)
+        pipeline = pipeline_text(transformer)
         height_pipeline = _geoid_pipeline(to_geographic, geoid, vertical_axis(target))
         heights = _heights_text(target, geoid)
     geographic = target.is_geographic and not target.is_compound
@@ -835,7 +776,8 @@ def crs_to_ecef_transformer(crs_text: str) -> Callable[[FloatArray], FloatArray]
         return None
     transformer, group = _best(crs, pyproj.CRS.from_epsg(4978), None)
     if _ballpark_vertical(transformer):
-        raise InputError(_missing_grid_message(crs_text, group))
+        raise InputError(missing_grid_message(crs_text, group))
+    check_grids_reachable(crs_text, transformer, group)
 
     def apply(xyz: FloatArray) -> FloatArray:
         x, y, z = transformer.transform(xyz[:, 0], xyz[:, 1], xyz[:, 2])
