@@ -10,6 +10,7 @@ temporary file, a Dask worker gets it broadcast).
 
 from __future__ import annotations
 
+import errno
 import importlib
 import multiprocessing
 import os
@@ -227,7 +228,15 @@ def _start_method() -> str:
 
 def _write_context(ctx: ChunkContext) -> Path:
     """Pickle ``ctx`` into a new temporary file (readable by this user only)."""
-    fd, name = tempfile.mkstemp(prefix=f"kinsync-context-{os.getpid()}-", suffix=".pickle")
+    try:
+        fd, name = tempfile.mkstemp(prefix=f"kinsync-context-{os.getpid()}-", suffix=".pickle")
+    except OSError as err:  # no writable temporary folder (a read-only root file system)
+        why = "no writable one found" if err.errno == errno.ENOENT else err.strerror or err
+        msg = (
+            f"--scheduler processes needs a temporary folder for its workers ({why}); "
+            "set TMPDIR to a writable folder, or use --scheduler local"
+        )
+        raise InputError(msg) from None
     path = Path(name)
     try:
         with os.fdopen(fd, "wb") as fh:
