@@ -310,8 +310,45 @@ def _full_disk(err: BaseException) -> str | None:
     return f"{error}{_written_before(error)}"
 
 
+def _threads(value: str) -> bool:
+    try:
+        return int(value) >= 1
+    except ValueError:
+        return False
+
+
+_NUMBA_SETTINGS = {
+    "NUMBA_NUM_THREADS": (
+        _threads,
+        "a whole number of threads, 1 or more (e.g. NUMBA_NUM_THREADS=4)",
+    ),
+    "NUMBA_OPT": (
+        lambda v: v in {"0", "1", "2", "3", "max"},
+        "an optimisation level: 0, 1, 2, 3 or max",
+    ),
+}
+"""numba's settings from the environment that kinsync's kernels depend on, each with its
+test and what it must be. numba reads them when it is imported: a value it cannot use
+ended in an internal error (``NUMBA_NUM_THREADS=0``: "Number of threads specified must
+be > 0") or in a Python traceback numba prints as a warning (``NUMBA_NUM_THREADS=abc``,
+``NUMBA_OPT=abc``), the run going on with its default."""
+
+
+def _check_numba_environment() -> None:
+    """Refuse a numba setting in the environment that numba cannot use, naming it."""
+    for name, (valid, what) in _NUMBA_SETTINGS.items():
+        value = os.environ.get(name)
+        if value is not None and not valid(value):
+            msg = f"{name}={value!r} in the environment: it must be {what}; correct or unset it"
+            raise InputError(msg)
+
+
 def _prepare_output() -> None:
-    """Refuse a closed stdout; spell symbols plain for another encoding; start the run."""
+    """Refuse a closed stdout; spell symbols plain for another encoding; start the run.
+
+    A numba setting in the environment that numba cannot use is refused first.
+    """
+    _check_numba_environment()
     check_stdout_open()
     use_plain_symbols()  # a Latin-1 or cp1252 terminal shows "sigma" for σ
     start_run()
