@@ -26,9 +26,6 @@ from kinsync.errors import KinsyncWarning
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "kinsync"
 
-PENDING = {"calibration/line_detrend.py"}
-"""Modules still calling ``njit(cache=True)`` themselves (being edited elsewhere)."""
-
 
 @pytest.fixture
 def no_cache_folder(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -93,7 +90,7 @@ def test_every_kernel_goes_through_cached_njit() -> None:
         for path in SRC.rglob("*.py")
         if path.name != "_jit.py" and direct.search(path.read_text(encoding="utf-8"))
     }
-    assert found <= PENDING, f"use kinsync._jit.cached_njit instead: {sorted(found - PENDING)}"
+    assert not found, f"use kinsync._jit.cached_njit instead: {sorted(found)}"
 
 
 @pytest.mark.usefixtures("no_cache_folder")

@@ -26,8 +26,8 @@ from collections.abc import Callable
 from typing import cast
 
 import numpy as np
-from numba import njit
 
+from kinsync._jit import cached_njit
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.robust import MAD_TO_SIGMA, robust_sigma
 
@@ -98,7 +98,7 @@ def _detrend_loop(  # noqa: PLR0912 - one flat loop is what numba compiles best
     return out
 
 
-_detrend_kernel = cast(Callable[..., FloatArray], njit(cache=True, nogil=True)(_detrend_loop))
+_detrend_kernel = cast(Callable[..., FloatArray], cached_njit(nogil=True)(_detrend_loop))
 
 
 def detrend_lines(
