@@ -178,3 +178,20 @@ def test_a_yaw_that_follows_the_course_does_not_warn(tmp_path: Path, crab_deg: f
     with warnings.catch_warnings():
         warnings.simplefilter("error", KinsyncWarning)
         read_trajectory_csv(path)
+
+
+def test_a_straight_track_with_a_yaw_off_its_course_names_no_convention(tmp_path: Path) -> None:
+    # CI: a synthetic track on course 54 deg with yaw 17 +- 17 deg fitted "ENU" by chance.
+    t = np.arange(0.0, 60.0, 0.1)
+    lat = 46.8 + 1e-5 * t
+    lon = -71.2 + 2e-5 * t
+    yaw = np.degrees(0.3 + 0.3 * np.sin(t))
+    rows = [
+        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{y:.6f}"
+        for ti, la, lo, y in zip(t, lat, lon, yaw, strict=True)
+    ]
+    path = tmp_path / "straight.csv"
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", KinsyncWarning)
+        read_trajectory_csv(path)

@@ -271,9 +271,10 @@ def _refuse_week_on_csv(gps_week: int, trajectories: Sequence[Path]) -> None:
             continue
         shift_s = gps_week * SECONDS_PER_WEEK
         msg = (
-            f"--gps-week {gps_week}: the times of {path} (from {t_s:.10g} s) look like GPS "
-            "seconds of week, but a trajectory CSV is read as GPS time since 1980 and takes "
-            f"no GPS week: add {gps_week} x {SECONDS_PER_WEEK:.0f} = {shift_s:.0f} s to its "
-            f"t_s, or write it again with kinsync trajectory export --gps-week {gps_week}"
+            f"--gps-week {gps_week}: no input carries GPS seconds of week: a trajectory CSV "
+            "is read as GPS time since 1980 and takes no GPS week, so it would not be used: "
+            f"drop it; but the times of {path} (from {t_s:.10g} s) look like GPS seconds of "
+            f"week: if they are, add {gps_week} x {SECONDS_PER_WEEK:.0f} = {shift_s:.0f} s "
+            f"to its t_s, or write it again with kinsync trajectory export --gps-week {gps_week}"
         )
         raise InputError(msg)

@@ -55,6 +55,9 @@ a median within `YAW_CONVENTION_FITS_DEG`, a warning names that convention. A sh
 not the median: a drive along one diagonal reads the same in ENU except in its turns."""
 YAW_CONVENTION_OFF_SHARE = 0.02
 YAW_CONVENTION_FITS_DEG = 15.0
+YAW_TURN_DEG = 90.0
+"""The course must turn by this much (deg) for the conventions to be told apart: on a
+straight track any constant offset between yaw and course fits one of them by chance."""
 
 _YAW_CONVENTIONS: tuple[tuple[str, str, float, float], ...] = (
     # (convention, conversion, sign, offset deg): the yaw read = sign * yaw + offset
@@ -159,14 +162,15 @@ def _warn_yaw_convention(path: Path, traj: Trajectory) -> None:
     kinsync reads yaw clockwise from north (DIN 9300, NED). A yaw written counter-
     clockwise from east (ENU) or from north, or of a body axis other than x, georeferences
     every point off by metres, and the velocities check nothing of it. On a trajectory
-    that moves (`Trajectory.course_and_yaw_rad`), a yaw more than `YAW_OFF_COURSE_DEG` off
-    the course on more than `YAW_OFF_SHARE` of the moving records, while another
-    convention follows it (`YAW_CONVENTION_OFF_SHARE`, `YAW_CONVENTION_FITS_DEG`), gives a
-    `KinsyncWarning` naming that convention. A warning, not a refusal: a platform may
-    truly move backwards or sideways throughout (a pushed trolley, a hovering aircraft).
+    that moves and turns by `YAW_TURN_DEG` (`Trajectory.course_and_yaw_rad`), a yaw more
+    than `YAW_OFF_COURSE_DEG` off the course on more than `YAW_OFF_SHARE` of the moving
+    records, while another convention follows it (`YAW_CONVENTION_OFF_SHARE`,
+    `YAW_CONVENTION_FITS_DEG`), gives a `KinsyncWarning` naming that convention. A
+    warning, not a refusal: a platform may truly move backwards or sideways throughout (a
+    pushed trolley, a hovering aircraft).
     """
     course, yaw = traj.course_and_yaw_rad()
-    if course.size < 10:
+    if course.size < 10 or np.ptp(np.unwrap(course)) < math.radians(YAW_TURN_DEG):
         return
 
     def off_course_deg(angle_rad: FloatArray) -> FloatArray:
