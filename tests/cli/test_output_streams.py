@@ -100,6 +100,20 @@ def test_a_broken_pipe_elsewhere_is_not_taken_for_a_closed_output(
         monkeypatch.undo()
 
 
+def test_a_closed_stderr_keeps_the_error_out_of_stdout(tmp_path: Path) -> None:
+    # Python sets sys.stderr to None and print(file=None) wrote the error to stdout.
+    script = '"$0" -m kinsync mount check "$1" --json 2>&-'
+    proc = subprocess.run(
+        ["sh", "-c", script, sys.executable, str(tmp_path / "missing.toml")],
+        capture_output=True,
+        text=True,
+        env=_env(),
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+
+
 def test_a_closed_stdout_is_refused_before_any_work(tmp_path: Path) -> None:
     out = tmp_path / "clk"
     script = '"$0" -m kinsync simulate clock --duration-s 60 --out "$1" --json >&-'

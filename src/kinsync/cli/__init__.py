@@ -37,6 +37,7 @@ from kinsync.cli._streams import (
     exit_output_pipe_closed,
     output_pipe_closed,
     pipe_closed_in_every_console,
+    quiet_closed_stderr,
     use_plain_symbols,
 )
 from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
@@ -346,8 +347,10 @@ def _check_numba_environment() -> None:
 def _prepare_output() -> None:
     """Refuse a closed stdout; spell symbols plain for another encoding; start the run.
 
-    A numba setting in the environment that numba cannot use is refused first.
+    A closed stderr is pointed at /dev/null before anything is said there (it went to
+    stdout). A numba setting in the environment that numba cannot use is refused next.
     """
+    quiet_closed_stderr()
     _check_numba_environment()
     check_stdout_open()
     use_plain_symbols()  # a Latin-1 or cp1252 terminal shows "sigma" for σ

@@ -6,7 +6,8 @@ Loaded by the entry point before any command, so it imports nothing heavy.
   ASCII): `use_plain_symbols` makes stdout and stderr write plain-ASCII equivalents
   (``σ`` as ``sigma``, ``χ²`` as ``chi2``, ``?`` for any other character) instead of
   failing on the first table.
-- A closed stdout (``>&-``): `check_stdout_open` refuses the run before any work.
+- A closed stdout (``>&-``): `check_stdout_open` refuses the run before any work; a
+  closed stderr (``2>&-``) is pointed at /dev/null (`quiet_closed_stderr`).
 - A pipe closed by its reader (``| head -1``): `OutputPipeClosed` and
   `exit_output_pipe_closed` end the run quietly with 141, as a program killed by
   SIGPIPE does; `pipe_closed_in_every_console` makes the consoles typer builds for
@@ -20,6 +21,7 @@ import os
 import select
 import signal
 import sys
+from pathlib import Path
 from typing import NoReturn, TextIO
 
 from kinsync.errors import InputError
@@ -33,6 +35,7 @@ __all__ = [
     "output_pipe_closed",
     "pipe_closed_in_every_console",
     "plain_symbols",
+    "quiet_closed_stderr",
     "use_plain_symbols",
 ]
 
@@ -143,6 +146,17 @@ def use_plain_symbols() -> None:
             reconfigure(errors=ERROR_HANDLER)
         except (OSError, ValueError):  # not reconfigurable now: leave it
             continue
+
+
+def quiet_closed_stderr() -> None:
+    """Point a closed stderr (``2>&-``) at /dev/null.
+
+    Python then sets ``sys.stderr`` to None, and ``print(..., file=sys.stderr)`` writes to
+    stdout: the error line and the warnings went into the result (a ``--json`` document
+    a script reads). With no stderr they are dropped; the exit status still tells.
+    """
+    if sys.stderr is None:
+        sys.stderr = Path(os.devnull).open("w", encoding="utf-8")  # noqa: SIM115 - the run's
 
 
 def check_stdout_open() -> None:
