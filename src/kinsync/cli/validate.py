@@ -220,7 +220,7 @@ def flatness(
         float,
         typer.Option(
             "--min-bow-mm",
-            help="Flag curvature only when the bow reaches this (mm); 0: the F-test alone.",
+            help="Flag curvature only when the bow reaches this (mm); 0: the test alone.",
             min=0.0,
         ),
     ] = 0.0,
@@ -233,7 +233,7 @@ def flatness(
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Plane fit of a wall, residual statistics and the curvature F-test."""
+    """Plane fit of a wall, residual statistics and the curvature test (time or mount error)."""
     from kinsync.cli._box import parse_box  # noqa: PLC0415
     from kinsync.pipelines.validation import flatness_file  # noqa: PLC0415
 
@@ -260,13 +260,25 @@ def flatness(
     table.add_row("max |residual| (mm)", fmt(result.max_abs_m, 1e3))
     for key, value in result.percentiles_m.items():
         table.add_row(f"|residual| {key} (mm)", fmt(value, 1e3))
-    table.add_row("bow: quadratic - plane, peak to valley (mm)", fmt(result.bow_m, 1e3))
-    table.add_row("curvature F (3, n-6)", fmt(result.f_statistic))
+    table.add_row(
+        "bow: quadratic - plane, peak to valley (mm)",
+        f"{fmt(result.bow_m, 1e3)} ± {fmt(result.bow_std_m, 1e3)} (biased up: > 0 on a flat wall)",
+    )
+    table.add_row(
+        "curvature chi-square (3), errors correlated along the wall",
+        fmt(result.f_statistic),
+    )
+    table.add_row(
+        "error along the wall: correlated sigma (mm) / length (m) / white (mm)",
+        f"{fmt(result.drive_noise_m, 1e3)} / {fmt(result.drive_correlation_m)} / "
+        f"{fmt(result.white_noise_m, 1e3)}",
+    )
     table.add_row("curvature p-value", format_p_value(result.p_value, prefix=False))
     table.add_row(
         f"curvature significant at {result.level:.2%}",
         "YES" if result.curvature_significant else "no",
     )
     console.print(table)
+    console.print(result.verdict)
     if png is not None:
         console.print(f"figure: {png}")
