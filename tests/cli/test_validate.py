@@ -371,7 +371,7 @@ def test_flatness_flags_the_late_wall_only(run_cli: RunCli, files: dict[str, Pat
     # The bow comes with its sigma, and each verdict says what it cannot tell.
     assert 0.0 < late["bow_std_m"] < late["bow_m"] / 3
     assert 0.0 < ok["bow_std_m"] < 0.001
-    assert late["curvature_chi2"] == late["curvature_f"]
+    assert late["drive_noise_m"] >= 0.0
     assert "time error OR a mount error" in late["verdict"]
     assert "no proof of synchronisation" in ok["verdict"]
     assert "control-points" in late["verdict"]

@@ -618,7 +618,16 @@ def test_one_scanner_profile_is_not_a_wall() -> None:
     w = 0.3 * u**2 + rng.normal(0.0, 0.005, 150)
     R = euler_rpy_to_matrix(0.0, 0.0, math.radians(40.0))
     pts = ned_to_ecef(np.column_stack([w, u, -v]) @ R.T, 46.8, -71.2, 30.0)
-    with pytest.raises(InputError, match=r"span 0.0\d+ m along the wall and 4 m up it, a strip"):
+    with pytest.raises(
+        InputError,
+        match=r"span 3.84 m along their longest direction .* and 0.0\d+ m across it, a strip",
+    ):
+        fit_wall(pts)
+    # In a turn a profile crosses the wall on a slant and bent, with a stray point.
+    u = 0.2 * v + 0.05 * v**2 + rng.uniform(-0.01, 0.01, 150)
+    u[70] += 0.9
+    pts = ned_to_ecef(np.column_stack([w, u, -v]) @ R.T, 46.8, -71.2, 30.0)
+    with pytest.raises(InputError, match="a strip"):
         fit_wall(pts)
 
 

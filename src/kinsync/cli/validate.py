@@ -265,7 +265,7 @@ def flatness(
         f"{fmt(result.bow_m, 1e3)} ± {fmt(result.bow_std_m, 1e3)} (biased up: > 0 on a flat wall)",
     )
     table.add_row(
-        "curvature chi-square (3), errors correlated along the wall",
+        f"curvature F (3, {result.n_points - 6}), errors correlated along the wall",
         fmt(result.f_statistic),
     )
     table.add_row(

@@ -161,7 +161,7 @@ def _summary_rows(run: _ValidationRun) -> Summary:
             "validation",
             f"wall in a {wall.radius_m:g} m turn at {wall.speed_m_s:g} m/s, 5 ms error",
             (
-                f"bow {walls[1][1].bow_m * 1e3:.1f} mm (χ² {walls[1][1].f_statistic:.0f}); "
+                f"bow {walls[1][1].bow_m * 1e3:.1f} mm (F {walls[1][1].f_statistic:.0f}); "
                 f"correct clock: bow {walls[0][1].bow_m * 1e3:.2f} mm, "
                 f"{format_p_value(walls[0][1].p_value)}"
             ),

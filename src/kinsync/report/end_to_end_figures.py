@@ -307,8 +307,8 @@ def wall_cases_figure(
     wall (u along it, v up it); the colour scale is shared by all maps (symmetric, at
     the 99th percentile of all cell means) so that a flat and a bent wall compare
     directly. The last column draws the fitted quadratic surface minus the plane along
-    the middle of the wall for every pass of the case. Titles give the curvature test
-    (χ²) and the bow.
+    the middle of the wall for every pass of the case. Titles give the curvature F-test
+    and the bow.
 
     Parameters
     ----------
@@ -372,7 +372,7 @@ def wall_cases_figure(
             else:
                 word = "flat"
             ax.set_title(
-                f"{label}, {names[j]}: {word}\nχ² {r.f_statistic:.3g}, "
+                f"{label}, {names[j]}: {word}\nF {r.f_statistic:.3g}, "
                 f"{format_p_value(r.p_value)}, "
                 f"bow {r.bow_m * 1e3:.1f} mm, RMS {r.rms_m * 1e3:.1f} mm",
                 fontsize=8,

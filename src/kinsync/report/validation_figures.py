@@ -43,7 +43,7 @@ def wall_residual_figure(result: FlatnessResult, title: str = "Wall flatness") -
     blank), on a diverging scale symmetric about zero at the 99th percentile of the
     cell means. Right: the median residual in bins along
     u (with the 25-75 % band) and the fitted quadratic surface minus the plane along the
-    middle of the wall; the curvature test (χ²), p-value and bow in the title.
+    middle of the wall; the curvature F-test, p-value and bow in the title.
 
     Parameters
     ----------
@@ -104,7 +104,7 @@ def wall_residual_figure(result: FlatnessResult, title: str = "Wall flatness") -
     ax_bend.axhline(0.0, color="k", lw=0.8)
     word = "SIGNIFICANT" if result.curvature_significant else "not significant"
     ax_bend.set_title(
-        f"curvature {word} at {result.level:.0%}: χ² = {result.f_statistic:.3g}, "
+        f"curvature {word} at {result.level:.0%}: F = {result.f_statistic:.3g}, "
         f"{format_p_value(result.p_value)}, bow {result.bow_m * 1e3:.2f} mm",
         fontsize=10,
     )

@@ -11,7 +11,8 @@ current inliers, iterated to a stable set (10 passes at most). Residual statisti
 ``w = a + b u + c v + d u² + e uv + f v²`` (ordinary least squares on the same
 inliers), Wald test of the three quadratic terms ``q = (d, e, f)``::
 
-    V = (BᵀB)⁻¹ (Sᵀ C S + σ² BᵀB) (BᵀB)⁻¹,   X² = qᵀ V_q⁻¹ q,   p = 1 - χ²₃(X²)
+    V = (BᵀB)⁻¹ (Sᵀ C S + σ² BᵀB) (BᵀB)⁻¹
+    F = qᵀ V_q⁻¹ q / 3,   p = 1 - F_{3, n-6}(F)
 
 A wall is scanned while driving along it, so ``u`` follows time, and a navigation
 error (a GNSS/INS position error correlated over seconds) moves whole profiles
@@ -104,7 +105,8 @@ _DRIVE_BIN_M = 0.05
 """Narrowest bin along u (m): a profile's spacing at 5 m/s and 100 Hz."""
 
 MIN_EXTENT_RATIO = 0.05
-"""Least extent of the inliers along ``u`` or ``v``, as a fraction of the other.
+"""Least extent of the inliers across their longest direction in the wall's plane,
+as a fraction of their length.
 
 A quadratic term across a strip narrower than this (one scanner profile is 2 cm by
 4 m) is fitted to the scanner's geometry within a profile, not to the wall's shape.
@@ -164,8 +166,8 @@ class FlatnessResult:
         Their covariance.
     f_statistic, p_value : float
         Wald test of the quadratic terms against the plane, with errors correlated
-        along the wall: the chi-square statistic on 3 degrees of freedom and its
-        p-value.
+        along the wall: ``F = X² / 3`` on ``(3, n_points - 6)`` degrees of freedom
+        and its p-value.
     drive_noise_m, drive_correlation_m : float
         Standard deviation (m) and correlation length along ``u`` (m) of the error
         correlated along the drive (a trajectory error), fitted to the residuals.
@@ -288,7 +290,6 @@ class FlatnessResult:
             "curvature_significant": self.curvature_significant,
             "curvature_f": self.f_statistic,
             "curvature_p_value": self.p_value,
-            "curvature_chi2": self.f_statistic,
             "drive_noise_m": self.drive_noise_m,
             "drive_correlation_m": self.drive_correlation_m,
             "white_noise_m": self.white_noise_m,
@@ -449,7 +450,7 @@ def fit_wall(
     quad = lstsq(B, w)
     plane = lstsq(B[:, :3], w)
     cov, drive_sd, drive_ell, white_sd = _drive_cov(B, w - B @ quad, u)
-    f_stat, p_val = _wald(quad[3:], cov[3:, 3:])
+    f_stat, p_val = _wald(quad[3:], cov[3:, 3:], m - 6)
     bend = _bend(quad, plane, u, v)
     bow = float(np.ptp(bend))
     bow_std = _bow_std(B, bend, quad[3:], cov[3:, 3:])
@@ -491,14 +492,32 @@ def fit_wall(
     )
 
 
+def _spread(x: FloatArray) -> float:
+    """Range of the middle 96 % of ``x``: a stray point does not widen a strip."""
+    lo, hi = np.percentile(x, [2.0, 98.0])
+    return float(hi - lo)
+
+
 def _check_extent(u: FloatArray, v: FloatArray) -> None:
-    """`InputError` when the inliers are too narrow along or up the wall for a quadratic."""
-    eu, ev = float(np.ptp(u)), float(np.ptp(v))
-    if min(eu, ev) < MIN_EXTENT_RATIO * max(eu, ev):
+    """`InputError` when the inliers are a strip in the wall's plane (one profile).
+
+    The length is taken along the principal axis of ``(u, v)``, the width across a
+    quadratic curve fitted along it (a profile scanned in a turn crosses the wall on
+    a slant, and bent), each over the middle 96 % of the points.
+    """
+    uv = np.column_stack([u, v])
+    _, _, axes = np.linalg.svd(uv - uv.mean(axis=0), full_matrices=False)
+    s_along, t_across = uv @ axes[0], uv @ axes[1]
+    along = _spread(s_along)
+    # across a quadratic curve, not a line: a profile in a turn is bent in the plane
+    curve = np.column_stack([np.ones_like(s_along), s_along, s_along * s_along])
+    across = _spread(t_across - curve @ lstsq(curve, t_across))
+    if across < MIN_EXTENT_RATIO * along:
         msg = (
-            f"degenerate selection: the {u.size} points span {eu:.3g} m along the wall and "
-            f"{ev:.3g} m up it, a strip (one scanner profile?); a curvature test needs each "
-            f"extent at least {MIN_EXTENT_RATIO:.0%} of the other: enlarge the box"
+            f"degenerate selection: the {u.size} points span {along:.3g} m along their "
+            f"longest direction in the wall's plane and {across:.3g} m across it, a strip "
+            "(one scanner profile?); a curvature test needs at least "
+            f"{MIN_EXTENT_RATIO:.0%} of the length across: enlarge the box"
         )
         raise InputError(msg)
 
@@ -605,15 +624,15 @@ def _bow_std(B: FloatArray, bend: FloatArray, q: FloatArray, cov_q: FloatArray) 
     return float(np.std(bows, ddof=1))
 
 
-def _wald(q: FloatArray, cov_q: FloatArray) -> tuple[float, float]:
-    """Wald chi-square statistic of ``q = 0`` (3 terms) and its p-value."""
+def _wald(q: FloatArray, cov_q: FloatArray, dof: int) -> tuple[float, float]:
+    """Wald F statistic of ``q = 0`` (3 terms) and its p-value on ``(3, dof)``."""
     try:
         wald = float(q @ np.linalg.solve(cov_q, q))
     except np.linalg.LinAlgError:
         wald = math.nan
     if not math.isfinite(wald) or wald < 0.0:  # an exact fit: no scatter left
         return (math.inf, 0.0) if bool(np.any(q != 0.0)) else (0.0, 1.0)
-    return wald, float(stats.chi2.sf(wald, 3))
+    return wald / 3.0, float(stats.f.sf(wald / 3.0, 3, dof))
 
 
 def _box_bounds(box: object) -> tuple[FloatArray, FloatArray]:
