@@ -203,6 +203,28 @@ def test_stale_temporaries_of_live_processes_and_other_outputs_are_kept(tmp_path
     assert other.exists()
 
 
+def test_another_containers_temporary_is_kept_until_a_day_old(tmp_path: Path) -> None:
+    """Review Q4: a writer in another PID namespace (a container sharing the volume, an
+    NFS host) has a pid this process cannot see: its live temporary was removed."""
+    from kinsync.io.atomic import FOREIGN_STALE_S, atomic_write_text, writer_tag  # noqa: PLC0415
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    foreign_tag = "0" * 8 if writer_tag() != "0" * 8 else "1" * 8
+    ours = tmp_path / f".a.csv.{dead.pid}.abcd1234.h{writer_tag()}.part"
+    theirs = tmp_path / f".a.csv.{dead.pid}.abcd1235.h{foreign_tag}.part"
+    old = tmp_path / f".a.csv.{dead.pid}.abcd1236.h{foreign_tag}.part"
+    for p in (ours, theirs, old):
+        p.write_text("x")
+    a_day_ago = time.time() - FOREIGN_STALE_S - 60.0
+    os.utime(old, (a_day_ago, a_day_ago))
+    atomic_write_text(tmp_path / "a.csv", "t\n")
+    assert not ours.exists()  # this machine's, its writer gone
+    assert theirs.exists()  # another's: its writer may be alive there
+    assert not old.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part") and p not in (theirs,)]
+
+
 def _maps_numpy(pid: int) -> bool:
     """True once the process has loaded numpy's extension (its heavy imports began)."""
     try:

@@ -29,11 +29,13 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import hashlib
 import os
 import re
 import shutil
 import tempfile
+import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import ExitStack, contextmanager
 from contextvars import ContextVar
@@ -389,8 +391,8 @@ def _check_folder_location(path: Path, shown: str) -> None:
 
 
 LONGEST_PLAIN_STEM_BYTES = 200
-"""The longest output name a temporary repeats whole: a temporary adds about 22 bytes
-(``.``, ``.PID.XXXXXXXX.part``), and a name may have 255 on most file systems."""
+"""The longest output name a temporary repeats whole: a temporary adds about 32 bytes
+(``.``, ``.PID.XXXXXXXX.hTAG.part``), and a name may have 255 on most file systems."""
 
 
 def _temp_stem(name: str) -> str:
@@ -408,7 +410,33 @@ def _temp_stem(name: str) -> str:
     return f"{raw[:100].decode('utf-8', 'ignore')}~{digest}"
 
 
-_PART = re.compile(r"(?P<pid>\d+)\.[^.]+\.(?P<kind>part|old)")
+_PART = re.compile(r"(?P<pid>\d+)\.[^.]+(?:\.h(?P<tag>[0-9a-f]{8}))?\.(?P<kind>part|old)")
+
+FOREIGN_STALE_S = 24 * 3600.0
+"""Age (s) past which a temporary of another machine or container is taken as stale."""
+
+
+@functools.lru_cache(maxsize=1)
+def writer_tag() -> str:
+    """Eight hex digits naming this machine, boot and PID namespace (in temporaries' names).
+
+    A temporary's process id means something only where it was written: two containers
+    sharing a volume, or two hosts sharing an NFS folder, each see their own processes,
+    and a live writer's temporary looked stale to the other (``kill(pid, 0)`` found no
+    such process) and was removed under it. A temporary whose tag is another's is
+    removed only once older than `FOREIGN_STALE_S`.
+    """
+    parts = [os.uname().nodename if hasattr(os, "uname") else ""]
+    with contextlib.suppress(OSError):
+        parts.append(Path("/proc/sys/kernel/random/boot_id").read_text().strip())
+    with contextlib.suppress(OSError):
+        parts.append(str(Path("/proc/self/ns/pid").stat().st_ino))
+    return hashlib.sha256("\0".join(parts).encode()).hexdigest()[:8]
+
+
+def _temp_suffix(kind: str) -> str:
+    """A temporary's suffix: this writer's tag (`writer_tag`) and its kind."""
+    return f".h{writer_tag()}.{kind}"
 
 
 def _process_alive(pid: int) -> bool:
@@ -424,6 +452,10 @@ def _process_alive(pid: int) -> bool:
 def _remove_stale_parts(parent: Path, name: str) -> None:
     """Remove temporaries of ``parent/name`` whose writing process no longer exists.
 
+    The process is looked for only when the temporary was written here (its tag is
+    `writer_tag`, or it has none); another machine's or container's is removed once
+    older than `FOREIGN_STALE_S`.
+
     A temporary file or folder (``.part``) is removed. A folder set aside while
     publishing (``.old``, see `atomic_folder`) is put back when ``parent/name`` is
     missing (the run was killed between the two renames), removed otherwise.
@@ -434,7 +466,14 @@ def _remove_stale_parts(parent: Path, name: str) -> None:
             if not entry.name.startswith(prefix):
                 continue
             match = _PART.fullmatch(entry.name[len(prefix) :])
-            if match is None or _process_alive(int(match["pid"])):
+            if match is None:
+                continue
+            if match["tag"] not in (None, writer_tag()):  # another machine or container
+                with contextlib.suppress(OSError):
+                    age_s = time.time() - entry.stat(follow_symlinks=False).st_mtime
+                    if age_s < FOREIGN_STALE_S:
+                        continue
+            elif _process_alive(int(match["pid"])):
                 continue
             stale = Path(entry.path)
             with contextlib.suppress(OSError):
@@ -490,7 +529,9 @@ def atomic_path(path: Path) -> Iterator[Path]:
     _remove_stale_parts(parent, target.name)
     try:
         fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{_temp_stem(target.name)}.{os.getpid()}.", suffix=".part", dir=parent
+            prefix=f".{_temp_stem(target.name)}.{os.getpid()}.",
+            suffix=_temp_suffix("part"),
+            dir=parent,
         )
     except OSError as err:
         msg = f"{path}: cannot write in the folder {parent} ({err.strerror or err}); choose another"
@@ -641,7 +682,7 @@ def _publish_folder(new: Path, path: Path) -> None:
         new.rename(path)
         return
     prefix = f".{_temp_stem(path.name)}.{os.getpid()}."
-    old = Path(tempfile.mkdtemp(prefix=prefix, suffix=".old", dir=new.parent))
+    old = Path(tempfile.mkdtemp(prefix=prefix, suffix=_temp_suffix("old"), dir=new.parent))
     old.rmdir()  # only the unique name is wanted: rename needs a missing (or empty) target
     path.rename(old)
     try:
@@ -708,7 +749,9 @@ def atomic_folder(
             check(given)
         tmp = Path(
             tempfile.mkdtemp(
-                prefix=f".{_temp_stem(path.name)}.{os.getpid()}.", suffix=".part", dir=parent
+                prefix=f".{_temp_stem(path.name)}.{os.getpid()}.",
+                suffix=_temp_suffix("part"),
+                dir=parent,
             )
         )
     except OSError as err:
