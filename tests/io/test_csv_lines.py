@@ -58,6 +58,7 @@ def test_a_changed_file_and_a_wrong_mask_are_errors(tmp_path: Path) -> None:
         csv_slice_lines(layout, slices[0], np.ones(4, dtype=bool))
 
 
+@pytest.mark.filterwarnings("ignore:.*ends without a line end:kinsync.errors.KinsyncWarning")
 @settings(max_examples=60, deadline=None)
 @given(
     rows=st.lists(

@@ -222,6 +222,7 @@ def _concat(chunks: list[dict[str, np.ndarray[Any, Any]]]) -> dict[str, list[Any
     return {k: np.concatenate([c[k] for c in chunks]).tolist() for k in chunks[0]}
 
 
+@pytest.mark.filterwarnings("ignore:.*ends without a line end:kinsync.errors.KinsyncWarning")
 @settings(max_examples=60, deadline=None)
 @given(
     n_rows=st.integers(1, 40),
