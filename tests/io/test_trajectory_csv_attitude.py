@@ -21,6 +21,18 @@ from kinsync.io.trajectory_csv import read_trajectory_csv
 HEADER = "t_s,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n"
 
 
+def _moving_yaw(
+    path: Path, t: FloatArray, lat: FloatArray, lon: FloatArray, yaw: FloatArray
+) -> Path:
+    """A trajectory CSV at 10 m height, roll 0.5 and pitch -1 deg, the yaw given (deg)."""
+    rows = [
+        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{y:.6f}"
+        for ti, la, lo, y in zip(t, lat, lon, yaw, strict=True)
+    ]
+    path.write_text(HEADER + "\n".join(rows) + "\n")
+    return path
+
+
 def _lines(tmp_path: Path, *, crab_deg: float = 0.0, radians: bool = False) -> Path:
     """Two 60 s lines on bearing 60 then 240 deg at 5 m/s, 10 Hz; yaw = course + crab."""
     t = np.arange(0.0, 120.0, 0.1)
@@ -94,12 +106,7 @@ def test_moving_degrees_do_not_warn(tmp_path: Path, yaw_deg: float) -> None:
     along = 5.0 * t
     lat = 46.8 + np.degrees(along * math.cos(bearing) / 6.37e6)
     lon = -71.2 + np.degrees(along * math.sin(bearing) / (6.37e6 * math.cos(math.radians(46.8))))
-    rows = [
-        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{yaw_deg}"
-        for ti, la, lo in zip(t, lat, lon, strict=True)
-    ]
-    path = tmp_path / "moving.csv"
-    path.write_text(HEADER + "\n".join(rows) + "\n")
+    path = _moving_yaw(tmp_path / "moving.csv", t, lat, lon, np.full(t.size, yaw_deg))
     with warnings.catch_warnings():
         warnings.simplefilter("error", KinsyncWarning)
         read_trajectory_csv(path)
@@ -142,13 +149,7 @@ def _circle(tmp_path: Path, yaw_of_file: Callable[[FloatArray], FloatArray]) -> 
     yaw = (yaw_of_file(heading) + 180.0) % 360.0 - 180.0
     lat = 46.8 + np.degrees(north / 6.37e6)
     lon = -71.2 + np.degrees(east / (6.37e6 * math.cos(math.radians(46.8))))
-    rows = [
-        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{y:.6f}"
-        for ti, la, lo, y in zip(t, lat, lon, yaw, strict=True)
-    ]
-    path = tmp_path / "circle.csv"
-    path.write_text(HEADER + "\n".join(rows) + "\n")
-    return path
+    return _moving_yaw(tmp_path / "circle.csv", t, lat, lon, yaw)
 
 
 @pytest.mark.parametrize(
@@ -186,12 +187,7 @@ def test_a_straight_track_with_a_yaw_off_its_course_names_no_convention(tmp_path
     lat = 46.8 + 1e-5 * t
     lon = -71.2 + 2e-5 * t
     yaw = np.degrees(0.3 + 0.3 * np.sin(t))
-    rows = [
-        f"{1.4e9 + ti:.3f},{la:.10f},{lo:.10f},10.0,0.5,-1.0,{y:.6f}"
-        for ti, la, lo, y in zip(t, lat, lon, yaw, strict=True)
-    ]
-    path = tmp_path / "straight.csv"
-    path.write_text(HEADER + "\n".join(rows) + "\n")
+    path = _moving_yaw(tmp_path / "straight.csv", t, lat, lon, yaw)
     with warnings.catch_warnings():
         warnings.simplefilter("error", KinsyncWarning)
         read_trajectory_csv(path)
