@@ -98,6 +98,13 @@ def _detrend_loop(  # noqa: PLR0912 - one flat loop is what numba compiles best
     return out
 
 
+def _line_cuts(group: IntArray) -> IntArray:
+    """Where each line's run of returns starts, and the end: shape (lines + 1,)."""
+    g = np.asarray(group)
+    cuts: IntArray = np.concatenate(([0], np.flatnonzero(g[1:] != g[:-1]) + 1, [g.size]))
+    return cuts.astype(np.int64)
+
+
 _detrend_kernel = cast(Callable[..., FloatArray], cached_njit(nogil=True)(_detrend_loop))
 
 
@@ -145,8 +152,7 @@ def detrend_lines(
         Residuals about the line's fit (m); about its median where it has too few good
         returns.
     """
-    g = np.asarray(group)
-    cuts = np.concatenate(([0], np.flatnonzero(g[1:] != g[:-1]) + 1, [g.size])).astype(np.int64)
+    cuts = _line_cuts(group)
     return _detrend_kernel(
         np.ascontiguousarray(e_m, dtype=np.float64),
         np.ascontiguousarray(good, dtype=np.bool_),
@@ -187,8 +193,7 @@ def detrend_lines_numpy(
         As `detrend_lines`.
     """
     out = e_m.copy()
-    cuts = [0, *(np.flatnonzero(group[1:] != group[:-1]) + 1).tolist(), group.size]
-    for on in itertools.starmap(slice, itertools.pairwise(cuts)):
+    for on in itertools.starmap(slice, itertools.pairwise(_line_cuts(group).tolist())):
         ok = good[on]
         if not np.any(ok):
             continue
