@@ -217,6 +217,44 @@ def test_a_visit_in_a_trajectory_gap_is_reported_missing(
     assert sorted(o["t_s"] for o in doc["observations"]) == t_visit
 
 
+def test_a_visit_cut_by_the_end_of_the_cloud_file_is_reported_missing(
+    run_cli: RunCli, files: dict[str, Path]
+) -> None:
+    """A cloud file split in the middle of a visit (files per line or per minute): the
+    half-visit at its end would give a centre tens of mm off; it is reported missing,
+    and the visits before it are validated as before."""
+    argv = [
+        "validate", "control-points", "--control", str(files["control"]),
+        "--trajectory", str(files["trajectory"]), "--centre", "sphere",
+        "--target-radius-m", "0.2", "--json", "--cloud",
+    ]  # fmt: skip
+    code, out, err = run_cli([*argv, str(files["cloud_csv"])])
+    assert code == 0, err
+    whole = {(o["name"], o["t_s"]): o for o in json.loads(out)["observations"]}
+    t_cut = sorted(t for _, t in whole)[len(whole) // 2]  # the median time of a visit
+    lines = files["cloud_csv"].read_text(encoding="utf-8").splitlines()
+    t_col = lines[0].split(",").index("t_s")
+    kept = [ln for ln in lines[1:] if float(ln.split(",")[t_col]) <= t_cut]
+    cut = files["dir"] / "cloud_cut.csv"
+    cut.write_text("\n".join([lines[0], *kept]) + "\n", encoding="utf-8")
+    code, out, err = run_cli([*argv, str(cut)])
+    assert code == 0, err
+    doc = json.loads(out)
+    # the cut visit, and any other ending within the 1 s that separates visits
+    missing = doc["missing"]
+    assert missing
+    for m in missing:
+        assert "visit cut by the end of the cloud?" in m["reason"]
+        assert "validate one cloud that holds the whole pass (join its files)" in m["reason"]
+    (cut_visit,) = [k for k in whole if k[1] == t_cut]
+    assert cut_visit[0] in [m["name"] for m in missing]
+    got = {(o["name"], o["t_s"]): o for o in doc["observations"]}
+    assert got.keys() <= whole.keys()
+    assert len(got) + len(missing) == sum(t <= t_cut for _, t in whole)
+    for key, obs in got.items():
+        assert obs["dx_m"] == whole[key]["dx_m"]
+
+
 def _control_las(files: dict[str, Path], path: Path, *, adjusted: bool) -> None:
     cols = _columns(files["cloud_csv"])
     header = laspy.LasHeader(point_format=6, version="1.4")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -347,7 +348,8 @@ def test_observations_of_points_not_in_control_are_refused_naming_them(
 def test_visits_outside_the_trajectory_span_are_reported(scene: ControlTargetScene) -> None:
     scan = scene.scan
     cloud = _cloud(scan, scan.mount)
-    first_pass_end = scan.t_s[0] + 9.0
+    t_rec = scan.trajectory.t_s
+    first_pass_end = float(t_rec[np.argmax(np.diff(t_rec) > 1.0)])  # passes are 20 s apart
     short = scan.trajectory.sliced(scan.trajectory.t_start_s, first_pass_end)
     rep = validate_control_points(
         cloud, scene.control, short, centre="sphere", target_radius_m=scene.target_radius_m
@@ -439,6 +441,48 @@ def test_extraction_options_are_checked(scene: ControlTargetScene) -> None:
         CloudPoints(np.where(np.arange(len(cloud))[:, None] == 3, np.nan, cloud.pos_ecef_m))
 
 
+def test_a_visit_cut_by_an_end_of_the_cloud_is_missing_not_biased(
+    scene: ControlTargetScene,
+) -> None:
+    """The cloud cut in the middle of a visit: that visit is reported missing (its centre
+    from the points left would be off by tens of mm), at either end; the same points
+    from a longer recording (``cloud_span_s``) give the visit."""
+    scan = scene.scan
+    cloud = _cloud(scan, scan.mount)
+    obs, missing = extract_targets(
+        cloud, scene.control, centre="sphere", target_radius_m=scene.target_radius_m
+    )
+    assert missing == ()
+    visit = obs[len(obs) // 2]
+    assert cloud.t_s is not None
+    assert cloud.intensity is not None
+    for where, keep in (
+        ("end", cloud.t_s <= visit.t_s),
+        ("start", cloud.t_s >= visit.t_s),
+    ):
+        part = CloudPoints(cloud.pos_ecef_m[keep], cloud.t_s[keep], cloud.intensity[keep])
+        kwargs: dict[str, Any] = {"centre": "sphere", "target_radius_m": scene.target_radius_m}
+        got, lost = extract_targets(part, scene.control, **kwargs)
+        assert visit.name in [m.name for m in lost]
+        assert all(f"visit cut by the {where} of the cloud?" in m.reason for m in lost)
+        # the complete visits are as they were
+        assert {(o.name, o.t_s, o.centre_ecef_m) for o in got} <= {
+            (o.name, o.t_s, o.centre_ecef_m) for o in obs
+        }
+        assert len(got) + len(lost) == sum(
+            (o.t_s <= visit.t_s) if where == "end" else (o.t_s >= visit.t_s) for o in obs
+        )
+        span = (float(cloud.t_s.min()), float(cloud.t_s.max()))
+        got, lost = extract_targets(part, scene.control, cloud_span_s=span, **kwargs)
+        assert lost == ()
+        assert visit.name in [o.name for o in got if abs(o.t_s - visit.t_s) < 0.5]
+    with pytest.raises(InputError, match="does not hold the cloud's point times"):
+        extract_targets(cloud, scene.control, cloud_span_s=(visit.t_s, visit.t_s + 1.0))
+    for bad in ((1.0,), (2.0, 1.0), (float("nan"), 1.0)):
+        with pytest.raises(InputError, match="cloud_span_s"):
+            extract_targets(cloud, scene.control, cloud_span_s=bad)  # type: ignore[arg-type]
+
+
 def test_median_and_tukey_centres_agree_on_a_symmetric_target() -> None:
     rng = np.random.default_rng(2)
     centre_ned = np.array([0.01, -0.02, 0.005])
@@ -458,7 +502,8 @@ def test_median_and_tukey_centres_agree_on_a_symmetric_target() -> None:
     )
     methods: tuple[CentreMethod, ...] = ("tukey", "median")
     for method in methods:
-        obs, missing = extract_targets(cloud, control, centre=method)
+        # a cloud of one target's points, from a recording that went on before and after
+        obs, missing = extract_targets(cloud, control, centre=method, cloud_span_s=(-5.0, 5.0))
         assert missing == ()
         (one,) = obs
         assert one.intensity_threshold == pytest.approx(1600.0)

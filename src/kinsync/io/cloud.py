@@ -110,18 +110,26 @@ def cloud_crs(path: Path, crs: str | None) -> str:
 
 @dataclass(eq=False)
 class CloudExtent:
-    """Running bounding box of the points read so far (for "nothing found" messages)."""
+    """Running bounding box (and time span) of the points read so far.
+
+    For "nothing found" messages, and the first and last point times of a whole cloud.
+    """
 
     lo: FloatArray = field(default_factory=lambda: np.full(3, np.inf))
     hi: FloatArray = field(default_factory=lambda: np.full(3, -np.inf))
     count: int = 0
+    t_first_s: float = np.inf
+    t_last_s: float = -np.inf
 
-    def add(self, xyz: FloatArray) -> None:
-        """Grow the box by ``xyz``, shape (n, 3), in the cloud's CRS."""
+    def add(self, xyz: FloatArray, t_s: FloatArray | None = None) -> None:
+        """Grow the box by ``xyz``, shape (n, 3), in the cloud's CRS; the span by ``t_s`` (s)."""
         if xyz.shape[0]:
             self.lo = np.minimum(self.lo, xyz.min(axis=0))
             self.hi = np.maximum(self.hi, xyz.max(axis=0))
             self.count += int(xyz.shape[0])
+        if t_s is not None and t_s.size:
+            self.t_first_s = min(self.t_first_s, float(t_s.min()))
+            self.t_last_s = max(self.t_last_s, float(t_s.max()))
 
     def text(self) -> str:
         """The extent in words."""

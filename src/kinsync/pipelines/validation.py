@@ -119,7 +119,7 @@ def control_points_file(
         assert inten is not None
         check_finite_chunk(cloud_path, xyz, done, t_s=t, intensity=inten)
         done += xyz.shape[0]
-        extent.add(xyz)
+        extent.add(xyz, t)
         if inten.size:
             chunk_medians.append(float(np.median(inten)))
         ecef = xyz if to_ecef is None else to_ecef(xyz)
@@ -154,6 +154,7 @@ def control_points_file(
             level=level,
             background_intensity=float(np.median(chunk_medians)),
             max_gap_s=max_gap_s,
+            cloud_span_s=(extent.t_first_s, extent.t_last_s),
         )
     except KinsyncError as err:
         msg = f"{cloud_path}: {err}"

@@ -365,6 +365,11 @@ def control_target_scene(
             xyz_parts.append(xyz)
             int_parts.append(inten)
             truth_parts.append(truth)
+        t_rel, xyz, inten, truth = _road_returns(drive, np.array([0.1, duration - 0.1]), mount)
+        t_parts.append(t_start + t_rel)
+        xyz_parts.append(xyz)
+        int_parts.append(inten)
+        truth_parts.append(truth)
         t_rec = np.arange(0.0, duration + 0.5 / trajectory_rate_hz, 1.0 / trajectory_rate_hz)
         pos, vel, R_bt = drive.state(t_rec)
         pos = pos + _gauss_markov(
@@ -390,6 +395,25 @@ def control_target_scene(
         target_radius_m=float(target_radius_m),
         speeds_m_s=tuple(v for v, _ in passes),
     )
+
+
+def _road_returns(
+    drive: _PlanarDrive, t_rel_s: FloatArray, mount: Mount
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Dull returns from the road straight below the scanner at ``t_rel_s`` (s).
+
+    One at each end of a pass, 0.1 s inside the trajectory's records.
+
+    The simulated scanner casts only the beams that can meet a target, so without these
+    a cloud would begin and end on a target; a real scanner records the whole pass. They
+    draw no random numbers (the rest of a scene does not depend on them).
+    """
+    pos, _, R_bt = drive.state(t_rel_s)
+    origin = pos + np.einsum("nij,j->ni", R_bt, mount.lever_arm_body_m_array)
+    truth = origin * np.array([1.0, 1.0, 0.0])  # the road is the plane D = 0
+    R_ts = np.einsum("nij,jk->nik", R_bt, mount.R_scanner_to_body)
+    xyz = np.einsum("nji,nj->ni", R_ts, truth - origin)
+    return t_rel_s, xyz, np.full(t_rel_s.size, 10.0), truth
 
 
 def _assemble(

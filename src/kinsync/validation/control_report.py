@@ -141,6 +141,7 @@ def validate_control_points(
     pass_gap_s: float = PASS_GAP_S,
     background_intensity: float | None = None,
     max_gap_s: float | None = None,
+    cloud_span_s: tuple[float, float] | None = None,
 ) -> ControlPointReport:
     """Extract targets, express the differences in the vehicle frame, test the signatures.
 
@@ -182,6 +183,10 @@ def validate_control_points(
     max_gap_s : float, optional
         Longest trajectory record interval (s, > 0) interpolated across; default
         `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
+    cloud_span_s : tuple of 2 float, optional
+        Times (s) of the whole cloud's first and last points, when ``cloud`` holds only
+        the points near the targets; a visit within ``visit_gap_s`` of either end may be
+        cut and is reported missing (see `extract_targets`).
 
     Returns
     -------
@@ -208,6 +213,7 @@ def validate_control_points(
         min_points=min_points,
         visit_gap_s=visit_gap_s,
         background_intensity=background_intensity,
+        cloud_span_s=cloud_span_s,
     )
     differences, outside = control_point_differences(
         observations, control, trajectory, max_gap_s=gap_threshold_s

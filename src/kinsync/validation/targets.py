@@ -336,6 +336,7 @@ def extract_targets(
     min_points: int = 10,
     visit_gap_s: float = 1.0,
     background_intensity: float | None = None,
+    cloud_span_s: tuple[float, float] | None = None,
 ) -> tuple[tuple[TargetObservation, ...], tuple[MissingTarget, ...]]:
     """Find each control target in the cloud: bright points near it, one centre per visit.
 
@@ -362,6 +363,12 @@ def extract_targets(
         ``cloud`` holds only the points near the targets).
     visit_gap_s : float
         Time gap (s) that separates two visits of a target.
+    cloud_span_s : tuple of 2 float, optional
+        Times (s) of the whole cloud's first and last points; default: those of
+        ``cloud.t_s`` (give it when ``cloud`` holds only the points near the targets). A
+        visit with a bright point less than ``visit_gap_s`` from either end may have been
+        cut by the end of the cloud (a file split mid-pass): it is reported missing,
+        since a centre from part of a target is biased (tens of mm).
 
     Returns
     -------
@@ -381,6 +388,7 @@ def extract_targets(
     if cloud.t_s is None or cloud.intensity is None:
         msg = "extract_targets: the cloud needs point times (t_s) and intensities"
         raise InputError(msg)
+    span = _cloud_span(cloud.t_s, cloud_span_s)
     owner = nearest_control(cloud.pos_ecef_m, control, search_radius_m)
     observations: list[TargetObservation] = []
     missing: list[MissingTarget] = []
@@ -438,14 +446,9 @@ def extract_targets(
         visit = 0
         for part in np.split(order, cuts):
             t_mid = float(np.median(cloud.t_s[part]))
-            if part.size < min_points:
-                missing.append(
-                    MissingTarget(
-                        name,
-                        f"visit with only {part.size} bright point(s) (need {min_points})",
-                        t_mid,
-                    )
-                )
+            why = _unusable_visit(cloud.t_s[part], min_points, span, visit_gap_s)
+            if why:
+                missing.append(MissingTarget(name, why, t_mid))
                 continue
             local = (cloud.pos_ecef_m[part] - control.pos_ecef_m[j]) @ R_ne
             try:
@@ -468,3 +471,52 @@ def extract_targets(
             visit += 1
     observations.sort(key=lambda o: o.t_s)
     return tuple(observations), tuple(missing)
+
+
+def _cloud_span(t_s: FloatArray, given: tuple[float, float] | None) -> tuple[float, float]:
+    """The cloud's first and last point times (s): ``given`` checked, or ``t_s``'s."""
+    if given is None:
+        return (float(np.min(t_s)), float(np.max(t_s))) if t_s.size else (np.inf, -np.inf)
+    if len(given) != 2:
+        msg = f"cloud_span_s must be (first, last) point times in s, got {given!r}"
+        raise InputError(msg)
+    first = finite_number(given[0], "cloud_span_s[0]")
+    last = finite_number(given[1], "cloud_span_s[1]")
+    if last < first:
+        msg = f"cloud_span_s must be (first, last) point times in s, got {given!r}"
+        raise InputError(msg)
+    if t_s.size and (float(np.min(t_s)) < first or float(np.max(t_s)) > last):
+        msg = (
+            f"cloud_span_s {given!r} does not hold the cloud's point times "
+            f"({float(np.min(t_s))!r} .. {float(np.max(t_s))!r} s): give the first and last "
+            "point times of the whole cloud"
+        )
+        raise InputError(msg)
+    return first, last
+
+
+def _unusable_visit(
+    t_s: FloatArray, min_points: int, span: tuple[float, float], visit_gap_s: float
+) -> str:
+    """Why a visit (its bright points' times, s) gives no centre, or ``""``.
+
+    Too few points; or a cut by an end of the cloud: a visit whose first bright point
+    comes less than ``visit_gap_s`` after the cloud's first point may have begun before
+    it (the file starts mid-pass); likewise at the end.
+    """
+    if t_s.size < min_points:
+        return f"visit with only {t_s.size} bright point(s) (need {min_points})"
+    first, last = float(np.min(t_s)), float(np.max(t_s))
+    if first - span[0] < visit_gap_s:
+        where, t_end, gap = "start", span[0], first - span[0]
+    elif span[1] - last < visit_gap_s:
+        where, t_end, gap = "end", span[1], span[1] - last
+    else:
+        return ""
+    return (
+        f"visit cut by the {where} of the cloud? its bright points come {gap:.3g} s from "
+        f"the cloud's {'first' if where == 'start' else 'last'} point (t = {t_end!r} s), "
+        f"under the {visit_gap_s:g} s that separates visits, so part of the target may be "
+        "in another file and its centre biased: validate one cloud that holds the whole "
+        "pass (join its files)"
+    )
