@@ -115,6 +115,20 @@ def test_extra_columns_blank_lines_and_bom_are_fine(tmp_path: Path) -> None:
         ("name,x_m,y_m,z_m\nA,1,nan,3\n", ["line 2, column 'y_m'", "not a finite number"]),
         ("name,x_m,y_m,z_m\nA,1,,3\n", ["line 2, column 'y_m'"]),
         ("name,lat_deg,lon_deg,h_m\nA,95,2,3\n", ["line 2, column 'lat_deg': 95.0 is outside"]),
+        # field software: comment lines, a spreadsheet set to a decimal comma
+        (
+            "name,lat_deg,lon_deg,h_m\n# surveyed 2026-11-02\nA,46.8,-71.2,10\n",
+            ["line 2 has 1 fields", "looks like a comment", "remove the line"],
+        ),
+        (
+            "# GNSS rover, NAD83(CSRS)\nname,lat_deg,lon_deg,h_m\nA,46.8,-71.2,10\n",
+            ["missing column 'name'", "looks like a comment"],
+        ),
+        (
+            "name;lat_deg;lon_deg;h_m\nA;46,8;-71,2;10,0\n",
+            ["line 1", "semicolon-separated", "use commas", "point as the decimal mark"],
+        ),
+        ("name\tlat_deg\tlon_deg\th_m\nA\t46.8\t-71.2\t10\n", ["tab-separated"]),
     ],
 )
 def test_bad_files(tmp_path: Path, text: str, fragments: list[str]) -> None:

@@ -24,6 +24,7 @@ from kinsync._validate import ECEF_HEIGHT_RANGE_M, GROUND_BAND_TEXT, off_ground_
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic
 from kinsync.io.atomic import atomic_path
+from kinsync.io.csv_cells import comment_hint
 from kinsync.io.sanity import (
     HEIGHT_M,
     LATITUDE_DEG,
@@ -84,7 +85,9 @@ def _parse_row(
 ) -> tuple[str, FloatArray]:
     """Name and the three coordinates of one data row; errors name the line."""
     if len(row) != width:
-        msg = f"{path}: line {line} has {len(row)} fields, the header has {width}"
+        msg = (
+            f"{path}: line {line} has {len(row)} fields, the header has {width}{comment_hint(row)}"
+        )
         raise InputError(msg)
     name = row[i_name].strip()
     if not name:
@@ -171,7 +174,7 @@ def read_control_points(path: Path) -> ControlPoints:
         msg = f"{path}: duplicated column(s) {dupes} in the header"
         raise InputError(msg)
     if "name" not in header:
-        msg = f"{path}: missing column 'name'; the header has {header}"
+        msg = f"{path}: missing column 'name'; the header has {header}{comment_hint(header)}"
         raise InputError(msg)
     coords = _coordinate_columns(path, header)
     body = records[1:]

@@ -31,7 +31,12 @@ from kinsync.io.sanity import (
     check_values,
     not_utf8_cell,
 )
-from kinsync.io.text_lines import csv_header_row, cut_line_hint, warn_if_unended
+from kinsync.io.text_lines import (
+    csv_header_row,
+    cut_line_hint,
+    refuse_other_separator,
+    warn_if_unended,
+)
 
 __all__ = [
     "NumericTable",
@@ -318,6 +323,8 @@ def read_csv_rows(path: Path, what: str = "file") -> list[tuple[int, list[str]]]
         for cell in row:
             if (bad := not_utf8_cell(Path(path), line, cell)) is not None:
                 raise bad
+    if records and records[0][0] == 1:  # a spreadsheet's semicolons (decimal comma)
+        refuse_other_separator(Path(path), records[0][1])
     warn_if_unended(Path(path))
     return records
 

@@ -35,6 +35,7 @@ __all__ = [
     "cut_line_hint",
     "line_end_indices",
     "read_first_line",
+    "refuse_other_separator",
     "unended_last_line",
     "warn_if_unended",
 ]
@@ -120,7 +121,7 @@ def csv_header_row(path: Path) -> list[str] | None:
     for cell in row or []:
         if (bad := not_utf8_cell(path, line, cell)) is not None:
             raise bad
-    _refuse_other_separator(path, row)
+    refuse_other_separator(path, row)
     return row
 
 
@@ -128,9 +129,23 @@ _OTHER_SEPARATORS = ((";", "semicolon"), ("\t", "tab"))
 _SHOWN_CHARS = 80
 
 
-def _refuse_other_separator(path: Path, row: list[str] | None) -> None:
+def refuse_other_separator(path: Path, row: list[str] | None) -> None:
     """Refuse a header of one column that semicolons or tabs split into several.
 
+    Parameters
+    ----------
+    path : Path
+        The file, for the message.
+    row : list of str or None
+        Its header row as the ``csv`` module read it with commas (None: an empty file).
+
+    Raises
+    ------
+    InputError
+        A header of one cell holding a semicolon or a tab.
+
+    Notes
+    -----
     Such a file was written with another separator (a spreadsheet set to a decimal comma
     writes semicolons): read with commas, its whole header is one column name, and a
     reader would go on to blame the missing columns or the user's column map.
