@@ -64,3 +64,27 @@ def test_a_comment_line_in_data_is_named_as_such(tmp_path: Path, comment: str) -
         read_numeric_csv(path, ["t_s", "x_m", "y_m"])
     with pytest.raises(InputError, match=r"line 3.*looks like a comment"):
         list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))
+
+
+def test_numbers_with_a_decimal_comma_are_named_as_such(tmp_path: Path) -> None:
+    """A spreadsheet set to a decimal comma, exporting a one-column log or a point table
+    with commas between the columns: "line 2 has 2 fields, the header has 1" and nothing
+    to do."""
+    pps = tmp_path / "pps.csv"
+    pps.write_text("t_local_s\n1479384017,6300004\n1479384018,6299758\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"pps\.csv: line 2 .*decimal comma\?.*with points"):
+        read_pps_csv(pps)
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + "1,0,2,5,-3,25\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"t\.csv: line 2 .*decimal comma\?"):
+        read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+    with pytest.raises(InputError, match=r"line 2.*decimal comma\?"):
+        list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))
+
+
+def test_a_comma_too_many_is_not_called_a_decimal_comma(tmp_path: Path) -> None:
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + "1.0,2.0,3.0,\n" + "1.0,2.5,3\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"line 2 has 4 fields") as exc:
+        read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+    assert "decimal comma" not in str(exc.value)

@@ -129,6 +129,10 @@ def test_extra_columns_blank_lines_and_bom_are_fine(tmp_path: Path) -> None:
             ["line 1", "semicolon-separated", "use commas", "point as the decimal mark"],
         ),
         ("name\tlat_deg\tlon_deg\th_m\nA\t46.8\t-71.2\t10\n", ["tab-separated"]),
+        (
+            "name,lat_deg,lon_deg,h_m\n12,46,8,-71,2,10,0\n",
+            ["line 2 has 7 fields", "decimal comma?"],
+        ),
     ],
 )
 def test_bad_files(tmp_path: Path, text: str, fragments: list[str]) -> None:

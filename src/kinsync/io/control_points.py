@@ -24,7 +24,7 @@ from kinsync._validate import ECEF_HEIGHT_RANGE_M, GROUND_BAND_TEXT, off_ground_
 from kinsync.errors import InputError
 from kinsync.frames import ecef_to_geodetic
 from kinsync.io.atomic import atomic_path
-from kinsync.io.csv_cells import comment_hint
+from kinsync.io.csv_cells import comment_hint, decimal_comma_hint
 from kinsync.io.sanity import (
     HEIGHT_M,
     LATITUDE_DEG,
@@ -85,9 +85,8 @@ def _parse_row(
 ) -> tuple[str, FloatArray]:
     """Name and the three coordinates of one data row; errors name the line."""
     if len(row) != width:
-        msg = (
-            f"{path}: line {line} has {len(row)} fields, the header has {width}{comment_hint(row)}"
-        )
+        hint = comment_hint(row) + decimal_comma_hint(row, width)
+        msg = f"{path}: line {line} has {len(row)} fields, the header has {width}{hint}"
         raise InputError(msg)
     name = row[i_name].strip()
     if not name:

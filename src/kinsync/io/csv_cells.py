@@ -8,6 +8,7 @@ name it.
 from __future__ import annotations
 
 import csv
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -20,11 +21,13 @@ __all__ = [
     "PARSE_ERROR",
     "blank_row_error",
     "comment_hint",
+    "decimal_comma_hint",
     "first_bad_cell",
     "locate_bad_csv_cell",
 ]
 
 _COMMENT_MARKS = ("#", "//", ";")
+_WHOLE_NUMBER = re.compile(r"[+-]?[0-9]+")
 
 PARSE_ERROR = "CSV parse error"  # pyarrow's message for a row with another field count
 
@@ -81,6 +84,33 @@ def comment_hint(cells: Sequence[str]) -> str:
     return "; it looks like a comment, which kinsync does not read in data: remove the line"
 
 
+def decimal_comma_hint(cells: Sequence[str], width: int) -> str:
+    """``"; numbers with a decimal comma? ..."`` for a row split into too many integers.
+
+    A value written with a decimal comma (``46,8``) is two fields to a comma-separated
+    reader: a row of more fields than the header's ``width``, each a whole number, is
+    most likely that.
+
+    Parameters
+    ----------
+    cells : sequence of str
+        The row's cells.
+    width : int
+        The header's number of columns.
+
+    Returns
+    -------
+    str
+        Words to add to the message about the row, or ``""``.
+    """
+    if len(cells) <= width or not all(_WHOLE_NUMBER.fullmatch(c.strip()) for c in cells):
+        return ""
+    return (
+        "; numbers written with a decimal comma? kinsync reads a point as the decimal "
+        "mark: export the file with points (and commas between the columns)"
+    )
+
+
 def locate_bad_csv_cell(path: Path, required: Sequence[str]) -> InputError | None:
     """Scan a CSV for the first bad row (`first_bad_cell`)."""
     with path.open(newline="", encoding="utf-8-sig", errors="surrogateescape") as fh:
@@ -128,7 +158,8 @@ def first_bad_cell(
                 f"{path}: line {first_line + reader.line_num}: {len(cells)} "
                 f"field(s) where the header has {len(header)}; fix the row (a comma too many "
                 "or too few, or a value holding a comma that needs quotes)"
-                f"{comment_hint(cells)}{cut_line_hint(path, first_line + reader.line_num)}"
+                f"{comment_hint(cells)}{decimal_comma_hint(cells, len(header))}"
+                f"{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)
         for name, i in cols:

@@ -21,7 +21,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
-from kinsync.io.csv_cells import blank_row_error, comment_hint
+from kinsync.io.csv_cells import blank_row_error, comment_hint, decimal_comma_hint
 from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
     MAX_TABLE_BYTES,
@@ -124,7 +124,8 @@ def _first_bad_cell(
                 if len(row) != len(header):
                     return InputError(
                         f"{path}: line {line_no} has {len(row)} fields, the header has "
-                        f"{len(header)}{comment_hint(row)}{cut_line_hint(path, line_no)}"
+                        f"{len(header)}{comment_hint(row)}"
+                        f"{decimal_comma_hint(row, len(header))}{cut_line_hint(path, line_no)}"
                     )
                 for name, cell in zip(header, row, strict=True):
                     if name not in read or (name in blank_ok and not cell):
