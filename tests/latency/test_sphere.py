@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from functools import cache
 
 import numpy as np
@@ -208,6 +209,23 @@ def test_rates_that_disagree_widen_the_sigma_by_the_birge_ratio_and_say_so() -> 
     assert text.startswith("rates DISAGREE: chi2 "), text
     assert f"x{birge:.2f}" in text
     assert result.as_document()["consistency"]["rates_disagree"] is True
+
+
+def test_a_rate_confirmed_elsewhere_counts_as_checked() -> None:
+    """A raw pass's rate is judged by the attitude log too: one whose points cannot judge
+    it (no times here) is counted as checked when ``rate_checked_by`` says so."""
+    passes = small_simulation(TAU_S, seed=7, rates=(6.0, 18.0))
+    timeless = [SpherePass(p.source, p.rate_deg_s, p.points_ned_m) for p in passes]
+    confirmed = [replace(p, rate_checked_by="the attitude log imu.csv") for p in timeless[:3]]
+    result = estimate_latency_sphere(confirmed + timeless[3:], radius_m=0.1)
+    assert result.n_passes_rate_checked == 3
+    assert f"not checked on {len(passes) - 3} of {len(passes)} passes (only 3 of" in (
+        result.rates_unchecked_text()
+    )
+    every = [replace(p, rate_checked_by="the attitude log imu.csv") for p in timeless]
+    result = estimate_latency_sphere(every, radius_m=0.1)
+    assert result.n_passes_rate_checked == len(passes)
+    assert result.agreement_text().startswith("rates agree: chi2 ")
 
 
 def test_rates_without_point_times_are_said_to_be_unchecked() -> None:

@@ -64,6 +64,9 @@ def test_raw_passes_reproduce_the_georeferenced_ones(sim_folder: Path) -> None:
         assert r.axis_ned == g.axis_ned
         assert Path(r.source).parent.name == "raw"
         assert Path(r.source).name == Path(g.source).name
+        assert r.rate_checked_by is not None  # the attitude log turned with the table
+        assert r.rate_checked_by.startswith("the attitude log ")
+        assert g.rate_checked_by is None
         assert r.t_s is not None
         assert g.t_s is not None
         np.testing.assert_array_equal(r.t_s, g.t_s)

@@ -76,7 +76,7 @@ def _print_sphere_result(
         console.print(f"figure: {fig_path}")
 
 
-def _warn_about_rates(result: SphereLatencyResult, folder: Path, raw: bool) -> None:
+def _warn_about_rates(result: SphereLatencyResult, folder: Path) -> None:
     """Warn when the rates disagree, or when their sign and unit went unchecked."""
     if result.rates_disagree:
         warn(
@@ -84,7 +84,7 @@ def _warn_about_rates(result: SphereLatencyResult, folder: Path, raw: bool) -> N
             "check each pass's signed rate (deg/s) and axis in passes.csv: a wrong sign, "
             "unit or axis biases the latency, which the wider sigma does not remove"
         )
-    if result.rates_unchecked_text() and not raw:  # --raw: the attitude log checked them
+    if result.rates_unchecked_text():  # with --raw, the attitude log checks them too
         warn(f"{folder}: {result.rates_unchecked_text()}")
 
 
@@ -250,7 +250,7 @@ def sphere(
             "mount_latency_ms": applied_s * 1e3,
             "residual_latency_ms": result.latency_s * 1e3,
         }
-    _warn_about_rates(result, folder, raw)
+    _warn_about_rates(result, folder)
     if mount_out is not None:
         assert applied is not None  # _check_mount_options
         _write_mount_with_latency(applied, total_s, result.latency_std_s, mount_out)

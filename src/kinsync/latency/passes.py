@@ -32,6 +32,10 @@ class SpherePass:
         Georeferenced points, table-centred NED (m); may include clutter.
     t_s : array_like, shape (N,), optional
         Point times (s, float64: not datetime64), finite, when the file has them.
+    rate_checked_by : str, optional
+        What confirmed the stated rate's sign and unit other than the points, in words
+        (the raw-pass reader sets "the attitude log NAME" when the log turned with it);
+        `kinsync.latency.rate_check.check_pass_rates` counts such a pass as checked.
     """
 
     source: str
@@ -39,6 +43,7 @@ class SpherePass:
     points_ned_m: FloatArray
     axis_ned: tuple[float, float, float] = (0.0, 0.0, 1.0)
     t_s: FloatArray | None = None
+    rate_checked_by: str | None = None
 
     def __post_init__(self) -> None:
         rate = finite_number(self.rate_deg_s, f"{self.source}: rate_deg_s")

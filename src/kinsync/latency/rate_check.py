@@ -298,7 +298,9 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
     """Raise when a pass's points turn otherwise than its stated table rate.
 
     Each pass with point times is judged by `points_azimuth_rate_deg_s`; a pass
-    without times, or whose points do not sweep with time, is not judged.
+    without times, or whose points do not sweep with time, is not judged by them, and
+    counts as checked only when its ``rate_checked_by`` says what else confirmed it
+    (the attitude log of a raw pass).
 
     Parameters
     ----------
@@ -310,9 +312,9 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
     Returns
     -------
     int
-        Passes judged, each agreeing with its stated rate; 0 when none could be (no
-        point times): then a wrong sign, rad/s for deg/s or ENU for NED goes unseen
-        (`unchecked_rates_text`).
+        Passes checked (judged by their points, each agreeing with its stated rate, or
+        ``rate_checked_by``); 0 when none could be (no point times): then a wrong
+        sign, rad/s for deg/s or ENU for NED goes unseen (`unchecked_rates_text`).
 
     Raises
     ------
@@ -321,20 +323,23 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
         `RATE_RATIO_LIMIT` faster or slower, than its stated rate: naming the pass,
         its stated rate and the rate its points show (`mismatch_message`).
     """
+    checked: list[bool] = []  # per pass: judged by its points, or confirmed before
 
     def shown_by_points(p: SpherePass) -> float | None:
-        if p.t_s is None:
-            return None
-        return points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
+        rate = (
+            None if p.t_s is None else points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
+        )
+        checked.append(rate is not None or p.rate_checked_by is not None)
+        return rate
 
-    mismatches, n_checked = judge_rates(passes, shown_by_points)
+    mismatches, n_judged = judge_rates(passes, shown_by_points)
     if mismatches:
         raise InputError(
             mismatch_message(
-                mismatches, n_checked, "the points' azimuth about the axis", points=True
+                mismatches, n_judged, "the points' azimuth about the axis", points=True
             )
         )
-    return n_checked
+    return sum(checked)
 
 
 def unchecked_rates_text(n_checked: int, n_passes: int) -> str:

@@ -9,6 +9,7 @@ latency-corrected attitude (`kinsync.georef.table`), ready for
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -75,21 +76,27 @@ def _unreadable(
 
 def _check_attitude_rates(
     passes: list[SpherePass], corrected: Trajectory, attitude_path: Path, index_path: Path
-) -> None:
+) -> list[SpherePass]:
     """Raise when the attitude log turns otherwise than a pass's stated table rate.
 
     The IMU turns with the table: over each pass the log's rotation about the pass's
-    axis is its table rate, with the same sign (`kinsync.latency.rate_check`).
+    axis is its table rate, with the same sign (`kinsync.latency.rate_check`). Returns
+    the passes, those the log judged marked with ``rate_checked_by``.
     """
+    judged: list[bool] = []
 
     def shown_by_attitude(p: SpherePass) -> float | None:
         assert p.t_s is not None  # raw passes have their times
         t0, t1 = float(p.t_s.min()), float(p.t_s.max())
         inside = (corrected.t_s >= t0) & (corrected.t_s <= t1)
         t = corrected.t_s[inside]
-        if t.size < 2:
-            return None
-        return attitude_rate_deg_s(t, corrected.interpolate(t).R_body_to_ned, p.axis_ned)
+        rate = (
+            attitude_rate_deg_s(t, corrected.interpolate(t).R_body_to_ned, p.axis_ned)
+            if t.size >= 2
+            else None
+        )
+        judged.append(rate is not None)
+        return rate
 
     mismatches, n_checked = judge_rates(passes, shown_by_attitude)
     if mismatches:
@@ -97,6 +104,8 @@ def _check_attitude_rates(
             mismatches, n_checked, f"the attitude log {attitude_path.name}", points=False
         )
         raise InputError(msg)
+    by = f"the attitude log {attitude_path.name}"
+    return [replace(p, rate_checked_by=by) if j else p for p, j in zip(passes, judged, strict=True)]
 
 
 def read_raw_passes(
@@ -194,6 +203,6 @@ def read_raw_passes(
         except InputError as err:
             msg = f"{where}: {err}"
             raise InputError(msg) from err
-    _check_attitude_rates(passes, corrected, attitude_path, index_path)
+    passes = _check_attitude_rates(passes, corrected, attitude_path, index_path)
     report(progress, 1.0, f"georeferenced {counted(len(rows), 'raw pass', 'raw passes')}")
     return passes
