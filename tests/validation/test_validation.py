@@ -10,6 +10,7 @@ absolute bound.
 from __future__ import annotations
 
 import math
+import pickle
 from dataclasses import replace
 from typing import Any
 
@@ -581,6 +582,10 @@ def test_a_wall_fit_cannot_be_changed_in_place() -> None:
         assert not array.flags.writeable, name
         with pytest.raises(ValueError, match="read-only"):
             array[...] = 0.0
+    # nor its percentiles (a plain dict), and the result still pickles
+    with pytest.raises(TypeError):
+        result.percentiles_m["p50"] = 0.0  # type: ignore[index]
+    assert pickle.loads(pickle.dumps(result)).percentiles_m == result.percentiles_m
 
 
 def test_gross_outliers_are_rejected() -> None:

@@ -55,13 +55,14 @@ covariance with a nugget, universal kriging trend).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy import linalg, optimize, stats
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import FrozenMapping, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import ecef_array, finite_number, finite_vector, positive_number
 from kinsync.errors import InputError
@@ -202,7 +203,7 @@ class FlatnessResult:
     residual_m: FloatArray
     rms_m: float
     max_abs_m: float
-    percentiles_m: dict[str, float]
+    percentiles_m: Mapping[str, float]
     quadratic_m: FloatArray
     quadratic_std_m: FloatArray
     quadratic_cov: FloatArray
@@ -223,6 +224,7 @@ class FlatnessResult:
         # Own read-only copies, as SphereFit's arrays: a result never changes.
         for name in _ARRAY_FIELDS:
             object.__setattr__(self, name, readonly_array(getattr(self, name)))
+        object.__setattr__(self, "percentiles_m", FrozenMapping(self.percentiles_m))
 
     @property
     def extent_u_m(self) -> float:
