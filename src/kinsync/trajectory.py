@@ -413,6 +413,15 @@ class Trajectory:
                 ]
             )
 
+    def ground_speed_m_s(self) -> FloatArray:
+        """Horizontal speed over ground (m/s) of each record interval, from the positions.
+
+        Shape (N-1,); not from the velocities, which may disagree (`velocity_check`).
+        """
+        disp = self._displacement_ned_m()
+        out: FloatArray = np.hypot(disp[:, 0], disp[:, 1]) / np.diff(self.t_s)
+        return out
+
     def euler_rpy_rad(self) -> FloatArray:
         """Attitude as DIN 9300 ``(roll, pitch, yaw)`` (rad), shape (N, 3)."""
         return quaternion_to_euler_rpy(self.q_body_to_ned)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -266,3 +267,35 @@ def test_info_across_the_antimeridian_gives_the_zones_there(
     assert code == 0, err
     assert "1-60" not in out
     assert "data span zones 60, 1" in out
+
+
+def test_ground_speed_is_shown_in_m_s_and_knots_leaving_gaps_out(
+    tmp_path: Path, run_cli: RunCli
+) -> None:
+    """An airborne user checks the ground speed first: 60 m/s (116.6 kn) here, from the
+    positions, with the 30 s hole in the records left out (its average would read 0)."""
+    t = T0 + np.concatenate([np.arange(0.0, 20.0, 0.01), np.arange(50.0, 70.0, 0.01)])
+    s = t - T0
+    north_m = np.where(s < 30.0, 60.0 * s, 1200.0 + 40.0 * (s - 50.0))  # 60, then 40 m/s
+    lat = 46.8 + np.degrees(north_m / 6_366_000.0)  # about the meridian radius there
+    traj = Trajectory.from_euler(
+        t, 0 * s, 0 * s, 0 * s,
+        lat_lon_h=np.column_stack([lat, np.full_like(s, -71.2), np.full_like(s, 1000.0)]),
+    )  # fmt: skip
+    path = tmp_path / "flight.csv"
+    write_trajectory_csv(traj, path)
+    code, out, err = run_cli(["trajectory", "info", str(path), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)["ground_speed_m_s"]
+    expect = traj.ground_speed_m_s()
+    assert expect.min() < 1.0  # across the hole
+    assert doc["min"] == pytest.approx(40.0, rel=2e-3)
+    assert doc["max"] == pytest.approx(60.0, rel=2e-3)
+    assert doc["median"] == pytest.approx(50.0, rel=2e-3)  # as many intervals at each speed
+    code, out, err = run_cli(["trajectory", "info", str(path)])
+    assert code == 0, err
+    rows = _rows(out)
+    speeds = {k: re.findall(r"[0-9.]+", v) for k, v in rows.items() if "ground speed" in k}
+    assert [float(v) for v in speeds["ground speed (m/s)"]] == pytest.approx([40, 50, 60], abs=0.1)
+    kn = [float(v) for v in speeds["ground speed (kn)"]]
+    assert kn == pytest.approx([v * 3600 / 1852 for v in (40, 50, 60)], abs=0.15)

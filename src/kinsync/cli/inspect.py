@@ -166,6 +166,35 @@ def _velocity_rows(doc: dict[str, Any]) -> dict[str, str]:
     }
 
 
+def _speed_document(
+    speed_m_s: np.ndarray[Any, Any], not_gap: np.ndarray[Any, Any]
+) -> dict[str, float]:
+    """Least, median and greatest ground speed (m/s) over the record intervals.
+
+    Intervals across a data gap (``not_gap`` False) are left out, unless every one is.
+    """
+    if np.any(not_gap):
+        speed_m_s = speed_m_s[not_gap]
+    return {
+        "min": float(speed_m_s.min()),
+        "median": float(np.median(speed_m_s)),
+        "max": float(speed_m_s.max()),
+    }
+
+
+def _speed_rows(doc: dict[str, float]) -> dict[str, str]:
+    """The ground speed in m/s and in knots (1 kn = 1852 m / 3600 s)."""
+    knots = {k: v * 3600.0 / 1852.0 for k, v in doc.items()}
+    return {
+        "ground speed (m/s)": (
+            f"min {doc['min']:.2f}, median {doc['median']:.2f}, max {doc['max']:.2f}"
+        ),
+        "ground speed (kn)": (
+            f"min {knots['min']:.1f}, median {knots['median']:.1f}, max {knots['max']:.1f}"
+        ),
+    }
+
+
 def _time_document(t_start_s: float, t_end_s: float, scale: str) -> dict[str, Any]:
     """The time scale and, for absolute GPS time, the UTC dates of the span."""
     if scale == "week":
@@ -270,13 +299,14 @@ def trajectory_info(
     if as_json:
         print_json(doc)
         return
-    nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps")
+    nested = ("smrmsg", "velocity_check", "warnings", "time", "area", "gaps", "ground_speed_m_s")
     rows = {
         k: f"{v:.3f}" if k in _TIME_ROWS else f"{v:.10g}" if isinstance(v, float) else str(v)
         for k, v in doc.items()
         if k not in nested
     }
     rows |= _time_rows(doc["time"]) | _area_rows(doc["area"])
+    rows |= _speed_rows(doc["ground_speed_m_s"])
     if check is not None:
         rows |= _velocity_rows(check.as_document())
     if "smrmsg" in doc:
@@ -361,6 +391,7 @@ def _trajectory_info(
         "gap_threshold_s": max_gap if max_gap_s is not None else gap_threshold_shown_s(max_gap),
         "gaps": [{"t_start_s": g.t_start_s, "t_end_s": g.t_end_s} for g in gaps],
         "max_angular_rate_deg_s": float(rate.max()),
+        "ground_speed_m_s": _speed_document(traj.ground_speed_m_s(), dt <= max_gap),
         "has_velocity": traj.vel_ned_m_s is not None,
         "time": _time_document(traj.t_start_s, traj.t_end_s, scale),
         "area": None if traj.lat_lon_h is None else _area_document(traj.lat_lon_h),
