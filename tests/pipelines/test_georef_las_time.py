@@ -83,6 +83,9 @@ def test_a_file_crossing_the_week_rollover_is_refused_naming_it(tmp_path: Path, 
     assert "crosses the GPS week rollover" in msg
     assert "split" in msg.lower()
     assert "adjusted standard GPS time" in msg
+    # splitting needs a trajectory on GPS time: the one --gps-week sets an SBET's week
+    # too, so the part after the rollover put the SBET a week late (the advice went round)
+    assert "with an SBET store adjusted standard time instead" in msg
     assert f"check --gps-week {WEEK}" not in msg
     if order == "time":  # seen up front, at the file's first and last points
         assert msg.startswith(f"{src}: the points hold GPS seconds of week near the end")

@@ -45,6 +45,7 @@ from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 
 __all__ = [
     "ADJUSTED_GPS_OFFSET_S",
+    "SOW_TRAJECTORY_ADVICE",
     "WEEK_SECONDS_SLACK_S",
     "LasInfo",
     "LasPointReader",
@@ -233,10 +234,16 @@ def check_week_rollover(
         f"{info.path}: the points hold GPS seconds of week near the end of a week "
         f"({t_max_s!r} s) and at the start of the next ({t_min_s!r} s): the file crosses "
         "the GPS week rollover (its times start again from 0), and one GPS week cannot "
-        f"place both parts. Split the file where gps_time goes back to 0 and give {weeks}, "
-        f"or store its times as adjusted standard GPS time{tool}"
+        f"place both parts. Store its times as adjusted standard GPS time{tool}, or split "
+        f"the file where gps_time goes back to 0 and give {weeks}{SOW_TRAJECTORY_ADVICE}"
     )
     raise InputError(msg)
+
+
+SOW_TRAJECTORY_ADVICE = (  # a rolled-over point file's advice: an SBET cannot be split
+    " (with a trajectory on GPS time, a CSV: --gps-week also sets the week of a trajectory "
+    "in seconds of week, so with an SBET store adjusted standard time instead)"
+)
 
 
 def las_takes_gps_week(path: Path) -> bool:

@@ -18,7 +18,7 @@ from typing import Literal
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefRecords, GeorefTrajectory
 from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
-from kinsync.io.las import ADJUSTED_GPS_OFFSET_S
+from kinsync.io.las import ADJUSTED_GPS_OFFSET_S, SOW_TRAJECTORY_ADVICE
 from kinsync.io.trajectory import TimeScale, gps_week_needed_text
 from kinsync.pipelines.georef_chunks import ChunkOutput
 from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
@@ -162,9 +162,9 @@ def _rollover_hint(
     return (
         f"the points outside have GPS seconds of week {_range_text(stored_min, stored_max)} "
         f"as stored, {where}: the file crosses the GPS week rollover (its times start "
-        "again from 0), and one GPS week cannot place both parts; split it where gps_time "
-        "goes back to 0 and give each part its own --gps-week, or store its times as "
-        "adjusted standard GPS time"
+        "again from 0), and one GPS week cannot place both parts; store its times as "
+        "adjusted standard GPS time, or split it where gps_time goes back to 0 and give "
+        f"each part its own --gps-week{SOW_TRAJECTORY_ADVICE}"
     )
 
 
