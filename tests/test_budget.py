@@ -11,6 +11,7 @@ from kinsync.budget import (
     Scenario,
     beach_scenario,
     bits_per_serial_byte,
+    cross_track_scenario,
     latency_beam_error,
     period_error_budget,
     rolling_table_scenario,
@@ -205,3 +206,50 @@ def test_period_budget() -> None:
         period_error_budget(10, 1e-6, -1.0)
     with pytest.raises(InputError, match="profiles"):
         period_error_budget(-3, 1e-6, 1.0)
+
+
+def test_the_beach_is_the_horizontal_cross_track_beam() -> None:
+    beach = beach_scenario(50.0, 10.0, 10.0)
+    beam = cross_track_scenario(50.0, 10.0, 10.0, beam_deg=0.0)
+    assert (beam.beam_ned, beam.normal_ned, beam.rate_ned_rad_s, beam.vel_ned_m_s) == (
+        beach.beam_ned, beach.normal_ned, beach.rate_ned_rad_s, (0.0, 0.0, 0.0)
+    )  # fmt: skip
+    assert beach.name.startswith("beach 10 deg")
+
+
+def test_speed_adds_the_misplaced_scanner_and_only_that() -> None:
+    """At rest the point error is the attitude's alone; at speed the scanner of the wrong
+    instant is misplaced by v tau along the track, perpendicular to the cross-track
+    attitude error on flat ground."""
+    still = latency_beam_error(cross_track_scenario(800.0, 0.0, 5.0, 75.0), 0.002)
+    moving = latency_beam_error(cross_track_scenario(800.0, 0.0, 5.0, 75.0, 50.0), 0.002)
+    assert still.position_error_m == 0.0
+    assert moving.position_error_m == pytest.approx(0.1)
+    assert moving.point_horizontal_error_m == pytest.approx(
+        math.hypot(still.point_horizontal_error_m, 0.1), rel=1e-9
+    )
+    assert moving.vertical_error_m == pytest.approx(still.vertical_error_m, rel=1e-9)
+    assert moving.horizontal_error_linear_m == pytest.approx(
+        math.hypot(still.horizontal_error_linear_m, 0.1), rel=1e-9
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"slope_deg": 0.0, "beam_deg": 0.0}, "a horizontal beam never meets a flat surface"),
+        ({"beam_deg": 95.0}, "beam_deg"),
+        ({"beam_deg": -5.0}, "beam_deg"),
+        ({"slope_deg": 90.0}, "slope_deg"),
+        ({"speed_m_s": -1.0}, "speed_m_s"),
+        ({"speed_m_s": math.inf}, "speed_m_s"),
+    ],
+)
+def test_cross_track_scenario_refuses_bad_geometry(kwargs: dict[str, float], fragment: str) -> None:
+    with pytest.raises(InputError, match=fragment):
+        cross_track_scenario(**kwargs)
+
+
+def test_a_scenario_velocity_must_be_finite() -> None:
+    with pytest.raises(InputError, match="vel_ned_m_s"):
+        Scenario("x", 10.0, (0, 0, 1), (0, 0, -1), (0.1, 0, 0), (math.nan, 0.0, 0.0))

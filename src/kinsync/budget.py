@@ -18,7 +18,7 @@ tactical grade IMU systems", ISPRS J. Photogramm. Remote Sens. 74 (2012) 85-89.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -33,6 +33,7 @@ __all__ = [
     "Scenario",
     "beach_scenario",
     "bits_per_serial_byte",
+    "cross_track_scenario",
     "latency_beam_error",
     "period_error_budget",
     "rolling_table_scenario",
@@ -72,6 +73,9 @@ class Scenario:
         Unit normal of the surface plane, NED.
     rate_ned_rad_s : tuple of 3 float
         Angular rate vector of the platform, NED (rad/s).
+    vel_ned_m_s : tuple of 3 float
+        Velocity of the platform, NED (m/s); default at rest. A latency tau then also
+        misplaces the scanner by ``vel * tau`` (the position of the wrong instant).
     """
 
     name: str
@@ -79,6 +83,7 @@ class Scenario:
     beam_ned: tuple[float, float, float]
     normal_ned: tuple[float, float, float]
     rate_ned_rad_s: tuple[float, float, float]
+    vel_ned_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         rng = finite_number(self.range_m, "range_m")
@@ -98,6 +103,77 @@ class Scenario:
         object.__setattr__(self, "beam_ned", tuple(float(x) for x in beam))
         object.__setattr__(self, "normal_ned", tuple(float(x) for x in normal))
         object.__setattr__(self, "rate_ned_rad_s", tuple(float(x) for x in rate))
+        vel = finite_vector(self.vel_ned_m_s, 3, "vel_ned_m_s")
+        object.__setattr__(self, "vel_ned_m_s", tuple(float(x) for x in vel))
+
+
+def cross_track_scenario(
+    range_m: float = 50.0,
+    slope_deg: float = 10.0,
+    rate_deg_s: float = 10.0,
+    beam_deg: float = 0.0,
+    speed_m_s: float = 0.0,
+) -> Scenario:
+    """A cross-track beam onto a sloping surface under a roll rate, at a speed.
+
+    The platform heads North at ``speed_m_s``; the beam points East, ``beam_deg`` below
+    horizontal (0: horizontal, as `beach_scenario`; 90: straight down, as an airborne
+    scanner at nadir), and meets a surface rising towards the East at ``slope_deg``; the
+    roll rate turns about North.
+
+    Parameters
+    ----------
+    range_m : float
+        Slant range to the surface along the beam (m), > 0.
+    slope_deg : float
+        Surface slope (deg), in [0, 90).
+    rate_deg_s : float
+        Roll rate (deg/s).
+    beam_deg : float
+        Beam depression below horizontal (deg), in [0, 90]; default 0.
+    speed_m_s : float
+        Speed over ground, along North (m/s), >= 0; default 0.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    InputError
+        A value not a finite number or out of its range, or a beam that does not meet
+        the surface (horizontal onto a flat surface).
+    """
+    slope = finite_number(slope_deg, "slope_deg")
+    beam = finite_number(beam_deg, "beam_deg")
+    speed = finite_number(speed_m_s, "speed_m_s")
+    if not 0.0 <= beam <= 90.0:
+        msg = f"beam_deg: the beam's depression below horizontal must lie in [0, 90], got {beam}"
+        raise InputError(msg)
+    if not 0.0 <= slope < 90.0:
+        msg = f"slope_deg: must lie in [0, 90), got {slope}"
+        raise InputError(msg)
+    if beam + slope <= 0.0:
+        msg = (
+            "slope_deg 0: a horizontal beam never meets a flat surface; give a slope "
+            "(--slope-deg, a beach) or a beam below horizontal (--beam-deg 90: nadir)"
+        )
+        raise InputError(msg)
+    if speed < 0.0:
+        msg = f"speed_m_s: must be >= 0, got {speed}"
+        raise InputError(msg)
+    a, b = math.radians(slope), math.radians(beam)
+    return Scenario(
+        name=(
+            f"beam {beam:g} deg below horizontal onto a {slope:g} deg slope at {range_m:g} m, "
+            f"roll {rate_deg_s:g} deg/s, {speed:g} m/s"
+        ),
+        range_m=range_m,
+        beam_ned=(0.0, math.cos(b), math.sin(b)),
+        normal_ned=(0.0, -math.sin(a), -math.cos(a)),
+        rate_ned_rad_s=(math.radians(finite_number(rate_deg_s, "rate_deg_s")), 0.0, 0.0),
+        vel_ned_m_s=(speed, 0.0, 0.0),
+    )
 
 
 def beach_scenario(
@@ -125,13 +201,9 @@ def beach_scenario(
             "(90 deg) has no vertical error"
         )
         raise InputError(msg)
-    a = math.radians(slope)
-    return Scenario(
+    return replace(
+        cross_track_scenario(range_m, slope, rate_deg_s),
         name=f"beach {slope:g} deg at {range_m:g} m, roll {rate_deg_s:g} deg/s",
-        range_m=range_m,
-        beam_ned=(0.0, 1.0, 0.0),
-        normal_ned=(0.0, -math.sin(a), -math.cos(a)),
-        rate_ned_rad_s=(math.radians(finite_number(rate_deg_s, "rate_deg_s")), 0.0, 0.0),
     )
 
 
@@ -208,10 +280,17 @@ class BeamErrorBudget:
         surface (m), worse case.
     point_error_m : float
         3-D distance between the georeferenced point and the point really hit (m).
+    point_horizontal_error_m, point_vertical_error_m : float
+        Horizontal distance and height (up positive) of the georeferenced point from the
+        point really hit (m), in the case of ``point_error_m``: what a check against a
+        surveyed point shows (``horizontal_error_m`` and ``vertical_error_m`` are taken
+        on the surface instead).
     vertical_error_linear_m, horizontal_error_linear_m : float or None
         First-order (small-angle) values of the same quantities, for comparison.
     range_true_m : float
         Range to the surface along the true beam, worse case for ``point_error_m`` (m).
+    position_error_m : float
+        ``|vel| * |tau|``: how far the scanner is misplaced (m), in every case above.
     """
 
     latency_s: float
@@ -222,12 +301,18 @@ class BeamErrorBudget:
     vertical_error_linear_m: float | None
     horizontal_error_linear_m: float
     range_true_m: float
+    point_horizontal_error_m: float = 0.0
+    point_vertical_error_m: float = 0.0
+    position_error_m: float = 0.0
 
 
 def _errors_for_rotation(
-    scenario: Scenario, rotvec_ned: FloatArray
-) -> tuple[float | None, float, float, float]:
-    """Vertical, horizontal, point error and true range for one attitude error."""
+    scenario: Scenario, rotvec_ned: FloatArray, shift_ned_m: FloatArray
+) -> tuple[float | None, float, float, float, FloatArray]:
+    """Vertical, horizontal, point error, true range and the point's error vector (NED).
+
+    For one attitude error ``rotvec_ned`` and scanner position error ``shift_ned_m``.
+    """
     d = np.asarray(scenario.beam_ned)
     n = np.asarray(scenario.normal_ned)
     p0 = scenario.range_m * d
@@ -249,31 +334,42 @@ def _errors_for_rotation(
         )
         raise InputError(msg)
     hit_true = r_true * d_true
-    placed = r_true * d
-    horizontal = float(np.hypot(*(hit_true - p0)[:2]))
+    placed = shift_ned_m + r_true * d
+    # the assumed beam, from the misplaced scanner, meets the surface here
+    hit_assumed = shift_ned_m + (float(n @ (p0 - shift_ned_m)) / float(n @ d)) * d
+    horizontal = float(np.hypot(*(hit_true - hit_assumed)[:2]))
     point = float(np.linalg.norm(placed - hit_true))
     vertical: float | None = None
     if abs(n[2]) > 1e-12:
         ground_down = p0[2] - (n[0] * (placed[0] - p0[0]) + n[1] * (placed[1] - p0[1])) / n[2]
         vertical = float(ground_down - placed[2])  # up positive: -(placed_down - ground_down)
-    return vertical, horizontal, point, r_true
+    return vertical, horizontal, point, r_true, placed - hit_true
 
 
-def _linear_errors(scenario: Scenario, rotvec_ned: FloatArray) -> tuple[float | None, float]:
+def _linear_errors(
+    scenario: Scenario, rotvec_ned: FloatArray, shift_ned_m: FloatArray
+) -> tuple[float | None, float]:
     """First-order vertical and horizontal errors of one small attitude error.
 
     The true beam turns by ``delta = eps x d``; to first order it meets the plane at
     ``p0 + R (delta - k d)`` with ``k = n . delta / n . d``, and the point placed along
-    ``d`` at the true range sits ``R (n . delta) / n_down`` above the surface. Evaluated
-    in closed form: a scaled-down rotation underflowed for a tiny latency (1e-9 ms gave
-    0.0 for an exact -8.7e-12 m).
+    ``d`` at the true range sits ``R (n . delta) / n_down`` above the surface. A scanner
+    misplaced by ``s`` moves the assumed beam's meeting point by ``s - (n . s / n . d) d``
+    and the placed point's height by ``-(n . s) / n_down``. Evaluated in closed form: a
+    scaled-down rotation underflowed for a tiny latency (1e-9 ms gave 0.0 for an exact
+    -8.7e-12 m).
     """
     d = np.asarray(scenario.beam_ned)
     n = np.asarray(scenario.normal_ned)
     delta = np.cross(rotvec_ned, d)
     k = float(n @ delta) / float(n @ d)
-    horizontal = scenario.range_m * float(np.hypot(*(delta - k * d)[:2]))
-    vertical = None if abs(n[2]) <= 1e-12 else scenario.range_m * float(n @ delta) / float(n[2])
+    moved = shift_ned_m - (float(n @ shift_ned_m) / float(n @ d)) * d
+    horizontal = float(np.hypot(*(scenario.range_m * (delta - k * d) - moved)[:2]))
+    vertical = (
+        None
+        if abs(n[2]) <= 1e-12
+        else (scenario.range_m * float(n @ delta) - float(n @ shift_ned_m)) / float(n[2])
+    )
     return vertical, horizontal
 
 
@@ -311,8 +407,10 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
             "and the rate (deg/s)"
         )
         raise InputError(msg)
-    cases = [_errors_for_rotation(scenario, sign * eps) for sign in (1.0, -1.0)]
-    small = [_linear_errors(scenario, sign * eps) for sign in (1.0, -1.0)]
+    # the record of the wrong instant: its attitude and its position, both tau away
+    shift = np.asarray(scenario.vel_ned_m_s) * tau
+    cases = [_errors_for_rotation(scenario, sign * eps, sign * shift) for sign in (1.0, -1.0)]
+    small = [_linear_errors(scenario, sign * eps, sign * shift) for sign in (1.0, -1.0)]
 
     def worst_index(values: list[float | None]) -> int | None:
         real = [(abs(v), i) for i, v in enumerate(values) if v is not None]
@@ -332,6 +430,9 @@ def latency_beam_error(scenario: Scenario, latency_s: float) -> BeamErrorBudget:
         vertical_error_linear_m=vertical_lin,
         horizontal_error_linear_m=small[ih][1],
         range_true_m=cases[ip][3],
+        point_horizontal_error_m=float(np.hypot(*cases[ip][4][:2])),
+        point_vertical_error_m=-float(cases[ip][4][2]),
+        position_error_m=float(np.linalg.norm(shift)),
     )
 
 

@@ -28,6 +28,47 @@ def test_latency_json(run_cli: RunCli) -> None:
     assert row["horizontal_error_m"] == pytest.approx(r_true * math.cos(eps) - 50, rel=1e-9)
 
 
+def test_latency_at_nadir_from_an_aircraft(run_cli: RunCli) -> None:
+    """An airborne scanner at nadir, 1000 m over flat ground, rolling 10 deg/s at 60 m/s:
+    the horizontal beam's beach was the only scenario (slope 0 refused), and the record
+    of the wrong instant's position was left out."""
+    argv = ["budget", "latency", "--beam-deg", "90", "--slope-deg", "0", "--range-m", "1000"]
+    code, out, err = run_cli([*argv, "--speed-m-s", "60", "--latency-ms", "1", "--json"])
+    assert code == 0, err
+    (row,) = json.loads(out)["rows"]
+    eps = math.radians(10.0) * 1e-3
+    across, along = 1000.0 * math.tan(eps), 60.0 * 1e-3
+    assert row["position_error_m"] == pytest.approx(along, rel=1e-12)
+    assert row["horizontal_error_m"] == pytest.approx(math.hypot(across, along), rel=1e-9)
+    assert row["point_horizontal_error_m"] == pytest.approx(math.hypot(across, along), rel=1e-9)
+    sag = 1000.0 / math.cos(eps) - 1000.0  # the true range is longer: placed below
+    assert row["vertical_error_m"] == pytest.approx(-sag, rel=1e-6)
+    assert row["point_vertical_error_m"] == pytest.approx(-sag, rel=1e-6)
+    assert row["point_error_m"] == pytest.approx(math.hypot(across, along, sag), rel=1e-9)
+    assert row["horizontal_error_linear_m"] == pytest.approx(math.hypot(1000 * eps, along))
+    code, out, err = run_cli([*argv, "--speed-m-s", "60", "--latency-ms", "1"])
+    assert code == 0, err
+    assert "beam at nadir, 1000 m slant range, 0 deg slope, 10 deg/s roll, 60 m/s" in out
+    assert "scanner" in out
+    assert "184.6" in out
+
+
+def test_the_point_error_is_shown_beside_the_surface_figures(run_cli: RunCli) -> None:
+    """SPEC's horizontal figure is where the two beams meet the surface, not the placed
+    point's horizontal error: a beam 30 deg off nadir gave 'horizontal 0.20 m' for a
+    point 0.15 m off horizontally."""
+    argv = ["budget", "latency", "--beam-deg", "60", "--slope-deg", "0", "--range-m", "1000"]
+    code, out, err = run_cli([*argv, "--latency-ms", "1", "--json"])
+    assert code == 0, err
+    (row,) = json.loads(out)["rows"]
+    assert row["horizontal_error_m"] == pytest.approx(0.2016, abs=1e-4)
+    assert row["point_horizontal_error_m"] == pytest.approx(0.1512, abs=1e-4)
+    assert row["point_vertical_error_m"] == pytest.approx(-0.0873, abs=1e-4)
+    assert math.hypot(row["point_horizontal_error_m"], row["point_vertical_error_m"]) == (
+        pytest.approx(row["point_error_m"], rel=1e-9)
+    )
+
+
 def test_latency_table(run_cli: RunCli) -> None:
     code, out, _ = run_cli(["budget", "latency"])
     assert code == 0
@@ -86,7 +127,12 @@ def test_period_json(run_cli: RunCli) -> None:
             "--stop-bits 1.7: give 1, 1.5 or 2",
         ),
         (["budget", "latency", "--range-m", "-50"], "--range-m -50: outside the span"),
-        (["budget", "latency", "--slope-deg", "0"], "--slope-deg 0"),  # named as typed
+        # a horizontal beam (the default) onto a flat surface: both options named
+        (["budget", "latency", "--slope-deg", "0"], "give a slope (--slope-deg, a beach)"),
+        (["budget", "latency", "--slope-deg", "0"], "or a beam below horizontal (--beam-deg"),
+        (["budget", "latency", "--slope-deg", "-1"], "--slope-deg -1: outside the span"),
+        (["budget", "latency", "--beam-deg", "91"], "--beam-deg 91: outside the span"),
+        (["budget", "latency", "--speed-m-s", "-60"], "--speed-m-s -60: outside the span"),
         (["budget", "latency", "--slope-deg", "1", "--latency-ms", "500"], "grazing"),
         # Exactly at grazing (10 deg/s x 1 s = the 10 deg slope): was exit 0 with 1e17 m.
         (["budget", "latency", "--latency-ms", "1000", "--json"], "reaches or exceeds the grazing"),

@@ -10,8 +10,8 @@ from rich.table import Table
 
 from kinsync.budget import (
     Parity,
-    beach_scenario,
     bits_per_serial_byte,
+    cross_track_scenario,
     latency_beam_error,
     period_error_budget,
     serial_transmission_time_s,
@@ -26,10 +26,15 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object ins
 
 
 def latency_rows(
-    range_m: float, slope_deg: float, rate_deg_s: float, latencies_ms: list[float]
+    range_m: float,
+    slope_deg: float,
+    rate_deg_s: float,
+    latencies_ms: list[float],
+    beam_deg: float = 0.0,
+    speed_m_s: float = 0.0,
 ) -> dict[str, Any]:
-    """Compute the beach-scenario budget as the JSON-ready document the CLI prints."""
-    scenario = beach_scenario(range_m=range_m, slope_deg=slope_deg, rate_deg_s=rate_deg_s)
+    """Compute the cross-track budget as the JSON-ready document the CLI prints."""
+    scenario = cross_track_scenario(range_m, slope_deg, rate_deg_s, beam_deg, speed_m_s)
     rows = []
     for ms in latencies_ms:
         b = latency_beam_error(scenario, ms * 1e-3)
@@ -37,31 +42,66 @@ def latency_rows(
             {
                 "latency_ms": ms,
                 "attitude_error_deg": math.degrees(b.attitude_error_rad),
+                "position_error_m": b.position_error_m,
                 "vertical_error_m": b.vertical_error_m,
                 "horizontal_error_m": b.horizontal_error_m,
                 "vertical_error_linear_m": b.vertical_error_linear_m,
                 "horizontal_error_linear_m": b.horizontal_error_linear_m,
+                "point_error_m": b.point_error_m,
+                "point_horizontal_error_m": b.point_horizontal_error_m,
+                "point_vertical_error_m": b.point_vertical_error_m,
             }
         )
     return {
         "scenario": {
-            "description": "horizontal beam onto a sloping surface under a roll rate",
+            "description": (
+                "cross-track beam (beam_deg below horizontal: 0 horizontal, 90 nadir) onto a "
+                "surface rising towards it at slope_deg, under a roll rate, heading North at "
+                "speed_m_s"
+            ),
             "range_m": scenario.range_m,
             "slope_deg": slope_deg,
             "rate_deg_s": rate_deg_s,
+            "beam_deg": beam_deg,
+            "speed_m_s": speed_m_s,
             "beam_ned": list(scenario.beam_ned),
             "normal_ned": list(scenario.normal_ned),
             "rate_ned_rad_s": list(scenario.rate_ned_rad_s),
+            "vel_ned_m_s": list(scenario.vel_ned_m_s),
         },
         "rows": rows,
     }
 
 
+def _beam_words(beam_deg: float) -> str:
+    if beam_deg == 0.0:
+        return "horizontal beam"
+    if beam_deg == 90.0:
+        return "beam at nadir"
+    return f"beam {beam_deg:g} deg below horizontal"
+
+
 @app.command("latency")
 def latency(
     range_m: Annotated[float, typer.Option(help="Slant range to the surface (m).")] = 50.0,
-    slope_deg: Annotated[float, typer.Option(help="Surface slope (deg).")] = 10.0,
+    slope_deg: Annotated[
+        float, typer.Option(help="Surface slope (deg), rising towards the beam; 0 = flat.")
+    ] = 10.0,
     rate_deg_s: Annotated[float, typer.Option(help="Roll rate (deg/s).")] = 10.0,
+    beam_deg: Annotated[
+        float,
+        typer.Option(
+            help="Beam depression below horizontal (deg), cross-track: 0 = horizontal (a "
+            "vessel's scanner onto a beach), 90 = nadir (airborne)."
+        ),
+    ] = 0.0,
+    speed_m_s: Annotated[
+        float,
+        typer.Option(
+            help="Speed over ground (m/s): the latency also misplaces the scanner by speed "
+            "x latency along track."
+        ),
+    ] = 0.0,
     latency_ms: Annotated[
         list[float] | None,
         typer.Option(
@@ -70,15 +110,29 @@ def latency(
     ] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Vertical and horizontal point error of a latency (exact ray-plane geometry)."""
-    doc = latency_rows(range_m, slope_deg, rate_deg_s, list(latency_ms or DEFAULT_LATENCIES_MS))
+    """Point error of a latency (exact ray-plane geometry): on the surface and at the point.
+
+    "vertical" and "horizontal" are taken on the surface (the height of the placed point
+    above it; how far apart the assumed and true beams meet it); "point" is the placed
+    point's distance from the point really hit, and its horizontal and vertical parts.
+    """
+    doc = latency_rows(
+        range_m,
+        slope_deg,
+        rate_deg_s,
+        list(latency_ms or DEFAULT_LATENCIES_MS),
+        beam_deg,
+        speed_m_s,
+    )
     if as_json:
         print_json(doc)
         return
-    table = Table(
+    moving = f", {speed_m_s:g} m/s" if speed_m_s else ""
+    surface = Table(
         title=(
-            f"Latency error budget: horizontal beam, {range_m:g} m slant range, "
-            f"{slope_deg:g} deg slope, {rate_deg_s:g} deg/s roll (worse sign)"
+            f"Latency error budget: {_beam_words(beam_deg)}, {range_m:g} m slant range, "
+            f"{slope_deg:g} deg slope, {rate_deg_s:g} deg/s roll{moving} (worse sign): "
+            "on the surface"
         )
     )
     for col in (
@@ -89,9 +143,15 @@ def latency(
         "vertical,\nsmall-angle\n(mm)",
         "horizontal,\nsmall-angle\n(mm)",
     ):
-        table.add_column(col, justify="right")
+        surface.add_column(col, justify="right")
+    point = Table(title="at the point: the placed point against the point really hit (worse sign)")
+    point_columns = ["latency\n(ms)"]
+    point_columns += ["scanner\nmisplaced\n(mm)"] if speed_m_s else []
+    point_columns += ["point\n(mm)", "horizontal\n(mm)", "vertical\n(mm)"]
+    for col in point_columns:
+        point.add_column(col, justify="right")
     for r in doc["rows"]:
-        table.add_row(
+        surface.add_row(
             f"{r['latency_ms']:g}",
             fmt(r["attitude_error_deg"]),
             fmt(r["vertical_error_m"], 1e3),
@@ -99,7 +159,16 @@ def latency(
             fmt(r["vertical_error_linear_m"], 1e3),
             fmt(r["horizontal_error_linear_m"], 1e3),
         )
-    console.print(table)
+        moved = [fmt(r["position_error_m"], 1e3)] if speed_m_s else []
+        point.add_row(
+            f"{r['latency_ms']:g}",
+            *moved,
+            fmt(r["point_error_m"], 1e3),
+            fmt(r["point_horizontal_error_m"], 1e3),
+            fmt(r["point_vertical_error_m"], 1e3),
+        )
+    console.print(surface)
+    console.print(point)
 
 
 @app.command("serial")
