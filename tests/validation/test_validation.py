@@ -660,6 +660,18 @@ def test_bow_sigma_matches_the_bow_scatter() -> None:
     assert fits[0].as_document()["bow_std_m"] == fits[0].bow_std_m
 
 
+def test_the_wall_fit_does_not_depend_on_the_points_order() -> None:
+    # The bow's sigma sampled the points by their index in the file: the same 55,704
+    # points gave 0.68603 mm in file order, 0.68478 shuffled.
+    rng = np.random.default_rng(21)
+    pts, _ = _plane_points(rng, 6000, 0.005, 0.0001)
+    fits = [fit_wall(pts), fit_wall(pts[::-1]), fit_wall(pts[rng.permutation(len(pts))])]
+    for other in fits[1:]:
+        assert other.bow_std_m == pytest.approx(fits[0].bow_std_m, rel=1e-9)
+        assert other.bow_m == pytest.approx(fits[0].bow_m, rel=1e-9)
+        assert other.p_value == pytest.approx(fits[0].p_value, rel=1e-6)
+
+
 def test_one_scanner_profile_is_not_a_wall() -> None:
     # A 2 cm x 4 m strip (one profile) was fitted and flagged as curved with p ~ 1e-20.
     rng = np.random.default_rng(13)

@@ -607,10 +607,13 @@ def _bow_std(B: FloatArray, bend: FloatArray, q: FloatArray, cov_q: FloatArray) 
     a peak or valley that moves between draws is followed.
     """
     n = B.shape[0]
+    # spread along the wall, not along the file: the same points in any order give the
+    # same sample (u, then v; equal (u, v) give equal rows of M)
+    along = np.lexsort((B[:, 2], B[:, 1]))
     keep = np.unique(
         np.concatenate(
             [
-                np.linspace(0, n - 1, min(n, _BOW_POINTS)).astype(np.int64),
+                along[np.linspace(0, n - 1, min(n, _BOW_POINTS)).astype(np.int64)],
                 [int(np.argmax(bend)), int(np.argmin(bend))],
             ]
         )
