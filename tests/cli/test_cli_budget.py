@@ -79,7 +79,11 @@ def test_latency_table(run_cli: RunCli) -> None:
 def test_serial_json(run_cli: RunCli) -> None:
     code, out, _ = run_cli(["budget", "serial", "--baud", "115200", "--bytes", "14", "--json"])
     assert code == 0
-    assert json.loads(out) == {"latency_s": pytest.approx(14 * 10 / 115200), "warnings": []}
+    doc = json.loads(out)
+    assert doc.pop("provenance")["command"] == (
+        "kinsync budget serial --baud 115200 --bytes 14 --json"
+    )
+    assert doc == {"latency_s": pytest.approx(14 * 10 / 115200), "warnings": []}
     argv = ["budget", "serial", "--baud", "9600", "--bytes", "16", "--parity", "even"]
     code, out, _ = run_cli([*argv, "--stop-bits", "2", "--json"])
     assert json.loads(out)["latency_s"] == pytest.approx(16 * 12 / 9600)

@@ -120,8 +120,12 @@ def test_table_to_table_keeps_columns_and_matches_kernel(
         "gap_threshold_s",
         "mount",
         "warnings",
+        "provenance",
     }
     assert doc["warnings"] == []
+    assert set(doc["provenance"]) == {"software", "command", "utc"}
+    assert doc["provenance"]["command"].startswith("kinsync georef --points ")
+    assert doc["provenance"]["utc"] == "2023-11-14T22:13:20Z"  # tests' SOURCE_DATE_EPOCH
     assert doc["rejected_file"] is None
     assert doc["mount"] == {
         "lever_arm_body_m": [0.5, 0.1, -1.0],

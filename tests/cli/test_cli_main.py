@@ -14,6 +14,7 @@ import pytest
 
 from kinsync import __version__
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
+from kinsync.provenance import software
 from kinsync.trajectory import Trajectory
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
@@ -23,7 +24,8 @@ OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.
 def test_version(run_cli: RunCli) -> None:
     code, out, _ = run_cli(["--version"])
     assert code == 0
-    assert out.strip() == f"kinsync {__version__}"
+    assert out.strip() == software()  # the version, and a checkout's commit
+    assert out.startswith(f"kinsync {__version__}")
 
 
 def test_module_entry_point_runs_in_a_subprocess() -> None:

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from tests._las import las_points
 
-from kinsync import __version__
 from kinsync.errors import InputError
 from kinsync.io.las_header import creation_date
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
+from kinsync.provenance import software
 from kinsync.trajectory import Trajectory
 
 WEEK = 2149
@@ -100,7 +100,7 @@ def test_outputs_are_stamped_kinsync_today_and_keep_the_system_identifier(
     assert summary.rejected_path is not None
     for path in (out, summary.rejected_path):
         header = laspy.read(path).header
-        assert header.generating_software == f"kinsync {__version__}"
+        assert header.generating_software == software()
         assert header.creation_date == dt.date(2023, 11, 14)  # SOURCE_DATE_EPOCH
         assert header.system_identifier == "ACME scanner 7"
 

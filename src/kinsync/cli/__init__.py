@@ -41,6 +41,7 @@ from kinsync.cli._streams import (
     use_plain_symbols,
 )
 from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
+from kinsync.provenance import set_command
 
 __all__ = ["app", "main"]
 
@@ -394,7 +395,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         # command module): an interruption during them exits 130 in one line.
         with _stop_signals_unwind(), _warnings_on_one_line():
             _prepare_output()
-            result = _run_command(sys.argv[1:] if argv is None else argv)
+            args = list(sys.argv[1:] if argv is None else argv)
+            set_command(args)  # for the provenance of what it writes
+            result = _run_command(args)
         write_held_json()  # the --json document, with the warnings just printed
         sys.stdout.flush()  # a closed pipe is met here, not at exit
     except KeyboardInterrupt as err:

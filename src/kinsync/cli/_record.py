@@ -14,6 +14,8 @@ import sys
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from kinsync.provenance import run_record
+
 __all__ = [
     "WARNING_PREFIX",
     "drop_run",
@@ -70,6 +72,8 @@ def warn(text: str) -> None:
 def _with_warnings(doc: Mapping[str, Any]) -> dict[str, Any]:
     """``doc`` with a ``warnings`` list holding every warning printed, each once.
 
+    And a ``provenance`` record (`kinsync.provenance.run_record`) unless it has one.
+
     The document's own warnings come first, as it lists them; then each printed warning
     it does not list (compared on one line), in the order printed.
     """
@@ -80,7 +84,8 @@ def _with_warnings(doc: Mapping[str, Any]) -> dict[str, Any]:
         if text not in seen:
             merged.append(text)
             seen.add(text)
-    return {**doc, "warnings": merged}
+    # what produced it: the software (and commit), the command, the time (UTC)
+    return {**doc, "warnings": merged, "provenance": doc.get("provenance") or run_record()}
 
 
 def hold_json(doc: Mapping[str, Any], encode: Callable[[Any], str]) -> None:

@@ -6,7 +6,6 @@ from typing import Annotated
 
 import typer
 
-from kinsync import __version__
 from kinsync.cli import (
     budget,
     calibrate,
@@ -50,7 +49,9 @@ app.add_typer(calibrate.app, name="calibrate")
 
 def _version(value: bool) -> None:
     if value:
-        typer.echo(f"kinsync {__version__}")
+        from kinsync.provenance import software  # noqa: PLC0415 - a checkout's commit
+
+        typer.echo(software())
         raise typer.Exit(0)
 
 

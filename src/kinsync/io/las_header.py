@@ -23,11 +23,13 @@ from typing import BinaryIO
 import laspy
 from laspy.vlrs.vlrlist import VLRList
 
-from kinsync import __version__
 from kinsync.errors import InputError
 from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields, points_text
+from kinsync.provenance import run_time_utc, software
 
 __all__ = [
+    "creation_date",
+    "generating_software",
     "las_header",
     "las_suffix",
     "open_las_file",
@@ -45,8 +47,6 @@ _LAZ_FORMAT_BITS = 0x3F  # a LAZ file sets bit 7 (and some writers bit 6) of the
 _VLR_HEADER_BYTES = 54
 _EVLR_HEADER_BYTES = 60
 _GENERATING_SOFTWARE_BYTES = 32
-GENERATING_SOFTWARE = f"kinsync {__version__}"[:_GENERATING_SOFTWARE_BYTES]
-"""The Generating Software of every LAS/LAZ kinsync writes (at most 32 ASCII bytes)."""
 _LOWEST_WRITABLE = ((3, "1.2"), (5, "1.3"), (10, "1.4"))
 """The LAS version a LAS 1.0 header is written as, by point format (up to 3, 5, 10):
 laspy cannot write 1.0; 1.2 holds its formats and nearly all software reads it."""
@@ -58,7 +58,7 @@ def creation_date() -> dt.date:
     Or, when the environment sets ``SOURCE_DATE_EPOCH`` (seconds since 1970-01-01
     UTC, the reproducible-builds convention), that time's UTC date: the same inputs
     then give byte-identical outputs on any day (two runs either side of midnight
-    differed in their headers).
+    differed in their headers). See `kinsync.provenance.run_time_utc`.
 
     Raises
     ------
@@ -66,18 +66,15 @@ def creation_date() -> dt.date:
         ``SOURCE_DATE_EPOCH`` set to something other than a whole number of seconds
         within the years 1970-9999.
     """
-    epoch = os.environ.get("SOURCE_DATE_EPOCH")
-    if epoch is None or epoch == "":
-        return dt.datetime.now(dt.UTC).date()
-    try:
-        return dt.datetime.fromtimestamp(int(epoch), dt.UTC).date()
-    except (ValueError, OverflowError, OSError):
-        msg = (
-            f"SOURCE_DATE_EPOCH={epoch!r}: the creation date of LAS/LAZ outputs is taken "
-            "from it and it must be a whole number of seconds since 1970-01-01 UTC "
-            "(e.g. $(date +%s)); unset it to use today's date"
-        )
-        raise InputError(msg) from None
+    return run_time_utc().date()
+
+
+def generating_software() -> str:
+    """The Generating Software of every LAS/LAZ kinsync writes (at most 32 ASCII bytes).
+
+    `kinsync.provenance.software`: the version, and the commit from a checkout.
+    """
+    return software()[:_GENERATING_SOFTWARE_BYTES]
 
 
 def stamp_kinsync_header(header: laspy.LasHeader) -> None:
@@ -87,7 +84,7 @@ def stamp_kinsync_header(header: laspy.LasHeader) -> None:
     `creation_date` (today, UTC, or ``SOURCE_DATE_EPOCH``'s date); everything else,
     the System Identifier included, is kept.
     """
-    header.generating_software = GENERATING_SOFTWARE
+    header.generating_software = generating_software()
     header.creation_date = creation_date()
 
 
