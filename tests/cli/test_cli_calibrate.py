@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from html import escape as html_escape
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from kinsync.cli._options import expand_multi_value_options
 from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
+from kinsync.provenance import software
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
 from kinsync.trajectory import Trajectory
@@ -93,7 +95,16 @@ def test_calibrate_mount_json_mount_and_certificate(
     assert mount.boresight_rpy_deg[0] == pytest.approx(roll)
     assert mount.latency_s * 1e3 == pytest.approx(doc["parameters"]["latency_ms"]["value"])
     assert list(mount.lever_arm_body_m) == pytest.approx(doc["mount"]["lever_arm_body_m"])
+    # what produced them: the certificate and the mount file say it (an auditor found
+    # neither the software, the date, the command nor the trajectory there)
+    head = new.read_text(encoding="utf-8").splitlines()[:3]
+    assert head[0] == f"# written by {software()} at 2023-11-14T22:13:20Z"
+    assert head[1] == f"# from {folder / 'mount.toml'}"
+    assert head[2].startswith("# command: kinsync calibrate mount --points ")
     html = cert.read_text()
+    assert html_escape(software()) in html
+    assert "2023-11-14T22:13:20Z" in html
+    assert html_escape(str(folder / "trajectory.out")) in html  # in the command line
     assert "kinsync mount calibration" in html
     assert "Verdict" in html
     assert "boresight_roll_deg" in html

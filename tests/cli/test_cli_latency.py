@@ -15,6 +15,7 @@ import pytest
 
 from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
+from kinsync.provenance import software
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 from kinsync.trajectory_gaps import gap_threshold_shown_s
@@ -712,12 +713,22 @@ def test_sphere_writes_the_latency_into_a_mount(
     )
     given = Mount(lever_arm_body_m=(0.1, 0.0, 0.2), latency_s=0.0, uncertainty=lever)
     write_mount(given, acquisition)
+    header = "# Vehicle VX-12, scanner S/N 4711\n# surveyed 2026-11-02\n\n"
+    acquisition.write_text(header + acquisition.read_text(encoding="utf-8"), encoding="utf-8")
     out = tmp_path / "measured.toml"
     argv = ["latency", "sphere", str(sim_folder), "--no-figure", "--mount", str(acquisition)]
     code, stdout, err = run_cli([*argv, "--mount-out", str(out), "--json"])
     assert code == 0, err
     doc = json.loads(stdout)
     assert doc["mount_out"] == str(out)
+    # what produced it, and the acquisition mount's own header (it was dropped)
+    first = out.read_text(encoding="utf-8").splitlines()[:7]
+    assert first[0] == f"# written by {software()} at 2023-11-14T22:13:20Z"
+    assert first[1] == f"# from {acquisition}"
+    assert first[2].startswith("# command: kinsync latency sphere ")
+    assert first[3:6] == [
+        "# acq.toml's header:", "# Vehicle VX-12, scanner S/N 4711", "# surveyed 2026-11-02"
+    ]  # fmt: skip
     # With a mount, the split is always given (the README's keys), zero latency or not.
     assert doc["mount_latency_ms"] == 0.0
     assert doc["residual_latency_ms"] == doc["latency_ms"]

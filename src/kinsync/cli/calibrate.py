@@ -196,6 +196,7 @@ def mount(
             report_out=report,
             write_report=_write_certificate,
             progress=stages.say,
+            mount_source=mount_file,
         )
         stages.finish()
     for line in (*run.result.warnings, *run.result.held_advice):

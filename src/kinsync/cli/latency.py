@@ -101,11 +101,22 @@ def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | 
     return None if mount_file is None else read_mount(mount_file)
 
 
-def _write_mount_with_latency(mount: Mount, total_s: float, std_s: float, path: Path) -> None:
-    """``mount`` with the measured total latency and its sigma in ``[uncertainty]``.
+def _applied_mount_file(folder: Path, raw: bool, mount_file: Path | None) -> Path:
+    """The file of the mount the passes were georeferenced with (`_applied_mount`'s)."""
+    from kinsync.io.raw_passes import RAW_DIR, RAW_MOUNT_TOML  # noqa: PLC0415
 
-    The sphere measures the latency on its own: correlations the mount gave for the
-    latency no longer hold and are dropped.
+    source = folder / RAW_DIR / RAW_MOUNT_TOML if raw else mount_file
+    assert source is not None  # _check_mount_options: --mount-out needs a mount
+    return source
+
+
+def _write_mount_with_latency(
+    mount: Mount, total_s: float, std_s: float, path: Path, source: Path
+) -> None:
+    """``mount`` (read from ``source``) with the measured total latency and its sigma.
+
+    The sigma goes in ``[uncertainty]``. The sphere measures the latency on its own:
+    correlations the mount gave for the latency no longer hold and are dropped.
     """
     from kinsync.io.mount_file import write_mount  # noqa: PLC0415
     from kinsync.mount import MountUncertainty  # noqa: PLC0415
@@ -114,7 +125,7 @@ def _write_mount_with_latency(mount: Mount, total_s: float, std_s: float, path: 
     unc = (mount.uncertainty or MountUncertainty()).with_independent(latency_s=std_s)
     with derived_mounts():  # a measured latency: no unit slip to warn of
         measured = replace(mount, latency_s=total_s, uncertainty=unc)
-    write_mount(measured, path)
+    write_mount(measured, path, derived_from=source)
 
 
 def _check_mount_options(raw: bool, mount_file: Path | None, mount_out: Path | None) -> None:
@@ -253,7 +264,8 @@ def sphere(
     _warn_about_rates(result, folder)
     if mount_out is not None:
         assert applied is not None  # _check_mount_options
-        _write_mount_with_latency(applied, total_s, result.latency_std_s, mount_out)
+        source = _applied_mount_file(Path(folder), raw, mount_file)
+        _write_mount_with_latency(applied, total_s, result.latency_std_s, mount_out, source)
         doc["mount_out"] = str(mount_out)
     if as_json:
         print_json(doc)

@@ -23,11 +23,9 @@ import json
 import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import kinsync
 from kinsync._text import first_few
 from kinsync.demo import calibration as calibration_demo
 from kinsync.demo import georef as georef_demo
@@ -60,6 +58,7 @@ from kinsync.demo.validation import validation_section
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_folder, atomic_write_bytes, atomic_write_text
 from kinsync.progress import Progress, Stages
+from kinsync.provenance import run_time_utc, software_version
 from kinsync.report.html import Section, Skipped, render_report, summary_line
 from kinsync.sim.clock import ClockSimConfig
 from kinsync.sim.profiler import DriveScanConfig
@@ -316,8 +315,8 @@ def _about(
         return "not found; searched " + " and ".join(str(p) for p in searched)
 
     return [
-        ("kinsync version", kinsync.__version__),
-        ("date (UTC)", datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S")),
+        ("kinsync version", software_version()),
+        ("date (UTC)", run_time_utc().strftime("%Y-%m-%d %H:%M:%S")),
         ("command", command),
         ("output folder", str(Path(final_dir).absolute())),
         ("NaveGo synthetic set", data(navego, navego_candidates())),

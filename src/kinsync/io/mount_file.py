@@ -8,8 +8,9 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
 from kinsync.io.sanity import check_not_link_loop, not_a_regular_file
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
+from kinsync.provenance import run_record
 
-__all__ = ["MAX_TOML_BYTES", "read_mount", "read_toml_text", "write_mount"]
+__all__ = ["MAX_TOML_BYTES", "header_comments", "read_mount", "read_toml_text", "write_mount"]
 
 MAX_TOML_BYTES = 1 << 20
 """Largest TOML file read (bytes): kinsync's TOML files hold a few dozen values."""
@@ -74,6 +75,64 @@ def read_mount(path: Path) -> Mount:
     return mount_from_toml_text(read_toml_text(path, "mount file"), source=str(path))
 
 
-def write_mount(mount: Mount, path: Path) -> None:
-    """Write a mount TOML file atomically."""
-    atomic_write_text(Path(path), mount_to_toml_text(mount))
+def write_mount(mount: Mount, path: Path, *, derived_from: Path | None = None) -> None:
+    """Write a mount TOML file atomically.
+
+    Parameters
+    ----------
+    mount : Mount
+        The values.
+    path : Path
+        The file.
+    derived_from : Path, optional
+        The mount file these values were measured from (a calibration's start): the
+        file then begins with what produced it (`kinsync.provenance.run_record`: the
+        software and its commit, the command, the UTC time) and that file's own header
+        comments (a vehicle, a serial number), which its values no longer carry.
+    """
+    text = mount_to_toml_text(mount)
+    if derived_from is not None:
+        text = "\n".join(_provenance_comments(Path(derived_from))) + "\n\n" + text
+    atomic_write_text(Path(path), text)
+
+
+def header_comments(path: Path) -> list[str]:
+    """The comment lines (``#``) a TOML file begins with, blank lines between them skipped.
+
+    Parameters
+    ----------
+    path : Path
+        A TOML file; one that cannot be read gives none.
+
+    Returns
+    -------
+    list of str
+        The lines as written, ``#`` included.
+    """
+    try:
+        text = read_toml_text(Path(path), "mount file")
+    except InputError:
+        return []
+    out: list[str] = []
+    for line in text.lstrip("\ufeff").splitlines():
+        stripped = line.strip()
+        if stripped.startswith("#"):
+            out.append(stripped)
+        elif stripped:
+            break
+    return out
+
+
+def _provenance_comments(source: Path) -> list[str]:
+    """What produced a mount file measured from ``source``, and ``source``'s header."""
+    record = run_record()
+    lines = [
+        f"# written by {record['software']} at {record['utc']}",
+        f"# from {source}",
+    ]
+    if record["command"] is not None:
+        lines.append(f"# command: {record['command']}")
+    kept = header_comments(source)
+    if kept:
+        lines += [f"# {source.name}'s header:", *kept]
+    return [line.replace("\n", " ").replace("\r", " ") for line in lines]

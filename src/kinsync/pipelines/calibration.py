@@ -230,6 +230,7 @@ def calibrate_files(
     report_out: Path | None = None,
     write_report: Callable[[CalibrationResult, Path], None] | None = None,
     progress: Callable[[str], None] | None = None,
+    mount_source: Path | None = None,
 ) -> CalibrationRun:
     """Read the files, calibrate, write the calibrated mount and the certificate.
 
@@ -249,6 +250,9 @@ def calibrate_files(
         no report format).
     progress : callable, optional
         Called with a short message as each stage starts.
+    mount_source : Path, optional
+        The file ``mount`` was read from: the written mount says so, with what produced
+        it and that file's header comments (`kinsync.io.mount_file.write_mount`).
 
     Returns
     -------
@@ -259,7 +263,7 @@ def calibrate_files(
     lines = read_scan_lines(points, trajectories, gps_week=gps_week)
     result = calibrate_mount(lines, mount, options, progress=progress)
     if mount_out is not None:
-        write_mount(result.mount, Path(mount_out))
+        write_mount(result.mount, Path(mount_out), derived_from=mount_source)
     if report_out is not None and write_report is not None:
         write_report(result, Path(report_out))
     return CalibrationRun(

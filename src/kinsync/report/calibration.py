@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import matplotlib as mpl
 
@@ -21,6 +22,7 @@ from matplotlib.axes import Axes
 from kinsync.calibration.overlaps import LineOverlap
 from kinsync.calibration.parameters import PARAMETER_NAMES
 from kinsync.calibration.result import CalibrationResult, ParameterEstimate
+from kinsync.provenance import run_record
 from kinsync.report.figures import png_bytes
 from kinsync.report.html import Figure, Section, Table, render_report
 from kinsync.report.style import report_figure
@@ -301,10 +303,24 @@ def calibration_sections(result: CalibrationResult) -> list[Section]:
 
 
 def calibration_certificate(result: CalibrationResult) -> str:
-    """The complete one-page HTML certificate."""
+    """The complete one-page HTML certificate.
+
+    It ends with what produced it (`kinsync.provenance.run_record`): the software and
+    its commit, the date (UTC), the command line (every input file and option) and the
+    folder it ran in, so that the calibration can be run again.
+    """
     intro = (
         "Mount self-calibration from survey data (kinsync): boresight, lever arm and "
         "latency estimated with the features the lines share as nuisance parameters. "
         "Latency sign: > 0 means the navigation records lag the scanner."
     )
-    return render_report("kinsync mount calibration", intro, calibration_sections(result))
+    record = run_record()
+    about = [
+        ("software", str(record["software"])),
+        ("date (UTC)", str(record["utc"])),
+        ("command", record["command"] or "(run from Python: no command line)"),
+        ("working folder", str(Path.cwd())),
+    ]
+    return render_report(
+        "kinsync mount calibration", intro, calibration_sections(result), about=about
+    )
