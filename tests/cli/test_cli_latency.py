@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import re
 import shutil
 from collections.abc import Callable
@@ -694,6 +695,22 @@ def test_sphere_figure_and_no_figure_contradict(
     argv = ["latency", "sphere", str(sim_folder), "--figure", str(fig), "--no-figure"]
     assert_one_line_error(*run_cli(argv), "--no-figure contradict")
     assert not fig.exists()
+
+
+def test_a_pass_listed_twice_under_another_name_is_refused(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    """A hard link (and a copy, a symbolic link) of a pass file listed as another pass was
+    read as one more pass, exit 0: the latency moved by 9 us, or every pass twice
+    made its sigma sqrt(2) too small."""
+    folder = copy_of(sim_folder, tmp_path)
+    index = (folder / "passes.csv").read_text(encoding="utf-8").splitlines()
+    first = index[1].split(",")
+    os.link(folder / first[0], folder / f"again_{first[0]}")
+    rows = [*index, ",".join([f"again_{first[0]}", *first[1:]])]
+    (folder / "passes.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    code, out, err = run_cli(["latency", "sphere", str(folder), "--no-figure"])
+    assert_one_line_error(code, out, err, "recorded at the same time", f"again_{first[0]}")
 
 
 def test_sphere_writes_the_latency_into_a_mount(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from dataclasses import replace
 from functools import cache
 
@@ -211,6 +212,27 @@ def test_rates_that_disagree_widen_the_sigma_by_the_birge_ratio_and_say_so() -> 
     assert result.as_document()["consistency"]["rates_disagree"] is True
 
 
+def test_one_pass_given_twice_is_refused() -> None:
+    """A copy of a pass under another name (or a link to it) was counted as a second
+    pass: every pass twice gave a sigma sqrt(2) too small, two extra ones moved the
+    latency; with times or without them."""
+    passes = small_simulation(TAU_S, seed=7, rates=(6.0, 18.0))
+    twice = SpherePass(
+        "copy_pass.csv", passes[1].rate_deg_s, passes[1].points_ned_m, t_s=passes[1].t_s
+    )
+    with pytest.raises(InputError, match="recorded at the same time") as err:
+        estimate_latency_sphere([*passes, twice], radius_m=0.1)
+    assert f"{passes[1].source} and copy_pass.csv" in str(err.value)
+    assert "list each pass once" in str(err.value)
+    timeless = [SpherePass(p.source, p.rate_deg_s, p.points_ned_m) for p in passes]
+    shuffled = timeless[2].points_ned_m[::-1]  # the same points, in another order
+    again = SpherePass("again.csv", timeless[2].rate_deg_s, shuffled)
+    with pytest.raises(InputError, match=re.escape(f"{timeless[2].source} and again.csv hold")):
+        estimate_latency_sphere([*timeless, again], radius_m=0.1)
+    # distinct passes, in any order, are fine
+    assert estimate_latency_sphere(passes[::-1], radius_m=0.1).n_passes == len(passes)
+
+
 def test_a_rate_confirmed_elsewhere_counts_as_checked() -> None:
     """A raw pass's rate is judged by the attitude log too: one whose points cannot judge
     it (no times here) is counted as checked when ``rate_checked_by`` says so."""
@@ -361,10 +383,13 @@ def test_a_rate_whose_pass_holds_only_a_corner_of_floor_and_walls_is_left_out() 
 
 def test_no_sphere_among_the_points() -> None:
     rng = np.random.default_rng(0)
-    floor = np.column_stack(
-        [rng.uniform(1.2, 1.8, 3000), rng.uniform(-0.3, 0.3, 3000), np.full(3000, 0.3)]
-    )
-    passes = [SpherePass("floor+", 6.0, floor), SpherePass("floor-", -6.0, floor)]
+
+    def floor() -> np.ndarray:  # each pass its own returns (one pass twice is refused)
+        return np.column_stack(
+            [rng.uniform(1.2, 1.8, 3000), rng.uniform(-0.3, 0.3, 3000), np.full(3000, 0.3)]
+        )
+
+    passes = [SpherePass("floor+", 6.0, floor()), SpherePass("floor-", -6.0, floor())]
     with pytest.raises(InputError, match="rate"):
         estimate_latency_sphere(passes, radius_m=0.1)
 

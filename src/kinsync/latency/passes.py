@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,7 +12,7 @@ from kinsync._typing import FloatArray
 from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
 
-__all__ = ["SpherePass"]
+__all__ = ["SAME_TIME_SHARE", "SpherePass", "check_distinct_passes"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,3 +102,64 @@ class SpherePass:
     def n_points(self) -> int:
         """Number of points (sphere and clutter)."""
         return int(self.points_ned_m.shape[0])
+
+
+SAME_TIME_SHARE = 0.5
+"""Two passes whose time spans overlap by more than this share of the shorter one's
+were recorded at the same time: one scanner records one pass at a time."""
+
+
+def check_distinct_passes(passes: Sequence[SpherePass]) -> Sequence[SpherePass]:
+    """Refuse one pass given twice (a copy, a symbolic or hard link under another name).
+
+    Counted twice, it shrinks the latency's sigma by up to sqrt(2) and pulls the
+    estimate towards itself. Two passes with times are the same when their spans overlap
+    by more than `SAME_TIME_SHARE` of the shorter (one scanner records one pass at a
+    time); without times, when they hold the same points (in any order).
+
+    Parameters
+    ----------
+    passes : sequence of SpherePass
+        The passes.
+
+    Returns
+    -------
+    sequence of SpherePass
+        ``passes``, checked.
+
+    Raises
+    ------
+    InputError
+        Naming both passes.
+    """
+    seen: dict[bytes, str] = {}
+    for a, first in enumerate(passes):
+        for second in passes[a + 1 :]:
+            if first.t_s is None or second.t_s is None or not first.n_points:
+                continue
+            a0, a1 = float(first.t_s.min()), float(first.t_s.max())
+            b0, b1 = float(second.t_s.min()), float(second.t_s.max())
+            overlap, shorter = min(a1, b1) - max(a0, b0), min(a1 - a0, b1 - b0)
+            if overlap > SAME_TIME_SHARE * shorter if shorter > 0 else overlap >= 0:
+                _refuse_twice(
+                    first,
+                    second,
+                    f"were recorded at the same time ({a0!r} .. {a1!r} s and {b0!r} .. "
+                    f"{b1!r} s): one scanner records one pass at a time",
+                )
+        pts = first.points_ned_m
+        key = pts[np.lexsort(pts.T[::-1])].tobytes()
+        if key in seen:
+            other = next(p for p in passes if p.source == seen[key])
+            _refuse_twice(other, first, f"hold the same {first.n_points} points")
+        seen[key] = first.source
+    return passes
+
+
+def _refuse_twice(first: SpherePass, second: SpherePass, why: str) -> None:
+    msg = (
+        f"passes {first.source} and {second.source} {why}: this is one pass given twice "
+        "(a copy, or a link under another name), which would count twice and shrink the "
+        "latency's sigma; list each pass once in passes.csv"
+    )
+    raise InputError(msg)

@@ -39,7 +39,7 @@ from kinsync._validate import finite_vector, positive_number, seed_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
-from kinsync.latency.passes import SpherePass
+from kinsync.latency.passes import SpherePass, check_distinct_passes
 from kinsync.latency.planning import (
     DEFAULT_MAX_INCIDENCE_DEG,
     MIN_SPHERE_POINTS_PER_PASS,
@@ -802,7 +802,7 @@ def estimate_latency_sphere(
     if scanner_origin_ned_m is not None:
         scanner_origin_ned_m = _checked_origin(scanner_origin_ned_m)
     roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
-    n_rate_checked = check_pass_rates(passes)
+    n_rate_checked = check_pass_rates(check_distinct_passes(passes))
     crop = None
     if roi is not None:
         passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
