@@ -30,7 +30,7 @@ from kinsync.clock import (
 from kinsync.clock.fit import MAX_LOG_SPAN_S
 from kinsync.clock.leap_seconds import gps_to_utc_iso
 from kinsync.demo.clock import clock_section
-from kinsync.errors import InputError, ObservabilityError, OutsideSpanError
+from kinsync.errors import InputError, KinsyncWarning, ObservabilityError, OutsideSpanError
 from kinsync.io.clock_model import read_clock_model, read_pps_csv, write_clock_model
 from kinsync.io.nmea import format_sentence, read_nmea_log
 from kinsync.messages import NmeaLog
@@ -350,7 +350,8 @@ def test_transmission_time_decides_the_named_edge_at_low_baud() -> None:
     pps, _, gps, n_bytes, g0 = arrays(drift_ppm=0.0, jitter_s=0.0)
     tx = 39 * 10 / 1200.0
     zda_t = 1000.0 + (gps + 0.98 + tx - g0)
-    fit = fit_clock(pps, zda_t, gps, n_bytes, baud=1200.0)
+    with pytest.warns(KinsyncWarning, match="start 980 ms after the pulse edge"):
+        fit = fit_clock(pps, zda_t, gps, n_bytes, baud=1200.0)
     assert fit.n_wrong_zda == 0
     assert fit.model.reference_gps_s == pytest.approx(g0, abs=1e-9)
     assert fit.zda_delay_s == pytest.approx(0.98, abs=1e-6)

@@ -18,12 +18,19 @@ Robust fit (`fit_clock`)
        intervals that are whole seconds within 1 %, the grid phase the middle of what
        the densest 0.2 s window of the pulse phases holds, refined by a median (so the
        larger part of a log with a step sets it); every pulse gets the nearest count.
-    2. Pulses off the grid are rejected iteratively: least squares of count on local
-       time over the kept pulses, residuals of all pulses, robust scale 1.4826 * MAD,
-       keep ``|residual| <= max(6 * scale, 1 us)`` (one pulse per count, the closest),
-       until the kept set no longer changes. The threshold starts at 0.1 s and shrinks
-       at most tenfold per pass, so an outlier that tilts the first fit cannot drag the
-       good pulses out with it. Rejected pulses are *spurious*.
+    2. Pulses off the grid are rejected iteratively (`kinsync.clock.grid`): a robust
+       (Theil-Sen) line through the pulses within 0.1 s of the grid makes the first
+       cut, then least squares of count on local time over the kept pulses, residuals
+       of all pulses, robust scale 1.4826 * MAD of the n pulses within 0.1 s, keep
+       ``|residual| <= max((6 + 300 / n**2) * scale, 10 us)`` (one pulse per count, the
+       closest), until the kept set no longer changes. The threshold shrinks at most
+       tenfold per pass, so an outlier that tilts a fit cannot drag the good pulses
+       out with it. Rejected pulses are *spurious*.
+    6. Plausibility (`kinsync.clock.plausibility`): a `KinsyncWarning` names a --baud
+       the sentence spacing contradicts, ZDAs starting over 0.5 s after their edge,
+       pulses scattered over 1 ms rms, residuals that follow each other (the sigmas
+       count pulse jitter only), and ZDAs straddling their edge (each then names the
+       edge it starts at).
     3. Each ZDA names a count on that grid (the last count before its transmission
        start, or the next one); the difference between the ZDA's GPS second and that
        count is the grid's absolute label. The label most ZDAs agree on (a strict
@@ -54,6 +61,7 @@ leap-second table (`kinsync.clock.leap_seconds`).
 from __future__ import annotations
 
 import math
+import warnings
 from collections import Counter
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -64,8 +72,15 @@ from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._validate import positive_number
 from kinsync.budget import Parity, serial_transmission_time_s
+from kinsync.clock.grid import grid_labels, line_fit, unit_hint
 from kinsync.clock.leap_seconds import zda_to_gps_s
 from kinsync.clock.model import ClockModel, _finite_times
+from kinsync.clock.plausibility import (
+    pulse_scatter_note,
+    residual_structure_note,
+    sentence_spacing_note,
+    zda_delay_note,
+)
 from kinsync.clock.steps import (
     WHOLE_SECOND_TOLERANCE_S,
     check_phase_gaps,
@@ -74,9 +89,8 @@ from kinsync.clock.steps import (
     find_zda_step,
     wrap,
 )
-from kinsync.errors import InputError, ObservabilityError
+from kinsync.errors import InputError, KinsyncWarning, ObservabilityError
 from kinsync.messages import NmeaLog, RejectedLine, ZdaRecord
-from kinsync.robust import robust_sigma
 from kinsync.trajectory_times import backward_step_s
 
 __all__ = [
@@ -98,15 +112,6 @@ MAX_LOG_SPAN_S = 30 * 86_400.0
 second in between is listed (`ClockFit.missing_gps_s`), and one offset-and-drift line
 over months is not a clock model: a longer span is a stray or mistyped pulse, or the
 logs of several sessions run together."""
-
-_PERIOD_TOLERANCE = 0.01
-"""Pulse intervals within 1 % of a whole number of seconds set the local period."""
-_COARSE_TOLERANCE_S = 0.1
-"""Pulses within this of the coarse grid seed the robust fit."""
-_REJECT_SIGMAS = 6.0
-_MIN_REJECT_THRESHOLD_S = 1e-6
-_MAX_ITERATIONS = 50
-_THRESHOLD_SHRINK = 10.0
 
 
 def message_transmission_time_s(
@@ -350,153 +355,6 @@ def _increasing_times(values: ArrayLike, name: str) -> FloatArray:
     return t
 
 
-_TIME_UNITS = ((1e3, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
-"""Pulse spacings (in the log's unit) that say the times are not in seconds."""
-
-
-def _unit_hint(spacing: float, what: str) -> str:
-    """``"; ... look like milliseconds ..."`` for a median spacing of about 1000, else ""."""
-    for per_second, unit in _TIME_UNITS:
-        if abs(spacing - per_second) <= _PERIOD_TOLERANCE * per_second:
-            return (
-                f"; {what} are about {per_second:g} units apart, so they look like {unit}: "
-                f"give every t_local_s in seconds (divide by {per_second:g})"
-            )
-    return ""
-
-
-def _both_edges_s(t: FloatArray) -> float | None:
-    """Spacing of two interleaved pulse phases (s) when the log holds both edges, else None.
-
-    A capture that logs the rising and the falling edge of each pulse gives intervals
-    alternating ``d`` and ``1 - d``: none is a whole second, every other one is.
-    """
-    d = np.diff(t)
-    if len(d) < 3:
-        return None
-    short = d < 0.5
-    if np.count_nonzero(short) * 3 < len(d):
-        return None
-    d2 = t[2:] - t[:-2]
-    k2 = np.rint(d2)
-    whole = (k2 >= 1.0) & (np.abs(d2 - k2) <= _PERIOD_TOLERANCE * k2)
-    if 2 * np.count_nonzero(whole) <= len(d2):
-        return None
-    return float(np.median(d[short]))
-
-
-def _local_period_s(t: FloatArray) -> float:
-    """Median local duration of one GPS second, from the whole-second pulse intervals."""
-    d = np.diff(t)
-    two_phases_s = _both_edges_s(t)
-    if two_phases_s is not None:
-        msg = (
-            f"the pulses fall in two phases {two_phases_s:.3g} s apart (intervals alternate "
-            f"about {two_phases_s:.3g} s and {1.0 - two_phases_s:.3g} s): the pulse log holds "
-            "both edges of each pulse (rising and falling); keep one edge (every other line)"
-        )
-        raise InputError(msg)
-    spacing = float(np.median(d))
-    hint = _unit_hint(spacing, "the pulses")
-    if hint:
-        msg = f"the pulse log's times do not look like seconds{hint}"
-        raise InputError(msg)
-    k = np.rint(d)
-    ok = (k >= 1.0) & (np.abs(d - k) <= _PERIOD_TOLERANCE * k)
-    if not np.any(ok):
-        msg = (
-            "no two pulses are a whole number of seconds apart (within 1 %): the pulse log "
-            "does not look like a pulse per second; check the file and its time unit"
-        )
-        raise InputError(msg)
-    return float(np.median(d[ok] / k[ok]))
-
-
-def _line_fit(x: FloatArray, y: FloatArray) -> tuple[float, float]:
-    """Least-squares intercept at x = 0 and slope of y on x."""
-    xm = float(np.mean(x))
-    ym = float(np.mean(y))
-    sxx = float(np.sum((x - xm) ** 2))
-    slope = float(np.sum((x - xm) * (y - ym)) / sxx) if sxx > 0.0 else 0.0
-    return ym - slope * xm, slope
-
-
-def _keep_closest_per_label(labels: IntArray, resid: FloatArray, keep: BoolArray) -> BoolArray:
-    idx = np.flatnonzero(keep)
-    order = idx[np.lexsort((np.abs(resid[idx]), labels[idx]))]
-    first = np.ones(len(order), dtype=np.bool_)
-    first[1:] = labels[order][1:] != labels[order][:-1]
-    out = np.zeros_like(keep)
-    out[order[first]] = True
-    return out
-
-
-def _phase_mode(phase: FloatArray) -> float:
-    """Middle of the densest window of width ``2 * _COARSE_TOLERANCE_S`` of the phases.
-
-    Phases are in grid counts, in [-0.5, 0.5]; windows wrap around. Unlike a circular
-    mean, the mode of a log with a step of the local clock is the phase of its larger
-    part, not a phase between the two that no pulse has.
-    """
-    p = np.sort(phase)
-    ext = np.concatenate([p, p + 1.0])
-    ends = np.searchsorted(ext, p + 2.0 * _COARSE_TOLERANCE_S, side="left")
-    i = int(np.argmax(ends - np.arange(len(p))))
-    return float(np.median(ext[i : int(ends[i])]))
-
-
-def _grid_labels(t: FloatArray) -> tuple[IntArray, BoolArray, float, float]:
-    """Label each pulse with a count of seconds and flag the pulses on the 1 s grid.
-
-    Returns labels (relative counts), the good-pulse mask, and the relative model
-    ``count(t) = alpha + beta * (t - t[0])`` fitted on the good pulses.
-    """
-    x = t - t[0]
-    period = _local_period_s(t)
-    beta = 1.0 / period
-    tau = x * beta
-    phase = wrap(tau)
-    phi0 = _phase_mode(phase)
-    near = np.abs(wrap(phase - phi0)) < _COARSE_TOLERANCE_S
-    if np.count_nonzero(near) < 3:
-        msg = (
-            f"the {len(t)} pulses do not share a 1 s grid (fewer than 3 within 0.1 s of "
-            "a common phase); check that the file holds PPS edges in seconds"
-        )
-        raise ObservabilityError(msg)
-    phi0 += float(np.median(wrap(phase[near] - phi0)))
-    # Counts start at the grid position of the first pulse: alpha = -phi0.
-    alpha = -phi0
-    labels = np.rint(alpha + beta * x).astype(np.int64)
-    resid = labels - (alpha + beta * x)
-    threshold = _COARSE_TOLERANCE_S
-    good = _keep_closest_per_label(labels, resid, np.abs(resid) < threshold)
-    for _ in range(_MAX_ITERATIONS):
-        if np.count_nonzero(good) < 3:
-            break
-        alpha, beta = _line_fit(x[good], labels[good].astype(np.float64))
-        u = alpha + beta * x
-        labels = np.rint(u).astype(np.int64)
-        resid = labels - u
-        r_good = resid[good]
-        scale = robust_sigma(r_good - np.median(r_good))
-        target = max(_REJECT_SIGMAS * scale, _MIN_REJECT_THRESHOLD_S)
-        # Shrink by at most 10x per pass: a fit tilted by an outlier still inside the
-        # coarse tolerance must not reject the good pulses along with it.
-        threshold = max(target, threshold / _THRESHOLD_SHRINK)
-        new_good = _keep_closest_per_label(labels, resid, np.abs(resid) <= threshold)
-        if np.array_equal(new_good, good) and threshold == target:
-            break
-        good = new_good
-    if np.count_nonzero(good) < 3:
-        msg = (
-            f"only {int(np.count_nonzero(good))} of {len(t)} pulses lie on a common 1 s grid; "
-            "at least 3 are needed to fit offset, drift and their uncertainty"
-        )
-        raise ObservabilityError(msg)
-    return labels, good, alpha, beta
-
-
 def _check_log_span(t: FloatArray, labels: IntArray, good: BoolArray) -> None:
     """Refuse good pulses spanning more than `MAX_LOG_SPAN_S`, naming the largest gap."""
     g = np.flatnonzero(good)
@@ -577,7 +435,7 @@ def _majority_label(k_zda: FloatArray, z_t: FloatArray) -> tuple[int, BoolArray]
             detail += f"; {int(np.count_nonzero(~whole))} name no whole second"
         hint = ""
         if len(z_t) > 1:
-            hint = _unit_hint(float(np.median(np.diff(np.sort(z_t)))), "the ZDAs")
+            hint = unit_hint(float(np.median(np.diff(np.sort(z_t)))), "the ZDAs")
         msg = (
             f"the {len(k_zda)} ZDA messages do not agree on which GPS second the pulses mark "
             f"(no strict majority: {detail if len(values) else 'none names a whole second'})"
@@ -615,7 +473,7 @@ def _final_least_squares(
     """
     xg = t_good - t_good[0]
     yg = gps_good - gps_good[0]
-    a, e = _line_fit(xg, yg - xg)
+    a, e = line_fit(xg, yg - xg)
     resid = yg - (a + xg * (1.0 + e))
     n = len(xg)
     sigma2 = float(np.sum(resid**2)) / (n - 2)
@@ -634,6 +492,45 @@ def _final_least_squares(
     rounding_s = (ref_gps - float(gps_good[0])) - a
     cov[0, 0] += rounding_s**2
     return ref_gps, e * 1e6, resid, cov
+
+
+def _resolution_s(t_good: FloatArray, gps_good: FloatArray) -> float:
+    """Float64 step of the largest local or GPS time of the good pulses (s)."""
+    return max(math.ulp(float(np.max(np.abs(t_good)))), math.ulp(float(np.max(gps_good))))
+
+
+_STRADDLE_WINDOW = 0.05
+"""ZDAs whose transmission starts within this of an edge (in grid counts, about s)..."""
+_STRADDLE_SHARE = 0.1
+"""...at least this share of them on either side of it: the ZDAs straddle the edge."""
+
+
+def _named_counts(start_count: FloatArray, convention: Convention) -> tuple[IntArray, str | None]:
+    """Grid count each ZDA names, from its transmission start in grid counts.
+
+    The last count before the start (``"preceding"``) or the next one. ZDAs that start
+    at the edge itself (some within `_STRADDLE_WINDOW` before it, some after, each side
+    at least `_STRADDLE_SHARE` of them) cannot tell the edge before from the edge after:
+    the arrival jitter puts them on either side. Each then names the edge it starts at,
+    under either convention (just after an edge it names, just before an edge it
+    announces), and a note says so; read by the convention, half would name a wrong
+    second and look like a step of the local clock.
+    """
+    phase = wrap(start_count)
+    near = np.abs(phase) < _STRADDLE_WINDOW
+    before = int(np.count_nonzero(near & (phase < 0.0)))
+    after = int(np.count_nonzero(near & (phase >= 0.0)))
+    if min(before, after) >= _STRADDLE_SHARE * len(phase):
+        median_us = float(np.median(phase[near])) * 1e6
+        note = (
+            f"the ZDAs start at the pulse edge itself ({before} just before it, {after} just "
+            f"after, median {median_us:+.0f} us): which edge a ZDA names cannot be told from "
+            f"--convention {convention}, so each was taken to name the edge it starts at; "
+            "check --baud and that the NMEA times mark the end of each sentence's reception"
+        )
+        return np.rint(start_count).astype(np.int64), note
+    shift = 1 if convention == "following" else 0
+    return np.floor(start_count).astype(np.int64) + shift, None
 
 
 def fit_clock(
@@ -704,12 +601,12 @@ def fit_clock(
         [serial_transmission_time_s(int(n), rate, data_bits, parity, stop_bits) for n in z_bytes]
     )
 
-    labels, good, alpha, beta = _grid_labels(t)
+    labels, good, alpha, beta = grid_labels(t)
     _check_log_span(t, labels, good)
     check_phase_gaps(t, good, alpha, beta)
     # Grid count each ZDA names: last count before the transmission start, or the next.
     start_count = alpha + beta * (z_t - tx_s - t[0])
-    named = np.floor(start_count).astype(np.int64) + (1 if convention == "following" else 0)
+    named, straddle = _named_counts(start_count, convention)
     check_steps(
         t,
         find_phase_jump(t, labels, good, alpha, beta),
@@ -747,6 +644,15 @@ def fit_clock(
         raise ObservabilityError(msg)
     start_gps = model.linear().apply(z_t[paired] - tx_s[paired])
     zda_delay = float(np.median(start_gps - z_gps[paired]))
+    rms_s = float(np.sqrt(np.mean(resid**2)))
+    for note in (
+        straddle,
+        zda_delay_note(zda_delay, convention, rate),
+        pulse_scatter_note(rms_s, len(t_good)),
+        None if piecewise else residual_structure_note(resid, _resolution_s(t_good, gps_good)),
+    ):
+        if note is not None:
+            warnings.warn(note, KinsyncWarning, stacklevel=2)
     return ClockFit(
         model=model,
         convention=convention,
@@ -754,7 +660,7 @@ def fit_clock(
         t_local_s=readonly_array(t_good),
         t_gps_s=readonly_array(gps_good),
         residuals_s=readonly_array(resid),
-        residual_rms_s=float(np.sqrt(np.mean(resid**2))),
+        residual_rms_s=rms_s,
         offset_std_s=math.sqrt(cov[0, 0]),
         drift_std_ppm=math.sqrt(cov[1, 1]),
         offset_drift_cov=readonly_array(cov),
@@ -847,6 +753,7 @@ def fit_clock_to_log(
     ok = np.isfinite(gps)
     n_bytes = np.array([len(s.encode("ascii", errors="replace")) + 2 for s in zda_sentences])
     n_corrupt = sum(1 for r in log.rejected if r.unsupported_type is None)
+    _warn_sentence_spacing(log, baud, data_bits, parity, stop_bits)
     fit = fit_clock(
         pps_t_local_s,
         zda_t[ok],
@@ -874,3 +781,37 @@ def _log_zdas(log: NmeaLog) -> tuple[FloatArray, list[ZdaRecord], list[str], lis
     sentences = [log.raw_sentences[i] for i in idx]
     lines = [log.lines[i] for i in idx] if log.lines else []
     return t, records, sentences, lines
+
+
+def _warn_sentence_spacing(
+    log: NmeaLog, baud: float, data_bits: int, parity: Parity | str, stop_bits: float
+) -> None:
+    """Warn when the log's lines arrive closer together than ``baud`` lets them.
+
+    Every line with an arrival time counts, the rejected ones too (their text as
+    received), in file order when the file lines are known.
+    """
+    rows = [
+        (line, float(t), sentence)
+        for line, t, sentence in zip(
+            log.lines or range(len(log.records)), log.t_local_s, log.raw_sentences, strict=True
+        )
+    ]
+    if log.lines:
+        rows += [(r.line, r.t_local_s, r.sentence) for r in log.rejected if r.t_local_s is not None]
+        rows.sort(key=lambda row: row[0])
+    per_byte_s = serial_transmission_time_s(
+        1, positive_number(baud, "baud"), data_bits, parity, stop_bits
+    )
+    note = sentence_spacing_note(
+        np.array([row[1] for row in rows], dtype=np.float64),
+        np.array(
+            [len(row[2].encode("ascii", errors="replace")) + 2 for row in rows], dtype=np.float64
+        ),
+        [row[0] for row in rows] if log.lines else [],
+        per_byte_s,
+        float(baud),
+        log.source,
+    )
+    if note is not None:
+        warnings.warn(note, KinsyncWarning, stacklevel=3)
