@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kinsync.clock import utc_fields_to_gps_s, zda_to_gps_s
+from kinsync.clock import fit_clock_to_log, utc_fields_to_gps_s, zda_to_gps_s
 from kinsync.errors import InputError
 from kinsync.io.clock_model import read_pps_csv
 from kinsync.io.nmea import read_nmea_log
@@ -133,3 +133,24 @@ def test_many_spurious_pulses_make_a_log_its_reader_accepts(tmp_path: Path) -> N
     assert np.all(np.diff(pps) > 0.0)
     spurious = np.asarray(sim.truth["spurious_t_local_s"])
     assert len(np.unique(spurious)) == 100_000
+
+
+def test_a_leap_second_is_written_as_23_59_60(tmp_path: Path) -> None:
+    """The edge inside the leap second of 2016-12-31 was written 000000.00 01-01-2017,
+    twice, so the fit counted a wrong ZDA the truth did not list."""
+    config = ClockSimConfig(
+        start_utc="2016-12-31T23:55:00", missing=0, spurious=0, bad_zda=0, bad_lines=0
+    )
+    sim = simulate_clock(config)
+    zdas = [s for s in sim.nmea_sentences if s.startswith("$GPZDA")]
+    times = [s.split(",")[1] for s in zdas]
+    assert times.count("235960.00") == 1
+    assert times.count("000000.00") == 1
+    leap = zdas[times.index("235960.00")]
+    assert ",31,12,2016," in leap
+    gga = [s.split(",")[1] for s in sim.nmea_sentences if s.startswith("$GPGGA")]
+    assert gga.count("235960.00") == 1
+    write_clock_simulation(sim, tmp_path)
+    fit = fit_clock_to_log(read_pps_csv(tmp_path / "pps.csv"), read_nmea_log(tmp_path / "nmea.csv"))
+    assert fit.n_wrong_zda == sim.truth["n_wrong_zda"] == 0
+    assert fit.model.offset_s == pytest.approx(0.37, abs=1e-5)

@@ -251,9 +251,14 @@ class ClockSimulation:
 
 
 def _utc_fields(t_gps_s: float) -> tuple[str, str, tuple[int, int, int]]:
-    """(hhmmss.ss, ddmmyy, (day, month, year)) of a GPS time."""
-    when = datetime.fromtimestamp(gps_to_utc_posix_s(t_gps_s), tz=UTC)
-    hms = f"{when.hour:02d}{when.minute:02d}{when.second:02d}.00"
+    """(hhmmss.ss, ddmmyy, (day, month, year)) of a GPS time; 23:59:60 in a leap second."""
+    posix = gps_to_utc_posix_s(t_gps_s)
+    # Inside an inserted leap second the POSIX time is the next 00:00:00 (which has its
+    # own GPS second): the receiver sends 23:59:60 of the day before.
+    leap = float(utc_to_gps_s(posix)) != t_gps_s
+    when = datetime.fromtimestamp(posix - 1.0 if leap else posix, tz=UTC)
+    second = 60 if leap else when.second
+    hms = f"{when.hour:02d}{when.minute:02d}{second:02d}.00"
     return (
         hms,
         f"{when.day:02d}{when.month:02d}{when.year % 100:02d}",
