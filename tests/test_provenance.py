@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 import kinsync
-from kinsync import provenance
 from kinsync.errors import InputError
-from kinsync.provenance import (
+from kinsync.io import provenance
+from kinsync.io.provenance import (
     _dirty,
     _git_dir,
     _head_commit,

@@ -14,9 +14,9 @@ from tests._trajectory_holes import with_gap
 
 from kinsync.cli._options import expand_multi_value_options
 from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.io.provenance import software
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
-from kinsync.provenance import software
 from kinsync.sim.patch_config import PatchTestConfig
 from kinsync.sim.patch_test import PatchTestSimulation, simulate_patch_test, write_patch_test
 from kinsync.trajectory import Trajectory

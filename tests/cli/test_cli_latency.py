@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from kinsync.io.mount_file import read_mount, write_mount
+from kinsync.io.provenance import software
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation
-from kinsync.provenance import software
 from kinsync.sim.rotating_table import simulate_rotating_table, write_simulation
 from kinsync.sim.table_config import RotatingTableConfig
 from kinsync.trajectory_gaps import gap_threshold_shown_s

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from kinsync import __version__
+from kinsync.io.provenance import software
 from kinsync.io.trajectory_csv import read_trajectory_csv, write_trajectory_csv
-from kinsync.provenance import software
 from kinsync.trajectory import Trajectory
 
 RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py

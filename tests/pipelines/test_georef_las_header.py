@@ -12,10 +12,10 @@ from tests._las import las_points
 
 from kinsync.errors import InputError
 from kinsync.io.las_header import creation_date
+from kinsync.io.provenance import software
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount
 from kinsync.pipelines.georef import georeference_file
-from kinsync.provenance import software
 from kinsync.trajectory import Trajectory
 
 WEEK = 2149

@@ -41,7 +41,7 @@ from kinsync.cli._streams import (
     use_plain_symbols,
 )
 from kinsync.errors import DiskFullError, InputError, KinsyncError, KinsyncWarning
-from kinsync.provenance import set_command
+from kinsync.io.provenance import set_command
 
 __all__ = ["app", "main"]
 

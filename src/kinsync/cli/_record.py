@@ -14,7 +14,7 @@ import sys
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from kinsync.provenance import run_record
+from kinsync.io.provenance import run_record
 
 __all__ = [
     "WARNING_PREFIX",
@@ -72,7 +72,7 @@ def warn(text: str) -> None:
 def _with_warnings(doc: Mapping[str, Any]) -> dict[str, Any]:
     """``doc`` with a ``warnings`` list holding every warning printed, each once.
 
-    And a ``provenance`` record (`kinsync.provenance.run_record`) unless it has one.
+    And a ``provenance`` record (`kinsync.io.provenance.run_record`) unless it has one.
 
     The document's own warnings come first, as it lists them; then each printed warning
     it does not list (compared on one line), in the order printed.

@@ -49,7 +49,7 @@ app.add_typer(calibrate.app, name="calibrate")
 
 def _version(value: bool) -> None:
     if value:
-        from kinsync.provenance import software  # noqa: PLC0415 - a checkout's commit
+        from kinsync.io.provenance import software  # noqa: PLC0415 - a checkout's commit
 
         typer.echo(software())
         raise typer.Exit(0)

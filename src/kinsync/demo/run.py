@@ -57,8 +57,8 @@ from kinsync.demo.navego import (
 from kinsync.demo.validation import validation_section
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_folder, atomic_write_bytes, atomic_write_text
+from kinsync.io.provenance import run_time_utc, software_version
 from kinsync.progress import Progress, Stages
-from kinsync.provenance import run_time_utc, software_version
 from kinsync.report.html import Section, Skipped, render_report, summary_line
 from kinsync.sim.clock import ClockSimConfig
 from kinsync.sim.profiler import DriveScanConfig

@@ -25,7 +25,7 @@ from laspy.vlrs.vlrlist import VLRList
 
 from kinsync.errors import InputError
 from kinsync.io.laz_chunks import LazChunks, laz_chunks, point_count_fields, points_text
-from kinsync.provenance import run_time_utc, software
+from kinsync.io.provenance import run_time_utc, software
 
 __all__ = [
     "creation_date",
@@ -58,7 +58,7 @@ def creation_date() -> dt.date:
     Or, when the environment sets ``SOURCE_DATE_EPOCH`` (seconds since 1970-01-01
     UTC, the reproducible-builds convention), that time's UTC date: the same inputs
     then give byte-identical outputs on any day (two runs either side of midnight
-    differed in their headers). See `kinsync.provenance.run_time_utc`.
+    differed in their headers). See `kinsync.io.provenance.run_time_utc`.
 
     Raises
     ------
@@ -72,7 +72,7 @@ def creation_date() -> dt.date:
 def generating_software() -> str:
     """The Generating Software of every LAS/LAZ kinsync writes (at most 32 ASCII bytes).
 
-    `kinsync.provenance.software`: the version, and the commit from a checkout.
+    `kinsync.io.provenance.software`: the version, and the commit from a checkout.
     """
     return software()[:_GENERATING_SOFTWARE_BYTES]
 

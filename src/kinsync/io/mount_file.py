@@ -6,9 +6,9 @@ from pathlib import Path
 
 from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_write_text
+from kinsync.io.provenance import run_record
 from kinsync.io.sanity import check_not_link_loop, not_a_regular_file
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
-from kinsync.provenance import run_record
 
 __all__ = ["MAX_TOML_BYTES", "header_comments", "read_mount", "read_toml_text", "write_mount"]
 
@@ -86,7 +86,7 @@ def write_mount(mount: Mount, path: Path, *, derived_from: Path | None = None) -
         The file.
     derived_from : Path, optional
         The mount file these values were measured from (a calibration's start): the
-        file then begins with what produced it (`kinsync.provenance.run_record`: the
+        file then begins with what produced it (`kinsync.io.provenance.run_record`: the
         software and its commit, the command, the UTC time) and that file's own header
         comments (a vehicle, a serial number), which its values no longer carry.
     """

@@ -22,7 +22,7 @@ from matplotlib.axes import Axes
 from kinsync.calibration.overlaps import LineOverlap
 from kinsync.calibration.parameters import PARAMETER_NAMES
 from kinsync.calibration.result import CalibrationResult, ParameterEstimate
-from kinsync.provenance import run_record
+from kinsync.io.provenance import run_record
 from kinsync.report.figures import png_bytes
 from kinsync.report.html import Figure, Section, Table, render_report
 from kinsync.report.style import report_figure
@@ -305,7 +305,7 @@ def calibration_sections(result: CalibrationResult) -> list[Section]:
 def calibration_certificate(result: CalibrationResult) -> str:
     """The complete one-page HTML certificate.
 
-    It ends with what produced it (`kinsync.provenance.run_record`): the software and
+    It ends with what produced it (`kinsync.io.provenance.run_record`): the software and
     its commit, the date (UTC), the command line (every input file and option) and the
     folder it ran in, so that the calibration can be run again.
     """

@@ -104,8 +104,8 @@ def software_version() -> str:
         ``"0.1.0"`` from an installed package; ``"0.1.0+g<10 hex>"`` from a checkout
         (``".dirty"`` appended when tracked files were changed since that commit).
     """
-    package = Path(__file__).resolve().parent
-    repo = package.parent.parent  # <repo>/src/kinsync
+    package = Path(__file__).resolve().parent.parent  # <repo>/src/kinsync/io/provenance.py
+    repo = package.parent.parent
     if package.parent.name != "src" or not (repo / "pyproject.toml").is_file():
         return __version__
     git_dir = _git_dir(repo)
