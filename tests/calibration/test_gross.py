@@ -5,11 +5,16 @@ directions never share, a fit worse than the start."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from kinsync._typing import FloatArray
+from kinsync.calibration import estimator
 from kinsync.calibration.adjustment import Observation
+from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
 from kinsync.calibration.features import Feature, PlaneFeature, SphereFeature
 from kinsync.calibration.gross import (
     LINKED_SHARE,
@@ -22,9 +27,10 @@ from kinsync.calibration.gross import (
     unlinked_directions,
 )
 from kinsync.calibration.lines import ScanLine
+from kinsync.calibration.planes import PatchOptions
 from kinsync.errors import ConvergenceError
 
-from .conftest import line_truth
+from .conftest import NOMINAL, Synthetic, line_truth
 
 ALL = (0, 1, 2, 3, 4, 5, 6)
 
@@ -178,3 +184,38 @@ def test_the_yaw_search_finds_the_yaw_under_which_the_directions_share_walls(
     # No yaw shares them: nothing to start from.
     prior[2] = math.radians(120.0)
     assert search_yaw(four_lines, prior, lambda _: (walls, apart)) is None
+
+
+def test_a_yaw_moved_by_the_search_alone_is_no_estimate(
+    synthetic: Callable[..., Synthetic], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Ground only, noisy returns: these lines give the yaw to +-1.96 deg, more than a
+    # crew knows (1 deg), so it is held at its prior and printed as no number. When a
+    # yaw search moved the start 15 deg from the prior, the solution's 15 deg from the
+    # prior (the search's, not the adjustment's) passed for a move of the data beyond
+    # 3 sigma, and the yaw was printed -2.01 +- 1.96 'weak' (on airborne strips 15.89 +-
+    # 4.71 deg 'weak' for a true 1.1 deg).
+    syn = synthetic(
+        planes=("ground",), roll_amp_rad=0.05, repeats=2, speeds=(5.0,), n_per_plane=300,
+        nav_errors=True, range_noise_m=0.06,
+    )  # fmt: skip
+    patches = PatchOptions(voxel_m=4.0, min_points_per_line=5, max_patch_m=20.0,
+                           max_thickness_m=0.3)  # fmt: skip
+    opt = CalibrationOptions(estimate=("boresight",), patches=patches)
+    prior = replace(NOMINAL, boresight_rpy_deg=(0.0, 0.0, -15.0))
+
+    def searched(*args: object) -> tuple[FloatArray, str]:
+        start = np.array(args[1], dtype=np.float64)  # search_yaw(lines, prior, find, say)
+        start[2] += math.radians(15.0)
+        return start, "the calibration started there"
+
+    monkeypatch.setattr(estimator, "search_yaw", searched)
+    result = calibrate_mount(syn.lines, prior, opt)
+    yaw = result.parameter("boresight_yaw_deg")
+    assert yaw.status == "unobservable"
+    assert yaw.value == -15.0
+    assert math.isnan(yaw.std)
+    assert any(
+        r.startswith("boresight_yaw_deg is determined only to") for r in result.unobservable_reasons
+    ), result.unobservable_reasons
+    assert "the calibration started there" in result.warnings

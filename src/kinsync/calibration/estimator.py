@@ -447,7 +447,7 @@ def calibrate_mount(
         std, method = _std(solution, jk)
         say("what the held parameters' errors do to the estimates")
         effect = held_effect(models, observations, solution, frame, held_covariance(mount))
-        offsets = (solution.values - prior)[list(obs.estimated)]
+        offsets = (solution.values - start)[list(obs.estimated)]  # a searched yaw: no move
         held = hold_too_uncertain(obs.estimated, std, _covariance(solution, jk), effect, offsets)
         if held is None:
             break

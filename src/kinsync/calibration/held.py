@@ -642,7 +642,9 @@ def hold_too_uncertain(
     effect : HeldEffect
         What the held values' stated sigma adds (``effect.covariance``).
     offsets : ndarray, shape (k,), optional
-        How far the solution moved each estimate from its prior (internal units); an
+        How far the solution moved each estimate from where its solve started (internal
+        units): the prior, or the prior with the yaw a search chose
+        (`kinsync.calibration.gross.search_yaw`), which is no move by the adjustment. An
         estimate moved beyond 3 sigma is determined, if loosely, and is kept. None in a
         plan (nothing moved).
 

@@ -410,7 +410,7 @@ def hold_after_solution(
     """What to hold after a solution whose honest sigma is too large, if anything.
 
     The cause: the estimate furthest beyond its `UNOBSERVABLE_THRESHOLDS`, among those
-    the data did not move beyond 3 sigma from the prior (one they moved further is
+    the data did not move beyond 3 sigma from their start (one they moved further is
     determined, if loosely: weak, kept). Held: the first in `HOLD_ORDER` of the cause
     and the estimates correlated with it beyond `PARTNER_CORRELATION`.
 
@@ -421,7 +421,8 @@ def hold_after_solution(
     std : ndarray, shape (k,)
         Their honest standard deviations (internal units: rad, m, s).
     moved : sequence of bool, length k
-        Whether the data moved each beyond 3 sigma from its prior (all False in a plan).
+        Whether the data moved each beyond 3 sigma from where the solve started: the
+        prior, or a yaw a search chose (all False in a plan).
     covariance : ndarray, shape (k, k)
         Their covariance (any units: only the correlations are used).
 
