@@ -18,6 +18,7 @@ from kinsync.calibration.estimator import CalibrationOptions, calibrate_mount
 from kinsync.calibration.features import Feature, PlaneFeature, SphereFeature
 from kinsync.calibration.gross import (
     LINKED_SHARE,
+    MAX_WALL_RANGE_M,
     far_from_start,
     line_heading_rad,
     lines_at_the_same_time,
@@ -25,6 +26,7 @@ from kinsync.calibration.gross import (
     search_yaw,
     stuck_at_start,
     unlinked_directions,
+    wall_range_m,
 )
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.planes import PatchOptions
@@ -219,3 +221,61 @@ def test_a_yaw_moved_by_the_search_alone_is_no_estimate(
         r.startswith("boresight_yaw_deg is determined only to") for r in result.unobservable_reasons
     ), result.unobservable_reasons
     assert "the calibration started there" in result.warnings
+
+
+def _far(line: ScanLine, range_m: float) -> ScanLine:
+    """The line with its returns ``range_m`` below the scanner (an airborne strip)."""
+    xyz = np.zeros_like(line.xyz_scanner_m)
+    xyz[:, 2] = range_m
+    return ScanLine(line.name, line.t_s, xyz, line.trajectory)
+
+
+def test_walls_apart_at_airborne_range_are_not_searched_for(four_lines: list[ScanLine]) -> None:
+    # At 1000 m, 0.1 deg of boresight moves a return by 1.7 m: a start within what a crew
+    # knows leaves the walls of the two directions apart. On airborne strips started 0.1-0.2
+    # deg off (26 of 81 roofs shared) the search moved the yaw 15 deg from a start 0.2 deg
+    # off, and the warning blamed a boresight off by tens of degrees.
+    walls: list[Feature] = [_wall(a) for a in range(0, 180, 20)]
+    shared = _seen([{0, 1}] * 7 + [{0, 2}, {1, 3}])
+    apart = _seen([{0, 2}] * 5 + [{1, 3}] * 4)
+    asked: list[float] = []
+
+    def find(values: np.ndarray) -> tuple[list[Feature], list[Observation]]:
+        asked.append(math.degrees(float(values[2])))
+        return walls, shared if abs(asked[-1] - 30.0) < 3.0 else apart
+
+    prior = np.zeros(7)
+    prior[2] = math.radians(120.0)
+    strips = [_far(line, 1000.0) for line in four_lines]
+    assert wall_range_m(strips, apart, walls) == pytest.approx(1000.0)
+    assert search_yaw(strips, prior, find) is None
+    assert asked == [pytest.approx(120.0)]  # the prior's walls only: no yaw searched
+    text = unlinked_directions(strips, apart, walls)
+    assert text is not None
+    assert text.startswith("0 of 9 walls, roofs or spheres are seen alike")
+    assert "At their median range, 1000 m, 0.1 deg of boresight moves a return by 1.7 m" in text
+    assert "calibrate again with the calibrated mount as the start" in text
+    assert "tens of degrees" not in text
+    # Within the range where a crew's 1 deg pairs the walls, the search runs as before.
+    near = [_far(line, 0.9 * MAX_WALL_RANGE_M) for line in four_lines]
+    found = search_yaw(near, prior, find)
+    assert found is not None
+    assert math.degrees(found[0][2]) == pytest.approx(30.0)
+    assert "tens of degrees" in str(unlinked_directions(near, apart, walls))
+
+
+def test_cross_lines_run_neither_way(four_lines: list[ScanLine]) -> None:
+    # An airborne patch test flies cross strips too. Lines 80 deg off the first counted as
+    # run its way, so the walls only they share were counted as seen one way alone: 3 of
+    # 11 shared made a warning (and a yaw search) where the two directions share 3 of 7.
+    cross = [_line("cross_01", 1200.0, 100.0), _line("cross_02", 1230.0, 300.0)]
+    lines: list[ScanLine] = [*four_lines, *cross]
+    walls: list[Feature] = [_wall(a) for a in range(0, 176, 16)]
+    who = [{0, 1}] * 3 + [{4, 5}] * 4 + [{0, 2}] * 2 + [{1, 3}] * 2
+    assert unlinked_directions(lines, _seen(who), walls) is None
+    # Their walls shared with a line of one direction count for that direction.
+    who = [{0, 1}] * 3 + [{0, 4}] * 4 + [{0, 2}] * 2 + [{1, 3}] * 2
+    text = unlinked_directions(lines, _seen(who), walls)
+    assert text is not None
+    assert text.startswith("3 of 11 walls")
+    assert "line_01, line_03 (heading 20 deg) see 6 more" in text

@@ -16,7 +16,9 @@ put it. This module holds what the estimator does about that:
   are seen alike from both directions: the starting mount or the trajectory is grossly
   wrong (a warning: a scanner that looks to one side only sees different walls each way);
 - `search_yaw`: when the directions share few walls, the boresight yaw is searched all
-  the way round for one under which they do, and the calibration starts there;
+  the way round for one under which they do, and the calibration starts there; not at
+  long range (`MAX_WALL_RANGE_M`: airborne strips), where a start within what a crew
+  knows shares few walls too;
 - `residual_rise`: a fit that leaves the features' residuals larger than the starting
   mount did (lines from two scanners, or a wrong start).
 """
@@ -29,21 +31,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinsync._typing import BoolArray, FloatArray
+from kinsync._typing import FloatArray, IntArray
 from kinsync.calibration.adjustment import Observation
 from kinsync.calibration.features import Feature, PlaneFeature
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.observability import UNOBSERVABLE_THRESHOLDS
 from kinsync.calibration.parameters import BORESIGHT, PARAMETER_NAMES, REPORT_SCALE
+from kinsync.calibration.planes import PatchOptions
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
 
 __all__ = [
     "LINKED_SHARE",
     "MAX_FEATURE_ROUNDS",
-    "OPPOSITE_DEG",
+    "MAX_WALL_RANGE_M",
     "RESIDUAL_RISE",
     "SAME_TIME_SHARE",
+    "SAME_WAY_DEG",
     "YAW_SEARCH_STEP_DEG",
     "DirectionLinks",
     "at_start",
@@ -56,13 +60,17 @@ __all__ = [
     "search_yaw",
     "stuck_at_start",
     "unlinked_directions",
+    "wall_range_m",
 ]
 
 MAX_FEATURE_ROUNDS = 4
 """Times the features are found again with the solution before the last solve."""
 
-OPPOSITE_DEG = 90.0
-"""Two lines whose mean headings differ by more than this (deg) run opposite ways."""
+SAME_WAY_DEG = 45.0
+"""A line whose mean heading is within this (deg) of the first line's runs its way, within
+this of the reverse the other way; the rest (cross lines, 90 deg off) run neither and are
+not compared (an airborne patch test's cross strips counted as run the first strip's way,
+so the walls they shared with it were counted as seen one way only)."""
 
 SAME_TIME_SHARE = 0.5
 """Two lines whose recording spans overlap by more than this share of the shorter one's
@@ -88,6 +96,20 @@ the directions (a start within 3-8 deg converges; 10 deg off, 4 of 30 walls are 
 
 _MIN_UNLINKED = 2
 """Non-ground features each direction must see alone before the warning speaks."""
+
+MAX_WALL_RANGE_M = PatchOptions().max_line_offset_m / math.tan(
+    math.radians(UNOBSERVABLE_THRESHOLDS[BORESIGHT[2]])
+)
+"""Median range (m) of the returns on walls, roofs and spheres beyond which few of them
+shared by the two directions tells nothing of a start grossly wrong (57 m). There the
+boresight a crew knows anyway (1 deg) moves a return by more than the 1 m by which the
+patch search still pairs two lines' planes (`PatchOptions.max_line_offset_m`): a start a
+few tenths of a degree off shares few walls too. Airborne strips at 1000 m, started
+0.1-0.2 deg off the true boresight, shared 26 of 81, and the search moved the yaw 15 deg
+away for it; the simulated vehicle's walls are at 12 m, the vessel's at 26 m."""
+
+_SHIFT_DEG = 0.1
+"""The boresight error whose shift of a return at the walls' range a warning names."""
 
 
 def far_from_start(values: FloatArray, start: FloatArray, estimated: Sequence[int]) -> bool:
@@ -261,8 +283,8 @@ class DirectionLinks:
         )
 
 
-def line_directions(lines: Sequence[ScanLine]) -> BoolArray | None:
-    """Which lines run the first line's way (within `OPPOSITE_DEG`), or None.
+def line_directions(lines: Sequence[ScanLine]) -> IntArray | None:
+    """Which lines run the first line's way, which the other way (`SAME_WAY_DEG`), or None.
 
     Parameters
     ----------
@@ -271,31 +293,35 @@ def line_directions(lines: Sequence[ScanLine]) -> BoolArray | None:
 
     Returns
     -------
-    ndarray of bool, shape (len(lines),) or None
-        True for the lines run the first line's way; None when a line's heading is
-        unknown or every line runs one way (nothing to compare).
+    ndarray of int, shape (len(lines),) or None
+        1 for the lines run the first line's way, -1 for those run the other way, 0 for
+        the rest (cross lines); None when a line's heading is unknown or no line runs the
+        other way (nothing to compare).
     """
     return _directions(np.array([line_heading_rad(line) for line in lines]))
 
 
-def _directions(heading_rad: FloatArray) -> BoolArray | None:
+def _directions(heading_rad: FloatArray) -> IntArray | None:
     """`line_directions` from the lines' headings (rad)."""
     if not np.all(np.isfinite(heading_rad)):
         return None
-    forward: BoolArray = np.abs(wrap_angle_rad(heading_rad - heading_rad[0])) <= math.radians(
-        OPPOSITE_DEG
-    )
-    return None if forward.all() else forward
+    off = np.abs(wrap_angle_rad(heading_rad - heading_rad[0]))
+    way: IntArray = np.zeros(off.size, dtype=np.int64)
+    way[off <= math.radians(SAME_WAY_DEG)] = 1
+    way[off >= math.radians(180.0 - SAME_WAY_DEG)] = -1
+    return way if np.any(way == -1) else None
 
 
 def direction_links(
-    forward: BoolArray, observations: Sequence[Observation], features: Sequence[Feature]
+    way: IntArray, observations: Sequence[Observation], features: Sequence[Feature]
 ) -> DirectionLinks:
     """Count the non-ground features seen by both directions and by one alone.
 
+    A feature seen by cross lines alone (``way`` 0) is not counted.
+
     Parameters
     ----------
-    forward : ndarray of bool, shape (n_lines,)
+    way : ndarray of int, shape (n_lines,)
         `line_directions` of the lines (indices as in ``observations``).
     observations : sequence of Observation
         Which lines see which feature.
@@ -309,13 +335,41 @@ def direction_links(
     seen: dict[int, set[int]] = {}
     for o in observations:
         seen.setdefault(o.feature, set()).add(o.line)
-    counts = {"linked": 0, True: 0, False: 0}
+    counts = {"linked": 0, 1: 0, -1: 0}
     for k, who in seen.items():
-        if not _non_ground(features[k]):
+        ways = {int(way[i]) for i in who} - {0}
+        if not ways or not _non_ground(features[k]):
             continue
-        ways = {bool(forward[i]) for i in who}
         counts["linked" if len(ways) == 2 else ways.pop()] += 1
-    return DirectionLinks(counts["linked"], counts[True], counts[False])
+    return DirectionLinks(counts["linked"], counts[1], counts[-1])
+
+
+def wall_range_m(
+    lines: Sequence[ScanLine], observations: Sequence[Observation], features: Sequence[Feature]
+) -> float:
+    """Median range from the scanner of the returns on walls, roofs and spheres.
+
+    Parameters
+    ----------
+    lines : sequence of ScanLine
+        The lines (indices as in ``observations``).
+    observations : sequence of Observation
+        Which returns of which line lie on which feature.
+    features : sequence of Feature
+        The features.
+
+    Returns
+    -------
+    float
+        The median range (m, the norm of the scanner-frame returns); NaN when no return
+        lies on a wall, a roof or a sphere.
+    """
+    ranges = [
+        np.linalg.norm(lines[o.line].xyz_scanner_m[o.index], axis=1)
+        for o in observations
+        if o.index.size and _non_ground(features[o.feature])
+    ]
+    return float(np.median(np.concatenate(ranges))) if ranges else math.nan
 
 
 def unlinked_directions(
@@ -327,7 +381,8 @@ def unlinked_directions(
     feature seen by lines of both directions. A boresight several degrees off, axes in
     another order or another drive's trajectory put each direction's returns of it in
     different places: most such features are then seen by one direction only
-    (`DirectionLinks.unlinked`).
+    (`DirectionLinks.unlinked`). Beyond `MAX_WALL_RANGE_M` a start a few tenths of a
+    degree off does it too, and the warning says so instead.
 
     Parameters
     ----------
@@ -344,26 +399,38 @@ def unlinked_directions(
         The warning, naming both directions' lines and their feature counts.
     """
     heading = np.array([line_heading_rad(line) for line in lines])
-    forward = _directions(heading)
-    if forward is None:
+    ways = _directions(heading)
+    if ways is None:
         return None
-    links = direction_links(forward, observations, features)
+    links = direction_links(ways, observations, features)
     if not links.unlinked:
         return None
     names = {
-        way: ", ".join(lines[int(i)].name for i in np.flatnonzero(forward == way))
-        for way in (True, False)
+        way: ", ".join(lines[int(i)].name for i in np.flatnonzero(ways == way)) for way in (1, -1)
     }
     deg = {
-        way: math.degrees(float(np.angle(np.mean(np.exp(1j * heading[forward == way])))))
-        for way in (True, False)
+        way: math.degrees(float(np.angle(np.mean(np.exp(1j * heading[ways == way])))))
+        for way in (1, -1)
     }
-    return (
+    seen = (
         f"{links.linked} of {links.total} walls, roofs or spheres are seen "
-        f"alike by the lines driven both ways: {names[True]} (heading {deg[True]:.0f} deg) "
-        f"see {links.forward_alone} more and {names[False]} (heading {deg[False]:.0f} deg) "
-        f"{links.backward_alone} more that the other direction does not. The "
-        "starting mount is likely grossly wrong (a boresight off by tens of degrees, axes "
+        f"alike by the lines driven both ways: {names[1]} (heading {deg[1]:.0f} deg) "
+        f"see {links.forward_alone} more and {names[-1]} (heading {deg[-1]:.0f} deg) "
+        f"{links.backward_alone} more that the other direction does not. "
+    )
+    range_m = wall_range_m(lines, observations, features)
+    if range_m > MAX_WALL_RANGE_M:
+        shift_m = range_m * math.tan(math.radians(_SHIFT_DEG))
+        return seen + (
+            f"At their median range, {range_m:.0f} m, {_SHIFT_DEG:g} deg of boresight moves "
+            f"a return by {shift_m:.2g} m: a starting boresight a few tenths of a degree off "
+            "does this, and the features were found with it. If the calibrated boresight "
+            "differs from the start, calibrate again with the calibrated mount as the start; "
+            "if the walls stay apart, check the starting mount and that the trajectory is "
+            "these lines'"
+        )
+    return seen + (
+        "The starting mount is likely grossly wrong (a boresight off by tens of degrees, axes "
         "in another order, a lever arm's sign) or the trajectory is not these lines'; "
         "unless the scanner sees different surfaces each way, do not trust these estimates"
     )
@@ -382,6 +449,9 @@ def search_yaw(
     turned in `YAW_SEARCH_STEP_DEG` steps all the way round, and the yaw with the most
     patches seen alike (and not `DirectionLinks.unlinked`; the nearest the prior's on a
     tie) is the start. A roll off by 180 deg or axes in another order are not searched.
+    Nor is the yaw when the walls lie beyond `MAX_WALL_RANGE_M` (airborne strips): there
+    a start within what a crew knows shares few walls too (on airborne strips, a yaw 5 to
+    15 deg off, either way, shared more of them than a start 0.2 deg off did).
 
     Parameters
     ----------
@@ -399,15 +469,16 @@ def search_yaw(
     -------
     tuple of (ndarray, str) or None
         The start (``prior`` with the yaw found) and a warning saying what was found;
-        None when the prior's walls are shared, or no yaw shares them.
+        None when the prior's walls are shared or lie beyond `MAX_WALL_RANGE_M`, or no
+        yaw shares them.
     """
     yaw = BORESIGHT[2]
-    forward = line_directions(lines)
-    if forward is None:
+    ways = line_directions(lines)
+    if ways is None:
         return None
     features, observations = find(prior)
-    at_prior = direction_links(forward, observations, features)
-    if not at_prior.unlinked:
+    at_prior = direction_links(ways, observations, features)
+    if not at_prior.unlinked or wall_range_m(lines, observations, features) > MAX_WALL_RANGE_M:
         return None
     n = round(360.0 / YAW_SEARCH_STEP_DEG)
     if progress is not None:
@@ -421,7 +492,7 @@ def search_yaw(
             features, observations = find(trial)
         except InputError:
             continue
-        links = direction_links(forward, observations, features)
+        links = direction_links(ways, observations, features)
         key = (links.linked, -abs(float(wrap_angle_rad(offset))))
         if not links.unlinked and links.linked > 0 and (best is None or key > best[0]):
             best = (key, trial, links)
