@@ -89,6 +89,9 @@ def test_calibrate_mount_json_mount_and_certificate(
         assert f["n_passes"] >= 2
     assert doc["residual_rms_after_m"] < doc["residual_rms_before_m"]
     assert doc["n_points"] == sum(len(ln) for ln in sim.lines)
+    assert doc["patch_options"] == {
+        "voxel_m": 2.0, "min_points_per_line": 15, "max_thickness_m": 0.05
+    }  # fmt: skip
     # Values are the full calibrated values, the mount file holds them.
     mount = read_mount(new)
     roll = doc["parameters"]["boresight_roll_deg"]["value"]
@@ -249,7 +252,9 @@ def _feature_cases(sim: PatchTestSimulation, tmp: Path) -> dict[str, Case]:
     b = _csv_line(tmp / "b.csv", l1.t_s, l1.xyz_scanner_m)
     return {
         "no feature": (["--points", *noise, "--trajectory", traj],
-                       ("no flat surface found in any of the 2 lines",)),
+                       ("no flat surface found in any of the 2 lines", "(--patch-voxel-m)",
+                        "(--patch-min-points-per-line)", "(--patch-max-thickness-m)",
+                        "need about 3.75 returns per m2 in each line")),
         "no overlap": (["--points", a, b, "--trajectory", traj, far],
                        ("none seen by 2 lines", "do not overlap")),
     }  # fmt: skip
@@ -272,6 +277,16 @@ def _file_cases(folder: Path, tmp: Path) -> dict[str, Case]:
                          ("--estimate", "levers")),
         "radius on planes": (["--points", *lines, *week, "--sphere-radius-m", "0.2"],
                              ("--sphere-radius-m applies to --features spheres",)),
+        "patch options on spheres": (["--points", *lines, *week, "--features", "spheres",
+                                      "--patch-voxel-m", "5", "--patch-max-thickness-m", "0.1"],
+                                     ("--patch-voxel-m, --patch-max-thickness-m apply",
+                                      "to --features planes")),
+        "patch voxel zero": (["--points", *lines, *week, "--patch-voxel-m", "0"],
+                             ("--patch-voxel-m 0", "outside the span", "0.25 to 50 m")),
+        "patch returns too few": (["--points", *lines, *week, "--patch-min-points-per-line", "2"],
+                                  ("--patch-min-points-per-line 2", "a plane needs 3")),
+        "patch thickness nan": (["--points", *lines, *week, "--patch-max-thickness-m", "nan"],
+                                ("--patch-max-thickness-m", "not a finite number")),
         "output is input": (["--points", *lines, *week, "--out", mount],
                             ("is the input --mount",)),
     }  # fmt: skip
@@ -280,7 +295,8 @@ def _file_cases(folder: Path, tmp: Path) -> dict[str, Case]:
 BAD_CASES = (
     "one line", "outside", "seconds of week", "no gps week", "no feature", "no overlap",
     "unknown type", "missing", "cidco with trajectory", "bad estimate", "radius on planes",
-    "output is input",
+    "output is input", "patch options on spheres", "patch voxel zero", "patch returns too few",
+    "patch thickness nan",
 )  # fmt: skip
 
 
@@ -302,6 +318,39 @@ def test_bad_input_is_one_line_and_exit_2(
     args, expect = cases[case]
     code, out, err = run_cli(["calibrate", "mount", *args, "--mount", str(folder / "mount.toml")])
     assert_one_line_error(code, out, err, *expect)
+
+
+def test_sparse_lines_need_the_patch_options(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    patch: tuple[Path, PatchTestSimulation],
+    tmp_path: Path,
+) -> None:
+    # One return in five: no 2 m cell holds 15 returns of a line (3.75 per m2), as on
+    # airborne strips at 0.7-2 returns per m2, which could never be calibrated: the cell
+    # and the count were fixed. 5 m cells holding 10 returns (0.4 per m2) find the planes.
+    folder, sim = patch
+    traj = _trajectory_csv(sim, tmp_path / "traj.csv")
+    thin = [
+        _csv_line(tmp_path / f"thin_{i}.csv", ln.t_s[::5], ln.xyz_scanner_m[::5])
+        for i, ln in enumerate(sim.lines)
+    ]
+    base = ["calibrate", "mount", "--points", *thin, "--trajectory", traj,
+            "--mount", str(folder / "mount.toml")]  # fmt: skip
+    code, out, err = run_cli(base)
+    assert_one_line_error(
+        code, out, err, "no 2 m cell (--patch-voxel-m) holds 15 or more returns",
+        "(--patch-min-points-per-line)", "3.75 returns per m2",
+    )  # fmt: skip
+    code, out, err = run_cli(
+        [*base, "--patch-voxel-m", "5", "--patch-min-points-per-line", "10", "--json"]
+    )
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["features"]
+    assert doc["patch_options"] == {
+        "voxel_m": 5.0, "min_points_per_line": 10, "max_thickness_m": 0.05
+    }  # fmt: skip
 
 
 def test_plan_predicts_status_and_sigma(run_cli: RunCli) -> None:

@@ -397,10 +397,13 @@ def _no_candidates(st: _Voxels, opt: PatchOptions, n_lines: int) -> InputError:
     if with_flat.size == 0:
         return InputError(
             f"no flat surface found in any of the {n_lines} lines (no {opt.voxel_m:g} m cell "
-            f"holds {opt.min_points_per_line} or more returns within "
-            f"{opt.max_thickness_m * 100:g} cm of a plane): the returns are too sparse or "
-            "not on surfaces (ground, walls, roofs); check that the points are the scanner's "
-            "own frame (not georeferenced) and the file's units"
+            f"(--patch-voxel-m) holds {opt.min_points_per_line} or more returns "
+            f"(--patch-min-points-per-line) within {opt.max_thickness_m * 100:g} cm of a plane "
+            "(--patch-max-thickness-m)): the returns are too sparse or not on surfaces "
+            "(ground, walls, roofs); check that the points are the scanner's own frame (not "
+            "georeferenced) and the file's units. These settings need about "
+            f"{opt.min_points_per_line / opt.voxel_m**2:.3g} returns per m2 in each line; for "
+            "sparser lines give larger cells or fewer returns"
         )
     return InputError(
         f"flat surfaces found in {with_flat.size} of {n_lines} lines, but none seen by "

@@ -119,6 +119,17 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--rate-deg-s": Bounds(-1_000.0, 1_000.0, "deg/s"),
     "--radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
     "--sphere-radius-m": Bounds(0.01, 10.0, "m", "a survey sphere"),
+    "--patch-voxel-m": Bounds(
+        0.25,
+        50.0,
+        "m",
+        "a smaller cell holds too few returns to tell a plane from the range noise",
+        "a cell is a piece of one roof, wall or ground",
+    ),
+    "--patch-min-points-per-line": Bounds(3, 1_000_000, "returns", "a plane needs 3"),
+    "--patch-max-thickness-m": Bounds(
+        0.001, 1.0, "m", "", "two lines' planes in a cell may differ by 1 m at most"
+    ),
     "--target-radius-m": Bounds(0.001, 10.0, "m", "a target's radius is > 0"),
     "--search-radius-m": Bounds(0.001, 100.0, "m", "a radius that holds no point finds nothing"),
     "--max-range-m": Bounds(*MAX_RANGE_SPAN_M, "m"),  # an ObjectSpaceConfig's

@@ -51,13 +51,55 @@ RadiusOpt = Annotated[
     float | None,
     typer.Option("--sphere-radius-m", help="Known sphere radius (m); fitted when not given."),
 ]
+PatchVoxelOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--patch-voxel-m",
+        help="Edge of the cells the planar patches are found in (m; default 2). With "
+        "--patch-min-points-per-line it sets the density a line needs: 15 returns in a 2 m "
+        "cell is about 3.75 returns/m2; sparse airborne strips need larger cells.",
+    ),
+]
+PatchMinPointsOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--patch-min-points-per-line",
+        help="Returns a line needs in a cell for its plane to count (default 15).",
+    ),
+]
+PatchThicknessOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--patch-max-thickness-m",
+        help="Largest thickness of a line's returns in a cell for it to be flat (m; default "
+        "0.05): above the scanner's range noise, below a car's or a bush's depth.",
+    ),
+]
+
+
+PATCH_OPTIONS = {
+    "voxel_m": "--patch-voxel-m",
+    "min_points_per_line": "--patch-min-points-per-line",
+    "max_thickness_m": "--patch-max-thickness-m",
+}
+"""The `PatchOptions` fields `calibrate mount` takes, with their options."""
 
 
 def _options(
-    features: str, estimate: str, sphere_radius_m: float | None, max_gap_s: float | None = None
+    features: str,
+    estimate: str,
+    sphere_radius_m: float | None,
+    max_gap_s: float | None = None,
+    patch: tuple[float | None, int | None, float | None] = (None, None, None),
 ) -> CalibrationOptions:
+    """The calibration's options from the command's.
+
+    ``patch``: --patch-voxel-m, --patch-min-points-per-line and --patch-max-thickness-m
+    as given (None: the default).
+    """
     from kinsync.calibration.estimator import CalibrationOptions  # noqa: PLC0415
     from kinsync.calibration.parameters import estimated_indices  # noqa: PLC0415
+    from kinsync.calibration.planes import PatchOptions  # noqa: PLC0415
     from kinsync.calibration.spheres import SphereOptions  # noqa: PLC0415
 
     if features not in ("planes", "spheres"):
@@ -68,9 +110,17 @@ def _options(
     if sphere_radius_m is not None and features != "spheres":
         msg = "--sphere-radius-m applies to --features spheres"
         raise InputError(msg)
+    given = {
+        name: value for name, value in zip(PATCH_OPTIONS, patch, strict=True) if value is not None
+    }
+    if given and features != "planes":
+        named = ", ".join(PATCH_OPTIONS[name] for name in given)
+        msg = f"{named} appl{'ies' if len(given) == 1 else 'y'} to --features planes"
+        raise InputError(msg)
     return CalibrationOptions(
         features=features,  # type: ignore[arg-type]
         estimate=groups,
+        patches=PatchOptions(**given),  # type: ignore[arg-type]
         spheres=SphereOptions(radius_m=sphere_radius_m),
         max_gap_s=max_gap_s,
     )
@@ -154,6 +204,9 @@ def mount(
     ] = None,
     features: FeaturesOpt = "planes",
     sphere_radius_m: RadiusOpt = None,
+    patch_voxel_m: PatchVoxelOpt = None,
+    patch_min_points_per_line: PatchMinPointsOpt = None,
+    patch_max_thickness_m: PatchThicknessOpt = None,
     estimate: EstimateOpt = "boresight,latency",
     gps_week: Annotated[
         int | None,
@@ -179,7 +232,8 @@ def mount(
     """
     from kinsync.pipelines.calibration import calibrate_files  # noqa: PLC0415
 
-    opts = _options(features, estimate, sphere_radius_m, max_gap_s)
+    patch = (patch_voxel_m, patch_min_points_per_line, patch_max_thickness_m)
+    opts = _options(features, estimate, sphere_radius_m, max_gap_s, patch)
     trajectory = trajectory or []
     refuse_unused_gps_week(gps_week, trajectories=trajectory, points=points)
     prior = read_mount(mount_file)
@@ -204,6 +258,8 @@ def mount(
     if as_json:
         doc: dict[str, Any] = run.result.as_document()
         doc["n_points"] = run.n_points
+        if opts.features == "planes":
+            doc["patch_options"] = {name: getattr(opts.patches, name) for name in PATCH_OPTIONS}
         print_json(doc)
         return
     _print_result(run.result)
