@@ -235,16 +235,18 @@ def test_an_ambiguous_clock_is_refused_unless_the_pulses_settle_it_or_it_is_acce
         code,
         out,
         err,
-        f"{off}: ambiguous: 2 other match(es) of sightings to sync-point crossings fit almost as "
+        f"{off}: ambiguous: 5 other match(es) of sightings to sync-point crossings fit almost as "
         "well as the best, t0 = ",
         "(others: t0 = ",
+        "; the best rests on 2 of 18 sightings, which any line fits, and 3 of the others each "
+        "match one sighting it leaves out alone (with its period): ",
         "give --pulses (the scanner's GPS-timed profile pulses)",
         "or take the best with --accept-ambiguous",
     )
     code, out, err = run_cli([*args, "--json", "--accept-ambiguous"])
     assert code == 0, err
     assert json.loads(out)["ambiguous"] is True
-    assert "kinsync: warning: ambiguous: 2 other assignment(s) of sightings to crossings" in err
+    assert "kinsync: warning: ambiguous: 5 other assignment(s) of sightings to crossings" in err
     code, out, err = run_cli([*args, "--pulses", str(folder / "pulses.csv"), "--json"])
     assert code == 0, err
     doc = json.loads(out)
@@ -255,6 +257,47 @@ def test_an_ambiguous_clock_is_refused_unless_the_pulses_settle_it_or_it_is_acce
     code, out, err = run_cli([*args, "--pulses", str(folder / "pulses.csv")])
     assert code == 0, err
     assert "no (settled by the pulses)" in out
+
+
+def test_a_clock_from_two_sightings_that_leave_one_out_is_refused(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+) -> None:
+    """S2 alone, the scan ending before its second pass: t0 was 132 s late, exit 0.
+
+    Two sightings of S1 a lap apart fitted S2's two crossings, "ambiguous: no"; the one
+    true sighting of S2, left out, matched alone gives the true clock.
+    """
+    sim, folder = dataset
+    lines = (folder / "sync_points.csv").read_text().splitlines()
+    only_s2 = tmp_path / "s2.csv"
+    only_s2.write_text("\n".join([lines[0], *(x for x in lines if x.startswith("S2,"))]) + "\n")
+    header, *rows = (folder / "scan.csv").read_text().splitlines()
+    cut = tmp_path / "cut.csv"
+    cut.write_text("\n".join([header, *(r for r in rows if int(r.split(",")[0]) < 6000)]) + "\n")
+    args = _object_space(folder)
+    args[args.index("--sync-points") + 1] = str(only_s2)
+    args[args.index("--scan") + 1] = str(cut)
+    code, out, err = run_cli([*args, "--json"])
+    assert_one_line_error(
+        code,
+        out,
+        err,
+        f"{only_s2}: ambiguous: ",
+        "the best rests on 2 of ",
+        "each match one sighting it leaves out alone (with its period)",
+        "give --pulses",
+        "pass each sync point at the start and at the end of the drive",
+    )
+    code, out, err = run_cli([*args, "--json", "--accept-ambiguous"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["ambiguous"] is True
+    assert abs(doc["t0_s"] - sim.truth["t0_s"]) > 100.0
+    truth = [a for a in doc["alternatives"] if abs(a["t0_s"] - sim.truth["t0_s"]) < 0.05]
+    assert [a["n_matched"] for a in truth] == [1], doc["alternatives"]
 
 
 def test_an_ambiguity_with_sync_points_seen_off_the_clock_says_what_to_check(

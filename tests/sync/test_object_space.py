@@ -816,3 +816,37 @@ def test_monte_carlo_sigma_is_honest_with_trajectory_noise(cheap: DriveScanSimul
         sT.append(r.period_std_s)
     assert 0.6 <= _ratio(e0, s0) <= 1.6
     assert 0.6 <= _ratio(eT, sT) <= 1.6
+
+
+def test_a_clock_from_two_sightings_that_leaves_out_one_of_the_sync_point_is_ambiguous(
+    oval: DriveScanSimulation,
+) -> None:
+    """S2 alone, the scan cut before its second pass: one true sighting of S2.
+
+    Two sightings of S1, a lap apart, fitted S2's two crossings: t0 132 s late (7300
+    sigma), "ambiguous: no", exit 0. The one sighting of S2 it left out, matched alone,
+    is the true clock: ambiguous, with that clock among the alternatives; the pulses
+    rule the late clock out (no rival they allow: refused).
+    """
+    scan = oval.scanner.scan
+    keep = scan.profile < 6000
+    cut = ProfileScan(
+        scan.profile[keep], scan.angle_rad[keep], scan.range_m[keep], scan.intensity[keep]
+    )
+    only_s2 = SyncPoints(("S2",), oval.sync_points.lat_lon_h[1:2])
+    traj, mount = oval.trajectory, oval.config.mount
+    with pytest.warns(KinsyncWarning, match="rests on 2 of "):
+        r = synchronise_object_space(cut, traj, mount, only_s2, EXACT)
+    assert abs(r.t0_s - oval.truth["t0_s"]) > 100.0  # still the best by count
+    assert r.ambiguous
+    assert any(
+        a.n_matched == 1 and abs(a.t0_s - oval.truth["t0_s"]) < 0.05 for a in r.alternatives
+    ), r.alternatives
+    assert r.as_document()["ambiguous"] is True
+    pulses = oval.pulses_t_s[
+        : int(
+            np.count_nonzero(oval.pulses_t_s < oval.truth["t0_s"] + 6000 * oval.truth["period_s"])
+        )
+    ]
+    with pytest.warns(KinsyncWarning), pytest.raises(ObservabilityError, match="contradict"):
+        synchronise_object_space(cut, traj, mount, only_s2, EXACT, pulses_t_s=pulses)

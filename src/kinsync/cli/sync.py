@@ -249,6 +249,15 @@ def _ambiguity_message(result: ObjectSpaceResult, sync_points: Path, pulses: Pat
     settle = (
         "" if pulses is not None else "give --pulses (the scanner's GPS-timed profile pulses), "
     )
+    lone = sum(a.n_matched < len(result.sightings) for a in result.alternatives)
+    n_all = len(result.sightings) + len(result.unmatched)
+    alone = (
+        f"; the best rests on {len(result.sightings)} of {n_all} sightings, which any line "
+        f"fits, and {lone} of the others each match one sighting it leaves out alone (with "
+        "its period)"
+        if lone
+        else ""
+    )
     seen_off = [name for name in result.unmatched_at if name is not None]
     if seen_off:  # passing them again would not help: they were seen, and fit no clock
         names = ", ".join(sorted(set(seen_off)))
@@ -264,7 +273,8 @@ def _ambiguity_message(result: ObjectSpaceResult, sync_points: Path, pulses: Pat
     return (
         f"{sync_points}: ambiguous: {len(result.alternatives)} other match(es) of sightings to "
         f"sync-point crossings fit almost as well as the best, t0 = {result.t0_s:.6f} s "
-        f"(others: t0 = {others}), so its clock is not sure{unsettled}{why}: {settle}{advice}"
+        f"(others: t0 = {others}), so its clock is not sure{alone}{unsettled}{why}: {settle}"
+        f"{advice}"
         "or take the best with --accept-ambiguous"
     )
 

@@ -34,12 +34,14 @@ __all__ = [
     "PERIOD_SEARCH_FACTOR",
     "Assignment",
     "LineFit",
+    "LoneMatch",
     "best_assignment",
     "candidate_assignments",
     "check_period_prior",
     "compatible_crossings",
     "gls_line",
     "implied_period_s",
+    "lone_matches",
     "pair_covariance",
     "pair_timing_std",
     "refine_assignment",
@@ -540,6 +542,73 @@ def seen_off_the_clock(
             crossings[min(inside, key=lambda j: abs(n_c[j] - s.profile))].name if inside else None
         )
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class LoneMatch:
+    """A sighting matched alone to a compatible crossing: a clock two pairs cannot rule out.
+
+    ``sighting``, ``crossing``: indices; ``x``: the sighting's abscissa (profiles);
+    ``t_s``: the crossing's time (s).
+    """
+
+    sighting: int
+    crossing: int
+    x: float
+    t_s: float
+
+    def t0_s(self, period_s: float) -> float:
+        """The clock's t0 (s) with the period ``period_s`` (s)."""
+        return self.t_s - period_s * self.x
+
+
+def lone_matches(
+    sightings: Sequence[Sighting],
+    crossings: Sequence[Crossing],
+    best: Assignment,
+    cfg: ObjectSpaceConfig,
+    per_pair: PairSightings | None = None,
+) -> list[LoneMatch]:
+    """Sightings left out of a two-pair clock that could be the sync points instead.
+
+    Two pairs always fit a line, so a clock from two is checked by nothing; when it
+    leaves a sighting unmatched that lies where the geometry puts a sync point
+    (compatible in angle and range) but off its line (beyond the gate of
+    `refine_assignment`), that sighting matched alone, with a period in the prior's
+    window, is another clock the data cannot rule out. On an oval drive two targets
+    at one distance from the track, one lap apart, fitted a line 132 s late while the
+    one true sighting of the sync point was left out (see `kinsync.sync.object_space`,
+    step 3).
+
+    Parameters
+    ----------
+    sightings, crossings : sequence of Sighting, Crossing
+    best : Assignment
+        The clock (its matching fit) and the pairs it holds.
+    cfg : ObjectSpaceConfig
+        Gates, sigmas and ``period_prior_s``.
+    per_pair : Mapping of (int, int) to Sighting, optional
+        Sightings refined for one compatible crossing, as for `candidate_assignments`.
+
+    Returns
+    -------
+    list of LoneMatch
+        In sighting order, then crossing order.
+    """
+    used = {i for i, _ in best.pairs}
+    pairs = per_pair or {}
+    t0, T = best.fit.t0_s, best.fit.period_s
+    out: list[LoneMatch] = []
+    for i, js in enumerate(compatible_crossings(sightings, crossings, cfg)):
+        if i in used:
+            continue
+        for j in js.tolist():
+            s = pairs.get((i, j), sightings[i])
+            std = float(pair_timing_std([s], [crossings[j]], cfg, T)[0, 0])
+            gate = max(cfg.gate_sigma * std, cfg.min_gate_profiles * T)
+            if abs(crossings[j].t_s - (t0 + T * s.x)) > gate:  # not this clock's crossing
+                out.append(LoneMatch(i, j, s.x, crossings[j].t_s))
+    return out
 
 
 PERIOD_SEARCH_FACTOR = 2.5

@@ -87,7 +87,11 @@ and T. The algorithm:
    default simulation, 23 of 60 on the looped drive), so the matched fraction itself
    says nothing and is not tested. A clock from two pairs only, which nothing can
    check (no residual, and a wrong prior cannot be told from a right one when no third
-   sighting fits any period), comes with a `KinsyncWarning`.
+   sighting fits any period), comes with a `KinsyncWarning`; when it leaves out a
+   sighting that lies where a sync point is seen, that one matched alone is another
+   clock (`kinsync.sync.clock_line.lone_matches`) and the result is ambiguous unless
+   the pulses rule those out (S2 seen once, two sightings of S1 a lap apart fitted a
+   clock 132 s late, 7300 sigma, exit 0).
 4. **Regression.** The pairs ``(x_P = n_P + phi_P / 2 pi, t_P)`` give t0 and T by
    generalised least squares with the covariance of step 5. Regressing on x_P
    applies the helix correction ``t_P - (phi_P / 2 pi) T = t0 + n_P T`` with the
@@ -193,9 +197,11 @@ from kinsync.mount import Mount
 from kinsync.sync.clock_line import (
     PERIOD_SEARCH_FACTOR,
     Assignment,
+    LoneMatch,
     candidate_assignments,
     check_period_prior,
     gls_line,
+    lone_matches,
     pair_covariance,
     seen_off_the_clock,
     tracked_sightings,
@@ -216,13 +222,13 @@ from kinsync.sync.point_checks import (
     sync_point_notes,
 )
 from kinsync.sync.pulses import PulseOffset, pulse_offset
-from kinsync.sync.scan import (
-    PROFILE_SCANNER_REACH_M,
-    ProfileScan,
-    SyncPoints,
-    long_range_note,
+from kinsync.sync.scan import ProfileScan, SyncPoints
+from kinsync.sync.sightings import (
+    Sighting,
+    detect_clusters,
+    refine_sighting,
+    require_two_sightings,
 )
-from kinsync.sync.sightings import Sighting, detect_clusters, refine_sighting
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import GAP_ADVICE, gap_threshold_text
 
@@ -345,10 +351,12 @@ class ObjectSpaceResult:
         Candidate crossings found per sync point (a read-only mapping that pickles:
         results can be pickled, copied and hashed).
     ambiguous : bool
-        Another assignment fits almost as well (see ``alternatives``) and the pulses, if
-        given, do not rule it out (module step 6).
+        Another assignment fits almost as well (see ``alternatives``), or the clock
+        rests on two pairs and a sighting it leaves out, matched alone, gives another
+        (module step 3), and the pulses, if given, do not rule it out (step 6).
     alternatives : tuple of Alternative
-        The runner-up assignments with as many matches, best first (at most 5).
+        The runner-up assignments with as many matches, best first, then those lone
+        matches (``n_matched`` 1, with this clock's period); at most 5.
     settled_by_pulses : bool
         Other assignments fitted almost as well, and the pulses ruled out all but this
         one (module step 6).
@@ -546,17 +554,7 @@ def synchronise_object_space(
     require_profiler_azimuth(mount)
     detected = detect_clusters(scan, cfg)
     sightings = [d for d, _ in detected]
-    distinct = len({round(s.x, 6) for s in sightings})
-    if distinct < 2:
-        msg = (
-            f"{scan.source}: {len(sightings)} target sighting(s) found (returns with intensity "
-            f">= {cfg.intensity_threshold:g}, at least {cfg.min_returns} per target); at least "
-            "two distinct sightings of the sync points are needed: check the intensity "
-            "threshold and that the retro-reflective targets were scanned"
-        )
-        n_long = int(np.count_nonzero(scan.range_m > PROFILE_SCANNER_REACH_M))
-        note = long_range_note(n_long, len(scan.range_m))
-        raise ObservabilityError(f"{msg}; {note}" if note else msg)
+    require_two_sightings(scan, sightings, cfg)
     search = search_crossings(trajectory, mount, sync_points, cfg)
     crossings = search.crossings
     n_cross = {name: sum(c.name == name for c in crossings) for name in sync_points.names}
@@ -624,7 +622,11 @@ def synchronise_object_space(
     runners_up = rivals or [a for a in ranked[1:] if len(a.pairs) == m]
     result = replace(finish(best, runners_up), ambiguous=bool(rivals))
     if train is not None and result.pulses is not None:
-        result = _settle_by_pulses(result, best, rivals, runners_up, finish, train, scan.n_profiles)
+        result, best = _settle_by_pulses(
+            result, best, rivals, runners_up, finish, train, scan.n_profiles
+        )
+    if m == 2:  # sightings left out that could be the sync points (step 3)
+        result = _with_lone_matches(result, lone_matches(sightings, crossings, best, cfg, per_pair))
     for said in (
         near_crossings_text(sync_points.source, result.unmatched_near),
         exact_text(result.mount_effect, result.data_covariance),
@@ -696,13 +698,14 @@ def _settle_by_pulses(
     finish: Callable[[Assignment, Sequence[Assignment]], ObjectSpaceResult],
     train: _PulseTrain,
     n_profiles: int,
-) -> ObjectSpaceResult:
+) -> tuple[ObjectSpaceResult, Assignment]:
     """Use the pulses to rule out assignments whose pulse offset they do not allow (step 6).
 
     ``result`` is the best assignment's; ``rivals`` fit almost as well (an ambiguity),
     ``runners_up`` are the alternatives reported. A best clock the pulses allow stays,
     and the rivals they rule out no longer make it ambiguous; one they do not allow
     gives way to the one rival they do (with a `KinsyncWarning`), else it is refused.
+    Returns the result and the assignment it is of.
 
     Raises
     ------
@@ -727,7 +730,8 @@ def _settle_by_pulses(
     if result.pulses.plausible:
         left = [a for a in rivals if agrees(a)]
         settled = bool(rivals) and not left
-        return replace(listed(result, runners_up), ambiguous=bool(left), settled_by_pulses=settled)
+        out = replace(listed(result, runners_up), ambiguous=bool(left), settled_by_pulses=settled)
+        return out, best
     p, lo_hi = result.pulses, result.pulses.allowed
     assert lo_hi is not None
     n_pulses = np.asarray(train.t_s).size
@@ -752,7 +756,9 @@ def _settle_by_pulses(
                 KinsyncWarning,
                 stacklevel=3,
             )
-            return replace(listed(chosen, others), ambiguous=False, settled_by_pulses=True)
+            return replace(
+                listed(chosen, others), ambiguous=False, settled_by_pulses=True
+            ), agreeing[0]
     shown = [(a, offsets[id(a)]) for a in (agreeing if len(agreeing) > 1 else runners_up[:5])]
     if len(agreeing) > 1:
         others_text = (
@@ -772,6 +778,30 @@ def _settle_by_pulses(
         "scan's, one per profile, on the trajectory's time scale"
     )
     raise ObservabilityError(msg)
+
+
+def _with_lone_matches(result: ObjectSpaceResult, lone: Sequence[LoneMatch]) -> ObjectSpaceResult:
+    """A two-pair clock and sightings that, matched alone, give other clocks (step 3).
+
+    Each with this clock's period; they make it ambiguous unless the pulses rule them
+    out: a lone clock's pulse offset is this one's plus its t0 shift in profiles.
+    """
+    if not lone:
+        return result
+    k, T = result.pulses, result.period_s
+
+    def offset(t0_s: float) -> int | None:
+        return None if k is None else k.offset + round((t0_s - result.t0_s) / T)
+
+    alts = [Alternative(c.t0_s(T), T, 1, 0.0, offset(c.t0_s(T))) for c in lone]
+    lo, hi = (-math.inf, math.inf) if k is None or k.allowed is None else k.allowed
+    left = [a for a in alts if a.pulse_offset is None or lo <= a.pulse_offset <= hi]
+    return replace(
+        result,
+        ambiguous=result.ambiguous or bool(left),
+        settled_by_pulses=result.settled_by_pulses or not (left or result.ambiguous),
+        alternatives=(*result.alternatives, *(left or alts))[:5],
+    )
 
 
 def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:

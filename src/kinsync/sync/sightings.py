@@ -9,6 +9,7 @@ spheres) or, where that cannot be made, an intensity-weighted centroid (see
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,15 +19,17 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from kinsync._typing import FloatArray, IntArray
+from kinsync.errors import ObservabilityError
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import PointTrack
-from kinsync.sync.scan import ProfileScan
+from kinsync.sync.scan import PROFILE_SCANNER_REACH_M, ProfileScan, long_range_note
 
 __all__ = [
     "Sighting",
     "detect_clusters",
     "detect_sightings",
     "refine_sighting",
+    "require_two_sightings",
 ]
 
 
@@ -275,3 +278,20 @@ def detect_clusters(scan: ProfileScan, cfg: ObjectSpaceConfig) -> list[tuple[Sig
     found = [(refine_sighting(scan, idx, cfg), idx) for idx in _clusters(scan, cfg)]
     found.sort(key=lambda item: item[0].x)
     return found
+
+
+def require_two_sightings(
+    scan: ProfileScan, sightings: Sequence[Sighting], cfg: ObjectSpaceConfig
+) -> None:
+    """Refuse a scan with fewer than two distinct sightings (`ObservabilityError`)."""
+    if len({round(s.x, 6) for s in sightings}) >= 2:
+        return
+    msg = (
+        f"{scan.source}: {len(sightings)} target sighting(s) found (returns with intensity "
+        f">= {cfg.intensity_threshold:g}, at least {cfg.min_returns} per target); at least "
+        "two distinct sightings of the sync points are needed: check the intensity "
+        "threshold and that the retro-reflective targets were scanned"
+    )
+    n_long = int(np.count_nonzero(scan.range_m > PROFILE_SCANNER_REACH_M))
+    note = long_range_note(n_long, len(scan.range_m))
+    raise ObservabilityError(f"{msg}; {note}" if note else msg)
