@@ -79,8 +79,9 @@ and T. The algorithm:
    (`kinsync.sync.clock_line.best_assignment`, which refines only the lines that
    already hold more sightings than the best within the prior's window: milliseconds
    on the oval, under 0.1 s on a 5 min looped drive with 60 sightings). When a period
-   outside the window fits more sightings, and at least three, the prior excluded
-   what the data show: `kinsync.errors.PeriodPriorError` (an `InputError`) naming
+   outside the window (by more than three of its sigmas: nearer, it is the window's
+   own, estimated just outside, and taken) fits more sightings, and at least three,
+   the prior excluded what the data show: `kinsync.errors.PeriodPriorError` naming
    ``--period-prior-s``, how many sightings each period fits and the period the data
    suggest (also as attributes, for a caller that retries). Control targets, glints
    and far passes stay unmatched on a correct clock (6 of 18 sightings matched in the
@@ -187,7 +188,6 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
 
 from kinsync._arrays import FrozenMapping
 from kinsync._typing import ArrayLike, FloatArray
@@ -205,6 +205,7 @@ from kinsync.sync.clock_line import (
     pair_covariance,
     seen_off_the_clock,
     tracked_sightings,
+    variance_factor,
 )
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.crossings import (
@@ -577,7 +578,9 @@ def synchronise_object_space(
         warnings.warn(note, KinsyncWarning, stacklevel=2)
     per_pair = tracked_sightings(scan, detected, crossings, cfg)
     ranked = candidate_assignments(sightings, crossings, cfg, per_pair=per_pair)
-    check_period_prior(ranked, sightings, crossings, cfg, per_pair)
+    own = check_period_prior(ranked, sightings, crossings, cfg, per_pair)
+    if own is not None:  # the window's clock, its period estimated just outside it
+        ranked = [own, *ranked]
     if not ranked:
         msg = no_assignment_text(sync_points, sightings, crossings, search, cfg)
         raise ObservabilityError(msg)
@@ -804,24 +807,6 @@ def _with_lone_matches(result: ObjectSpaceResult, lone: Sequence[LoneMatch]) -> 
     )
 
 
-def _variance_factor(chi2_gls: float, chi2_own: float, dof: int) -> float:
-    """A-posteriori variance factor of the final fit, 1 when the global test passes.
-
-    The residuals widen the covariance only when they are significantly larger (95 %)
-    than the full covariance says (``chi2_gls = r^T C^-1 r``) *and* than the pairs'
-    own sigmas say (``chi2_own = sum (r_i / sigma_i)^2``), by the smaller factor: a
-    misfit of the first kind alone is the correlation being weaker than modelled
-    (near-simultaneous sightings differ more than ``rho`` allows), which leaves the
-    GLS sigma of t0 and T right (module step 5).
-    """
-    if dof <= 0:
-        return 1.0
-    limit = float(chi2_dist.ppf(0.95, dof))
-    if chi2_gls > limit and chi2_own > limit:
-        return min(chi2_gls, chi2_own) / dof
-    return 1.0
-
-
 def _result(
     best: Assignment,
     others: Sequence[Assignment],
@@ -842,7 +827,7 @@ def _result(
     fit = gls_line(xs, ts, cov_t)
     m = len(best.pairs)
     dof = m - 2
-    scale = _variance_factor(fit.chi2, float(np.sum((fit.residuals_s / stds) ** 2)), dof)
+    scale = variance_factor(fit.chi2, float(np.sum((fit.residuals_s / stds) ** 2)), dof)
     data = fit.covariance * scale
     effect = mount_effect(xs, cov_t, shifts_s[:, [j for _, j in best.pairs]], mount)
     cov = data + effect.covariance  # the mount's stated errors (kinsync.sync.mount_effect)
