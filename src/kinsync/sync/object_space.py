@@ -203,6 +203,7 @@ from kinsync.sync.clock_line import (
     gls_line,
     lone_matches,
     pair_covariance,
+    position_model_note,
     seen_off_the_clock,
     tracked_sightings,
     variance_factor,
@@ -828,6 +829,8 @@ def _result(
     m = len(best.pairs)
     dof = m - 2
     scale = variance_factor(fit.chi2, float(np.sum((fit.residuals_s / stds) ** 2)), dof)
+    if note := position_model_note(fit.chi2, dof, cfg.position_std_m, cfg.position_corr_time_s):
+        warnings.warn(note, KinsyncWarning, stacklevel=3)
     data = fit.covariance * scale
     effect = mount_effect(xs, cov_t, shifts_s[:, [j for _, j in best.pairs]], mount)
     cov = data + effect.covariance  # the mount's stated errors (kinsync.sync.mount_effect)
