@@ -508,6 +508,63 @@ def test_apply_then_georeference(
     assert np.abs(dist[on] - radius).max() < 0.015
 
 
+def test_the_clock_records_its_mount_and_apply_refuses_another(
+    run_cli: RunCli,
+    assert_one_line_error: OneLineError,
+    dataset: tuple[DriveScanSimulation, Path],
+    tmp_path: Path,
+) -> None:
+    """The clock holds the mount's latency (t0 moves with it 1:1); clock.json said nothing
+    of the mount, and apply with a 5 ms mount, then georef with it, moved points by up to
+    55 mm with exit 0. Now the clock names its mount and apply refuses another."""
+    sim, folder = dataset
+    code, out, err = run_cli([*_object_space(folder, "--position-std-m", "0"), "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    mount = sim.config.mount
+    assert doc["mount"] == {
+        "path": str(folder / "mount.toml"),
+        "latency_s": mount.latency_s,
+        "lever_arm_body_m": list(mount.lever_arm_body_m),
+        "boresight_rpy_deg": list(mount.boresight_rpy_deg),
+        "profiler_azimuth_deg": mount.profiler_azimuth_deg,
+    }
+    clock = tmp_path / "clock.json"
+    clock.write_text(out)
+    late = tmp_path / "late.toml"
+    write_mount(dataclasses.replace(mount, latency_s=mount.latency_s + 0.005), late)
+    timed = tmp_path / "timed.csv"
+    base = ["sync", "apply", "--scan", str(folder / "scan.csv"), "--clock", str(clock)]
+    base += ["--out", str(timed), "--mount"]
+    assert_one_line_error(
+        *run_cli([*base, str(late)]),
+        f"{clock}: the clock was fitted with mount {folder / 'mount.toml'}",
+        f"latency_s {mount.latency_s!r} (the clock's) vs {mount.latency_s + 0.005!r}",
+        f"give --mount {folder / 'mount.toml'}",
+        f"sync object-space --mount {late} --json",
+    )
+    assert not timed.exists()
+    turned = tmp_path / "turned.toml"
+    yaw = (*mount.boresight_rpy_deg[:2], mount.boresight_rpy_deg[2] + 0.1)
+    write_mount(dataclasses.replace(mount, boresight_rpy_deg=yaw), turned)
+    assert_one_line_error(*run_cli([*base, str(turned)]), "boresight_rpy_deg [")
+    # The same values under another name (a copy, stated sigma aside) are the same mount.
+    copy = tmp_path / "copy.toml"
+    write_mount(mount, copy)
+    code, _, err = run_cli([*base, str(copy)])
+    assert code == 0, err
+    assert "warning" not in err
+    # An older clock file, without the mount: read, with a warning saying what to do.
+    del doc["mount"]
+    clock.write_text(json.dumps(doc))
+    code, out, err = run_cli([*base, str(copy), "--json"])
+    assert code == 0, err
+    (line,) = err.splitlines()
+    assert line.startswith(f"kinsync: warning: {clock}: the clock file does not record the mount")
+    assert "georeference these points with that same mount" in line
+    assert json.loads(out)["warnings"] == [line.removeprefix("kinsync: warning: ")]
+
+
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_apply_to_a_scan_without_rows_writes_a_table_georef_reads(
     run_cli: RunCli, dataset: tuple[DriveScanSimulation, Path], tmp_path: Path, suffix: str

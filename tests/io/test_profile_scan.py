@@ -18,6 +18,7 @@ from kinsync.frames import geodetic_to_ecef
 from kinsync.io.clock_model import write_clock_model
 from kinsync.io.profile_scan import (
     read_clock_document,
+    read_clock_file,
     read_profile_scan,
     read_pulses,
     read_sync_points,
@@ -26,6 +27,7 @@ from kinsync.io.profile_scan import (
     write_sync_points,
 )
 from kinsync.mount import Mount
+from kinsync.sync.clock_mount import ClockMount
 from kinsync.sync.scan import ProfileScan, SyncPoints
 
 MOUNT = Mount(profiler_azimuth_deg=30.0)
@@ -242,6 +244,33 @@ def test_clock_document(tmp_path: Path) -> None:
             read_clock_document(_write_text(tmp_path, f"bad{i}.json", text))
     with pytest.raises(InputError, match="not found"):
         read_clock_document(tmp_path / "none.json")
+
+
+def test_a_clock_file_reads_back_the_mount_it_was_fitted_with(tmp_path: Path) -> None:
+    mount = Mount(lever_arm_body_m=(0.6, 0.0, -1.4), latency_s=0.005, profiler_azimuth_deg=30.0)
+    recorded = ClockMount.of(mount, "m.toml")
+    doc = {"t0_s": 12.5, "period_s": 0.03, "mount": recorded.as_document()}
+    clock = read_clock_file(_write_text(tmp_path, "c.json", json.dumps(doc)))
+    assert clock.mount == recorded
+    assert recorded.differences(mount) == []
+    assert recorded.differences(Mount(lever_arm_body_m=(0.6, 0.0, -1.4), latency_s=0.0)) == [
+        "latency_s 0.005 (the clock's) vs 0.0",
+        "[profiler] azimuth_deg 30.0 (the clock's) vs none",
+    ]
+    older = {"t0_s": 12.5, "period_s": 0.03}
+    assert read_clock_file(_write_text(tmp_path, "old.json", json.dumps(older))).mount is None
+    bad = {
+        "[1]": "'mount' must be an object, got",
+        '{"latency_s": 0}': "'mount' must name its file in 'path'",
+        '{"path": "m.toml", "latency_s": "5 ms"}': "'mount' 'latency_s' must be a finite number",
+        '{"path": "m", "latency_s": 0, "lever_arm_body_m": [1, 2]}': "'lever_arm_body_m' must be 3",
+    }
+    for i, (entry, frag) in enumerate(bad.items()):
+        text = '{"t0_s": 1, "period_s": 0.03, "mount": ' + entry + "}"
+        path = _write_text(tmp_path, f"m{i}.json", text)
+        with pytest.raises(InputError, match=frag) as info:
+            read_clock_file(path)
+        assert str(info.value).startswith(f"{path}: ")
 
 
 def test_a_local_clock_model_is_not_taken_for_a_profile_clock(tmp_path: Path) -> None:

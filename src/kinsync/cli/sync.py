@@ -19,6 +19,8 @@ from kinsync.io.mount_file import read_mount
 from kinsync.progress import Stages
 
 if TYPE_CHECKING:
+    from kinsync.mount import Mount
+    from kinsync.sync.clock_mount import ClockMount
     from kinsync.sync.object_space import ObjectSpaceResult
 
 app = typer.Typer(
@@ -128,6 +130,7 @@ def object_space(
         require_profiler_azimuth,
         synchronise_object_space,
     )
+    from kinsync.sync.clock_mount import ClockMount  # noqa: PLC0415
 
     refuse_unused_gps_week(gps_week, trajectories=[trajectory])
     config = ObjectSpaceConfig(
@@ -162,7 +165,11 @@ def object_space(
         stages.finish()
     _warn_or_refuse(result, trajectory, sync_points, pulses, accept_ambiguous=accept_ambiguous)
     if as_json:
-        print_json(result.as_document())
+        # The clock holds the mount (1 ms of latency_s is 1 ms of t0): recorded, so that
+        # sync apply can refuse another mount.
+        doc = result.as_document()
+        doc["mount"] = ClockMount.of(the_mount, str(mount)).as_document()
+        print_json(doc)
         return
     table = quantity_table(
         f"Profile clock of {scan} from {counted(len(result.sightings), 'sighting')}"
@@ -314,7 +321,7 @@ def apply(
     as_json: JsonOpt = False,
 ) -> None:
     """Write the scan with a time and scanner-frame coordinates per return."""
-    from kinsync.io.profile_scan import read_clock_document  # noqa: PLC0415
+    from kinsync.io.profile_scan import read_clock_file  # noqa: PLC0415
     from kinsync.pipelines.sync_apply import apply_profile_clock  # noqa: PLC0415
     from kinsync.sync.crossings import require_profiler_azimuth  # noqa: PLC0415
 
@@ -324,8 +331,10 @@ def apply(
     if accept_ambiguous and clock is None:
         msg = "--accept-ambiguous applies to a --clock file marked ambiguous; give --clock"
         raise InputError(msg)
+    clock_file = None
     if clock is not None:
-        t0, period = read_clock_document(clock, accept_ambiguous=accept_ambiguous)
+        clock_file = read_clock_file(clock, accept_ambiguous=accept_ambiguous)
+        t0, period = clock_file.t0_s, clock_file.period_s
     elif t0_s is not None and period_s is not None:
         t0, period = t0_s, period_s
     else:
@@ -336,6 +345,8 @@ def apply(
         raise InputError(msg)
     the_mount = read_mount(mount)
     require_profiler_azimuth(the_mount, str(mount))
+    if clock is not None and clock_file is not None:
+        _check_clock_mount(clock, clock_file.mount, the_mount, mount)
     with progress_display("sync apply") as progress:
         stages = Stages(progress, {"time-tagging returns": 1.0})
         stages.start("time-tagging returns")
@@ -358,3 +369,33 @@ def apply(
     table.add_row("t0 (s)", f"{t0:.6f}")
     table.add_row("period (s)", f"{period:.9f}")
     console.print(table)
+
+
+def _check_clock_mount(
+    clock: Path, recorded: ClockMount | None, the_mount: Mount, mount: Path
+) -> None:
+    """Refuse a --mount other than the one the clock was fitted with; warn when unknown.
+
+    The clock holds the mount's latency, lever arm, boresight and azimuth (object-space
+    finds it from where the mount puts the scan plane): points time-tagged with it and
+    georeferenced with another mount count the difference twice.
+    """
+    if recorded is None:
+        warn(
+            f"{clock}: the clock file does not record the mount it was fitted with (an "
+            f"older kinsync's, or written by hand), so {mount} cannot be checked against "
+            "it: georeference these points with that same mount (its latency_s, lever arm "
+            "and boresight are in the clock's t0), or fit the clock again with kinsync "
+            "sync object-space --json"
+        )
+        return
+    differences = recorded.differences(the_mount)
+    if differences:
+        msg = (
+            f"{clock}: the clock was fitted with mount {recorded.source}, and --mount "
+            f"{mount} differs: {'; '.join(differences)}; the clock's t0 and period hold "
+            f"those values, so points georeferenced with {mount} would be off: give "
+            f"--mount {recorded.source} (and georeference with it), or fit the clock again "
+            f"with kinsync sync object-space --mount {mount} --json"
+        )
+        raise InputError(msg)

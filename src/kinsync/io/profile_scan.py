@@ -16,7 +16,9 @@ Hardware profile pulses
     CSV ``t_s``: one pulse per profile on GPS time (s), strictly increasing.
 Profile clock
     JSON object with numbers ``t0_s`` and ``period_s`` (what ``kinsync sync
-    object-space --json`` prints): ``t(n, phi) = t0_s + (n + phi / 2 pi) period_s``.
+    object-space --json`` prints): ``t(n, phi) = t0_s + (n + phi / 2 pi) period_s``;
+    ``mount`` (optional: older files lack it) records the mount the clock was fitted
+    with, `kinsync.sync.clock_mount.ClockMount.as_document`.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import csv
 import math
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +57,7 @@ from kinsync.io.sanity import (
 from kinsync.io.tables import read_csv_rows, read_numeric_csv, write_numeric_csv
 from kinsync.io.text_lines import cut_line_hint
 from kinsync.mount import MAX_PROFILE_ANGLE_RAD
+from kinsync.sync.clock_mount import ClockMount
 from kinsync.sync.scan import (
     SCAN_COLUMNS,
     SYNC_POINT_COLUMNS,
@@ -62,8 +66,10 @@ from kinsync.sync.scan import (
 )
 
 __all__ = [
+    "ClockFile",
     "pulse_line",
     "read_clock_document",
+    "read_clock_file",
     "read_profile_scan",
     "read_pulses",
     "read_sync_points",
@@ -327,8 +333,32 @@ def write_pulses(t_s: ArrayLike, path: Path) -> None:
     write_numeric_csv(Path(path), {"t_s": np.asarray(t_s, dtype=np.float64)})
 
 
+@dataclass(frozen=True)
+class ClockFile:
+    """A profile clock file: the clock and the mount it was fitted with.
+
+    Attributes
+    ----------
+    t0_s, period_s : float
+        The clock ``t(n, phi) = t0 + (n + phi / 2 pi) T`` (s).
+    mount : ClockMount or None
+        The mount values the clock was fitted with; None for a file without them (an
+        older kinsync's, or one written by hand).
+    """
+
+    t0_s: float
+    period_s: float
+    mount: ClockMount | None
+
+
 def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[float, float]:
-    """Read ``(t0_s, period_s)`` from a JSON clock document (e.g. object-space output).
+    """Read ``(t0_s, period_s)`` from a JSON clock document (`read_clock_file`)."""
+    clock = read_clock_file(path, accept_ambiguous=accept_ambiguous)
+    return clock.t0_s, clock.period_s
+
+
+def read_clock_file(path: Path, *, accept_ambiguous: bool = False) -> ClockFile:
+    """Read a JSON clock document (e.g. object-space output), with its mount if recorded.
 
     A document marked ``"ambiguous": true`` (other matches of sightings to crossings fit
     almost as well: its t0 may be whole seconds off) is refused unless
@@ -340,7 +370,8 @@ def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[
         Missing or unreadable file, invalid JSON (line and column), not an object,
         missing keys, non-finite or implausible numbers (`kinsync.io.sanity`), a period
         outside 10 µs to 100 s, an ``ambiguous`` not true or false or ``alternatives``
-        not a list, a key given twice, an ambiguous clock not accepted.
+        not a list, a ``mount`` that is not as object-space writes it, a key given twice,
+        an ambiguous clock not accepted.
     """
     path = Path(path)
     if not path.exists() and not path.is_symlink():  # a link loop "does not exist" either
@@ -381,4 +412,41 @@ def read_clock_document(path: Path, *, accept_ambiguous: bool = False) -> tuple[
             "to settle it, or apply it anyway with --accept-ambiguous"
         )
         raise InputError(msg)
-    return values[0], values[1]
+    return ClockFile(values[0], values[1], _clock_mount(path, doc.get("mount")))
+
+
+def _clock_mount(path: Path, doc: object) -> ClockMount | None:
+    """The ``mount`` entry of a clock file (None when absent or null), checked."""
+    if doc is None:
+        return None
+    advice = "; give the JSON that kinsync sync object-space --json writes"
+    if not isinstance(doc, dict):
+        msg = f"{path}: 'mount' must be an object, got {shown_value(doc)}{advice}"
+        raise InputError(msg)
+    source = doc.get("path")
+    if not isinstance(source, str):
+        msg = f"{path}: 'mount' must name its file in 'path', got {shown_value(source)}{advice}"
+        raise InputError(msg)
+
+    def number(key: str, value: object) -> float:
+        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
+            return float(value)
+        msg = f"{path}: 'mount' {key!r} must be a finite number, got {shown_value(value)}"
+        raise InputError(msg + advice)
+
+    def triple(key: str) -> tuple[float, float, float]:
+        value = doc.get(key)
+        if not isinstance(value, list) or len(value) != 3:
+            msg = f"{path}: 'mount' {key!r} must be 3 numbers, got {shown_value(value)}"
+            raise InputError(msg + advice)
+        x, y, z = (number(key, v) for v in value)
+        return x, y, z
+
+    azimuth = doc.get("profiler_azimuth_deg")
+    return ClockMount(
+        source=source,
+        latency_s=number("latency_s", doc.get("latency_s")),
+        lever_arm_body_m=triple("lever_arm_body_m"),
+        boresight_rpy_deg=triple("boresight_rpy_deg"),
+        profiler_azimuth_deg=None if azimuth is None else number("profiler_azimuth_deg", azimuth),
+    )
