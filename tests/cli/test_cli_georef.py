@@ -516,6 +516,37 @@ def test_scheduler_processes_gives_the_serial_output(
     assert scaled.read_bytes() == serial.read_bytes()
 
 
+@pytest.mark.parametrize(
+    "scheduler",
+    [
+        ("--scheduler", "local"),
+        ("--scheduler", "processes", "--workers", "2", "--chunk-points", "600"),
+    ],
+)
+def test_a_quoted_line_break_is_named_by_its_line_whatever_the_scheduler(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    scheduler: tuple[str, ...],
+) -> None:
+    """'lines 2..: 2500 rows were planned, 2499 read back' (local) or, the value cut
+    between two chunks, 'line 602: 1 field(s) where the header has 7' (processes): now
+    both name the line where the quoted value breaks."""
+    path = setup["points"]
+    lines = path.read_text().splitlines()
+    rows = [line + ",x" for line in lines[1:]]
+    rows[599] = rows[599][:-1] + '"two'  # file line 601, the last of the first chunk
+    rows[600] = 'lines"'  # the value's end: the row has as many fields as the header
+    path.write_text("\n".join([lines[0] + ",note", *rows]) + "\n")
+    out = setup["dir"] / "geo.csv"
+    assert_one_line_error(
+        *run_cli(_args(setup, out, *scheduler)),
+        f"{path}: line 601: a quoted value holds a line break",
+        "remove the line breaks from the values",
+    )
+    assert not out.exists()
+
+
 def test_unreachable_scheduler_is_one_line_error(
     run_cli: RunCli,
     setup: dict[str, Path],

@@ -621,6 +621,36 @@ def test_csv_errors_name_the_file_line_past_blank_lines_and_chunks(
         read_table_slice(layout, slices[3])
 
 
+@pytest.mark.parametrize("eol", ["\n", "\r\n", "\r"])
+@pytest.mark.parametrize("chunk_points", [4, 1000])
+@pytest.mark.parametrize("scan_block", [5, 1 << 24])
+def test_a_quoted_line_break_is_refused_naming_its_first_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, eol: str, chunk_points: int, scan_block: int
+) -> None:
+    """Planned slices cut the file's lines: a value holding a line break gave "rows were
+    planned, ... read back" for a whole slice, or, cut between two slices, "5 field(s)
+    where the header has 6" for its second half. Now the first such line is named before
+    any slice is read; a quote inside an unquoted value (12") is no line break."""
+    rows = [f'{i}.5,1,2,3,"a ""q"", b",{i}"' if i % 3 else f"{i}.5,1,2,3,x,{i}" for i in range(30)]
+    rows[7] = '7.5,1,2,3,"two' + eol + 'lines",7'  # the value's first half: file line 9
+    rows[20] = '20.5,1,2,3,"three' + eol + eol + 'lines",20'
+    path = tmp_path / "broken.csv"
+    path.write_bytes(eol.join(["t_s,x_m,y_m,z_m,note,size", *rows, ""]).encode())
+    monkeypatch.setattr("kinsync.io.points._SCAN_BLOCK_BYTES", scan_block)
+    want = (
+        "broken.csv: line 9: a quoted value holds a line break (the line ends inside quotes), "
+        "which kinsync does not read; remove the line breaks from the values, or close the quote"
+    )
+    with pytest.raises(InputError, match=re.escape(want)):
+        plan_table_slices(path, chunk_points, REQUIRED)
+    rows[7] = '7.5,1,2,3,"one line",7'
+    rows[20] = "20.5,1,2,3,x,20"
+    path.write_bytes(eol.join(["t_s,x_m,y_m,z_m,note,size", *rows, ""]).encode())
+    layout, slices = plan_table_slices(path, chunk_points, REQUIRED)
+    got = _concat([read_table_slice(layout, sl) for sl in slices])
+    assert list(got["size"]) == [row.rsplit(",", 1)[1] for row in rows]
+
+
 def test_csv_line_of_row_counts_non_empty_lines_across_blocks(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -8,6 +8,7 @@ name it.
 from __future__ import annotations
 
 import csv
+import io
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -24,6 +25,7 @@ __all__ = [
     "decimal_comma_hint",
     "first_bad_cell",
     "locate_bad_csv_cell",
+    "quoted_line_break",
 ]
 
 _COMMENT_MARKS = ("#", "//", ";")
@@ -183,3 +185,42 @@ def first_bad_cell(
                 f"{comment_hint(cells)}{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)
+
+
+def quoted_line_break(path: Path, byte_start: int, byte_end: int, line: int) -> InputError | None:
+    """The error for a line that ends inside a quoted value, None for one that does not.
+
+    A line with an odd number of quote characters ends inside quotes when its quotes
+    open and close values (``"two`` then ``lines"`` on the next line), but not when one
+    stands inside an unquoted value (``12"`` for inches): the ``csv`` module reads the
+    line alone to tell.
+
+    Parameters
+    ----------
+    path : Path
+        The CSV file.
+    byte_start, byte_end : int
+        The line's first byte and its last (its line end), offsets in the file.
+    line : int
+        Its file line (1-based), for the message.
+
+    Returns
+    -------
+    InputError or None
+        The error naming the line and saying what to do, or None.
+    """
+    with path.open("rb") as fh:
+        fh.seek(byte_start)
+        data = fh.read(byte_end + 1 - byte_start)
+    text = data.decode("utf-8", errors="surrogateescape")
+    try:
+        cells = next(csv.reader(io.StringIO(text, newline="")), [])
+    except csv.Error:  # a NUL byte: the readers name it
+        return None
+    if not any("\n" in cell or "\r" in cell for cell in cells):
+        return None
+    return InputError(
+        f"{path}: line {line}: a quoted value holds a line break (the line ends inside "
+        "quotes), which kinsync does not read; remove the line breaks from the values, "
+        "or close the quote"
+    )

@@ -21,7 +21,9 @@ the line ends, LF, CRLF or a CR alone as pyarrow reads them (`kinsync.io.text_li
 empty lines are skipped, as pyarrow does); column types are inferred once
 from the file's first MiB (pyarrow's default block) and fixed for every slice. Like
 pyarrow's own reader (its default ``newlines_in_values=False``) this assumes no line
-break inside a quoted value. A Parquet file is cut at row-group boundaries: consecutive
+break inside a quoted value: the planning pass refuses one, naming the first line that
+ends inside quotes (`kinsync.io.csv_cells.quoted_line_break`), so that every scheduler
+gives the same message. A Parquet file is cut at row-group boundaries: consecutive
 row groups are merged up to ``chunk_points`` rows, and a row group larger than that is
 read in pieces of ``chunk_points`` rows (read in order, each row is decoded once:
 `kinsync.io.parquet_slices`). Slices never hold more than ``chunk_points`` rows.
@@ -51,6 +53,7 @@ from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_cells import PARSE_ERROR as _PARSE_ERROR
 from kinsync.io.csv_cells import first_bad_cell as _first_bad_cell
 from kinsync.io.csv_cells import locate_bad_csv_cell as _locate_bad_csv_cell
+from kinsync.io.csv_cells import quoted_line_break
 from kinsync.io.csv_stream import csv_batches as _csv_batches
 from kinsync.io.parquet_slices import read_row_group_piece, read_row_groups
 from kinsync.io.row_position import point_position
@@ -501,9 +504,53 @@ def _csv_header_bytes(path: Path) -> int:
         return len(read_first_line(fh))
 
 
+_QUOTE = 0x22  # '"'
+
+
+def _quote_check(
+    path: Path,
+    quotes: np.ndarray[Any, Any],
+    starts: np.ndarray[Any, Any],
+    ends: np.ndarray[Any, Any],
+    first_line: int,
+    base: int,
+) -> int:
+    """Refuse the first line that ends inside a quoted value; the new count ``base``.
+
+    ``quotes[j]`` counts the quote characters from the data's start to line end
+    ``ends[j]``; a line ends outside quotes when the count since ``base`` (the count
+    where a line was last known to end outside quotes) is even. A line where it is
+    odd is read with the ``csv`` module (`quoted_line_break`): a quote inside an
+    unquoted value (``12"``) makes the count odd too, and such a line restarts it.
+
+    Raises
+    ------
+    InputError
+        A line that ends inside quotes (line ``first_line + j``).
+    """
+    j = 0
+    while True:
+        odd = np.flatnonzero((quotes[j:] - base) % 2 == 1)
+        if not odd.size:
+            return base
+        k = j + int(odd[0])
+        err = quoted_line_break(path, int(starts[k]), int(ends[k]), first_line + k)
+        if err is not None:
+            raise err
+        base, j = int(quotes[k]), k + 1
+
+
 def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
-    """Cut the data lines of a CSV into slices of ``chunk_points`` non-empty lines."""
+    """Cut the data lines of a CSV into slices of ``chunk_points`` non-empty lines.
+
+    Raises
+    ------
+    InputError
+        A line that ends inside a quoted value (`quoted_line_break`): the slices of the
+        file's lines would cut such a value and read its halves as rows.
+    """
     slices: list[TableSlice] = []
+    quotes_before = quotes_base = 0  # quote characters before the block; see _quote_check
     data_start = _csv_header_bytes(path)
     size = path.stat().st_size
     line_start = data_start  # start byte of the line being read
@@ -519,6 +566,7 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
             nxt = fh.read(_SCAN_BLOCK_BYTES)  # its first byte: is a last CR half a CRLF?
             arr = np.frombuffer(buf, dtype=np.uint8)
             nl = line_end_indices(arr, nxt[0] if nxt else None)  # LF, CRLF's LF, lone CR
+            q = np.flatnonzero(arr == _QUOTE)
             if nl.size:
                 ends = nl + pos  # absolute offsets of the line ends
                 starts = np.empty(nl.size, dtype=np.int64)
@@ -526,6 +574,9 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
                 starts[1:] = ends[:-1] + 1
                 before = np.where(nl > 0, arr[np.maximum(nl - 1, 0)], prev_byte)
                 crlf = ((arr[nl] == LF) & (before == CR)).astype(np.int64)
+                if q.size or (quotes_before - quotes_base) % 2:
+                    counts = quotes_before + np.searchsorted(q, nl)
+                    quotes_base = _quote_check(path, counts, starts, ends, line_no, quotes_base)
                 nonempty = ends - starts - crlf > 0  # the line holds more than its end
                 cum = rows_in_slice + np.cumsum(nonempty)
                 for k in np.flatnonzero(nonempty & (cum % chunk_points == 0)).tolist():
@@ -544,6 +595,7 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
                 rows_in_slice = int(cum[-1]) % chunk_points
                 line_no += int(nl.size)
                 line_start = int(ends[-1]) + 1
+            quotes_before += int(q.size)
             pos += len(buf)
             prev_byte = int(arr[-1])
             buf = nxt
@@ -634,7 +686,8 @@ def plan_table_slices(
     Raises
     ------
     InputError
-        Missing file, unknown suffix, missing or duplicated columns, a bad cell of a
+        Missing file, unknown suffix, missing or duplicated columns, a line of the CSV
+        that ends inside a quoted value (a line break in a value), a bad cell of a
         required column in the CSV's first block, an unreadable file.
     """
     path = Path(path)
@@ -646,6 +699,11 @@ def plan_table_slices(
     required, renames = _mapped_required(path, names, required, columns)
     if suffix == ".csv":
         warn_if_unended(path)
+        try:  # first: a quoted line break is named as such, not as the row it garbles
+            slices, total = _plan_csv(path, chunk_points)
+        except OSError as err:
+            msg = f"{path}: cannot read ({err})"
+            raise InputError(msg) from err
         guessed = _csv_schema(path, required, _SCHEMA_BLOCK_BYTES)
         schema = pa.schema(  # the header's names (stripped), required columns float64
             [
@@ -656,11 +714,6 @@ def plan_table_slices(
         inferred = pa.schema(
             [pa.field(name, f.type) for name, f in zip(names, guessed, strict=True)]
         )
-        try:
-            slices, total = _plan_csv(path, chunk_points)
-        except OSError as err:
-            msg = f"{path}: cannot read ({err})"
-            raise InputError(msg) from err
     else:
         pf = _open_parquet(path)
         schema = inferred = pf.schema_arrow
