@@ -267,6 +267,8 @@ def _file_cases(folder: Path, tmp: Path) -> dict[str, Case]:
     txt = tmp / "passage_1.txt"
     txt.write_text("0 " * 17 + "\n")
     week = ["--trajectory", sbet, "--gps-week", "2345"]
+    link = tmp / "line_again.laz"
+    link.symlink_to(lines[1])
     return {
         "unknown type": (["--points", str(bad), lines[0], *week],
                          ("points.xyz", "unknown points file type")),
@@ -289,6 +291,12 @@ def _file_cases(folder: Path, tmp: Path) -> dict[str, Case]:
                                 ("--patch-max-thickness-m", "not a finite number")),
         "output is input": (["--points", *lines, *week, "--out", mount],
                             ("is the input --mount",)),
+        # It said "line names must be unique, got [...]", naming no file nor what to do.
+        "file twice": (["--points", *lines, lines[1], *week],
+                       (f"{lines[1]}: given twice in --points;", "give each line once")),
+        "file and link": (["--points", *lines, str(link), *week],
+                          (f"{link}: given twice in --points (the same file as {lines[1]})",
+                           "give each line once")),
     }  # fmt: skip
 
 
@@ -296,7 +304,7 @@ BAD_CASES = (
     "one line", "outside", "seconds of week", "no gps week", "no feature", "no overlap",
     "unknown type", "missing", "cidco with trajectory", "bad estimate", "radius on planes",
     "output is input", "patch options on spheres", "patch voxel zero", "patch returns too few",
-    "patch thickness nan",
+    "patch thickness nan", "file twice", "file and link",
 )  # fmt: skip
 
 

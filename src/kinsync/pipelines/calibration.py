@@ -153,13 +153,15 @@ def read_scan_lines(
     ------
     InputError
         Unknown file types, a count of trajectories that is neither 1 nor the count of
-        point files, empty or unreadable files, non-finite values (naming the file).
+        point files, a file given twice (also under another name: a link), empty or
+        unreadable files, non-finite values (naming the file).
     """
     points = [Path(p) for p in points]
     trajectories = [Path(t) for t in trajectories]
     if not points:
         msg = "give at least one points file (--points)"
         raise InputError(msg)
+    _refuse_repeated(points)
     cidco = [p for p in points if p.suffix.lower() == _CIDCO]
     if cidco:
         return _read_cidco(points, cidco, trajectories)
@@ -204,6 +206,33 @@ def read_scan_lines(
             for p, ln in zip(points, lines, strict=True)
         ]
     return tuple(lines)
+
+
+def _refuse_repeated(points: Sequence[Path]) -> None:
+    """Refuse a points file given twice, under its own name or another (a link).
+
+    Raises
+    ------
+    InputError
+        Naming the file (and its other name) and saying to give each line once.
+    """
+    seen: dict[object, int] = {}
+    for i, path in enumerate(points):
+        try:
+            st = path.stat()
+        except OSError:  # a missing file: its reader names it
+            key: object = path
+        else:
+            key = (st.st_dev, st.st_ino)
+        first = points[seen.setdefault(key, i)]
+        if seen[key] == i:
+            continue
+        same = "" if first == path else f" (the same file as {first})"
+        msg = (
+            f"{path}: given twice in --points{same}; a line counted twice would weigh "
+            "double in the calibration: give each line once"
+        )
+        raise InputError(msg)
 
 
 def _read_cidco(
