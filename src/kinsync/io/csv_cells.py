@@ -187,7 +187,7 @@ def first_bad_cell(
             return InputError(msg)
 
 
-def quoted_line_break(path: Path, byte_start: int, byte_end: int, line: int) -> InputError | None:
+def quoted_line_break(path: Path, data: bytes, line: int) -> InputError | None:
     """The error for a line that ends inside a quoted value, None for one that does not.
 
     A line with an odd number of quote characters ends inside quotes when its quotes
@@ -198,9 +198,9 @@ def quoted_line_break(path: Path, byte_start: int, byte_end: int, line: int) -> 
     Parameters
     ----------
     path : Path
-        The CSV file.
-    byte_start, byte_end : int
-        The line's first byte and its last (its line end), offsets in the file.
+        The CSV file, for the message.
+    data : bytes
+        The line, its line end included.
     line : int
         Its file line (1-based), for the message.
 
@@ -209,9 +209,6 @@ def quoted_line_break(path: Path, byte_start: int, byte_end: int, line: int) -> 
     InputError or None
         The error naming the line and saying what to do, or None.
     """
-    with path.open("rb") as fh:
-        fh.seek(byte_start)
-        data = fh.read(byte_end + 1 - byte_start)
     text = data.decode("utf-8", errors="surrogateescape")
     try:
         cells = next(csv.reader(io.StringIO(text, newline="")), [])

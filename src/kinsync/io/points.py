@@ -514,30 +514,39 @@ def _quote_check(
     ends: np.ndarray[Any, Any],
     first_line: int,
     base: int,
+    block: tuple[bytes, int],
 ) -> int:
     """Refuse the first line that ends inside a quoted value; the new count ``base``.
 
     ``quotes[j]`` counts the quote characters from the data's start to line end
-    ``ends[j]``; a line ends outside quotes when the count since ``base`` (the count
-    where a line was last known to end outside quotes) is even. A line where it is
-    odd is read with the ``csv`` module (`quoted_line_break`): a quote inside an
-    unquoted value (``12"``) makes the count odd too, and such a line restarts it.
+    ``ends[j]``; ``base`` is the count where a line last ended outside quotes. A line
+    that ends inside quotes holds an odd number of them (counted from ``base`` for the
+    first line); so does one with a quote inside an unquoted value (``12"``), so each
+    such line is read with the ``csv`` module (`quoted_line_break`) to tell. Every line
+    of the block then ends outside quotes: the new base is the last line's count. One
+    pass over the block's lines, each odd one read from ``block`` (the block's bytes and
+    its offset in the file) when it starts in it: a file with ``12"`` on every line was
+    planned in time quadratic in its lines.
 
     Raises
     ------
     InputError
         A line that ends inside quotes (line ``first_line + j``).
     """
-    j = 0
-    while True:
-        odd = np.flatnonzero((quotes[j:] - base) % 2 == 1)
-        if not odd.size:
-            return base
-        k = j + int(odd[0])
-        err = quoted_line_break(path, int(starts[k]), int(ends[k]), first_line + k)
+    own = np.diff(quotes, prepend=base)  # each line's own quote characters
+    buf, pos = block
+    for k in np.flatnonzero(own % 2 == 1).tolist():
+        start, end = int(starts[k]), int(ends[k])
+        if start >= pos:
+            data = buf[start - pos : end + 1 - pos]
+        else:  # the line began in the block before
+            with path.open("rb") as fh:
+                fh.seek(start)
+                data = fh.read(end + 1 - start)
+        err = quoted_line_break(path, data, first_line + k)
         if err is not None:
             raise err
-        base, j = int(quotes[k]), k + 1
+    return int(quotes[-1]) if quotes.size else base
 
 
 def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
@@ -576,7 +585,9 @@ def _plan_csv(path: Path, chunk_points: int) -> tuple[list[TableSlice], int]:
                 crlf = ((arr[nl] == LF) & (before == CR)).astype(np.int64)
                 if q.size or (quotes_before - quotes_base) % 2:
                     counts = quotes_before + np.searchsorted(q, nl)
-                    quotes_base = _quote_check(path, counts, starts, ends, line_no, quotes_base)
+                    quotes_base = _quote_check(
+                        path, counts, starts, ends, line_no, quotes_base, (buf, pos)
+                    )
                 nonempty = ends - starts - crlf > 0  # the line holds more than its end
                 cum = rows_in_slice + np.cumsum(nonempty)
                 for k in np.flatnonzero(nonempty & (cum % chunk_points == 0)).tolist():
