@@ -477,6 +477,13 @@ def test_a_visit_cut_by_an_end_of_the_cloud_is_missing_not_biased(
         got, lost = extract_targets(part, scene.control, cloud_span_s=span, **kwargs)
         assert lost == ()
         assert visit.name in [o.name for o in got if abs(o.t_s - visit.t_s) < 0.5]
+    # a cloud clipped around the targets (what a user keeps of a survey) is not cut: it
+    # begins metres before the first target, many profiles before its first return
+    clipped = nearest_control(cloud.pos_ecef_m, scene.control, 2.0) >= 0
+    part = CloudPoints(cloud.pos_ecef_m[clipped], cloud.t_s[clipped], cloud.intensity[clipped])
+    got, lost = extract_targets(part, scene.control, **kwargs)
+    assert lost == ()
+    assert [(o.name, o.t_s) for o in got] == [(o.name, o.t_s) for o in obs]
     with pytest.raises(InputError, match="does not hold the cloud's point times"):
         extract_targets(cloud, scene.control, cloud_span_s=(visit.t_s, visit.t_s + 1.0))
     for bad in ((1.0,), (2.0, 1.0), (float("nan"), 1.0)):

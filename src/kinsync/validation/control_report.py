@@ -185,8 +185,8 @@ def validate_control_points(
         `kinsync.trajectory_gaps.GAP_FACTOR` median record intervals.
     cloud_span_s : tuple of 2 float, optional
         Times (s) of the whole cloud's first and last points, when ``cloud`` holds only
-        the points near the targets; a visit within ``visit_gap_s`` of either end may be
-        cut and is reported missing (see `extract_targets`).
+        the points near the targets; a visit within one revisit interval of either end
+        may be cut and is reported missing (see `extract_targets`).
 
     Returns
     -------

@@ -366,9 +366,10 @@ def extract_targets(
     cloud_span_s : tuple of 2 float, optional
         Times (s) of the whole cloud's first and last points; default: those of
         ``cloud.t_s`` (give it when ``cloud`` holds only the points near the targets). A
-        visit with a bright point less than ``visit_gap_s`` from either end may have been
-        cut by the end of the cloud (a file split mid-pass): it is reported missing,
-        since a centre from part of a target is biased (tens of mm).
+        visit whose bright points come within one revisit interval (the longest interval
+        between them) of either end may have been cut by the end of the cloud (a file
+        split mid-pass): it is reported missing, since a centre from part of a target is
+        biased (tens of mm).
 
     Returns
     -------
@@ -500,23 +501,30 @@ def _unusable_visit(
 ) -> str:
     """Why a visit (its bright points' times, s) gives no centre, or ``""``.
 
-    Too few points; or a cut by an end of the cloud: a visit whose first bright point
-    comes less than ``visit_gap_s`` after the cloud's first point may have begun before
-    it (the file starts mid-pass); likewise at the end.
+    Too few points; or a cut by an end of the cloud. The scanner comes back to a target
+    it sees every revisit interval (the longest interval between the visit's own bright
+    points: a profile, a revolution); a cloud whose first point comes less than that
+    before the visit's first bright point may have begun in the middle of the visit (a
+    file of a survey written per line or per minute), so the target may have been seen
+    before it; likewise at the end. A cloud clipped around the targets begins farther
+    away (8 m at 20 m/s is 0.4 s, against 4 ms between a profiler's profiles), so its
+    visits are whole.
     """
     if t_s.size < min_points:
         return f"visit with only {t_s.size} bright point(s) (need {min_points})"
-    first, last = float(np.min(t_s)), float(np.max(t_s))
-    if first - span[0] < visit_gap_s:
+    times = np.sort(t_s)
+    first, last = float(times[0]), float(times[-1])
+    revisit = min(float(np.max(np.diff(times))), visit_gap_s)
+    if first - span[0] <= revisit:
         where, t_end, gap = "start", span[0], first - span[0]
-    elif span[1] - last < visit_gap_s:
+    elif span[1] - last <= revisit:
         where, t_end, gap = "end", span[1], span[1] - last
     else:
         return ""
     return (
         f"visit cut by the {where} of the cloud? its bright points come {gap:.3g} s from "
         f"the cloud's {'first' if where == 'start' else 'last'} point (t = {t_end!r} s), "
-        f"under the {visit_gap_s:g} s that separates visits, so part of the target may be "
-        "in another file and its centre biased: validate one cloud that holds the whole "
-        "pass (join its files)"
+        f"no more than the {revisit:.3g} s the scanner took to come back to the target, "
+        "so part of it may be in another file and its centre biased: validate one cloud "
+        "that holds the whole pass (join its files)"
     )
