@@ -19,6 +19,7 @@ from kinsync.calibration.features import Feature, PlaneFeature, SphereFeature
 from kinsync.calibration.gross import (
     LINKED_SHARE,
     MAX_WALL_RANGE_M,
+    _directions,
     far_from_start,
     line_heading_rad,
     lines_at_the_same_time,
@@ -279,3 +280,26 @@ def test_cross_lines_run_neither_way(four_lines: list[ScanLine]) -> None:
     assert text is not None
     assert text.startswith("3 of 11 walls")
     assert "line_01, line_03 (heading 20 deg) see 6 more" in text
+
+
+@pytest.mark.parametrize("first", [0, 1, 2])
+def test_the_directions_do_not_depend_on_the_lines_order(first: int) -> None:
+    """A cross line given first (a glob that sorts cross.laz before strip1.laz) left the
+    genuine opposite pair uncompared: headings 0, 88, 268 deg gave 'nothing to compare',
+    88, 268, 0 gave the pair."""
+    headings = np.radians(np.array([0.0, 88.0, 268.0]))
+    order = np.roll(np.arange(3), -first)
+    way = _directions(headings[order])
+    assert way is not None
+    got = dict(zip(order.tolist(), way.tolist(), strict=True))
+    assert got[0] == 0  # the cross line
+    assert {got[1], got[2]} == {1, -1}
+    assert got[1] == 1  # the axis is 88 deg (268 mod 180): 88 runs its way
+    # the most populated axis wins, in any order
+    many = np.radians(np.array([90.0, 0.0, 180.0, 2.0, 178.0, 270.0]))
+    for perm in ([0, 1, 2, 3, 4, 5], [5, 4, 3, 2, 1, 0], [2, 0, 4, 1, 5, 3]):
+        w = _directions(many[perm])
+        assert w is not None
+        back = dict(zip(perm, w.tolist(), strict=True))
+        assert [back[i] for i in range(6)] == [0, 1, -1, 1, -1, 0]
+    assert _directions(np.radians(np.array([0.0, 90.0, 10.0]))) is None  # no opposite pair

@@ -284,7 +284,12 @@ class DirectionLinks:
 
 
 def line_directions(lines: Sequence[ScanLine]) -> IntArray | None:
-    """Which lines run the first line's way, which the other way (`SAME_WAY_DEG`), or None.
+    """Which lines run one way along the survey's main axis, which the other, or None.
+
+    The axis is the one most lines run along either way (within `SAME_WAY_DEG`) with at
+    least one line each way; a tie goes to the smaller axis angle (0-180 deg from
+    north). It depends on the lines' headings only, not on their order: it followed the
+    first line, so a cross line given first left a genuine opposite pair uncompared.
 
     Parameters
     ----------
@@ -294,9 +299,9 @@ def line_directions(lines: Sequence[ScanLine]) -> IntArray | None:
     Returns
     -------
     ndarray of int, shape (len(lines),) or None
-        1 for the lines run the first line's way, -1 for those run the other way, 0 for
-        the rest (cross lines); None when a line's heading is unknown or no line runs the
-        other way (nothing to compare).
+        1 for the lines run along the axis's angle, -1 for those run the other way, 0
+        for the rest (cross lines); None when a line's heading is unknown or no two
+        lines run opposite ways (nothing to compare).
     """
     return _directions(np.array([line_heading_rad(line) for line in lines]))
 
@@ -305,11 +310,16 @@ def _directions(heading_rad: FloatArray) -> IntArray | None:
     """`line_directions` from the lines' headings (rad)."""
     if not np.all(np.isfinite(heading_rad)):
         return None
-    off = np.abs(wrap_angle_rad(heading_rad - heading_rad[0]))
-    way: IntArray = np.zeros(off.size, dtype=np.int64)
-    way[off <= math.radians(SAME_WAY_DEG)] = 1
-    way[off >= math.radians(180.0 - SAME_WAY_DEG)] = -1
-    return way if np.any(way == -1) else None
+    best: tuple[tuple[int, float], IntArray] | None = None
+    for axis in np.unique(np.mod(heading_rad, math.pi)).tolist():
+        off = np.abs(wrap_angle_rad(heading_rad - axis))
+        way: IntArray = np.zeros(off.size, dtype=np.int64)
+        way[off <= math.radians(SAME_WAY_DEG)] = 1
+        way[off >= math.radians(180.0 - SAME_WAY_DEG)] = -1
+        key = (int(np.count_nonzero(way)), -axis)
+        if np.any(way == 1) and np.any(way == -1) and (best is None or key > best[0]):
+            best = (key, way)
+    return None if best is None else best[1]
 
 
 def direction_links(
