@@ -49,7 +49,8 @@ def test_the_software_names_the_version_and_a_checkout_s_commit() -> None:
         if head.returncode == 0:
             assert sha == head.stdout.strip()
     assert re.fullmatch(
-        re.escape(kinsync.__version__) + r"\+g" + sha[:10] + r"(\.dirty)?", software_version()
+        re.escape(kinsync.__version__) + r"\+g" + sha[:8] + r"(\.dirty|\.unknown)?",
+        software_version(),
     )
     assert len(text) <= 32  # a LAS header's Generating Software
 
@@ -87,7 +88,7 @@ def test_a_worktree_s_git_file_and_a_detached_head(tmp_path: Path) -> None:
     assert _git_dir(tmp_path / "nothing") is None
     (tree / "gitdir" / "HEAD").unlink()
     assert _head_commit(git_dir) is None
-    assert not _dirty(tmp_path / "nothing")  # no git there: not called dirty
+    assert _dirty(tmp_path / "nothing") is None  # git cannot say: not claimed clean
 
 
 def test_the_time_is_now_or_source_date_epoch(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -114,3 +115,20 @@ def test_the_record_holds_the_command_only_when_one_was_run() -> None:
     finally:
         set_command(None)
     assert provenance.command_line() is None
+
+
+def test_a_checkout_git_cannot_read_is_not_claimed_clean(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without git (or when it refused the folder) the version read 0.1.0+g<sha>, a clean
+    checkout, though tracked files had been changed."""
+    repo, sha = _repo(tmp_path, packed=False)
+    monkeypatch.setenv("PATH", str(tmp_path / "no-git-here"))
+    assert _dirty(repo) is None
+    software_version.cache_clear()
+    monkeypatch.setattr(provenance, "__file__", str(repo / "src" / "kinsync" / "io" / "p.py"))
+    (repo / "pyproject.toml").write_text("")
+    try:
+        assert software_version() == f"{kinsync.__version__}+g{sha[:8]}.unknown"
+    finally:
+        software_version.cache_clear()

@@ -743,7 +743,8 @@ def test_sphere_writes_the_latency_into_a_mount(
     assert first[0] == f"# written by {software()} at 2023-11-14T22:13:20Z"
     assert first[1] == f"# from {acquisition}"
     assert first[2].startswith("# command: kinsync latency sphere ")
-    assert first[3:6] == [
+    assert first[3] == f"# in {Path.cwd()}"
+    assert first[4:7] == [
         "# acq.toml's header:", "# Vehicle VX-12, scanner S/N 4711", "# surveyed 2026-11-02"
     ]  # fmt: skip
     # With a mount, the split is always given (the README's keys), zero latency or not.

@@ -315,3 +315,40 @@ def test_ins_configuration_huge_integer_is_an_input_error() -> None:
     text = GOOD_INS.replace("acc_bias_sigma_m_s2 = 0.01", "acc_bias_sigma_m_s2 = 1" + "0" * 400)
     with pytest.raises(InputError, match=r"acc_bias_sigma_m_s2: a 401-digit integer"):
         ins_config_from_toml_text(text, source="ins.toml")
+
+
+def test_a_mount_measured_from_another_says_so_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A calibrated mount file begins with what produced it and its source's own header
+    (a serial number was dropped); calibrated again from it, the header does not nest
+    (each run wrapped the last one's header in its own) and names the folder (the
+    command's paths are relative)."""
+    from kinsync.io.provenance import set_command, software  # noqa: PLC0415
+
+    monkeypatch.chdir(tmp_path)
+    first = tmp_path / "vehicle.toml"
+    write_mount(Mount(lever_arm_body_m=(0.1, 0.0, 0.2)), first)
+    first.write_text("# VX-12, S/N 4711\n\n" + first.read_text(encoding="utf-8"))
+    second, third = tmp_path / "cal1.toml", tmp_path / "cal2.toml"
+    try:
+        set_command(["calibrate", "mount", "--mount", "vehicle.toml", "--out", "cal1.toml"])
+        write_mount(read_mount(first), second, derived_from=first)
+        set_command(["calibrate", "mount", "--mount", "cal1.toml", "--out", "cal2.toml"])
+        write_mount(read_mount(second), third, derived_from=second)
+    finally:
+        set_command(None)
+    text = third.read_text(encoding="utf-8")
+    head = [line for line in text.splitlines() if line.startswith("#")]
+    assert head == [
+        f"# written by {software()} at 2023-11-14T22:13:20Z",
+        f"# from {second}",
+        "# command: kinsync calibrate mount --mount cal1.toml --out cal2.toml",
+        f"# in {tmp_path}",
+        "# cal1.toml's header:",
+        "# VX-12, S/N 4711",
+    ]
+    assert read_mount(third) == read_mount(first)
+    plain = tmp_path / "plain.toml"
+    write_mount(read_mount(first), plain)  # no source given: no header at all
+    assert not plain.read_text(encoding="utf-8").startswith("#")

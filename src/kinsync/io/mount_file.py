@@ -131,8 +131,15 @@ def _provenance_comments(source: Path) -> list[str]:
         f"# from {source}",
     ]
     if record["command"] is not None:
-        lines.append(f"# command: {record['command']}")
+        lines += [f"# command: {record['command']}", f"# in {Path.cwd()}"]
     kept = header_comments(source)
+    if kept and kept[0].startswith(_WRITTEN_BY):  # written by kinsync: its own header only
+        mark = next((i for i, c in enumerate(kept) if c.endswith(_HEADER_MARK)), len(kept))
+        kept = kept[mark + 1 :]
     if kept:
-        lines += [f"# {source.name}'s header:", *kept]
+        lines += [f"# {source.name}{_HEADER_MARK}", *kept]
     return [line.replace("\n", " ").replace("\r", " ") for line in lines]
+
+
+_WRITTEN_BY = "# written by kinsync "
+_HEADER_MARK = "'s header:"

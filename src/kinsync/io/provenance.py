@@ -4,9 +4,10 @@ An auditor who signs a calibration or a georeferenced cloud must be able to say 
 code produced it and how: "kinsync 0.1.0" alone was the same for every commit of the
 project, while two commits in a row gave a roll of 0.284 and 0.290 deg from the same
 lines. So the software is named with its version and, run from a git checkout (an
-editable install or ``PYTHONPATH``), the commit (``+g`` and 10 hex digits, ``.dirty``
-when tracked files differ from it): ``kinsync 0.1.0+g36905f6039.dirty``, a PEP 440
-local version. An installed wheel gives its version alone.
+editable install or ``PYTHONPATH``), the commit (``+g`` and 8 hex digits, ``.dirty``
+when tracked files differ from it, ``.unknown`` when git cannot say):
+``kinsync 0.1.0+g36905f60.dirty``, a PEP 440 local version. An installed wheel gives
+its version alone.
 
 The time is UTC now, or ``SOURCE_DATE_EPOCH`` (seconds since 1970-01-01 UTC, the
 reproducible-builds convention) when set, so the same inputs give the same outputs on
@@ -36,7 +37,7 @@ __all__ = [
     "software_version",
 ]
 
-_SHA_DIGITS = 10  # "kinsync 0.1.0+g<10>.dirty" fits a LAS header's 32 bytes
+_SHA_DIGITS = 8  # "kinsync 0.1.0+g<8>.unknown" fits a LAS header's 32 bytes
 _GIT_TIMEOUT_S = 5.0
 _COMMAND: list[str | None] = [None]
 
@@ -79,19 +80,27 @@ def _head_commit(git_dir: Path) -> str | None:
     return None
 
 
-def _dirty(repo: Path) -> bool:
-    """Whether tracked files differ from HEAD (``git status``); False when git cannot say."""
+def _dirty(repo: Path) -> bool | None:
+    """Whether tracked files differ from HEAD (``git status``); None when git cannot say.
+
+    Git missing, too slow (`_GIT_TIMEOUT_S`) or refusing (a ``safe.directory`` check):
+    a clean checkout is not claimed. ``--no-optional-locks``: the user's index is never
+    locked by it.
+    """
+    argv = ["git", "--no-optional-locks", "-C", str(repo), "status", "--porcelain"]
     try:
         done = subprocess.run(  # noqa: S603 - fixed arguments, no shell
-            ["git", "-C", str(repo), "status", "--porcelain", "--untracked-files=no"],  # noqa: S607
+            [*argv, "--untracked-files=no"],
             capture_output=True,
             text=True,
             timeout=_GIT_TIMEOUT_S,
             check=False,
         )
     except (OSError, subprocess.SubprocessError):
-        return False
-    return done.returncode == 0 and bool(done.stdout.strip())
+        return None
+    if done.returncode != 0:
+        return None
+    return bool(done.stdout.strip())
 
 
 @functools.cache
@@ -101,8 +110,9 @@ def software_version() -> str:
     Returns
     -------
     str
-        ``"0.1.0"`` from an installed package; ``"0.1.0+g<10 hex>"`` from a checkout
-        (``".dirty"`` appended when tracked files were changed since that commit).
+        ``"0.1.0"`` from an installed package; ``"0.1.0+g<8 hex>"`` from a checkout
+        (``".dirty"`` appended when tracked files were changed since that commit,
+        ``".unknown"`` when git could not say).
     """
     package = Path(__file__).resolve().parent.parent  # <repo>/src/kinsync/io/provenance.py
     repo = package.parent.parent
@@ -112,7 +122,8 @@ def software_version() -> str:
     sha = None if git_dir is None else _head_commit(git_dir)
     if sha is None or len(sha) < _SHA_DIGITS:
         return __version__
-    return f"{__version__}+g{sha[:_SHA_DIGITS]}{'.dirty' if _dirty(repo) else ''}"
+    state = {True: ".dirty", False: "", None: ".unknown"}[_dirty(repo)]
+    return f"{__version__}+g{sha[:_SHA_DIGITS]}{state}"
 
 
 def software() -> str:
