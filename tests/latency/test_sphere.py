@@ -15,7 +15,7 @@ from tests.fit.test_fit import edge_clutter
 
 from kinsync.errors import InputError, ObservabilityError
 from kinsync.fit import SphereFit
-from kinsync.latency.passes import SpherePass
+from kinsync.latency.passes import SpherePass, check_distinct_passes
 from kinsync.latency.planning import TableDesign, plan_latency_experiment
 from kinsync.latency.sphere import (
     PoolFit,
@@ -231,6 +231,11 @@ def test_one_pass_given_twice_is_refused() -> None:
         estimate_latency_sphere([*timeless, again], radius_m=0.1)
     # distinct passes, in any order, are fine
     assert estimate_latency_sphere(passes[::-1], radius_m=0.1).n_passes == len(passes)
+    # a pass with no point is not "the same" as another (it raised numpy's
+    # zero-size-array error there)
+    empty = SpherePass("empty.csv", 6.0, np.zeros((0, 3)), t_s=np.zeros(0))
+    assert check_distinct_passes([passes[0], empty]) == [passes[0], empty]
+    assert check_distinct_passes([empty, passes[0]]) == [empty, passes[0]]
 
 
 def test_a_rate_confirmed_elsewhere_counts_as_checked() -> None:

@@ -26,11 +26,6 @@ Robust fit (`fit_clock`)
        closest), until the kept set no longer changes. The threshold shrinks at most
        tenfold per pass, so an outlier that tilts a fit cannot drag the good pulses
        out with it. Rejected pulses are *spurious*.
-    6. Plausibility (`kinsync.clock.plausibility`): a `KinsyncWarning` names a --baud
-       the sentence spacing contradicts, ZDAs starting over 0.5 s after their edge,
-       pulses scattered over 1 ms rms, residuals that follow each other (the sigmas
-       count pulse jitter only), and ZDAs straddling their edge (each then names the
-       edge it starts at).
     3. Each ZDA names a count on that grid (the last count before its transmission
        start, or the next one); the difference between the ZDA's GPS second and that
        count is the grid's absolute label. The label most ZDAs agree on (a strict
@@ -52,6 +47,11 @@ Robust fit (`fit_clock`)
        pulses alone cannot show); a jump of the good pulses' phase that stays (a
        step below the rejection threshold, `_find_phase_jump`). They are checked in
        the order phase gaps, phase jumps, ZDAs.
+    6. Plausibility (`kinsync.clock.plausibility`): a `KinsyncWarning` names a --baud
+       the sentence spacing contradicts, ZDAs starting over 0.5 s after their edge,
+       pulses scattered over 1 ms rms, residuals that follow each other (the sigmas
+       count pulse jitter only), and ZDAs straddling their edge (each then names the
+       edge it starts at).
 
 Optionally (``piecewise=True``) the model also interpolates linearly between
 consecutive good pulses. A ZDA's UTC date and time become GPS time through the

@@ -135,7 +135,7 @@ def check_distinct_passes(passes: Sequence[SpherePass]) -> Sequence[SpherePass]:
     seen: dict[bytes, str] = {}
     for a, first in enumerate(passes):
         for second in passes[a + 1 :]:
-            if first.t_s is None or second.t_s is None or not first.n_points:
+            if first.t_s is None or second.t_s is None or not (first.n_points and second.n_points):
                 continue
             a0, a1 = float(first.t_s.min()), float(first.t_s.max())
             b0, b1 = float(second.t_s.min()), float(second.t_s.max())

@@ -804,7 +804,8 @@ def _with_lone_matches(result: ObjectSpaceResult, lone: Sequence[LoneMatch]) -> 
         result,
         ambiguous=result.ambiguous or bool(left),
         settled_by_pulses=result.settled_by_pulses or not (left or result.ambiguous),
-        alternatives=(*result.alternatives, *(left or alts))[:5],
+        # runner-ups never crowd the lone matches out of the 5 listed
+        alternatives=(*result.alternatives[: 5 - min(len(left or alts), 2)], *(left or alts))[:5],
     )
 
 
