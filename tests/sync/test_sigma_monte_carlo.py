@@ -21,6 +21,7 @@ from kinsync.sim.profiler import (
     DriveScanConfig,
     DriveScanSimulation,
     ProfilerConfig,
+    ProfilerSimulation,
     exactly_known,
     profiles_near_targets,
     simulate_drive_scan,
@@ -30,6 +31,7 @@ from kinsync.sim.scene import Scene, SceneLayout, trajectory_to_local
 from kinsync.sync.config import ObjectSpaceConfig
 from kinsync.sync.object_space import synchronise_object_space
 from kinsync.sync.scan import SyncPoints
+from kinsync.trajectory import Trajectory
 
 NOISE_M = 0.02
 RUNS = 50
@@ -68,6 +70,26 @@ def bursts() -> _Setup:
     return _Setup(sim, scene, SyncPoints(tuple(t.name for t in sync), scene.target_lat_lon_h(sync)))
 
 
+def _drive(
+    setup: _Setup,
+    rng: np.random.Generator,
+    seeds: tuple[int, int],
+    noise_m: float,
+    corr_time_s: float,
+) -> tuple[float, ProfilerSimulation, Trajectory]:
+    """One run: a random clock start t0 (s), the scan from it, a noisy trajectory."""
+    sim = setup.sim
+    mount, period = sim.config.mount, sim.config.period_s
+    t0 = sim.truth["t0_s"] + rng.uniform(0.0, period)
+    cfg = dataclasses.replace(sim.config.profiler, t0_s=t0, seed=seeds[0], period_s=period)
+    wanted = profiles_near_targets(sim.truth_trajectory, mount, setup.scene, cfg, t0)
+    scan = simulate_profiler(sim.truth_trajectory, mount, setup.scene, cfg, profiles=wanted)
+    traj = gauss_markov_trajectory(
+        sim.truth_trajectory, std_m=noise_m, corr_time_s=corr_time_s, seed=seeds[1]
+    )
+    return t0, scan, traj
+
+
 def _ratios(
     setup: _Setup, corr_time_s: float, configs: list[ObjectSpaceConfig], *, twins: bool = True
 ) -> list[FloatArray]:
@@ -82,13 +104,7 @@ def _ratios(
     err = np.zeros((len(configs), RUNS, 3))
     sig = np.zeros((len(configs), RUNS, 3))
     for run in range(RUNS):
-        t0 = sim.truth["t0_s"] + rng.uniform(0.0, period)
-        cfg = dataclasses.replace(sim.config.profiler, t0_s=t0, seed=100 + run, period_s=period)
-        wanted = profiles_near_targets(sim.truth_trajectory, mount, setup.scene, cfg, t0)
-        scan = simulate_profiler(sim.truth_trajectory, mount, setup.scene, cfg, profiles=wanted)
-        traj = gauss_markov_trajectory(
-            sim.truth_trajectory, std_m=NOISE_M, corr_time_s=corr_time_s, seed=700 + run
-        )
+        t0, scan, traj = _drive(setup, rng, (100 + run, 700 + run), NOISE_M, corr_time_s)
         mid = scan.n_profiles / 2.0
         for k, ocfg in enumerate(configs):
             r = synchronise_object_space(scan.scan, traj, exactly_known(mount), points, ocfg)
@@ -132,18 +148,11 @@ def test_sigma_is_not_wildly_conservative_on_independent_errors(bursts: _Setup) 
 
 def _warned(setup: _Setup, noise_m: float, runs: int) -> int:
     """Runs (of ``runs``) warned that the sightings scatter more than 2 cm allows."""
-    sim = setup.sim
-    mount, period = sim.config.mount, sim.config.period_s
+    mount = setup.sim.config.mount
     rng = np.random.default_rng(31)
     warned = 0
     for run in range(runs):
-        t0 = sim.truth["t0_s"] + rng.uniform(0.0, period)
-        cfg = dataclasses.replace(sim.config.profiler, t0_s=t0, seed=300 + run, period_s=period)
-        wanted = profiles_near_targets(sim.truth_trajectory, mount, setup.scene, cfg, t0)
-        scan = simulate_profiler(sim.truth_trajectory, mount, setup.scene, cfg, profiles=wanted)
-        traj = gauss_markov_trajectory(
-            sim.truth_trajectory, std_m=noise_m, corr_time_s=15.0, seed=900 + run
-        )
+        _, scan, traj = _drive(setup, rng, (300 + run, 900 + run), noise_m, 15.0)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", KinsyncWarning)
             synchronise_object_space(
