@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kinsync.io.gps_week import UNIX_MINUS_GPS_S, gps_time_now_s
 from kinsync.io.sbet import SECONDS_PER_WEEK, write_sbet
 from kinsync.io.smrmsg import SmrmsgData, write_smrmsg
 from kinsync.io.trajectory_csv import write_trajectory_csv
@@ -299,3 +300,17 @@ def test_ground_speed_is_shown_in_m_s_and_knots_leaving_gaps_out(
     assert [float(v) for v in speeds["ground speed (m/s)"]] == pytest.approx([40, 50, 60], abs=0.1)
     kn = [float(v) for v in speeds["ground speed (kn)"]]
     assert kn == pytest.approx([v * 3600 / 1852 for v in (40, 50, 60)], abs=0.15)
+
+
+def test_trajectory_info_refuses_a_unix_time_trajectory(
+    run_cli: RunCli, assert_one_line_error: OneLineError, tmp_path: Path
+) -> None:
+    """It printed 'GPS time' and a span ten years ahead, exit 0 and no warning."""
+    t_gps = math.floor(gps_time_now_s() - 86_400.0)
+    n = 5
+    llh = np.column_stack([np.full(n, 46.8), np.full(n, -71.2), np.full(n, 10.0)])
+    z = np.zeros(n)
+    traj = Trajectory.from_euler(t_gps + UNIX_MINUS_GPS_S + np.arange(n), z, z, z, lat_lon_h=llh)
+    write_trajectory_csv(traj, tmp_path / "unix.csv")
+    code, out, err = run_cli(["trajectory", "info", str(tmp_path / "unix.csv")])
+    assert_one_line_error(code, out, err, "unix.csv: line 2", "Unix time", "315964800")

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 from dataclasses import dataclass
 
 from kinsync.errors import InputError
+from kinsync.io.gps_week import gps_time_now_s
 from kinsync.sync.config import (
     INTENSITY_THRESHOLD_SPAN,
     MAX_RANGE_SPAN_M,
@@ -48,11 +48,10 @@ class Bounds:
 
 
 _DAY_S = 86_400.0
-_GPS_EPOCH_UNIX_S = 315_964_800.0  # 1980-01-06T00:00:00Z
 _FIRST_FULL_WEEK = 1024
 """The first GPS week a 10-bit week number cannot name (August 1999): below it, a week
 is more likely a rolled-over receiver week than a survey of 1980-1999."""
-_GPS_WEEK_NOW = math.floor((time.time() - _GPS_EPOCH_UNIX_S) / 604_800.0)
+_GPS_WEEK_NOW = math.floor(gps_time_now_s() / 604_800.0)
 """The current GPS week by this computer's clock (leap seconds do not change it much)."""
 _WEEKS_AHEAD = 104
 """Weeks after the current one still accepted (two years: a computer clock set wrong)."""

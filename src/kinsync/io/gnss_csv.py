@@ -24,6 +24,7 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.ins.config import MIN_GNSS_STD
 from kinsync.ins.measurements import GnssData
+from kinsync.io.gps_week import check_not_future
 from kinsync.io.sanity import (
     HEIGHT_M,
     LATITUDE_DEG,
@@ -118,7 +119,8 @@ def read_gnss_csv(path: Path) -> GnssData:
     InputError
         Missing or unreadable file, missing required columns, a partial optional group,
         velocity σ without velocities, a non-numeric cell, fewer than 2 epochs,
-        non-finite or implausible times, positions or velocities (`kinsync.io.sanity`:
+        non-finite or implausible times (a GPS time after today: Unix time,
+        `kinsync.io.gps_week.check_not_future`), positions or velocities (`kinsync.io.sanity`:
         a latitude outside [-90, 90], a height beyond 100 km, ...), repeated or
         decreasing times, a σ that is zero, negative, infinite or below 1 µm (each
         naming the line).
@@ -150,6 +152,7 @@ def read_gnss_csv(path: Path) -> GnssData:
     if std_vel is not None:
         _check_positive_or_nan(table, GNSS_STD_VELOCITY_COLUMNS, std_vel)
     check_columns(c, _SPANS, lambda row: f"{path}: line {table.line_of_row(row)}")
+    check_not_future(c["t_s"], lambda row: f"{path}: line {table.line_of_row(row)}, column 't_s'")
     try:
         return GnssData(
             t_s=c["t_s"],

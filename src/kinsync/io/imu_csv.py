@@ -28,6 +28,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.ins.measurements import ImuData
+from kinsync.io.gps_week import check_not_future
 from kinsync.io.sanity import (
     ACCELERATION_M_S2,
     ANGULAR_RATE_RAD_S,
@@ -92,6 +93,7 @@ def _rates(
         return f"{table.source}: line {table.line_of_row(row)}"
 
     check_columns(c, {"t_s": TIME_S, **dict.fromkeys(names[1:], _ANY)}, where)
+    check_not_future(c["t_s"], lambda row: f"{where(row)}, column 't_s'")
     t = c["t_s"]
     first = np.column_stack([c[n] for n in names[1:4]])
     second = np.column_stack([c[n] for n in names[4:7]])
@@ -129,9 +131,10 @@ def read_imu_csv(path: Path) -> ImuData:
     InputError
         Missing or unreadable file, a header with neither or both forms, or only part
         of one form's columns, a non-numeric cell, fewer than 2 rows, non-finite
-        values, an implausible time, angular rate or specific force (`kinsync.io.sanity`;
-        increments divided by their interval), repeated or decreasing times (naming the
-        line; sort the file or drop the repeated records).
+        values, an implausible time (a GPS time after today: Unix time,
+        `kinsync.io.gps_week.check_not_future`), angular rate or specific force
+        (`kinsync.io.sanity`; increments divided by their interval), repeated or
+        decreasing times (naming the line; sort the file or drop the repeated records).
     """
     path = Path(path)
     table = read_numeric_csv(path, ("t_s",), IMU_RATE_COLUMNS[1:] + IMU_INCREMENT_COLUMNS[1:])

@@ -36,7 +36,14 @@ import lazrs
 import numpy as np
 
 from kinsync.errors import InputError
-from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
+from kinsync.io.gps_week import (
+    FUTURE_SLACK_S,
+    SECONDS_PER_WEEK,
+    WEEK_SECONDS_MAX_S,
+    WEEK_SECONDS_SLACK_S,
+    future_time_text,
+    gps_time_now_s,
+)
 from kinsync.io.las_coordinates import scaled_coordinates, store_coordinates
 from kinsync.io.las_crs import las_crs
 from kinsync.io.las_header import las_header, las_suffix, open_las_file, read_las_layout
@@ -155,12 +162,12 @@ def las_time_offset_s(
 
 
 def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -> None:
-    """Refuse ``gps_time`` values that cannot be the GPS seconds of week the header says.
+    """Refuse ``gps_time`` values that cannot be what the header says they are.
 
     Parameters
     ----------
     info : LasInfo
-        The file's header facts; nothing is checked when it says adjusted standard time.
+        The file's header facts.
     end_times_s : tuple of float or None
         ``gps_time`` of the first and last point as stored (`las_end_times`).
 
@@ -168,28 +175,51 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
     ------
     InputError
         A time beyond a week (plus `WEEK_SECONDS_SLACK_S`) under a header that says
-        seconds of week: most likely adjusted standard GPS time written with the
-        global-encoding bit unset; the message says how to set it.
+        seconds of week: most likely adjusted standard GPS time, or GPS time, written
+        with the global-encoding bit unset; the message says how to set it (and, for GPS
+        time, to subtract 1e9 s). Under a header that says adjusted standard GPS time, a
+        GPS time after today (most likely Unix time:
+        `kinsync.io.gps_week.check_not_future`).
     """
-    if info.gps_time_type == "adjusted_standard" or end_times_s is None:
+    if end_times_s is None:
         return
     t = max(end_times_s)
+    now = gps_time_now_s()
+    if info.gps_time_type == "adjusted_standard":
+        if t + ADJUSTED_GPS_OFFSET_S > now + FUTURE_SLACK_S:
+            msg = (
+                f"{info.path}: gps_time {t!r} s as stored, adjusted standard GPS time "
+                f"(GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s) as the header says: "
+                f"{future_time_text(t + ADJUSTED_GPS_OFFSET_S, now)}"
+            )
+            raise InputError(msg)
+        return
     if t <= WEEK_SECONDS_MAX_S:
         return
-    likely = (
-        f"adjusted standard GPS time (GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s) written with "
-        "the bit unset"
-        if t < ADJUSTED_GPS_OFFSET_S
-        else "GPS time written with the bit unset"
-    )
-    msg = (
+    what = (
         f"{info.path}: gps_time {t!r} s cannot be GPS seconds of week (a week has "
         f"{SECONDS_PER_WEEK:.0f} s), which is what the header says (global encoding bit 0 "
-        f"unset); it is most likely {likely}. Set the bit (with laspy: "
-        "las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD, "
-        "then write the file again) or ask the software that wrote it for adjusted "
-        "standard GPS time"
+        "unset)"
     )
+    set_bit = "las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD"
+    if t < ADJUSTED_GPS_OFFSET_S:
+        msg = (
+            f"{what}; it is most likely adjusted standard GPS time (GPS time - "
+            f"{ADJUSTED_GPS_OFFSET_S:.0e} s) written with the bit unset. Set the bit (with "
+            f"laspy: {set_bit}, then write the file again) or ask the software that wrote "
+            "it for adjusted standard GPS time"
+        )
+    elif t > now + FUTURE_SLACK_S:
+        msg = (
+            f"{what}; {future_time_text(t, now)}; then store adjusted standard "
+            f"GPS time (GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s) and set the bit ({set_bit})"
+        )
+    else:
+        msg = (
+            f"{what}; it is most likely GPS time written with the bit unset. Set the bit "
+            f"(with laspy: {set_bit}, then write the file again) or ask the software that "
+            "wrote it for adjusted standard GPS time"
+        )
     raise InputError(msg)
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Literal
 
 from kinsync.errors import InputError
-from kinsync.io.gps_week import holds_gps_time
+from kinsync.io.gps_week import check_not_future, holds_gps_time
 from kinsync.io.pos_text import pos_text_takes_gps_week, read_pos_text, sniff_pos_text
 from kinsync.io.sbet import read_sbet, sbet_holds_gps_time
 from kinsync.io.trajectory_csv import read_trajectory_csv
@@ -75,7 +75,8 @@ def read_trajectory_file(
     Raises
     ------
     InputError
-        Unknown suffix, or any error of the readers.
+        Unknown suffix, GPS times after today (most likely Unix time:
+        `kinsync.io.gps_week.check_not_future`), or any error of the readers.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -84,6 +85,8 @@ def read_trajectory_file(
     if suffix in (".out", ".sbet"):
         traj = read_sbet(path, gps_week=gps_week)
         on_gps = gps_week is not None or holds_gps_time(traj.t_start_s)
+        if on_gps:
+            _check_not_future(path, traj)
         return traj, "gps" if on_gps else "week"
     try:
         traj, gps_time = read_pos_text(path, gps_week=gps_week)
@@ -97,7 +100,14 @@ def read_trajectory_file(
             "yaw_deg), an SBET (.out, .sbet), or a POSPac / Inertial Explorer text export"
         )
         raise InputError(msg) from err
+    if gps_time:
+        _check_not_future(path, traj)
     return traj, "gps" if gps_time else "week"
+
+
+def _check_not_future(path: Path, traj: Trajectory) -> None:
+    """Refuse a trajectory whose GPS times lie after today (Unix time, most likely)."""
+    check_not_future(traj.t_s, lambda row: f"{path}: record {row + 1} (time {traj.t_s[row]!r} s)")
 
 
 def trajectory_file_format(path: Path) -> Literal["csv", "sbet", "pospac", "inertial-explorer"]:

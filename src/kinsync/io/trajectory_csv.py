@@ -23,6 +23,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import wrap_angle_rad
+from kinsync.io.gps_week import check_not_future
 from kinsync.io.sanity import (
     HEADING_DEG,
     HEIGHT_M,
@@ -92,7 +93,8 @@ def read_trajectory_csv(path: Path) -> Trajectory:
     ------
     InputError
         As `kinsync.io.tables.read_numeric_csv`; fewer than 2 records, a value that is
-        not finite or not plausible (`SPANS`), and what `Trajectory` refuses (repeated
+        not finite or not plausible (`SPANS`; a GPS time after today, most likely Unix
+        time: `kinsync.io.gps_week.check_not_future`), and what `Trajectory` refuses (repeated
         or decreasing times, ...), naming the line.
     """
     table = read_numeric_csv(Path(path), REQUIRED, VELOCITY)
@@ -101,6 +103,7 @@ def read_trajectory_csv(path: Path) -> Trajectory:
         msg = f"{path}: a trajectory needs at least 2 records, found {table.n_rows}"
         raise InputError(msg)
     check_columns(c, SPANS, lambda row: f"{path}: line {table.line_of_row(row)}")
+    check_not_future(c["t_s"], lambda row: f"{path}: line {table.line_of_row(row)}, column 't_s'")
     present = [v in c for v in VELOCITY]
     if any(present) and not all(present):
         msg = f"{path}: give all of {list(VELOCITY)} or none, found only some"

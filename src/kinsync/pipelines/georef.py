@@ -667,7 +667,7 @@ def _plan_las(
 ) -> tuple[Any, ChunkSource, list[ChunkTask], int]:
     info = las_info(path)
     template = las_header(path)
-    if info.gps_time_type != "adjusted_standard" and info.point_count:
+    if info.point_count:  # seconds of week or GPS time as the header says (not Unix time)
         ends = las_end_times(path)
         check_week_seconds(info, ends)
         if ends is not None:
