@@ -101,3 +101,27 @@ def test_calibration_and_the_control_point_check_refuse_a_rollover_alike(
         _read_las(src, "gps", WEEK)
     with pytest.raises(InputError, match="crosses the GPS week rollover"):
         list(iter_cloud(src, 30, need_time=True, traj_scale="gps", gps_week=WEEK))
+
+
+def test_gps_time_with_the_encoding_bit_unset_is_told_to_subtract_1e9(
+    tmp_path: Path, gap_traj: Path
+) -> None:
+    """Setting the bit alone made the times read 1e9 s late (2.3e9 s); the advice works."""
+    cols = _columns()
+    las = las_points(cols)
+    las.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.WEEK_TIME
+    las.gps_time = cols["t_s"]  # GPS time itself (1.3e9 s), the bit unset
+    src = tmp_path / "gps.las"
+    las.write(src)
+    with pytest.raises(InputError) as err:
+        georeference_file(src, gap_traj, MOUNT, tmp_path / "o.csv")
+    msg = str(err.value)
+    assert "most likely GPS time written with the bit unset" in msg
+    assert "subtract 1e+09 s from gps_time and set the bit" in msg
+    assert "las.gps_time = las.gps_time - 1e+09" in msg
+    fixed = laspy.read(src)  # what the message says, done
+    fixed.gps_time = fixed.gps_time - 1e9
+    fixed.header.global_encoding.gps_time_type = laspy.header.GpsTimeType.STANDARD
+    fixed.write(tmp_path / "fixed.las")
+    georeference_file(tmp_path / "fixed.las", gap_traj, MOUNT, tmp_path / "o.csv", outside="reject")
+    assert (tmp_path / "o.csv").exists()

@@ -216,9 +216,12 @@ def check_week_seconds(info: LasInfo, end_times_s: tuple[float, float] | None) -
         )
     else:
         msg = (
-            f"{what}; it is most likely GPS time written with the bit unset. Set the bit "
-            f"(with laspy: {set_bit}, then write the file again) or ask the software that "
-            "wrote it for adjusted standard GPS time"
+            f"{what}; it is most likely GPS time written with the bit unset. Adjusted "
+            f"standard GPS time is GPS time - {ADJUSTED_GPS_OFFSET_S:.0e} s: subtract "
+            f"{ADJUSTED_GPS_OFFSET_S:.0e} s from gps_time and set the bit (with laspy: "
+            f"las.gps_time = las.gps_time - {ADJUSTED_GPS_OFFSET_S:.0e}; {set_bit}; then "
+            "write the file again), or ask the software that wrote it for adjusted "
+            "standard GPS time"
         )
     raise InputError(msg)
 
