@@ -394,3 +394,27 @@ def test_an_initial_position_far_from_the_gnss_is_refused(
     assert message.startswith(f"initial state: lat_deg {lat:.8g}, lon_deg {lon:.8g} at t_s")
     assert "from the GNSS fix nearest in time (rx.csv row 0, t_s 5000.000" in message
     assert words in message
+
+
+def test_a_unix_time_imu_against_gps_time_gnss_is_named() -> None:
+    """It read 'GPS seconds of week vs continuous GPS time, UTC vs GPS' (never Unix)."""
+    t_gps = 1.4e9 + np.arange(0.0, DURATION_S, 1.0)
+    imu = _imu()
+    imu = _with(imu, t_s=imu.t_s - T0 + 1.4e9 + 315_964_782.0)
+    with pytest.raises(InputError) as err:
+        check_inputs(imu, _gnss(t_s=t_gps), CONFIG, imu_source="imu.csv")
+    msg = str(err.value)
+    assert "the times of imu.csv look like Unix time (UTC seconds since 1970-01-01)" in msg
+    assert "like GPS time" in msg
+    assert "subtract 315964800 s and add the leap seconds (18 s since 2017" in msg
+
+
+def test_gnss_times_a_leap_second_count_early_are_named() -> None:
+    """GNSS in UTC, IMU in GPS time: the GNSS log 18 s early (the chi-square gate failed
+    next, naming no offset; only GNSS 18 s late was named)."""
+    gnss = _gnss(t_s=T0 - 18.0 + np.arange(0.0, DURATION_S, 1.0))
+    warnings = check_inputs(_imu(), gnss, CONFIG, gnss_source="gnss.csv")
+    named = [w for w in warnings if "18 s is what GPS time runs ahead of UTC" in w]
+    assert len(named) == 1
+    assert named[0].startswith("gnss.csv: the GNSS epochs start and end 18.000 s and 18.990 s")
+    assert not any("ahead of UTC" in w for w in check_inputs(_imu(), _gnss(), CONFIG))

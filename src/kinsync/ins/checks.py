@@ -58,6 +58,7 @@ import math
 import numpy as np
 
 from kinsync._typing import BoolArray, FloatArray, IntArray
+from kinsync._unix_time import unix_offset_text
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.ins.config import InsConfig
 from kinsync.ins.earth import normal_gravity_m_s2
@@ -175,6 +176,33 @@ def _inside_span(gnss: GnssData, imu: ImuData) -> BoolArray:
     return inside
 
 
+_LEAP_SECONDS = range(10, 19)
+"""Whole seconds GPS time has run ahead of UTC (10 s in 1995 to 18 s since 2017)."""
+
+
+def _leap_offset(imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str) -> list[str]:
+    """A warning when the GNSS log starts and ends a whole leap-second count before the IMU's.
+
+    GNSS times in UTC against IMU times in GPS time: the filter then meets positions
+    10 to 18 s old and its chi-square gate rejects them. (The other way round, GNSS times
+    late, `kinsync.ins.alignment` names it: no fix in the static start.)
+    """
+    head = float(gnss.t_s[0] - imu.t_s[0])
+    tail = float(gnss.t_s[-1] - imu.t_s[-1])
+    whole = round(head)
+    spacing = float(np.median(np.diff(gnss.t_s))) if gnss.t_s.size > 1 else 0.0
+    near = 0.5 + min(spacing, 1.0)  # the logs' ends differ by up to one GNSS interval
+    if -whole not in _LEAP_SECONDS or abs(head - whole) >= near or abs(tail - whole) >= near:
+        return []
+    text = (
+        f"{gnss_source}: the GNSS epochs start and end {-head:.3f} s and {-tail:.3f} s before "
+        f"the IMU samples of {imu_source}: {-whole} s is what GPS time runs ahead of UTC "
+        "(leap seconds; 18 s since 2017): are the GNSS times in UTC and the IMU's in GPS "
+        "time? Put both on GPS time (add the leap seconds to the UTC times)"
+    )
+    return [text]
+
+
 def _check_span(
     imu: ImuData, gnss: GnssData, imu_source: str, gnss_source: str, names: FileRows | None = None
 ) -> list[str]:
@@ -188,14 +216,24 @@ def _check_span(
         else ""
     )
     if n_in < 2:
+        unix = unix_offset_text(
+            (float(imu.t_s[0]), float(imu.t_s[-1])),
+            (float(gnss.t_s[0]), float(gnss.t_s[-1])),
+            imu_source,
+            gnss_source,
+        )
         msg = (
             f"{gnss_source}: {n_in} GNSS epoch(s) inside the IMU span of {imu_source} "
             f"[{imu.t_s[0]:.6f}, {imu.t_s[-1]:.6f}] s (GNSS spans [{gnss.t_s[0]:.6f}, "
-            f"{gnss.t_s[-1]:.6f}] s); at least 2 are needed: are both files on the same time "
-            f"scale (GPS seconds of week vs continuous GPS time, UTC vs GPS)?{in_ms}"
+            f"{gnss.t_s[-1]:.6f}] s); at least 2 are needed: "
+            + (
+                unix
+                or "are both files on the same time scale (GPS seconds of week vs continuous "
+                f"GPS time, UTC vs GPS)?{in_ms}"
+            )
         )
         raise InputError(msg)
-    warnings: list[str] = []
+    warnings = _leap_offset(imu, gnss, imu_source, gnss_source)
     outside = np.flatnonzero(~inside)
     if outside.size:
         warnings.append(

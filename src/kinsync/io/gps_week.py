@@ -25,6 +25,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
+from kinsync._unix_time import GPS_EPOCH_UNIX_S, UNIX_ADVICE, UNIX_MINUS_GPS_S
 from kinsync.errors import InputError
 
 __all__ = [
@@ -68,19 +69,8 @@ def holds_gps_time(first_time_s: float) -> bool:
     return first_time_s > WEEK_SECONDS_MAX_S
 
 
-GPS_EPOCH_UNIX_S = 315_964_800.0
-"""Unix time of the GPS epoch, 1980-01-06T00:00:00 UTC (s)."""
-
-UNIX_MINUS_GPS_S = GPS_EPOCH_UNIX_S - 18.0
-"""Unix time less GPS time since 2017 (s): 315964800 s less the 18 leap seconds."""
-
 FUTURE_SLACK_S = 86_400.0
 """A GPS time up to this long (s) after this computer's clock is still accepted."""
-
-_UNIX_ADVICE = (
-    "convert it to GPS time: subtract 315964800 s and add the leap seconds (18 s since "
-    "2017; in Python kinsync.clock.utc_to_gps_s)"
-)
 
 
 def gps_time_now_s() -> float:
@@ -118,7 +108,7 @@ def future_time_text(t_s: float, now_gps_s: float) -> str:
     if 0.0 <= as_gps <= now_gps_s + FUTURE_SLACK_S:
         return (
             f"{said}: it looks like Unix time (UTC seconds since 1970-01-01, "
-            f"{_date(as_gps)} as Unix time, GPS time {round(as_gps, 6)!r} s): {_UNIX_ADVICE}"
+            f"{_date(as_gps)} as Unix time, GPS time {round(as_gps, 6)!r} s): {UNIX_ADVICE}"
         )
     return f"{said}: check the time scale and the unit of the times"
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+from kinsync._unix_time import unix_offset_text
 from kinsync.errors import InputError
 from kinsync.georef.trajectory import GeorefRecords, GeorefTrajectory
 from kinsync.io.gps_week import SECONDS_PER_WEEK, WEEK_SECONDS_MAX_S, WEEK_SECONDS_SLACK_S
@@ -29,8 +30,8 @@ _WEEK_MAX_S = WEEK_SECONDS_MAX_S  # beyond this, not seconds of week
 
 GENERIC_TIME_ADVICE = (
     "check the time scales: GPS seconds of week against GPS time since 1980 (an SBET, or "
-    "a LAS file in seconds of week, needs --gps-week), or UTC against GPS time (18 s apart "
-    "since 2017)"
+    "a LAS file in seconds of week, needs --gps-week), UTC against GPS time (18 s apart "
+    "since 2017), or Unix time against GPS time (315964782 s apart since 2017)"
 )
 """What to check when no particular mix-up can be told from the times."""
 
@@ -94,6 +95,15 @@ def time_scale_hint(
     """
     if not (math.isfinite(t_min_s) and math.isfinite(t_max_s)):
         return None
+    return unix_offset_text(
+        (t_min_s, t_max_s), (traj_start_s, traj_end_s), "the points", "the trajectory"
+    ) or _scale_hint(times, t_min_s, t_max_s, traj_start_s, traj_end_s)
+
+
+def _scale_hint(
+    times: PointTimes, t_min_s: float, t_max_s: float, traj_start_s: float, traj_end_s: float
+) -> str | None:
+    """`time_scale_hint` for finite times other than Unix time against GPS time."""
     traj_on_week = times.traj_scale == "week"
     if times.las_time_type is None:  # a table: its times are read as they are
         if (

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from kinsync._typing import FloatArray
+from kinsync._unix_time import unix_offset_text
 from kinsync.errors import InputError
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import max_gap_for
@@ -223,13 +224,18 @@ def validate_control_points(
         t_seen = [o.t_s for o in observations]
         t0, t1 = trajectory.t_start_s, trajectory.t_end_s
         if t_seen and all(not t0 <= t <= t1 for t in t_seen):
+            seen = (min(t_seen), max(t_seen))
+            unix = unix_offset_text(seen, (t0, t1), "the cloud", "the trajectory")
             msg = (
                 f"every control point seen in the cloud ({len(t_seen)} visits) was scanned "
                 f"at a time outside the trajectory's span [{t0!r}, {t1!r}] s (visits at "
-                f"{min(t_seen)!r} .. {max(t_seen)!r} s): are the cloud and the trajectory on "
-                "the same time scale? GPS seconds of week against GPS time since 1980, or "
-                "UTC against GPS (18 s since 2017); convert the trajectory's times to the "
-                "cloud's"
+                f"{seen[0]!r} .. {seen[1]!r} s): "
+                + (
+                    unix
+                    or "are the cloud and the trajectory on the same time scale? GPS seconds "
+                    "of week against GPS time since 1980, or UTC against GPS (18 s since "
+                    "2017); convert the trajectory's times to the cloud's"
+                )
             )
             raise InputError(msg)
         listed = "; ".join(f"{m.name}: {m.reason}" for m in missing[:5])
