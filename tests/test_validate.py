@@ -10,6 +10,7 @@ from kinsync._validate import (
     ECEF_HEIGHT_RANGE_M,
     angle_array,
     check_float_step,
+    check_values,
     coordinate_array,
     degree_array,
     ecef_array,
@@ -17,6 +18,7 @@ from kinsync._validate import (
     time_array,
 )
 from kinsync.errors import InputError
+from kinsync.io.sanity import TIME_S
 
 
 def test_float32_times_are_taken_only_while_their_step_is_within_1_us() -> None:
@@ -77,3 +79,19 @@ def test_degrees_are_held_to_0p1_mm_on_the_ground() -> None:
         angle_array(np.array([2.0], dtype=np.float16), "yaw")
     with pytest.raises(InputError, match=r"f\.parquet: column 'lat_deg': float32 .*double"):
         check_float_step(llh[:, 0], "f.parquet: column 'lat_deg'", "degree")
+
+
+def test_a_time_in_ns_us_or_ms_is_named_with_its_divisor() -> None:
+    """Each said only 'outside -1e10..1e10 s, check the unit'."""
+    for value, unit, divisor in (
+        (1.715964782e18, "nanoseconds", "1e9"),
+        (1.715964782e15, "microseconds", "1e6"),
+        (1.4e12, "milliseconds", "1000"),
+    ):
+        with pytest.raises(InputError) as err:
+            check_values(np.array([1.4e9, value]), TIME_S, lambda i: f"t.csv: row {i}")
+        msg = str(err.value)
+        assert msg.startswith(f"t.csv: row 1: {value!r} is outside")
+        assert f"are these {unit} (Unix or GPS time)? divide them by {divisor}" in msg
+    with pytest.raises(InputError, match="check the unit and the column order"):
+        check_values(np.array([1e11]), TIME_S, lambda i: f"row {i}")

@@ -611,8 +611,27 @@ def _message(where: str, value: float, span: Span) -> str:
         return f"{where}: {value!r} is too small for {span.what} (at least {span.low:g}); fix it"
     return (
         f"{where}: {value!r} is outside {_span_text(span)}, the plausible span of "
-        f"{span.what}; check the unit and the column order, or fix the value"
+        f"{span.what}; {_time_unit_hint(value, span)}"
     )
+
+
+_TIME_UNITS = (
+    ("milliseconds", 1e3, "1000"),
+    ("microseconds", 1e6, "1e6"),
+    ("nanoseconds", 1e9, "1e9"),
+)
+"""Units a time column is often written in by mistake, with their divisor to seconds."""
+_DATE_S = (3e8, 1e10)
+"""Seconds since 1970 or 1980 of a survey's date (1980 to 2297), for `_time_unit_hint`."""
+
+
+def _time_unit_hint(value: float, span: Span) -> str:
+    """What to do with a value outside a span: for times, the unit they look like."""
+    if span.unit == "s" and span.high >= _DATE_S[1]:
+        for unit, per_s, text in _TIME_UNITS:
+            if _DATE_S[0] <= abs(value) / per_s <= _DATE_S[1]:
+                return f"are these {unit} (Unix or GPS time)? divide them by {text} to give seconds"
+    return "check the unit and the column order, or fix the value"
 
 
 def check_columns(
