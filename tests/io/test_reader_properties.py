@@ -46,12 +46,13 @@ from hypothesis import strategies as st
 
 from kinsync.cli import main
 from kinsync.io.cidco import ACQUISITION_MOUNT
-from kinsync.io.mount_file import write_mount
+from kinsync.io.mount_file import read_mount, write_mount
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.sbet import SBET_RECORD_BYTES, write_sbet
 from kinsync.io.smrmsg import SMRMSG_RECORD_BYTES, SmrmsgData, write_smrmsg
 from kinsync.io.trajectory_csv import read_trajectory_csv
 from kinsync.mount import Mount
+from kinsync.sync.clock_mount import ClockMount
 
 pytestmark = pytest.mark.slow
 
@@ -169,7 +170,10 @@ def make_inputs(d: Path) -> Base:
             writer.write(points)
     with (ds / "scan.csv").open() as fh:  # the first profiles only: a small scan
         (d / "scan.csv").write_text("".join(next(fh) for _ in range(120)))
-    (d / "clock.json").write_text(json.dumps({"t0_s": 1400000000.43, "period_s": 0.0305}))
+    # as sync object-space --json writes it: with the mount it was fitted with
+    fitted_with = ClockMount.of(read_mount(ds / "mount.toml"), str(ds / "mount.toml"))
+    clock = {"t0_s": 1400000000.43, "period_s": 0.0305, "mount": fitted_with.as_document()}
+    (d / "clock.json").write_text(json.dumps(clock))
     files: Base = {
         "dir": d,
         "truth": drive / "truth.csv",
