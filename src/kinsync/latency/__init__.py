@@ -3,6 +3,8 @@
 - `kinsync.latency.passes`: `SpherePass`, one pass of the sphere at one table rate.
 - `kinsync.latency.sphere`: `estimate_latency_sphere`, the latency from passes at
   opposite rates, with its σ, per-rate figures and the passes it rejected.
+- `kinsync.latency.pairing`: the passes paired by rate and axis; `RejectedPass`, a pass
+  left out of the estimate.
 - `kinsync.latency.rate_check`: `check_pass_rates`, the stated table rates against the
   rates the data show (sign convention, rad/s, ENU mix-ups).
 - `kinsync.latency.roi`: `crop_passes`, the points of each pass inside a region of
@@ -21,15 +23,11 @@ from typing import TYPE_CHECKING
 from kinsync._lazy import lazy_exports
 
 if TYPE_CHECKING:
+    from kinsync.latency.pairing import RejectedPass
     from kinsync.latency.passes import SpherePass
     from kinsync.latency.planning import LatencyPlan, RatePlan, TableDesign, plan_latency_experiment
     from kinsync.latency.rate_check import RateMismatch, check_pass_rates
-    from kinsync.latency.sphere import (
-        RateLatency,
-        RejectedPass,
-        SphereLatencyResult,
-        estimate_latency_sphere,
-    )
+    from kinsync.latency.sphere import RateLatency, SphereLatencyResult, estimate_latency_sphere
 
 __all__ = [
     "LatencyPlan",
@@ -50,7 +48,7 @@ __getattr__, __dir__ = lazy_exports(
     {
         "SpherePass": "kinsync.latency.passes",
         "RateLatency": "kinsync.latency.sphere",
-        "RejectedPass": "kinsync.latency.sphere",
+        "RejectedPass": "kinsync.latency.pairing",
         "SphereLatencyResult": "kinsync.latency.sphere",
         "estimate_latency_sphere": "kinsync.latency.sphere",
         "RateMismatch": "kinsync.latency.rate_check",
