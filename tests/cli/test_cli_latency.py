@@ -817,3 +817,28 @@ def test_sphere_says_when_the_rates_could_not_be_checked(
     doc = json.loads(out)
     assert doc["consistency"]["n_passes_rate_checked"] == 12
     assert not any("not checked" in w for w in doc["warnings"])
+
+
+def test_sphere_refuses_a_wrong_axis_and_shows_the_model_chi2(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    # A North axis for the vertical table gave -0.09 +- 0.04 ms (truth 4.21), "per-rate
+    # latencies agree" and exit 0: the centres' misfit to the rotation (chi2 ~800 on
+    # 2 dof) was computed but neither tested nor shown.
+    argv = ["latency", "sphere", "--radius-m", "0.1", "--no-figure"]
+    code, out, err = run_cli([*argv[:2], str(sim_folder), *argv[2:]])
+    assert code == 0, err
+    assert "model χ²" in out
+    folder = copy_of(sim_folder, tmp_path)
+    index = folder / "passes.csv"
+    lines = index.read_text(encoding="utf-8").splitlines()
+    north = [
+        lines[0],
+        *(",".join([*line.split(",")[:2], "1.0", "0.0", "0.0"]) for line in lines[1:]),
+    ]
+    index.write_text("\n".join(north) + "\n", encoding="utf-8")
+    code, out, err = run_cli([*argv[:2], str(folder), *argv[2:]])
+    assert_one_line_error(
+        code, out, err, "do not fit a rotation about the stated table axis",
+        "rotation-model chi2", "at 6 deg/s", "axis in passes.csv", "table-centred",
+    )  # fmt: skip

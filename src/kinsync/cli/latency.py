@@ -42,6 +42,7 @@ def _print_sphere_result(
         "latency (ms)",
         "latency σ (ms)",
         "first-order (ms)",
+        "model χ² (2 dof)",
     ):
         table.add_column(col, justify="right")
     for r in result.per_rate:

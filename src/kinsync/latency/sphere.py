@@ -39,6 +39,7 @@ from kinsync._validate import finite_vector, positive_number, seed_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
+from kinsync.latency.model_check import check_rotation_model, model_p_value
 from kinsync.latency.pairing import RejectedPass, pair_groups
 from kinsync.latency.passes import SpherePass, check_distinct_passes
 from kinsync.latency.planning import (
@@ -138,7 +139,9 @@ class RateLatency:
     center_ned_m : ndarray, shape (3,)
         Sphere centre with the latency removed, table-centred NED (m).
     chi2 : float
-        Weighted misfit of the 6 centre coordinates to the 4-parameter model (2 dof).
+        Weighted misfit of the 6 centre coordinates to the 4-parameter model (2 dof;
+        about 2 with correct input, far more with a wrong axis or points not
+        table-centred: `kinsync.latency.model_check`).
     plus, minus : PoolFit
         The pools at +omega and -omega.
     """
@@ -159,7 +162,7 @@ class RateLatency:
         object.__setattr__(self, "center_ned_m", readonly_array(self.center_ned_m))
 
     def row_text(self) -> tuple[str, ...]:
-        """Rate (deg/s), points, centre sigma (mm), latency, its sigma, first-order (ms)."""
+        """Rate, points, centre sigma (mm), latency, sigma, first-order (ms), model chi2."""
         return (
             f"{self.rate_deg_s:g}",
             str(self.n_points),
@@ -167,6 +170,7 @@ class RateLatency:
             f"{self.latency_s * 1e3:.4f}",
             f"{self.latency_std_s * 1e3:.4f}",
             f"{self.latency_first_order_s * 1e3:.4f}",
+            f"{self.chi2:.2f}",
         )
 
 
@@ -304,6 +308,7 @@ class SphereLatencyResult:
                     "n_passes": r.plus.n_passes + r.minus.n_passes,
                     "n_points_in": r.plus.n_points_in + r.minus.n_points_in,
                     "chi2": r.chi2,
+                    "chi2_p_value": model_p_value(r.chi2),
                 }
                 for r in self.per_rate
             ],
@@ -627,6 +632,19 @@ def _left_without_partner(pool: PoolFit | None, side: Sequence[SpherePass]) -> l
     return left
 
 
+def _combined(per_rate: Sequence[RateLatency]) -> tuple[float, float, float, int, float, float]:
+    """Inverse-variance latency, its formal sigma, chi2, dof, p-value, Birge factor."""
+    tau_r = np.array([r.latency_s for r in per_rate])
+    weights = 1.0 / np.array([r.latency_std_s**2 for r in per_rate])
+    tau = float(np.sum(weights * tau_r) / np.sum(weights))
+    formal_std = float(np.sqrt(1.0 / np.sum(weights)))
+    chi2 = float(np.sum((tau_r - tau) ** 2 * weights))
+    dof = len(per_rate) - 1
+    p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+    scale = math.sqrt(chi2 / dof) if dof > 0 and p_value < RATES_DISAGREE_P else 1.0
+    return tau, formal_std, chi2, dof, p_value, scale
+
+
 def _checked_origin(origin: ArrayLike) -> FloatArray:
     """The scanner origin as 3 finite float64 numbers (m), or `InputError` naming it."""
     return finite_vector(origin, 3, "scanner_origin_ned_m", " (x, y, z, m)")
@@ -685,7 +703,9 @@ def estimate_latency_sphere(
         rates in rad/s, points in ENU); no rate with both signs; no rate whose passes
         of both signs hold a usable sphere; a malformed ``roi_ned_m``, or one that
         leaves a pass of at least `MIN_SPHERE_POINTS_PER_PASS` points with fewer
-        (`kinsync.latency.roi.crop_passes`).
+        (`kinsync.latency.roi.crop_passes`); centres that do not fit a rotation about
+        the stated axis (`kinsync.latency.model_check`: a wrong axis in passes.csv,
+        points not table-centred).
     ObservabilityError
         The rotation axis points at the sphere.
     """
@@ -751,15 +771,8 @@ def estimate_latency_sphere(
         raise InputError(msg)
     report(progress, 1.0, f"fitted {counted(n_pools, 'sphere')}")
     per_rate.sort(key=lambda r: r.rate_deg_s)
-    tau_r = np.array([r.latency_s for r in per_rate])
-    var_r = np.array([r.latency_std_s**2 for r in per_rate])
-    weights = 1.0 / var_r
-    tau = float(np.sum(weights * tau_r) / np.sum(weights))
-    formal_std = float(np.sqrt(1.0 / np.sum(weights)))
-    chi2 = float(np.sum((tau_r - tau) ** 2 * weights))
-    dof = len(per_rate) - 1
-    p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
-    scale = math.sqrt(chi2 / dof) if dof > 0 and p_value < RATES_DISAGREE_P else 1.0
+    check_rotation_model([(r.rate_deg_s, r.chi2) for r in per_rate])
+    tau, formal_std, chi2, dof, p_value, scale = _combined(per_rate)
     centres = np.array([r.center_ned_m for r in per_rate])
     center = np.average(
         centres, axis=0, weights=1.0 / np.array([r.center_std_m**2 for r in per_rate])
