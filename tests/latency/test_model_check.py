@@ -52,8 +52,12 @@ def _moved(
 def test_a_wrong_axis_in_passes_csv_is_refused() -> None:
     # Review: North (1,0,0) for the vertical table gave -0.09 +- 0.04 ms for 4.21 ms.
     passes = _moved(small_simulation(TAU_S, seed=3, rates=(6.0,)), axis=(1.0, 0.0, 0.0))
-    with pytest.raises(InputError, match="do not fit a rotation about the stated table axis"):
+    with pytest.raises(
+        InputError, match="do not fit a rotation about the stated table axis"
+    ) as err:
         estimate_latency_sphere(passes, radius_m=0.1)
+    # Their points have times, but do not turn about a North axis: said too.
+    assert f"the points of {len(passes)} passes have times but do not turn" in str(err.value)
 
 
 def test_points_not_centred_on_the_table_axis_are_refused() -> None:

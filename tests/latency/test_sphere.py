@@ -277,6 +277,29 @@ def test_rates_without_point_times_are_said_to_be_unchecked() -> None:
     assert flipped.as_document()["consistency"]["n_passes_rate_checked"] == 0
 
 
+def test_points_with_times_that_do_not_sweep_are_not_asked_for_times() -> None:
+    # Every pass had t_s, yet the text asked for "the points' times (a t_s column)":
+    # points that have times but do not turn about the stated axis point at the axis
+    # or the frame (here: times shuffled, as from a scanner that does not sweep).
+    rng = np.random.default_rng(5)
+    passes = small_simulation(TAU_S, seed=7, rates=(6.0, 18.0))
+    shuffled = [replace(p, t_s=rng.permutation(np.asarray(p.t_s))) for p in passes]
+    timeless = [SpherePass(p.source, p.rate_deg_s, p.points_ned_m) for p in shuffled[:2]]
+    result = estimate_latency_sphere(shuffled, radius_m=0.1)
+    assert result.n_passes_rate_checked == 0
+    assert result.n_passes_unswept == len(passes)
+    text = result.rates_unchecked_text()
+    assert "their points have times (t_s) but do not turn about the stated axis" in text
+    assert "axis in passes.csv" in text
+    assert "table-centred" in text
+    assert "give the points' times" not in text
+    assert result.as_document()["consistency"]["n_passes_unswept"] == len(passes)
+    mixed = estimate_latency_sphere(timeless + shuffled[2:], radius_m=0.1)
+    text = mixed.rates_unchecked_text()
+    assert f"{len(passes) - 2} of them have point times (t_s) but their points do not" in text
+    assert "the other 2 have no point times" in text
+
+
 def test_one_rate_says_agreement_is_not_tested() -> None:
     result = estimate_latency_sphere(small_simulation(TAU_S, seed=7), radius_m=0.1)
     assert result.dof_between_rates == 0

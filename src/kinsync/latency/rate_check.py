@@ -42,6 +42,7 @@ __all__ = [
     "judge_rates",
     "mismatch_message",
     "points_azimuth_rate_deg_s",
+    "rate_check_counts",
     "rate_mismatch",
     "unchecked_rates_text",
 ]
@@ -297,6 +298,23 @@ def judge_rates(
 def check_pass_rates(passes: Sequence[SpherePass]) -> int:
     """Raise when a pass's points turn otherwise than its stated table rate.
 
+    Parameters
+    ----------
+    passes : sequence of SpherePass
+        As for `rate_check_counts`.
+
+    Returns
+    -------
+    int
+        The passes checked; `rate_check_counts` also counts those with times whose
+        points do not turn about their axis.
+    """
+    return rate_check_counts(passes)[0]
+
+
+def rate_check_counts(passes: Sequence[SpherePass]) -> tuple[int, int]:
+    """Raise when a pass's points turn otherwise than its stated table rate.
+
     Each pass with point times is judged by `points_azimuth_rate_deg_s`; a pass
     without times, or whose points do not sweep with time, is not judged by them, and
     counts as checked only when its ``rate_checked_by`` says what else confirmed it
@@ -311,10 +329,14 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
 
     Returns
     -------
-    int
+    n_checked : int
         Passes checked (judged by their points, each agreeing with its stated rate, or
         ``rate_checked_by``); 0 when none could be (no point times): then a wrong
         sign, rad/s for deg/s or ENU for NED goes unseen (`unchecked_rates_text`).
+    n_unswept : int
+        Passes not checked although their points have times: the points do not turn
+        about the stated axis (a wrong axis, points not table-centred, or a scanner
+        that does not sweep with the table).
 
     Raises
     ------
@@ -324,12 +346,14 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
         its stated rate and the rate its points show (`mismatch_message`).
     """
     checked: list[bool] = []  # per pass: judged by its points, or confirmed before
+    unswept: list[bool] = []  # per pass: times, yet not judged, nor confirmed before
 
     def shown_by_points(p: SpherePass) -> float | None:
         rate = (
             None if p.t_s is None else points_azimuth_rate_deg_s(p.points_ned_m, p.t_s, p.axis_ned)
         )
         checked.append(rate is not None or p.rate_checked_by is not None)
+        unswept.append(not checked[-1] and p.t_s is not None)
         return rate
 
     mismatches, n_judged = judge_rates(passes, shown_by_points)
@@ -339,10 +363,10 @@ def check_pass_rates(passes: Sequence[SpherePass]) -> int:
                 mismatches, n_judged, "the points' azimuth about the axis", points=True
             )
         )
-    return sum(checked)
+    return sum(checked), sum(unswept)
 
 
-def unchecked_rates_text(n_checked: int, n_passes: int) -> str:
+def unchecked_rates_text(n_checked: int, n_passes: int, n_unswept: int = 0) -> str:
     """What was not checked of the passes' stated rates, in words; "" when every pass was.
 
     Parameters
@@ -351,14 +375,33 @@ def unchecked_rates_text(n_checked: int, n_passes: int) -> str:
         Passes whose points judged their stated rate (`check_pass_rates`).
     n_passes : int
         Passes given.
+    n_unswept : int
+        Of the passes not checked, those whose points have times but do not turn about
+        the stated axis (`rate_check_counts`): the text then points at the axis and the
+        frame rather than asking for times.
     """
     if n_checked >= n_passes:
         return ""
-    which = "none" if n_checked == 0 else f"only {n_checked}"
+    n_unchecked = n_passes - n_checked
+    head = (
+        f"the sign and unit of the table rates were not checked on {n_unchecked} "
+        f"of {counted(n_passes, 'pass', 'passes')}"
+    )
+    risk = "a wrong sign flips the latency and rad/s given as deg/s scales it 57 times, unseen"
+    if n_unswept == 0:
+        which = "none" if n_checked == 0 else f"only {n_checked}"
+        return (
+            f"{head} ({which} of them with point times that sweep with the table): {risk}; "
+            "give the points' times (a t_s column) or check passes.csv by hand"
+        )
+    if n_unswept == n_unchecked:
+        which, untimed = "their points have times (t_s) but", ""
+    else:
+        which = f"{n_unswept} of them have point times (t_s) but their points"
+        untimed = f"; the other {n_unchecked - n_unswept} have no point times (a t_s column)"
     return (
-        f"the sign and unit of the table rates were not checked on {n_passes - n_checked} "
-        f"of {counted(n_passes, 'pass', 'passes')} ({which} of them with point times that "
-        "sweep with the table): a wrong sign flips the latency and rad/s given as deg/s "
-        "scales it 57 times, unseen; give the points' times (a t_s column) or check "
-        "passes.csv by hand"
+        f"{head}: {which} do not turn about the stated axis as a profile scanner on the "
+        "table axis would: check the axis in passes.csv (axis_n,axis_e,axis_d, NED; "
+        "default 0,0,1 = Down) and that the points are table-centred (origin on the table "
+        f"axis){untimed}; {risk}, so check passes.csv by hand too"
     )

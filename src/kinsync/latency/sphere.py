@@ -47,7 +47,7 @@ from kinsync.latency.planning import (
     MIN_SPHERE_POINTS_PER_PASS,
     checked_max_incidence_deg,
 )
-from kinsync.latency.rate_check import check_pass_rates, unchecked_rates_text
+from kinsync.latency.rate_check import rate_check_counts, unchecked_rates_text
 from kinsync.latency.roi import RoiCrop, checked_roi, crop_passes
 from kinsync.latency.sphere_failures import pool_failure as _pool_failure
 from kinsync.progress import Progress, report
@@ -227,8 +227,12 @@ class SphereLatencyResult:
         are of the points inside it.
     n_passes_rate_checked : int
         Passes whose points confirmed the sign and size of their stated rate
-        (`kinsync.latency.rate_check`); the others (no point times) were not checked:
-        see `rates_unchecked_text`.
+        (`kinsync.latency.rate_check`); the others (no point times, or points that do
+        not turn about the stated axis) were not checked: see `rates_unchecked_text`.
+    n_passes_unswept : int
+        Of those not checked, the passes whose points have times but do not turn about
+        the stated axis (a wrong axis, points not table-centred, a scanner that does not
+        sweep with the table).
     """
 
     latency_s: float
@@ -248,6 +252,7 @@ class SphereLatencyResult:
     roi: RoiCrop | None = None
     unpaired_passes: tuple[RejectedPass, ...] = ()
     n_passes_rate_checked: int = 0
+    n_passes_unswept: int = 0
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -283,7 +288,9 @@ class SphereLatencyResult:
 
     def rates_unchecked_text(self) -> str:
         """Which passes' stated rates the points did not check, in words; "" if none."""
-        return unchecked_rates_text(self.n_passes_rate_checked, self.n_passes)
+        return unchecked_rates_text(
+            self.n_passes_rate_checked, self.n_passes, self.n_passes_unswept
+        )
 
     @property
     def n_passes_used(self) -> int:
@@ -323,6 +330,7 @@ class SphereLatencyResult:
                 "p_value": self.p_value_between_rates,
                 "rates_disagree": self.rates_disagree,
                 "n_passes_rate_checked": self.n_passes_rate_checked,
+                "n_passes_unswept": self.n_passes_unswept,
             },
             "unpaired_rates_deg_s": list(self.unpaired_rates_deg_s),
             "n_passes": self.n_passes,
@@ -719,7 +727,7 @@ def estimate_latency_sphere(
     if scanner_origin_ned_m is not None:
         scanner_origin_ned_m = _checked_origin(scanner_origin_ned_m)
     roi = None if roi_ned_m is None else checked_roi(roi_ned_m)
-    n_rate_checked = check_pass_rates(check_distinct_passes(passes))
+    n_rate_checked, n_unswept = rate_check_counts(check_distinct_passes(passes))
     crop = None
     if roi is not None:
         passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
@@ -771,7 +779,7 @@ def estimate_latency_sphere(
         raise InputError(msg)
     report(progress, 1.0, f"fitted {counted(n_pools, 'sphere')}")
     per_rate.sort(key=lambda r: r.rate_deg_s)
-    check_rotation_model([(r.rate_deg_s, r.chi2) for r in per_rate])
+    check_rotation_model([(r.rate_deg_s, r.chi2) for r in per_rate], n_unswept)
     tau, formal_std, chi2, dof, p_value, scale = _combined(per_rate)
     centres = np.array([r.center_ned_m for r in per_rate])
     center = np.average(
@@ -800,4 +808,5 @@ def estimate_latency_sphere(
         roi=crop,
         unpaired_passes=tuple(alone),
         n_passes_rate_checked=n_rate_checked,
+        n_passes_unswept=n_unswept,
     )
