@@ -842,3 +842,35 @@ def test_sphere_refuses_a_wrong_axis_and_shows_the_model_chi2(
         code, out, err, "do not fit a rotation about the stated table axis",
         "rotation-model chi2", "at 6 deg/s", "axis in passes.csv", "table-centred",
     )  # fmt: skip
+
+
+def _scale_rates(folder: Path, factor: float) -> None:
+    """Multiply every signed rate in passes.csv by ``factor``."""
+    index = folder / "passes.csv"
+    lines = index.read_text(encoding="utf-8").splitlines()
+    scaled = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        cells[1] = repr(float(cells[1]) * factor)
+        scaled.append(",".join(cells))
+    index.write_text("\n".join(scaled) + "\n", encoding="utf-8")
+
+
+def test_sphere_raw_refuses_a_rate_the_attitude_log_contradicts_by_a_few_percent(
+    run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
+) -> None:
+    # Rates in gon/s (11 % high) gave 3.84 +- 0.04 ms for 4.21 with exit 0: only a factor 2
+    # was refused, though the log measures each pass's rate to about 0.01 %.
+    folder = tmp_path / "raw_set"
+    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
+    write_simulation(sim, folder, raw=True)
+    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--raw"]
+    _scale_rates(folder, 400.0 / 360.0)
+    code, out, err = run_cli(argv)
+    assert_one_line_error(
+        code, out, err, "more than 2 % off the rate the attitude log attitude.csv shows",
+        "stated +11.11 deg/s, shows +10 deg/s (+11.1 %)", "gon/s", "passes.csv",
+    )  # fmt: skip
+    _scale_rates(folder, 1.01 * 360.0 / 400.0)  # 1 % off: within the tolerance
+    code, out, err = run_cli(argv)
+    assert code == 0, err

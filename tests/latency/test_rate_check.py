@@ -12,6 +12,8 @@ from kinsync.errors import InputError
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.rate_check import (
     attitude_rate_deg_s,
+    attitude_rate_offsets,
+    attitude_rate_std_deg_s,
     check_pass_rates,
     points_azimuth_rate_deg_s,
 )
@@ -94,3 +96,34 @@ def test_points_all_around_the_axis_are_not_judged() -> None:
     points = np.array([1.4, 0.0, 0.0]) + 0.1 * d / np.linalg.norm(d, axis=1, keepdims=True)
     t = np.linspace(0.0, 2.0, 500)
     assert points_azimuth_rate_deg_s(points, t, (1.0, 0.0, 0.0)) is None
+
+
+def test_attitude_rate_offsets_name_the_passes_off_by_more_than_the_tolerance() -> None:
+    rates = [("a.csv", 10.3, 10.0, 0.001), ("b.csv", -10.1, -10.0, 0.001)]
+    text = attitude_rate_offsets(rates, "the attitude log attitude.csv")
+    assert text.startswith("the stated table rate of 1 of 2 passes is more than 2 % off")
+    assert "a.csv: stated +10.3 deg/s, shows +10 deg/s (+3.0 %)" in text
+    assert "b.csv" not in text
+    assert "gon" not in text
+    # An offset within 5 sigma of a poorly measured rate is not refused.
+    assert attitude_rate_offsets([("a.csv", 10.3, 10.0, 0.1)], "the log") == ""
+    gon = [(f"p{k}.csv", 10.0 * 400 / 360, 10.0, 0.001) for k in range(3)]
+    assert "rates in gon/s?" in attitude_rate_offsets(gon, "the log")
+
+
+def test_attitude_rate_sigma_covers_white_attitude_noise() -> None:
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 10.0, 0.01)
+    rate = np.radians(6.0)
+    rates = []
+    for _ in range(200):
+        yaw = rate * t + rng.normal(0.0, np.radians(0.001), t.size)
+        R = Rotation.from_rotvec(np.outer(yaw, [0.0, 0.0, 1.0])).as_matrix()
+        shown_rate = attitude_rate_deg_s(t, R, (0.0, 0.0, 1.0))
+        assert shown_rate is not None
+        rates.append((shown_rate, attitude_rate_std_deg_s(t, R, (0.0, 0.0, 1.0))))
+    shown = np.array([r for r, _ in rates])
+    sigma = np.array([s for _, s in rates])
+    # Generous: never smaller than the spread (white noise cancels in the sum).
+    assert float(np.std(shown)) < float(np.median(sigma))
+    assert float(np.median(sigma)) < 0.002 * 6.0  # still far inside the 2 % tolerance

@@ -17,6 +17,10 @@ A rate the data show with the other sign, or more than a factor `RATE_RATIO_LIMI
 is a mismatch (`RateMismatch`); `mismatch_message` says which, and when the mismatches
 all look like one unit mix-up (rad/s for deg/s, or an attitude in radians), says so.
 The check is loose on purpose: the latency itself moves the points by far less.
+The attitude log measures each pass's rate far better (to about 0.01 %): against it a
+stated rate off by more than `ATTITUDE_RATE_TOLERANCE` is refused as well
+(`attitude_rate_offsets`), since a rate scale error scales the latency by the same factor
+(gon/s given as deg/s: 11 %).
 """
 
 from __future__ import annotations
@@ -34,10 +38,13 @@ from kinsync.frames import wrap_angle_rad
 from kinsync.latency.passes import SpherePass
 
 __all__ = [
+    "ATTITUDE_RATE_TOLERANCE",
     "MIN_SWEEP_CORRELATION",
     "RATE_RATIO_LIMIT",
     "RateMismatch",
     "attitude_rate_deg_s",
+    "attitude_rate_offsets",
+    "attitude_rate_std_deg_s",
     "check_pass_rates",
     "judge_rates",
     "mismatch_message",
@@ -46,6 +53,14 @@ __all__ = [
     "rate_mismatch",
     "unchecked_rates_text",
 ]
+
+ATTITUDE_RATE_TOLERANCE = 0.02
+"""A stated rate off the attitude log's by more than this fraction (and by more than
+`_OFFSET_SIGMAS` of the log's rate sigma) is refused: the log's rate of a simulated pass
+scatters by about 0.01 %, a table's regulation by about 0.05 %."""
+
+_OFFSET_SIGMAS = 5.0
+_GON_PER_DEG = 400.0 / 360.0
 
 RATE_RATIO_LIMIT = 2.0
 """A shown rate within this factor of the stated one (same sign) agrees with it."""
@@ -172,6 +187,20 @@ def points_azimuth_rate_deg_s(
     return math.degrees(float(tc @ azc / (tc @ tc)))
 
 
+def _axis_turns_rad(R_body_to_ned: FloatArray, axis_ned: tuple[float, float, float]) -> FloatArray:
+    """The turn between consecutive records (``R_k+1 R_k^T``) about the axis (rad)."""
+    step = np.einsum("kij,klj->kil", R_body_to_ned[1:], R_body_to_ned[:-1])
+    # Small turns: the rotation vector from the skew part (exact enough between records).
+    skew_part = 0.5 * (step - np.transpose(step, (0, 2, 1)))
+    vec = np.stack([skew_part[:, 2, 1], skew_part[:, 0, 2], skew_part[:, 1, 0]], axis=1)
+    sin = np.linalg.norm(vec, axis=1)
+    cos = 0.5 * (np.trace(step, axis1=1, axis2=2) - 1.0)
+    angle = np.arctan2(sin, cos)
+    scale = np.divide(angle, sin, out=np.ones_like(sin), where=sin > 1e-15)
+    turns: FloatArray = (vec * scale[:, None]) @ np.asarray(axis_ned, dtype=np.float64)
+    return turns
+
+
 def attitude_rate_deg_s(
     t_s: FloatArray, R_body_to_ned: FloatArray, axis_ned: tuple[float, float, float]
 ) -> float | None:
@@ -195,16 +224,66 @@ def attitude_rate_deg_s(
     """
     if len(t_s) < 2 or float(t_s[-1] - t_s[0]) <= 0.0:
         return None
-    step = np.einsum("kij,klj->kil", R_body_to_ned[1:], R_body_to_ned[:-1])
-    # Small turns: the rotation vector from the skew part (exact enough between records).
-    skew_part = 0.5 * (step - np.transpose(step, (0, 2, 1)))
-    vec = np.stack([skew_part[:, 2, 1], skew_part[:, 0, 2], skew_part[:, 1, 0]], axis=1)
-    sin = np.linalg.norm(vec, axis=1)
-    cos = 0.5 * (np.trace(step, axis1=1, axis2=2) - 1.0)
-    angle = np.arctan2(sin, cos)
-    scale = np.divide(angle, sin, out=np.ones_like(sin), where=sin > 1e-15)
-    turned = float(np.sum((vec * scale[:, None]) @ np.asarray(axis_ned, dtype=np.float64)))
+    turned = float(np.sum(_axis_turns_rad(R_body_to_ned, axis_ned)))
     return math.degrees(turned / float(t_s[-1] - t_s[0]))
+
+
+def attitude_rate_std_deg_s(
+    t_s: FloatArray, R_body_to_ned: FloatArray, axis_ned: tuple[float, float, float]
+) -> float:
+    """A generous sigma of `attitude_rate_deg_s` from the scatter of the record turns (deg/s).
+
+    The turns less the mean rate times each interval, taken as independent (a random
+    walk: larger than the sigma of white attitude noise, whose turns cancel in the sum);
+    inf for fewer than 3 records.
+    """
+    span = float(t_s[-1] - t_s[0]) if len(t_s) >= 3 else 0.0
+    if span <= 0.0:
+        return math.inf
+    turns = _axis_turns_rad(R_body_to_ned, axis_ned)
+    rest = turns - float(np.sum(turns)) / span * np.diff(t_s)
+    return math.degrees(float(np.std(rest)) * math.sqrt(rest.size) / span)
+
+
+def attitude_rate_offsets(rates: Sequence[tuple[str, float, float, float]], shown_by: str) -> str:
+    """The passes whose stated rate the attitude log contradicts, in words; "" if none.
+
+    Parameters
+    ----------
+    rates : sequence of (str, float, float, float)
+        Each judged pass: its name, stated rate, the log's rate and that rate's sigma
+        (`attitude_rate_std_deg_s`), deg/s. A pass is off when the two differ by more
+        than `ATTITUDE_RATE_TOLERANCE` of the stated rate and 5 sigma.
+    shown_by : str
+        What shows the rate, e.g. "the attitude log attitude.csv".
+    """
+    off = [
+        (name, stated, shown)
+        for name, stated, shown, std in rates
+        if abs(shown - stated) > max(ATTITUDE_RATE_TOLERANCE * abs(stated), _OFFSET_SIGMAS * std)
+    ]
+    if not off:
+        return ""
+    listed = "; ".join(
+        f"{name}: stated {stated:+.4g} deg/s, shows {shown:+.4g} deg/s "
+        f"({100.0 * (stated / shown - 1.0):+.1f} %)"
+        for name, stated, shown in off[:_SHOWN_MAX]
+    )
+    if len(off) > _SHOWN_MAX:
+        listed += f"; and {len(off) - _SHOWN_MAX} more"
+    ratios = np.array([stated / shown for _, stated, shown in off])
+    gon = (
+        " (about 400/360 in every pass: rates in gon/s?)"
+        if len(off) == len(rates) and np.all(np.abs(ratios / _GON_PER_DEG - 1.0) < 0.005)
+        else ""
+    )
+    what = f"{len(off)} of {counted(len(rates), 'pass', 'passes')}"
+    return (
+        f"the stated table rate of {what} is more than "
+        f"{100.0 * ATTITUDE_RATE_TOLERANCE:g} % off the rate {shown_by} shows ({listed})"
+        f"{gon}: a rate off by some % scales the latency by as much; give each pass's "
+        "rate in deg/s as the table turned (the log's rate) in passes.csv"
+    )
 
 
 def mismatch_message(

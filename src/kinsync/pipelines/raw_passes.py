@@ -28,7 +28,13 @@ from kinsync.io.raw_passes import (
     read_raw_pass,
 )
 from kinsync.latency.passes import SpherePass
-from kinsync.latency.rate_check import attitude_rate_deg_s, judge_rates, mismatch_message
+from kinsync.latency.rate_check import (
+    attitude_rate_deg_s,
+    attitude_rate_offsets,
+    attitude_rate_std_deg_s,
+    judge_rates,
+    mismatch_message,
+)
 from kinsync.progress import Progress, report
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import (
@@ -80,22 +86,24 @@ def _check_attitude_rates(
     """Raise when the attitude log turns otherwise than a pass's stated table rate.
 
     The IMU turns with the table: over each pass the log's rotation about the pass's
-    axis is its table rate, with the same sign (`kinsync.latency.rate_check`). Returns
-    the passes, those the log judged marked with ``rate_checked_by``.
+    axis is its table rate, with the same sign (`kinsync.latency.rate_check`), within
+    `~kinsync.latency.rate_check.ATTITUDE_RATE_TOLERANCE`. Returns the passes, those the
+    log judged marked with ``rate_checked_by``.
     """
     judged: list[bool] = []
+    measured: list[tuple[str, float, float, float]] = []  # name, stated, shown, sigma
 
     def shown_by_attitude(p: SpherePass) -> float | None:
         assert p.t_s is not None  # raw passes have their times
         t0, t1 = float(p.t_s.min()), float(p.t_s.max())
         inside = (corrected.t_s >= t0) & (corrected.t_s <= t1)
         t = corrected.t_s[inside]
-        rate = (
-            attitude_rate_deg_s(t, corrected.interpolate(t).R_body_to_ned, p.axis_ned)
-            if t.size >= 2
-            else None
-        )
+        R = corrected.interpolate(t).R_body_to_ned
+        rate = attitude_rate_deg_s(t, R, p.axis_ned) if t.size >= 2 else None
         judged.append(rate is not None)
+        if rate is not None:
+            std = attitude_rate_std_deg_s(t, R, p.axis_ned)
+            measured.append((Path(p.source).name, p.rate_deg_s, rate, std))
         return rate
 
     mismatches, n_checked = judge_rates(passes, shown_by_attitude)
@@ -103,6 +111,10 @@ def _check_attitude_rates(
         msg = f"{index_path} and {attitude_path}: " + mismatch_message(
             mismatches, n_checked, f"the attitude log {attitude_path.name}", points=False
         )
+        raise InputError(msg)
+    off = attitude_rate_offsets(measured, f"the attitude log {attitude_path.name}")
+    if off:
+        msg = f"{index_path} and {attitude_path}: {off}"
         raise InputError(msg)
     by = f"the attitude log {attitude_path.name}"
     return [replace(p, rate_checked_by=by) if j else p for p, j in zip(passes, judged, strict=True)]
@@ -146,7 +158,8 @@ def read_raw_passes(
         columns; non-numeric or non-finite cells; attitude tags not increasing; an
         attitude that turns the other way than a pass's stated rate, or more than
         twice as fast or slow (`kinsync.latency.rate_check`: a wrong sign, rates in
-        rad/s, angles in radians); an
+        rad/s, angles in radians), or whose rate is more than 2 % off the stated one
+        (gon/s, a miscalibrated controller); an
         empty pass; a point time outside the latency-corrected attitude span or inside
         one of its data gaps (`kinsync.trajectory_gaps`: a record interval longer than
         ``max_gap_s``; never interpolated across); a ``max_gap_s`` that is not positive.
