@@ -874,3 +874,13 @@ def test_sphere_raw_refuses_a_rate_the_attitude_log_contradicts_by_a_few_percent
     _scale_rates(folder, 1.01 * 360.0 / 400.0)  # 1 % off: within the tolerance
     code, out, err = run_cli(argv)
     assert code == 0, err
+
+
+def test_sphere_warns_of_a_radius_the_points_contradict(run_cli: RunCli, sim_folder: Path) -> None:
+    argv = ["latency", "sphere", str(sim_folder), "--no-figure", "--json", "--radius-m"]
+    code, out, err = run_cli([*argv, "0.13"])  # the sphere's radius is 0.1 m
+    assert code == 0, err
+    warnings = json.loads(out)["warnings"]
+    assert any("--radius-m, 0.13 m) is contradicted by the points" in w for w in warnings)
+    code, out, err = run_cli([*argv, "0.1"])
+    assert not any("radius" in w for w in json.loads(out)["warnings"])

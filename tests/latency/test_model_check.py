@@ -7,7 +7,7 @@ import pytest
 from tests.latency.test_sphere import TAU_S, small_simulation
 
 from kinsync.errors import InputError
-from kinsync.latency.model_check import check_rotation_model
+from kinsync.latency.model_check import check_rotation_model, radius_contradiction
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.sphere import estimate_latency_sphere
 
@@ -73,3 +73,26 @@ def test_the_model_chi2_is_in_the_table_row_and_the_json() -> None:
     assert rate.row_text()[-1] == f"{rate.chi2:.2f}"
     doc = result.as_document()["per_rate"][0]
     assert 0.0 < doc["chi2_p_value"] <= 1.0
+
+
+def test_a_given_radius_the_points_contradict_is_named() -> None:
+    # 0.1 m given for a 0.0762 m sphere passed silently, with a 9 times larger sigma.
+    passes = small_simulation(TAU_S, seed=3, rates=(6.0,))
+    right = estimate_latency_sphere(passes, radius_m=0.1)
+    assert right.radius_contradiction_text() == ""
+    assert right.per_rate[0].plus.free_radius_m == pytest.approx(0.1, abs=1e-3)
+    wrong = estimate_latency_sphere(passes, radius_m=0.13)
+    text = wrong.radius_contradiction_text()
+    assert text.startswith("the sphere radius given (radius_m, --radius-m, 0.13 m) is contradicted")
+    assert "fitted freely, they give 0.1" in text
+    assert "(2 of 2 signed rates)" in text
+    assert estimate_latency_sphere(passes).radius_contradiction_text() == ""  # nothing given
+
+
+def test_radius_contradiction_needs_both_many_sigmas_and_five_percent() -> None:
+    assert radius_contradiction(0.0762, [(2.0, 0.0763, 2e-5)]) == ""  # 5 sigma, 0.1 %
+    assert radius_contradiction(0.0762, [(2.0, 0.09, 0.01)]) == ""  # 18 %, 1.4 sigma
+    assert radius_contradiction(0.0762, [(2.0, float("nan"), float("nan"))]) == ""
+    assert "0.0900 m (sigma 0.0001 m) at +2 deg/s" in radius_contradiction(
+        0.0762, [(2.0, 0.09, 1e-4)]
+    )

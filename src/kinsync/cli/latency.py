@@ -78,7 +78,7 @@ def _print_sphere_result(
 
 
 def _warn_about_rates(result: SphereLatencyResult, folder: Path) -> None:
-    """Warn when the rates disagree, or when their sign and unit went unchecked."""
+    """Warn when the rates disagree, their sign and unit went unchecked, or the radius is off."""
     if result.rates_disagree:
         warn(
             f"{folder}: the table rates disagree ({result.agreement_text()}); "
@@ -87,6 +87,8 @@ def _warn_about_rates(result: SphereLatencyResult, folder: Path) -> None:
         )
     if result.rates_unchecked_text():  # with --raw, the attitude log checks them too
         warn(f"{folder}: {result.rates_unchecked_text()}")
+    if result.radius_contradiction_text():
+        warn(f"{folder}: {result.radius_contradiction_text()}")
 
 
 def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | None:

@@ -20,7 +20,14 @@ from scipy import stats
 from kinsync._text import format_p_value
 from kinsync.errors import InputError
 
-__all__ = ["MODEL_DOF", "MODEL_MISFIT_P", "check_rotation_model", "model_p_value"]
+__all__ = [
+    "MODEL_DOF",
+    "MODEL_MISFIT_P",
+    "RADIUS_TOLERANCE",
+    "check_rotation_model",
+    "model_p_value",
+    "radius_contradiction",
+]
 
 MODEL_DOF = 2
 """Degrees of freedom of one rate's rotation-model chi2 (6 coordinates, 4 unknowns)."""
@@ -31,6 +38,14 @@ their sum over the rates, the input is refused: among 396 simulated rates with c
 input the largest chi2 was 13.4 (p = 0.0012)."""
 
 _SHOWN_MAX = 4
+
+RADIUS_TOLERANCE = 0.05
+"""A given sphere radius that the radius fitted freely to a pool's points differs from by
+more than this fraction, and by more than `_RADIUS_SIGMAS` of that fit's sigma, is
+contradicted by the data (`radius_contradiction`)."""
+
+_RADIUS_SIGMAS = 5.0
+_RADII_SHOWN = 2
 
 
 def model_p_value(chi2: float, dof: int = MODEL_DOF) -> float:
@@ -81,3 +96,36 @@ def check_rotation_model(rates: Sequence[tuple[float, float]], n_unswept: int = 
         "axis at the scanner, not exported about another origin"
     )
     raise InputError(msg)
+
+
+def radius_contradiction(given_m: float, pools: Sequence[tuple[float, float, float]]) -> str:
+    """The pools whose points contradict the given sphere radius, in words; "" if none.
+
+    A wrong given radius leaves the latency close but its sigma far larger (0.1 m for a
+    0.0762 m sphere: 9 times), unseen.
+
+    Parameters
+    ----------
+    given_m : float
+        The given radius (m).
+    pools : sequence of (float, float, float)
+        Each pool's signed rate (deg/s), the radius fitted freely to its points and that
+        radius's sigma (m); nan when that fit failed (not judged).
+    """
+    off = [
+        (rate, r, s)
+        for rate, r, s in pools
+        if abs(r - given_m) > max(RADIUS_TOLERANCE * given_m, _RADIUS_SIGMAS * s)
+    ]
+    if not off:
+        return ""
+    shown = off[:_RADII_SHOWN]
+    listed = ", ".join(f"{r:.4f} m (sigma {s:.2g} m) at {rate:+g} deg/s" for rate, r, s in shown)
+    if len(off) > _RADII_SHOWN:
+        listed += f" and {len(off) - _RADII_SHOWN} more"
+    return (
+        f"the sphere radius given (radius_m, --radius-m, {given_m:g} m) is contradicted by "
+        f"the points: fitted freely, they give {listed} ({len(off)} of {len(pools)} signed "
+        "rates); a wrong radius inflates the latency sigma and can bias it: check "
+        "--radius-m (a diameter for the radius, inches?) or leave it out to fit it"
+    )

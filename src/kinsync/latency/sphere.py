@@ -22,6 +22,7 @@ tactical grade IMU systems", ISPRS J. Photogramm. Remote Sens. 74 (2012) 85-89.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 from collections.abc import Iterable, Sequence
@@ -39,7 +40,11 @@ from kinsync._validate import finite_vector, positive_number, seed_number
 from kinsync.errors import ConvergenceError, InputError, ObservabilityError
 from kinsync.fit import SphereFit, fit_sphere, segment_sphere
 from kinsync.frames import skew
-from kinsync.latency.model_check import check_rotation_model, model_p_value
+from kinsync.latency.model_check import (
+    check_rotation_model,
+    model_p_value,
+    radius_contradiction,
+)
 from kinsync.latency.pairing import RejectedPass, pair_groups
 from kinsync.latency.passes import SpherePass, check_distinct_passes
 from kinsync.latency.planning import (
@@ -96,6 +101,10 @@ class PoolFit:
     n_points_per_pass : tuple of int
         Points of each pass (in the order of ``sources``) used in the final centre fit;
         empty when not known.
+    free_radius_m, free_radius_std_m : float
+        With a given radius: the radius and its sigma fitted freely to the same points,
+        to test the given one (`kinsync.latency.model_check.radius_contradiction`);
+        nan otherwise.
     """
 
     rate_deg_s: float
@@ -106,6 +115,8 @@ class PoolFit:
     fit: SphereFit
     sources: tuple[str, ...]
     n_points_per_pass: tuple[int, ...] = ()
+    free_radius_m: float = math.nan
+    free_radius_std_m: float = math.nan
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -286,6 +297,17 @@ class SphereLatencyResult:
             f"(formal {self.latency_formal_std_s * 1e3:.4f} ms)"
         )
 
+    def radius_contradiction_text(self) -> str:
+        """The given radius against the radius each pool's points show; "" if they agree."""
+        if not self.radius_fixed:
+            return ""
+        pools = [
+            (pool.rate_deg_s, pool.free_radius_m, pool.free_radius_std_m)
+            for r in self.per_rate
+            for pool in (r.plus, r.minus)
+        ]
+        return radius_contradiction(self.sphere_radius_m, pools)
+
     def rates_unchecked_text(self) -> str:
         """Which passes' stated rates the points did not check, in words; "" if none."""
         return unchecked_rates_text(
@@ -441,6 +463,10 @@ def fit_pool(
     bounds = np.cumsum([0, *(p.n_points for p in passes)])
     used_in = np.concatenate([[0], np.cumsum(inliers)])
     per_pass = tuple(int(used_in[b] - used_in[a]) for a, b in itertools.pairwise(bounds))
+    free = None
+    if radius_m is not None:  # the given radius, tested against the points' own
+        with contextlib.suppress(InputError, ConvergenceError):
+            free = fit_sphere(points[keep], radius_m=None, origin_m=origin)
     return PoolFit(
         rate_deg_s=passes[0].rate_deg_s,
         rate_vector_ned_rad_s=rate_vectors.mean(axis=0),
@@ -450,6 +476,8 @@ def fit_pool(
         fit=fit,
         sources=tuple(p.source for p in passes),
         n_points_per_pass=per_pass,
+        free_radius_m=math.nan if free is None else free.radius_m,
+        free_radius_std_m=math.nan if free is None else free.radius_std_m,
     )
 
 
