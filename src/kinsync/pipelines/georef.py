@@ -667,17 +667,16 @@ def _plan_las(
 ) -> tuple[Any, ChunkSource, list[ChunkTask], int]:
     info = las_info(path)
     template = las_header(path)
-    if info.point_count:  # seconds of week or GPS time as the header says (not Unix time)
-        ends = las_end_times(path)
+    ends = las_end_times(path) if info.point_count else None  # read once, kept in source
+    if ends is not None:  # seconds of week or GPS time as the header says (not Unix time)
         check_week_seconds(info, ends)
         if ends is not None:
             check_week_rollover(info, min(ends), max(ends), gps_week)
     offset = las_time_offset_s(info, traj_scale, gps_week, needed_by="georeferencing")
     n = info.point_count
     tasks = [ChunkTask(first, min(chunk_points, n - first)) for first in range(0, n, chunk_points)]
-    source = ChunkSource(
-        path, "xyz", None, offset, total=n, georeferenced_crs=georeferenced_crs_name(info.crs_wkt)
-    )
+    crs = georeferenced_crs_name(info.crs_wkt)
+    source = ChunkSource(path, "xyz", None, offset, n, crs, las_end_times_s=ends)
     return template, source, tasks, n
 
 
@@ -690,7 +689,7 @@ def _file_end_times(ctx: ChunkContext, tasks: Sequence[ChunkTask], total: int) -
     if total == 0 or not tasks:
         return []
     if source.table is None:
-        ends = las_end_times(source.path)
+        ends = source.las_end_times_s or las_end_times(source.path)
         return [t + source.las_time_offset_s for t in (ends or ())]
     layout = source.table
     first, last = tasks[0].table_slice, tasks[-1].table_slice

@@ -114,6 +114,7 @@ class ChunkSource:
     las_time_offset_s: float = 0.0  # added to LAS gps_time
     total: int = 0  # LAS/LAZ: points in the file (a table's are ``table.total_rows``)
     georeferenced_crs: str | None = None  # LAS/LAZ: a map or earth CRS its header gives
+    las_end_times_s: tuple[float, float] | None = None  # LAS/LAZ: first, last gps_time stored
 
 
 @dataclass(frozen=True)
