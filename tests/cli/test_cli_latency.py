@@ -197,14 +197,19 @@ def test_sphere_refuses_points_in_enu(
     assert_one_line_error(code, out, err, "every pass turns the other way", "ENU")
 
 
+def _raw_set(tmp_path: Path) -> tuple[Path, list[str]]:
+    """A raw pass folder (10 deg/s, 2 passes each way) and the --raw command on it."""
+    folder = tmp_path / "raw_set"
+    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
+    write_simulation(sim, folder, raw=True)
+    return folder, ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--raw"]
+
+
 def test_sphere_raw_refuses_an_attitude_that_turns_against_the_rates(
     run_cli: RunCli, tmp_path: Path, assert_one_line_error: OneLineError
 ) -> None:
     """With --raw the attitude log shows the table rate: a flipped sign or radians say so."""
-    folder = tmp_path / "raw_set"
-    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
-    write_simulation(sim, folder, raw=True)
-    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--raw"]
+    folder, argv = _raw_set(tmp_path)
     _flip_rates(folder, lambda _row: True)
     code, out, err = run_cli(argv)
     assert_one_line_error(
@@ -861,10 +866,7 @@ def test_sphere_raw_refuses_a_rate_the_attitude_log_contradicts_by_a_few_percent
 ) -> None:
     # Rates in gon/s (11 % high) gave 3.84 +- 0.04 ms for 4.21 with exit 0: only a factor 2
     # was refused, though the log measures each pass's rate to about 0.01 %.
-    folder = tmp_path / "raw_set"
-    sim = simulate_rotating_table(RotatingTableConfig(rates_deg_s=(10.0,), passes=2, seed=3))
-    write_simulation(sim, folder, raw=True)
-    argv = ["latency", "sphere", str(folder), "--radius-m", "0.1", "--no-figure", "--raw"]
+    folder, argv = _raw_set(tmp_path)
     _scale_rates(folder, 400.0 / 360.0)
     code, out, err = run_cli(argv)
     assert_one_line_error(
