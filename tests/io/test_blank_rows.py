@@ -88,3 +88,26 @@ def test_a_comma_too_many_is_not_called_a_decimal_comma(tmp_path: Path) -> None:
     with pytest.raises(InputError, match=r"line 2 has 4 fields") as exc:
         read_numeric_csv(path, ["t_s", "x_m", "y_m"])
     assert "decimal comma" not in str(exc.value)
+
+
+@pytest.mark.parametrize("stamp", ["2024-05-17T16:53:02Z", "2024-05-17 16:53:02.5"])
+def test_a_date_and_time_as_text_is_named_with_what_to_do(tmp_path: Path, stamp: str) -> None:
+    """ISO-8601 times said only "is not a number" (and "fix or remove the row", for a
+    whole column of them)."""
+    path = tmp_path / "t.csv"
+    path.write_text(HEADER + f"{stamp},2.0,3.0\n", encoding="utf-8")
+    words = r"t\.csv: line 2, column 't_s': .* is a date and time as text.*convert the whole"
+    with pytest.raises(InputError, match=words) as err:
+        read_numeric_csv(path, ["t_s", "x_m", "y_m"])
+    assert "utc_to_gps_s" in str(err.value)
+    with pytest.raises(InputError, match=words) as err:
+        list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))
+    assert "fix or remove the row" not in str(err.value)
+    pps = tmp_path / "pps.csv"
+    pps.write_text(f"t_local_s\n{stamp}\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"pps\.csv: line 2.*a date and time as text"):
+        read_pps_csv(pps)
+    # a word is still "not a number", with the row to fix
+    path.write_text(HEADER + "soon,2.0,3.0\n", encoding="utf-8")
+    with pytest.raises(InputError, match="'soon' is not a number; fix or remove the row"):
+        list(iter_table_chunks(path, 10, ("t_s", "x_m", "y_m")))

@@ -19,11 +19,13 @@ from kinsync.io.sanity import not_utf8_cell
 from kinsync.io.text_lines import cut_line_hint
 
 __all__ = [
+    "DATE_TEXT",
     "PARSE_ERROR",
     "blank_row_error",
     "comment_hint",
     "decimal_comma_hint",
     "first_bad_cell",
+    "is_date_text",
     "locate_bad_csv_cell",
     "quoted_line_break",
 ]
@@ -84,6 +86,30 @@ def comment_hint(cells: Sequence[str]) -> str:
     if not first.startswith(_COMMENT_MARKS):
         return ""
     return "; it looks like a comment, which kinsync does not read in data: remove the line"
+
+
+_DATE_TIME = re.compile(r"\s*\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}.*")
+
+DATE_TEXT = (
+    "is a date and time as text, not a number: kinsync reads times as numbers of seconds "
+    "(a GPS time as seconds since 1980-01-06); convert the whole column (in Python, "
+    "kinsync.clock.utc_to_gps_s takes UTC seconds since 1970)"
+)
+"""What a cell holding an ISO-8601 date and time is told (it said only 'not a number')."""
+
+
+def is_date_text(cell: str) -> bool:
+    """Whether a cell holds a date and time as text (``2024-05-17T16:53:02Z``)."""
+    return _DATE_TIME.fullmatch(cell) is not None
+
+
+def _not_a_number(cell: str) -> tuple[str, str]:
+    """What a cell that is not a number is, and what to do (for `first_bad_cell`)."""
+    if not cell:
+        return "empty cell", "; fix or remove the row"
+    if is_date_text(cell):  # a whole column of them: not a row to fix
+        return f"{cell[:80]!r} {DATE_TEXT}", ""
+    return f"{cell[:80]!r} is not a number", "; fix or remove the row"
 
 
 def decimal_comma_hint(cells: Sequence[str], width: int) -> str:
@@ -169,7 +195,7 @@ def first_bad_cell(
             try:
                 float(cell)
             except ValueError:
-                what = "empty cell" if not cell else f"{cell[:80]!r} is not a number"
+                what, advice = _not_a_number(cell)
             else:
                 # Python reads '1_000', Arabic-Indic or full-width digits and a no-break
                 # space; the CSV parser does not (and named the row by its own count).
@@ -179,9 +205,10 @@ def first_bad_cell(
                     f"{cell[:80]!r} is not a plain number (digits 0-9, a point, a sign, an "
                     "exponent; no '_', other digits or spaces)"
                 )
+                advice = "; fix or remove the row"
             msg = (
                 f"{path}: line {first_line + reader.line_num}, column "
-                f"{name!r}: {what}; fix or remove the row"
+                f"{name!r}: {what}{advice}"
                 f"{comment_hint(cells)}{cut_line_hint(path, first_line + reader.line_num)}"
             )
             return InputError(msg)

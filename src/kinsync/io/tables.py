@@ -21,7 +21,13 @@ from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.arrow_signals import signals_left_to_python
 from kinsync.io.atomic import atomic_path
-from kinsync.io.csv_cells import blank_row_error, comment_hint, decimal_comma_hint
+from kinsync.io.csv_cells import (
+    DATE_TEXT,
+    blank_row_error,
+    comment_hint,
+    decimal_comma_hint,
+    is_date_text,
+)
 from kinsync.io.row_position import csv_line_of_row
 from kinsync.io.sanity import (
     MAX_TABLE_BYTES,
@@ -135,7 +141,7 @@ def _first_bad_cell(
                     try:
                         float(cell)
                     except ValueError:
-                        what = "is not a number"
+                        what = DATE_TEXT if is_date_text(cell) else "is not a number"
                     else:  # Python reads '1_000' and other digits; the CSV parser does not
                         if cell.isascii() and "_" not in cell:
                             continue
