@@ -56,6 +56,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "kinsync.trajectory_rows",
             "kinsync.trajectory_times",
             "kinsync.trajectory_velocity",
+            "kinsync.time_spans",
         ),
     ),
     (

@@ -40,6 +40,7 @@ from kinsync.calibration.parameters import BORESIGHT, PARAMETER_NAMES, REPORT_SC
 from kinsync.calibration.planes import PatchOptions
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.frames import quaternion_to_euler_rpy, wrap_angle_rad
+from kinsync.time_spans import SAME_TIME_SHARE, recorded_together
 
 __all__ = [
     "LINKED_SHARE",
@@ -72,9 +73,6 @@ this of the reverse the other way; the rest (cross lines, 90 deg off) run neithe
 not compared (an airborne patch test's cross strips counted as run the first strip's way,
 so the walls they shared with it were counted as seen one way only)."""
 
-SAME_TIME_SHARE = 0.5
-"""Two lines whose recording spans overlap by more than this share of the shorter one's
-were recorded at the same time."""
 
 RESIDUAL_RISE = 1.02
 """A calibrated mount whose features' RMS residual exceeds the start's by more than this
@@ -232,10 +230,7 @@ def lines_at_the_same_time(lines: Sequence[ScanLine]) -> InputError | None:
     for a in range(len(lines)):
         for b in range(a + 1, len(lines)):
             (a0, a1), (b0, b1) = spans[a], spans[b]
-            overlap = min(a1, b1) - max(a0, b0)
-            shorter = min(a1 - a0, b1 - b0)
-            same = overlap > SAME_TIME_SHARE * shorter if shorter > 0 else overlap >= 0
-            if same:
+            if recorded_together(spans[a], spans[b]):
                 return InputError(
                     f"lines {lines[a].name!r} and {lines[b].name!r} were recorded at the same "
                     f"time ({a0!r} .. {a1!r} s and {b0!r} .. {b1!r} s): one scanner records one "

@@ -11,6 +11,7 @@ import numpy as np
 from kinsync._typing import FloatArray
 from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
+from kinsync.time_spans import SAME_TIME_SHARE, recorded_together
 
 __all__ = ["SAME_TIME_SHARE", "SpherePass", "check_distinct_passes"]
 
@@ -104,11 +105,6 @@ class SpherePass:
         return int(self.points_ned_m.shape[0])
 
 
-SAME_TIME_SHARE = 0.5
-"""Two passes whose time spans overlap by more than this share of the shorter one's
-were recorded at the same time: one scanner records one pass at a time."""
-
-
 def check_distinct_passes(passes: Sequence[SpherePass]) -> Sequence[SpherePass]:
     """Refuse one pass given twice (a copy, a symbolic or hard link under another name).
 
@@ -139,8 +135,7 @@ def check_distinct_passes(passes: Sequence[SpherePass]) -> Sequence[SpherePass]:
                 continue
             a0, a1 = float(first.t_s.min()), float(first.t_s.max())
             b0, b1 = float(second.t_s.min()), float(second.t_s.max())
-            overlap, shorter = min(a1, b1) - max(a0, b0), min(a1 - a0, b1 - b0)
-            if overlap > SAME_TIME_SHARE * shorter if shorter > 0 else overlap >= 0:
+            if recorded_together((a0, a1), (b0, b1)):
                 _refuse_twice(
                     first,
                     second,
