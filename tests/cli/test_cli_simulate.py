@@ -40,6 +40,20 @@ def test_json_summary_and_files(run_cli: RunCli, tmp_path: Path) -> None:
     truth = json.loads((out / "truth.json").read_text())
     assert truth["seed"] == 2
     assert truth["config"]["range_noise_m"] == 0.002
+    assert truth["config"]["pass_attitude_error_deg"] == 0.0
+
+
+def test_a_pass_attitude_error_is_simulated_and_in_the_truth(
+    run_cli: RunCli, tmp_path: Path
+) -> None:
+    out = tmp_path / "sim"
+    code, _, err = run_cli([*BASE, "--out", str(out), "--pass-attitude-error-deg", "0.004"])
+    assert code == 0, err
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["config"]["pass_attitude_error_deg"] == 0.004
+    errors = [p["attitude_error_ned_deg"] for p in truth["passes"]]
+    assert len(errors) == 2
+    assert all(len(e) == 3 and any(e) for e in errors)
 
 
 def test_table_output(run_cli: RunCli, tmp_path: Path) -> None:
@@ -85,6 +99,8 @@ def test_laz_raw_fifo_and_options(run_cli: RunCli, tmp_path: Path) -> None:
         (["--format", "ply"], "--format must be csv, las or laz"),
         (["--fifo-bytes", "-3"], "--fifo-bytes -3: outside the span"),
         (["--range-noise-m", "-0.1"], "--range-noise-m -0.1: outside the span"),
+        (["--pass-attitude-error-deg", "5"], "--pass-attitude-error-deg 5: outside the span"),
+        (["--pass-attitude-error-deg", "nan"], "--pass-attitude-error-deg"),
         (["--passes", "two"], "--passes"),
         (["--baud", "9600"], "without --fifo-bytes there is no FIFO and it would not be used"),
     ],

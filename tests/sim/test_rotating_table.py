@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
@@ -95,6 +96,31 @@ def test_deterministic_for_a_seed() -> None:
         assert q.t_s is not None
         np.testing.assert_array_equal(p.t_s, q.t_s)
     assert a.truth["sphere_center_ned_m"] != c.truth["sphere_center_ned_m"]
+
+
+def test_a_pass_attitude_error_moves_each_pass_and_leaves_every_other_draw() -> None:
+    plain = simulate_rotating_table(_small(passes=3, seed=3))
+    shared = simulate_rotating_table(_small(passes=3, seed=3, pass_attitude_error_deg=0.01))
+    scene = ("sphere_center_ned_m", "axis_ned_true", "optical_centre_offset_body_m")
+    for key in scene:
+        assert shared.truth[key] == plain.truth[key]
+    errors = np.array([p["attitude_error_ned_deg"] for p in shared.truth["passes"]])
+    assert errors.shape == (6, 3)
+    assert len({tuple(e) for e in errors}) == 6  # drawn anew for each pass
+    assert 0.002 < float(np.std(errors)) < 0.03
+    assert all(p["attitude_error_ned_deg"] == [0.0, 0.0, 0.0] for p in plain.truth["passes"])
+    # Without other noise, each pass's sphere is turned by its own error about the origin.
+    quiet = simulate_rotating_table(
+        _small(passes=2, seed=3, latency_s=0.0, pass_attitude_error_deg=0.01, **QUIET)
+    )
+    centre = np.array(quiet.truth["sphere_center_ned_m"])
+    for i, p in enumerate(quiet.truth["passes"]):
+        turned = Rotation.from_rotvec(np.radians(p["attitude_error_ned_deg"])).apply(centre)
+        assert np.linalg.norm(turned - centre) > 2e-5  # 0.26 mm at 1.5 m per 0.01 deg, 1 sigma
+        fitted, _ = _fit_sphere(_sphere_points(quiet, i))
+        np.testing.assert_allclose(fitted, turned, atol=2e-6)
+    with pytest.raises(InputError, match="pass_attitude_error_deg must be >= 0"):
+        _small(pass_attitude_error_deg=-0.1)
 
 
 def test_pass_layout_and_points_per_pass_at_6_deg_s() -> None:

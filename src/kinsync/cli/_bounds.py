@@ -139,6 +139,9 @@ OPTION_BOUNDS: dict[str | tuple[str, str], Bounds] = {
     "--roll-period-s": Bounds(0.5, 600.0, "s"),
     # noise and navigation errors
     "--range-noise-m": Bounds(0.0, 1.0, "m", "a scanner noisier than 1 m is not calibrated"),
+    "--pass-attitude-error-deg": Bounds(
+        0.0, 1.0, "deg", "an INS drifting more than 1 deg between passes is not calibrated"
+    ),
     ("latency plan", "--range-noise-m"): Bounds(
         1e-4,
         1.0,

@@ -88,6 +88,13 @@ def rotating_table(
             help="Serial line rate of the FIFO (bit/s), 8N1; with --fifo-bytes (default 115200)."
         ),
     ] = None,
+    pass_attitude_error_deg: Annotated[
+        float,
+        typer.Option(
+            help="Attitude error constant over each pass, drawn anew per pass, about each "
+            "NED axis (deg, 1 sigma; an INS's drift between passes)."
+        ),
+    ] = 0.0,
     file_format: Annotated[
         str, typer.Option("--format", help="Pass file format: csv, las or laz.")
     ] = "csv",
@@ -138,6 +145,7 @@ def rotating_table(
         seed=seed,
         range_noise_m=range_noise_m,
         fifo_bytes=fifo_bytes,
+        pass_attitude_error_deg=pass_attitude_error_deg,
     )
     if baud is not None:
         config = replace(config, baud=baud)

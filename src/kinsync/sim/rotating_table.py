@@ -27,8 +27,9 @@ acquisition chain, so the latency enters the data the way it does on a real tabl
 4. **Attitude stream.** The IMU records at ``imu_rate_hz``; the record tagged ``t_k``
    holds the true attitude at ``t_k - tau`` with ``tau = latency_s + FIFO delay``
    (``fifo_bytes`` at ``baud``, 8N1), plus white attitude noise
-   (``imu_attitude_noise_deg`` per axis): the navigation record lags the scanner
-   (SPEC section 1).
+   (``imu_attitude_noise_deg`` per axis) and, optionally, an error constant over each
+   pass (``pass_attitude_error_deg`` per NED axis, drawn anew per pass, in the truth as
+   ``attitude_error_ned_deg``): the navigation record lags the scanner (SPEC section 1).
 5. **Acquisition software.** Each point measured at ``t`` is georeferenced with the
    attitude slerp-interpolated from the records *at their tags* at ``t``, assuming the
    optical centre on the axis: ``x_ned = R_used(t) @ R_scanner_to_body @ x_scanner``.
@@ -219,7 +220,8 @@ def simulate_rotating_table(
     report(progress, 0.0, "simulating passes")
     for i, rate in enumerate(rates):
         timing = sim.timing(rate, t_begin)
-        tags, q = sim.attitude_records(timing)
+        pass_error = sim.pass_attitude_error_rad()
+        tags, q = sim.attitude_records(timing, pass_error)
         attitude = Trajectory(
             t_s=tags, q_body_to_ned=q, pos_ned_m=np.zeros((tags.size, 3)), origin_lat_lon_h=site
         )
@@ -244,6 +246,7 @@ def simulate_rotating_table(
                 "t_start_s": timing.t_begin_s,
                 "t_end_s": timing.t_begin_s + timing.duration_s,
                 "n_points": int(res.labels.size),
+                "attitude_error_ned_deg": np.degrees(pass_error).tolist(),
                 **{f"n_{name}": int(counts[k]) for k, name in enumerate(LABEL_NAMES)},
             }
         )

@@ -91,6 +91,12 @@ class RotatingTableConfig:
         Attitude record rate (Hz).
     imu_attitude_noise_deg : float
         White attitude noise of each record, per axis (deg, 1 sigma).
+    pass_attitude_error_deg : float
+        Attitude error constant over each pass and drawn anew for the next, about each
+        NED axis (tilt about North and East, heading about Down; deg, 1 sigma): the
+        slowly varying error of an INS, shared by every record of a pass. Drawn from
+        its own random stream, so turning it on leaves every other draw of a seed as
+        it was. Default 0.
     rate_regulation_noise_rel : float
         Relative RMS noise of the table rate (smooth: three random sinusoids).
     levelling_error_arcsec_max : float
@@ -136,6 +142,7 @@ class RotatingTableConfig:
     range_noise_m: float = 0.002
     imu_rate_hz: float = 100.0
     imu_attitude_noise_deg: float = 0.001
+    pass_attitude_error_deg: float = 0.0
     rate_regulation_noise_rel: float = 5e-4
     levelling_error_arcsec_max: float = 15.0
     optical_centre_offset_max_m: float = 5e-4
@@ -162,6 +169,7 @@ class RotatingTableConfig:
             "range_noise_m",
             "imu_rate_hz",
             "imu_attitude_noise_deg",
+            "pass_attitude_error_deg",
             "rate_regulation_noise_rel",
             "levelling_error_arcsec_max",
             "optical_centre_offset_max_m",
@@ -216,6 +224,7 @@ class RotatingTableConfig:
         non_negative = (
             "range_noise_m",
             "imu_attitude_noise_deg",
+            "pass_attitude_error_deg",
             "rate_regulation_noise_rel",
             "levelling_error_arcsec_max",
             "optical_centre_offset_max_m",

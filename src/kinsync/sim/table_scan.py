@@ -34,6 +34,8 @@ _REGULATION_FREQ_HZ = (0.2, 2.0)
 
 
 _IMU_PAD_S = 0.2
+_PASS_ERROR_STREAM = 7
+"""Second seed word of the per-pass attitude error's random stream."""
 """Attitude records before and after each pass (s)."""
 
 
@@ -260,6 +262,8 @@ class _Simulator:
         self.beam_rotor = _Rotor(self.scene.axis_ned, self.w_ned0)
         self.offset_rotor = _Rotor(self.scene.axis_ned, self.offset_ned0)
         self.window = self._mirror_window()
+        # Its own stream: the per-pass attitude error leaves the other draws unchanged.
+        self.pass_error_rng = np.random.default_rng([cfg.seed, _PASS_ERROR_STREAM])
 
     # -------------------------------------------------------------- timing
     def timing(self, rate_deg_s: float, t_begin_s: float) -> _PassTiming:
@@ -287,8 +291,22 @@ class _Simulator:
         return Rotation.from_rotvec(psi[:, None] * self.scene.axis_ned) * self.R_tilt_rot
 
     # -------------------------------------------------------------- IMU
-    def attitude_records(self, timing: _PassTiming) -> tuple[FloatArray, FloatArray]:
-        """Tags (s) and quaternions (w, x, y, z) of the IMU records around a pass."""
+    def pass_attitude_error_rad(self) -> FloatArray:
+        """The next pass's attitude error, a rotation vector (3,), NED (rad); zeros if none."""
+        sigma = math.radians(self.cfg.pass_attitude_error_deg)
+        if sigma == 0.0:
+            return np.zeros(3)
+        drawn: FloatArray = self.pass_error_rng.normal(0.0, sigma, 3)
+        return drawn
+
+    def attitude_records(
+        self, timing: _PassTiming, pass_error_rad: FloatArray | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Tags (s) and quaternions (w, x, y, z) of the IMU records around a pass.
+
+        ``pass_error_rad``: a rotation vector (NED, rad) applied to every record of the
+        pass (`pass_attitude_error_rad`); None for none.
+        """
         cfg = self.cfg
         t0 = cfg.t_start_s + self.scene.imu_phase_s
         k_first = math.ceil((timing.t_begin_s - _IMU_PAD_S - t0) / self.imu_period_s)
@@ -299,7 +317,10 @@ class _Simulator:
         true_rot = self.true_q_body_to_ned(timing, tags, self.tau_s)
         sigma = math.radians(cfg.imu_attitude_noise_deg)
         noise = Rotation.from_rotvec(self.rng.normal(0.0, sigma, size=(tags.size, 3)))
-        xyzw = (true_rot * noise).as_quat()
+        measured = true_rot * noise
+        if pass_error_rad is not None and np.any(pass_error_rad):  # one NED-frame error
+            measured = Rotation.from_rotvec(pass_error_rad) * measured
+        xyzw = measured.as_quat()
         q = xyzw[:, [3, 0, 1, 2]]
         q[q[:, 0] < 0.0] *= -1.0
         return tags, q
