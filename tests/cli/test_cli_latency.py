@@ -87,6 +87,26 @@ def test_sphere_json_document_and_figure(run_cli: RunCli, sim_folder: Path, tmp_
         doc["sphere"]["center_ned_m"], truth["sphere_center_ned_m"], atol=2e-3
     )
     assert fig.read_bytes().startswith(b"\x89PNG")
+    scatter = doc["pass_scatter"]
+    assert scatter["measured"] is True
+    assert scatter["dof"] == 3 * 4 * 2  # 4 signed rates of 3 passes
+    assert set(scatter) >= {"std_mm", "chi2", "p_value", "significant", "cov_mm2"}
+
+
+def test_sphere_reports_the_passes_scatter_and_warns_when_it_cannot(
+    run_cli: RunCli, sim_folder: Path, tmp_path: Path
+) -> None:
+    code, out, _ = run_cli(["latency", "sphere", str(sim_folder), "--no-figure"])
+    assert code == 0
+    assert re.search(r"passes (agree with their points' noise|scatter .* mm beyond)", out), out
+    one = tmp_path / "one"
+    cfg = RotatingTableConfig(latency_s=TAU_S, rates_deg_s=(6.0, 18.0), passes=1, seed=4)
+    write_simulation(simulate_rotating_table(cfg), one)
+    code, out, err = run_cli(["latency", "sphere", str(one), "--no-figure"])
+    assert code == 0, err
+    assert "pass-to-pass scatter not measured" in out
+    assert "one pass per rate and direction" in err
+    assert "scan at least 2 passes per rate and direction" in err
 
 
 def test_sphere_table_default_figure_and_no_figure(

@@ -60,6 +60,8 @@ def _print_sphere_result(
         f"(tau > 0: navigation lags the scanner); {result.agreement_text()}",
         markup=False,
     )
+    if result.pass_scatter is not None:
+        console.print(result.pass_scatter.text(), markup=False, highlight=False)
     for rejected in result.rejected_passes:
         console.print(
             f"rejected: {rejected.source} ({rejected.rate_deg_s:+g} deg/s): {rejected.reason}",
@@ -89,6 +91,13 @@ def _warn_about_rates(result: SphereLatencyResult, folder: Path) -> None:
         warn(f"{folder}: {result.rates_unchecked_text()}")
     if result.radius_contradiction_text():
         warn(f"{folder}: {result.radius_contradiction_text()}")
+    if result.pass_scatter is not None and not result.pass_scatter.measured:
+        warn(
+            f"{folder}: one pass per rate and direction: an attitude error shared by the "
+            "points of a pass (the INS's drift between passes) cannot be measured and is "
+            "not in the sigma; scan at least 2 passes per rate and direction (5 measure it "
+            "well)"
+        )
 
 
 def _applied_mount(folder: Path, raw: bool, mount_file: Path | None) -> Mount | None:

@@ -125,6 +125,13 @@ def _figures(run: _MethodARun) -> tuple[Figure, ...]:
     )
 
 
+def _scatter_text(result: SphereLatencyResult) -> str:
+    """The passes' own centres against their pools, in words (an error shared by a pass)."""
+    if result.pass_scatter is None:
+        return "the passes' own centres were not fitted"
+    return f"each pass's own centre against its pool: {result.pass_scatter.text()}"
+
+
 def _paragraphs(run: _MethodARun) -> tuple[str, ...]:
     """The campaign and its result, in words."""
     result, plan = run.result, run.plan
@@ -142,7 +149,8 @@ def _paragraphs(run: _MethodARun) -> tuple[str, ...]:
         ),
         (
             f"Result: {result.latency_s * 1e3:.4f} +- {result.latency_std_s * 1e3:.4f} ms "
-            f"against {DEMO_LATENCY_S * 1e3:g} ms; {result.agreement_text()}. "
+            f"against {DEMO_LATENCY_S * 1e3:g} ms; {result.agreement_text()}; "
+            f"{_scatter_text(result)}. "
             "Planner bound for this design: "
             f"{plan.latency_std_s * 1e3:.4f} ms; "
             f"{plan.passes_for_target(1e-4)} pass(es) per rate and direction reach 0.1 ms."

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +13,7 @@ from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
 from kinsync.time_spans import SAME_TIME_SHARE, recorded_together
 
-__all__ = ["SAME_TIME_SHARE", "SpherePass", "check_distinct_passes"]
+__all__ = ["SAME_TIME_SHARE", "SpherePass", "check_distinct_passes", "pass_sequence"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,3 +158,28 @@ def _refuse_twice(first: SpherePass, second: SpherePass, why: str) -> None:
         "latency's sigma; list each pass once in passes.csv"
     )
     raise InputError(msg)
+
+
+def pass_sequence(passes: Iterable[SpherePass]) -> tuple[SpherePass, ...]:
+    """``passes`` as a tuple (a generator is read once), each checked to be a `SpherePass`.
+
+    Parameters
+    ----------
+    passes : iterable of SpherePass
+        What a caller gave as the passes.
+
+    Raises
+    ------
+    InputError
+        A string, a single pass, something not iterable, or an item that is not a
+        `SpherePass` (named by its index).
+    """
+    if isinstance(passes, (str, bytes, SpherePass)) or not isinstance(passes, Iterable):
+        msg = f"passes: expected a sequence of SpherePass, got {type(passes).__name__}"
+        raise InputError(msg)
+    out = tuple(passes)
+    for i, p in enumerate(out):
+        if not isinstance(p, SpherePass):
+            msg = f"passes: item at index {i} (0-based) is a {type(p).__name__}, not a SpherePass"
+            raise InputError(msg)
+    return out

@@ -12,7 +12,9 @@ exact rotation model with the full 3-D rate vectors; the rates are combined by
 inverse variance into one ``tau +- sigma``, with a chi-square test of their agreement;
 when the test rejects agreement (p < `RATES_DISAGREE_P`) the sigma is scaled by the Birge
 ratio ``sqrt(chi2 / dof)`` and the result says so. The published first-order formula
-is reported beside each rate for comparison.
+is reported beside each rate for comparison. Each pass's own centre is fitted too, and
+their scatter beyond their points' noise (an error shared by a pass) enters every
+pool's covariance (`kinsync.latency.pass_scatter`).
 
 References
 ----------
@@ -26,7 +28,7 @@ import contextlib
 import itertools
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -46,7 +48,14 @@ from kinsync.latency.model_check import (
     radius_contradiction,
 )
 from kinsync.latency.pairing import RejectedPass, pair_groups
-from kinsync.latency.passes import SpherePass, check_distinct_passes
+from kinsync.latency.pass_scatter import (
+    PassCentres,
+    PassScatter,
+    estimate_pass_scatter,
+    fit_pass_centres,
+    pool_scatter_cov_m2,
+)
+from kinsync.latency.passes import SpherePass, check_distinct_passes, pass_sequence
 from kinsync.latency.planning import (
     DEFAULT_MAX_INCIDENCE_DEG,
     MIN_SPHERE_POINTS_PER_PASS,
@@ -105,6 +114,11 @@ class PoolFit:
         With a given radius: the radius and its sigma fitted freely to the same points,
         to test the given one (`kinsync.latency.model_check.radius_contradiction`);
         nan otherwise.
+    pass_centres : PassCentres or None
+        Each pass's own centre on the same points (`kinsync.latency.pass_scatter`).
+    between_pass_cov_m2 : ndarray, shape (3, 3)
+        What errors shared by a pass add to the centre's covariance (m^2, NED; zero
+        until `kinsync.latency.pass_scatter` has measured them).
     """
 
     rate_deg_s: float
@@ -117,17 +131,26 @@ class PoolFit:
     n_points_per_pass: tuple[int, ...] = ()
     free_radius_m: float = math.nan
     free_radius_std_m: float = math.nan
+    pass_centres: PassCentres | None = None
+    between_pass_cov_m2: FloatArray = field(default_factory=lambda: np.zeros((3, 3)))
 
     def __post_init__(self) -> None:
-        # Own read-only copy, as SphereFit's arrays: a result never changes.
+        # Own read-only copies, as SphereFit's arrays: a result never changes.
         object.__setattr__(
             self, "rate_vector_ned_rad_s", readonly_array(self.rate_vector_ned_rad_s)
         )
+        object.__setattr__(self, "between_pass_cov_m2", readonly_array(self.between_pass_cov_m2))
+
+    @property
+    def center_cov_m2(self) -> FloatArray:
+        """Centre covariance (3, 3), NED (m^2): the points' noise plus the passes' shared errors."""
+        cov: FloatArray = self.fit.cov_center_m2 + self.between_pass_cov_m2
+        return cov
 
     @property
     def center_std_m(self) -> float:
-        """Centre standard deviation, RMS over the three axes (m)."""
-        return float(np.sqrt(np.trace(self.fit.cov_center_m2) / 3.0))
+        """Centre standard deviation, RMS over the three axes (m), as `center_cov_m2`."""
+        return float(np.sqrt(np.trace(self.center_cov_m2) / 3.0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -244,6 +267,12 @@ class SphereLatencyResult:
         Of those not checked, the passes whose points have times but do not turn about
         the stated axis (a wrong axis, points not table-centred, a scanner that does not
         sweep with the table).
+    pass_scatter : PassScatter or None
+        How far the passes' own centres scatter about their pools beyond their points'
+        noise (an attitude error shared by a pass), with its chi-square test; its
+        covariance is in every pool's and so in every sigma
+        (`kinsync.latency.pass_scatter`). ``measured`` False with one pass per rate and
+        direction: the sigmas then count the points' noise only.
     """
 
     latency_s: float
@@ -264,6 +293,7 @@ class SphereLatencyResult:
     unpaired_passes: tuple[RejectedPass, ...] = ()
     n_passes_rate_checked: int = 0
     n_passes_unswept: int = 0
+    pass_scatter: PassScatter | None = None
 
     def __post_init__(self) -> None:
         # Own read-only copy, as SphereFit's arrays: a result never changes.
@@ -360,6 +390,7 @@ class SphereLatencyResult:
             "rejected_passes": [r.as_document() for r in self.rejected_passes],
             "unpaired_passes": [r.as_document() for r in self.unpaired_passes],
             "roi": None if self.roi is None else self.roi.as_document(),
+            "pass_scatter": None if self.pass_scatter is None else self.pass_scatter.as_document(),
         }
 
 
@@ -463,6 +494,7 @@ def fit_pool(
     bounds = np.cumsum([0, *(p.n_points for p in passes)])
     used_in = np.concatenate([[0], np.cumsum(inliers)])
     per_pass = tuple(int(used_in[b] - used_in[a]) for a, b in itertools.pairwise(bounds))
+    centres = fit_pass_centres(points, bounds, inliers, final.radius_m, origin)
     free = None
     if radius_m is not None:  # the given radius, tested against the points' own
         with contextlib.suppress(InputError, ConvergenceError):
@@ -478,6 +510,7 @@ def fit_pool(
         n_points_per_pass=per_pass,
         free_radius_m=math.nan if free is None else free.radius_m,
         free_radius_std_m=math.nan if free is None else free.radius_std_m,
+        pass_centres=centres,
     )
 
 
@@ -530,8 +563,8 @@ def latency_from_pool_pair(plus: PoolFit, minus: PoolFit) -> RateLatency:
     tau_first = float(delta @ lever / (lever @ lever))
 
     weight = np.zeros((6, 6))
-    weight[:3, :3] = np.linalg.inv(plus.fit.cov_center_m2)
-    weight[3:, 3:] = np.linalg.inv(minus.fit.cov_center_m2)
+    weight[:3, :3] = np.linalg.inv(plus.center_cov_m2)
+    weight[3:, 3:] = np.linalg.inv(minus.center_cov_m2)
     obs = np.concatenate([c_p, c_m])
     # Start: tau from first order, c as the mean rotated back.
     tau = tau_first
@@ -636,19 +669,6 @@ def _fit_pool_rejecting(
     return None, rejected, f"rate {passes[0].rate_deg_s:+g} deg/s: no pass holds a usable sphere"
 
 
-def _pass_sequence(passes: Iterable[SpherePass]) -> tuple[SpherePass, ...]:
-    """``passes`` as a tuple (a generator is read once), each checked to be a `SpherePass`."""
-    if isinstance(passes, (str, bytes, SpherePass)) or not isinstance(passes, Iterable):
-        msg = f"passes: expected a sequence of SpherePass, got {type(passes).__name__}"
-        raise InputError(msg)
-    out = tuple(passes)
-    for i, p in enumerate(out):
-        if not isinstance(p, SpherePass):
-            msg = f"passes: item at index {i} (0-based) is a {type(p).__name__}, not a SpherePass"
-            raise InputError(msg)
-    return out
-
-
 def _left_without_partner(pool: PoolFit | None, side: Sequence[SpherePass]) -> list[RejectedPass]:
     """The passes of a fitted pool left out because the opposite sign's hold no sphere.
 
@@ -679,6 +699,34 @@ def _combined(per_rate: Sequence[RateLatency]) -> tuple[float, float, float, int
     p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
     scale = math.sqrt(chi2 / dof) if dof > 0 and p_value < RATES_DISAGREE_P else 1.0
     return tau, formal_std, chi2, dof, p_value, scale
+
+
+def _latencies_with_pass_scatter(
+    fitted: Sequence[tuple[PoolFit, PoolFit]],
+) -> tuple[PassScatter, list[RateLatency], list[tuple[float, float]]]:
+    """The passes' shared scatter from every pool, added to each pool; latency per rate.
+
+    Also each rate's rotation-model chi2 with the scatter at its upper bound, for
+    `check_rotation_model`. Rates in increasing order.
+    """
+    pools = [pool for pair in fitted for pool in pair]
+    scatter = estimate_pass_scatter([p.pass_centres for p in pools if p.pass_centres is not None])
+
+    def widened(pool: PoolFit, between: PassScatter) -> PoolFit:
+        if pool.pass_centres is None:
+            return pool
+        extra = pool_scatter_cov_m2(pool.pass_centres, between)
+        return replace(pool, between_pass_cov_m2=extra)
+
+    per_rate = [latency_from_pool_pair(widened(p, scatter), widened(m, scatter)) for p, m in fitted]
+    # The model test counts the scatter at its upper bound: few passes can measure it low.
+    upper = replace(scatter, cov_m2=scatter.upper_cov_m2())
+    checks = [
+        (r.rate_deg_s, latency_from_pool_pair(widened(p, upper), widened(m, upper)).chi2)
+        for r, (p, m) in zip(per_rate, fitted, strict=True)
+    ]
+    order = np.argsort([r.rate_deg_s for r in per_rate], kind="stable")
+    return scatter, [per_rate[k] for k in order], [checks[k] for k in order]
 
 
 def _checked_origin(origin: ArrayLike) -> FloatArray:
@@ -745,7 +793,7 @@ def estimate_latency_sphere(
     ObservabilityError
         The rotation axis points at the sphere.
     """
-    passes = _pass_sequence(passes)
+    passes = pass_sequence(passes)
     if not passes:
         msg = "no passes given"
         raise InputError(msg)
@@ -760,7 +808,7 @@ def estimate_latency_sphere(
     if roi is not None:
         passes, crop = crop_passes(passes, roi, MIN_SPHERE_POINTS_PER_PASS)
     pairs, unpaired, alone = pair_groups(passes)
-    per_rate: list[RateLatency] = []
+    fitted: list[tuple[PoolFit, PoolFit]] = []
     rejected: list[RejectedPass] = []
     failures: list[str] = []
     n_pools = 2 * len(pairs)
@@ -792,8 +840,8 @@ def estimate_latency_sphere(
                 minus, minus_passes
             )
             continue
-        per_rate.append(latency_from_pool_pair(plus, minus))
-    if not per_rate:
+        fitted.append((plus, minus))
+    if not fitted:
         msg = (
             "no table rate has a usable sphere in passes of both signs ("
             + "; ".join(failures[:_FAILURES_SHOWN])
@@ -806,8 +854,8 @@ def estimate_latency_sphere(
         )
         raise InputError(msg)
     report(progress, 1.0, f"fitted {counted(n_pools, 'sphere')}")
-    per_rate.sort(key=lambda r: r.rate_deg_s)
-    check_rotation_model([(r.rate_deg_s, r.chi2) for r in per_rate], n_unswept)
+    scatter, per_rate, model_chi2 = _latencies_with_pass_scatter(fitted)
+    check_rotation_model(model_chi2, n_unswept)
     tau, formal_std, chi2, dof, p_value, scale = _combined(per_rate)
     centres = np.array([r.center_ned_m for r in per_rate])
     center = np.average(
@@ -837,4 +885,5 @@ def estimate_latency_sphere(
         unpaired_passes=tuple(alone),
         n_passes_rate_checked=n_rate_checked,
         n_passes_unswept=n_unswept,
+        pass_scatter=scatter,
     )
