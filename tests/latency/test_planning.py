@@ -60,6 +60,23 @@ def test_latency_sigma_matches_the_tangential_centre_sigma() -> None:
     )
 
 
+def test_an_error_shared_by_a_pass_adds_its_share_to_each_pools_centre() -> None:
+    plain = plan_latency_experiment(TableDesign(rates_deg_s=(6.0,), passes=5), seed=3)
+    shared = plan_latency_experiment(
+        TableDesign(rates_deg_s=(6.0,), passes=5, pass_attitude_error_deg=0.003), seed=3
+    )
+    # A sphere 1.5 m North: a heading error of 0.003 deg moves it 0.0785 mm East per pass.
+    shift_m = 1.5 * math.radians(0.003)
+    r0, r1 = plain.per_rate[0], shared.per_rate[0]
+    assert r1.center_tangential_std_m**2 == pytest.approx(
+        r0.center_tangential_std_m**2 + shift_m**2 / 5, rel=1e-9
+    )
+    assert r1.latency_std_s > 1.5 * r0.latency_std_s
+    # Still 1 / passes: the target's passes scale as before.
+    assert shared.passes_for_target(shared.latency_std_s / 2) == 20
+    assert shared.as_document()["pass_attitude_error_deg"] == 0.003
+
+
 def test_free_radius_costs_little_across_the_line_of_sight() -> None:
     known = plan_latency_experiment(TableDesign(rates_deg_s=(6.0,)), seed=1)
     free = plan_latency_experiment(TableDesign(rates_deg_s=(6.0,), radius_known=False), seed=1)
@@ -141,6 +158,8 @@ def test_a_rate_the_simulator_refuses_is_refused_with_its_reason() -> None:
         ({"rates_deg_s": (0.0, 6.0)}, InputError, "rate"),
         ({"profile_rate_hz": math.nan}, InputError, "profile_rate_hz"),
         ({"sphere_elevation_deg": 90.0}, ObservabilityError, "axis"),
+        ({"pass_attitude_error_deg": -0.001}, InputError, "pass_attitude_error_deg must be >= 0"),
+        ({"pass_attitude_error_deg": math.inf}, InputError, "pass_attitude_error_deg"),
     ],
 )
 def test_bad_designs(kwargs: dict[str, object], error: type[Exception], match: str) -> None:

@@ -302,6 +302,13 @@ def plan(
         bool, typer.Option("--free-radius", help="Radius estimated, not known.")
     ] = False,
     target_ms: Annotated[float, typer.Option(help="Target latency sigma (ms).")] = 0.1,
+    pass_attitude_error_deg: Annotated[
+        float,
+        typer.Option(
+            help="Attitude error shared by the points of a pass, drawn anew per pass, 1 sigma "
+            "per NED axis (deg; the INS's drift between passes)."
+        ),
+    ] = 0.0,
     figure: Annotated[Path | None, typer.Option(help="Write a PNG figure here.")] = None,
     as_json: JsonOpt = False,
 ) -> None:
@@ -324,6 +331,7 @@ def plan(
         rates_deg_s=parse_rates(rates_deg_s),
         passes=passes,
         radius_known=not free_radius,
+        pass_attitude_error_deg=pass_attitude_error_deg,
     )
     result = plan_latency_experiment(design)
     doc = result.as_document(target_ms * 1e-3)

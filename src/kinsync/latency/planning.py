@@ -115,6 +115,11 @@ class TableDesign:
         True when the radius is fixed in the fit (a calibrated sphere).
     max_incidence_deg : float
         Incidence cap of the estimator (deg).
+    pass_attitude_error_deg : float
+        Attitude error shared by every point of a pass, drawn anew per pass, 1 sigma per
+        NED axis (deg; an INS's drift between passes): it moves each pass's sphere by
+        ``e x c`` and adds ``sigma^2 (|c|^2 I - c c^T) / passes`` to each pool's centre
+        covariance (`kinsync.latency.pass_scatter`). Default 0.
     """
 
     sphere_range_m: float = 1.5
@@ -127,6 +132,7 @@ class TableDesign:
     sphere_elevation_deg: float = 0.0
     radius_known: bool = True
     max_incidence_deg: float = DEFAULT_MAX_INCIDENCE_DEG
+    pass_attitude_error_deg: float = 0.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -153,6 +159,11 @@ class TableDesign:
         object.__setattr__(
             self, "max_incidence_deg", checked_max_incidence_deg(self.max_incidence_deg)
         )
+        error = finite_number(self.pass_attitude_error_deg, "pass_attitude_error_deg")
+        if error < 0.0:
+            msg = f"pass_attitude_error_deg must be >= 0 (deg, 1 sigma), got {error!r}"
+            raise InputError(msg)
+        object.__setattr__(self, "pass_attitude_error_deg", error)
         if abs(self.sphere_elevation_deg) >= 89.0:
             msg = (
                 "sphere_elevation_deg: a sphere on the table axis has no latency signal; "
@@ -243,9 +254,10 @@ class LatencyPlan:
         -------
         dict
             ``latency_std_ms``, ``passes_for_target``, ``target_latency_std_ms``,
-            ``passes`` and ``per_rate`` (a list, per rate: ``rate_deg_s``,
-            ``points_per_pass``, ``center_std_m``, ``center_tangential_std_m``,
-            ``latency_std_ms``). Latencies in ms, the centre's in m.
+            ``passes``, ``pass_attitude_error_deg`` and ``per_rate`` (a list, per rate:
+            ``rate_deg_s``, ``points_per_pass``, ``center_std_m``,
+            ``center_tangential_std_m``, ``latency_std_ms``). Latencies in ms, the
+            centre's in m.
 
         Raises
         ------
@@ -257,6 +269,7 @@ class LatencyPlan:
             "passes_for_target": self.passes_for_target(target_latency_std_s),
             "target_latency_std_ms": target_latency_std_s * 1e3,
             "passes": self.design.passes,
+            "pass_attitude_error_deg": self.design.pass_attitude_error_deg,
             "per_rate": [
                 {
                     "rate_deg_s": r.rate_deg_s,
@@ -528,6 +541,9 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
         design.sphere_range_m / math.cos(el_c) * np.array([math.cos(el_c), 0.0, -math.sin(el_c)])
     )
     tangential = np.array([0.0, 1.0, 0.0])
+    # A rotation error e (NED, iid per axis) moves a pass's sphere by e x c.
+    sigma_rad = math.radians(design.pass_attitude_error_deg)
+    shared_m2 = sigma_rad**2 * (float(centre @ centre) * np.eye(3) - np.outer(centre, centre))
     max_rate_deg_s = max_usable_rate_deg_s(
         profile_rate_hz=design.profile_rate_hz,
         angular_step_deg=design.angular_step_deg,
@@ -554,6 +570,7 @@ def plan_latency_experiment(design: TableDesign, seed: int = 0) -> LatencyPlan:
         if rate > max_rate_deg_s:
             raise InputError(too_fast_text(rate, max_rate_deg_s, design.profile_rate_hz))
         cov = np.linalg.inv(info[:3, :3]) if design.radius_known else np.linalg.inv(info)[:3, :3]
+        cov = cov + shared_m2 / design.passes  # the pool's mean of passes
         w = math.radians(rate) * np.array([0.0, 0.0, 1.0])
         jac = np.zeros((6, 4))
         jac[:3, :3] = np.eye(3)
