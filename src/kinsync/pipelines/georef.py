@@ -15,7 +15,6 @@ written, or written to the rejected file, or the run fails and writes nothing.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from collections.abc import Iterator, Sequence
@@ -42,7 +41,7 @@ from kinsync.errors import InputError
 from kinsync.georef.kernel import PositionMethod, check_latency, use_hermite
 from kinsync.georef.profile import PROFILE_COLUMNS
 from kinsync.georef.trajectory import GeorefRecords
-from kinsync.io.atomic import ProtectedInput, check_not_an_input, published_together
+from kinsync.io.atomic import published_together
 from kinsync.io.column_map import ColumnMap
 from kinsync.io.csv_lines import csv_header_line
 from kinsync.io.las import (
@@ -61,7 +60,7 @@ from kinsync.io.points import (
     read_table_slice,
     table_columns,
 )
-from kinsync.io.sanity import is_file_there, require_file
+from kinsync.io.sanity import require_file
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
 from kinsync.pipelines.georef_chunks import (
@@ -87,6 +86,10 @@ from kinsync.pipelines.georef_outputs import (
     TableRejectedSink,
     TableSink,
 )
+from kinsync.pipelines.georef_rejected import LAS_SUFFIXES as _LAS_SUFFIXES
+from kinsync.pipelines.georef_rejected import TABLE_SUFFIXES as _TABLE_SUFFIXES
+from kinsync.pipelines.georef_rejected import point_file_kind as _kind
+from kinsync.pipelines.georef_rejected import rejected_path_for, remove_stale_rejected
 from kinsync.pipelines.georef_times import OutsideTally, PointTimes
 from kinsync.pipelines.schedulers import SerialRunner, in_order, make_runner
 from kinsync.pipelines.write_behind import WriteBehind
@@ -109,8 +112,6 @@ STAGE_READING_POINTS = "reading the points' layout"
 """Stages reported (at 0 %) before the points are georeferenced: on a long trajectory
 they take most of a short run (a 10 h SBET: tens of seconds)."""
 
-_LAS_SUFFIXES = (".las", ".laz")
-_TABLE_SUFFIXES = (".csv", ".parquet")
 _ECEF_CRS = "EPSG:4978"
 _LAS_SCALE_M = 1e-4
 _LAS_SCALE_DEG = 1e-9
@@ -170,84 +171,6 @@ class GeorefSummary:
             "gap_threshold_s": self.gap_threshold_s,
             "warnings": list(self.warnings),
         }
-
-
-def rejected_path_for(out_path: Path, points_path: Path | None = None) -> Path:
-    """``OUT.rejected.<ext>``: where points outside the trajectory span go.
-
-    They are written unchanged (as records or columns of the input): ``<ext>`` is the output's
-    suffix when input and output are of one kind (LAS/LAZ, or CSV/Parquet tables):
-    ``geo.laz`` rejects to ``geo.rejected.laz``. Else it is the input's, after the
-    output's whole name (a LAZ georeferenced to ``geo.csv`` rejects to
-    ``geo.csv.rejected.laz``), so that runs to ``geo.csv`` and ``geo.las`` from one CSV
-    input never share, replace or remove each other's rejected file.
-    """
-    out_path = Path(out_path)
-    if points_path is not None and _kind(Path(points_path)) != _kind(out_path):
-        return out_path.with_name(f"{out_path.name}.rejected{Path(points_path).suffix}")
-    return out_path.with_name(f"{out_path.stem}.rejected{out_path.suffix}")
-
-
-def _kind(path: Path) -> str:
-    suffix = path.suffix.lower()
-    return "las" if suffix in _LAS_SUFFIXES else "ply" if suffix == ".ply" else "table"
-
-
-def _rejected_files_for(out_path: Path) -> list[Path]:
-    """The existing files beside ``out_path`` that `rejected_path_for` gives for some input.
-
-    ``OUT.rejected.<ext>`` with the output's suffix (an input of the output's kind), and
-    ``OUT.<ext>.rejected.<ext2>`` for an input of another kind (``<ext2>`` spelled as
-    that input's suffix was).
-    """
-    found = []
-    if _kind(out_path) != "ply":  # no input is a PLY file
-        found.append(rejected_path_for(out_path))
-    prefix = f"{out_path.name}.rejected"
-    with contextlib.suppress(OSError):
-        for name in sorted(p.name for p in out_path.parent.iterdir()):
-            suffix = name[len(prefix) :].lower()
-            if (
-                name.startswith(prefix)
-                and suffix in _LAS_SUFFIXES + _TABLE_SUFFIXES
-                and _kind(Path(name)) != _kind(out_path)
-            ):
-                found.append(out_path.parent / name)
-    return [p for p in found if is_file_there(p)]  # a name too long is no file
-
-
-def _remove_stale_rejected(
-    out_path: Path, points_path: Path, trajectory_path: Path, written: Path | None
-) -> list[str]:
-    """Remove every ``OUT.rejected.<ext>`` an earlier run left beside ``out_path``.
-
-    Whatever the earlier run's input format (`_rejected_files_for`), but ``written``,
-    this run's own rejected file. Left beside the new output, its points would be
-    counted with it and the counts would no longer add up. A file that is one of the
-    inputs is never removed.
-    """
-    inputs = (
-        ProtectedInput(points_path, "--points"),
-        ProtectedInput(trajectory_path, "--trajectory"),
-    )
-    why = (
-        f"this run's rejected points are in {written}" if written else "this run rejected no points"
-    )
-    notes = []
-    for stale in [p for p in _rejected_files_for(out_path) if p != written]:
-        try:
-            check_not_an_input(stale, inputs)
-        except InputError:
-            continue
-        try:
-            stale.unlink()
-        except OSError as err:
-            notes.append(
-                f"{stale}: left by an earlier run, could not be removed ({err}); {why}: delete it"
-            )
-            continue
-        notes.append(f"{stale}: removed, left by an earlier run; {why}")
-    return notes
 
 
 # ---------------------------------------------------------------------- file pipeline
@@ -445,7 +368,7 @@ def georeference_file(
         counts = _write(ctx, tasks, total, out_path, progress, tally, runner, sink, template)
     points_in, points_out, points_rejected = counts
     rejected_path = rejected_path_for(out_path, points_path) if points_rejected else None
-    notes += _remove_stale_rejected(out_path, points_path, Path(trajectory_path), rejected_path)
+    notes += remove_stale_rejected(out_path, points_path, Path(trajectory_path), rejected_path)
     if points_rejected and template is not None and output != "same":
         notes += _rejected_las_notes(points_path, template)
     if tally.count:
