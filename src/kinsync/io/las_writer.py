@@ -10,14 +10,15 @@ its ``notes`` (`las_output_notes`): waveform data packets (the wave packet field
 points are zeroed and the header's waveform flags, pointer and descriptors cleared, so
 that nothing points to data that is not there) and a COPC index (it addresses the
 input's LAZ chunks). The min and max of each Extra Bytes descriptor that declares them
-are those of the points written (`kinsync.io.las_extra_bytes`). The file appears only
-when complete.
+are those of the points written (`kinsync.io.las_extra_bytes`). Given a kinsync
+record, it holds it in a VLR in place of the input's (`kinsync.io.point_provenance`).
+The file appears only when complete.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from pathlib import Path
 from types import TracebackType
@@ -40,6 +41,7 @@ from kinsync.io.las_header import (
     stamp_kinsync_header,
     writable_las_version,
 )
+from kinsync.io.point_provenance import set_las_record
 
 __all__ = ["ErrorKeepingFile", "LasChunkWriter", "las_output_notes"]
 
@@ -215,6 +217,10 @@ class LasChunkWriter:
         Resolution of the stored coordinates (output CRS units, e.g. m), one for all
         axes or x, y, z; 1e-4 m or finer for ECEF. Coordinates must lie within
         ``scale_m * 2**31`` of the offset.
+    record : mapping, optional
+        The kinsync record of the points (`kinsync.io.point_provenance.point_document`),
+        written in a VLR (`kinsync.io.point_provenance.set_las_record`) that replaces the
+        template's. None keeps the template's records as they are.
 
     Attributes
     ----------
@@ -224,6 +230,9 @@ class LasChunkWriter:
     crs_note : str or None
         The warning when ``crs`` could not be declared in WKT1 and is in WKT2-2019
         (`kinsync.io.las_crs.set_las_crs`), naming the file; else None.
+    record_notes : tuple of str
+        What a LAS 1.2/1.3 VLR had no room for of ``record`` (naming the file); empty
+        when the record was written whole.
 
     Raises
     ------
@@ -238,6 +247,7 @@ class LasChunkWriter:
         crs: pyproj.CRS | None,
         coordinate_offset_m: tuple[float, float, float],
         scale_m: float | tuple[float, float, float],
+        record: Mapping[str, Any] | None = None,
     ) -> None:
         self.path = Path(path)
         self._compress = las_suffix(self.path) == ".laz"
@@ -254,6 +264,7 @@ class LasChunkWriter:
         header.offsets = offsets
         header.scales = scales
         self.crs_note = None if crs is None else set_las_crs(header, crs, self.path)
+        self.record_notes = () if record is None else set_las_record(header, record, self.path)
         self.header = header
         self._extra_range = ExtraBytesRange(header)
         self.points_written = 0

@@ -1,0 +1,379 @@
+"""The kinsync record of a point file: what made its coordinates, kept in the file.
+
+A surveyor auditing a cloud a year later must be able to tell which mount (boresight,
+lever arm, latency and their sigma), which trajectory and which time and CRS options made
+it: a LAS header's Generating Software names only kinsync's version. So a point file
+kinsync writes holds one JSON document, the *kinsync record* (`point_document`): what
+produced it (`kinsync.io.provenance.run_record`: software, command, UTC time), the mount
+applied (its values, its TOML text, the file it was read from with that file's SHA-256
+and header comments), the input files, the time and CRS options. Where it is kept:
+
+* LAS/LAZ: a VLR of user ID ``kinsync``, record ID `RECORD_ID`, holding the JSON as
+  UTF-8. A VLR holds at most 65,535 bytes: a longer record goes into an EVLR in LAS 1.4
+  and, in LAS 1.2 and 1.3 (which have none), loses first the mount file's header
+  comments, then the command line, then (never met: a CRS of 60 KB) all but the run and
+  the mount, each named in its ``left_out``, and a warning says so (`set_las_record`);
+* Parquet: the schema's key-value metadata, key `PARQUET_KEY`;
+* PLY: a header comment line ``kinsync_record {...}`` (the JSON in ASCII, as PLY
+  headers are);
+* CSV: nowhere, since a comment line would break the CSV readers (kinsync's own too).
+
+An input's own kinsync record (a file georeferenced twice) is replaced, never
+duplicated. `read_point_record` reads a record back and `record_mount` gives its mount.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import laspy
+import pyarrow as pa
+import pyarrow.parquet as pq
+from laspy.vlrs.vlrlist import VLRList
+
+from kinsync.errors import InputError
+from kinsync.io.las_header import las_header
+from kinsync.io.mount_file import header_comments
+from kinsync.io.provenance import run_record
+from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
+
+__all__ = [
+    "PARQUET_KEY",
+    "RECORD_DESCRIPTION",
+    "RECORD_ID",
+    "RECORD_USER_ID",
+    "RECORD_VERSION",
+    "file_document",
+    "mount_document",
+    "parquet_record_metadata",
+    "ply_record_comment",
+    "point_document",
+    "read_point_record",
+    "record_json",
+    "record_mount",
+    "set_las_record",
+]
+
+RECORD_USER_ID = "kinsync"
+"""User ID of the LAS VLR (or EVLR) holding the record."""
+RECORD_ID = 1
+"""Record ID of that VLR."""
+RECORD_DESCRIPTION = "kinsync record: mount, inputs"
+"""Its description (at most 32 bytes)."""
+PARQUET_KEY = "kinsync"
+"""Key of the record in a Parquet file's schema metadata."""
+RECORD_VERSION = 1
+"""``kinsync_record`` of the documents: the layout of this version."""
+
+_PLY_PREFIX = "kinsync_record "
+_VLR_MAX_BYTES = 65_535  # the VLR header's record length is a 16-bit count
+
+
+def file_document(path: Path) -> dict[str, Any]:
+    """A file as a record names it: the path as given, its size and SHA-256.
+
+    Parameters
+    ----------
+    path : Path
+        A file this run read (a trajectory, a mount file).
+
+    Returns
+    -------
+    dict
+        ``{"path": str, "bytes": int or None, "sha256": hex str or None}``: None when the
+        file cannot be read again (it was read a moment ago).
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            digest = hashlib.file_digest(fh, "sha256").hexdigest()
+        size: int | None = path.stat().st_size
+    except OSError:
+        digest, size = None, None
+    return {"path": str(path), "bytes": size, "sha256": digest}
+
+
+def mount_document(mount: Mount, mount_file: Path | None) -> dict[str, Any]:
+    """The mount a run applied, for its record.
+
+    Parameters
+    ----------
+    mount : Mount
+        The mount applied (after any option replacing one of its values).
+    mount_file : Path or None
+        The file it was read from; None for a mount built in Python.
+
+    Returns
+    -------
+    dict
+        ``values`` (`kinsync.mount.Mount.as_document`), ``toml`` (the mount as a mount
+        file gives it, `kinsync.mount.mount_to_toml_text`: floats that read back bit
+        for bit) and ``file`` (`file_document` with the file's ``header_comments``, or
+        None).
+    """
+    file_doc = None
+    if mount_file is not None:
+        file_doc = file_document(Path(mount_file)) | {
+            "header_comments": header_comments(Path(mount_file))
+        }
+    return {"values": mount.as_document(), "toml": mount_to_toml_text(mount), "file": file_doc}
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every float that is not finite (JSON has none) as None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
+def point_document(
+    made_by: str, mount: Mount, mount_file: Path | None, sections: Mapping[str, Any]
+) -> dict[str, Any]:
+    """The kinsync record of a point file.
+
+    Parameters
+    ----------
+    made_by : str
+        What wrote the file (``"georef"``, ``"sync apply"``).
+    mount : Mount
+        The mount applied.
+    mount_file : Path or None
+        The file ``mount`` was read from (`mount_document`).
+    sections : mapping of str to JSON-ready values
+        What else made the coordinates: input files, time and CRS options.
+
+    Returns
+    -------
+    dict
+        ``kinsync_record`` (`RECORD_VERSION`), ``made_by``, the run
+        (`kinsync.io.provenance.run_record`: ``software``, ``command``, ``utc``),
+        ``mount`` (`mount_document`), then ``sections``; a non-finite float is null.
+    """
+    doc: dict[str, Any] = {"kinsync_record": RECORD_VERSION, "made_by": made_by}
+    doc |= run_record()
+    doc["mount"] = mount_document(mount, mount_file)
+    return dict(_finite(doc | dict(sections)))
+
+
+def record_json(doc: Mapping[str, Any], *, ascii_only: bool = False) -> str:
+    """The record as one line of JSON (non-ASCII characters escaped on request)."""
+    return json.dumps(doc, ensure_ascii=ascii_only, allow_nan=False)
+
+
+def parquet_record_metadata(doc: Mapping[str, Any]) -> dict[str, str]:
+    """The schema metadata that holds the record in a Parquet file: ``{PARQUET_KEY: JSON}``."""
+    return {PARQUET_KEY: record_json(doc)}
+
+
+def ply_record_comment(doc: Mapping[str, Any]) -> str:
+    """The PLY header comment that holds the record: ``kinsync_record {...}``, ASCII."""
+    return _PLY_PREFIX + record_json(doc, ascii_only=True)
+
+
+def _is_record(vlr: Any) -> bool:
+    return bool(vlr.user_id == RECORD_USER_ID and vlr.record_id == RECORD_ID)
+
+
+def _without(records: Any) -> Any:
+    """A VLR list without kinsync records (None stays None)."""
+    if records is None:
+        return None
+    return VLRList([v for v in records if not _is_record(v)])
+
+
+_SHORTENED = (
+    ("mount file header comments", ("mount", "file", "header_comments")),
+    ("command", ("command",)),
+)
+"""What a LAS 1.2/1.3 record too long for a VLR loses, in this order; then every section
+but `_ESSENTIAL`."""
+_ESSENTIAL = ("kinsync_record", "made_by", "software", "utc", "mount", "left_out")
+
+
+def _shortened(doc: dict[str, Any], label: str, keys: Sequence[str]) -> dict[str, Any]:
+    """``doc`` with the value at ``keys`` set to None and ``label`` added to ``left_out``."""
+    out: dict[str, Any] = json.loads(json.dumps(doc))
+    inner = out
+    for key in keys[:-1]:
+        inner = inner.get(key) or {}
+    if not isinstance(inner, dict) or not inner.get(keys[-1]):  # nothing to leave out
+        return out
+    inner[keys[-1]] = None
+    out["left_out"] = [*out.get("left_out", []), label]
+    return out
+
+
+def set_las_record(header: laspy.LasHeader, doc: Mapping[str, Any], path: Path) -> tuple[str, ...]:
+    """Put the record into a LAS header, replacing any kinsync record it has.
+
+    Parameters
+    ----------
+    header : laspy.LasHeader
+        The header of the file to write (changed in place); its other VLRs and EVLRs are
+        kept.
+    doc : mapping
+        The record (`point_document`).
+    path : Path
+        The file, for the note.
+
+    Returns
+    -------
+    tuple of str
+        Empty when the record went whole into a VLR or (LAS 1.4, over 65,535 bytes) an
+        EVLR; else one note naming what a LAS 1.2/1.3 VLR had no room for (the record's
+        ``left_out`` names it too): nothing is refused, nothing cut silently.
+    """
+    header.vlrs = _without(header.vlrs)
+    header.evlrs = _without(header.evlrs)
+    data = record_json(doc).encode("utf-8")
+    if len(data) > _VLR_MAX_BYTES and header.version.minor >= 4:  # LAS 1.4
+        evlrs = header.evlrs if header.evlrs is not None else VLRList()
+        evlrs.append(laspy.VLR(RECORD_USER_ID, RECORD_ID, RECORD_DESCRIPTION, data))
+        header.evlrs = evlrs
+        return ()
+    record = dict(doc)
+    for label, keys in _SHORTENED:
+        if len(data) <= _VLR_MAX_BYTES:
+            break
+        record = _shortened(record, label, keys)
+        data = record_json(record).encode("utf-8")
+    if len(data) > _VLR_MAX_BYTES:  # a CRS of 60 KB: the mount and the run, the rest named
+        kept = {k: v for k, v in record.items() if k in _ESSENTIAL}
+        gone = [k for k, v in record.items() if k not in kept and v is not None]
+        record = kept | {"left_out": [*record.get("left_out", []), *gone]}
+        data = record_json(record).encode("utf-8")
+    header.vlrs.append(laspy.VLR(RECORD_USER_ID, RECORD_ID, RECORD_DESCRIPTION, data))
+    if "left_out" not in record:
+        return ()
+    left_out = " and the ".join(record["left_out"])
+    note = (
+        f"{path}: its kinsync record (a VLR) leaves out the {left_out}: a LAS "
+        f"{header.version} VLR holds {_VLR_MAX_BYTES} bytes and the whole record "
+        f"{len(record_json(doc).encode('utf-8'))}; a LAS 1.4 output holds it whole"
+    )
+    return (note,)
+
+
+def _las_record_bytes(path: Path) -> bytes | None:
+    header = las_header(path)
+    for records in (header.vlrs, header.evlrs or ()):
+        for vlr in records:
+            if _is_record(vlr):
+                return bytes(vlr.record_data)
+    return None
+
+
+def _parquet_record_bytes(path: Path) -> bytes | None:
+    try:
+        metadata = pq.read_schema(path).metadata or {}
+    except (OSError, pa.ArrowException) as err:
+        msg = f"{path}: cannot read it as Parquet ({err})"
+        raise InputError(msg) from err
+    value = metadata.get(PARQUET_KEY.encode("ascii"))
+    return None if value is None else bytes(value)
+
+
+def _ply_record_bytes(path: Path) -> bytes | None:
+    start = f"comment {_PLY_PREFIX}".encode("ascii")
+    try:
+        with path.open("rb") as fh:
+            for _ in range(10_000):  # a header; the binary points follow end_header
+                line = fh.readline(1 << 24).rstrip(b"\r\n")
+                if line == b"end_header" or not line:
+                    break
+                if line.startswith(start):
+                    return line[len(start) :]
+    except OSError as err:
+        msg = f"{path}: cannot read it ({err.strerror or err})"
+        raise InputError(msg) from err
+    return None
+
+
+def read_point_record(path: Path) -> dict[str, Any]:
+    """The kinsync record of a point file kinsync wrote (LAS/LAZ, Parquet, PLY).
+
+    Parameters
+    ----------
+    path : Path
+        A ``.las``, ``.laz``, ``.parquet`` or ``.ply`` file.
+
+    Returns
+    -------
+    dict
+        The record (`point_document`).
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, a CSV or other type (which holds no record), a
+        file without a kinsync record (not written by ``kinsync georef`` or ``sync
+        apply``, or by a version before records), a record that is not JSON.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if not path.is_file():
+        msg = f"{path}: no such file; give a point file kinsync wrote (.las, .laz, .parquet)"
+        raise InputError(msg)
+    if suffix in (".las", ".laz"):
+        data, where = _las_record_bytes(path), f"VLR {RECORD_USER_ID!r} {RECORD_ID}"
+    elif suffix == ".parquet":
+        data, where = _parquet_record_bytes(path), f"schema metadata key {PARQUET_KEY!r}"
+    elif suffix == ".ply":
+        data, where = _ply_record_bytes(path), "header comment 'kinsync_record {...}'"
+    else:
+        msg = (
+            f"{path}: a {suffix or 'suffix-less'} file holds no kinsync record (a CSV has "
+            "nowhere to keep one); give a .las, .laz, .parquet or .ply output of kinsync"
+        )
+        raise InputError(msg)
+    if data is None:
+        msg = (
+            f"{path}: has no kinsync record ({where}): it was not written by kinsync georef "
+            "or sync apply, or by a kinsync older than its records"
+        )
+        raise InputError(msg)
+    try:
+        doc = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as err:
+        msg = f"{path}: its kinsync record ({where}) is not UTF-8 JSON ({err}); it is damaged"
+        raise InputError(msg) from err
+    if not isinstance(doc, dict):
+        msg = f"{path}: its kinsync record ({where}) is not a JSON object; it is damaged"
+        raise InputError(msg)
+    return doc
+
+
+def record_mount(doc: Mapping[str, Any], path: Path) -> Mount:
+    """The mount a record names, read from its ``mount.toml`` (bit for bit).
+
+    Parameters
+    ----------
+    doc : mapping
+        A record (`read_point_record`).
+    path : Path
+        The file it came from, for messages.
+
+    Returns
+    -------
+    Mount
+
+    Raises
+    ------
+    InputError
+        A record without a mount, or one whose mount TOML is not a valid mount.
+    """
+    mount = doc.get("mount")
+    text = mount.get("toml") if isinstance(mount, Mapping) else None
+    if not isinstance(text, str):
+        msg = f"{path}: its kinsync record holds no mount (mount.toml); it is damaged"
+        raise InputError(msg)
+    return mount_from_toml_text(text, source=f"{path}: kinsync record mount")
