@@ -13,6 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from kinsync.errors import InputError, KinsyncWarning
+from kinsync.io.mount_file import write_mount
+from kinsync.io.point_provenance import read_point_record, record_mount
 from kinsync.io.points import iter_table_chunks
 from kinsync.io.profile_scan import (
     write_profile_scan,
@@ -312,3 +314,22 @@ def test_apply_warns_of_ranges_in_millimetres(tmp_path: Path) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         apply_profile_clock(src, tmp_path / "o2.csv", 0.0, 0.03, MOUNT)
+
+
+def test_a_parquet_output_holds_the_kinsync_record(tmp_path: Path) -> None:
+    """The mount (its profiler azimuth made x_m, y_m, z_m), its file and the clock."""
+    src = tmp_path / "scan.parquet"
+    write_profile_scan(SCAN, src)
+    mount_file = tmp_path / "mount.toml"
+    write_mount(MOUNT, mount_file)
+    out = tmp_path / "out.parquet"
+    apply_profile_clock(src, out, 100.0, 0.03, MOUNT, mount_file=mount_file)
+    doc = read_point_record(out)
+    assert doc["made_by"] == "sync apply"
+    assert doc["points"] == {"path": str(src)}
+    assert doc["clock"] == {"t0_s": 100.0, "period_s": 0.03, "file": None}
+    assert doc["mount"]["file"]["path"] == str(mount_file)
+    assert record_mount(doc, out) == MOUNT
+    csv_out = tmp_path / "out.csv"  # a CSV has nowhere to keep it: header line first
+    apply_profile_clock(src, csv_out, 100.0, 0.03, MOUNT, mount_file=mount_file)
+    assert csv_out.read_text().splitlines()[0].startswith("profile,angle_rad,range_m")

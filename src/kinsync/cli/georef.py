@@ -129,7 +129,7 @@ def georef(
             help=literal(
                 "Where chunks are georeferenced: 'local' (this process), 'processes' (a "
                 "local process pool) or tcp://HOST:PORT (a running Dask scheduler; needs "
-                "kinsync[scale]). The output is identical whichever is used."
+                "kinsync[scale]). The points written are identical whichever is used."
             ),
         ),
     ] = "local",
@@ -211,6 +211,7 @@ def georef(
             profiler_azimuth_deg=profiler_azimuth_deg,
             columns=column_map,
             max_gap_s=max_gap_s,
+            mount_file=mount,
         )
     notes = []  # trajectory velocities that disagree with the positions: said, never silent
     for w in caught:

@@ -358,6 +358,8 @@ def apply(
             the_mount,
             chunk_points=chunk_points,
             progress=lambda done: stages.say(f"time-tagging returns: {done:,} done"),
+            mount_file=mount,
+            clock_file=clock,
         )
         stages.finish()
     doc = {"out": str(out), "points": n, "t0_s": t0, "period_s": period}

@@ -86,6 +86,7 @@ from kinsync.pipelines.georef_outputs import (
     TableRejectedSink,
     TableSink,
 )
+from kinsync.pipelines.georef_record import RecordedTimes, georef_document
 from kinsync.pipelines.georef_rejected import LAS_SUFFIXES as _LAS_SUFFIXES
 from kinsync.pipelines.georef_rejected import TABLE_SUFFIXES as _TABLE_SUFFIXES
 from kinsync.pipelines.georef_rejected import point_file_kind as _kind
@@ -195,6 +196,7 @@ def georeference_file(
     profiler_azimuth_deg: float | None = None,
     columns: ColumnMap | None = None,
     max_gap_s: float | None = None,
+    mount_file: Path | None = None,
 ) -> GeorefSummary:
     """Georeference a point file chunk by chunk into ``out_path`` (streaming, atomic).
 
@@ -294,6 +296,9 @@ def georeference_file(
         `kinsync.trajectory_gaps.GAP_FACTOR` (10) times its median record interval. Points
         strictly inside a longer interval (a data gap) are treated as outside the span
         (an error, or rejected with ``outside="reject"``, with a warning naming the gaps).
+    mount_file : Path, optional
+        The file ``mount`` was read from: the output's kinsync record names it, with its
+        SHA-256 and header comments (`kinsync.pipelines.georef_record`).
 
     Returns
     -------
@@ -355,10 +360,16 @@ def georeference_file(
     )
     if out_kind == "las":
         ctx = replace(ctx, las_frame=_las_output_frame(ctx, tasks, total))
-    sink, more_notes, ctx = _sink(ctx, template, traj_scale, total, out_path)
+    record = georef_document(  # the kinsync record the output keeps (None for a CSV)
+        ctx,
+        crs_info,
+        Path(trajectory_path),
+        mount_file,
+        RecordedTimes(traj_scale, gps_week, las_time_type),
+    )
+    sink, more_notes, ctx = _sink(ctx, template, traj_scale, total, out_path, record)
     notes += [f"{points_path}: {note}" for note in more_notes]
-    if isinstance(sink, LasSink) and sink.crs_note is not None:
-        notes.append(sink.crs_note)  # declared in WKT2: WKT1 cannot represent the CRS
+    notes += sink.notes if isinstance(sink, LasSink) else ()  # WKT2 CRS, record shortened
     tally = OutsideTally(
         PointTimes(traj_scale, gps_week, las_time_type, ctx.source.las_time_offset_s)
     )
@@ -480,9 +491,17 @@ def _rejected_las_notes(points_path: Path, template: Any) -> list[str]:
 
 
 def _sink(
-    ctx: ChunkContext, template: Any, traj_scale: TimeScale, total: int, out_path: Path
+    ctx: ChunkContext,
+    template: Any,
+    traj_scale: TimeScale,
+    total: int,
+    out_path: Path,
+    record: dict[str, Any] | None,
 ) -> tuple[Sink, list[str], ChunkContext]:
-    """The output's sink, what it does not carry, and the context its chunks need."""
+    """The output's sink, what it does not carry, and the context its chunks need.
+
+    The sink keeps ``record``, the kinsync record, where its format can (not a CSV).
+    """
     kind = _kind(out_path)
     crs_text = ctx.crs.crs
     layout = ctx.source.table
@@ -491,7 +510,7 @@ def _sink(
         frame = ctx.las_frame
         assert frame is not None
         if layout is None:
-            return LasSink(out_path, template, target_crs, frame.offsets, frame.scales), [], ctx
+            return LasSink(out_path, template, target_crs, frame, record), [], ctx
         carried = _carried_columns(ctx)
         time_scale: Literal["gps", "week"] = "week" if traj_scale == "week" else "gps"
         try:
@@ -501,7 +520,7 @@ def _sink(
             raise InputError(msg) from err
         notes = _dropped_note(plan.dropped, "LAS")
         header = plan.header()
-        sink = LasSink(out_path, header, target_crs, frame.offsets, frame.scales)
+        sink = LasSink(out_path, header, target_crs, frame, record)
         return sink, notes, replace(ctx, table_las=plan)
     if kind == "ply":
         units = ", ".join(output_units(target_crs))
@@ -512,7 +531,7 @@ def _sink(
                 (PLY_XYZ[OUT_COLUMNS.index(k)] if k in OUT_COLUMNS else k, t)
                 for k, t in types.items()
             ]
-            return PlySink(out_path, props, total, comments), [], ctx
+            return PlySink(out_path, props, total, comments, record), [], ctx
         carried = _carried_columns(ctx, keep_time=True)
         numeric = {n: t for n, t in carried.items() if _numeric(t)}
         clash = [n for n in numeric if n in PLY_XYZ]
@@ -525,7 +544,7 @@ def _sink(
         props = [(axis, np.dtype(np.float64)) for axis in PLY_XYZ]
         props += [(n, _numpy_dtype(t)) for n, t in numeric.items()]
         notes = _dropped_note(tuple(n for n in carried if n not in numeric), "PLY")
-        ply = PlySink(out_path, props, total, comments)
+        ply = PlySink(out_path, props, total, comments, record)
         return ply, notes, replace(ctx, ply_columns=tuple(numeric))
     if layout is None:
         types = las_column_types(template.point_format)
@@ -539,8 +558,8 @@ def _sink(
                 for n, t in types.items()
             }
 
-        return TableSink(out_path, empty_from_las, target_crs), [], ctx
-    return TableSink(out_path, lambda: empty_table_output(ctx), target_crs), [], ctx
+        return TableSink(out_path, empty_from_las, target_crs, record), [], ctx
+    return TableSink(out_path, lambda: empty_table_output(ctx), target_crs, record), [], ctx
 
 
 def _carried_columns(ctx: ChunkContext, *, keep_time: bool = False) -> dict[str, Any]:

@@ -7,12 +7,14 @@ it, unchanged, in the format `kinsync.pipelines.georef.rejected_path_for` names
 (``rejected_records`` of a LAS/LAZ input,
 ``rejected_lines`` of a CSV to a CSV rejected file, ``rejected_columns`` of a table).
 All write atomically (their file appears when the ``with`` block ends without an
-error).
+error). Given the run's kinsync record (`kinsync.io.point_provenance`), the output sinks
+keep it in their file: a LAS VLR, Parquet schema metadata, a PLY header comment; a CSV
+has nowhere to keep it. Rejected points are written as they were read, records included.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
 from types import TracebackType
@@ -26,8 +28,9 @@ from kinsync.crs_axes import coordinate_metadata
 from kinsync.io.csv_lines import CsvLineWriter
 from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.ply import PlyChunkWriter
+from kinsync.io.point_provenance import parquet_record_metadata, ply_record_comment
 from kinsync.io.points import TableChunkWriter
-from kinsync.pipelines.georef_chunks import ChunkOutput
+from kinsync.pipelines.georef_chunks import ChunkOutput, LasOutputFrame
 
 __all__ = [
     "CsvLinesRejectedSink",
@@ -72,7 +75,8 @@ class TableSink(Sink):
     ``empty`` gives the columns (with their types, no rows) written when the input has
     no points, so that the table still has its header or schema. With ``crs``, a
     Parquet table says the unit of each of X, Y, Z and the CRS in its metadata
-    (`kinsync.crs_axes.coordinate_metadata`).
+    (`kinsync.crs_axes.coordinate_metadata`); with ``record``, it holds the kinsync
+    record under the key ``kinsync`` (a CSV neither).
     """
 
     def __init__(
@@ -80,8 +84,11 @@ class TableSink(Sink):
         path: Path,
         empty: Callable[[], dict[str, Any]],
         crs: pyproj.CRS | None = None,
+        record: Mapping[str, Any] | None = None,
     ) -> None:
         fields, metadata = ({}, {}) if crs is None else coordinate_metadata(crs)
+        if record is not None:
+            metadata = {**metadata, **parquet_record_metadata(record)}
         self._table = TableChunkWriter(path, fields, metadata)
         self._empty = empty
         super().__init__(self._table)
@@ -95,7 +102,10 @@ class TableSink(Sink):
 
 
 class PlySink(Sink):
-    """The ``columns`` of each chunk (x, y, z and attributes) into a PLY file."""
+    """The ``columns`` of each chunk (x, y, z and attributes) into a PLY file.
+
+    With ``record``, its kinsync record is the last header comment.
+    """
 
     def __init__(
         self,
@@ -103,7 +113,10 @@ class PlySink(Sink):
         properties: Sequence[tuple[str, Any]],
         max_points: int,
         comments: Sequence[str],
+        record: Mapping[str, Any] | None = None,
     ) -> None:
+        if record is not None:
+            comments = [*comments, ply_record_comment(record)]
         self._ply = PlyChunkWriter(path, properties, max_points, comments)
         super().__init__(self._ply)
 
@@ -113,18 +126,23 @@ class PlySink(Sink):
 
 
 class LasSink(Sink):
-    """The ``records`` of each chunk (X, Y, Z already stored) into a LAS/LAZ file."""
+    """The ``records`` of each chunk (X, Y, Z already stored) into a LAS/LAZ file.
+
+    ``notes``: the writer's ``crs_note`` (a CRS in WKT2) and ``record_notes`` (what of
+    ``record`` a LAS 1.2/1.3 VLR had no room for).
+    """
 
     def __init__(
         self,
         path: Path,
         header: laspy.LasHeader,
         crs: pyproj.CRS,
-        offsets: tuple[float, float, float],
-        scales: tuple[float, float, float],
+        frame: LasOutputFrame,
+        record: Mapping[str, Any] | None = None,
     ) -> None:
-        self._las = LasChunkWriter(path, header, crs, offsets, scales)
-        self.crs_note = self._las.crs_note
+        self._las = LasChunkWriter(path, header, crs, frame.offsets, frame.scales, record)
+        crs_note = () if self._las.crs_note is None else (self._las.crs_note,)
+        self.notes = crs_note + self._las.record_notes
         super().__init__(self._las)
 
     def write(self, out: ChunkOutput) -> None:  # noqa: D102

@@ -11,7 +11,9 @@ their Arrow types and nulls (an integer column with nulls stays integers, a null
 empty cell in a CSV output), a CSV scan's as their text, byte for byte. The columns it
 uses keep a Parquet scan's number types (``profile`` int32 stays int32); a CSV scan's
 ``profile`` is written as integers (profile numbers are whole), its angles and ranges as
-floats.
+floats. A Parquet output keeps the run's kinsync record in its schema metadata
+(`kinsync.io.point_provenance`: the mount, its file, the scan and the clock); a CSV has
+nowhere to keep it.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from kinsync._typing import FloatArray
 from kinsync.clock.profile import ProfileClock
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.georef.kernel import MAX_SCANNER_RANGE_M
+from kinsync.io.point_provenance import file_document, parquet_record_metadata, point_document
 from kinsync.io.points import (
     TableChunkWriter,
     count_table_rows,
@@ -165,6 +168,8 @@ def apply_profile_clock(
     *,
     chunk_points: int = 1_000_000,
     progress: Callable[[int], None] | None = None,
+    mount_file: Path | None = None,
+    clock_file: Path | None = None,
 ) -> int:
     """Time-tag a scan and put its returns in the scanner frame, streaming in chunks.
 
@@ -189,6 +194,9 @@ def apply_profile_clock(
         Rows per chunk.
     progress : callable, optional
         Called with the number of rows done after each chunk.
+    mount_file, clock_file : Path, optional
+        The files ``mount`` and the clock were read from, named in a Parquet output's
+        kinsync record (`kinsync.io.point_provenance`) with their SHA-256.
 
     Returns
     -------
@@ -228,7 +236,20 @@ def apply_profile_clock(
 
     stored: dict[str, Any] = {}
     chunks = iter_table_chunks(scan_path, chunk_points, required, extra_as_text=True, arrow=True)
-    with TableChunkWriter(Path(out_path)) as writer:
+    record = point_document(
+        "sync apply",
+        mount,
+        mount_file,
+        {
+            "points": {"path": str(scan_path)},
+            "clock": {
+                "t0_s": t0_s,
+                "period_s": period_s,
+                "file": None if clock_file is None else file_document(Path(clock_file)),
+            },
+        },
+    )
+    with TableChunkWriter(Path(out_path), metadata=parquet_record_metadata(record)) as writer:
         for chunk in chunks:
             if done == 0:
                 stored = _stored_number_types(scan_path, required)

@@ -1,0 +1,222 @@
+"""The kinsync record of a georeferenced file, written by georef.
+
+A LAS/LAZ output holds it in a VLR, a Parquet one in its schema metadata, a PLY one in a
+header comment; a CSV has nowhere to keep it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shlex
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import laspy
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from tests._las import las_points
+
+from kinsync.io.points import TableChunkWriter
+from kinsync.io.trajectory_csv import write_trajectory_csv
+from kinsync.mount import Mount, MountUncertainty, StdCorrelation, mount_to_toml_text
+from kinsync.trajectory import Trajectory
+
+RunCli = Callable[[list[str]], tuple[int, str, str]]  # fixture run_cli in conftest.py
+OneLineError = Callable[..., None]  # fixture assert_one_line_error in conftest.py
+
+T0 = 1.3e9  # GPS seconds
+N = 400
+HEADER = ["# vehicle 7, scanner SN 1234", "# lever arm surveyed 2024-05-01 (total station)"]
+MOUNT = Mount(  # values whose shortest text is long: a rounded copy would differ
+    lever_arm_body_m=(0.1 + 0.2, -1.0 / 3.0, 2.0**-30),
+    boresight_rpy_deg=(0.5, -0.30000000000000004, 90.0 - 1e-13),
+    antenna_lever_arm_body_m=(0.0, -0.0, 1.25),
+    latency_s=0.0041234567891234,
+    uncertainty=MountUncertainty(
+        lever_arm_body_m=(0.01, 0.01, 0.02),
+        boresight_rpy_deg=(0.011, 0.012, 0.03),
+        latency_s=1.1e-5,
+        correlation=StdCorrelation(("lever_x_m", "latency_ms"), ((1.0, -0.8), (-0.8, 1.0))),
+    ),
+)
+
+
+def _trajectory() -> Trajectory:
+    s = np.arange(0.0, 10.0, 0.01)
+    llh = np.column_stack([46.8 + 1e-5 * s, -71.2 + 2e-5 * s, 10.0 + 0.1 * s])
+    return Trajectory.from_euler(T0 + s, 0.02 * np.sin(s), 0.01 * s, 0.3 + 0.05 * s, lat_lon_h=llh)
+
+
+def _columns() -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(3)
+    return {
+        "t_s": T0 + np.sort(rng.uniform(0.1, 9.9, N)),
+        "x_m": rng.uniform(-1, 1, N),
+        "y_m": rng.uniform(-20, 20, N),
+        "z_m": rng.uniform(-5, 5, N),
+    }
+
+
+@pytest.fixture
+def setup(tmp_path: Path) -> dict[str, Path]:
+    write_trajectory_csv(_trajectory(), tmp_path / "traj.csv")
+    (tmp_path / "mount.toml").write_text(
+        "\n".join(HEADER) + "\n\n" + mount_to_toml_text(MOUNT), encoding="utf-8"
+    )
+    with TableChunkWriter(tmp_path / "points.parquet") as w:
+        w.write(_columns())
+    las_points(_columns()).write(tmp_path / "points.las")
+    return {
+        "dir": tmp_path,
+        "traj": tmp_path / "traj.csv",
+        "mount": tmp_path / "mount.toml",
+        "points": tmp_path / "points.parquet",
+    }
+
+
+def _georef(s: dict[str, Path], out: Path, *extra: str) -> list[str]:
+    return [
+        "georef",
+        *("--points", str(s["points"]), "--trajectory", str(s["traj"])),
+        *("--mount", str(s["mount"]), "--out", str(out), "--crs", "EPSG:32619", *extra),
+    ]
+
+
+def _las_records(path: Path) -> list[laspy.VLR]:
+    with laspy.open(path) as reader:
+        header = reader.header
+    return [v for v in [*header.vlrs, *(header.evlrs or [])] if v.user_id == "kinsync"]
+
+
+def _stored_record(path: Path) -> dict[str, Any]:
+    """The record as another program finds it, without kinsync's reader."""
+    suffix = path.suffix
+    if suffix in (".las", ".laz"):
+        (vlr,) = _las_records(path)
+        assert vlr.record_id == 1
+        assert len(vlr.description.encode()) <= 32
+        doc = json.loads(bytes(vlr.record_data).decode("utf-8"))
+    elif suffix == ".parquet":
+        doc = json.loads(pq.read_schema(path).metadata[b"kinsync"])
+    else:
+        head = path.read_bytes().split(b"end_header\n")[0].decode("ascii").splitlines()
+        (line,) = [h for h in head if h.startswith("comment kinsync_record ")]
+        doc = json.loads(line.removeprefix("comment kinsync_record "))
+    assert isinstance(doc, dict)
+    return doc
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz", ".parquet", ".ply"])
+def test_every_point_output_but_csv_holds_the_record(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    out = setup["dir"] / f"geo{suffix}"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    doc = _stored_record(out)
+    assert doc["kinsync_record"] == 1
+    assert doc["made_by"] == "georef"
+    assert doc["software"].startswith("kinsync ")
+    assert doc["command"] == shlex.join(["kinsync", *_georef(setup, out)])
+    assert doc["utc"] == "2023-11-14T22:13:20Z"  # tests' SOURCE_DATE_EPOCH
+    mount = doc["mount"]
+    assert mount["values"] == json.loads(json.dumps(MOUNT.as_document()))
+    assert mount["toml"] == mount_to_toml_text(MOUNT)
+    assert mount["file"] == {
+        "path": str(setup["mount"]),
+        "bytes": setup["mount"].stat().st_size,
+        "sha256": _sha256(setup["mount"]),
+        "header_comments": HEADER,
+    }
+    assert doc["points"] == {"path": str(setup["points"])}
+    assert doc["trajectory"]["path"] == str(setup["traj"])
+    assert doc["trajectory"]["sha256"] == _sha256(setup["traj"])
+    assert doc["time"] == {
+        "trajectory": "gps",
+        "gps_week": None,
+        "points": "t_s",
+        "las_time_offset_s": 0.0,
+    }
+    assert doc["crs"]["requested"] == "EPSG:32619"
+    assert doc["crs"]["target"] == "WGS 84 / UTM zone 19N (EPSG:32619)"
+    assert doc["outside"] == "error"
+
+
+def test_a_parquet_output_keeps_its_crs_metadata_beside_the_record(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    out = setup["dir"] / "geo.parquet"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    metadata = pq.read_schema(out).metadata
+    assert b"kinsync" in metadata
+    assert len(metadata) > 1  # the CRS (kinsync.crs_axes.coordinate_metadata) stays
+
+
+def test_a_csv_output_holds_no_record(run_cli: RunCli, setup: dict[str, Path]) -> None:
+    out = setup["dir"] / "geo.csv"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    assert out.read_text().splitlines()[0] == "t_s,X,Y,Z"
+
+
+@pytest.mark.parametrize("suffix", [".laz", ".parquet", ".ply"])
+def test_two_runs_at_one_source_date_epoch_are_byte_identical(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = setup["dir"] / f"geo{suffix}"
+    first = setup["dir"] / f"first{suffix}"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    shutil.copyfile(out, first)
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    assert out.read_bytes() == first.read_bytes()
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000001")  # the record's time: one second on
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    assert out.read_bytes() != first.read_bytes()
+    assert _stored_record(out)["utc"] == "2023-11-14T22:13:21Z"
+
+
+def test_the_recorded_mount_is_the_one_applied(run_cli: RunCli, setup: dict[str, Path]) -> None:
+    """--latency-ms replaces the mount file's latency: the record holds the one applied."""
+    out = setup["dir"] / "geo.laz"
+    code, _, err = run_cli(_georef(setup, out, "--latency-ms", "12.5"))
+    assert code == 0, err
+    doc = _stored_record(out)
+    assert doc["mount"]["values"]["latency_s"] == 0.0125
+    assert doc["mount"]["file"]["path"] == str(setup["mount"])  # where the rest came from
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.4"])
+def test_an_inputs_record_is_replaced_and_its_other_records_kept(
+    run_cli: RunCli, setup: dict[str, Path], version: str
+) -> None:
+    """A LAS input that holds a kinsync record (VLR, or EVLR in LAS 1.4): one record out."""
+    las = las_points(_columns(), point_format=1 if version == "1.2" else 6, version=version)
+    las.header.vlrs.append(laspy.VLR("ACME", 7, "scanner serial", b"SN 1234"))
+    old = laspy.VLR("kinsync", 1, "an earlier record", b'{"made_by": "earlier"}')
+    if version == "1.4":
+        las.header.evlrs = laspy.vlrs.vlrlist.VLRList([old])
+    else:
+        las.header.vlrs.append(old)
+    src = setup["dir"] / "scan.las"
+    las.write(src)
+    assert len(_las_records(src)) == 1
+    out = setup["dir"] / "geo.las"
+    code, _, err = run_cli(_georef({**setup, "points": src}, out))
+    assert code == 0, err
+    (record,) = _las_records(out)
+    assert json.loads(record.record_data)["made_by"] == "georef"
+    header = laspy.read(out).header
+    acme = [v for v in header.vlrs if v.user_id == "ACME"]
+    assert [bytes(v.record_data) for v in acme] == [b"SN 1234"]
