@@ -1,7 +1,8 @@
-"""The kinsync record of a georeferenced file, written by georef.
+"""The kinsync record of a georeferenced file: written by georef, read by mount from-points.
 
 A LAS/LAZ output holds it in a VLR, a Parquet one in its schema metadata, a PLY one in a
-header comment; a CSV has nowhere to keep it.
+header comment; a CSV has nowhere to keep it. ``kinsync mount from-points`` reads it back
+and writes the mount applied as a TOML that reads back bit for bit.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ import hashlib
 import json
 import shlex
 import shutil
+import struct
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -20,6 +22,7 @@ import pyarrow.parquet as pq
 import pytest
 from tests._las import las_points
 
+from kinsync.io.mount_file import read_mount
 from kinsync.io.points import TableChunkWriter
 from kinsync.io.trajectory_csv import write_trajectory_csv
 from kinsync.mount import Mount, MountUncertainty, StdCorrelation, mount_to_toml_text
@@ -161,11 +164,15 @@ def test_a_parquet_output_keeps_its_crs_metadata_beside_the_record(
     assert len(metadata) > 1  # the CRS (kinsync.crs_axes.coordinate_metadata) stays
 
 
-def test_a_csv_output_holds_no_record(run_cli: RunCli, setup: dict[str, Path]) -> None:
+def test_a_csv_output_holds_no_record_and_from_points_says_so(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
     out = setup["dir"] / "geo.csv"
     code, _, err = run_cli(_georef(setup, out))
     assert code == 0, err
     assert out.read_text().splitlines()[0] == "t_s,X,Y,Z"
+    code, stdout, err = run_cli(["mount", "from-points", str(out)])
+    assert_one_line_error(code, stdout, err, str(out), "holds no kinsync record", ".laz")
 
 
 @pytest.mark.parametrize("suffix", [".laz", ".parquet", ".ply"])
@@ -187,6 +194,47 @@ def test_two_runs_at_one_source_date_epoch_are_byte_identical(
     assert _stored_record(out)["utc"] == "2023-11-14T22:13:21Z"
 
 
+def _floats(mount: Mount) -> list[bytes]:
+    """Every float of a mount as its 8 bytes (-0.0 and 0.0 differ)."""
+    doc = mount.as_document()
+    values = [*doc["lever_arm_body_m"], *doc["boresight_rpy_deg"]]
+    values += [*doc["antenna_lever_arm_body_m"], doc["latency_s"]]
+    unc = doc["uncertainty"]
+    values += [*unc["lever_arm_body_m"], *unc["boresight_rpy_deg"], unc["latency_s"]]
+    values += [v for row in unc["correlation"]["matrix"] for v in row]
+    return [struct.pack("<d", v) for v in values]
+
+
+@pytest.mark.parametrize("suffix", [".laz", ".parquet"])
+def test_from_points_writes_the_mount_back_bit_for_bit(
+    run_cli: RunCli, setup: dict[str, Path], suffix: str
+) -> None:
+    out = setup["dir"] / f"geo{suffix}"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    back = setup["dir"] / "back.toml"
+    code, _, err = run_cli(["mount", "from-points", str(out), "--out", str(back)])
+    assert code == 0, err
+    again = read_mount(back)
+    assert again == MOUNT
+    assert _floats(again) == _floats(MOUNT)
+    assert mount_to_toml_text(again) == mount_to_toml_text(MOUNT)
+    text = back.read_text(encoding="utf-8")
+    assert text.startswith("# written by kinsync ")
+    assert f"# its command: kinsync georef --points {setup['points']}" in text
+    assert "\n".join(["# mount.toml's header:", *HEADER]) in text
+    # Georeferenced again with the mount written back: the same coordinates.
+    redo = setup["dir"] / f"redo{suffix}"
+    code, _, err = run_cli(_georef({**setup, "mount": back}, redo))
+    assert code == 0, err
+    if suffix == ".laz":
+        a, b = laspy.read(out), laspy.read(redo)
+        for axis in ("X", "Y", "Z"):
+            np.testing.assert_array_equal(a[axis], b[axis])
+    else:
+        assert pq.read_table(out).equals(pq.read_table(redo))
+
+
 def test_the_recorded_mount_is_the_one_applied(run_cli: RunCli, setup: dict[str, Path]) -> None:
     """--latency-ms replaces the mount file's latency: the record holds the one applied."""
     out = setup["dir"] / "geo.laz"
@@ -195,6 +243,32 @@ def test_the_recorded_mount_is_the_one_applied(run_cli: RunCli, setup: dict[str,
     doc = _stored_record(out)
     assert doc["mount"]["values"]["latency_s"] == 0.0125
     assert doc["mount"]["file"]["path"] == str(setup["mount"])  # where the rest came from
+    code, stdout, err = run_cli(["mount", "from-points", str(out), "--json"])
+    assert code == 0, err
+    shown = json.loads(stdout)
+    assert shown["file"] == str(out)
+    assert shown["record"] == doc
+    assert shown["record"]["mount"]["values"]["latency_s"] == 0.0125
+
+
+def test_from_points_prints_the_record(run_cli: RunCli, setup: dict[str, Path]) -> None:
+    out = setup["dir"] / "geo.laz"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    code, stdout, err = run_cli(["mount", "from-points", str(out)])
+    assert code == 0, err
+    for shown in ("kinsync georef", "latency_s", "0.00412346", "sigma latency_s", "EPSG:32619"):
+        assert shown in stdout, shown
+
+
+@pytest.mark.parametrize("name", ["points.las", "nothing.laz"])
+def test_from_points_without_a_record_is_a_one_line_error(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError, name: str
+) -> None:
+    path = setup["dir"] / name
+    code, stdout, err = run_cli(["mount", "from-points", str(path)])
+    why = "has no kinsync record" if path.exists() else "no such file"
+    assert_one_line_error(code, stdout, err, str(path), why)
 
 
 @pytest.mark.parametrize("version", ["1.2", "1.4"])

@@ -1,4 +1,8 @@
-"""``kinsync mount check``, ``kinsync trajectory info|export``: check, summarise, convert."""
+"""``kinsync mount check|from-points``, ``kinsync trajectory info|export``.
+
+Check a mount, read back the mount a point file was made with, summarise and convert
+trajectories.
+"""
 
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ from kinsync.clock.leap_seconds import PLAUSIBLE_DATE_GPS_S, gps_to_utc_iso
 from kinsync.errors import InputError, KinsyncWarning
 from kinsync.io.mount_file import read_mount
 from kinsync.io.smrmsg import find_smrmsg_companion, read_smrmsg
-from kinsync.mount import StdCorrelation
+from kinsync.mount import Mount, StdCorrelation
 from kinsync.progress import Progress as ProgressCallback
 from kinsync.progress import report
 
@@ -55,6 +59,16 @@ def mount_check(
     if as_json:
         print_json(doc)
         return
+    rows = _mount_rows(mount)
+    for i, row in enumerate(mount.R_scanner_to_body):
+        label = "R_scanner_to_body (boresight)" if i == 0 else ""
+        rows[label or " " * (i + 1)] = "  ".join(f"{v:+.6f}" for v in row)
+    _print_quantities(f"Mount {path}", rows)
+
+
+def _mount_rows(mount: Mount) -> dict[str, str]:
+    """A mount's values and sigmas as table rows (``%g``: six significant digits)."""
+    doc = mount.as_document()
     rows = {
         key: ", ".join(f"{v:g}" for v in doc[key])
         for key in ("lever_arm_body_m", "boresight_rpy_deg", "antenna_lever_arm_body_m")
@@ -68,10 +82,80 @@ def mount_check(
             rows[f"sigma {key}"] = shown
     if mount.uncertainty is not None and mount.uncertainty.correlation is not None:
         rows["correlation of the errors"] = _strongest_pairs(mount.uncertainty.correlation)
-    for i, row in enumerate(mount.R_scanner_to_body):
-        label = "R_scanner_to_body (boresight)" if i == 0 else ""
-        rows[label or " " * (i + 1)] = "  ".join(f"{v:+.6f}" for v in row)
-    _print_quantities(f"Mount {path}", rows)
+    return rows
+
+
+@mount_app.command("from-points")
+def mount_from_points(
+    path: Annotated[
+        Path,
+        typer.Argument(
+            help="A point file kinsync wrote: .las/.laz, .parquet or .ply of georef, .parquet "
+            "of sync apply (a CSV holds no record)."
+        ),
+    ],
+    mount_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            help="Write the mount applied as a mount TOML (values bit for bit, the original "
+            "file's header comments), to georeference again with exactly it.",
+        ),
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Print the mount, trajectory and options a point file was made with (its record)."""
+    from kinsync.io.atomic import atomic_write_text  # noqa: PLC0415
+    from kinsync.io.point_provenance import (  # noqa: PLC0415
+        read_point_record,
+        record_mount,
+        recorded_mount_text,
+    )
+
+    record = read_point_record(path)
+    mount = record_mount(record, path)
+    if mount_out is not None:
+        atomic_write_text(mount_out, recorded_mount_text(record, path))
+    if as_json:
+        out = None if mount_out is None else str(mount_out)
+        print_json({"file": str(path), "record": record, "mount_out": out})
+        return
+    rows = {
+        "made by": f"kinsync {record.get('made_by')}, {record.get('software')}",
+        "at (UTC)": str(record.get("utc")),
+        "command": str(record.get("command") or "- (from Python)"),
+    }
+    mount_file = record["mount"].get("file") or {}
+    rows["mount file"] = str(mount_file.get("path", "- (built in Python)"))
+    rows |= {f"  {k}": str(v) for k, v in _mount_rows(mount).items()}
+    for key, value in _record_rows(record).items():
+        rows[key] = value
+    if mount_out is not None:
+        rows["mount written to"] = str(mount_out)
+    _print_quantities(f"kinsync record of {path}", rows)
+
+
+def _record_rows(record: dict[str, Any]) -> dict[str, str]:
+    """The inputs and options of a record, as table rows (all of it: --json)."""
+    rows: dict[str, str] = {}
+    for section in ("points", "trajectory"):
+        doc = record.get(section)
+        if isinstance(doc, dict):
+            rows[f"{section} file"] = str(doc.get("path"))
+    time = record.get("time")
+    if isinstance(time, dict):
+        rows["times"] = ", ".join(f"{k} {v}" for k, v in time.items() if v is not None)
+    clock = record.get("clock")
+    if isinstance(clock, dict):
+        rows["clock t0 (s), period (s)"] = f"{clock.get('t0_s')!r}, {clock.get('period_s')!r}"
+    crs = record.get("crs")
+    if isinstance(crs, dict):
+        rows["CRS"] = f"{crs.get('requested')} ({crs.get('target')})"
+        if crs.get("epoch_year") is not None:
+            rows["coordinate epoch (year)"] = f"{crs['epoch_year']:.4f}"
+    if record.get("left_out"):
+        rows["left out of the record"] = ", ".join(map(str, record["left_out"]))
+    return rows
 
 
 def _strongest_pairs(corr: StdCorrelation, shown: int = 4) -> str:

@@ -19,7 +19,8 @@ and header comments), the input files, the time and CRS options. Where it is kep
 * CSV: nowhere, since a comment line would break the CSV readers (kinsync's own too).
 
 An input's own kinsync record (a file georeferenced twice) is replaced, never
-duplicated. `read_point_record` reads a record back and `record_mount` gives its mount.
+duplicated. `read_point_record` reads a record back, `record_mount` gives its mount and
+`recorded_mount_text` that mount as a mount file.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ __all__ = [
     "read_point_record",
     "record_json",
     "record_mount",
+    "recorded_mount_text",
     "set_las_record",
 ]
 
@@ -377,3 +379,47 @@ def record_mount(doc: Mapping[str, Any], path: Path) -> Mount:
         msg = f"{path}: its kinsync record holds no mount (mount.toml); it is damaged"
         raise InputError(msg)
     return mount_from_toml_text(text, source=f"{path}: kinsync record mount")
+
+
+def recorded_mount_text(doc: Mapping[str, Any], path: Path) -> str:
+    """A mount TOML file of the mount a record names, headed by where it comes from.
+
+    Parameters
+    ----------
+    doc : mapping
+        A record (`read_point_record`).
+    path : Path
+        The point file it came from.
+
+    Returns
+    -------
+    str
+        Comment lines (what writes it now, `kinsync.io.provenance.run_record`; the point
+        file and what made it; the mount file it was read from and that file's header
+        comments, after a ``# <name>'s header:`` line, as `kinsync.io.mount_file.write_mount`
+        heads a derived mount), a blank line, then the record's mount TOML as stored: its
+        values read back bit for bit.
+
+    Raises
+    ------
+    InputError
+        A record without a valid mount (`record_mount`).
+    """
+    record_mount(doc, path)  # refuses a record without a valid mount
+    now = run_record()
+    lines = [f"# written by {now['software']} at {now['utc']}"]
+    if now["command"] is not None:
+        lines.append(f"# command: {now['command']}")
+    made = f"{doc.get('made_by')} by {doc.get('software')} at {doc.get('utc')}"
+    lines.append(f"# the mount of {path}'s kinsync record: {made}")
+    if doc.get("command"):
+        lines.append(f"# its command: {doc['command']}")
+    file_doc = doc["mount"].get("file")
+    if isinstance(file_doc, Mapping):
+        lines.append(f"# read from {file_doc.get('path')} (SHA-256 {file_doc.get('sha256')})")
+        comments = file_doc.get("header_comments") or []
+        if comments:
+            name = Path(str(file_doc.get("path"))).name
+            lines += [f"# {name}'s header:", *(str(c) for c in comments)]
+    lines = [" ".join(line.splitlines()) for line in lines]  # one line each
+    return "\n".join(lines) + "\n\n" + str(doc["mount"]["toml"])
