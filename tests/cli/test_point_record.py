@@ -187,6 +187,13 @@ def test_two_runs_at_one_source_date_epoch_are_byte_identical(
     code, _, err = run_cli(_georef(setup, out))
     assert code == 0, err
     assert out.read_bytes() == first.read_bytes()
+    # How the work ran is left out of the record: the same bytes with other chunks and
+    # schedulers (the record names the command without them).
+    how = ["--chunk-points", "777", "--scheduler=processes", "--workers", "2"]
+    code, _, err = run_cli([*_georef(setup, out), *how])
+    assert code == 0, err
+    assert out.read_bytes() == first.read_bytes()
+    assert "--chunk-points" not in _stored_record(out)["command"]
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000001")  # the record's time: one second on
     code, _, err = run_cli(_georef(setup, out))
     assert code == 0, err

@@ -129,7 +129,7 @@ def georef(
             help=literal(
                 "Where chunks are georeferenced: 'local' (this process), 'processes' (a "
                 "local process pool) or tcp://HOST:PORT (a running Dask scheduler; needs "
-                "kinsync[scale]). The points written are identical whichever is used."
+                "kinsync[scale]). The output is identical whichever is used."
             ),
         ),
     ] = "local",

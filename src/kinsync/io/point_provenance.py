@@ -40,10 +40,11 @@ from laspy.vlrs.vlrlist import VLRList
 from kinsync.errors import InputError
 from kinsync.io.las_header import las_header
 from kinsync.io.mount_file import header_comments
-from kinsync.io.provenance import run_record
+from kinsync.io.provenance import command_line_without, run_record
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
 
 __all__ = [
+    "EXECUTION_OPTIONS",
     "PARQUET_KEY",
     "RECORD_DESCRIPTION",
     "RECORD_ID",
@@ -137,6 +138,11 @@ def _finite(value: Any) -> Any:
     return value
 
 
+EXECUTION_OPTIONS = ("--scheduler", "--workers", "--chunk-points")
+"""Options that change how a run works, not the points it writes: left out of the
+record's command, so outputs of runs differing only in them are byte-identical."""
+
+
 def point_document(
     made_by: str, mount: Mount, mount_file: Path | None, sections: Mapping[str, Any]
 ) -> dict[str, Any]:
@@ -157,11 +163,14 @@ def point_document(
     -------
     dict
         ``kinsync_record`` (`RECORD_VERSION`), ``made_by``, the run
-        (`kinsync.io.provenance.run_record`: ``software``, ``command``, ``utc``),
+        (`kinsync.io.provenance.run_record`: ``software``, ``command`` without
+        `EXECUTION_OPTIONS`, ``utc``),
         ``mount`` (`mount_document`), then ``sections``; a non-finite float is null.
     """
     doc: dict[str, Any] = {"kinsync_record": RECORD_VERSION, "made_by": made_by}
     doc |= run_record()
+    # How the work ran is not what made the coordinates: the file stays byte-identical.
+    doc["command"] = command_line_without(EXECUTION_OPTIONS)
     doc["mount"] = mount_document(mount, mount_file)
     return dict(_finite(doc | dict(sections)))
 

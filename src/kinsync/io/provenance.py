@@ -30,6 +30,7 @@ from kinsync.errors import InputError
 
 __all__ = [
     "command_line",
+    "command_line_without",
     "run_record",
     "run_time_utc",
     "set_command",
@@ -173,6 +174,35 @@ def set_command(argv: Sequence[str] | None) -> None:
 def command_line() -> str | None:
     """The command line recorded by `set_command` (shell-quoted), or None."""
     return _COMMAND[0]
+
+
+def command_line_without(options: Sequence[str]) -> str | None:
+    """The recorded command line less ``options`` and their values (None if none recorded).
+
+    For a record inside an output that must not depend on how the work was run (the
+    scheduler, the workers, the chunk size), only on what was computed.
+
+    Parameters
+    ----------
+    options : sequence of str
+        Long options that take one value (``--workers 4`` or ``--workers=4``).
+    """
+    command = _COMMAND[0]
+    if command is None:
+        return None
+    words = shlex.split(command)
+    kept: list[str] = []
+    skip = False
+    for word in words:
+        if skip:
+            skip = False
+            continue
+        name = word.split("=", 1)[0]
+        if name in options:
+            skip = "=" not in word
+            continue
+        kept.append(word)
+    return shlex.join(kept)
 
 
 def run_record() -> dict[str, str | None]:
