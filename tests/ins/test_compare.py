@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -309,3 +310,31 @@ def test_no_common_times_is_an_error() -> None:
     t = np.arange(200.0, 210.0, 0.1)
     with pytest.raises(InputError, match=r"no common times.*same time scale"):
         compare_to_truth(_solution(t, np.zeros(3), np.zeros(3), np.zeros(3)), _truth())
+
+
+def _shifted_solution(shift_s: float) -> NavSolution:
+    """The truth's own states, tagged ``shift_s`` early (UTC tags for a GPS-time truth)."""
+    t = np.arange(30.0, 150.0, 0.2)
+    sol = _solution(t + shift_s, np.zeros(3), np.zeros(3), np.zeros(3))
+    return replace(sol, t_s=t)
+
+
+@pytest.mark.parametrize("shift_s", [18.0, -18.0, 15.0])
+def test_a_solution_a_leap_second_count_off_the_truth_is_named(shift_s: float) -> None:
+    # At 10 m/s, 18 s apart read as 170-360 m of "error" with exit 0.
+    whole = int(abs(shift_s))
+    side = "behind" if shift_s > 0 else "ahead of"
+    with pytest.raises(InputError, match=rf"matches the reference {whole} s .* {side} the refer"):
+        compare_to_truth(_shifted_solution(shift_s), _truth(np.arange(0.0, 200.0, 0.1)))
+
+
+def test_a_solution_genuinely_off_is_compared_not_refused() -> None:
+    t = np.arange(30.0, 150.0, 0.2)
+    cmp = compare_to_truth(
+        _solution(t, np.array([40.0, -25.0, 3.0]), np.zeros(3), np.zeros(3)),
+        _truth(np.arange(0.0, 200.0, 0.1)),
+    )
+    np.testing.assert_allclose(cmp.rms_pos_ned_m, [40.0, 25.0, 3.0], rtol=1e-3)
+    # A shift of other than whole leap seconds is the filter's error, not a time scale.
+    cmp = compare_to_truth(_shifted_solution(0.5), _truth(np.arange(0.0, 200.0, 0.1)))
+    assert cmp.rms_pos_ned_m[0] > 1.0

@@ -38,6 +38,7 @@ from kinsync.frames import (
     quaternion_to_euler_rpy,
     rotation_ned_to_ecef,
 )
+from kinsync.ins.compare_time import leap_second_offset_text
 from kinsync.ins.solution import NavSolution
 from kinsync.trajectory import Trajectory
 from kinsync.trajectory_gaps import (
@@ -227,7 +228,9 @@ def compare_to_truth(
     ------
     InputError
         No solution epoch lies inside the truth span (naming both spans) outside its
-        data gaps; a ``max_gap_s`` that is not a positive number.
+        data gaps; a ``max_gap_s`` that is not a positive number; a solution that
+        matches the truth far better 10 to 18 whole seconds apart (UTC against GPS
+        time: `kinsync.ins.compare_time`).
     """
     limit_s = max_gap_for(truth.t_s, max_gap_s)
     sigma: tuple[FloatArray, FloatArray, FloatArray] | None = None
@@ -249,6 +252,9 @@ def compare_to_truth(
         assert traj.origin_lat_lon_h is not None
         pos_sol_ecef = ned_to_ecef(traj.pos_ned_m[keep], *traj.origin_lat_lon_h)
         lat, lon = ecef_to_geodetic(pos_sol_ecef)[:, :2].T
+    offset = leap_second_offset_text(t, pos_sol_ecef, truth, limit_s)
+    if offset:
+        raise InputError(offset)
     R_ned_to_ecef = rotation_ned_to_ecef(lat, lon)
     err_pos = np.einsum("nji,nj->ni", R_ned_to_ecef, pos_sol_ecef - ref.pos_ecef_m())
 
