@@ -116,3 +116,56 @@ def test_centres_and_covariances_of_the_wrong_shape_are_refused() -> None:
         PassCentres(np.zeros((3, 3)), np.zeros((2, 3, 3)))
     frozen = PassCentres(np.zeros((2, 3)), np.ones((2, 3, 3)))
     assert not frozen.centers_ned_m.flags.writeable
+
+
+def _rated_pools(
+    rng: np.random.Generator, stds_m: tuple[float, ...], n_passes: int = 5
+) -> tuple[list[PassCentres], list[float]]:
+    """Two pools (both signs) per rate, each rate's passes sharing an isotropic error of its
+    own size (an error that grows with the rate)."""
+    pools, rates = [], []
+    for rate, std in zip((2.0, 6.0, 18.0), stds_m, strict=True):
+        for sign in (1.0, -1.0):
+            noise_std = 0.02e-3 * math.sqrt(rate / 2.0)  # fewer points at faster rates
+            covs = np.repeat((noise_std**2 * np.eye(3))[None], n_passes, axis=0)
+            centres = np.array([1.5, 0.0, 0.0]) + rng.normal(0.0, std, (n_passes, 3))
+            pools.append(PassCentres(centres + rng.normal(0.0, noise_std, (n_passes, 3)), covs))
+            rates.append(sign * rate)
+    return pools, rates
+
+
+def test_a_rate_whose_passes_scatter_more_carries_its_own_covariance() -> None:
+    # 0.03, 0.09, 0.27 mm at 2, 6, 18 deg/s: the common covariance (about the middle)
+    # would leave the fast rate's sigma too small (Monte Carlo: RMS error / sigma 1.49).
+    rng = np.random.default_rng(8)
+    owned = []
+    for _ in range(20):
+        pools, rates = _rated_pools(rng, (0.03e-3, 0.09e-3, 0.27e-3))
+        fit = estimate_pass_scatter(pools, rates)
+        assert [r.rate_deg_s for r in fit.rates] == [2.0, 6.0, 18.0]
+        fast = fit.for_rate(-18.0)
+        owned.append(fast is not fit)
+        if fast is not fit:
+            assert fast.std_m > fit.std_m
+            assert "at 18 deg/s they scatter more than that" in fit.text()
+            assert fit.as_document()["rates"][2]["own_std_mm"] == pytest.approx(fast.std_m * 1e3)
+    assert np.mean(owned) > 0.8
+
+
+def test_rates_that_share_one_scatter_keep_the_common_covariance() -> None:
+    rng = np.random.default_rng(9)
+    owned = 0
+    for _ in range(40):
+        pools, rates = _rated_pools(rng, (0.08e-3, 0.08e-3, 0.08e-3))
+        fit = estimate_pass_scatter(pools, rates)
+        owned += sum(r.own is not None for r in fit.rates)
+        assert fit.for_rate(2.0) is fit or fit.rates[0].own is not None
+    assert owned <= 4  # 120 rate tests at p < 0.01
+
+
+def test_a_scatter_thousands_of_times_a_passes_own_sigma_is_measured() -> None:
+    # A quiet scanner on a drifting INS: the estimate stopped at 148 of a pass's sigmas.
+    rng = np.random.default_rng(4)
+    between = np.diag([0.0, 20e-3, 5e-3]) ** 2  # 20 mm against 0.02-0.07 mm per pass
+    fits = [estimate_pass_scatter(_pools(rng, between)) for _ in range(20)]
+    assert np.mean([f.cov_m2[1, 1] for f in fits]) == pytest.approx(between[1, 1], rel=0.25)

@@ -17,10 +17,12 @@ covariances allow:
   mean ``c_w``, summed over the pools, is chi-square with ``3 sum_k (n_k - 1)`` degrees of
   freedom when the passes share no error: the test;
 - the between-pass covariance ``B`` (3 x 3, table-centred NED), one for all pools, by
-  the method of moments: ``E[S_k] = (n_k - 1) B + (1 - 1/n_k) sum_i C_i`` for the
-  scatter matrix ``S_k`` of a pool's centres about their plain mean, solved over all
-  pools and projected onto the positive semi-definite matrices (eigenvalues below 0
-  set to 0), as DerSimonian and Laird's estimator does for one variance;
+  restricted maximum likelihood (REML): each pass's centre ~ N(pool mean, C_i + B),
+  the pool means profiled out, ``B`` parametrised by its log-Cholesky factor (positive
+  semi-definite by construction; zero when no positive ``B`` is more likely);
+- each rate magnitude's passes are tested against that ``B`` (Q with ``C_i + B``): a
+  rate whose passes scatter more (an error that grows with the rate, as a gyro
+  scale-factor error's does) gets its own ``B`` from its pools alone;
 - each pool's centre covariance then gains ``A (sum_i W_i B W_i) A`` with
   ``W_i = C_i^-1`` and ``A = (sum_i W_i)^-1``: the error of its weighted mean of
   passes that each carry ``B``.
@@ -31,7 +33,7 @@ and the latency sigma counts the points' noise only.
 References
 ----------
 DerSimonian, R., Laird, N., "Meta-analysis in clinical trials", Controlled Clinical
-Trials 7 (1986) 177-188 (method-of-moments between-study variance); Jackson, D.,
+Trials 7 (1986) 177-188 (random effects between studies, Q); Jackson, D.,
 White, I. R., Thompson, S. G., "Extending DerSimonian and Laird's methodology to
 perform multivariate random effects meta-analyses", Stat. Med. 29 (2010) 1282-1297.
 """
@@ -55,8 +57,10 @@ from kinsync.fit import fit_sphere
 __all__ = [
     "CHECK_UPPER_P",
     "PASS_SCATTER_P",
+    "RATE_SCATTER_P",
     "PassCentres",
     "PassScatter",
+    "RateScatter",
     "estimate_pass_scatter",
     "fit_pass_centres",
     "pool_scatter_cov_m2",
@@ -66,6 +70,10 @@ PASS_SCATTER_P = 0.01
 """Below this p-value of the passes' Q test the passes are said to scatter beyond their
 points' noise (the covariance is added whatever the p-value)."""
 
+
+RATE_SCATTER_P = 0.01
+"""Below this p-value of one rate's passes against the scatter shared by all rates, that
+rate carries its own (`RateScatter`)."""
 
 CHECK_UPPER_P = 1e-3
 """The rotation-model test (`kinsync.latency.model_check`) counts the passes' scatter at
@@ -125,6 +133,10 @@ class PassScatter:
         Passes whose own centre entered.
     n_pools : int
         Pools with at least two such passes.
+    rates : tuple of RateScatter
+        Per rate magnitude, its passes tested against ``cov_m2`` (an error that grows
+        with the rate, as a gyro scale-factor error's does, is not one covariance for
+        all); empty when not tested.
     """
 
     cov_m2: FloatArray
@@ -132,9 +144,26 @@ class PassScatter:
     dof: int
     n_passes: int
     n_pools: int
+    rates: tuple[RateScatter, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cov_m2", readonly_array(self.cov_m2))
+
+    def for_rate(self, rate_deg_s: float) -> PassScatter:
+        """The scatter the pools at this rate magnitude carry.
+
+        Their own where their passes rejected the common one (`RateScatter.own`), else
+        this one.
+
+        Parameters
+        ----------
+        rate_deg_s : float
+            The pools' rate (deg/s; its magnitude counts).
+        """
+        for r in self.rates:
+            if r.rate_deg_s == abs(rate_deg_s) and r.own is not None:
+                return r.own
+        return self
 
     @property
     def measured(self) -> bool:
@@ -204,11 +233,13 @@ class PassScatter:
             )
         test = f"Q {self.chi2:.1f} on {self.dof} dof, {format_p_value(self.p_value)}"
         if self.significant:
-            return (
+            text = (
                 f"passes scatter {self.std_m * 1e3:.3f} mm beyond their points' noise "
                 f"({test}); the sigma includes it"
             )
-        return f"passes agree with their points' noise ({test})"
+        else:
+            text = f"passes agree with their points' noise ({test})"
+        return text + "".join(f"; {r.text()}" for r in self.rates if r.own is not None)
 
     def as_document(self) -> dict[str, Any]:
         """JSON-ready summary (``pass_scatter`` of ``kinsync latency sphere --json``)."""
@@ -223,6 +254,56 @@ class PassScatter:
             "significant": self.significant,
             "n_passes": self.n_passes,
             "n_pools": self.n_pools,
+            "rates": [r.as_document() for r in self.rates],
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class RateScatter:
+    """The passes at one rate magnitude against the scatter shared by all rates.
+
+    Attributes
+    ----------
+    rate_deg_s : float
+        Rate magnitude (deg/s); its pools of both signs.
+    chi2 : float
+        Q of its passes about their pools with the points' noise plus the common
+        between-pass covariance (``PassScatter.cov_m2``).
+    dof : int
+        ``3 * sum_k (n_k - 1)`` over its pools.
+    own : PassScatter or None
+        Its own between-pass scatter (from its pools alone), when ``chi2`` rejects the
+        common one (p < `RATE_SCATTER_P`); None when the common one holds.
+    """
+
+    rate_deg_s: float
+    chi2: float
+    dof: int
+    own: PassScatter | None
+
+    @property
+    def p_value(self) -> float:
+        """Probability of a Q at least this large if the common scatter holds here."""
+        return float(stats.chi2.sf(self.chi2, self.dof)) if self.dof > 0 else math.nan
+
+    def text(self) -> str:
+        """Why this rate carries its own scatter, in words; "" when it does not."""
+        if self.own is None:
+            return ""
+        return (
+            f"at {self.rate_deg_s:g} deg/s they scatter more than that (Q {self.chi2:.1f} on "
+            f"{self.dof} dof, {format_p_value(self.p_value)}): that rate carries its own, "
+            f"{self.own.std_m * 1e3:.3f} mm"
+        )
+
+    def as_document(self) -> dict[str, Any]:
+        """JSON-ready: rate, Q against the common scatter, dof, p, own scatter (mm) or null."""
+        return {
+            "rate_deg_s": self.rate_deg_s,
+            "chi2": self.chi2,
+            "dof": self.dof,
+            "p_value": self.p_value if self.dof > 0 else None,
+            "own_std_mm": None if self.own is None else self.own.std_m * 1e3,
         }
 
 
@@ -287,11 +368,16 @@ def _pool_groups(pools: Sequence[PassCentres]) -> tuple[list[tuple[FloatArray, F
     return groups, n_passes
 
 
-def _q_statistic(groups: Sequence[tuple[FloatArray, FloatArray]]) -> float:
-    """Cochran's Q summed over the pools: each pass's centre about its pool's weighted mean."""
+def _q_statistic(
+    groups: Sequence[tuple[FloatArray, FloatArray]], between: FloatArray | None = None
+) -> float:
+    """Cochran's Q summed over the pools: each pass's centre about its pool's weighted mean.
+
+    With ``between``, each pass's covariance is its own plus it.
+    """
     q = 0.0
     for c, cov in groups:
-        weights = np.linalg.inv(cov)
+        weights = np.linalg.inv(cov if between is None else cov + between)
         c_w = np.linalg.solve(weights.sum(axis=0), np.einsum("nij,nj->i", weights, c))
         d = c - c_w
         q += float(np.einsum("ni,nij,nj->", d, weights, d))
@@ -316,24 +402,30 @@ class _Stacked:
         )
 
 
-def _reml_nll(between: FloatArray, data: _Stacked) -> float:
-    """Restricted negative log-likelihood of the pass centres for a between-pass covariance.
+def _reml_nll(between: FloatArray, data: _Stacked) -> tuple[float, FloatArray]:
+    """Restricted negative log-likelihood of the pass centres, and its gradient in ``B``.
 
     Each pool's mean is a nuisance (profiled out: its GLS estimate and its log-determinant
-    term), so the estimate is not biased low by the means fitted (REML).
+    term), so the estimate is not biased low by the means fitted (REML). The gradient
+    (3 x 3, symmetric) is ``(sum_i W_i - W_i d_i d_i^T W_i - W_i S^-1 W_i) / 2`` with
+    ``W_i = (C_i + B)^-1`` and ``S`` the sum of a pool's ``W_i``.
     """
     v = data.covs + between
     sign, logdet_v = np.linalg.slogdet(v)
     if np.any(sign <= 0):
-        return math.inf
+        return math.inf, np.zeros((3, 3))
     w = np.linalg.inv(v)
+    sizes = np.diff([*data.starts, len(w)])
     w_sum = np.add.reduceat(w, data.starts, axis=0)
     wc_sum = np.add.reduceat(np.einsum("nij,nj->ni", w, data.centres), data.starts, axis=0)
     means = np.linalg.solve(w_sum, wc_sum[..., None])[..., 0]
-    d = data.centres - np.repeat(means, np.diff([*data.starts, len(w)]), axis=0)
+    d = data.centres - np.repeat(means, sizes, axis=0)
     total = float(logdet_v.sum()) + float(np.linalg.slogdet(w_sum)[1].sum())
-    total += float(np.einsum("ni,nij,nj->", d, w, d))
-    return 0.5 * total
+    wd = np.einsum("nij,nj->ni", w, d)
+    total += float(np.einsum("ni,ni->", d, wd))
+    s_inv = np.repeat(np.linalg.inv(w_sum), sizes, axis=0)
+    grad = w.sum(axis=0) - wd.T @ wd - np.einsum("nij,njk,nkl->il", w, s_inv, w)
+    return 0.5 * total, 0.5 * (grad + grad.T) / 2.0
 
 
 def _from_log_cholesky(theta: FloatArray) -> FloatArray:
@@ -347,42 +439,84 @@ def _from_log_cholesky(theta: FloatArray) -> FloatArray:
 _LOG_FLOOR = -12.0  # exp(-12) of a pass's own sigma: no scatter
 
 
+def _moment_start(groups: Sequence[tuple[FloatArray, FloatArray]], scale: float) -> FloatArray:
+    """Log-Cholesky start from the method of moments (scaled units).
+
+    The passes' plain scatter about their pools less what their own covariances explain,
+    made positive definite.
+    """
+    scatter = sum(c.T @ c for c, _ in groups)  # centres are about their pool's plain mean
+    noise = sum((1.0 - 1.0 / len(c)) * cov.sum(axis=0) for c, cov in groups)
+    moment = (scatter - noise) / (sum(len(c) - 1 for c, _ in groups) * scale**2)
+    values, vectors = np.linalg.eigh(0.5 * (moment + moment.T))
+    pd = (vectors * np.clip(values, 0.05, None)) @ vectors.T
+    low = np.linalg.cholesky(pd)
+    theta: FloatArray = low[np.tril_indices(3)]
+    theta[[0, 2, 5]] = np.log(theta[[0, 2, 5]])
+    return theta
+
+
 def _reml_between(groups: Sequence[tuple[FloatArray, FloatArray]]) -> FloatArray:
     """REML estimate of the between-pass covariance (m^2): log-Cholesky, two starts.
 
-    Zero when no positive covariance is more likely than none.
+    Starts: small (a twentieth of a pass's own sigma) and the method of moments' estimate
+    (which reaches a scatter of thousands of a pass's own sigmas: a quiet scanner on a
+    drifting INS). Zero when no positive covariance is more likely than none.
     """
     scale = math.sqrt(float(np.median([np.trace(cov) / 3.0 for _, cov in groups for cov in cov])))
     scaled = _Stacked.of(groups, scale)
     best_b = np.zeros((3, 3))
-    best_nll = _reml_nll(best_b, scaled)
+    best_nll = _reml_nll(best_b, scaled)[0]
     diag = np.array([0, 2, 5])
-    for start in (-3.0, -0.5):
-        theta0 = np.zeros(6)
-        theta0[diag] = start
+    diag_rc = np.arange(3)
+    small = np.zeros(6)
+    small[diag] = -3.0
+    moment = _moment_start(groups, scale)
+    ceiling = max(float(np.max(moment[diag])), 0.0) + 5.0
 
-        def nll(theta: FloatArray) -> float:
-            return _reml_nll(_from_log_cholesky(theta), scaled)
+    rows, cols = np.tril_indices(3)
 
+    def nll(theta: FloatArray) -> tuple[float, FloatArray]:
+        theta = theta.copy()
+        theta[diag] = np.clip(theta[diag], _LOG_FLOOR, ceiling)  # no scatter .. huge
+        low = np.zeros((3, 3))
+        low[rows, cols] = theta
+        low[diag_rc, diag_rc] = np.exp(theta[diag])
+        value, grad_b = _reml_nll(low @ low.T, scaled)
+        grad_low = 2.0 * grad_b @ low  # d/dL of f(L L^T), G symmetric
+        grad = grad_low[rows, cols]
+        grad[diag] *= np.exp(theta[diag])  # log-diagonal
+        return value, grad
+
+    for theta0 in (small, moment):
         res = optimize.minimize(
             nll,
             theta0,
-            method="L-BFGS-B",
-            bounds=[(_LOG_FLOOR, 5.0) if k in diag else (-50.0, 50.0) for k in range(6)],
+            jac=True,
+            method="BFGS",  # scipy's L-BFGS-B costs 1 ms a step here, 20x the likelihood
+            options={"gtol": 1e-6},
         )
         if res.fun < best_nll:
-            best_nll, best_b = float(res.fun), _from_log_cholesky(res.x)
+            theta = np.array(res.x)
+            theta[diag] = np.clip(theta[diag], _LOG_FLOOR, ceiling)
+            best_nll, best_b = float(res.fun), _from_log_cholesky(theta)
     out: FloatArray = best_b * scale**2
     return out
 
 
-def estimate_pass_scatter(pools: Sequence[PassCentres]) -> PassScatter:
+def estimate_pass_scatter(
+    pools: Sequence[PassCentres], rates_deg_s: Sequence[float] | None = None
+) -> PassScatter:
     """The between-pass covariance shared by all pools, with its chi-square test.
 
     Parameters
     ----------
     pools : sequence of PassCentres
         Each pool's passes' own centres (table-centred NED, m) and covariances (m^2).
+    rates_deg_s : sequence of float, optional
+        Each pool's rate (deg/s; the magnitude groups them): each rate's passes are
+        then tested against the common covariance, and a rate that rejects it (p <
+        `RATE_SCATTER_P`) gets its own (`PassScatter.rates`, `PassScatter.for_rate`).
 
     Returns
     -------
@@ -393,7 +527,33 @@ def estimate_pass_scatter(pools: Sequence[PassCentres]) -> PassScatter:
     if not groups:
         return PassScatter(np.zeros((3, 3)), math.nan, 0, n_passes, 0)
     dof = 3 * sum(len(c) - 1 for c, _ in groups)
-    return PassScatter(_reml_between(groups), _q_statistic(groups), dof, n_passes, len(groups))
+    common = _reml_between(groups)
+    rates: tuple[RateScatter, ...] = ()
+    if rates_deg_s is not None:
+        rates = _rate_scatters(pools, rates_deg_s, common)
+    return PassScatter(common, _q_statistic(groups), dof, n_passes, len(groups), rates)
+
+
+def _rate_scatters(
+    pools: Sequence[PassCentres], rates_deg_s: Sequence[float], common: FloatArray
+) -> tuple[RateScatter, ...]:
+    """Each rate magnitude's passes against the common covariance; their own if rejected."""
+    if len(rates_deg_s) != len(pools):
+        msg = f"estimate_pass_scatter: {len(pools)} pools but {len(rates_deg_s)} rates"
+        raise InputError(msg)
+    out = []
+    for rate in sorted({abs(float(r)) for r in rates_deg_s}):
+        mine = [p for p, r in zip(pools, rates_deg_s, strict=True) if abs(float(r)) == rate]
+        groups, _ = _pool_groups(mine)
+        if not groups:
+            continue
+        dof = 3 * sum(len(c) - 1 for c, _ in groups)
+        chi2 = _q_statistic(groups, common)
+        own = None
+        if stats.chi2.sf(chi2, dof) < RATE_SCATTER_P:
+            own = estimate_pass_scatter(mine)
+        out.append(RateScatter(rate, chi2, dof, own))
+    return tuple(out)
 
 
 def pool_scatter_cov_m2(centres: PassCentres, scatter: PassScatter) -> FloatArray:

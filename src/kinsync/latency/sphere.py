@@ -709,20 +709,27 @@ def _latencies_with_pass_scatter(
     Also each rate's rotation-model chi2 with the scatter at its upper bound, for
     `check_rotation_model`. Rates in increasing order.
     """
-    pools = [pool for pair in fitted for pool in pair]
-    scatter = estimate_pass_scatter([p.pass_centres for p in pools if p.pass_centres is not None])
+    pools = [pool for pair in fitted for pool in pair if pool.pass_centres is not None]
+    scatter = estimate_pass_scatter(
+        [p.pass_centres for p in pools if p.pass_centres is not None],
+        [p.rate_deg_s for p in pools],
+    )
 
     def widened(pool: PoolFit, between: PassScatter) -> PoolFit:
         if pool.pass_centres is None:
             return pool
-        extra = pool_scatter_cov_m2(pool.pass_centres, between)
+        extra = pool_scatter_cov_m2(pool.pass_centres, between.for_rate(pool.rate_deg_s))
         return replace(pool, between_pass_cov_m2=extra)
 
     per_rate = [latency_from_pool_pair(widened(p, scatter), widened(m, scatter)) for p, m in fitted]
+
     # The model test counts the scatter at its upper bound: few passes can measure it low.
-    upper = replace(scatter, cov_m2=scatter.upper_cov_m2())
+    def upper(pool: PoolFit) -> PoolFit:
+        own = scatter.for_rate(pool.rate_deg_s)
+        return widened(pool, replace(own, cov_m2=own.upper_cov_m2(), rates=()))
+
     checks = [
-        (r.rate_deg_s, latency_from_pool_pair(widened(p, upper), widened(m, upper)).chi2)
+        (r.rate_deg_s, latency_from_pool_pair(upper(p), upper(m)).chi2)
         for r, (p, m) in zip(per_rate, fitted, strict=True)
     ]
     order = np.argsort([r.rate_deg_s for r in per_rate], kind="stable")
