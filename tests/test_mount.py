@@ -328,13 +328,13 @@ def test_no_profiler_table_means_none_and_no_section() -> None:
 def test_profile_to_scanner_follows_spec_formula() -> None:
     phi = np.array([0.0, np.pi / 2, -np.pi / 6])
     r = np.array([2.0, 3.0, 4.0])
-    xyz = Mount().profile_to_scanner(phi, r)
+    xyz = Mount().profile_to_scanner(angle_rad=phi, range_m=r)
     # azimuth 0: (0, r sin phi, r cos phi)
     np.testing.assert_allclose(xyz[0], [0.0, 0.0, 2.0], atol=1e-15)
     np.testing.assert_allclose(xyz[1], [0.0, 3.0, 0.0], atol=1e-15)
     np.testing.assert_allclose(xyz[2], [0.0, -2.0, 4.0 * np.cos(np.pi / 6)], atol=1e-15)
     # azimuth 90 deg rotates +Y onto -X (Rz(90) (0, 1, 0) = (-1, 0, 0))
-    xyz90 = Mount(profiler_azimuth_deg=90.0).profile_to_scanner(phi[1:2], r[1:2])
+    xyz90 = Mount(profiler_azimuth_deg=90.0).profile_to_scanner(angle_rad=phi[1:2], range_m=r[1:2])
     np.testing.assert_allclose(xyz90[0], [-3.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(xyz, axis=1), r)
 
@@ -359,7 +359,7 @@ def test_profile_to_scanner_refuses_what_profile_points_to_scanner_refuses(
     phi: object, r: object, pattern: str
 ) -> None:
     with pytest.raises(InputError, match=r"profile_to_scanner: .*" + pattern):
-        Mount().profile_to_scanner(phi, r)  # type: ignore[arg-type]
+        Mount().profile_to_scanner(angle_rad=phi, range_m=r)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(

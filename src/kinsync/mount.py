@@ -623,8 +623,12 @@ class Mount:
             "uncertainty": None if u is None else u.as_document(),
         }
 
-    def profile_to_scanner(self, angle_rad: ArrayLike, range_m: ArrayLike) -> FloatArray:
+    def profile_to_scanner(self, *, angle_rad: ArrayLike, range_m: ArrayLike) -> FloatArray:
         """2D profile points (mirror angle, range) in the scanner frame (SPEC section 4).
+
+        Both arrays are keyword-only (``angle_rad=``, ``range_m=``): two float arrays
+        in the wrong order would give wrong points without an error whenever every
+        range is under 2 pi m.
 
         Parameters
         ----------

@@ -367,13 +367,15 @@ def test_profile_points_within_a_tenth_of_a_millimetre_of_analytic_truth(
         profiler_azimuth_deg=azimuth_deg,
     )
     gt = GeorefTrajectory.from_trajectory(traj)
-    out, inside = georeference_profile(t_rel + 1.0e9, r, phi, gt, mount)
+    out, inside = georeference_profile(
+        t_rel + 1.0e9, range_m=r, angle_rad=phi, traj=gt, mount=mount
+    )
     assert inside.all()
     truth = _truth_ecef(t_rel, _profile_truth_scanner(r, phi, azimuth_deg), mount)
     assert np.linalg.norm(out - truth, axis=1).max() < 1e-4
     # A wrong azimuth moves points by ~ r * angle: the test sees the azimuth.
     wrong = replace(mount, profiler_azimuth_deg=azimuth_deg + 0.01)
-    moved, _ = georeference_profile(t_rel + 1.0e9, r, phi, gt, wrong)
+    moved, _ = georeference_profile(t_rel + 1.0e9, range_m=r, angle_rad=phi, traj=gt, mount=wrong)
     assert np.linalg.norm(moved - truth, axis=1).max() > 1e-3
 
 
@@ -415,14 +417,35 @@ def test_bad_profile_points_raise_input_error(
     r: object, phi: object, mount: Mount, match: str
 ) -> None:
     with pytest.raises(InputError, match=match):
-        profile_points_to_scanner(r, phi, mount)  # type: ignore[arg-type]
+        profile_points_to_scanner(range_m=r, angle_rad=phi, mount=mount)  # type: ignore[arg-type]
 
 
 def test_profile_angles_up_to_one_turn_either_way_are_taken() -> None:
     mount = Mount(profiler_azimuth_deg=0.0)
     phi = np.array([-2.0 * np.pi, -np.pi, 0.0, 3.0 * np.pi / 2.0, 2.0 * np.pi])
-    xyz = profile_points_to_scanner(np.ones(5), phi, mount)
-    np.testing.assert_allclose(xyz, mount.profile_to_scanner(phi, np.ones(5)))
+    xyz = profile_points_to_scanner(range_m=np.ones(5), angle_rad=phi, mount=mount)
+    np.testing.assert_allclose(xyz, mount.profile_to_scanner(angle_rad=phi, range_m=np.ones(5)))
+
+
+def test_profile_ranges_and_angles_are_keyword_only(traj: Trajectory) -> None:
+    """Mount.profile_to_scanner took (angle, range) and the georef functions (range,
+    angle): swapped positionally, ranges under 2 pi m gave wrong points silently."""
+    mount = Mount(profiler_azimuth_deg=0.0)
+    gt = GeorefTrajectory.from_trajectory(traj)
+    angle, r = np.array([0.1, 0.2]), np.array([1.5, 1.6])
+    calls = (
+        lambda: mount.profile_to_scanner(angle, r),  # type: ignore[call-arg]
+        lambda: profile_points_to_scanner(r, angle, mount),  # type: ignore[call-arg]
+        lambda: georeference_profile(gt.t_s[:2], r, angle, gt, mount),  # type: ignore[call-arg]
+    )
+    for call in calls:
+        with pytest.raises(TypeError, match="positional argument"):
+            call()
+    by_name = profile_points_to_scanner(angle_rad=angle, range_m=r, mount=mount)
+    np.testing.assert_allclose(
+        by_name[:, 1:], np.column_stack([r * np.sin(angle), r * np.cos(angle)])
+    )
+    np.testing.assert_array_equal(by_name, mount.profile_to_scanner(range_m=r, angle_rad=angle))
 
 
 def test_interval_rotation_vectors_equal_scipy() -> None:

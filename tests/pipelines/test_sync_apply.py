@@ -49,7 +49,9 @@ def test_apply_adds_time_and_scanner_coordinates(tmp_path: Path, suffix: str) ->
     expected_t = 100.0 + (scan.profile + scan.angle_rad / (2 * np.pi)) * 0.03
     np.testing.assert_allclose(chunk["t_s"], expected_t, rtol=0, atol=1e-12)
     xyz = np.column_stack([chunk["x_m"], chunk["y_m"], chunk["z_m"]])
-    np.testing.assert_allclose(xyz, MOUNT.profile_to_scanner(scan.angle_rad, scan.range_m))
+    np.testing.assert_allclose(
+        xyz, MOUNT.profile_to_scanner(angle_rad=scan.angle_rad, range_m=scan.range_m)
+    )
     # Azimuth 30 deg: the profile plane is the scanner Y-Z plane turned about Z.
     normal = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0)), 0.0])
     np.testing.assert_allclose(xyz @ normal, 0.0, atol=1e-12)

@@ -66,7 +66,10 @@ def test_returns_follow_the_clock_and_lie_on_the_scene(short_drive: Trajectory) 
     # Georeference every return with its true time: it lies on what it hit.
     gtraj = GeorefTrajectory.from_trajectory(short_drive)
     ecef, inside = georeference(
-        sim.t_s, MOUNT.profile_to_scanner(scan.angle_rad, scan.range_m), gtraj, MOUNT
+        sim.t_s,
+        MOUNT.profile_to_scanner(angle_rad=scan.angle_rad, range_m=scan.range_m),
+        gtraj,
+        MOUNT,
     )
     assert inside.all()
     R_le = rotation_ned_to_ecef(*scene.origin_lat_lon_h[:2])

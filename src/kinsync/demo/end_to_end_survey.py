@@ -441,7 +441,7 @@ def georeference_scan(
     scan = survey.scan.scan
     mount = survey.mount.with_latency(latency_s)
     t = clock.time_s(scan.profile, scan.angle_rad)
-    xyz = mount.profile_to_scanner(scan.angle_rad, scan.range_m)
+    xyz = mount.profile_to_scanner(angle_rad=scan.angle_rad, range_m=scan.range_m)
     traj = GeorefTrajectory.from_trajectory(trajectory, mount.latency_s)
     pos, inside = georeference(t, xyz, traj, mount)
     cloud = CloudPoints(pos[inside], t[inside], scan.intensity[inside])

@@ -3,7 +3,9 @@
 Profile scanners give a range and a mirror angle instead of x, y, z:
 `profile_points_to_scanner` puts them in the scanner frame with the mount's fixed
 azimuth (``x_s = R_2d^s · x_2d``) and `georeference_profile` georeferences them with
-the kernel of `kinsync.georef.kernel`.
+the kernel of `kinsync.georef.kernel`. Both take ``range_m=`` and ``angle_rad=`` by
+name only, as `Mount.profile_to_scanner` does: two float arrays given in the wrong
+order would give wrong points without an error whenever every range is under 2 pi m.
 """
 
 from __future__ import annotations
@@ -27,9 +29,12 @@ PROFILE_COLUMNS = ("range_m", "angle_rad")
 
 
 def profile_points_to_scanner(
-    range_m: ArrayLike, angle_rad: ArrayLike, mount: Mount, what: str = "georeference"
+    *, range_m: ArrayLike, angle_rad: ArrayLike, mount: Mount, what: str = "georeference"
 ) -> FloatArray:
     """2D profile points (range, mirror angle) in the scanner frame, validated.
+
+    Every argument is keyword-only (``range_m=``, ``angle_rad=``, ``mount=``), so
+    the ranges and angles cannot be swapped by position.
 
     ``Rz(azimuth) · (0, r sin phi, r cos phi)`` (`Mount.profile_to_scanner`, SPEC
     sections 4 and 5) with the mount's ``[profiler] azimuth_deg``.
@@ -91,19 +96,22 @@ def profile_points_to_scanner(
         i = int(np.flatnonzero(negative)[0])
         problem = f"range {float(r[i])!r} is negative"
         raise point_value_error(what, negative, "range_m", problem, "a range is >= 0", r.size)
-    return mount.profile_to_scanner(phi, r)
+    return mount.profile_to_scanner(angle_rad=phi, range_m=r)
 
 
 def georeference_profile(
     t_s: ArrayLike,
+    *,
     range_m: ArrayLike,
     angle_rad: ArrayLike,
     traj: GeorefTrajectory,
     mount: Mount,
-    *,
     position: PositionMethod = "auto",
 ) -> tuple[FloatArray, BoolArray]:
     """Georeference 2D profile points (SPEC section 5 with ``R_2d^s``) into ECEF.
+
+    Every argument but ``t_s`` is keyword-only, so the ranges and angles cannot be
+    swapped by position.
 
     Parameters
     ----------
@@ -130,5 +138,5 @@ def georeference_profile(
     InputError
         As `profile_points_to_scanner` and `georeference`.
     """
-    xyz = profile_points_to_scanner(range_m, angle_rad, mount)
+    xyz = profile_points_to_scanner(range_m=range_m, angle_rad=angle_rad, mount=mount)
     return georeference(t_s, xyz, traj, mount, position=position)

@@ -227,7 +227,9 @@ def _read_las_task(
 
 def _scanner_xyz(ctx: ChunkContext, columns: dict[str, np.ndarray[Any, Any]]) -> FloatArray:
     if ctx.source.points == "profile":
-        return profile_points_to_scanner(columns["range_m"], columns["angle_rad"], ctx.mount)
+        return profile_points_to_scanner(
+            range_m=columns["range_m"], angle_rad=columns["angle_rad"], mount=ctx.mount
+        )
     return np.column_stack([columns[c] for c in XYZ_COLUMNS])
 
 

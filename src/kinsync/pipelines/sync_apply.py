@@ -267,7 +267,9 @@ def apply_profile_clock(
             zero_at, zeros, longs = _checked_ranges(scan_path, phi, rng_m, from_row(done))
             first_zero = first_zero if first_zero >= 0 or zero_at < 0 else done + zero_at
             n_zero, n_long = n_zero + zeros, n_long + longs
-            xyz = mount.profile_to_scanner(phi, rng_m) + 0.0  # -0.0 written as 0.0
+            xyz = (
+                mount.profile_to_scanner(angle_rad=phi, range_m=rng_m) + 0.0
+            )  # -0.0 written as 0.0
             out = dict(chunk) | {"profile": profile}  # whole numbers (checked)
             out |= {n: pa.array(chunk[n]).cast(t) for n, t in stored.items()}
             out["t_s"] = clock.time_s(chunk["profile"], phi)

@@ -315,7 +315,7 @@ def simulate_patch_test(config: PatchTestConfig | None = None) -> PatchTestSimul
     origin = scene.origin_lat_lon_h
     beams = _Beams(
         angles_rad=angles,
-        unit_scanner=mount_true.profile_to_scanner(angles, np.ones(angles.size)),
+        unit_scanner=mount_true.profile_to_scanner(angle_rad=angles, range_m=np.ones(angles.size)),
         t0_s=truth.t_start_s + _T0_OFFSET_S,
         period_s=cfg.profile_period_s,
         truth=GeorefTrajectory.from_trajectory(truth, 0.0),

@@ -312,7 +312,7 @@ def _scan_group(
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Cast the beams that can meet a group; (t_rel, xyz_scanner, intensity, truth)."""
     phi, t_beam = _beams(drive, t_profiles_rel, group, mount, scanner)
-    d_s = mount.profile_to_scanner(phi, np.ones_like(phi))
+    d_s = mount.profile_to_scanner(angle_rad=phi, range_m=np.ones_like(phi))
     pos, _, R_bt = drive.state(t_beam)
     R_ts = np.einsum("nij,jk->nik", R_bt, mount.R_scanner_to_body)
     origin = pos + np.einsum("nij,j->ni", R_bt, mount.lever_arm_body_m_array)

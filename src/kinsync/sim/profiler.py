@@ -268,7 +268,7 @@ def simulate_profiler(
             raise InputError(msg)
     angles = cfg.angles_rad()
     n_ang = angles.size
-    unit_scanner = mount.profile_to_scanner(angles, np.ones(n_ang))
+    unit_scanner = mount.profile_to_scanner(angle_rad=angles, range_m=np.ones(n_ang))
     gtraj = GeorefTrajectory.from_trajectory(truth, mount.latency_s)
     origin_ecef = geodetic_to_ecef(*scene.origin_lat_lon_h)
     R_le = rotation_ned_to_ecef(scene.origin_lat_lon_h[0], scene.origin_lat_lon_h[1])
