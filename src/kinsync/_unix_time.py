@@ -3,13 +3,32 @@
 Unix time (UTC seconds since 1970-01-01, leap seconds not counted) runs 315964800 s
 ahead of GPS time (seconds since 1980-01-06) less the leap seconds GPS time has gained
 on UTC (18 s since 2017). Two logs of one survey whose times lie that far apart are one
-in each (`unix_offset_text`); the readers refuse a GPS time after today, which a Unix
-time is (`kinsync.io.gps_week.check_not_future`).
+in each (`unix_offset_text`); the readers, `kinsync.clock.fit_clock` and
+`kinsync.clock.ClockModel` refuse a GPS time after today, which a Unix time is
+(`check_not_future`).
 """
 
 from __future__ import annotations
 
-__all__ = ["UNIX_ADVICE", "UNIX_MINUS_GPS_S", "unix_offset_text"]
+import datetime as dt
+import time
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from kinsync.errors import InputError
+
+__all__ = [
+    "FUTURE_SLACK_S",
+    "GPS_EPOCH_UNIX_S",
+    "UNIX_ADVICE",
+    "UNIX_MINUS_GPS_S",
+    "check_not_future",
+    "future_time_text",
+    "gps_time_now_s",
+    "unix_offset_text",
+]
 
 GPS_EPOCH_UNIX_S = 315_964_800.0
 """Unix time of the GPS epoch, 1980-01-06T00:00:00 UTC (s)."""
@@ -61,3 +80,78 @@ def unix_offset_text(
                 f"{UNIX_ADVICE.replace('convert it', f'convert the times of {unix}')}"
             )
     return None
+
+
+FUTURE_SLACK_S = 86_400.0
+"""A GPS time up to this long (s) after this computer's clock is still accepted."""
+
+
+def gps_time_now_s() -> float:
+    """The computer's clock as GPS time (s since 1980-01-06), leap seconds not added.
+
+    The ``--gps-week`` bound and `check_not_future` take "now" from here; 18 s do not
+    matter to either.
+    """
+    return time.time() - GPS_EPOCH_UNIX_S
+
+
+def _date(t_gps_s: float) -> str:
+    """The UTC date of a GPS time (leap seconds not counted: a date, not a time)."""
+    try:
+        return (dt.datetime(1980, 1, 6) + dt.timedelta(seconds=t_gps_s)).date().isoformat()
+    except OverflowError:
+        return "beyond the year 9999"
+
+
+def future_time_text(t_s: float, now_gps_s: float) -> str:
+    """Why ``t_s`` (s), read as GPS time, cannot be one, and what to do.
+
+    Parameters
+    ----------
+    t_s : float
+        A time read as GPS time, later than ``now_gps_s``.
+    now_gps_s : float
+        This computer's clock as GPS time (`gps_time_now_s`).
+    """
+    said = (
+        f"{t_s!r} s as GPS time (seconds since 1980-01-06) is {_date(t_s)}, after today "
+        f"({_date(now_gps_s)} by this computer's clock)"
+    )
+    as_gps = t_s - UNIX_MINUS_GPS_S
+    if 0.0 <= as_gps <= now_gps_s + FUTURE_SLACK_S:
+        return (
+            f"{said}: it looks like Unix time (UTC seconds since 1970-01-01, "
+            f"{_date(as_gps)} as Unix time, GPS time {round(as_gps, 6)!r} s): {UNIX_ADVICE}"
+        )
+    return f"{said}: check the time scale and the unit of the times"
+
+
+def check_not_future(t_s: npt.ArrayLike, where: Callable[[int], str]) -> None:
+    """Refuse GPS times later than this computer's clock plus `FUTURE_SLACK_S`.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (N,)
+        Times (s) read as GPS time (GPS seconds of week never reach the limit).
+    where : callable
+        ``where(row)`` names the row of the first time too late ("traj.csv: line 7, column 't_s'").
+
+    Raises
+    ------
+    InputError
+        A time beyond the limit: most likely Unix time (the message says how to convert
+        it) or a computer whose clock is behind.
+    """
+    t = np.asarray(t_s, dtype=np.float64).ravel()
+    if t.size == 0:
+        return
+    now = gps_time_now_s()
+    late = np.flatnonzero(t > now + FUTURE_SLACK_S)
+    if late.size == 0:
+        return
+    row = int(late[0])
+    msg = (
+        f"{where(row)}: {future_time_text(float(t[row]), now)} (if it is GPS time, this "
+        "computer's clock is behind: set it right)"
+    )
+    raise InputError(msg)

@@ -70,6 +70,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
+from kinsync._unix_time import check_not_future
 from kinsync._validate import positive_number
 from kinsync.budget import Parity, serial_transmission_time_s
 from kinsync.clock.grid import grid_labels, line_fit, unit_hint
@@ -378,6 +379,7 @@ def _zda_arrays(
 ) -> tuple[FloatArray, FloatArray, IntArray]:
     z_t = _one_dimensional(_finite_times(zda_t_local_s, "zda_t_local_s"), "zda_t_local_s")
     z_gps = _one_dimensional(_finite_times(zda_gps_s, "zda_gps_s", "gps"), "zda_gps_s")
+    check_not_future(z_gps, lambda i: f"zda_gps_s: index {i} (0-based)")
     try:
         z_bytes = np.asarray(zda_n_bytes, dtype=np.float64)
     except (TypeError, ValueError) as err:
@@ -577,7 +579,9 @@ def fit_clock(
     Raises
     ------
     InputError
-        Too few pulses, no ZDA, mismatched shapes, non-finite or unordered times,
+        Too few pulses, no ZDA, mismatched shapes, non-finite or unordered times, a
+        ZDA GPS time after today (Unix time given as GPS time: the message says how to
+        convert it),
         pulses not one second apart, ZDAs that do not agree on the second (no strict
         majority), an unknown convention, a step of the local clock (naming the pulses
         it lies between; split the logs there and fit each part).

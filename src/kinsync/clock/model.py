@@ -23,6 +23,7 @@ import numpy as np
 
 from kinsync._arrays import readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
+from kinsync._unix_time import check_not_future
 from kinsync._validate import finite_number, time_array, time_number
 from kinsync.errors import InputError, OutsideSpanError
 
@@ -114,7 +115,8 @@ class ClockModel:
         A time that is not a finite float64-precise number (a float32 GPS time is held
         in steps of 128 s), a GPS time (``reference_gps_s``, the knots) outside
         `GPS_TIME_SPAN_S` (the model file reader refuses those, so a model that can be
-        written can be read back), a drift that stops the clock, inconsistent knots.
+        written can be read back) or after today (a Unix time, 10 years late), a drift
+        that stops the clock, inconsistent knots.
 
     Notes
     -----
@@ -452,10 +454,12 @@ def _check_kind_and_version(doc: dict[str, Any], where: str) -> None:
 
 
 def _check_gps_times(values: Sequence[float] | FloatArray, key: str, where: str) -> None:
-    """Refuse a GPS time outside `GPS_TIME_SPAN_S` (before 1980 or after 2100).
+    """Refuse a GPS time outside `GPS_TIME_SPAN_S` (1980 to 2100) or after today.
 
     The one check of `ClockModel` and of the model file reader (which names the file's
-    key before building the model).
+    key before building the model). A time after this computer's clock (plus a day,
+    `kinsync._unix_time.check_not_future`, as the file readers refuse) is most often
+    Unix time given as GPS time, ten years late.
 
     Parameters
     ----------
@@ -471,6 +475,7 @@ def _check_gps_times(values: Sequence[float] | FloatArray, key: str, where: str)
                 f"to {hi:.4g} s (the year 2100); fix the value, or fit the clock again"
             )
             raise InputError(msg)
+    check_not_future(values, lambda _row: f"{where}: {key}")
 
 
 def _doc_number(doc: dict[str, Any], key: str, where: str) -> float:
