@@ -9,7 +9,7 @@ import numpy as np
 
 from kinsync._typing import ArrayLike, FloatArray
 
-__all__ = ["FrozenMapping", "readonly_array"]
+__all__ = ["FrozenMapping", "ReadOnlyArrays", "readonly_array"]
 
 _K = TypeVar("_K")
 _V = TypeVar("_V")
@@ -50,6 +50,41 @@ class FrozenMapping(Mapping[_K, _V]):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self._items!r})"
+
+
+class ReadOnlyArrays:
+    """Base of the frozen containers: their read-only arrays stay read-only in copies.
+
+    numpy pickles an array without its flags, so a container unpickled or deep-copied
+    (``pickle``, ``copy.deepcopy``, a worker process) would hold writeable arrays that
+    could be changed after the container checked them (times no longer increasing,
+    say). The state records which arrays were read-only, directly or as items of a
+    tuple, and `__setstate__` flags those arrays of the copy read-only again; writeable
+    arrays stay writeable.
+    """
+
+    __slots__ = ()
+
+    def __getstate__(self) -> tuple[dict[str, Any], tuple[tuple[str, int], ...]]:
+        state = dict(vars(self))
+        frozen: list[tuple[str, int]] = []
+        for name, value in state.items():
+            if _is_read_only(value):
+                frozen.append((name, -1))
+            elif isinstance(value, tuple):
+                frozen.extend((name, i) for i, item in enumerate(value) if _is_read_only(item))
+        return state, tuple(frozen)
+
+    def __setstate__(self, state: tuple[dict[str, Any], tuple[tuple[str, int], ...]]) -> None:
+        values, frozen = state
+        vars(self).update(values)
+        for name, index in frozen:
+            value = values[name]
+            (value if index < 0 else value[index]).setflags(write=False)
+
+
+def _is_read_only(value: object) -> bool:
+    return isinstance(value, np.ndarray) and not value.flags.writeable
 
 
 def readonly_array(values: ArrayLike, *, copy: bool = True) -> FloatArray:

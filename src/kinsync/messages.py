@@ -46,6 +46,7 @@ from typing import TypeAlias
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 
@@ -471,7 +472,7 @@ class RejectedLine:
 
 
 @dataclass(frozen=True, eq=False)
-class NmeaLog:
+class NmeaLog(ReadOnlyArrays):
     """Sentences of an NMEA log with their local arrival times.
 
     Attributes

@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._text import shown_value
 from kinsync._toml import toml_document
 from kinsync._typing import ArrayLike, FloatArray
@@ -479,7 +480,7 @@ class MountUncertainty:
 
 
 @dataclass(frozen=True)
-class Mount:
+class Mount(ReadOnlyArrays):
     """Scanner mount on the vehicle body (the "system calibration").
 
     Attributes

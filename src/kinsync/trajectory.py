@@ -35,7 +35,7 @@ from typing import Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._validate import (
     angle_array,
@@ -105,7 +105,7 @@ def _meridian_and_normal_radii_m(lat_deg: FloatArray) -> tuple[FloatArray, Float
 
 
 @dataclass(frozen=True, eq=False)
-class TrajectorySample:
+class TrajectorySample(ReadOnlyArrays):
     """States of a trajectory interpolated at requested times.
 
     Its arrays are its own (the requested times are copied) and read-only.
@@ -157,7 +157,7 @@ class TrajectorySample:
 
 
 @dataclass(frozen=True, eq=False)
-class Trajectory:
+class Trajectory(ReadOnlyArrays):
     """Time-indexed position and attitude of a vehicle.
 
     Exactly one of ``lat_lon_h`` (geodetic) or ``pos_ned_m`` (local, with

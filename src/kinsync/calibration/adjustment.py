@@ -57,6 +57,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.calibration.features import Feature
 from kinsync.calibration.line_detrend import detrend_lines
@@ -93,7 +94,7 @@ MIN_INCIDENCE_FACTOR = 0.05
 
 
 @dataclass(frozen=True, eq=False)
-class Observation:
+class Observation(ReadOnlyArrays):
     """The returns of one line on one feature.
 
     Attributes
@@ -167,7 +168,7 @@ class FeatureFit:
 
 
 @dataclass(frozen=True, eq=False)
-class Adjustment:
+class Adjustment(ReadOnlyArrays):
     """The solution of one adjustment.
 
     Attributes
@@ -214,7 +215,7 @@ class Adjustment:
 
 
 @dataclass(frozen=True, eq=False)
-class FeatureReturns:
+class FeatureReturns(ReadOnlyArrays):
     """One feature's returns and where they came from.
 
     Positions (n, 3), mount Jacobians (n, 3, k), beams (n, 3), and which of the

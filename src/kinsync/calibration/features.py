@@ -23,6 +23,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import InputError
 
@@ -48,7 +49,7 @@ def _tangent_basis(normal: FloatArray) -> FloatArray:
 
 
 @dataclass(frozen=True, eq=False)
-class PlaneFeature:
+class PlaneFeature(ReadOnlyArrays):
     """A plane ``n . (x - r0) = d`` in the local frame.
 
     Attributes
@@ -108,7 +109,7 @@ class PlaneFeature:
 
 
 @dataclass(frozen=True, eq=False)
-class SphereFeature:
+class SphereFeature(ReadOnlyArrays):
     """A sphere ``|x - c| = R`` in the local frame.
 
     Attributes

@@ -44,7 +44,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import Adjustment, Observation, reduced_normal_matrix
 from kinsync.calibration.model import LineModel, LocalFrame
@@ -308,7 +308,7 @@ def uncertainty_notes(
 
 
 @dataclass(frozen=True, eq=False)
-class HeldEffect:
+class HeldEffect(ReadOnlyArrays):
     """How the held parameters' errors reach the estimates.
 
     Attributes

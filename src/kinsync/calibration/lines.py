@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import coordinate_array, time_array
 from kinsync.errors import InputError, PointValueError
@@ -27,7 +27,7 @@ __all__ = ["PASS_GAP_S", "ScanLine", "two_passes_in_a_line"]
 
 
 @dataclass(frozen=True, eq=False)
-class ScanLine:
+class ScanLine(ReadOnlyArrays):
     """Scanner-frame returns of one line or pass, with their times and trajectory.
 
     Attributes

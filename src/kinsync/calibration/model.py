@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.parameters import BORESIGHT, LATENCY, LEVER, mount_from_values
@@ -49,7 +50,7 @@ _IDENTITY_MOUNT = Mount()
 
 
 @dataclass(frozen=True, eq=False)
-class LocalFrame:
+class LocalFrame(ReadOnlyArrays):
     """A local Cartesian frame: NED axes at a geodetic origin (a rigid transform of ECEF).
 
     Attributes

@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.held import HeldEffect
 from kinsync.calibration.overlaps import LineOverlap
@@ -131,7 +131,7 @@ class FeatureSummary:
 
 
 @dataclass(frozen=True, eq=False)
-class CalibrationResult:
+class CalibrationResult(ReadOnlyArrays):
     """A mount calibration: the mount, each parameter's sigma and status, the evidence.
 
     Attributes

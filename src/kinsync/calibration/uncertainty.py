@@ -63,6 +63,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import stdtrit
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._cpus import usable_cpus
 from kinsync._typing import FloatArray
 from kinsync.calibration.adjustment import (
@@ -87,7 +88,7 @@ fewer lines leave an estimate ``weak`` whatever its sigma
 
 
 @dataclass(frozen=True, eq=False)
-class Jackknife:
+class Jackknife(ReadOnlyArrays):
     """Delete-one-group estimates and the jackknife covariance.
 
     Attributes

@@ -68,7 +68,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._unix_time import check_not_future
 from kinsync._validate import positive_number
@@ -147,7 +147,7 @@ def message_transmission_time_s(
 
 
 @dataclass(frozen=True, eq=False)
-class ClockFit:
+class ClockFit(ReadOnlyArrays):
     """Result of `fit_clock`: the model, its uncertainty and every fault found.
 
     Attributes

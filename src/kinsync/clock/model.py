@@ -21,7 +21,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._unix_time import check_not_future
 from kinsync._validate import finite_number, time_array, time_number
@@ -88,7 +88,7 @@ def _finite_times(
 
 
 @dataclass(frozen=True, eq=False)
-class ClockModel:
+class ClockModel(ReadOnlyArrays):
     """Mapping of a local clock to GPS time (linear, optionally piecewise-linear).
 
     ``t_gps_s = reference_gps_s + (t_local_s - reference_local_s) * (1 + drift_ppm * 1e-6)``

@@ -61,6 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import check_float_step, finite_vector
 from kinsync.errors import ConvergenceError, InputError
@@ -76,7 +77,7 @@ _DEGENERATE_SPREAD = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
-class SphereFit:
+class SphereFit(ReadOnlyArrays):
     """A fitted sphere with its uncertainty, inliers and residuals.
 
     Attributes

@@ -36,7 +36,7 @@ from functools import cached_property
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
@@ -112,7 +112,7 @@ def _check_latency_value(latency_s: object) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class GeorefTrajectory:
+class GeorefTrajectory(ReadOnlyArrays):
     """A trajectory precomputed for georeferencing, on the scanner's time scale.
 
     Build it with `GeorefTrajectory.from_trajectory`; arrays are read-only.

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import (
@@ -67,7 +68,7 @@ WITHIN_3SIGMA_KEYS = (
 
 
 @dataclass(frozen=True, eq=False)
-class Comparison:
+class Comparison(ReadOnlyArrays):
     """Errors of a solution against a truth trajectory at common epochs.
 
     Attributes

@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray, IntArray
 from kinsync.ins.gnss_observation import MAX_ROWS
 
@@ -34,7 +35,7 @@ CHECKPOINT_EVERY = 2_000
 
 
 @dataclass(frozen=True, eq=False)
-class Checkpoints:
+class Checkpoints(ReadOnlyArrays):
     """What the smoother needs from the forward pass (see the module docstring).
 
     Attributes
@@ -137,7 +138,7 @@ def checkpoints_from_store(store: CheckpointStore) -> Checkpoints | None:
 
 
 @dataclass(frozen=True, eq=False)
-class ForwardRun:
+class ForwardRun(ReadOnlyArrays):
     """Raw output of the forward pass (internal; the smoother reads it).
 
     Attributes

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync._validate import coordinate_array, degree_array, time_array
 from kinsync.errors import InputError
@@ -66,7 +67,7 @@ def _times(values: FloatArray, name: str) -> FloatArray:
 
 
 @dataclass(frozen=True, eq=False)
-class ImuData:
+class ImuData(ReadOnlyArrays):
     """IMU samples.
 
     The arrays are copied (the caller's stay as they are) and made read-only. Times are
@@ -98,7 +99,7 @@ class ImuData:
 
 
 @dataclass(frozen=True, eq=False)
-class GnssData:
+class GnssData(ReadOnlyArrays):
     """GNSS antenna fixes.
 
     The arrays are copied and made read-only. Times are checked as `ImuData`'s;

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray, IntArray
 from kinsync.ins._ekf import N_ERR
 from kinsync.ins.solution import NavSolution
@@ -14,7 +15,7 @@ __all__ = ["InsResult"]
 
 
 @dataclass(frozen=True, eq=False)
-class InsResult:
+class InsResult(ReadOnlyArrays):
     """Forward (and optionally smoothed) INS/GNSS solution.
 
     Attributes

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync.frames import euler_rpy_to_quaternion
 from kinsync.trajectory import Trajectory
@@ -76,7 +77,7 @@ class InitialState:
 
 
 @dataclass(frozen=True, eq=False)
-class NavSolution:
+class NavSolution(ReadOnlyArrays):
     """Navigation solution (IMU reference point), one row per IMU epoch.
 
     Attributes

@@ -90,6 +90,7 @@ from typing import Literal
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray, IntArray
 from kinsync.calibration.lines import ScanLine
 from kinsync.errors import InputError
@@ -189,7 +190,7 @@ _STAMP_TOLERANCE_S = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
-class CidcoPass:
+class CidcoPass(ReadOnlyArrays):
     """One vessel pass over a sphere, every column of the file, named with its unit.
 
     Attributes
@@ -359,7 +360,7 @@ def read_cidco_pass(path: Path | str) -> CidcoPass:
 
 
 @dataclass(frozen=True, eq=False)
-class CidcoTiming:
+class CidcoTiming(ReadOnlyArrays):
     """Per-return times of a pass, rebuilt from the scan angle and column 8.
 
     Attributes

@@ -18,6 +18,7 @@ import laspy
 import lazrs
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync.errors import InputError
 
 __all__ = ["LazChunks", "laz_chunks", "point_count_fields", "points_text"]
@@ -29,7 +30,7 @@ _MIN_LAZ_CHUNK_BYTES = 20
 
 
 @dataclass(frozen=True, eq=False)
-class LazChunks:
+class LazChunks(ReadOnlyArrays):
     """Where the points of a LAZ file lie: its LAZ chunk table, checked against the file.
 
     Chunk ``k`` holds points ``first_point[k] .. first_point[k + 1] - 1`` compressed in

@@ -53,6 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
 from kinsync.io.gps_week import SECONDS_PER_WEEK, holds_gps_time
@@ -132,7 +133,7 @@ def _float_block(value: object, shape: tuple[int, ...], name: str) -> FloatArray
 
 
 @dataclass(frozen=True, eq=False)
-class SmrmsgData:
+class SmrmsgData(ReadOnlyArrays):
     """Accuracy of a smoothed trajectory, one row per smrmsg record.
 
     Attributes

@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pa_csv
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._text import reads_as_number
 from kinsync._typing import FloatArray
 from kinsync.errors import InputError
@@ -55,7 +56,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class NumericTable:
+class NumericTable(ReadOnlyArrays):
     """Columns of a numeric CSV file.
 
     Attributes

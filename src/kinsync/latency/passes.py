@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync._validate import finite_number, time_array
 from kinsync.errors import InputError
@@ -17,7 +18,7 @@ __all__ = ["SAME_TIME_SHARE", "SpherePass", "check_distinct_passes", "pass_seque
 
 
 @dataclass(frozen=True, eq=False)
-class SpherePass:
+class SpherePass(ReadOnlyArrays):
     """Points of one pass, georeferenced in the table-centred NED frame.
 
     Parameters

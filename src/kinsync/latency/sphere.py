@@ -35,7 +35,7 @@ import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._text import counted, format_p_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import finite_vector, positive_number, seed_number
@@ -88,7 +88,7 @@ latency sigma is scaled by the Birge ratio and the result is flagged."""
 
 
 @dataclass(frozen=True, eq=False)
-class PoolFit:
+class PoolFit(ReadOnlyArrays):
     """Sphere fit of all passes at one signed rate.
 
     Attributes
@@ -154,7 +154,7 @@ class PoolFit:
 
 
 @dataclass(frozen=True, eq=False)
-class RateLatency:
+class RateLatency(ReadOnlyArrays):
     """Latency from the pair of pools at one rate.
 
     Attributes
@@ -209,7 +209,7 @@ class RateLatency:
 
 
 @dataclass(frozen=True, eq=False)
-class SphereLatencyResult:
+class SphereLatencyResult(ReadOnlyArrays):
     """Combined Method A result.
 
     Attributes

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.stats import chi2 as chi2_dist
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray, IntArray
 from kinsync.errors import PeriodPriorError
 from kinsync.frames import wrap_angle_rad
@@ -57,7 +58,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class LineFit:
+class LineFit(ReadOnlyArrays):
     """Weighted line ``t = t0 + T x``: estimate, a-priori covariance of (t0, T), chi2, residuals."""
 
     t0_s: float

@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 from scipy.optimize import brentq
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import BoolArray, FloatArray
 from kinsync.errors import InputError
 from kinsync.frames import quaternion_to_matrix
@@ -56,7 +57,7 @@ to micrometres (the sweep's acceleration is below 1 m/s^2)."""
 
 
 @dataclass(frozen=True, eq=False)
-class PointTrack:
+class PointTrack(ReadOnlyArrays):
     """A sync point's motion relative to the scan plane around one crossing.
 
     Attributes

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._typing import FloatArray
 from kinsync.calibration.held import (
     ADVICE_SHARE,
@@ -115,7 +115,7 @@ def crossing_shifts(
 
 
 @dataclass(frozen=True, eq=False)
-class MountEffect:
+class MountEffect(ReadOnlyArrays):
     """What the mount's errors do to the clock (t0, T).
 
     Attributes

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import ArrayLike, FloatArray, IntArray
 from kinsync._validate import geodetic_array, name_tuple
 from kinsync.errors import InputError
@@ -136,7 +137,7 @@ def _finite_column(values: ArrayLike, name: str, n: int, source: str) -> FloatAr
 
 
 @dataclass(frozen=True, eq=False)
-class ProfileScan:
+class ProfileScan(ReadOnlyArrays):
     """Returns of a 2D profile scanner, without times (SPEC section 4).
 
     Attributes
@@ -234,7 +235,7 @@ class ProfileScan:
 
 
 @dataclass(frozen=True, eq=False)
-class SyncPoints:
+class SyncPoints(ReadOnlyArrays):
     """Named targets with known WGS84 coordinates (sync points or control points).
 
     Attributes

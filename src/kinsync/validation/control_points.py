@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import coordinate_array, degree_array, ecef_array, name_tuple
 from kinsync.errors import InputError
@@ -21,7 +22,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class ControlPoints:
+class ControlPoints(ReadOnlyArrays):
     """Named control points in ECEF.
 
     Parameters

@@ -62,7 +62,7 @@ from typing import Any
 import numpy as np
 from scipy import linalg, optimize, stats
 
-from kinsync._arrays import FrozenMapping, readonly_array
+from kinsync._arrays import FrozenMapping, ReadOnlyArrays, readonly_array
 from kinsync._typing import ArrayLike, BoolArray, FloatArray
 from kinsync._validate import ecef_array, finite_number, finite_vector, positive_number
 from kinsync.errors import InputError
@@ -130,7 +130,7 @@ _ARRAY_FIELDS = (
 
 
 @dataclass(frozen=True, eq=False)
-class FlatnessResult:
+class FlatnessResult(ReadOnlyArrays):
     """Plane fit of a wall, residual statistics and the curvature test.
 
     Attributes

@@ -36,6 +36,7 @@ from typing import Literal
 import numpy as np
 from scipy.spatial import cKDTree
 
+from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import ArrayLike, FloatArray, IntArray
 from kinsync._validate import ecef_array, finite_number, positive_number, time_array
 from kinsync.errors import ConvergenceError, InputError
@@ -72,7 +73,7 @@ _TUKEY_C = 4.685
 
 
 @dataclass(frozen=True, eq=False)
-class CloudPoints:
+class CloudPoints(ReadOnlyArrays):
     """Georeferenced points with their time and intensity.
 
     Parameters
