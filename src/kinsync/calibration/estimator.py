@@ -63,6 +63,7 @@ from kinsync.calibration.held import (
     uncertainty_from_covariance,
     uncertainty_notes,
 )
+from kinsync.calibration.line_checks import check_lines
 from kinsync.calibration.lines import ScanLine, two_passes_in_a_line, without_unspread_lines
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
@@ -98,7 +99,7 @@ from kinsync.calibration.uncertainty import (
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
-from kinsync.trajectory_gaps import GAP_ADVICE, gap_index, gap_threshold_text, max_gap_for
+from kinsync.trajectory_gaps import max_gap_for
 
 __all__ = ["CalibrationOptions", "calibrate_mount", "find_features"]
 
@@ -166,68 +167,6 @@ class CalibrationOptions:
         object.__setattr__(self, "jackknife", bool(self.jackknife))
         if self.max_gap_s is not None:
             max_gap_for((), self.max_gap_s)  # a positive number of seconds, or inf
-
-
-def _check_gaps(line: ScanLine, tt: FloatArray, latency_s: float, max_gap_s: float | None) -> None:
-    """Refuse returns of ``line`` whose navigation tags ``tt`` lie in a trajectory gap."""
-    traj = line.trajectory
-    gaps = traj.gaps(max_gap_s)
-    k = gap_index(tt, gaps)
-    in_gap = k >= 0
-    if not np.any(in_gap):
-        return
-    hit = [gaps[int(i)] for i in np.unique(k[in_gap])]
-    named = "; ".join(g.describe() for g in hit[:3])
-    more = f"; and {len(hit) - 3} more" if len(hit) > 3 else ""
-    msg = (
-        f"line {line.name!r}: {int(np.count_nonzero(in_gap))} of {len(line)} returns (times "
-        f"{float(tt[in_gap].min())!r} .. {float(tt[in_gap].max())!r} s, latency "
-        f"{latency_s * 1e3:g} ms applied) lie in {len(hit)} data gap(s) of its trajectory "
-        f"({named}{more}), "
-        f"{gap_threshold_text(max_gap_for(traj.t_s, max_gap_s), given=max_gap_s is not None)}; "
-        "kinsync "
-        f"does not interpolate across gaps: {GAP_ADVICE}, or trim the lines"
-    )
-    raise InputError(msg)
-
-
-def _check_lines(
-    lines: Sequence[ScanLine], latency_s: float, max_gap_s: float | None = None
-) -> None:
-    if len(lines) < 2:
-        msg = (
-            f"{len(lines)} line given: a calibration needs at least 2 overlapping lines (or "
-            f"passes), and {MIN_JACKKNIFE_GROUPS} or more for an honest standard deviation"
-        )
-        raise InputError(msg)
-    names = [line.name for line in lines]
-    for line in lines:
-        traj = line.trajectory
-        tt = line.t_s + latency_s
-        outside = (tt < traj.t_start_s) | (tt > traj.t_end_s)
-        if not np.any(outside):
-            _check_gaps(line, tt, latency_s, max_gap_s)
-            continue
-        n_out = int(np.count_nonzero(outside))
-        hint = ""
-        if n_out == len(line):
-            gap = float(np.median(tt)) - 0.5 * (traj.t_start_s + traj.t_end_s)
-            if abs(gap) > 1e5:
-                hint = (
-                    " (they are far apart: mixed time scales? GPS seconds of week need "
-                    "--gps-week; LAS adjusted standard time is GPS time - 1e9 s)"
-                )
-        msg = (
-            f"line {line.name!r}: {n_out} of {len(line)} returns (times "
-            f"{float(tt[outside].min())!r} .. {float(tt[outside].max())!r} s, latency "
-            f"{latency_s * 1e3:g} ms applied) lie outside its trajectory "
-            f"[{traj.t_start_s!r}, {traj.t_end_s!r}] s{hint}; kinsync does not extrapolate: "
-            "give a trajectory that covers the lines or trim them"
-        )
-        raise InputError(msg)
-    if len(set(names)) != len(names):
-        msg = f"line names must be unique, got {names}"
-        raise InputError(msg)
 
 
 def find_features(
@@ -406,7 +345,7 @@ def calibrate_mount(
     opt = options or CalibrationOptions()
     requested = estimated_indices(opt.estimate)
     lines = list(lines)
-    _check_lines(lines, mount.latency_s, opt.max_gap_s)
+    check_lines(lines, mount.latency_s, opt.max_gap_s)
     lines, groups, no_spread = without_unspread_lines(lines, groups)
     same_time = lines_at_the_same_time(lines)
     if same_time is not None:
