@@ -53,7 +53,7 @@ def _timed(sim: PatchTestSimulation) -> tuple[CalibrationResult, float, float, f
     """One calibration: the result, its wall time, its jackknife's and its CPU time (s)."""
     marks: dict[str, float] = {}
 
-    def progress(message: str) -> None:
+    def progress(_fraction: float, message: str) -> None:
         if message.startswith("jackknife:") and "jackknife" not in marks:
             marks["jackknife"] = time.perf_counter()
         elif "held parameters" in message or message.startswith("calibrating"):

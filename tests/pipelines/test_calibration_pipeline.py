@@ -111,7 +111,7 @@ def test_calibrate_files_writes_the_mount_and_the_report(
 ) -> None:
     folder, sim = survey
     written: list[Path] = []
-    stages: list[str] = []
+    reports: list[tuple[float, str]] = []
 
     def report(_result: object, path: Path) -> None:
         path.write_text("certificate")
@@ -126,17 +126,22 @@ def test_calibrate_files_writes_the_mount_and_the_report(
         mount_out=tmp_path / "new.toml",
         report_out=tmp_path / "cert.html",
         write_report=report,
-        progress=stages.append,
+        progress=lambda fraction, stage: reports.append((fraction, stage)),
     )
     assert run.n_points == sum(len(ln) for ln in sim.lines)
     assert read_mount(tmp_path / "new.toml") == run.result.mount
     assert written == [tmp_path / "cert.html"]
+    fractions, stages = [f for f, _ in reports], [s for _, s in reports]
+    assert fractions == sorted(fractions)  # kinsync.progress: never decreasing, 1 at the end
+    assert (fractions[0], fractions[-1]) == (0.0, 1.0)
     assert stages[0].startswith("reading 4 point files")
     assert run.result.rejected_lines == ()
     assert "jackknife: 4 solutions, each leaving one out, " in "".join(stages)
     assert [s for s in stages if " done (without " in s] == [
         f"jackknife: {j} of 4 done (without line_0{j}.laz)" for j in range(1, 5)
     ]
+    in_jackknife = [f for f, s in reports if " done (without " in s]
+    assert in_jackknife == sorted(set(in_jackknife))  # each deleted-line solution advances
 
 
 @pytest.mark.skipif(not CIDCO.is_dir(), reason="CIDCO data not in ../shared")

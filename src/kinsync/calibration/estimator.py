@@ -90,6 +90,7 @@ from kinsync.calibration.parameters import (
 from kinsync.calibration.planes import PatchOptions, find_plane_patches
 from kinsync.calibration.result import CalibrationResult, FeatureSummary, ParameterEstimate
 from kinsync.calibration.spheres import SphereOptions, find_sphere_targets
+from kinsync.calibration.steps import CalibrationSteps
 from kinsync.calibration.uncertainty import (
     MIN_HONEST_DOF,
     MIN_JACKKNIFE_GROUPS,
@@ -99,6 +100,7 @@ from kinsync.calibration.uncertainty import (
 from kinsync.errors import ConvergenceError, InputError
 from kinsync.georef.trajectory import GeorefTrajectory
 from kinsync.mount import Mount
+from kinsync.progress import Progress
 from kinsync.trajectory_gaps import max_gap_for
 
 __all__ = ["CalibrationOptions", "calibrate_mount", "find_features"]
@@ -313,7 +315,7 @@ def calibrate_mount(
     options: CalibrationOptions | None = None,
     *,
     groups: Sequence[tuple[str, set[int]]] | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
 ) -> CalibrationResult:
     """Calibrate boresight, lever arm and latency from overlapping survey lines.
 
@@ -327,8 +329,10 @@ def calibrate_mount(
         Features, parameters to estimate, search and iteration settings.
     groups : sequence of (name, set of line indices), optional
         The independent units of the jackknife; default one per line.
-    progress : callable, optional
-        Called with a short message as each stage starts (for a progress display).
+    progress : Progress, optional
+        Called as ``progress(fraction, stage)`` (`kinsync.progress.Progress`): the share
+        of the work done (0 to 1, never decreasing, 1 at the end) and what runs now
+        (`kinsync.calibration.steps`).
 
     Returns
     -------
@@ -343,23 +347,37 @@ def calibrate_mount(
         The adjustment did not converge.
     """
     opt = options or CalibrationOptions()
-    requested = estimated_indices(opt.estimate)
     lines = list(lines)
     check_lines(lines, mount.latency_s, opt.max_gap_s)
     lines, groups, no_spread = without_unspread_lines(lines, groups)
     same_time = lines_at_the_same_time(lines)
     if same_time is not None:
         raise same_time
-    say = progress or (lambda _: None)
-    say(f"finding {opt.features} in {len(lines)} lines")
+    steps = CalibrationSteps(progress)
+    result = _calibrate(lines, mount, opt, groups, no_spread, steps)
+    steps.finish()
+    return result
+
+
+def _calibrate(
+    lines: list[ScanLine],
+    mount: Mount,
+    opt: CalibrationOptions,
+    groups: Sequence[tuple[str, set[int]]] | None,
+    no_spread: tuple[tuple[str, str], ...],
+    steps: CalibrationSteps,
+) -> CalibrationResult:
+    """`calibrate_mount` of checked lines, telling ``steps`` how far it got."""
+    requested = estimated_indices(opt.estimate)
+    steps.start("finding features", f"finding {opt.features} in {len(lines)} lines")
     cache: dict[int, GeorefTrajectory] = {}
     models = [LineModel.prepare(line, cache, max_gap_s=opt.max_gap_s) for line in lines]
     prior = mount_values(mount)
     memo: dict[bytes, _Found] = {}  # the features found with the prior, looked at twice
-    searched = _search_yaw(lines, models, prior, requested, opt, say, memo)
+    searched = _search_yaw(lines, models, prior, requested, opt, steps.say, memo)
     start = prior if searched is None else searched[0]
     setup, solution = _solve_refinding(
-        lines, models, prior, start, requested, groups, opt, say, memo
+        lines, models, prior, start, requested, groups, opt, steps, memo
     )
     frame, features, observations = setup.frame, setup.features, setup.observations
     kept, units, obs, before, counts = (
@@ -377,14 +395,16 @@ def calibrate_mount(
             obs = obs.without(_latency_at_bound(solution))
             if not obs.estimated:
                 return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
-            say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
+            steps.say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
             solution = _solve_again(
                 models, observations, features, prior, solution, obs, frame, opt
             )
             continue
-        jk = _jackknife(models, observations, solution, frame, units, opt, say)
+        jk = _jackknife(
+            models, observations, solution, frame, units, opt, steps.within("jackknife")
+        )
         std, method = _std(solution, jk)
-        say("what the held parameters' errors do to the estimates")
+        steps.start("held parameters", "what the held parameters' errors do to the estimates")
         effect = held_effect(models, observations, solution, frame, held_covariance(mount))
         offsets = (solution.values - start)[list(obs.estimated)]  # a searched yaw: no move
         held = hold_too_uncertain(obs.estimated, std, _covariance(solution, jk), effect, offsets)
@@ -393,7 +413,7 @@ def calibrate_mount(
         obs = obs.without(held)
         if not obs.estimated:
             return _unsolved(kept, mount, requested, obs, features, before, counts, rejected)
-        say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
+        steps.say(f"solving for {len(obs.estimated)} parameters, {len(features)} features")
         solution = _solve_again(models, observations, features, prior, solution, obs, frame, opt)
     honest = jk is not None and jk.honest
     params = _parameters(mount, requested, obs, solution, std, honest, effect)
@@ -443,7 +463,7 @@ def _solve_refinding(
     requested: tuple[int, ...],
     groups: Sequence[tuple[str, set[int]]] | None,
     opt: CalibrationOptions,
-    say: Callable[[str], None],
+    steps: CalibrationSteps,
     memo: dict[bytes, _Found],
 ) -> tuple[_Setup, Adjustment | None]:
     """Features found with ``start`` and solved; found again while the solution moves far.
@@ -471,7 +491,8 @@ def _solve_refinding(
         setup = _setup(lines, models, prior, start, requested, groups, opt, memo)
         if not setup.obs.estimated:
             return last if last is not None else (setup, None)
-        say(f"solving for {len(setup.obs.estimated)} parameters, {len(setup.features)} features")
+        n_estimated, n_features = len(setup.obs.estimated), len(setup.features)
+        steps.start("solving", f"solving for {n_estimated} parameters, {n_features} features")
         solution = adjust(
             models, setup.observations, setup.features, start, setup.obs.estimated,
             setup.frame, opt.adjustment,
@@ -492,7 +513,7 @@ def _solve_refinding(
         last = (setup, solution)
         rounds += 1
         start = solution.values
-        say("finding the features again with the mount solved so far")
+        steps.say("finding the features again with the mount solved so far")
 
 
 def _search_yaw(
@@ -756,7 +777,7 @@ def _jackknife(
     frame: LocalFrame,
     units: Sequence[tuple[str, set[int]]],
     opt: CalibrationOptions,
-    progress: Callable[[str], None],
+    progress: Progress | None,
 ) -> Jackknife | None:
     if not opt.jackknife:
         return None

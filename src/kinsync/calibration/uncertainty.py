@@ -56,7 +56,7 @@ for inference with clustered errors", Rev. Econ. Stat. 90(3), 2008, 414-427 (clu
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
@@ -74,6 +74,7 @@ from kinsync.calibration.adjustment import (
 )
 from kinsync.calibration.model import LineModel, LocalFrame
 from kinsync.errors import KinsyncError
+from kinsync.progress import Progress, report
 
 __all__ = ["MIN_HONEST_DOF", "MIN_JACKKNIFE_GROUPS", "Jackknife", "jackknife"]
 
@@ -165,7 +166,7 @@ def jackknife(
     frame: LocalFrame,
     groups: Sequence[tuple[str, set[int]]],
     options: AdjustmentOptions | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
     workers: int | None = None,
 ) -> Jackknife:
     """Re-solve without each group of lines and form the jackknife covariance.
@@ -179,9 +180,9 @@ def jackknife(
     groups : sequence of (name, set of line indices)
         The independent units: one line each, or the lines of one pass.
     options : AdjustmentOptions, optional
-    progress : callable, optional
-        Called with a short message before the solutions and as each one ends (in
-        order).
+    progress : Progress, optional
+        ``progress(fraction, stage)`` (`kinsync.progress.Progress`): at 0 before the
+        solutions, then at the share of them done as each one ends (in order).
     workers : int, optional
         Deleted-group solutions run at once, in threads (the georeferencing kernel
         and numpy's array work run outside the interpreter lock); default one per CPU
@@ -220,13 +221,11 @@ def jackknife(
     failed = []
     m = len(groups)
     n_threads = max(1, min(m, workers or usable_cpus()))
-    if progress is not None:
-        progress(f"jackknife: {m} solutions, each leaving one out, {n_threads} at once")
+    report(progress, 0.0, f"jackknife: {m} solutions, each leaving one out, {n_threads} at once")
     with ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="kinsync-jk") as pool:
         solved = pool.map(without, [members for _, members in groups])
         for j, ((name, _), values) in enumerate(zip(groups, solved, strict=True)):
-            if progress is not None:
-                progress(f"jackknife: {j + 1} of {m} done (without {name})")
+            report(progress, (j + 1) / m, f"jackknife: {j + 1} of {m} done (without {name})")
             if values is None:
                 failed.append(name)
             else:

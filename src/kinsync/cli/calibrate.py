@@ -238,8 +238,6 @@ def mount(
     refuse_unused_gps_week(gps_week, trajectories=trajectory, points=points)
     prior = read_mount(mount_file)
     with progress_display("calibrate mount") as progress:
-        stages = Stages(progress, {"calibrating": 1.0})
-        stages.start("calibrating")
         run = calibrate_files(
             points,
             trajectory,
@@ -249,10 +247,9 @@ def mount(
             mount_out=out,
             report_out=report,
             write_report=_write_certificate,
-            progress=stages.say,
+            progress=progress,
             mount_source=mount_file,
         )
-        stages.finish()
     for line in (*run.result.warnings, *run.result.held_advice):
         warn(line)
     if as_json:

@@ -47,6 +47,7 @@ from kinsync.io.points import iter_table_chunks
 from kinsync.io.row_position import point_position
 from kinsync.io.trajectory import TimeScale, read_trajectory_file
 from kinsync.mount import Mount
+from kinsync.progress import Progress, part, report
 from kinsync.trajectory import Trajectory
 
 __all__ = ["CalibrationRun", "calibrate_files", "read_scan_lines"]
@@ -56,6 +57,9 @@ _TABLES = (".csv", ".parquet")
 _CIDCO = ".txt"
 _CHUNK = 1_000_000
 _XYZ = ("x_m", "y_m", "z_m")
+
+READ_SHARE = 0.1
+"""The share of `calibrate_files`' work its progress gives to reading the files."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -258,7 +262,7 @@ def calibrate_files(
     mount_out: Path | None = None,
     report_out: Path | None = None,
     write_report: Callable[[CalibrationResult, Path], None] | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
     mount_source: Path | None = None,
 ) -> CalibrationRun:
     """Read the files, calibrate, write the calibrated mount and the certificate.
@@ -277,8 +281,9 @@ def calibrate_files(
     write_report : callable, optional
         ``write_report(result, path)``: the report layer's writer (the pipeline knows
         no report format).
-    progress : callable, optional
-        Called with a short message as each stage starts.
+    progress : Progress, optional
+        ``progress(fraction, stage)`` (`kinsync.progress.Progress`): reading the files
+        takes the first `READ_SHARE` of the work, the calibration the rest.
     mount_source : Path, optional
         The file ``mount`` was read from: the written mount says so, with what produced
         it and that file's header comments (`kinsync.io.mount_file.write_mount`).
@@ -287,10 +292,9 @@ def calibrate_files(
     -------
     CalibrationRun
     """
-    if progress is not None:
-        progress(f"reading {len(points)} point files")
+    report(progress, 0.0, f"reading {len(points)} point files")
     lines = read_scan_lines(points, trajectories, gps_week=gps_week)
-    result = calibrate_mount(lines, mount, options, progress=progress)
+    result = calibrate_mount(lines, mount, options, progress=part(progress, READ_SHARE, 1.0))
     if mount_out is not None:
         write_mount(result.mount, Path(mount_out), derived_from=mount_source)
     if report_out is not None and write_report is not None:
