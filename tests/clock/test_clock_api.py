@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from kinsync._unix_time import UNIX_MINUS_GPS_S
-from kinsync.clock import ClockModel, fit_clock, utc_to_gps_s
+from kinsync.clock import ClockModel, fit_clock, gps_to_utc_posix_s, utc_to_gps_s
 from kinsync.errors import InputError
 from kinsync.sim.clock import ClockSimConfig, simulate_clock
 
@@ -28,3 +30,28 @@ def test_clock_model_refuses_a_reference_after_today() -> None:
     knots_gps = np.array([1.4e9, unix_s])
     with pytest.raises(InputError, match=r"^clock: knots_gps_s: .* after today"):
         ClockModel(10.0, 1.4e9, 0.0, (10.0, 20.0), np.array([10.0, 20.0]), knots_gps)
+
+
+def test_gps_to_utc_posix_s_takes_arrays_and_the_0d_array_utc_to_gps_s_gives() -> None:
+    """It took one float only: an array, even utc_to_gps_s's own 0-d one, was refused."""
+    unix_s = 1_704_067_200.0  # 2024-01-01
+    g = utc_to_gps_s(unix_s)
+    assert np.ndim(g) == 0
+    back = gps_to_utc_posix_s(g)
+    assert isinstance(back, np.ndarray)
+    assert back.shape == ()
+    assert float(back) == unix_s
+    out = gps_to_utc_posix_s(float(g))
+    assert type(out) is float
+    assert out == unix_s
+    # Each element gets its own leap seconds: 2016 (17 s), inside the leap second
+    # 2016-12-31T23:59:60 (the next 00:00:00), 2017 (18 s), 1980 (none).
+    new_year_2017 = 1_483_228_800.0
+    t_gps = np.array([[1_167_264_016.0, 1_167_264_017.5], [1_167_264_018.0, 10.0]])
+    want = np.array([[new_year_2017 - 1.0, new_year_2017], [new_year_2017, 315_964_810.0]])
+    np.testing.assert_array_equal(gps_to_utc_posix_s(t_gps), want)
+    assert gps_to_utc_posix_s(list(t_gps[0])).shape == (2,)
+    with pytest.raises(InputError, match=r"^t_gps_s: -2\.0 \(index 1, 0-based\) is before"):
+        gps_to_utc_posix_s(np.array([1.4e9, -2.0]))
+    with pytest.raises(InputError, match=r"^t_gps_s: nan is not finite"):
+        gps_to_utc_posix_s(math.nan)

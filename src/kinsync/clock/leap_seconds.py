@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import calendar
 import time
+from collections.abc import Sequence
 from datetime import date
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
 
@@ -64,6 +65,8 @@ _LEAP_POSIX_S = np.array([_posix_of_date(d) for d, _ in LEAP_SECONDS], dtype=np.
 
 
 _LEAP_COUNT_S = np.array([0] + [n for _, n in LEAP_SECONDS], dtype=np.int64)
+_LEAP_BASE_S = _LEAP_POSIX_S + _LEAP_COUNT_S[1:]
+"""``t_gps_s + GPS_EPOCH_POSIX_S`` from which each leap second is in force."""
 _SECONDS_PER_DAY = 86_400
 
 
@@ -197,42 +200,62 @@ def _check_before_2100(utc_posix_s: FloatArray, t_gps_s: FloatArray) -> None:
     raise InputError(msg)
 
 
-def gps_to_utc_posix_s(t_gps_s: float) -> float:
-    """GPS time to UTC POSIX seconds (inverse of `utc_to_gps_s`).
+@overload
+def gps_to_utc_posix_s(t_gps_s: float) -> float: ...
+
+
+@overload
+def gps_to_utc_posix_s(t_gps_s: FloatArray | Sequence[float]) -> FloatArray: ...
+
+
+def gps_to_utc_posix_s(t_gps_s: ArrayLike) -> float | FloatArray:
+    """GPS time to UTC POSIX seconds (inverse of `utc_to_gps_s`), vectorised.
 
     During an inserted leap second (23:59:60) POSIX time repeats: the result is the
-    POSIX time of the following 00:00:00.
+    POSIX time of the following 00:00:00. Each time gets the leap seconds in force at
+    it.
 
     Parameters
     ----------
-    t_gps_s : float
-        GPS time (s since 1980-01-06T00:00:00 UTC, leap seconds not counted), >= 0.
+    t_gps_s : float or array_like, shape (...)
+        GPS time (s since 1980-01-06T00:00:00 UTC, leap seconds not counted), >= 0:
+        a number, or an array of any shape (the 0-d array `utc_to_gps_s` returns for
+        one time too).
 
     Returns
     -------
-    float
+    float or ndarray, shape (...)
         UTC as POSIX seconds (s since 1970-01-01T00:00:00 UTC, leap seconds not
-        counted).
+        counted): a float for a number, an array of the same shape for an array.
 
     Raises
     ------
     InputError
-        ``t_gps_s`` not a finite number, or negative (before the GPS epoch).
+        A time that is not a finite number (text, datetime64, float32: as `utc_to_gps_s`
+        refuses them), or negative (before the GPS epoch), naming its index.
     """
-    g = _gps_seconds(t_gps_s)
-    base = g + GPS_EPOCH_POSIX_S
-    # The UTC time u = base - n with n the count in force at u; largest n first.
-    leaps = np.arange(len(LEAP_SECONDS), -1, -1)
-    match = np.flatnonzero(leap_count_s(base - leaps) == leaps)
-    if match.size:
-        return float(base - leaps[match[0]])
-    # Inside an inserted leap second: no POSIX time; give the following 00:00:00.
-    leaps = np.arange(len(LEAP_SECONDS))
-    match = np.flatnonzero(leap_count_s(base - leaps) == leaps + 1)
-    if match.size:
-        return float(_LEAP_POSIX_S[leaps[match[0]]])
-    msg = f"t_gps_s: {g} has no UTC time in the leap-second table"  # pragma: no cover
-    raise InputError(msg)  # pragma: no cover
+    g = time_array(t_gps_s, "t_gps_s", clock="gps")
+    flat = g.reshape(-1)
+    bad = ~(np.isfinite(flat) & (flat >= 0.0))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        value = float(flat[i])
+        where = "" if g.ndim == 0 else f" (index {i}, 0-based)"
+        why = "is before the GPS epoch" if value < 0.0 else "is not finite"
+        msg = f"t_gps_s: {value!r}{where} {why}"
+        raise InputError(msg)
+    base = flat + GPS_EPOCH_POSIX_S
+    # Leap second k is in force from UTC _LEAP_POSIX_S[k-1], that is from base = that + k.
+    n = np.searchsorted(_LEAP_BASE_S, base, side="right")
+    utc = base - n
+    # Inside an inserted leap second (the base second before the next count): no POSIX
+    # time; the following 00:00:00.
+    nxt = np.minimum(n, len(_LEAP_BASE_S) - 1)
+    inside = (n < len(_LEAP_BASE_S)) & (base >= _LEAP_BASE_S[nxt] - 1.0)
+    out: FloatArray = np.where(inside, _LEAP_POSIX_S[nxt], utc)
+    if g.ndim == 0 and not isinstance(t_gps_s, np.ndarray):
+        return float(out[0])
+    return out.reshape(g.shape)
 
 
 def utc_fields_to_gps_s(year: int, month: int, day: int, time_of_day_s: float) -> float:
