@@ -255,6 +255,9 @@ _DEGREE_STEP_TEXT = f"{DEGREE_STEP_DEG:.1g} deg (0.1 mm on the ground)"
 
 
 def _as_float64(arr: np.ndarray, name: str, what: str) -> FloatArray:
+    if arr.dtype.kind == "c":  # numpy would drop the imaginary part with a warning
+        msg = f"{name}: expected real numbers as {what}, got complex values ({arr.dtype})"
+        raise InputError(msg)
     try:
         return np.asarray(arr, dtype=np.float64)
     except (TypeError, ValueError) as err:

@@ -355,7 +355,9 @@ class Trajectory(ReadOnlyArrays):
             if pos_ned_m is None
             else coordinate_array(pos_ned_m, "trajectory pos_ned_m"),
             origin_lat_lon_h=origin_lat_lon_h,
-            vel_ned_m_s=None if vel_ned_m_s is None else np.asarray(vel_ned_m_s, dtype=np.float64),
+            vel_ned_m_s=None
+            if vel_ned_m_s is None
+            else validated_rows(vel_ned_m_s, t.size, 3, "vel_ned_m_s"),
         )
 
     # ------------------------------------------------------------------ properties
@@ -561,9 +563,7 @@ class Trajectory(ReadOnlyArrays):
             ``dt_s`` not finite, or so large that the shifted times are no longer
             finite and strictly increasing.
         """
-        if not np.isfinite(dt_s):
-            msg = f"time shift must be finite, got {dt_s!r}"
-            raise InputError(msg)
+        dt_s = finite_number(dt_s, "time shift dt_s")
         # Only the times change: they are checked again (a huge shift can round two of
         # them together); the other arrays, checked and read-only, are shared, and the
         # attitude is renormalised as a new Trajectory would (which changes some bits).

@@ -48,6 +48,9 @@ def first_bad_row(mask: BoolArray) -> int:
 
 def validated_rows(values: ArrayLike | None, n: int, width: int | None, name: str) -> FloatArray:
     """``values`` as float64 of shape (n, width), or (n,) for ``width`` None; finite."""
+    if np.asarray(values).dtype.kind == "c":  # numpy would drop the imaginary part, warning
+        msg = f"trajectory {name}: expected real numbers, got complex values"
+        raise InputError(msg)
     try:
         arr = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as err:

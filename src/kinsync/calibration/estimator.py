@@ -63,7 +63,7 @@ from kinsync.calibration.held import (
     uncertainty_from_covariance,
     uncertainty_notes,
 )
-from kinsync.calibration.line_checks import check_lines
+from kinsync.calibration.line_checks import check_arguments, check_lines
 from kinsync.calibration.lines import ScanLine, two_passes_in_a_line, without_unspread_lines
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
@@ -341,13 +341,14 @@ def calibrate_mount(
     Raises
     ------
     InputError
-        Fewer than two lines, returns outside their trajectory or in one of its data gaps
+        ``mount`` not a `Mount`, an item of ``lines`` not a `ScanLine`, fewer than two
+        lines, returns outside their trajectory or in one of its data gaps
         (``options.max_gap_s``), no feature found or none seen by two lines.
     ConvergenceError
         The adjustment did not converge.
     """
     opt = options or CalibrationOptions()
-    lines = list(lines)
+    lines = check_arguments(lines, mount)
     check_lines(lines, mount.latency_s, opt.max_gap_s)
     lines, groups, no_spread = without_unspread_lines(lines, groups)
     same_time = lines_at_the_same_time(lines)

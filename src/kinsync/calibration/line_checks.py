@@ -1,23 +1,70 @@
 """Checks of the lines a mount calibration is given (`kinsync.calibration.calibrate_mount`).
 
-Each refusal names the line and what to do: fewer than two lines, returns outside
+Each refusal names the argument or the line and what to do: a mount that is not a
+`kinsync.Mount`, an item of the lines that is not a `ScanLine`, fewer than two lines,
+returns outside
 their trajectory (with a hint when the time scales look mixed), returns in a data gap
 of the trajectory, line names that are not unique.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from kinsync._text import shown_value
 from kinsync._typing import FloatArray
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.uncertainty import MIN_JACKKNIFE_GROUPS
 from kinsync.errors import InputError
+from kinsync.mount import Mount
 from kinsync.trajectory_gaps import GAP_ADVICE, gap_index, gap_threshold_text, max_gap_for
 
-__all__ = ["check_lines"]
+__all__ = ["check_arguments", "check_lines"]
+
+
+def check_arguments(lines: object, mount: object) -> list[ScanLine]:
+    """The lines as a list, once they are `ScanLine` objects and ``mount`` a `Mount`.
+
+    Parameters
+    ----------
+    lines : object
+        What the caller gave as the lines: a sequence (or iterable) of `ScanLine`.
+    mount : object
+        What the caller gave as the mount.
+
+    Returns
+    -------
+    list of ScanLine
+
+    Raises
+    ------
+    InputError
+        ``mount`` not a `Mount` (None, say), ``lines`` not iterable or an item not a
+        `ScanLine` (naming its index).
+    """
+    if not isinstance(mount, Mount):
+        msg = (
+            f"mount: expected a kinsync.Mount, the mount the lines were acquired with "
+            f"(kinsync.io.mount_file.read_mount reads one), got {shown_value(mount)}"
+        )
+        raise InputError(msg)
+    if not isinstance(lines, Iterable):
+        msg = f"lines: expected a sequence of ScanLine, got {shown_value(lines)}"
+        raise InputError(msg)
+    items: list[ScanLine] = []
+    for i, line in enumerate(lines):
+        if not isinstance(line, ScanLine):
+            msg = (
+                f"lines: item at index {i} (0-based) is a {type(line).__name__}, not a "
+                "ScanLine (kinsync.calibration.ScanLine: a line's times, scanner-frame "
+                "returns and trajectory; kinsync.pipelines.calibration.read_scan_lines "
+                "reads them)"
+            )
+            raise InputError(msg)
+        items.append(line)
+    return items
 
 
 def _check_gaps(line: ScanLine, tt: FloatArray, latency_s: float, max_gap_s: float | None) -> None:

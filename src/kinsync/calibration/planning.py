@@ -72,6 +72,7 @@ from kinsync.calibration.held import (
     effect_of_held,
     hold_too_uncertain,
 )
+from kinsync.calibration.line_checks import check_arguments
 from kinsync.calibration.lines import ScanLine
 from kinsync.calibration.model import LineModel, LocalFrame, local_frame_for
 from kinsync.calibration.observability import (
@@ -472,7 +473,14 @@ def plan_calibration(
     Returns
     -------
     PlanResult
+
+    Raises
+    ------
+    InputError
+        ``mount`` not a `Mount`, an item of ``lines`` not a `ScanLine`, or no feature
+        found.
     """
+    lines = check_arguments(lines, mount)
     opt = options or CalibrationOptions()
     err = errors or NavigationErrors()
     requested = estimated_indices(opt.estimate)

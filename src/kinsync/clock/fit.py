@@ -69,6 +69,7 @@ from typing import Any, Literal
 import numpy as np
 
 from kinsync._arrays import ReadOnlyArrays, readonly_array
+from kinsync._text import shown_value
 from kinsync._typing import ArrayLike, BoolArray, FloatArray, IntArray
 from kinsync._unix_time import check_not_future
 from kinsync._validate import positive_number
@@ -135,7 +136,21 @@ def message_transmission_time_s(
         Line rate (bit/s).
     data_bits, parity, stop_bits
         Frame format (default 8N1: 10 bits per byte).
+
+    Raises
+    ------
+    InputError
+        ``sentence`` not text (a byte count: the message names
+        `kinsync.budget.serial_transmission_time_s`, which takes one), or the
+        frame's refusals.
     """
+    if not isinstance(sentence, str):
+        msg = (
+            f"sentence: expected the NMEA sentence as text ('$' to checksum), got "
+            f"{shown_value(sentence)}; for a length in bytes use "
+            "kinsync.budget.serial_transmission_time_s(len + 2, baud) (+ 2: the CR LF)"
+        )
+        raise InputError(msg)
     n_bytes = len(sentence.encode("ascii", errors="replace")) + 2
     return serial_transmission_time_s(n_bytes, baud, data_bits, parity, stop_bits)
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kinsync._text import shown_value
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import finite_number, time_number
 from kinsync.errors import InputError
@@ -77,9 +78,25 @@ class ProfileClock:
         -------
         ndarray of float64, the broadcast shape
             ``t0_s + (n + phi / 2 pi) * period_s`` (s, the trajectory's time scale).
-            Not checked: a NaN input gives NaN.
+
+        Raises
+        ------
+        InputError
+            Values that are not real numbers (text, booleans, complex).
         """
-        n = np.asarray(profile, dtype=np.float64)
-        phi = np.asarray(angle_rad, dtype=np.float64)
+        n = _real_numbers(profile, "profile")
+        phi = _real_numbers(angle_rad, "angle_rad")
         out: FloatArray = self.t0_s + (n + phi / math.tau) * self.period_s
         return out
+
+
+def _real_numbers(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as float64, refused when not integer or float numbers."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "iuf":
+        msg = (
+            f"profile clock time_s: {name}: expected numbers, got {arr.dtype} values "
+            f"({shown_value(values)})"
+        )
+        raise InputError(msg)
+    return arr.astype(np.float64)

@@ -10,7 +10,7 @@ import numpy as np
 
 from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
-from kinsync._validate import finite_number, time_array
+from kinsync._validate import finite_number, finite_vector, time_array
 from kinsync.errors import InputError
 from kinsync.time_spans import SAME_TIME_SHARE, recorded_together
 
@@ -56,9 +56,10 @@ class SpherePass(ReadOnlyArrays):
                 "information (give the signed table rate)"
             )
             raise InputError(msg)
-        axis = np.asarray(self.axis_ned, dtype=np.float64)
-        norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
-        if axis.shape != (3,) or not math.isfinite(norm) or norm < 1e-9:
+        detail = " (N, E, D), non-zero"
+        axis = finite_vector(self.axis_ned, 3, f"{self.source}: axis_ned", detail)
+        norm = float(np.linalg.norm(axis))
+        if norm < 1e-9:
             msg = f"{self.source}: axis_ned must be a non-zero 3-vector, got {self.axis_ned!r}"
             raise InputError(msg)
         try:
