@@ -3,20 +3,25 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.latency.passes import SpherePass
 from kinsync.latency.rate_check import (
+    RatesUncheckedWarning,
     attitude_rate_deg_s,
     attitude_rate_offsets,
     attitude_rate_std_deg_s,
     check_pass_rates,
     points_azimuth_rate_deg_s,
 )
+from kinsync.latency.sphere import estimate_latency_sphere
+from kinsync.sim.rotating_table import simulate_rotating_table
+from kinsync.sim.table_config import RotatingTableConfig
 
 
 def _swept_points(rate_deg_s: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -127,3 +132,21 @@ def test_attitude_rate_sigma_covers_white_attitude_noise() -> None:
     # Generous: never smaller than the spread (white noise cancels in the sum).
     assert float(np.std(shown)) < float(np.median(sigma))
     assert float(np.median(sigma)) < 0.002 * 6.0  # still far inside the 2 % tolerance
+
+
+def test_estimate_warns_from_python_when_the_rates_were_not_checked() -> None:
+    """Without point times, passes of flipped sign gave -tau silently from Python (the
+    command line warned); now a RatesUncheckedWarning carries rates_unchecked_text."""
+    cfg = RotatingTableConfig(latency_s=0.004, rates_deg_s=(18.0,), passes=1, seed=4)
+    passes = simulate_rotating_table(cfg).passes
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RatesUncheckedWarning)  # none: every rate is checked
+        checked = estimate_latency_sphere(passes, radius_m=0.1)
+    timeless = [SpherePass(p.source, -p.rate_deg_s, p.points_ned_m) for p in passes]
+    with pytest.warns(RatesUncheckedWarning) as caught:
+        flipped = estimate_latency_sphere(timeless, radius_m=0.1)
+    assert flipped.latency_s == pytest.approx(-checked.latency_s, abs=3 * checked.latency_std_s)
+    assert [str(w.message) for w in caught] == [flipped.rates_unchecked_text()]
+    assert flipped.rates_unchecked_text().startswith("the sign and unit of the table rates")
+    assert caught[0].filename == __file__  # points at the caller's line
+    assert issubclass(RatesUncheckedWarning, KinsyncWarning)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -220,6 +221,7 @@ def sphere(
     # command runs.
     from kinsync.cli._box import parse_box  # noqa: PLC0415
     from kinsync.io.passes import read_passes  # noqa: PLC0415
+    from kinsync.latency.rate_check import RatesUncheckedWarning  # noqa: PLC0415
     from kinsync.latency.sphere import estimate_latency_sphere  # noqa: PLC0415
     from kinsync.pipelines.raw_passes import read_raw_passes  # noqa: PLC0415
 
@@ -244,13 +246,15 @@ def sphere(
             passes = read_raw_passes(folder, max_gap_s=max_gap_s, progress=reading)
         else:
             passes = read_passes(folder, progress=reading)
-        result = estimate_latency_sphere(
-            passes,
-            radius_m=radius_m,
-            scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0),
-            progress=stages.start("fitting"),
-            roi_ned_m=roi,
-        )
+        with warnings.catch_warnings():  # said below, naming the folder: not twice
+            warnings.simplefilter("ignore", RatesUncheckedWarning)
+            result = estimate_latency_sphere(
+                passes,
+                radius_m=radius_m,
+                scanner_origin_ned_m=None if orthogonal else (0.0, 0.0, 0.0),
+                progress=stages.start("fitting"),
+                roi_ned_m=roi,
+            )
         stages.finish()
     fig_path = None if no_figure else (figure or Path(folder) / "latency_sphere.png")
     if fig_path is not None:

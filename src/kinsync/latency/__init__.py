@@ -6,7 +6,8 @@
 - `kinsync.latency.pairing`: the passes paired by rate and axis; `RejectedPass`, a pass
   left out of the estimate.
 - `kinsync.latency.rate_check`: `check_pass_rates`, the stated table rates against the
-  rates the data show (sign convention, rad/s, ENU mix-ups).
+  rates the data show (sign convention, rad/s, ENU mix-ups); `RatesUncheckedWarning`,
+  issued when no data could check some passes' rates.
 - `kinsync.latency.roi`: `crop_passes`, the points of each pass inside a region of
   interest, and `RoiCrop`, what it left out.
 - `kinsync.latency.planning`: `plan_latency_experiment`, the σ a table design will give.
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
     from kinsync.latency.pairing import RejectedPass
     from kinsync.latency.passes import SpherePass
     from kinsync.latency.planning import LatencyPlan, RatePlan, TableDesign, plan_latency_experiment
-    from kinsync.latency.rate_check import RateMismatch, check_pass_rates
+    from kinsync.latency.rate_check import RateMismatch, RatesUncheckedWarning, check_pass_rates
     from kinsync.latency.sphere import RateLatency, SphereLatencyResult, estimate_latency_sphere
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "RateLatency",
     "RateMismatch",
     "RatePlan",
+    "RatesUncheckedWarning",
     "RejectedPass",
     "SphereLatencyResult",
     "SpherePass",
@@ -52,6 +54,7 @@ __getattr__, __dir__ = lazy_exports(
         "SphereLatencyResult": "kinsync.latency.sphere",
         "estimate_latency_sphere": "kinsync.latency.sphere",
         "RateMismatch": "kinsync.latency.rate_check",
+        "RatesUncheckedWarning": "kinsync.latency.rate_check",
         "check_pass_rates": "kinsync.latency.rate_check",
         "LatencyPlan": "kinsync.latency.planning",
         "RatePlan": "kinsync.latency.planning",

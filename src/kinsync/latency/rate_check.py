@@ -21,11 +21,16 @@ The attitude log measures each pass's rate far better (to about 0.01 %): against
 stated rate off by more than `ATTITUDE_RATE_TOLERANCE` is refused as well
 (`attitude_rate_offsets`), since a rate scale error scales the latency by the same factor
 (gon/s given as deg/s: 11 %).
+
+Passes whose rates no data could check (no point times, points that do not sweep) are
+estimated all the same: `estimate_latency_sphere` then issues a
+`RatesUncheckedWarning` saying so (`warn_unchecked_rates`), as the command line does.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -33,7 +38,7 @@ import numpy as np
 
 from kinsync._text import counted
 from kinsync._typing import FloatArray
-from kinsync.errors import InputError
+from kinsync.errors import InputError, KinsyncWarning
 from kinsync.frames import wrap_angle_rad
 from kinsync.latency.passes import SpherePass
 
@@ -42,6 +47,7 @@ __all__ = [
     "MIN_SWEEP_CORRELATION",
     "RATE_RATIO_LIMIT",
     "RateMismatch",
+    "RatesUncheckedWarning",
     "attitude_rate_deg_s",
     "attitude_rate_offsets",
     "attitude_rate_std_deg_s",
@@ -52,6 +58,7 @@ __all__ = [
     "rate_check_counts",
     "rate_mismatch",
     "unchecked_rates_text",
+    "warn_unchecked_rates",
 ]
 
 ATTITUDE_RATE_TOLERANCE = 0.02
@@ -484,3 +491,25 @@ def unchecked_rates_text(n_checked: int, n_passes: int, n_unswept: int = 0) -> s
         "default 0,0,1 = Down) and that the points are table-centred (origin on the table "
         f"axis){untimed}; {risk}, so check passes.csv by hand too"
     )
+
+
+class RatesUncheckedWarning(KinsyncWarning):
+    """The sign and unit of some passes' stated table rates could not be checked.
+
+    A wrong sign then flips the latency, rad/s given as deg/s scales it 57 times, and
+    nothing else shows it (`unchecked_rates_text`).
+    """
+
+
+def warn_unchecked_rates(n_checked: int, n_passes: int, n_unswept: int = 0) -> None:
+    """Issue a `RatesUncheckedWarning` when some passes' rates went unchecked.
+
+    Parameters
+    ----------
+    n_checked, n_passes, n_unswept : int
+        As `unchecked_rates_text`, whose text the warning carries; none when it is "".
+    """
+    text = unchecked_rates_text(n_checked, n_passes, n_unswept)
+    if text:
+        # stacklevel 3: the line that called estimate_latency_sphere
+        warnings.warn(text, RatesUncheckedWarning, stacklevel=3)

@@ -61,7 +61,11 @@ from kinsync.latency.planning import (
     MIN_SPHERE_POINTS_PER_PASS,
     checked_max_incidence_deg,
 )
-from kinsync.latency.rate_check import rate_check_counts, unchecked_rates_text
+from kinsync.latency.rate_check import (
+    rate_check_counts,
+    unchecked_rates_text,
+    warn_unchecked_rates,
+)
 from kinsync.latency.roi import RoiCrop, checked_roi, crop_passes
 from kinsync.latency.sphere_failures import pool_failure as _pool_failure
 from kinsync.progress import Progress, report
@@ -783,6 +787,11 @@ def estimate_latency_sphere(
         left with passes of one sign only is listed in ``unpaired_rates_deg_s``, and those
         passes in ``unpaired_passes``.
 
+    Warns
+    -----
+    RatesUncheckedWarning
+        Some passes' rates could not be checked (`SphereLatencyResult.rates_unchecked_text`).
+
     Raises
     ------
     InputError
@@ -873,6 +882,7 @@ def estimate_latency_sphere(
         if radius_m is not None
         else float(np.mean([[r.plus.fit.radius_m, r.minus.fit.radius_m] for r in per_rate]))
     )
+    warn_unchecked_rates(n_rate_checked, len(passes), n_unswept)  # as the CLI warns
     return SphereLatencyResult(
         latency_s=tau,
         latency_std_s=formal_std * scale,
