@@ -16,6 +16,7 @@ from kinsync import Mount, Trajectory
 from kinsync.calibration import CalibrationOptions, calibrate_mount, plan_calibration
 from kinsync.clock import ProfileClock, message_transmission_time_s
 from kinsync.errors import InputError
+from kinsync.ins import GnssData
 from kinsync.latency import SpherePass
 
 N = 10
@@ -101,3 +102,43 @@ def test_complex_values_are_refused_like_complex_times(
         warnings.simplefilter("error")  # no ComplexWarning on the way
         with pytest.raises(InputError, match=rf"^trajectory {field}: expected real numbers"):
             Trajectory(T_S, **args)  # type: ignore[arg-type]
+
+
+def test_absurd_ellipsoidal_heights_are_refused_naming_the_row() -> None:
+    """Heights of 1e30 m (Trajectory) and 1e7 m (GnssData) were taken."""
+    llh = LLH.copy()
+    llh[:, 2] = 20_000.0  # an aircraft at 20 km: taken
+    llh[-1, 2] = 1.0e5  # the bound itself: taken
+    Trajectory(T_S, Q, lat_lon_h=llh)
+    llh[3, 2] = 1.0e30
+    with pytest.raises(InputError, match=r"^trajectory lat_lon_h: height 1e\+30 m .* in row 3"):
+        Trajectory(T_S, Q, lat_lon_h=llh)
+    with pytest.raises(InputError, match=r"^trajectory origin_lat_lon_h: height -200000\.0 m"):
+        Trajectory(T_S, Q, pos_ned_m=np.zeros((N, 3)), origin_lat_lon_h=(46.8, -71.2, -2e5))
+    h = np.full(N, 10.0)
+    h[4] = 1.0e7
+    lat, lon, std = np.full(N, 46.8), np.full(N, -71.2), np.full((N, 3), 0.02)
+    with pytest.raises(InputError, match=r"^GNSS h_m: height 10000000\.0 m .* in row 4 \(0-based"):
+        GnssData(T_S, lat, lon, h, std)
+
+
+@pytest.mark.parametrize(
+    ("angle_rad", "match"),
+    [
+        (135.0, r"angle_rad\[1\] = 135\.0 is not a finite angle within one turn"),
+        (float("nan"), r"angle_rad\[1\] = nan is not a finite angle"),
+    ],
+)
+def test_profile_clock_refuses_degrees_and_nan_as_the_mount_does(
+    angle_rad: float, match: str
+) -> None:
+    """ProfileClock.time_s took 135 (degrees) and NaN; Mount.profile_to_scanner refused them."""
+    clock = ProfileClock(1.4e9, 0.030545)
+    angles = [0.0, angle_rad]
+    with pytest.raises(InputError, match=r"^profile_to_scanner: "):
+        Mount(profiler_azimuth_deg=0.0).profile_to_scanner(angle_rad=angles, range_m=[5.0, 5.0])
+    with pytest.raises(InputError, match=rf"^profile clock time_s: {match}"):
+        clock.time_s([0, 1], angles)
+    turn = 2.0 * np.pi  # one turn either way is taken, as by the mount
+    t = clock.time_s([0, 1], [-turn, turn])
+    np.testing.assert_allclose(t - 1.4e9, [-0.030545, 2 * 0.030545], rtol=0, atol=1e-6)

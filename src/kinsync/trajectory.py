@@ -65,6 +65,7 @@ from kinsync.trajectory_gaps import (
 )
 from kinsync.trajectory_rows import (
     check_euler_rad,
+    check_heights,
     check_latitudes,
     check_longitudes,
     first_bad_row,
@@ -218,6 +219,7 @@ class Trajectory(ReadOnlyArrays):
             )
             check_latitudes(llh[:, 0], "lat_lon_h")
             check_longitudes(llh[:, 1], "lat_lon_h")
+            check_heights(llh[:, 2], "lat_lon_h")
             set_(self, "lat_lon_h", readonly_array(llh))
             set_(self, "_lon_unwrapped_deg", readonly_array(np.unwrap(llh[:, 1], period=360.0)))
         else:
@@ -232,6 +234,7 @@ class Trajectory(ReadOnlyArrays):
             )[0]
             check_latitudes(origin[:1], "origin_lat_lon_h")
             check_longitudes(origin[1:2], "origin_lat_lon_h")
+            check_heights(origin[2:3], "origin_lat_lon_h")
             assert self.pos_ned_m is not None
             ned = coordinate_array(self.pos_ned_m, "trajectory pos_ned_m")
             set_(self, "pos_ned_m", readonly_array(validated_rows(ned, n, 3, "pos_ned_m")))

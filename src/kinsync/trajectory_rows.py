@@ -14,11 +14,14 @@ from kinsync.errors import InputError
 
 __all__ = [
     "EULER_LIMITS_DEG",
+    "HEIGHT_SPAN_M",
     "LONGITUDE_SPAN_DEG",
     "check_euler_rad",
+    "check_heights",
     "check_latitudes",
     "check_longitudes",
     "first_bad_row",
+    "height_message",
     "longitude_message",
     "normalise_quaternions",
     "validated_rows",
@@ -35,6 +38,14 @@ LONGITUDE_SPAN_DEG = (-180.0, 360.0)
 to 360. Both give the same positions (the geodetic to ECEF conversion takes any angle)
 and a trajectory across the antimeridian is unwrapped before it is interpolated; beyond
 them a longitude is in no convention (radians, a shifted column, a corrupt record)."""
+
+HEIGHT_SPAN_M = (-1.0e5, 1.0e5)
+"""Ellipsoidal heights (m) a trajectory or GNSS fix may hold: 100 km below to 100 km
+above the WGS84 ellipsoid, the span the file readers take (`kinsync.io.sanity.HEIGHT_M`).
+The platforms kinsync serves (vessels, vehicles, aircraft, a rotating table) lie within
+about 20 km of the ellipsoid, a stratospheric balloon within 50 km; a height beyond is in
+no unit of a survey (millimetres, feet of a far larger number, a shifted column, 1e30),
+and positions computed from it (ECEF, georeferenced points) would be as wrong."""
 
 _QUATERNION_NORM_TOL = 1e-6
 _BLOCK_ROWS = 65_536
@@ -155,6 +166,25 @@ def longitude_message(value: float, row: int) -> str:
         f"longitude {value} outside [{low:g}, {high:g}] in row {row}: give longitudes in "
         "degrees, from -180 to 180 (east positive) or from 0 to 360"
     )
+
+
+def height_message(value: float, row: int) -> str:
+    """What is wrong with ellipsoidal height ``value`` (m) in ``row``, and what to do."""
+    low, high = HEIGHT_SPAN_M
+    return (
+        f"height {value!r} m outside [{low:g}, {high:g}] m in row {row} (0-based): give "
+        "ellipsoidal heights in metres (a platform lies within 100 km of the ellipsoid)"
+    )
+
+
+def check_heights(h_m: FloatArray, name: str) -> None:
+    """Refuse an ellipsoidal height (m) outside `HEIGHT_SPAN_M`, naming its row."""
+    low, high = HEIGHT_SPAN_M
+    bad = (h_m < low) | (h_m > high)
+    if np.any(bad):
+        row = first_bad_row(bad)
+        msg = f"trajectory {name}: {height_message(float(h_m[row]), row)}"
+        raise InputError(msg)
 
 
 def check_longitudes(lon_deg: FloatArray, name: str) -> None:

@@ -18,6 +18,7 @@ from kinsync._text import shown_value
 from kinsync._typing import ArrayLike, FloatArray
 from kinsync._validate import finite_number, time_number
 from kinsync.errors import InputError
+from kinsync.mount import MAX_PROFILE_ANGLE_RAD
 
 __all__ = ["PERIOD_SPAN_S", "ProfileClock"]
 
@@ -70,9 +71,11 @@ class ProfileClock:
         Parameters
         ----------
         profile : array_like, shape (...)
-            Profile numbers n (taken as float64, not checked).
+            Profile numbers n, finite.
         angle_rad : array_like, shape (...)
-            Mirror angles phi (rad), broadcastable with ``profile``.
+            Mirror angles phi (rad), finite and within one turn either way
+            (`kinsync.mount.MAX_PROFILE_ANGLE_RAD`, as `kinsync.Mount.profile_to_scanner`
+            takes them), broadcastable with ``profile``.
 
         Returns
         -------
@@ -82,10 +85,16 @@ class ProfileClock:
         Raises
         ------
         InputError
-            Values that are not real numbers (text, booleans, complex).
+            Values that are not real numbers (text, booleans, complex), a profile
+            number not finite, an angle not finite or beyond one turn (degrees given
+            as radians), naming its index.
         """
         n = _real_numbers(profile, "profile")
+        _refuse(~np.isfinite(n), n, "profile", "is not a finite profile number")
         phi = _real_numbers(angle_rad, "angle_rad")
+        wide = ~(np.abs(phi) <= MAX_PROFILE_ANGLE_RAD)  # NaN too
+        turn = f"is not a finite angle within one turn (+-{MAX_PROFILE_ANGLE_RAD:.6g} rad)"
+        _refuse(wide, phi, "angle_rad", f"{turn}: mirror angles are radians")
         out: FloatArray = self.t0_s + (n + phi / math.tau) * self.period_s
         return out
 
@@ -100,3 +109,14 @@ def _real_numbers(values: ArrayLike, name: str) -> FloatArray:
         )
         raise InputError(msg)
     return arr.astype(np.float64)
+
+
+def _refuse(bad: np.ndarray, values: FloatArray, name: str, why: str) -> None:
+    """Raise `InputError` naming the first of ``values`` where ``bad`` holds."""
+    if not bad.any():
+        return
+    index = np.unravel_index(int(np.flatnonzero(bad)[0]), bad.shape)
+    shown = ", ".join(str(int(i)) for i in index)
+    at = f"[{shown}]" if shown else ""
+    msg = f"profile clock time_s: {name}{at} = {float(values[index])!r} {why}"
+    raise InputError(msg)

@@ -20,7 +20,12 @@ from kinsync._arrays import ReadOnlyArrays
 from kinsync._typing import FloatArray
 from kinsync._validate import coordinate_array, degree_array, time_array
 from kinsync.errors import InputError
-from kinsync.trajectory_rows import LONGITUDE_SPAN_DEG, longitude_message
+from kinsync.trajectory_rows import (
+    HEIGHT_SPAN_M,
+    LONGITUDE_SPAN_DEG,
+    height_message,
+    longitude_message,
+)
 
 __all__ = ["GnssData", "ImuData"]
 
@@ -113,7 +118,8 @@ class GnssData(ReadOnlyArrays):
     lat_deg, lon_deg, h_m : ndarray, shape (m,)
         Antenna position, WGS84 geodetic (deg, deg, m ellipsoidal); latitudes within
         +-90 deg, longitudes from -180 to 180 or 0 to 360 deg
-        (`kinsync.trajectory_rows.LONGITUDE_SPAN_DEG`).
+        (`kinsync.trajectory_rows.LONGITUDE_SPAN_DEG`), heights within 100 km of the
+        ellipsoid (`kinsync.trajectory_rows.HEIGHT_SPAN_M`).
     std_pos_ned_m : ndarray, shape (m, 3)
         Position standard deviations N, E, D (m); NaN = use the configured default.
     vel_ned_m_s : ndarray, shape (m, 3) or None
@@ -151,6 +157,11 @@ class GnssData(ReadOnlyArrays):
         if bad.any():
             row = int(np.flatnonzero(bad)[0])
             msg = f"GNSS lon_deg: {longitude_message(float(self.lon_deg[row]), row)}"
+            raise InputError(msg)
+        bad = (self.h_m < HEIGHT_SPAN_M[0]) | (self.h_m > HEIGHT_SPAN_M[1])
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            msg = f"GNSS h_m: {height_message(float(self.h_m[row]), row)}"
             raise InputError(msg)
         std = _rows(self.std_pos_ned_m, n, "GNSS std_pos_ned_m", allow_nan=True)
         if (std <= 0).any():

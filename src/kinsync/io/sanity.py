@@ -35,6 +35,7 @@ from typing import Any
 from kinsync._text import shown_value
 from kinsync._validate import Span, check_columns, check_values
 from kinsync.errors import InputError
+from kinsync.trajectory_rows import HEIGHT_SPAN_M
 
 __all__ = [
     "ACCELERATION_M_S2",
@@ -453,8 +454,9 @@ is set: a trajectory that crosses the week's end keeps counting past 604800 s.""
 LATITUDE_DEG = Span(-90.0, 90.0, "deg", "a latitude")
 LONGITUDE_DEG = Span(-360.0, 360.0, "deg", "a longitude (-180 to 180 or 0 to 360)")
 
-HEIGHT_M = Span(-1e5, 1e5, "m", "an ellipsoidal height (100 km below or above the ellipsoid)")
-"""Heights: the deepest trench and the highest aircraft lie well inside 100 km."""
+HEIGHT_M = Span(*HEIGHT_SPAN_M, "m", "an ellipsoidal height (100 km below or above the ellipsoid)")
+"""Heights: the deepest trench and the highest aircraft lie well inside 100 km; the span
+`kinsync.Trajectory` and `kinsync.ins.GnssData` hold too (`HEIGHT_SPAN_M`)."""
 
 LENGTH_M = Span(-1e8, 1e8, "m", "a coordinate or length (1e8 m is 16 Earth radii)")
 """Coordinates (ECEF, projected, scanner or table frame), ranges: within 1e8 m."""
