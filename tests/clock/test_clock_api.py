@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -55,3 +56,31 @@ def test_gps_to_utc_posix_s_takes_arrays_and_the_0d_array_utc_to_gps_s_gives() -
         gps_to_utc_posix_s(np.array([1.4e9, -2.0]))
     with pytest.raises(InputError, match=r"^t_gps_s: nan is not finite"):
         gps_to_utc_posix_s(math.nan)
+
+
+def test_mapped_std_holds_the_rounding_of_the_applied_gps_time() -> None:
+    """apply() returns float64 GPS times, in steps of 2.4e-7 s near 1.4e9 s: with little
+    pulse jitter that rounding is the whole error, which mapped_std_s left out (it gave
+    ~1e-10 s against ~7e-8 s)."""
+    rng = np.random.default_rng(5)
+    g0, l0, drift = 1.4e9, 1000.37, 25e-6
+    gps = g0 + np.arange(120.0)
+    local = l0 + (gps - g0) / (1.0 + drift)
+    n_bytes = np.full(gps.size, 38)
+    pps = local + rng.normal(0.0, 1e-9, gps.size)
+    fit = fit_clock(pps, local + 0.015 + 38 * 10 / 115200, gps, n_bytes, baud=115200)
+    m = fit.model
+    t = m.reference_local_s + rng.uniform(0.0, 119.0, 2000)
+    applied = m.apply(t)
+    # Off the fitted line itself, computed exactly: only the rounding of apply().
+    scale = 1 + Fraction(m.drift_ppm) / 10**6
+    line = [
+        Fraction(m.reference_gps_s) + (Fraction(x) - Fraction(m.reference_local_s)) * scale
+        for x in t
+    ]
+    err = np.array([float(Fraction(a) - b) for a, b in zip(applied, line, strict=True)])
+    std = fit.mapped_std_s(t)
+    step = np.spacing(applied)
+    assert np.all(np.abs(err) <= 0.5 * step * (1 + 1e-9))
+    assert 0.9 < np.std(err / std) < 1.1  # the fit's own part is negligible here
+    np.testing.assert_allclose(std, step / np.sqrt(12.0), rtol=0.01)
