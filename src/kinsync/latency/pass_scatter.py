@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize, stats
 
-from kinsync._arrays import readonly_array
+from kinsync._arrays import ReadOnlyArrays, readonly_array
 from kinsync._text import format_p_value
 from kinsync._typing import BoolArray, FloatArray, IntArray
 from kinsync.errors import ConvergenceError, InputError
@@ -81,7 +81,7 @@ its upper bound at this level (`PassScatter.upper_cov_m2`)."""
 
 
 @dataclass(frozen=True, eq=False)
-class PassCentres:
+class PassCentres(ReadOnlyArrays):
     """The sphere centre of each pass of one pool, fitted on its own.
 
     Attributes
@@ -117,7 +117,7 @@ class PassCentres:
 
 
 @dataclass(frozen=True, eq=False)
-class PassScatter:
+class PassScatter(ReadOnlyArrays):
     """The passes' scatter about their pools beyond their points' noise.
 
     Attributes
