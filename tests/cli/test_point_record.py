@@ -19,6 +19,7 @@ from typing import Any
 import laspy
 import numpy as np
 import pyarrow.parquet as pq
+import pyproj
 import pytest
 from tests._las import las_points
 
@@ -81,11 +82,11 @@ def setup(tmp_path: Path) -> dict[str, Path]:
     }
 
 
-def _georef(s: dict[str, Path], out: Path, *extra: str) -> list[str]:
+def _georef(s: dict[str, Path], out: Path, *extra: str, crs: str = "EPSG:32619") -> list[str]:
     return [
         "georef",
         *("--points", str(s["points"]), "--trajectory", str(s["traj"])),
-        *("--mount", str(s["mount"]), "--out", str(out), "--crs", "EPSG:32619", *extra),
+        *("--mount", str(s["mount"]), "--out", str(out), "--crs", crs, *extra),
     ]
 
 
@@ -105,10 +106,11 @@ def _stored_record(path: Path) -> dict[str, Any]:
         doc = json.loads(bytes(vlr.record_data).decode("utf-8"))
     elif suffix == ".parquet":
         doc = json.loads(pq.read_schema(path).metadata[b"kinsync"])
-    else:
+    else:  # comment lines "kinsync_record <i>/<n> <piece>"
         head = path.read_bytes().split(b"end_header\n")[0].decode("ascii").splitlines()
-        (line,) = [h for h in head if h.startswith("comment kinsync_record ")]
-        doc = json.loads(line.removeprefix("comment kinsync_record "))
+        ours = [h.split(" ", 3)[2:] for h in head if h.startswith("comment kinsync_record ")]
+        assert [i for i, _ in ours] == [f"{i}/{len(ours)}" for i in range(1, len(ours) + 1)]
+        doc = json.loads("".join(piece for _, piece in ours))
     assert isinstance(doc, dict)
     return doc
 
@@ -151,6 +153,37 @@ def test_every_point_output_but_csv_holds_the_record(
     assert doc["crs"]["requested"] == "EPSG:32619"
     assert doc["crs"]["target"] == "WGS 84 / UTM zone 19N (EPSG:32619)"
     assert doc["outside"] == "error"
+
+
+def test_no_ply_header_line_is_one_a_reader_refuses(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    """Open3D's PLY reader (RPly) aborts on a header line of 1,024 characters or more.
+
+    The record (kilobytes with a mount file's header comments) is cut into comment
+    lines well under that; a --crs given as WKT (kilobytes, with degree signs, where a
+    PLY header is ASCII) is named by its name and code. The record reads back whole.
+    """
+    header = [f"# note {i}: résumé {'x' * 150}" for i in range(300)]
+    mount = setup["dir"] / "long.toml"
+    mount.write_text("\n".join(header) + "\n\n" + mount_to_toml_text(MOUNT), encoding="utf-8")
+    wkt = pyproj.CRS("EPSG:32619").to_wkt(pretty=True)
+    out = setup["dir"] / "geo.ply"
+    code, _, err = run_cli(_georef({**setup, "mount": mount}, out, crs=wkt))
+    assert code == 0, err
+    head = out.read_bytes().split(b"end_header\n")[0].split(b"\n")
+    assert max(len(line) for line in head) < 1000
+    assert len(head) > 60  # the record: 50 KB in lines of under 1,000 characters
+    crs = b"comment kinsync georef, crs WGS 84 / UTM zone 19N (EPSG:32619), x y z in metre"
+    assert head[2].startswith(crs)
+    doc = _stored_record(out)
+    assert doc["mount"]["file"]["header_comments"] == header
+    assert doc["crs"]["requested"] == wkt
+    back = setup["dir"] / "back.toml"
+    code, _, err = run_cli(["mount", "from-points", str(out), "--out", str(back)])
+    assert code == 0, err
+    assert read_mount(back) == MOUNT
+    assert "\n".join(header) in back.read_text(encoding="utf-8")
 
 
 def test_a_parquet_output_keeps_its_crs_metadata_beside_the_record(

@@ -11,7 +11,10 @@ import pytest
 
 from kinsync.errors import InputError
 from kinsync.io.las_writer import LasChunkWriter
+from kinsync.io.ply import PlyChunkWriter
 from kinsync.io.point_provenance import (
+    PLY_PIECE_CHARS,
+    ply_record_comments,
     point_document,
     read_point_record,
     record_mount,
@@ -107,3 +110,36 @@ def test_a_damaged_record_is_named(tmp_path: Path) -> None:
     las.write(path)
     with pytest.raises(InputError, match=r"bad\.las: its kinsync record .* is not UTF-8 JSON"):
         read_point_record(path)
+
+
+def _ply_with(path: Path, comments: list[str]) -> Path:
+    with PlyChunkWriter(path, [(a, np.float64) for a in "xyz"], 1, comments) as ply:
+        ply.write({a: np.zeros(1) for a in "xyz"})
+    return path
+
+
+def test_a_ply_record_is_cut_into_short_lines_that_join_back(tmp_path: Path) -> None:
+    # Many spaces: no piece begins or ends with one (a reader may trim comment lines).
+    doc = point_document("georef", MOUNT, None, {"note": "ab  cd   " * 2000, "é": "ü"})
+    comments = ply_record_comments(doc)
+    assert len(comments) > 20
+    pieces = [c.split(" ", 2)[2] for c in comments]
+    assert all(len(p) <= PLY_PIECE_CHARS for p in pieces)
+    assert not [p for p in pieces if p != p.strip(" ")]
+    assert json.loads("".join(pieces)) == doc
+    path = _ply_with(tmp_path / "geo.ply", ["kinsync georef", *comments])
+    assert read_point_record(path) == doc
+
+
+def test_a_ply_record_missing_a_piece_is_named(tmp_path: Path) -> None:
+    doc = point_document("georef", MOUNT, None, {"note": "x" * 3000})
+    comments = ply_record_comments(doc)
+    path = _ply_with(tmp_path / "cut.ply", [comments[0], *comments[2:]])
+    why = r"cut\.ply: its kinsync record's header comment 1 of 3 begins '1/4', not 1/3"
+    with pytest.raises(InputError, match=why):
+        read_point_record(path)
+
+
+def test_a_missing_file_names_every_type_that_holds_a_record(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match=r"no such file; .*\(\.las, \.laz, \.parquet, \.ply\)"):
+        read_point_record(tmp_path / "gone.ply")

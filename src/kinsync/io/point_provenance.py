@@ -14,8 +14,11 @@ and header comments), the input files, the time and CRS options. Where it is kep
   comments, then the command line, then (never met: a CRS of 60 KB) all but the run and
   the mount, each named in its ``left_out``, and a warning says so (`set_las_record`);
 * Parquet: the schema's key-value metadata, key `PARQUET_KEY`;
-* PLY: a header comment line ``kinsync_record {...}`` (the JSON in ASCII, as PLY
-  headers are);
+* PLY: header comment lines ``kinsync_record <i>/<n> <piece>`` (`ply_record_comments`):
+  the JSON in ASCII, as PLY headers are, cut into pieces of at most `PLY_PIECE_CHARS`
+  characters, since readers refuse long header lines (Open3D's RPly aborts on one of
+  1,024 characters, CloudCompare's refuses 2,048) and a record with a mount file's
+  header comments is kilobytes long;
 * CSV: nowhere, since a comment line would break the CSV readers (kinsync's own too).
 
 An input's own kinsync record (a file georeferenced twice) is replaced, never
@@ -46,6 +49,7 @@ from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
 __all__ = [
     "EXECUTION_OPTIONS",
     "PARQUET_KEY",
+    "PLY_PIECE_CHARS",
     "RECORD_DESCRIPTION",
     "RECORD_ID",
     "RECORD_USER_ID",
@@ -53,7 +57,7 @@ __all__ = [
     "file_document",
     "mount_document",
     "parquet_record_metadata",
-    "ply_record_comment",
+    "ply_record_comments",
     "point_document",
     "read_point_record",
     "record_json",
@@ -73,7 +77,11 @@ PARQUET_KEY = "kinsync"
 RECORD_VERSION = 1
 """``kinsync_record`` of the documents: the layout of this version."""
 
+PLY_PIECE_CHARS = 900
+"""Most characters of the record in one PLY comment line (the line is at most 950 long)."""
+
 _PLY_PREFIX = "kinsync_record "
+_PLY_MAX_HEADER_LINES = 100_000  # a 1 MiB mount header, escaped, is ~3,500 pieces
 _VLR_MAX_BYTES = 65_535  # the VLR header's record length is a 16-bit count
 
 
@@ -185,9 +193,41 @@ def parquet_record_metadata(doc: Mapping[str, Any]) -> dict[str, str]:
     return {PARQUET_KEY: record_json(doc)}
 
 
-def ply_record_comment(doc: Mapping[str, Any]) -> str:
-    """The PLY header comment that holds the record: ``kinsync_record {...}``, ASCII."""
-    return _PLY_PREFIX + record_json(doc, ascii_only=True)
+def _cut(text: str, size: int) -> list[str]:
+    """``text`` in pieces of at most ``size`` characters, joined back by concatenation.
+
+    No piece begins or ends with a space where it can be helped: a PLY reader may trim
+    a comment line's spaces.
+    """
+    pieces: list[str] = []
+    start = 0
+    while len(text) - start > size:
+        cut = start + size
+        while cut > start + size // 2 and " " in (text[cut - 1], text[cut]):
+            cut -= 1
+        if " " in (text[cut - 1], text[cut]):  # hundreds of spaces in a row: cut anyway
+            cut = start + size
+        pieces.append(text[start:cut])
+        start = cut
+    return [*pieces, text[start:]]
+
+
+def ply_record_comments(doc: Mapping[str, Any]) -> list[str]:
+    """The PLY header comments that hold the record, in order.
+
+    Parameters
+    ----------
+    doc : mapping
+        The record (`point_document`).
+
+    Returns
+    -------
+    list of str
+        ``kinsync_record <i>/<n> <piece>`` for i = 1..n: the record's JSON (ASCII, other
+        characters escaped) is the pieces joined, each at most `PLY_PIECE_CHARS` long.
+    """
+    pieces = _cut(record_json(doc, ascii_only=True), PLY_PIECE_CHARS)
+    return [f"{_PLY_PREFIX}{i}/{len(pieces)} {p}" for i, p in enumerate(pieces, 1)]
 
 
 def _is_record(vlr: Any) -> bool:
@@ -293,20 +333,40 @@ def _parquet_record_bytes(path: Path) -> bytes | None:
     return None if value is None else bytes(value)
 
 
-def _ply_record_bytes(path: Path) -> bytes | None:
+def _ply_record_lines(path: Path) -> list[bytes]:
+    """What follows ``comment kinsync_record `` on the lines of a PLY header, in order."""
     start = f"comment {_PLY_PREFIX}".encode("ascii")
+    found: list[bytes] = []
     try:
         with path.open("rb") as fh:
-            for _ in range(10_000):  # a header; the binary points follow end_header
+            for _ in range(_PLY_MAX_HEADER_LINES):  # a header; binary points follow end_header
                 line = fh.readline(1 << 24).rstrip(b"\r\n")
                 if line == b"end_header" or not line:
                     break
                 if line.startswith(start):
-                    return line[len(start) :]
+                    found.append(line[len(start) :])
     except OSError as err:
         msg = f"{path}: cannot read it ({err.strerror or err})"
         raise InputError(msg) from err
-    return None
+    return found
+
+
+def _ply_record_bytes(path: Path) -> bytes | None:
+    lines = _ply_record_lines(path)
+    if len(lines) == 1 and lines[0].startswith(b"{"):  # one line: kinsync before pieces
+        return lines[0]
+    pieces = []
+    for i, line in enumerate(lines, 1):
+        head, _, piece = line.partition(b" ")
+        if head != f"{i}/{len(lines)}".encode("ascii"):
+            msg = (
+                f"{path}: its kinsync record's header comment {i} of {len(lines)} begins "
+                f"{head[:20].decode('ascii', 'replace')!r}, not {i}/{len(lines)}: pieces are "
+                "missing or out of order; it is damaged, georeference the points again"
+            )
+            raise InputError(msg)
+        pieces.append(piece)
+    return b"".join(pieces) if pieces else None
 
 
 def read_point_record(path: Path) -> dict[str, Any]:
@@ -332,14 +392,14 @@ def read_point_record(path: Path) -> dict[str, Any]:
     path = Path(path)
     suffix = path.suffix.lower()
     if not path.is_file():
-        msg = f"{path}: no such file; give a point file kinsync wrote (.las, .laz, .parquet)"
+        msg = f"{path}: no such file; give a point file kinsync wrote (.las, .laz, .parquet, .ply)"
         raise InputError(msg)
     if suffix in (".las", ".laz"):
         data, where = _las_record_bytes(path), f"VLR {RECORD_USER_ID!r} {RECORD_ID}"
     elif suffix == ".parquet":
         data, where = _parquet_record_bytes(path), f"schema metadata key {PARQUET_KEY!r}"
     elif suffix == ".ply":
-        data, where = _ply_record_bytes(path), "header comment 'kinsync_record {...}'"
+        data, where = _ply_record_bytes(path), "header comments 'kinsync_record <i>/<n> ...'"
     else:
         msg = (
             f"{path}: a {suffix or 'suffix-less'} file holds no kinsync record (a CSV has "

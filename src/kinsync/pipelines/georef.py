@@ -85,6 +85,7 @@ from kinsync.pipelines.georef_outputs import (
     Sink,
     TableRejectedSink,
     TableSink,
+    ply_crs_comment,
 )
 from kinsync.pipelines.georef_record import RecordedTimes, georef_document
 from kinsync.pipelines.georef_rejected import LAS_SUFFIXES as _LAS_SUFFIXES
@@ -524,7 +525,7 @@ def _sink(
         return sink, notes, replace(ctx, table_las=plan)
     if kind == "ply":
         units = ", ".join(output_units(target_crs))
-        comments = [f"kinsync georef, crs {' '.join(crs_text.split())}, x y z in {units}"]
+        comments = [ply_crs_comment(crs_text, target_crs, units)]
         if layout is None:
             types = las_column_types(template.point_format)
             props = [

@@ -8,7 +8,7 @@ it, unchanged, in the format `kinsync.pipelines.georef.rejected_path_for` names
 ``rejected_lines`` of a CSV to a CSV rejected file, ``rejected_columns`` of a table).
 All write atomically (their file appears when the ``with`` block ends without an
 error). Given the run's kinsync record (`kinsync.io.point_provenance`), the output sinks
-keep it in their file: a LAS VLR, Parquet schema metadata, a PLY header comment; a CSV
+keep it in their file: a LAS VLR, Parquet schema metadata, PLY header comments; a CSV
 has nowhere to keep it. Rejected points are written as they were read, records included.
 """
 
@@ -28,7 +28,7 @@ from kinsync.crs_axes import coordinate_metadata
 from kinsync.io.csv_lines import CsvLineWriter
 from kinsync.io.las_writer import LasChunkWriter
 from kinsync.io.ply import PlyChunkWriter
-from kinsync.io.point_provenance import parquet_record_metadata, ply_record_comment
+from kinsync.io.point_provenance import parquet_record_metadata, ply_record_comments
 from kinsync.io.points import TableChunkWriter
 from kinsync.pipelines.georef_chunks import ChunkOutput, LasOutputFrame
 
@@ -40,7 +40,11 @@ __all__ = [
     "Sink",
     "TableRejectedSink",
     "TableSink",
+    "ply_crs_comment",
 ]
+
+_PLY_CRS_CHARS = 200
+"""Longest ``--crs`` text a PLY comment shows as given (a WKT is kilobytes long)."""
 
 
 class Sink:
@@ -101,10 +105,42 @@ class TableSink(Sink):
         self._table.write(self._empty())
 
 
+def ply_crs_comment(crs_text: str, crs: pyproj.CRS, units: str) -> str:
+    """The PLY header comment naming the output CRS, short and ASCII.
+
+    PLY headers are ASCII and readers refuse long lines (Open3D's RPly aborts on one of
+    1,024 characters): a ``--crs`` text longer than `_PLY_CRS_CHARS` or not ASCII (a
+    WKT, whose degree signs are not) is shown as the CRS's name and authority code
+    (non-ASCII characters escaped, cut at `_PLY_CRS_CHARS`); the record holds it whole.
+
+    Parameters
+    ----------
+    crs_text : str
+        ``--crs`` as given.
+    crs : pyproj.CRS
+        That CRS.
+    units : str
+        The units of x, y, z (``"metre, metre, metre"``).
+
+    Returns
+    -------
+    str
+        ``kinsync georef, crs <CRS>, x y z in <units>``.
+    """
+    shown = " ".join(crs_text.split())
+    if len(shown) > _PLY_CRS_CHARS or not shown.isascii():
+        authority = crs.to_authority(min_confidence=90)
+        name = f"{crs.name} ({':'.join(authority)})" if authority else crs.name
+        shown = " ".join(name.encode("ascii", "backslashreplace").decode("ascii").split())
+        if len(shown) > _PLY_CRS_CHARS:
+            shown = shown[: _PLY_CRS_CHARS - 3] + "..."
+    return f"kinsync georef, crs {shown}, x y z in {units}"
+
+
 class PlySink(Sink):
     """The ``columns`` of each chunk (x, y, z and attributes) into a PLY file.
 
-    With ``record``, its kinsync record is the last header comment.
+    With ``record``, its kinsync record is in the last header comments.
     """
 
     def __init__(
@@ -116,7 +152,7 @@ class PlySink(Sink):
         record: Mapping[str, Any] | None = None,
     ) -> None:
         if record is not None:
-            comments = [*comments, ply_record_comment(record)]
+            comments = [*comments, *ply_record_comments(record)]
         self._ply = PlyChunkWriter(path, properties, max_points, comments)
         super().__init__(self._ply)
 
