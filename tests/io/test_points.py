@@ -6,6 +6,7 @@ import re
 from collections.abc import Generator
 from pathlib import Path
 from typing import Any
+from unittest import mock
 
 import numpy as np
 import pyarrow as pa
@@ -14,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from kinsync.errors import InputError
+from kinsync.io import table_writer
 from kinsync.io.points import (
     TableChunkWriter,
     count_table_rows,
@@ -41,8 +43,12 @@ def _columns(n: int, seed: int = 0) -> dict[str, np.ndarray[Any, Any]]:
 
 
 def _write(path: Path, cols: dict[str, np.ndarray[Any, Any]], chunk: int) -> None:
+    """A table written ``chunk`` rows at a time, in Parquet row groups of ``chunk`` rows."""
     n = len(cols["t_s"])
-    with TableChunkWriter(path) as w:
+    with (
+        mock.patch.object(table_writer, "PARQUET_ROW_GROUP_ROWS", chunk),
+        TableChunkWriter(path) as w,
+    ):
         for i in range(0, n, chunk):
             w.write({k: v[i : i + chunk] for k, v in cols.items()})
 
@@ -95,6 +101,38 @@ def test_parquet_dictionary_encodes_only_the_columns_whose_values_repeat(tmp_pat
         if any("DICTIONARY" in e for e in group.column(i).encodings)
     }
     assert dictionary == {"intensity", "return_number", "label"}  # Parquet has none for bool
+
+
+def _parquet_in_chunks(path: Path, cols: dict[str, np.ndarray[Any, Any]], cuts: list[int]) -> bytes:
+    """A Parquet table written in the chunks that ``cuts`` (row numbers) make."""
+    with TableChunkWriter(path, {"z_m": {"unit": "metre"}}, {"crs": "{}"}) as w:
+        for a, b in zip([0, *cuts], [*cuts, len(cols["t_s"])], strict=True):
+            w.write({k: v[a:b] for k, v in cols.items()})
+    return path.read_bytes()
+
+
+def test_parquet_bytes_do_not_depend_on_the_chunks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Rows are written in row groups of PARQUET_ROW_GROUP_ROWS whatever the chunks: one
+    row group per chunk made --chunk-points change the bytes of georef's outputs."""
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    cols = _columns(430)
+    path = tmp_path / "pts.parquet"
+    whole = _parquet_in_chunks(path, cols, [])
+    assert _parquet_in_chunks(path, cols, list(range(7, 430, 7))) == whole
+    assert pq.ParquetFile(path).metadata.num_row_groups == 1
+    monkeypatch.setattr(table_writer, "PARQUET_ROW_GROUP_ROWS", 100)
+    whole = _parquet_in_chunks(path, cols, [])
+    for cuts in ([33, 33, 66, 66, 250], list(range(7, 430, 7)), [100, 200, 300, 400]):
+        assert _parquet_in_chunks(path, cols, cuts) == whole, cuts  # empty chunks too
+    meta = pq.ParquetFile(path).metadata
+    sizes = [meta.row_group(i).num_rows for i in range(meta.num_row_groups)]
+    assert sizes == [100, 100, 100, 100, 30]
+    back = pq.read_table(path)
+    assert back.schema.field("z_m").metadata == {b"unit": b"metre"}
+    np.testing.assert_array_equal(back["label"].to_numpy(), cols["label"])
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])

@@ -67,17 +67,14 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "angle_rad": rng_p.uniform(-np.pi, np.pi, N),
         "intensity": cols["intensity"],
     }
-    with TableChunkWriter(folder / "profile.parquet") as w:  # row groups of 500 rows
-        for i in range(0, N, 500):
-            w.write({k: v[i : i + 500] for k, v in profile.items()})
+    pq.write_table(pa.table(profile), folder / "profile.parquet", row_group_size=500)
     cols["y_m"][4 * CHUNK + 3] = np.nan
     with TableChunkWriter(folder / "bad.csv") as w:
         w.write(cols)
     x_text = np.array([repr(float(v)) for v in cols["x_m"]], dtype=object)
     x_text[3003] = "x"  # in the 5th chunk (row groups of 700 rows)
-    with TableChunkWriter(folder / "bad.parquet") as w:
-        for i in range(0, N, CHUNK):
-            w.write({k: v[i : i + CHUNK] for k, v in (cols | {"x_m": x_text}).items()})
+    bad = pa.table(cols | {"x_m": x_text})
+    pq.write_table(bad, folder / "bad.parquet", row_group_size=CHUNK)
     return {"dir": folder, "traj": folder / "traj.csv"}
 
 

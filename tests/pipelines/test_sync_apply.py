@@ -335,3 +335,14 @@ def test_a_parquet_output_holds_the_kinsync_record(tmp_path: Path) -> None:
     csv_out = tmp_path / "out.csv"  # a CSV has nowhere to keep it: header line first
     apply_profile_clock(src, csv_out, 100.0, 0.03, MOUNT, mount_file=mount_file)
     assert csv_out.read_text().splitlines()[0].startswith("profile,angle_rad,range_m")
+
+
+def test_a_parquet_output_does_not_depend_on_the_chunks(tmp_path: Path) -> None:
+    """One row group per chunk made chunk_points change the bytes (the same table)."""
+    src = tmp_path / "scan.parquet"
+    write_profile_scan(SCAN, src)
+    out = tmp_path / "out.parquet"
+    apply_profile_clock(src, out, 100.0, 0.03, MOUNT)
+    whole = out.read_bytes()
+    apply_profile_clock(src, out, 100.0, 0.03, MOUNT, chunk_points=9)
+    assert out.read_bytes() == whole

@@ -24,9 +24,15 @@ from kinsync.errors import InputError
 from kinsync.io.atomic import atomic_path, finish_then_publish
 from kinsync.io.csv_text import csv_header_bytes, csv_rows_bytes, float_text
 
-__all__ = ["TableChunkWriter", "csv_text_columns", "table_suffix"]
+__all__ = ["PARQUET_ROW_GROUP_ROWS", "TableChunkWriter", "csv_text_columns", "table_suffix"]
 
 _SUFFIXES = (".csv", ".parquet")
+
+PARQUET_ROW_GROUP_ROWS = 1 << 20
+"""Rows of each row group of a Parquet table (the last one shorter), pyarrow's default.
+
+Whatever the chunks written, so that a file does not depend on how its rows were cut
+(``--chunk-points``): the same rows give the same bytes."""
 
 
 def table_suffix(path: Path) -> str:
@@ -118,7 +124,10 @@ class TableChunkWriter:
     -----
     The first chunk fixes the schema (column names, order and types); later chunks
     must have the same columns and are cast to those types. A table with no chunk
-    written is an empty file (CSV) or an empty Parquet table.
+    written is an empty file (CSV) or an empty Parquet table. A Parquet table's rows
+    are held until they fill a row group of `PARQUET_ROW_GROUP_ROWS` (the last is
+    shorter): its bytes do not depend on the chunks, and at most a row group and a
+    chunk are held.
     """
 
     def __init__(
@@ -135,6 +144,8 @@ class TableChunkWriter:
         self._tmp: Path | None = None
         self._writer: Any = None
         self._schema: Any = None
+        self._held: list[Any] = []  # Parquet: tables not yet in a row group
+        self._held_rows = 0
         self.rows_written = 0
 
     def __enter__(self) -> TableChunkWriter:
@@ -206,10 +217,27 @@ class TableChunkWriter:
             self._writer.write(csv_header_bytes(schema.names))
 
     def _write_table(self, table: Any) -> None:
-        if self._suffix == ".parquet":
-            self._writer.write_table(table)
-        else:
+        if self._suffix != ".parquet":
             self._writer.write(csv_rows_bytes(table))
+            return
+        if table.num_rows:
+            self._held.append(table)
+            self._held_rows += int(table.num_rows)
+        while self._held_rows >= PARQUET_ROW_GROUP_ROWS:
+            self._write_row_group(PARQUET_ROW_GROUP_ROWS)
+
+    def _write_row_group(self, rows: int) -> None:
+        """Write the first ``rows`` rows held as one row group.
+
+        Its columns are made contiguous first: pyarrow's bytes can depend on how the
+        arrays it is given are cut, and these were cut by the chunks.
+        """
+        held = pa.concat_tables(self._held)
+        group = held.slice(0, rows).combine_chunks()
+        self._writer.write_table(group, row_group_size=rows)
+        rest = held.slice(rows)
+        self._held = [rest] if rest.num_rows else []
+        self._held_rows = int(rest.num_rows)
 
     def __exit__(
         self,
@@ -223,6 +251,8 @@ class TableChunkWriter:
 
         def finish() -> None:
             if self._writer is not None:
+                if self._held_rows and exc_type is None:
+                    self._write_row_group(self._held_rows)
                 self._writer.close()
             elif exc_type is None and self._suffix == ".parquet":
                 assert self._tmp is not None
