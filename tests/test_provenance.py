@@ -17,6 +17,7 @@ from kinsync.io.provenance import (
     _dirty,
     _git_dir,
     _head_commit,
+    command_line_without,
     run_record,
     run_time_utc,
     set_command,
@@ -115,6 +116,21 @@ def test_the_record_holds_the_command_only_when_one_was_run() -> None:
     finally:
         set_command(None)
     assert provenance.command_line() is None
+
+
+def test_the_command_without_options_leaves_out_their_values_and_flags() -> None:
+    try:
+        set_command(None)
+        assert command_line_without(["--workers"], ["--json"]) is None
+        argv = ["georef", "--workers", "4", "--json", "--points", "a b.las", "--chunk-points=7"]
+        set_command([*argv, "--json"])
+        kept = command_line_without(["--workers", "--chunk-points"], ["--json"])
+        assert kept == "kinsync georef --points 'a b.las'"
+        # A flag's name as another option's value is that value.
+        set_command(["georef", "--workers", "--json", "--out", "o.laz"])
+        assert command_line_without(["--workers"], ["--json"]) == "kinsync georef --out o.laz"
+    finally:
+        set_command(None)
 
 
 def test_a_checkout_git_cannot_read_is_not_claimed_clean(

@@ -221,13 +221,15 @@ def test_two_runs_at_one_source_date_epoch_are_byte_identical(
     assert code == 0, err
     assert out.read_bytes() == first.read_bytes()
     # How the work ran is left out of the record: the same bytes with other chunks and
-    # schedulers (the record names the command without them). Chunks of 7 points: a
-    # Parquet file's row groups do not follow them.
-    how = ["--chunk-points", "7", "--scheduler=processes", "--workers", "2"]
-    code, _, err = run_cli([*_georef(setup, out), *how])
+    # schedulers, and with a JSON summary printed (the record names the command without
+    # them; --json's own record keeps them). Chunks of 7 points: a Parquet file's row
+    # groups do not follow them.
+    how = ["--chunk-points", "7", "--scheduler=processes", "--json", "--workers", "2"]
+    code, stdout, err = run_cli([*_georef(setup, out), *how])
     assert code == 0, err
     assert out.read_bytes() == first.read_bytes()
-    assert "--chunk-points" not in _stored_record(out)["command"]
+    assert _stored_record(out)["command"] == _stored_record(first)["command"]
+    assert json.loads(stdout)["provenance"]["command"].endswith(shlex.join(how))
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000001")  # the record's time: one second on
     code, _, err = run_cli(_georef(setup, out))
     assert code == 0, err

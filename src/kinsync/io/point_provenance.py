@@ -47,6 +47,7 @@ from kinsync.io.provenance import command_line_without, run_record
 from kinsync.mount import Mount, mount_from_toml_text, mount_to_toml_text
 
 __all__ = [
+    "EXECUTION_FLAGS",
     "EXECUTION_OPTIONS",
     "PARQUET_KEY",
     "PLY_PIECE_CHARS",
@@ -149,6 +150,8 @@ def _finite(value: Any) -> Any:
 EXECUTION_OPTIONS = ("--scheduler", "--workers", "--chunk-points")
 """Options that change how a run works, not the points it writes: left out of the
 record's command, so outputs of runs differing only in them are byte-identical."""
+EXECUTION_FLAGS = ("--json",)
+"""Flags left out of the record's command for the same reason (what is printed)."""
 
 
 def point_document(
@@ -172,13 +175,13 @@ def point_document(
     dict
         ``kinsync_record`` (`RECORD_VERSION`), ``made_by``, the run
         (`kinsync.io.provenance.run_record`: ``software``, ``command`` without
-        `EXECUTION_OPTIONS`, ``utc``),
+        `EXECUTION_OPTIONS` and `EXECUTION_FLAGS`, ``utc``),
         ``mount`` (`mount_document`), then ``sections``; a non-finite float is null.
     """
     doc: dict[str, Any] = {"kinsync_record": RECORD_VERSION, "made_by": made_by}
     doc |= run_record()
     # How the work ran is not what made the coordinates: the file stays byte-identical.
-    doc["command"] = command_line_without(EXECUTION_OPTIONS)
+    doc["command"] = command_line_without(EXECUTION_OPTIONS, EXECUTION_FLAGS)
     doc["mount"] = mount_document(mount, mount_file)
     return dict(_finite(doc | dict(sections)))
 

@@ -176,32 +176,39 @@ def command_line() -> str | None:
     return _COMMAND[0]
 
 
-def command_line_without(options: Sequence[str]) -> str | None:
-    """The recorded command line less ``options`` and their values (None if none recorded).
+def command_line_without(options: Sequence[str], flags: Sequence[str] = ()) -> str | None:
+    """The recorded command line less ``options`` with their values, and ``flags``.
 
     For a record inside an output that must not depend on how the work was run (the
-    scheduler, the workers, the chunk size), only on what was computed.
+    scheduler, the workers, the chunk size, whether a JSON summary was printed), only on
+    what was computed.
 
     Parameters
     ----------
     options : sequence of str
         Long options that take one value (``--workers 4`` or ``--workers=4``).
+    flags : sequence of str
+        Long options that take none (``--json``).
+
+    Returns
+    -------
+    str or None
+        The command, shell-quoted; None when none was recorded (`set_command`).
     """
     command = _COMMAND[0]
     if command is None:
         return None
-    words = shlex.split(command)
     kept: list[str] = []
     skip = False
-    for word in words:
+    for word in shlex.split(command):
         if skip:
             skip = False
             continue
         name = word.split("=", 1)[0]
         if name in options:
             skip = "=" not in word
-            continue
-        kept.append(word)
+        elif word not in flags:
+            kept.append(word)
     return shlex.join(kept)
 
 
