@@ -21,6 +21,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pyproj
 import pytest
+from laspy.vlrs.vlrlist import VLRList
 from tests._las import las_points
 
 from kinsync.io.mount_file import read_mount
@@ -337,3 +338,94 @@ def test_an_inputs_record_is_replaced_and_its_other_records_kept(
     header = laspy.read(out).header
     acme = [v for v in header.vlrs if v.user_id == "ACME"]
     assert [bytes(v.record_data) for v in acme] == [b"SN 1234"]
+
+
+def _edited(out: Path, edit: Callable[[dict[str, Any]], None]) -> Path:
+    """A copy of the LAS file ``out`` whose record was edited by hand."""
+    las = laspy.read(out)
+    (vlr,) = [v for v in las.header.vlrs if v.user_id == "kinsync"]
+    doc = json.loads(vlr.record_data)
+    edit(doc)
+    others = [v for v in las.header.vlrs if v.user_id != "kinsync"]
+    data = json.dumps(doc).encode("utf-8")  # lone surrogates as \ud800 escapes
+    las.header.vlrs = VLRList([*others, laspy.VLR("kinsync", 1, "edited", data)])
+    edited = out.with_name("edited.las")
+    las.write(edited)
+    return edited
+
+
+def _set(keys: str, value: Any) -> Callable[[dict[str, Any]], None]:
+    def edit(doc: dict[str, Any]) -> None:
+        *parents, last = keys.split(".")
+        for key in parents:
+            doc = doc[key]
+        doc[last] = value(doc[last]) if callable(value) else value
+
+    return edit
+
+
+@pytest.mark.parametrize(
+    ("edit", "why"),
+    [
+        (_set("mount.file", "mount.toml"), 'mount.file is a text ("mount.toml"), not an object'),
+        (_set("crs.epoch_year", "2024.5"), 'crs.epoch_year is a text ("2024.5"), not a number'),
+        (_set("crs.epoch_year", value=True), "crs.epoch_year is true/false (true), not a number"),
+        (_set("mount.file.header_comments", "abc"), 'header_comments is a text ("abc")'),
+        (_set("mount.file.header_comments", ["# a", 1]), "not a list of texts"),
+        (_set("left_out", {"a": 1}), 'left_out is an object ({"a": 1}), not a list of texts'),
+    ],
+)
+@pytest.mark.parametrize("extra", [[], ["--json"], ["--out"]])
+def test_a_record_edited_by_hand_is_a_one_line_error_and_writes_nothing(
+    run_cli: RunCli,
+    setup: dict[str, Path],
+    assert_one_line_error: OneLineError,
+    edit: Callable[[dict[str, Any]], None],
+    why: str,
+    extra: list[str],
+) -> None:
+    """A field of another JSON type was an internal error (exit 1), after --out wrote."""
+    out = setup["dir"] / "geo.las"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    edited = _edited(out, edit)
+    toml = setup["dir"] / "back.toml"
+    args = [*extra, str(toml)] if extra == ["--out"] else extra
+    code, stdout, err = run_cli(["mount", "from-points", str(edited), *args])
+    assert_one_line_error(code, stdout, err, f"{edited}: ", why)
+    assert not toml.exists()
+
+
+def test_a_mount_toml_that_would_not_read_back_is_not_written(
+    run_cli: RunCli, setup: dict[str, Path], assert_one_line_error: OneLineError
+) -> None:
+    """A record's mount TOML holding a lone surrogate (a valid JSON escape, no UTF-8)."""
+    out = setup["dir"] / "geo.las"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    edited = _edited(out, _set("mount.toml", lambda t: "# \ud800\n" + t))
+    back = setup["dir"] / "back.toml"
+    code, stdout, err = run_cli(["mount", "from-points", str(edited), "--out", str(back)])
+    assert_one_line_error(code, stdout, err, f"{edited}: ", "does not read back as the record's")
+    assert not back.exists()
+
+
+def test_header_comments_are_written_back_as_valid_toml_comments(
+    run_cli: RunCli, setup: dict[str, Path]
+) -> None:
+    """A comment without '#', with a line break, a control character or a lone surrogate
+    made --out write a mount file that `mount check` refused (exit 0)."""
+    odd = ["no hash sign", "# two\nlines", "# nul \x00 and del \x7f", "# lone \ud800", "#ok"]
+    out = setup["dir"] / "geo.las"
+    code, _, err = run_cli(_georef(setup, out))
+    assert code == 0, err
+    edited = _edited(out, _set("mount.file.header_comments", odd))
+    back = setup["dir"] / "back.toml"
+    code, _, err = run_cli(["mount", "from-points", str(edited), "--out", str(back)])
+    assert code == 0, err
+    code, _, err = run_cli(["mount", "check", str(back)])
+    assert code == 0, err
+    assert read_mount(back) == MOUNT
+    text = back.read_text(encoding="utf-8")
+    shown = ["# no hash sign", "# two lines", "# nul \\x00 and del \\x7f", "# lone \\ud800", "#ok"]
+    assert "\n".join(["# mount.toml's header:", *shown]) in text

@@ -112,14 +112,10 @@ def mount_from_points(
         recorded_mount_text,
     )
 
-    record = read_point_record(path)
+    record = read_point_record(path)  # its fields' types checked
     mount = record_mount(record, path)
-    if mount_out is not None:
-        atomic_write_text(mount_out, recorded_mount_text(record, path))
-    if as_json:
-        out = None if mount_out is None else str(mount_out)
-        print_json({"file": str(path), "record": record, "mount_out": out})
-        return
+    # Everything is checked, and the table made, before the mount file is written.
+    text = None if mount_out is None else recorded_mount_text(record, path)
     rows = {
         "made by": f"kinsync {record.get('made_by')}, {record.get('software')}",
         "at (UTC)": str(record.get("utc")),
@@ -128,10 +124,14 @@ def mount_from_points(
     mount_file = record["mount"].get("file") or {}
     rows["mount file"] = str(mount_file.get("path", "- (built in Python)"))
     rows |= {f"  {k}": str(v) for k, v in _mount_rows(mount).items()}
-    for key, value in _record_rows(record).items():
-        rows[key] = value
-    if mount_out is not None:
+    rows |= _record_rows(record)
+    if mount_out is not None and text is not None:
+        atomic_write_text(mount_out, text)
         rows["mount written to"] = str(mount_out)
+    if as_json:
+        out = None if mount_out is None else str(mount_out)
+        print_json({"file": str(path), "record": record, "mount_out": out})
+        return
     _print_quantities(f"kinsync record of {path}", rows)
 
 

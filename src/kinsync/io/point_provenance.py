@@ -31,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -372,6 +373,61 @@ def _ply_record_bytes(path: Path) -> bytes | None:
     return b"".join(pieces) if pieces else None
 
 
+_TEXT, _OBJECT, _NUMBER, _TEXTS = "a text", "an object", "a number", "a list of texts"
+_FIELDS = (
+    ("made_by", _TEXT),
+    ("software", _TEXT),
+    ("utc", _TEXT),
+    ("command", _TEXT),
+    ("mount", _OBJECT),
+    ("mount.toml", _TEXT),
+    ("mount.values", _OBJECT),
+    ("mount.file", _OBJECT),
+    ("mount.file.path", _TEXT),
+    ("mount.file.bytes", _NUMBER),
+    ("mount.file.sha256", _TEXT),
+    ("mount.file.header_comments", _TEXTS),
+    ("points", _OBJECT),
+    ("points.path", _TEXT),
+    ("trajectory", _OBJECT),
+    ("trajectory.path", _TEXT),
+    ("time", _OBJECT),
+    ("clock", _OBJECT),
+    ("crs", _OBJECT),
+    ("crs.epoch_year", _NUMBER),
+    ("left_out", _TEXTS),
+)
+"""The fields of a record that kinsync reads back, and their JSON types (each may be
+null or absent), a field's parents before it."""
+
+
+def _json_kind(value: Any) -> str:
+    kinds = ((bool, "true/false"), (str, _TEXT), (dict, _OBJECT), (list, "a list"))
+    return next((k for t, k in kinds if isinstance(value, t)), _NUMBER)
+
+
+def _check_fields(doc: Mapping[str, Any], path: Path) -> None:
+    """Refuse a record whose `_FIELDS` have other JSON types (a record edited by hand)."""
+    for field, kind in _FIELDS:
+        value: Any = doc
+        for key in field.split("."):  # a parent is an object or null: checked before
+            value = value.get(key) if isinstance(value, Mapping) else None
+        if value is None:
+            continue
+        ok = _json_kind(value) == kind
+        if kind == _TEXTS:
+            ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
+        if not ok:
+            shown = json.dumps(value, ensure_ascii=False, default=str)
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            msg = (
+                f"{path}: its kinsync record's {field} is {_json_kind(value)} ({shown}), "
+                f"not {kind}: the record is damaged (edited by hand?); restore the file or "
+                "georeference the points again"
+            )
+            raise InputError(msg)
+
+
 def read_point_record(path: Path) -> dict[str, Any]:
     """The kinsync record of a point file kinsync wrote (LAS/LAZ, Parquet, PLY).
 
@@ -390,7 +446,9 @@ def read_point_record(path: Path) -> dict[str, Any]:
     InputError
         A missing or unreadable file, a CSV or other type (which holds no record), a
         file without a kinsync record (not written by ``kinsync georef`` or ``sync
-        apply``, or by a version before records), a record that is not JSON.
+        apply``, or by a version before records), a record that is not JSON, or one
+        whose fields kinsync reads (the mount, its file, the CRS epoch, ...) have
+        other JSON types, naming the field.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -423,6 +481,7 @@ def read_point_record(path: Path) -> dict[str, Any]:
     if not isinstance(doc, dict):
         msg = f"{path}: its kinsync record ({where}) is not a JSON object; it is damaged"
         raise InputError(msg)
+    _check_fields(doc, path)
     return doc
 
 
@@ -453,6 +512,22 @@ def record_mount(doc: Mapping[str, Any], path: Path) -> Mount:
     return mount_from_toml_text(text, source=f"{path}: kinsync record mount")
 
 
+_CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")
+"""Characters a TOML comment may not hold (tab aside)."""
+
+
+def _comment_line(text: str) -> str:
+    """``text`` as one valid TOML comment line.
+
+    ``# `` is put first where it lacks ``#``; control characters and lone surrogates
+    (which a TOML comment or UTF-8 cannot hold) are escaped.
+    """
+    line = " ".join(text.splitlines())
+    line = _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", line)
+    line = line.encode("utf-8", "backslashreplace").decode("utf-8")
+    return line if line.startswith("#") else f"# {line}"
+
+
 def recorded_mount_text(doc: Mapping[str, Any], path: Path) -> str:
     """A mount TOML file of the mount a record names, headed by where it comes from.
 
@@ -470,14 +545,17 @@ def recorded_mount_text(doc: Mapping[str, Any], path: Path) -> str:
         file and what made it; the mount file it was read from and that file's header
         comments, after a ``# <name>'s header:`` line, as `kinsync.io.mount_file.write_mount`
         heads a derived mount), a blank line, then the record's mount TOML as stored: its
-        values read back bit for bit.
+        values read back bit for bit. Every comment is one valid TOML comment line
+        (``# `` put before a header comment without ``#``, control characters escaped),
+        and the text is checked to read back as the record's mount.
 
     Raises
     ------
     InputError
-        A record without a valid mount (`record_mount`).
+        A record without a valid mount (`record_mount`), or one whose mount file would
+        not read back as that mount.
     """
-    record_mount(doc, path)  # refuses a record without a valid mount
+    mount = record_mount(doc, path)  # refuses a record without a valid mount
     now = run_record()
     lines = [f"# written by {now['software']} at {now['utc']}"]
     if now["command"] is not None:
@@ -493,5 +571,20 @@ def recorded_mount_text(doc: Mapping[str, Any], path: Path) -> str:
         if comments:
             name = Path(str(file_doc.get("path"))).name
             lines += [f"# {name}'s header:", *(str(c) for c in comments)]
-    lines = [" ".join(line.splitlines()) for line in lines]  # one line each
-    return "\n".join(lines) + "\n\n" + str(doc["mount"]["toml"])
+    head = "\n".join(_comment_line(line) for line in lines)
+    text = head + "\n\n" + str(doc["mount"]["toml"]).lstrip("\ufeff")
+    try:
+        back = mount_from_toml_text(text.encode("utf-8").decode("utf-8"), source=str(path))
+        same = mount_to_toml_text(back) == mount_to_toml_text(mount)
+    except (InputError, UnicodeEncodeError) as err:
+        same, why = False, f" ({err})"
+    else:
+        why = ""
+    if not same:
+        msg = (
+            f"{path}: the mount file made from its kinsync record does not read back as the "
+            f"record's mount{why}: the record's mount.toml is damaged; restore the file or "
+            "georeference the points again"
+        )
+        raise InputError(msg)
+    return text
