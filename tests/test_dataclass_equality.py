@@ -10,36 +10,15 @@ holding arrays compare by identity (``eq=False``), or define an ``__eq__`` of th
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import pkgutil
 
 import numpy as np
+from tests._dataclasses import dataclasses_with_arrays
 
-import kinsync
 from kinsync.ins import GnssData, ImuData
-
-_ARRAY_TYPES = ("Array", "ndarray")
-"""Annotations that hold arrays: FloatArray, IntArray, BoolArray, ArrayLike, np.ndarray..."""
 
 
 def _dataclasses_with_arrays() -> dict[str, type]:
-    found: dict[str, type] = {}
-    for info in pkgutil.walk_packages(kinsync.__path__, "kinsync."):
-        if info.name.endswith("__main__"):  # runs the command line
-            continue
-        module = importlib.import_module(info.name)
-        for name, obj in vars(module).items():
-            if (
-                isinstance(obj, type)
-                and dataclasses.is_dataclass(obj)
-                and obj.__module__ == module.__name__
-                and not name.startswith("_")
-                and any(
-                    kind in str(f.type) for f in dataclasses.fields(obj) for kind in _ARRAY_TYPES
-                )
-            ):
-                found[f"{module.__name__}.{name}"] = obj
-    return found
+    return dataclasses_with_arrays()
 
 
 def _generated_eq(cls: type) -> bool:

@@ -10,16 +10,14 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import importlib
 import pickle
-import pkgutil
 from collections.abc import Callable, Iterator
 from functools import cache
 
 import numpy as np
 import pytest
+from tests._dataclasses import dataclasses_with_arrays
 
-import kinsync
 from kinsync import Mount, Trajectory
 from kinsync._arrays import ReadOnlyArrays
 from kinsync.calibration import ScanLine
@@ -39,28 +37,16 @@ from kinsync.validation import CloudPoints, ControlPoints, fit_wall
 
 def _frozen_dataclasses_with_arrays() -> dict[str, type]:
     """Public frozen dataclasses with an array field, in core, the algorithms and io."""
-    found: dict[str, type] = {}
-    for info in pkgutil.walk_packages(kinsync.__path__, "kinsync."):
-        if info.name.endswith("__main__") or info.name.startswith(
-            ("kinsync.cli", "kinsync.pipelines", "kinsync.sim", "kinsync.demo", "kinsync.report")
-        ):
-            continue
-        module = importlib.import_module(info.name)
-        for name, obj in vars(module).items():
-            if (
-                isinstance(obj, type)
-                and dataclasses.is_dataclass(obj)
-                and obj.__module__ == module.__name__
-                and not name.startswith("_")
-                and obj.__dataclass_params__.frozen  # type: ignore[attr-defined]
-                and any(
-                    kind in str(f.type)
-                    for f in dataclasses.fields(obj)
-                    for kind in ("Array", "ndarray")
-                )
-            ):
-                found[f"{module.__name__}.{name}"] = obj
-    return found
+    return dataclasses_with_arrays(
+        skip_prefixes=(
+            "kinsync.cli",
+            "kinsync.pipelines",
+            "kinsync.sim",
+            "kinsync.demo",
+            "kinsync.report",
+        ),
+        frozen_only=True,
+    )
 
 
 def test_every_frozen_container_with_arrays_keeps_them_read_only_in_copies() -> None:

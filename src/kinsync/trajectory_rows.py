@@ -6,6 +6,7 @@ Each message names the argument and the 0-based row at fault.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -177,21 +178,26 @@ def height_message(value: float, row: int) -> str:
     )
 
 
-def check_heights(h_m: FloatArray, name: str) -> None:
-    """Refuse an ellipsoidal height (m) outside `HEIGHT_SPAN_M`, naming its row."""
-    low, high = HEIGHT_SPAN_M
-    bad = (h_m < low) | (h_m > high)
+def _check_span(
+    values: FloatArray,
+    span: tuple[float, float],
+    message: Callable[[float, int], str],
+    name: str,
+) -> None:
+    """Refuse a value outside ``span``, naming its row with ``message(value, row)``."""
+    low, high = span
+    bad = (values < low) | (values > high)
     if np.any(bad):
         row = first_bad_row(bad)
-        msg = f"trajectory {name}: {height_message(float(h_m[row]), row)}"
+        msg = f"trajectory {name}: {message(float(values[row]), row)}"
         raise InputError(msg)
+
+
+def check_heights(h_m: FloatArray, name: str) -> None:
+    """Refuse an ellipsoidal height (m) outside `HEIGHT_SPAN_M`, naming its row."""
+    _check_span(h_m, HEIGHT_SPAN_M, height_message, name)
 
 
 def check_longitudes(lon_deg: FloatArray, name: str) -> None:
     """Refuse a longitude (deg) outside `LONGITUDE_SPAN_DEG`, naming its row."""
-    low, high = LONGITUDE_SPAN_DEG
-    bad = (lon_deg < low) | (lon_deg > high)
-    if np.any(bad):
-        row = first_bad_row(bad)
-        msg = f"trajectory {name}: {longitude_message(float(lon_deg[row]), row)}"
-        raise InputError(msg)
+    _check_span(lon_deg, LONGITUDE_SPAN_DEG, longitude_message, name)
