@@ -140,7 +140,7 @@ def test_latency_sphere_shows_reading_and_fitting(
     folder = tmp_path / "table"
     code, _, stderr = run_cli(
         [
-            "simulate", "rotating-table", "--rates-deg-s", "6", "--passes", "1",
+            "simulate", "rotating-table", "--rates-deg-s", "6", "--passes", "2",
             "--out", str(folder), "--raw",
         ]
     )  # fmt: skip

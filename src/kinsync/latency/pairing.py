@@ -8,14 +8,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from kinsync.errors import InputError
 from kinsync.latency.passes import SpherePass
 
-__all__ = ["RejectedPass", "pair_groups"]
+__all__ = ["FittedPool", "RejectedPass", "left_without_partner", "pair_groups"]
 
 _RATE_KEY_DECIMALS = 6
 _AXIS_KEY_DECIMALS = 3
@@ -121,3 +121,47 @@ def _never_paired(
         for p in passes
         if id(p) not in paired
     ]
+
+
+class FittedPool(Protocol):
+    """What `left_without_partner` reads of a fitted pool (`kinsync.latency.sphere.PoolFit`)."""
+
+    @property
+    def rate_deg_s(self) -> float:
+        """Signed table rate (deg/s)."""
+        ...
+
+    @property
+    def sources(self) -> tuple[str, ...]:
+        """Where the pooled passes came from."""
+        ...
+
+    @property
+    def n_points_per_pass(self) -> tuple[int, ...]:
+        """Points of each pass used in the pool's fit."""
+        ...
+
+
+def left_without_partner(pool: FittedPool | None, side: Sequence[SpherePass]) -> list[RejectedPass]:
+    """The passes of a fitted pool left out because the opposite sign's hold no sphere.
+
+    Parameters
+    ----------
+    pool : PoolFit or None
+        The pool fitted at one sign (`FittedPool`); None (the pool that failed, its passes rejected)
+        gives none.
+    side : sequence of SpherePass
+        The passes given at that sign.
+    """
+    if pool is None:
+        return []
+    reason = (
+        f"the passes at {-pool.rate_deg_s:+g} deg/s hold no usable sphere (see the rejected "
+        "passes): Method A needs passes of both signs at a rate"
+    )
+    remaining = list(side)
+    left = []
+    for source, n_sphere in zip(pool.sources, pool.n_points_per_pass, strict=True):
+        p = remaining.pop(next(k for k, q in enumerate(remaining) if q.source == source))
+        left.append(RejectedPass(p.source, p.rate_deg_s, p.n_points, n_sphere, reason))
+    return left

@@ -47,7 +47,7 @@ from kinsync.latency.model_check import (
     model_p_value,
     radius_contradiction,
 )
-from kinsync.latency.pairing import RejectedPass, pair_groups
+from kinsync.latency.pairing import RejectedPass, left_without_partner, pair_groups
 from kinsync.latency.pass_scatter import (
     PassCentres,
     PassScatter,
@@ -673,25 +673,6 @@ def _fit_pool_rejecting(
     return None, rejected, f"rate {passes[0].rate_deg_s:+g} deg/s: no pass holds a usable sphere"
 
 
-def _left_without_partner(pool: PoolFit | None, side: Sequence[SpherePass]) -> list[RejectedPass]:
-    """The passes of a fitted pool left out because the opposite sign's hold no sphere.
-
-    None (the pool that failed, its passes rejected) gives none.
-    """
-    if pool is None:
-        return []
-    reason = (
-        f"the passes at {-pool.rate_deg_s:+g} deg/s hold no usable sphere (see the rejected "
-        "passes): Method A needs passes of both signs at a rate"
-    )
-    remaining = list(side)
-    left = []
-    for source, n_sphere in zip(pool.sources, pool.n_points_per_pass, strict=True):
-        p = remaining.pop(next(k for k, q in enumerate(remaining) if q.source == source))
-        left.append(RejectedPass(p.source, p.rate_deg_s, p.n_points, n_sphere, reason))
-    return left
-
-
 def _combined(per_rate: Sequence[RateLatency]) -> tuple[float, float, float, int, float, float]:
     """Inverse-variance latency, its formal sigma, chi2, dof, p-value, Birge factor."""
     tau_r = np.array([r.latency_s for r in per_rate])
@@ -852,7 +833,7 @@ def estimate_latency_sphere(
         plus, minus = fits
         if plus is None or minus is None:
             unpaired.append(abs(plus_passes[0].rate_deg_s))
-            alone += _left_without_partner(plus, plus_passes) + _left_without_partner(
+            alone += left_without_partner(plus, plus_passes) + left_without_partner(
                 minus, minus_passes
             )
             continue
